@@ -1,0 +1,38 @@
+"""bhr: make a binary hyper-redundant (BHR) endoscope robot follow a path.
+
+The library is importable without click or matplotlib. The two calls most
+users need are re-exported here and loaded lazily:
+
+>>> import bhr
+>>> pts = bhr.trajectory("curve", radius=70, angle=90)      # doctest: +SKIP
+>>> result = bhr.follow(pts, solver="seed")                   # doctest: +SKIP
+>>> doc = result.to_json()                                     # doctest: +SKIP
+"""
+from __future__ import annotations
+
+from bhr import _numba  # noqa: F401  (sets NUMBA_CACHE_DIR before numba loads)
+from bhr.errors import BhrError, LinkError
+
+__version__ = "0.1.0"
+
+__all__ = ["BhrError", "LinkError", "Robot", "follow", "trajectory", "solve", "__version__"]
+
+
+def __getattr__(name: str):  # PEP 562: lazy re-exports keep `import bhr` cheap
+    if name == "follow":
+        from bhr.follow import follow
+
+        return follow
+    if name == "trajectory":
+        from bhr.trajectory import trajectory
+
+        return trajectory
+    if name == "solve":
+        from bhr.solvers import solve
+
+        return solve
+    if name == "Robot":
+        from bhr.robot import Robot
+
+        return Robot
+    raise AttributeError(f"module 'bhr' has no attribute {name!r}")

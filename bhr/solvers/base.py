@@ -1,0 +1,163 @@
+"""The interface every solver implements, and the chain state they share.
+
+A solver takes the current :class:`Chain` (points and local tilt axes), a
+target point and optionally a wanted tip direction, and returns a
+:class:`SolveResult` with the new chain. Solvers that respect the binary
+actuators also return one code per module. Register a solver with
+:func:`register`; :mod:`bhr.solvers` finds every module in this package, so
+a new solver is one new file.
+"""
+from __future__ import annotations
+
+import math
+from abc import ABC, abstractmethod
+from dataclasses import dataclass, field
+from typing import Any, ClassVar, Sequence
+
+import numpy as np
+
+from bhr.errors import BhrError
+from bhr.robot import Robot, base_frame, straight_chain
+
+__all__ = ["Chain", "SolveResult", "Solver", "FollowContext", "register", "REGISTRY"]
+
+REGISTRY: dict[str, type["Solver"]] = {}
+
+
+def register(cls: type["Solver"]) -> type["Solver"]:
+    """Class decorator: make a solver available by its ``name``."""
+    if not getattr(cls, "name", None):
+        raise TypeError(f"{cls.__name__} has no name")
+    REGISTRY[cls.name] = cls
+    return cls
+
+
+@dataclass
+class Chain:
+    """The robot's state between solves.
+
+    ``points`` (n+1, 3), base first. ``axes`` (2, n, 3) holds, for each joint
+    ``i``, the *points* ``P_i + x_i`` and ``P_i + y_i`` that mark its two local
+    tilt axes, exactly as the thesis's script keeps them (EjeY, EjeZ), so that
+    the thesis's algorithm can be ported without changing its arithmetic.
+    """
+
+    points: np.ndarray
+    axes: np.ndarray
+
+    @classmethod
+    def straight(cls, robot: Robot, direction: Sequence[float] = (1, 0, 0), origin: Sequence[float] = (0, 0, 0),
+                 tip_at_origin: bool = False) -> "Chain":
+        """A straight chain along ``direction``; local axes from :func:`bhr.robot.base_frame`."""
+        pts = straight_chain(robot.modules, robot.module_length, direction, origin, tip_at_origin)
+        fr = base_frame(direction)
+        axes = np.stack([pts[:-1] + fr[0], pts[:-1] + fr[1]])
+        return cls(pts, axes)
+
+    @property
+    def modules(self) -> int:
+        return self.points.shape[0] - 1
+
+    def copy(self) -> "Chain":
+        return Chain(self.points.copy(), self.axes.copy())
+
+    def base_frame(self) -> np.ndarray:
+        """Frame (rows x, y, z) of the joint at the base: module 1's local axes and direction."""
+        z = self.points[1] - self.points[0]
+        x = self.axes[0, 0] - self.points[0]
+        y = self.axes[1, 0] - self.points[0]
+        return np.stack([x / np.linalg.norm(x), y / np.linalg.norm(y), z / np.linalg.norm(z)])
+
+    def advance(self, feed: float, module_length: float) -> "Chain":
+        """Move the whole robot by ``feed`` along its base module (thesis appendix 1).
+
+        Module 1 keeps its local axes; the axes of modules 2..n are reset to
+        those of a straight robot along the base module's direction.
+        """
+        from bhr.follow import advance_kernel  # the driver owns the compiled advance
+
+        out = self.copy()
+        advance_kernel(out.points, out.axes[0], out.axes[1], float(feed), float(module_length))
+        return out
+
+
+@dataclass
+class FollowContext:
+    """What a solver may know about the path when it is driven by follow-the-leader."""
+
+    path: np.ndarray  # (N, 3) trajectory points
+    directions: np.ndarray  # (N-1, 3) unit vectors between points
+    step: int  # 0-based index of the current target
+
+
+@dataclass
+class SolveResult:
+    """One solve: the new chain, iterations and errors (mm, degrees), codes if binary."""
+
+    chain: Chain
+    iterations: int
+    position_error: float
+    orientation_error_deg: float | None
+    codes: list[int] | None = None
+    extra: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def points(self) -> np.ndarray:
+        return self.chain.points
+
+    def to_json(self) -> dict[str, Any]:
+        """The ``bhr solve --json`` document (SPEC.md section 3)."""
+        return {
+            "iterations": int(self.iterations),
+            "position_error": float(self.position_error),
+            "orientation_error_deg": None if self.orientation_error_deg is None else float(self.orientation_error_deg),
+            "points": [[float(v) for v in row] for row in self.chain.points],
+            "codes": None if self.codes is None else [int(c) for c in self.codes],
+        }
+
+
+class Solver(ABC):
+    """Base class of all solvers.
+
+    Subclasses set ``name`` and ``summary`` and implement :meth:`solve`.
+    ``binary`` solvers return codes and keep every tilt at 0 or alpha about a
+    local axis. ``options`` are solver-specific keyword settings, validated in
+    ``__init__``.
+    """
+
+    name: ClassVar[str] = ""
+    summary: ClassVar[str] = ""
+    binary: ClassVar[bool] = False
+    accepts_orientation: ClassVar[bool] = True
+
+    def __init__(self, robot: Robot, **options: Any) -> None:
+        self.robot = robot
+        if options:
+            raise BhrError(f"solver {self.name} takes no option {sorted(options)[0]!r}")
+
+    @abstractmethod
+    def solve(self, chain: Chain, target: np.ndarray, orientation: np.ndarray | None = None,
+              context: FollowContext | None = None) -> SolveResult:
+        """Move ``chain`` toward ``target`` (and ``orientation`` for the tip, if given)."""
+
+    def reset(self) -> None:
+        """Forget any state kept between steps of a run (default: none)."""
+
+
+def check_target(target: Sequence[float], what: str = "target") -> np.ndarray:
+    t = np.asarray(target, dtype=np.float64)
+    if t.shape != (3,):
+        raise BhrError(f"{what} must have three coordinates X Y Z")
+    if not np.all(np.isfinite(t)):
+        raise BhrError(f"{what} must be finite numbers, got {t.tolist()}")
+    return t
+
+
+def check_direction(direction: Sequence[float] | None, what: str = "orientation") -> np.ndarray | None:
+    if direction is None:
+        return None
+    d = check_target(direction, what)
+    n = float(np.linalg.norm(d))
+    if n == 0.0 or not math.isfinite(n):
+        raise BhrError(f"{what} must be a non-zero vector")
+    return d / n

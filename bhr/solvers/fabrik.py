@@ -1,0 +1,109 @@
+"""FABRIK, Forward And Backward Reaching Inverse Kinematics (thesis ch. 5.1.1).
+
+Reachability check first: a target farther from the base than the chain's
+length gets the chain stretched toward it. Otherwise each iteration is a
+tip-to-base pass (tip on the target, each point pulled to one module length
+from the next) then a base-to-tip pass (base back in place); the error is the
+tip's distance to the target, checked after each iteration. With a wanted
+tip direction the tip-to-base pass puts point n one module length behind the
+target, opposite that direction (ch. 6.1), the reachability check is skipped,
+and both tolerances must be met.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from bhr.solvers.base import Chain, FollowContext, SolveResult, Solver, register
+
+
+@njit(cache=True)
+def _pull(P: np.ndarray, src: int, dst: int, length: float) -> None:
+    """Move P[dst] onto the line P[src]-P[dst], ``length`` from P[src]."""
+    dx = P[dst, 0] - P[src, 0]
+    dy = P[dst, 1] - P[src, 1]
+    dz = P[dst, 2] - P[src, 2]
+    r = math.sqrt(dx * dx + dy * dy + dz * dz)
+    lam = length / r
+    for k in range(3):
+        P[dst, k] = (1.0 - lam) * P[src, k] + lam * P[dst, k]
+
+
+@njit(cache=True)
+def _dist(P: np.ndarray, i: int, t: np.ndarray) -> float:
+    dx = t[0] - P[i, 0]
+    dy = t[1] - P[i, 1]
+    dz = t[2] - P[i, 2]
+    return math.sqrt(dx * dx + dy * dy + dz * dz)
+
+
+@njit(cache=True)
+def tip_angle_deg(P: np.ndarray, d: np.ndarray) -> float:
+    """Angle in degrees between the last module and unit direction ``d``."""
+    n = P.shape[0] - 1
+    vx = P[n, 0] - P[n - 1, 0]
+    vy = P[n, 1] - P[n - 1, 1]
+    vz = P[n, 2] - P[n - 1, 2]
+    nv = math.sqrt(vx * vx + vy * vy + vz * vz)
+    c = (vx * d[0] + vy * d[1] + vz * d[2]) / nv
+    c = max(-1.0, min(1.0, c))
+    return math.degrees(math.acos(c))
+
+
+@njit(cache=True)
+def fabrik_kernel(P: np.ndarray, target: np.ndarray, length: float, tol: float, max_iter: int,
+                  direction: np.ndarray, has_dir: bool, tol_ori: float):
+    """Unconstrained FABRIK on ``P`` (modified in place). Returns (iterations, error, angle)."""
+    n = P.shape[0] - 1
+    bx, by, bz = P[0, 0], P[0, 1], P[0, 2]
+    if not has_dir:
+        reach = math.sqrt((target[0] - bx) ** 2 + (target[1] - by) ** 2 + (target[2] - bz) ** 2)
+        if reach > n * length:
+            # unreachable: stretch the chain toward the target
+            for i in range(n):
+                r = _dist(P, i, target)
+                lam = length / r
+                for k in range(3):
+                    P[i + 1, k] = (1.0 - lam) * P[i, k] + lam * target[k]
+            return 0, _dist(P, n, target), 0.0
+    err = _dist(P, n, target)
+    ang = tip_angle_deg(P, direction) if has_dir else 0.0
+    k = 0
+    while (err > tol or (has_dir and ang > tol_ori)) and k < max_iter:
+        for c in range(3):
+            P[n, c] = target[c]
+        start = n - 1
+        if has_dir:
+            for c in range(3):
+                P[n - 1, c] = target[c] - length * direction[c]
+            start = n - 2
+        for i in range(start, -1, -1):
+            _pull(P, i + 1, i, length)
+        P[0, 0], P[0, 1], P[0, 2] = bx, by, bz
+        for i in range(n):
+            _pull(P, i, i + 1, length)
+        err = _dist(P, n, target)
+        if has_dir:
+            ang = tip_angle_deg(P, direction)
+        k += 1
+    return k, err, ang
+
+
+@register
+class Fabrik(Solver):
+    """Unconstrained FABRIK (thesis ch. 5.1.1); continuous angles, no codes."""
+
+    name = "fabrik"
+    summary = "unconstrained FABRIK (thesis ch. 5); optional tip orientation"
+
+    def solve(self, chain: Chain, target: np.ndarray, orientation: np.ndarray | None = None,
+              context: FollowContext | None = None) -> SolveResult:
+        r = self.robot
+        out = chain.copy()
+        has_dir = orientation is not None
+        d = np.zeros(3) if orientation is None else np.asarray(orientation, dtype=np.float64)
+        k, err, ang = fabrik_kernel(out.points, np.asarray(target, dtype=np.float64), float(r.module_length),
+                                    float(r.tol_pos), int(r.max_iter), d, has_dir, float(r.tol_ori))
+        return SolveResult(out, int(k), float(err), float(ang) if has_dir else None)

@@ -1,0 +1,304 @@
+"""Trajectories: the thesis's generators (appendix 3) and trajectory files.
+
+Built-in trajectories (``line``, ``curve``, ``spiral``, ``colon``) are TOML
+files in the repository's ``trajectories/`` folder (installed as
+``bhr.trajectories``); each names a generator and its parameters, which users
+can copy and edit. ``bhr.trajectory(name_or_path, **params)`` returns the
+(N, 3) points, spaced by the feed.
+
+The generators port the printed MATLAB exactly, including its quirks (the
+curve's entry straight stops one point short of ``entry``; the colon starts
+one feed after the origin and its last straight reuses the descending
+colon's length), because the published figures depend on them.
+"""
+from __future__ import annotations
+
+import math
+import os
+import tomllib
+from dataclasses import dataclass, field
+from importlib import resources
+from pathlib import Path
+from typing import Any, Callable
+
+import numpy as np
+
+from bhr.errors import BhrError
+
+__all__ = ["Trajectory", "trajectory", "load_trajectory", "builtin_names", "GENERATORS",
+           "line", "curve", "spiral", "colon"]
+
+
+def _mround(x: float) -> int:
+    """MATLAB's round: halves away from zero."""
+    return int(math.floor(x + 0.5)) if x >= 0 else -int(math.floor(-x + 0.5))
+
+
+def line(feed: float, length: float = 70.0, azimuth: float = 0.0, elevation: float = 0.0) -> np.ndarray:
+    """Straight line from the origin: ``length`` mm, ``azimuth`` (deg, from x in the
+    xy-plane, counter-clockwise) and ``elevation`` (deg above the xy-plane)."""
+    n = int(math.trunc(length / feed))
+    if n < 1:
+        raise BhrError(f"line length {length} mm is shorter than one feed ({feed} mm); make it longer")
+    a1 = azimuth * 2 * math.pi / 360
+    a2 = elevation * 2 * math.pi / 360
+    i = np.arange(n + 1, dtype=np.float64)
+    step = length / n
+    x = i * (step * math.cos(a1) * math.cos(a2))
+    y = np.zeros(n + 1) if a1 == 0 else i * (step * math.sin(a1) * math.cos(a2))
+    z = np.zeros(n + 1) if a2 == 0 else i * (step * math.sin(a2))
+    return np.stack([x, y, z], axis=1)
+
+
+def spiral(feed: float, radius: float = 80.0, pitch: float = 40.0, turns: float = 2.0) -> np.ndarray:
+    """Helix from the origin heading +x, turning clockwise seen from +z, rising ``pitch`` per turn."""
+    ang = math.atan(pitch / (2 * math.pi * radius))
+    n = int(math.trunc((turns * 2 * math.pi * radius / math.cos(ang)) / feed)) + 1
+    pts = np.zeros((n, 3))
+    for i in range(2, n + 1):
+        t = (i - 1) / n
+        pts[i - 1] = (radius * math.sin(turns * 2 * math.pi * t), radius * math.cos(turns * 2 * math.pi * t) - radius,
+                      pitch * turns * t)
+    return pts
+
+
+def curve(feed: float, radius: float = 70.0, angle: float = 90.0, entry: float = 30.0, exit: float = 30.0) -> np.ndarray:
+    """Entry straight along +x, clockwise arc of ``radius`` turning ``angle`` deg, exit straight."""
+    ang = angle * 2 * math.pi / 360
+    total = exit + entry + ang * radius
+    n = int(math.trunc(total / feed)) + 1
+    n1 = _mround(n * (entry / total))
+    n2 = _mround(n * (ang * radius / total))
+    n3 = n - (n1 + n2)
+    if n1 < 1 or n2 < 1 or n3 < 1:
+        raise BhrError("curve too short for the feed: entry, arc and exit need at least one point each; "
+                       "lengthen them or lower the feed")
+    x = np.zeros(n)
+    y = np.zeros(n)
+    for i in range(1, n1 + 1):
+        x[i - 1] = entry * (i - 1) / n1
+    for i in range(n1 + 1, n1 + n2 + 1):
+        x[i - 1] = x[n1 - 1] + radius * math.sin(ang * ((i - n1) / n2))
+        y[i - 1] = radius * math.cos(ang * ((i - n1) / n2)) - radius
+    for i in range(n1 + n2 + 1, n + 1):
+        x[i - 1] = x[n1 + n2 - 1] + math.cos(ang) * exit * (i - n1 - n2) / n3
+        y[i - 1] = y[n1 + n2 - 1] - math.sin(ang) * exit * (i - n1 - n2) / n3
+    return np.stack([x, y, np.zeros(n)], axis=1)
+
+
+#: Sections of the printed colon generator, in order.
+COLON_SECTIONS = ("rectum", "bend 1", "sigmoid", "bend 2", "descending", "bend 3", "transverse", "bend 4", "ascending")
+
+
+def colon(feed: float, section_index: list[int] | None = None) -> np.ndarray:
+    """The printed planar large intestine (appendix 3, case 4).
+
+    Straights of 40 (rectum), 155 (sigmoid), 320 (descending), 380
+    (transverse) and again 320 mm (the printed code reuses the descending
+    length for the ascending colon), joined by 90 deg bends of 70 mm radius.
+    If ``section_index`` is a list, it receives each point's section number
+    (an index into :data:`COLON_SECTIONS`).
+    """
+    r1 = r2 = 70.0
+    lrecto, lcsig, lcdesc, lctras, lcasc = 40.0, 155.0, 320.0, 380.0, 300.0
+    total = lrecto + lcsig + lcdesc + lctras + lcasc + 0.75 * 2 * math.pi * r2 + 0.25 * 2 * math.pi * r1
+    n = int(math.trunc(total / feed))
+    quarter2 = 0.25 * 2 * math.pi * r2
+    n1 = _mround(lrecto / total * n)
+    n2 = _mround(0.25 * 2 * math.pi * r1 / total * n)
+    n3 = _mround(lcsig / total * n)
+    n4 = _mround(quarter2 / total * n)
+    n5 = _mround(lcdesc / total * n)
+    n6 = _mround(quarter2 / total * n)
+    n7 = _mround(lctras / total * n)
+    n8 = _mround(quarter2 / total * n)
+    n9 = n - n1 - n2 - n3 - n4 - n5 - n6 - n7 - n8 + 10
+    m = n + 10
+    x = np.zeros(m)
+    y = np.zeros(m)
+    sec = np.zeros(m, dtype=np.int64)
+    e = np.cumsum([n1, n2, n3, n4, n5, n6, n7, n8])
+    for i in range(1, n1 + 1):
+        x[i - 1] = lrecto * i / n1
+    s = e[0]
+    for i in range(s + 1, e[1] + 1):
+        t = (math.pi / 2) * ((i - s) / n2)
+        x[i - 1] = x[s - 1] + r1 * math.sin(t)
+        y[i - 1] = r1 * math.cos(t) - r1
+    s = e[1]
+    for i in range(s + 1, e[2] + 1):
+        x[i - 1] = x[s - 1]
+        y[i - 1] = y[s - 1] - lcsig * ((i - s) / n3)
+    s = e[2]
+    for i in range(s + 1, e[3] + 1):
+        t = 1.5 * math.pi + (math.pi / 2) * ((i - s) / n4)
+        x[i - 1] = x[s - 1] + r2 * math.sin(t) + r2
+        y[i - 1] = y[s - 1] - r2 * math.cos(t)
+    s = e[3]
+    for i in range(s + 1, e[4] + 1):
+        x[i - 1] = x[s - 1] + lcdesc * ((i - s) / n5)
+        y[i - 1] = y[s - 1]
+    s = e[4]
+    for i in range(s + 1, e[5] + 1):
+        t = (math.pi / 2) * ((i - s) / n6)
+        x[i - 1] = x[s - 1] + r2 * math.sin(t)
+        y[i - 1] = y[s - 1] - r2 * math.cos(t) + r2
+    s = e[5]
+    for i in range(s + 1, e[6] + 1):
+        x[i - 1] = x[s - 1]
+        y[i - 1] = y[s - 1] + lctras * ((i - s) / n7)
+    s = e[6]
+    for i in range(s + 1, e[7] + 1):
+        t = 1.5 * math.pi + (math.pi / 2) * ((i - s) / n8)
+        x[i - 1] = x[s - 1] - r2 * math.sin(t) - r2
+        y[i - 1] = y[s - 1] + r2 * math.cos(t)
+    s = e[7]
+    for i in range(s, m + 1):
+        x[i - 1] = x[s - 1] - lcdesc * ((i - s) / n9)
+        y[i - 1] = y[s - 1]
+    bounds = [0, *e.tolist(), m]
+    for k in range(9):
+        sec[bounds[k]:bounds[k + 1]] = k
+    if section_index is not None:
+        section_index[:] = sec.tolist()
+    return np.stack([x, y, np.zeros(m)], axis=1)
+
+
+@dataclass(frozen=True)
+class Generator:
+    func: Callable[..., np.ndarray]
+    params: dict[str, float]
+    min_radius: Callable[[dict[str, float]], float]
+    doc: str
+
+
+GENERATORS: dict[str, Generator] = {
+    "line": Generator(line, {"length": 70.0, "azimuth": 0.0, "elevation": 0.0}, lambda p: math.inf,
+                      "straight line: --length mm, --azimuth deg, --elevation deg"),
+    "curve": Generator(curve, {"radius": 70.0, "angle": 90.0, "entry": 30.0, "exit": 30.0},
+                       lambda p: p["radius"], "clockwise curve: --radius mm, --angle deg, --entry mm, --exit mm"),
+    "spiral": Generator(spiral, {"radius": 80.0, "pitch": 40.0, "turns": 2.0},
+                        lambda p: p["radius"] + (p["pitch"] / (2 * math.pi)) ** 2 / p["radius"],
+                        "helix: --radius mm, --pitch mm per turn, --turns"),
+    "colon": Generator(colon, {}, lambda p: 70.0, "the thesis's printed planar large intestine (no parameters)"),
+}
+
+_POSITIVE = {"length", "radius", "angle", "pitch", "turns"}
+_NONNEG = {"entry", "exit"}
+
+
+@dataclass
+class Trajectory:
+    """Points (N, 3) spaced by the feed, plus what is known about the path."""
+
+    name: str
+    points: np.ndarray
+    params: dict[str, Any] = field(default_factory=dict)
+    min_radius: float = math.inf
+    lumen: np.ndarray | None = None  # lumen diameter (mm) at each point, if known
+    source: str = ""
+    start_direction: tuple[float, float, float] = (1.0, 0.0, 0.0)
+    start_point: tuple[float, float, float] = (0.0, 0.0, 0.0)
+
+    @property
+    def planar(self) -> bool:
+        """True when every point has the same z (drawn from the top)."""
+        z = self.points[:, 2]
+        return bool(np.ptp(z) <= 1e-9 * max(1.0, float(np.abs(self.points).max())))
+
+
+def _check_params(gen_name: str, params: dict[str, Any], where: str) -> dict[str, float]:
+    gen = GENERATORS[gen_name]
+    out = dict(gen.params)
+    for key, value in params.items():
+        if value is None:
+            continue
+        if key not in gen.params:
+            allowed = ", ".join(gen.params) or "none"
+            raise BhrError(f"{where}: the {gen_name} trajectory has no parameter {key!r} (allowed: {allowed})")
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise BhrError(f"{where}: {key} must be a number, got {value!r}")
+        v = float(value)
+        if not math.isfinite(v):
+            raise BhrError(f"{where}: {key} must be finite, got {value}")
+        if key in _POSITIVE and v <= 0:
+            raise BhrError(f"{where}: {key} must be positive, got {value}")
+        if key in _NONNEG and v < 0:
+            raise BhrError(f"{where}: {key} must not be negative, got {value}")
+        out[key] = v
+    return out
+
+
+def builtin_names() -> list[str]:
+    return list(GENERATORS)
+
+
+def _builtin_file(name: str) -> Path | None:
+    try:
+        res = resources.files("bhr.trajectories").joinpath(f"{name}.toml")
+    except ModuleNotFoundError:
+        res = None
+    if res is not None and res.is_file():
+        return Path(str(res))
+    repo = Path(__file__).resolve().parent.parent / "trajectories" / f"{name}.toml"
+    return repo if repo.is_file() else None
+
+
+def load_trajectory(name_or_path: str | os.PathLike[str], feed: float = 2.0, **params: Any) -> Trajectory:
+    """A built-in trajectory by name, or a trajectory file (.toml), with ``params`` overriding its values."""
+    if not (isinstance(feed, (int, float)) and math.isfinite(feed) and feed > 0):
+        raise BhrError(f"feed must be a positive number of mm, got {feed!r}")
+    key = str(name_or_path)
+    if key in GENERATORS:
+        path = _builtin_file(key)
+        if path is None:  # the data file is missing: fall back to the generator's defaults
+            return _from_generator(key, {}, params, feed, f"built-in {key}")
+        return _from_file(path, feed, params, builtin=True)
+    p = Path(key)
+    if not p.exists():
+        raise BhrError(f"unknown trajectory {key!r}: not a built-in ({', '.join(GENERATORS)}) and no such file")
+    return _from_file(p, feed, params, builtin=False)
+
+
+def _from_generator(gen_name: str, file_params: dict[str, Any], cli_params: dict[str, Any], feed: float,
+                    where: str) -> Trajectory:
+    merged = dict(file_params)
+    merged.update({k: v for k, v in cli_params.items() if v is not None})
+    p = _check_params(gen_name, merged, where)
+    gen = GENERATORS[gen_name]
+    pts = gen.func(feed, **p)
+    return Trajectory(gen_name, pts, p, gen.min_radius(p), None, where)
+
+
+def _from_file(path: Path, feed: float, params: dict[str, Any], builtin: bool) -> Trajectory:
+    if path.suffix.lower() != ".toml":
+        raise BhrError(f"{path}: trajectory files are TOML (.toml); see docs/trajectories.md")
+    try:
+        data = tomllib.loads(path.read_text(encoding="utf-8"))
+    except tomllib.TOMLDecodeError as exc:
+        raise BhrError(f"{path}: not valid TOML ({exc})") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise BhrError(f"cannot read {path}: {exc.__class__.__name__}") from None
+    allowed = {"name", "description", "generator", "params", "lumen"}
+    for k in data:
+        if k not in allowed:
+            raise BhrError(f"{path}: unknown key {k!r} (allowed: {', '.join(sorted(allowed))})")
+    gen_name = data.get("generator")
+    if gen_name not in GENERATORS:
+        raise BhrError(f"{path}: 'generator' must be one of {', '.join(GENERATORS)}, got {gen_name!r}")
+    file_params = data.get("params", {})
+    if not isinstance(file_params, dict):
+        raise BhrError(f"{path}: [params] must be a table of numbers")
+    traj = _from_generator(gen_name, file_params, params, feed, str(path))
+    traj.name = str(data.get("name", path.stem))
+    traj.source = str(path)
+    return traj
+
+
+def trajectory(name_or_path: str | os.PathLike[str], feed: float = 2.0, **params: Any) -> np.ndarray:
+    """The (N, 3) points of a built-in trajectory or trajectory file, spaced by ``feed`` mm.
+
+    >>> trajectory("line", length=10).shape
+    (6, 3)
+    """
+    return load_trajectory(name_or_path, feed=feed, **params).points

@@ -1,0 +1,47 @@
+"""The ``bhr`` console script: a click group whose commands load lazily."""
+from __future__ import annotations
+
+import importlib
+import sys
+
+import click
+
+# command name -> "module:attribute", imported only when the command runs.
+COMMANDS: dict[str, tuple[str, str]] = {
+    "solve": ("bhr.cli.solve:solve", "Solve one target with FABRIK, CCD or the thesis's solver."),
+}
+
+
+class LazyGroup(click.Group):
+    """A group that imports a command's module only when it is needed."""
+
+    def list_commands(self, ctx: click.Context) -> list[str]:
+        return sorted(COMMANDS)
+
+    def get_command(self, ctx: click.Context, name: str) -> click.Command | None:
+        if name not in COMMANDS:
+            return None
+        target, _ = COMMANDS[name]
+        module_name, attr = target.split(":")
+        module = importlib.import_module(module_name)
+        return getattr(module, attr)
+
+    def format_commands(self, ctx: click.Context, formatter: click.HelpFormatter) -> None:
+        # Short help from the table, so --help imports no command module.
+        rows = [(name, COMMANDS[name][1]) for name in self.list_commands(ctx)]
+        if rows:
+            with formatter.section("Commands"):
+                formatter.write_dl(rows)
+
+
+@click.group(cls=LazyGroup, context_settings={"help_option_names": ["-h", "--help"]})
+@click.version_option(package_name="bhr")
+def main() -> None:
+    """Make a binary hyper-redundant endoscope robot follow a path.
+
+    Start with `bhr follow --traj colon`; `bhr COMMAND --help` explains each command.
+    """
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())
