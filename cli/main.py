@@ -9,6 +9,8 @@ import click
 # command name -> "module:attribute", imported only when the command runs.
 COMMANDS: dict[str, tuple[str, str]] = {
     "solve": ("bhr.cli.solve:solve", "Solve one target with FABRIK, CCD or the thesis's solver."),
+    "follow": ("bhr.cli.follow:follow", "Follow a trajectory; write error plots, codes.csv and JSON."),
+    "fk": ("bhr.cli.fk:fk", "Forward kinematics: chain points from module codes."),
 }
 
 

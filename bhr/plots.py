@@ -1,0 +1,211 @@
+"""Figures with matplotlib: error plots (thesis Figs. 7.2-7.21) and robot views.
+
+Import this module only when plotting; the rest of bhr does not need
+matplotlib. One drawing function, :func:`draw_robot`, draws the robot (points,
+links, and a disc of the robot's radius at each module, oriented with it) for
+the final-pose figure, the report, the live view and the animation.
+"""
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, Sequence
+
+import matplotlib
+
+if os.environ.get("DISPLAY", "") == "" and os.environ.get("MPLBACKEND") is None:
+    matplotlib.use("Agg")
+
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from bhr.atomic import atomic_path  # noqa: E402
+
+if TYPE_CHECKING:  # pragma: no cover
+    from bhr.follow import FollowResult
+
+__all__ = ["error_figure", "path_figure", "chain_figure", "draw_robot", "draw_path", "save_figure",
+           "save_run_plots", "ERROR_KINDS"]
+
+ORDINALS = ["First", "Second", "Third", "Fourth", "Fifth", "Sixth", "Seventh", "Eighth", "Ninth", "Tenth"]
+
+ERROR_KINDS = {
+    "position": ("position_errors.png", "Position error of each point", "position error (mm)"),
+    "orientation": ("orientation_errors.png", "Orientation error of each module", "orientation error (deg)"),
+    "global": ("global_errors.png", "Global error of each module", "global error (-)"),
+}
+
+
+def _panel_title(kind: str, j: int, count: int) -> str:
+    what = "point" if kind == "position" else "module"
+    name = ORDINALS[j] if j < len(ORDINALS) else f"{j + 1}th"
+    label = f"{name} {what}"
+    if j == 0:
+        label += " (base)"
+    if j == count - 1:
+        label += " (tip)"
+    return label
+
+
+def error_figure(result: "FollowResult", kind: str) -> plt.Figure:
+    """One panel per point (position) or module (orientation, global) against trajectory step."""
+    if kind not in ERROR_KINDS:
+        raise ValueError(f"kind must be one of {', '.join(ERROR_KINDS)}")
+    data = {"position": result.point_errors, "orientation": result.orientation_errors,
+            "global": result.global_errors}[kind]
+    tol = {"position": result.robot.tol_pos, "orientation": result.robot.tol_ori, "global": 1.0}[kind]
+    _, title, ylabel = ERROR_KINDS[kind]
+    count = data.shape[1]
+    cols = 2 if count > 1 else 1
+    rows = int(np.ceil(count / cols))
+    fig, axes = plt.subplots(rows, cols, figsize=(10, 2.6 * rows + 0.8), squeeze=False, sharex=True)
+    steps = np.arange(1, data.shape[0] + 1)
+    for j in range(rows * cols):
+        ax = axes[j // cols][j % cols]
+        if j >= count:
+            ax.set_visible(False)
+            continue
+        ax.plot(steps, data[:, j], color="tab:blue", linewidth=1.0)
+        ax.axhline(tol, color="tab:red", linestyle="--", linewidth=0.8, label="tolerance")
+        ax.set_title(_panel_title(kind, j, count), fontsize=10)
+        ax.set_ylabel(ylabel, fontsize=9)
+        ax.grid(True, alpha=0.3)
+        ax.set_xlim(1, max(2, data.shape[0]))
+        ax.set_ylim(bottom=0)
+        if j // cols == rows - 1 or j + cols >= count:
+            ax.set_xlabel("trajectory step", fontsize=9)
+    fig.suptitle(f"{title} - {result.trajectory.name}, solver {result.solver}", fontsize=12)
+    fig.tight_layout()
+    return fig
+
+
+def _circle(center: np.ndarray, normal: np.ndarray, radius: float, count: int = 40) -> np.ndarray:
+    normal = normal / np.linalg.norm(normal)
+    ref = np.array([0.0, 0.0, 1.0]) if abs(normal[2]) < 0.9 else np.array([1.0, 0.0, 0.0])
+    u = np.cross(normal, ref)
+    u /= np.linalg.norm(u)
+    v = np.cross(normal, u)
+    t = np.linspace(0, 2 * np.pi, count)
+    return center + radius * (np.outer(np.cos(t), u) + np.outer(np.sin(t), v))
+
+
+def draw_path(ax: Any, path: np.ndarray, planar: bool, **kw: Any) -> list[Any]:
+    """The trajectory in blue with x marks, as the thesis draws it."""
+    style = {"color": "tab:blue", "marker": "x", "markersize": 3, "linewidth": 0.8, "label": "trajectory"}
+    style.update(kw)
+    if planar:
+        return ax.plot(path[:, 0], path[:, 1], **style)
+    return ax.plot(path[:, 0], path[:, 1], path[:, 2], **style)
+
+
+def draw_robot(ax: Any, points: np.ndarray, radius: float, planar: bool, color: str = "tab:red",
+               label: str | None = "robot", discs: bool = True) -> list[Any]:
+    """Points and links of the robot, and a disc of ``radius`` at the end of each module.
+
+    The disc sits at the module's far end (where its actuators are), normal to
+    the module, as in the thesis's figures. Returns the artists drawn.
+    """
+    artists: list[Any] = []
+    if planar:
+        artists += ax.plot(points[:, 0], points[:, 1], "-o", color=color, markersize=3, linewidth=1.5, label=label)
+    else:
+        artists += ax.plot(points[:, 0], points[:, 1], points[:, 2], "-o", color=color, markersize=3,
+                           linewidth=1.5, label=label)
+    if discs:
+        for j in range(points.shape[0] - 1):
+            d = points[j + 1] - points[j]
+            if np.linalg.norm(d) == 0:
+                continue
+            c = _circle(points[j + 1], d, radius)
+            if planar:
+                artists += ax.plot(c[:, 0], c[:, 1], color=color, linewidth=0.6, alpha=0.7)
+            else:
+                artists += ax.plot(c[:, 0], c[:, 1], c[:, 2], color=color, linewidth=0.6, alpha=0.7)
+    return artists
+
+
+def _setup_axes(fig: plt.Figure, planar: bool) -> Any:
+    if planar:
+        ax = fig.add_subplot(111)
+        ax.set_aspect("equal", adjustable="datalim")
+        ax.set_xlabel("x (mm)")
+        ax.set_ylabel("y (mm)")
+    else:
+        ax = fig.add_subplot(111, projection="3d")
+        ax.set_xlabel("x (mm)")
+        ax.set_ylabel("y (mm)")
+        ax.set_zlabel("z (mm)")
+    ax.grid(True, alpha=0.3)
+    return ax
+
+
+def _equal_3d(ax: Any, pts: np.ndarray) -> None:
+    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    mid, half = (lo + hi) / 2, max(float((hi - lo).max()) / 2, 1.0)
+    ax.set_xlim(mid[0] - half, mid[0] + half)
+    ax.set_ylim(mid[1] - half, mid[1] + half)
+    ax.set_zlim(mid[2] - half, mid[2] + half)
+
+
+def path_figure(result: "FollowResult", step: int | None = None) -> plt.Figure:
+    """The path and the robot's pose at ``step`` (default: the last); top view when planar."""
+    traj = result.trajectory
+    planar = traj.planar and bool(np.ptp(result.points[:, :, 2]) <= 1e-9)
+    i = result.steps - 1 if step is None else step
+    fig = plt.figure(figsize=(8, 7))
+    ax = _setup_axes(fig, planar)
+    draw_path(ax, traj.points, planar)
+    tgt = traj.points[i]
+    if planar:
+        ax.plot([tgt[0]], [tgt[1]], "x", color="tab:green", markersize=9, label="target")
+    else:
+        ax.plot([tgt[0]], [tgt[1]], [tgt[2]], "x", color="tab:green", markersize=9, label="target")
+    draw_robot(ax, result.points[i], result.robot.radius, planar)
+    if not planar:
+        _equal_3d(ax, np.vstack([traj.points, result.points[i]]))
+    view = "top view" if planar else "3D view"
+    ax.set_title(f"{traj.name}: path and robot at step {i + 1} of {result.steps} ({view}, solver {result.solver})")
+    ax.legend(loc="best", fontsize=8)
+    fig.tight_layout()
+    return fig
+
+
+def chain_figure(initial: np.ndarray, final: np.ndarray, target: Sequence[float], radius: float | None = None,
+                 title: str = "") -> plt.Figure:
+    """Initial and final chain of one solve (thesis Figs. 5.8-5.22): 2D when all lies in z = 0."""
+    t = np.asarray(target, dtype=np.float64)
+    planar = bool(np.all(np.abs(np.vstack([initial, final, t[None]])[:, 2]) < 1e-12))
+    fig = plt.figure(figsize=(7, 7))
+    ax = _setup_axes(fig, planar)
+    draw_robot(ax, initial, radius or 0.0, planar, color="black", label="initial", discs=False)
+    draw_robot(ax, final, radius or 0.0, planar, color="tab:red", label="final", discs=bool(radius))
+    if planar:
+        ax.plot([t[0]], [t[1]], "x", color="tab:green", markersize=10, label="target")
+    else:
+        ax.plot([t[0]], [t[1]], [t[2]], "x", color="tab:green", markersize=10, label="target")
+        _equal_3d(ax, np.vstack([initial, final, t[None]]))
+    ax.set_title(title)
+    ax.legend(loc="best", fontsize=8)
+    fig.tight_layout()
+    return fig
+
+
+def save_figure(fig: plt.Figure, path: str | os.PathLike[str], dpi: int = 110) -> Path:
+    """Save ``fig`` atomically as PNG and close it."""
+    p = Path(path)
+    try:
+        with atomic_path(p) as tmp:
+            fig.savefig(tmp, dpi=dpi, format=p.suffix.lstrip(".") or "png")
+    finally:
+        plt.close(fig)
+    return p
+
+
+def save_run_plots(result: "FollowResult", out_dir: str | os.PathLike[str]) -> list[Path]:
+    """Write the three error figures and the path view of a run into ``out_dir``."""
+    out = Path(out_dir)
+    files = []
+    for kind, (name, _, _) in ERROR_KINDS.items():
+        files.append(save_figure(error_figure(result, kind), out / name))
+    files.append(save_figure(path_figure(result), out / "path.png"))
+    return files

@@ -1,0 +1,44 @@
+"""bhr fk: forward kinematics from module codes."""
+from __future__ import annotations
+
+import json
+
+import click
+
+from bhr.cli._common import guarded
+from bhr.cli._options import pop_robot, robot_options
+
+
+@click.command()
+@click.option("--codes", "codes", required=True, metavar="C1,C2,...",
+              help="One code per module, base first, comma-separated (0, 3, 6, 9, 12 or 15).")
+@robot_options(feed=False)
+@click.option("--json", "json_path", default=None, metavar="PATH|-", help="Write points and frames as JSON.")
+@guarded
+def fk(codes, json_path, **kwargs):
+    """Points of the chain for a list of codes (robot straight along +X from the origin).
+
+    Example: bhr fk --codes 3,0,6,0,0
+    """
+    from bhr.atomic import write_json
+    from bhr.codes import check_codes
+    from bhr.errors import BhrError
+    from bhr.robot import Robot, forward_kinematics
+
+    values = [c for c in codes.replace(" ", ",").split(",") if c != ""]
+    if not values:
+        raise BhrError("--codes needs at least one code, e.g. --codes 3,0,6")
+    checked = check_codes(values)
+    robot_kw = pop_robot(kwargs)
+    robot_kw.setdefault("modules", len(checked))
+    robot = Robot(**robot_kw)
+    points, frames = forward_kinematics(robot, checked)
+    doc = {"codes": checked, "points": points.tolist(), "frames": frames.tolist()}
+    if json_path == "-":
+        click.echo(json.dumps(doc, indent=1))
+        return
+    if json_path:
+        write_json(json_path, doc)
+    click.echo(f"{'point':>5} {'x':>10} {'y':>10} {'z':>10}")
+    for j, p in enumerate(points, start=1):
+        click.echo(f"{j:>5} {p[0]:>10.4f} {p[1]:>10.4f} {p[2]:>10.4f}")

@@ -1,0 +1,73 @@
+"""bhr solve: one target, from a straight chain along +Y (thesis chapter 5)."""
+from __future__ import annotations
+
+import json
+
+import click
+
+from bhr.cli._common import check_writable, guarded
+from bhr.cli._options import constraint_options, pop_constraints, pop_robot, robot_options
+
+
+def _fmt(v: float | None, digits: int = 5) -> str:
+    return "-" if v is None else f"{v:.{digits}f}"
+
+
+@click.command()
+@click.option("--target", nargs=3, type=float, required=True, metavar="X Y Z", help="Target point.")
+@click.option("--orientation", nargs=3, type=float, default=None, metavar="X Y Z",
+              help="Wanted direction of the last module (any length).")
+@click.option("--solver", default="fabrik", show_default=True,
+              help="fabrik, ccd, seed (the thesis's binary solver), constrained, optimal.")
+@robot_options(feed=False)
+@constraint_options
+@click.option("--json", "json_path", default=None, metavar="PATH|-", help="Write the result as JSON ('-': stdout).")
+@click.option("--plot", "plot_path", default=None, metavar="PATH", help="Draw the initial and final chain (PNG).")
+@guarded
+def solve(target, orientation, solver, json_path, plot_path, **kwargs):
+    """Solve one target from a straight chain along +Y starting at the origin.
+
+    Defaults are the thesis's chapter 5 experiments: 5 modules of 2, position
+    tolerance 0.01, 30 iterations. Example (Table 5.1):
+
+        bhr solve --modules 5 --module-length 2 --target 3 9 0 --solver ccd
+    """
+    from bhr.robot import Robot
+    from bhr.solvers import Chain, solve as run
+
+    check_writable(json_path, "JSON")
+    check_writable(plot_path, "plot")
+    robot_kw = {"modules": 5, "module_length": 2.0, "tol_pos": 0.01, "max_iter": 30}
+    robot_kw.update(pop_robot(kwargs))
+    constraints = pop_constraints(kwargs)
+    robot = Robot(**robot_kw)
+    result = run(target, orientation=orientation, solver=solver, robot=robot, solver_options=constraints)
+    doc = result.to_json()
+    if json_path == "-":
+        click.echo(json.dumps(doc, indent=1))
+    else:
+        rows = [
+            ("solver", solver),
+            ("modules", f"{robot.modules} x {robot.module_length:g}"),
+            ("target", " ".join(f"{v:g}" for v in target)),
+            ("iterations", str(result.iterations)),
+            ("position error", _fmt(result.position_error)),
+            ("orientation error (deg)", _fmt(result.orientation_error_deg, 4)),
+            ("codes", "-" if result.codes is None else " ".join(str(c) for c in result.codes)),
+        ]
+        width = max(len(k) for k, _ in rows)
+        for k, v in rows:
+            click.echo(f"{k:<{width}}  {v}")
+        click.echo(f"{'point':>5} {'x':>10} {'y':>10} {'z':>10}")
+        for j, p in enumerate(result.points, start=1):
+            click.echo(f"{j:>5} {p[0]:>10.5f} {p[1]:>10.5f} {p[2]:>10.5f}")
+    if json_path not in (None, "-"):
+        from bhr.atomic import write_json
+
+        write_json(json_path, doc)
+    if plot_path:
+        from bhr.plots import chain_figure, save_figure
+
+        initial = Chain.straight(robot, (0, 1, 0)).points
+        title = f"{solver}: target ({', '.join(f'{v:g}' for v in target)}), {result.iterations} iterations"
+        save_figure(chain_figure(initial, result.points, target, None, title), plot_path)
