@@ -35,6 +35,8 @@ def _stack(*decorators: Callable[[Any], Any]) -> Callable[[Any], Any]:
 def robot_options(feed: bool = True) -> Callable[[Any], Any]:
     """--modules, --module-length, --robot-radius, --alpha (or --stroke/--lever), tolerances..."""
     opts = [
+        click.option("--robot", "robot_file", default=None, metavar="FILE",
+                     help="Robot description (TOML); options given here override its values."),
         click.option("--modules", type=int, default=None, help="Number of modules the solver moves."),
         click.option("--module-length", type=float, default=None, help="Length of one module (mm)."),
         click.option("--robot-radius", type=float, default=None, help="Robot (disc) radius in mm [5]."),
@@ -87,6 +89,23 @@ def pop_robot(kwargs: dict[str, Any]) -> dict[str, Any]:
         if v is not None:
             out[fld] = v
     return out
+
+
+def build_robot(kwargs: dict[str, Any], **defaults: Any):
+    """The Robot for a command: ``defaults``, then the --robot file, then the options given.
+
+    Removes the robot options (and --robot) from ``kwargs``.
+    """
+    from bhr.robot import Robot
+
+    path = kwargs.pop("robot_file", None)
+    given = pop_robot(kwargs)
+    if path is not None:
+        from bhr.robotfile import load_robot_file
+
+        base = load_robot_file(path).robot
+        return base.replace(**given) if given else base
+    return Robot(**{**defaults, **given})
 
 
 def pop_constraints(kwargs: dict[str, Any]) -> dict[str, Any]:

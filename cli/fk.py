@@ -6,7 +6,7 @@ import json
 import click
 
 from bhr.cli._common import guarded
-from bhr.cli._options import pop_robot, robot_options
+from bhr.cli._options import build_robot, robot_options
 
 
 @click.command()
@@ -23,15 +23,15 @@ def fk(codes, json_path, **kwargs):
     from bhr.atomic import write_json
     from bhr.codes import check_codes
     from bhr.errors import BhrError
-    from bhr.robot import Robot, forward_kinematics
+    from bhr.robot import forward_kinematics
 
     values = [c for c in codes.replace(" ", ",").split(",") if c != ""]
     if not values:
         raise BhrError("--codes needs at least one code, e.g. --codes 3,0,6")
     checked = check_codes(values)
-    robot_kw = pop_robot(kwargs)
-    robot_kw.setdefault("modules", len(checked))
-    robot = Robot(**robot_kw)
+    if kwargs.get("modules") is None and kwargs.get("robot_file") is None:
+        kwargs["modules"] = len(checked)
+    robot = build_robot(kwargs)
     points, frames = forward_kinematics(robot, checked)
     doc = {"codes": checked, "points": points.tolist(), "frames": frames.tolist()}
     if json_path == "-":

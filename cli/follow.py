@@ -8,7 +8,7 @@ from pathlib import Path
 import click
 
 from bhr.cli._common import check_writable, guarded
-from bhr.cli._options import (constraint_options, pop_constraints, pop_robot, pop_trajectory, robot_options,
+from bhr.cli._options import (build_robot, constraint_options, pop_constraints, pop_trajectory, robot_options,
                               trajectory_options)
 
 
@@ -67,10 +67,9 @@ def follow(traj, solver, out_dir, json_path, no_plots, **kwargs):
     from bhr.atomic import write_json, write_text
     from bhr.codes import format_codes_csv
     from bhr.follow import BhrWarning, follow as run_follow
-    from bhr.robot import Robot
     from bhr.trajectory import load_trajectory
 
-    robot = Robot(**pop_robot(kwargs))
+    robot = build_robot(kwargs)
     constraints = pop_constraints(kwargs)
     traj_params = pop_trajectory(kwargs)
     tr = load_trajectory(traj, feed=robot.feed, **traj_params)

@@ -6,7 +6,7 @@ import json
 import click
 
 from bhr.cli._common import check_writable, guarded
-from bhr.cli._options import constraint_options, pop_constraints, pop_robot, robot_options
+from bhr.cli._options import build_robot, constraint_options, pop_constraints, robot_options
 
 
 def _fmt(v: float | None, digits: int = 5) -> str:
@@ -32,15 +32,12 @@ def solve(target, orientation, solver, json_path, plot_path, **kwargs):
 
         bhr solve --modules 5 --module-length 2 --target 3 9 0 --solver ccd
     """
-    from bhr.robot import Robot
     from bhr.solvers import Chain, solve as run
 
     check_writable(json_path, "JSON")
     check_writable(plot_path, "plot")
-    robot_kw = {"modules": 5, "module_length": 2.0, "tol_pos": 0.01, "max_iter": 30}
-    robot_kw.update(pop_robot(kwargs))
+    robot = build_robot(kwargs, modules=5, module_length=2.0, tol_pos=0.01, max_iter=30)
     constraints = pop_constraints(kwargs)
-    robot = Robot(**robot_kw)
     result = run(target, orientation=orientation, solver=solver, robot=robot, solver_options=constraints)
     doc = result.to_json()
     if json_path == "-":
