@@ -19,14 +19,12 @@ __all__ = ["BhrError", "LinkError", "Robot", "follow", "trajectory", "solve", "_
 
 
 def __getattr__(name: str):  # PEP 562: lazy re-exports keep `import bhr` cheap
-    if name == "follow":
-        from bhr.follow import follow
+    # bhr.follow and bhr.trajectory are modules that can be called like their main
+    # function (see bhr._callable), so they stay callable once imported.
+    if name in ("follow", "trajectory"):
+        import importlib
 
-        return follow
-    if name == "trajectory":
-        from bhr.trajectory import trajectory
-
-        return trajectory
+        return importlib.import_module(f"bhr.{name}")
     if name == "solve":
         from bhr.solvers import solve
 

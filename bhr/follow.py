@@ -25,6 +25,7 @@ from typing import Any, Callable
 import numpy as np
 from numba import njit
 
+from bhr._callable import make_callable
 from bhr.errors import BhrError
 from bhr.robot import Robot
 from bhr.solvers import Chain, FollowContext, get_solver
@@ -271,3 +272,4 @@ def follow(points: Any, solver: str = "seed", robot: Robot | None = None, *,
     return FollowResult(traj, robot, solver, out_points, out_iters, pe, oe, codes if has_codes else None, msgs)
 
 
+make_callable(__name__, "follow")

@@ -23,6 +23,7 @@ from typing import Any, Callable
 
 import numpy as np
 
+from bhr._callable import make_callable
 from bhr.errors import BhrError
 
 __all__ = ["Trajectory", "trajectory", "load_trajectory", "builtin_names", "GENERATORS",
@@ -302,3 +303,6 @@ def trajectory(name_or_path: str | os.PathLike[str], feed: float = 2.0, **params
     (6, 3)
     """
     return load_trajectory(name_or_path, feed=feed, **params).points
+
+
+make_callable(__name__, "trajectory")

@@ -1,0 +1,35 @@
+"""The command line: help, bad input for solve/fk gets one clear line and a non-zero exit."""
+import pytest
+
+from tests.conftest import snapshot
+
+
+def test_help_lists_commands(run_bhr):
+    res = run_bhr("--help")
+    assert res.returncode == 0
+    for cmd in ("solve", "follow", "fk"):
+        assert cmd in res.stdout
+
+
+@pytest.mark.parametrize("args, message", [
+    (["solve", "--modules", "0", "--target", "1", "2", "3"], "modules must be positive"),
+    (["solve", "--module-length", "-2", "--target", "1", "2", "3"], "module length must be positive"),
+    (["solve", "--target", "1", "x", "3"], "not a valid float"),
+    (["solve", "--target", "1", "2", "3", "--solver", "nope"], "unknown solver 'nope'"),
+    (["solve", "--target", "1", "2", "3", "--solver", "ccd", "--orientation", "1", "0", "0"], "cannot aim the tip"),
+    (["solve", "--target", "1", "2", "3", "--orientation", "0", "0", "0"], "non-zero vector"),
+    (["solve", "--target", "1", "2", "3", "--solver", "seed", "--max-iter", "5"], "raise --max-iter"),
+    (["fk", "--codes", "3,5,0"], "code 5 for module 2 is not a stable actuator code"),
+    (["fk", "--codes", "3,a"], "not a whole number"),
+    (["follow", "--traj", "nowhere"], "unknown trajectory 'nowhere'"),
+    (["follow", "--traj", "curve", "--pitch", "3"], "no parameter 'pitch'"),
+    (["follow", "--traj", "curve", "--radius", "-5"], "radius must be positive"),
+])
+def test_bad_input_one_line(run_bhr, tmp_path, args, message):
+    before = snapshot(tmp_path)
+    res = run_bhr(*args)
+    assert res.returncode != 0
+    assert message in res.stderr
+    assert "Traceback" not in res.stderr
+    assert len(res.stderr.strip().splitlines()) <= 3
+    assert snapshot(tmp_path) == before
