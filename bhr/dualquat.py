@@ -21,7 +21,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-import quaternion  # numpy-quaternion
 from numba import njit
 
 __all__ = [
@@ -44,14 +43,23 @@ __all__ = [
 ]
 
 
-def _split(q: np.ndarray) -> tuple[np.quaternion, np.quaternion]:
+def _quaternion():
+    """numpy-quaternion, imported on first use (it pulls in scipy, slow to load)."""
+    import quaternion
+
+    return quaternion
+
+
+def _split(q: np.ndarray):
+    quaternion = _quaternion()
     q = np.asarray(q, dtype=np.float64)
     if q.shape != (8,):
         raise ValueError(f"a dual quaternion has 8 components, got shape {q.shape}")
     return quaternion.from_float_array(q[:4]), quaternion.from_float_array(q[4:])
 
 
-def _join(a: np.quaternion, b: np.quaternion) -> np.ndarray:
+def _join(a, b) -> np.ndarray:
+    quaternion = _quaternion()
     return np.concatenate([quaternion.as_float_array(a), quaternion.as_float_array(b)])
 
 

@@ -21,7 +21,12 @@ from bhr.solvers.base import Chain, FollowContext, SolveResult, Solver, register
 
 @njit(cache=True)
 def _pull(P: np.ndarray, src: int, dst: int, length: float) -> None:
-    """Move P[dst] onto the line P[src]-P[dst], ``length`` from P[src]."""
+    """Move P[dst] onto the line P[src]-P[dst], ``length`` from P[src].
+
+    Written ``(1 - lam) P[src] + lam P[dst]`` as the thesis's MATLAB does (the
+    constrained solver keeps its arithmetic); plain FABRIK below uses the
+    equivalent ``P[src] + lam (P[dst] - P[src])`` with the point in registers.
+    """
     dx = P[dst, 0] - P[src, 0]
     dy = P[dst, 1] - P[src, 1]
     dz = P[dst, 2] - P[src, 2]
@@ -72,18 +77,27 @@ def fabrik_kernel(P: np.ndarray, target: np.ndarray, length: float, tol: float, 
     ang = tip_angle_deg(P, direction) if has_dir else 0.0
     k = 0
     while (err > tol or (has_dir and ang > tol_ori)) and k < max_iter:
-        for c in range(3):
-            P[n, c] = target[c]
+        # tip to base; the point just placed is carried in registers (sx, sy, sz)
+        sx, sy, sz = target[0], target[1], target[2]
+        P[n, 0], P[n, 1], P[n, 2] = sx, sy, sz
         start = n - 1
         if has_dir:
-            for c in range(3):
-                P[n - 1, c] = target[c] - length * direction[c]
+            sx, sy, sz = sx - length * direction[0], sy - length * direction[1], sz - length * direction[2]
+            P[n - 1, 0], P[n - 1, 1], P[n - 1, 2] = sx, sy, sz
             start = n - 2
         for i in range(start, -1, -1):
-            _pull(P, i + 1, i, length)
+            dx, dy, dz = P[i, 0] - sx, P[i, 1] - sy, P[i, 2] - sz
+            lam = length / math.sqrt(dx * dx + dy * dy + dz * dz)
+            sx, sy, sz = sx + lam * dx, sy + lam * dy, sz + lam * dz
+            P[i, 0], P[i, 1], P[i, 2] = sx, sy, sz
+        # base to tip, from the fixed base
+        sx, sy, sz = bx, by, bz
         P[0, 0], P[0, 1], P[0, 2] = bx, by, bz
         for i in range(n):
-            _pull(P, i, i + 1, length)
+            dx, dy, dz = P[i + 1, 0] - sx, P[i + 1, 1] - sy, P[i + 1, 2] - sz
+            lam = length / math.sqrt(dx * dx + dy * dy + dz * dz)
+            sx, sy, sz = sx + lam * dx, sy + lam * dy, sz + lam * dz
+            P[i + 1, 0], P[i + 1, 1], P[i + 1, 2] = sx, sy, sz
         err = _dist(P, n, target)
         if has_dir:
             ang = tip_angle_deg(P, direction)

@@ -1,0 +1,43 @@
+"""bhr bench: time bhr against plain numpy implementations of the same algorithms."""
+from __future__ import annotations
+
+import json
+
+import click
+
+from bhr.cli._common import check_writable, guarded
+
+
+@click.command()
+@click.option("--case", "cases", multiple=True, metavar="NAME",
+              help="Case to run (repeatable): fabrik, ccd, seed-colon, cli, and any added later [all].")
+@click.option("--repeat", type=click.IntRange(1, 100), default=None, help="Repeats per timing (median taken).")
+@click.option("--json", "json_path", default=None, metavar="PATH|-", help="Write the results as JSON.")
+@click.option("--check", is_flag=True, help="Exit with status 1 when a stated requirement is not met.")
+@guarded
+def bench(cases, repeat, json_path, check):
+    """Time bhr's compiled code against numpy references, in the same process.
+
+    Every figure is a median over repeats; the ratio is reference time / bhr
+    time measured in the same run. Results depend on the machine: quote them
+    with the machine and this command.
+    """
+    from bhr import bench as b
+    from bhr.errors import BhrError
+
+    check_writable(json_path, "JSON")
+    names = list(cases) or list(b.CASES)
+    unknown = [c for c in names if c not in b.CASES]
+    if unknown:
+        raise BhrError(f"unknown benchmark case {unknown[0]!r}; choose from {', '.join(b.CASES)}")
+    results = b.run_all(names, repeat, progress=lambda name: click.echo(f"running {name} ...", err=True))
+    click.echo(b.format_table(results))
+    doc = [r.to_dict() for r in results]
+    if json_path == "-":
+        click.echo(json.dumps(doc, indent=1))
+    elif json_path:
+        from bhr.atomic import write_json
+
+        write_json(json_path, doc)
+    if check and any(r.ok is False for r in results):
+        raise BhrError("some benchmark requirements were not met (see the 'ok' column)")

@@ -1,0 +1,52 @@
+"""pytest-benchmark versions of the `bhr bench` cases (not part of the default test run).
+
+Run them with:  python3 -m pytest tests/benchmarks/bench_kernels.py --benchmark-only
+(files here are named bench_*.py so that the default run does not collect them).
+"""
+import numpy as np
+import pytest
+
+from bhr.bench import numpy_ccd, numpy_fabrik, numpy_seed_follow
+from bhr.follow import follow
+from bhr.robot import straight_chain
+from bhr.solvers.ccd import ccd_kernel
+from bhr.solvers.fabrik import fabrik_kernel
+from bhr.trajectory import load_trajectory
+
+P0 = straight_chain(10, 2.0, (0, 1, 0))
+T = np.array([15.0, 6.0, 0.0])
+ZERO = np.zeros(3)
+
+
+@pytest.mark.benchmark(group="fabrik-ch5-10")
+def test_fabrik_bhr(benchmark):
+    k, err, _ = benchmark(lambda: fabrik_kernel(P0.copy(), T, 2.0, 0.01, 30, ZERO, False, 20.0))
+    assert k == 12
+
+
+@pytest.mark.benchmark(group="fabrik-ch5-10")
+def test_fabrik_numpy(benchmark):
+    assert benchmark(numpy_fabrik, P0, T, 2.0, 0.01, 30)[1] == 12
+
+
+@pytest.mark.benchmark(group="ccd-ch5-10")
+def test_ccd_bhr(benchmark):
+    assert benchmark(lambda: ccd_kernel(P0.copy(), T, 0.01, 30))[0] == 12
+
+
+@pytest.mark.benchmark(group="ccd-ch5-10")
+def test_ccd_numpy(benchmark):
+    assert benchmark(numpy_ccd, P0, T, 0.01, 30)[1] == 12
+
+
+COLON = load_trajectory("colon")
+
+
+@pytest.mark.benchmark(group="seed-colon")
+def test_seed_colon_bhr(benchmark):
+    assert benchmark(follow, COLON).steps == len(COLON.points)
+
+
+@pytest.mark.benchmark(group="seed-colon")
+def test_seed_colon_numpy(benchmark):
+    benchmark.pedantic(numpy_seed_follow, args=(COLON.points,), rounds=2)
