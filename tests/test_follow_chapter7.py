@@ -135,3 +135,18 @@ def test_cli_follow_writes_everything(tmp_path):
         assert len(doc["steps"]) == 85
         assert "Position error (mm)" in res.output and "point 6 (tip)" in res.output
         assert "0.9099" in res.output
+
+
+def test_console_script_colon_with_defaults(run_bhr, tmp_path):
+    """The README's main job: `bhr follow --traj colon` with no other option."""
+    res = run_bhr("follow", "--traj", "colon")
+    assert res.returncode == 0, res.stderr
+    out = tmp_path / "bhr-out" / "colon-seed"
+    names = {"position_errors.png", "orientation_errors.png", "global_errors.png", "path.png", "codes.csv", "run.json"}
+    assert names <= {p.name for p in out.iterdir()}
+    assert not [p for p in out.iterdir() if p.name.startswith(".")]  # no temporary files left behind
+    doc = json.loads((out / "run.json").read_text())
+    assert len(doc["steps"]) == 827
+    rows = (out / "codes.csv").read_text().splitlines()
+    assert len(rows) == 828
+    assert "Worst step: 76" in res.stdout
