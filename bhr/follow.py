@@ -31,7 +31,7 @@ from bhr.robot import Robot
 from bhr.solvers import Chain, FollowContext, get_solver
 from bhr.trajectory import Trajectory
 
-__all__ = ["follow", "FollowResult", "path_directions", "score_step", "advance_kernel", "stats"]
+__all__ = ["follow", "FollowResult", "path_directions", "score_step", "advance_kernel", "stats", "load_run"]
 
 
 class BhrWarning(UserWarning):
@@ -129,6 +129,21 @@ class FollowResult:
     codes: np.ndarray | None = None  # (N, n)
     warnings: list[str] = field(default_factory=list)
     extra: dict[str, Any] = field(default_factory=dict)
+    body: Any = None  # bhr.body.BodyRun: the modules behind the head (follow(..., body_modules=M))
+
+    @property
+    def clearance(self) -> Any:
+        """bhr.clearance.ClearanceReport when the trajectory has a lumen (head and body points), else None."""
+        if self.trajectory.lumen is None:
+            return None
+        key = (id(self.body), id(self.trajectory.lumen), self.point_errors.shape)
+        cached = getattr(self, "_clearance_cache", None)
+        if cached is None or cached[0] != key:
+            from bhr.clearance import clearance_report
+
+            cached = (key, clearance_report(self))
+            self._clearance_cache = cached
+        return cached[1]
 
     @property
     def steps(self) -> int:
@@ -172,6 +187,15 @@ class FollowResult:
             "global": glob,
             "warnings": list(self.warnings),
         }
+        if self.body is not None:
+            b = self.body
+            out["body_modules"] = self.modules + b.modules
+            out["body_points_max_error_mm"] = float(b.point_errors.max()) if b.modules else 0.0
+            out["body_worst_step"] = int(np.argmax(b.point_errors.max(axis=1))) + 1 if b.modules else 0
+            out["body_orientation_max_deg"] = float(b.orientation_errors.max()) if b.modules else 0.0
+        cl = self.clearance
+        if cl is not None:
+            out.update(cl.summary())
         out.update(self.extra.get("summary", {}))
         return out
 
@@ -188,14 +212,123 @@ class FollowResult:
                 "codes": None if self.codes is None else [int(c) for c in self.codes[i]],
                 "iterations": int(self.iterations[i]),
             })
+        cl = self.clearance
+        if cl is not None:
+            per = cl.per_step
+            for i, st in enumerate(steps):
+                st["clearance_mm"] = None if np.isnan(per[i]) else float(per[i])
+        if self.body is not None and self.body.modules:
+            b = self.body
+            for i, st in enumerate(steps):
+                st["body_points"] = [[float(v) for v in row] for row in b.points[i]]
+                st["body_point_errors_mm"] = [float(v) for v in b.point_errors[i]]
+                st["body_module_orientation_errors_deg"] = [float(v) for v in b.orientation_errors[i]]
+                st["body_codes"] = [int(c) for c in b.codes[i]]
+        traj_doc = {"name": self.trajectory.name, "params": self.trajectory.params,
+                    "points": self.trajectory.points.tolist()}
+        if self.trajectory.lumen is not None:
+            traj_doc["lumen"] = [float(v) for v in self.trajectory.lumen]
         return {
-            "trajectory": {"name": self.trajectory.name, "params": self.trajectory.params,
-                           "points": self.trajectory.points.tolist()},
+            "trajectory": traj_doc,
             "robot": self.robot.to_dict(),
             "solver": self.solver,
             "steps": steps,
             "summary": self.summary(),
         }
+
+    @classmethod
+    def from_json(cls, doc: Any, where: str = "run") -> "FollowResult":
+        """A run back from its :meth:`to_json` document, without solving (``bhr replay``).
+
+        Raises :class:`BhrError` naming the first thing wrong (``where`` names the file).
+        """
+        return _run_from_json(doc, where)
+
+
+def _run_from_json(doc: Any, where: str) -> FollowResult:
+    def bad(what: str) -> BhrError:
+        return BhrError(f"{where}: {what}; give a run.json written by 'bhr follow'")
+
+    def array(value: Any, shape: tuple[int | None, ...], what: str) -> np.ndarray:
+        try:
+            arr = np.asarray(value, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise bad(f"{what} must be numbers") from None
+        if arr.ndim != len(shape) or any(w is not None and w != h for w, h in zip(shape, arr.shape)):
+            want = " x ".join("N" if w is None else str(w) for w in shape)
+            raise bad(f"{what} must be {want} numbers, got shape {' x '.join(map(str, arr.shape)) or 'scalar'}")
+        if not np.all(np.isfinite(arr)):
+            raise bad(f"{what} must be finite numbers")
+        return arr
+
+    if not isinstance(doc, dict) or not all(k in doc for k in ("trajectory", "robot", "solver", "steps")):
+        raise bad("not a bhr run (it needs 'trajectory', 'robot', 'solver' and 'steps')")
+    tr, rb, steps = doc["trajectory"], doc["robot"], doc["steps"]
+    if not isinstance(tr, dict) or not isinstance(rb, dict) or not isinstance(steps, list) or not steps:
+        raise bad("'trajectory' and 'robot' must be objects and 'steps' a non-empty list")
+    path = array(tr.get("points"), (None, 3), "trajectory points")
+    names = set(Robot.__dataclass_fields__)
+    try:
+        robot = Robot(**{k: v for k, v in rb.items() if k in names})
+    except (BhrError, TypeError) as exc:
+        raise bad(f"robot: {str(exc).splitlines()[0]}") from None
+    n, count = robot.modules, len(steps)
+    if count > path.shape[0]:
+        raise bad(f"{count} steps but only {path.shape[0]} trajectory points")
+    keys = ("points", "point_errors_mm", "module_orientation_errors_deg", "codes", "iterations")
+    for k, st in enumerate(steps):
+        if not isinstance(st, dict) or not all(key in st for key in keys):
+            raise bad(f"step {k + 1} must be an object with {', '.join(keys)}")
+    pts = np.stack([array(st["points"], (n + 1, 3), f"step {k + 1} points") for k, st in enumerate(steps)])
+    pe = np.stack([array(st["point_errors_mm"], (n + 1,), f"step {k + 1} point_errors_mm")
+                   for k, st in enumerate(steps)])
+    oe = np.stack([array(st["module_orientation_errors_deg"], (n,), f"step {k + 1} module_orientation_errors_deg")
+                   for k, st in enumerate(steps)])
+    iters = [st["iterations"] for st in steps]
+    if not all(isinstance(v, int) and not isinstance(v, bool) and v >= 0 for v in iters):
+        raise bad("every step's iterations must be a whole number, 0 or more")
+    codes = None
+    if any(st["codes"] is not None for st in steps):
+        codes = np.zeros((count, n), dtype=np.int64)
+        for k, st in enumerate(steps):
+            c = st["codes"]
+            if not isinstance(c, list) or len(c) != n or not all(isinstance(v, int) and not isinstance(v, bool)
+                                                                  for v in c):
+                raise bad(f"step {k + 1} codes must be {n} whole numbers (or null in every step)")
+            codes[k] = c
+    solver = doc["solver"]
+    if not isinstance(solver, str):
+        raise bad("'solver' must be a name")
+    summary = doc.get("summary")
+    msgs = summary.get("warnings", []) if isinstance(summary, dict) else []
+    params = tr.get("params") if isinstance(tr.get("params"), dict) else {}
+    traj = Trajectory(str(tr.get("name", "run")), path, dict(params), source=where)
+    return FollowResult(traj, robot, solver, pts, np.asarray(iters, dtype=np.int64), pe, oe, codes,
+                        [str(m) for m in msgs] if isinstance(msgs, list) else [])
+
+
+def load_run(path: Any) -> FollowResult:
+    """Read a run saved by ``bhr follow`` (``run.json``; ``-`` reads standard input), without solving."""
+    import json
+    import sys
+    from pathlib import Path
+
+    name = "standard input" if str(path) == "-" else str(path)
+    try:
+        text = sys.stdin.read() if str(path) == "-" else Path(path).read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise BhrError(f"no such run file {name}; give the run.json that 'bhr follow' wrote") from None
+    except IsADirectoryError:
+        raise BhrError(f"{name} is a folder; give the run.json inside it") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise BhrError(f"cannot read {name} ({exc.__class__.__name__}); give a run.json written by 'bhr follow'") \
+            from None
+    try:
+        doc = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise BhrError(f"{name}: not valid JSON (line {exc.lineno}: {exc.msg}); give a run.json written by "
+                       "'bhr follow'") from None
+    return FollowResult.from_json(doc, name)
 
 
 def _as_trajectory(points: Any) -> Trajectory:
@@ -212,13 +345,16 @@ def _as_trajectory(points: Any) -> Trajectory:
 def follow(points: Any, solver: str = "seed", robot: Robot | None = None, *,
            solver_options: dict[str, Any] | None = None,
            on_step: Callable[[int, np.ndarray | None], None] | None = None,
-           compiled: bool = True, **robot_options: Any) -> FollowResult:
+           compiled: bool = True, body_modules: int | None = None, **robot_options: Any) -> FollowResult:
     """Run follow-the-leader along ``points`` ((N, 3) array or a :class:`Trajectory`).
 
     ``robot_options`` are :class:`bhr.robot.Robot` fields (``modules``,
     ``module_length``, ``alpha``, ``tol_pos``, ...); defaults are the thesis's.
     ``on_step(i, codes)`` is called after each step (0-based) when given, e.g.
     to stream codes to the board; it forces the step-by-step driver.
+    ``body_modules`` (M >= modules) also simulates the modules behind the head
+    (:mod:`bhr.body`); the result's ``body`` holds them and they are scored and
+    counted in the clearance too.
     """
     traj = _as_trajectory(points)
     if robot is None:
@@ -269,7 +405,12 @@ def follow(points: Any, solver: str = "seed", robot: Robot | None = None, *,
             if on_step is not None:
                 on_step(i, None if res.codes is None else codes[i])
             chain = res.chain.advance(robot.feed, robot.module_length)
-    return FollowResult(traj, robot, solver, out_points, out_iters, pe, oe, codes if has_codes else None, msgs)
+    result = FollowResult(traj, robot, solver, out_points, out_iters, pe, oe, codes if has_codes else None, msgs)
+    if body_modules is not None:
+        from bhr.body import simulate_body
+
+        result.body = simulate_body(result, body_modules)
+    return result
 
 
 make_callable(__name__, "follow")

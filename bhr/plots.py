@@ -25,7 +25,8 @@ if TYPE_CHECKING:  # pragma: no cover
     from bhr.follow import FollowResult
 
 __all__ = ["error_figure", "path_figure", "chain_figure", "draw_robot", "draw_path", "save_figure",
-           "save_run_plots", "ERROR_KINDS"]
+           "save_run_plots", "ERROR_KINDS", "StepView", "run_is_planar",
+           "body_figure", "clearance_figure", "mark_wall_touches"]
 
 ORDINALS = ["First", "Second", "Third", "Fourth", "Fifth", "Sixth", "Seventh", "Eighth", "Ninth", "Tenth"]
 
@@ -67,6 +68,7 @@ def error_figure(result: "FollowResult", kind: str) -> plt.Figure:
             continue
         ax.plot(steps, data[:, j], color="tab:blue", linewidth=1.0)
         ax.axhline(tol, color="tab:red", linestyle="--", linewidth=0.8, label="tolerance")
+        mark_wall_touches(ax, result)
         ax.set_title(_panel_title(kind, j, count), fontsize=10)
         ax.set_ylabel(ylabel, fontsize=9)
         ax.grid(True, alpha=0.3)
@@ -147,27 +149,89 @@ def _equal_3d(ax: Any, pts: np.ndarray) -> None:
     ax.set_zlim(mid[2] - half, mid[2] + half)
 
 
+def run_is_planar(result: "FollowResult") -> bool:
+    """True when a run is drawn from the top (x, y): its path is planar and every pose keeps one height z."""
+    return result.trajectory.planar and bool(np.ptp(result.points[:, :, 2]) <= 1e-9)
+
+
+class StepView:
+    """The path, the target and the robot at one step of a run, on one axes.
+
+    This is the one frame-drawing code of bhr: :func:`path_figure` (the
+    final-pose figure and the report), the live view (:mod:`bhr.liveview`)
+    and the animation (:mod:`bhr.animate`) all draw through it. The axes
+    limits cover the path and every pose of the run, so that the frames of a
+    run line up; :meth:`draw` replaces the robot and target of the previous
+    step. Pass ``fig`` to draw on a figure made elsewhere (e.g. an off-screen
+    Agg figure).
+    """
+
+    def __init__(self, result: "FollowResult", fig: plt.Figure | None = None,
+                 figsize: tuple[float, float] = (8, 7)) -> None:
+        self.result = result
+        self.planar = run_is_planar(result)
+        self.fig = plt.figure(figsize=figsize) if fig is None else fig
+        self.ax = _setup_axes(self.fig, self.planar)
+        self.step: int | None = None
+        self.artists: list[Any] = []
+        traj = result.trajectory
+        draw_path(self.ax, traj.points, self.planar)
+        pts = np.vstack([traj.points, result.points.reshape(-1, 3)] + _body_points(result))
+        _draw_touch_points(self.ax, result, self.planar)
+        if self.planar:
+            lo, hi = pts.min(axis=0), pts.max(axis=0)
+            pad = result.robot.radius + 0.03 * max(float((hi - lo)[:2].max()), 1.0)
+            self.ax.set_xlim(lo[0] - pad, hi[0] + pad)
+            self.ax.set_ylim(lo[1] - pad, hi[1] + pad)
+            self.ax.set_aspect("equal", adjustable="box")
+        else:
+            _equal_3d(self.ax, pts)
+        self.ax.autoscale(False)
+        self._laid_out = False
+
+    def title(self, i: int) -> str:
+        r = self.result
+        view = "top view" if self.planar else "3D view"
+        return (f"{r.trajectory.name}: path and robot at step {i + 1} of {r.steps} "
+                f"({view}, solver {r.solver})")
+
+    def draw(self, i: int) -> list[Any]:
+        """Draw step ``i`` (0-based): the target point and the robot's pose; return the new artists."""
+        r = self.result
+        if not -r.steps <= i < r.steps:
+            from bhr.errors import BhrError
+
+            raise BhrError(f"step {i + 1} is outside the run (steps 1 to {r.steps}); choose a step in that range")
+        i = i % r.steps
+        for a in self.artists:
+            a.remove()
+        tgt = r.trajectory.points[i]
+        if self.planar:
+            new = self.ax.plot([tgt[0]], [tgt[1]], "x", color="tab:green", markersize=9, label="target")
+        else:
+            new = self.ax.plot([tgt[0]], [tgt[1]], [tgt[2]], "x", color="tab:green", markersize=9, label="target")
+        new += draw_robot(self.ax, r.points[i], r.robot.radius, self.planar)
+        if getattr(r, "body", None) is not None and r.body.modules:
+            body = np.vstack([r.points[i, :1], r.body.points[i]])
+            new += draw_robot(self.ax, body, r.robot.radius, self.planar, color="tab:orange", label="body")
+        self.artists = new
+        self.step = i
+        self.ax.set_title(self.title(i), fontsize=10)
+        if not self._laid_out:
+            # Legend below the axes (fixed, so it never hides the path nor moves between frames),
+            # and the layout computed once for all frames.
+            handles, labels = self.ax.get_legend_handles_labels()
+            self.fig.legend(handles, labels, loc="lower center", ncol=len(labels), fontsize=8, frameon=False)
+            self.fig.tight_layout(rect=(0, 0.04, 1, 1))
+            self._laid_out = True
+        return new
+
+
 def path_figure(result: "FollowResult", step: int | None = None) -> plt.Figure:
-    """The path and the robot's pose at ``step`` (default: the last); top view when planar."""
-    traj = result.trajectory
-    planar = traj.planar and bool(np.ptp(result.points[:, :, 2]) <= 1e-9)
-    i = result.steps - 1 if step is None else step
-    fig = plt.figure(figsize=(8, 7))
-    ax = _setup_axes(fig, planar)
-    draw_path(ax, traj.points, planar)
-    tgt = traj.points[i]
-    if planar:
-        ax.plot([tgt[0]], [tgt[1]], "x", color="tab:green", markersize=9, label="target")
-    else:
-        ax.plot([tgt[0]], [tgt[1]], [tgt[2]], "x", color="tab:green", markersize=9, label="target")
-    draw_robot(ax, result.points[i], result.robot.radius, planar)
-    if not planar:
-        _equal_3d(ax, np.vstack([traj.points, result.points[i]]))
-    view = "top view" if planar else "3D view"
-    ax.set_title(f"{traj.name}: path and robot at step {i + 1} of {result.steps} ({view}, solver {result.solver})")
-    ax.legend(loc="best", fontsize=8)
-    fig.tight_layout()
-    return fig
+    """The path and the robot's pose at ``step`` (0-based, default: the last); top view when planar."""
+    view = StepView(result)
+    view.draw(result.steps - 1 if step is None else step)
+    return view.fig
 
 
 def chain_figure(initial: np.ndarray, final: np.ndarray, target: Sequence[float], radius: float | None = None,
@@ -208,4 +272,97 @@ def save_run_plots(result: "FollowResult", out_dir: str | os.PathLike[str]) -> l
     for kind, (name, _, _) in ERROR_KINDS.items():
         files.append(save_figure(error_figure(result, kind), out / name))
     files.append(save_figure(path_figure(result), out / "path.png"))
+    if getattr(result, "body", None) is not None and result.body.modules:
+        files.append(save_figure(body_figure(result), out / "body_errors.png"))
+    if result.clearance is not None:
+        files.append(save_figure(clearance_figure(result), out / "clearance.png"))
     return files
+
+
+# --- lumen clearance and the whole body (bhr.clearance, bhr.body) ---
+
+
+def _body_points(result: "FollowResult") -> list[np.ndarray]:
+    body = getattr(result, "body", None)
+    return [body.points.reshape(-1, 3)] if body is not None and body.modules else []
+
+
+def mark_wall_touches(ax: Any, result: "FollowResult") -> None:
+    """Shade the steps where some point of the robot touches the lumen wall (clearance <= 0)."""
+    cl = getattr(result, "clearance", None)
+    if cl is None or not cl.touch_steps:
+        return
+    steps = cl.touch_steps
+    start = prev = steps[0]
+    first = True
+    for s in steps[1:] + [None]:
+        if s is not None and s == prev + 1:
+            prev = s
+            continue
+        ax.axvspan(start - 0.5, prev + 0.5, color="tab:red", alpha=0.18, linewidth=0,
+                   label="wall touched" if first else None)
+        first = False
+        if s is not None:
+            start = prev = s
+
+
+def _draw_touch_points(ax: Any, result: "FollowResult", planar: bool) -> None:
+    """Mark every robot point where it touched the wall (any step) on the path view."""
+    cl = getattr(result, "clearance", None)
+    if cl is None or not cl.touch_steps:
+        return
+    n1 = result.points.shape[1]
+    where = []
+    for step, p in cl.touches():
+        i = step - 1
+        where.append(result.points[i, p] if p < n1 else result.body.points[i, p - n1])
+    w = np.array(where)
+    style = {"color": "tab:red", "marker": "o", "markersize": 4, "linestyle": "none", "alpha": 0.6,
+             "label": "wall touched"}
+    if planar:
+        ax.plot(w[:, 0], w[:, 1], **style)
+    else:
+        ax.plot(w[:, 0], w[:, 1], w[:, 2], **style)
+
+
+def body_figure(result: "FollowResult") -> plt.Figure:
+    """Position error of the body behind the head: the largest over its points, and its last point."""
+    b = result.body
+    steps = np.arange(1, result.steps + 1)
+    fig, ax = plt.subplots(figsize=(10, 4))
+    ax.plot(steps, result.point_errors.max(axis=1), color="tab:blue", linewidth=1.0, label="head (largest point)")
+    ax.plot(steps, b.point_errors.max(axis=1), color="tab:orange", linewidth=1.0, label="body (largest point)")
+    ax.plot(steps, b.point_errors[:, -1], color="tab:brown", linewidth=0.8, linestyle=":", label="tail point")
+    ax.axhline(result.robot.tol_pos, color="tab:red", linestyle="--", linewidth=0.8, label="tolerance")
+    mark_wall_touches(ax, result)
+    ax.set_xlabel("trajectory step")
+    ax.set_ylabel("position error (mm)")
+    ax.set_xlim(1, max(2, result.steps))
+    ax.set_ylim(bottom=0)
+    ax.grid(True, alpha=0.3)
+    ax.legend(loc="upper right", fontsize=8)
+    ax.set_title(f"Whole body ({result.modules + b.modules} modules) - {result.trajectory.name}, "
+                 f"solver {result.solver}", fontsize=11)
+    fig.tight_layout()
+    return fig
+
+
+def clearance_figure(result: "FollowResult") -> plt.Figure:
+    """Smallest clearance to the lumen wall at each step (mm); below zero the wall is touched."""
+    cl = result.clearance
+    steps = np.arange(1, result.steps + 1)
+    fig, ax = plt.subplots(figsize=(10, 4))
+    ax.plot(steps, cl.per_step, color="tab:green", linewidth=1.0, label="smallest clearance")
+    ax.axhline(0.0, color="tab:red", linestyle="--", linewidth=0.8, label="wall")
+    mark_wall_touches(ax, result)
+    if cl.min_step:
+        ax.plot([cl.min_step], [cl.min_mm], "v", color="black", markersize=6,
+                label=f"minimum {cl.min_mm:.2f} mm (step {cl.min_step}, {cl.min_point})")
+    ax.set_xlabel("trajectory step")
+    ax.set_ylabel("clearance (mm)")
+    ax.set_xlim(1, max(2, result.steps))
+    ax.grid(True, alpha=0.3)
+    ax.legend(loc="best", fontsize=8)
+    ax.set_title(f"Clearance to the lumen wall - {result.trajectory.name}, solver {result.solver}", fontsize=11)
+    fig.tight_layout()
+    return fig

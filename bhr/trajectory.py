@@ -3,8 +3,12 @@
 Built-in trajectories (``line``, ``curve``, ``spiral``, ``colon``) are TOML
 files in the repository's ``trajectories/`` folder (installed as
 ``bhr.trajectories``); each names a generator and its parameters, which users
-can copy and edit. ``bhr.trajectory(name_or_path, **params)`` returns the
-(N, 3) points, spaced by the feed.
+can copy and edit. Users' own paths are TOML files of segments (straight,
+arc, helix) or CSV point lists such as a measured centerline, read by
+:mod:`bhr.pathfile`. ``bhr.trajectory(name_or_path, **params)`` returns the
+(N, 3) points, spaced by the feed; :func:`load_trajectory` the whole
+:class:`Trajectory` (min radius, lumen, start). docs/trajectories.md describes
+every format.
 
 The generators port the printed MATLAB exactly, including its quirks (the
 curve's entry straight stops one point short of ``entry``; the colon starts
@@ -15,7 +19,6 @@ from __future__ import annotations
 
 import math
 import os
-import tomllib
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
@@ -226,8 +229,21 @@ def _check_params(gen_name: str, params: dict[str, Any], where: str) -> dict[str
             raise BhrError(f"{where}: {key} must be positive, got {value}")
         if key in _NONNEG and v < 0:
             raise BhrError(f"{where}: {key} must not be negative, got {value}")
+        if abs(v) > 1e6:
+            raise BhrError(f"{where}: {key} must be at most 1e6 in size, got {value:g}")
         out[key] = v
     return out
+
+
+def _generator_length(gen_name: str, p: dict[str, float]) -> float:
+    """Length (mm) of the path a generator will draw, to refuse absurd sizes before drawing it."""
+    if gen_name == "line":
+        return p["length"]
+    if gen_name == "curve":
+        return p["entry"] + p["exit"] + math.radians(p["angle"]) * p["radius"]
+    if gen_name == "spiral":
+        return p["turns"] * math.hypot(2 * math.pi * p["radius"], p["pitch"])
+    return 2000.0
 
 
 def builtin_names() -> list[str]:
@@ -246,7 +262,12 @@ def _builtin_file(name: str) -> Path | None:
 
 
 def load_trajectory(name_or_path: str | os.PathLike[str], feed: float = 2.0, **params: Any) -> Trajectory:
-    """A built-in trajectory by name, or a trajectory file (.toml), with ``params`` overriding its values."""
+    """A built-in trajectory by name, or a trajectory file (.toml or .csv), with ``params`` overriding its values.
+
+    ``params`` (the generator parameters, e.g. ``radius``) apply to built-ins
+    and generator files only; segment and CSV files refuse them. Raises
+    :class:`BhrError` with one line naming the file and the problem.
+    """
     if not (isinstance(feed, (int, float)) and math.isfinite(feed) and feed > 0):
         raise BhrError(f"feed must be a positive number of mm, got {feed!r}")
     key = str(name_or_path)
@@ -267,32 +288,88 @@ def _from_generator(gen_name: str, file_params: dict[str, Any], cli_params: dict
     merged.update({k: v for k, v in cli_params.items() if v is not None})
     p = _check_params(gen_name, merged, where)
     gen = GENERATORS[gen_name]
+    from bhr.pathfile import MAX_POINTS
+
+    count = _generator_length(gen_name, p) / feed
+    if count > MAX_POINTS:
+        raise BhrError(f"{where}: the {gen_name} is {count * feed:g} mm long, {count:.0f} points at a feed of "
+                       f"{feed:g} mm (limit {MAX_POINTS}); make it shorter")
     pts = gen.func(feed, **p)
     return Trajectory(gen_name, pts, p, gen.min_radius(p), None, where)
 
 
+#: Generators whose points fall into named sections (a generator file's [lumen] table may name them).
+SECTIONS: dict[str, tuple[str, ...]] = {"colon": COLON_SECTIONS}
+_GENERATOR_KEYS = ("name", "description", "generator", "params", "lumen")
+_HINT = "see docs/trajectories.md"
+
+
+def _generator_lumen(spec: Any, gen_name: str, traj: Trajectory, feed: float, where: str) -> np.ndarray:
+    """Lumen diameter per point from a generator file's ``lumen``: one number, or a table per section."""
+    from bhr._input import number, type_name
+
+    n = traj.points.shape[0]
+    if not isinstance(spec, dict):
+        return np.full(n, number(spec, f"{where}: lumen", positive=True, unit="mm", maximum=1e6))
+    names = SECTIONS.get(gen_name)
+    if names is None:
+        raise BhrError(f"{where}: lumen of the {gen_name} trajectory must be one diameter in mm, got a table "
+                       f"(only {', '.join(SECTIONS)} has sections)")
+    for key in spec:
+        if key not in names:
+            raise BhrError(f"{where}: lumen: unknown section {key!r}; sections: {', '.join(names)}")
+    missing = [k for k in names if k not in spec]
+    if missing:
+        raise BhrError(f"{where}: lumen: no diameter for section {missing[0]!r}; "
+                       f"give every section: {', '.join(names)}")
+    per = np.array([number(spec[k], f"{where}: lumen.{k!r}" if " " in k else f"{where}: lumen.{k}",
+                           positive=True, unit="mm", maximum=1e6) for k in names])
+    index: list[int] = []
+    if gen_name == "colon":
+        colon(feed, section_index=index)
+    if len(index) != n:  # pragma: no cover - the generators keep these in step
+        raise BhrError(f"{where}: internal error: {len(index)} section labels for {n} points")
+    return per[np.asarray(index, dtype=np.int64)]
+
+
 def _from_file(path: Path, feed: float, params: dict[str, Any], builtin: bool) -> Trajectory:
-    if path.suffix.lower() != ".toml":
-        raise BhrError(f"{path}: trajectory files are TOML (.toml); see docs/trajectories.md")
-    try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
-    except tomllib.TOMLDecodeError as exc:
-        raise BhrError(f"{path}: not valid TOML ({exc})") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise BhrError(f"cannot read {path}: {exc.__class__.__name__}") from None
-    allowed = {"name", "description", "generator", "params", "lumen"}
-    for k in data:
-        if k not in allowed:
-            raise BhrError(f"{path}: unknown key {k!r} (allowed: {', '.join(sorted(allowed))})")
+    """A trajectory file: TOML (a generator and its parameters, or segments) or CSV (points)."""
+    from bhr import pathfile
+    from bhr._input import check_keys, read_toml, text_value
+
+    suffix = path.suffix.lower()
+    if suffix not in (".toml", ".csv"):
+        raise BhrError(f"{path}: trajectory files are .toml (a generator or segments) or .csv (points); {_HINT}")
+    given = {k: v for k, v in params.items() if v is not None}
+    if suffix == ".csv":
+        if given:
+            raise BhrError(f"{path}: --{next(iter(given))} applies to generator trajectories only; "
+                           "a CSV's points are used as they are")
+        return pathfile.csv_trajectory(path, feed)
+    data = read_toml(path, "trajectory file", _HINT)
+    if "generator" not in data:
+        if "segment" in data:
+            if given:
+                raise BhrError(f"{path}: --{next(iter(given))} applies to generator trajectories only; "
+                               "edit the segments in the file instead")
+            return pathfile.segments_trajectory(data, path, feed)
+        raise BhrError(f"{path}: neither generator = \"NAME\" nor [[segment]] tables; give one of them ({_HINT})")
+    if "segment" in data:
+        raise BhrError(f"{path}: give either generator = ... or [[segment]] tables, not both")
+    check_keys(data, _GENERATOR_KEYS, str(path))
     gen_name = data.get("generator")
-    if gen_name not in GENERATORS:
-        raise BhrError(f"{path}: 'generator' must be one of {', '.join(GENERATORS)}, got {gen_name!r}")
+    if not isinstance(gen_name, str) or gen_name not in GENERATORS:
+        raise BhrError(f"{path}: generator must be one of {', '.join(repr(g) for g in GENERATORS)}, got {gen_name!r}")
     file_params = data.get("params", {})
     if not isinstance(file_params, dict):
-        raise BhrError(f"{path}: [params] must be a table of numbers")
-    traj = _from_generator(gen_name, file_params, params, feed, str(path))
-    traj.name = str(data.get("name", path.stem))
+        raise BhrError(f"{path}: params must be a table ([params]) of numbers")
+    traj = _from_generator(gen_name, file_params, params, feed, f"trajectory {path.stem}" if builtin else str(path))
+    traj.name = text_value(data.get("name", path.stem), f"{path}: name")
+    if "description" in data:
+        text_value(data["description"], f"{path}: description")
     traj.source = str(path)
+    if "lumen" in data:
+        traj.lumen = _generator_lumen(data["lumen"], gen_name, traj, feed, str(path))
     return traj
 
 

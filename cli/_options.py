@@ -1,9 +1,62 @@
 """Options shared by the commands that simulate: robot, solver constraints, trajectory."""
 from __future__ import annotations
 
+import math
 from typing import Any, Callable
 
 import click
+
+from bhr._input import MAX_MM, ROBOT_LIMITS
+
+
+class Bounded(click.ParamType):
+    """A finite int or float no larger in size than ``limit``: one clear line for nan, inf or 1e300.
+
+    Signs and lower bounds are left to the library (bhr.robot.Robot, the
+    trajectory checks), whose messages name the allowed range.
+    """
+
+    def __init__(self, kind: type = float, limit: float = MAX_MM, unit: str = "") -> None:
+        self.kind = kind
+        self.limit = limit
+        self.unit = unit
+        self.name = "integer" if kind is int else "float"
+
+    def convert(self, value: Any, param: Any, ctx: Any) -> Any:
+        if isinstance(value, (int, float)) and not isinstance(value, bool):
+            v = value
+        else:
+            text = str(value).strip()
+            try:
+                v = int(text) if self.kind is int else float(text)
+            except ValueError:
+                self.fail(f"{value!r} is not a valid {self.name}", param, ctx)
+        u = f" {self.unit}" if self.unit else ""
+        if not math.isfinite(v):
+            self.fail(f"{value} is not a finite number", param, ctx)
+        if abs(v) > self.limit:
+            self.fail(f"{v:g} is too large; the limit is {self.limit:g}{u}", param, ctx)
+        return self.kind(v)
+
+
+class FiniteRange(click.FloatRange):
+    """click.FloatRange that also refuses nan (nan passes every comparison click makes)."""
+
+    def convert(self, value: Any, param: Any, ctx: Any) -> Any:
+        v = super().convert(value, param, ctx)
+        if not math.isfinite(v):
+            self.fail(f"{value} is not a finite number", param, ctx)
+        return v
+
+
+def _lim(field: str, kind: type = float) -> Bounded:
+    top, unit = ROBOT_LIMITS[field]
+    return Bounded(kind, top, unit)
+
+
+#: Lengths and coordinates in mm (trajectory options, targets), and angles (ranges checked by the library).
+MM = Bounded(float, MAX_MM, "mm")
+DEG = Bounded(float, 1e6, "deg")
 
 ROBOT_FIELDS = {
     "modules": "modules",
@@ -37,20 +90,28 @@ def robot_options(feed: bool = True) -> Callable[[Any], Any]:
     opts = [
         click.option("--robot", "robot_file", default=None, metavar="FILE",
                      help="Robot description (TOML); options given here override its values."),
-        click.option("--modules", type=int, default=None, help="Number of modules the solver moves."),
-        click.option("--module-length", type=float, default=None, help="Length of one module (mm)."),
-        click.option("--robot-radius", type=float, default=None, help="Robot (disc) radius in mm [5]."),
-        click.option("--alpha", type=float, default=None, help="Tilt angle of one actuator pair (deg) [10]."),
-        click.option("--stroke", type=float, default=None, help="Actuator stroke h (mm); with --lever gives alpha = asin(h/L)."),
-        click.option("--lever", type=float, default=None, help="Actuator lever L (mm); see --stroke."),
-        click.option("--tol-pos", type=float, default=None, help="Position tolerance (mm)."),
-        click.option("--tol-ori", type=float, default=None, help="Orientation tolerance (deg) [20]."),
-        click.option("--max-iter", type=int, default=None, help="Iteration limit per solve [30]."),
-        click.option("--weight-pos", type=float, default=None, help="Weight of position in the global error [0.7]."),
-        click.option("--weight-ori", type=float, default=None, help="Weight of orientation in the global error [0.3]."),
+        click.option("--modules", type=_lim("modules", int), default=None, help="Number of modules the solver moves."),
+        click.option("--module-length", type=_lim("module_length"), default=None, help="Length of one module (mm)."),
+        click.option("--robot-radius", type=_lim("radius"), default=None, help="Robot (disc) radius in mm [5]."),
+        click.option("--alpha", type=DEG,
+                     help="Tilt angle of one actuator pair (deg) [10]."),
+        click.option("--stroke", type=_lim("stroke"),
+                     help="Actuator stroke h (mm); with --lever gives alpha = asin(h/L)."),
+        click.option("--lever", type=_lim("lever"),
+                     help="Actuator lever L (mm); see --stroke."),
+        click.option("--tol-pos", type=_lim("tol_pos"),
+                     help="Position tolerance (mm)."),
+        click.option("--tol-ori", type=_lim("tol_ori"),
+                     help="Orientation tolerance (deg) [20]."),
+        click.option("--max-iter", type=_lim("max_iter", int),
+                     help="Iteration limit per solve [30]."),
+        click.option("--weight-pos", type=_lim("weight_pos"),
+                     help="Weight of position in the global error [0.7]."),
+        click.option("--weight-ori", type=_lim("weight_ori"),
+                     help="Weight of orientation in the global error [0.3]."),
     ]
     if feed:
-        opts.append(click.option("--feed-divisor", type=int, default=None,
+        opts.append(click.option("--feed-divisor", type=_lim("feed_divisor", int), default=None,
                                  help="Feed = module length / this [5]; trajectory points are spaced by the feed."))
     return _stack(*opts)
 
@@ -69,15 +130,17 @@ def constraint_options(f: Any) -> Any:
 
 def trajectory_options(f: Any) -> Any:
     return _stack(
-        click.option("--length", type=float, default=None, help="line: length (mm) [70]."),
-        click.option("--azimuth", type=float, default=None, help="line: angle to +x in the xy-plane (deg) [0]."),
-        click.option("--elevation", type=float, default=None, help="line: angle above the xy-plane (deg) [0]."),
-        click.option("--radius", type=float, default=None, help="curve/spiral: radius (mm) [70 / 80]."),
-        click.option("--angle", type=float, default=None, help="curve: angle turned (deg) [90]."),
-        click.option("--entry", type=float, default=None, help="curve: entry straight (mm) [30]."),
-        click.option("--exit", "exit_", type=float, default=None, help="curve: exit straight (mm) [30]."),
-        click.option("--pitch", type=float, default=None, help="spiral: rise per turn (mm) [40]."),
-        click.option("--turns", type=float, default=None, help="spiral: number of turns [2]."),
+        click.option("--length", type=MM, default=None, help="line: length (mm) [70]."),
+        click.option("--azimuth", type=DEG,
+                     help="line: angle to +x in the xy-plane (deg) [0]."),
+        click.option("--elevation", type=DEG,
+                     help="line: angle above the xy-plane (deg) [0]."),
+        click.option("--radius", type=MM, default=None, help="curve/spiral: radius (mm) [70 / 80]."),
+        click.option("--angle", type=DEG, default=None, help="curve: angle turned (deg) [90]."),
+        click.option("--entry", type=MM, default=None, help="curve: entry straight (mm) [30]."),
+        click.option("--exit", "exit_", type=MM, default=None, help="curve: exit straight (mm) [30]."),
+        click.option("--pitch", type=MM, default=None, help="spiral: rise per turn (mm) [40]."),
+        click.option("--turns", type=Bounded(float, 1e6), default=None, help="spiral: number of turns [2]."),
     )(f)
 
 
@@ -124,4 +187,53 @@ def pop_trajectory(kwargs: dict[str, Any]) -> dict[str, Any]:
         v = kwargs.pop(key, None)
         if v is not None:
             out[k] = v
+    return out
+
+
+# --solver optimal (bhr/solvers/optimal.py, docs/optimal.md)
+OPTIMAL_FIELDS = ("lookahead", "beam", "point_weights", "ori_weight", "drift_weight", "roll_weight")
+
+
+class WeightList(click.ParamType):
+    """One weight for every point, or a comma-separated list of them, base to tip."""
+
+    name = "weights"
+
+    def convert(self, value: Any, param: Any, ctx: Any) -> Any:
+        if isinstance(value, (float, tuple)):
+            return value
+        try:
+            vals = [float(p) for p in str(value).split(",")]
+        except ValueError:
+            self.fail(f"{value!r} is not a number or a comma-separated list of numbers (base to tip)", param, ctx)
+        if not all(math.isfinite(v) for v in vals):
+            self.fail(f"{value!r} has a value that is not a finite number", param, ctx)
+        return vals[0] if len(vals) == 1 else tuple(vals)
+
+
+def optimal_options(f: Any) -> Any:
+    """--lookahead, --beam, --point-weights, --ori-weight, --drift-weight, --roll-weight."""
+    return _stack(
+        click.option("--lookahead", type=int, default=None, metavar="STEPS",
+                     help="optimal: steps the base module's tilt is planned ahead [10]."),
+        click.option("--beam", type=int, default=None, metavar="N",
+                     help="optimal: base-tilt sequences kept while planning [10]."),
+        click.option("--point-weights", type=WeightList(), default=None, metavar="W|W0,..,Wn",
+                     help="optimal: weight of each point's squared error, base to tip [1]."),
+        click.option("--ori-weight", type=float, default=None, metavar="MM/DEG",
+                     help="optimal: tip orientation weight, mm of error per degree [0.2]."),
+        click.option("--drift-weight", type=float, default=None,
+                     help="optimal: weight of the predicted along-path drift of the base [10]."),
+        click.option("--roll-weight", type=float, default=None,
+                     help="optimal: weight of tilt axes sitting diagonally to the bend [1000]."),
+    )(f)
+
+
+def pop_optimal(kwargs: dict[str, Any]) -> dict[str, Any]:
+    """Remove the optimal solver's options from ``kwargs``; return the given ones as solver options."""
+    out = {}
+    for k in OPTIMAL_FIELDS:
+        v = kwargs.pop(k, None)
+        if v is not None:
+            out[k] = list(v) if isinstance(v, tuple) else v
     return out

@@ -5,7 +5,7 @@ import json
 
 import click
 
-from bhr.cli._common import guarded
+from bhr.cli._common import check_writable, guarded
 from bhr.cli._options import build_robot, robot_options
 
 
@@ -25,6 +25,7 @@ def fk(codes, json_path, **kwargs):
     from bhr.errors import BhrError
     from bhr.robot import forward_kinematics
 
+    check_writable(json_path, "JSON")
     values = [c for c in codes.replace(" ", ",").split(",") if c != ""]
     if not values:
         raise BhrError("--codes needs at least one code, e.g. --codes 3,0,6")

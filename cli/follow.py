@@ -8,8 +8,10 @@ from pathlib import Path
 import click
 
 from bhr.cli._common import check_writable, guarded
-from bhr.cli._options import (build_robot, constraint_options, pop_constraints, pop_trajectory, robot_options,
-                              trajectory_options)
+from bhr.cli._link import link_options, link_settings
+from bhr.cli.replay import STRIDE_HELP, check_view_options, render_animation, run_live_view
+from bhr.cli._options import (FiniteRange, build_robot, constraint_options, optimal_options, pop_constraints, pop_optimal,
+                              pop_trajectory, robot_options, trajectory_options)
 
 
 def summary_lines(result) -> list[str]:
@@ -37,21 +39,54 @@ def summary_lines(result) -> list[str]:
     lines.append("")
     lines.append(f"Worst step: {s['points_worst_step']} (largest point error {s['points_max_error_mm']:.3f} mm); "
                  f"tip ends {s['tip_final_error_mm']:.4f} mm and {s['tip_orientation_final_deg']:.3f} deg off.")
+    lines += body_clearance_lines(s)
     return lines
+
+
+def body_clearance_lines(s: dict) -> list[str]:
+    """The whole body's errors and the lumen clearance, when the run has them (summary keys)."""
+    from bhr.clearance import step_ranges
+
+    out = []
+    if "body_modules" in s:
+        out.append(f"Whole body: {s['body_modules']} modules; the body behind the head is off the path by at most "
+                   f"{s['body_points_max_error_mm']:.3f} mm (step {s['body_worst_step']}).")
+    if "min_clearance_mm" in s:
+        if s["min_clearance_mm"] is None:
+            out.append("Lumen clearance: no point of the robot reached the path yet.")
+        else:
+            out.append(f"Lumen clearance: minimum {s['min_clearance_mm']:.3f} mm at step {s['min_clearance_step']} "
+                       f"({s['min_clearance_point']}).")
+        touch = s["wall_touch_steps"]
+        out.append(f"Wall touched at {len(touch)} step{'s' if len(touch) != 1 else ''}"
+                   + (f": {step_ranges(touch)}." if touch else "."))
+    return out
 
 
 @click.command()
 @click.option("--traj", required=True, metavar="NAME|PATH",
-              help="line, curve, spiral, colon, or a trajectory file (.toml).")
+              help="line, curve, spiral, colon, or a trajectory file: .toml (segments) or .csv (points).")
 @trajectory_options
 @click.option("--solver", default="seed", show_default=True, help="seed, constrained, fabrik, ccd, optimal.")
 @robot_options(feed=True)
 @constraint_options
+@optimal_options
+@click.option("--body-modules", type=int, default=None, metavar="M",
+              help="Also simulate the body: a robot of M modules (M >= --modules) whose modules behind the head "
+                   "follow the leader.")
 @click.option("--out", "out_dir", default=None, metavar="DIR",
               help="Output folder [./bhr-out/<traj>-<solver>/].")
 @click.option("--json", "json_path", default=None, metavar="PATH|-",
               help="Where to write the run as JSON ('-': stdout) [DIR/run.json].")
 @click.option("--no-plots", is_flag=True, help="Skip the PNG figures.")
+@click.option("--show", is_flag=True, help="Watch the run step by step in a window (space, n/b, q).")
+@click.option("--animate", "animate_path", default=None, metavar="FILE",
+              help="Also write an animation: FILE.gif (Pillow) or FILE.mp4 (needs ffmpeg).")
+@click.option("--stride", type=click.IntRange(min=1), default=None, metavar="N", help=STRIDE_HELP)
+@link_options(port_help="Stream each step's codes to the actuator board on this serial device or pyserial URL "
+                        "while solving (the --robot file's [link] gives baud rate and module order).", robot=False)
+@click.option("--rate", default=10.0, show_default=True, metavar="HZ", type=FiniteRange(min=0, min_open=True, max=1000),
+              help="With --port: steps sent per second, at most.")
 @guarded
 def follow(traj, solver, out_dir, json_path, no_plots, **kwargs):
     """Follow a trajectory with follow-the-leader and report the errors.
@@ -63,23 +98,48 @@ def follow(traj, solver, out_dir, json_path, no_plots, **kwargs):
     20 deg, feed 2 mm.
 
         bhr follow --traj curve --radius 70 --angle 360
+
+    With --port the codes of each step go to the actuator board as soon as
+    they are solved, at most --rate steps per second (Ctrl-C sends stop-all):
+
+        bhr follow --traj colon --port /dev/ttyUSB0 --rate 10
     """
     from bhr.atomic import write_json, write_text
     from bhr.codes import format_codes_csv
     from bhr.follow import BhrWarning, follow as run_follow
     from bhr.trajectory import load_trajectory
 
-    robot = build_robot(kwargs)
-    constraints = pop_constraints(kwargs)
-    traj_params = pop_trajectory(kwargs)
-    tr = load_trajectory(traj, feed=robot.feed, **traj_params)
+    show, animate_path, stride = kwargs.pop("show"), kwargs.pop("animate_path"), kwargs.pop("stride")
     stem = Path(traj).stem if traj not in ("line", "curve", "spiral", "colon") else traj
     out = Path(out_dir) if out_dir else Path("bhr-out") / f"{stem}-{solver}"
-    check_writable(out / "run.json", "output folder")
+    check_writable(out / "run.json", "output folder")  # before any work: a bad path costs nothing
     check_writable(json_path, "JSON")
+    check_view_options(show, animate_path)
+    rate = kwargs.pop("rate")
+    link_kw = {k: kwargs.pop(k) for k in ("port", "baud", "timeout", "retries")}
+    if link_kw["port"] is None and link_kw["baud"] is not None:
+        from bhr.errors import BhrError
+
+        raise BhrError("--baud is an option of streaming; give --port too, or drop --baud")
+    link_kw["robot_file"] = kwargs.get("robot_file")
+    robot = build_robot(kwargs)
+    constraints = pop_constraints(kwargs)
+    optimal = pop_optimal(kwargs)
+    body_modules = kwargs.pop("body_modules")
+    if optimal and solver != "optimal":
+        from bhr.errors import BhrError
+
+        raise BhrError(f"--{next(iter(optimal)).replace('_', '-')} is an option of --solver optimal; "
+                       f"drop it or use --solver optimal")
+    traj_params = pop_trajectory(kwargs)
+    tr = load_trajectory(traj, feed=robot.feed, **traj_params)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", BhrWarning)
-        result = run_follow(tr, solver=solver, robot=robot, solver_options=constraints)
+        if link_kw["port"] is None:
+            result = run_follow(tr, solver=solver, robot=robot, solver_options={**constraints, **optimal},
+                                body_modules=body_modules)
+        else:
+            result = follow_streaming(tr, solver, robot, {**constraints, **optimal}, body_modules, rate, link_kw)
     for w in caught:
         if issubclass(w.category, BhrWarning):
             click.echo(f"Warning: {w.message}", err=True)
@@ -102,3 +162,56 @@ def follow(traj, solver, out_dir, json_path, no_plots, **kwargs):
     for line in summary_lines(result):
         click.echo(line, err=stream)
     click.echo("Wrote " + ", ".join(str(p) for p in written), err=stream)
+    if animate_path:
+        render_animation(result, animate_path, stride)
+    if show:
+        run_live_view(result, stride)
+
+
+def follow_streaming(tr, solver, robot, solver_options, body_modules, rate, link_kw):
+    """Run bhr.follow with each step's codes sent to the board (the --port path of the command)."""
+    import contextlib
+    import sys
+
+    from bhr.errors import BhrError
+    from bhr.follow import follow as run_follow
+    from bhr.link import BoardLink, Pacer, check_board, interrupted
+
+    if body_modules is not None:
+        raise BhrError("--port streams the head's codes while it solves and cannot stream a --body-modules run; "
+                       "drop one of the two")
+    port, link_args = link_settings(link_kw, use_file_port=False)
+    order = link_args["module_order"]
+    if order is not None and len(order) != robot.modules:
+        raise BhrError(f"the robot file's link.module_order lists {len(order)} modules but the robot has "
+                       f"{robot.modules}; make them agree")
+    steps = len(tr.points)
+    with BoardLink(port, **link_args) as link:
+        board = check_board(link, robot.modules)
+        held = [f for f in board["faults"] if f != "silence"]  # silence: the board was idle, which is fine
+        if held:
+            click.echo(f"Warning: board on {port} reports {', '.join(held)} before the run; those actuators stay "
+                       "off until they cool down (bhr status shows them)", err=True)
+        pacer = Pacer(link, rate)
+        show_bar = sys.stderr.isatty()
+        try:
+            with (click.progressbar(length=steps, label=f"solving and streaming to {port}", file=sys.stderr,
+                                    show_pos=True) if show_bar else contextlib.nullcontext()) as bar:
+                def on_step(i, codes):
+                    pacer(i, codes)
+                    if bar is not None:
+                        bar.update(1)
+
+                result = run_follow(tr, solver=solver, robot=robot, solver_options=solver_options, on_step=on_step)
+        except KeyboardInterrupt:
+            exc = interrupted(link, pacer.sent)
+            if exc.stopped:
+                click.echo(f"Interrupted after {exc.sent} of {steps} steps; sent stop-all, every actuator is off.",
+                           err=True)
+            else:
+                click.echo(f"Interrupted after {exc.sent} of {steps} steps; stop-all failed ({exc.detail}); "
+                           "the board switches off by itself after its silence timeout.", err=True)
+            sys.exit(130)
+    click.echo(f"streamed {pacer.sent} steps ({robot.modules} modules) to {port} at up to {rate:g} Hz"
+               + (f"; board reported: {', '.join(pacer.faults)}" if pacer.faults else ""), err=True)
+    return result

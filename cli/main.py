@@ -12,6 +12,12 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "follow": ("bhr.cli.follow:follow", "Follow a trajectory; write error plots, codes.csv and JSON."),
     "fk": ("bhr.cli.fk:fk", "Forward kinematics: chain points from module codes."),
     "bench": ("bhr.cli.bench:bench", "Time bhr against numpy implementations of the same algorithms."),
+    "replay": ("bhr.cli.replay:replay", "Redraw or re-animate a saved run without solving again."),
+    "compare": ("bhr.cli.compare:compare", "Run one trajectory with several solvers; print and plot their errors."),
+    "stream": ("bhr.cli.stream:stream", "Send a codes.csv to the actuator board over a serial port."),
+    "status": ("bhr.cli.status:status", "Ask the actuator board for its current codes and faults."),
+    "report": ("bhr.cli.report:report", "Run a batch file of follow runs; write an HTML report, CSV and JSON."),
+    "sweep": ("bhr.cli.sweep:sweep", "Sweep robot designs over trajectories, locally or on a Dask cluster."),
 }
 
 

@@ -6,7 +6,7 @@ import json
 import click
 
 from bhr.cli._common import check_writable, guarded
-from bhr.cli._options import build_robot, constraint_options, pop_constraints, robot_options
+from bhr.cli._options import MM, build_robot, constraint_options, pop_constraints, robot_options
 
 
 def _fmt(v: float | None, digits: int = 5) -> str:
@@ -14,8 +14,8 @@ def _fmt(v: float | None, digits: int = 5) -> str:
 
 
 @click.command()
-@click.option("--target", nargs=3, type=float, required=True, metavar="X Y Z", help="Target point.")
-@click.option("--orientation", nargs=3, type=float, default=None, metavar="X Y Z",
+@click.option("--target", nargs=3, type=MM, required=True, metavar="X Y Z", help="Target point.")
+@click.option("--orientation", nargs=3, type=MM, default=None, metavar="X Y Z",
               help="Wanted direction of the last module (any length).")
 @click.option("--solver", default="fabrik", show_default=True,
               help="fabrik, ccd, seed (the thesis's binary solver), constrained, optimal.")

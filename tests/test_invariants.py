@@ -39,6 +39,20 @@ def test_every_solver_keeps_link_lengths(solver, options, t, d, n, length):
     assert np.all(np.isfinite(res.points))
 
 
+@pytest.mark.parametrize("solver", ["fabrik", "ccd", "seed", "constrained", "optimal"])
+@pytest.mark.parametrize("n, length, t", [
+    (3, 10.0, (0, 0, 0)),      # target on the base: FABRIK's pull meets coincident points
+    (2, 1.0, (0, 0, 1)),       # the case hypothesis found for the seed solver
+    (4, 5.0, (0, 10, 0)),      # target on a point of the initial chain
+])
+def test_coincident_points_do_not_break_solvers(solver, n, length, t):
+    robot = Robot(modules=n, module_length=length, max_iter=30)
+    res = get_solver(solver, robot).solve(Chain.straight(robot, (0, 1, 0)), np.array(t, float), None)
+    assert np.all(np.isfinite(res.points))
+    np.testing.assert_allclose(link_lengths(res.points), length, rtol=1e-9)
+    assert math.isfinite(res.position_error)
+
+
 def angles_between_modules(points, first_dir):
     dirs = np.diff(points, axis=0)
     dirs /= np.linalg.norm(dirs, axis=1)[:, None]

@@ -20,17 +20,43 @@ from bhr.solvers.base import Chain, FollowContext, SolveResult, Solver, register
 
 
 @njit(cache=True)
+def _away(P: np.ndarray, src: int, dst: int):
+    """Unit direction for P[dst] when it coincides with P[src].
+
+    FABRIK's pull is undefined for coincident points (a target at the base,
+    a folded chain). The chain then continues straight: the direction of the
+    link on the other side of ``src``; (0, 0, 1) when there is none.
+    """
+    other = 2 * src - dst
+    if 0 <= other < P.shape[0]:
+        ux = P[src, 0] - P[other, 0]
+        uy = P[src, 1] - P[other, 1]
+        uz = P[src, 2] - P[other, 2]
+        nu = math.sqrt(ux * ux + uy * uy + uz * uz)
+        if nu > 0.0:
+            return ux / nu, uy / nu, uz / nu
+    return 0.0, 0.0, 1.0
+
+
+@njit(cache=True)
 def _pull(P: np.ndarray, src: int, dst: int, length: float) -> None:
     """Move P[dst] onto the line P[src]-P[dst], ``length`` from P[src].
 
     Written ``(1 - lam) P[src] + lam P[dst]`` as the thesis's MATLAB does (the
     constrained solver keeps its arithmetic); plain FABRIK below uses the
     equivalent ``P[src] + lam (P[dst] - P[src])`` with the point in registers.
+    Coincident points get the direction from :func:`_away`.
     """
     dx = P[dst, 0] - P[src, 0]
     dy = P[dst, 1] - P[src, 1]
     dz = P[dst, 2] - P[src, 2]
     r = math.sqrt(dx * dx + dy * dy + dz * dz)
+    if r == 0.0:
+        ux, uy, uz = _away(P, src, dst)
+        P[dst, 0] = P[src, 0] + length * ux
+        P[dst, 1] = P[src, 1] + length * uy
+        P[dst, 2] = P[src, 2] + length * uz
+        return
     lam = length / r
     for k in range(3):
         P[dst, k] = (1.0 - lam) * P[src, k] + lam * P[dst, k]
@@ -87,7 +113,12 @@ def fabrik_kernel(P: np.ndarray, target: np.ndarray, length: float, tol: float, 
             start = n - 2
         for i in range(start, -1, -1):
             dx, dy, dz = P[i, 0] - sx, P[i, 1] - sy, P[i, 2] - sz
-            lam = length / math.sqrt(dx * dx + dy * dy + dz * dz)
+            r = math.sqrt(dx * dx + dy * dy + dz * dz)
+            if r == 0.0:
+                _pull(P, i + 1, i, length)
+                sx, sy, sz = P[i, 0], P[i, 1], P[i, 2]
+                continue
+            lam = length / r
             sx, sy, sz = sx + lam * dx, sy + lam * dy, sz + lam * dz
             P[i, 0], P[i, 1], P[i, 2] = sx, sy, sz
         # base to tip, from the fixed base
@@ -95,7 +126,12 @@ def fabrik_kernel(P: np.ndarray, target: np.ndarray, length: float, tol: float, 
         P[0, 0], P[0, 1], P[0, 2] = bx, by, bz
         for i in range(n):
             dx, dy, dz = P[i + 1, 0] - sx, P[i + 1, 1] - sy, P[i + 1, 2] - sz
-            lam = length / math.sqrt(dx * dx + dy * dy + dz * dz)
+            r = math.sqrt(dx * dx + dy * dy + dz * dz)
+            if r == 0.0:
+                _pull(P, i, i + 1, length)
+                sx, sy, sz = P[i + 1, 0], P[i + 1, 1], P[i + 1, 2]
+                continue
+            lam = length / r
             sx, sy, sz = sx + lam * dx, sy + lam * dy, sz + lam * dz
             P[i + 1, 0], P[i + 1, 1], P[i + 1, 2] = sx, sy, sz
         err = _dist(P, n, target)

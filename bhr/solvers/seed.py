@@ -118,13 +118,18 @@ def seed_kernel(P: np.ndarray, E1: np.ndarray, E2: np.ndarray, target: np.ndarra
                 g[2, c] = -g[0, c]
                 g[3, c] = -g[1, c]
             # the point plain FABRIK would choose
-            r = math.sqrt((P[i + 1, 0] - P[i, 0]) ** 2 + (P[i + 1, 1] - P[i, 1]) ** 2 + (P[i + 1, 2] - P[i, 2]) ** 2)
-            lam = length / r
-            v2x = (1.0 - lam) * P[i, 0] + lam * P[i + 1, 0] - P[i, 0]
-            v2y = (1.0 - lam) * P[i, 1] + lam * P[i + 1, 1] - P[i, 1]
-            v2z = (1.0 - lam) * P[i, 2] + lam * P[i + 1, 2] - P[i, 2]
             for c in range(3):
                 v1[c] = (before[c] if i == 0 else P[i - 1, c]) - P[i, c]
+            r = math.sqrt((P[i + 1, 0] - P[i, 0]) ** 2 + (P[i + 1, 1] - P[i, 1]) ** 2 + (P[i + 1, 2] - P[i, 2]) ** 2)
+            if r == 0.0:
+                # coincident points (a target at the base): continue straight
+                lam = -length / math.sqrt(v1[0] ** 2 + v1[1] ** 2 + v1[2] ** 2)
+                v2x, v2y, v2z = lam * v1[0], lam * v1[1], lam * v1[2]
+            else:
+                lam = length / r
+                v2x = (1.0 - lam) * P[i, 0] + lam * P[i + 1, 0] - P[i, 0]
+                v2y = (1.0 - lam) * P[i, 1] + lam * P[i + 1, 1] - P[i, 1]
+                v2z = (1.0 - lam) * P[i, 2] + lam * P[i + 1, 2] - P[i, 2]
             # free rotation axis and angle (v2 x v1, 180 - angle(v2, v1))
             rx = v2y * v1[2] - v2z * v1[1]
             ry = v2z * v1[0] - v2x * v1[2]

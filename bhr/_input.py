@@ -1,0 +1,145 @@
+"""Checks shared by the input-file readers (robot files, trajectory files).
+
+Every problem becomes a :class:`~bhr.errors.BhrError` whose one-line message
+names the file, the key (or line), what is wrong and what is allowed.
+"""
+from __future__ import annotations
+
+import difflib
+import math
+import os
+import tomllib
+from pathlib import Path
+from typing import Any, Iterable
+
+from bhr.errors import BhrError
+
+#: Input files larger than this are refused before reading (bytes).
+MAX_FILE_BYTES = 256 * 1024 * 1024
+#: Largest length or coordinate accepted anywhere (mm): 1 km. Larger values only overflow the arithmetic.
+MAX_MM = 1e6
+#: Upper bounds of the robot settings, shared by robot files and command-line options:
+#: field -> (largest value, unit). Lower bounds are checked by bhr.robot.Robot (positive; alpha in (0, 90)).
+ROBOT_LIMITS: dict[str, tuple[float, str]] = {
+    "modules": (1000, ""),
+    "module_length": (1e4, "mm"),
+    "radius": (1e4, "mm"),
+    "alpha": (90.0, "deg"),
+    "stroke": (1e4, "mm"),
+    "lever": (1e4, "mm"),
+    "tol_pos": (MAX_MM, "mm"),
+    "tol_ori": (180.0, "deg"),
+    "max_iter": (100000, ""),
+    "feed_divisor": (1000, ""),
+    "weight_pos": (1e6, ""),
+    "weight_ori": (1e6, ""),
+}
+
+
+def read_text(path: str | os.PathLike[str], what: str, hint: str) -> str:
+    """The UTF-8 text of ``path``; a BhrError naming ``what`` and ``hint`` otherwise."""
+    p = Path(path)
+    try:
+        if p.is_dir():
+            raise BhrError(f"{p} is a folder, not a {what}; {hint}")
+        size = p.stat().st_size
+        if size > MAX_FILE_BYTES:
+            raise BhrError(f"{p}: {size} bytes is too large for a {what} (limit {MAX_FILE_BYTES}); {hint}")
+        raw = p.read_bytes()
+    except FileNotFoundError:
+        raise BhrError(f"no such {what} {p}; {hint}") from None
+    except PermissionError:
+        raise BhrError(f"cannot read {what} {p}: permission denied; {hint}") from None
+    except OSError as exc:
+        raise BhrError(f"cannot read {what} {p} ({exc.strerror or exc.__class__.__name__}); {hint}") from None
+    try:
+        text = raw.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        line = raw[:exc.start].count(b"\n") + 1
+        raise BhrError(f"{p}, line {line}: not UTF-8 text; save the {what} as UTF-8 ({hint})") from None
+    if "\x00" in text:
+        line = text[:text.index("\x00")].count("\n") + 1
+        raise BhrError(f"{p}, line {line}: binary data (a NUL byte); give a {what} in text form ({hint})")
+    return text
+
+
+def read_toml(path: str | os.PathLike[str], what: str, hint: str) -> dict[str, Any]:
+    """Parse ``path`` as TOML; a BhrError naming the line on a syntax error."""
+    text = read_text(path, what, hint)
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        msg = str(exc).splitlines()[0] if str(exc) else "syntax error"
+        raise BhrError(f"{path}: not valid TOML ({msg}); {hint}") from None
+
+
+def check_keys(table: dict[str, Any], allowed: Iterable[str], where: str) -> None:
+    """Refuse keys of ``table`` outside ``allowed``, suggesting the nearest allowed name."""
+    allowed = list(allowed)
+    for key in table:
+        if key not in allowed:
+            close = difflib.get_close_matches(str(key), allowed, n=1, cutoff=0.6)
+            tip = f"did you mean {close[0]!r}? " if close else ""
+            raise BhrError(f"{where}: unknown key {key!r}; {tip}allowed: {', '.join(allowed)}")
+
+
+def type_name(value: Any) -> str:
+    if isinstance(value, bool):
+        return "a boolean"
+    if isinstance(value, str):
+        return f"the text {value!r}"
+    if isinstance(value, dict):
+        return "a table"
+    if isinstance(value, list):
+        return "a list"
+    return type(value).__name__
+
+
+def number(value: Any, where: str, *, positive: bool = False, nonneg: bool = False, integer: bool = False,
+           unit: str = "", maximum: float | None = None) -> float:
+    """A finite number (int or float, not bool) with the given sign and at most ``maximum``; BhrError otherwise."""
+    kind = "a whole number" if integer else "a number"
+    u = f" {unit}" if unit else ""
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise BhrError(f"{where} must be {kind}, got {type_name(value)}")
+    if isinstance(value, float) and not math.isfinite(value):
+        raise BhrError(f"{where} must be a finite number, got {value}")
+    if integer and not isinstance(value, int):
+        if float(value).is_integer():
+            value = int(value)
+        else:
+            raise BhrError(f"{where} must be a whole number, got {value}")
+    if positive and value <= 0:
+        raise BhrError(f"{where} must be greater than 0{u}, got {value}")
+    if nonneg and value < 0:
+        raise BhrError(f"{where} must be 0 or more{u}, got {value}")
+    if maximum is not None and value > maximum:
+        raise BhrError(f"{where} must be at most {maximum:g}{u}, got {value:g}")
+    return int(value) if integer else float(value)
+
+
+def vector3(value: Any, where: str, *, nonzero: bool = False) -> tuple[float, float, float]:
+    """Three finite numbers ``[x, y, z]`` (not all zero when ``nonzero``)."""
+    if not isinstance(value, list) or len(value) != 3:
+        raise BhrError(f"{where} must be a list of three numbers [x, y, z], got {type_name(value)}"
+                       + (f" of {len(value)}" if isinstance(value, list) else ""))
+    out = tuple(number(v, f"{where}[{i}]") for i, v in enumerate(value))
+    if any(abs(v) > MAX_MM for v in out):
+        raise BhrError(f"{where} must have coordinates within +-{MAX_MM:g} mm, got {list(out)}")
+    if nonzero and not any(out):
+        raise BhrError(f"{where} must not be [0, 0, 0]; give a direction such as [1, 0, 0]")
+    return out  # type: ignore[return-value]
+
+
+def text_value(value: Any, where: str) -> str:
+    if not isinstance(value, str):
+        raise BhrError(f"{where} must be text in quotes, got {type_name(value)}")
+    return value
+
+
+def choice(value: Any, where: str, allowed: Iterable[str]) -> str:
+    allowed = list(allowed)
+    if not isinstance(value, str) or value not in allowed:
+        shown = repr(value) if isinstance(value, str) else type_name(value)
+        raise BhrError(f"{where} must be one of {', '.join(repr(a) for a in allowed)}, got {shown}")
+    return value

@@ -1,0 +1,726 @@
+"""Design sweeps: follow trajectories with a grid of robot designs, in parallel or on a Dask cluster.
+
+A sweep is the product of its trajectories, its solvers and a grid of
+parameter values: any trajectory or robot option by its command-line long
+name with underscores (``modules``, ``module_length``, ``alpha``,
+``feed_divisor``, ``radius``, ``angle``, ...), the same keys as a batch file
+(:mod:`bhr.report`). Every design is one ``bhr follow`` run without figures;
+the result is one row per design with its worst errors and, where the
+trajectory has a lumen, its minimum clearance.
+
+Designs run in chunks. :func:`run_sweep` runs the chunks in this process
+(``jobs=1``), in a pool of worker processes (``jobs>1``; the workers load
+the compiled kernels from numba's on-disk cache once each), or on an existing
+Dask distributed cluster (``scheduler="tcp://host:port"``); every path calls
+the same :func:`run_chunk` on the same designs, so the rows are the same.
+
+Neither matplotlib nor Dask is imported until a heat-map is drawn or a
+scheduler is given.
+"""
+from __future__ import annotations
+
+import itertools
+import math
+import os
+import re
+import time
+import tomllib
+import warnings
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable, Iterable, Sequence
+
+from bhr.errors import BhrError
+from bhr.report import (CONSTRAINT_KEYS, NUMBER_KEYS, ROBOT_KEYS, TRAJ_KEYS, _reason, _suggest,
+                        check_value, summary_row)
+
+__all__ = ["Sweep", "SweepResult", "GRID_KEYS", "parse_grid_option", "parse_values", "sweep_from_toml",
+           "load_sweep", "build_sweep", "run_design", "run_chunk", "run_sweep", "heatmap_axes",
+           "heatmap_figure", "write_outputs", "METRICS", "DASK_MISSING", "connect_scheduler"]
+
+#: Keys a grid may vary: trajectory and robot options, and the constrained solvers' options.
+GRID_KEYS = frozenset(NUMBER_KEYS | set(CONSTRAINT_KEYS))
+#: Result columns of every design, after its design keys.
+METRICS = ("status", "steps", "tip_max_error_mm", "tip_final_error_mm", "points_max_error_mm",
+           "orientation_max_deg", "global_max", "min_clearance_mm", "min_turn_radius_mm")
+DASK_MISSING = ("--scheduler needs Dask's distributed package, which is not installed; "
+                "install it with: pip install 'bhr[dask]' (or pip install 'dask[distributed]')")
+_TOP_KEYS = ("title", "description", "traj", "solver", "robot", "grid")
+_NUM = re.compile(r"^[+-]?(\d+(\.\d*)?|\.\d+)([eE][+-]?\d+)?$")
+_MAX_DESIGNS = 1_000_000
+
+
+def _number(text: str, key: str, where: str) -> int | float:
+    t = text.strip()
+    if not _NUM.match(t):
+        raise BhrError(f"{where}: {key} value {text!r} is not a number")
+    return int(t) if re.fullmatch(r"[+-]?\d+", t) else float(t)
+
+
+def _range(start: float, stop: float, step: float, key: str, where: str) -> list[int | float]:
+    if step <= 0:
+        raise BhrError(f"{where}: {key} range step must be positive, got {step:g}")
+    if stop < start:
+        raise BhrError(f"{where}: {key} range {start:g}:{stop:g} runs backwards; give START:STOP[:STEP] with "
+                       "START <= STOP")
+    count = int(math.floor((stop - start) / step + 1e-9)) + 1
+    if count > _MAX_DESIGNS:
+        raise BhrError(f"{where}: {key} range {start:g}:{stop:g}:{step:g} has {count} values; use a larger step")
+    integral = all(float(v).is_integer() for v in (start, stop, step))
+    vals: list[int | float] = []
+    for k in range(count):
+        v = start + k * step
+        vals.append(int(round(v)) if integral else round(v, 10))
+    return vals
+
+
+def parse_values(key: str, value: Any, where: str) -> tuple[Any, ...]:
+    """The values of one grid key from a string (``"4,5,6"``, ``"8:12"``, ``"8:12:0.5"``), a list or a scalar.
+
+    A range ``START:STOP[:STEP]`` includes STOP when the steps land on it;
+    STEP defaults to 1. Values are type-checked for ``key``; raises BhrError.
+    """
+    if key not in GRID_KEYS:
+        raise BhrError(f"{where}: {key!r} is not a parameter a sweep can vary; {_suggest(key, GRID_KEYS)}")
+    if isinstance(value, str):
+        text = value.strip()
+        if not text:
+            raise BhrError(f"{where}: {key} has no values; give e.g. {key}=4,5,6 or {key}=4:8")
+        if key in CONSTRAINT_KEYS and CONSTRAINT_KEYS[key] is not None:
+            raw: list[Any] = [t.strip() for t in text.split(",")]
+        elif ":" in text and "," not in text:
+            parts = text.split(":")
+            if len(parts) not in (2, 3):
+                raise BhrError(f"{where}: {key} range {text!r} must be START:STOP or START:STOP:STEP")
+            nums = [_number(p, key, where) for p in parts]
+            raw = _range(nums[0], nums[1], nums[2] if len(nums) == 3 else 1, key, where)
+        else:
+            raw = [_number(t, key, where) for t in text.split(",")]
+    elif isinstance(value, list):
+        raw = list(value)
+    else:
+        raw = [value]
+    if not raw:
+        raise BhrError(f"{where}: {key} has no values")
+    out = [check_value(key, v, f"{where}: grid") for v in raw]
+    seen = set()
+    for v in out:
+        if v in seen:
+            raise BhrError(f"{where}: {key} lists {v!r} twice; give each value once")
+        seen.add(v)
+    return tuple(out)
+
+
+def parse_grid_option(text: str) -> tuple[str, tuple[Any, ...]]:
+    """``KEY=VALUES`` from the command line (``--grid modules=4:8``)."""
+    if "=" not in text:
+        raise BhrError(f"--grid {text!r} must be KEY=VALUES, e.g. --grid modules=4,5,6 or --grid alpha=8:12:0.5")
+    key, _, values = text.partition("=")
+    key = key.strip().replace("-", "_")
+    return key, parse_values(key, values, "--grid")
+
+
+@dataclass(frozen=True)
+class Sweep:
+    """Trajectories x solvers x grid. ``traj_sources`` maps each trajectory label to what is loaded."""
+
+    trajs: tuple[str, ...] = ("curve",)
+    solvers: tuple[str, ...] = ("seed",)
+    grid: tuple[tuple[str, tuple[Any, ...]], ...] = ()
+    title: str = "bhr sweep"
+    description: str = ""
+    traj_sources: dict[str, str] = field(default_factory=dict)
+    #: The robot every design starts from (a robot file's fields), before its grid values; () = bhr's defaults.
+    robot: tuple[tuple[str, Any], ...] = ()
+    robot_file: str | None = None
+
+    @property
+    def axes(self) -> list[tuple[str, tuple[Any, ...]]]:
+        """Every axis of the product in order: traj, solver, then the grid keys."""
+        return [("traj", self.trajs), ("solver", self.solvers), *self.grid]
+
+    @property
+    def keys(self) -> list[str]:
+        return [k for k, _ in self.axes]
+
+    def __len__(self) -> int:
+        return math.prod(len(v) for _, v in self.axes)
+
+    def designs(self) -> list[dict[str, Any]]:
+        """One dict per design, in order (the last axis varies fastest)."""
+        keys = self.keys
+        return [dict(zip(keys, combo)) for combo in itertools.product(*(v for _, v in self.axes))]
+
+
+def _as_list(value: Any, key: str, where: str) -> tuple[str, ...]:
+    items = value if isinstance(value, list) else [value]
+    if not items or not all(isinstance(v, str) and v.strip() for v in items):
+        raise BhrError(f"{where}: {key} must be a name or a list of names, got {value!r}")
+    if len(set(items)) != len(items):
+        raise BhrError(f"{where}: {key} lists a name twice; give each once")
+    return tuple(items)
+
+
+def sweep_from_toml(data: dict[str, Any], source: str = "sweep", base_dir: str | os.PathLike[str] = ".") -> Sweep:
+    """A :class:`Sweep` from a parsed TOML document (``traj``, ``solver``, ``[grid]``, ``title``)."""
+    for key in data:
+        if key not in _TOP_KEYS:
+            raise BhrError(f"{source}: unknown key {key!r}; allowed: {', '.join(_TOP_KEYS)} "
+                           "(parameters go in the [grid] table)")
+    for key in ("title", "description"):
+        if key in data and not isinstance(data[key], str):
+            raise BhrError(f"{source}: {key} must be a string, got {data[key]!r}")
+    grid_table = data.get("grid", {})
+    if not isinstance(grid_table, dict):
+        raise BhrError(f"{source}: [grid] must be a table of KEY = values")
+    grid = tuple((k, parse_values(k, v, f"{source}: [grid]")) for k, v in grid_table.items())
+    trajs = _as_list(data.get("traj", "curve"), "traj", source)
+    solvers = _as_list(data.get("solver", "seed"), "solver", source)
+    robot_file = None
+    if "robot" in data:
+        if not isinstance(data["robot"], str) or not data["robot"].strip():
+            raise BhrError(f"{source}: robot must be the path of a robot file (TOML), got {data['robot']!r}")
+        rp = Path(data["robot"]).expanduser()
+        robot_file = str(rp if rp.is_absolute() else Path(base_dir) / rp)
+    return build_sweep(trajs, solvers, grid, title=data.get("title", "bhr sweep"),
+                       description=data.get("description", ""), base_dir=base_dir, where=source,
+                       robot_file=robot_file)
+
+
+def load_sweep(path: str | os.PathLike[str]) -> Sweep:
+    """Read a sweep file (TOML); relative trajectory paths are taken from its folder."""
+    p = Path(path)
+    try:
+        data = tomllib.loads(p.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise BhrError(f"no such sweep file {p}; give a TOML file with traj, solver and a [grid] table") from None
+    except IsADirectoryError:
+        raise BhrError(f"{p} is a folder; give a sweep file (.toml)") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise BhrError(f"cannot read sweep file {p} ({exc.__class__.__name__}); give a readable TOML file") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise BhrError(f"{p}: not valid TOML ({str(exc).splitlines()[0]}); fix the file") from None
+    return sweep_from_toml(data, str(p), p.parent)
+
+
+def build_sweep(trajs: Sequence[str], solvers: Sequence[str], grid: Iterable[tuple[str, tuple[Any, ...]]], *,
+                title: str = "bhr sweep", description: str = "", base_dir: str | os.PathLike[str] = ".",
+                where: str = "sweep", robot_file: str | os.PathLike[str] | None = None) -> Sweep:
+    """Check and assemble a sweep: known solvers, trajectories that load, values each design can start from.
+
+    Each trajectory is loaded and each robot built once per grid value (the
+    other keys at their first value), so a wrong key or a value out of range
+    is reported before anything runs. What only fails in combination (a
+    curve too short for some feed) is recorded per design when it runs.
+    ``robot_file``: a robot description (TOML) every design starts from; its
+    grid values replace the file's.
+    """
+    from bhr.solvers import available
+    from bhr.trajectory import GENERATORS, load_trajectory
+
+    grid = tuple(grid)
+    keys = [k for k, _ in grid]
+    dup = {k for k in keys if keys.count(k) > 1}
+    if dup:
+        raise BhrError(f"{where}: grid key {sorted(dup)[0]!r} is given twice; give each key once")
+    if not trajs or not solvers:
+        raise BhrError(f"{where}: a sweep needs at least one trajectory and one solver")
+    names = available()
+    for s in solvers:
+        if s not in names:
+            raise BhrError(f"{where}: unknown solver {s!r}; choose from {', '.join(names)}")
+    sources = {}
+    base = Path(base_dir)
+    for t in trajs:
+        if t in GENERATORS:
+            sources[t] = t
+        else:
+            p = Path(t).expanduser()
+            sources[t] = str(p if p.is_absolute() else base / p)
+    base_robot: dict[str, Any] = {}
+    if robot_file is not None:
+        from dataclasses import fields
+
+        from bhr.robotfile import load_robot_file
+
+        rb = load_robot_file(robot_file).robot
+        base_robot = {f.name: getattr(rb, f.name) for f in fields(rb)}
+    first = {k: v[0] for k, v in grid}
+    robot_first = {ROBOT_KEYS[k]: v for k, v in first.items() if k in ROBOT_KEYS}
+    traj_first = {k: v for k, v in first.items() if k in TRAJ_KEYS}
+
+    def check_robot(params: dict[str, Any], what: str) -> Any:
+        try:
+            return make_robot(params, base_robot)
+        except BhrError as exc:
+            raise BhrError(f"{where}: {what}: {str(exc).splitlines()[0]}") from None
+
+    robot = check_robot(robot_first, "robot")
+    for k, values in grid:
+        if k in ROBOT_KEYS:
+            for v in values[1:]:
+                check_robot({**robot_first, ROBOT_KEYS[k]: v}, f"{k} = {v}")
+    for t in trajs:
+        def check_traj(params: dict[str, Any], what: str) -> None:
+            try:
+                load_trajectory(sources[t], feed=robot.feed, **params)
+            except BhrError as exc:
+                raise BhrError(f"{where}: trajectory {t}{what}: {str(exc).splitlines()[0]}") from None
+
+        if t in GENERATORS:
+            for k in traj_first:
+                if k not in GENERATORS[t].params:
+                    raise BhrError(f"{where}: grid key {k!r} is not a parameter of the {t} trajectory (its "
+                                   f"parameters: {', '.join(GENERATORS[t].params) or 'none'}); sweep it on its own")
+        check_traj(traj_first, "")
+        for k, values in grid:
+            if k in TRAJ_KEYS:
+                for v in values[1:]:
+                    check_traj({**traj_first, k: v}, f" with {k} = {v}")
+    sweep = Sweep(tuple(trajs), tuple(solvers), grid, title, description, sources, tuple(base_robot.items()),
+                  None if robot_file is None else str(robot_file))
+    if len(sweep) > _MAX_DESIGNS:
+        raise BhrError(f"{where}: {len(sweep)} designs is more than {_MAX_DESIGNS}; use fewer values")
+    return sweep
+
+
+# ------------------------------------------------------------------------------------------ running
+
+
+def make_robot(params: dict[str, Any], base: dict[str, Any] | None = None) -> Any:
+    """The Robot of a design: ``base`` (a robot file's fields, or bhr's defaults) with ``params`` on top."""
+    from bhr.robot import Robot
+
+    return Robot(**base).replace(**params) if base else Robot(**params)
+
+
+def run_design(design: dict[str, Any], traj_source: str, base_robot: dict[str, Any] | None = None) -> dict[str, Any]:
+    """Follow one design's trajectory; return its row (design keys, then :data:`METRICS`). Never raises."""
+    from bhr.follow import BhrWarning, follow
+    from bhr.trajectory import load_trajectory
+
+    row: dict[str, Any] = dict(design)
+    row.update({k: None for k in METRICS})
+    row["status"] = "ok"
+    try:
+        robot = make_robot({ROBOT_KEYS[k]: v for k, v in design.items() if k in ROBOT_KEYS}, base_robot)
+        row["min_turn_radius_mm"] = robot.min_turn_radius
+        tr = load_trajectory(traj_source, feed=robot.feed, **{k: v for k, v in design.items() if k in TRAJ_KEYS})
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", BhrWarning)
+            res = follow(tr, solver=design["solver"], robot=robot,
+                         solver_options={k: v for k, v in design.items() if k in CONSTRAINT_KEYS})
+        row.update(summary_row(res.summary()))
+    except (KeyboardInterrupt, SystemExit):
+        raise
+    except Exception as exc:  # one failed design must not stop the sweep
+        row["status"] = f"failed: {_reason(exc)}"
+    return row
+
+
+def run_chunk(chunk: Sequence[tuple[Any, ...]]) -> list[tuple[int, dict[str, Any]]]:
+    """Run ``(index, design, trajectory source[, base robot fields])`` items; return ``(index, row)`` pairs.
+
+    This is the unit of work of every execution path (in-process, worker
+    processes, Dask), so they all compute the same rows.
+    """
+    return [(item[0], run_design(*item[1:])) for item in chunk]
+
+
+@dataclass
+class SweepResult:
+    sweep: Sweep
+    rows: list[dict[str, Any]]
+    wall_time_s: float
+    runner: str  # "in-process", "N processes" or "dask tcp://..."
+    workers: int
+
+    @property
+    def failed(self) -> list[dict[str, Any]]:
+        return [r for r in self.rows if r["status"] != "ok"]
+
+    @property
+    def columns(self) -> list[str]:
+        return ["design", *self.sweep.keys, *METRICS]
+
+
+def _chunks(items: list[Any], workers: int) -> list[list[Any]]:
+    size = max(1, min(64, math.ceil(len(items) / (workers * 8))))
+    return [items[k:k + size] for k in range(0, len(items), size)]
+
+
+def _cannot(address: str, reason: str) -> BhrError:
+    return BhrError(f"cannot connect to the Dask scheduler at {address} ({reason}); check the address "
+                    "(e.g. tcp://127.0.0.1:8786) and that the scheduler is running")
+
+
+def connect_scheduler(address: str, timeout: float = 15.0) -> Any:
+    """A ``distributed.Client`` on the scheduler at ``address``, or one BhrError line saying why not.
+
+    The address is checked, then a Dask handshake is tried with a deadline
+    (so a port that answers but is not a scheduler fails in ``timeout``
+    seconds instead of hanging), then the client is made.
+    """
+    import asyncio
+
+    try:
+        from distributed import Client
+        from distributed.comm import connect
+        from distributed.comm.addressing import parse_address, parse_host_port
+    except ImportError:
+        raise BhrError(DASK_MISSING) from None
+    try:
+        scheme, loc = parse_address(address.strip())
+        if scheme in ("tcp", "tls"):
+            parse_host_port(loc)
+    except (ValueError, TypeError) as exc:
+        raise _cannot(address, str(exc).splitlines()[0] if str(exc) else "malformed address") from None
+
+    if scheme == "tcp":  # a closed port fails at once, without Dask's retries
+        import socket
+
+        host, port = parse_host_port(loc)
+        try:
+            socket.create_connection((host, port), timeout=timeout).close()
+        except OSError as exc:
+            raise _cannot(address, exc.strerror or exc.__class__.__name__) from None
+
+    async def handshake() -> None:
+        comm = await connect(address.strip(), timeout=f"{timeout}s")
+        await comm.close()
+
+    async def bounded() -> None:
+        # Dask's connect() does not bound the handshake: a port that answers but never speaks Dask would hang
+        await asyncio.wait_for(handshake(), timeout)
+
+    try:
+        asyncio.run(bounded())
+    except (asyncio.TimeoutError, TimeoutError):
+        raise _cannot(address, f"no Dask handshake within {timeout:g} s; is it a Dask scheduler?") from None
+    except Exception as exc:  # OSError, ValueError
+        raise _cannot(address, str(exc).splitlines()[0] if str(exc) else exc.__class__.__name__) from None
+    try:
+        return Client(address.strip(), timeout=f"{timeout}s", set_as_default=False)
+    except Exception as exc:
+        raise _cannot(address, str(exc).splitlines()[0] if str(exc) else exc.__class__.__name__) from None
+
+
+def _run_dask(scheduler: Any, chunks: list[list[Any]], progress: Callable[[int], None]) -> tuple[list[Any], int]:
+    try:
+        from distributed import as_completed as dask_completed
+    except ImportError:
+        raise BhrError(DASK_MISSING) from None
+    own = isinstance(scheduler, str)
+    client = connect_scheduler(scheduler) if own else scheduler
+    out: list[Any] = []
+    try:
+        workers = max(1, sum(client.nthreads().values()))
+        futures = client.map(run_chunk, chunks, pure=False)
+        for fut in dask_completed(futures, loop=client.loop):
+            try:
+                part = fut.result()
+            except Exception as exc:
+                raise BhrError(f"a Dask worker failed ({_reason(exc)}); check that every worker has this bhr "
+                               "installed") from None
+            out.extend(part)
+            progress(len(part))
+    finally:
+        if own:
+            client.close()
+    return out, workers
+
+
+def run_sweep(sweep: Sweep, *, jobs: int | None = None, scheduler: Any = None,
+              progress: Callable[[int, int], None] | None = None) -> SweepResult:
+    """Run every design of ``sweep``; rows come back in design order whatever ran them.
+
+    ``jobs``: worker processes (default: the number of CPUs; 1 runs in this
+    process). ``scheduler``: address of a Dask distributed scheduler to run
+    on instead, or a ``distributed.Client`` (see :func:`connect_scheduler`).
+    ``progress(done, total)`` is called as chunks finish.
+    """
+    if scheduler is not None and jobs is not None:
+        raise BhrError("give either jobs (local processes) or a Dask scheduler, not both")
+    if jobs is not None and (not isinstance(jobs, int) or jobs < 1):
+        raise BhrError(f"jobs must be a whole number of processes, 1 or more, got {jobs!r}")
+    designs = sweep.designs()
+    base = dict(sweep.robot) or None
+    items = [(i, d, sweep.traj_sources.get(d["traj"], d["traj"]), base) for i, d in enumerate(designs)]
+    total = len(items)
+    done = [0]
+
+    def tick(n: int) -> None:
+        done[0] += n
+        if progress is not None:
+            progress(done[0], total)
+
+    t0 = time.perf_counter()
+    if scheduler is not None:
+        pairs, workers = _run_dask(scheduler, _chunks(items, 8), tick)
+        runner = f"dask {scheduler if isinstance(scheduler, str) else scheduler.scheduler.address}"
+    else:
+        workers = min(jobs or os.cpu_count() or 1, total)
+        if workers <= 1:
+            pairs = []
+            for chunk in _chunks(items, 4):
+                pairs.extend(run_chunk(chunk))
+                tick(len(chunk))
+            runner, workers = "in-process", 1
+        else:
+            import multiprocessing
+
+            pairs = []
+            ctx = multiprocessing.get_context("spawn")  # safe next to threads (a Dask client, a GUI)
+            with ProcessPoolExecutor(max_workers=workers, mp_context=ctx) as pool:
+                futures = [pool.submit(run_chunk, c) for c in _chunks(items, workers)]
+                for fut in as_completed(futures):
+                    part = fut.result()
+                    pairs.extend(part)
+                    tick(len(part))
+            runner = f"{workers} processes"
+    wall = time.perf_counter() - t0
+    rows: list[dict[str, Any] | None] = [None] * total
+    for i, row in pairs:
+        rows[i] = row
+    if any(r is None for r in rows):
+        raise BhrError("some designs came back without a result; run the sweep again")
+    final = [{"design": i + 1, **r} for i, r in enumerate(rows)]  # type: ignore[arg-type]
+    return SweepResult(sweep, final, wall, runner, workers)
+
+
+# ------------------------------------------------------------------------------------------ heat-map
+
+
+def heatmap_axes(sweep: Sweep, x: str | None = None, y: str | None = None) -> tuple[str | None, str | None]:
+    """The two axes a heat-map shows: ``x`` and ``y`` when given, else the two with the most values.
+
+    Axes with one value are never picked by default; ties keep the sweep's
+    order. ``None`` for an axis means a single row or column.
+    """
+    sizes = {k: len(v) for k, v in sweep.axes}
+    for name, val in (("x", x), ("y", y)):
+        if val is not None and val not in sizes:
+            raise BhrError(f"heat-map {name} axis {val!r} is not an axis of this sweep; choose one of "
+                           f"{', '.join(sizes)}")
+    if x is not None and x == y:
+        raise BhrError("heat-map x and y axes must differ")
+    ranked = sorted((k for k in sweep.keys if sizes[k] > 1 and k not in (x, y)), key=lambda k: -sizes[k])
+    if x is None and y is None:
+        pair = sorted(ranked[:2], key=sweep.keys.index)  # the two biggest, shown in the sweep's order
+        x = pair[0] if pair else None
+        y = pair[1] if len(pair) > 1 else None
+    elif x is None:
+        x = ranked[0] if ranked else None
+    elif y is None:
+        y = ranked[0] if ranked else None
+    return x, y
+
+
+def _grid_values(sweep: Sweep, key: str | None) -> tuple[Any, ...]:
+    return dict(sweep.axes)[key] if key is not None else (None,)
+
+
+def heatmap_cells(result: SweepResult, x: str | None, y: str | None, metric: str,
+                  worst: Callable[[Iterable[float]], float]) -> list[list[float]]:
+    """``metric`` per (y, x) cell, the ``worst`` over every other axis; NaN where no design has it."""
+    xs, ys = _grid_values(result.sweep, x), _grid_values(result.sweep, y)
+    xi = {v: k for k, v in enumerate(xs)}
+    yi = {v: k for k, v in enumerate(ys)}
+    cells: list[list[list[float]]] = [[[] for _ in xs] for _ in ys]
+    for r in result.rows:
+        v = r.get(metric)
+        if r["status"] == "ok" and v is not None:
+            cells[yi[r[y]] if y else 0][xi[r[x]] if x else 0].append(float(v))
+    return [[worst(c) if c else math.nan for c in row] for row in cells]
+
+
+def heatmap_figure(result: SweepResult, x: str | None = None, y: str | None = None):
+    """Worst point error and (when known) minimum clearance per (x, y) design, worst case over other axes."""
+    import matplotlib
+
+    if os.environ.get("DISPLAY", "") == "" and os.environ.get("MPLBACKEND") is None:
+        matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    x, y = heatmap_axes(result.sweep, x, y)
+    xs, ys = _grid_values(result.sweep, x), _grid_values(result.sweep, y)
+    others = [k for k, v in result.sweep.axes if k not in (x, y) and len(v) > 1]
+    panels = [("points_max_error_mm", "worst point error (mm)", max, "viridis")]
+    if any(r.get("min_clearance_mm") is not None for r in result.rows):
+        panels.append(("min_clearance_mm", "minimum clearance (mm)", min, "viridis_r"))
+    w = min(max(4.5, 0.55 * len(xs) + 2.5), 14)
+    h = min(max(3.5, 0.45 * len(ys) + 2.0), 12)
+    fig, axes = plt.subplots(1, len(panels), figsize=(w * len(panels), h), squeeze=False)
+    for ax, (metric, label, worst, cmap) in zip(axes[0], panels):
+        data = np.array(heatmap_cells(result, x, y, metric, worst), dtype=float)
+        masked = np.ma.masked_invalid(data)
+        cm = plt.get_cmap(cmap).with_extremes(bad="#d0d0d0")
+        im = ax.imshow(masked, origin="lower", aspect="auto", cmap=cm, interpolation="nearest")
+        fig.colorbar(im, ax=ax, label=label)
+        ax.set_xticks(range(len(xs)), [_label(v) for v in xs], rotation=45 if len(xs) > 8 else 0, fontsize=8)
+        ax.set_yticks(range(len(ys)), [_label(v) for v in ys], fontsize=8)
+        ax.set_xlabel(x or "")
+        ax.set_ylabel(y or "")
+        if data.size <= 400:
+            finite = data[np.isfinite(data)]
+            mid = (finite.min() + finite.max()) / 2 if finite.size else 0.0
+            for (j, i), v in np.ndenumerate(data):
+                text = "failed" if not np.isfinite(v) else f"{v:.2f}"
+                dark = np.isfinite(v) and ((v < mid) if cmap == "viridis" else (v > mid))
+                ax.text(i, j, text, ha="center", va="center", fontsize=7, color="white" if dark else "black")
+        over = f"worst over {', '.join(others)}" if others else "one design per cell"
+        ax.set_title(f"{label}\n{over}", fontsize=10)
+    fig.suptitle(f"{result.sweep.title}: {len(result.rows)} designs", fontsize=12)
+    fig.tight_layout()
+    return fig
+
+
+def _label(v: Any) -> str:
+    if isinstance(v, float):
+        return f"{v:g}"
+    s = str(v)
+    return Path(s).stem if ("/" in s or s.endswith(".toml")) else s
+
+
+# ------------------------------------------------------------------------------------------ outputs
+
+
+def _cell(v: Any) -> str:
+    if v is None:
+        return ""
+    if isinstance(v, float):
+        return repr(v)
+    return str(v)
+
+
+def results_csv(result: SweepResult) -> str:
+    """One row per design: design number, its keys, then :data:`METRICS` (floats in full, unknown empty)."""
+    import csv
+    import io
+
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    cols = result.columns
+    w.writerow(cols)
+    for r in result.rows:
+        w.writerow([_cell(r.get(c)) for c in cols])
+    return buf.getvalue()
+
+
+def best_rows(result: SweepResult, count: int = 10) -> list[dict[str, Any]]:
+    """The ``count`` designs with the smallest worst point error (design order breaks ties)."""
+    ok = [r for r in result.rows if r["status"] == "ok"]
+    return sorted(ok, key=lambda r: (r["points_max_error_mm"], r["design"]))[:count]
+
+
+def _html(result: SweepResult, heatmap: str | None) -> str:
+    import html as _h
+
+    from bhr import __version__
+    from bhr.report import PAGE_END, page_head
+
+    def e(v: Any) -> str:
+        return _h.escape(str(v), quote=True)
+
+    def fmt(v: Any) -> str:
+        if v is None:
+            return "-"
+        return f"{v:.3f}" if isinstance(v, float) else str(v)
+
+    cols = result.columns
+
+    def table(rows: Sequence[dict[str, Any]], tid: str) -> str:
+        out = [f"<div class=\"scroll\"><table id=\"{tid}\"><thead><tr>"]
+        out += [f"<th>{e(c)}</th>" for c in cols]
+        out.append("</tr></thead><tbody>\n")
+        for r in rows:
+            ok = r["status"] == "ok"
+            out.append(f"<tr class=\"{'ok' if ok else 'failed'}\">")
+            for c in cols:
+                cls = " class=\"l\"" if c in ("traj", "solver") else (
+                    (" class=\"ok\"" if ok else " class=\"bad\"") if c == "status" else "")
+                v = _label(r[c]) if c == "traj" else r.get(c)
+                out.append(f"<td{cls}>{e(fmt(v))}</td>")
+            out.append("</tr>\n")
+        out.append("</tbody></table></div>\n")
+        return "".join(out)
+
+    s = result.sweep
+    parts = [page_head(s.title), f"<h1>{e(s.title)}</h1>\n"]
+    if s.description:
+        parts.append(f"<p>{e(s.description)}</p>\n")
+    axes = "; ".join(f"{k}: {', '.join(_label(v) for v in vals)}" for k, vals in s.axes)
+    if s.robot_file:
+        axes += f"; robot file: {s.robot_file}"
+    parts.append(f"<p class=\"meta\">{len(result.rows)} designs, {len(result.failed)} failed, "
+                 f"{result.wall_time_s:.1f} s on {e(result.runner)}; bhr {e(__version__)}.<br>{e(axes)}</p>\n")
+    if heatmap:
+        parts.append(f"<figure><img src=\"{e(heatmap)}\" alt=\"heat-map of worst error per design\">"
+                     "<figcaption>Worst point error (largest error of any point at any step) and, where the "
+                     "trajectory has a lumen, minimum clearance per design; grey: every design in the cell "
+                     "failed.</figcaption></figure>\n")
+    parts.append("<h2>Best designs (smallest worst point error)</h2>\n")
+    parts.append(table(best_rows(result), "best"))
+    parts.append("<h2>Every design</h2>\n")
+    parts.append(table(result.rows, "designs"))
+    parts.append(PAGE_END)
+    return "".join(parts)
+
+
+def write_outputs(result: SweepResult, out_dir: str | os.PathLike[str], *, plot: bool = True,
+                  x: str | None = None, y: str | None = None) -> list[Path]:
+    """Write results.csv, results.json, heatmap.png (when ``plot``) and index.html into ``out_dir``."""
+    from bhr import __version__
+    from bhr.atomic import write_json, write_text
+
+    out = Path(out_dir)
+    files = [out / "results.csv", out / "results.json"]
+    write_text(files[0], results_csv(result))
+    s = result.sweep
+    hx, hy = heatmap_axes(s, x, y)
+    write_json(files[1], {
+        "title": s.title,
+        "bhr_version": __version__,
+        "axes": {k: [v for v in vals] for k, vals in s.axes},
+        "trajectory_sources": s.traj_sources,
+        "robot_file": s.robot_file,
+        "robot": dict(s.robot) or None,
+        "designs": len(result.rows),
+        "failed": len(result.failed),
+        "wall_time_s": result.wall_time_s,
+        "runner": result.runner,
+        "workers": result.workers,
+        "heatmap": {"x": hx, "y": hy},
+        "rows": result.rows,
+    })
+    heat = None
+    if plot:
+        from bhr.plots import save_figure
+
+        files.append(save_figure(heatmap_figure(result, x, y), out / "heatmap.png"))
+        heat = "heatmap.png"
+    write_text(out / "index.html", _html(result, heat))
+    files.append(out / "index.html")
+    return files
+
+
+def format_summary(result: SweepResult, count: int = 5) -> list[str]:
+    """A few lines for the terminal: counts, time, and the best designs."""
+    lines = [f"{len(result.rows)} designs on {result.runner}: {len(result.rows) - len(result.failed)} ok, "
+             f"{len(result.failed)} failed, {result.wall_time_s:.2f} s"]
+    best = best_rows(result, count)
+    if best:
+        keys = [k for k, v in result.sweep.axes if len(v) > 1] or ["traj"]
+        lines.append(f"Best {len(best)} by worst point error (mm):")
+        for r in best:
+            desc = ", ".join(f"{k}={_label(r[k])}" for k in keys)
+            clear = "" if r["min_clearance_mm"] is None else f", clearance {r['min_clearance_mm']:.2f} mm"
+            lines.append(f"  #{r['design']}: {desc}: {r['points_max_error_mm']:.3f}{clear}")
+    reasons: dict[str, int] = {}
+    for r in result.failed:
+        reasons[r["status"]] = reasons.get(r["status"], 0) + 1
+    for reason, n in sorted(reasons.items(), key=lambda kv: -kv[1])[:5]:
+        lines.append(f"{n} x {reason}")
+    return lines

@@ -1,0 +1,56 @@
+"""Options shared by the commands that talk to the actuator board: port, baud, timeout, retries."""
+from __future__ import annotations
+
+from typing import Any, Callable
+
+import click
+
+from bhr.cli._options import FiniteRange, _stack
+
+PORT_HELP = "Serial device or pyserial URL (/dev/ttyUSB0, COM3, /dev/pts/N, socket://host:port, loop://)."
+
+
+def link_options(port_help: str = PORT_HELP, robot: bool = True) -> Callable[[Any], Any]:
+    """--port, --baud, --timeout, --retries (and --robot for the file's [link] table)."""
+    opts = [
+        click.option("--port", default=None, metavar="PORT", help=port_help),
+        click.option("--baud", default=None, metavar="BAUD", type=click.IntRange(min=50),
+                     help="Baud rate [the robot file's link.baudrate, else 115200]."),
+        click.option("--timeout", default=0.25, show_default=True, metavar="S",
+                     type=FiniteRange(min=0, min_open=True, max=60), help="Seconds to wait for each answer."),
+        click.option("--retries", default=3, show_default=True, metavar="N", type=click.IntRange(min=0, max=100),
+                     help="Extra tries for a frame that gets no answer or arrives damaged."),
+    ]
+    if robot:
+        opts.insert(0, click.option("--robot", "robot_file", default=None, metavar="FILE",
+                                    help="Robot description (TOML) whose [link] table gives the port, baud rate "
+                                         "and module order; options given here override it."))
+    return _stack(*opts)
+
+
+def link_settings(kwargs: dict[str, Any], need_port: bool = True, use_file_port: bool = True, hint: str = ""):
+    """Pop the link options from ``kwargs``; return (port, BoardLink keyword arguments).
+
+    The robot file's ``[link]`` table (if ``--robot`` was given) supplies the
+    defaults: port (when ``use_file_port``), baud rate and module order.
+    """
+    from bhr.errors import BhrError
+    from bhr.link import DEFAULT_BAUD
+
+    path = kwargs.pop("robot_file", None)
+    port, baud = kwargs.pop("port", None), kwargs.pop("baud", None)
+    timeout, retries = kwargs.pop("timeout"), kwargs.pop("retries")
+    order = None
+    if path is not None:
+        from bhr.robotfile import load_robot_file
+
+        link = load_robot_file(path).link
+        if port is None and use_file_port:
+            port = link.port
+        baud = link.baudrate if baud is None else baud
+        order = link.module_order
+    if need_port and not port:
+        raise BhrError("--port is required: pass --port (e.g. --port /dev/ttyUSB0), or set port in the [link] "
+                       "table of a --robot file" + hint)
+    return port, {"baudrate": DEFAULT_BAUD if baud is None else baud, "timeout": timeout, "retries": retries,
+                  "module_order": order}

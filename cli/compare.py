@@ -1,0 +1,87 @@
+"""bhr compare: run one trajectory with several solvers; print and plot their errors side by side."""
+from __future__ import annotations
+
+import json
+import warnings
+from pathlib import Path
+
+import click
+
+from bhr.cli._common import check_writable, guarded
+from bhr.cli._options import (build_robot, optimal_options, pop_optimal, pop_trajectory, robot_options,
+                              trajectory_options)
+
+
+@click.command()
+@click.option("--traj", default=None, metavar="NAME|PATH",
+              help="line, curve, spiral, colon, or a trajectory file: .toml (segments) or .csv (points). Required.")
+@trajectory_options
+@click.option("--solver", "solvers", multiple=True, metavar="NAME",
+              help="A solver to run; give it once per solver, the first is the reference [seed, optimal].")
+@robot_options(feed=True)
+@optimal_options
+@click.option("--body-modules", type=int, default=None, metavar="M",
+              help="Also simulate the body of a robot of M modules (M >= --modules) in every run.")
+@click.option("--out", "out_dir", default=None, metavar="DIR", help="Output folder [./bhr-out/compare-<traj>/].")
+@click.option("--json", "json_path", default=None, metavar="PATH|-",
+              help="Also write the comparison as JSON ('-': stdout).")
+@click.option("--no-plots", is_flag=True, help="Skip the figure.")
+@guarded
+def compare(traj, solvers, out_dir, json_path, no_plots, **kwargs):
+    """Run one trajectory with several solvers and compare their errors.
+
+    Prints, per solver, the worst position error over all scored points
+    (and its ratio to the first solver's), the tip errors, the lumen
+    clearance when the trajectory has a lumen, and the time per step; writes
+    DIR/compare.png with every run's errors on the same axes. The
+    --lookahead ... --roll-weight options apply to the optimal solver.
+
+        bhr compare --traj curve --angle 360 --solver seed --solver optimal
+    """
+    from bhr.atomic import write_json
+    from bhr.compare import compare_figure, compare_json, compare_runs, format_table
+    from bhr.errors import BhrError
+    from bhr.follow import BhrWarning
+    from bhr.trajectory import load_trajectory
+
+    from bhr.solvers import available
+
+    names = list(solvers) or ["seed", "optimal"]
+    known = available()
+    for name in names:
+        if name not in known:
+            raise BhrError(f"unknown solver {name!r}; choose from {', '.join(known)}")
+    robot = build_robot(kwargs)
+    if traj is None:
+        raise BhrError("give the trajectory to compare on: --traj line|curve|spiral|colon|FILE")
+    stem = Path(traj).stem if traj not in ("line", "curve", "spiral", "colon") else traj
+    out = Path(out_dir) if out_dir else Path("bhr-out") / f"compare-{stem}"
+    if not no_plots:
+        check_writable(out / "compare.png", "output folder")
+    check_writable(json_path, "JSON")
+    optimal = pop_optimal(kwargs)
+    body_modules = kwargs.pop("body_modules")
+    if optimal and "optimal" not in names:
+        raise BhrError(f"--{next(iter(optimal)).replace('_', '-')} is an option of the optimal solver; "
+                       "add --solver optimal or drop it")
+    tr = load_trajectory(traj, feed=robot.feed, **pop_trajectory(kwargs))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", BhrWarning)
+        runs = compare_runs(tr, names, robot, solver_options={"optimal": optimal}, body_modules=body_modules)
+    for w in {str(w.message) for w in caught if issubclass(w.category, BhrWarning)}:
+        click.echo(f"Warning: {w}", err=True)
+    stream = json_path == "-"
+    written = []
+    if json_path == "-":
+        click.echo(json.dumps(compare_json(runs)))
+    elif json_path:
+        write_json(Path(json_path), compare_json(runs))
+        written.append(Path(json_path))
+    if not no_plots:
+        from bhr.plots import save_figure
+
+        written.append(save_figure(compare_figure(runs), out / "compare.png"))
+    for line in format_table(runs):
+        click.echo(line, err=stream)
+    if written:
+        click.echo("Wrote " + ", ".join(str(p) for p in written), err=stream)

@@ -1,0 +1,102 @@
+"""bhr replay: redraw, watch or animate a saved run (run.json) without solving again.
+
+Also home of the helpers that ``bhr follow --show/--animate`` share with it.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import click
+
+from bhr.cli._common import check_writable, guarded
+
+STRIDE_HELP = ("Draw every Nth step (the last step always): frames of --animate [default: N keeping it at "
+               "300 frames or fewer] and of --show [default: 1].")
+
+
+def check_view_options(show: bool, animate_path: str | None) -> None:
+    """Refuse, before any work, an animation that cannot be written or a window that cannot open."""
+    if animate_path is not None:
+        from bhr.animate import check_target
+
+        check_target(animate_path)
+        check_writable(animate_path, "animation")
+    if show:
+        from bhr.liveview import check_display
+
+        check_display()
+
+
+def render_animation(result, animate_path: str, stride: int | None) -> Path:
+    """Render ``result`` to ``animate_path`` with a progress bar on stderr; print what was written."""
+    from bhr.animate import animate, default_stride, frame_steps
+
+    total = len(frame_steps(result.steps, stride or default_stride(result.steps)))
+    with click.progressbar(length=total, label=f"Rendering {animate_path}", file=click.get_text_stream("stderr"),
+                           show_pos=True) as bar:
+        done = [0]
+
+        def progress(k: int, _total: int) -> None:
+            bar.update(k - done[0])
+            done[0] = k
+
+        anim = animate(result, animate_path, stride=stride, progress=progress)
+    click.echo(f"Animation: {anim.frames} frames (every {anim.stride} step{'s' if anim.stride > 1 else ''} of "
+               f"{result.steps}), {anim.bytes / 1e6:.2f} MB -> {anim.path}", err=True)
+    return anim.path
+
+
+def run_live_view(result, stride: int | None) -> None:
+    """Open the live view (blocks until the user quits) and print what it showed."""
+    from bhr.liveview import keys_help, show
+
+    click.echo(f"Live view: {keys_help()}", err=True)
+    report = show(result, stride=stride or 1)
+    click.echo(report.line(), err=True)
+
+
+@click.command()
+@click.argument("run", metavar="RUN.json")
+@click.option("--show", is_flag=True, help="Watch the run step by step in a window (space, n/b, q).")
+@click.option("--animate", "animate_path", default=None, metavar="FILE",
+              help="Write an animation: FILE.gif (Pillow) or FILE.mp4 (needs ffmpeg).")
+@click.option("--stride", type=click.IntRange(min=1), default=None, metavar="N", help=STRIDE_HELP)
+@click.option("--out", "out_dir", default=None, metavar="DIR",
+              help="Write the error figures and path.png here [the run's folder, unless --show/--animate].")
+@click.option("--step", type=click.IntRange(min=1), default=None, metavar="K",
+              help="Draw the robot at step K in the path figure (path-stepK.png) [last step: path.png].")
+@guarded
+def replay(run, show, animate_path, stride, out_dir, step):
+    """Redraw, watch or animate a run saved by `bhr follow`, without solving again.
+
+    RUN.json is the run.json that `bhr follow` wrote ('-' reads it from
+    standard input). With neither --show nor --animate it redraws the
+    figures (errors, and the path with the robot) into --out.
+
+        bhr replay bhr-out/colon-seed/run.json --animate colon.gif
+    """
+    from bhr.follow import load_run
+
+    write_plots = out_dir is not None or not (show or animate_path)
+    out = Path(out_dir) if out_dir else (Path(run).parent if run != "-" else Path("."))
+    path_name = "path.png" if step is None else f"path-step{step}.png"
+    if write_plots:
+        check_writable(out / path_name, "output folder")
+    check_view_options(show, animate_path)
+    result = load_run(run)
+    if step is not None and step > result.steps:
+        raise click.BadParameter(f"step {step} is past the end of the run ({result.steps} steps)",
+                                 param_hint="'--step'")
+    written: list[Path] = []
+    if write_plots:
+        from bhr.plots import ERROR_KINDS, error_figure, path_figure, save_figure
+
+        for kind, (name, _, _) in ERROR_KINDS.items():
+            written.append(save_figure(error_figure(result, kind), out / name))
+        written.append(save_figure(path_figure(result, None if step is None else step - 1), out / path_name))
+    if animate_path:
+        written.append(render_animation(result, animate_path, stride))
+    if written:
+        click.echo("Wrote " + ", ".join(str(p) for p in written))
+    if show:
+        run_live_view(result, stride)

@@ -1,0 +1,48 @@
+"""bhr status: ask the actuator board for its current codes and faults."""
+from __future__ import annotations
+
+import json
+
+import click
+
+from bhr.cli._common import check_writable, guarded
+from bhr.cli._link import link_options, link_settings
+
+_MOTION = {0: "rest", 3: "tilt +x", 6: "tilt +y", 12: "tilt -x", 9: "tilt -y", 15: "lift"}
+
+
+@click.command()
+@link_options()
+@click.option("--json", "json_path", default=None, metavar="PATH|-",
+              help='Write {"codes": [...], "faults": [...]} to PATH (\'-\': stdout only).')
+@guarded
+def status(json_path, **link_kw):
+    """Show the codes on the board's outputs (module 1 = base first) and its faults.
+
+    Faults: silence (the host fell silent and everything was switched off),
+    overheat:mK (an actuator of module K reached its on-time limit; cleared
+    by stop-all), cooling:mK (module K is held off while it cools down).
+    With --robot FILE the file's [link] table gives the port, baud rate and
+    module order (codes are shown in module order).
+
+    \b
+        bhr status --port /dev/ttyUSB0 --json -
+    """
+    from bhr.atomic import write_json
+    from bhr.codes import actuators
+    from bhr.link import BoardLink
+
+    check_writable(json_path, "JSON")
+    port, link_args = link_settings(link_kw)
+    with BoardLink(port, **link_args) as link:
+        doc = link.status()
+    if json_path == "-":
+        click.echo(json.dumps(doc))
+        return
+    if json_path:
+        write_json(json_path, doc)
+    click.echo(f"board on {port}: {len(doc['codes'])} modules; faults: {', '.join(doc['faults']) or 'none'}")
+    click.echo(f"{'module':<8}{'code':>5}  {'actuators':<10}{'motion'}")
+    for i, code in enumerate(doc["codes"], start=1):
+        acts = "+".join(str(a) for a in actuators(code)) or "-"
+        click.echo(f"{'m' + str(i):<8}{code:>5}  {acts:<10}{_MOTION.get(code, '?')}")

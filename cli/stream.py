@@ -1,0 +1,84 @@
+"""bhr stream: send a codes.csv to the actuator board over a serial port."""
+from __future__ import annotations
+
+import contextlib
+import sys
+
+import click
+
+from bhr.cli._common import guarded
+from bhr.cli._link import link_options, link_settings
+from bhr.cli._options import FiniteRange
+
+
+@click.command()
+@link_options()
+@click.option("--codes", "codes_path", required=True, metavar="FILE",
+              help="codes.csv as written by 'bhr follow' (header step,m1,...,mN).")
+@click.option("--rate", default=10.0, show_default=True, metavar="HZ",
+              type=FiniteRange(min=0, min_open=True, max=1000), help="Rows sent per second.")
+@click.option("--dry-run", is_flag=True, help="Print the frames as hex, one per line, instead of sending them.")
+@guarded
+def stream(codes_path, rate, dry_run, **link_kw):
+    """Send the module codes of a run to the actuator board, one row per step.
+
+    Every code in FILE is checked before anything is sent: a file with an
+    unstable code is refused whole, naming its line and column. Each row is
+    one SET_CODES frame, acknowledged by the board (docs/protocol.md). Ctrl-C
+    sends stop-all. After the last row the board keeps those codes until its
+    silence timeout switches everything off. With --robot FILE the file's
+    [link] table gives the port, baud rate and module order.
+
+    \b
+        bhr stream --port /dev/ttyUSB0 --codes bhr-out/colon-seed/codes.csv --rate 10
+    """
+    from bhr.codes import read_codes_csv
+    from bhr.errors import BhrError
+
+    steps, table = read_codes_csv(codes_path)
+    n_rows, n_modules = table.shape
+
+    port, link_args = link_settings(link_kw, need_port=not dry_run, hint=", or use --dry-run to print the frames")
+    if dry_run:
+        from bhr.protocol import set_codes_frame
+
+        order = link_args["module_order"]
+        if order is not None and len(order) != n_modules:
+            raise BhrError(f"{codes_path} has {n_modules} modules but the robot file's link.module_order lists "
+                           f"{len(order)}; use codes for {len(order)} modules")
+        out = click.get_text_stream("stdout")
+        for i, row in enumerate(table):
+            codes = row.tolist() if order is None else [int(row[m - 1]) for m in order]
+            frame = set_codes_frame(i & 0xFF, codes)
+            out.write(" ".join(f"{b:02x}" for b in frame) + "\n")
+        out.flush()
+        click.echo(f"dry run: {n_rows} SET_CODES frames for {n_modules} modules (nothing sent)", err=True)
+        return
+
+    from bhr.link import BoardLink, StreamInterrupted, stream_codes
+
+    faults: list[str] = []
+    # The bar only on a terminal: in a pipe or a log, stderr stays empty unless something fails.
+    show_bar = sys.stderr.isatty()
+    with BoardLink(port, **link_args) as link:
+        try:
+            with (click.progressbar(length=n_rows, label=f"streaming to {port}", file=sys.stderr, show_pos=True)
+                  if show_bar else contextlib.nullcontext()) as bar:
+                def progress(done: int, total: int) -> None:
+                    if bar is not None:
+                        bar.update(1)
+                    for f in link.last_faults:
+                        if f not in faults:
+                            faults.append(f)
+
+                sent = stream_codes(link, table, rate=rate, progress=progress)
+        except StreamInterrupted as exc:
+            if exc.stopped:
+                click.echo(f"Interrupted after {exc.sent} of {n_rows} rows; sent stop-all, every actuator is off.",
+                           err=True)
+            else:
+                click.echo(f"Interrupted after {exc.sent} of {n_rows} rows; stop-all failed ({exc.detail}); "
+                           "the board switches off by itself after its silence timeout.", err=True)
+            sys.exit(130)
+    click.echo(f"sent {sent} rows ({n_modules} modules, steps {steps[0]}..{steps[-1]}) to {port} at {rate:g} Hz"
+               + (f"; board reported: {', '.join(faults)}" if faults else ""))

@@ -1,0 +1,104 @@
+"""bhr sweep: a grid of robot designs over trajectories, in local processes or on a Dask cluster."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import click
+
+from bhr.cli._common import check_writable, guarded
+
+
+@click.command()
+@click.option("--file", "sweep_file", default=None, metavar="FILE.toml",
+              help="Sweep file: traj, solver and a [grid] table (see docs/sweep.md); options given here override it.")
+@click.option("--traj", "trajs", multiple=True, metavar="NAME|PATH",
+              help="Trajectory to follow (repeat for several) [curve].")
+@click.option("--solver", "solvers", multiple=True, metavar="NAME", help="Solver (repeat for several) [seed].")
+@click.option("--grid", "-g", "grid", multiple=True, metavar="KEY=VALUES",
+              help="Values of a robot or trajectory option: modules=4,5,6 or alpha=8:12 or module_length=8:12:0.5 "
+                   "(START:STOP[:STEP], STOP included). Repeat for each key.")
+@click.option("--robot", "robot_file", default=None, metavar="FILE",
+              help="Robot description (TOML) every design starts from; grid values replace its values.")
+@click.option("--out", "out_dir", default=None, metavar="DIR", help="Output folder [./bhr-out/sweep/].")
+@click.option("--jobs", "-j", type=click.IntRange(min=1), default=None, metavar="N",
+              help="Worker processes [the number of CPUs]; 1 runs in this process.")
+@click.option("--scheduler", default=None, metavar="ADDRESS",
+              help="Run on an existing Dask distributed cluster instead, e.g. tcp://127.0.0.1:8786.")
+@click.option("--x", "hx", default=None, metavar="KEY", help="Heat-map columns [the axis with the most values].")
+@click.option("--y", "hy", default=None, metavar="KEY", help="Heat-map rows [the axis with the next most values].")
+@click.option("--no-plot", is_flag=True, help="Skip heatmap.png.")
+@click.option("--title", default=None, help="Title of the heat-map and page.")
+@guarded
+def sweep(sweep_file, trajs, solvers, grid, robot_file, out_dir, jobs, scheduler, hx, hy, no_plot, title):
+    """Follow trajectories with every design of a parameter grid.
+
+    Writes DIR/results.csv and DIR/results.json (one row per design: its
+    parameters, status, worst errors and minimum clearance where known),
+    DIR/heatmap.png (worst point error and minimum clearance per design over
+    two axes, the worst case over the others) and DIR/index.html. The exit
+    status is 1 when any design failed.
+
+        bhr sweep --traj curve --grid modules=3:12 --grid alpha=6:15 --grid module_length=8,10,12
+    """
+    from bhr.errors import BhrError
+    from bhr.sweep import build_sweep, format_summary, heatmap_axes, load_sweep, parse_grid_option, run_sweep, \
+        write_outputs
+
+    if scheduler is not None and jobs is not None:
+        raise BhrError("--jobs and --scheduler exclude each other: the cluster decides how many workers run")
+    if scheduler is not None:
+        try:
+            import distributed  # noqa: F401
+        except ImportError:
+            from bhr.sweep import DASK_MISSING
+
+            raise BhrError(DASK_MISSING) from None
+    cli_grid = [parse_grid_option(g) for g in grid]
+    if sweep_file:
+        from bhr.trajectory import GENERATORS
+
+        base = load_sweep(sweep_file)
+        merged = dict(base.grid)
+        merged.update(dict(cli_grid))
+        # trajectory files named here are relative to the current folder, the file's to its folder
+        given = tuple(t if t in GENERATORS else str(Path(t).resolve()) for t in trajs)
+        s = build_sweep(given or base.trajs, solvers or base.solvers, tuple(merged.items()),
+                        title=title or base.title, description=base.description,
+                        base_dir=Path(sweep_file).parent, where=str(sweep_file),
+                        robot_file=robot_file or base.robot_file)
+    else:
+        s = build_sweep(trajs or ("curve",), solvers or ("seed",), cli_grid, title=title or "bhr sweep",
+                        robot_file=robot_file)
+    heatmap_axes(s, hx, hy)  # refuse unknown heat-map axes before running
+    out = Path(out_dir) if out_dir else Path("bhr-out") / (Path(sweep_file).stem if sweep_file else "sweep")
+    for name in ("results.csv", "results.json", "heatmap.png", "index.html"):
+        check_writable(out / name, "sweep output")
+    total = len(s)
+    client = None
+    if scheduler is not None:
+        from bhr.sweep import connect_scheduler
+
+        client = connect_scheduler(scheduler)  # fails in one line before anything starts
+    err = click.get_text_stream("stderr")
+    where = f"on {scheduler}" if scheduler else ""
+    try:
+        with click.progressbar(length=total, label=f"Running {total} designs {where}".rstrip(), file=err,
+                               show_pos=True) as bar:
+            last = [0]
+
+            def progress(done: int, _total: int) -> None:
+                bar.update(done - last[0])
+                last[0] = done
+
+            result = run_sweep(s, jobs=jobs, scheduler=client, progress=progress)
+    finally:
+        if client is not None:
+            client.close()
+    files = write_outputs(result, out, plot=not no_plot, x=hx, y=hy)
+    for line in format_summary(result):
+        click.echo(line)
+    click.echo("Wrote " + ", ".join(str(p) for p in files))
+    if result.failed:
+        click.echo(f"Error: {len(result.failed)} of {total} designs failed; see {out / 'results.csv'}", err=True)
+        return 1
+    return 0

@@ -1,0 +1,171 @@
+/*
+ * main.c - bhr actuator board firmware for the ATmega328P at 16 MHz.
+ *
+ * UART0 receives frames (RX interrupt into a ring buffer), the portable
+ * parser and state machine (proto.c, board.c) decide, and the 74HC595 chain
+ * (hc595.c) drives the nitinol actuators. Timer0 gives a 1 ms tick; the
+ * watchdog restarts the board (outputs off) if the loop ever stalls.
+ */
+#include <avr/interrupt.h>
+#include <avr/io.h>
+#include <avr/sleep.h>
+#include <avr/wdt.h>
+#include <stdint.h>
+
+#include "board.h"
+#include "config.h"
+#include "hc595.h"
+#include "proto.h"
+
+#ifndef F_CPU
+#error "F_CPU must be set (16000000UL)"
+#endif
+
+#define RX_SIZE 128u /* power of two */
+static volatile uint8_t rx_buf[RX_SIZE];
+static volatile uint8_t rx_head, rx_tail;
+static volatile uint16_t ms_now;
+
+static board_t board;
+static proto_parser_t parser;
+
+/* Keep MCUSR's reset cause out of the way and the watchdog off until main()
+ * sets it: after a watchdog reset it stays armed with the shortest period. */
+void early_wdt_off(void) __attribute__((naked, used, section(".init3")));
+void early_wdt_off(void)
+{
+    MCUSR = 0;
+    wdt_disable();
+}
+
+ISR(USART_RX_vect)
+{
+    uint8_t status = UCSR0A;
+    uint8_t c = UDR0;
+    if (status & (1u << FE0)) /* framing error: the byte is noise */
+        return;
+    uint8_t next = (uint8_t)((rx_head + 1u) & (RX_SIZE - 1u));
+    if (next != rx_tail) { /* on overflow the byte is lost; the CRC catches it */
+        rx_buf[rx_head] = c;
+        rx_head = next;
+    }
+}
+
+ISR(TIMER0_COMPA_vect)
+{
+    ms_now++;
+}
+
+static uint16_t millis(void)
+{
+    uint16_t t;
+    uint8_t s = SREG;
+    cli();
+    t = ms_now;
+    SREG = s;
+    return t;
+}
+
+static void uart_init(void)
+{
+    UCSR0A = (uint8_t)(1u << U2X0);
+    uint16_t ubrr = (uint16_t)((F_CPU + 4UL * BHR_BAUD) / (8UL * BHR_BAUD) - 1UL);
+    UBRR0H = (uint8_t)(ubrr >> 8);
+    UBRR0L = (uint8_t)ubrr;
+    UCSR0C = (uint8_t)((1u << UCSZ01) | (1u << UCSZ00)); /* 8N1 */
+    UCSR0B = (uint8_t)((1u << RXEN0) | (1u << TXEN0) | (1u << RXCIE0));
+}
+
+static void uart_send(const uint8_t *p, uint8_t n)
+{
+    while (n--) {
+        while (!(UCSR0A & (1u << UDRE0)))
+            ;
+        UDR0 = *p++;
+    }
+}
+
+static void timer_init(void)
+{
+    TCCR0A = (uint8_t)(1u << WGM01);               /* CTC */
+    OCR0A = (uint8_t)(F_CPU / 64UL / 1000UL - 1UL); /* 249 at 16 MHz */
+    TCCR0B = (uint8_t)((1u << CS01) | (1u << CS00)); /* /64 */
+    TIMSK0 = (uint8_t)(1u << OCIE0A);
+}
+
+static void push_outputs(void);
+
+static void on_event(void *ctx, uint8_t event, const proto_frame_t *f)
+{
+    (void)ctx;
+    uint8_t reply[PROTO_MAX_FRAME];
+    uint8_t n = board_handle(&board, event, f, reply);
+    if (board.changed) /* the outputs show the new codes before the ACK leaves */
+        push_outputs();
+    if (n)
+        uart_send(reply, n);
+}
+
+static void push_outputs(void)
+{
+    uint8_t chain[BHR_CHIPS];
+    board_chain(&board, chain);
+    if (!board.enabled) {
+        hc595_disable(); /* everything off at once, then clear the chain */
+        hc595_write(chain);
+    } else {
+        hc595_write(chain);
+        hc595_enable();
+    }
+    board.changed = 0;
+}
+
+int main(void)
+{
+    hc595_init();
+    board_init(&board);
+    proto_parser_init(&parser);
+    uart_init();
+    timer_init();
+    set_sleep_mode(SLEEP_MODE_IDLE);
+    wdt_enable(WDTO_250MS);
+    sei();
+
+    uint16_t last_tick = millis();
+    uint16_t last_rx = last_tick;
+    for (;;) {
+        wdt_reset();
+        /* Time first: ticks that elapsed before the bytes below arrived must
+         * not count against the frame they complete. */
+        uint16_t now = millis();
+        uint16_t dt = (uint16_t)(now - last_tick);
+        if (dt) {
+            last_tick = now;
+            board_tick(&board, dt);
+        }
+        while (rx_tail != rx_head) {
+            uint8_t c = rx_buf[rx_tail];
+            rx_tail = (uint8_t)((rx_tail + 1u) & (RX_SIZE - 1u));
+            last_rx = millis();
+            proto_parser_feed(&parser, c, on_event, 0);
+            if (board.changed)
+                push_outputs();
+        }
+        /* read the clock again: last_rx may be newer than `now` */
+        if (proto_parser_pending(&parser) && (uint16_t)(millis() - last_rx) >= BHR_FRAME_GAP_MS)
+            proto_parser_expire(&parser, on_event, 0);
+        if (board.changed)
+            push_outputs();
+        /* Reading UCSR0A also tells simavr's UART that we are ready for
+         * more input; on the chip it is harmless. */
+        (void)UCSR0A;
+        cli();
+        if (rx_tail == rx_head) {
+            sleep_enable();
+            sei();
+            sleep_cpu(); /* the next tick or byte wakes us */
+            sleep_disable();
+        }
+        sei();
+    }
+}

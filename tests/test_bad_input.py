@@ -1,0 +1,504 @@
+"""A catalogue of bad input for every command: one clear line, non-zero exit, no files touched.
+
+Each entry runs the real `bhr` console script in a fresh folder that already holds a good
+output file (good.json), a plain file (afile) that cannot be a folder, and the entry's own
+input files. The command must exit non-zero with at most three lines on stderr, no traceback,
+and leave every file in the folder as it was (nothing new, nothing changed).
+
+Entries for commands that are not registered in `bhr.cli.main.COMMANDS` skip, so the
+catalogue grows as commands land; the rest of the module drives the shared options with
+hypothesis, in process.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import pytest
+from click.testing import CliRunner
+from hypothesis import HealthCheck, assume, given, settings
+from hypothesis import strategies as st
+
+from bhr.cli.main import COMMANDS, main
+from tests.conftest import snapshot
+
+
+@dataclass
+class Bad:
+    id: str
+    command: str
+    args: list[str]
+    files: dict[str, str | bytes] = field(default_factory=dict)
+    expect: str = ""  # a fragment the one line must contain (case-insensitive)
+
+
+GOOD_JSON = '{"good": true}\n'
+CODES_OK = "step,m1,m2,m3,m4,m5\n1,0,3,0,0,0\n2,0,6,0,0,0\n"
+RUN = "run.json"
+T = ["--target", "3", "9", "0"]
+SEG = '[[segment]]\ntype = "straight"\nlength = 40.0\n'
+
+
+def seg(text: str) -> dict[str, str]:
+    return {"p.toml": text}
+
+
+# --- the catalogue ----------------------------------------------------------------------------------------------
+
+ROBOT_BAD = [  # (id, robot file text, expected fragment): tried with every simulating command
+    ("robot-garbled", "modules = = 5\n", "not valid TOML"),
+    ("robot-binary", b"\x00\xff\xfe\x00", "r.toml"),
+    ("robot-unknown-key", "modlues = 5\n", "did you mean 'modules'"),
+    ("robot-wrong-type", "module_length = 'ten'\n", "module_length must be a number"),
+    ("robot-nan", "alpha = nan\n", "alpha must be a finite number"),
+    ("robot-inf", "module_length = inf\n", "finite"),
+    ("robot-alpha-90", "alpha = 90\n", "outside (0, 90)"),
+    ("robot-alpha-negative", "alpha = -5\n", "outside (0, 90)"),
+    ("robot-zero-modules", "modules = 0\n", "modules must be greater than 0"),
+    ("robot-negative-length", "module_length = -10\n", "greater than 0"),
+    ("robot-other-code-table", "[codes]\n0='rest'\n3='-x'\n6='+y'\n12='+x'\n9='-y'\n15='lift'\n", "code 3 is '-x'"),
+    ("robot-bad-link", "[link]\nmodule_order = [1, 1, 2, 3, 4]\n", "appears twice"),
+]
+
+CASES: list[Bad] = []
+for _cmd, _base in (("solve", T), ("follow", ["--traj", "line", "--out", "o"]), ("fk", ["--codes", "3,0,0,0,0"])):
+    CASES.append(Bad(f"{_cmd}-robot-missing", _cmd, _base + ["--robot", "nope.toml"], expect="no such robot file"))
+    CASES.append(Bad(f"{_cmd}-robot-folder", _cmd, _base + ["--robot", "."], expect="folder"))
+    for _id, _text, _frag in ROBOT_BAD:
+        CASES.append(Bad(f"{_cmd}-{_id}", _cmd, _base + ["--robot", "r.toml"], {"r.toml": _text}, _frag))
+
+CASES += [
+    # solve: options
+    Bad("solve-alpha-95", "solve", T + ["--alpha", "95"], expect="alpha must be between 0 and 90"),
+    Bad("solve-alpha-0", "solve", T + ["--alpha", "0"], expect="alpha"),
+    Bad("solve-alpha-nan", "solve", T + ["--alpha", "nan"], expect="not a finite number"),
+    Bad("solve-alpha-inf", "solve", T + ["--alpha", "inf"], expect="not a finite number"),
+    Bad("solve-alpha-text", "solve", T + ["--alpha", "ten"], expect="not a valid float"),
+    Bad("solve-modules-0", "solve", T + ["--modules", "0"], expect="modules must be positive"),
+    Bad("solve-modules-negative", "solve", T + ["--modules", "-3"], expect="modules must be positive"),
+    Bad("solve-modules-fraction", "solve", T + ["--modules", "2.5"], expect="not a valid integer"),
+    Bad("solve-modules-huge", "solve", T + ["--modules", "99999999"], expect="too large"),
+    Bad("solve-length-0", "solve", T + ["--module-length", "0"], expect="module length must be positive"),
+    Bad("solve-length-huge", "solve", T + ["--module-length", "1e300"], expect="too large"),
+    Bad("solve-target-nan", "solve", ["--target", "nan", "1", "2"], expect="not a finite number"),
+    Bad("solve-target-huge", "solve", ["--target", "1e300", "1", "2"], expect="too large"),
+    Bad("solve-target-text", "solve", ["--target", "a", "b", "c"], expect="not a valid float"),
+    Bad("solve-target-short", "solve", ["--target", "1", "2"], expect="--target"),
+    Bad("solve-no-target", "solve", [], expect="--target"),
+    Bad("solve-orientation-zero", "solve", T + ["--orientation", "0", "0", "0"], expect="non-zero"),
+    Bad("solve-tol-pos-negative", "solve", T + ["--tol-pos", "-1"], expect="tol-pos must be positive"),
+    Bad("solve-tol-ori-nan", "solve", T + ["--tol-ori", "nan"], expect="finite"),
+    Bad("solve-max-iter-0", "solve", T + ["--max-iter", "0"], expect="max-iter must be positive"),
+    Bad("solve-weight-negative", "solve", T + ["--weight-pos", "-1"], expect="weight-pos"),
+    Bad("solve-stroke-without-lever", "solve", T + ["--stroke", "1"], expect="give both stroke and lever"),
+    Bad("solve-stroke-longer", "solve", T + ["--stroke", "5", "--lever", "4"], expect="shorter than lever"),
+    Bad("solve-unknown-solver", "solve", T + ["--solver", "nope"], expect="unknown solver 'nope'"),
+    Bad("solve-unknown-option", "solve", T + ["--colour", "red"], expect="no such option"),
+    Bad("solve-json-under-a-file", "solve", T + ["--json", "afile/out.json"], expect="not a writable folder"),
+    Bad("solve-json-is-folder", "solve", T + ["--json", "."], expect="is a directory"),
+    Bad("solve-plot-under-a-file", "solve", T + ["--plot", "afile/p.png"], expect="not a writable folder"),
+    Bad("solve-bad-keeps-good-json", "solve", ["--target", "nan", "0", "0", "--json", "good.json"], expect="finite"),
+    Bad("solve-bad-solver-keeps-good-json", "solve", T + ["--solver", "nope", "--json", "good.json"],
+        expect="unknown solver"),
+    # fk
+    Bad("fk-invalid-code", "fk", ["--codes", "3,7,0"], expect="code 7"),
+    Bad("fk-unstable-code", "fk", ["--codes", "5"], expect="not a stable actuator code"),
+    Bad("fk-code-text", "fk", ["--codes", "3,a"], expect="not a whole number"),
+    Bad("fk-code-float", "fk", ["--codes", "3.5"], expect="not a whole number"),
+    Bad("fk-no-codes", "fk", ["--codes", ","], expect="at least one code"),
+    Bad("fk-negative-code", "fk", ["--codes", "-3"], expect="code -3"),
+    Bad("fk-wrong-count", "fk", ["--codes", "3,0", "--modules", "5"], expect="expected 5 codes"),
+    Bad("fk-modules-0", "fk", ["--codes", "3", "--modules", "0"], expect="modules must be positive"),
+    Bad("fk-alpha-nan", "fk", ["--codes", "3", "--alpha", "nan"], expect="not a finite number"),
+    Bad("fk-json-under-a-file", "fk", ["--codes", "3", "--json", "afile/x.json"], expect="not a writable folder"),
+    Bad("fk-bad-keeps-good-json", "fk", ["--codes", "7", "--json", "good.json"], expect="code 7"),
+    # follow: names, options and outputs
+    Bad("follow-unknown-trajectory", "follow", ["--traj", "stomach"], expect="unknown trajectory 'stomach'"),
+    Bad("follow-missing-file", "follow", ["--traj", "nope.toml"], expect="unknown trajectory"),
+    Bad("follow-folder", "follow", ["--traj", "d.csv"], {"d.csv/x": "x"}, expect="folder"),
+    Bad("follow-wrong-extension", "follow", ["--traj", "p.txt"], {"p.txt": "x,y,z\n"}, expect=".toml"),
+    Bad("follow-unknown-solver", "follow", ["--traj", "line", "--solver", "nope"], expect="unknown solver"),
+    Bad("follow-radius-negative", "follow", ["--traj", "curve", "--radius", "-5"], expect="radius must be positive"),
+    Bad("follow-radius-nan", "follow", ["--traj", "curve", "--radius", "nan"], expect="not a finite number"),
+    Bad("follow-turns-0", "follow", ["--traj", "spiral", "--turns", "0"], expect="turns must be positive"),
+    Bad("follow-turns-negative", "follow", ["--traj", "spiral", "--turns", "-2"], expect="turns must be positive"),
+    Bad("follow-turns-huge", "follow", ["--traj", "spiral", "--turns", "100000"], expect="limit"),
+    Bad("follow-length-text", "follow", ["--traj", "line", "--length", "long"], expect="not a valid float"),
+    Bad("follow-line-shorter-than-feed", "follow", ["--traj", "line", "--length", "1"], expect="shorter than one feed"),
+    Bad("follow-param-not-of-generator", "follow", ["--traj", "curve", "--pitch", "3"], expect="no parameter 'pitch'"),
+    Bad("follow-feed-divisor-0", "follow", ["--traj", "line", "--feed-divisor", "0"], expect="feed divisor"),
+    Bad("follow-modules-0", "follow", ["--traj", "line", "--modules", "0"], expect="modules must be positive"),
+    Bad("follow-alpha-95", "follow", ["--traj", "line", "--alpha", "95"], expect="alpha"),
+    Bad("follow-out-under-a-file", "follow", ["--traj", "line", "--out", "afile/run"], expect="not a writable folder"),
+    Bad("follow-default-out-under-a-file", "follow", ["--traj", "line"], {"bhr-out": "a file, not a folder"},
+        expect="not a writable folder"),
+    Bad("follow-json-under-a-file", "follow", ["--traj", "line", "--out", "o", "--json", "afile/r.json"],
+        expect="not a writable folder"),
+    Bad("follow-bad-keeps-good-json", "follow", ["--traj", "p.csv", "--json", "good.json", "--out", "."],
+        {"p.csv": "x,y,z\n0,0,0\n"}, expect="two distinct points"),
+    Bad("follow-bad-keeps-previous-run", "follow", ["--traj", "curve", "--radius", "0", "--out", "prev"],
+        {"prev/run.json": GOOD_JSON, "prev/codes.csv": CODES_OK}, expect="radius must be positive"),
+    # follow: trajectory files (TOML)
+    Bad("traj-toml-garbled", "follow", ["--traj", "p.toml"], seg("[[segment]\ntype = 'straight'\n"), "not valid TOML"),
+    Bad("traj-toml-binary", "follow", ["--traj", "p.toml"], {"p.toml": b"\xff\xfe\x00\x01"}, "p.toml"),
+    Bad("traj-toml-empty", "follow", ["--traj", "p.toml"], seg(""), "neither generator"),
+    Bad("traj-toml-unknown-key", "follow", ["--traj", "p.toml"], seg(SEG + "colour = 'red'\n"), "unknown key 'colour'"),
+    Bad("traj-toml-unknown-top-key", "follow", ["--traj", "p.toml"], seg("speed = 3\n" + SEG), "unknown key 'speed'"),
+    Bad("traj-toml-wrong-type", "follow", ["--traj", "p.toml"], seg('[[segment]]\ntype="straight"\nlength="40"\n'),
+        "must be a number"),
+    Bad("traj-toml-nan", "follow", ["--traj", "p.toml"], seg('[[segment]]\ntype="straight"\nlength=nan\n'), "finite"),
+    Bad("traj-toml-inf", "follow", ["--traj", "p.toml"], seg('[[segment]]\ntype="straight"\nlength=inf\n'), "finite"),
+    Bad("traj-toml-length-0", "follow", ["--traj", "p.toml"], seg('[[segment]]\ntype="straight"\nlength=0\n'),
+        "length must be greater than 0"),
+    Bad("traj-toml-length-negative", "follow", ["--traj", "p.toml"], seg('[[segment]]\ntype="straight"\nlength=-4\n'),
+        "length must be greater than 0"),
+    Bad("traj-toml-radius-0", "follow", ["--traj", "p.toml"],
+        seg('[[segment]]\ntype="arc"\nradius=0\nangle=90\nturn="left"\n'), "radius must be greater than 0"),
+    Bad("traj-toml-angle-negative", "follow", ["--traj", "p.toml"],
+        seg('[[segment]]\ntype="arc"\nradius=70\nangle=-9\nturn="left"\n'), "angle must be greater than 0"),
+    Bad("traj-toml-bad-turn", "follow", ["--traj", "p.toml"],
+        seg('[[segment]]\ntype="arc"\nradius=70\nangle=90\nturn="widdershins"\n'), "turn must be one of"),
+    Bad("traj-toml-turns-0", "follow", ["--traj", "p.toml"],
+        seg('[[segment]]\ntype="helix"\nradius=70\npitch=10\nturns=0\nturn="left"\n'), "turns must be greater than 0"),
+    Bad("traj-toml-turns-negative", "follow", ["--traj", "p.toml"],
+        seg('[[segment]]\ntype="helix"\nradius=70\npitch=10\nturns=-1\nturn="left"\n'), "turns must be greater than 0"),
+    Bad("traj-toml-unknown-type", "follow", ["--traj", "p.toml"], seg('[[segment]]\ntype="zigzag"\n'),
+        "type must be one of"),
+    Bad("traj-toml-no-segments", "follow", ["--traj", "p.toml"], seg('name = "x"\nsegment = []\n'), "no segments"),
+    Bad("traj-toml-zero-heading", "follow", ["--traj", "p.toml"], seg("heading = [0, 0, 0]\n" + SEG), "[0, 0, 0]"),
+    Bad("traj-toml-start-nan", "follow", ["--traj", "p.toml"], seg("start = [0, nan, 0]\n" + SEG), "finite"),
+    Bad("traj-toml-too-short", "follow", ["--traj", "p.toml"], seg('[[segment]]\ntype="straight"\nlength=1\n'),
+        "shorter than one feed"),
+    Bad("traj-toml-option-on-file", "follow", ["--traj", "p.toml", "--radius", "50"], seg(SEG), "generator"),
+    Bad("traj-generator-bad-param", "follow", ["--traj", "p.toml"], seg('generator="curve"\n[params]\nradius=-1\n'),
+        "radius must be positive"),
+    Bad("traj-generator-unknown", "follow", ["--traj", "p.toml"], seg('generator="zigzag"\n'), "generator must be"),
+    Bad("traj-generator-bad-lumen", "follow", ["--traj", "p.toml"], seg('generator="line"\nlumen=-30\n'), "lumen"),
+    # follow: trajectory files (CSV)
+    Bad("traj-csv-one-point", "follow", ["--traj", "p.csv"], {"p.csv": "x,y,z\n1,2,3\n"}, "two distinct points"),
+    Bad("traj-csv-no-points", "follow", ["--traj", "p.csv"], {"p.csv": "x,y,z\n"}, "two distinct points"),
+    Bad("traj-csv-empty", "follow", ["--traj", "p.csv"], {"p.csv": ""}, "no header"),
+    Bad("traj-csv-all-same", "follow", ["--traj", "p.csv"], {"p.csv": "x,y,z\n1,1,1\n1,1,1\n"}, "distinct"),
+    Bad("traj-csv-duplicate", "follow", ["--traj", "p.csv"], {"p.csv": "x,y,z\n0,0,0\n9,0,0\n9,0,0\n20,0,0\n"},
+        "line 4: repeats the point of line 3"),
+    Bad("traj-csv-nan", "follow", ["--traj", "p.csv"], {"p.csv": "x,y,z\n0,0,0\n9,nan,0\n"}, "line 3"),
+    Bad("traj-csv-inf", "follow", ["--traj", "p.csv"], {"p.csv": "x,y,z\n0,0,0\n-inf,0,0\n"}, "finite"),
+    Bad("traj-csv-text", "follow", ["--traj", "p.csv"], {"p.csv": "x,y,z\n0,0,0\n9,nine,0\n"}, "not a number"),
+    Bad("traj-csv-short-row", "follow", ["--traj", "p.csv"], {"p.csv": "x,y,z\n0,0,0\n9,0\n"}, "2 fields"),
+    Bad("traj-csv-no-header", "follow", ["--traj", "p.csv"], {"p.csv": "0,0,0\n9,0,0\n"}, "header"),
+    Bad("traj-csv-unknown-column", "follow", ["--traj", "p.csv"], {"p.csv": "x,y,z,t\n0,0,0,0\n9,0,0,1\n"},
+        "unknown column 't'"),
+    Bad("traj-csv-lumen-0", "follow", ["--traj", "p.csv"], {"p.csv": "x,y,z,lumen\n0,0,0,30\n9,0,0,0\n"}, "lumen"),
+    Bad("traj-csv-binary", "follow", ["--traj", "p.csv"], {"p.csv": b"x,y,z\n\x00\x01\x02\n"}, "p.csv"),
+    Bad("traj-csv-latin1", "follow", ["--traj", "p.csv"], {"p.csv": "x,y,z\n0,0,0\n9,0,0 \xe9\n".encode("latin-1")},
+        "not UTF-8"),
+    Bad("traj-csv-huge-coordinate", "follow", ["--traj", "p.csv"], {"p.csv": "x,y,z\n0,0,0\n1e308,0,0\n"}, "beyond"),
+    Bad("traj-csv-option-on-file", "follow", ["--traj", "p.csv", "--turns", "2"], {"p.csv": "x,y,z\n0,0,0\n9,0,0\n"},
+        "generator"),
+    # stream (hardware link): the codes file and the options
+    Bad("stream-missing-codes", "stream", ["--codes", "nope.csv", "--dry-run"], expect="nope.csv"),
+    Bad("stream-invalid-code", "stream", ["--codes", "c.csv", "--dry-run"],
+        {"c.csv": "step,m1,m2,m3,m4,m5\n1,0,7,0,0,0\n"}, "7"),
+    Bad("stream-code-text", "stream", ["--codes", "c.csv", "--dry-run"],
+        {"c.csv": "step,m1,m2,m3,m4,m5\n1,0,x,0,0,0\n"}, "c.csv"),
+    Bad("stream-garbled-codes", "stream", ["--codes", "c.csv", "--dry-run"], {"c.csv": b"\xff\xfe\x00garbage"},
+        "c.csv"),
+    Bad("stream-no-header", "stream", ["--codes", "c.csv", "--dry-run"], {"c.csv": "1,0,3,0,0,0\n"}, "header"),
+    Bad("stream-rate-0", "stream", ["--codes", "c.csv", "--dry-run", "--rate", "0"], {"c.csv": CODES_OK}, "--rate"),
+    Bad("stream-rate-nan", "stream", ["--codes", "c.csv", "--dry-run", "--rate", "nan"], {"c.csv": CODES_OK}, "--rate"),
+    Bad("stream-baud-0", "stream", ["--codes", "c.csv", "--port", "loop://", "--baud", "0"], {"c.csv": CODES_OK},
+        "--baud"),
+    Bad("stream-no-port", "stream", ["--codes", "c.csv"], {"c.csv": CODES_OK}, "--port"),
+    Bad("stream-port-missing", "stream", ["--codes", "c.csv", "--port", "/dev/bhr-no-such-port"], {"c.csv": CODES_OK},
+        "bhr-no-such-port"),
+    # status
+    Bad("status-port-missing", "status", ["--port", "/dev/bhr-no-such-port"], expect="bhr-no-such-port"),
+    Bad("status-timeout-negative", "status", ["--port", "loop://", "--timeout", "-1"], expect="--timeout"),
+    Bad("status-json-under-a-file", "status", ["--port", "/dev/bhr-no-such-port", "--json", "afile/s.json"],
+        expect="not a writable folder"),
+    Bad("status-no-port", "status", [], expect="--port is required"),
+    Bad("status-robot-without-port", "status", ["--robot", "r.toml"], {"r.toml": "modules = 5\n"}, "--port is required"),
+    Bad("status-robot-bad-link", "status", ["--robot", "r.toml"], {"r.toml": "[link]\nbaudrate = -1\n"}, "baudrate"),
+    Bad("stream-robot-port-missing", "stream", ["--codes", "c.csv", "--robot", "r.toml"],
+        {"c.csv": CODES_OK, "r.toml": '[link]\nport = "/dev/bhr-no-such-port"\n'}, "bhr-no-such-port"),
+    Bad("stream-robot-order-mismatch", "stream", ["--codes", "c.csv", "--robot", "r.toml", "--dry-run"],
+        {"c.csv": CODES_OK, "r.toml": "modules = 3\n[link]\nmodule_order = [3, 2, 1]\n"}, "module_order"),
+    # follow --port
+    Bad("follow-port-missing", "follow", ["--traj", "line", "--out", "o", "--port", "/dev/bhr-no-such-port"],
+        expect="bhr-no-such-port"),
+    Bad("follow-port-rate-nan", "follow", ["--traj", "line", "--out", "o", "--port", "loop://", "--rate", "nan"],
+        expect="--rate"),
+    Bad("follow-port-rate-0", "follow", ["--traj", "line", "--out", "o", "--port", "loop://", "--rate", "0"],
+        expect="--rate"),
+    Bad("follow-baud-without-port", "follow", ["--traj", "line", "--out", "o", "--baud", "9600"], expect="--port"),
+    Bad("follow-port-with-body", "follow", ["--traj", "line", "--out", "o", "--port", "loop://", "--body-modules", "8"],
+        expect="--body-modules"),
+    Bad("follow-port-no-board", "follow", ["--traj", "line", "--out", "o", "--port", "loop://", "--timeout", "0.05",
+                                          "--retries", "0"], expect="did not answer"),
+    # replay
+    Bad("replay-missing", "replay", ["nope.json"], expect="nope.json"),
+    Bad("replay-garbled", "replay", ["r.json"], {"r.json": "{not json"}, "not valid JSON"),
+    Bad("replay-not-a-run", "replay", ["r.json"], {"r.json": '{"steps": 3}'}, "r.json"),
+    Bad("replay-nan", "replay", ["r.json"], {"r.json": '{"trajectory": {"points": [[NaN, 0, 0]]}, "robot": {}, '
+                                                       '"solver": "seed", "steps": [{}]}'}, "r.json"),
+    Bad("replay-binary", "replay", ["r.json"], {"r.json": b"\xff\x00\xfe"}, "r.json"),
+    Bad("replay-out-under-a-file", "replay", ["good.json", "--out", "afile/x"], expect=""),
+    # report
+    Bad("report-missing", "report", ["--batch", "nope.toml"], expect="nope.toml"),
+    Bad("report-garbled", "report", ["--batch", "b.toml"], {"b.toml": "[[run]\n"}, "b.toml"),
+    Bad("report-unknown-key", "report", ["--batch", "b.toml"], {"b.toml": 'colour = "red"\n[[run]]\nname = "a"\ntraj = "line"\n'},
+        "colour"),
+    Bad("report-no-runs", "report", ["--batch", "b.toml"], {"b.toml": 'title = "x"\n'}, "b.toml"),
+    Bad("report-bad-alpha", "report", ["--batch", "b.toml"], {"b.toml": '[[run]]\nname = "a"\ntraj = "line"\nalpha = 95\n'},
+        "alpha"),
+    Bad("report-out-under-a-file", "report", ["--batch", "b.toml", "--out", "afile/r"],
+        {"b.toml": '[[run]]\nname = "a"\ntraj = "line"\n'}, "not a writable folder"),
+    Bad("report-jobs-0", "report", ["--batch", "b.toml", "--jobs", "0"], {"b.toml": '[[run]]\nname = "a"\ntraj = "line"\n'},
+        "--jobs"),
+    # sweep
+    Bad("sweep-missing-file", "sweep", ["--file", "nope.toml"], expect="nope.toml"),
+    Bad("sweep-garbled-file", "sweep", ["--file", "s.toml"], {"s.toml": "[grid\n"}, "s.toml"),
+    Bad("sweep-unknown-trajectory", "sweep", ["--traj", "stomach", "--grid", "alpha=8,10"], expect="stomach"),
+    Bad("sweep-unknown-solver", "sweep", ["--traj", "line", "--solver", "nope", "--grid", "alpha=8,10"], expect="nope"),
+    Bad("sweep-grid-text", "sweep", ["--traj", "line", "--grid", "alpha=abc"], expect="alpha"),
+    Bad("sweep-grid-unknown-key", "sweep", ["--traj", "line", "--grid", "colour=1,2"], expect="colour"),
+    Bad("sweep-grid-modules-0", "sweep", ["--traj", "line", "--grid", "modules=0,1"], expect="modules"),
+    Bad("sweep-out-under-a-file", "sweep", ["--traj", "line", "--grid", "alpha=8,10", "--out", "afile/s"],
+        expect="not a writable folder"),
+    # compare (its options are not settled yet: each entry fails whether the option is unknown or its value bad)
+    Bad("compare-robot-missing", "compare", ["--robot", "nope.toml"], expect="robot"),
+    Bad("compare-unknown-solver", "compare", ["--solver", "nope"], expect="solver"),
+    Bad("compare-unknown-trajectory", "compare", ["--traj", "stomach"], expect="traj"),
+    Bad("compare-missing-run-file", "compare", ["nope-a.json", "nope-b.json"], expect=""),
+    Bad("compare-unknown-option", "compare", ["--colour", "red"], expect="colour"),
+    # bench
+    Bad("bench-unknown-case", "bench", ["--case", "nope"], expect="nope"),
+    Bad("bench-repeat-0", "bench", ["--repeat", "0"], expect="--repeat"),
+    Bad("bench-json-under-a-file", "bench", ["--json", "afile/b.json"], expect="not a writable folder"),
+]
+
+# every command in the issue, so that none is forgotten when it lands
+assert {c.command for c in CASES} >= {"solve", "follow", "fk", "stream", "status", "compare", "report", "sweep",
+                                      "replay", "bench"}
+assert len({c.id for c in CASES}) == len(CASES)
+
+
+def _prepare(folder, case: Bad) -> None:
+    (folder / "good.json").write_text(GOOD_JSON)
+    (folder / "afile").write_text("a plain file\n")
+    for name, content in case.files.items():
+        p = folder / name
+        p.parent.mkdir(parents=True, exist_ok=True)
+        if isinstance(content, bytes):
+            p.write_bytes(content)
+        else:
+            p.write_text(content, encoding="utf-8")
+
+
+@pytest.mark.parametrize("case", CASES, ids=[c.id for c in CASES])
+def test_bad_input_costs_one_line_and_touches_nothing(run_bhr, tmp_path, case):
+    if case.command not in COMMANDS:
+        pytest.skip(f"'bhr {case.command}' is not registered yet")
+    _prepare(tmp_path, case)
+    before = snapshot(tmp_path)
+    res = run_bhr(case.command, *case.args, timeout=120)
+    err = res.stderr.strip()
+    assert res.returncode != 0, f"exit 0 for bad input; stdout: {res.stdout[-500:]}"
+    assert "Traceback" not in res.stderr, res.stderr
+    assert err, "no message on stderr"
+    assert len(err.splitlines()) <= 3, res.stderr
+    assert case.expect.lower() in err.lower(), err
+    assert snapshot(tmp_path) == before, "files were created or changed"
+    assert (tmp_path / "good.json").read_text() == GOOD_JSON
+
+
+@pytest.mark.parametrize("command", sorted(COMMANDS))
+def test_every_registered_command_is_in_the_catalogue(command):
+    assert any(c.command == command for c in CASES), f"add bad-input entries for 'bhr {command}' to CASES"
+
+
+@pytest.mark.parametrize("command", sorted(COMMANDS))
+def test_every_registered_command_refuses_unknown_options(run_bhr, tmp_path, command):
+    before = snapshot(tmp_path)
+    res = run_bhr(command, "--no-such-option", timeout=120)
+    assert res.returncode != 0 and "Traceback" not in res.stderr
+    assert 0 < len(res.stderr.strip().splitlines()) <= 3 and "no-such-option" in res.stderr
+    assert snapshot(tmp_path) == before
+
+
+# --- hypothesis over the shared options, in process -------------------------------------------------------------
+
+HYP = settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+
+number_text = st.one_of(
+    st.integers(-5, 50).map(str),
+    st.floats(allow_nan=True, allow_infinity=True).map(repr),
+    st.sampled_from(["nan", "inf", "-inf", "1e308", "-0", "0", "ten", "", "1,5", "0x10", "1e-320"]),
+)
+ROBOT_OPTIONS = ["--modules", "--module-length", "--robot-radius", "--alpha", "--tol-pos", "--tol-ori", "--max-iter",
+                 "--weight-pos", "--weight-ori"]
+
+
+def _check(result) -> None:
+    """Either success, or a clean exit with at most a few lines on stderr; never an escaped exception."""
+    if result.exit_code == 0:
+        assert result.exception is None
+        return
+    assert isinstance(result.exception, SystemExit), repr(result.exception)
+    err = result.stderr.strip()
+    assert err and len(err.splitlines()) <= 3 and "Traceback" not in err, err
+
+
+@HYP
+@given(opts=st.dictionaries(st.sampled_from(ROBOT_OPTIONS), number_text, max_size=3))
+def test_fk_robot_options(tmp_path, opts):
+    args = ["fk", "--codes", "3,0,6"]
+    if "--modules" not in opts:
+        args += ["--modules", "3"]
+    for k, v in opts.items():
+        args += [k, v]
+    with CliRunner().isolated_filesystem(temp_dir=tmp_path):
+        result = CliRunner().invoke(main, args + ["--json", "-"])
+    _check(result)
+    if result.exit_code == 0:
+        assert '"points"' in result.stdout
+
+
+@HYP
+@given(opts=st.dictionaries(st.sampled_from(ROBOT_OPTIONS), number_text, max_size=3),
+       target=st.tuples(number_text, number_text, number_text),
+       solver=st.sampled_from(["fabrik", "ccd", "seed", "constrained", "nope"]))
+def test_solve_options(tmp_path, opts, target, solver):
+    try:  # a target on the chain's base is pinned by test_target_on_the_base below
+        assume(math.hypot(*(float(v) for v in target)) > 1e-100)
+    except ValueError:
+        pass
+    args = ["solve", "--target", *target, "--solver", solver, "--json", "-"]
+    for k, v in opts.items():
+        args += [k, v]
+    result = CliRunner().invoke(main, args)
+    _check(result)
+    if result.exit_code == 0:
+        import json
+
+        doc = json.loads(result.stdout)
+        assert all(math.isfinite(v) for p in doc["points"] for v in p)
+
+
+WEIRD = st.sampled_from(["nan", "inf", "-inf", "0", "-1", "1e9", "x", ""])
+
+
+def _opt(valid):
+    return st.one_of(*([valid] * 7), WEIRD)  # mostly plausible values, so that many runs go all the way
+
+
+def _f(lo, hi):
+    return _opt(st.floats(lo, hi).map(repr))
+
+
+ROBOT_HYP = {"--feed-divisor": _opt(st.integers(0, 8).map(str)), "--modules": _opt(st.integers(0, 8).map(str)),
+             "--alpha": _f(-5, 100), "--tol-pos": _f(-1, 20), "--module-length": _f(-1, 30)}
+TRAJ_HYP = {
+    "line": {"--length": _f(-5, 300), "--azimuth": _f(-360, 360), "--elevation": _f(-90, 90)},
+    "curve": {"--radius": _f(-5, 200), "--angle": _f(-30, 400), "--entry": _f(-5, 60), "--exit": _f(-5, 60)},
+    "spiral": {"--radius": _f(-5, 200), "--pitch": _f(-5, 80), "--turns": _f(-0.5, 2.5)},
+    "colon": {},
+}
+
+
+@st.composite
+def follow_args(draw):
+    traj = draw(st.sampled_from(sorted(TRAJ_HYP)))
+    opts = draw(st.fixed_dictionaries({}, optional={**TRAJ_HYP[traj], **ROBOT_HYP}))
+    return traj, opts
+
+
+@settings(max_examples=30, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(args=follow_args(), solver=st.sampled_from(["seed", "fabrik", "ccd"]))
+def test_follow_options(tmp_path, args, solver):
+    traj, opts = args
+    argv = ["follow", "--traj", traj, "--solver", solver, "--no-plots", "--json", "-", "--out", str(tmp_path / "o")]
+    for k, v in opts.items():
+        argv += [k, v]
+    result = CliRunner().invoke(main, argv)
+    _check(result)
+    if result.exit_code == 0:
+        import json
+
+        doc = json.loads(result.stdout)
+        assert doc["steps"] and all(math.isfinite(v) for st_ in doc["steps"] for v in st_["point_errors_mm"])
+
+
+@pytest.mark.parametrize("solver", ["fabrik", "seed", "constrained", "ccd", "optimal"])
+@pytest.mark.parametrize("target", [("0", "0", "0"), ("0", "0", "1e-200")])
+def test_target_on_the_base(solver, target):
+    """A target on (or a hair from) the chain's base is a valid request: an answer or one line, never a crash."""
+    result = CliRunner().invoke(main, ["solve", "--target", *target, "--solver", solver, "--json", "-"])
+    _check(result)
+
+
+# --- output files are replaced whole or not at all --------------------------------------------------------------
+
+@pytest.mark.parametrize("failure", [ValueError("disk full"), KeyboardInterrupt()])
+def test_a_failed_write_keeps_the_good_file_and_leaves_no_temporary(tmp_path, failure):
+    from bhr.atomic import atomic_path, write_json
+
+    target = tmp_path / "run.json"
+    write_json(target, {"good": True})
+    before = target.read_bytes()
+    with pytest.raises(type(failure)):
+        with atomic_path(target) as tmp:
+            tmp.write_text('{"half": ')  # half-written, then the run fails or is interrupted
+            raise failure
+    assert target.read_bytes() == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["run.json"]
+    with pytest.raises(ValueError):
+        write_json(target, {"bad": float("nan")})  # refused before anything is written
+    assert target.read_bytes() == before and len(list(tmp_path.iterdir())) == 1
+
+
+def test_atomic_outputs_get_the_permissions_a_plain_write_would(tmp_path):
+    """mkstemp's 0600 must not leak into outputs: new files follow the umask, replaced ones keep their mode."""
+    import os
+
+    from bhr.atomic import write_text
+
+    old = os.umask(0o022)
+    try:
+        write_text(tmp_path / "new.csv", "a\n")
+        assert (tmp_path / "new.csv").stat().st_mode & 0o777 == 0o644
+        os.umask(0o077)
+        write_text(tmp_path / "private.csv", "a\n")
+        assert (tmp_path / "private.csv").stat().st_mode & 0o777 == 0o600
+    finally:
+        os.umask(old)
+    (tmp_path / "new.csv").chmod(0o664)
+    write_text(tmp_path / "new.csv", "b\n")
+    assert (tmp_path / "new.csv").stat().st_mode & 0o777 == 0o664
+
+
+def test_a_killed_follow_leaves_only_whole_files(tmp_path):
+    """Kill `bhr follow` at random moments: every run.json/codes.csv present is the old one or a complete new one."""
+    import json
+    import os
+    import signal
+    import subprocess
+    import time
+
+    from tests.conftest import bhr_exe
+
+    out = tmp_path / "o"
+    out.mkdir()
+    (out / "run.json").write_text(GOOD_JSON)
+    (out / "codes.csv").write_text(CODES_OK)
+    env = dict(os.environ, MPLBACKEND="Agg")
+    for delay in (0.3, 0.8, 1.3, 1.8, 2.5):
+        proc = subprocess.Popen(bhr_exe() + ["follow", "--traj", "colon", "--out", str(out)], cwd=tmp_path, env=env,
+                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        time.sleep(delay)
+        proc.send_signal(signal.SIGKILL)
+        proc.wait()
+        text = (out / "run.json").read_text()
+        assert text == GOOD_JSON or len(json.loads(text)["steps"]) == 827
+        codes = (out / "codes.csv").read_text()
+        assert codes == CODES_OK or codes.count("\n") == 828

@@ -1,0 +1,193 @@
+"""bhr replay: a saved run comes back exactly, is redrawn and re-animated without solving, and a wrong
+file gets one clear line."""
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from bhr.animate import frame_steps, frame_view
+from bhr.atomic import write_json
+from bhr.errors import BhrError
+from bhr.follow import FollowResult, follow, load_run
+from bhr.trajectory import load_trajectory
+from tests.conftest import bhr_exe, snapshot
+from tests.test_animate import check_frame, gif_frame
+
+
+@pytest.fixture(scope="module")
+def curve_run():
+    return follow(load_trajectory("curve", angle=180.0))
+
+
+def assert_same_run(a: FollowResult, b: FollowResult) -> None:
+    assert a.steps == b.steps and a.solver == b.solver and a.robot == b.robot
+    assert a.trajectory.name == b.trajectory.name and a.trajectory.params == b.trajectory.params
+    np.testing.assert_array_equal(a.trajectory.points, b.trajectory.points)
+    np.testing.assert_array_equal(a.points, b.points)
+    np.testing.assert_array_equal(a.point_errors, b.point_errors)
+    np.testing.assert_array_equal(a.orientation_errors, b.orientation_errors)
+    np.testing.assert_array_equal(a.iterations, b.iterations)
+    if a.codes is None:
+        assert b.codes is None
+    else:
+        np.testing.assert_array_equal(a.codes, b.codes)
+    assert a.warnings == b.warnings
+
+
+@pytest.mark.parametrize("solver", ["seed", "fabrik"])
+def test_json_round_trip_is_exact(tmp_path, solver):
+    run = follow(load_trajectory("spiral", turns=0.5), solver=solver, modules=4, alpha=12.0)
+    write_json(tmp_path / "run.json", run.to_json())
+    back = load_run(tmp_path / "run.json")
+    assert_same_run(run, back)
+    assert back.to_json() == json.loads((tmp_path / "run.json").read_text())
+    assert back.summary() == run.summary()
+
+
+def test_tight_curve_keeps_its_warning(tmp_path):
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        run = follow(load_trajectory("curve", radius=40.0))
+    assert run.warnings
+    assert FollowResult.from_json(run.to_json()).warnings == run.warnings
+
+
+def test_replay_redraws_the_figures_of_follow(run_bhr, tmp_path):
+    res = run_bhr("follow", "--traj", "curve", "--out", "run")
+    assert res.returncode == 0, res.stderr
+    res = run_bhr("replay", "run/run.json", "--out", "again")
+    assert res.returncode == 0, res.stderr
+    for name in ("position_errors.png", "orientation_errors.png", "global_errors.png", "path.png"):
+        a = np.asarray(Image.open(tmp_path / "run" / name).convert("RGB"))
+        b = np.asarray(Image.open(tmp_path / "again" / name).convert("RGB"))
+        assert a.shape == b.shape and np.array_equal(a, b), name
+    assert "Wrote again/position_errors.png" in res.stdout
+
+
+def test_replay_uses_the_saved_poses_not_a_new_solve(tmp_path, curve_run):
+    """A run whose poses were edited by hand is drawn as edited: replay never solves."""
+    doc = curve_run.to_json()
+    doc["solver"] = "no-such-solver"  # solving again would fail on this name
+    for st in doc["steps"]:
+        st["points"] = [[x, y + 25.0, z] for x, y, z in st["points"]]
+    write_json(tmp_path / "edited.json", doc)
+    edited = load_run(tmp_path / "edited.json")
+    res = subprocess.run(bhr_exe() + ["replay", "edited.json", "--animate", "edited.gif", "--stride", "9"],
+                         cwd=tmp_path, capture_output=True, text=True, timeout=300,
+                         env=dict(os.environ, MPLBACKEND="Agg"))
+    assert res.returncode == 0, res.stderr
+    steps = frame_steps(edited.steps, 9)
+    view = frame_view(edited)
+    with Image.open(tmp_path / "edited.gif") as im:
+        assert im.n_frames == len(steps)
+        for k in (0, len(steps) // 2, len(steps) - 1):
+            check_frame(gif_frame(im, k), edited, view, steps[k])
+    assert not (tmp_path / "edited").exists() and sorted(p.name for p in tmp_path.iterdir()) == [
+        "edited.gif", "edited.json"]  # --animate alone writes no figures
+
+
+def test_replay_animation_matches_follow_animation(run_bhr, tmp_path):
+    res = run_bhr("follow", "--traj", "line", "--length", "40", "--no-plots", "--out", "run", "--animate", "a.gif")
+    assert res.returncode == 0, res.stderr
+    res = run_bhr("replay", "run/run.json", "--animate", "b.gif")
+    assert res.returncode == 0, res.stderr
+    with Image.open(tmp_path / "a.gif") as a, Image.open(tmp_path / "b.gif") as b:
+        assert a.n_frames == b.n_frames == 21
+        for k in range(a.n_frames):
+            assert np.array_equal(gif_frame(a, k), gif_frame(b, k)), k
+
+
+def test_replay_reads_standard_input_and_draws_a_chosen_step(tmp_path, curve_run):
+    text = json.dumps(curve_run.to_json())
+    res = subprocess.run(bhr_exe() + ["replay", "-", "--out", "figs", "--step", "40"], input=text, cwd=tmp_path,
+                         capture_output=True, text=True, timeout=300, env=dict(os.environ, MPLBACKEND="Agg"))
+    assert res.returncode == 0, res.stderr
+    assert sorted(p.name for p in (tmp_path / "figs").iterdir()) == [
+        "global_errors.png", "orientation_errors.png", "path-step40.png", "position_errors.png"]
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    from bhr.plots import StepView
+
+    img = np.asarray(Image.open(tmp_path / "figs" / "path-step40.png").convert("RGB"))
+    fig = Figure(figsize=(8, 7), dpi=110)  # path_figure's size, saved at save_figure's dpi
+    FigureCanvasAgg(fig)
+    check_frame(img, curve_run, StepView(curve_run, fig=fig), 39)
+
+
+def _doc(run) -> dict:
+    return run.to_json()
+
+
+def _corrupt(kind: str, doc: dict) -> str:
+    if kind == "truncated":
+        return json.dumps(doc)[:5000]
+    if kind == "list":
+        return "[1, 2, 3]"
+    if kind == "no steps":
+        doc = dict(doc)
+        del doc["steps"]
+    elif kind == "short points":
+        doc["steps"][2]["points"] = doc["steps"][2]["points"][:-1]
+    elif kind == "nan":
+        doc["steps"][4]["points"][1][0] = float("nan")
+    elif kind == "text point":
+        doc["steps"][4]["points"][1][0] = "x"
+    elif kind == "robot":
+        doc["robot"]["modules"] = 0
+    elif kind == "iterations":
+        doc["steps"][0]["iterations"] = 2.5
+    elif kind == "codes":
+        doc["steps"][7]["codes"] = [3, 6]
+    elif kind == "too many steps":
+        doc["trajectory"]["points"] = doc["trajectory"]["points"][:10]
+    return json.dumps(doc)
+
+
+@pytest.mark.parametrize("kind, message", [
+    ("truncated", "run.json: not valid JSON (line 1"),
+    ("list", "run.json: not a bhr run"),
+    ("no steps", "run.json: not a bhr run (it needs 'trajectory', 'robot', 'solver' and 'steps')"),
+    ("short points", "run.json: step 3 points must be 6 x 3 numbers, got shape 5 x 3"),
+    ("nan", "run.json: step 5 points must be finite numbers"),
+    ("text point", "run.json: step 5 points must be numbers"),
+    ("robot", "run.json: robot: modules must be positive"),
+    ("iterations", "iterations must be a whole number"),
+    ("codes", "run.json: step 8 codes must be 5 whole numbers"),
+    ("too many steps", "run.json: 140 steps but only 10 trajectory points"),
+])
+def test_wrong_run_file_gets_one_line(run_bhr, tmp_path, curve_run, kind, message):
+    bad = tmp_path / "run.json"
+    bad.write_text(_corrupt(kind, _doc(curve_run)))
+    before = snapshot(tmp_path)
+    res = run_bhr("replay", "run.json", "--animate", "out.gif")
+    assert res.returncode != 0
+    assert message in res.stderr, res.stderr
+    assert "give a run.json written by 'bhr follow'" in res.stderr
+    assert "Traceback" not in res.stderr and len(res.stderr.strip().splitlines()) == 1
+    assert snapshot(tmp_path) == before
+    with pytest.raises(BhrError, match="give a run.json"):
+        load_run(bad)
+
+
+@pytest.mark.parametrize("args, message", [
+    (["nothing.json"], "no such run file nothing.json"),
+    (["."], "is a folder; give the run.json inside it"),
+    (["run.json", "--animate", "x.webm"], "give a file ending in .gif"),
+    (["run.json", "--step", "500"], "step 500 is past the end of the run (140 steps)"),
+])
+def test_replay_refusals(run_bhr, tmp_path, curve_run, args, message):
+    write_json(tmp_path / "run.json", curve_run.to_json())
+    before = snapshot(tmp_path)
+    res = run_bhr("replay", *args)
+    assert res.returncode != 0
+    assert message in res.stderr, res.stderr
+    assert "Traceback" not in res.stderr and len(res.stderr.strip().splitlines()) == 1
+    assert snapshot(tmp_path) == before
