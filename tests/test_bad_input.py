@@ -11,6 +11,7 @@ hypothesis, in process.
 """
 from __future__ import annotations
 
+import contextlib
 import math
 from dataclasses import dataclass, field
 
@@ -365,7 +366,7 @@ def test_fk_robot_options(tmp_path, opts):
         args += ["--modules", "3"]
     for k, v in opts.items():
         args += [k, v]
-    with CliRunner().isolated_filesystem(temp_dir=tmp_path):
+    with contextlib.chdir(tmp_path):
         result = CliRunner().invoke(main, args + ["--json", "-"])
     _check(result)
     if result.exit_code == 0:

@@ -1,4 +1,5 @@
 """Chapter 7: `bhr follow --solver seed` reproduces the thesis's published trajectory results."""
+import contextlib
 import json
 from pathlib import Path
 
@@ -122,7 +123,7 @@ def test_trajectory_api_and_feed():
 
 def test_cli_follow_writes_everything(tmp_path):
     runner = CliRunner()
-    with runner.isolated_filesystem(temp_dir=tmp_path):
+    with contextlib.chdir(tmp_path):
         res = runner.invoke(main, ["follow", "--traj", "curve", "--json", "run.json"])
         assert res.exit_code == 0, res.output
         out = Path("bhr-out/curve-seed")
