@@ -10,7 +10,7 @@ from bhr.cli._common import check_writable, guarded
 
 @click.command()
 @click.option("--case", "cases", multiple=True, metavar="NAME",
-              help="Case to run (repeatable): fabrik, ccd, seed-colon, cli, and any added later [all].")
+              help="Case to run (repeatable): fabrik, ccd, seed-colon, optimal, body-60, cli [all].")
 @click.option("--repeat", type=click.IntRange(1, 100), default=None, help="Repeats per timing (median taken).")
 @click.option("--json", "json_path", default=None, metavar="PATH|-", help="Write the results as JSON.")
 @click.option("--check", is_flag=True, help="Exit with status 1 when a stated requirement is not met.")

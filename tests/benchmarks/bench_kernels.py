@@ -50,3 +50,36 @@ def test_seed_colon_bhr(benchmark):
 @pytest.mark.benchmark(group="seed-colon")
 def test_seed_colon_numpy(benchmark):
     benchmark.pedantic(numpy_seed_follow, args=(COLON.points,), rounds=2)
+
+
+# --solver optimal without its planner (the exact per-step search) and the 60-module body
+from bhr.bench import OPTIMAL_PER_STEP, numpy_body, numpy_optimal_follow  # noqa: E402
+from bhr.body import BODY_BEAM, module1_frames, simulate_body  # noqa: E402
+
+PATH = np.ascontiguousarray(COLON.points)
+
+
+@pytest.mark.benchmark(group="optimal-step-colon")
+def test_optimal_step_colon_bhr(benchmark):
+    benchmark(follow, COLON, solver="optimal", solver_options=OPTIMAL_PER_STEP)
+
+
+@pytest.mark.benchmark(group="optimal-step-colon")
+def test_optimal_step_colon_numpy(benchmark):
+    benchmark.pedantic(numpy_optimal_follow, args=(PATH, COLON.start_point, COLON.start_direction), rounds=3)
+
+
+SEED_RUN = follow(COLON)
+START, F1S = module1_frames(SEED_RUN.codes, COLON.start_direction, SEED_RUN.robot.alpha)
+
+
+@pytest.mark.benchmark(group="body-60-colon")
+def test_body_60_bhr(benchmark):
+    benchmark(simulate_body, SEED_RUN, 60)
+
+
+@pytest.mark.benchmark(group="body-60-colon")
+def test_body_60_numpy(benchmark):
+    r = SEED_RUN.robot
+    benchmark.pedantic(numpy_body, args=(np.ascontiguousarray(SEED_RUN.points[:, 0]), F1S, START, 55, r.feed_divisor,
+                                         r.feed, r.module_length, r.alpha, BODY_BEAM), rounds=2)
