@@ -48,6 +48,7 @@ import numpy as np
 from numba import njit
 
 from bhr.errors import BhrError
+from bhr.robot import tilt_frame as _rot
 
 __all__ = ["BodyRun", "simulate_body", "module1_frames", "whole_robot"]
 
@@ -68,28 +69,6 @@ class BodyRun:
     point_errors: np.ndarray  # (N, B) mm, 0 where not scored yet
     orientation_errors: np.ndarray  # (N, B) degrees, 0 where not scored yet
     scored: np.ndarray  # (N, B) bool: the trajectory point this body point is scored against exists
-
-
-@njit(cache=True)
-def _rot(F, k, c, s, out):
-    if k == 0:
-        for a in range(3):
-            for b in range(3):
-                out[a, b] = F[a, b]
-        return
-    ss = s if k <= 2 else -s
-    if k == 1 or k == 3:
-        for b in range(3):
-            x, y, z = F[0, b], F[1, b], F[2, b]
-            out[0, b] = x
-            out[1, b] = c * y + ss * z
-            out[2, b] = c * z - ss * y
-    else:
-        for b in range(3):
-            x, y, z = F[0, b], F[1, b], F[2, b]
-            out[0, b] = c * x - ss * z
-            out[1, b] = y
-            out[2, b] = c * z + ss * x
 
 
 @njit(cache=True)

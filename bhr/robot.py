@@ -173,6 +173,33 @@ def base_frame(direction: Sequence[float]) -> np.ndarray:
 
 
 @njit(cache=True)
+def tilt_frame(F: np.ndarray, k: int, c: float, s: float, out: np.ndarray) -> None:
+    """Frame ``F`` (rows x, y, z) tilted by alpha about its own +x, +y, -x, -y (k = 1..4) into ``out``.
+
+    ``c``, ``s`` are cos and sin of alpha; ``k = 0`` copies the frame. The
+    search index order (rest, +x, +y, -x, -y) is codes 0, 3, 6, 12, 9.
+    """
+    if k == 0:
+        for a in range(3):
+            for b in range(3):
+                out[a, b] = F[a, b]
+        return
+    ss = s if k <= 2 else -s
+    if k == 1 or k == 3:  # about x: y' = c y + s z, z' = c z - s y
+        for b in range(3):
+            x, y, z = F[0, b], F[1, b], F[2, b]
+            out[0, b] = x
+            out[1, b] = c * y + ss * z
+            out[2, b] = c * z - ss * y
+    else:  # about y: z' = c z + s x, x' = c x - s z
+        for b in range(3):
+            x, y, z = F[0, b], F[1, b], F[2, b]
+            out[0, b] = c * x - ss * z
+            out[1, b] = y
+            out[2, b] = c * z + ss * x
+
+
+@njit(cache=True)
 def _fk_kernel(codes: np.ndarray, base: np.ndarray, frame: np.ndarray, length: float, lift: float,
                alpha_deg: float, points: np.ndarray, frames: np.ndarray) -> None:
     """Chain points and module frames from codes (see :func:`forward_kinematics`)."""

@@ -54,3 +54,15 @@ def link_settings(kwargs: dict[str, Any], need_port: bool = True, use_file_port:
                        "table of a --robot file" + hint)
     return port, {"baudrate": DEFAULT_BAUD if baud is None else baud, "timeout": timeout, "retries": retries,
                   "module_order": order}
+
+
+def exit_interrupted(exc, total: int, unit: str) -> None:
+    """After Ctrl-C while streaming (a bhr.link.StreamInterrupted): one line on stderr, exit status 130."""
+    import sys
+
+    if exc.stopped:
+        click.echo(f"Interrupted after {exc.sent} of {total} {unit}; sent stop-all, every actuator is off.", err=True)
+    else:
+        click.echo(f"Interrupted after {exc.sent} of {total} {unit}; stop-all failed ({exc.detail}); "
+                   "the board switches off by itself after its silence timeout.", err=True)
+    sys.exit(130)

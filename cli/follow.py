@@ -8,7 +8,7 @@ from pathlib import Path
 import click
 
 from bhr.cli._common import check_writable, guarded
-from bhr.cli._link import link_options, link_settings
+from bhr.cli._link import exit_interrupted, link_options, link_settings
 from bhr.cli.replay import STRIDE_HELP, check_view_options, render_animation, run_live_view
 from bhr.cli._options import (FiniteRange, build_robot, constraint_options, optimal_options, pop_constraints, pop_optimal,
                               pop_trajectory, robot_options, trajectory_options)
@@ -204,14 +204,7 @@ def follow_streaming(tr, solver, robot, solver_options, body_modules, rate, link
 
                 result = run_follow(tr, solver=solver, robot=robot, solver_options=solver_options, on_step=on_step)
         except KeyboardInterrupt:
-            exc = interrupted(link, pacer.sent)
-            if exc.stopped:
-                click.echo(f"Interrupted after {exc.sent} of {steps} steps; sent stop-all, every actuator is off.",
-                           err=True)
-            else:
-                click.echo(f"Interrupted after {exc.sent} of {steps} steps; stop-all failed ({exc.detail}); "
-                           "the board switches off by itself after its silence timeout.", err=True)
-            sys.exit(130)
+            exit_interrupted(interrupted(link, pacer.sent), steps, "steps")
     click.echo(f"streamed {pacer.sent} steps ({robot.modules} modules) to {port} at up to {rate:g} Hz"
                + (f"; board reported: {', '.join(pacer.faults)}" if pacer.faults else ""), err=True)
     return result

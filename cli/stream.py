@@ -7,7 +7,7 @@ import sys
 import click
 
 from bhr.cli._common import guarded
-from bhr.cli._link import link_options, link_settings
+from bhr.cli._link import exit_interrupted, link_options, link_settings
 from bhr.cli._options import FiniteRange
 
 
@@ -73,12 +73,6 @@ def stream(codes_path, rate, dry_run, **link_kw):
 
                 sent = stream_codes(link, table, rate=rate, progress=progress)
         except StreamInterrupted as exc:
-            if exc.stopped:
-                click.echo(f"Interrupted after {exc.sent} of {n_rows} rows; sent stop-all, every actuator is off.",
-                           err=True)
-            else:
-                click.echo(f"Interrupted after {exc.sent} of {n_rows} rows; stop-all failed ({exc.detail}); "
-                           "the board switches off by itself after its silence timeout.", err=True)
-            sys.exit(130)
+            exit_interrupted(exc, n_rows, "rows")
     click.echo(f"sent {sent} rows ({n_modules} modules, steps {steps[0]}..{steps[-1]}) to {port} at {rate:g} Hz"
                + (f"; board reported: {', '.join(faults)}" if faults else ""))

@@ -56,6 +56,7 @@ from numba import njit
 
 from bhr.errors import BhrError
 from bhr.follow import advance_kernel, score_step
+from bhr.robot import tilt_frame as _rot
 from bhr.solvers.base import Chain, FollowContext, SolveResult, Solver, register
 
 __all__ = ["Optimal", "CODE_OF", "search_all", "search_head", "config_cost", "path_features", "DEFAULTS"]
@@ -82,29 +83,6 @@ MAX_CURVE_STEPS = 40
 
 # ---------------------------------------------------------------------------
 # small kernels
-
-
-@njit(cache=True)
-def _rot(F, k, c, s, out):
-    """Frame ``F`` (rows x, y, z) tilted by alpha about its own +x, +y, -x, -y (k = 1..4); k = 0 copies it."""
-    if k == 0:
-        for a in range(3):
-            for b in range(3):
-                out[a, b] = F[a, b]
-        return
-    ss = s if k <= 2 else -s
-    if k == 1 or k == 3:  # about x: y' = c y + s z, z' = c z - s y
-        for b in range(3):
-            x, y, z = F[0, b], F[1, b], F[2, b]
-            out[0, b] = x
-            out[1, b] = c * y + ss * z
-            out[2, b] = c * z - ss * y
-    else:  # about y: z' = c z + s x, x' = c x - s z
-        for b in range(3):
-            x, y, z = F[0, b], F[1, b], F[2, b]
-            out[0, b] = c * x - ss * z
-            out[1, b] = y
-            out[2, b] = c * z + ss * x
 
 
 @njit(cache=True)
