@@ -12,7 +12,8 @@ from bhr.cli._common import check_writable, guarded
 @click.option("--case", "cases", multiple=True, metavar="NAME",
               help="Case to run (repeatable): fabrik, ccd, seed-colon, optimal, body-60, cli [all].")
 @click.option("--repeat", type=click.IntRange(1, 100), default=None, help="Repeats per timing (median taken).")
-@click.option("--json", "json_path", default=None, metavar="PATH|-", help="Write the results as JSON.")
+@click.option("--json", "json_path", default=None, metavar="PATH|-",
+              help="Write the results as JSON ('-': stdout, the table then goes to stderr).")
 @click.option("--check", is_flag=True, help="Exit with status 1 when a stated requirement is not met.")
 @guarded
 def bench(cases, repeat, json_path, check):
@@ -31,7 +32,8 @@ def bench(cases, repeat, json_path, check):
     if unknown:
         raise BhrError(f"unknown benchmark case {unknown[0]!r}; choose from {', '.join(b.CASES)}")
     results = b.run_all(names, repeat, progress=lambda name: click.echo(f"running {name} ...", err=True))
-    click.echo(b.format_table(results))
+    # with --json - the JSON alone goes to stdout (parseable), the table to stderr
+    click.echo(b.format_table(results), err=json_path == "-")
     doc = [r.to_dict() for r in results]
     if json_path == "-":
         click.echo(json.dumps(doc, indent=1))

@@ -1,7 +1,9 @@
 """pytest-benchmark versions of the `bhr bench` cases (not part of the default test run).
 
 Run them with:  python3 -m pytest tests/benchmarks/bench_kernels.py --benchmark-only
-(files here are named bench_*.py so that the default run does not collect them).
+(files here are named bench_*.py, which pytest's default python_files pattern, test_*.py, does not match, so
+neither the default run nor `pytest tests/benchmarks` collects them; name the file, or pass
+`-o python_files='bench_*.py'`). The numbers to compare are each group's medians: bhr against numpy.
 """
 import numpy as np
 import pytest
@@ -67,6 +69,20 @@ def test_optimal_step_colon_bhr(benchmark):
 @pytest.mark.benchmark(group="optimal-step-colon")
 def test_optimal_step_colon_numpy(benchmark):
     benchmark.pedantic(numpy_optimal_follow, args=(PATH, COLON.start_point, COLON.start_direction), rounds=3)
+
+
+# the default --solver optimal (planner on) and the seed solver, one solve() call per step driven from Python
+# (bhr.bench_optimal): whole colon per round; divide by the 827 steps for a mean per step (`bhr bench` gives medians)
+from bhr.bench_optimal import _step_times  # noqa: E402
+from bhr.robot import Robot  # noqa: E402
+
+
+@pytest.mark.benchmark(group="optimal-default-colon")
+@pytest.mark.parametrize("solver", ["optimal", "seed"])
+def test_default_solve_driver(benchmark, solver):
+    _step_times(COLON, solver, Robot(), None)  # load the kernels
+    times = benchmark.pedantic(_step_times, args=(COLON, solver, Robot(), None), rounds=3)
+    assert times.shape == (len(COLON.points),)
 
 
 SEED_RUN = follow(COLON)
