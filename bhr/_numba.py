@@ -17,4 +17,18 @@ def configure_cache() -> None:
     os.environ["NUMBA_CACHE_DIR"] = str(Path(base) / "bhr" / "numba")
 
 
+def cache_dir() -> str:
+    """The folder numba's compiled cache goes to (set by :func:`configure_cache` unless the user chose one)."""
+    return os.environ.get("NUMBA_CACHE_DIR", "")
+
+
+def cache_has_kernels() -> bool:
+    """Whether numba's cache holds any compiled bhr kernel yet (False on a machine's first run)."""
+    root = Path(cache_dir())
+    try:
+        return any(root.glob("bhr_*/*.nbi")) or any(root.glob("solvers_*/*.nbi"))
+    except OSError:
+        return False
+
+
 configure_cache()

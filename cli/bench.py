@@ -24,6 +24,7 @@ def bench(cases, repeat, json_path, check):
     with the machine and this command.
     """
     from bhr import bench as b
+    from bhr.cli._progress import announce_compiles, status
     from bhr.errors import BhrError
 
     check_writable(json_path, "JSON")
@@ -31,7 +32,14 @@ def bench(cases, repeat, json_path, check):
     unknown = [c for c in names if c not in b.CASES]
     if unknown:
         raise BhrError(f"unknown benchmark case {unknown[0]!r}; choose from {', '.join(b.CASES)}")
-    results = b.run_all(names, repeat, progress=lambda name: click.echo(f"running {name} ...", err=True))
+    announce_compiles()
+    with status(f"timing {len(names)} case{'s' * (len(names) != 1)}", total=len(names)) as bar:
+        def progress(name: str) -> None:
+            if bar.item:
+                bar.update(1)
+            bar.item = name
+
+        results = b.run_all(names, repeat, progress=progress)
     # with --json - the JSON alone goes to stdout (parseable), the table to stderr
     click.echo(b.format_table(results), err=json_path == "-")
     doc = [r.to_dict() for r in results]

@@ -39,6 +39,7 @@ def compare(traj, solvers, out_dir, json_path, no_plots, **kwargs):
         bhr compare --traj curve --angle 360 --solver seed --solver optimal
     """
     from bhr.atomic import write_json
+    from bhr.cli._progress import announce_compiles, status
     from bhr.compare import compare_figure, compare_json, compare_runs, format_table
     from bhr.errors import BhrError
     from bhr.follow import BhrWarning
@@ -64,8 +65,10 @@ def compare(traj, solvers, out_dir, json_path, no_plots, **kwargs):
     if optimal and "optimal" not in names:
         raise BhrError(f"--{next(iter(optimal)).replace('_', '-')} is an option of the optimal solver; "
                        "add --solver optimal or drop it")
+    announce_compiles()
     tr = load_trajectory(traj, feed=robot.feed, **pop_trajectory(kwargs))
-    with warnings.catch_warnings(record=True) as caught:
+    with warnings.catch_warnings(record=True) as caught, \
+            status(f"following {tr.name} ({len(tr.points)} steps) with {', '.join(names)}"):
         warnings.simplefilter("always", BhrWarning)
         runs = compare_runs(tr, names, robot, solver_options={"optimal": optimal}, body_modules=body_modules)
     for w in {str(w.message) for w in caught if issubclass(w.category, BhrWarning)}:
@@ -80,7 +83,8 @@ def compare(traj, solvers, out_dir, json_path, no_plots, **kwargs):
     if not no_plots:
         from bhr.plots import save_figure
 
-        written.append(save_figure(compare_figure(runs), out / "compare.png"))
+        with status(f"drawing {out / 'compare.png'}"):
+            written.append(save_figure(compare_figure(runs), out / "compare.png"))
     for line in format_table(runs):
         click.echo(line, err=stream)
     if written:

@@ -21,6 +21,7 @@ def fk(codes, json_path, **kwargs):
     Example: bhr fk --codes 3,0,6,0,0
     """
     from bhr.atomic import write_json
+    from bhr.cli._progress import announce_compiles
     from bhr.codes import check_codes
     from bhr.errors import BhrError
     from bhr.robot import forward_kinematics
@@ -33,6 +34,7 @@ def fk(codes, json_path, **kwargs):
     if kwargs.get("modules") is None and kwargs.get("robot_file") is None:
         kwargs["modules"] = len(checked)
     robot = build_robot(kwargs)
+    announce_compiles()
     points, frames = forward_kinematics(robot, checked)
     doc = {"codes": checked, "points": points.tolist(), "frames": frames.tolist()}
     if json_path == "-":

@@ -8,6 +8,7 @@ from pathlib import Path
 import click
 
 from bhr.cli._common import check_writable, guarded
+from bhr.cli._progress import announce_compiles, status
 from bhr.cli._link import exit_interrupted, link_options, link_settings
 from bhr.cli.replay import STRIDE_HELP, check_view_options, render_animation, run_live_view
 from bhr.cli._options import (FiniteRange, build_robot, constraint_options, optimal_options, pop_constraints, pop_optimal,
@@ -132,18 +133,22 @@ def follow(traj, solver, out_dir, json_path, no_plots, **kwargs):
         raise BhrError(f"--{next(iter(optimal)).replace('_', '-')} is an option of --solver optimal; "
                        f"drop it or use --solver optimal")
     traj_params = pop_trajectory(kwargs)
+    announce_compiles()
     tr = load_trajectory(traj, feed=robot.feed, **traj_params)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", BhrWarning)
         if link_kw["port"] is None:
-            result = run_follow(tr, solver=solver, robot=robot, solver_options={**constraints, **optimal},
-                                body_modules=body_modules)
+            body = f", body of {body_modules} modules" if body_modules is not None else ""
+            with status(f"following {tr.name} ({len(tr.points)} steps, solver {solver}{body})"):
+                result = run_follow(tr, solver=solver, robot=robot, solver_options={**constraints, **optimal},
+                                    body_modules=body_modules)
         else:
             result = follow_streaming(tr, solver, robot, {**constraints, **optimal}, body_modules, rate, link_kw)
     for w in caught:
         if issubclass(w.category, BhrWarning):
             click.echo(f"Warning: {w.message}", err=True)
-    doc = result.to_json()
+    with status("writing run.json"):
+        doc = result.to_json()
     written = []
     if result.codes is not None:
         write_text(out / "codes.csv", format_codes_csv(result.codes))
@@ -157,7 +162,8 @@ def follow(traj, solver, out_dir, json_path, no_plots, **kwargs):
     if not no_plots:
         from bhr.plots import save_run_plots
 
-        written += save_run_plots(result, out)
+        with status(f"drawing the figures into {out}"):
+            written += save_run_plots(result, out)
     stream = json_path == "-"
     for line in summary_lines(result):
         click.echo(line, err=stream)

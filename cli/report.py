@@ -28,6 +28,7 @@ def report(batch_path, out_dir, jobs, inline_images):
 
         bhr report --batch docs/examples/chapter7.toml --out chapter7
     """
+    from bhr.cli._progress import announce_compiles
     from bhr.report import format_table, load_batch, run_batch
 
     batch = load_batch(batch_path)
@@ -36,15 +37,13 @@ def report(batch_path, out_dir, jobs, inline_images):
         check_writable(out / name, "report")
     total = len(batch.runs)
     workers = min(jobs or os.cpu_count() or 1, total)
-    err = click.get_text_stream("stderr")
-    with click.progressbar(length=total, label=f"Running {total} runs", file=err, show_pos=True,
-                           item_show_func=lambda s: s) as bar:
-        last = [0]
+    announce_compiles()
+    starting = f"(starting {workers} worker processes)" if workers > 1 else ""
+    with status(f"Running {total} runs", total=total) as bar:
+        bar.item = starting
 
         def progress(done: int, _total: int, row: dict) -> None:
-            bar.current_item = row["name"] if row["status"] == "ok" else f"{row['name']} FAILED"
-            bar.update(done - last[0])
-            last[0] = done
+            bar.update(done - bar.done, row["name"] if row["status"] == "ok" else f"{row['name']} FAILED")
 
         rep = run_batch(batch, out, jobs=workers, inline_images=inline_images, progress=progress)
     for line in format_table(rep.rows):

@@ -40,6 +40,7 @@ def sweep(sweep_file, trajs, solvers, grid, robot_file, out_dir, jobs, scheduler
 
         bhr sweep --traj curve --grid modules=3:12 --grid alpha=6:15 --grid module_length=8,10,12
     """
+    from bhr.cli._progress import announce_compiles, status
     from bhr.errors import BhrError
     from bhr.sweep import build_sweep, format_summary, heatmap_axes, load_sweep, parse_grid_option, run_sweep, \
         write_outputs
@@ -79,22 +80,19 @@ def sweep(sweep_file, trajs, solvers, grid, robot_file, out_dir, jobs, scheduler
         from bhr.sweep import connect_scheduler
 
         client = connect_scheduler(scheduler)  # fails in one line before anything starts
-    err = click.get_text_stream("stderr")
     where = f"on {scheduler}" if scheduler else ""
+    announce_compiles()
     try:
-        with click.progressbar(length=total, label=f"Running {total} designs {where}".rstrip(), file=err,
-                               show_pos=True) as bar:
-            last = [0]
-
+        with status(f"Running {total} designs {where}".rstrip(), total=total) as bar:
             def progress(done: int, _total: int) -> None:
-                bar.update(done - last[0])
-                last[0] = done
+                bar.update(done - bar.done)
 
             result = run_sweep(s, jobs=jobs, scheduler=client, progress=progress)
     finally:
         if client is not None:
             client.close()
-    files = write_outputs(result, out, plot=not no_plot, x=hx, y=hy)
+    with status(f"writing {out}"):
+        files = write_outputs(result, out, plot=not no_plot, x=hx, y=hy)
     for line in format_summary(result):
         click.echo(line)
     click.echo("Wrote " + ", ".join(str(p) for p in files))
