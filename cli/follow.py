@@ -88,6 +88,9 @@ def body_clearance_lines(s: dict) -> list[str]:
                         "while solving (the --robot file's [link] gives baud rate and module order).", robot=False)
 @click.option("--rate", default=10.0, show_default=True, metavar="HZ", type=FiniteRange(min=0, min_open=True, max=1000),
               help="With --port: steps sent per second, at most.")
+@click.option("--at-end", "at_end", type=click.Choice(["stop", "hold"]), default="stop", show_default=True,
+              help="With --port, after the last step: 'stop' sends stop-all (every actuator off); 'hold' sends a "
+                   "heartbeat and leaves the last codes on until the board's silence timeout switches them off.")
 @guarded
 def follow(traj, solver, out_dir, json_path, no_plots, **kwargs):
     """Follow a trajectory with follow-the-leader and report the errors.
@@ -117,11 +120,16 @@ def follow(traj, solver, out_dir, json_path, no_plots, **kwargs):
     check_writable(json_path, "JSON")
     check_view_options(show, animate_path)
     rate = kwargs.pop("rate")
+    at_end = kwargs.pop("at_end")
     link_kw = {k: kwargs.pop(k) for k in ("port", "baud", "timeout", "retries")}
     if link_kw["port"] is None and link_kw["baud"] is not None:
         from bhr.errors import BhrError
 
         raise BhrError("--baud is an option of streaming; give --port too, or drop --baud")
+    if link_kw["port"] is None and at_end != "stop":
+        from bhr.errors import BhrError
+
+        raise BhrError("--at-end is an option of streaming; give --port too, or drop --at-end")
     link_kw["robot_file"] = kwargs.get("robot_file")
     robot = build_robot(kwargs)
     constraints = pop_constraints(kwargs)
@@ -143,7 +151,8 @@ def follow(traj, solver, out_dir, json_path, no_plots, **kwargs):
                 result = run_follow(tr, solver=solver, robot=robot, solver_options={**constraints, **optimal},
                                     body_modules=body_modules)
         else:
-            result = follow_streaming(tr, solver, robot, {**constraints, **optimal}, body_modules, rate, link_kw)
+            result = follow_streaming(tr, solver, robot, {**constraints, **optimal}, body_modules, rate, link_kw,
+                                      at_end)
     for w in caught:
         if issubclass(w.category, BhrWarning):
             click.echo(f"Warning: {w.message}", err=True)
@@ -174,7 +183,7 @@ def follow(traj, solver, out_dir, json_path, no_plots, **kwargs):
         run_live_view(result, stride)
 
 
-def follow_streaming(tr, solver, robot, solver_options, body_modules, rate, link_kw):
+def follow_streaming(tr, solver, robot, solver_options, body_modules, rate, link_kw, at_end="stop"):
     """Run bhr.follow with each step's codes sent to the board (the --port path of the command)."""
     import contextlib
     import sys
@@ -211,6 +220,18 @@ def follow_streaming(tr, solver, robot, solver_options, body_modules, rate, link
                 result = run_follow(tr, solver=solver, robot=robot, solver_options=solver_options, on_step=on_step)
         except KeyboardInterrupt:
             exit_interrupted(interrupted(link, pacer.sent), steps, "steps")
-    click.echo(f"streamed {pacer.sent} steps ({robot.modules} modules) to {port} at up to {rate:g} Hz"
-               + (f"; board reported: {', '.join(pacer.faults)}" if pacer.faults else ""), err=True)
+        end = end_stream(link, at_end)
+    click.echo(f"streamed {pacer.sent} step{'s' * (pacer.sent != 1)} ({robot.modules} modules) to {port} at up to "
+               f"{rate:g} Hz" + (f"; board reported: {', '.join(pacer.faults)}" if pacer.faults else "") + f"; {end}",
+               err=True)
     return result
+
+
+def end_stream(link, at_end: str) -> str:
+    """The explicit last message of a stream (``--at-end``): stop-all or a heartbeat that holds; what it did."""
+    if at_end == "hold":
+        link.heartbeat()
+        return ("holding the last codes (--at-end hold): the board switches them off after its silence timeout "
+                "unless the host sends again, and then reports 'silence'")
+    link.stop_all()
+    return "sent stop-all at the end (--at-end stop): every actuator is off"

@@ -66,6 +66,26 @@ def built():
     return r
 
 
+def default_sigint() -> None:
+    """In a child before exec: SIGINT back to its default, so Ctrl-C reaches it even when the test
+    suite itself was started with SIGINT ignored (nohup, a background job of a non-interactive shell)."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
+@pytest.fixture(scope="module")
+def long_silence(built):
+    """A simulator build whose silence timeout (30 s) no test outlasts, even on a loaded machine.
+
+    Built into its own folder with the Makefile's BUILD and SIM_SILENCE_MS settings; gives
+    (harness, firmware ELF) for ``sim(build=...)``.
+    """
+    build = FIRMWARE / "build" / "silence-30s"
+    r = subprocess.run(["make", "-C", str(FIRMWARE), "sim-build", f"BUILD={build}", "SIM_SILENCE_MS=30000"],
+                       capture_output=True, text=True, timeout=600)
+    assert r.returncode == 0, r.stdout + r.stderr
+    return build / "bhr-sim", build / "sim" / f"bhr-m{MODULES}.elf"
+
+
 def bhr_cmd() -> list[str]:
     exe = shutil.which("bhr")
     return [exe] if exe else [sys.executable, "-c", "from bhr.cli.main import main; main()"]
@@ -102,16 +122,17 @@ def read_line(proc: subprocess.Popen, timeout: float) -> str:
 class Sim:
     """A running simulated board: .pty, .log_path, events(), stop()."""
 
-    def __init__(self, tmp_path: Path, via_make: bool = False) -> None:
+    def __init__(self, tmp_path: Path, via_make: bool = False, build: tuple[Path, Path] | None = None) -> None:
         self.log_path = tmp_path / f"pins-{time.monotonic_ns()}.log"
         self.err_path = tmp_path / "sim-stderr.txt"
         self.err = open(self.err_path, "wb")
         if via_make:
             cmd = ["make", "-C", str(FIRMWARE), "sim", f"SIM_LOG={self.log_path}"]
         else:
-            cmd = [str(HARNESS), "-m", str(MODULES), "-l", str(self.log_path), str(SIM_ELF)]
+            harness, elf = build or (HARNESS, SIM_ELF)
+            cmd = [str(harness), "-m", str(MODULES), "-l", str(self.log_path), str(elf)]
         self.proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=self.err, start_new_session=True,
-                                     bufsize=0)
+                                     bufsize=0, preexec_fn=default_sigint)
         self.preamble = []
         self.pty = None
         end = time.monotonic() + 60
@@ -203,10 +224,14 @@ def outputs_while_streaming(events: list[dict]) -> list[list[int]]:
     return collapse(seq)
 
 
-def check_stream_reached_the_pins(s: Sim, rows) -> None:
+def check_stream_reached_the_pins(s: Sim, rows, held: bool = False) -> None:
+    """The outputs showed ``rows`` in order; ``held``: the board still holds the last row, so later
+    changes (the on-time limit switching a module off) are not part of the stream."""
     evs = s.events()
     assert [e["t_us"] for e in evs] == sorted(e["t_us"] for e in evs)
-    assert outputs_while_streaming(evs) == collapse([[0] * MODULES] + [list(r) for r in rows])
+    want = collapse([[0] * MODULES] + [list(r) for r in rows])
+    seen = outputs_while_streaming(evs)
+    assert (seen[:len(want)] if held else seen) == want
     for e in evs:  # every code on an output is a stable one
         assert all(c in (0, 3, 6, 9, 12, 15) for c in e["codes"] + e["latched"])
 
@@ -419,7 +444,7 @@ def test_killing_the_simulator_mid_stream_is_one_clear_line(sim, tmp_path):
     f = tmp_path / "codes.csv"
     f.write_text(format_codes_csv(rows))
     proc = subprocess.Popen(bhr_cmd() + ["stream", "--port", s.pty, "--codes", str(f), "--rate", "40"],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, preexec_fn=default_sigint)
     s.wait_for(lambda evs: sum(e["ev"] == "latch" for e in evs) > 10, 20)
     os.killpg(s.proc.pid, signal.SIGKILL)
     out, err = proc.communicate(timeout=30)
@@ -435,7 +460,7 @@ def test_ctrl_c_sends_stop_all(sim, tmp_path):
     f = tmp_path / "codes.csv"
     f.write_text(format_codes_csv(rows))
     proc = subprocess.Popen(bhr_cmd() + ["stream", "--port", s.pty, "--codes", str(f), "--rate", "40"],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, preexec_fn=default_sigint)
     s.wait_for(lambda evs: sum(e["ev"] == "latch" for e in evs) > 10, 20)
     proc.send_signal(signal.SIGINT)
     out, err = proc.communicate(timeout=30)
@@ -465,22 +490,49 @@ def test_bad_files_never_reach_the_board(sim, tmp_path):
     assert all(e["latched"] == [0] * MODULES for e in s.events())
 
 
-def test_follow_streams_each_step_while_it_solves(sim, tmp_path):
-    s = sim()
+def test_follow_streams_each_step_while_it_solves(sim, long_silence, tmp_path):
+    s = sim(build=long_silence)  # the board holds the last codes for 30 s, however slow this machine is
     out = tmp_path / "run"
     r = run_bhr("follow", "--traj", "curve", "--radius", "70", "--angle", "90", "--no-plots", "--out", out,
-                "--port", s.pty, "--rate", "100", timeout=600)
+                "--port", s.pty, "--rate", "100", "--at-end", "hold", timeout=600)
     assert r.returncode == 0, r.stderr
     steps, rows = read_codes_csv(out / "codes.csv")
     assert f"streamed {len(rows)} steps (5 modules) to {s.pty}" in r.stderr
+    assert "holding the last codes (--at-end hold)" in r.stderr
+    st = run_bhr("status", "--port", s.pty, "--json", "-")
+    assert json.loads(st.stdout) == {"codes": rows[-1].tolist(), "faults": []}
     # streaming does not change the run: same codes as without --port
     plain = tmp_path / "plain"
     assert run_bhr("follow", "--traj", "curve", "--radius", "70", "--angle", "90", "--no-plots",
                    "--out", plain).returncode == 0
     assert (plain / "codes.csv").read_text() == (out / "codes.csv").read_text()
+    check_stream_reached_the_pins(s, rows.tolist(), held=True)
+
+
+def test_follow_port_ends_with_stop_all_by_default(sim, tmp_path):
+    s = sim()
+    out = tmp_path / "run"
+    r = run_bhr("follow", "--traj", "line", "--length", "20", "--no-plots", "--out", out, "--port", s.pty,
+                "--rate", "100", timeout=600)
+    assert r.returncode == 0, r.stderr
+    assert "sent stop-all at the end (--at-end stop): every actuator is off" in r.stderr
     st = run_bhr("status", "--port", s.pty, "--json", "-")
-    assert json.loads(st.stdout) == {"codes": rows[-1].tolist(), "faults": []}
-    check_stream_reached_the_pins(s, rows.tolist())
+    assert json.loads(st.stdout) == {"codes": [0] * MODULES, "faults": []}
+    evs = s.events()
+    assert evs[-1]["codes"] == [0] * MODULES and evs[-1]["latched"] == [0] * MODULES
+
+
+def test_status_explains_silence(sim, tmp_path):
+    s = sim()  # silence timeout 2 s
+    f = tmp_path / "codes.csv"
+    f.write_text(format_codes_csv([[3, 0, 0, 0, 0]]))
+    assert run_bhr("stream", "--port", s.pty, "--codes", f).returncode == 0
+    s.wait_for(lambda evs: evs[-1]["codes"] == [0] * MODULES and any(e["ev"] == "oe" and e["oe"] == "off"
+                                                                      for e in evs), 30)
+    st = run_bhr("status", "--port", s.pty)
+    assert st.returncode == 0, st.stderr
+    assert "faults: silence" in st.stdout
+    assert "the host fell silent for longer than the board's silence timeout" in st.stdout
 
 
 def test_follow_refuses_a_board_of_another_size_before_sending(sim, tmp_path):
@@ -499,7 +551,7 @@ def test_ctrl_c_during_follow_sends_stop_all(sim, tmp_path):
     s = sim()
     proc = subprocess.Popen(bhr_cmd() + ["follow", "--traj", "colon", "--no-plots", "--out", str(tmp_path / "o"),
                                          "--port", s.pty, "--rate", "40"],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, preexec_fn=default_sigint)
     s.wait_for(lambda evs: sum(e["ev"] == "latch" for e in evs) > 10, 60)
     proc.send_signal(signal.SIGINT)
     out, err = proc.communicate(timeout=30)
