@@ -113,13 +113,14 @@ def path_directions(path: np.ndarray) -> np.ndarray:
 
 
 def stats(values: np.ndarray, first: int = 0) -> dict[str, float | int]:
-    """max, mean, median and final of ``values[first:]`` and the worst step (1-based)."""
+    """max, mean, median, root mean square and final of ``values[first:]`` and the worst step (1-based)."""
     v = values[first:] if first < len(values) else values[-1:]
     worst = int(np.argmax(values)) + 1
     return {
         "max": float(np.max(values)),
         "mean": float(np.mean(v)),
         "median": float(np.median(v)),
+        "rmse": float(np.sqrt(np.mean(np.square(v)))),
         "final": float(values[-1]),
         "worst_step": worst,
     }
@@ -171,7 +172,17 @@ class FollowResult:
                 + r.weight_ori * self.orientation_errors / r.tol_ori)
 
     def summary(self) -> dict[str, Any]:
-        """Max, mean, median and final per point and module (leading unscored steps left out of mean/median)."""
+        """Max, mean, median, RMSE and final per point and module (leading unscored steps left out of mean,
+        median and RMSE), and the run's headline figures.
+
+        ``rmse_point_mm`` (base first) and ``rmse_module_deg`` are the root mean
+        square of each point's position error and each module's orientation
+        error over its scored steps; ``tip_rmse_mm`` and
+        ``tip_orientation_rmse_deg`` are the tip's. ``tolerance_exceeded`` is
+        true when some point's error went over ``tol_pos`` or the tip's
+        orientation error over ``tol_ori`` (``over_tol_pos_steps`` and
+        ``over_tol_ori_steps`` count those steps).
+        """
         n = self.modules
         f = self.robot.feed_divisor
         pts = [stats(self.point_errors[:, j], (n - j) * f) for j in range(n + 1)]
@@ -190,13 +201,20 @@ class FollowResult:
             "orientation_max_deg": float(self.orientation_errors.max()),
             "tip_orientation_max_deg": mods[-1]["max"],
             "tip_orientation_final_deg": mods[-1]["final"],
+            "tip_rmse_mm": pts[-1]["rmse"],
+            "tip_orientation_rmse_deg": mods[-1]["rmse"],
+            "rmse_point_mm": [p["rmse"] for p in pts],
+            "rmse_module_deg": [m["rmse"] for m in mods],
             "global_max": float(self.global_errors.max()),
+            "over_tol_pos_steps": int(np.count_nonzero(self.point_errors.max(axis=1) > self.robot.tol_pos)),
+            "over_tol_ori_steps": int(np.count_nonzero(self.orientation_errors[:, -1] > self.robot.tol_ori)),
             "mean_iterations": float(np.mean(self.iterations)),
             "points": pts,
             "modules": mods,
             "global": glob,
             "warnings": list(self.warnings),
         }
+        out["tolerance_exceeded"] = bool(out["over_tol_pos_steps"] or out["over_tol_ori_steps"])
         if self.body is not None:
             b = self.body
             out["body_modules"] = self.modules + b.modules
@@ -309,12 +327,42 @@ def _run_from_json(doc: Any, where: str) -> FollowResult:
     solver = doc["solver"]
     if not isinstance(solver, str):
         raise bad("'solver' must be a name")
+    lumen = None
+    if tr.get("lumen") is not None:
+        lumen = array(tr["lumen"], (path.shape[0],), "trajectory lumen")
+    body = None
+    if any("body_points" in st for st in steps):
+        body = _body_from_json(steps, robot, bad, array)
     summary = doc.get("summary")
     msgs = summary.get("warnings", []) if isinstance(summary, dict) else []
     params = tr.get("params") if isinstance(tr.get("params"), dict) else {}
-    traj = Trajectory(str(tr.get("name", "run")), path, dict(params), source=where)
-    return FollowResult(traj, robot, solver, pts, np.asarray(iters, dtype=np.int64), pe, oe, codes,
-                        [str(m) for m in msgs] if isinstance(msgs, list) else [])
+    traj = Trajectory(str(tr.get("name", "run")), path, dict(params), source=where, lumen=lumen)
+    result = FollowResult(traj, robot, solver, pts, np.asarray(iters, dtype=np.int64), pe, oe, codes,
+                          [str(m) for m in msgs] if isinstance(msgs, list) else [])
+    result.body = body
+    return result
+
+
+def _body_from_json(steps: list, robot: Robot, bad: Callable[[str], BhrError], array: Callable[..., np.ndarray]):
+    """The body behind the head (bhr.body.BodyRun) from the ``body_*`` keys of every step."""
+    from bhr.body import BodyRun
+
+    keys = ("body_points", "body_point_errors_mm", "body_module_orientation_errors_deg", "body_codes")
+    for k, st in enumerate(steps):
+        if not all(key in st for key in keys):
+            raise bad(f"step {k + 1} must have {', '.join(keys)} (the body is in some steps only)")
+    nb = len(steps[0]["body_points"]) if isinstance(steps[0]["body_points"], list) else -1
+    if nb < 1:
+        raise bad("step 1 body_points must be a list of points")
+    pts = np.stack([array(st["body_points"], (nb, 3), f"step {k + 1} body_points") for k, st in enumerate(steps)])
+    pe = np.stack([array(st["body_point_errors_mm"], (nb,), f"step {k + 1} body_point_errors_mm")
+                   for k, st in enumerate(steps)])
+    oe = np.stack([array(st["body_module_orientation_errors_deg"], (nb,),
+                         f"step {k + 1} body_module_orientation_errors_deg") for k, st in enumerate(steps)])
+    codes = np.stack([array(st["body_codes"], (nb,), f"step {k + 1} body_codes") for k, st in enumerate(steps)])
+    # body point k is scored against the trajectory point (n + k) f steps behind (bhr.body)
+    idx = np.arange(len(steps))[:, None] - (robot.modules + np.arange(1, nb + 1)[None, :]) * robot.feed_divisor
+    return BodyRun(nb, pts, codes.astype(np.int64), pe, oe, idx >= 0)
 
 
 def load_run(path: Any) -> FollowResult:

@@ -43,7 +43,8 @@ __all__ = ["Sweep", "SweepResult", "GRID_KEYS", "parse_grid_option", "parse_valu
 GRID_KEYS = frozenset(NUMBER_KEYS | set(CONSTRAINT_KEYS))
 #: Result columns of every design, after its design keys.
 METRICS = ("status", "steps", "tip_max_error_mm", "tip_final_error_mm", "points_max_error_mm",
-           "orientation_max_deg", "global_max", "min_clearance_mm", "min_turn_radius_mm")
+           "orientation_max_deg", "global_max", "tip_rmse_mm", "tip_orientation_rmse_deg", "tolerance_exceeded",
+           "min_clearance_mm", "min_turn_radius_mm")
 DASK_MISSING = ("--scheduler needs Dask's distributed package, which is not installed; "
                 "install it with: pip install 'bhr[dask]' (or pip install 'dask[distributed]')")
 _TOP_KEYS = ("title", "description", "traj", "solver", "robot", "grid")

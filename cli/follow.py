@@ -23,7 +23,7 @@ def summary_lines(result) -> list[str]:
         f"{s['trajectory']}: {s['steps']} steps, solver {s['solver']}, {r.modules} modules x {r.module_length:g} mm, "
         f"alpha {r.alpha:g} deg, feed {r.feed:g} mm",
     ]
-    head = f"{'':<22}{'max':>9}{'at step':>9}{'mean':>9}{'median':>9}{'final':>9}"
+    head = f"{'':<22}{'max':>9}{'at step':>9}{'mean':>9}{'median':>9}{'rmse':>9}{'final':>9}"
 
     def block(title: str, rows: list[dict], label: str, count: int) -> None:
         lines.append("")
@@ -32,7 +32,7 @@ def summary_lines(result) -> list[str]:
         for j, st in enumerate(rows):
             name = f"{label} {j + 1}" + (" (base)" if j == 0 else "") + (" (tip)" if j == count - 1 else "")
             lines.append(f"  {name:<20}{st['max']:>9.3f}{st['worst_step']:>9d}{st['mean']:>9.3f}"
-                         f"{st['median']:>9.3f}{st['final']:>9.3f}")
+                         f"{st['median']:>9.3f}{st['rmse']:>9.3f}{st['final']:>9.3f}")
 
     block("Position error (mm)", s["points"], "point", len(s["points"]))
     block("Orientation error (deg)", s["modules"], "module", len(s["modules"]))
@@ -40,8 +40,25 @@ def summary_lines(result) -> list[str]:
     lines.append("")
     lines.append(f"Worst step: {s['points_worst_step']} (largest point error {s['points_max_error_mm']:.3f} mm); "
                  f"tip ends {s['tip_final_error_mm']:.4f} mm and {s['tip_orientation_final_deg']:.3f} deg off.")
+    lines += tolerance_lines(s, r)
     lines += body_clearance_lines(s)
     return lines
+
+
+def tolerance_lines(s: dict, robot) -> list[str]:
+    """One line when the run went over its tolerances (summary key tolerance_exceeded); none otherwise."""
+    if not s.get("tolerance_exceeded"):
+        return []
+    parts = []
+    if s["over_tol_pos_steps"]:
+        k = s["over_tol_pos_steps"]
+        parts.append(f"a point was more than {robot.tol_pos:g} mm off at {k} step{'s' * (k != 1)} "
+                     f"(worst {s['points_max_error_mm']:.3f} mm at step {s['points_worst_step']})")
+    if s["over_tol_ori_steps"]:
+        k = s["over_tol_ori_steps"]
+        parts.append(f"the tip's orientation was more than {robot.tol_ori:g} deg off at {k} step{'s' * (k != 1)} "
+                     f"(worst {s['tip_orientation_max_deg']:.3f} deg)")
+    return ["Over tolerance: " + "; ".join(parts) + "."]
 
 
 def body_clearance_lines(s: dict) -> list[str]:
@@ -56,8 +73,8 @@ def body_clearance_lines(s: dict) -> list[str]:
         if s["min_clearance_mm"] is None:
             out.append("Lumen clearance: no point of the robot reached the path yet.")
         else:
-            out.append(f"Lumen clearance: minimum {s['min_clearance_mm']:.3f} mm at step {s['min_clearance_step']} "
-                       f"({s['min_clearance_point']}).")
+            out.append(f"Lumen clearance: minimum {s['min_clearance_mm']:.3f} mm at step {s['min_clearance_step']}, "
+                       f"{s['min_clearance_point']}.")
         touch = s["wall_touch_steps"]
         out.append(f"Wall touched at {len(touch)} step{'s' if len(touch) != 1 else ''}"
                    + (f": {step_ranges(touch)}." if touch else "."))

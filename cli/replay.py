@@ -91,11 +91,20 @@ def replay(run, show, animate_path, stride, out_dir, step):
     if write_plots:
         from bhr.plots import ERROR_KINDS, error_figure, path_figure, save_figure
 
-        for kind, (name, _, _) in ERROR_KINDS.items():
-            written.append(save_figure(error_figure(result, kind), out / name))
-        written.append(save_figure(path_figure(result, None if step is None else step - 1), out / path_name))
+        from bhr.cli._progress import status
+        from bhr.plots import body_figure, clearance_figure
+
+        with status(f"drawing the figures into {out}"):
+            for kind, (name, _, _) in ERROR_KINDS.items():
+                written.append(save_figure(error_figure(result, kind), out / name))
+            written.append(save_figure(path_figure(result, None if step is None else step - 1), out / path_name))
+            # everything `bhr follow` drew: the body's errors and the lumen clearance too
+            if result.body is not None and result.body.modules:
+                written.append(save_figure(body_figure(result), out / "body_errors.png"))
+            if result.clearance is not None:
+                written.append(save_figure(clearance_figure(result), out / "clearance.png"))
     if animate_path:
-        written.append(render_animation(result, animate_path, stride))
+        render_animation(result, animate_path, stride)  # prints its own line
     if written:
         click.echo("Wrote " + ", ".join(str(p) for p in written))
     if show:
