@@ -47,7 +47,10 @@ ROBOT_KEYS: dict[str, dict[str, Any]] = {
     "weight_ori": {"nonneg": True},
 }
 LINK_KEYS = ("port", "baudrate", "module_order", "on_max_ms", "cooldown_ms", "silence_ms")
-TOP_KEYS = ("name", "description", *ROBOT_KEYS, "codes", "link")
+#: File key -> Robot field where they differ: ``robot_radius`` is the disc radius in robot files, batch
+#: and sweep files and on the command line (``--robot-radius``); ``radius``, its old name here, is accepted.
+KEY_ALIASES = {"robot_radius": "radius"}
+TOP_KEYS = ("name", "description", "robot_radius", *ROBOT_KEYS, "codes", "link")
 #: Limits the firmware accepts for its timing settings (firmware/src/config.h), ms.
 TIMING_RANGE = (10, 60000)
 #: Modules one board drives at most (firmware/src/config.h).
@@ -230,13 +233,18 @@ def load_robot_file(path: str | os.PathLike[str]) -> RobotFile:
         raise BhrError(f"{where}: robot files are TOML (.toml); {HINT}")
     data = read_toml(p, "robot file", f"give a robot description such as {default_robot_file()}")
     check_keys(data, TOP_KEYS, where)
+    if "robot_radius" in data:
+        if "radius" in data:
+            raise BhrError(f"{where}: radius is the old name of robot_radius; give robot_radius only")
+        data = {("radius" if k == "robot_radius" else k): v for k, v in data.items()}
     name = text_value(data.get("name", p.stem), f"{where}: name")
     description = text_value(data.get("description", ""), f"{where}: description")
     fields_: dict[str, Any] = {}
     for key, rules in ROBOT_KEYS.items():
         if key in data:
             top = None if key == "alpha" else ROBOT_LIMITS[key][0]
-            fields_[key] = number(data[key], f"{where}: {key}", maximum=top, **rules)
+            shown = "robot_radius" if key == "radius" else key
+            fields_[key] = number(data[key], f"{where}: {shown}", maximum=top, **rules)
     has_sl = "stroke" in fields_ or "lever" in fields_
     if has_sl and "alpha" in fields_:
         raise BhrError(f"{where}: give alpha, or stroke and lever (alpha = asin(stroke/lever)), not both")

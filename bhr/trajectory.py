@@ -278,7 +278,10 @@ def load_trajectory(name_or_path: str | os.PathLike[str], feed: float = 2.0, **p
         return _from_file(path, feed, params, builtin=True)
     p = Path(key)
     if not p.exists():
-        raise BhrError(f"unknown trajectory {key!r}: not a built-in ({', '.join(GENERATORS)}) and no such file")
+        from bhr._input import did_you_mean
+
+        raise BhrError(f"unknown trajectory {key!r}: not a built-in ({', '.join(GENERATORS)}) and no such file; "
+                       f"{did_you_mean(key, GENERATORS)}give one of the built-ins or a .toml/.csv file")
     return _from_file(p, feed, params, builtin=False)
 
 

@@ -85,8 +85,12 @@ def _stack(*decorators: Callable[[Any], Any]) -> Callable[[Any], Any]:
     return apply
 
 
-def robot_options(feed: bool = True) -> Callable[[Any], Any]:
-    """--modules, --module-length, --robot-radius, --alpha (or --stroke/--lever), tolerances..."""
+def robot_options(feed: bool = True, solving: bool = True) -> Callable[[Any], Any]:
+    """--modules, --module-length, --robot-radius, --alpha (or --stroke/--lever), tolerances...
+
+    ``solving=False`` leaves out what only a solver uses (tolerances, iteration
+    limit, error weights): ``bhr fk`` solves nothing.
+    """
     opts = [
         click.option("--robot", "robot_file", default=None, metavar="FILE",
                      help="Robot description (TOML); options given here override its values."),
@@ -99,6 +103,8 @@ def robot_options(feed: bool = True) -> Callable[[Any], Any]:
                      help="Actuator stroke h (mm); with --lever gives alpha = asin(h/L)."),
         click.option("--lever", type=_lim("lever"),
                      help="Actuator lever L (mm); see --stroke."),
+    ]
+    solver_opts = [
         click.option("--tol-pos", type=_lim("tol_pos"),
                      help="Position tolerance (mm)."),
         click.option("--tol-ori", type=_lim("tol_ori"),
@@ -110,6 +116,8 @@ def robot_options(feed: bool = True) -> Callable[[Any], Any]:
         click.option("--weight-ori", type=_lim("weight_ori"),
                      help="Weight of orientation in the global error [0.3]."),
     ]
+    if solving:
+        opts += solver_opts
     if feed:
         opts.append(click.option("--feed-divisor", type=_lim("feed_divisor", int), default=None,
                                  help="Feed = module length / this [5]; trajectory points are spaced by the feed."))

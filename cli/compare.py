@@ -51,7 +51,9 @@ def compare(traj, solvers, out_dir, json_path, no_plots, **kwargs):
     known = available()
     for name in names:
         if name not in known:
-            raise BhrError(f"unknown solver {name!r}; choose from {', '.join(known)}")
+            from bhr._input import did_you_mean
+
+            raise BhrError(f"unknown solver {name!r}; {did_you_mean(name, known)}choose from {', '.join(known)}")
     robot = build_robot(kwargs)
     if traj is None:
         raise BhrError("give the trajectory to compare on: --traj line|curve|spiral|colon|FILE")

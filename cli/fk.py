@@ -12,7 +12,7 @@ from bhr.cli._options import build_robot, robot_options
 @click.command()
 @click.option("--codes", "codes", required=True, metavar="C1,C2,...",
               help="One code per module, base first, comma-separated (0, 3, 6, 9, 12 or 15).")
-@robot_options(feed=False)
+@robot_options(feed=False, solving=False)
 @click.option("--json", "json_path", default=None, metavar="PATH|-", help="Write points and frames as JSON.")
 @guarded
 def fk(codes, json_path, **kwargs):

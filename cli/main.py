@@ -38,6 +38,11 @@ class LazyGroup(click.Group):
             rv = super().main(args, prog_name, complete_var, standalone_mode=False, **extra)
         except click.UsageError as exc:
             where = exc.ctx.command_path if exc.ctx is not None else "bhr"
+            if where == "bhr":  # an error while parsing a command's options: point to that command's help
+                words = list(sys.argv[1:] if args is None else args)
+                cmd = next((w for w in words if not w.startswith("-")), None)
+                if cmd in COMMANDS:
+                    where = f"bhr {cmd}"
             click.echo(f"Error: {exc.format_message()} (see '{where} --help')", err=True)
             sys.exit(exc.exit_code)
         except click.ClickException as exc:

@@ -10,15 +10,17 @@ from bhr.cli._common import check_writable, guarded
 
 
 @click.command()
-@click.option("--batch", "batch_path", required=True, metavar="FILE.toml",
+@click.option("--file", "batch_path", default=None, metavar="FILE.toml",
               help="Batch file: [[run]] tables with name, traj, solver and options (see docs/report.md).")
+@click.option("--batch", "batch_old", default=None, metavar="FILE.toml", hidden=True)  # the old spelling
 @click.option("--out", "out_dir", default=None, metavar="DIR", help="Output folder [./bhr-out/<batch name>/].")
 @click.option("--jobs", "-j", type=click.IntRange(min=1), default=None, metavar="N",
               help="Worker processes [the number of CPUs, at most one per run].")
 @click.option("--inline-images", is_flag=True,
               help="Embed the figures in index.html, so the page is one file to share.")
+@click.option("--no-plots", is_flag=True, help="Skip the figures (the page has the tables only).")
 @guarded
-def report(batch_path, out_dir, jobs, inline_images):
+def report(batch_path, batch_old, out_dir, jobs, inline_images, no_plots):
     """Run every run of a batch file and write a report page.
 
     Writes DIR/index.html (the summary table, then each run's figures),
@@ -26,11 +28,17 @@ def report(batch_path, out_dir, jobs, inline_images):
     (figures and run.json of each run). A failed run is recorded with its
     reason and the others still run; the exit status is 1 when any run failed.
 
-        bhr report --batch docs/examples/chapter7.toml --out chapter7
+        bhr report --file docs/examples/chapter7.toml --out chapter7
     """
-    from bhr.cli._progress import announce_compiles
+    from bhr.cli._progress import announce_compiles, status
+    from bhr.errors import BhrError
     from bhr.report import format_table, load_batch, run_batch
 
+    if batch_path is not None and batch_old is not None:
+        raise BhrError("--batch is the old name of --file; give the batch file once, with --file")
+    batch_path = batch_path or batch_old
+    if batch_path is None:
+        raise BhrError("give the batch file: bhr report --file FILE.toml (see docs/report.md)")
     batch = load_batch(batch_path)
     out = Path(out_dir) if out_dir else Path("bhr-out") / Path(batch_path).stem
     for name in ("index.html", "summary.csv", "summary.json"):
@@ -45,7 +53,8 @@ def report(batch_path, out_dir, jobs, inline_images):
         def progress(done: int, _total: int, row: dict) -> None:
             bar.update(done - bar.done, row["name"] if row["status"] == "ok" else f"{row['name']} FAILED")
 
-        rep = run_batch(batch, out, jobs=workers, inline_images=inline_images, progress=progress)
+        rep = run_batch(batch, out, jobs=workers, plots=not no_plots, inline_images=inline_images,
+                        progress=progress)
     for line in format_table(rep.rows):
         click.echo(line)
     click.echo(f"Wrote {', '.join(str(p) for p in rep.files())} and {out / 'runs'}/ in {rep.wall_time_s:.1f} s")

@@ -26,10 +26,12 @@ from bhr.cli._common import check_writable, guarded
               help="Run on an existing Dask distributed cluster instead, e.g. tcp://127.0.0.1:8786.")
 @click.option("--x", "hx", default=None, metavar="KEY", help="Heat-map columns [the axis with the most values].")
 @click.option("--y", "hy", default=None, metavar="KEY", help="Heat-map rows [the axis with the next most values].")
-@click.option("--no-plot", is_flag=True, help="Skip heatmap.png.")
+@click.option("--no-plots", "no_plot", is_flag=True, help="Skip heatmap.png.")
+@click.option("--no-plot", "no_plot_old", is_flag=True, hidden=True)  # the old spelling
 @click.option("--title", default=None, help="Title of the heat-map and page.")
 @guarded
-def sweep(sweep_file, trajs, solvers, grid, robot_file, out_dir, jobs, scheduler, hx, hy, no_plot, title):
+def sweep(sweep_file, trajs, solvers, grid, robot_file, out_dir, jobs, scheduler, hx, hy, no_plot, no_plot_old,
+          title):
     """Follow trajectories with every design of a parameter grid.
 
     Writes DIR/results.csv and DIR/results.json (one row per design: its
@@ -42,6 +44,8 @@ def sweep(sweep_file, trajs, solvers, grid, robot_file, out_dir, jobs, scheduler
     """
     from bhr.cli._progress import announce_compiles, status
     from bhr.errors import BhrError
+
+    no_plot = no_plot or no_plot_old
     from bhr.sweep import build_sweep, format_summary, heatmap_axes, load_sweep, parse_grid_option, run_sweep, \
         write_outputs
 
