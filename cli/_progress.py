@@ -109,6 +109,7 @@ class _Line:
     def push(self, p: Progress) -> None:
         with self.lock:
             self.stack.append(p)
+            self._draw(FRAMES[0])  # at once: short work is shown too
             if self.thread is None:
                 self.thread = threading.Thread(target=self._run, name="bhr-progress", daemon=True)
                 self.thread.start()
