@@ -410,9 +410,13 @@ def follow_optimal_kernel(path, dirs, P, E1, E2, bP, bF, bC, bH, state, cP, cF, 
                                   n, f, feed, L, alpha, w, wo, lookahead, kvec, spacing, kcurve, kbend, wdrift, wroll,
                                   step_codes, tilts)
         d = dirs[N - 2] if i == N - 1 else dirs[i]
-        out_points[i] = P
+        # element loops, not slice assignment (that compiles numba's string formatting: seconds)
+        for j in range(n + 1):
+            for c in range(3):
+                out_points[i, j, c] = P[j, c]
         out_iters[i] = layers
-        codes[i] = step_codes
+        for j in range(n):
+            codes[i, j] = step_codes[j]
         score_step(i, P, path, dirs, f, _tip_angle(P, d), pe[i], oe[i])
         advance_kernel(P, E1, E2, feed, L)
 
