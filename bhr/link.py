@@ -37,6 +37,14 @@ DEFAULT_RETRIES = 3     # extra tries after the first
 DEFAULT_HEARTBEAT = 0.25
 
 
+try:  # POSIX: pyserial's flush() calls termios.tcdrain, whose error is not an OSError
+    import termios as _termios
+
+    _TERMIOS_ERRORS: tuple[type[BaseException], ...] = (_termios.error,)
+except ImportError:  # pragma: no cover - Windows
+    _TERMIOS_ERRORS = ()
+
+
 class StreamInterrupted(KeyboardInterrupt):
     """Ctrl-C during :func:`stream_codes`; ``stopped`` tells whether stop-all was acknowledged."""
 
@@ -198,7 +206,8 @@ class BoardLink:
         try:
             self._ser.write(data)
             self._ser.flush()
-        except (self._serial_mod.SerialException, OSError) as exc:
+        except (self._serial_mod.SerialException, OSError, *_TERMIOS_ERRORS) as exc:
+            # a pseudo-terminal whose other end went away fails in tcdrain with termios.error
             raise self._io_error(exc) from None
         self.frames_sent += 1
 
@@ -212,7 +221,7 @@ class BoardLink:
             try:
                 waiting = ser.in_waiting
                 data = ser.read(max(1, min(waiting, 4096)))
-            except (self._serial_mod.SerialException, OSError) as exc:
+            except (self._serial_mod.SerialException, OSError, *_TERMIOS_ERRORS) as exc:
                 raise self._io_error(exc) from None
             if data:
                 for frame in self._decoder.feed(data):

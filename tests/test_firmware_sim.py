@@ -445,10 +445,23 @@ def test_an_actuator_held_on_past_its_limit_is_switched_off_and_reported(sim, lo
         status = link.status()
         assert status == {"codes": [3, 0, 0, 0, 0], "faults": ["overheat:m1", "overheat:m3"]} or \
             status == {"codes": [3, 0, 0, 0, 0], "faults": ["overheat:m1"]}
-    # the command line sees the latched fault too; stop-all clears it
+    # the command line sees the latched fault too; stop-all clears it. Module 1 trips again
+    # ON_MAX_MS after it came back on: whether that happened before this status depends on how
+    # long the command took to start, so the pin log decides which answer is right.
+    back_on = [e for e in s.events() if e["t_us"] > off["t_us"] and e["codes"][0] == 3][0]["t_us"]
+
+    def tripped_again():
+        return any(e["t_us"] > back_on and e["codes"][0] == 0 for e in s.events())
+
+    before = tripped_again()
     r = run_bhr("status", "--port", s.pty, "--json", "-")
+    after = tripped_again()
     doc = json.loads(r.stdout)
-    assert "overheat:m1" in doc["faults"] and doc["codes"][0] == 3
+    assert "overheat:m1" in doc["faults"]
+    held = {"codes": 3, "cooling": False}
+    cooling = {"codes": 0, "cooling": True}
+    seen = {"codes": doc["codes"][0], "cooling": "cooling:m1" in doc["faults"]}
+    assert seen == (cooling if before else held) or (before != after and seen in (held, cooling))
     with BoardLink(s.pty) as link:
         link.stop_all()
         assert link.status() == {"codes": [0] * MODULES, "faults": []}
