@@ -23,6 +23,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, Callable
 
 from bhr.errors import BhrError
+from bhr.atomic import atomic_path
 
 if TYPE_CHECKING:  # pragma: no cover
     from bhr.follow import FollowResult
@@ -188,8 +189,6 @@ def animate(result: "FollowResult", path: str | os.PathLike[str], stride: int | 
     is written atomically: an interrupted render leaves nothing behind and
     replaces nothing.
     """
-    from bhr.atomic import atomic_path
-
     fmt = check_target(path)
     if isinstance(fps, bool) or not isinstance(fps, int) or not 1 <= fps <= 50:
         raise BhrError(f"fps must be a whole number from 1 to 50, got {fps!r}")

@@ -99,7 +99,7 @@ def numpy_fabrik(points: np.ndarray, target: np.ndarray, length: float, tol: flo
 
 
 def _np_rotate(v: np.ndarray, axis: np.ndarray, angle: float) -> np.ndarray:
-    """Quaternion sandwich r v r* with numpy (same maths as bhr.dualquat.k_rotate)."""
+    """Quaternion sandwich r v r* with numpy (same maths as bhr.kinematics.dualquat.k_rotate)."""
     c, s = math.cos(angle / 2), math.sin(angle / 2)
     w, q = c, s * axis
     t_w = -np.dot(q, v)

@@ -17,6 +17,8 @@ import numpy as np
 from bhr.errors import BhrError
 from bhr.robot import Robot
 from bhr.trajectory import Trajectory
+from bhr.follow import follow
+from bhr.solvers import available
 
 __all__ = ["Compared", "compare_runs", "compare_rows", "format_table", "compare_figure", "compare_json"]
 
@@ -38,9 +40,6 @@ def compare_runs(traj: Trajectory, solvers: Sequence[str], robot: Robot, *,
                  solver_options: dict[str, dict[str, Any]] | None = None,
                  body_modules: int | None = None) -> list[Compared]:
     """Run ``traj`` with each solver (options per solver name); raises BhrError for fewer than two or repeats."""
-    from bhr.follow import follow
-    from bhr.solvers import available
-
     names = list(solvers)
     if len(names) < 2:
         raise BhrError("compare needs at least two solvers, e.g. --solver seed --solver optimal")
@@ -138,7 +137,7 @@ def compare_figure(runs: Sequence[Compared]):
     """Largest point error and tip error per step, every solver on the same axes; wall touches shaded."""
     import matplotlib.pyplot as plt
 
-    from bhr import plots  # noqa: F401  (chooses a backend without a display)
+    import bhr.plots  # noqa: F401  (chooses a backend without a display)
 
     colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
     fig, axes = plt.subplots(2, 1, figsize=(10, 6.5), sharex=True)

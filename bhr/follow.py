@@ -29,77 +29,16 @@ from bhr._callable import make_callable
 from bhr.errors import BhrError
 from bhr.robot import Robot
 from bhr.solvers import Chain, FollowContext, get_solver
-from bhr.trajectory import Trajectory
+from bhr.body import BodyRun, simulate_body
+from bhr.clearance import ClearanceReport, clearance_report
+from bhr.kinematics.leader import advance_kernel, angle_deg, score_step
+from bhr.path import Trajectory, path_directions
 
 __all__ = ["follow", "FollowResult", "path_directions", "score_step", "advance_kernel", "stats", "load_run"]
 
 
 class BhrWarning(UserWarning):
     """A run that completes but should be read with care (e.g. a curve tighter than the robot can turn)."""
-
-
-@njit(cache=True)
-def _angle_deg(ax: float, ay: float, az: float, d: np.ndarray) -> float:
-    na = math.sqrt(ax * ax + ay * ay + az * az)
-    nd = math.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
-    c = (ax * d[0] + ay * d[1] + az * d[2]) / (na * nd)
-    return math.degrees(math.acos(max(-1.0, min(1.0, c))))
-
-
-@njit(cache=True)
-def score_step(i: int, P: np.ndarray, path: np.ndarray, dirs: np.ndarray, f: int, tip_ori: float,
-               pe: np.ndarray, oe: np.ndarray) -> None:
-    """Errors of step ``i`` (0-based): points into ``pe`` (n+1), modules into ``oe`` (n)."""
-    n = P.shape[0] - 1
-    for j in range(n + 1):
-        idx = i - (n - j) * f
-        if idx < 0:
-            pe[j] = 0.0
-        else:
-            dx = P[j, 0] - path[idx, 0]
-            dy = P[j, 1] - path[idx, 1]
-            dz = P[j, 2] - path[idx, 2]
-            pe[j] = math.sqrt(dx * dx + dy * dy + dz * dz)
-    oe[n - 1] = tip_ori
-    for j in range(n - 1):
-        idx = i - (n - j) * f
-        if idx < 0:
-            oe[j] = 0.0
-        else:
-            oe[j] = _angle_deg(P[j + 1, 0] - P[j, 0], P[j + 1, 1] - P[j, 1], P[j + 1, 2] - P[j, 2], dirs[idx])
-
-
-@njit(cache=True)
-def advance_kernel(P: np.ndarray, E1: np.ndarray, E2: np.ndarray, feed: float, length: float) -> None:
-    """Advance by ``feed`` along the base module; reset the axes of modules 2..n (in place)."""
-    n = P.shape[0] - 1
-    ox, oy, oz = P[1, 0] - P[0, 0], P[1, 1] - P[0, 1], P[1, 2] - P[0, 2]
-    no = math.sqrt(ox * ox + oy * oy + oz * oz)
-    ob = np.array([ox / no, oy / no, oz / no])
-    for j in range(n + 1):
-        for c in range(3):
-            P[j, c] = P[j, c] + feed * ob[c]
-    for j in range(E1.shape[0]):
-        for c in range(3):
-            E1[j, c] = E1[j, c] + feed * ob[c]
-            E2[j, c] = E2[j, c] + feed * ob[c]
-    for E in (E1, E2):
-        dx, dy, dz = E[0, 0] - P[0, 0], E[0, 1] - P[0, 1], E[0, 2] - P[0, 2]
-        nd = math.sqrt(dx * dx + dy * dy + dz * dz)
-        d = np.array([dx / nd, dy / nd, dz / nd])
-        for j in range(1, n):
-            for c in range(3):
-                E[j, c] = P[0, c] + ob[c] * length * j + d[c]
-
-
-def path_directions(path: np.ndarray) -> np.ndarray:
-    """Unit vectors from each trajectory point to the next, (N-1, 3)."""
-    diff = np.diff(path, axis=0)
-    norms = np.linalg.norm(diff, axis=1)
-    if np.any(norms == 0):
-        k = int(np.argmin(norms))
-        raise BhrError(f"trajectory points {k + 1} and {k + 2} are the same point; remove the duplicate")
-    return diff / norms[:, None]
 
 
 def stats(values: np.ndarray, first: int = 0) -> dict[str, float | int]:
@@ -129,18 +68,16 @@ class FollowResult:
     codes: np.ndarray | None = None  # (N, n)
     warnings: list[str] = field(default_factory=list)
     extra: dict[str, Any] = field(default_factory=dict)
-    body: Any = None  # bhr.body.BodyRun: the modules behind the head (follow(..., body_modules=M))
+    body: BodyRun | None = None  # the modules behind the head (follow(..., body_modules=M))
 
     @property
-    def clearance(self) -> Any:
-        """bhr.clearance.ClearanceReport when the trajectory has a lumen (head and body points), else None."""
+    def clearance(self) -> ClearanceReport | None:
+        """The clearance report when the trajectory has a lumen (head and body points), else None."""
         if self.trajectory.lumen is None:
             return None
         key = (id(self.body), id(self.trajectory.lumen), self.point_errors.shape)
         cached = getattr(self, "_clearance_cache", None)
         if cached is None or cached[0] != key:
-            from bhr.clearance import clearance_report
-
             cached = (key, clearance_report(self))
             self._clearance_cache = cached
         return cached[1]
@@ -394,7 +331,7 @@ def follow(points: Any, solver: str = "seed", robot: Robot | None = None, *,
             P = res.chain.points
             tip = res.orientation_error_deg
             if tip is None:
-                tip = float(_angle_deg(P[n, 0] - P[n - 1, 0], P[n, 1] - P[n - 1, 1], P[n, 2] - P[n - 1, 2], d))
+                tip = float(angle_deg(P[n, 0] - P[n - 1, 0], P[n, 1] - P[n - 1, 1], P[n, 2] - P[n - 1, 2], d))
             out_points[i] = P
             out_iters[i] = res.iterations
             score_step(i, P, path, dirs, f, tip, pe[i], oe[i])
@@ -407,8 +344,6 @@ def follow(points: Any, solver: str = "seed", robot: Robot | None = None, *,
             chain = res.chain.advance(robot.feed, robot.module_length)
     result = FollowResult(traj, robot, solver, out_points, out_iters, pe, oe, codes if has_codes else None, msgs)
     if body_modules is not None:
-        from bhr.body import simulate_body
-
         result.body = simulate_body(result, body_modules)
     return result
 

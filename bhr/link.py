@@ -22,7 +22,7 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-from bhr import protocol as P
+import bhr.protocol as P
 from bhr.codes import check_code, check_codes
 from bhr.errors import BhrError, LinkError
 

@@ -31,6 +31,7 @@ from numba import njit
 
 from bhr._input import MAX_MM, check_keys, choice, number, read_text, text_value, type_name, vector3
 from bhr.errors import BhrError
+from bhr.path import Trajectory
 
 __all__ = ["segments_trajectory", "csv_trajectory", "resample_polyline", "estimate_min_radius",
            "MAX_POINTS", "CURVATURE_WINDOW_MM", "SEGMENT_KEYS"]
@@ -178,7 +179,6 @@ def _sample(pieces: list[_Piece], feed: float, where: str) -> tuple[np.ndarray, 
 
 def segments_trajectory(data: dict[str, Any], path: Path, feed: float):
     """A :class:`~bhr.trajectory.Trajectory` from a parsed segment file."""
-    from bhr.trajectory import Trajectory
 
     where = str(path)
     check_keys(data, TOP_KEYS, where)
@@ -452,7 +452,6 @@ def _unbias(k_est: float, spacing: float, m: int, w1: np.ndarray, w2: np.ndarray
 
 def csv_trajectory(path: Path, feed: float):
     """A :class:`~bhr.trajectory.Trajectory` resampled from a CSV point list."""
-    from bhr.trajectory import Trajectory
 
     where = str(path)
     raw, lumen_raw, lines = read_points_csv(path)

@@ -50,6 +50,13 @@ from pathlib import Path
 from typing import Any, Callable, Iterable, Sequence
 
 from bhr.errors import BhrError
+from bhr import __version__
+from bhr.atomic import write_json, write_text
+from bhr.follow import BhrWarning, follow
+from bhr.robot import Robot
+from bhr.robotfile import load_robot_file
+from bhr.solvers import get_solver
+from bhr.trajectory import GENERATORS, load_trajectory
 
 __all__ = ["RunSpec", "Batch", "load_batch", "parse_batch", "execute_run", "run_batch", "BatchReport",
            "ROW_FIELDS", "TRAJ_KEYS", "ROBOT_KEYS", "CONSTRAINT_KEYS", "NUMBER_KEYS", "INT_KEYS",
@@ -166,8 +173,6 @@ def _resolve(path: str, base: Path) -> str:
 
 def parse_batch(data: dict[str, Any], source: str = "batch", base_dir: str | os.PathLike[str] = ".") -> Batch:
     """A :class:`Batch` from the parsed TOML ``data``; relative paths are taken from ``base_dir``."""
-    from bhr.trajectory import GENERATORS
-
     base = Path(base_dir)
     for key in data:
         if key not in _TOP_KEYS:
@@ -225,10 +230,6 @@ def _check_values(spec: RunSpec, where: str) -> None:
     """
     if spec.robot_file is not None:
         return
-    from bhr.robot import Robot
-    from bhr.solvers import get_solver
-    from bhr.trajectory import GENERATORS, load_trajectory
-
     try:
         robot = Robot(**spec.robot_params)
         get_solver(spec.solver, robot, **spec.solver_options)
@@ -259,14 +260,7 @@ def load_batch(path: str | os.PathLike[str]) -> Batch:
 
 def robot_from_options(robot_params: dict[str, Any], robot_file: str | None = None):
     """The :class:`bhr.robot.Robot` of a run: the robot file (if any) with the options on top."""
-    from bhr.robot import Robot
-
     if robot_file is not None:
-        try:
-            from bhr.robotfile import load_robot_file
-        except ModuleNotFoundError:
-            raise BhrError("robot files need bhr.robotfile, which this installation lacks; "
-                           "give the robot options in the run table instead") from None
         base = load_robot_file(robot_file).robot
         return base.replace(**robot_params) if robot_params else base
     return Robot(**robot_params)
@@ -317,9 +311,6 @@ def execute_run(spec: RunSpec, out_dir: str | os.PathLike[str] | None = None, pl
     (name and parameters), ``robot``, ``stats`` (per point and module),
     ``figures`` (file names written).
     """
-    from bhr.follow import BhrWarning, follow
-    from bhr.trajectory import load_trajectory
-
     t0 = time.perf_counter()
     row: dict[str, Any] = {"name": spec.name, "status": "ok", "traj": spec.traj, "solver": spec.solver,
                            "description": spec.description, "inputs": spec.inputs()}
@@ -345,8 +336,6 @@ def execute_run(spec: RunSpec, out_dir: str | os.PathLike[str] | None = None, pl
                                                             "wall_touch_steps")}
         row["stats"] = {"points": summary["points"], "modules": summary["modules"], "global": summary["global"]}
         if out_dir is not None:
-            from bhr.atomic import write_json
-
             out = Path(out_dir)
             write_json(out / "run.json", result.to_json())
             if plots:
@@ -466,9 +455,6 @@ def _json_row(row: dict[str, Any]) -> dict[str, Any]:
 
 def write_report(report: BatchReport, inline_images: bool = False) -> list[Path]:
     """Write index.html, summary.csv and summary.json of ``report`` (atomically)."""
-    from bhr import __version__
-    from bhr.atomic import write_json, write_text
-
     out = report.out_dir
     write_text(out / "summary.csv", csv_text(report.rows))
     write_json(out / "summary.json", {
@@ -660,8 +646,6 @@ def _run_section(row: dict[str, Any], anchor: str, out_dir: Path, inline: bool) 
 
 def html_page(report: BatchReport, inline_images: bool = False) -> str:
     """The report page: title, the summary table, then one section per run (escaped, self-contained)."""
-    from bhr import __version__
-
     b = report.batch
     anchors = [f"run-{r['folder'].split('/', 1)[1]}" for r in report.rows]
     failed = len(report.failed)

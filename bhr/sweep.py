@@ -32,8 +32,15 @@ from pathlib import Path
 from typing import Any, Callable, Iterable, Sequence
 
 from bhr.errors import BhrError
-from bhr.report import (CONSTRAINT_KEYS, NUMBER_KEYS, ROBOT_KEYS, TRAJ_KEYS, _reason, _suggest,
-                        check_value, summary_row)
+from bhr import __version__
+from bhr.atomic import write_json, write_text
+from bhr.follow import BhrWarning, follow
+from bhr.report import (CONSTRAINT_KEYS, NUMBER_KEYS, PAGE_END, ROBOT_KEYS, TRAJ_KEYS, _reason, _suggest,
+                        check_value, page_head, summary_row)
+from bhr.robot import Robot
+from bhr.robotfile import load_robot_file
+from bhr.solvers import available
+from bhr.trajectory import GENERATORS, load_trajectory
 
 __all__ = ["Sweep", "SweepResult", "GRID_KEYS", "parse_grid_option", "parse_values", "sweep_from_toml",
            "load_sweep", "build_sweep", "run_design", "run_chunk", "run_sweep", "heatmap_axes",
@@ -216,9 +223,6 @@ def build_sweep(trajs: Sequence[str], solvers: Sequence[str], grid: Iterable[tup
     ``robot_file``: a robot description (TOML) every design starts from; its
     grid values replace the file's.
     """
-    from bhr.solvers import available
-    from bhr.trajectory import GENERATORS, load_trajectory
-
     grid = tuple(grid)
     keys = [k for k, _ in grid]
     dup = {k for k in keys if keys.count(k) > 1}
@@ -241,8 +245,6 @@ def build_sweep(trajs: Sequence[str], solvers: Sequence[str], grid: Iterable[tup
     base_robot: dict[str, Any] = {}
     if robot_file is not None:
         from dataclasses import fields
-
-        from bhr.robotfile import load_robot_file
 
         rb = load_robot_file(robot_file).robot
         base_robot = {f.name: getattr(rb, f.name) for f in fields(rb)}
@@ -290,16 +292,11 @@ def build_sweep(trajs: Sequence[str], solvers: Sequence[str], grid: Iterable[tup
 
 def make_robot(params: dict[str, Any], base: dict[str, Any] | None = None) -> Any:
     """The Robot of a design: ``base`` (a robot file's fields, or bhr's defaults) with ``params`` on top."""
-    from bhr.robot import Robot
-
     return Robot(**base).replace(**params) if base else Robot(**params)
 
 
 def run_design(design: dict[str, Any], traj_source: str, base_robot: dict[str, Any] | None = None) -> dict[str, Any]:
     """Follow one design's trajectory; return its row (design keys, then :data:`METRICS`). Never raises."""
-    from bhr.follow import BhrWarning, follow
-    from bhr.trajectory import load_trajectory
-
     row: dict[str, Any] = dict(design)
     row.update({k: None for k in METRICS})
     row["status"] = "ok"
@@ -618,9 +615,6 @@ def best_rows(result: SweepResult, count: int = 10) -> list[dict[str, Any]]:
 def _html(result: SweepResult, heatmap: str | None) -> str:
     import html as _h
 
-    from bhr import __version__
-    from bhr.report import PAGE_END, page_head
-
     def e(v: Any) -> str:
         return _h.escape(str(v), quote=True)
 
@@ -672,9 +666,6 @@ def _html(result: SweepResult, heatmap: str | None) -> str:
 def write_outputs(result: SweepResult, out_dir: str | os.PathLike[str], *, plot: bool = True,
                   x: str | None = None, y: str | None = None) -> list[Path]:
     """Write results.csv, results.json, heatmap.png (when ``plot``) and index.html into ``out_dir``."""
-    from bhr import __version__
-    from bhr.atomic import write_json, write_text
-
     out = Path(out_dir)
     files = [out / "results.csv", out / "results.json"]
     write_text(files[0], results_csv(result))

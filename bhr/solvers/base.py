@@ -17,6 +17,7 @@ from typing import Any, ClassVar, Sequence
 import numpy as np
 
 from bhr.errors import BhrError
+from bhr.kinematics.leader import advance_kernel
 from bhr.robot import Robot, base_frame, straight_chain
 
 __all__ = ["Chain", "SolveResult", "Solver", "FollowContext", "register", "REGISTRY"]
@@ -74,8 +75,6 @@ class Chain:
         Module 1 keeps its local axes; the axes of modules 2..n are reset to
         those of a straight robot along the base module's direction.
         """
-        from bhr.follow import advance_kernel  # the driver owns the compiled advance
-
         out = self.copy()
         advance_kernel(out.points, out.axes[0], out.axes[1], float(feed), float(module_length))
         return out

@@ -13,7 +13,7 @@ import math
 import numpy as np
 from numba import njit
 
-from bhr.dualquat import k_rotate
+from bhr.kinematics.dualquat import k_rotate
 from bhr.errors import BhrError
 from bhr.solvers.base import Chain, FollowContext, SolveResult, Solver, register
 from bhr.solvers.fabrik import _dist

@@ -55,9 +55,10 @@ import numpy as np
 from numba import njit
 
 from bhr.errors import BhrError
-from bhr.follow import advance_kernel, score_step
-from bhr.robot import tilt_frame as _rot
+from bhr.kinematics.frames import tilt_frame as _rot
+from bhr.kinematics.leader import advance_kernel, score_step
 from bhr.solvers.base import Chain, FollowContext, SolveResult, Solver, register
+from bhr.robot import forward_kinematics
 
 __all__ = ["Optimal", "CODE_OF", "search_all", "search_head", "config_cost", "path_features", "DEFAULTS"]
 
@@ -664,8 +665,6 @@ class Optimal(Solver):
         frame = chain.base_frame()
         codes, cost = search_all(chain.points[0], frame, T, w, r.module_length, r.alpha, orientation,
                                  self.ori_weight, reach=True)
-        from bhr.robot import forward_kinematics
-
         pts, frames = forward_kinematics(r.replace(modules=n), codes, chain.points[0], frame)
         axes = np.stack([pts[:-1] + frames[:, 0], pts[:-1] + frames[:, 1]])
         err = float(np.linalg.norm(pts[-1] - t))

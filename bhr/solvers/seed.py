@@ -26,9 +26,9 @@ import numpy as np
 from numba import njit
 
 from bhr.codes import TILT_CODES
-from bhr.dualquat import k_rotate
+from bhr.kinematics.dualquat import k_rotate
 from bhr.errors import BhrError
-from bhr.follow import advance_kernel, score_step
+from bhr.kinematics.leader import advance_kernel, score_step
 from bhr.solvers.base import Chain, FollowContext, SolveResult, Solver, register
 from bhr.solvers.fabrik import _dist, _pull, tip_angle_deg
 
