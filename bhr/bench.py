@@ -14,7 +14,7 @@ Cases: ``fabrik`` and ``ccd`` (the 10-module chapter 5 chain), ``seed-colon``
 terms, which is the exact per-step optimum over all 5**5 codes, compiled
 branch and bound against numpy evaluating every configuration at every step;
 ``optimal-default-colon``, the default solver (planner on) per solve() call
-against the seed solver's call in the same driver, for issue 4's 1 ms),
+against the seed solver's call in the same driver, for the 1 ms per step asked of it),
 ``body-60`` (the whole-body beam search of a 60-module robot along the colon,
 behind the seed solver's head) and ``cli`` (``bhr --help`` and ``bhr follow
 --traj colon`` from a warm cache, whole commands). The numpy references of

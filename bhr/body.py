@@ -187,7 +187,7 @@ def simulate_body(result, body_modules: int) -> BodyRun:
         raise BhrError(f"--body-modules {M} is more than 10000; give a smaller robot")
     if result.codes is None:
         raise BhrError(f"the {result.solver} solver gives no module codes, so no body can repeat them; "
-                       "use --solver seed or --solver optimal with --body-modules")
+                       "use --solver thesis or --solver optimal with --body-modules")
     nb = M - n
     N = result.steps
     path = np.ascontiguousarray(result.trajectory.points[:N], dtype=np.float64)
@@ -197,7 +197,7 @@ def simulate_body(result, body_modules: int) -> BodyRun:
     d1 /= np.linalg.norm(d1, axis=1)[:, None]
     if np.max(np.abs(d1 - F1s[:, 2])) > 1e-6:
         raise BhrError(f"the {result.solver} run's module 1 does not follow its codes; the body needs a binary "
-                       "solver (seed or optimal)")
+                       "solver (thesis or optimal)")
     pts = np.zeros((N, nb, 3))
     codes = np.zeros((N, nb), dtype=np.int64)
     pe = np.zeros((N, nb))

@@ -18,7 +18,7 @@ from bhr.errors import BhrError
 from bhr.robot import Robot
 from bhr.trajectory import Trajectory
 from bhr.follow import follow
-from bhr.solvers import available
+from bhr.solvers import available, canonical
 
 __all__ = ["Compared", "compare_runs", "compare_rows", "format_table", "compare_figure", "compare_json"]
 
@@ -42,13 +42,13 @@ def compare_runs(traj: Trajectory, solvers: Sequence[str], robot: Robot, *,
     """Run ``traj`` with each solver (options per solver name); raises BhrError for fewer than two or repeats."""
     names = list(solvers)
     if len(names) < 2:
-        raise BhrError("compare needs at least two solvers, e.g. --solver seed --solver optimal")
+        raise BhrError("compare needs at least two solvers, e.g. --solver thesis --solver optimal")
     dup = next((s for s in names if names.count(s) > 1), None)
     if dup is not None:
         raise BhrError(f"solver {dup} is given twice; give each solver once")
     known = available()
     for s in names:
-        if s not in known:
+        if canonical(s) not in known:
             raise BhrError(f"unknown solver {s!r}; choose from {', '.join(known)}")
     opts = solver_options or {}
     out = []

@@ -137,7 +137,7 @@ class FollowResult:
         return out
 
     def to_json(self) -> dict[str, Any]:
-        """The ``bhr follow --json`` document (SPEC.md section 3)."""
+        """The ``bhr follow --json`` document (its keys are a documented contract, docs/commands.md)."""
         steps = []
         for i in range(self.steps):
             steps.append({
@@ -279,7 +279,7 @@ def _as_trajectory(points: Any) -> Trajectory:
     return Trajectory("points", arr)
 
 
-def follow(points: Any, solver: str = "seed", robot: Robot | None = None, *,
+def follow(points: Any, solver: str = "thesis", robot: Robot | None = None, *,
            solver_options: dict[str, Any] | None = None,
            on_step: Callable[[int, np.ndarray | None], None] | None = None,
            compiled: bool = True, body_modules: int | None = None, **robot_options: Any) -> FollowResult:

@@ -323,7 +323,7 @@ class Pacer:
     def __call__(self, step: int, codes: Sequence[int] | None) -> None:
         if codes is None:
             raise BhrError("this solver gives no module codes, so nothing can be sent to the board; use "
-                           "--solver seed, optimal, or constrained with --limit binary --axes local")
+                           "--solver thesis, optimal, or constrained with --limit binary --axes local")
         self.send(codes)
 
 

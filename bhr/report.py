@@ -9,7 +9,7 @@ optional ``[defaults]`` table gives values every run starts from, and
 
     title = "Chapter 7"
     [defaults]
-    solver = "seed"
+    solver = "thesis"
     [[run]]
     name = "curve 90"
     traj = "curve"
@@ -53,6 +53,7 @@ from bhr.errors import BhrError
 from bhr import __version__
 from bhr.atomic import write_json, write_text
 from bhr.follow import BhrWarning, follow
+from bhr.options import BY_NAME, by_group, solver_options_for
 from bhr.robot import Robot
 from bhr.robotfile import load_robot_file
 from bhr.solvers import get_solver
@@ -62,22 +63,21 @@ __all__ = ["RunSpec", "Batch", "load_batch", "parse_batch", "execute_run", "run_
            "ROW_FIELDS", "TRAJ_KEYS", "ROBOT_KEYS", "CONSTRAINT_KEYS", "NUMBER_KEYS", "INT_KEYS",
            "summary_row", "format_table", "html_page", "csv_text", "robot_from_options"]
 
+# The keys of a run table come from the option registry (bhr.options), as the command-line options do.
 #: Trajectory options (CLI long names with underscores), as in ``bhr follow``.
-TRAJ_KEYS = ("length", "azimuth", "elevation", "radius", "angle", "entry", "exit", "pitch", "turns")
+TRAJ_KEYS = tuple(o.name for o in by_group("trajectory"))
 #: Robot options: batch key -> :class:`bhr.robot.Robot` field (``robot_radius`` is the robot's, ``radius`` the path's).
-ROBOT_KEYS = {
-    "modules": "modules", "module_length": "module_length", "robot_radius": "radius", "alpha": "alpha",
-    "stroke": "stroke", "lever": "lever", "tol_pos": "tol_pos", "tol_ori": "tol_ori", "max_iter": "max_iter",
-    "feed_divisor": "feed_divisor", "weight_pos": "weight_pos", "weight_ori": "weight_ori",
-}
+ROBOT_KEYS = {o.name: o.key for o in by_group("robot")}
 #: Options of the constrained solvers and their allowed values (None: a whole number).
-CONSTRAINT_KEYS: dict[str, tuple[str, ...] | None] = {"limit": ("binary", "continuous", "none"),
-                                                       "axes": ("local", "free"), "warmup": None}
+CONSTRAINT_KEYS: dict[str, tuple[str, ...] | None] = {o.name: o.choices for o in by_group("constraint")}
+#: Options of one solver (``--solver optimal``): key -> the solvers that take it.
+SOLVER_KEYS: dict[str, tuple[str, ...]] = {o.name: o.solvers or () for o in by_group("solver")}
 #: Keys whose value is a whole number.
-INT_KEYS = frozenset({"modules", "max_iter", "feed_divisor", "warmup"})
+INT_KEYS = frozenset(o.name for o in by_group("robot", "trajectory", "constraint", "solver") if o.kind is int)
 #: Keys whose value is a number.
-NUMBER_KEYS = frozenset(TRAJ_KEYS) | frozenset(ROBOT_KEYS) | {"warmup"}
-_STRING_KEYS = frozenset({"name", "description", "traj", "solver", "robot", "limit", "axes"})
+NUMBER_KEYS = frozenset(o.name for o in by_group("robot", "trajectory", "constraint", "solver") if o.choices is None)
+_STRING_KEYS = frozenset({"name", "description", "traj", "solver", "robot"}) | {
+    o.name for o in by_group("constraint") if o.choices is not None}
 RUN_KEYS = frozenset(NUMBER_KEYS | _STRING_KEYS)
 _TOP_KEYS = ("title", "description", "defaults", "run")
 
@@ -102,7 +102,7 @@ class RunSpec:
 
     name: str
     traj: str
-    solver: str = "seed"
+    solver: str = "thesis"
     description: str = ""
     traj_params: dict[str, float] = field(default_factory=dict)
     robot_params: dict[str, Any] = field(default_factory=dict)  # Robot fields
@@ -135,21 +135,11 @@ def _suggest(key: str, allowed: Iterable[str]) -> str:
 
 
 def check_value(key: str, value: Any, where: str) -> Any:
-    """The value of one run key, type-checked; raises BhrError naming ``where`` and the key."""
-    if key in NUMBER_KEYS:
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise BhrError(f"{where}: {key} must be a number, got {value!r}")
-        if not math.isfinite(float(value)):
-            raise BhrError(f"{where}: {key} must be a finite number, got {value!r}")
-        if key in INT_KEYS:
-            if float(value) != int(value):
-                raise BhrError(f"{where}: {key} must be a whole number, got {value!r}")
-            return int(value)
-        return value
+    """The value of one run key, type-checked and within its limits (bhr.options); raises BhrError naming ``where``."""
+    if key in BY_NAME:
+        return BY_NAME[key].check(value, where)
     if not isinstance(value, str):
         raise BhrError(f"{where}: {key} must be a string, got {value!r}")
-    if key in CONSTRAINT_KEYS and value not in (CONSTRAINT_KEYS[key] or ()):
-        raise BhrError(f"{where}: {key} must be one of {', '.join(CONSTRAINT_KEYS[key] or ())}, got {value!r}")
     if key in ("name", "traj", "solver", "robot") and not value.strip():
         raise BhrError(f"{where}: {key} must not be empty")
     return value
@@ -210,11 +200,12 @@ def parse_batch(data: dict[str, Any], source: str = "batch", base_dir: str | os.
                                    f"(its parameters: {', '.join(allowed) or 'none'})")
         else:
             traj = _resolve(traj, base)
+        solver = values.get("solver", "thesis")
         spec = RunSpec(
-            name=name, traj=traj, solver=values.get("solver", "seed"), description=values.get("description", ""),
+            name=name, traj=traj, solver=solver, description=values.get("description", ""),
             traj_params=tp,
             robot_params={fld: values[key] for key, fld in ROBOT_KEYS.items() if key in values},
-            solver_options={key: values[key] for key in CONSTRAINT_KEYS if key in values},
+            solver_options=solver_options_for(solver, values),
             robot_file=_resolve(values["robot"], base) if "robot" in values else None,
         )
         _check_values(spec, where)

@@ -35,11 +35,12 @@ from bhr.errors import BhrError
 from bhr import __version__
 from bhr.atomic import write_json, write_text
 from bhr.follow import BhrWarning, follow
+from bhr.options import solver_options_for
 from bhr.report import (CONSTRAINT_KEYS, NUMBER_KEYS, PAGE_END, ROBOT_KEYS, TRAJ_KEYS, _reason, _suggest,
                         check_value, page_head, summary_row)
 from bhr.robot import Robot
 from bhr.robotfile import load_robot_file
-from bhr.solvers import available
+from bhr.solvers import available, canonical
 from bhr.trajectory import GENERATORS, load_trajectory
 
 __all__ = ["Sweep", "SweepResult", "GRID_KEYS", "parse_grid_option", "parse_values", "sweep_from_toml",
@@ -133,7 +134,7 @@ class Sweep:
     """Trajectories x solvers x grid. ``traj_sources`` maps each trajectory label to what is loaded."""
 
     trajs: tuple[str, ...] = ("curve",)
-    solvers: tuple[str, ...] = ("seed",)
+    solvers: tuple[str, ...] = ("thesis",)
     grid: tuple[tuple[str, tuple[Any, ...]], ...] = ()
     title: str = "bhr sweep"
     description: str = ""
@@ -183,7 +184,7 @@ def sweep_from_toml(data: dict[str, Any], source: str = "sweep", base_dir: str |
         raise BhrError(f"{source}: [grid] must be a table of KEY = values")
     grid = tuple((k, parse_values(k, v, f"{source}: [grid]")) for k, v in grid_table.items())
     trajs = _as_list(data.get("traj", "curve"), "traj", source)
-    solvers = _as_list(data.get("solver", "seed"), "solver", source)
+    solvers = _as_list(data.get("solver", "thesis"), "solver", source)
     robot_file = None
     if "robot" in data:
         if not isinstance(data["robot"], str) or not data["robot"].strip():
@@ -232,7 +233,7 @@ def build_sweep(trajs: Sequence[str], solvers: Sequence[str], grid: Iterable[tup
         raise BhrError(f"{where}: a sweep needs at least one trajectory and one solver")
     names = available()
     for s in solvers:
-        if s not in names:
+        if canonical(s) not in names:
             raise BhrError(f"{where}: unknown solver {s!r}; choose from {', '.join(names)}")
     sources = {}
     base = Path(base_dir)
@@ -307,7 +308,7 @@ def run_design(design: dict[str, Any], traj_source: str, base_robot: dict[str, A
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", BhrWarning)
             res = follow(tr, solver=design["solver"], robot=robot,
-                         solver_options={k: v for k, v in design.items() if k in CONSTRAINT_KEYS})
+                         solver_options=solver_options_for(design["solver"], design))
         row.update(summary_row(res.summary()))
     except (KeyboardInterrupt, SystemExit):
         raise

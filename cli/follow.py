@@ -67,7 +67,8 @@ def body_clearance_lines(s: dict) -> list[str]:
 @click.option("--traj", required=True, metavar="NAME|PATH",
               help="line, curve, spiral, colon, or a trajectory file: .toml (segments) or .csv (points).")
 @trajectory_options
-@click.option("--solver", default="seed", show_default=True, help="seed, constrained, fabrik, ccd, optimal.")
+@click.option("--solver", default="thesis", show_default=True,
+              help="thesis (the thesis's algorithm; alias seed), constrained, fabrik, ccd, optimal.")
 @robot_options(feed=True)
 @constraint_options
 @optimal_options

@@ -65,7 +65,7 @@ def test_advance_kernel_equals_reference(seed, n, feed):
 
 def test_score_step_equals_reference_along_a_run():
     tr = load_trajectory("curve", radius=70, angle=90)
-    res = follow(tr, solver="seed")
+    res = follow(tr, solver="thesis")
     path = tr.points
     dirs = np.diff(path, axis=0)
     dirs /= np.linalg.norm(dirs, axis=1)[:, None]

@@ -210,7 +210,7 @@ def test_defaults_and_relative_paths(tmp_path):
     assert b.runs[0].robot_params == {"modules": 4, "alpha": 12}
     assert b.runs[1].robot_params == {"modules": 6, "alpha": 12}
     assert b.runs[1].traj_params == {"angle": 45.0} and b.runs[1].solver_options == {"warmup": 5}
-    assert b.runs[1].solver == "seed"
+    assert b.runs[1].solver == "thesis"
 
 
 def test_html_is_escaped_and_self_contained(tmp_path):
@@ -291,7 +291,7 @@ def test_run_tables_round_trip(values, name):
     spec = b.runs[0]
     assert spec.name == name.strip()
     inputs = spec.inputs()
-    assert inputs.pop("traj") == "curve" and inputs.pop("solver") == "seed"
+    assert inputs.pop("traj") == "curve" and inputs.pop("solver") == "thesis"
     assert inputs == values
 
 

@@ -310,9 +310,9 @@ def test_dask_cluster_gives_the_local_results(dask_cluster, tmp_path):
     def kernel_stats():  # runs on each worker: did the seed kernel come from the disk cache?
         import os as _os
 
-        from bhr.solvers import seed
+        from bhr.solvers import thesis
 
-        st_ = seed.follow_seed_kernel.stats
+        st_ = thesis.follow_constrained_kernel.stats
         return {"hits": sum(st_.cache_hits.values()), "misses": sum(st_.cache_misses.values()),
                 "dir": _os.environ.get("NUMBA_CACHE_DIR")}
 

@@ -17,7 +17,7 @@ from bhr.errors import BhrError
 from bhr.robot import Robot
 from bhr.solvers.base import REGISTRY, Chain, FollowContext, SolveResult, Solver, check_direction, check_target
 
-__all__ = ["Chain", "FollowContext", "SolveResult", "Solver", "available", "get_solver", "solve"]
+__all__ = ["Chain", "FollowContext", "SolveResult", "Solver", "available", "canonical", "get_solver", "solve"]
 
 _loaded = False
 
@@ -35,14 +35,21 @@ def _load_all() -> None:
 def available() -> dict[str, str]:
     """Solver names and one-line summaries."""
     _load_all()
-    return {name: REGISTRY[name].summary for name in sorted(REGISTRY)}
+    return {name: REGISTRY[name].summary for name in sorted(REGISTRY) if REGISTRY[name].name == name}
+
+
+def canonical(name: str) -> str:
+    """The solver's registered name for ``name`` (``seed`` -> ``thesis``); unknown names come back unchanged."""
+    _load_all()
+    cls = REGISTRY.get(name)
+    return cls.name if cls is not None else name
 
 
 def get_solver(name: str, robot: Robot, **options: Any) -> Solver:
     """Build the solver called ``name`` for ``robot``; options go to its constructor."""
     _load_all()
     if name not in REGISTRY:
-        raise BhrError(f"unknown solver {name!r}; choose one of {', '.join(sorted(REGISTRY))}")
+        raise BhrError(f"unknown solver {name!r}; choose one of {', '.join(available())}")
     options = {k: v for k, v in options.items() if v is not None}
     try:
         return REGISTRY[name](robot, **options)
@@ -66,6 +73,6 @@ def solve(target: Sequence[float], *, modules: int = 5, module_length: float = 2
         robot = Robot(modules=modules, module_length=module_length, **robot_options)
     s = get_solver(solver, robot, **(solver_options or {}))
     if d is not None and not s.accepts_orientation:
-        raise BhrError(f"the {solver} solver cannot aim the tip; drop --orientation or use --solver fabrik or seed")
+        raise BhrError(f"the {solver} solver cannot aim the tip; drop --orientation or use --solver fabrik or thesis")
     chain = Chain.straight(robot, direction)
     return s.solve(chain, t, d)

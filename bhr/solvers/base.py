@@ -26,10 +26,12 @@ REGISTRY: dict[str, type["Solver"]] = {}
 
 
 def register(cls: type["Solver"]) -> type["Solver"]:
-    """Class decorator: make a solver available by its ``name``."""
+    """Class decorator: make a solver available by its ``name`` (and its older ``aliases``)."""
     if not getattr(cls, "name", None):
         raise TypeError(f"{cls.__name__} has no name")
     REGISTRY[cls.name] = cls
+    for alias in cls.aliases:
+        REGISTRY[alias] = cls
     return cls
 
 
@@ -105,7 +107,7 @@ class SolveResult:
         return self.chain.points
 
     def to_json(self) -> dict[str, Any]:
-        """The ``bhr solve --json`` document (SPEC.md section 3)."""
+        """The ``bhr solve --json`` document (its keys are a documented contract, docs/commands.md)."""
         return {
             "iterations": int(self.iterations),
             "position_error": float(self.position_error),
@@ -128,6 +130,7 @@ class Solver(ABC):
     summary: ClassVar[str] = ""
     binary: ClassVar[bool] = False
     accepts_orientation: ClassVar[bool] = True
+    aliases: ClassVar[tuple[str, ...]] = ()
 
     def __init__(self, robot: Robot, **options: Any) -> None:
         self.robot = robot

@@ -55,6 +55,7 @@ import numpy as np
 from numba import njit
 
 from bhr.errors import BhrError
+from bhr.options import by_group
 from bhr.kinematics.frames import tilt_frame as _rot
 from bhr.kinematics.leader import advance_kernel, score_step
 from bhr.solvers.base import Chain, FollowContext, SolveResult, Solver, register
@@ -66,15 +67,8 @@ __all__ = ["Optimal", "CODE_OF", "search_all", "search_head", "config_cost", "pa
 CODE_OF = np.array([0, 3, 6, 12, 9], dtype=np.int64)
 DEG = 180.0 / math.pi
 
-#: Default settings of ``--solver optimal`` (docs/optimal.md explains each).
-DEFAULTS: dict[str, Any] = {
-    "lookahead": 10,
-    "beam": 10,
-    "point_weights": 1.0,
-    "ori_weight": 0.2,
-    "drift_weight": 10.0,
-    "roll_weight": 1000.0,
-}
+#: Default settings of ``--solver optimal`` (docs/optimal.md explains each), from the option registry.
+DEFAULTS: dict[str, Any] = {o.name: o.default for o in by_group("solver") if o.solvers == ("optimal",)}
 #: Two beam states closer than this (mm, and unit-vector difference) count as one.
 DEDUP_POS = 0.2
 DEDUP_DIR = 0.02
@@ -571,7 +565,7 @@ class Optimal(Solver):
         self.roll_weight = _number("roll-weight", cfg["roll_weight"])
         if n > 12:
             raise BhrError(f"the optimal solver searches 5^n codes; {n} modules is too many (at most 12), "
-                           "use --solver seed for long heads")
+                           "use --solver thesis for long heads")
         self._features_key: tuple | None = None
         self._features: tuple | None = None
         self.reset()
