@@ -109,7 +109,7 @@ def _rgb(view: "StepView") -> Any:
     import numpy as np
 
     view.fig.canvas.draw()
-    return np.asarray(view.fig.canvas.buffer_rgba())[:, :, :3]
+    return np.asarray(view.fig.canvas.buffer_rgba())[:, :, :3]  # type: ignore[attr-defined]  # the Agg canvas
 
 
 def _palette(first: Any) -> Any:
@@ -122,7 +122,8 @@ def _palette(first: Any) -> Any:
     for name in ("white", "black", "tab:red", "tab:blue", "tab:green", "tab:gray"):
         rgb = to_rgb(name)
         for t in (1.0, 0.85, 0.7, 0.55, 0.4, 0.25, 0.12):
-            c = tuple(int(round(255 * (t * v + (1 - t)))) for v in rgb)
+            r_, g_, b_ = (int(round(255 * (t * v + (1 - t)))) for v in rgb)
+            c = (r_, g_, b_)
             if c not in colours:
                 colours.append(c)
     adaptive = first.quantize(colors=GIF_COLOURS - len(colours), method=Image.Quantize.MEDIANCUT,

@@ -327,11 +327,11 @@ def numpy_optimal_follow(path: np.ndarray, start_point: np.ndarray, start_direct
         frames = [F1s[ks[0]]]
         for k in ks[1:]:
             frames.append(_np_tilt(frames[-1], k, c, s))
-        frames = np.stack(frames)
+        fr = np.stack(frames)
         for m in range(n):
-            P[m + 1] = P[m] + L * frames[m, 2]
-        E1 = P[:-1] + frames[:, 0]
-        E2 = P[:-1] + frames[:, 1]
+            P[m + 1] = P[m] + L * fr[m, 2]
+        E1 = P[:-1] + fr[:, 0]
+        E2 = P[:-1] + fr[:, 1]
         codes[i] = codes_of[ks]
         pe[i] = np.where(idx >= 0, np.sqrt(_sq(P, path[np.clip(idx, 0, N - 1)])), 0.0)
         # advance by the feed along the base module; modules 2..n get straight axes again (bhr.follow)
@@ -524,6 +524,7 @@ def case_body(repeat: int = 5) -> BenchResult:
     r = res.robot
     steps, nb = res.steps, 60 - r.modules
     body = simulate_body(res, 60)
+    assert res.codes is not None
     start, F1s = module1_frames(res.codes, tr.start_direction, r.alpha)
     P0s = np.ascontiguousarray(res.points[:, 0])
 

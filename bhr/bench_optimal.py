@@ -133,7 +133,7 @@ def body_clearance(body_modules: int = 60, solver: str = "optimal", robot=None, 
     label, name, params = next(c for c in CASES if c[0] == case)
     tr = load_trajectory(name, feed=robot.feed, **params)
     res = follow(tr, solver=solver, robot=robot, body_modules=body_modules)
-    s = res.summary()
+    s = res.summary.to_dict()
     return {"case": label, "solver": solver, "modules": body_modules, "steps": res.steps,
             "lumen_mm": sorted({float(v) for v in tr.lumen}) if tr.lumen is not None else None,
             "head_worst_mm": s["points_max_error_mm"], "body_worst_mm": s["body_points_max_error_mm"],

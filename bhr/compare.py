@@ -66,7 +66,7 @@ def compare_rows(runs: Sequence[Compared]) -> list[dict[str, Any]]:
     ref = runs[0].result.point_errors.max()
     rows = []
     for c in runs:
-        s = c.result.summary()
+        s = c.result.summary.to_dict()
         worst = float(c.result.point_errors.max())
         row = {
             "solver": c.solver,
@@ -129,7 +129,7 @@ def compare_json(runs: Sequence[Compared]) -> dict[str, Any]:
         "runs": [{"solver": c.solver,
                   "points_max_error_mm": [float(v) for v in c.result.point_errors.max(axis=1)],
                   "tip_error_mm": [float(v) for v in c.result.point_errors[:, -1]],
-                  "summary": c.result.summary()} for c in runs],
+                  "summary": c.result.summary.to_dict()} for c in runs],
     }
 
 

@@ -17,13 +17,14 @@ advance kernels.
 """
 from __future__ import annotations
 
-import math
+import json
+import sys
 import warnings
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
+from pathlib import Path
 from typing import Any, Callable
 
 import numpy as np
-from numba import njit
 
 from bhr._callable import make_callable
 from bhr.errors import BhrError
@@ -52,6 +53,60 @@ def stats(values: np.ndarray, first: int = 0) -> dict[str, float | int]:
         "final": float(values[-1]),
         "worst_step": worst,
     }
+
+
+def _deprecated(old: str, new: str) -> None:
+    warnings.warn(f"{old} is deprecated; use {new}", DeprecationWarning, stacklevel=3)
+
+
+@dataclass
+class Summary:
+    """The summary of a run (thesis ch. 7's figures of merit): errors in mm and degrees, steps from 1.
+
+    ``points``, ``modules`` and ``global_`` hold, per point (base first) and per
+    module, the max, mean, median and final error and the worst step (see
+    :func:`stats`). ``extra`` holds what the body simulation, the lumen
+    clearance and the solver add. :meth:`to_dict` is the ``summary`` object of
+    ``run.json``.
+    """
+
+    steps: int
+    solver: str
+    trajectory: str
+    tip_max_error_mm: float
+    tip_final_error_mm: float
+    tip_worst_step: int
+    points_max_error_mm: float
+    points_worst_step: int
+    orientation_max_deg: float
+    tip_orientation_max_deg: float
+    tip_orientation_final_deg: float
+    global_max: float
+    mean_iterations: float
+    points: list[dict[str, float | int]]
+    modules: list[dict[str, float | int]]
+    global_: list[dict[str, float | int]]
+    warnings: list[str]
+    extra: dict[str, Any] = field(default_factory=dict)
+
+    def to_dict(self) -> dict[str, Any]:
+        """The summary as plain JSON types, in the key order of ``run.json``."""
+        out: dict[str, Any] = {}
+        for f in fields(self):
+            if f.name != "extra":
+                out["global" if f.name == "global_" else f.name] = getattr(self, f.name)
+        out["warnings"] = list(self.warnings)
+        out.update(self.extra)
+        return out
+
+    def to_json(self) -> str:
+        """:meth:`to_dict` as a JSON string."""
+        return json.dumps(self.to_dict())
+
+    def __call__(self) -> dict[str, Any]:
+        """Deprecated: ``result.summary()`` was a dict; use ``result.summary.to_dict()``."""
+        _deprecated("FollowResult.summary()", "FollowResult.summary.to_dict()")
+        return self.to_dict()
 
 
 @dataclass
@@ -97,7 +152,8 @@ class FollowResult:
         return (r.weight_pos * self.point_errors[:, 1:] / r.tol_pos
                 + r.weight_ori * self.orientation_errors / r.tol_ori)
 
-    def summary(self) -> dict[str, Any]:
+    @property
+    def summary(self) -> Summary:
         """Max, mean, median and final per point and module (leading unscored steps left out of mean/median)."""
         n = self.modules
         f = self.robot.feed_divisor
@@ -105,25 +161,7 @@ class FollowResult:
         mods = [stats(self.orientation_errors[:, j], (n - j - 1) * f) for j in range(n)]
         glob = [stats(self.global_errors[:, j], (n - j - 1) * f) for j in range(n)]
         worst_flat = int(np.argmax(self.point_errors.max(axis=1))) + 1
-        out = {
-            "steps": self.steps,
-            "solver": self.solver,
-            "trajectory": self.trajectory.name,
-            "tip_max_error_mm": pts[-1]["max"],
-            "tip_final_error_mm": pts[-1]["final"],
-            "tip_worst_step": pts[-1]["worst_step"],
-            "points_max_error_mm": float(self.point_errors.max()),
-            "points_worst_step": worst_flat,
-            "orientation_max_deg": float(self.orientation_errors.max()),
-            "tip_orientation_max_deg": mods[-1]["max"],
-            "tip_orientation_final_deg": mods[-1]["final"],
-            "global_max": float(self.global_errors.max()),
-            "mean_iterations": float(np.mean(self.iterations)),
-            "points": pts,
-            "modules": mods,
-            "global": glob,
-            "warnings": list(self.warnings),
-        }
+        out: dict[str, Any] = {}
         if self.body is not None:
             b = self.body
             out["body_modules"] = self.modules + b.modules
@@ -134,9 +172,17 @@ class FollowResult:
         if cl is not None:
             out.update(cl.summary())
         out.update(self.extra.get("summary", {}))
-        return out
+        return Summary(self.steps, self.solver, self.trajectory.name, pts[-1]["max"], pts[-1]["final"],
+                       int(pts[-1]["worst_step"]), float(self.point_errors.max()), worst_flat,
+                       float(self.orientation_errors.max()), mods[-1]["max"], mods[-1]["final"],
+                       float(self.global_errors.max()), float(np.mean(self.iterations)), pts, mods, glob,
+                       list(self.warnings), out)
 
-    def to_json(self) -> dict[str, Any]:
+    def to_json(self) -> str:
+        """:meth:`to_dict` as a JSON string (the text of ``run.json``)."""
+        return json.dumps(self.to_dict())
+
+    def to_dict(self) -> dict[str, Any]:
         """The ``bhr follow --json`` document (its keys are a documented contract, docs/commands.md)."""
         steps = []
         for i in range(self.steps):
@@ -170,12 +216,12 @@ class FollowResult:
             "robot": self.robot.to_dict(),
             "solver": self.solver,
             "steps": steps,
-            "summary": self.summary(),
+            "summary": self.summary.to_dict(),
         }
 
     @classmethod
     def from_json(cls, doc: Any, where: str = "run") -> "FollowResult":
-        """A run back from its :meth:`to_json` document, without solving (``bhr replay``).
+        """A run back from its :meth:`to_dict` document, without solving (``bhr replay``).
 
         Raises :class:`BhrError` naming the first thing wrong (``where`` names the file).
         """
@@ -238,7 +284,7 @@ def _run_from_json(doc: Any, where: str) -> FollowResult:
         raise bad("'solver' must be a name")
     summary = doc.get("summary")
     msgs = summary.get("warnings", []) if isinstance(summary, dict) else []
-    params = tr.get("params") if isinstance(tr.get("params"), dict) else {}
+    params: dict[str, Any] = tr["params"] if isinstance(tr.get("params"), dict) else {}
     traj = Trajectory(str(tr.get("name", "run")), path, dict(params), source=where)
     return FollowResult(traj, robot, solver, pts, np.asarray(iters, dtype=np.int64), pe, oe, codes,
                         [str(m) for m in msgs] if isinstance(msgs, list) else [])
@@ -246,10 +292,6 @@ def _run_from_json(doc: Any, where: str) -> FollowResult:
 
 def load_run(path: Any) -> FollowResult:
     """Read a run saved by ``bhr follow`` (``run.json``; ``-`` reads standard input), without solving."""
-    import json
-    import sys
-    from pathlib import Path
-
     name = "standard input" if str(path) == "-" else str(path)
     try:
         text = sys.stdin.read() if str(path) == "-" else Path(path).read_text(encoding="utf-8")

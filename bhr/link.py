@@ -26,7 +26,8 @@ import bhr.protocol as P
 from bhr.codes import check_code, check_codes
 from bhr.errors import BhrError, LinkError
 
-__all__ = ["BoardLink", "Pacer", "StreamInterrupted", "check_board", "interrupted", "stream_codes", "validate_codes", "DEFAULT_BAUD",
+__all__ = ["BoardLink", "Pacer", "StreamInterrupted", "check_board", "interrupted", "stream_codes", "validate_codes",
+           "DEFAULT_BAUD",
            "DEFAULT_TIMEOUT", "DEFAULT_RETRIES"]
 
 DEFAULT_BAUD = 115200

@@ -28,8 +28,8 @@ class Trajectory:
     min_radius: float = math.inf
     lumen: np.ndarray | None = None  # lumen diameter (mm) at each point, if known
     source: str = ""
-    start_direction: tuple[float, float, float] = (1.0, 0.0, 0.0)
-    start_point: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    start_direction: tuple[float, ...] = (1.0, 0.0, 0.0)  # x, y, z
+    start_point: tuple[float, ...] = (0.0, 0.0, 0.0)
 
     @property
     def planar(self) -> bool:

@@ -319,7 +319,7 @@ def execute_run(spec: RunSpec, out_dir: str | os.PathLike[str] | None = None, pl
             s0 = time.perf_counter()
             result = follow(tr, solver=spec.solver, robot=robot, solver_options=spec.solver_options)
             row["solve_time_s"] = time.perf_counter() - s0
-        summary = result.summary()
+        summary = result.summary.to_dict()
         row.update(summary_row(summary))
         row["warnings"] = [str(w) for w in summary.get("warnings", [])]
         if row["min_clearance_mm"] is not None:
@@ -328,7 +328,7 @@ def execute_run(spec: RunSpec, out_dir: str | os.PathLike[str] | None = None, pl
         row["stats"] = {"points": summary["points"], "modules": summary["modules"], "global": summary["global"]}
         if out_dir is not None:
             out = Path(out_dir)
-            write_json(out / "run.json", result.to_json())
+            write_json(out / "run.json", result.to_dict())
             if plots:
                 from bhr.plots import save_run_plots
 
@@ -392,9 +392,9 @@ def run_batch(batch: Batch, out_dir: str | os.PathLike[str], *, jobs: int = 1, p
     workers = min(jobs, total)
     if workers <= 1:
         for k, job in enumerate(job_list):
-            rows[k] = _execute_job(job)
+            got = rows[k] = _execute_job(job)
             if progress is not None:
-                progress(k + 1, total, rows[k])
+                progress(k + 1, total, got)
     else:
         import multiprocessing
 
@@ -403,10 +403,10 @@ def run_batch(batch: Batch, out_dir: str | os.PathLike[str], *, jobs: int = 1, p
             done = 0
             for fut in as_completed(futures):
                 k = futures[fut]
-                rows[k] = fut.result()
+                got = rows[k] = fut.result()
                 done += 1
                 if progress is not None:
-                    progress(done, total, rows[k])
+                    progress(done, total, got)
     wall = time.perf_counter() - t0
     final: list[dict[str, Any]] = []
     for row, s in zip(rows, slugs):

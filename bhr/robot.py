@@ -15,7 +15,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from bhr.codes import check_codes
-from bhr.kinematics.frames import fk_kernel, tilt_frame
+from bhr.kinematics.frames import fk_kernel
 from bhr.errors import BhrError
 
 __all__ = ["Robot", "alpha_from_stroke", "min_turn_radius", "base_frame", "forward_kinematics", "straight_chain"]
@@ -126,6 +126,16 @@ class Robot:
         data.update(changes)
         return Robot(**data)
 
+    def fk(self, codes: Sequence[int], base: Sequence[float] = (0, 0, 0),
+           frame: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """Points (n+1, 3) and module frames (n, 3, 3) for one code per module (see :func:`forward_kinematics`).
+
+        >>> pts, frames = Robot(modules=2).fk([0, 0])
+        >>> pts[-1].tolist()
+        [20.0, 0.0, 0.0]
+        """
+        return forward_kinematics(self, codes, base, frame)
+
     def to_dict(self) -> dict[str, Any]:
         d = asdict(self)
         d["feed"] = self.feed
@@ -133,7 +143,8 @@ class Robot:
         return d
 
 
-def straight_chain(n: int, length: float, direction: Sequence[float], origin: Sequence[float] = (0, 0, 0),
+def straight_chain(n: int, length: float, direction: Sequence[float] | np.ndarray,
+                   origin: Sequence[float] | np.ndarray = (0, 0, 0),
                    tip_at_origin: bool = False) -> np.ndarray:
     """Points (n+1, 3) of a straight chain along ``direction``, base first.
 
@@ -149,7 +160,7 @@ def straight_chain(n: int, length: float, direction: Sequence[float], origin: Se
     return o + steps * d
 
 
-def base_frame(direction: Sequence[float]) -> np.ndarray:
+def base_frame(direction: Sequence[float] | np.ndarray) -> np.ndarray:
     """A right-handed frame (rows x, y, z) whose z is ``direction``.
 
     For an axis-aligned direction the frame is the cyclic permutation of the

@@ -265,7 +265,7 @@ def build_sweep(trajs: Sequence[str], solvers: Sequence[str], grid: Iterable[tup
             for v in values[1:]:
                 check_robot({**robot_first, ROBOT_KEYS[k]: v}, f"{k} = {v}")
     for t in trajs:
-        def check_traj(params: dict[str, Any], what: str) -> None:
+        def check_traj(params: dict[str, Any], what: str, t: str = t) -> None:
             try:
                 load_trajectory(sources[t], feed=robot.feed, **params)
             except BhrError as exc:
@@ -309,7 +309,7 @@ def run_design(design: dict[str, Any], traj_source: str, base_robot: dict[str, A
             warnings.simplefilter("ignore", BhrWarning)
             res = follow(tr, solver=design["solver"], robot=robot,
                          solver_options=solver_options_for(design["solver"], design))
-        row.update(summary_row(res.summary()))
+        row.update(summary_row(res.summary.to_dict()))
     except (KeyboardInterrupt, SystemExit):
         raise
     except Exception as exc:  # one failed design must not stop the sweep
@@ -483,7 +483,7 @@ def run_sweep(sweep: Sweep, *, jobs: int | None = None, scheduler: Any = None,
         rows[i] = row
     if any(r is None for r in rows):
         raise BhrError("some designs came back without a result; run the sweep again")
-    final = [{"design": i + 1, **r} for i, r in enumerate(rows)]  # type: ignore[arg-type]
+    final = [{"design": i + 1, **r} for i, r in enumerate(rows)]  # type: ignore[arg-type,dict-item]
     return SweepResult(sweep, final, wall, runner, workers)
 
 

@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import math
 import os
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
 from typing import Any, Callable
@@ -28,7 +28,7 @@ import numpy as np
 
 import bhr.pathfile as pathfile
 from bhr._callable import make_callable
-from bhr._input import check_keys, number, read_toml, text_value, type_name
+from bhr._input import check_keys, number, read_toml, text_value
 from bhr.errors import BhrError
 from bhr.pathfile import MAX_POINTS
 from bhr.path import Trajectory, path_directions
@@ -70,7 +70,8 @@ def spiral(feed: float, radius: float = 80.0, pitch: float = 40.0, turns: float 
     return pts
 
 
-def curve(feed: float, radius: float = 70.0, angle: float = 90.0, entry: float = 30.0, exit: float = 30.0) -> np.ndarray:
+def curve(feed: float, radius: float = 70.0, angle: float = 90.0, entry: float = 30.0,
+          exit: float = 30.0) -> np.ndarray:
     """Entry straight along +x, clockwise arc of ``radius`` turning ``angle`` deg, exit straight."""
     ang = angle * 2 * math.pi / 360
     total = exit + entry + ang * radius

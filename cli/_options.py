@@ -76,8 +76,7 @@ def _click_option(o: Option) -> Callable[[Any], Any]:
         kind = o.kind
     else:
         kind = Bounded(o.kind, o.limit, o.unit)
-    extra = {"metavar": o.metavar} if o.metavar else {}
-    return click.option(o.flag, _param(o), type=kind, default=None, help=o.help_text(), **extra)
+    return click.option(o.flag, _param(o), type=kind, default=None, help=o.help_text(), metavar=o.metavar)
 
 
 ROBOT_FIELDS = {_param(o): o.key for o in by_group("robot")}

@@ -39,7 +39,7 @@ def solve(target, orientation, solver, json_path, plot_path, **kwargs):
     robot = build_robot(kwargs, modules=5, module_length=2.0, tol_pos=0.01, max_iter=30)
     constraints = pop_constraints(kwargs)
     result = run(target, orientation=orientation, solver=solver, robot=robot, solver_options=constraints)
-    doc = result.to_json()
+    doc = result.to_dict()
     if json_path == "-":
         click.echo(json.dumps(doc, indent=1))
     else:

@@ -98,7 +98,7 @@ def test_cli_tight_curve_warning_line(run_bhr, tmp_path):
 
 def test_json_document_contract():
     r = follow(bhr.trajectory("curve"), solver="seed")
-    doc = json.loads(json.dumps(r.to_json()))
+    doc = json.loads(r.to_json())
     assert set(doc) >= {"steps", "summary"}
     steps = doc["steps"]
     assert len(steps) == r.steps and [s["step"] for s in steps] == list(range(1, r.steps + 1))

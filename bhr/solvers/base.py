@@ -9,6 +9,7 @@ a new solver is one new file.
 """
 from __future__ import annotations
 
+import json
 import math
 from abc import ABC, abstractmethod
 from dataclasses import dataclass, field
@@ -49,8 +50,8 @@ class Chain:
     axes: np.ndarray
 
     @classmethod
-    def straight(cls, robot: Robot, direction: Sequence[float] = (1, 0, 0), origin: Sequence[float] = (0, 0, 0),
-                 tip_at_origin: bool = False) -> "Chain":
+    def straight(cls, robot: Robot, direction: Sequence[float] | np.ndarray = (1, 0, 0),
+                 origin: Sequence[float] | np.ndarray = (0, 0, 0), tip_at_origin: bool = False) -> "Chain":
         """A straight chain along ``direction``; local axes from :func:`bhr.robot.base_frame`."""
         pts = straight_chain(robot.modules, robot.module_length, direction, origin, tip_at_origin)
         fr = base_frame(direction)
@@ -93,7 +94,13 @@ class FollowContext:
 
 @dataclass
 class SolveResult:
-    """One solve: the new chain, iterations and errors (mm, degrees), codes if binary."""
+    """One solve: the new chain, iterations and errors (mm, degrees), codes if binary.
+
+    ``success`` is whether the errors are within the robot's tolerances
+    (position, and orientation when a tip direction was asked for); it is set
+    by :func:`bhr.solvers.solve` and by :meth:`Solver.judge`, and is ``None``
+    when nobody judged the result.
+    """
 
     chain: Chain
     iterations: int
@@ -101,12 +108,17 @@ class SolveResult:
     orientation_error_deg: float | None
     codes: list[int] | None = None
     extra: dict[str, Any] = field(default_factory=dict)
+    success: bool | None = None
 
     @property
     def points(self) -> np.ndarray:
         return self.chain.points
 
-    def to_json(self) -> dict[str, Any]:
+    def to_json(self) -> str:
+        """:meth:`to_dict` as a JSON string."""
+        return json.dumps(self.to_dict())
+
+    def to_dict(self) -> dict[str, Any]:
         """The ``bhr solve --json`` document (its keys are a documented contract, docs/commands.md)."""
         return {
             "iterations": int(self.iterations),
@@ -114,6 +126,7 @@ class SolveResult:
             "orientation_error_deg": None if self.orientation_error_deg is None else float(self.orientation_error_deg),
             "points": [[float(v) for v in row] for row in self.chain.points],
             "codes": None if self.codes is None else [int(c) for c in self.codes],
+            "success": self.success,
         }
 
 
@@ -142,8 +155,15 @@ class Solver(ABC):
               context: FollowContext | None = None) -> SolveResult:
         """Move ``chain`` toward ``target`` (and ``orientation`` for the tip, if given)."""
 
-    def reset(self) -> None:
+    def reset(self) -> None:  # noqa: B027 (a default, not abstract: most solvers keep no state)
         """Forget any state kept between steps of a run (default: none)."""
+
+    def judge(self, result: SolveResult) -> SolveResult:
+        """Set ``result.success``: errors within the robot's tolerances (mm, and degrees when aimed)."""
+        ori = result.orientation_error_deg
+        result.success = bool(result.position_error <= self.robot.tol_pos
+                              and (ori is None or ori <= self.robot.tol_ori))
+        return result
 
 
 def check_target(target: Sequence[float], what: str = "target") -> np.ndarray:

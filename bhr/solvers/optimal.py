@@ -37,9 +37,9 @@ terms (see docs/optimal.md):
 * roll: ``w_roll * sin(2 phi)^2 * (k / sin alpha)^2`` where ``phi`` is the
   angle between the path's bending axis at the head and the nearest local
   tilt axis of module 1, and ``k`` the sine of the angle between the path's
-  chords one module length before and after the middle of the head. Tilts about two axes roll the module frames (a helix keeps
-  turning its bending axis), and a head whose tilt axes sit diagonally to
-  the bend fits it badly.
+  chords one module length before and after the middle of the head. Tilts
+  about two axes roll the module frames (a helix keeps turning its bending
+  axis), and a head whose tilt axes sit diagonally to the bend fits it badly.
 
 With ``lookahead=0`` and both steering weights 0 the solver is the plain
 per-step optimum over all modules (the base too) for the current step's cost. Without a trajectory
@@ -471,8 +471,9 @@ def _search_arrays(n: int):
             np.empty(n + 1), np.zeros(n, dtype=np.int64))
 
 
-def search_all(base: Sequence[float], frame: np.ndarray, targets: np.ndarray, weights: Sequence[float],
-               length: float, alpha: float, tip_dir: Sequence[float] | None = None, ori_weight: float = 0.0,
+def search_all(base: Sequence[float] | np.ndarray, frame: np.ndarray, targets: np.ndarray,
+               weights: Sequence[float] | np.ndarray, length: float, alpha: float,
+               tip_dir: Sequence[float] | np.ndarray | None = None, ori_weight: float = 0.0,
                reach: bool = True) -> tuple[list[int], float]:
     """Exact best codes of all ``n`` modules from ``base`` and base ``frame`` (rows x, y, z).
 
@@ -597,6 +598,7 @@ class Optimal(Solver):
         if self._features_key != key:
             self._features = path_features(path, dirs, self.robot.feed_divisor)
             self._features_key = key
+        assert self._features is not None
         return self._features
 
     def _beam_args(self) -> tuple:

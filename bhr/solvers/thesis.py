@@ -258,7 +258,8 @@ class ConstrainedFabrik(Solver):
         """Run the whole follow-the-leader loop compiled (see :mod:`bhr.follow`). Returns whether codes are valid."""
         r = self.robot
         c = chain.copy()
-        follow_constrained_kernel(path, dirs, c.points, np.ascontiguousarray(c.axes[0]), np.ascontiguousarray(c.axes[1]),
+        follow_constrained_kernel(path, dirs, c.points, np.ascontiguousarray(c.axes[0]),
+                                  np.ascontiguousarray(c.axes[1]),
                            float(r.module_length), float(r.feed), int(r.feed_divisor), float(r.tol_pos),
                            float(r.tol_ori), float(r.alpha), int(r.max_iter), LIMITS[self.limit],
                            self.axes == "local", int(self.warmup), out_points, out_iters, pe, oe, codes)
