@@ -4,7 +4,7 @@ Each case times bhr and a reference in the same process, takes medians over
 repeats, checks both give the same numbers, and reports the ratio. The numpy
 references live here, written the straightforward way (numpy vector maths per
 point, Python loops over points and iterations), so anyone can read what is
-being compared. Run with ``bhr bench`` or ``python -m bhr.bench``; the same
+being compared. Run with ``bhr bench``; the same
 cases run under pytest-benchmark with
 ``pytest tests/benchmarks/bench_kernels.py --benchmark-only``.
 
@@ -484,7 +484,7 @@ def check_optimal_reference(res, path: np.ndarray, ref_codes: np.ndarray, ref_pe
 
 def case_optimal(repeat: int = 5) -> list[BenchResult]:
     """--solver optimal over the colon: the exact per-step search against numpy; the default's solve time."""
-    from bhr.bench_optimal import solve_times
+    from bhr.bench.optimal import solve_times
     from bhr.follow import follow
     from bhr.trajectory import load_trajectory
 

@@ -1,7 +1,7 @@
 """Benchmark of ``--solver optimal`` against ``--solver seed``, both measured in the same run.
 
-    python3 -m bhr.bench_optimal            # the table quoted in docs/optimal.md
-    python3 -m bhr.bench_optimal --json -   # the same numbers as JSON
+    python3 -m bhr.bench.optimal            # the table quoted in docs/optimal.md
+    python3 -m bhr.bench.optimal --json -   # the same numbers as JSON
 
 Three measurements, each a plain function returning numbers so that other
 commands can reuse them:
@@ -230,7 +230,7 @@ def format_report(doc: dict[str, Any]) -> list[str]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python3 -m bhr.bench_optimal", description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(prog="python3 -m bhr.bench.optimal", description=__doc__.splitlines()[0])
     ap.add_argument("--json", metavar="PATH|-", help="also write the numbers as JSON ('-': stdout)")
     ap.add_argument("--sensitivity", action="store_true", help="also rerun the ratios with each setting changed")
     args = ap.parse_args(argv)

@@ -134,14 +134,13 @@ class Solver(ABC):
     """Base class of all solvers.
 
     Subclasses set ``name`` and ``summary`` and implement :meth:`solve`.
-    ``binary`` solvers return codes and keep every tilt at 0 or alpha about a
-    local axis. ``options`` are solver-specific keyword settings, validated in
-    ``__init__``.
+    Solvers that respect the binary actuators return one code per module in
+    their results. ``options`` are solver-specific keyword settings, validated
+    in ``__init__`` (and listed in :mod:`bhr.options`).
     """
 
     name: ClassVar[str] = ""
     summary: ClassVar[str] = ""
-    binary: ClassVar[bool] = False
     accepts_orientation: ClassVar[bool] = True
     aliases: ClassVar[tuple[str, ...]] = ()
 

@@ -533,7 +533,6 @@ class Optimal(Solver):
 
     name = "optimal"
     summary = "exact search of the 5^n codes (branch and bound), base tilt planned ahead (docs/optimal.md)"
-    binary = True
 
     def __init__(self, robot, lookahead: int | None = None, beam: int | None = None,
                  point_weights: float | Sequence[float] | None = None, ori_weight: float | None = None,
