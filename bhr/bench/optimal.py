@@ -1,4 +1,4 @@
-"""Benchmark of ``--solver optimal`` against ``--solver seed``, both measured in the same run.
+"""Benchmark of ``--solver optimal`` against ``--solver thesis``, both measured in the same run.
 
     python3 -m bhr.bench.optimal            # the table quoted in docs/optimal.md
     python3 -m bhr.bench.optimal --json -   # the same numbers as JSON
@@ -10,7 +10,7 @@ commands can reuse them:
   spiral, colon) the worst position error over all scored points of the
   whole run (max of ``FollowResult.point_errors``) with the optimal solver,
   divided by the seed solver's, with the thesis's robot (5 modules of 10 mm,
-  alpha 10 deg). The issue's targets: at most 0.8, and 0.6 on the colon.
+  alpha 10 deg). The targets set for the optimal solver: at most 0.8, and 0.6 on the colon.
 * :func:`solve_times`: median time of one ``Solver.solve`` call per step,
   driven step by step from Python as bhr.follow does without the compiled
   loop (so it includes the call overhead), after the kernels are loaded;
@@ -45,7 +45,7 @@ CASES: list[tuple[str, str, dict[str, float]]] = [
     ("spiral", "spiral", {}),
     ("colon", "colon", {}),
 ]
-#: The issue's targets for optimal / seed worst error.
+#: The targets set for the optimal solver: optimal / thesis worst error.
 TARGETS = {"curve 90": 0.8, "curve 360": 0.8, "spiral": 0.8, "colon": 0.6}
 
 

@@ -119,14 +119,16 @@ class SolveResult:
         return json.dumps(self.to_dict())
 
     def to_dict(self) -> dict[str, Any]:
-        """The ``bhr solve --json`` document (its keys are a documented contract, docs/commands.md)."""
+        """The ``bhr solve --json`` document (its keys are a documented contract, docs/commands.md).
+
+        ``success`` is not part of it: it follows from the errors and the tolerances.
+        """
         return {
             "iterations": int(self.iterations),
             "position_error": float(self.position_error),
             "orientation_error_deg": None if self.orientation_error_deg is None else float(self.orientation_error_deg),
             "points": [[float(v) for v in row] for row in self.chain.points],
             "codes": None if self.codes is None else [int(c) for c in self.codes],
-            "success": self.success,
         }
 
 
