@@ -219,7 +219,7 @@ def announce_compiles() -> None:
                     echo(COMPILE_NOTICE.format(cache=_numba.cache_dir()))
                 self.cm = status("compiling kernels:")
                 self.progress = self.cm.__enter__()
-            if self.progress is not None and ours:
+            if self.progress is not None and func is not None and ours:
                 self.progress.item = f"{func.__name__} ({self.kernels} done)"
             self.depth += 1
 

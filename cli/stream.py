@@ -74,5 +74,6 @@ def stream(codes_path, rate, dry_run, **link_kw):
                 sent = stream_codes(link, table, rate=rate, progress=progress)
         except StreamInterrupted as exc:
             exit_interrupted(exc, n_rows, "rows")
-    click.echo(f"sent {sent} row{'s' * (sent != 1)} ({n_modules} modules, steps {steps[0]}..{steps[-1]}) to {port} at {rate:g} Hz"
+    click.echo(f"sent {sent} row{'s' * (sent != 1)} ({n_modules} modules, steps {steps[0]}..{steps[-1]}) to {port} "
+               f"at {rate:g} Hz"
                + (f"; board reported: {', '.join(faults)}" if faults else ""))

@@ -106,7 +106,7 @@ def test_progress_is_drawn_on_a_terminal_and_not_when_piped(tmp_path):
     args = ["follow", "--traj", "line", "--out", "o"]
     code, text = run_on_a_terminal(args, tmp_path, env)
     assert code == 0
-    assert "following line (36 steps, solver seed)" in text and "drawing the figures into o" in text
+    assert "following line (36 steps, solver thesis)" in text and "drawing the figures into o" in text
     assert "\r\x1b[K" in text  # the status line is cleared before the summary
     piped = subprocess.run(bhr_exe() + args, cwd=tmp_path, capture_output=True, text=True, env=env, check=True)
     assert "following line" not in piped.stderr and "\r" not in piped.stderr

@@ -18,7 +18,7 @@ def scored_rmse(values: np.ndarray, first: int) -> float:
 
 def test_rmse_of_every_point_and_module_over_its_scored_steps():
     run = follow(load_trajectory("curve", angle=360))
-    s = run.summary()
+    s = run.summary.to_dict()
     n, f = run.modules, run.robot.feed_divisor
     want_pts = [scored_rmse(run.point_errors[:, j], (n - j) * f) for j in range(n + 1)]
     want_mods = [scored_rmse(run.orientation_errors[:, j], (n - j - 1) * f) for j in range(n)]
@@ -32,11 +32,11 @@ def test_rmse_of_every_point_and_module_over_its_scored_steps():
 
 def test_a_run_over_its_tolerance_is_flagged_and_counted():
     tr = load_trajectory("curve", angle=360)
-    ok = follow(tr, tol_pos=8.0, tol_ori=90.0).summary()
+    ok = follow(tr, tol_pos=8.0, tol_ori=90.0).summary.to_dict()
     assert ok["points_max_error_mm"] < 8.0 and not ok["tolerance_exceeded"]
     assert ok["over_tol_pos_steps"] == ok["over_tol_ori_steps"] == 0
     tight = follow(tr, tol_pos=4.0, tol_ori=90.0)
-    s = tight.summary()
+    s = tight.summary.to_dict()
     assert s["tolerance_exceeded"]
     # the solve's tolerance changes the solution too: count against this run's own errors
     assert s["over_tol_pos_steps"] == int(np.count_nonzero(tight.point_errors.max(axis=1) > 4.0)) > 0
