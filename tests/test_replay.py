@@ -80,7 +80,7 @@ def test_replay_restores_everything_a_run_wrote(run_bhr, tmp_path):
     back = load_run(tmp_path / "run" / "run.json")
     assert back.body is not None and back.body.modules == 15 and back.trajectory.lumen is not None
     doc = json.loads((tmp_path / "run" / "run.json").read_text())
-    assert back.to_json()["steps"] == doc["steps"]
+    assert back.to_dict()["steps"] == doc["steps"]
     for key in ("body_points_max_error_mm", "min_clearance_mm", "wall_touch_steps", "rmse_point_mm"):
         assert back.summary.to_dict()[key] == doc["summary"][key], key
     res = run_bhr("replay", "run/run.json", "--out", "again")
