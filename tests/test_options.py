@@ -42,8 +42,11 @@ def test_batch_refuses_what_the_command_line_refuses(o, run_bhr, tmp_path):
         parse_batch({"run": [{"name": "a", "traj": "curve", o.name: too_big}]}, "b")
     with pytest.raises(BhrError, match="is too large"):
         parse_values(o.name, [too_big], "sweep")
-    if o.group == "robot" and o.name != "feed_divisor":  # bhr fk has no feed
-        r = run_bhr("fk", "--codes", "0", o.flag, str(too_big))
+    if o.group == "robot" and o.name != "feed_divisor":  # bhr fk has no feed, and solves nothing
+        from bhr.cli._options import SOLVING_ONLY
+
+        args = ("solve", "--target", "1", "1", "1") if o.name in SOLVING_ONLY else ("fk", "--codes", "0")
+        r = run_bhr(*args, o.flag, str(too_big))
         assert r.returncode == 2 and f"the limit is {o.limit:g}" in r.stderr
 
 
