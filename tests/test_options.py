@@ -59,3 +59,11 @@ def test_optimal_options_in_batch_and_sweep():
     s = build_sweep(["line"], ["optimal", "thesis"], [("lookahead", (0, 5)), ("length", (20.0,))])
     rows = [run_design(d, s.traj_sources[d["traj"]]) for d in s.designs()]
     assert [r["status"] for r in rows] == ["ok"] * 4
+
+
+def test_fk_lists_no_solver_options_and_old_spellings_stay_hidden(run_bhr):
+    fk = run_bhr("fk", "--help").stdout
+    assert "--module-length" in fk and not any(f in fk for f in ("--tol-pos", "--tol-ori", "--max-iter", "--weight"))
+    sweep, report = run_bhr("sweep", "--help").stdout, run_bhr("report", "--help").stdout
+    assert "--no-plots" in sweep and "--no-plot " not in sweep
+    assert "--file" in report and "--no-plots" in report and "--batch" not in report
