@@ -25,8 +25,10 @@ def cache_dir() -> str:
 def cache_has_kernels() -> bool:
     """Whether numba's cache holds any compiled bhr kernel yet (False on a machine's first run)."""
     root = Path(cache_dir())
+    # numba keeps each source folder's kernels in "<folder name>_<hash>": bhr's package folders
+    folders = {p.parent.name for p in Path(__file__).parent.rglob("__init__.py")}
     try:
-        return any(root.glob("bhr_*/*.nbi")) or any(root.glob("solvers_*/*.nbi"))
+        return any(any(root.glob(f"{name}_*/*.nbi")) for name in folders)
     except OSError:
         return False
 
