@@ -25,6 +25,7 @@ from bhr._input import ROBOT_LIMITS, check_keys, number, read_toml, text_value, 
 from bhr.codes import CODE_AXIS, LIFT, REST, VALID_CODES
 from bhr.errors import BhrError
 from bhr.robot import Robot
+from bhr.thermal import DEFAULT_THERMAL, ThermalParams, thermal_from_table
 
 __all__ = ["RobotFile", "LinkSettings", "load_robot_file", "default_robot_file", "code_table", "ROBOT_KEYS",
            "LINK_KEYS"]
@@ -47,7 +48,7 @@ ROBOT_KEYS: dict[str, dict[str, Any]] = {
     "weight_ori": {"nonneg": True},
 }
 LINK_KEYS = ("port", "baudrate", "module_order", "on_max_ms", "cooldown_ms", "silence_ms")
-TOP_KEYS = ("name", "description", *ROBOT_KEYS, "codes", "link")
+TOP_KEYS = ("name", "description", *ROBOT_KEYS, "codes", "link", "thermal")
 #: Limits the firmware accepts for its timing settings (firmware/src/config.h), ms.
 TIMING_RANGE = (10, 60000)
 #: Modules one board drives at most (firmware/src/config.h).
@@ -123,7 +124,11 @@ class LinkSettings:
 
 @dataclass(frozen=True)
 class RobotFile:
-    """A parsed robot file: ``robot`` (:class:`bhr.robot.Robot`), ``link`` and the code table."""
+    """A parsed robot file: ``robot`` (:class:`bhr.robot.Robot`), ``link``, the code table, ``thermal``.
+
+    ``thermal`` (:class:`bhr.thermal.ThermalParams`) is the actuator wire's
+    thermal model from the ``[thermal]`` table (docs/thermal.md).
+    """
 
     robot: Robot
     link: LinkSettings = field(default_factory=LinkSettings)
@@ -131,6 +136,7 @@ class RobotFile:
     name: str = ""
     description: str = ""
     path: Path | None = None
+    thermal: ThermalParams = DEFAULT_THERMAL
 
 
 def default_robot_file() -> Path:
@@ -260,4 +266,5 @@ def load_robot_file(path: str | os.PathLike[str]) -> RobotFile:
         link = _check_link(data["link"], robot.modules, where)
     else:
         link = LinkSettings(module_order=tuple(range(1, robot.modules + 1)))
-    return RobotFile(robot, link, codes, name, description, p)
+    thermal = thermal_from_table(data["thermal"], f"{where}: thermal") if "thermal" in data else DEFAULT_THERMAL
+    return RobotFile(robot, link, codes, name, description, p, thermal)
