@@ -6,8 +6,25 @@
 
 #include <string.h>
 
+/* The model's products fit in 32 bits (no 64-bit arithmetic on the AVR). */
+#if BHR_THETA_FULL * BHR_THETA_A_Q16 >= 0x40000000L
+#error "thermal constants too large for 32-bit arithmetic"
+#endif
+
+/* Equilibrium temperature for each number of on-milliseconds in a period:
+ * (on * BHR_THETA_FULL) / BHR_PWM_PERIOD_MS, computed once (a division costs
+ * hundreds of cycles on the AVR). */
+static int32_t target_tab[BHR_PWM_PERIOD_MS + 1];
+
+static void fill_targets(void)
+{
+    for (uint8_t k = 0; k <= BHR_PWM_PERIOD_MS; k++)
+        target_tab[k] = (int32_t)(((int32_t)k * BHR_THETA_FULL) / (int32_t)BHR_PWM_PERIOD_MS);
+}
+
 void board_init(board_t *b)
 {
+    fill_targets();
     memset(b, 0, sizeof(*b));
     for (uint8_t i = 0; i < BHR_ACTUATORS; i++)
         b->theta[i] = BHR_THETA_LIMIT; /* unknown past: assume hot wires */
@@ -20,6 +37,7 @@ void board_init(board_t *b)
 
 uint8_t board_resume(board_t *b)
 {
+    fill_targets();
     uint8_t ok = b->magic == BOARD_MAGIC && b->magic_inv == (uint32_t)~(uint32_t)BOARD_MAGIC;
     for (uint8_t i = 0; ok && i < BHR_ACTUATORS; i++)
         if (b->theta[i] < 0 || b->theta[i] > 4L * BHR_THETA_FULL)
@@ -148,11 +166,10 @@ static void all_off(board_t *b)
 static void period_end(board_t *b)
 {
     for (uint8_t i = 0; i < BHR_ACTUATORS; i++) {
-        int32_t target = (int32_t)(((int32_t)b->on_ticks[i] * BHR_THETA_FULL) / (int32_t)BHR_PWM_PERIOD_MS);
-        int32_t d = target - b->theta[i];
+        uint8_t on = b->on_ticks[i] <= BHR_PWM_PERIOD_MS ? b->on_ticks[i] : BHR_PWM_PERIOD_MS;
+        int32_t d = target_tab[on] - b->theta[i];
         /* arithmetic shift (floor), as in bhr/thermal.py */
-        int64_t step = ((int64_t)d * BHR_THETA_A_Q16);
-        b->theta[i] += (int32_t)(step >> 16);
+        b->theta[i] += (d * BHR_THETA_A_Q16) >> 16;
         if (b->theta[i] < 0)
             b->theta[i] = 0;
         b->on_ticks[i] = 0;
