@@ -26,7 +26,8 @@ from bhr import protocol as P
 from bhr.codes import check_code, check_codes
 from bhr.errors import BhrError, LinkError
 
-__all__ = ["BoardLink", "Pacer", "StreamInterrupted", "check_board", "interrupted", "stream_codes", "validate_codes", "DEFAULT_BAUD",
+__all__ = ["BoardLink", "Pacer", "StreamInterrupted", "check_board", "interrupted", "stream_codes", "validate_codes",
+           "wait_until_ready", "DEFAULT_BAUD",
            "DEFAULT_TIMEOUT", "DEFAULT_RETRIES"]
 
 DEFAULT_BAUD = 115200
@@ -141,11 +142,17 @@ class BoardLink:
         self.last_faults = P.fault_names(faults)
         return self.last_faults
 
-    def status(self) -> dict:
-        """The board's current output codes and faults: ``{"codes": [...], "faults": [...]}``."""
+    def status(self, detail: bool = False) -> dict:
+        """The board's current output codes and faults: ``{"codes": [...], "faults": [...]}``.
+
+        ``detail=True`` adds ``"relaxing"``: the modules (1-based) with a
+        released wire that has not relaxed yet (docs/thermal.md).
+        """
         reply = self._transact(P.status_frame, "STATUS", expect=P.Msg.STATUS_REPLY)
         try:
             doc = P.parse_status(reply)
+            if detail:
+                doc["relaxing"] = P.relaxing_modules(reply)
         except P.ProtocolError as exc:
             raise LinkError(f"board on {self.port} sent a malformed status reply ({exc}); "
                             "check that its firmware matches this bhr") from None
@@ -158,6 +165,9 @@ class BoardLink:
             doc["codes"] = [0] * len(chain)
             for pos, m in enumerate(self.module_order):
                 doc["codes"][m - 1] = chain[pos]
+            if detail:
+                doc["relaxing"] = sorted(self.module_order[k - 1] for k in doc["relaxing"])
+            doc["faults"] = [_rename_module(f, self.module_order) for f in doc["faults"]]
         return doc
 
     def stop_all(self, retries: int | None = None) -> None:
@@ -258,6 +268,29 @@ class BoardLink:
         return f"board on {self.port} refused {what}: {text}; check that its firmware matches this bhr"
 
 
+def _rename_module(fault: str, order: Sequence[int]) -> str:
+    """``overheat:m2`` of chain position 2 -> the module wired there."""
+    name, _, pos = fault.partition(":m")
+    return f"{name}:m{order[int(pos) - 1]}" if pos.isdigit() and int(pos) <= len(order) else fault
+
+
+def wait_until_ready(link: "BoardLink", timeout: float = 30.0) -> float:
+    """Poll the board until no module is cooling or relaxing (wires cold enough to plan from); return the wait (s).
+
+    Raises LinkError when the board is still not ready after ``timeout`` seconds.
+    """
+    t0 = time.monotonic()
+    while True:
+        doc = link.status(detail=True)
+        busy = [f for f in doc["faults"] if f.startswith("cooling")] + [f"relaxing:m{m}" for m in doc["relaxing"]]
+        if not busy:
+            return time.monotonic() - t0
+        if time.monotonic() - t0 > timeout:
+            raise LinkError(f"board on {link.port} is still {', '.join(busy)} after {timeout:g} s; wait for its "
+                            "wires to cool (bhr status) and try again")
+        time.sleep(0.1)
+
+
 def _reason(exc: BaseException) -> str:
     text = str(exc).strip().splitlines()
     return text[0] if text and text[0] else type(exc).__name__
@@ -287,23 +320,36 @@ class Pacer:
     silence timeout from firing. Calling the pacer as ``pacer(step, codes)``
     fits :func:`bhr.follow.follow`'s ``on_step``, which is how ``bhr follow
     --port`` streams while it solves. ``sent`` counts acknowledged rows and
-    ``faults`` collects every fault name the board reported.
+    ``faults`` collects every fault name the board reported. ``times``
+    (seconds after the first row, one per row) replaces the fixed rate with a
+    planned schedule (:func:`bhr.thermal.auto_schedule`). ``on_fault(step,
+    names)`` is called once for each fault the board raises anew, with the
+    1-based step and the fault names with their modules (a status request
+    gives the modules).
     """
 
-    def __init__(self, link: BoardLink, rate: float = 10.0, heartbeat: float = DEFAULT_HEARTBEAT) -> None:
+    def __init__(self, link: BoardLink, rate: float = 10.0, heartbeat: float = DEFAULT_HEARTBEAT,
+                 times: Sequence[float] | None = None,
+                 on_fault: Callable[[int, list[str]], None] | None = None) -> None:
         if not rate or not np.isfinite(rate) or rate <= 0:
             raise BhrError(f"rate must be a positive number of rows per second, got {rate}")
         self.link = link
         self.period = 1.0 / float(rate)
+        self.times = None if times is None else [float(t) for t in times]
         self.heartbeat = heartbeat
         self.sent = 0
         self.faults: list[str] = []
+        self.fault_events: list[tuple[int, str]] = []
+        self.on_fault = on_fault
         self._t0: float | None = None
+        self._seen: set[str] = set()
 
     def send(self, codes: Sequence[int]) -> None:
         """Wait until the next row is due, then send ``codes`` (one per module, base first)."""
         if self._t0 is not None:
-            due = self._t0 + self.sent * self.period
+            offset = self.sent * self.period if self.times is None or self.sent >= len(self.times) \
+                else self.times[self.sent]
+            due = self._t0 + offset
             while True:
                 now = time.monotonic()
                 if now >= due:
@@ -315,10 +361,20 @@ class Pacer:
                     time.sleep(due - now)
         else:
             self._t0 = time.monotonic()
-        for f in self.link.set_codes(codes):
+        names = self.link.set_codes(codes)
+        self.sent += 1
+        if any(f != "silence" for f in names):
+            # latched faults: the ACK has no module detail, so ask (only while the board reports a fault)
+            detail = [f for f in self.link.status()["faults"] if f != "silence"]
+            fresh = [f for f in detail if f not in self._seen and f.split(":")[0] != "cooling"]
+            self._seen.update(detail)
+            for f in fresh:
+                self.fault_events.append((self.sent, f))
+            if fresh and self.on_fault is not None:
+                self.on_fault(self.sent, fresh)
+        for f in names:
             if f not in self.faults:
                 self.faults.append(f)
-        self.sent += 1
 
     def __call__(self, step: int, codes: Sequence[int] | None) -> None:
         if codes is None:
@@ -349,7 +405,8 @@ def interrupted(link: BoardLink, sent: int) -> StreamInterrupted:
 
 
 def stream_codes(link: BoardLink, codes, rate: float = 10.0, progress: Callable[[int, int], None] | None = None,
-                 heartbeat: float = DEFAULT_HEARTBEAT, start: int = 0) -> int:
+                 heartbeat: float = DEFAULT_HEARTBEAT, start: int = 0, times: Sequence[float] | None = None,
+                 on_fault: Callable[[int, list[str]], None] | None = None) -> int:
     """Send each row of ``codes`` (steps x modules) to the board at ``rate`` rows per second.
 
     Every code is validated before the first frame. Rows are paced by
@@ -360,7 +417,9 @@ def stream_codes(link: BoardLink, codes, rate: float = 10.0, progress: Callable[
     the outputs until the board's silence timeout.
     """
     table = validate_codes(codes)
-    pacer = Pacer(link, rate, heartbeat)
+    pacer = Pacer(link, rate, heartbeat, times=None if times is None else list(times)[start:], on_fault=on_fault)
+    if times is not None and start:
+        pacer.times = [t - pacer.times[0] for t in pacer.times]
     total = table.shape[0]
     try:
         for i in range(start, total):

@@ -583,3 +583,48 @@ def max_safe_rate(params: ThermalParams, rows, rate: float) -> float | None:
         else:
             lo = mid
     return math.floor(lo * 10) / 10 or None
+
+
+def _released_step(rows: np.ndarray, step: int, module: int) -> int | None:
+    """The 1-based step at which a wire that ``step`` energises anew on ``module`` was last switched off."""
+    j = module - 1
+    now, before = int(rows[step - 1, j]), int(rows[step - 2, j]) if step >= 2 else 0
+    newly = now & ~before
+    for k in range(step - 2, 0, -1):
+        if int(rows[k - 1, j]) & newly and not int(rows[k, j]) & newly:
+            return k + 1
+    return None
+
+
+SCHEDULES = ("rate", "auto")
+
+
+def plan(params: ThermalParams, rows, rate: float, schedule: str = "rate", name: str = "",
+         sending: bool = False) -> Schedule:
+    """Check (``schedule="rate"``) or stretch (``"auto"``) a stream of codes before anything is sent.
+
+    A fixed-rate stream that the board's model would fault on raises
+    BhrError, one line naming the module, the step and the fix.
+    """
+    rows = np.asarray(rows, dtype=np.int64)
+    if schedule not in SCHEDULES:
+        raise BhrError(f"schedule {schedule!r} is not one of {', '.join(SCHEDULES)}")
+    if schedule == "auto":
+        return auto_schedule(params, rows, rate)
+    sched = check_schedule(params, rows, rate)
+    if not sched.faults:
+        return sched
+    kind, module, step = sched.faults[0]
+    auto = auto_schedule(params, rows, rate)
+    safe = max_safe_rate(params, rows, rate)
+    fix = (f"use --rate {safe:g}" if safe else "no fixed rate fits") + \
+        f" or --schedule auto ({format_duration(auto.total_s)} at the board's limits)"
+    where = f"{name + ': ' if name else ''}module m{module}, step {step}"
+    if kind == "early":
+        rel = _released_step(rows, step, module)
+        what = (f"a wire released at step {rel} has not relaxed yet" if rel else "a wire has not relaxed yet") + \
+            f" (relaxation {params.relax_ms:g} ms) when it is energised again at {rate:g} Hz"
+    else:
+        what = f"a wire would overheat at {rate:g} Hz (over {params.max_full_ms:g} ms of full power)"
+    note = " Nothing was sent;" if sending else ""
+    raise BhrError(f"{where}: {what}; the board would hold the module off.{note} {fix}")
