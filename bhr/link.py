@@ -314,8 +314,10 @@ def validate_codes(codes, where: str = "") -> np.ndarray:
 class Pacer:
     """Send rows of codes to the board no faster than ``rate`` rows per second.
 
-    The first row goes at once; row ``k`` is due ``k / rate`` seconds after
-    it (when the caller is slower, rows follow each other at once). While
+    ``known_faults`` (from a status before the stream) are not reported again.
+    The first row goes at once; each further row is due ``1 / rate`` seconds
+    (or its planned gap, with ``times``) after the row before it was sent, so
+    a late row never shortens the gap after it. While
     waiting longer than ``heartbeat`` seconds, heartbeats keep the board's
     silence timeout from firing. Calling the pacer as ``pacer(step, codes)``
     fits :func:`bhr.follow.follow`'s ``on_step``, which is how ``bhr follow
@@ -330,7 +332,7 @@ class Pacer:
 
     def __init__(self, link: BoardLink, rate: float = 10.0, heartbeat: float = DEFAULT_HEARTBEAT,
                  times: Sequence[float] | None = None,
-                 on_fault: Callable[[int, list[str]], None] | None = None) -> None:
+                 on_fault: Callable[[int, list[str]], None] | None = None, known_faults: Sequence[str] = ()) -> None:
         if not rate or not np.isfinite(rate) or rate <= 0:
             raise BhrError(f"rate must be a positive number of rows per second, got {rate}")
         self.link = link
@@ -342,14 +344,16 @@ class Pacer:
         self.fault_events: list[tuple[int, str]] = []
         self.on_fault = on_fault
         self._t0: float | None = None
-        self._seen: set[str] = set()
+        self._seen: set[str] = set(known_faults)  # latched before the stream: not news
 
     def send(self, codes: Sequence[int]) -> None:
         """Wait until the next row is due, then send ``codes`` (one per module, base first)."""
         if self._t0 is not None:
-            offset = self.sent * self.period if self.times is None or self.sent >= len(self.times) \
-                else self.times[self.sent]
-            due = self._t0 + offset
+            # Each row waits its planned gap after the row before it was actually sent: a late row never
+            # shortens the next gap (the wires' relaxation counts from the release).
+            k = self.sent
+            gap = self.period if self.times is None or k >= len(self.times) else self.times[k] - self.times[k - 1]
+            due = self._t0 + max(gap, 0.0)
             while True:
                 now = time.monotonic()
                 if now >= due:
@@ -359,8 +363,7 @@ class Pacer:
                     self.link.heartbeat()
                 else:
                     time.sleep(due - now)
-        else:
-            self._t0 = time.monotonic()
+        self._t0 = time.monotonic()
         names = self.link.set_codes(codes)
         self.sent += 1
         if any(f != "silence" for f in names):
@@ -406,7 +409,7 @@ def interrupted(link: BoardLink, sent: int) -> StreamInterrupted:
 
 def stream_codes(link: BoardLink, codes, rate: float = 10.0, progress: Callable[[int, int], None] | None = None,
                  heartbeat: float = DEFAULT_HEARTBEAT, start: int = 0, times: Sequence[float] | None = None,
-                 on_fault: Callable[[int, list[str]], None] | None = None) -> int:
+                 on_fault: Callable[[int, list[str]], None] | None = None, known_faults: Sequence[str] = ()) -> int:
     """Send each row of ``codes`` (steps x modules) to the board at ``rate`` rows per second.
 
     Every code is validated before the first frame. Rows are paced by
@@ -417,7 +420,8 @@ def stream_codes(link: BoardLink, codes, rate: float = 10.0, progress: Callable[
     the outputs until the board's silence timeout.
     """
     table = validate_codes(codes)
-    pacer = Pacer(link, rate, heartbeat, times=None if times is None else list(times)[start:], on_fault=on_fault)
+    pacer = Pacer(link, rate, heartbeat, times=None if times is None else list(times)[start:], on_fault=on_fault,
+                  known_faults=known_faults)
     if times is not None and start:
         pacer.times = [t - pacer.times[0] for t in pacer.times]
     total = table.shape[0]

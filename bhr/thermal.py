@@ -626,5 +626,5 @@ def plan(params: ThermalParams, rows, rate: float, schedule: str = "rate", name:
             f" (relaxation {params.relax_ms:g} ms) when it is energised again at {rate:g} Hz"
     else:
         what = f"a wire would overheat at {rate:g} Hz (over {params.max_full_ms:g} ms of full power)"
-    note = " Nothing was sent;" if sending else ""
-    raise BhrError(f"{where}: {what}; the board would hold the module off.{note} {fix}")
+    note = " nothing was sent;" if sending else ""
+    raise BhrError(f"{where}: {what}, and the board would hold the module off;{note} {fix}")

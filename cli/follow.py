@@ -169,6 +169,13 @@ def follow(traj, solver, out_dir, json_path, no_plots, **kwargs):
     stream = json_path == "-"
     for line in summary_lines(result):
         click.echo(line, err=stream)
+    if result.codes is not None and link_kw["port"] is None:
+        from bhr.cli._link import thermal_params
+        from bhr.thermal import auto_schedule, format_duration
+
+        sched = auto_schedule(thermal_params(link_kw.get("robot_file")), result.codes, rate)
+        click.echo(f"Procedure time on the board: {format_duration(sched.total_s)} at the board's limits "
+                   f"(bhr plan --codes {out / 'codes.csv'} shows the schedule).", err=stream)
     click.echo("Wrote " + ", ".join(str(p) for p in written), err=stream)
     if animate_path:
         render_animation(result, animate_path, stride)
@@ -215,8 +222,11 @@ def follow_streaming(tr, solver, robot, solver_options, body_modules, rate, link
         wait_until_ready(link)
         steps = len(rows)
         times = sched.times_ms / 1000.0 if schedule == "auto" else None
-        pacer = Pacer(link, rate, times=times, on_fault=fault_printer(port))
+        pacer = Pacer(link, rate, times=times, on_fault=fault_printer(port), known_faults=board["faults"])
         show_bar = sys.stderr.isatty()
+        import time
+
+        t_start = time.monotonic()
         try:
             with (click.progressbar(length=steps, label=f"streaming to {port}", file=sys.stderr,
                                     show_pos=True) if show_bar else contextlib.nullcontext()) as bar:
@@ -226,7 +236,9 @@ def follow_streaming(tr, solver, robot, solver_options, body_modules, rate, link
                         bar.update(1)
         except KeyboardInterrupt:
             exit_interrupted(interrupted(link, pacer.sent), steps, "steps")
+        t_sent = time.monotonic() - t_start
     how = f"at {rate:g} Hz" if schedule == "rate" else "at the board's limits"
+    settle = sched.total_s - float(sched.times_ms[-1]) / 1000.0  # the last step's contraction
     click.echo(f"streamed {pacer.sent} steps ({robot.modules} modules) to {port} {how}; procedure time "
-               f"{format_duration(sched.total_s)}", err=True)
+               f"{format_duration(t_sent + settle)} (planned {format_duration(sched.total_s)})", err=True)
     return result, pacer.fault_events

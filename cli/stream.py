@@ -84,18 +84,25 @@ def stream(codes_path, rate, schedule, dry_run, **link_kw):
                             faults.append(f)
 
                 wait_until_ready(link)
+                known = link.status()["faults"]
                 printer = fault_printer(port)
 
                 def on_fault(step: int, names: list[str]) -> None:
                     events.extend((step, n) for n in names)
                     printer(steps[step - 1], names)
 
-                sent = stream_codes(link, table, rate=rate, progress=progress, times=times, on_fault=on_fault)
+                import time
+
+                t_start = time.monotonic()
+                sent = stream_codes(link, table, rate=rate, progress=progress, times=times, on_fault=on_fault,
+                                    known_faults=known)
+                t_sent = time.monotonic() - t_start
         except StreamInterrupted as exc:
             exit_interrupted(exc, n_rows, "rows")
     how = f"at {rate:g} Hz" if schedule == "rate" else "at the board's limits"
     click.echo(f"sent {sent} rows ({n_modules} modules, steps {steps[0]}..{steps[-1]}) to {port} {how}; "
-               f"procedure time {format_duration(sched.total_s)}")
+               f"procedure time {format_duration(t_sent + sched.total_s - float(sched.times_ms[-1]) / 1000.0)} "
+               f"(planned {format_duration(sched.total_s)})")
     if events:
         raise BhrError(f"the board raised {len(events)} fault{'s' if len(events) != 1 else ''} during the stream "
                        f"(first: {events[0][1]} at step {steps[events[0][0] - 1]}); check the [thermal] table of "
