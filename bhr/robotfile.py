@@ -82,11 +82,10 @@ class LinkSettings:
     ``module_order``: ``module_order[k-1]`` is the module (1 = base) wired to
     position ``k`` of the 74HC595 chain (position 1 = the low nibble of the chip
     nearest the microcontroller); the firmware's default wiring is 1, 2, ..., n.
-    ``on_max_ms`` / ``cooldown_ms``: longest continuous on-time of a nitinol
-    actuator and the time it takes to cool down fully from that limit.
+    ``on_max_ms`` / ``cooldown_ms``: accepted for older files; the wires'
+    limits are the robot file's ``[thermal]`` table (docs/thermal.md).
     ``silence_ms``: the board switches everything off when the host is silent
-    this long. The three timings are the firmware's ``ON_MAX_MS``,
-    ``COOLDOWN_MS`` and ``SILENCE_MS`` (docs/firmware.md).
+    this long (the firmware's ``SILENCE_MS``, docs/firmware.md).
     """
 
     port: str | None = None
@@ -118,8 +117,7 @@ class LinkSettings:
 
     def firmware_make_args(self) -> list[str]:
         """``make`` variables that build firmware matching these settings (docs/firmware.md)."""
-        return [f"MODULES={self.modules}", f"BAUD={self.baudrate}", f"ON_MAX_MS={self.on_max_ms}",
-                f"COOLDOWN_MS={self.cooldown_ms}", f"SILENCE_MS={self.silence_ms}"]
+        return [f"MODULES={self.modules}", f"BAUD={self.baudrate}", f"SILENCE_MS={self.silence_ms}"]
 
 
 @dataclass(frozen=True)
