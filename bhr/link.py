@@ -315,6 +315,9 @@ class Pacer:
     """Send rows of codes to the board no faster than ``rate`` rows per second.
 
     ``known_faults`` (from a status before the stream) are not reported again.
+    ``wait_relaxed``: before a row that energises a wire anew, ask the board
+    and wait while that module still has a wire relaxing (the board's clock,
+    not the host's, then decides: a simulator that runs slow stays safe).
     The first row goes at once; each further row is due ``1 / rate`` seconds
     (or its planned gap, with ``times``) after the row before it was sent, so
     a late row never shortens the gap after it. While
@@ -332,7 +335,8 @@ class Pacer:
 
     def __init__(self, link: BoardLink, rate: float = 10.0, heartbeat: float = DEFAULT_HEARTBEAT,
                  times: Sequence[float] | None = None,
-                 on_fault: Callable[[int, list[str]], None] | None = None, known_faults: Sequence[str] = ()) -> None:
+                 on_fault: Callable[[int, list[str]], None] | None = None, known_faults: Sequence[str] = (),
+                 wait_relaxed: bool = False) -> None:
         if not rate or not np.isfinite(rate) or rate <= 0:
             raise BhrError(f"rate must be a positive number of rows per second, got {rate}")
         self.link = link
@@ -345,6 +349,9 @@ class Pacer:
         self.on_fault = on_fault
         self._t0: float | None = None
         self._seen: set[str] = set(known_faults)  # latched before the stream: not news
+        self.wait_relaxed = wait_relaxed
+        self._last: list[int] | None = None
+        self._released: dict[tuple[int, int], float] = {}
 
     def send(self, codes: Sequence[int]) -> None:
         """Wait until the next row is due, then send ``codes`` (one per module, base first)."""
@@ -363,7 +370,21 @@ class Pacer:
                     self.link.heartbeat()
                 else:
                     time.sleep(due - now)
+        codes = [int(c) for c in codes]
+        if self.wait_relaxed and self._last is not None:
+            # modules asked to energise a wire that was switched off recently (it may still be relaxing)
+            now = time.monotonic()
+            fresh = [m for m, (c, p) in enumerate(zip(codes, self._last), start=1)
+                     if any(now - self._released.get((m, b), -1e9) < 10.0 for b in range(4) if (c & ~p) >> b & 1)]
+            if fresh:
+                self._await_relaxed(fresh)
         self._t0 = time.monotonic()
+        if self._last is not None:
+            for m, (c, p) in enumerate(zip(codes, self._last), start=1):
+                for b in range(4):
+                    if (p & ~c) >> b & 1:
+                        self._released[(m, b)] = self._t0
+        self._last = codes
         names = self.link.set_codes(codes)
         self.sent += 1
         if any(f != "silence" for f in names):
@@ -378,6 +399,14 @@ class Pacer:
         for f in names:
             if f not in self.faults:
                 self.faults.append(f)
+
+    def _await_relaxed(self, modules: list[int], timeout: float = 10.0) -> None:
+        end = time.monotonic() + timeout
+        while True:
+            busy = set(self.link.status(detail=True)["relaxing"]) & set(modules)
+            if not busy or time.monotonic() > end:
+                return
+            time.sleep(0.01)
 
     def __call__(self, step: int, codes: Sequence[int] | None) -> None:
         if codes is None:
@@ -409,7 +438,8 @@ def interrupted(link: BoardLink, sent: int) -> StreamInterrupted:
 
 def stream_codes(link: BoardLink, codes, rate: float = 10.0, progress: Callable[[int, int], None] | None = None,
                  heartbeat: float = DEFAULT_HEARTBEAT, start: int = 0, times: Sequence[float] | None = None,
-                 on_fault: Callable[[int, list[str]], None] | None = None, known_faults: Sequence[str] = ()) -> int:
+                 on_fault: Callable[[int, list[str]], None] | None = None, known_faults: Sequence[str] = (),
+                 wait_relaxed: bool = False) -> int:
     """Send each row of ``codes`` (steps x modules) to the board at ``rate`` rows per second.
 
     Every code is validated before the first frame. Rows are paced by
@@ -421,7 +451,7 @@ def stream_codes(link: BoardLink, codes, rate: float = 10.0, progress: Callable[
     """
     table = validate_codes(codes)
     pacer = Pacer(link, rate, heartbeat, times=None if times is None else list(times)[start:], on_fault=on_fault,
-                  known_faults=known_faults)
+                  known_faults=known_faults, wait_relaxed=wait_relaxed)
     if times is not None and start:
         pacer.times = [t - pacer.times[0] for t in pacer.times]
     total = table.shape[0]

@@ -222,7 +222,8 @@ def follow_streaming(tr, solver, robot, solver_options, body_modules, rate, link
         wait_until_ready(link)
         steps = len(rows)
         times = sched.times_ms / 1000.0 if schedule == "auto" else None
-        pacer = Pacer(link, rate, times=times, on_fault=fault_printer(port), known_faults=board["faults"])
+        pacer = Pacer(link, rate, times=times, on_fault=fault_printer(port), known_faults=board["faults"],
+                      wait_relaxed=schedule == "auto")
         show_bar = sys.stderr.isatty()
         import time
 

@@ -95,7 +95,7 @@ def stream(codes_path, rate, schedule, dry_run, **link_kw):
 
                 t_start = time.monotonic()
                 sent = stream_codes(link, table, rate=rate, progress=progress, times=times, on_fault=on_fault,
-                                    known_faults=known)
+                                    known_faults=known, wait_relaxed=schedule == "auto")
                 t_sent = time.monotonic() - t_start
         except StreamInterrupted as exc:
             exit_interrupted(exc, n_rows, "rows")
