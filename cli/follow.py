@@ -127,7 +127,8 @@ def follow(traj, solver, out_dir, json_path, no_plots, **kwargs):
         from bhr.errors import BhrError
 
         raise BhrError("--baud is an option of streaming; give --port too, or drop --baud")
-    link_kw["robot_file"] = kwargs.get("robot_file")
+    robot_file = link_kw["robot_file"] = kwargs.get("robot_file")
+    streaming = link_kw["port"] is not None
     robot = build_robot(kwargs)
     constraints = pop_constraints(kwargs)
     optimal = pop_optimal(kwargs)
@@ -169,11 +170,11 @@ def follow(traj, solver, out_dir, json_path, no_plots, **kwargs):
     stream = json_path == "-"
     for line in summary_lines(result):
         click.echo(line, err=stream)
-    if result.codes is not None and link_kw["port"] is None:
+    if result.codes is not None and not streaming:
         from bhr.cli._link import thermal_params
         from bhr.thermal import auto_schedule, format_duration
 
-        sched = auto_schedule(thermal_params(link_kw.get("robot_file")), result.codes, rate)
+        sched = auto_schedule(thermal_params(robot_file), result.codes, rate)
         click.echo(f"Procedure time on the board: {format_duration(sched.total_s)} at the board's limits "
                    f"(bhr plan --codes {out / 'codes.csv'} shows the schedule).", err=stream)
     click.echo("Wrote " + ", ".join(str(p) for p in written), err=stream)
@@ -202,12 +203,12 @@ def follow_streaming(tr, solver, robot, solver_options, body_modules, rate, link
 
     if body_modules is not None:
         raise BhrError("--port streams the head's codes and cannot stream a --body-modules run; drop one of the two")
+    params = thermal_params(link_kw.get("robot_file"))
     port, link_args = link_settings(link_kw, use_file_port=False)
     order = link_args["module_order"]
     if order is not None and len(order) != robot.modules:
         raise BhrError(f"the robot file's link.module_order lists {len(order)} modules but the robot has "
                        f"{robot.modules}; make them agree")
-    params = thermal_params(link_kw.get("robot_file"))
     with BoardLink(port, **link_args) as link:
         board = check_board(link, robot.modules)  # a wrong board is refused before the solve
         result = run_follow(tr, solver=solver, robot=robot, solver_options=solver_options)

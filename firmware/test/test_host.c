@@ -805,6 +805,7 @@ static int vectors(void)
     /* board replies, from a fresh board */
     board_t b;
     board_init(&b);
+    board_tick(&b, 20000); /* past the power-up cool-down */
     proto_frame_t fr = {PROTO_VERSION, MSG_SET_CODES, 0, 6, NULL};
     uint8_t payload[6] = {5, 3, 0, 6, 0, 0};
     fr.payload = payload;
