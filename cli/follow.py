@@ -218,8 +218,8 @@ def follow_streaming(tr, solver, robot, solver_options, body_modules, rate, link
         sched = plan(params, rows, rate, schedule, name=tr.name, sending=True)
         held = [f for f in board["faults"] if f != "silence"]  # silence: the board was idle, which is fine
         if held:
-            click.echo(f"Warning: board on {port} reports {', '.join(held)} before the run; waiting for its wires "
-                       "to cool", err=True)
+            click.echo(f"Warning: board on {port} reports {', '.join(held)} before the run (latched faults stay "
+                       "until stop-all; a cooling module is waited for)", err=True)
         wait_until_ready(link)
         steps = len(rows)
         times = sched.times_ms / 1000.0 if schedule == "auto" else None
