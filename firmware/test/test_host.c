@@ -759,7 +759,7 @@ static void fuzz(unsigned long count)
         bytes += n;
         check_outputs(&b, "fuzz");
         /* time passes: short steps, sometimes an idle gap */
-        unsigned step = rnd_below(4) ? rnd_below(20) : rnd_below(3000);
+        unsigned step = rnd_below(16) ? rnd_below(20) : rnd_below(3000); /* ticks run 1 ms at a time: keep idle gaps rarer */
         board_tick(&b, (uint16_t)step);
         check_outputs(&b, "fuzz tick");
         if (rnd_below(8) == 0 || step >= BHR_FRAME_GAP_MS) {
