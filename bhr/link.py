@@ -314,23 +314,21 @@ def validate_codes(codes, where: str = "") -> np.ndarray:
 class Pacer:
     """Send rows of codes to the board no faster than ``rate`` rows per second.
 
-    ``known_faults`` (from a status before the stream) are not reported again.
-    ``wait_relaxed``: before a row that energises a wire anew, ask the board
-    and wait while that module still has a wire relaxing (the board's clock,
-    not the host's, then decides: a simulator that runs slow stays safe).
     The first row goes at once; each further row is due ``1 / rate`` seconds
-    (or its planned gap, with ``times``) after the row before it was sent, so
-    a late row never shortens the gap after it. While
-    waiting longer than ``heartbeat`` seconds, heartbeats keep the board's
-    silence timeout from firing. Calling the pacer as ``pacer(step, codes)``
-    fits :func:`bhr.follow.follow`'s ``on_step``, which is how ``bhr follow
-    --port`` streams while it solves. ``sent`` counts acknowledged rows and
-    ``faults`` collects every fault name the board reported. ``times``
-    (seconds after the first row, one per row) replaces the fixed rate with a
-    planned schedule (:func:`bhr.thermal.auto_schedule`). ``on_fault(step,
-    names)`` is called once for each fault the board raises anew, with the
-    1-based step and the fault names with their modules (a status request
-    gives the modules).
+    (or its planned gap, with ``times``: seconds after the first row, one per
+    row, from :func:`bhr.thermal.auto_schedule`) after the row before it was
+    sent, so a late row never shortens the gap after it. While waiting longer
+    than ``heartbeat`` seconds, heartbeats keep the board's silence timeout
+    from firing. ``wait_relaxed``: before a row that energises a recently
+    released wire, ask the board and wait while that module still has a wire
+    relaxing (the board's clock decides, so a board whose clock runs slow is
+    still never asked too early). ``on_fault(step, names)`` is called once for
+    each fault the board raises anew, with the 1-based step and the fault
+    names with their modules (a status request gives the modules);
+    ``known_faults`` (from a status before the stream) are not news. Calling
+    the pacer as ``pacer(step, codes)`` fits :func:`bhr.follow.follow`'s
+    ``on_step``. ``sent`` counts acknowledged rows, ``faults`` collects every
+    fault name the board reported, ``fault_events`` the (step, name) pairs.
     """
 
     def __init__(self, link: BoardLink, rate: float = 10.0, heartbeat: float = DEFAULT_HEARTBEAT,
