@@ -22,7 +22,7 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-from bhr import protocol as P
+import bhr.protocol as P
 from bhr.codes import check_code, check_codes
 from bhr.errors import BhrError, LinkError
 
@@ -372,10 +372,10 @@ class Pacer:
         if self.wait_relaxed and self._last is not None:
             # modules asked to energise a wire that was switched off recently (it may still be relaxing)
             now = time.monotonic()
-            fresh = [m for m, (c, p) in enumerate(zip(codes, self._last), start=1)
-                     if any(now - self._released.get((m, b), -1e9) < 10.0 for b in range(4) if (c & ~p) >> b & 1)]
-            if fresh:
-                self._await_relaxed(fresh)
+            recent = [m for m, (c, p) in enumerate(zip(codes, self._last), start=1)
+                      if any(now - self._released.get((m, b), -1e9) < 10.0 for b in range(4) if (c & ~p) >> b & 1)]
+            if recent:
+                self._await_relaxed(recent)
         self._t0 = time.monotonic()
         if self._last is not None:
             for m, (c, p) in enumerate(zip(codes, self._last), start=1):
@@ -409,7 +409,7 @@ class Pacer:
     def __call__(self, step: int, codes: Sequence[int] | None) -> None:
         if codes is None:
             raise BhrError("this solver gives no module codes, so nothing can be sent to the board; use "
-                           "--solver seed, optimal, or constrained with --limit binary --axes local")
+                           "--solver thesis, optimal, or constrained with --limit binary --axes local")
         self.send(codes)
 
 
@@ -448,10 +448,11 @@ def stream_codes(link: BoardLink, codes, rate: float = 10.0, progress: Callable[
     the outputs until the board's silence timeout.
     """
     table = validate_codes(codes)
-    pacer = Pacer(link, rate, heartbeat, times=None if times is None else list(times)[start:], on_fault=on_fault,
-                  known_faults=known_faults, wait_relaxed=wait_relaxed)
-    if times is not None and start:
-        pacer.times = [t - pacer.times[0] for t in pacer.times]
+    planned = None if times is None else [float(t) for t in list(times)[start:]]
+    if planned:
+        planned = [t - planned[0] for t in planned]
+    pacer = Pacer(link, rate, heartbeat, times=planned, on_fault=on_fault, known_faults=known_faults,
+                  wait_relaxed=wait_relaxed)
     total = table.shape[0]
     try:
         for i in range(start, total):
