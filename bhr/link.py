@@ -30,6 +30,13 @@ __all__ = ["BoardLink", "Pacer", "StreamInterrupted", "check_board", "interrupte
            "wait_until_ready", "DEFAULT_BAUD",
            "DEFAULT_TIMEOUT", "DEFAULT_RETRIES"]
 
+try:  # a pty that vanishes between write and drain raises termios.error, which is not an OSError
+    import termios
+
+    _TTY_ERRORS: tuple[type[BaseException], ...] = (termios.error,)
+except ImportError:  # pragma: no cover - not POSIX
+    _TTY_ERRORS = ()
+
 DEFAULT_BAUD = 115200
 DEFAULT_TIMEOUT = 0.25  # seconds to wait for each answer
 DEFAULT_RETRIES = 3     # extra tries after the first
@@ -208,7 +215,7 @@ class BoardLink:
         try:
             self._ser.write(data)
             self._ser.flush()
-        except (self._serial_mod.SerialException, OSError) as exc:
+        except (self._serial_mod.SerialException, OSError, *_TTY_ERRORS) as exc:
             raise self._io_error(exc) from None
         self.frames_sent += 1
 
@@ -222,7 +229,7 @@ class BoardLink:
             try:
                 waiting = ser.in_waiting
                 data = ser.read(max(1, min(waiting, 4096)))
-            except (self._serial_mod.SerialException, OSError) as exc:
+            except (self._serial_mod.SerialException, OSError, *_TTY_ERRORS) as exc:
                 raise self._io_error(exc) from None
             if data:
                 for frame in self._decoder.feed(data):
