@@ -18,6 +18,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "status": ("bhr.cli.status:status", "Ask the actuator board for its current codes and faults."),
     "report": ("bhr.cli.report:report", "Run a batch file of follow runs; write an HTML report, CSV and JSON."),
     "sweep": ("bhr.cli.sweep:sweep", "Sweep robot designs over trajectories, locally or on a Dask cluster."),
+    "traverse": ("bhr.cli.traverse:traverse", "Which robot designs get through a population of anatomical colons."),
 }
 
 
