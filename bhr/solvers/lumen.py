@@ -70,7 +70,7 @@ DEFAULTS: dict[str, Any] = {
     "window": WINDOW_MM,
 }
 #: Segments scanned on each side of the guessed nearest segment, and the step outwards while it improves.
-_SCAN = 4
+_SCAN = 2
 
 
 # ---------------------------------------------------------------------------
@@ -136,8 +136,8 @@ def _near_local(C, lo, hi, g, px, py, pz, res, tmp):
 
 
 @njit(cache=True)
-def _sample(C, R, pre, w, g, e, px, py, pz, radius, margin, ww, wc, res, tmp):
-    """Wall and centerline cost of one sample expected at trajectory index ``e``; res[1] is its nearest segment."""
+def _near(C, pre, w, g, e, px, py, pz, res, tmp):
+    """Nearest centerline point of a sample expected at trajectory index ``e``: res = (d2, segment, t)."""
     M = C.shape[0]
     lo = int(math.floor(e + pre - w))
     hi = int(math.ceil(e + pre + w))
@@ -151,24 +151,52 @@ def _sample(C, R, pre, w, g, e, px, py, pz, radius, margin, ww, wc, res, tmp):
         _scan(C, lo, hi, px, py, pz, res)
     else:
         _near_local(C, lo, hi, g, px, py, pz, res, tmp)
-    k = int(res[1])
-    t = res[2]
-    d2 = res[0]
-    c = R[k] + t * (R[k + 1] - R[k]) - radius - math.sqrt(d2)
-    cost = wc * d2
-    p = margin - c
-    if p > 0.0:
-        cost += ww * p * p
-    return cost
 
 
 @njit(cache=True)
-def _module_cost(C, R, pre, w, g, e0, ef, A, B, radius, margin, ww, wc, res, tmp):
-    """Cost of the middle and far end of the module A->B (expected at e0 + ef/2 and e0 + ef); res[1]: far end's segment."""
-    cost = _sample(C, R, pre, w, g, e0 + 0.5 * ef, 0.5 * (A[0] + B[0]), 0.5 * (A[1] + B[1]), 0.5 * (A[2] + B[2]),
-                   radius, margin, ww, wc, res, tmp)
-    g2 = int(res[1])
-    cost += _sample(C, R, pre, w, g2, e0 + ef, B[0], B[1], B[2], radius, margin, ww, wc, res, tmp)
+def _wall(R, radius, margin, ww, res):
+    """Clearance of the sample in ``res`` and its wall cost."""
+    k = int(res[1])
+    t = res[2]
+    c = R[k] + t * (R[k + 1] - R[k]) - radius - math.sqrt(res[0])
+    p = margin - c
+    return c, (ww * p * p if p > 0.0 else 0.0)
+
+
+@njit(cache=True)
+def _sample(C, R, pre, w, g, e, px, py, pz, radius, margin, ww, wc, res, tmp):
+    """Wall and centerline cost of a point expected at trajectory index ``e``; res[1] is its nearest segment."""
+    _near(C, pre, w, g, e, px, py, pz, res, tmp)
+    c, cost = _wall(R, radius, margin, ww, res)
+    return cost + wc * res[0]
+
+
+@njit(cache=True)
+def _module_cost(C, R, pre, w, g, e0, ef, A, B, cA, radius, margin, ww, wc, dR, res, tmp, out):
+    """Cost of the module A->B: its far end (wall and centerline) and, where the wall may be near, its middle
+    (wall only). ``cA`` is A's clearance; out[0] gets B's. res[1]: the far end's segment.
+
+    The clearance changes by at most 1 mm per mm moved plus the change of the lumen radius (at most ``dR``
+    over half a module), so the middle is skipped when both ends clear the margin by more than half a
+    module plus ``dR``: its wall term is then zero.
+    """
+    half = int(0.5 * ef)  # guesses: the centerline runs on by about half a module per half module of robot
+    _near(C, pre, w, g + int(ef), e0 + ef, B[0], B[1], B[2], res, tmp)
+    cB, cost = _wall(R, radius, margin, ww, res)
+    cost += wc * res[0]
+    out[0] = cB
+    gB = res[1]
+    tB = res[2]
+    dB = res[0]
+    L2 = 0.5 * math.sqrt((A[0] - B[0]) ** 2 + (A[1] - B[1]) ** 2 + (A[2] - B[2]) ** 2)
+    if min(cA, cB) - L2 - dR <= margin:
+        _near(C, pre, w, g + half, e0 + 0.5 * ef, 0.5 * (A[0] + B[0]), 0.5 * (A[1] + B[1]), 0.5 * (A[2] + B[2]),
+              res, tmp)
+        cM, cm = _wall(R, radius, margin, ww, res)
+        cost += cm
+    res[0] = dB
+    res[1] = gB
+    res[2] = tB
     return cost
 
 
@@ -188,18 +216,52 @@ def _head_search(C, R, pre, w, step, n, f, L, c, s, T, prm, best_codes, frames, 
     """
     radius, margin, ww, wc, wt, wo = prm[0], prm[1], prm[2], prm[3], prm[4], prm[5]
     e0 = float(step - n * f)
-    part[0] = _sample(C, R, pre, w, -1, e0, pts[0, 0], pts[0, 1], pts[0, 2], radius, margin, ww, wc, res, tmp)
-    part[0] += wt * _dist2(pts[0], T[0])
+    clr = np.empty(n + 1)
+    cout = np.empty(1)
+    dR = prm[6]
+    _near(C, pre, w, -1, e0, pts[0, 0], pts[0, 1], pts[0, 2], res, tmp)
+    clr[0], part[0] = _wall(R, radius, margin, ww, res)
+    part[0] += wc * res[0] + wt * _dist2(pts[0], T[0])
     guess[0] = int(res[1])
     for b in range(3):
         pts[1, b] = pts[0, b] + L * frames[0, 2, b]
-    part[1] = part[0] + _module_cost(C, R, pre, w, guess[0], e0, float(f), pts[0], pts[1], radius, margin, ww, wc,
-                                     res, tmp) + wt * _dist2(pts[1], T[1])
+    part[1] = part[0] + _module_cost(C, R, pre, w, guess[0], e0, float(f), pts[0], pts[1], clr[0], radius, margin,
+                                     ww, wc, dR, res, tmp, cout) + wt * _dist2(pts[1], T[1])
+    clr[1] = cout[0]
     guess[1] = int(res[1])
     best_codes[0] = 0
     if n == 1:
         return part[1] + _tip_term(C, guess[1], frames[0], wo)
+    # a greedy dive first (each module the cheapest for the points so far): a good first bound to cut with
     best = 1e300
+    for lv in range(1, n):
+        bv = 1e300
+        bq = 0
+        for q in range(5):
+            _rot(frames[lv - 1], q, c, s, frames[lv])
+            for b in range(3):
+                pts[lv + 1, b] = pts[lv, b] + L * frames[lv, 2, b]
+            v = part[lv] + wt * _dist2(pts[lv + 1], T[lv + 1])
+            if v >= bv:
+                continue
+            v += _module_cost(C, R, pre, w, guess[lv], float(step - (n - lv) * f), float(f), pts[lv], pts[lv + 1],
+                              clr[lv], radius, margin, ww, wc, dR, res, tmp, cout)
+            if lv == n - 1:
+                v += _tip_term(C, int(res[1]), frames[lv], wo)
+            if v < bv:
+                bv = v
+                bq = q
+                clr[lv + 1] = cout[0]
+                guess[lv + 1] = int(res[1])
+        choice[lv] = bq
+        _rot(frames[lv - 1], bq, c, s, frames[lv])
+        for b in range(3):
+            pts[lv + 1, b] = pts[lv, b] + L * frames[lv, 2, b]
+        part[lv + 1] = bv
+    best = part[n]
+    for q in range(1, n):
+        best_codes[q] = choice[q]
+    best *= 1.0 + 1e-12  # the exact search below may find the same configuration again: let it
     lvl = 1
     choice[1] = -1
     while lvl >= 1:
@@ -214,9 +276,10 @@ def _head_search(C, R, pre, w, step, n, f, L, c, s, T, prm, best_codes, frames, 
         if v >= best:
             continue
         v += _module_cost(C, R, pre, w, guess[lvl], float(step - (n - lvl) * f), float(f), pts[lvl], pts[lvl + 1],
-                          radius, margin, ww, wc, res, tmp)
+                          clr[lvl], radius, margin, ww, wc, dR, res, tmp, cout)
         if v >= best:
             continue
+        clr[lvl + 1] = cout[0]
         guess[lvl + 1] = int(res[1])
         part[lvl + 1] = v
         if lvl == n - 1:
@@ -421,7 +484,7 @@ def head_cost(tube, robot, settings: dict[str, float], path: np.ndarray, step: i
     T = np.empty((n + 1, 3))
     d = np.empty(3)
     _step_targets(path, dirs, step, n, robot.feed_divisor, float(robot.feed), T, d)
-    prm = _prm(robot, settings)
+    prm = _prm(robot, settings, tube)
     best = np.zeros(n, dtype=np.int64)
     cost = _head_cost(tube.points, tube.radius, float(tube.pre), float(tube.window), np.asarray(base, dtype=float),
                       np.ascontiguousarray(frame1, dtype=float), step, n, robot.feed_divisor,
@@ -439,8 +502,8 @@ def lumen_config_cost(tube, robot, settings: dict[str, float], path: np.ndarray,
     from bhr.clearance import point_clearance
 
     n, f = robot.modules, robot.feed_divisor
-    prm = _prm(robot, settings)
-    radius, margin, ww, wc, wt, wo = prm
+    prm = _prm(robot, settings, tube)
+    radius, margin, ww, wc, wt, wo, dR = prm
     path = np.asarray(path, dtype=float)
     dirs = np.diff(path, axis=0)
     dirs /= np.linalg.norm(dirs, axis=1)[:, None]
@@ -448,17 +511,22 @@ def lumen_config_cost(tube, robot, settings: dict[str, float], path: np.ndarray,
     d = np.empty(3)
     _step_targets(path, dirs, step, n, f, float(robot.feed), T, d)
 
-    def samp(p, e):
-        cl = point_clearance(tube, radius, p, e)
-        r = _radius_near(tube, p, e)
-        dist = r - radius - cl
-        return wc * dist * dist + ww * max(0.0, margin - cl) ** 2
+    def wall(c: float) -> float:
+        return ww * max(0.0, margin - c) ** 2
 
-    e0 = float(step - n * f)
-    J = samp(points[0], e0)
+    J = 0.0
+    clr = []
+    for j in range(n + 1):
+        e = float(step - (n - j) * f)
+        c = point_clearance(tube, radius, points[j], e)
+        dist = _radius_near(tube, points[j], e) - radius - c
+        clr.append(c)
+        J += wall(c) + wc * dist * dist
     for j in range(n):
-        ej = float(step - (n - j) * f)
-        J += samp(0.5 * (points[j] + points[j + 1]), ej + 0.5 * f) + samp(points[j + 1], ej + f)
+        half = 0.5 * float(np.linalg.norm(points[j + 1] - points[j]))
+        if min(clr[j], clr[j + 1]) - half - dR <= margin:
+            e = float(step - (n - j) * f) + 0.5 * f
+            J += wall(point_clearance(tube, radius, 0.5 * (points[j] + points[j + 1]), e))
     J += wt * float(np.sum((points - T) ** 2))
     k = _segment_near(tube, points[n], float(step))
     t = tube.points[k + 1] - tube.points[k]
@@ -489,9 +557,15 @@ def _radius_near(tube, p: np.ndarray, e: float) -> float:
     return float(tube.radius[k] + t * (tube.radius[k + 1] - tube.radius[k]))
 
 
-def _prm(robot, settings: dict[str, float]) -> np.ndarray:
+def _prm(robot, settings: dict[str, float], tube=None) -> np.ndarray:
+    """Kernel settings: radius, margin, weights, and the largest change of the lumen radius along one module."""
+    dR = 0.0
+    if tube is not None:
+        f = int(robot.feed_divisor)
+        R = tube.radius
+        dR = float(np.max(np.abs(R[f:] - R[:-f]))) if R.shape[0] > f else 0.0
     return np.array([float(robot.radius), settings["margin"], settings["wall_weight"], settings["center_weight"],
-                     settings["track_weight"], (settings["ori_weight"] * DEG) ** 2], dtype=np.float64)
+                     settings["track_weight"], (settings["ori_weight"] * DEG) ** 2, dR], dtype=np.float64)
 
 
 # ---------------------------------------------------------------------------
@@ -548,7 +622,7 @@ class Lumen(Optimal):
         return t.points, t.radius, float(t.pre), float(t.window)
 
     def _prm(self) -> np.ndarray:
-        return _prm(self.robot, self.settings)
+        return _prm(self.robot, self.settings, self._tube)
 
     def solve(self, chain: Chain, target: np.ndarray, orientation: np.ndarray | None = None,
               context: FollowContext | None = None) -> SolveResult:
