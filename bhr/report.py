@@ -56,7 +56,7 @@ __all__ = ["RunSpec", "Batch", "load_batch", "parse_batch", "execute_run", "run_
            "summary_row", "format_table", "html_page", "csv_text", "robot_from_options"]
 
 #: Trajectory options (CLI long names with underscores), as in ``bhr follow``.
-TRAJ_KEYS = ("length", "azimuth", "elevation", "radius", "angle", "entry", "exit", "pitch", "turns")
+TRAJ_KEYS = ("length", "azimuth", "elevation", "radius", "angle", "entry", "exit", "pitch", "turns", "seed")
 #: Robot options: batch key -> :class:`bhr.robot.Robot` field (``robot_radius`` is the robot's, ``radius`` the path's).
 ROBOT_KEYS = {
     "modules": "modules", "module_length": "module_length", "robot_radius": "radius", "alpha": "alpha",
@@ -67,7 +67,7 @@ ROBOT_KEYS = {
 CONSTRAINT_KEYS: dict[str, tuple[str, ...] | None] = {"limit": ("binary", "continuous", "none"),
                                                        "axes": ("local", "free"), "warmup": None}
 #: Keys whose value is a whole number.
-INT_KEYS = frozenset({"modules", "max_iter", "feed_divisor", "warmup"})
+INT_KEYS = frozenset({"modules", "max_iter", "feed_divisor", "warmup", "seed"})
 #: Keys whose value is a number.
 NUMBER_KEYS = frozenset(TRAJ_KEYS) | frozenset(ROBOT_KEYS) | {"warmup"}
 _STRING_KEYS = frozenset({"name", "description", "traj", "solver", "robot", "limit", "axes"})
@@ -166,7 +166,7 @@ def _resolve(path: str, base: Path) -> str:
 
 def parse_batch(data: dict[str, Any], source: str = "batch", base_dir: str | os.PathLike[str] = ".") -> Batch:
     """A :class:`Batch` from the parsed TOML ``data``; relative paths are taken from ``base_dir``."""
-    from bhr.trajectory import GENERATORS
+    from bhr.trajectory import GENERATORS, builtin_names
 
     base = Path(base_dir)
     for key in data:
@@ -203,7 +203,7 @@ def parse_batch(data: dict[str, Any], source: str = "batch", base_dir: str | os.
                 if key not in allowed:
                     raise BhrError(f"{where}: the {traj} trajectory has no parameter {key!r} "
                                    f"(its parameters: {', '.join(allowed) or 'none'})")
-        else:
+        elif traj not in builtin_names():
             traj = _resolve(traj, base)
         spec = RunSpec(
             name=name, traj=traj, solver=values.get("solver", "seed"), description=values.get("description", ""),

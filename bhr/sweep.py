@@ -230,10 +230,13 @@ def build_sweep(trajs: Sequence[str], solvers: Sequence[str], grid: Iterable[tup
     for s in solvers:
         if s not in names:
             raise BhrError(f"{where}: unknown solver {s!r}; choose from {', '.join(names)}")
+    from bhr.trajectory import builtin_names
+
+    shipped = set(builtin_names())
     sources = {}
     base = Path(base_dir)
     for t in trajs:
-        if t in GENERATORS:
+        if t in shipped:
             sources[t] = t
         else:
             p = Path(t).expanduser()

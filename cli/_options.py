@@ -72,7 +72,7 @@ ROBOT_FIELDS = {
     "weight_pos": "weight_pos",
     "weight_ori": "weight_ori",
 }
-TRAJ_FIELDS = ("length", "azimuth", "elevation", "radius", "angle", "entry", "exit", "pitch", "turns")
+TRAJ_FIELDS = ("length", "azimuth", "elevation", "radius", "angle", "entry", "exit", "pitch", "turns", "seed")
 CONSTRAINT_FIELDS = ("limit", "axes", "warmup")
 
 
@@ -141,6 +141,8 @@ def trajectory_options(f: Any) -> Any:
         click.option("--exit", "exit_", type=MM, default=None, help="curve: exit straight (mm) [30]."),
         click.option("--pitch", type=MM, default=None, help="spiral: rise per turn (mm) [40]."),
         click.option("--turns", type=Bounded(float, 1e6), default=None, help="spiral: number of turns [2]."),
+        click.option("--seed", type=Bounded(int, 2**32 - 1), default=None,
+                     help="anatomy: which anatomical colon, a whole number 0 ... 4294967295 [1]."),
     )(f)
 
 

@@ -14,7 +14,8 @@ from bhr.cli._options import (build_robot, lumen_options, optimal_options, pop_s
 
 @click.command()
 @click.option("--traj", default=None, metavar="NAME|PATH",
-              help="line, curve, spiral, colon, or a trajectory file: .toml (segments) or .csv (points). Required.")
+              help="line, curve, spiral, colon, anatomy (--seed N), a shipped anatomy-* colon, or a trajectory file: "
+                   ".toml (segments) or .csv (points). Required.")
 @trajectory_options
 @click.option("--solver", "solvers", multiple=True, metavar="NAME",
               help="A solver to run; give it once per solver, the first is the reference [seed, optimal].")

@@ -65,7 +65,8 @@ def body_clearance_lines(s: dict) -> list[str]:
 
 @click.command()
 @click.option("--traj", required=True, metavar="NAME|PATH",
-              help="line, curve, spiral, colon, or a trajectory file: .toml (segments) or .csv (points).")
+              help="line, curve, spiral, colon, anatomy (--seed N), a shipped anatomy-* colon, or a trajectory file: "
+                   ".toml (segments) or .csv (points).")
 @trajectory_options
 @click.option("--solver", default="seed", show_default=True,
               help="seed, constrained, fabrik, ccd, optimal, lumen (keeps the robot off the lumen wall).")
@@ -113,6 +114,8 @@ def follow(traj, solver, out_dir, json_path, no_plots, **kwargs):
 
     show, animate_path, stride = kwargs.pop("show"), kwargs.pop("animate_path"), kwargs.pop("stride")
     stem = Path(traj).stem if traj not in ("line", "curve", "spiral", "colon") else traj
+    if traj == "anatomy":  # one folder per colon
+        stem = f"anatomy-{kwargs['seed'] if kwargs.get('seed') is not None else 1}"
     out = Path(out_dir) if out_dir else Path("bhr-out") / f"{stem}-{solver}"
     check_writable(out / "run.json", "output folder")  # before any work: a bad path costs nothing
     check_writable(json_path, "JSON")
