@@ -217,13 +217,13 @@ def optimal_options(f: Any) -> Any:
     """--lookahead, --beam, --point-weights, --ori-weight, --drift-weight, --roll-weight."""
     return _stack(
         click.option("--lookahead", type=int, default=None, metavar="STEPS",
-                     help="optimal: steps the base module's tilt is planned ahead [10]."),
+                     help="optimal, lumen: steps the base module's tilt is planned ahead [10; lumen 8]."),
         click.option("--beam", type=int, default=None, metavar="N",
-                     help="optimal: base-tilt sequences kept while planning [10]."),
+                     help="optimal, lumen: base-tilt sequences kept while planning [10; lumen 4]."),
         click.option("--point-weights", type=WeightList(), default=None, metavar="W|W0,..,Wn",
                      help="optimal: weight of each point's squared error, base to tip [1]."),
         click.option("--ori-weight", type=float, default=None, metavar="MM/DEG",
-                     help="optimal: tip orientation weight, mm of error per degree [0.2]."),
+                     help="optimal, lumen: tip orientation weight, mm of error per degree [0.2; lumen 0.1]."),
         click.option("--drift-weight", type=float, default=None,
                      help="optimal: weight of the predicted along-path drift of the base [10]."),
         click.option("--roll-weight", type=float, default=None,
@@ -238,4 +238,48 @@ def pop_optimal(kwargs: dict[str, Any]) -> dict[str, Any]:
         v = kwargs.pop(k, None)
         if v is not None:
             out[k] = list(v) if isinstance(v, tuple) else v
+    return out
+
+
+# --solver lumen (bhr/solvers/lumen.py, docs/lumen.md); it shares --lookahead, --beam and --ori-weight
+LUMEN_FIELDS = ("wall_weight", "margin", "center_weight", "track_weight", "window")
+SHARED_FIELDS = ("lookahead", "beam", "ori_weight")
+
+
+def lumen_options(f: Any) -> Any:
+    """--wall-weight, --margin, --center-weight, --track-weight, --window."""
+    return _stack(
+        click.option("--wall-weight", type=float, default=None,
+                     help="lumen: weight of the squared penetration past the margin, per mm^2 [1000]."),
+        click.option("--margin", type=float, default=None, metavar="MM",
+                     help="lumen: clearance below which the wall cost starts [1]."),
+        click.option("--center-weight", type=float, default=None,
+                     help="lumen: weight of the squared distance of each point to the centerline [0.05]."),
+        click.option("--track-weight", type=float, default=None,
+                     help="lumen: weight of each point's squared error to its trajectory point [0.02]."),
+        click.option("--window", type=float, default=None, metavar="MM",
+                     help="lumen: arc length searched on each side for a point's nearest centerline point [40]."),
+    )(f)
+
+
+def pop_solver_options(kwargs: dict[str, Any], solvers: list[str]) -> dict[str, dict[str, Any]]:
+    """The optimal and lumen solvers' options given, per solver; refuses options of solvers not run."""
+    from bhr.errors import BhrError
+
+    opt = pop_optimal(kwargs)
+    lum = {k: kwargs.pop(k) for k in LUMEN_FIELDS if kwargs.get(k) is not None}
+    for k in LUMEN_FIELDS:
+        kwargs.pop(k, None)
+    out: dict[str, dict[str, Any]] = {}
+    if "optimal" in solvers:
+        out["optimal"] = dict(opt)
+    if "lumen" in solvers:
+        out["lumen"] = {**{k: v for k, v in opt.items() if k in SHARED_FIELDS}, **lum}
+    for k in opt:
+        if "optimal" not in solvers and not (k in SHARED_FIELDS and "lumen" in solvers):
+            which = "--solver optimal or --solver lumen" if k in SHARED_FIELDS else "--solver optimal"
+            raise BhrError(f"--{k.replace('_', '-')} is an option of {which}; drop it or use {which}")
+    for k in lum:
+        if "lumen" not in solvers:
+            raise BhrError(f"--{k.replace('_', '-')} is an option of --solver lumen; drop it or use --solver lumen")
     return out

@@ -10,8 +10,8 @@ import click
 from bhr.cli._common import check_writable, guarded
 from bhr.cli._link import exit_interrupted, link_options, link_settings
 from bhr.cli.replay import STRIDE_HELP, check_view_options, render_animation, run_live_view
-from bhr.cli._options import (FiniteRange, build_robot, constraint_options, optimal_options, pop_constraints, pop_optimal,
-                              pop_trajectory, robot_options, trajectory_options)
+from bhr.cli._options import (FiniteRange, build_robot, constraint_options, lumen_options, optimal_options,
+                              pop_constraints, pop_solver_options, pop_trajectory, robot_options, trajectory_options)
 
 
 def summary_lines(result) -> list[str]:
@@ -68,10 +68,12 @@ def body_clearance_lines(s: dict) -> list[str]:
               help="line, curve, spiral, colon, anatomy (--seed N), a shipped anatomy-* colon, or a trajectory file: "
                    ".toml (segments) or .csv (points).")
 @trajectory_options
-@click.option("--solver", default="seed", show_default=True, help="seed, constrained, fabrik, ccd, optimal.")
+@click.option("--solver", default="seed", show_default=True,
+              help="seed, constrained, fabrik, ccd, optimal, lumen (keeps the robot off the lumen wall).")
 @robot_options(feed=True)
 @constraint_options
 @optimal_options
+@lumen_options
 @click.option("--body-modules", type=int, default=None, metavar="M",
               help="Also simulate the body: a robot of M modules (M >= --modules) whose modules behind the head "
                    "follow the leader.")
@@ -127,13 +129,8 @@ def follow(traj, solver, out_dir, json_path, no_plots, **kwargs):
     link_kw["robot_file"] = kwargs.get("robot_file")
     robot = build_robot(kwargs)
     constraints = pop_constraints(kwargs)
-    optimal = pop_optimal(kwargs)
+    optimal = pop_solver_options(kwargs, [solver]).get(solver, {})
     body_modules = kwargs.pop("body_modules")
-    if optimal and solver != "optimal":
-        from bhr.errors import BhrError
-
-        raise BhrError(f"--{next(iter(optimal)).replace('_', '-')} is an option of --solver optimal; "
-                       f"drop it or use --solver optimal")
     traj_params = pop_trajectory(kwargs)
     tr = load_trajectory(traj, feed=robot.feed, **traj_params)
     with warnings.catch_warnings(record=True) as caught:

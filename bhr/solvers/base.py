@@ -143,6 +143,9 @@ class Solver(ABC):
     def reset(self) -> None:
         """Forget any state kept between steps of a run (default: none)."""
 
+    def prepare(self, trajectory: Any) -> None:
+        """Look at the whole trajectory (e.g. its lumen) before a run follows it (default: nothing)."""
+
 
 def check_target(target: Sequence[float], what: str = "target") -> np.ndarray:
     t = np.asarray(target, dtype=np.float64)
