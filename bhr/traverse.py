@@ -293,8 +293,8 @@ def passrate_figure(result: StudyResult, x: str | None = None, y: str | None = N
         if (j, i) not in best or _rank(d) < _rank(best[(j, i)]):
             best[(j, i)] = d
             data[j, i] = d["pass_rate"]
-    w = min(max(5.0, 0.7 * len(xs) + 3.0), 14)
-    h = min(max(3.8, 0.5 * len(ys) + 2.4), 12)
+    w = min(max(7.0, 0.8 * len(xs) + 3.0), 14)
+    h = min(max(4.5, 0.55 * len(ys) + 2.4), 12)
     fig, ax = plt.subplots(figsize=(w, h))
     im = ax.imshow(data * 100, origin="lower", aspect="auto", cmap="RdYlGn", vmin=0, vmax=100,
                    interpolation="nearest")
@@ -313,8 +313,8 @@ def passrate_figure(result: StudyResult, x: str | None = None, y: str | None = N
         if np.isfinite(v) and v >= study.target - 1e-12:
             ax.add_patch(Rectangle((i - 0.5, j - 0.5), 1, 1, fill=False, edgecolor="black", linewidth=2.2))
     over = f"best design over {', '.join(others)}" if others else "one design per cell"
-    ax.set_title(f"Colons traversed without contact ({len(study.colons)} colons), and the worst penetration\n"
-                 f"{over}; outlined: at least {100 * study.target:g}%", fontsize=10)
+    ax.set_title(f"Share of {len(study.colons)} colons traversed without wall contact, worst penetration (mm)\n"
+                 f"{over}; outlined: at least {100 * study.target:g}%", fontsize=9)
     fig.tight_layout()
     return fig
 
@@ -478,7 +478,8 @@ def _html(result: StudyResult, heat: str | None, worst: str | None, worst_design
                  + (f"; robot file: {e(study.sweep.robot_file)}" if study.sweep.robot_file else "") + "</p>\n")
     parts.append(f"<p id=\"answer\"><strong>{e(answer_line(result))}.</strong></p>\n")
     if heat:
-        parts.append(f"<figure><img src=\"{e(heat)}\" alt=\"pass rate per design\"><figcaption>Share of colons "
+        parts.append(f"<figure style=\"max-width:760px\"><img src=\"{e(heat)}\" alt=\"pass rate per design\">"
+                     "<figcaption>Share of colons "
                      "traversed without touching the wall, per design; outlined cells reach the target."
                      "</figcaption></figure>\n")
     if worst and worst_design is not None:
