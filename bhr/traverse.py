@@ -41,8 +41,8 @@ __all__ = ["Study", "StudyResult", "parse_colons", "build_study", "run_study", "
 LUMEN_KEYS = ("max_penetration_mm", "wall_touch_steps", "contact_length_mm")
 #: Columns of designs.csv after the design's own keys.
 DESIGN_COLUMNS = ("colons", "traversed", "pass_rate", "failed_runs", "worst_penetration_mm", "median_penetration_mm",
-                  "median_contact_length_mm", "worst_contact_length_mm", "median_touch_steps", "worst_colon",
-                  "min_turn_radius_mm")
+                  "worst_clearance_mm", "median_contact_length_mm", "worst_contact_length_mm", "median_touch_steps",
+                  "worst_colon", "min_turn_radius_mm")
 #: Columns of runs.csv after the design's keys and the seed.
 RUN_COLUMNS = ("status", "steps", "traversed", "max_penetration_mm", "touch_steps", "contact_length_mm",
                "min_clearance_mm", "points_max_error_mm", "tip_max_error_mm")
@@ -189,11 +189,14 @@ def design_rows(study: Study, runs: Sequence[dict[str, Any]], min_turn: dict[tup
         groups.setdefault(tuple(r[k] for k in keys), []).append(r)
     out = []
     for n, (combo, rows) in enumerate(groups.items(), start=1):
-        pen = [(r["max_penetration_mm"], r["seed"]) for r in rows if r["max_penetration_mm"] is not None]
+        # the worst colon: deepest into the wall, then (when none touches) the least clearance left
+        pen = [(r["max_penetration_mm"], r["seed"], r.get("min_clearance_mm")) for r in rows
+               if r["max_penetration_mm"] is not None]
         contact = [r["contact_length_mm"] for r in rows if r["contact_length_mm"] is not None]
         touch = [r["touch_steps"] for r in rows if r["touch_steps"] is not None]
+        clear = [r["min_clearance_mm"] for r in rows if r["status"] == "ok" and r.get("min_clearance_mm") is not None]
         passed = sum(1 for r in rows if r["traversed"])
-        worst = max(pen, key=lambda p: (p[0], -p[1])) if pen else None
+        worst = max(pen, key=lambda p: (p[0], -(p[2] if p[2] is not None else math.inf), -p[1])) if pen else None
         d = {"design": n, **dict(zip(keys, combo))}
         d.update({
             "colons": len(rows),
@@ -201,7 +204,8 @@ def design_rows(study: Study, runs: Sequence[dict[str, Any]], min_turn: dict[tup
             "pass_rate": passed / len(rows),
             "failed_runs": sum(1 for r in rows if r["status"] != "ok"),
             "worst_penetration_mm": worst[0] if worst else None,
-            "median_penetration_mm": statistics.median(p for p, _ in pen) if pen else None,
+            "median_penetration_mm": statistics.median(p[0] for p in pen) if pen else None,
+            "worst_clearance_mm": min(clear) if clear else None,
             "median_contact_length_mm": statistics.median(contact) if contact else None,
             "worst_contact_length_mm": max(contact) if contact else None,
             "median_touch_steps": statistics.median(touch) if touch else None,
@@ -214,7 +218,9 @@ def design_rows(study: Study, runs: Sequence[dict[str, Any]], min_turn: dict[tup
 
 def _rank(d: dict[str, Any]) -> tuple[Any, ...]:
     inf = math.inf
+    wc = d.get("worst_clearance_mm")
     return (-d["pass_rate"], d["worst_penetration_mm"] if d["worst_penetration_mm"] is not None else inf,
+            -wc if wc is not None else inf,
             d["median_penetration_mm"] if d["median_penetration_mm"] is not None else inf, d["design"])
 
 
@@ -222,7 +228,8 @@ def answer(result: StudyResult) -> tuple[dict[str, Any] | None, list[dict[str, A
     """The best design whose pass rate reaches the target (None if none does), and all that reach it, best first.
 
     Best: the highest pass rate, then the smallest worst penetration, then the
-    smallest median penetration, then the design listed first.
+    largest worst clearance (the margin left to the wall on its worst colon),
+    then the smallest median penetration, then the design listed first.
     """
     meeting = sorted((d for d in result.designs if d["pass_rate"] >= result.study.target - 1e-12), key=_rank)
     return (meeting[0] if meeting else None), meeting
@@ -339,7 +346,8 @@ def worst_colon_run(result: StudyResult, design: dict[str, Any]):
 
 
 def penetration_figure(result: StudyResult, design: dict[str, Any], run):
-    """The worst colon's penetration (mm into the wall) at each step, against the distance from the anus."""
+    """The worst colon followed again: the robot's smallest clearance to the wall at each step against the tip's
+    distance from the anus; below zero (shaded red) the robot is that deep in the wall."""
     import matplotlib
 
     if os.environ.get("DISPLAY", "") == "" and os.environ.get("MPLBACKEND") is None:
@@ -352,27 +360,34 @@ def penetration_figure(result: StudyResult, design: dict[str, Any], run):
     doc = run.to_json()
     clearance = np.array([np.nan if st.get("clearance_mm") is None else st["clearance_mm"] for st in doc["steps"]],
                          dtype=float)
-    pen = np.where(np.isfinite(clearance), np.maximum(0.0, -clearance), np.nan)
-    s = np.arange(len(pen)) * run.robot.feed
+    s = np.arange(len(clearance)) * run.robot.feed
     colon = anatomical_colon(design["worst_colon"])
     ends = colon.section_ends()
     fig, ax = plt.subplots(figsize=(11, 4.2))
     starts = np.concatenate([[0.0], ends[:-1]])
-    top = max(1.0, float(np.nanmax(pen)) if np.any(np.isfinite(pen)) else 1.0) * 1.18
+    finite = clearance[np.isfinite(clearance)]
+    lo = min(-1.0, float(finite.min()) if finite.size else -1.0)
+    hi = max(1.0, float(finite.max()) if finite.size else 1.0)
+    top = hi + 0.25 * (hi - lo)
     for k, (a, b) in enumerate(zip(starts, ends)):
         if k % 2 == 0:
             ax.axvspan(a, b, color="#eef0f4", zorder=0)
-        ax.text((a + b) / 2, top * 0.97, SECTIONS[k].replace(" flexure", "\nflexure"), ha="center", va="top",
-                fontsize=7, color="#444")
-    ax.fill_between(s, 0, np.nan_to_num(pen), color="#d62728", alpha=0.35, step="mid", zorder=2)
-    ax.plot(s, pen, color="#b42318", linewidth=1.0, zorder=3)
+        ax.text((a + b) / 2, top - 0.02 * (top - lo), SECTIONS[k].replace(" flexure", "\nflexure"), ha="center",
+                va="top", fontsize=7, color="#444")
+    ax.axhline(0.0, color="black", linewidth=0.8, zorder=2)
+    ax.fill_between(s, 0, np.minimum(0.0, np.nan_to_num(clearance, nan=0.0)), color="#d62728", alpha=0.45,
+                    step="mid", zorder=3, label="into the wall")
+    ax.plot(s, clearance, color="#1f4e79", linewidth=0.9, zorder=4, label="smallest clearance")
     ax.set_xlim(0, max(float(ends[-1]), float(s[-1]) if len(s) else 1.0))
-    ax.set_ylim(0, top)
+    ax.set_ylim(lo - 0.05 * (hi - lo), top)
     ax.set_xlabel("tip's distance from the anus along the colon (mm)")
-    ax.set_ylabel("deepest point of the robot\ninto the wall (mm)")
+    ax.set_ylabel("robot's smallest clearance\nto the wall (mm)")
+    ax.legend(loc="lower right", fontsize=8)
     keys = ", ".join(f"{k} {_label(design[k])}" for k in result.study.design_keys)
+    pen = design["worst_penetration_mm"]
     ax.set_title(f"Worst colon (seed {design['worst_colon']}) of design #{design['design']} ({keys}): "
-                 f"{design['worst_penetration_mm']:.1f} mm at worst; {result.clearance_kind} clearance", fontsize=10)
+                 f"{pen:.2f} mm into the wall at worst, smallest clearance {np.nanmin(clearance):.2f} mm; "
+                 f"{result.clearance_kind} clearance", fontsize=9)
     fig.tight_layout()
     return fig
 
@@ -420,7 +435,9 @@ def answer_line(result: StudyResult) -> str:
         return (f"{len(meeting)} of {len(result.designs)} designs traverse at least {pct} of the "
                 f"{len(study.colons)} colons; best: design #{best['design']} ({_describe(study, best)}): "
                 f"{best['traversed']}/{best['colons']} traversed, worst penetration "
-                f"{best['worst_penetration_mm']:.2f} mm")
+                f"{best['worst_penetration_mm']:.2f} mm" + (
+                    "" if best["worst_clearance_mm"] is None else
+                    f", worst clearance {best['worst_clearance_mm']:.2f} mm"))
     top = best_design(result)
     worst = "-" if top["worst_penetration_mm"] is None else f"{top['worst_penetration_mm']:.2f} mm"
     return (f"No design traverses {pct} of the {len(study.colons)} colons; the best, design #{top['design']} "
@@ -436,13 +453,15 @@ def format_study(result: StudyResult, count: int = 8) -> list[str]:
              f"{result.wall_time_s:.1f} s; penetration from the {result.clearance_kind} clearance"]
     keys = study.design_keys
     head = "  ".join(f"{k:>13}" for k in keys)
-    lines.append(f"{'#':>5}  {head}  {'traversed':>10}  {'worst pen':>9}  {'median pen':>10}  {'median contact':>14}")
+    lines.append(f"{'#':>5}  {head}  {'traversed':>10}  {'worst pen':>9}  {'median pen':>10}  {'worst clear':>11}  "
+                 f"{'median contact':>14}")
     for d in sorted(result.designs, key=_rank)[:count]:
         vals = "  ".join(f"{_label(d[k]):>13}" for k in keys)
         wp = "-" if d["worst_penetration_mm"] is None else f"{d['worst_penetration_mm']:.2f}"
         mp = "-" if d["median_penetration_mm"] is None else f"{d['median_penetration_mm']:.2f}"
         mc = "-" if d["median_contact_length_mm"] is None else f"{d['median_contact_length_mm']:.1f}"
-        lines.append(f"{d['design']:>5}  {vals}  {100 * d['pass_rate']:>9.0f}%  {wp:>9}  {mp:>10}  {mc:>14}")
+        wc = "-" if d["worst_clearance_mm"] is None else f"{d['worst_clearance_mm']:.2f}"
+        lines.append(f"{d['design']:>5}  {vals}  {100 * d['pass_rate']:>9.0f}%  {wp:>9}  {mp:>10}  {wc:>11}  {mc:>14}")
     lines.append(answer_line(result))
     return lines
 
@@ -484,9 +503,10 @@ def _html(result: StudyResult, heat: str | None, worst: str | None, worst_design
                      "</figcaption></figure>\n")
     if worst and worst_design is not None:
         parts.append(f"<h2>Worst colon of design #{worst_design['design']}</h2>\n<figure><img src=\"{e(worst)}\" "
-                     "alt=\"penetration along the worst colon\"><figcaption>How deep the robot goes into the wall at "
-                     "each step of its worst colon (the largest max_penetration_mm of the design), against the "
-                     "tip's distance from the anus; shaded bands: the colon's sections.</figcaption></figure>\n")
+                     "alt=\"clearance along the worst colon\"><figcaption>The robot's smallest clearance to the wall "
+                     "at each step of the design's worst colon (the largest max_penetration_mm, then the least "
+                     "clearance), against the tip's distance from the anus; red: how deep it is in the wall; grey "
+                     "bands: the colon's sections.</figcaption></figure>\n")
     parts.append("<h2>Designs, best first</h2>\n<div class=\"scroll\"><table id=\"designs\"><thead><tr>")
     parts += [f"<th>{e(c)}</th>" for c in cols]
     parts.append("</tr></thead><tbody>\n")
