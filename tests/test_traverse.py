@@ -116,7 +116,9 @@ def test_every_run_is_what_follow_gives_and_designs_aggregate_them():
         assert d["pass_rate"] == sum(r["traversed"] for r in mine) / 3
         pens = [r["max_penetration_mm"] for r in mine]
         assert d["worst_penetration_mm"] == max(pens) and d["median_penetration_mm"] == statistics.median(pens)
-        assert d["worst_colon"] == mine[pens.index(max(pens))]["seed"]
+        worst = max(mine, key=lambda r: (r["max_penetration_mm"], -r["min_clearance_mm"], -r["seed"]))
+        assert d["worst_colon"] == worst["seed"]
+        assert d["worst_clearance_mm"] == min(r["min_clearance_mm"] for r in mine)
         assert d["min_turn_radius_mm"] == Robot(alpha=d["alpha"], module_length=d["module_length"]).min_turn_radius
     assert [d["design"] for d in res.designs] == [1, 2, 3, 4]
 
@@ -133,6 +135,7 @@ def test_pass_rates_contact_and_answer_from_lumen_keys():
     designs = design_rows(study, runs, {})
     assert [d["pass_rate"] for d in designs] == [0.75, 1.0]
     assert designs[0]["worst_penetration_mm"] == 0.7 and designs[0]["worst_colon"] == 2
+    assert designs[0]["worst_clearance_mm"] is None  # these rows carry no clearance
     assert designs[1]["median_contact_length_mm"] == 5.0 and designs[1]["worst_contact_length_mm"] == 8.0
 
     class R:  # a StudyResult's fields, as plain data
@@ -297,3 +300,21 @@ def test_page_loads_in_chromium_without_console_errors(small_study, tmp_path):
         assert b.screenshot(tmp_path / "page.png")[:8] == PNG
     finally:
         b.close()
+
+
+def test_ties_are_broken_by_the_clearance_left():
+    study = build_study([("alpha", (25, 30))], "1-2")
+    runs = [{"solver": "seed", "alpha": a, "seed": s, "status": "ok", "steps": 5, "traversed": True,
+             "max_penetration_mm": 0.0, "touch_steps": 0, "contact_length_mm": 0.0, "min_clearance_mm": c}
+            for a, s, c in ((25, 1, 0.4), (25, 2, 1.0), (30, 1, 2.0), (30, 2, 0.9))]
+    designs = design_rows(study, runs, {})
+    assert [d["worst_clearance_mm"] for d in designs] == [0.4, 0.9]
+    assert [d["worst_colon"] for d in designs] == [1, 2]  # no penetration: the colon with the least clearance
+
+    class R:
+        pass
+
+    r = R()
+    r.study, r.designs = study, designs
+    best, meeting = answer(r)
+    assert best["alpha"] == 30 and [d["alpha"] for d in meeting] == [30, 25]
