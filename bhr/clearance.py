@@ -314,8 +314,6 @@ def _nearest_numpy(tube: Tube, radius: float, p: np.ndarray, centre: float) -> t
     C, R = tube.points, tube.radius
     lo = min(max(int(math.floor(centre - tube.window)), 0), C.shape[0] - 2)
     hi = min(int(math.ceil(centre + tube.window)), C.shape[0] - 1)
-    if lo > M - 2:
-        lo = M - 2
     if hi <= lo:
         hi = lo + 1
     a, b = C[lo:hi], C[lo + 1:hi + 1]

@@ -508,11 +508,11 @@ def lumen_config_cost(tube, robot, settings: dict[str, float], path: np.ndarray,
 
     Uses the full-window nearest search of :func:`bhr.clearance.point_clearance`.
     """
-    from bhr.clearance import point_clearance
+    from bhr.clearance import _nearest_numpy, point_clearance
 
     n, f = robot.modules, robot.feed_divisor
     prm = _prm(robot, settings, tube)
-    radius, margin, ww, wc, wt, wo, dR = prm
+    radius, margin, ww, wc, wt, wo, dR, wa, sp, _ = prm
     path = np.asarray(path, dtype=float)
     dirs = np.diff(path, axis=0)
     dirs /= np.linalg.norm(dirs, axis=1)[:, None]
@@ -527,10 +527,11 @@ def lumen_config_cost(tube, robot, settings: dict[str, float], path: np.ndarray,
     clr = []
     for j in range(n + 1):
         e = float(step - (n - j) * f)
-        c = point_clearance(tube, radius, points[j], e)
+        c, pos = _nearest_numpy(tube, radius, points[j], e + tube.pre)
         dist = _radius_near(tube, points[j], e) - radius - c
+        along = (pos - tube.pre - e) * sp
         clr.append(c)
-        J += wall(c) + wc * dist * dist
+        J += wall(c) + wc * dist * dist + wa * along * along
     for j in range(n):
         half = 0.5 * float(np.linalg.norm(points[j + 1] - points[j]))
         if min(clr[j], clr[j + 1]) - half - dR <= margin:
