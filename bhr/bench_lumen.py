@@ -122,14 +122,15 @@ def population(seeds: list[int], solvers: tuple[str, ...] = ("seed", "lumen"), r
 
 
 def solve_times(seed: int = 1, repeats: int = 3, robot: Robot | None = None) -> dict[str, Any]:
-    """Median time per ``solve()`` call along one colon, lumen and seed, driven step by step (same run)."""
+    """Median CPU time per ``solve()`` call along one colon, lumen and seed, driven step by step (same run)."""
     robot = robot or Robot()
     tr = colon_for(seed, robot.feed)
     out: dict[str, Any] = {"colon": tr.name, "steps": int(tr.points.shape[0]), "repeats": repeats}
     import warnings
 
-    from bhr.solvers import base
+    from bhr.solvers import available, base
 
+    available()  # load every solver module
     for name in ("seed", "lumen"):
         per_run = []
         for _ in range(repeats + 1):  # the first run compiles
@@ -138,9 +139,9 @@ def solve_times(seed: int = 1, repeats: int = 3, robot: Robot | None = None) -> 
             orig = cls.solve
 
             def timed(self, *a, _orig=orig, _t=times, **kw):
-                t0 = time.perf_counter()
+                t0 = time.process_time()  # CPU time: other processes on the machine do not count
                 r = _orig(self, *a, **kw)
-                _t.append(time.perf_counter() - t0)
+                _t.append(time.process_time() - t0)
                 return r
 
             cls.solve = timed

@@ -615,6 +615,8 @@ class Lumen(Optimal):
             raise BhrError(f"window must be more than 0 and at most 10000 mm, got {self.window:g}")
         self._tube = None
         self._tube_key: tuple | None = None
+        self._checked_path: np.ndarray | None = None
+        self._prm_cache = np.zeros(10)
         self._lag = np.zeros(1)
 
     @property
@@ -631,13 +633,17 @@ class Lumen(Optimal):
                            "(give a CSV with a lumen column, or lumen = ... in a trajectory file)")
         self._tube = make_tube(trajectory.points, trajectory.lumen, trajectory.start_direction, self.window)
         self._tube_key = (id(trajectory.points), trajectory.points.shape)
+        self._checked_path = None
 
     def _tube_args(self, path: np.ndarray) -> tuple:
         t = self._tube
-        if t is None or t.points.shape[0] != path.shape[0] + t.pre + t.post or \
-                not np.array_equal(t.points[t.pre:t.pre + path.shape[0]], path):
-            raise BhrError("--solver lumen was not given this path's lumen; run it through bhr.follow with a "
-                           "trajectory that has a lumen")
+        if path is not self._checked_path:
+            if t is None or t.points.shape[0] != path.shape[0] + t.pre + t.post or \
+                    not np.array_equal(t.points[t.pre:t.pre + path.shape[0]], path):
+                raise BhrError("--solver lumen was not given this path's lumen; run it through bhr.follow with a "
+                               "trajectory that has a lumen")
+            self._checked_path = path
+            self._prm_cache = _prm(self.robot, self.settings, t)
         return t.points, t.radius, float(t.pre), float(t.window)
 
     def reset(self) -> None:
@@ -645,7 +651,7 @@ class Lumen(Optimal):
         self._lag = np.zeros(1)
 
     def _prm(self) -> np.ndarray:
-        return _prm(self.robot, self.settings, self._tube)
+        return self._prm_cache
 
     def solve(self, chain: Chain, target: np.ndarray, orientation: np.ndarray | None = None,
               context: FollowContext | None = None) -> SolveResult:
