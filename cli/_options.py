@@ -217,13 +217,13 @@ def optimal_options(f: Any) -> Any:
     """--lookahead, --beam, --point-weights, --ori-weight, --drift-weight, --roll-weight."""
     return _stack(
         click.option("--lookahead", type=int, default=None, metavar="STEPS",
-                     help="optimal, lumen: steps the base module's tilt is planned ahead [10; lumen 8]."),
+                     help="optimal, lumen: steps the base module's tilt is planned ahead [10] (lumen [8])."),
         click.option("--beam", type=int, default=None, metavar="N",
-                     help="optimal, lumen: base-tilt sequences kept while planning [10; lumen 4]."),
+                     help="optimal, lumen: base-tilt sequences kept while planning [10] (lumen [4])."),
         click.option("--point-weights", type=WeightList(), default=None, metavar="W|W0,..,Wn",
                      help="optimal: weight of each point's squared error, base to tip [1]."),
         click.option("--ori-weight", type=float, default=None, metavar="MM/DEG",
-                     help="optimal, lumen: tip orientation weight, mm of error per degree [0.2; lumen 0.1]."),
+                     help="optimal, lumen: tip orientation weight, mm of error per degree [0.2] (lumen [0.1])."),
         click.option("--drift-weight", type=float, default=None,
                      help="optimal: weight of the predicted along-path drift of the base [10]."),
         click.option("--roll-weight", type=float, default=None,
@@ -256,7 +256,7 @@ def lumen_options(f: Any) -> Any:
         click.option("--center-weight", type=float, default=None,
                      help="lumen: weight of the squared distance of each point to the centerline [0.05]."),
         click.option("--track-weight", type=float, default=None,
-                     help="lumen: weight of each point's squared error to its trajectory point [0.02]."),
+                     help="lumen: weight of each point's squared error to its trajectory point [0]."),
         click.option("--window", type=float, default=None, metavar="MM",
                      help="lumen: arc length searched on each side for a point's nearest centerline point [40]."),
     )(f)

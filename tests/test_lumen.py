@@ -119,3 +119,13 @@ def test_cli_options_go_to_the_solver_they_belong_to(run_bhr, tmp_path):
         "Error: --wall-weight is an option of --solver lumen; drop it or use --solver lumen"]
     bad = run_bhr("follow", "--traj", csv, "--solver", "lumen", "--drift-weight", "3", "--no-plots")
     assert bad.returncode != 0 and "is an option of --solver optimal" in bad.stderr
+
+
+def test_cli_help_states_the_lumen_defaults():
+    from bhr.cli.follow import follow as follow_cmd
+
+    helps = {p.name: p.help for p in follow_cmd.params}
+    for key in ("wall_weight", "margin", "center_weight", "track_weight", "window"):
+        assert f"[{DEFAULTS[key]:g}]" in helps[key], (key, helps[key])
+    for key in ("lookahead", "beam", "ori_weight"):
+        assert f"(lumen [{DEFAULTS[key]:g}])" in helps[key], (key, helps[key])
