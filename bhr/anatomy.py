@@ -339,7 +339,7 @@ def anatomical_colon(seed: int) -> Colon:
 
 def anatomy_trajectory(seed: Any, feed: float, where: str = "anatomy"):
     """The colon of ``seed`` as a :class:`~bhr.trajectory.Trajectory`, points ``feed`` mm apart."""
-    from bhr.trajectory import Trajectory
+    from bhr.path import Trajectory
 
     s = check_seed(seed, where)
     colon = anatomical_colon(s)

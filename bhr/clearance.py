@@ -344,7 +344,7 @@ def clearance_run_numpy(tube: Tube, radius: float, Q: np.ndarray, E: np.ndarray,
             a, b, ea, eb = Q[i, m], Q[i, m + 1], E[i, m], E[i, m + 1]
             za, zb = Z[m], Z[m + 1]
 
-            def at(t: float) -> float:
+            def at(t: float, a=a, b=b, za=za, zb=zb) -> float:
                 return _nearest_numpy(tube, radius, a + t * (b - a), za + t * (zb - za))[0]
 
             ns = max(int(math.ceil(float(np.linalg.norm(b - a)) / sample)), 1)
@@ -481,7 +481,7 @@ def run_chain(result) -> tuple[np.ndarray, np.ndarray, int]:
     B = body.modules if body is not None else 0
     steps = np.arange(N, dtype=np.float64)[:, None]
     e_head = steps - (n - np.arange(n + 1))[None, :] * f
-    if B:
+    if body is not None and B:
         Q = np.concatenate([body.points[:, ::-1], head], axis=1)
         e_body = steps - (n + np.arange(1, B + 1))[None, :] * f
         E = np.concatenate([e_body[:, ::-1], e_head], axis=1)

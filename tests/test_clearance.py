@@ -29,9 +29,9 @@ def test_table_arithmetic():
 def test_no_lumen_no_clearance():
     r = follow(load_trajectory("curve"), solver="optimal")
     assert r.clearance is None
-    s = r.summary()
+    s = r.summary.to_dict()
     assert "min_clearance_mm" not in s and "wall_touch_steps" not in s
-    assert "clearance_mm" not in r.to_json()["steps"][0]
+    assert "clearance_mm" not in r.to_dict()["steps"][0]
 
 
 def test_touches_are_the_steps_where_some_point_or_module_reaches_the_wall():
@@ -42,7 +42,7 @@ def test_touches_are_the_steps_where_some_point_or_module_reaches_the_wall():
     with np.errstate(invalid="ignore"):
         want = [i + 1 for i in range(r.steps) if np.any(both[i] <= 0.0)]
     assert want  # the seed solver strays 3 mm on this curve
-    s = r.summary()
+    s = r.summary.to_dict()
     assert s["wall_touch_steps"] == want
     assert s["min_clearance_mm"] == pytest.approx(np.nanmin(both))
     assert s["max_penetration_mm"] == pytest.approx(max(0.0, -np.nanmin(both)))
@@ -53,7 +53,7 @@ def test_touches_are_the_steps_where_some_point_or_module_reaches_the_wall():
     assert len(s["contact_length_mm"]) == len(s["contact_modules"]) == r.robot.modules
     i = s["min_clearance_step"] - 1
     assert cl.per_step[i] == pytest.approx(s["min_clearance_mm"])
-    doc = r.to_json()
+    doc = r.to_dict()
     assert doc["steps"][i]["clearance_mm"] == pytest.approx(s["min_clearance_mm"])
     assert doc["trajectory"]["lumen"][0] == pytest.approx(16.0)
     # geometric: never below the index-matched figure's point for point on a single curve (nearest <= matched)
@@ -61,15 +61,15 @@ def test_touches_are_the_steps_where_some_point_or_module_reaches_the_wall():
     # the same robot in a lumen wider by its worst miss touches nothing
     wide = follow(with_lumen(load_trajectory("curve", angle=180.0), 2 * (5.0 + 3.0 - s["min_clearance_mm"] + 0.01)),
                   solver="seed")
-    assert wide.summary()["wall_touch_steps"] == [] and wide.summary()["max_penetration_mm"] == 0.0
+    assert wide.summary.to_dict()["wall_touch_steps"] == [] and wide.summary.to_dict()["max_penetration_mm"] == 0.0
 
 
 def test_exactly_at_the_wall_counts_as_touching():
     tr = with_lumen(load_trajectory("line", length=40.0), 10.0)  # lumen radius = robot radius
     r = follow(tr, solver="optimal")
     assert r.point_errors.max() < 1e-9
-    assert r.summary()["min_clearance_mm"] == pytest.approx(0.0, abs=1e-9)
-    assert r.summary()["wall_touch_steps"] == list(range(1, r.steps + 1))
+    assert r.summary.to_dict()["min_clearance_mm"] == pytest.approx(0.0, abs=1e-9)
+    assert r.summary.to_dict()["wall_touch_steps"] == list(range(1, r.steps + 1))
 
 
 def test_colon_lumen_comes_from_the_trajectory_file():
@@ -85,7 +85,7 @@ def test_colon_lumen_comes_from_the_trajectory_file():
     i = 15  # the tip is in the rectum's 30 mm, on the straight: its nearest centerline point is beside it
     assert rectum[i] and t[i, n] == pytest.approx(15.0 - 5.0 - abs(r.points[i, n, 1]), abs=1e-9)
     im = clearance_table(r.point_errors, np.array([(n - j) * 5 for j in range(n + 1)]), tr.lumen, 5.0)
-    assert r.summary()["index_matched_min_clearance_mm"] == pytest.approx(np.nanmin(im))
+    assert r.summary.to_dict()["index_matched_min_clearance_mm"] == pytest.approx(np.nanmin(im))
 
 
 def test_step_ranges():
@@ -101,7 +101,7 @@ def test_plots_mark_the_touches(tmp_path):
     from bhr.plots import clearance_figure, error_figure, path_figure, save_run_plots
 
     r = follow(with_lumen(load_trajectory("curve", angle=180.0), 16.0), solver="seed", body_modules=8)
-    assert r.summary()["wall_touch_steps"]
+    assert r.summary.to_dict()["wall_touch_steps"]
     fig = error_figure(r, "position")
     labels = [p.get_label() for ax in fig.axes for p in ax.patches]
     assert "wall touched" in labels
@@ -133,7 +133,7 @@ from bhr.clearance import clearance_run, clearance_run_numpy, make_tube, run_cha
 
 
 def test_kernel_equals_numpy_reference_on_a_run_with_a_body():
-    from bhr.bench_lumen import tight_colon
+    from bhr.bench.lumen import tight_colon
 
     tr = tight_colon(4)
     r = follow(tr, solver="seed", body_modules=9)

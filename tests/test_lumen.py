@@ -7,7 +7,7 @@ import warnings
 import numpy as np
 import pytest
 
-from bhr.bench_lumen import tight_colon
+from bhr.bench.lumen import tight_colon
 from bhr.clearance import make_tube
 from bhr.errors import BhrError
 from bhr.follow import follow
@@ -58,7 +58,7 @@ def test_codes_are_always_valid_and_the_body_follows(tight):
     r = quiet_follow(tight, solver="lumen", body_modules=9)
     assert set(np.unique(r.codes)) <= set(CODES)
     assert r.body is not None and r.body.modules == 4
-    s = r.summary()
+    s = r.summary.to_dict()
     assert len(s["contact_length_mm"]) == 9 and s["contact_modules"][5] == "body module 1"
     assert s["max_penetration_mm"] >= 0 and s["max_penetration_mm"] == max(0.0, -s["min_clearance_mm"])
 
@@ -73,8 +73,8 @@ def test_compiled_loop_and_step_by_step_driver_agree(tight):
 
 
 def test_keeps_off_the_wall_where_the_thesis_solver_touches_it(tight):
-    lumen = quiet_follow(tight, solver="lumen").summary()
-    seed = quiet_follow(tight, solver="seed").summary()
+    lumen = quiet_follow(tight, solver="lumen").summary.to_dict()
+    seed = quiet_follow(tight, solver="seed").summary.to_dict()
     assert seed["max_penetration_mm"] > 5 and len(seed["wall_touch_steps"]) > 20
     assert lumen["max_penetration_mm"] <= 0.5 * seed["max_penetration_mm"]
     assert len(lumen["wall_touch_steps"]) <= 0.5 * len(seed["wall_touch_steps"])
@@ -83,7 +83,7 @@ def test_keeps_off_the_wall_where_the_thesis_solver_touches_it(tight):
 def test_a_wide_straight_lumen_is_never_touched():
     tr = load_trajectory("line", length=120.0)
     tr.lumen = np.full(len(tr.points), 24.0)
-    s = quiet_follow(tr, solver="lumen").summary()
+    s = quiet_follow(tr, solver="lumen").summary.to_dict()
     assert s["wall_touch_steps"] == [] and s["min_clearance_mm"] > 5.0
 
 

@@ -48,10 +48,10 @@ from typing import Any
 import numpy as np
 from numba import njit
 
-from bhr.clearance import WINDOW_MM, make_tube
+from bhr.clearance import WINDOW_MM, Tube, make_tube
 from bhr.errors import BhrError
-from bhr.follow import advance_kernel, score_step
-from bhr.robot import tilt_frame as _rot
+from bhr.kinematics.frames import tilt_frame as _rot
+from bhr.kinematics.leader import advance_kernel, score_step
 from bhr.solvers.base import Chain, FollowContext, SolveResult, register
 from bhr.solvers.optimal import CODE_OF, DEDUP_DIR, DEDUP_POS, DEG, Optimal, _dist2, _frame_of_chain, _number, \
     _step_targets, _tip_angle
@@ -483,7 +483,8 @@ def follow_lumen_kernel(path, dirs, P, E1, E2, bP, bF, bC, bH, state, cP, cF, cC
 # checking the search
 
 
-def head_cost(tube, robot, settings: dict[str, float], path: np.ndarray, step: int, base, frame1) -> tuple[list[int], float]:
+def head_cost(tube, robot, settings: dict[str, float], path: np.ndarray, step: int, base,
+              frame1) -> tuple[list[int], float]:
     """Exact best codes of modules 2..n (and the cost) at ``step`` with module 1's frame ``frame1`` (rows x, y, z)."""
     n = robot.modules
     a = math.radians(robot.alpha)
@@ -503,7 +504,8 @@ def head_cost(tube, robot, settings: dict[str, float], path: np.ndarray, step: i
     return [int(CODE_OF[k]) for k in best[1:]], float(cost)
 
 
-def lumen_config_cost(tube, robot, settings: dict[str, float], path: np.ndarray, step: int, points: np.ndarray) -> float:
+def lumen_config_cost(tube, robot, settings: dict[str, float], path: np.ndarray, step: int,
+                      points: np.ndarray) -> float:
     """The cost of a configuration (points (n+1, 3)) as the module doc defines it, in numpy, for the tests.
 
     Uses the full-window nearest search of :func:`bhr.clearance.point_clearance`.
@@ -579,8 +581,8 @@ def _prm(robot, settings: dict[str, float], tube=None) -> np.ndarray:
         dR = float(np.max(np.abs(R[f:] - R[:-f]))) if R.shape[0] > f else 0.0
         sp = tube.spacing
     return np.array([float(robot.radius), settings["margin"], settings["wall_weight"], settings["center_weight"],
-                     settings["track_weight"], (settings["ori_weight"] * DEG) ** 2, dR, settings["along_weight"], sp, pre],
-                    dtype=np.float64)
+                     settings["track_weight"], (settings["ori_weight"] * DEG) ** 2, dR, settings["along_weight"], sp,
+                     pre], dtype=np.float64)
 
 
 # ---------------------------------------------------------------------------
@@ -613,7 +615,7 @@ class Lumen(Optimal):
         self.window = _number("window", cfg["window"])
         if self.window <= 0 or self.window > 1e4:
             raise BhrError(f"window must be more than 0 and at most 10000 mm, got {self.window:g}")
-        self._tube = None
+        self._tube: Tube | None = None
         self._tube_key: tuple | None = None
         self._checked_path: np.ndarray | None = None
         self._prm_cache = np.zeros(10)
@@ -637,8 +639,11 @@ class Lumen(Optimal):
 
     def _tube_args(self, path: np.ndarray) -> tuple:
         t = self._tube
+        if t is None:
+            raise BhrError("--solver lumen was not given the path's lumen; run it through bhr.follow with a "
+                           "trajectory that has a lumen")
         if path is not self._checked_path:
-            if t is None or t.points.shape[0] != path.shape[0] + t.pre + t.post or \
+            if t.points.shape[0] != path.shape[0] + t.pre + t.post or \
                     not np.array_equal(t.points[t.pre:t.pre + path.shape[0]], path):
                 raise BhrError("--solver lumen was not given this path's lumen; run it through bhr.follow with a "
                                "trajectory that has a lumen")
