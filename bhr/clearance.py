@@ -78,6 +78,7 @@ class Tube:
     pre: int
     post: int
     window: float  # points
+    spacing: float = 1.0  # mm between centerline points (median)
 
 
 def make_tube(path: np.ndarray, lumen: np.ndarray, start_direction=None, window_mm: float = WINDOW_MM) -> Tube:
@@ -105,7 +106,7 @@ def make_tube(path: np.ndarray, lumen: np.ndarray, start_direction=None, window_
     after = P[-1] + spacing * np.arange(1, pad + 1)[:, None] * d1
     pts = np.ascontiguousarray(np.vstack([before, P, after]))
     rad = np.concatenate([np.full(pad, lum[0]), lum[:N], np.full(pad, lum[N - 1])]) / 2.0
-    return Tube(pts, np.ascontiguousarray(rad), pad, pad, float(w))
+    return Tube(pts, np.ascontiguousarray(rad), pad, pad, float(w), spacing)
 
 
 # ---------------------------------------------------------------------------
@@ -148,6 +149,8 @@ def _window(M, e, w):
         lo = 0
     if hi > M - 1:
         hi = M - 1
+    if lo > M - 2:
+        lo = M - 2
     if hi <= lo:
         hi = lo + 1
     return lo, hi
@@ -165,13 +168,16 @@ def _clear_at(C, R, w, radius, ax, ay, az, bx, by, bz, ea, eb, t):
 
 
 @njit(cache=True)
-def clearance_chain_kernel(C, R, pre, w, radius, Q, E, sample, pt_out, mod_out, where):
+def clearance_chain_kernel(C, R, pre, w, radius, Q, E, Z, sample, pt_out, mod_out, where, found):
     """Clearance of one pose: points ``Q`` (K, 3) in chain order, point ``k`` expected at trajectory index ``E[k]``.
 
     A point (or a sample along a module) expected before the path's start
-    (index < 0) is not scored (NaN). Writes each point's clearance into
-    ``pt_out`` (K), each module's smallest into ``mod_out`` (K-1) and where
-    along the module it is into ``where`` (K-1, 3).
+    (index < 0) is not scored (NaN). ``Z`` (K) are the centres of the points'
+    search windows (tube indices); a sample along a module is searched around
+    the interpolation of its ends'. Writes each point's clearance into
+    ``pt_out`` (K), where its nearest centerline point is into ``found`` (K,
+    tube index), each module's smallest clearance into ``mod_out`` (K-1) and
+    where along the module it is into ``where`` (K-1, 3).
     """
     K = Q.shape[0]
     M = C.shape[0]
@@ -179,14 +185,15 @@ def clearance_chain_kernel(C, R, pre, w, radius, Q, E, sample, pt_out, mod_out, 
         if E[k] < 0.0:
             pt_out[k] = np.nan
         else:
-            lo, hi = _window(M, E[k] + pre, w)
-            d, r, _ = nearest_kernel(C, R, lo, hi, Q[k, 0], Q[k, 1], Q[k, 2])
+            lo, hi = _window(M, Z[k], w)
+            d, r, pos = nearest_kernel(C, R, lo, hi, Q[k, 0], Q[k, 1], Q[k, 2])
             pt_out[k] = r - radius - d
+            found[k] = pos
     for m in range(K - 1):
         ax, ay, az = Q[m, 0], Q[m, 1], Q[m, 2]
         bx, by, bz = Q[m + 1, 0], Q[m + 1, 1], Q[m + 1, 2]
         ea, eb = E[m], E[m + 1]
-        ta, tb = ea + pre, eb + pre
+        ta, tb = Z[m], Z[m + 1]
         L = math.sqrt((bx - ax) ** 2 + (by - ay) ** 2 + (bz - az) ** 2)
         ns = int(math.ceil(L / sample))
         if ns < 1:
@@ -249,17 +256,32 @@ def clearance_chain_kernel(C, R, pre, w, radius, Q, E, sample, pt_out, mod_out, 
 
 
 @njit(cache=True)
-def _run_kernel(C, R, pre, w, radius, Q, E, sample, pt_out, mod_out, where):
+def _run_kernel(C, R, pre, w, radius, Q, E, adv, sample, pt_out, mod_out, where):
+    K = Q.shape[1]
+    trk = np.full(K, np.nan)
+    Z = np.empty(K)
+    found = np.full(K, np.nan)
     for i in range(Q.shape[0]):
-        clearance_chain_kernel(C, R, pre, w, radius, Q[i], E[i], sample, pt_out[i], mod_out[i], where[i])
+        for k in range(K):
+            if E[i, k] >= 0.0 and not math.isnan(trk[k]):
+                Z[k] = trk[k] + adv
+            else:
+                Z[k] = E[i, k] + pre
+        clearance_chain_kernel(C, R, pre, w, radius, Q[i], E[i], Z, sample, pt_out[i], mod_out[i], where[i], found)
+        for k in range(K):
+            trk[k] = found[k] if E[i, k] >= 0.0 else np.nan
 
 
-def clearance_run(tube: Tube, radius: float, Q: np.ndarray, E: np.ndarray, sample: float = SAMPLE_MM):
+def clearance_run(tube: Tube, radius: float, Q: np.ndarray, E: np.ndarray, sample: float = SAMPLE_MM,
+                  advance: float = 1.0):
     """Clearance of every pose of a run (compiled).
 
     ``Q`` (N, K, 3) are the robot's points at each step in chain order (tail
     to tip), ``E`` (N, K) the trajectory index each is expected at (the one it
-    is scored against; may be negative). Returns (points (N, K), modules
+    is scored against; may be negative). A point's nearest centerline point
+    is searched within the window around where it was found at the step
+    before, moved on by ``advance`` (the feed in centerline points); the
+    first time a point is scored, around its expected point. Returns (points (N, K), modules
     (N, K-1), where each module's smallest clearance is (N, K-1, 3)), NaN
     where nothing is scored.
     """
@@ -269,8 +291,8 @@ def clearance_run(tube: Tube, radius: float, Q: np.ndarray, E: np.ndarray, sampl
     pt = np.empty((N, K))
     mod = np.empty((N, max(K - 1, 0)))
     where = np.empty((N, max(K - 1, 0), 3))
-    _run_kernel(tube.points, tube.radius, float(tube.pre), float(tube.window), float(radius), Q, E, float(sample),
-                pt, mod, where)
+    _run_kernel(tube.points, tube.radius, float(tube.pre), float(tube.window), float(radius), Q, E, float(advance),
+                float(sample), pt, mod, where)
     return pt, mod, where
 
 
@@ -278,11 +300,20 @@ def clearance_run(tube: Tube, radius: float, Q: np.ndarray, E: np.ndarray, sampl
 # readable reference (numpy), held equal to the kernels by the tests
 
 
-def point_clearance(tube: Tube, radius: float, p: np.ndarray, expected: float) -> float:
-    """Clearance of one point ``p`` expected at trajectory index ``expected`` (module doc), with numpy."""
+def point_clearance(tube: Tube, radius: float, p: np.ndarray, expected: float, centre: float | None = None,
+                    ) -> float:
+    """Clearance of one point ``p`` (module doc), with numpy.
+
+    The window is centred on tube index ``centre``, by default the point's
+    expected trajectory index ``expected``.
+    """
+    return _nearest_numpy(tube, radius, p, expected + tube.pre if centre is None else centre)[0]
+
+
+def _nearest_numpy(tube: Tube, radius: float, p: np.ndarray, centre: float) -> tuple[float, float]:
     C, R = tube.points, tube.radius
-    lo = max(int(math.floor(expected + tube.pre - tube.window)), 0)
-    hi = min(int(math.ceil(expected + tube.pre + tube.window)), C.shape[0] - 1)
+    lo = min(max(int(math.floor(centre - tube.window)), 0), C.shape[0] - 2)
+    hi = min(int(math.ceil(centre + tube.window)), C.shape[0] - 1)
     if hi <= lo:
         hi = lo + 1
     a, b = C[lo:hi], C[lo + 1:hi + 1]
@@ -291,24 +322,30 @@ def point_clearance(tube: Tube, radius: float, p: np.ndarray, expected: float) -
     d = np.linalg.norm(p - (a + t[:, None] * u), axis=1)
     k = int(np.argmin(d))  # the first of equally near segments
     r = R[lo + k] + t[k] * (R[lo + k + 1] - R[lo + k])
-    return float(r - radius - d[k])
+    return float(r - radius - d[k]), float(lo + k + t[k])
 
 
-def clearance_run_numpy(tube: Tube, radius: float, Q: np.ndarray, E: np.ndarray, sample: float = SAMPLE_MM):
+def clearance_run_numpy(tube: Tube, radius: float, Q: np.ndarray, E: np.ndarray, sample: float = SAMPLE_MM,
+                        advance: float = 1.0):
     """The same as :func:`clearance_run`, step by step in numpy (the reference)."""
     N, K = E.shape
     pt = np.full((N, K), np.nan)
     mod = np.full((N, max(K - 1, 0)), np.nan)
     where = np.full((N, max(K - 1, 0), 3), np.nan)
+    trk = np.full(K, np.nan)
     for i in range(N):
+        Z = np.where((E[i] >= 0) & ~np.isnan(trk), trk + advance, E[i] + tube.pre)
         for k in range(K):
             if E[i, k] >= 0:
-                pt[i, k] = point_clearance(tube, radius, Q[i, k], E[i, k])
+                pt[i, k], trk[k] = _nearest_numpy(tube, radius, Q[i, k], Z[k])
+            else:
+                trk[k] = np.nan
         for m in range(K - 1):
             a, b, ea, eb = Q[i, m], Q[i, m + 1], E[i, m], E[i, m + 1]
+            za, zb = Z[m], Z[m + 1]
 
-            def at(t: float) -> float:
-                return point_clearance(tube, radius, a + t * (b - a), ea + t * (eb - ea))
+            def at(t: float, a=a, b=b, za=za, zb=zb) -> float:
+                return _nearest_numpy(tube, radius, a + t * (b - a), za + t * (zb - za))[0]
 
             ns = max(int(math.ceil(float(np.linalg.norm(b - a)) / sample)), 1)
             lo_t, hi_t = 0.0, 1.0
@@ -444,7 +481,7 @@ def run_chain(result) -> tuple[np.ndarray, np.ndarray, int]:
     B = body.modules if body is not None else 0
     steps = np.arange(N, dtype=np.float64)[:, None]
     e_head = steps - (n - np.arange(n + 1))[None, :] * f
-    if B:
+    if body is not None and B:
         Q = np.concatenate([body.points[:, ::-1], head], axis=1)
         e_body = steps - (n + np.arange(1, B + 1))[None, :] * f
         E = np.concatenate([e_body[:, ::-1], e_head], axis=1)
@@ -462,7 +499,7 @@ def clearance_report(result, window_mm: float = WINDOW_MM, sample_mm: float = SA
     n, f = r.modules, r.feed_divisor
     tube = make_tube(tr.points, tr.lumen, tr.start_direction, window_mm)
     Q, E, B = run_chain(result)
-    pt, mod, where = clearance_run(tube, r.radius, Q, E, sample_mm)
+    pt, mod, where = clearance_run(tube, r.radius, Q, E, sample_mm, float(r.feed) / tube.spacing)
     # reorder: points head 0..n then body 1..B; modules head 1..n then body 1..B
     p_order = list(range(B, B + n + 1)) + list(range(B - 1, -1, -1))
     m_order = list(range(B, B + n)) + list(range(B - 1, -1, -1))

@@ -357,7 +357,7 @@ def penetration_figure(result: StudyResult, design: dict[str, Any], run):
 
     from bhr.anatomy import SECTIONS, anatomical_colon
 
-    doc = run.to_json()
+    doc = run.to_dict()
     clearance = np.array([np.nan if st.get("clearance_mm") is None else st["clearance_mm"] for st in doc["steps"]],
                          dtype=float)
     s = np.arange(len(clearance)) * run.robot.feed

@@ -4,7 +4,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from bhr.bench import (CASES, OPTIMAL_PER_STEP, check_optimal_reference, format_table, numpy_body, numpy_ccd,
+from bhr.bench.cases import (CASES, OPTIMAL_PER_STEP, check_optimal_reference, format_table, numpy_body, numpy_ccd,
                        numpy_fabrik, numpy_optimal_follow, numpy_seed_follow, run_case)
 from bhr.body import BODY_BEAM, module1_frames, simulate_body
 from bhr.follow import follow
@@ -102,7 +102,7 @@ def test_body_reference_matches_on_a_curve_and_the_colon():
 
 
 def test_every_case_is_registered_and_the_table_formats():
-    assert list(CASES) == ["fabrik", "ccd", "seed-colon", "optimal", "body-60", "cli"]
+    assert list(CASES) == ["fabrik", "ccd", "seed-colon", "optimal", "body-60", "lumen", "cli"]
     table = format_table(run_case("ccd", repeat=1))
     assert table.splitlines()[0].split()[:3] == ["case", "unit", "bhr"] and "ccd-ch5-10" in table
 

@@ -43,7 +43,7 @@ def follow_summary(seed: int, solver: str, **robot) -> dict:
     rb = Robot(**robot)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", BhrWarning)
-        return bhr.follow(load_trajectory("anatomy", feed=rb.feed, seed=seed), solver=solver, robot=rb).summary()
+        return bhr.follow(load_trajectory("anatomy", feed=rb.feed, seed=seed), solver=solver, robot=rb).summary.to_dict()
 
 
 def penetration(summary: dict) -> float:

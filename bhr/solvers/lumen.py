@@ -48,10 +48,10 @@ from typing import Any
 import numpy as np
 from numba import njit
 
-from bhr.clearance import WINDOW_MM, make_tube
+from bhr.clearance import WINDOW_MM, Tube, make_tube
 from bhr.errors import BhrError
-from bhr.follow import advance_kernel, score_step
-from bhr.robot import tilt_frame as _rot
+from bhr.kinematics.frames import tilt_frame as _rot
+from bhr.kinematics.leader import advance_kernel, score_step
 from bhr.solvers.base import Chain, FollowContext, SolveResult, register
 from bhr.solvers.optimal import CODE_OF, DEDUP_DIR, DEDUP_POS, DEG, Optimal, _dist2, _frame_of_chain, _number, \
     _step_targets, _tip_angle
@@ -65,7 +65,8 @@ DEFAULTS: dict[str, Any] = {
     "wall_weight": 1000.0,
     "margin": 1.0,
     "center_weight": 0.05,
-    "track_weight": 0.02,
+    "track_weight": 0.0,
+    "along_weight": 0.05,
     "ori_weight": 0.1,
     "window": WINDOW_MM,
 }
@@ -145,6 +146,8 @@ def _near(C, pre, w, g, e, px, py, pz, res, tmp):
         lo = 0
     if hi > M - 1:
         hi = M - 1
+    if lo > M - 2:
+        lo = M - 2
     if hi <= lo:
         hi = lo + 1
     if g < 0:
@@ -164,15 +167,13 @@ def _wall(R, radius, margin, ww, res):
 
 
 @njit(cache=True)
-def _sample(C, R, pre, w, g, e, px, py, pz, radius, margin, ww, wc, res, tmp):
-    """Wall and centerline cost of a point expected at trajectory index ``e``; res[1] is its nearest segment."""
-    _near(C, pre, w, g, e, px, py, pz, res, tmp)
-    c, cost = _wall(R, radius, margin, ww, res)
-    return cost + wc * res[0]
+def _along(res, pre, e, sp):
+    """How far (mm, along the centerline) the nearest point in ``res`` is from where the sample is expected."""
+    return (res[1] + res[2] - pre - e) * sp
 
 
 @njit(cache=True)
-def _module_cost(C, R, pre, w, g, e0, ef, A, B, cA, radius, margin, ww, wc, dR, res, tmp, out):
+def _module_cost(C, R, pre, w, g, e0, ef, A, B, cA, radius, margin, ww, wc, wa, sp, pre0, dR, res, tmp, out):
     """Cost of the module A->B: its far end (wall and centerline) and, where the wall may be near, its middle
     (wall only). ``cA`` is A's clearance; out[0] gets B's. res[1]: the far end's segment.
 
@@ -183,7 +184,8 @@ def _module_cost(C, R, pre, w, g, e0, ef, A, B, cA, radius, margin, ww, wc, dR, 
     half = int(0.5 * ef)  # guesses: the centerline runs on by about half a module per half module of robot
     _near(C, pre, w, g + int(ef), e0 + ef, B[0], B[1], B[2], res, tmp)
     cB, cost = _wall(R, radius, margin, ww, res)
-    cost += wc * res[0]
+    a = _along(res, pre0, e0 + ef, sp)
+    cost += wc * res[0] + wa * a * a
     out[0] = cB
     gB = res[1]
     tB = res[2]
@@ -218,15 +220,16 @@ def _head_search(C, R, pre, w, step, n, f, L, c, s, T, prm, best_codes, frames, 
     e0 = float(step - n * f)
     clr = np.empty(n + 1)
     cout = np.empty(1)
-    dR = prm[6]
+    dR, wa, sp, pre0 = prm[6], prm[7], prm[8], prm[9]
     _near(C, pre, w, -1, e0, pts[0, 0], pts[0, 1], pts[0, 2], res, tmp)
     clr[0], part[0] = _wall(R, radius, margin, ww, res)
-    part[0] += wc * res[0] + wt * _dist2(pts[0], T[0])
+    a0 = _along(res, pre0, e0, sp)
+    part[0] += wc * res[0] + wa * a0 * a0 + wt * _dist2(pts[0], T[0])
     guess[0] = int(res[1])
     for b in range(3):
         pts[1, b] = pts[0, b] + L * frames[0, 2, b]
     part[1] = part[0] + _module_cost(C, R, pre, w, guess[0], e0, float(f), pts[0], pts[1], clr[0], radius, margin,
-                                     ww, wc, dR, res, tmp, cout) + wt * _dist2(pts[1], T[1])
+                                     ww, wc, wa, sp, pre0, dR, res, tmp, cout) + wt * _dist2(pts[1], T[1])
     clr[1] = cout[0]
     guess[1] = int(res[1])
     best_codes[0] = 0
@@ -245,7 +248,7 @@ def _head_search(C, R, pre, w, step, n, f, L, c, s, T, prm, best_codes, frames, 
             if v >= bv:
                 continue
             v += _module_cost(C, R, pre, w, guess[lv], float(step - (n - lv) * f), float(f), pts[lv], pts[lv + 1],
-                              clr[lv], radius, margin, ww, wc, dR, res, tmp, cout)
+                              clr[lv], radius, margin, ww, wc, wa, sp, pre0, dR, res, tmp, cout)
             if lv == n - 1:
                 v += _tip_term(C, int(res[1]), frames[lv], wo)
             if v < bv:
@@ -276,7 +279,7 @@ def _head_search(C, R, pre, w, step, n, f, L, c, s, T, prm, best_codes, frames, 
         if v >= best:
             continue
         v += _module_cost(C, R, pre, w, guess[lvl], float(step - (n - lvl) * f), float(f), pts[lvl], pts[lvl + 1],
-                          clr[lvl], radius, margin, ww, wc, dR, res, tmp, cout)
+                          clr[lvl], radius, margin, ww, wc, wa, sp, pre0, dR, res, tmp, cout)
         if v >= best:
             continue
         clr[lvl + 1] = cout[0]
@@ -404,7 +407,7 @@ def _beam_commit(bP, bF, bC, bH, state, step):
 
 @njit(cache=True)
 def _lumen_step(P, E1, E2, i, bP, bF, bC, bH, state, cP, cF, cC, cPar, cA, order_buf, C, R, pre, w, path, dirs, n, f,
-                feed, L, alpha, prm, lookahead, out_codes, tilts):
+                feed, L, alpha, prm, lookahead, lagv, out_codes, tilts):
     """Solve step ``i`` in place: plan the base tilt, search the rest exactly. Returns (layers, cost)."""
     N = path.shape[0]
     c = math.cos(math.radians(alpha))
@@ -425,6 +428,12 @@ def _lumen_step(P, E1, E2, i, bP, bF, bC, bH, state, cP, cF, cC, cPar, cA, order
     P0 = P[0].copy()
     if state[0] == 0 or state[2] != i:
         _beam_reset(bP, bF, bC, state, P0, F, i)
+        lagv[0] = 0.0
+    # the robot's lead along the centerline: where the base is now, searched around where it was
+    e0 = float(i - n * f)
+    _near(C, pre + lagv[0], w, -1, e0, P0[0], P0[1], P0[2], res, tmp)
+    lagv[0] = res[1] + res[2] - pre - e0
+    pre = pre + lagv[0]
     layers = 0
     while state[1] < N and state[1] <= i + lookahead:
         _beam_expand(bP, bF, bC, bH, state, cP, cF, cC, cPar, cA, order_buf, C, R, pre, w, path, dirs, n, f, feed,
@@ -453,7 +462,7 @@ def _lumen_step(P, E1, E2, i, bP, bF, bC, bH, state, cP, cF, cC, cPar, cA, order
 
 @njit(cache=True)
 def follow_lumen_kernel(path, dirs, P, E1, E2, bP, bF, bC, bH, state, cP, cF, cC, cPar, cA, order_buf, C, R, pre, w,
-                        f, feed, L, alpha, prm, lookahead, out_points, out_iters, pe, oe, codes):
+                        f, feed, L, alpha, prm, lookahead, lagv, out_points, out_iters, pe, oe, codes):
     """The whole follow-the-leader loop with the lumen solver, compiled (same arithmetic as step by step)."""
     N = path.shape[0]
     n = P.shape[0] - 1
@@ -461,7 +470,7 @@ def follow_lumen_kernel(path, dirs, P, E1, E2, bP, bF, bC, bH, state, cP, cF, cC
     tilts = np.zeros(n)
     for i in range(N):
         layers, _ = _lumen_step(P, E1, E2, i, bP, bF, bC, bH, state, cP, cF, cC, cPar, cA, order_buf, C, R, pre, w,
-                                path, dirs, n, f, feed, L, alpha, prm, lookahead, step_codes, tilts)
+                                path, dirs, n, f, feed, L, alpha, prm, lookahead, lagv, step_codes, tilts)
         dd = dirs[N - 2] if i == N - 1 else dirs[i]
         out_points[i] = P
         out_iters[i] = layers
@@ -474,7 +483,8 @@ def follow_lumen_kernel(path, dirs, P, E1, E2, bP, bF, bC, bH, state, cP, cF, cC
 # checking the search
 
 
-def head_cost(tube, robot, settings: dict[str, float], path: np.ndarray, step: int, base, frame1) -> tuple[list[int], float]:
+def head_cost(tube, robot, settings: dict[str, float], path: np.ndarray, step: int, base,
+              frame1) -> tuple[list[int], float]:
     """Exact best codes of modules 2..n (and the cost) at ``step`` with module 1's frame ``frame1`` (rows x, y, z)."""
     n = robot.modules
     a = math.radians(robot.alpha)
@@ -494,16 +504,17 @@ def head_cost(tube, robot, settings: dict[str, float], path: np.ndarray, step: i
     return [int(CODE_OF[k]) for k in best[1:]], float(cost)
 
 
-def lumen_config_cost(tube, robot, settings: dict[str, float], path: np.ndarray, step: int, points: np.ndarray) -> float:
+def lumen_config_cost(tube, robot, settings: dict[str, float], path: np.ndarray, step: int,
+                      points: np.ndarray) -> float:
     """The cost of a configuration (points (n+1, 3)) as the module doc defines it, in numpy, for the tests.
 
     Uses the full-window nearest search of :func:`bhr.clearance.point_clearance`.
     """
-    from bhr.clearance import point_clearance
+    from bhr.clearance import _nearest_numpy, point_clearance
 
     n, f = robot.modules, robot.feed_divisor
     prm = _prm(robot, settings, tube)
-    radius, margin, ww, wc, wt, wo, dR = prm
+    radius, margin, ww, wc, wt, wo, dR, wa, sp, _ = prm
     path = np.asarray(path, dtype=float)
     dirs = np.diff(path, axis=0)
     dirs /= np.linalg.norm(dirs, axis=1)[:, None]
@@ -518,10 +529,11 @@ def lumen_config_cost(tube, robot, settings: dict[str, float], path: np.ndarray,
     clr = []
     for j in range(n + 1):
         e = float(step - (n - j) * f)
-        c = point_clearance(tube, radius, points[j], e)
+        c, pos = _nearest_numpy(tube, radius, points[j], e + tube.pre)
         dist = _radius_near(tube, points[j], e) - radius - c
+        along = (pos - tube.pre - e) * sp
         clr.append(c)
-        J += wall(c) + wc * dist * dist
+        J += wall(c) + wc * dist * dist + wa * along * along
     for j in range(n):
         half = 0.5 * float(np.linalg.norm(points[j + 1] - points[j]))
         if min(clr[j], clr[j + 1]) - half - dR <= margin:
@@ -537,7 +549,7 @@ def lumen_config_cost(tube, robot, settings: dict[str, float], path: np.ndarray,
 
 def _window_segments(tube, e: float) -> tuple[int, int]:
     M = tube.points.shape[0]
-    lo = max(int(math.floor(e + tube.pre - tube.window)), 0)
+    lo = min(max(int(math.floor(e + tube.pre - tube.window)), 0), M - 2)
     hi = min(int(math.ceil(e + tube.pre + tube.window)), M - 1)
     return lo, max(hi, lo + 1)
 
@@ -560,12 +572,17 @@ def _radius_near(tube, p: np.ndarray, e: float) -> float:
 def _prm(robot, settings: dict[str, float], tube=None) -> np.ndarray:
     """Kernel settings: radius, margin, weights, and the largest change of the lumen radius along one module."""
     dR = 0.0
+    sp = float(robot.feed)
+    pre = 0.0
     if tube is not None:
+        pre = float(tube.pre)
         f = int(robot.feed_divisor)
         R = tube.radius
         dR = float(np.max(np.abs(R[f:] - R[:-f]))) if R.shape[0] > f else 0.0
+        sp = tube.spacing
     return np.array([float(robot.radius), settings["margin"], settings["wall_weight"], settings["center_weight"],
-                     settings["track_weight"], (settings["ori_weight"] * DEG) ** 2, dR], dtype=np.float64)
+                     settings["track_weight"], (settings["ori_weight"] * DEG) ** 2, dR, settings["along_weight"], sp,
+                     pre], dtype=np.float64)
 
 
 # ---------------------------------------------------------------------------
@@ -582,10 +599,11 @@ class Lumen(Optimal):
 
     def __init__(self, robot, lookahead: int | None = None, beam: int | None = None,
                  wall_weight: float | None = None, margin: float | None = None, center_weight: float | None = None,
-                 track_weight: float | None = None, ori_weight: float | None = None,
-                 window: float | None = None) -> None:
+                 track_weight: float | None = None, along_weight: float | None = None,
+                 ori_weight: float | None = None, window: float | None = None) -> None:
         opt = {k: v for k, v in dict(lookahead=lookahead, beam=beam, wall_weight=wall_weight, margin=margin,
-                                     center_weight=center_weight, track_weight=track_weight, ori_weight=ori_weight,
+                                     center_weight=center_weight, track_weight=track_weight,
+                                     along_weight=along_weight, ori_weight=ori_weight,
                                      window=window).items() if v is not None}
         cfg = {**DEFAULTS, **opt}
         super().__init__(robot, lookahead=cfg["lookahead"], beam=cfg["beam"], ori_weight=cfg["ori_weight"])
@@ -593,16 +611,21 @@ class Lumen(Optimal):
         self.margin = _number("margin", cfg["margin"], minimum=-1e6)
         self.center_weight = _number("center-weight", cfg["center_weight"])
         self.track_weight = _number("track-weight", cfg["track_weight"])
+        self.along_weight = _number("along-weight", cfg["along_weight"])
         self.window = _number("window", cfg["window"])
         if self.window <= 0 or self.window > 1e4:
             raise BhrError(f"window must be more than 0 and at most 10000 mm, got {self.window:g}")
-        self._tube = None
+        self._tube: Tube | None = None
         self._tube_key: tuple | None = None
+        self._checked_path: np.ndarray | None = None
+        self._prm_cache = np.zeros(10)
+        self._lag = np.zeros(1)
 
     @property
     def settings(self) -> dict[str, Any]:
         return {"lookahead": self.lookahead, "beam": self.beam, "wall_weight": self.wall_weight,
                 "margin": self.margin, "center_weight": self.center_weight, "track_weight": self.track_weight,
+                "along_weight": self.along_weight,
                 "ori_weight": self.ori_weight, "window": self.window}
 
     def prepare(self, trajectory) -> None:
@@ -612,17 +635,28 @@ class Lumen(Optimal):
                            "(give a CSV with a lumen column, or lumen = ... in a trajectory file)")
         self._tube = make_tube(trajectory.points, trajectory.lumen, trajectory.start_direction, self.window)
         self._tube_key = (id(trajectory.points), trajectory.points.shape)
+        self._checked_path = None
 
     def _tube_args(self, path: np.ndarray) -> tuple:
         t = self._tube
-        if t is None or t.points.shape[0] != path.shape[0] + t.pre + t.post or \
-                not np.array_equal(t.points[t.pre:t.pre + path.shape[0]], path):
-            raise BhrError("--solver lumen was not given this path's lumen; run it through bhr.follow with a "
+        if t is None:
+            raise BhrError("--solver lumen was not given the path's lumen; run it through bhr.follow with a "
                            "trajectory that has a lumen")
+        if path is not self._checked_path:
+            if t.points.shape[0] != path.shape[0] + t.pre + t.post or \
+                    not np.array_equal(t.points[t.pre:t.pre + path.shape[0]], path):
+                raise BhrError("--solver lumen was not given this path's lumen; run it through bhr.follow with a "
+                               "trajectory that has a lumen")
+            self._checked_path = path
+            self._prm_cache = _prm(self.robot, self.settings, t)
         return t.points, t.radius, float(t.pre), float(t.window)
 
+    def reset(self) -> None:
+        super().reset()
+        self._lag = np.zeros(1)
+
     def _prm(self) -> np.ndarray:
-        return _prm(self.robot, self.settings, self._tube)
+        return self._prm_cache
 
     def solve(self, chain: Chain, target: np.ndarray, orientation: np.ndarray | None = None,
               context: FollowContext | None = None) -> SolveResult:
@@ -646,7 +680,7 @@ class Lumen(Optimal):
         tilts = np.zeros(n)
         layers, cost = _lumen_step(P, E1, E2, i, *self._beam_args(), C, R, pre, w, path, dirs, n,
                                    int(r.feed_divisor), float(r.feed), float(r.module_length), float(r.alpha),
-                                   self._prm(), int(self.lookahead), codes, tilts)
+                                   self._prm(), int(self.lookahead), self._lag, codes, tilts)
         out = Chain(P, np.stack([E1, E2]))
         nxt = out.copy()
         advance_kernel(nxt.points, nxt.axes[0], nxt.axes[1], float(r.feed), float(r.module_length))
@@ -668,6 +702,6 @@ class Lumen(Optimal):
         follow_lumen_kernel(path, dirs, np.ascontiguousarray(c.points), np.ascontiguousarray(c.axes[0]),
                             np.ascontiguousarray(c.axes[1]), *self._beam_args(), C, R, pre, w, int(r.feed_divisor),
                             float(r.feed), float(r.module_length), float(r.alpha), self._prm(),
-                            int(self.lookahead), out_points, out_iters, pe, oe, codes)
+                            int(self.lookahead), self._lag, out_points, out_iters, pe, oe, codes)
         self.reset()
         return True

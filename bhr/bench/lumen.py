@@ -1,7 +1,7 @@
 """Benchmark of ``--solver lumen`` against the thesis's solver on tight colons (docs/lumen.md).
 
-    python3 -m bhr.bench_lumen                    # 100 colons, seeds 1-100
-    python3 -m bhr.bench_lumen --seeds 1-20 --json out.json
+    python3 -m bhr.bench.lumen                    # 100 colons, seeds 1-100
+    python3 -m bhr.bench.lumen --seeds 1-20 --json out.json
 
 Colons: the anatomical generator (``bhr.trajectory("anatomy", seed=N)``)
 when this bhr has it, else :func:`tight_colon` (below), a stand-in with the
@@ -87,7 +87,7 @@ def colon_for(seed: int, feed: float = 2.0) -> Trajectory:
 
 
 def _metrics(res) -> dict[str, Any]:
-    s = res.summary()
+    s = res.summary.to_dict()
     return {"max_penetration_mm": s["max_penetration_mm"], "wall_touch_steps": len(s["wall_touch_steps"]),
             "min_clearance_mm": s["min_clearance_mm"], "points_max_error_mm": s["points_max_error_mm"],
             "steps": s["steps"]}
@@ -101,7 +101,7 @@ def population(seeds: list[int], solvers: tuple[str, ...] = ("seed", "lumen"), r
     rows = []
     import warnings
 
-    for k, sd in enumerate(seeds):
+    for sd in seeds:
         tr = colon_for(sd, robot.feed)
         row: dict[str, Any] = {"seed": sd, "colon": tr.name, "length_mm": float(tr.params.get("length", 0.0))}
         for s in solvers:
@@ -122,25 +122,26 @@ def population(seeds: list[int], solvers: tuple[str, ...] = ("seed", "lumen"), r
 
 
 def solve_times(seed: int = 1, repeats: int = 3, robot: Robot | None = None) -> dict[str, Any]:
-    """Median time per ``solve()`` call along one colon, lumen and seed, driven step by step (same run)."""
+    """Median CPU time per ``solve()`` call along one colon, lumen and seed, driven step by step (same run)."""
     robot = robot or Robot()
     tr = colon_for(seed, robot.feed)
     out: dict[str, Any] = {"colon": tr.name, "steps": int(tr.points.shape[0]), "repeats": repeats}
     import warnings
 
-    from bhr.solvers import base
+    from bhr.solvers import available, base
 
+    available()  # load every solver module
     for name in ("seed", "lumen"):
         per_run = []
         for _ in range(repeats + 1):  # the first run compiles
             times: list[float] = []
-            cls = base.REGISTRY.get(name)
+            cls: Any = base.REGISTRY[name]
             orig = cls.solve
 
             def timed(self, *a, _orig=orig, _t=times, **kw):
-                t0 = time.perf_counter()
+                t0 = time.process_time()  # CPU time: other processes on the machine do not count
                 r = _orig(self, *a, **kw)
-                _t.append(time.perf_counter() - t0)
+                _t.append(time.process_time() - t0)
                 return r
 
             cls.solve = timed
@@ -168,7 +169,7 @@ def _seeds(text: str) -> list[int]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python3 -m bhr.bench_lumen", description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(prog="python3 -m bhr.bench.lumen", description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", default="1-100", help="colon seeds, e.g. 1-100 or 1,5,9 [1-100]")
     ap.add_argument("--json", default=None, help="also write the figures as JSON here")
     ap.add_argument("--no-timing", action="store_true", help="skip the time per step")
