@@ -244,10 +244,10 @@ def anatomical_colon(seed: int) -> Colon:
         budget = 0.85 * seg_len[sec]
         used = fixed_len(sec)
         if used > budget:
-            k = budget / used
+            scale = budget / used
             for b in layout[sec]:
                 key = "radius.fold" if "fold" in b else f"radius.{b}"
-                bends[b] = (bends[b][0], max(RANGES[key][0], bends[b][1] * k))
+                bends[b] = (bends[b][0], max(RANGES[key][0], bends[b][1] * scale))
         while fixed_len(sec) > budget and any("fold" in b for b in layout[sec]):
             last = [b for b in layout[sec] if "fold" in b][-1]
             layout[sec].remove(last)

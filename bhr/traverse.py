@@ -311,10 +311,10 @@ def passrate_figure(result: StudyResult, x: str | None = None, y: str | None = N
     ax.set_xlabel(x or "")
     ax.set_ylabel(y or "")
     for (j, i), v in np.ndenumerate(data):
-        d = best.get((j, i))
+        cell = best.get((j, i))
         text = "-" if not np.isfinite(v) else f"{100 * v:.0f}%"
-        if d is not None and d["worst_penetration_mm"] is not None and data.size <= 200:
-            text += f"\n{d['worst_penetration_mm']:.1f} mm"
+        if cell is not None and cell["worst_penetration_mm"] is not None and data.size <= 200:
+            text += f"\n{cell['worst_penetration_mm']:.1f} mm"
         dark = np.isfinite(v) and (v < 0.25 or v > 0.85)  # the deep red and deep green ends of the map
         ax.text(i, j, text, ha="center", va="center", fontsize=8, color="white" if dark else "black")
         if np.isfinite(v) and v >= study.target - 1e-12:
