@@ -11,8 +11,8 @@ from bhr.cli._common import check_writable, guarded
 from bhr.cli._link import (exit_interrupted, fault_printer, link_options, link_settings, schedule_option,
                            thermal_params)
 from bhr.cli.replay import STRIDE_HELP, check_view_options, render_animation, run_live_view
-from bhr.cli._options import (FiniteRange, build_robot, constraint_options, optimal_options, pop_constraints,
-                              pop_optimal, pop_trajectory, robot_options, trajectory_options)
+from bhr.cli._options import (FiniteRange, build_robot, constraint_options, lumen_options, optimal_options,
+                              pop_constraints, pop_solver_options, pop_trajectory, robot_options, trajectory_options)
 
 
 def summary_lines(result) -> list[str]:
@@ -66,13 +66,16 @@ def body_clearance_lines(s: dict) -> list[str]:
 
 @click.command()
 @click.option("--traj", required=True, metavar="NAME|PATH",
-              help="line, curve, spiral, colon, or a trajectory file: .toml (segments) or .csv (points).")
+              help="line, curve, spiral, colon, anatomy (--seed N), a shipped anatomy-* colon, or a trajectory file: "
+                   ".toml (segments) or .csv (points).")
 @trajectory_options
 @click.option("--solver", default="thesis", show_default=True,
-              help="thesis (the thesis's algorithm; alias seed), constrained, fabrik, ccd, optimal.")
+              help="thesis (the thesis's algorithm; alias seed), constrained, fabrik, ccd, optimal, lumen (keeps "
+                   "the robot off the lumen wall).")
 @robot_options(feed=True)
 @constraint_options
 @optimal_options
+@lumen_options
 @click.option("--body-modules", type=int, default=None, metavar="M",
               help="Also simulate the body: a robot of M modules (M >= --modules) whose modules behind the head "
                    "follow the leader.")
@@ -117,6 +120,8 @@ def follow(traj, solver, out_dir, json_path, no_plots, **kwargs):
 
     show, animate_path, stride = kwargs.pop("show"), kwargs.pop("animate_path"), kwargs.pop("stride")
     stem = Path(traj).stem if traj not in ("line", "curve", "spiral", "colon") else traj
+    if traj == "anatomy":  # one folder per colon
+        stem = f"anatomy-{kwargs['seed'] if kwargs.get('seed') is not None else 1}"
     out = Path(out_dir) if out_dir else Path("bhr-out") / f"{stem}-{solver}"
     check_writable(out / "run.json", "output folder")  # before any work: a bad path costs nothing
     check_writable(json_path, "JSON")
@@ -132,13 +137,8 @@ def follow(traj, solver, out_dir, json_path, no_plots, **kwargs):
     streaming = link_kw["port"] is not None
     robot = build_robot(kwargs)
     constraints = pop_constraints(kwargs)
-    optimal = pop_optimal(kwargs)
+    optimal = pop_solver_options(kwargs, [solver]).get(solver, {})
     body_modules = kwargs.pop("body_modules")
-    if optimal and solver != "optimal":
-        from bhr.errors import BhrError
-
-        raise BhrError(f"--{next(iter(optimal)).replace('_', '-')} is an option of --solver optimal; "
-                       f"drop it or use --solver optimal")
     traj_params = pop_trajectory(kwargs)
     tr = load_trajectory(traj, feed=robot.feed, **traj_params)
     with warnings.catch_warnings(record=True) as caught:

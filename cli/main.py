@@ -19,6 +19,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "plan": ("bhr.cli.plan:plan", "Plan a codes.csv against the wires' thermal model: schedule and procedure time."),
     "report": ("bhr.cli.report:report", "Run a batch file of follow runs; write an HTML report, CSV and JSON."),
     "sweep": ("bhr.cli.sweep:sweep", "Sweep robot designs over trajectories, locally or on a Dask cluster."),
+    "traverse": ("bhr.cli.traverse:traverse", "Which robot designs get through a population of anatomical colons."),
 }
 
 
