@@ -20,7 +20,8 @@ linearly along the arc length between section midpoints.
 
 ``bhr.trajectory("anatomy", seed=N)`` and ``bhr follow --traj anatomy --seed N``
 give the same colon as a :class:`~bhr.trajectory.Trajectory` (points spaced
-by the feed, lumen diameter per point).
+by the feed, lumen diameter per point; :func:`bhr.trajectory.anatomy_trajectory`).
+This module imports nothing of bhr but its errors.
 """
 from __future__ import annotations
 
@@ -32,7 +33,7 @@ import numpy as np
 
 from bhr.errors import BhrError
 
-__all__ = ["SECTIONS", "RANGES", "SEED_MAX", "SHIPPED", "Colon", "anatomical_colon", "anatomy_trajectory", "check_seed",
+__all__ = ["SECTIONS", "RANGES", "SEED_MAX", "SHIPPED", "Colon", "anatomical_colon", "check_seed",
            "anatomy_csv_text"]
 
 #: Sections of an anatomical colon, from the anus to the cecum.
@@ -243,10 +244,10 @@ def anatomical_colon(seed: int) -> Colon:
         budget = 0.85 * seg_len[sec]
         used = fixed_len(sec)
         if used > budget:
-            k = budget / used
+            scale = budget / used
             for b in layout[sec]:
                 key = "radius.fold" if "fold" in b else f"radius.{b}"
-                bends[b] = (bends[b][0], max(RANGES[key][0], bends[b][1] * k))
+                bends[b] = (bends[b][0], max(RANGES[key][0], bends[b][1] * scale))
         while fixed_len(sec) > budget and any("fold" in b for b in layout[sec]):
             last = [b for b in layout[sec] if "fold" in b][-1]
             layout[sec].remove(last)
@@ -335,18 +336,6 @@ def anatomical_colon(seed: int) -> Colon:
     diam = [lumen[s] for s in SECTIONS]
     knots_d = np.array([diam[0], *diam, diam[-1]])
     return Colon(seed, pieces, section_lengths, (knots_s, knots_d), bends, draws)
-
-
-def anatomy_trajectory(seed: Any, feed: float, where: str = "anatomy"):
-    """The colon of ``seed`` as a :class:`~bhr.trajectory.Trajectory`, points ``feed`` mm apart."""
-    from bhr.path import Trajectory
-
-    s = check_seed(seed, where)
-    colon = anatomical_colon(s)
-    pts, lumen, _ = colon.sample(feed)
-    params: dict[str, Any] = {"seed": s, "length": colon.length}
-    return Trajectory(f"anatomy-{s}", pts, params, colon.min_radius, lumen, where,
-                      tuple(float(v) for v in colon.start_heading), (0.0, 0.0, 0.0))
 
 
 #: The colons shipped as editable point files (trajectories/NAME.csv): name -> (seed, what it shows).

@@ -34,7 +34,7 @@ from bhr.pathfile import MAX_POINTS
 from bhr.path import Trajectory, path_directions
 
 __all__ = ["Trajectory", "path_directions", "trajectory", "load_trajectory", "builtin_names", "GENERATORS",
-           "line", "curve", "spiral", "colon", "anatomy"]
+           "line", "curve", "spiral", "colon", "anatomy", "anatomy_trajectory"]
 
 
 def _mround(x: float) -> int:
@@ -190,9 +190,20 @@ class Generator:
     build: Callable[[dict[str, float], float, str], "Trajectory"] | None = None
 
 
-def _anatomy_build(p: dict[str, float], feed: float, where: str) -> "Trajectory":
-    from bhr.anatomy import anatomy_trajectory
+def anatomy_trajectory(seed: Any, feed: float = 2.0, where: str = "anatomy") -> "Trajectory":
+    """The anatomical colon of ``seed`` (:mod:`bhr.anatomy`) as a Trajectory: points ``feed`` mm apart along
+    the centerline from the anus, the lumen diameter at each, the exact smallest bend radius, and the start
+    (the anus, heading up the anal canal)."""
+    from bhr.anatomy import anatomical_colon, check_seed
 
+    s = check_seed(seed, where)
+    colon_ = anatomical_colon(s)
+    pts, lumen, _ = colon_.sample(feed)
+    return Trajectory(f"anatomy-{s}", pts, {"seed": s, "length": colon_.length}, colon_.min_radius, lumen, where,
+                      tuple(float(v) for v in colon_.start_heading), (0.0, 0.0, 0.0))
+
+
+def _anatomy_build(p: dict[str, float], feed: float, where: str) -> "Trajectory":
     return anatomy_trajectory(p["seed"], feed, where)
 
 

@@ -9,10 +9,9 @@ import pytest
 from hypothesis import given, settings, strategies as st
 
 import bhr
-from bhr.anatomy import (RANGES, SECTIONS, SEED_MAX, SHIPPED, anatomical_colon, anatomy_csv_text, anatomy_trajectory,
-                         check_seed)
+from bhr.anatomy import RANGES, SECTIONS, SEED_MAX, SHIPPED, anatomical_colon, anatomy_csv_text, check_seed
 from bhr.errors import BhrError
-from bhr.trajectory import builtin_names, colon, load_trajectory
+from bhr.trajectory import anatomy_trajectory, builtin_names, colon, load_trajectory
 from tests.conftest import REPO
 
 seeds = st.integers(min_value=0, max_value=SEED_MAX)
@@ -165,7 +164,7 @@ def test_follow_an_anatomical_colon_from_the_command_line(run_bhr, tmp_path):
     assert np.allclose(doc["trajectory"]["points"], tr.points) and np.allclose(doc["trajectory"]["lumen"], tr.lumen)
     assert len(doc["steps"]) == len(tr.points)
     assert "min_clearance_mm" in doc["summary"]
-    assert (tmp_path / "bhr-out" / "anatomy-12-seed" / "codes.csv").is_file()
+    assert (tmp_path / "bhr-out" / "anatomy-12-thesis" / "codes.csv").is_file()
     assert "tighter than the robot's minimum turn radius" in r.stderr
 
 
