@@ -153,7 +153,7 @@ OPTIONS: tuple[Option, ...] = (
     # ranges checked by the solver
     Option("lookahead", _S, int, "optimal, lumen: steps the base module's tilt is planned ahead (lumen [8])", 10,
            solvers=_OPT + _LUM, metavar="STEPS"),
-    Option("beam", _S, int, "optimal, lumen: base-tilt sequences kept while planning (lumen [4])", 10,
+    Option("beam", _S, int, "optimal, lumen: base-tilt sequences kept while planning (lumen [3])", 10,
            solvers=_OPT + _LUM, metavar="N"),
     Option("point_weights", _S, "weights", "optimal: weight of each point's squared error, base to tip", 1.0,
            solvers=_OPT, metavar="W|W0,..,Wn"),

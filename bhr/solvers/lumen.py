@@ -61,7 +61,7 @@ __all__ = ["Lumen", "DEFAULTS", "head_cost", "lumen_config_cost"]
 #: Default settings of ``--solver lumen`` (docs/lumen.md explains each).
 DEFAULTS: dict[str, Any] = {
     "lookahead": 8,
-    "beam": 4,
+    "beam": 3,
     "wall_weight": 1000.0,
     "margin": 1.0,
     "center_weight": 0.05,
