@@ -65,6 +65,11 @@ class Option:
     shown: str | None = None
     solvers: tuple[str, ...] | None = None  # solvers taking this option (None: every constrained solver)
     metavar: str | None = None
+    solver_defaults: tuple[tuple[str, Any], ...] = ()  # (solver, default) where a solver's default differs
+
+    def default_for(self, solver: str) -> Any:
+        """The default of this option for ``solver`` (its own where it has one)."""
+        return dict(self.solver_defaults).get(solver, self.default)
 
     @property
     def key(self) -> str:
@@ -152,13 +157,13 @@ OPTIONS: tuple[Option, ...] = (
     # --solver optimal (bhr.solvers.optimal, docs/optimal.md) and --solver lumen (bhr.solvers.lumen, docs/lumen.md);
     # ranges checked by the solver
     Option("lookahead", _S, int, "optimal, lumen: steps the base module's tilt is planned ahead (lumen [8])", 10,
-           solvers=_OPT + _LUM, metavar="STEPS"),
+           solvers=_OPT + _LUM, metavar="STEPS", solver_defaults=(("lumen", 8),)),
     Option("beam", _S, int, "optimal, lumen: base-tilt sequences kept while planning (lumen [3])", 10,
-           solvers=_OPT + _LUM, metavar="N"),
+           solvers=_OPT + _LUM, metavar="N", solver_defaults=(("lumen", 3),)),
     Option("point_weights", _S, "weights", "optimal: weight of each point's squared error, base to tip", 1.0,
            solvers=_OPT, metavar="W|W0,..,Wn"),
     Option("ori_weight", _S, float, "optimal, lumen: tip orientation weight, mm of error per degree (lumen [0.1])",
-           0.2, solvers=_OPT + _LUM, metavar="MM/DEG"),
+           0.2, solvers=_OPT + _LUM, metavar="MM/DEG", solver_defaults=(("lumen", 0.1),)),
     Option("drift_weight", _S, float, "optimal: weight of the predicted along-path drift of the base", 10.0,
            solvers=_OPT),
     Option("roll_weight", _S, float, "optimal: weight of tilt axes sitting diagonally to the bend", 1000.0,
@@ -178,6 +183,11 @@ OPTIONS: tuple[Option, ...] = (
 )
 
 BY_NAME: dict[str, Option] = {o.name: o for o in OPTIONS}
+
+
+def solver_defaults(solver: str) -> dict[str, Any]:
+    """Every option ``solver`` takes, with its default for that solver."""
+    return {o.name: o.default_for(solver) for o in OPTIONS if o.group == "solver" and solver in (o.solvers or ())}
 
 
 def by_group(*groups: str) -> tuple[Option, ...]:

@@ -9,6 +9,7 @@ from bhr.options import OPTIONS, by_group
 from bhr.report import parse_batch
 from bhr.robot import Robot
 from bhr.robotfile import ROBOT_KEYS as FILE_KEYS
+from bhr.solvers.lumen import DEFAULTS as LUMEN_DEFAULTS
 from bhr.solvers.optimal import DEFAULTS
 from bhr.sweep import GRID_KEYS, build_sweep, parse_values, run_design
 
@@ -19,7 +20,9 @@ def test_robot_defaults_are_the_registry_defaults():
         assert fields[o.key] == o.default, o.name
     assert set(fields) == {o.key for o in by_group("robot")}
     assert set(FILE_KEYS) == set(fields)
-    assert DEFAULTS == {o.name: o.default for o in by_group("solver")}
+    assert DEFAULTS == {o.name: o.default for o in by_group("solver") if "optimal" in o.solvers}
+    assert set(LUMEN_DEFAULTS) == {o.name for o in by_group("solver") if "lumen" in o.solvers}
+    assert LUMEN_DEFAULTS["beam"] == 3 and LUMEN_DEFAULTS["wall_weight"] == 1000.0  # docs/lumen.md
 
 
 @pytest.mark.parametrize("command", ["follow", "compare"])

@@ -48,8 +48,9 @@ from typing import Any
 import numpy as np
 from numba import njit
 
-from bhr.clearance import WINDOW_MM, Tube, make_tube
+from bhr.clearance import Tube, make_tube
 from bhr.errors import BhrError
+from bhr.options import solver_defaults
 from bhr.kinematics.frames import tilt_frame as _rot
 from bhr.kinematics.leader import advance_kernel, score_step
 from bhr.solvers.base import Chain, FollowContext, SolveResult, register
@@ -59,17 +60,7 @@ from bhr.solvers.optimal import CODE_OF, DEDUP_DIR, DEDUP_POS, DEG, Optimal, _di
 __all__ = ["Lumen", "DEFAULTS", "head_cost", "lumen_config_cost"]
 
 #: Default settings of ``--solver lumen`` (docs/lumen.md explains each).
-DEFAULTS: dict[str, Any] = {
-    "lookahead": 8,
-    "beam": 3,
-    "wall_weight": 1000.0,
-    "margin": 1.0,
-    "center_weight": 0.05,
-    "track_weight": 0.0,
-    "along_weight": 0.05,
-    "ori_weight": 0.1,
-    "window": WINDOW_MM,
-}
+DEFAULTS: dict[str, Any] = solver_defaults("lumen")
 #: Segments scanned on each side of the guessed nearest segment, and the step outwards while it improves.
 _SCAN = 2
 

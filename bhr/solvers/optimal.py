@@ -55,7 +55,7 @@ import numpy as np
 from numba import njit
 
 from bhr.errors import BhrError
-from bhr.options import by_group
+from bhr.options import solver_defaults
 from bhr.kinematics.frames import tilt_frame as _rot
 from bhr.kinematics.leader import advance_kernel, score_step
 from bhr.solvers.base import Chain, FollowContext, SolveResult, Solver, register
@@ -68,7 +68,7 @@ CODE_OF = np.array([0, 3, 6, 12, 9], dtype=np.int64)
 DEG = 180.0 / math.pi
 
 #: Default settings of ``--solver optimal`` (docs/optimal.md explains each), from the option registry.
-DEFAULTS: dict[str, Any] = {o.name: o.default for o in by_group("solver") if "optimal" in (o.solvers or ())}
+DEFAULTS: dict[str, Any] = solver_defaults("optimal")
 #: Two beam states closer than this (mm, and unit-vector difference) count as one.
 DEDUP_POS = 0.2
 DEDUP_DIR = 0.02
