@@ -400,7 +400,10 @@ def path_figure(result: "FollowResult", step: int | None = None) -> plt.Figure:
         ax_h = ax_w * h / w
         if ax_h > 8.0:
             ax_h, ax_w = 8.0, 8.0 * w / h
-        ax_h = max(ax_h, 2.6)
+        if ax_h < 2.6:  # a flat path: show more around it rather than a thin strip
+            ax_h = 2.6
+            grow = (w * ax_h / ax_w - h) / 2
+            lo, hi = lo - [0.0, grow], hi + [0.0, grow]
         # A fixed layout in inches (no tight_layout pass): the canvas takes the path's shape.
         left, right, bottom, top = 0.85, 0.3, 1.05, 0.4
         fw, fh = max(ax_w + left + right, 6.0), ax_h + bottom + top
