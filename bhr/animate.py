@@ -37,8 +37,8 @@ FORMATS = {".gif": "Pillow", ".mp4": "ffmpeg"}
 DEFAULT_FPS = 20
 #: The default stride keeps an animation at or under this many frames.
 MAX_FRAMES = 300
-#: Frame size: inches and dots per inch (800 x 720 pixels).
-FRAME_INCHES = (8.0, 7.2)
+#: Frame size: inches and dots per inch (1000 x 700 pixels; the live view's too, bhr.plots.FRAME_INCHES).
+FRAME_INCHES = (10.0, 7.0)
 FRAME_DPI = 100
 #: How long the last frame stays before a GIF loops (ms).
 LAST_FRAME_MS = 1500

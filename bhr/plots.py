@@ -367,9 +367,8 @@ def _set_window(ax: Any, centre: np.ndarray, half: float, planar: bool) -> None:
 #: Zoom of the path figure's inset and of the animation: half the view's side, in head lengths.
 INSET_ZOOM = 0.8
 FRAME_ZOOM = 1.2
-#: The frame of the animation and the live view: inches and dots per inch (1000 x 700 pixels).
+#: The frame of the animation and the live view: inches (1000 x 700 pixels at 100 dpi).
 FRAME_INCHES = (10.0, 7.0)
-FRAME_DPI = 100
 
 
 def path_figure(result: "FollowResult", step: int | None = None) -> plt.Figure:
@@ -490,6 +489,7 @@ class StepView:
         traj = result.trajectory
         main = (0.07, 0.15, 0.58, 0.77)
         self.ax = _setup_axes(self.fig, self.planar, main)
+        self.ax.grid(False)  # grid lines sliding under a moving view only blur it (and bloat a GIF)
         _draw_context(self.ax, result, self.planar, 1)
         self.overview = _setup_axes(self.fig, self.planar, (0.71, 0.47, 0.27, 0.42))
         self.overview.set_title("whole path", fontsize=9)
@@ -522,6 +522,10 @@ class StepView:
         return (f"{r.trajectory.name}: robot at step {i + 1} of {r.steps} "
                 f"({view}, following the robot, solver {r.solver})")
 
+    def window_centre(self, i: int) -> np.ndarray:
+        """Centre of the view at step ``i``: the centre of the head's bounding box (the step alone sets it)."""
+        return _head_centre(self.result, i)
+
     def readout_text(self, i: int) -> str:
         """The step's numbers: tip error, worst point, tip orientation, global error, each against its tolerance."""
         r = self.result
@@ -545,7 +549,7 @@ class StepView:
         for a in self.artists:
             a.remove()
         new = _draw_pose(self.ax, r, i, self.planar)
-        centre = _head_centre(r, i)
+        centre = self.window_centre(i)
         _set_window(self.ax, centre, self.half, self.planar)
         h = self.half
         if self.planar:
