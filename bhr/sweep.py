@@ -585,9 +585,12 @@ def column_title(key: str) -> str:
 
 
 def heatmap_panels(sweep: Sweep, x: str | None, y: str | None) -> str | None:
-    """The axis whose values get a panel each: the biggest axis (most values) left after x and y, if any."""
+    """The axis whose values get a panel each: the biggest axis (most values) left after x and y, if any.
+
+    On a tie a robot option (a design parameter) goes before a trajectory's, then the sweep's order.
+    """
     rest = [k for k, v in sweep.axes if k not in (x, y) and 1 < len(v) <= MAX_PANELS]
-    return max(rest, key=lambda k: len(dict(sweep.axes)[k])) if rest else None
+    return max(rest, key=lambda k: (len(dict(sweep.axes)[k]), k in ROBOT_KEYS)) if rest else None
 
 
 def _thesis_value(key: str) -> Any:
@@ -635,11 +638,13 @@ def heatmap_figure(result: SweepResult, x: str | None = None, y: str | None = No
     xi = {v: k for k, v in enumerate(xs)}
     yi = {v: k for k, v in enumerate(ys)}
     zi = {v: k for k, v in enumerate(zs)}
+    ran = [[[False] * len(xs) for _ in ys] for _ in zs]  # some design of the cell ran (did not fail)
     tols = set()
     for r in result.rows:
         e = r.get("points_max_error_mm")
         if r["status"] != "ok" or e is None:
             continue
+        ran[zi[r[z]] if z else 0][yi[r[y]] if y else 0][xi[r[x]] if x else 0] = True
         tol = _row_tolerance(result, r)
         tols.add(tol)
         if e > tol:
@@ -679,7 +684,7 @@ def heatmap_figure(result: SweepResult, x: str | None = None, y: str | None = No
                     ax.add_patch(Rectangle((i - 0.5, j - 0.5), 1, 1, fill=False, hatch="///", linewidth=0,
                                            edgecolor=(1, 1, 1, 0.45)))
                 if data.size <= 400:
-                    text = "failed" if not np.isfinite(v) else f"{v:.2f}"
+                    text = f"{v:.2f}" if np.isfinite(v) else ("n/a" if ran[k][j][i] else "failed")
                     dark = np.isfinite(v) and ((v < mid) if cmap == "viridis" else (v > mid))
                     ax.text(i, j, text, ha="center", va="center", fontsize=7 if data.size <= 100 else 6,
                             color="white" if dark else "black")
