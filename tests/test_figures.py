@@ -192,3 +192,20 @@ def test_3d_frames_follow_the_robot(spiral):
     for lim, c in zip((view.ax.get_xlim(), view.ax.get_ylim(), view.ax.get_zlim()), centre):
         assert np.allclose(lim, [c - half, c + half])
     assert "tip error" in view.readout.get_text()
+
+
+def test_compare_figure_has_step_numbers_tolerance_and_each_solvers_worst_step():
+    from bhr.compare import compare_figure, compare_runs
+    from bhr.robot import Robot
+
+    runs = compare_runs(load_trajectory("curve", angle=180.0), ["seed", "fabrik"], Robot())
+    fig = compare_figure(runs)
+    fig.canvas.draw()
+    for ax, values in zip(fig.axes, (lambda r: r.point_errors.max(axis=1), lambda r: r.point_errors[:, -1])):
+        assert len(_visible_ticks(ax)) >= 4
+        legend = [t.get_text() for t in ax.get_legend().get_texts()]
+        assert "tolerance 8 mm" in legend
+        for c in runs:
+            v = values(c.result)
+            k = int(np.argmax(v))
+            assert f"{c.solver} worst {v[k]:.2f} mm (step {k + 1})" in legend
