@@ -1,8 +1,10 @@
 """Animate a run off-screen: the frames of the live view, to a GIF (Pillow) or an MP4 (ffmpeg).
 
-Each frame is :class:`bhr.plots.StepView` drawing one step (path, target,
-robot with a disc per module) on an off-screen Agg figure, so an animation
-shows exactly what ``bhr follow --show`` and the final-pose figure show.
+Each frame is :class:`bhr.plots.StepView` drawing one step (a view that
+follows the robot: path, lumen wall, target, robot with a disc per module;
+an overview of the whole path; a readout of the step's errors) on an
+off-screen Agg figure, so an animation shows exactly what ``bhr follow
+--show`` shows.
 Every ``stride``-th step becomes a frame, and the last step always does.
 
 GIF frames share one palette (taken from the first frame) and Pillow stores

@@ -1,9 +1,12 @@
 """Figures with matplotlib: error plots (thesis Figs. 7.2-7.21) and robot views.
 
 Import this module only when plotting; the rest of bhr does not need
-matplotlib. One drawing function, :func:`draw_robot`, draws the robot (points,
-links, and a disc of the robot's radius at each module, oriented with it) for
-the final-pose figure, the report, the live view and the animation.
+matplotlib. The scene is drawn by small functions shared by the path figure
+(:func:`path_figure`: the whole path, the pose, an inset on the robot), the
+live view and the animation (:class:`StepView`: a view that follows the
+robot): :func:`draw_lumen_wall`, :func:`draw_path`, :func:`draw_start_end`,
+:func:`draw_target` and :func:`draw_robot` (points, links, and a disc of the
+robot's radius at each module, oriented with it).
 """
 from __future__ import annotations
 
@@ -26,7 +29,8 @@ if TYPE_CHECKING:  # pragma: no cover
 
 __all__ = ["error_figure", "path_figure", "chain_figure", "draw_robot", "draw_path", "save_figure",
            "save_run_plots", "ERROR_KINDS", "StepView", "run_is_planar",
-           "body_figure", "clearance_figure", "mark_wall_touches"]
+           "body_figure", "clearance_figure", "mark_wall_touches", "mark_worst", "draw_lumen_wall", "lumen_walls",
+           "draw_start_end", "draw_target", "marker_stride", "zoom_half_width", "FRAME_INCHES"]
 
 ORDINALS = ["First", "Second", "Third", "Fourth", "Fifth", "Sixth", "Seventh", "Eighth", "Ninth", "Tenth"]
 
@@ -328,8 +332,10 @@ def _depth_cue(ax: Any, result: "FollowResult", i: int | None, floor: float) -> 
     return art
 
 
-def _inset_rect(ax_limits: tuple[float, float, float, float], pts: np.ndarray, window: tuple[float, float, float, float],
-                side: float) -> tuple[float, float, float, float]:
+Box = tuple[float, float, float, float]
+
+
+def _inset_rect(ax_limits: Box, pts: np.ndarray, window: Box, side: float) -> Box:
     """Where an inset of ``side`` (data units) covers the fewest ``pts`` and not the zoomed ``window``."""
     x0, x1, y0, y1 = ax_limits
     w, h = x1 - x0, y1 - y0
