@@ -109,7 +109,7 @@ def frame_view(result: "FollowResult") -> "StepView":
 def _rgb(view: "StepView") -> Any:
     import numpy as np
 
-    view.fig.canvas.draw()
+    view.render()
     return np.asarray(view.fig.canvas.buffer_rgba())[:, :, :3]
 
 

@@ -521,6 +521,34 @@ class StepView:
         self.step: int | None = None
         self.artists: list[Any] = []
         self._laid_out = False
+        self._background: Any = None
+
+    def render(self) -> None:
+        """Draw the figure on its (Agg) canvas: whole the first time, then only what moves.
+
+        What never moves (the overview's path, the legend) is kept as an image
+        after the first frame; each later frame restores it and draws the view,
+        the overview's window and robot, and the readout over it. Canvases
+        without that ability are drawn whole.
+        """
+        canvas = self.fig.canvas
+        if not hasattr(canvas, "copy_from_bbox") or not hasattr(canvas, "restore_region"):
+            canvas.draw()
+            return
+        moving = [a for a in self.artists if a.axes is self.overview] + [self.readout, self.ax]
+        if self._background is None:
+            for a in moving:
+                a.set_visible(False)
+            canvas.draw()
+            self._background = canvas.copy_from_bbox(self.fig.bbox)
+            for a in moving:
+                a.set_visible(True)
+        canvas.restore_region(self._background)
+        renderer = canvas.get_renderer()
+        self.ax.draw(renderer)
+        for a in moving[:-2]:
+            self.overview.draw_artist(a)
+        self.fig.draw_artist(self.readout)
 
     def title(self, i: int) -> str:
         r = self.result
@@ -676,7 +704,7 @@ def body_figure(result: "FollowResult") -> plt.Figure:
     ax.axhline(result.robot.tol_pos, color="tab:red", linestyle="--", linewidth=0.8,
                label=f"tolerance {result.robot.tol_pos:g} mm")
     mark_worst(ax, steps, result.point_errors.max(axis=1), "mm", color="tab:blue", what="head worst")
-    mark_worst(ax, steps, b.point_errors.max(axis=1), "mm", what="body worst")
+    mark_worst(ax, steps, b.point_errors.max(axis=1), "mm", color="tab:orange", what="body worst")
     mark_wall_touches(ax, result)
     ax.set_xlabel("trajectory step")
     ax.set_ylabel("position error (mm)")
