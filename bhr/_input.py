@@ -13,27 +13,13 @@ from pathlib import Path
 from typing import Any, Iterable
 
 from bhr.errors import BhrError
+from bhr.options import MAX_MM
+
+__all__ = ["MAX_FILE_BYTES", "MAX_MM", "read_text", "read_toml", "check_keys", "type_name", "number", "vector3",
+           "text_value", "choice"]
 
 #: Input files larger than this are refused before reading (bytes).
 MAX_FILE_BYTES = 256 * 1024 * 1024
-#: Largest length or coordinate accepted anywhere (mm): 1 km. Larger values only overflow the arithmetic.
-MAX_MM = 1e6
-#: Upper bounds of the robot settings, shared by robot files and command-line options:
-#: field -> (largest value, unit). Lower bounds are checked by bhr.robot.Robot (positive; alpha in (0, 90)).
-ROBOT_LIMITS: dict[str, tuple[float, str]] = {
-    "modules": (1000, ""),
-    "module_length": (1e4, "mm"),
-    "radius": (1e4, "mm"),
-    "alpha": (90.0, "deg"),
-    "stroke": (1e4, "mm"),
-    "lever": (1e4, "mm"),
-    "tol_pos": (MAX_MM, "mm"),
-    "tol_ori": (180.0, "deg"),
-    "max_iter": (100000, ""),
-    "feed_divisor": (1000, ""),
-    "weight_pos": (1e6, ""),
-    "weight_ori": (1e6, ""),
-}
 
 
 def read_text(path: str | os.PathLike[str], what: str, hint: str) -> str:

@@ -17,6 +17,8 @@ import numpy as np
 from bhr.errors import BhrError
 from bhr.robot import Robot
 from bhr.trajectory import Trajectory
+from bhr.follow import follow
+from bhr.solvers import available, canonical
 
 __all__ = ["Compared", "compare_runs", "compare_rows", "format_table", "compare_figure", "compare_json"]
 
@@ -38,18 +40,15 @@ def compare_runs(traj: Trajectory, solvers: Sequence[str], robot: Robot, *,
                  solver_options: dict[str, dict[str, Any]] | None = None,
                  body_modules: int | None = None) -> list[Compared]:
     """Run ``traj`` with each solver (options per solver name); raises BhrError for fewer than two or repeats."""
-    from bhr.follow import follow
-    from bhr.solvers import available
-
     names = list(solvers)
     if len(names) < 2:
-        raise BhrError("compare needs at least two solvers, e.g. --solver seed --solver optimal")
+        raise BhrError("compare needs at least two solvers, e.g. --solver thesis --solver optimal")
     dup = next((s for s in names if names.count(s) > 1), None)
     if dup is not None:
         raise BhrError(f"solver {dup} is given twice; give each solver once")
     known = available()
     for s in names:
-        if s not in known:
+        if canonical(s) not in known:
             raise BhrError(f"unknown solver {s!r}; choose from {', '.join(known)}")
     opts = solver_options or {}
     out = []
@@ -67,7 +66,7 @@ def compare_rows(runs: Sequence[Compared]) -> list[dict[str, Any]]:
     ref = runs[0].result.point_errors.max()
     rows = []
     for c in runs:
-        s = c.result.summary()
+        s = c.result.summary.to_dict()
         worst = float(c.result.point_errors.max())
         row = {
             "solver": c.solver,
@@ -130,7 +129,7 @@ def compare_json(runs: Sequence[Compared]) -> dict[str, Any]:
         "runs": [{"solver": c.solver,
                   "points_max_error_mm": [float(v) for v in c.result.point_errors.max(axis=1)],
                   "tip_error_mm": [float(v) for v in c.result.point_errors[:, -1]],
-                  "summary": c.result.summary()} for c in runs],
+                  "summary": c.result.summary.to_dict()} for c in runs],
     }
 
 

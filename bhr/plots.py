@@ -230,9 +230,9 @@ def draw_robot(ax: Any, points: np.ndarray, radius: float, planar: bool, color: 
     return artists
 
 
-def _setup_axes(fig: plt.Figure, planar: bool, rect: Sequence[float] | None = None) -> Any:
+def _setup_axes(fig: plt.Figure, planar: bool, rect: tuple[float, float, float, float] | None = None) -> Any:
     kw: dict[str, Any] = {} if planar else {"projection": "3d"}
-    ax = fig.add_subplot(111, **kw) if rect is None else fig.add_axes(rect, **kw)
+    ax: Any = fig.add_subplot(111, **kw) if rect is None else fig.add_axes(rect, **kw)
     ax.set_xlabel("x (mm)")
     ax.set_ylabel("y (mm)")
     if planar:
@@ -544,7 +544,7 @@ class StepView:
             for a in moving:
                 a.set_visible(True)
         canvas.restore_region(self._background)
-        renderer = canvas.get_renderer()
+        renderer = canvas.get_renderer()  # type: ignore[attr-defined]  # the Agg canvas
         self.ax.draw(renderer)
         for a in moving[:-2]:
             self.overview.draw_artist(a)
@@ -644,7 +644,7 @@ def save_run_plots(result: "FollowResult", out_dir: str | os.PathLike[str]) -> l
     for kind, (name, _, _) in ERROR_KINDS.items():
         files.append(save_figure(error_figure(result, kind), out / name))
     files.append(save_figure(path_figure(result), out / "path.png"))
-    if getattr(result, "body", None) is not None and result.body.modules:
+    if result.body is not None and result.body.modules:
         files.append(save_figure(body_figure(result), out / "body_errors.png"))
     if result.clearance is not None:
         files.append(save_figure(clearance_figure(result), out / "clearance.png"))
@@ -687,7 +687,7 @@ def _draw_touch_points(ax: Any, result: "FollowResult", planar: bool) -> None:
     where = []
     for step, p in cl.touches():
         i = step - 1
-        where.append(result.points[i, p] if p < n1 else result.body.points[i, p - n1])
+        where.append(result.points[i, p] if p < n1 or result.body is None else result.body.points[i, p - n1])
     w = np.array(where)
     _plot(ax, w, planar, color="tab:red", marker="o", markersize=4, linestyle="none", alpha=0.6,
           label="wall touched")
@@ -696,6 +696,7 @@ def _draw_touch_points(ax: Any, result: "FollowResult", planar: bool) -> None:
 def body_figure(result: "FollowResult") -> plt.Figure:
     """Position error of the body behind the head: the largest over its points, and its last point."""
     b = result.body
+    assert b is not None, "body_figure needs a run with a body (follow(..., body_modules=M))"
     steps = np.arange(1, result.steps + 1)
     fig, ax = plt.subplots(figsize=(10, 4))
     ax.plot(steps, result.point_errors.max(axis=1), color="tab:blue", linewidth=1.0, label="head (largest point)")
@@ -722,6 +723,7 @@ def body_figure(result: "FollowResult") -> plt.Figure:
 def clearance_figure(result: "FollowResult") -> plt.Figure:
     """Smallest clearance to the lumen wall at each step (mm); below zero the wall is touched."""
     cl = result.clearance
+    assert cl is not None, "clearance_figure needs a trajectory with a lumen"
     steps = np.arange(1, result.steps + 1)
     fig, ax = plt.subplots(figsize=(10, 4))
     ax.plot(steps, cl.per_step, color="tab:green", linewidth=1.0, label="smallest clearance")

@@ -32,8 +32,16 @@ from pathlib import Path
 from typing import Any, Callable, Iterable, Sequence
 
 from bhr.errors import BhrError
-from bhr.report import (CONSTRAINT_KEYS, NUMBER_KEYS, ROBOT_KEYS, TRAJ_KEYS, _reason, _suggest,
-                        check_value, summary_row)
+from bhr import __version__
+from bhr.atomic import write_json, write_text
+from bhr.follow import BhrWarning, follow
+from bhr.options import solver_options_for
+from bhr.report import (CONSTRAINT_KEYS, NUMBER_KEYS, PAGE_END, ROBOT_KEYS, TRAJ_KEYS, _reason, _suggest,
+                        check_value, page_head, summary_row)
+from bhr.robot import Robot
+from bhr.robotfile import load_robot_file
+from bhr.solvers import available, canonical
+from bhr.trajectory import GENERATORS, load_trajectory
 
 __all__ = ["Sweep", "SweepResult", "GRID_KEYS", "parse_grid_option", "parse_values", "sweep_from_toml",
            "load_sweep", "build_sweep", "run_design", "run_chunk", "run_sweep", "heatmap_axes",
@@ -126,7 +134,7 @@ class Sweep:
     """Trajectories x solvers x grid. ``traj_sources`` maps each trajectory label to what is loaded."""
 
     trajs: tuple[str, ...] = ("curve",)
-    solvers: tuple[str, ...] = ("seed",)
+    solvers: tuple[str, ...] = ("thesis",)
     grid: tuple[tuple[str, tuple[Any, ...]], ...] = ()
     title: str = "bhr sweep"
     description: str = ""
@@ -176,7 +184,7 @@ def sweep_from_toml(data: dict[str, Any], source: str = "sweep", base_dir: str |
         raise BhrError(f"{source}: [grid] must be a table of KEY = values")
     grid = tuple((k, parse_values(k, v, f"{source}: [grid]")) for k, v in grid_table.items())
     trajs = _as_list(data.get("traj", "curve"), "traj", source)
-    solvers = _as_list(data.get("solver", "seed"), "solver", source)
+    solvers = _as_list(data.get("solver", "thesis"), "solver", source)
     robot_file = None
     if "robot" in data:
         if not isinstance(data["robot"], str) or not data["robot"].strip():
@@ -216,9 +224,6 @@ def build_sweep(trajs: Sequence[str], solvers: Sequence[str], grid: Iterable[tup
     ``robot_file``: a robot description (TOML) every design starts from; its
     grid values replace the file's.
     """
-    from bhr.solvers import available
-    from bhr.trajectory import GENERATORS, load_trajectory
-
     grid = tuple(grid)
     keys = [k for k, _ in grid]
     dup = {k for k in keys if keys.count(k) > 1}
@@ -228,7 +233,7 @@ def build_sweep(trajs: Sequence[str], solvers: Sequence[str], grid: Iterable[tup
         raise BhrError(f"{where}: a sweep needs at least one trajectory and one solver")
     names = available()
     for s in solvers:
-        if s not in names:
+        if canonical(s) not in names:
             raise BhrError(f"{where}: unknown solver {s!r}; choose from {', '.join(names)}")
     sources = {}
     base = Path(base_dir)
@@ -241,8 +246,6 @@ def build_sweep(trajs: Sequence[str], solvers: Sequence[str], grid: Iterable[tup
     base_robot: dict[str, Any] = {}
     if robot_file is not None:
         from dataclasses import fields
-
-        from bhr.robotfile import load_robot_file
 
         rb = load_robot_file(robot_file).robot
         base_robot = {f.name: getattr(rb, f.name) for f in fields(rb)}
@@ -262,7 +265,7 @@ def build_sweep(trajs: Sequence[str], solvers: Sequence[str], grid: Iterable[tup
             for v in values[1:]:
                 check_robot({**robot_first, ROBOT_KEYS[k]: v}, f"{k} = {v}")
     for t in trajs:
-        def check_traj(params: dict[str, Any], what: str) -> None:
+        def check_traj(params: dict[str, Any], what: str, t: str = t) -> None:
             try:
                 load_trajectory(sources[t], feed=robot.feed, **params)
             except BhrError as exc:
@@ -290,16 +293,11 @@ def build_sweep(trajs: Sequence[str], solvers: Sequence[str], grid: Iterable[tup
 
 def make_robot(params: dict[str, Any], base: dict[str, Any] | None = None) -> Any:
     """The Robot of a design: ``base`` (a robot file's fields, or bhr's defaults) with ``params`` on top."""
-    from bhr.robot import Robot
-
     return Robot(**base).replace(**params) if base else Robot(**params)
 
 
 def run_design(design: dict[str, Any], traj_source: str, base_robot: dict[str, Any] | None = None) -> dict[str, Any]:
     """Follow one design's trajectory; return its row (design keys, then :data:`METRICS`). Never raises."""
-    from bhr.follow import BhrWarning, follow
-    from bhr.trajectory import load_trajectory
-
     row: dict[str, Any] = dict(design)
     row.update({k: None for k in METRICS})
     row["status"] = "ok"
@@ -310,8 +308,8 @@ def run_design(design: dict[str, Any], traj_source: str, base_robot: dict[str, A
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", BhrWarning)
             res = follow(tr, solver=design["solver"], robot=robot,
-                         solver_options={k: v for k, v in design.items() if k in CONSTRAINT_KEYS})
-        row.update(summary_row(res.summary()))
+                         solver_options=solver_options_for(design["solver"], design))
+        row.update(summary_row(res.summary.to_dict()))
     except (KeyboardInterrupt, SystemExit):
         raise
     except Exception as exc:  # one failed design must not stop the sweep
@@ -485,7 +483,7 @@ def run_sweep(sweep: Sweep, *, jobs: int | None = None, scheduler: Any = None,
         rows[i] = row
     if any(r is None for r in rows):
         raise BhrError("some designs came back without a result; run the sweep again")
-    final = [{"design": i + 1, **r} for i, r in enumerate(rows)]  # type: ignore[arg-type]
+    final = [{"design": i + 1, **r} for i, r in enumerate(rows)]  # type: ignore[arg-type,dict-item]
     return SweepResult(sweep, final, wall, runner, workers)
 
 
@@ -541,16 +539,13 @@ def heatmap_cells(result: SweepResult, x: str | None, y: str | None, metric: str
     return [[worst(c) if c else math.nan for c in row] for row in cells]
 
 
-#: Heat-map axis names with their units.
-AXIS_LABELS = {
-    "modules": "modules", "module_length": "module length (mm)", "robot_radius": "robot radius (mm)",
-    "alpha": "alpha (deg)", "stroke": "stroke (mm)", "lever": "lever (mm)", "tol_pos": "position tolerance (mm)",
-    "tol_ori": "orientation tolerance (deg)", "max_iter": "iterations (at most)", "feed_divisor": "feed divisor",
-    "weight_pos": "position weight", "weight_ori": "orientation weight", "length": "length (mm)",
-    "azimuth": "azimuth (deg)", "elevation": "elevation (deg)", "radius": "path radius (mm)",
-    "angle": "turned angle (deg)", "entry": "entry straight (mm)", "exit": "exit straight (mm)",
-    "pitch": "pitch (mm)", "turns": "turns", "traj": "trajectory", "solver": "solver", "warmup": "warm-up iterations",
-    "limit": "rotation limit", "axes": "rotation axes",
+#: Heat-map axis and table names of the grid keys, in words (the unit comes from bhr.options).
+AXIS_NAMES = {
+    "module_length": "module length", "robot_radius": "robot radius", "tol_pos": "position tolerance",
+    "tol_ori": "orientation tolerance", "max_iter": "iterations (at most)", "feed_divisor": "feed divisor",
+    "weight_pos": "position weight", "weight_ori": "orientation weight", "radius": "path radius",
+    "angle": "turned angle", "entry": "entry straight", "exit": "exit straight", "traj": "trajectory",
+    "warmup": "warm-up iterations", "limit": "rotation limit", "axes": "rotation axes",
 }
 #: At most this many panels, one per value of the third axis; more and the third axis joins the worst case.
 MAX_PANELS = 9
@@ -558,7 +553,13 @@ MAX_PANELS = 9
 
 def axis_label(key: str | None) -> str:
     """A heat-map axis's name with its unit, e.g. ``alpha (deg)``."""
-    return "" if key is None else AXIS_LABELS.get(key, key.replace("_", " "))
+    if key is None:
+        return ""
+    from bhr.options import BY_NAME
+
+    name = AXIS_NAMES.get(key, key.replace("_", " "))
+    unit = BY_NAME[key].unit if key in BY_NAME else ""
+    return f"{name} ({unit})" if unit else name
 
 
 def axis_value(key: str, value: Any) -> str:
@@ -570,7 +571,7 @@ def axis_value(key: str, value: Any) -> str:
     return f"{name} {_label(value)}"
 
 
-#: Table headers of the result columns (the design's keys use :data:`AXIS_LABELS`).
+#: Table headers of the result columns (the design's keys use :func:`axis_label`).
 COLUMN_TITLES = {
     "design": "design", "status": "status", "steps": "steps", "tip_max_error_mm": "tip max error (mm)",
     "tip_final_error_mm": "tip final error (mm)", "points_max_error_mm": "worst point error (mm)",
@@ -656,7 +657,7 @@ def heatmap_figure(result: SweepResult, x: str | None = None, y: str | None = No
     h = min(max(3.2, 0.42 * len(ys) + 1.6), 8)
     fig, axes = plt.subplots(zrows * len(metrics), ncols, figsize=(w * ncols + 1.2, h * zrows * len(metrics) + 1.2),
                              squeeze=False)
-    bars: list[tuple[Any, list[Any], str]] = []
+    bars: list[tuple[Any, list[Any], str, list[float]]] = []
     for m, (metric, label, worst, cmap) in enumerate(metrics):
         datas = [np.array(heatmap_cells(result, x, y, metric, worst, {z: zv} if z else None), dtype=float)
                  for zv in zs]
@@ -719,7 +720,7 @@ def heatmap_figure(result: SweepResult, x: str | None = None, y: str | None = No
         cax = fig.add_axes((1 - 1.1 / fw, y0, 0.18 / fw, y1 - y0))
         bar = fig.colorbar(im, cax=cax, label=label)
         if isinstance(im.norm, LogNorm):
-            lo, hi = im.norm.vmin, im.norm.vmax
+            lo, hi = float(im.norm.vmin or 0.0), float(im.norm.vmax or 1.0)
             ticks = [t * 10.0 ** e for e in range(-2, 6) for t in (1, 2, 5) if lo <= t * 10.0 ** e <= hi]
             bar.set_ticks(ticks, labels=[f"{t:g}" for t in ticks])
             bar.ax.minorticks_off()
@@ -771,9 +772,6 @@ def best_rows(result: SweepResult, count: int = 10) -> list[dict[str, Any]]:
 
 def _html(result: SweepResult, heatmap: str | None) -> str:
     import html as _h
-
-    from bhr import __version__
-    from bhr.report import PAGE_END, page_head
 
     def e(v: Any) -> str:
         return _h.escape(str(v), quote=True)
@@ -836,9 +834,6 @@ def _html(result: SweepResult, heatmap: str | None) -> str:
 def write_outputs(result: SweepResult, out_dir: str | os.PathLike[str], *, plot: bool = True,
                   x: str | None = None, y: str | None = None) -> list[Path]:
     """Write results.csv, results.json, heatmap.png (when ``plot``) and index.html into ``out_dir``."""
-    from bhr import __version__
-    from bhr.atomic import write_json, write_text
-
     out = Path(out_dir)
     files = [out / "results.csv", out / "results.json"]
     write_text(files[0], results_csv(result))

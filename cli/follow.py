@@ -10,13 +10,13 @@ import click
 from bhr.cli._common import check_writable, guarded
 from bhr.cli._link import exit_interrupted, link_options, link_settings
 from bhr.cli.replay import STRIDE_HELP, check_view_options, render_animation, run_live_view
-from bhr.cli._options import (FiniteRange, build_robot, constraint_options, optimal_options, pop_constraints, pop_optimal,
-                              pop_trajectory, robot_options, trajectory_options)
+from bhr.cli._options import (FiniteRange, build_robot, constraint_options, optimal_options, pop_constraints,
+                              pop_optimal, pop_trajectory, robot_options, trajectory_options)
 
 
 def summary_lines(result) -> list[str]:
     """The summary table the thesis's script prints: per point and module, max/mean/median/final."""
-    s = result.summary()
+    s = result.summary.to_dict()
     r = result.robot
     lines = [
         f"{s['trajectory']}: {s['steps']} steps, solver {s['solver']}, {r.modules} modules x {r.module_length:g} mm, "
@@ -67,7 +67,8 @@ def body_clearance_lines(s: dict) -> list[str]:
 @click.option("--traj", required=True, metavar="NAME|PATH",
               help="line, curve, spiral, colon, or a trajectory file: .toml (segments) or .csv (points).")
 @trajectory_options
-@click.option("--solver", default="seed", show_default=True, help="seed, constrained, fabrik, ccd, optimal.")
+@click.option("--solver", default="thesis", show_default=True,
+              help="thesis (the thesis's algorithm; alias seed), constrained, fabrik, ccd, optimal.")
 @robot_options(feed=True)
 @constraint_options
 @optimal_options
@@ -143,7 +144,7 @@ def follow(traj, solver, out_dir, json_path, no_plots, **kwargs):
     for w in caught:
         if issubclass(w.category, BhrWarning):
             click.echo(f"Warning: {w.message}", err=True)
-    doc = result.to_json()
+    doc = result.to_dict()
     written = []
     if result.codes is not None:
         write_text(out / "codes.csv", format_codes_csv(result.codes))

@@ -286,7 +286,7 @@ CASES += [
     Bad("bench-json-under-a-file", "bench", ["--json", "afile/b.json"], expect="not a writable folder"),
 ]
 
-# every command in the issue, so that none is forgotten when it lands
+# every command, so that none is forgotten when it lands
 assert {c.command for c in CASES} >= {"solve", "follow", "fk", "stream", "status", "compare", "report", "sweep",
                                       "replay", "bench"}
 assert len({c.id for c in CASES}) == len(CASES)
