@@ -658,6 +658,7 @@ def heatmap_figure(result: SweepResult, x: str | None = None, y: str | None = No
     fig, axes = plt.subplots(zrows * len(metrics), ncols, figsize=(w * ncols + 1.2, h * zrows * len(metrics) + 1.2),
                              squeeze=False)
     bars: list[tuple[Any, list[Any], str, list[float]]] = []
+    framed = False  # the thesis design is on the map
     for m, (metric, label, worst, cmap) in enumerate(metrics):
         datas = [np.array(heatmap_cells(result, x, y, metric, worst, {z: zv} if z else None), dtype=float)
                  for zv in zs]
@@ -697,6 +698,7 @@ def heatmap_figure(result: SweepResult, x: str | None = None, y: str | None = No
                     cy = [ty] if ty >= 0 else list(range(len(ys)))
                     ax.add_patch(Rectangle((min(cx) - 0.5, min(cy) - 0.5), len(cx), len(cy), fill=False,
                                            edgecolor="red", linewidth=2.5, zorder=5))
+                    framed = True
             head = axis_value(z, zv) if z else label
             over = f"worst over {', '.join(axis_label(o) for o in others)}" if others else "one design per cell"
             ax.set_title(f"{head}\n{label}, {over}" if z else f"{head}\n{over}", fontsize=9)
@@ -705,7 +707,7 @@ def heatmap_figure(result: SweepResult, x: str | None = None, y: str | None = No
     tol_text = ", ".join(f"{t:g}" for t in sorted(tols) if math.isfinite(t)) or "8"
     handles = [Patch(facecolor="#777", hatch="///", edgecolor="white", label=f"over the position tolerance "
                      f"({tol_text} mm)")]
-    if thesis:
+    if framed:
         what = ", ".join(f"{axis_label(k).split(' (')[0]} {_label(v)}" for k, v in thesis.items())
         handles.append(Patch(facecolor="none", edgecolor="red", linewidth=2.5, label=f"thesis design ({what})"))
     handles.append(Patch(facecolor="#d0d0d0", label="every design in the cell failed"))

@@ -464,3 +464,18 @@ def test_sweep_page_headers_are_words_and_ranking_comes_first(tmp_path):
     assert len(best_heads) == 1 + 1 + 4 + len(METRICS)
     assert (tmp_path / "results.csv").read_text().splitlines()[0].split(",")[:4] == ["design", "traj", "solver",
                                                                                      "modules"]
+
+
+def test_heatmap_names_the_thesis_design_only_where_it_frames_it():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from bhr.sweep import heatmap_figure
+
+    res = run_sweep(build_sweep(["curve"], ["seed"], [("modules", (4, 5)), ("alpha", (9, 11))]), jobs=1)
+    fig = heatmap_figure(res)  # alpha 10 is not on the grid: nothing to frame, nothing to name
+    assert not any(t.get_text().startswith("thesis design") for t in fig.legends[0].get_texts())
+    assert not [p for ax in fig.axes for p in ax.patches if p.get_edgecolor()[:3] == (1.0, 0.0, 0.0)]
+    plt.close(fig)
