@@ -346,6 +346,7 @@ def follow(points: Any, solver: str = "thesis", robot: Robot | None = None, *,
     dirs = path_directions(path)
     s = get_solver(solver, robot, **(solver_options or {}))
     s.reset()
+    s.prepare(traj)
     msgs: list[str] = []
     if traj.min_radius < robot.min_turn_radius:
         msg = (f"the trajectory turns with radius {traj.min_radius:.2f} mm, tighter than the robot's minimum "

@@ -57,7 +57,7 @@ from bhr.options import BY_NAME, by_group, solver_options_for
 from bhr.robot import Robot
 from bhr.robotfile import load_robot_file
 from bhr.solvers import get_solver
-from bhr.trajectory import GENERATORS, load_trajectory
+from bhr.trajectory import GENERATORS, builtin_names, load_trajectory
 
 __all__ = ["RunSpec", "Batch", "load_batch", "parse_batch", "execute_run", "run_batch", "BatchReport",
            "ROW_FIELDS", "TRAJ_KEYS", "ROBOT_KEYS", "CONSTRAINT_KEYS", "NUMBER_KEYS", "INT_KEYS",
@@ -198,7 +198,7 @@ def parse_batch(data: dict[str, Any], source: str = "batch", base_dir: str | os.
                 if key not in allowed:
                     raise BhrError(f"{where}: the {traj} trajectory has no parameter {key!r} "
                                    f"(its parameters: {', '.join(allowed) or 'none'})")
-        else:
+        elif traj not in builtin_names():
             traj = _resolve(traj, base)
         solver = values.get("solver", "thesis")
         spec = RunSpec(

@@ -10,7 +10,7 @@ from bhr.cli._common import check_writable, guarded
 
 @click.command()
 @click.option("--case", "cases", multiple=True, metavar="NAME",
-              help="Case to run (repeatable): fabrik, ccd, seed-colon, optimal, body-60, cli [all].")
+              help="Case to run (repeatable): fabrik, ccd, seed-colon, optimal, body-60, lumen, cli [all].")
 @click.option("--repeat", type=click.IntRange(1, 100), default=None, help="Repeats per timing (median taken).")
 @click.option("--json", "json_path", default=None, metavar="PATH|-",
               help="Write the results as JSON ('-': stdout, the table then goes to stderr).")

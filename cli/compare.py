@@ -8,18 +8,20 @@ from pathlib import Path
 import click
 
 from bhr.cli._common import check_writable, guarded
-from bhr.cli._options import (build_robot, optimal_options, pop_optimal, pop_trajectory, robot_options,
-                              trajectory_options)
+from bhr.cli._options import (build_robot, lumen_options, optimal_options, pop_solver_options, pop_trajectory,
+                              robot_options, trajectory_options)
 
 
 @click.command()
 @click.option("--traj", default=None, metavar="NAME|PATH",
-              help="line, curve, spiral, colon, or a trajectory file: .toml (segments) or .csv (points). Required.")
+              help="line, curve, spiral, colon, anatomy (--seed N), a shipped anatomy-* colon, or a trajectory file: "
+                   ".toml (segments) or .csv (points). Required.")
 @trajectory_options
 @click.option("--solver", "solvers", multiple=True, metavar="NAME",
               help="A solver to run; give it once per solver, the first is the reference [thesis, optimal].")
 @robot_options(feed=True)
 @optimal_options
+@lumen_options
 @click.option("--body-modules", type=int, default=None, metavar="M",
               help="Also simulate the body of a robot of M modules (M >= --modules) in every run.")
 @click.option("--out", "out_dir", default=None, metavar="DIR", help="Output folder [./bhr-out/compare-<traj>/].")
@@ -59,15 +61,12 @@ def compare(traj, solvers, out_dir, json_path, no_plots, **kwargs):
     if not no_plots:
         check_writable(out / "compare.png", "output folder")
     check_writable(json_path, "JSON")
-    optimal = pop_optimal(kwargs)
+    per_solver = pop_solver_options(kwargs, names)
     body_modules = kwargs.pop("body_modules")
-    if optimal and "optimal" not in names:
-        raise BhrError(f"--{next(iter(optimal)).replace('_', '-')} is an option of the optimal solver; "
-                       "add --solver optimal or drop it")
     tr = load_trajectory(traj, feed=robot.feed, **pop_trajectory(kwargs))
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", BhrWarning)
-        runs = compare_runs(tr, names, robot, solver_options={"optimal": optimal}, body_modules=body_modules)
+        runs = compare_runs(tr, names, robot, solver_options=per_solver, body_modules=body_modules)
     for w in {str(w.message) for w in caught if issubclass(w.category, BhrWarning)}:
         click.echo(f"Warning: {w}", err=True)
     stream = json_path == "-"

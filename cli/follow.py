@@ -8,10 +8,11 @@ from pathlib import Path
 import click
 
 from bhr.cli._common import check_writable, guarded
-from bhr.cli._link import exit_interrupted, link_options, link_settings
+from bhr.cli._link import (exit_interrupted, fault_printer, link_options, link_settings, schedule_option,
+                           thermal_params)
 from bhr.cli.replay import STRIDE_HELP, check_view_options, render_animation, run_live_view
-from bhr.cli._options import (FiniteRange, build_robot, constraint_options, optimal_options, pop_constraints,
-                              pop_optimal, pop_trajectory, robot_options, trajectory_options)
+from bhr.cli._options import (FiniteRange, build_robot, constraint_options, lumen_options, optimal_options,
+                              pop_constraints, pop_solver_options, pop_trajectory, robot_options, trajectory_options)
 
 
 def summary_lines(result) -> list[str]:
@@ -65,13 +66,16 @@ def body_clearance_lines(s: dict) -> list[str]:
 
 @click.command()
 @click.option("--traj", required=True, metavar="NAME|PATH",
-              help="line, curve, spiral, colon, or a trajectory file: .toml (segments) or .csv (points).")
+              help="line, curve, spiral, colon, anatomy (--seed N), a shipped anatomy-* colon, or a trajectory file: "
+                   ".toml (segments) or .csv (points).")
 @trajectory_options
 @click.option("--solver", default="thesis", show_default=True,
-              help="thesis (the thesis's algorithm; alias seed), constrained, fabrik, ccd, optimal.")
+              help="thesis (the thesis's algorithm; alias seed), constrained, fabrik, ccd, optimal, lumen (keeps "
+                   "the robot off the lumen wall).")
 @robot_options(feed=True)
 @constraint_options
 @optimal_options
+@lumen_options
 @click.option("--body-modules", type=int, default=None, metavar="M",
               help="Also simulate the body: a robot of M modules (M >= --modules) whose modules behind the head "
                    "follow the leader.")
@@ -88,6 +92,7 @@ def body_clearance_lines(s: dict) -> list[str]:
                         "while solving (the --robot file's [link] gives baud rate and module order).", robot=False)
 @click.option("--rate", default=10.0, show_default=True, metavar="HZ", type=FiniteRange(min=0, min_open=True, max=1000),
               help="With --port: steps sent per second, at most.")
+@schedule_option()
 @guarded
 def follow(traj, solver, out_dir, json_path, no_plots, **kwargs):
     """Follow a trajectory with follow-the-leader and report the errors.
@@ -100,10 +105,13 @@ def follow(traj, solver, out_dir, json_path, no_plots, **kwargs):
 
         bhr follow --traj curve --radius 70 --angle 360
 
-    With --port the codes of each step go to the actuator board as soon as
-    they are solved, at most --rate steps per second (Ctrl-C sends stop-all):
+    With --port the run is solved first, its codes are checked against the
+    thermal model of the wires (docs/thermal.md), and then streamed to the
+    actuator board at --rate steps per second (--schedule rate: refused
+    before anything is sent where the board would fault) or as fast as the
+    wires allow (--schedule auto); Ctrl-C sends stop-all:
 
-        bhr follow --traj colon --port /dev/ttyUSB0 --rate 10
+        bhr follow --traj colon --port /dev/ttyUSB0 --schedule auto
     """
     from bhr.atomic import write_json, write_text
     from bhr.codes import format_codes_csv
@@ -112,35 +120,36 @@ def follow(traj, solver, out_dir, json_path, no_plots, **kwargs):
 
     show, animate_path, stride = kwargs.pop("show"), kwargs.pop("animate_path"), kwargs.pop("stride")
     stem = Path(traj).stem if traj not in ("line", "curve", "spiral", "colon") else traj
+    if traj == "anatomy":  # one folder per colon
+        stem = f"anatomy-{kwargs['seed'] if kwargs.get('seed') is not None else 1}"
     out = Path(out_dir) if out_dir else Path("bhr-out") / f"{stem}-{solver}"
     check_writable(out / "run.json", "output folder")  # before any work: a bad path costs nothing
     check_writable(json_path, "JSON")
     check_view_options(show, animate_path)
     rate = kwargs.pop("rate")
+    schedule = kwargs.pop("schedule")
     link_kw = {k: kwargs.pop(k) for k in ("port", "baud", "timeout", "retries")}
     if link_kw["port"] is None and link_kw["baud"] is not None:
         from bhr.errors import BhrError
 
         raise BhrError("--baud is an option of streaming; give --port too, or drop --baud")
-    link_kw["robot_file"] = kwargs.get("robot_file")
+    robot_file = link_kw["robot_file"] = kwargs.get("robot_file")
+    streaming = link_kw["port"] is not None
     robot = build_robot(kwargs)
     constraints = pop_constraints(kwargs)
-    optimal = pop_optimal(kwargs)
+    optimal = pop_solver_options(kwargs, [solver]).get(solver, {})
     body_modules = kwargs.pop("body_modules")
-    if optimal and solver != "optimal":
-        from bhr.errors import BhrError
-
-        raise BhrError(f"--{next(iter(optimal)).replace('_', '-')} is an option of --solver optimal; "
-                       f"drop it or use --solver optimal")
     traj_params = pop_trajectory(kwargs)
     tr = load_trajectory(traj, feed=robot.feed, **traj_params)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", BhrWarning)
+        stream_faults: list = []
         if link_kw["port"] is None:
             result = run_follow(tr, solver=solver, robot=robot, solver_options={**constraints, **optimal},
                                 body_modules=body_modules)
         else:
-            result = follow_streaming(tr, solver, robot, {**constraints, **optimal}, body_modules, rate, link_kw)
+            result, stream_faults = follow_streaming(tr, solver, robot, {**constraints, **optimal}, body_modules,
+                                                     rate, link_kw, schedule)
     for w in caught:
         if issubclass(w.category, BhrWarning):
             click.echo(f"Warning: {w.message}", err=True)
@@ -162,50 +171,77 @@ def follow(traj, solver, out_dir, json_path, no_plots, **kwargs):
     stream = json_path == "-"
     for line in summary_lines(result):
         click.echo(line, err=stream)
+    if result.codes is not None and not streaming:
+        from bhr.cli._link import thermal_params
+        from bhr.thermal import auto_schedule, format_duration
+
+        sched = auto_schedule(thermal_params(robot_file), result.codes, rate)
+        click.echo(f"Procedure time on the board: {format_duration(sched.total_s)} at the board's limits "
+                   f"(bhr plan --codes {out / 'codes.csv'} shows the schedule).", err=stream)
     click.echo("Wrote " + ", ".join(str(p) for p in written), err=stream)
     if animate_path:
         render_animation(result, animate_path, stride)
     if show:
         run_live_view(result, stride)
+    if stream_faults:
+        from bhr.errors import BhrError
+
+        step, name = stream_faults[0]
+        raise BhrError(f"the board raised {len(stream_faults)} fault{'s' if len(stream_faults) != 1 else ''} during "
+                       f"the stream (first: {name} at step {step}); check the robot file's [thermal] table and "
+                       "'bhr status'")
 
 
-def follow_streaming(tr, solver, robot, solver_options, body_modules, rate, link_kw):
-    """Run bhr.follow with each step's codes sent to the board (the --port path of the command)."""
+def follow_streaming(tr, solver, robot, solver_options, body_modules, rate, link_kw, schedule="rate"):
+    """Solve the run, check its codes against the wires' thermal model, then stream them (the --port path)."""
     import contextlib
     import sys
 
     from bhr.errors import BhrError
     from bhr.follow import follow as run_follow
-    from bhr.link import BoardLink, Pacer, check_board, interrupted
+    from bhr.link import BoardLink, Pacer, check_board, interrupted, wait_until_ready
+    from bhr.thermal import format_duration, plan
 
     if body_modules is not None:
-        raise BhrError("--port streams the head's codes while it solves and cannot stream a --body-modules run; "
-                       "drop one of the two")
+        raise BhrError("--port streams the head's codes and cannot stream a --body-modules run; drop one of the two")
+    params = thermal_params(link_kw.get("robot_file"))
     port, link_args = link_settings(link_kw, use_file_port=False)
     order = link_args["module_order"]
     if order is not None and len(order) != robot.modules:
         raise BhrError(f"the robot file's link.module_order lists {len(order)} modules but the robot has "
                        f"{robot.modules}; make them agree")
-    steps = len(tr.points)
     with BoardLink(port, **link_args) as link:
-        board = check_board(link, robot.modules)
+        board = check_board(link, robot.modules)  # a wrong board is refused before the solve
+        result = run_follow(tr, solver=solver, robot=robot, solver_options=solver_options)
+        if result.codes is None:
+            Pacer(link, rate)(1, None)  # the one-line refusal of code-less solvers
+        rows = result.codes
+        sched = plan(params, rows, rate, schedule, name=tr.name, sending=True)
         held = [f for f in board["faults"] if f != "silence"]  # silence: the board was idle, which is fine
         if held:
-            click.echo(f"Warning: board on {port} reports {', '.join(held)} before the run; those actuators stay "
-                       "off until they cool down (bhr status shows them)", err=True)
-        pacer = Pacer(link, rate)
+            click.echo(f"Warning: board on {port} reports {', '.join(held)} before the run (latched faults stay "
+                       "until stop-all; a cooling module is waited for)", err=True)
+        wait_until_ready(link)
+        steps = len(rows)
+        times = sched.times_ms / 1000.0 if schedule == "auto" else None
+        pacer = Pacer(link, rate, times=times, on_fault=fault_printer(port), known_faults=board["faults"],
+                      wait_relaxed=schedule == "auto")
         show_bar = sys.stderr.isatty()
+        import time
+
+        t_start = time.monotonic()
         try:
-            with (click.progressbar(length=steps, label=f"solving and streaming to {port}", file=sys.stderr,
+            with (click.progressbar(length=steps, label=f"streaming to {port}", file=sys.stderr,
                                     show_pos=True) if show_bar else contextlib.nullcontext()) as bar:
-                def on_step(i, codes):
-                    pacer(i, codes)
+                for i in range(steps):
+                    pacer.send([int(c) for c in rows[i]])
                     if bar is not None:
                         bar.update(1)
-
-                result = run_follow(tr, solver=solver, robot=robot, solver_options=solver_options, on_step=on_step)
         except KeyboardInterrupt:
             exit_interrupted(interrupted(link, pacer.sent), steps, "steps")
-    click.echo(f"streamed {pacer.sent} steps ({robot.modules} modules) to {port} at up to {rate:g} Hz"
-               + (f"; board reported: {', '.join(pacer.faults)}" if pacer.faults else ""), err=True)
-    return result
+        t_sent = time.monotonic() - t_start
+    how = f"at {rate:g} Hz" if schedule == "rate" else "at the board's limits"
+    settle = sched.total_s - float(sched.times_ms[-1]) / 1000.0  # the last step's contraction
+    click.echo(f"streamed {pacer.sent} steps ({robot.modules} modules) to {port} {how}; procedure time "
+               f"{format_duration(t_sent + settle)} (planned {format_duration(sched.total_s)})", err=True)
+    return result, pacer.fault_events

@@ -16,8 +16,10 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "compare": ("bhr.cli.compare:compare", "Run one trajectory with several solvers; print and plot their errors."),
     "stream": ("bhr.cli.stream:stream", "Send a codes.csv to the actuator board over a serial port."),
     "status": ("bhr.cli.status:status", "Ask the actuator board for its current codes and faults."),
+    "plan": ("bhr.cli.plan:plan", "Plan a codes.csv against the wires' thermal model: schedule and procedure time."),
     "report": ("bhr.cli.report:report", "Run a batch file of follow runs; write an HTML report, CSV and JSON."),
     "sweep": ("bhr.cli.sweep:sweep", "Sweep robot designs over trajectories, locally or on a Dask cluster."),
+    "traverse": ("bhr.cli.traverse:traverse", "Which robot designs get through a population of anatomical colons."),
 }
 
 

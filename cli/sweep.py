@@ -55,13 +55,13 @@ def sweep(sweep_file, trajs, solvers, grid, robot_file, out_dir, jobs, scheduler
             raise BhrError(DASK_MISSING) from None
     cli_grid = [parse_grid_option(g) for g in grid]
     if sweep_file:
-        from bhr.trajectory import GENERATORS
+        from bhr.trajectory import builtin_names
 
         base = load_sweep(sweep_file)
         merged = dict(base.grid)
         merged.update(dict(cli_grid))
         # trajectory files named here are relative to the current folder, the file's to its folder
-        given = tuple(t if t in GENERATORS else str(Path(t).resolve()) for t in trajs)
+        given = tuple(t if t in builtin_names() else str(Path(t).resolve()) for t in trajs)
         s = build_sweep(given or base.trajs, solvers or base.solvers, tuple(merged.items()),
                         title=title or base.title, description=base.description,
                         base_dir=Path(sweep_file).parent, where=str(sweep_file),

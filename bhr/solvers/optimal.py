@@ -68,7 +68,7 @@ CODE_OF = np.array([0, 3, 6, 12, 9], dtype=np.int64)
 DEG = 180.0 / math.pi
 
 #: Default settings of ``--solver optimal`` (docs/optimal.md explains each), from the option registry.
-DEFAULTS: dict[str, Any] = {o.name: o.default for o in by_group("solver") if o.solvers == ("optimal",)}
+DEFAULTS: dict[str, Any] = {o.name: o.default for o in by_group("solver") if "optimal" in (o.solvers or ())}
 #: Two beam states closer than this (mm, and unit-vector difference) count as one.
 DEDUP_POS = 0.2
 DEDUP_DIR = 0.02
