@@ -1,8 +1,10 @@
 """Animate a run off-screen: the frames of the live view, to a GIF (Pillow) or an MP4 (ffmpeg).
 
-Each frame is :class:`bhr.plots.StepView` drawing one step (path, target,
-robot with a disc per module) on an off-screen Agg figure, so an animation
-shows exactly what ``bhr follow --show`` and the final-pose figure show.
+Each frame is :class:`bhr.plots.StepView` drawing one step (a view that
+follows the robot: path, lumen wall, target, robot with a disc per module;
+an overview of the whole path; a readout of the step's errors) on an
+off-screen Agg figure, so an animation shows exactly what ``bhr follow
+--show`` shows.
 Every ``stride``-th step becomes a frame, and the last step always does.
 
 GIF frames share one palette (taken from the first frame) and Pillow stores
@@ -38,8 +40,8 @@ FORMATS = {".gif": "Pillow", ".mp4": "ffmpeg"}
 DEFAULT_FPS = 20
 #: The default stride keeps an animation at or under this many frames.
 MAX_FRAMES = 300
-#: Frame size: inches and dots per inch (800 x 720 pixels).
-FRAME_INCHES = (8.0, 7.2)
+#: Frame size: inches and dots per inch (1000 x 700 pixels; the live view's too, bhr.plots.FRAME_INCHES).
+FRAME_INCHES = (10.0, 7.0)
 FRAME_DPI = 100
 #: How long the last frame stays before a GIF loops (ms).
 LAST_FRAME_MS = 1500
@@ -108,7 +110,7 @@ def frame_view(result: "FollowResult") -> "StepView":
 def _rgb(view: "StepView") -> Any:
     import numpy as np
 
-    view.fig.canvas.draw()
+    view.render()
     return np.asarray(view.fig.canvas.buffer_rgba())[:, :, :3]  # type: ignore[attr-defined]  # the Agg canvas
 
 

@@ -140,7 +140,7 @@ def compare_figure(runs: Sequence[Compared]):
     """Largest point error and tip error per step, every solver on the same axes; wall touches shaded."""
     import matplotlib.pyplot as plt
 
-    import bhr.plots  # noqa: F401  (chooses a backend without a display)
+    from bhr import plots  # (also chooses a backend without a display)
 
     colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
     fig, axes = plt.subplots(2, 1, figsize=(10, 6.5), sharex=True)
@@ -149,22 +149,27 @@ def compare_figure(runs: Sequence[Compared]):
         res = c.result
         col = colors[k % len(colors)]
         steps = np.arange(1, res.steps + 1)
-        axes[0].plot(steps, res.point_errors.max(axis=1), color=col, linewidth=1.0,
-                     label=f"{c.solver} (worst {res.point_errors.max():.2f} mm)")
-        axes[1].plot(steps, res.point_errors[:, -1], color=col, linewidth=1.0, label=c.solver)
+        worst, tip = res.point_errors.max(axis=1), res.point_errors[:, -1]
+        axes[0].plot(steps, worst, color=col, linewidth=1.0, label=c.solver)
+        axes[1].plot(steps, tip, color=col, linewidth=1.0, label=c.solver)
+        plots.mark_worst(axes[0], steps, worst, "mm", color=col, what=f"{c.solver} worst")
+        plots.mark_worst(axes[1], steps, tip, "mm", color=col, what=f"{c.solver} worst")
         cl = res.clearance
         if cl is not None and cl.touch_steps:
             for ax in axes:
                 ax.plot(cl.touch_steps, np.zeros(len(cl.touch_steps)), "|", color=col, markersize=12,
                         label=f"{c.solver}: wall touched" if ax is axes[0] else None)
     for ax, title in zip(axes, ("Largest position error over the robot's points", "Tip position error")):
-        ax.axhline(r0.robot.tol_pos, color="tab:red", linestyle="--", linewidth=0.8, label="tolerance")
+        ax.axhline(r0.robot.tol_pos, color="tab:red", linestyle="--", linewidth=0.8,
+                   label=f"tolerance {r0.robot.tol_pos:g} mm")
         ax.set_ylabel("error (mm)")
         ax.set_title(title, fontsize=10)
         ax.grid(True, alpha=0.3)
-        ax.set_ylim(bottom=0)
+        top = max([r0.robot.tol_pos] + [float(c.result.point_errors.max()) for c in runs])
+        ax.set_ylim(0, 1.4 * top)  # room above for the legend
+        ax.tick_params(labelbottom=True)  # step numbers under both panels
         ax.set_xlim(1, max(2, r0.steps))
-        ax.legend(loc="upper right", fontsize=8)
+        ax.legend(loc="upper right", fontsize=8, ncol=2)
     axes[1].set_xlabel("trajectory step")
     fig.suptitle(f"{r0.trajectory.name}: " + " vs ".join(c.solver for c in runs), fontsize=12)
     fig.tight_layout()

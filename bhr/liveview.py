@@ -3,8 +3,9 @@
 The window shows what the thesis's script draws while it runs (ch. 7.1,
 appendix 1): the path, the current target and the robot (points, links, a
 disc of the robot's radius at each module), top view for a planar run and 3D
-otherwise (drag to rotate). Drawing is :class:`bhr.plots.StepView`, the same
-code as the final-pose figure and the animation. The run plays by itself;
+otherwise (drag to rotate), in a view that follows the robot, beside an
+overview of the whole path and a readout of the step's errors. Drawing is
+:class:`bhr.plots.StepView`, the same code as the animation. The run plays by itself;
 keys (see :data:`KEYS`) pause, step and quit. The window's title names the
 step shown, e.g. ``bhr colon: step 12/827 (paused)``.
 

@@ -538,7 +538,8 @@ tr.failed td{background:#fdecea} td.ok{color:#1a7f37;font-weight:600} td.bad{col
 white-space:normal;text-align:left}
 .figs{display:grid;grid-template-columns:repeat(auto-fill,minmax(520px,1fr));gap:1rem}
 figure{margin:0;background:#fff;border:1px solid #dde;padding:.4rem}
-figure img{width:100%;height:auto;display:block}
+figure img{width:100%;height:auto;display:block;cursor:zoom-in}
+th.rank,td.rank{background:#fff6d5;font-weight:600}
 figcaption{font-size:.85rem;color:#444;margin-top:.3rem}
 .warn{color:#8a5a00} .reason{color:#b42318;font-weight:600} dl{display:grid;grid-template-columns:max-content auto;
 gap:.1rem .8rem;font-size:.9rem} dt{color:#555} dd{margin:0}
@@ -657,8 +658,11 @@ def _run_section(row: dict[str, Any], anchor: str, out_dir: Path, inline: bool) 
         out.append("<div class=\"figs\">\n")
         for f, cap, ref in shown:
             rel = f"{row['folder']}/{f}"
-            out.append(f"<figure><img src=\"{_img_src(out_dir, rel, inline)}\" alt=\"{_e(cap)} - {_e(row['name'])}\">"
-                       f"<figcaption>{_e(cap)}{f' (thesis {_e(ref)})' if ref else ''}</figcaption></figure>\n")
+            # The figure links to its PNG, which opens at full size (the page shows it shrunk to its column).
+            out.append(f"<figure><a href=\"{_e(rel)}\" title=\"open at full size\">"
+                       f"<img src=\"{_img_src(out_dir, rel, inline)}\" alt=\"{_e(cap)} - {_e(row['name'])}\"></a>"
+                       f"<figcaption>{_e(cap)}{f' (thesis {_e(ref)})' if ref else ''}; "
+                       f"<a href=\"{_e(rel)}\">full size</a></figcaption></figure>\n")
         out.append("</div>\n")
     if row.get("stats"):
         out.append("<details><summary>Errors per point and module</summary>\n")

@@ -531,58 +531,217 @@ def _grid_values(sweep: Sweep, key: str | None) -> tuple[Any, ...]:
 
 
 def heatmap_cells(result: SweepResult, x: str | None, y: str | None, metric: str,
-                  worst: Callable[[Iterable[float]], float]) -> list[list[float]]:
-    """``metric`` per (y, x) cell, the ``worst`` over every other axis; NaN where no design has it."""
+                  worst: Callable[[Iterable[float]], float],
+                  fixed: dict[str, Any] | None = None) -> list[list[float]]:
+    """``metric`` per (y, x) cell, the ``worst`` over every other axis; NaN where no design has it.
+
+    ``fixed`` keeps only the designs with those values (e.g. one panel's module length).
+    """
     xs, ys = _grid_values(result.sweep, x), _grid_values(result.sweep, y)
     xi = {v: k for k, v in enumerate(xs)}
     yi = {v: k for k, v in enumerate(ys)}
     cells: list[list[list[float]]] = [[[] for _ in xs] for _ in ys]
     for r in result.rows:
+        if fixed and any(r.get(k) != v for k, v in fixed.items()):
+            continue
         v = r.get(metric)
         if r["status"] == "ok" and v is not None:
             cells[yi[r[y]] if y else 0][xi[r[x]] if x else 0].append(float(v))
     return [[worst(c) if c else math.nan for c in row] for row in cells]
 
 
+#: Heat-map axis and table names of the grid keys, in words (the unit comes from bhr.options).
+AXIS_NAMES = {
+    "module_length": "module length", "robot_radius": "robot radius", "tol_pos": "position tolerance",
+    "tol_ori": "orientation tolerance", "max_iter": "iterations (at most)", "feed_divisor": "feed divisor",
+    "weight_pos": "position weight", "weight_ori": "orientation weight", "radius": "path radius",
+    "angle": "turned angle", "entry": "entry straight", "exit": "exit straight", "traj": "trajectory",
+    "warmup": "warm-up iterations", "limit": "rotation limit", "axes": "rotation axes",
+}
+#: At most this many panels, one per value of the third axis; more and the third axis joins the worst case.
+MAX_PANELS = 9
+
+
+def axis_label(key: str | None) -> str:
+    """A heat-map axis's name with its unit, e.g. ``alpha (deg)``."""
+    if key is None:
+        return ""
+    from bhr.options import BY_NAME
+
+    name = AXIS_NAMES.get(key, key.replace("_", " "))
+    unit = BY_NAME[key].unit if key in BY_NAME else ""
+    return f"{name} ({unit})" if unit else name
+
+
+def axis_value(key: str, value: Any) -> str:
+    """An axis value with its name and unit, e.g. ``module length 10 mm``."""
+    name = axis_label(key)
+    if name.endswith(")") and " (" in name:
+        name, unit = name[:-1].split(" (", 1)
+        return f"{name} {_label(value)} {unit}"
+    return f"{name} {_label(value)}"
+
+
+#: Table headers of the result columns (the design's keys use :func:`axis_label`).
+COLUMN_TITLES = {
+    "design": "design", "status": "status", "steps": "steps", "tip_max_error_mm": "tip max error (mm)",
+    "tip_final_error_mm": "tip final error (mm)", "points_max_error_mm": "worst point error (mm)",
+    "orientation_max_deg": "worst orientation error (deg)", "global_max": "global max (1 = tolerance)",
+    "min_clearance_mm": "min clearance (mm)", "min_turn_radius_mm": "min turn radius (mm)",
+}
+
+
+def column_title(key: str) -> str:
+    """A friendly header for a result column or design key."""
+    return COLUMN_TITLES.get(key) or axis_label(key)
+
+
+def heatmap_panels(sweep: Sweep, x: str | None, y: str | None) -> str | None:
+    """The axis whose values get a panel each: the biggest axis (most values) left after x and y, if any.
+
+    On a tie a robot option (a design parameter) goes before a trajectory's, then the sweep's order.
+    """
+    rest = [k for k, v in sweep.axes if k not in (x, y) and 1 < len(v) <= MAX_PANELS]
+    return max(rest, key=lambda k: (len(dict(sweep.axes)[k]), k in ROBOT_KEYS)) if rest else None
+
+
+def _thesis_value(key: str) -> Any:
+    """The thesis design's value of a robot key (bhr's default robot), or None for any other key."""
+    from bhr.robot import Robot
+
+    return getattr(Robot(), ROBOT_KEYS[key]) if key in ROBOT_KEYS else None
+
+
+def _row_tolerance(result: SweepResult, row: dict[str, Any]) -> float:
+    """The position tolerance of a design (its grid value, the sweep's robot, or the thesis's 8 mm)."""
+    try:
+        return float(make_robot({ROBOT_KEYS[k]: v for k, v in row.items() if k in ROBOT_KEYS},
+                                dict(result.sweep.robot) or None).tol_pos)
+    except Exception:  # a failed design has no error to compare
+        return math.inf
+
+
 def heatmap_figure(result: SweepResult, x: str | None = None, y: str | None = None):
-    """Worst point error and (when known) minimum clearance per (x, y) design, worst case over other axes."""
+    """Worst point error and (when known) minimum clearance per (x, y) design.
+
+    One panel per value of a third axis (:func:`heatmap_panels`), each cell the
+    worst case over the remaining axes. Cells over the position tolerance are
+    hatched; the thesis design (5 modules of 10 mm, alpha 10 deg, ...) is framed
+    in red wherever the axes show it.
+    """
     import matplotlib
 
     if os.environ.get("DISPLAY", "") == "" and os.environ.get("MPLBACKEND") is None:
         matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     import numpy as np
+    from matplotlib.colors import LogNorm, Normalize
+    from matplotlib.patches import Patch, Rectangle
 
     x, y = heatmap_axes(result.sweep, x, y)
+    z = heatmap_panels(result.sweep, x, y)
     xs, ys = _grid_values(result.sweep, x), _grid_values(result.sweep, y)
-    others = [k for k, v in result.sweep.axes if k not in (x, y) and len(v) > 1]
-    panels = [("points_max_error_mm", "worst point error (mm)", max, "viridis")]
+    zs = _grid_values(result.sweep, z)
+    others = [k for k, v in result.sweep.axes if k not in (x, y, z) and len(v) > 1]
+    metrics = [("points_max_error_mm", "worst point error (mm)", max, "viridis")]
     if any(r.get("min_clearance_mm") is not None for r in result.rows):
-        panels.append(("min_clearance_mm", "minimum clearance (mm)", min, "viridis_r"))
-    w = min(max(4.5, 0.55 * len(xs) + 2.5), 14)
-    h = min(max(3.5, 0.45 * len(ys) + 2.0), 12)
-    fig, axes = plt.subplots(1, len(panels), figsize=(w * len(panels), h), squeeze=False)
-    for ax, (metric, label, worst, cmap) in zip(axes[0], panels):
-        data = np.array(heatmap_cells(result, x, y, metric, worst), dtype=float)
-        masked = np.ma.masked_invalid(data)
+        metrics.append(("min_clearance_mm", "minimum clearance (mm)", min, "viridis_r"))
+    over_cells = [[[False] * len(xs) for _ in ys] for _ in zs]
+    xi = {v: k for k, v in enumerate(xs)}
+    yi = {v: k for k, v in enumerate(ys)}
+    zi = {v: k for k, v in enumerate(zs)}
+    ran = [[[False] * len(xs) for _ in ys] for _ in zs]  # some design of the cell ran (did not fail)
+    tols = set()
+    for r in result.rows:
+        e = r.get("points_max_error_mm")
+        if r["status"] != "ok" or e is None:
+            continue
+        ran[zi[r[z]] if z else 0][yi[r[y]] if y else 0][xi[r[x]] if x else 0] = True
+        tol = _row_tolerance(result, r)
+        tols.add(tol)
+        if e > tol:
+            over_cells[zi[r[z]] if z else 0][yi[r[y]] if y else 0][xi[r[x]] if x else 0] = True
+    thesis = {k: _thesis_value(k) for k in (x, y, z) if k is not None and _thesis_value(k) is not None}
+    ncols = min(len(zs), 3)
+    zrows = -(-len(zs) // ncols)
+    w = min(max(4.0, 0.5 * len(xs) + 1.6), 9)
+    h = min(max(3.2, 0.42 * len(ys) + 1.6), 8)
+    fig, axes = plt.subplots(zrows * len(metrics), ncols, figsize=(w * ncols + 1.2, h * zrows * len(metrics) + 1.2),
+                             squeeze=False)
+    bars: list[tuple[Any, list[Any], str, list[float]]] = []
+    framed = False  # the thesis design is on the map
+    for m, (metric, label, worst, cmap) in enumerate(metrics):
+        datas = [np.array(heatmap_cells(result, x, y, metric, worst, {z: zv} if z else None), dtype=float)
+                 for zv in zs]
+        finite = np.concatenate([d[np.isfinite(d)] for d in datas])
+        lo, hi = (float(finite.min()), float(finite.max())) if finite.size else (0.0, 1.0)
         cm = plt.get_cmap(cmap).with_extremes(bad="#d0d0d0")
-        im = ax.imshow(masked, origin="lower", aspect="auto", cmap=cm, interpolation="nearest")
-        fig.colorbar(im, ax=ax, label=label)
-        ax.set_xticks(range(len(xs)), [_label(v) for v in xs], rotation=45 if len(xs) > 8 else 0, fontsize=8)
-        ax.set_yticks(range(len(ys)), [_label(v) for v in ys], fontsize=8)
-        ax.set_xlabel(x or "")
-        ax.set_ylabel(y or "")
-        if data.size <= 400:
-            finite = data[np.isfinite(data)]
-            mid = (finite.min() + finite.max()) / 2 if finite.size else 0.0
+        # errors spanning more than a decade: a log scale keeps the small (good) ones apart
+        norm = LogNorm(lo, hi) if lo > 0 and hi > 10 * lo else Normalize(lo, hi)
+        block = axes[m * zrows:(m + 1) * zrows]
+        for k in range(zrows * ncols):
+            ax = block[k // ncols][k % ncols]
+            if k >= len(zs):
+                ax.set_visible(False)
+                continue
+            data, zv = datas[k], zs[k]
+            im = ax.imshow(np.ma.masked_invalid(data), origin="lower", aspect="auto", cmap=cm,
+                           interpolation="nearest", norm=norm)
+            ax.set_xticks(range(len(xs)), [_label(v) for v in xs], rotation=45 if len(xs) > 8 else 0, fontsize=8)
+            ax.set_yticks(range(len(ys)), [_label(v) for v in ys], fontsize=8)
+            ax.set_xlabel(axis_label(x))
+            ax.set_ylabel(axis_label(y))
+            mid = float(norm.inverse(0.5))
             for (j, i), v in np.ndenumerate(data):
-                text = "failed" if not np.isfinite(v) else f"{v:.2f}"
-                dark = np.isfinite(v) and ((v < mid) if cmap == "viridis" else (v > mid))
-                ax.text(i, j, text, ha="center", va="center", fontsize=7, color="white" if dark else "black")
-        over = f"worst over {', '.join(others)}" if others else "one design per cell"
-        ax.set_title(f"{label}\n{over}", fontsize=10)
+                if metric == "points_max_error_mm" and over_cells[k][j][i]:
+                    ax.add_patch(Rectangle((i - 0.5, j - 0.5), 1, 1, fill=False, hatch="///", linewidth=0,
+                                           edgecolor=(1, 1, 1, 0.45)))
+                if data.size <= 400:
+                    text = f"{v:.2f}" if np.isfinite(v) else ("n/a" if ran[k][j][i] else "failed")
+                    dark = np.isfinite(v) and ((v < mid) if cmap == "viridis" else (v > mid))
+                    ax.text(i, j, text, ha="center", va="center", fontsize=7 if data.size <= 100 else 6,
+                            color="white" if dark else "black")
+            if z not in thesis or zv == thesis[z]:
+                tx = xs.index(thesis[x]) if x in thesis and thesis[x] in xs else (None if x in thesis else -1)
+                ty = ys.index(thesis[y]) if y in thesis and thesis[y] in ys else (None if y in thesis else -1)
+                if tx is not None and ty is not None and (tx >= 0 or ty >= 0):
+                    cx = [tx] if tx >= 0 else list(range(len(xs)))
+                    cy = [ty] if ty >= 0 else list(range(len(ys)))
+                    ax.add_patch(Rectangle((min(cx) - 0.5, min(cy) - 0.5), len(cx), len(cy), fill=False,
+                                           edgecolor="red", linewidth=2.5, zorder=5))
+                    framed = True
+            head = axis_value(z, zv) if z else label
+            over = f"worst over {', '.join(axis_label(o) for o in others)}" if others else "one design per cell"
+            ax.set_title(f"{head}\n{label}, {over}" if z else f"{head}\n{over}", fontsize=9)
+        bars.append((im, [a for row in block for a in row if a.get_visible()], label,
+                     sorted(tols) if metric == "points_max_error_mm" else []))
+    tol_text = ", ".join(f"{t:g}" for t in sorted(tols) if math.isfinite(t)) or "8"
+    handles = [Patch(facecolor="#777", hatch="///", edgecolor="white", label=f"over the position tolerance "
+                     f"({tol_text} mm)")]
+    if framed:
+        what = ", ".join(f"{axis_label(k).split(' (')[0]} {_label(v)}" for k, v in thesis.items())
+        handles.append(Patch(facecolor="none", edgecolor="red", linewidth=2.5, label=f"thesis design ({what})"))
+    handles.append(Patch(facecolor="#d0d0d0", label="every design in the cell failed"))
+    fig.legend(handles=handles, loc="lower center", ncol=len(handles), fontsize=9, frameon=False)
     fig.suptitle(f"{result.sweep.title}: {len(result.rows)} designs", fontsize=12)
-    fig.tight_layout()
+    fh, fw = fig.get_figheight(), fig.get_figwidth()
+    fig.subplots_adjust(bottom=0.95 / fh, top=1 - 1.15 / fh, hspace=1.6 / (h - 1.6), wspace=1.0 / (w - 1.0),
+                        left=0.85 / fw, right=1 - 1.3 / fw)
+    for im, axs, label, marks in bars:  # one colour bar per metric, right of its panels
+        y0 = min(a.get_position().y0 for a in axs)
+        y1 = max(a.get_position().y1 for a in axs)
+        cax = fig.add_axes((1 - 1.1 / fw, y0, 0.18 / fw, y1 - y0))
+        bar = fig.colorbar(im, cax=cax, label=label)
+        if isinstance(im.norm, LogNorm):
+            lo, hi = float(im.norm.vmin or 0.0), float(im.norm.vmax or 1.0)
+            ticks = [t * 10.0 ** e for e in range(-2, 6) for t in (1, 2, 5) if lo <= t * 10.0 ** e <= hi]
+            bar.set_ticks(ticks, labels=[f"{t:g}" for t in ticks])
+            bar.ax.minorticks_off()
+        for t in marks:  # the tolerance on the colour scale
+            if im.norm.vmin <= t <= im.norm.vmax:
+                bar.ax.axhline(t, color="red", linewidth=2)
+                bar.ax.text(-0.3, t, f"tol. {t:g}", transform=bar.ax.get_yaxis_transform(), ha="right",
+                            va="center", fontsize=8, color="red")
     return fig
 
 
@@ -635,18 +794,26 @@ def _html(result: SweepResult, heatmap: str | None) -> str:
             return "-"
         return f"{v:.3f}" if isinstance(v, float) else str(v)
 
-    cols = result.columns
+    # The ranking column (worst point error) right after the design's values, so it shows without scrolling.
+    rank = "points_max_error_mm"
+    cols = ["design", *result.sweep.keys, rank, *[m for m in METRICS if m != rank]]
 
-    def table(rows: Sequence[dict[str, Any]], tid: str) -> str:
+    def table(rows: Sequence[dict[str, Any]], tid: str, ranked: bool = False) -> str:
         out = [f"<div class=\"scroll\"><table id=\"{tid}\"><thead><tr>"]
-        out += [f"<th>{e(c)}</th>" for c in cols]
+        if ranked:
+            out.append("<th>rank</th>")
+        out += [f"<th class=\"rank\">{e(column_title(c))}</th>" if c == rank else f"<th>{e(column_title(c))}</th>"
+                for c in cols]
         out.append("</tr></thead><tbody>\n")
-        for r in rows:
+        for n, r in enumerate(rows, 1):
             ok = r["status"] == "ok"
             out.append(f"<tr class=\"{'ok' if ok else 'failed'}\">")
+            if ranked:
+                out.append(f"<td>{n}</td>")
             for c in cols:
                 cls = " class=\"l\"" if c in ("traj", "solver") else (
-                    (" class=\"ok\"" if ok else " class=\"bad\"") if c == "status" else "")
+                    (" class=\"ok\"" if ok else " class=\"bad\"") if c == "status" else
+                    (" class=\"rank\"" if c == rank else ""))
                 v = _label(r[c]) if c == "traj" else r.get(c)
                 out.append(f"<td{cls}>{e(fmt(v))}</td>")
             out.append("</tr>\n")
@@ -663,12 +830,14 @@ def _html(result: SweepResult, heatmap: str | None) -> str:
     parts.append(f"<p class=\"meta\">{len(result.rows)} designs, {len(result.failed)} failed, "
                  f"{result.wall_time_s:.1f} s on {e(result.runner)}; bhr {e(__version__)}.<br>{e(axes)}</p>\n")
     if heatmap:
-        parts.append(f"<figure><img src=\"{e(heatmap)}\" alt=\"heat-map of worst error per design\">"
+        parts.append(f"<figure><a href=\"{e(heatmap)}\"><img src=\"{e(heatmap)}\" "
+                     "alt=\"heat-map of worst error per design\"></a>"
                      "<figcaption>Worst point error (largest error of any point at any step) and, where the "
-                     "trajectory has a lumen, minimum clearance per design; grey: every design in the cell "
-                     "failed.</figcaption></figure>\n")
+                     "trajectory has a lumen, minimum clearance per design; hatched: over the position tolerance; "
+                     "framed in red: the thesis design; grey: every design in the cell failed. "
+                     f"<a href=\"{e(heatmap)}\">Full size</a>.</figcaption></figure>\n")
     parts.append("<h2>Best designs (smallest worst point error)</h2>\n")
-    parts.append(table(best_rows(result), "best"))
+    parts.append(table(best_rows(result), "best", ranked=True))
     parts.append("<h2>Every design</h2>\n")
     parts.append(table(result.rows, "designs"))
     parts.append(PAGE_END)

@@ -4,7 +4,9 @@ The frames are read back with Pillow and compared with where the saved run's
 points project in the frame (the animation's own axes transform, checked
 against the drawn path first): red robot pixels at every point of the robot
 at that frame's step and nowhere else in the axes, the green target at the
-step's trajectory point.
+step's trajectory point, the view zoomed on the robot (the tip drawn as far from
+its target as the run's tip error, at the view's scale) and the readout of the
+step's errors beside it.
 """
 from __future__ import annotations
 
@@ -128,13 +130,16 @@ def check_frame(img: np.ndarray, result, view, step: int, *, other_far_step: boo
     tgt = to_image(result.trajectory.points[step])
     assert near(green_mask(img) & inside, tgt, 4.0).all(), f"step {step + 1}: no target marker"
     if other_far_step:
-        # the robot of a step far from this one is not drawn in this frame
+        # the robot of a step far from this one is not drawn in this frame: where it would be in this
+        # frame's view (the view follows the robot, so only far robots inside the window can be checked)
+        x0, y0, x1, y1 = box
         far = [j for j in range(result.steps)
                if np.min(np.linalg.norm(result.points[j][:, None] - result.points[step][None], axis=2)) > 40.0]
-        if far:
-            j = far[len(far) // 2]
-            to_image_j, _ = projector(view, j)
-            assert not near(red, to_image_j(result.points[j]), 1.5).any(), \
+        seen = [j for j in far
+                if ((to_image(result.points[j]) > [x0, y0]) & (to_image(result.points[j]) < [x1, y1])).all()]
+        if seen:
+            j = seen[len(seen) // 2]
+            assert not near(red, to_image(result.points[j]), 1.5).any(), \
                 f"frame of step {step + 1} shows the robot of step {j + 1}"
 
 
@@ -181,22 +186,46 @@ def test_colon_gif_frames_show_the_robot_at_the_right_steps(colon_gif):
     steps = frame_steps(result.steps, default_stride(result.steps))
     view = frame_view(result)
     with Image.open(folder / "colon.gif") as im:
-        # The transform used for the checks maps the trajectory onto the blue path drawn in the frame.
-        first = gif_frame(im, 0)
-        to_image, box = projector(view, 0)
-        sample = result.trajectory.points[::25]
-        assert near(blue_mask(first) & in_box(first, box), to_image(sample), 2.5).all()
+        # The transform used for the checks maps the trajectory onto the blue path drawn in the frame:
+        # the path's points inside the window that follows the robot (and only those) are drawn.
+        for k in (0, len(steps) // 2):
+            img = gif_frame(im, k)
+            to_image, box = projector(view, steps[k])
+            x0, x1 = view.ax.get_xlim()
+            y0, y1 = view.ax.get_ylim()
+            p = result.trajectory.points
+            inside = (p[:, 0] > x0 + 3) & (p[:, 0] < x1 - 3) & (p[:, 1] > y0 + 3) & (p[:, 1] < y1 - 3)
+            assert inside.sum() >= 10 and not inside.all()  # zoomed on the robot: part of the path in view
+            # ...where the robot (its discs), the target and the start and end marks do not cover it
+            cover = np.vstack([result.points[steps[k]], result.trajectory.points[[steps[k], 0, -1]]])
+            inside &= np.linalg.norm(p[:, None] - cover[None], axis=2).min(axis=1) > result.robot.radius + 3.0
+            assert inside.sum() >= 5
+            assert near(blue_mask(img) & in_box(img, box), to_image(p[inside]), 2.5).all()
         # Frames at the start, in each bend and straight, and the last (the final pose).
         picks = sorted({0, 1, 2, len(steps) // 5, len(steps) // 3, len(steps) // 2, 2 * len(steps) // 3,
                         len(steps) - 2, len(steps) - 1})
         for k in picks:
             check_frame(gif_frame(im, k), result, view, steps[k])
-        # ...and the robot is on the path: at each of those steps the tip is drawn on the target's point.
+        # ...and the robot is where the run put it against its target: at each of those steps the tip is
+        # drawn as far from the target's point as the run's tip error says (the view's scale, 3 px).
         for k in picks:
             s = steps[k]
             to_image, _ = projector(view, s)
             tip_px, tgt_px = to_image(result.points[s][-1]), to_image(result.trajectory.points[s])
-            assert np.linalg.norm(tip_px - tgt_px) <= 10.0
+            scale = np.linalg.norm(to_image(result.trajectory.points[s] + [10.0, 0, 0]) - tgt_px) / 10.0
+            assert scale > 3.0  # zoomed: more than 3 pixels a millimetre (the whole colon would give ~1)
+            assert abs(np.linalg.norm(tip_px - tgt_px) - scale * result.point_errors[s, -1]) <= 3.0
+        # The readout beside the view names the step and its errors; it changes from frame to frame.
+        view.draw(steps[3])
+        view.fig.canvas.draw()
+        bb = view.readout.get_window_extent()
+        height = view.fig.canvas.get_width_height()[1]
+        rows = slice(int(height - bb.y1), int(height - bb.y0) + 1)
+        cols = slice(int(bb.x0), int(bb.x1) + 1)
+        a, b = gif_frame(im, 3)[rows, cols], gif_frame(im, 4)[rows, cols]
+        assert (a.max(axis=2) < 100).sum() > 200  # dark text
+        assert not np.array_equal(a, b)
+        assert f"step {steps[3] + 1} of 827" in view.readout.get_text()
 
 
 def test_frames_shifted_by_one_do_not_match(colon_gif):

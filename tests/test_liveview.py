@@ -120,13 +120,13 @@ class Window:
 
 
 def screen_view(result):
-    """The live view's frame drawn off-screen (same StepView, same 8 x 7 in figure at 100 dpi)."""
+    """The live view's frame drawn off-screen (same StepView, same figure size at 100 dpi)."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
-    from bhr.plots import StepView
+    from bhr.plots import FRAME_INCHES, StepView
 
-    fig = Figure(figsize=(8, 7), dpi=100)
+    fig = Figure(figsize=FRAME_INCHES, dpi=100)
     FigureCanvasAgg(fig)
     return StepView(result, fig=fig)
 
@@ -136,7 +136,7 @@ def assert_window_shows(win: Window, result, step: int, timeout: float = 10) -> 
     view = screen_view(result)
     deadline = time.monotonic() + timeout
     while True:
-        img = win.screenshot()[:700, :800]
+        img = win.screenshot()[:700, :1000]
         try:
             check_frame(img, result, view, step)
             return

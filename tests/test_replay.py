@@ -141,15 +141,26 @@ def test_replay_reads_standard_input_and_draws_a_chosen_step(tmp_path, curve_run
     assert res.returncode == 0, res.stderr
     assert sorted(p.name for p in (tmp_path / "figs").iterdir()) == [
         "global_errors.png", "orientation_errors.png", "path-step40.png", "position_errors.png"]
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
-
-    from bhr.plots import StepView
+    from bhr.plots import path_figure
 
     img = np.asarray(Image.open(tmp_path / "figs" / "path-step40.png").convert("RGB"))
-    fig = Figure(figsize=(8, 7), dpi=110)  # path_figure's size, saved at save_figure's dpi
-    FigureCanvasAgg(fig)
-    check_frame(img, curve_run, StepView(curve_run, fig=fig), 39)
+    fig = path_figure(curve_run, 39)
+    fig.set_dpi(110)  # save_figure's dpi
+    fig.canvas.draw()
+    assert img.shape[1::-1] == fig.canvas.get_width_height()
+    check_frame(img, curve_run, _Still(fig), 39)
+
+
+class _Still:
+    """A drawn path figure seen as the frame checks see a view (one pose, nothing to redraw)."""
+
+    planar = True
+
+    def __init__(self, fig) -> None:
+        self.fig, self.ax = fig, fig.axes[0]
+
+    def draw(self, step: int) -> None:
+        pass
 
 
 def _doc(run) -> dict:

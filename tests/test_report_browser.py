@@ -236,6 +236,12 @@ def check_page(browser: Browser, shot: Path) -> None:
     loaded = browser.evaluate("Promise.all(Array.from(document.images).map(i => i.decode().then(() => "
                               "[i.naturalWidth, i.naturalHeight], () => [0, 0])))")
     assert len(loaded) == 21 and all(w > 300 and h > 300 for w, h in loaded), loaded
+    # each figure is a link to its PNG, which opens at full size (the page shows it shrunk to its column)
+    links = browser.evaluate("Array.from(document.images).map(i => [i.getAttribute('src'), "
+                             "i.closest('a') ? i.closest('a').getAttribute('href') : null, "
+                             "i.naturalWidth, i.getBoundingClientRect().width])")
+    assert all(src == href for src, href, _, _ in links), links
+    assert sum(nat > shown * 1.3 for _, _, nat, shown in links) >= 15
     table_bottom = browser.evaluate("document.getElementById('summary').getBoundingClientRect().bottom")
     first_img_top = browser.evaluate("document.images[0].getBoundingClientRect().top")
     assert table_bottom < first_img_top
@@ -280,6 +286,9 @@ def test_inline_report_is_one_file(browser, tmp_path):
     sizes = browser.evaluate("Promise.all(Array.from(document.images).map(i => i.decode().then(() => "
                              "i.naturalWidth, () => 0)))")
     assert len(sizes) == 4 and min(sizes) > 300
+    # the full-size links point at the run's PNG files beside the report (the page alone embeds them)
+    hrefs = browser.evaluate("Array.from(document.images).map(i => i.closest('a').getAttribute('href'))")
+    assert len(hrefs) == 4 and all((out / h).is_file() and h.endswith(".png") for h in hrefs), hrefs
     assert png_info(browser.screenshot(tmp_path / "inline.png")).size == (1280, 1600)
 
 
@@ -310,4 +319,11 @@ def test_sweep_page_loads_without_console_errors(browser, tmp_path):
                             "document.images[0].naturalHeight])")
     assert size[0] > 300 and size[1] > 300
     assert browser.evaluate("document.querySelectorAll('#designs tbody tr').length") == 6
+    heads = browser.evaluate("Array.from(document.querySelectorAll('th')).map(t => t.textContent)")
+    assert "alpha (deg)" in heads and "worst point error (mm)" in heads and not [h for h in heads if "_" in h]
+    # the ranking column (worst point error) shows without scrolling sideways, in both tables
+    right = browser.evaluate("Array.from(document.querySelectorAll('th.rank')).map(t => "
+                             "t.getBoundingClientRect().right)")
+    assert len(right) == 2 and max(right) <= 1280, right
+    assert browser.evaluate("document.images[0].closest('a').getAttribute('href')") == "heatmap.png"
     assert png_info(browser.screenshot(tmp_path / "sweep.png")).size == (1280, 1600)

@@ -403,3 +403,79 @@ def test_clearance_where_the_trajectory_has_a_lumen(tmp_path):
     import matplotlib.pyplot as plt
 
     plt.close(fig)
+
+
+def test_heatmap_has_a_panel_per_third_axis_units_over_tolerance_and_the_thesis_design():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from bhr.sweep import heatmap_figure, heatmap_panels
+
+    s = build_sweep(["curve"], ["seed"], [("angle", (90, 360)), ("modules", (4, 5, 6)), ("alpha", (6, 10, 14)),
+                                          ("module_length", (10, 16))])
+    assert heatmap_axes(s) == ("modules", "alpha") and heatmap_panels(s, "modules", "alpha") == "module_length"
+    res = run_sweep(s, jobs=1)
+    fig = heatmap_figure(res)
+    panels = [ax for ax in fig.axes if ax.get_visible() and ax.images]
+    assert [ax.get_title().splitlines()[0] for ax in panels] == ["module length 10 mm", "module length 16 mm"]
+    for ax, length in zip(panels, (10, 16)):
+        assert ax.get_xlabel() == "modules" and ax.get_ylabel() == "alpha (deg)"
+        assert "worst over turned angle (deg)" in ax.get_title()
+        assert [t.get_text() for t in ax.get_xticklabels()] == ["4", "5", "6"]
+        # each cell is its module length's worst case over the angle, not over every module length
+        cells = heatmap_cells(res, "modules", "alpha", "points_max_error_mm", max, {"module_length": length})
+        texts = {(round(t.get_position()[0]), round(t.get_position()[1])): t.get_text() for t in ax.texts}
+        for j in range(3):
+            for i in range(3):
+                assert texts[(i, j)] == f"{cells[j][i]:.2f}"
+        # hatched exactly where the cell's worst error is over the 8 mm tolerance
+        hatched = {(round(p.get_x() + 0.5), round(p.get_y() + 0.5)) for p in ax.patches if p.get_hatch()}
+        assert hatched == {(i, j) for j in range(3) for i in range(3) if cells[j][i] > 8.0}
+        # the thesis design (5 modules of 10 mm, alpha 10) is framed in red, in its own panel only
+        framed = [(p.get_x() + 0.5, p.get_y() + 0.5) for p in ax.patches
+                  if not p.get_hatch() and p.get_edgecolor()[:3] == (1.0, 0.0, 0.0)]
+        assert framed == ([(1.0, 1.0)] if length == 10 else [])
+    thesis = max(r["points_max_error_mm"] for r in res.rows
+                 if (r["modules"], r["alpha"], r["module_length"]) == (5, 10, 10))
+    assert [t.get_text() for t in panels[0].texts if t.get_position() == (1, 1)] == [f"{thesis:.2f}"]
+    legend = [t.get_text() for t in fig.legends[0].get_texts()]
+    assert legend[0] == "over the position tolerance (8 mm)"
+    assert legend[1] == "thesis design (modules 5, alpha 10, module length 10)"
+    plt.close(fig)
+
+
+def test_sweep_page_headers_are_words_and_ranking_comes_first(tmp_path):
+    from bhr.sweep import METRICS, write_outputs
+
+    s = build_sweep(["curve"], ["seed"], [("modules", (4, 5)), ("module_length", (8, 10))])
+    res = run_sweep(s, jobs=1)
+    write_outputs(res, tmp_path, plot=False)
+    page = (tmp_path / "index.html").read_text()
+    import re
+
+    heads = re.findall(r"<th[^>]*>([^<]*)</th>", page)
+    assert heads and not [h for h in heads if "_" in h]
+    best = page[page.index('id="best"'):page.index("</table>", page.index('id="best"'))]
+    best_heads = re.findall(r"<th[^>]*>([^<]*)</th>", best)
+    assert best_heads[:7] == ["rank", "design", "trajectory", "solver", "modules", "module length (mm)",
+                              "worst point error (mm)"]
+    assert len(best_heads) == 1 + 1 + 4 + len(METRICS)
+    assert (tmp_path / "results.csv").read_text().splitlines()[0].split(",")[:4] == ["design", "traj", "solver",
+                                                                                     "modules"]
+
+
+def test_heatmap_names_the_thesis_design_only_where_it_frames_it():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from bhr.sweep import heatmap_figure
+
+    res = run_sweep(build_sweep(["curve"], ["seed"], [("modules", (4, 5)), ("alpha", (9, 11))]), jobs=1)
+    fig = heatmap_figure(res)  # alpha 10 is not on the grid: nothing to frame, nothing to name
+    assert not any(t.get_text().startswith("thesis design") for t in fig.legends[0].get_texts())
+    assert not [p for ax in fig.axes for p in ax.patches if p.get_edgecolor()[:3] == (1.0, 0.0, 0.0)]
+    plt.close(fig)
