@@ -14,8 +14,15 @@ from typing import Any, Iterable
 
 from bhr.errors import BhrError
 
-#: Input files larger than this are refused before reading (bytes).
-MAX_FILE_BYTES = 256 * 1024 * 1024
+#: Input files larger than this are refused: at most this many bytes are ever read, whatever the file's size
+#: reads as (a link to /dev/zero reads as 0 bytes and never ends).
+MAX_FILE_BYTES = 64 * 1024 * 1024
+#: A path may have at most this many points after sampling (trajectory generators, segment and CSV files).
+MAX_POINTS = 500_000
+#: A run may hold at most this many robot points in all: steps x (modules + 1), the body's modules when
+#: simulated. Memory grows by about 1.5 kB per step and point (run.json included; measured in
+#: docs/commands.md), so a run at the limit stays within about 5 GB.
+MAX_STEP_POINTS = 3_000_000
 #: Largest length or coordinate accepted anywhere (mm): 1 km. Larger values only overflow the arithmetic.
 MAX_MM = 1e6
 #: Upper bounds of the robot settings, shared by robot files and command-line options:
@@ -42,10 +49,7 @@ def read_text(path: str | os.PathLike[str], what: str, hint: str) -> str:
     try:
         if p.is_dir():
             raise BhrError(f"{p} is a folder, not a {what}; {hint}")
-        size = p.stat().st_size
-        if size > MAX_FILE_BYTES:
-            raise BhrError(f"{p}: {size} bytes is too large for a {what} (limit {MAX_FILE_BYTES}); {hint}")
-        raw = p.read_bytes()
+        raw = read_capped(p, what, hint)
     except FileNotFoundError:
         raise BhrError(f"no such {what} {p}; {hint}") from None
     except PermissionError:
@@ -61,6 +65,25 @@ def read_text(path: str | os.PathLike[str], what: str, hint: str) -> str:
         line = text[:text.index("\x00")].count("\n") + 1
         raise BhrError(f"{p}, line {line}: binary data (a NUL byte); give a {what} in text form ({hint})")
     return text
+
+
+def read_capped(path: str | os.PathLike[str], what: str, hint: str, limit: int | None = None) -> bytes:
+    """The bytes of ``path``, reading at most ``limit`` (default :data:`MAX_FILE_BYTES`) + 1 of them.
+
+    The size ``stat`` reports is not trusted: /dev/zero, /proc files and
+    FIFOs report 0 and may never end. A longer input is refused.
+    """
+    limit = MAX_FILE_BYTES if limit is None else limit
+    import stat as _stat
+
+    with open(path, "rb") as fh:
+        mode = os.fstat(fh.fileno()).st_mode
+        if _stat.S_ISCHR(mode) or _stat.S_ISBLK(mode):
+            raise BhrError(f"{path} is a device, not a {what}; {hint}")
+        raw = fh.read(limit + 1)
+    if len(raw) > limit:
+        raise BhrError(f"{path} is larger than {limit // (1024 * 1024)} MiB, too large for a {what}; {hint}")
+    return raw
 
 
 def read_toml(path: str | os.PathLike[str], what: str, hint: str) -> dict[str, Any]:

@@ -15,6 +15,7 @@ from typing import Any, Sequence
 import numpy as np
 from numba import njit
 
+from bhr._input import ROBOT_LIMITS
 from bhr.codes import check_codes
 from bhr.dualquat import k_rotate
 from bhr.errors import BhrError
@@ -94,6 +95,11 @@ class Robot:
             w = getattr(self, name)
             if not isinstance(w, (int, float)) or not math.isfinite(w) or w < 0:
                 raise BhrError(f"{name.replace('_', '-')} must be a non-negative number, got {w!r}")
+        for key, (top, unit) in ROBOT_LIMITS.items():  # the same upper limits wherever a robot comes from
+            value = getattr(self, key)
+            if value is not None and value > top:
+                u = f" {unit}" if unit else ""
+                raise BhrError(f"{key.replace('_', ' ')} {value:g}{u} is too large; the limit is {top:g}{u}")
         object.__setattr__(self, "modules", int(self.modules))
         object.__setattr__(self, "max_iter", int(self.max_iter))
         object.__setattr__(self, "feed_divisor", int(self.feed_divisor))

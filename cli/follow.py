@@ -7,7 +7,7 @@ from pathlib import Path
 
 import click
 
-from bhr.cli._common import check_writable, guarded
+from bhr.cli._common import check_writable, guarded, json_in_folder, run_folder_name
 from bhr.cli._link import exit_interrupted, link_options, link_settings
 from bhr.cli.replay import STRIDE_HELP, check_view_options, render_animation, run_live_view
 from bhr.cli._options import (FiniteRange, build_robot, constraint_options, optimal_options, pop_constraints, pop_optimal,
@@ -75,7 +75,7 @@ def body_clearance_lines(s: dict) -> list[str]:
               help="Also simulate the body: a robot of M modules (M >= --modules) whose modules behind the head "
                    "follow the leader.")
 @click.option("--out", "out_dir", default=None, metavar="DIR",
-              help="Output folder [./bhr-out/<traj>-<solver>/].")
+              help="Output folder, replaced whole by this run [./bhr-out/<traj>-<solver>-<hash>/, the hash of the trajectory, robot and solver settings].")
 @click.option("--json", "json_path", default=None, metavar="PATH|-",
               help="Where to write the run as JSON ('-': stdout) [DIR/run.json].")
 @click.option("--no-plots", is_flag=True, help="Skip the PNG figures.")
@@ -104,15 +104,22 @@ def follow(traj, solver, out_dir, json_path, no_plots, **kwargs):
 
         bhr follow --traj colon --port /dev/ttyUSB0 --rate 10
     """
-    from bhr.atomic import write_json, write_text
+    from bhr.atomic import OutputFolder, write_json, write_text
     from bhr.codes import format_codes_csv
     from bhr.follow import BhrWarning, follow as run_follow
     from bhr.trajectory import load_trajectory
 
     show, animate_path, stride = kwargs.pop("show"), kwargs.pop("animate_path"), kwargs.pop("stride")
     stem = Path(traj).stem if traj not in ("line", "curve", "spiral", "colon") else traj
-    out = Path(out_dir) if out_dir else Path("bhr-out") / f"{stem}-{solver}"
-    check_writable(out / "run.json", "output folder")  # before any work: a bad path costs nothing
+    # The folder: as given, or bhr-out/<traj>-<solver>-<hash of what makes the run different>.
+    # With --json - and --no-plots and no --out, standard output is the whole output: no folder at all.
+    to_stdout = json_path == "-"
+    use_folder = out_dir is not None or not (to_stdout and no_plots)
+    if out_dir is not None:
+        folder = OutputFolder(out_dir, "follow", names=FOLLOW_NAMES).check()  # before any work
+    else:
+        check_writable(Path("bhr-out") / "x", "output folder")
+        folder = None
     check_writable(json_path, "JSON")
     check_view_options(show, animate_path)
     rate = kwargs.pop("rate")
@@ -133,6 +140,11 @@ def follow(traj, solver, out_dir, json_path, no_plots, **kwargs):
                        f"drop it or use --solver optimal")
     traj_params = pop_trajectory(kwargs)
     tr = load_trajectory(traj, feed=robot.feed, **traj_params)
+    if folder is None and use_folder:
+        name = run_folder_name(f"{stem}-{solver}", tr.points, tr.lumen if tr.lumen is not None else 0,
+                               robot.to_dict(), solver, constraints, optimal, body_modules)
+        folder = OutputFolder(Path("bhr-out") / name, "follow", names=FOLLOW_NAMES).check()
+    json_inside = json_in_folder(json_path, folder, FOLLOW_NAMES) if folder is not None else None
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", BhrWarning)
         if link_kw["port"] is None:
@@ -140,32 +152,40 @@ def follow(traj, solver, out_dir, json_path, no_plots, **kwargs):
                                 body_modules=body_modules)
         else:
             result = follow_streaming(tr, solver, robot, {**constraints, **optimal}, body_modules, rate, link_kw)
-    for w in caught:
-        if issubclass(w.category, BhrWarning):
-            click.echo(f"Warning: {w.message}", err=True)
+    for w in dict.fromkeys(str(w.message) for w in caught if issubclass(w.category, BhrWarning)):
+        click.echo(f"Warning: {w}", err=True)
     doc = result.to_json()
-    written = []
-    if result.codes is not None:
-        write_text(out / "codes.csv", format_codes_csv(result.codes))
-        written.append(out / "codes.csv")
-    if json_path == "-":
-        click.echo(json.dumps(doc))
-    else:
-        jp = Path(json_path) if json_path else out / "run.json"
-        write_json(jp, doc)
-        written.append(jp)
-    if not no_plots:
-        from bhr.plots import save_run_plots
+    written: list[Path] = []
+    if folder is not None:
+        with folder:
+            if result.codes is not None:
+                write_text(folder.path("codes.csv"), format_codes_csv(result.codes))
+                written.append(folder.final("codes.csv"))
+            if json_path is None or json_inside is not None:
+                name = json_inside or "run.json"
+                write_json(folder.path(name), doc)
+                written.append(folder.final(name))
+            if not no_plots:
+                from bhr.plots import save_run_plots
 
-        written += save_run_plots(result, out)
-    stream = json_path == "-"
+                written += [folder.final(p.name) for p in save_run_plots(result, folder.stage)]
+    if to_stdout:
+        click.echo(json.dumps(doc))
+    elif json_path is not None and json_inside is None:
+        write_json(json_path, doc)
+        written.append(Path(json_path))
     for line in summary_lines(result):
-        click.echo(line, err=stream)
-    click.echo("Wrote " + ", ".join(str(p) for p in written), err=stream)
+        click.echo(line, err=to_stdout)
+    if written:
+        click.echo("Wrote " + ", ".join(str(p) for p in written), err=to_stdout)
     if animate_path:
         render_animation(result, animate_path, stride)
     if show:
         run_live_view(result, stride)
+
+
+#: What bhr follow writes into its folder (an existing folder holding only such files may be replaced).
+FOLLOW_NAMES = ("run.json", "codes.csv", "*.png", "manifest.json")
 
 
 def follow_streaming(tr, solver, robot, solver_options, body_modules, rate, link_kw):

@@ -77,23 +77,34 @@ def replay(run, show, animate_path, stride, out_dir, step):
     """
     from bhr.follow import load_run
 
+    import os
+
+    from bhr.atomic import OutputFolder
+
     write_plots = out_dir is not None or not (show or animate_path)
-    out = Path(out_dir) if out_dir else (Path(run).parent if run != "-" else Path("."))
+    out = Path(out_dir) if out_dir else (Path(run).parent if run != "-" else Path("bhr-out") / "replay")
     path_name = "path.png" if step is None else f"path-step{step}.png"
+    folder = None
     if write_plots:
-        check_writable(out / path_name, "output folder")
+        # Into the run's own folder: the run's files are kept and the folder is replaced whole, figures redrawn.
+        same = run != "-" and os.path.realpath(out) == os.path.realpath(Path(run).parent)
+        folder = OutputFolder(out, "replay", names=("*.png", "run.json", "codes.csv", "manifest.json"),
+                              keep=same).check()
     check_view_options(show, animate_path)
     result = load_run(run)
     if step is not None and step > result.steps:
         raise click.BadParameter(f"step {step} is past the end of the run ({result.steps} steps)",
                                  param_hint="'--step'")
     written: list[Path] = []
-    if write_plots:
+    if folder is not None:
         from bhr.plots import ERROR_KINDS, error_figure, path_figure, save_figure
 
-        for kind, (name, _, _) in ERROR_KINDS.items():
-            written.append(save_figure(error_figure(result, kind), out / name))
-        written.append(save_figure(path_figure(result, None if step is None else step - 1), out / path_name))
+        with folder:
+            for kind, (name, _, _) in ERROR_KINDS.items():
+                save_figure(error_figure(result, kind), folder.path(name))
+                written.append(folder.final(name))
+            save_figure(path_figure(result, None if step is None else step - 1), folder.path(path_name))
+            written.append(folder.final(path_name))
     if animate_path:
         written.append(render_animation(result, animate_path, stride))
     if written:

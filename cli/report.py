@@ -6,7 +6,7 @@ from pathlib import Path
 
 import click
 
-from bhr.cli._common import check_writable, guarded
+from bhr.cli._common import guarded
 
 
 @click.command()
@@ -30,10 +30,11 @@ def report(batch_path, out_dir, jobs, inline_images):
     """
     from bhr.report import format_table, load_batch, run_batch
 
+    from bhr.atomic import OutputFolder
+
     batch = load_batch(batch_path)
     out = Path(out_dir) if out_dir else Path("bhr-out") / Path(batch_path).stem
-    for name in ("index.html", "summary.csv", "summary.json"):
-        check_writable(out / name, "report")
+    folder = OutputFolder(out, "report", names=REPORT_NAMES, what="report folder").check()  # before any work
     total = len(batch.runs)
     workers = min(jobs or os.cpu_count() or 1, total)
     err = click.get_text_stream("stderr")
@@ -46,11 +47,16 @@ def report(batch_path, out_dir, jobs, inline_images):
             bar.update(done - last[0])
             last[0] = done
 
-        rep = run_batch(batch, out, jobs=workers, inline_images=inline_images, progress=progress)
+        with folder:  # runs/<name>/ of an earlier report never survive beside this one
+            rep = run_batch(batch, folder.stage, jobs=workers, inline_images=inline_images, progress=progress)
     for line in format_table(rep.rows):
         click.echo(line)
-    click.echo(f"Wrote {', '.join(str(p) for p in rep.files())} and {out / 'runs'}/ in {rep.wall_time_s:.1f} s")
+    click.echo(f"Wrote {', '.join(str(out / p.name) for p in rep.files())} and {out / 'runs'}/ in {rep.wall_time_s:.1f} s")
     if rep.failed:
         click.echo(f"Error: {len(rep.failed)} of {total} runs failed; see {out / 'summary.csv'}", err=True)
         return 1
     return 0
+
+
+#: What bhr report writes at the top of its folder (besides runs/).
+REPORT_NAMES = ("index.html", "summary.csv", "summary.json", "manifest.json")

@@ -5,7 +5,7 @@ from pathlib import Path
 
 import click
 
-from bhr.cli._common import check_writable, guarded
+from bhr.cli._common import guarded
 
 
 @click.command()
@@ -70,9 +70,10 @@ def sweep(sweep_file, trajs, solvers, grid, robot_file, out_dir, jobs, scheduler
         s = build_sweep(trajs or ("curve",), solvers or ("seed",), cli_grid, title=title or "bhr sweep",
                         robot_file=robot_file)
     heatmap_axes(s, hx, hy)  # refuse unknown heat-map axes before running
+    from bhr.atomic import OutputFolder
+
     out = Path(out_dir) if out_dir else Path("bhr-out") / (Path(sweep_file).stem if sweep_file else "sweep")
-    for name in ("results.csv", "results.json", "heatmap.png", "index.html"):
-        check_writable(out / name, "sweep output")
+    folder = OutputFolder(out, "sweep", names=SWEEP_NAMES, what="sweep output folder").check()  # before any work
     total = len(s)
     client = None
     if scheduler is not None:
@@ -94,7 +95,8 @@ def sweep(sweep_file, trajs, solvers, grid, robot_file, out_dir, jobs, scheduler
     finally:
         if client is not None:
             client.close()
-    files = write_outputs(result, out, plot=not no_plot, x=hx, y=hy)
+    with folder:
+        files = [folder.final(p.name) for p in write_outputs(result, folder.stage, plot=not no_plot, x=hx, y=hy)]
     for line in format_summary(result):
         click.echo(line)
     click.echo("Wrote " + ", ".join(str(p) for p in files))
@@ -102,3 +104,7 @@ def sweep(sweep_file, trajs, solvers, grid, robot_file, out_dir, jobs, scheduler
         click.echo(f"Error: {len(result.failed)} of {total} designs failed; see {out / 'results.csv'}", err=True)
         return 1
     return 0
+
+
+#: What bhr sweep writes into its folder (an existing folder holding only such files may be replaced).
+SWEEP_NAMES = ("results.csv", "results.json", "heatmap.png", "index.html", "manifest.json")
