@@ -149,8 +149,9 @@ def vector3(value: Any, where: str, *, nonzero: bool = False) -> tuple[float, fl
     out = tuple(number(v, f"{where}[{i}]") for i, v in enumerate(value))
     if any(abs(v) > MAX_MM for v in out):
         raise BhrError(f"{where} must have coordinates within +-{MAX_MM:g} mm, got {list(out)}")
-    if nonzero and not any(out):
-        raise BhrError(f"{where} must not be [0, 0, 0]; give a direction such as [1, 0, 0]")
+    if nonzero and math.hypot(*out) < 1e-9:
+        raise BhrError(f"{where} must not be [0, 0, 0] or nearly so (length under 1e-9); give a direction "
+                       "such as [1, 0, 0]")
     return out  # type: ignore[return-value]
 
 

@@ -263,6 +263,8 @@ def read_points_csv(path: Path) -> tuple[np.ndarray, np.ndarray | None, np.ndarr
                 continue
             f = fields[cols[name]]
             try:
+                if not (f.isascii() and "_" not in f):  # no "1_5", full-width or Arabic-Indic digits
+                    raise ValueError(f)
                 v = float(f)
             except ValueError:
                 raise BhrError(f"{where}, line {no}: {name} = {f!r} is not a number; give mm as plain numbers "

@@ -8,9 +8,9 @@ from pathlib import Path
 import click
 
 from bhr.cli._common import check_writable, guarded, json_in_folder, run_folder_name
-from bhr.cli._link import exit_interrupted, link_options, link_settings
+from bhr.cli._link import exit_interrupted, link_options, link_settings, stop_on_signals
 from bhr.cli.replay import STRIDE_HELP, check_view_options, render_animation, run_live_view
-from bhr.cli._options import (FiniteRange, build_robot, constraint_options, optimal_options, pop_constraints, pop_optimal,
+from bhr.cli._options import (MIN_RATE, FiniteRange, PlainIntRange, build_robot, constraint_options, optimal_options, pop_constraints, pop_optimal,
                               pop_trajectory, robot_options, trajectory_options)
 
 
@@ -82,10 +82,10 @@ def body_clearance_lines(s: dict) -> list[str]:
 @click.option("--show", is_flag=True, help="Watch the run step by step in a window (space, n/b, q).")
 @click.option("--animate", "animate_path", default=None, metavar="FILE",
               help="Also write an animation: FILE.gif (Pillow) or FILE.mp4 (needs ffmpeg).")
-@click.option("--stride", type=click.IntRange(min=1), default=None, metavar="N", help=STRIDE_HELP)
+@click.option("--stride", type=PlainIntRange(min=1, max=10**9), default=None, metavar="N", help=STRIDE_HELP)
 @link_options(port_help="Stream each step's codes to the actuator board on this serial device or pyserial URL "
                         "while solving (the --robot file's [link] gives baud rate and module order).", robot=False)
-@click.option("--rate", default=10.0, show_default=True, metavar="HZ", type=FiniteRange(min=0, min_open=True, max=1000),
+@click.option("--rate", default=10.0, show_default=True, metavar="HZ", type=FiniteRange(min=MIN_RATE, max=1000),
               help="With --port: steps sent per second, at most.")
 @guarded
 def follow(traj, solver, out_dir, json_path, no_plots, **kwargs):
@@ -206,7 +206,7 @@ def follow_streaming(tr, solver, robot, solver_options, body_modules, rate, link
         raise BhrError(f"the robot file's link.module_order lists {len(order)} modules but the robot has "
                        f"{robot.modules}; make them agree")
     steps = len(tr.points)
-    with BoardLink(port, **link_args) as link:
+    with BoardLink(port, **link_args) as link, stop_on_signals():
         board = check_board(link, robot.modules)
         held = [f for f in board["faults"] if f != "silence"]  # silence: the board was idle, which is fine
         if held:

@@ -9,6 +9,7 @@ from pathlib import Path
 import click
 
 from bhr.cli._common import check_writable, guarded
+from bhr.cli._options import PlainIntRange
 
 STRIDE_HELP = ("Draw every Nth step (the last step always): frames of --animate [default: N keeping it at "
                "300 frames or fewer] and of --show [default: 1].")
@@ -60,10 +61,10 @@ def run_live_view(result, stride: int | None) -> None:
 @click.option("--show", is_flag=True, help="Watch the run step by step in a window (space, n/b, q).")
 @click.option("--animate", "animate_path", default=None, metavar="FILE",
               help="Write an animation: FILE.gif (Pillow) or FILE.mp4 (needs ffmpeg).")
-@click.option("--stride", type=click.IntRange(min=1), default=None, metavar="N", help=STRIDE_HELP)
+@click.option("--stride", type=PlainIntRange(min=1, max=10**9), default=None, metavar="N", help=STRIDE_HELP)
 @click.option("--out", "out_dir", default=None, metavar="DIR",
               help="Write the error figures and path.png here [the run's folder, unless --show/--animate].")
-@click.option("--step", type=click.IntRange(min=1), default=None, metavar="K",
+@click.option("--step", type=PlainIntRange(min=1, max=10**9), default=None, metavar="K",
               help="Draw the robot at step K in the path figure (path-stepK.png) [last step: path.png].")
 @guarded
 def replay(run, show, animate_path, stride, out_dir, step):
@@ -79,7 +80,7 @@ def replay(run, show, animate_path, stride, out_dir, step):
 
     import os
 
-    from bhr.atomic import OutputFolder
+    from bhr.atomic import MANIFEST, OutputFolder
 
     write_plots = out_dir is not None or not (show or animate_path)
     out = Path(out_dir) if out_dir else (Path(run).parent if run != "-" else Path("bhr-out") / "replay")
@@ -88,14 +89,23 @@ def replay(run, show, animate_path, stride, out_dir, step):
     if write_plots:
         # Into the run's own folder: the run's files are kept and the folder is replaced whole, figures redrawn.
         same = run != "-" and os.path.realpath(out) == os.path.realpath(Path(run).parent)
-        folder = OutputFolder(out, "replay", names=("*.png", "run.json", "codes.csv", "manifest.json"),
-                              keep=same).check()
+        if same and not (out / MANIFEST).is_file():
+            check_writable(out / path_name, "output folder")  # a loose run.json: figures written beside it
+        else:
+            folder = OutputFolder(out, "replay", names=("*.png", "run.json", "codes.csv", "manifest.json"),
+                                  keep=same).check()
     check_view_options(show, animate_path)
     result = load_run(run)
     if step is not None and step > result.steps:
         raise click.BadParameter(f"step {step} is past the end of the run ({result.steps} steps)",
                                  param_hint="'--step'")
     written: list[Path] = []
+    if write_plots and folder is None:
+        from bhr.plots import ERROR_KINDS, error_figure, path_figure, save_figure
+
+        for kind, (name, _, _) in ERROR_KINDS.items():
+            written.append(save_figure(error_figure(result, kind), out / name))
+        written.append(save_figure(path_figure(result, None if step is None else step - 1), out / path_name))
     if folder is not None:
         from bhr.plots import ERROR_KINDS, error_figure, path_figure, save_figure
 

@@ -7,13 +7,14 @@ from pathlib import Path
 import click
 
 from bhr.cli._common import guarded
+from bhr.cli._options import PlainIntRange
 
 
 @click.command()
 @click.option("--batch", "batch_path", required=True, metavar="FILE.toml",
               help="Batch file: [[run]] tables with name, traj, solver and options (see docs/report.md).")
 @click.option("--out", "out_dir", default=None, metavar="DIR", help="Output folder [./bhr-out/<batch name>/].")
-@click.option("--jobs", "-j", type=click.IntRange(min=1), default=None, metavar="N",
+@click.option("--jobs", "-j", type=PlainIntRange(min=1, max=1024), default=None, metavar="N",
               help="Worker processes [the number of CPUs, at most one per run].")
 @click.option("--inline-images", is_flag=True,
               help="Embed the figures in index.html, so the page is one file to share.")

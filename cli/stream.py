@@ -7,8 +7,8 @@ import sys
 import click
 
 from bhr.cli._common import guarded
-from bhr.cli._link import exit_interrupted, link_options, link_settings
-from bhr.cli._options import FiniteRange
+from bhr.cli._link import exit_interrupted, link_options, link_settings, stop_on_signals
+from bhr.cli._options import MIN_RATE, FiniteRange
 
 
 @click.command()
@@ -16,7 +16,7 @@ from bhr.cli._options import FiniteRange
 @click.option("--codes", "codes_path", required=True, metavar="FILE",
               help="codes.csv as written by 'bhr follow' (header step,m1,...,mN).")
 @click.option("--rate", default=10.0, show_default=True, metavar="HZ",
-              type=FiniteRange(min=0, min_open=True, max=1000), help="Rows sent per second.")
+              type=FiniteRange(min=MIN_RATE, max=1000), help="Rows sent per second.")
 @click.option("--dry-run", is_flag=True, help="Print the frames as hex, one per line, instead of sending them.")
 @guarded
 def stream(codes_path, rate, dry_run, **link_kw):
@@ -60,7 +60,7 @@ def stream(codes_path, rate, dry_run, **link_kw):
     faults: list[str] = []
     # The bar only on a terminal: in a pipe or a log, stderr stays empty unless something fails.
     show_bar = sys.stderr.isatty()
-    with BoardLink(port, **link_args) as link:
+    with BoardLink(port, **link_args) as link, stop_on_signals():
         try:
             with (click.progressbar(length=n_rows, label=f"streaming to {port}", file=sys.stderr, show_pos=True)
                   if show_bar else contextlib.nullcontext()) as bar:

@@ -6,6 +6,7 @@ from pathlib import Path
 import click
 
 from bhr.cli._common import guarded
+from bhr.cli._options import PlainIntRange
 
 
 @click.command()
@@ -20,7 +21,7 @@ from bhr.cli._common import guarded
 @click.option("--robot", "robot_file", default=None, metavar="FILE",
               help="Robot description (TOML) every design starts from; grid values replace its values.")
 @click.option("--out", "out_dir", default=None, metavar="DIR", help="Output folder [./bhr-out/sweep/].")
-@click.option("--jobs", "-j", type=click.IntRange(min=1), default=None, metavar="N",
+@click.option("--jobs", "-j", type=PlainIntRange(min=1, max=1024), default=None, metavar="N",
               help="Worker processes [the number of CPUs]; 1 runs in this process.")
 @click.option("--scheduler", default=None, metavar="ADDRESS",
               help="Run on an existing Dask distributed cluster instead, e.g. tcp://127.0.0.1:8786.")
