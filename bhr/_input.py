@@ -21,8 +21,8 @@ MAX_FILE_BYTES = 64 * 1024 * 1024
 MAX_POINTS = 500_000
 #: A run may hold at most this many robot points in all: steps x (modules + 1), the body's modules when
 #: simulated. Memory grows by about 1.5 kB per step and point (run.json included; measured in
-#: docs/commands.md), so a run at the limit stays within about 5 GB.
-MAX_STEP_POINTS = 3_000_000
+#: docs/commands.md), so a run at the limit stays within about 5 GB (a 5-module robot on a path of MAX_POINTS fits).
+MAX_STEP_POINTS = 3_100_000
 #: Largest length or coordinate accepted anywhere (mm): 1 km. Larger values only overflow the arithmetic.
 MAX_MM = 1e6
 #: Upper bounds of the robot settings, shared by robot files and command-line options:
@@ -91,6 +91,8 @@ def read_toml(path: str | os.PathLike[str], what: str, hint: str) -> dict[str, A
     text = read_text(path, what, hint)
     try:
         return tomllib.loads(text)
+    except RecursionError:
+        raise BhrError(f"{path}: nested too deeply to read; {hint}") from None
     except tomllib.TOMLDecodeError as exc:
         msg = str(exc).splitlines()[0] if str(exc) else "syntax error"
         raise BhrError(f"{path}: not valid TOML ({msg}); {hint}") from None

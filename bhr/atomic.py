@@ -39,7 +39,7 @@ from typing import Any, Iterable, Iterator
 from bhr.errors import BhrError
 
 __all__ = ["atomic_path", "write_text", "write_json", "check_output_file", "OutputFolder", "MANIFEST",
-           "in_place_target"]
+           "in_place_target", "point_latest"]
 
 #: The file in every output folder that ties its files to one run.
 MANIFEST = "manifest.json"
@@ -401,3 +401,25 @@ def _mode_for_dir(target: Path) -> int:
         mask = os.umask(0)
         os.umask(mask)
         return 0o777 & ~mask
+
+
+def point_latest(folder: str | os.PathLike[str], link_name: str = "latest") -> Path | None:
+    """Make ``<parent>/latest`` a symbolic link to ``folder`` (the run just written); return the link.
+
+    The link is replaced by a rename, so it always points at a whole folder.
+    Nothing is done when ``latest`` exists and is not a symbolic link (a
+    user's own file or folder), or when the file system has no links.
+    """
+    target = Path(folder)
+    link = target.parent / link_name
+    if link.exists() and not link.is_symlink():
+        return None
+    tmp = target.parent / f".{link_name}.bhr-link-{os.getpid()}-{uuid.uuid4().hex[:8]}"
+    try:
+        os.symlink(target.name, tmp)
+        os.replace(tmp, link)
+    except OSError:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+        return None
+    return link

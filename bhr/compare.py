@@ -8,6 +8,8 @@ on the same axes (matplotlib is imported only there).
 """
 from __future__ import annotations
 
+import math
+
 import time
 from dataclasses import dataclass
 from typing import Any, Sequence
@@ -126,7 +128,8 @@ def compare_json(runs: Sequence[Compared]) -> dict[str, Any]:
     return {
         "trajectory": {"name": r0.trajectory.name, "params": r0.trajectory.params, "steps": r0.steps},
         "robot": r0.robot.to_dict(),
-        "rows": compare_rows(runs),
+        "rows": [{k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in row.items()}
+                 for row in compare_rows(runs)],  # JSON has no NaN: an undefined ratio is null
         "runs": [{"solver": c.solver,
                   "points_max_error_mm": [float(v) for v in c.result.point_errors.max(axis=1)],
                   "tip_error_mm": [float(v) for v in c.result.point_errors[:, -1]],

@@ -91,9 +91,12 @@ def compare(traj, solvers, out_dir, json_path, no_plots, **kwargs):
 
                 save_figure(compare_figure(runs), folder.path("compare.png"))
                 written.append(folder.final("compare.png"))
+            if json_path and json_path != "-" and json_inside is None:
+                write_json(Path(json_path), compare_json(runs))  # before the folder goes in place
+                written.append(Path(json_path))
     if json_path == "-":
-        click.echo(json.dumps(compare_json(runs)))
-    elif json_path and json_inside is None:
+        click.echo(json.dumps(compare_json(runs), allow_nan=False))
+    elif json_path and json_inside is None and folder is None:
         write_json(Path(json_path), compare_json(runs))
         written.append(Path(json_path))
     for line in format_table(runs):

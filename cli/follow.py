@@ -169,9 +169,16 @@ def follow(traj, solver, out_dir, json_path, no_plots, **kwargs):
                 from bhr.plots import save_run_plots
 
                 written += [folder.final(p.name) for p in save_run_plots(result, folder.stage)]
+            if json_path not in (None, "-") and json_inside is None:
+                write_json(json_path, doc)  # before the folder goes in place: a failure here keeps the old set
+                written.append(Path(json_path))
+        if out_dir is None:
+            from bhr.atomic import point_latest
+
+            point_latest(folder.target)  # bhr-out/latest: the run just written
     if to_stdout:
         click.echo(json.dumps(doc))
-    elif json_path is not None and json_inside is None:
+    elif json_path is not None and folder is None:
         write_json(json_path, doc)
         written.append(Path(json_path))
     for line in summary_lines(result):
