@@ -339,7 +339,7 @@ def load_run(path: Any) -> FollowResult:
             if Path(path).is_dir():
                 raise IsADirectoryError(str(path))
             raw = read_capped(path, "run file", hint)
-        text = raw.decode("utf-8")
+        text = raw.decode("utf-8-sig")
     except FileNotFoundError:
         raise BhrError(f"no such run file {name}; give the run.json that 'bhr follow' wrote") from None
     except IsADirectoryError:

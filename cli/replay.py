@@ -74,7 +74,7 @@ def replay(run, show, animate_path, stride, out_dir, step):
     standard input). With neither --show nor --animate it redraws the
     figures (errors, and the path with the robot) into --out.
 
-        bhr replay bhr-out/colon-seed/run.json --animate colon.gif
+        bhr replay bhr-out/latest/run.json --animate colon.gif
     """
     from bhr.follow import load_run
 

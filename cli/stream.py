@@ -30,7 +30,7 @@ def stream(codes_path, rate, dry_run, **link_kw):
     [link] table gives the port, baud rate and module order.
 
     \b
-        bhr stream --port /dev/ttyUSB0 --codes bhr-out/colon-seed/codes.csv --rate 10
+        bhr stream --port /dev/ttyUSB0 --codes bhr-out/latest/codes.csv --rate 10
     """
     from bhr.codes import read_codes_csv
     from bhr.errors import BhrError

@@ -544,3 +544,15 @@ def test_sigterm_and_sighup_send_stop_all_like_ctrl_c(sim, tmp_path, sig, comman
     assert "sent stop-all" in one_line(err)
     s.wait_for(lambda evs: evs[-1]["codes"] == [0] * MODULES and evs[-1]["latched"] == [0] * MODULES, 5)
     assert not (tmp_path / "o").exists()  # an interrupted run writes no folder
+
+
+def test_status_to_a_full_device_is_one_line(sim, tmp_path):
+    """The board answers, but the --json target (a real full device) cannot take it: one line, the device kept."""
+    import stat
+
+    s = sim()
+    full = tmp_path / "full"
+    os.mknod(full, 0o666 | stat.S_IFCHR, os.makedev(1, 7))  # the suite runs as root
+    r = run_bhr("status", "--port", s.pty, "--json", str(full))
+    assert r.returncode == 1 and "No space left on device" in one_line(r.stderr)
+    assert stat.S_ISCHR(full.lstat().st_mode)

@@ -252,3 +252,88 @@ def test_report_leaves_no_stale_run_folders(tmp_path):
     assert sorted(p.name for p in (tmp_path / "r" / "runs").iterdir()) == ["a"]
     check_whole(tmp_path / "r")
     no_staging(tmp_path)
+
+
+def test_full_standard_output_is_one_line_in_every_printing_command(tmp_path):
+    """replay, report, sweep and stream print to stdout too: a full stdout costs one line, never a traceback."""
+    assert bhr("follow", "--traj", "line", "--out", "run", "--no-plots", cwd=tmp_path).returncode == 0
+    (tmp_path / "b.toml").write_text('[[run]]\nname = "a"\ntraj = "line"\n')
+    (tmp_path / "c.csv").write_text("step,m1,m2\n1,3,0\n")
+    with open("/dev/full", "w") as full:
+        for cmd in (["replay", "run/run.json", "--out", "figs"], ["report", "--batch", "b.toml", "--out", "r", "-j", "1"],
+                    ["sweep", "--traj", "line", "--grid", "alpha=8,10", "--out", "s", "-j", "1"],
+                    ["stream", "--codes", "c.csv", "--dry-run"]):
+            r = subprocess.run(bhr_exe() + cmd, cwd=tmp_path, env=ENV, stdout=full, stderr=subprocess.PIPE,
+                               text=True, timeout=300)
+            assert r.returncode == 1, (cmd, r.stderr)
+            assert "No space left on device" in r.stderr.strip().splitlines()[-1] and "Traceback" not in r.stderr
+
+
+def test_unwritable_cache_folder_falls_back(tmp_path):
+    """A cache folder that cannot be made (its parent is a file): numba's cache goes elsewhere, the run works."""
+    (tmp_path / "afile").write_text("x")
+    env = dict(ENV, XDG_CACHE_HOME=str(tmp_path / "afile" / "cache"))
+    env.pop("NUMBA_CACHE_DIR", None)
+    r = subprocess.run(bhr_exe() + ["fk", "--codes", "3,0,6", "--json", "-"], cwd=tmp_path, env=env,
+                       capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr
+    assert json.loads(r.stdout)["codes"] == [3, 0, 6]
+    env["NUMBA_CACHE_DIR"] = str(tmp_path / "afile" / "numba")
+    r = subprocess.run(bhr_exe() + ["fk", "--codes", "3", "--json", "-"], cwd=tmp_path, env=env,
+                       capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0 and json.loads(r.stdout)["codes"] == [3], r.stderr
+
+
+def test_a_busy_port_says_so(tmp_path):
+    """Another program holds the port (pyserial's exclusive lock on a real pty): the message says it is busy."""
+    import serial
+
+    master, slave = os.openpty()
+    name = os.ttyname(slave)
+    holder = serial.Serial(name, exclusive=True)
+    try:
+        r = bhr("status", "--port", name, "--timeout", "0.2", "--retries", "0", cwd=tmp_path)
+        assert r.returncode == 1 and "in use by another program" in one_line(r.stderr)
+    finally:
+        holder.close()
+        os.close(master)
+        os.close(slave)
+
+
+def test_replies_of_another_protocol_version_are_refused(tmp_path):
+    """A peer on a real pty answers every frame correctly framed but in protocol version 2: one clear line."""
+    from bhr import protocol as P
+
+    master, slave = os.openpty()
+    name = os.ttyname(slave)
+    import tty
+
+    tty.setraw(slave)
+    stop = threading.Event()
+
+    def board():
+        dec = P.StreamDecoder()
+        while not stop.is_set():
+            import select
+
+            ready, _, _ = select.select([master], [], [], 0.05)
+            if not ready:
+                continue
+            try:
+                data = os.read(master, 1024)
+            except OSError:
+                return
+            for frame in dec.feed(data):
+                os.write(master, P.encode_frame(P.Msg.ACK, frame.seq, b"", version=2))
+
+    t = threading.Thread(target=board, daemon=True)
+    t.start()
+    try:
+        r = bhr("status", "--port", name, "--timeout", "0.5", "--retries", "0", cwd=tmp_path)
+        assert r.returncode == 1
+        assert "protocol version 2" in one_line(r.stderr) and "bhr speaks 1" in r.stderr
+    finally:
+        stop.set()
+        t.join(2)
+        os.close(master)
+        os.close(slave)
