@@ -50,7 +50,7 @@ def guarded(func: Callable[..., Any]) -> Callable[..., Any]:
             sys.stdout.flush()  # a full or closed standard output fails here, inside the guard
             return rv
         except BhrError as exc:
-            raise click.ClickException(str(exc).splitlines()[0] if str(exc) else type(exc).__name__)
+            raise click.ClickException(str(exc).splitlines()[0] if str(exc) else type(exc).__name__) from None
         except KeyboardInterrupt:
             click.echo("Interrupted.", err=True)
             sys.exit(130)
@@ -103,10 +103,12 @@ def run_folder_name(readable: str, *parts: Any) -> str:
     return f"{safe}-{h.hexdigest()[:8]}"
 
 
-def json_in_folder(json_path: str | None, folder: Any, taken: tuple[str, ...]) -> str | None:
-    """The name inside the output folder that ``--json`` names, if it names a file in it; None otherwise.
+def json_in_folder(json_path: str | None, folder: Any, taken: tuple[str, ...], option: str = "--json"
+                   ) -> str | None:
+    """The name inside the output folder that ``--json`` (or ``option``) names, if it names a file in it.
 
-    Refuses a name that another output of the same run writes (codes.csv, a figure, the manifest).
+    None when it names a file elsewhere. Refuses a name that another output of the same run writes
+    (codes.csv, a figure, the manifest).
     """
     import fnmatch
 
@@ -119,6 +121,5 @@ def json_in_folder(json_path: str | None, folder: Any, taken: tuple[str, ...]) -
         return None
     name = str(rel)
     if name == "." or any(fnmatch.fnmatch(name, pat) for pat in taken) or name == "manifest.json":
-        raise BhrError(f"--json {json_path} names another output of this run; choose another file name "
-                       "(default: run.json in the output folder)")
+        raise BhrError(f"{option} {json_path} names another output of this run; choose another file name")
     return name

@@ -22,7 +22,8 @@ from bhr.cli._options import (build_robot, optimal_options, pop_optimal, pop_tra
 @optimal_options
 @click.option("--body-modules", type=int, default=None, metavar="M",
               help="Also simulate the body of a robot of M modules (M >= --modules) in every run.")
-@click.option("--out", "out_dir", default=None, metavar="DIR", help="Output folder, replaced whole by this run [./bhr-out/compare-<traj>-<hash>/].")
+@click.option("--out", "out_dir", default=None, metavar="DIR",
+              help="Output folder, replaced whole by this run [./bhr-out/compare-<traj>-<hash>/].")
 @click.option("--json", "json_path", default=None, metavar="PATH|-",
               help="Also write the comparison as JSON ('-': stdout).")
 @click.option("--no-plots", is_flag=True, help="Skip the figure.")

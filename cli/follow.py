@@ -10,8 +10,8 @@ import click
 from bhr.cli._common import check_writable, guarded, json_in_folder, run_folder_name
 from bhr.cli._link import exit_interrupted, link_options, link_settings, stop_on_signals
 from bhr.cli.replay import STRIDE_HELP, check_view_options, render_animation, run_live_view
-from bhr.cli._options import (MIN_RATE, FiniteRange, PlainIntRange, build_robot, constraint_options, optimal_options, pop_constraints, pop_optimal,
-                              pop_trajectory, robot_options, trajectory_options)
+from bhr.cli._options import (MIN_RATE, FiniteRange, PlainIntRange, build_robot, constraint_options, optimal_options,
+                              pop_constraints, pop_optimal, pop_trajectory, robot_options, trajectory_options)
 
 
 def summary_lines(result) -> list[str]:
@@ -75,7 +75,8 @@ def body_clearance_lines(s: dict) -> list[str]:
               help="Also simulate the body: a robot of M modules (M >= --modules) whose modules behind the head "
                    "follow the leader.")
 @click.option("--out", "out_dir", default=None, metavar="DIR",
-              help="Output folder, replaced whole by this run [./bhr-out/<traj>-<solver>-<hash>/, the hash of the trajectory, robot and solver settings].")
+              help="Output folder, replaced whole by this run [./bhr-out/<traj>-<solver>-<hash>/, the hash "
+                   "of the trajectory, robot and solver settings].")
 @click.option("--json", "json_path", default=None, metavar="PATH|-",
               help="Where to write the run as JSON ('-': stdout) [DIR/run.json].")
 @click.option("--no-plots", is_flag=True, help="Skip the PNG figures.")
@@ -145,6 +146,10 @@ def follow(traj, solver, out_dir, json_path, no_plots, **kwargs):
                                robot.to_dict(), solver, constraints, optimal, body_modules)
         folder = OutputFolder(Path("bhr-out") / name, "follow", names=FOLLOW_NAMES).check()
     json_inside = json_in_folder(json_path, folder, FOLLOW_NAMES) if folder is not None else None
+    anim_inside = None
+    if folder is not None and animate_path is not None:
+        taken = FOLLOW_NAMES + ((json_inside,) if json_inside else ())
+        anim_inside = json_in_folder(animate_path, folder, taken, "--animate")
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", BhrWarning)
         if link_kw["port"] is None:
@@ -169,6 +174,8 @@ def follow(traj, solver, out_dir, json_path, no_plots, **kwargs):
                 from bhr.plots import save_run_plots
 
                 written += [folder.final(p.name) for p in save_run_plots(result, folder.stage)]
+            if anim_inside is not None:  # an animation inside the folder belongs to its set
+                render_animation(result, str(folder.path(anim_inside)), stride, folder.final(anim_inside))
             if json_path not in (None, "-") and json_inside is None:
                 write_json(json_path, doc)  # before the folder goes in place: a failure here keeps the old set
                 written.append(Path(json_path))
@@ -185,7 +192,7 @@ def follow(traj, solver, out_dir, json_path, no_plots, **kwargs):
         click.echo(line, err=to_stdout)
     if written:
         click.echo("Wrote " + ", ".join(str(p) for p in written), err=to_stdout)
-    if animate_path:
+    if animate_path and anim_inside is None:
         render_animation(result, animate_path, stride)
     if show:
         run_live_view(result, stride)

@@ -28,7 +28,7 @@ def check_view_options(show: bool, animate_path: str | None) -> None:
         check_display()
 
 
-def render_animation(result, animate_path: str, stride: int | None) -> Path:
+def render_animation(result, animate_path: str, stride: int | None, shown: Path | None = None) -> Path:
     """Render ``result`` to ``animate_path`` with a progress bar on stderr; print what was written."""
     from bhr.animate import animate, default_stride, frame_steps
 
@@ -43,7 +43,7 @@ def render_animation(result, animate_path: str, stride: int | None) -> Path:
 
         anim = animate(result, animate_path, stride=stride, progress=progress)
     click.echo(f"Animation: {anim.frames} frames (every {anim.stride} step{'s' if anim.stride > 1 else ''} of "
-               f"{result.steps}), {anim.bytes / 1e6:.2f} MB -> {anim.path}", err=True)
+               f"{result.steps}), {anim.bytes / 1e6:.2f} MB -> {shown or anim.path}", err=True)
     return anim.path
 
 

@@ -52,7 +52,8 @@ def report(batch_path, out_dir, jobs, inline_images):
             rep = run_batch(batch, folder.stage, jobs=workers, inline_images=inline_images, progress=progress)
     for line in format_table(rep.rows):
         click.echo(line)
-    click.echo(f"Wrote {', '.join(str(out / p.name) for p in rep.files())} and {out / 'runs'}/ in {rep.wall_time_s:.1f} s")
+    names = ", ".join(str(out / p.name) for p in rep.files())
+    click.echo(f"Wrote {names} and {out / 'runs'}/ in {rep.wall_time_s:.1f} s")
     if rep.failed:
         click.echo(f"Error: {len(rep.failed)} of {total} runs failed; see {out / 'summary.csv'}", err=True)
         return 1
