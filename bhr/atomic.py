@@ -59,7 +59,22 @@ def in_place_target(path: str | os.PathLike[str]) -> bool:
         st = os.stat(path)  # follows symbolic links
     except OSError:
         return False
-    return not stat.S_ISREG(st.st_mode) and not stat.S_ISDIR(st.st_mode)
+    if not stat.S_ISREG(st.st_mode) and not stat.S_ISDIR(st.st_mode):
+        return True
+    return stat.S_ISREG(st.st_mode) and _via_special(path)
+
+
+def _via_special(path: str | os.PathLike[str]) -> bool:
+    """True when ``path`` or a link on the way to its file is under /dev or /proc (``/dev/stdout`` redirected
+    to a file): the file is someone else's open descriptor and is written in place, not replaced."""
+    p = os.path.abspath(path)
+    for _ in range(40):
+        if p.startswith(("/dev/", "/proc/")):
+            return True
+        if not os.path.islink(p):
+            return False
+        p = os.path.abspath(os.path.join(os.path.dirname(p), os.readlink(p)))
+    return False
 
 
 def _real_target(path: Path) -> Path:
@@ -154,7 +169,8 @@ def write_text(path: str | os.PathLike[str], text: str) -> None:
     """Write ``text`` to ``path`` atomically (UTF-8)."""
     with atomic_path(path) as tmp:
         if tmp == Path(path) or in_place_target(tmp):
-            with open(tmp, "w", encoding="utf-8") as fh:  # a device or FIFO: written in place
+            # a device or FIFO: written in place; a file reached through /dev/stdout: appended, not truncated
+            with open(tmp, "a" if os.path.isfile(tmp) else "w", encoding="utf-8") as fh:
                 fh.write(text)
         else:
             tmp.write_text(text, encoding="utf-8")

@@ -271,9 +271,17 @@ def save_figure(fig: plt.Figure, path: str | os.PathLike[str], dpi: int = 110) -
     """Save ``fig`` atomically as PNG and close it."""
     p = Path(path)
     try:
+        fmt = p.suffix.lower().lstrip(".") if p.suffix.lower() in FIGURE_FORMATS else "png"
         with atomic_path(p) as tmp:
-            fig.savefig(tmp, dpi=dpi, format=p.suffix.lower().lstrip(".") if p.suffix.lower() in FIGURE_FORMATS
-                        else "png")
+            if tmp == p:  # a device, FIFO or /dev/stdout: render in memory, then one plain write (no seeking)
+                import io
+
+                buf = io.BytesIO()
+                fig.savefig(buf, dpi=dpi, format=fmt)
+                with open(p, "ab" if p.is_file() else "wb") as fh:
+                    fh.write(buf.getvalue())
+            else:
+                fig.savefig(tmp, dpi=dpi, format=fmt)
     finally:
         plt.close(fig)
     return p

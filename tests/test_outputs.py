@@ -337,3 +337,15 @@ def test_replies_of_another_protocol_version_are_refused(tmp_path):
         t.join(2)
         os.close(master)
         os.close(slave)
+
+
+def test_dev_stdout_as_a_target_is_written_in_place(tmp_path):
+    """--plot /dev/stdout into a pipe (not seekable) and --json /dev/stdout: the bytes arrive, nothing replaced."""
+    r = subprocess.run(bhr_exe() + ["fk", "--codes", "3,0", "--json", "/dev/stdout"], cwd=tmp_path, env=ENV,
+                       capture_output=True, timeout=300)
+    assert r.returncode == 0, r.stderr
+    assert json.loads(r.stdout.split(b"\n}\n")[0] + b"\n}")["codes"] == [3, 0]
+    r = subprocess.run(bhr_exe() + ["solve", "--target", "3", "9", "0", "--json", "-", "--plot", "/dev/stderr"],
+                       cwd=tmp_path, env=ENV, capture_output=True, timeout=300)
+    assert r.returncode == 0 and r.stderr.startswith(b"\x89PNG\r\n\x1a\n"), r.stderr[:200]
+    assert os.path.islink("/dev/stdout") or stat.S_ISCHR(os.stat("/dev/stdout").st_mode)
