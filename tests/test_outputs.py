@@ -349,3 +349,43 @@ def test_dev_stdout_as_a_target_is_written_in_place(tmp_path):
                        cwd=tmp_path, env=ENV, capture_output=True, timeout=300)
     assert r.returncode == 0 and r.stderr.startswith(b"\x89PNG\r\n\x1a\n"), r.stderr[:200]
     assert os.path.islink("/dev/stdout") or stat.S_ISCHR(os.stat("/dev/stdout").st_mode)
+
+
+def test_a_user_may_write_to_a_device_in_a_folder_they_cannot_write(tmp_path):
+    """Non-root --json /dev/null: the device's own permission counts, not its folder's (a forked child drops to
+    uid 65534 and runs the same check and write the command runs)."""
+    from bhr.atomic import check_output_file, write_json
+
+    import shutil
+    import tempfile
+
+    folder = Path(tempfile.mkdtemp(prefix="bhr-dev-", dir="/tmp"))  # pytest's tmp_path is closed to other users
+    folder.chmod(0o755)  # root's folder: not writable by the user
+    null = folder / "null"
+    os.mknod(null, 0o666 | stat.S_IFCHR, os.makedev(1, 3))
+    null.chmod(0o666)  # as /dev/null (mknod's mode passes through the umask)
+    plain = folder / "plain.json"
+    pid = os.fork()
+    if pid == 0:  # the child: never returns into pytest
+        code = 1
+        try:
+            os.setgid(65534)
+            os.setuid(65534)
+            check_output_file(null, "JSON")
+            write_json(null, {"ok": True})
+            try:
+                check_output_file(plain, "JSON")
+            except ValueError as exc:
+                code = 0 if "not a writable folder" in str(exc) else 3
+            else:
+                code = 2
+        except BaseException as exc:  # noqa: BLE001 - reported through the exit status
+            os.write(2, repr(exc).encode())
+        finally:
+            os._exit(code)
+    _, status = os.waitpid(pid, 0)
+    try:
+        assert os.waitstatus_to_exitcode(status) == 0
+        assert stat.S_ISCHR(null.lstat().st_mode)
+    finally:
+        shutil.rmtree(folder)
