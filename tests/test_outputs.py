@@ -389,3 +389,40 @@ def test_a_user_may_write_to_a_device_in_a_folder_they_cannot_write(tmp_path):
         assert stat.S_ISCHR(null.lstat().st_mode)
     finally:
         shutil.rmtree(folder)
+
+
+def test_output_folder_always_holds_the_last_whole_set(tmp_path_factory):
+    """Property: after any sequence of runs, some failing half-way, the folder holds exactly the files of the
+    last run that finished, with their contents, and no staging folder is left beside it."""
+    from hypothesis import given, settings
+    from hypothesis import strategies as st
+
+    from bhr.atomic import OutputFolder, write_text
+
+    names = st.sets(st.sampled_from(["run.json", "codes.csv", "a.png", "b.png"]), min_size=1)
+
+    @settings(max_examples=60, deadline=None)
+    @given(runs=st.lists(st.tuples(names, st.booleans(), st.integers(0, 3)), min_size=1, max_size=6))
+    def check(runs):
+        parent = tmp_path_factory.mktemp("p")
+        target = parent / "o"
+        last: dict[str, str] | None = None
+        for k, (files, fail, fail_after) in enumerate(runs):
+            try:
+                with OutputFolder(target, "test", names=("*.json", "*.csv", "*.png", "manifest.json")) as of:
+                    for i, name in enumerate(sorted(files)):
+                        if fail and i == min(fail_after, len(files) - 1):
+                            raise OSError(28, "No space left on device")
+                        write_text(of.path(name), f"run {k} {name}\n")
+                last = {name: f"run {k} {name}\n" for name in files}
+            except OSError:
+                pass
+            if last is None:
+                assert not target.exists()
+            else:
+                got = {p.name: p.read_text() for p in target.iterdir() if p.name != "manifest.json"}
+                assert got == last
+                assert set(json.loads((target / "manifest.json").read_text())["files"]) == set(last)
+            assert [p.name for p in parent.iterdir()] in ([], ["o"])
+
+    check()
