@@ -53,6 +53,14 @@ def compare_runs(traj: Trajectory, solvers: Sequence[str], robot: Robot, *,
     for s in names:
         if s not in known:
             raise BhrError(f"unknown solver {s!r}; choose from {', '.join(known)}")
+    from bhr._input import MAX_STEP_POINTS
+
+    work = traj.points.shape[0] * (max(robot.modules, body_modules or 0) + 1) * len(names)
+    if work > MAX_STEP_POINTS:  # every run is kept for the table and the figure: they share one run's budget
+        raise BhrError(f"{len(names)} runs of {traj.points.shape[0]} steps x "
+                       f"{max(robot.modules, body_modules or 0) + 1} robot points is {work:,} points to keep, "
+                       f"more than the {MAX_STEP_POINTS:,} a command may hold in memory; shorten the path, raise "
+                       "the feed, or compare fewer solvers")
     opts = solver_options or {}
     out = []
     for s in names:

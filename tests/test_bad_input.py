@@ -390,6 +390,8 @@ CASES += [
         expect="limit 500000"),
     Bad("follow-body-too-large", "follow", ["--traj", "line", "--length", "10000", "--body-modules", "1000",
                                             "--out", "o"], expect="in memory"),
+    Bad("compare-too-large", "compare", ["--traj", "line", "--length", "600000", "--solver", "seed", "--solver",
+                                         "ccd", "--no-plots"], expect="in memory"),
     Bad("follow-modules-over-limit", "follow", ["--traj", "line", "--modules", "1001"], expect="too large"),
     # the robot limits of the command line hold in batch and sweep files too
     Bad("report-modules-huge", "report", ["--batch", "b.toml"],
