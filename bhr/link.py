@@ -202,7 +202,7 @@ class BoardLink:
         try:
             self._ser.write(data)
             self._ser.flush()
-        except (self._serial_mod.SerialException, OSError) as exc:
+        except (self._serial_mod.SerialException, OSError, termios_error) as exc:
             raise self._io_error(exc) from None
         self.frames_sent += 1
 
@@ -216,7 +216,7 @@ class BoardLink:
             try:
                 waiting = ser.in_waiting
                 data = ser.read(max(1, min(waiting, 4096)))
-            except (self._serial_mod.SerialException, OSError) as exc:
+            except (self._serial_mod.SerialException, OSError, termios_error) as exc:
                 raise self._io_error(exc) from None
             if data:
                 for frame in self._decoder.feed(data):
@@ -263,6 +263,12 @@ class BoardLink:
             return (f"board on {self.port} refused {what}: it speaks protocol version {detail}, bhr speaks "
                     f"{P.VERSION}; update the firmware or bhr so they match")
         return f"board on {self.port} refused {what}: {text}; check that its firmware matches this bhr"
+
+
+try:  # pyserial lets termios.error (not an OSError) through from tcdrain when a pty's other end vanishes
+    from termios import error as termios_error
+except ImportError:  # pragma: no cover - Windows
+    termios_error = OSError  # type: ignore[misc,assignment]
 
 
 def _reason(exc: BaseException) -> str:
