@@ -123,3 +123,13 @@ def json_in_folder(json_path: str | None, folder: Any, taken: tuple[str, ...], o
     if name == "." or any(fnmatch.fnmatch(name, pat) for pat in taken) or name == "manifest.json":
         raise BhrError(f"{option} {json_path} names another output of this run; choose another file name")
     return name
+
+
+def check_parent_folder(folder: str | os.PathLike[str], what: str = "output folder") -> None:
+    """Fail before any work when run folders cannot be made inside ``folder`` (the default ``bhr-out``)."""
+    p = Path(folder)
+    probe = p
+    while not probe.exists() and probe != probe.parent:
+        probe = probe.parent
+    if not probe.is_dir() or not os.access(probe, os.W_OK | os.X_OK):
+        raise BhrError(f"cannot make the {what} in {p}: {probe} is not a writable folder; give --out DIR")

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import click
 
-from bhr.cli._common import check_writable, guarded, json_in_folder, run_folder_name
+from bhr.cli._common import check_parent_folder, check_writable, guarded, json_in_folder, run_folder_name
 from bhr.cli._options import (build_robot, optimal_options, pop_optimal, pop_trajectory, robot_options,
                               trajectory_options)
 
@@ -62,7 +62,7 @@ def compare(traj, solvers, out_dir, json_path, no_plots, **kwargs):
     if out_dir is not None:
         folder = OutputFolder(out_dir, "compare", names=COMPARE_NAMES).check()  # before any work
     elif not no_plots:
-        check_writable(Path("bhr-out") / "x", "output folder")
+        check_parent_folder("bhr-out")
     check_writable(json_path, "JSON")
     optimal = pop_optimal(kwargs)
     body_modules = kwargs.pop("body_modules")

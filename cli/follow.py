@@ -7,7 +7,7 @@ from pathlib import Path
 
 import click
 
-from bhr.cli._common import check_writable, guarded, json_in_folder, run_folder_name
+from bhr.cli._common import check_parent_folder, check_writable, guarded, json_in_folder, run_folder_name
 from bhr.cli._link import exit_interrupted, link_options, link_settings, stop_on_signals
 from bhr.cli.replay import STRIDE_HELP, check_view_options, render_animation, run_live_view
 from bhr.cli._options import (MIN_RATE, FiniteRange, PlainIntRange, build_robot, constraint_options, optimal_options,
@@ -119,7 +119,7 @@ def follow(traj, solver, out_dir, json_path, no_plots, **kwargs):
     if out_dir is not None:
         folder = OutputFolder(out_dir, "follow", names=FOLLOW_NAMES).check()  # before any work
     else:
-        check_writable(Path("bhr-out") / "x", "output folder")
+        check_parent_folder("bhr-out")
         folder = None
     check_writable(json_path, "JSON")
     check_view_options(show, animate_path)
