@@ -5,8 +5,8 @@ users need are re-exported here and loaded lazily:
 
 >>> import bhr
 >>> pts = bhr.trajectory("curve", radius=70, angle=90)      # doctest: +SKIP
->>> result = bhr.follow(pts, solver="seed")                   # doctest: +SKIP
->>> doc = result.to_json()                                     # doctest: +SKIP
+>>> result = bhr.follow(pts, solver="thesis")                 # doctest: +SKIP
+>>> doc = result.to_dict()                                     # doctest: +SKIP
 """
 from __future__ import annotations
 

@@ -13,6 +13,10 @@ from pathlib import Path
 from typing import Any, Iterable
 
 from bhr.errors import BhrError
+from bhr.options import MAX_MM
+
+__all__ = ["MAX_FILE_BYTES", "MAX_MM", "MAX_POINTS", "MAX_STEP_POINTS", "read_capped", "read_text", "read_toml",
+           "check_keys", "type_name", "number", "vector3", "text_value", "choice"]
 
 #: Input files larger than this are refused: at most this many bytes are ever read, whatever the file's size
 #: reads as (a link to /dev/zero reads as 0 bytes and never ends).
@@ -21,26 +25,9 @@ MAX_FILE_BYTES = 64 * 1024 * 1024
 MAX_POINTS = 500_000
 #: A run may hold at most this many robot points in all: steps x (modules + 1), the body's modules when
 #: simulated. Memory grows by about 1.5 kB per step and point (run.json included; measured in
-#: docs/commands.md), so a run at the limit stays within about 5 GB (a 5-module robot on a path of MAX_POINTS fits).
+#: docs/commands.md), so a run at the limit stays within about 5 GB (a 5-module robot on a path of
+#: MAX_POINTS fits).
 MAX_STEP_POINTS = 3_100_000
-#: Largest length or coordinate accepted anywhere (mm): 1 km. Larger values only overflow the arithmetic.
-MAX_MM = 1e6
-#: Upper bounds of the robot settings, shared by robot files and command-line options:
-#: field -> (largest value, unit). Lower bounds are checked by bhr.robot.Robot (positive; alpha in (0, 90)).
-ROBOT_LIMITS: dict[str, tuple[float, str]] = {
-    "modules": (1000, ""),
-    "module_length": (1e4, "mm"),
-    "radius": (1e4, "mm"),
-    "alpha": (90.0, "deg"),
-    "stroke": (1e4, "mm"),
-    "lever": (1e4, "mm"),
-    "tol_pos": (MAX_MM, "mm"),
-    "tol_ori": (180.0, "deg"),
-    "max_iter": (100000, ""),
-    "feed_divisor": (1000, ""),
-    "weight_pos": (1e6, ""),
-    "weight_ori": (1e6, ""),
-}
 
 
 def read_text(path: str | os.PathLike[str], what: str, hint: str) -> str:

@@ -23,6 +23,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, Callable
 
 from bhr.errors import BhrError
+from bhr.atomic import atomic_path
 
 if TYPE_CHECKING:  # pragma: no cover
     from bhr.follow import FollowResult
@@ -108,7 +109,7 @@ def _rgb(view: "StepView") -> Any:
     import numpy as np
 
     view.fig.canvas.draw()
-    return np.asarray(view.fig.canvas.buffer_rgba())[:, :, :3]
+    return np.asarray(view.fig.canvas.buffer_rgba())[:, :, :3]  # type: ignore[attr-defined]  # the Agg canvas
 
 
 def _palette(first: Any) -> Any:
@@ -121,7 +122,8 @@ def _palette(first: Any) -> Any:
     for name in ("white", "black", "tab:red", "tab:blue", "tab:green", "tab:gray"):
         rgb = to_rgb(name)
         for t in (1.0, 0.85, 0.7, 0.55, 0.4, 0.25, 0.12):
-            c = tuple(int(round(255 * (t * v + (1 - t)))) for v in rgb)
+            r_, g_, b_ = (int(round(255 * (t * v + (1 - t)))) for v in rgb)
+            c = (r_, g_, b_)
             if c not in colours:
                 colours.append(c)
     adaptive = first.quantize(colors=GIF_COLOURS - len(colours), method=Image.Quantize.MEDIANCUT,
@@ -188,8 +190,6 @@ def animate(result: "FollowResult", path: str | os.PathLike[str], stride: int | 
     is written atomically: an interrupted render leaves nothing behind and
     replaces nothing.
     """
-    from bhr.atomic import atomic_path
-
     fmt = check_target(path)
     if isinstance(fps, bool) or not isinstance(fps, int) or not 1 <= fps <= 50:
         raise BhrError(f"fps must be a whole number from 1 to 50, got {fps!r}")

@@ -48,7 +48,9 @@ import numpy as np
 from numba import njit
 
 from bhr.errors import BhrError
-from bhr.robot import tilt_frame as _rot
+from bhr.kinematics.frames import tilt_frame as _rot
+from bhr.path import path_directions
+from bhr.robot import base_frame
 
 __all__ = ["BodyRun", "simulate_body", "module1_frames", "whole_robot"]
 
@@ -155,8 +157,6 @@ def _body_kernel(P0s, F1s, start, nb, f, feed, L, c, s, beam, pts, codes):
 
 def module1_frames(codes: np.ndarray, start_direction, alpha: float) -> tuple[np.ndarray, np.ndarray]:
     """(start frame, module 1's frame after each step's tilt) replayed from the base codes (column 0)."""
-    from bhr.robot import base_frame
-
     start = base_frame(start_direction)
     try:
         idx = np.array([_IDX[int(c)] for c in codes[:, 0]], dtype=np.int64)
@@ -187,7 +187,7 @@ def simulate_body(result, body_modules: int) -> BodyRun:
         raise BhrError(f"--body-modules {M} is more than 10000; give a smaller robot")
     if result.codes is None:
         raise BhrError(f"the {result.solver} solver gives no module codes, so no body can repeat them; "
-                       "use --solver seed or --solver optimal with --body-modules")
+                       "use --solver thesis or --solver optimal with --body-modules")
     nb = M - n
     N = result.steps
     path = np.ascontiguousarray(result.trajectory.points[:N], dtype=np.float64)
@@ -197,7 +197,7 @@ def simulate_body(result, body_modules: int) -> BodyRun:
     d1 /= np.linalg.norm(d1, axis=1)[:, None]
     if np.max(np.abs(d1 - F1s[:, 2])) > 1e-6:
         raise BhrError(f"the {result.solver} run's module 1 does not follow its codes; the body needs a binary "
-                       "solver (seed or optimal)")
+                       "solver (thesis or optimal)")
     pts = np.zeros((N, nb, 3))
     codes = np.zeros((N, nb), dtype=np.int64)
     pe = np.zeros((N, nb))
@@ -206,8 +206,6 @@ def simulate_body(result, body_modules: int) -> BodyRun:
     if nb:
         a = math.radians(r.alpha)
         P0s = np.ascontiguousarray(result.points[:, 0])
-        from bhr.follow import path_directions
-
         dirs = path_directions(path) if N > 1 else np.zeros((1, 3))
         _body_kernel(P0s, F1s, start, nb, int(r.feed_divisor), float(r.feed), float(r.module_length),
                      math.cos(a), math.sin(a), BODY_BEAM, pts, codes)

@@ -79,11 +79,6 @@ def check_codes(codes: Iterable[object], where: str = "") -> list[int]:
     return out
 
 
-def tilt_code(axis_index: int, sign: int) -> int:
-    """The code that tilts about local axis ``axis_index`` (0=x, 1=y) with ``sign``."""
-    return TILT_CODES[axis_index + (0 if sign > 0 else 2)]
-
-
 def actuators(code: int) -> tuple[int, ...]:
     """The actuators (1-4) that are on for ``code``."""
     return tuple(k for k in range(1, 5) if code & (1 << (k - 1)))

@@ -19,6 +19,8 @@ import numpy as np
 from bhr.errors import BhrError
 from bhr.robot import Robot
 from bhr.trajectory import Trajectory
+from bhr.follow import follow
+from bhr.solvers import available, canonical
 
 __all__ = ["Compared", "compare_runs", "compare_rows", "format_table", "compare_figure", "compare_json"]
 
@@ -40,18 +42,15 @@ def compare_runs(traj: Trajectory, solvers: Sequence[str], robot: Robot, *,
                  solver_options: dict[str, dict[str, Any]] | None = None,
                  body_modules: int | None = None) -> list[Compared]:
     """Run ``traj`` with each solver (options per solver name); raises BhrError for fewer than two or repeats."""
-    from bhr.follow import follow
-    from bhr.solvers import available
-
     names = list(solvers)
     if len(names) < 2:
-        raise BhrError("compare needs at least two solvers, e.g. --solver seed --solver optimal")
+        raise BhrError("compare needs at least two solvers, e.g. --solver thesis --solver optimal")
     dup = next((s for s in names if names.count(s) > 1), None)
     if dup is not None:
         raise BhrError(f"solver {dup} is given twice; give each solver once")
     known = available()
     for s in names:
-        if s not in known:
+        if canonical(s) not in known:
             raise BhrError(f"unknown solver {s!r}; choose from {', '.join(known)}")
     from bhr._input import MAX_STEP_POINTS
 
@@ -77,7 +76,7 @@ def compare_rows(runs: Sequence[Compared]) -> list[dict[str, Any]]:
     ref = runs[0].result.point_errors.max()
     rows = []
     for c in runs:
-        s = c.result.summary()
+        s = c.result.summary.to_dict()
         worst = float(c.result.point_errors.max())
         row = {
             "solver": c.solver,
@@ -141,7 +140,7 @@ def compare_json(runs: Sequence[Compared]) -> dict[str, Any]:
         "runs": [{"solver": c.solver,
                   "points_max_error_mm": [float(v) for v in c.result.point_errors.max(axis=1)],
                   "tip_error_mm": [float(v) for v in c.result.point_errors[:, -1]],
-                  "summary": c.result.summary()} for c in runs],
+                  "summary": c.result.summary.to_dict()} for c in runs],
     }
 
 
@@ -149,7 +148,7 @@ def compare_figure(runs: Sequence[Compared]):
     """Largest point error and tip error per step, every solver on the same axes; wall touches shaded."""
     import matplotlib.pyplot as plt
 
-    from bhr import plots  # noqa: F401  (chooses a backend without a display)
+    import bhr.plots  # noqa: F401  (chooses a backend without a display)
 
     colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
     fig, axes = plt.subplots(2, 1, figsize=(10, 6.5), sharex=True)

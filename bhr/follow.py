@@ -17,90 +17,32 @@ advance kernels.
 """
 from __future__ import annotations
 
+import json
 import math
+import sys
 import warnings
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
+from pathlib import Path
 from typing import Any, Callable
 
 import numpy as np
-from numba import njit
 
 from bhr._callable import make_callable
-from bhr._input import MAX_MM, MAX_STEP_POINTS, ROBOT_LIMITS
+from bhr._input import MAX_MM, MAX_STEP_POINTS
 from bhr.errors import BhrError
+from bhr.options import robot_limits
 from bhr.robot import Robot
 from bhr.solvers import Chain, FollowContext, get_solver
-from bhr.trajectory import Trajectory
+from bhr.body import BodyRun, simulate_body
+from bhr.clearance import ClearanceReport, clearance_report
+from bhr.kinematics.leader import advance_kernel, angle_deg, score_step
+from bhr.path import Trajectory, path_directions
 
 __all__ = ["follow", "FollowResult", "path_directions", "score_step", "advance_kernel", "stats", "load_run"]
 
 
 class BhrWarning(UserWarning):
     """A run that completes but should be read with care (e.g. a curve tighter than the robot can turn)."""
-
-
-@njit(cache=True)
-def _angle_deg(ax: float, ay: float, az: float, d: np.ndarray) -> float:
-    na = math.sqrt(ax * ax + ay * ay + az * az)
-    nd = math.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
-    c = (ax * d[0] + ay * d[1] + az * d[2]) / (na * nd)
-    return math.degrees(math.acos(max(-1.0, min(1.0, c))))
-
-
-@njit(cache=True)
-def score_step(i: int, P: np.ndarray, path: np.ndarray, dirs: np.ndarray, f: int, tip_ori: float,
-               pe: np.ndarray, oe: np.ndarray) -> None:
-    """Errors of step ``i`` (0-based): points into ``pe`` (n+1), modules into ``oe`` (n)."""
-    n = P.shape[0] - 1
-    for j in range(n + 1):
-        idx = i - (n - j) * f
-        if idx < 0:
-            pe[j] = 0.0
-        else:
-            dx = P[j, 0] - path[idx, 0]
-            dy = P[j, 1] - path[idx, 1]
-            dz = P[j, 2] - path[idx, 2]
-            pe[j] = math.sqrt(dx * dx + dy * dy + dz * dz)
-    oe[n - 1] = tip_ori
-    for j in range(n - 1):
-        idx = i - (n - j) * f
-        if idx < 0:
-            oe[j] = 0.0
-        else:
-            oe[j] = _angle_deg(P[j + 1, 0] - P[j, 0], P[j + 1, 1] - P[j, 1], P[j + 1, 2] - P[j, 2], dirs[idx])
-
-
-@njit(cache=True)
-def advance_kernel(P: np.ndarray, E1: np.ndarray, E2: np.ndarray, feed: float, length: float) -> None:
-    """Advance by ``feed`` along the base module; reset the axes of modules 2..n (in place)."""
-    n = P.shape[0] - 1
-    ox, oy, oz = P[1, 0] - P[0, 0], P[1, 1] - P[0, 1], P[1, 2] - P[0, 2]
-    no = math.sqrt(ox * ox + oy * oy + oz * oz)
-    ob = np.array([ox / no, oy / no, oz / no])
-    for j in range(n + 1):
-        for c in range(3):
-            P[j, c] = P[j, c] + feed * ob[c]
-    for j in range(E1.shape[0]):
-        for c in range(3):
-            E1[j, c] = E1[j, c] + feed * ob[c]
-            E2[j, c] = E2[j, c] + feed * ob[c]
-    for E in (E1, E2):
-        dx, dy, dz = E[0, 0] - P[0, 0], E[0, 1] - P[0, 1], E[0, 2] - P[0, 2]
-        nd = math.sqrt(dx * dx + dy * dy + dz * dz)
-        d = np.array([dx / nd, dy / nd, dz / nd])
-        for j in range(1, n):
-            for c in range(3):
-                E[j, c] = P[0, c] + ob[c] * length * j + d[c]
-
-
-def path_directions(path: np.ndarray) -> np.ndarray:
-    """Unit vectors from each trajectory point to the next, (N-1, 3)."""
-    diff = np.diff(path, axis=0)
-    norms = np.linalg.norm(diff, axis=1)
-    if np.any(norms == 0):
-        k = int(np.argmin(norms))
-        raise BhrError(f"trajectory points {k + 1} and {k + 2} are the same point; remove the duplicate")
-    return diff / norms[:, None]
 
 
 def _sharpest_turn(dirs: np.ndarray) -> tuple[int, float] | None:
@@ -125,6 +67,60 @@ def stats(values: np.ndarray, first: int = 0) -> dict[str, float | int]:
     }
 
 
+def _deprecated(old: str, new: str) -> None:
+    warnings.warn(f"{old} is deprecated; use {new}", DeprecationWarning, stacklevel=3)
+
+
+@dataclass
+class Summary:
+    """The summary of a run (thesis ch. 7's figures of merit): errors in mm and degrees, steps from 1.
+
+    ``points``, ``modules`` and ``global_`` hold, per point (base first) and per
+    module, the max, mean, median and final error and the worst step (see
+    :func:`stats`). ``extra`` holds what the body simulation, the lumen
+    clearance and the solver add. :meth:`to_dict` is the ``summary`` object of
+    ``run.json``.
+    """
+
+    steps: int
+    solver: str
+    trajectory: str
+    tip_max_error_mm: float
+    tip_final_error_mm: float
+    tip_worst_step: int
+    points_max_error_mm: float
+    points_worst_step: int
+    orientation_max_deg: float
+    tip_orientation_max_deg: float
+    tip_orientation_final_deg: float
+    global_max: float
+    mean_iterations: float
+    points: list[dict[str, float | int]]
+    modules: list[dict[str, float | int]]
+    global_: list[dict[str, float | int]]
+    warnings: list[str]
+    extra: dict[str, Any] = field(default_factory=dict)
+
+    def to_dict(self) -> dict[str, Any]:
+        """The summary as plain JSON types, in the key order of ``run.json``."""
+        out: dict[str, Any] = {}
+        for f in fields(self):
+            if f.name != "extra":
+                out["global" if f.name == "global_" else f.name] = getattr(self, f.name)
+        out["warnings"] = list(self.warnings)
+        out.update(self.extra)
+        return out
+
+    def to_json(self) -> str:
+        """:meth:`to_dict` as a JSON string."""
+        return json.dumps(self.to_dict())
+
+    def __call__(self) -> dict[str, Any]:
+        """Deprecated: ``result.summary()`` was a dict; use ``result.summary.to_dict()``."""
+        _deprecated("FollowResult.summary()", "FollowResult.summary.to_dict()")
+        return self.to_dict()
+
+
 @dataclass
 class FollowResult:
     """A whole run: per-step poses, codes and errors, with the summary of the thesis's script."""
@@ -139,18 +135,16 @@ class FollowResult:
     codes: np.ndarray | None = None  # (N, n)
     warnings: list[str] = field(default_factory=list)
     extra: dict[str, Any] = field(default_factory=dict)
-    body: Any = None  # bhr.body.BodyRun: the modules behind the head (follow(..., body_modules=M))
+    body: BodyRun | None = None  # the modules behind the head (follow(..., body_modules=M))
 
     @property
-    def clearance(self) -> Any:
-        """bhr.clearance.ClearanceReport when the trajectory has a lumen (head and body points), else None."""
+    def clearance(self) -> ClearanceReport | None:
+        """The clearance report when the trajectory has a lumen (head and body points), else None."""
         if self.trajectory.lumen is None:
             return None
         key = (id(self.body), id(self.trajectory.lumen), self.point_errors.shape)
         cached = getattr(self, "_clearance_cache", None)
         if cached is None or cached[0] != key:
-            from bhr.clearance import clearance_report
-
             cached = (key, clearance_report(self))
             self._clearance_cache = cached
         return cached[1]
@@ -170,7 +164,8 @@ class FollowResult:
         return (r.weight_pos * self.point_errors[:, 1:] / r.tol_pos
                 + r.weight_ori * self.orientation_errors / r.tol_ori)
 
-    def summary(self) -> dict[str, Any]:
+    @property
+    def summary(self) -> Summary:
         """Max, mean, median and final per point and module (leading unscored steps left out of mean/median)."""
         n = self.modules
         f = self.robot.feed_divisor
@@ -178,25 +173,7 @@ class FollowResult:
         mods = [stats(self.orientation_errors[:, j], (n - j - 1) * f) for j in range(n)]
         glob = [stats(self.global_errors[:, j], (n - j - 1) * f) for j in range(n)]
         worst_flat = int(np.argmax(self.point_errors.max(axis=1))) + 1
-        out = {
-            "steps": self.steps,
-            "solver": self.solver,
-            "trajectory": self.trajectory.name,
-            "tip_max_error_mm": pts[-1]["max"],
-            "tip_final_error_mm": pts[-1]["final"],
-            "tip_worst_step": pts[-1]["worst_step"],
-            "points_max_error_mm": float(self.point_errors.max()),
-            "points_worst_step": worst_flat,
-            "orientation_max_deg": float(self.orientation_errors.max()),
-            "tip_orientation_max_deg": mods[-1]["max"],
-            "tip_orientation_final_deg": mods[-1]["final"],
-            "global_max": float(self.global_errors.max()),
-            "mean_iterations": float(np.mean(self.iterations)),
-            "points": pts,
-            "modules": mods,
-            "global": glob,
-            "warnings": list(self.warnings),
-        }
+        out: dict[str, Any] = {}
         if self.body is not None:
             b = self.body
             out["body_modules"] = self.modules + b.modules
@@ -207,10 +184,18 @@ class FollowResult:
         if cl is not None:
             out.update(cl.summary())
         out.update(self.extra.get("summary", {}))
-        return out
+        return Summary(self.steps, self.solver, self.trajectory.name, pts[-1]["max"], pts[-1]["final"],
+                       int(pts[-1]["worst_step"]), float(self.point_errors.max()), worst_flat,
+                       float(self.orientation_errors.max()), mods[-1]["max"], mods[-1]["final"],
+                       float(self.global_errors.max()), float(np.mean(self.iterations)), pts, mods, glob,
+                       list(self.warnings), out)
 
-    def to_json(self) -> dict[str, Any]:
-        """The ``bhr follow --json`` document (SPEC.md section 3)."""
+    def to_json(self) -> str:
+        """:meth:`to_dict` as a JSON string (the text of ``run.json``)."""
+        return json.dumps(self.to_dict())
+
+    def to_dict(self) -> dict[str, Any]:
+        """The ``bhr follow --json`` document (its keys are a documented contract, docs/commands.md)."""
         steps = []
         for i in range(self.steps):
             steps.append({
@@ -243,12 +228,12 @@ class FollowResult:
             "robot": self.robot.to_dict(),
             "solver": self.solver,
             "steps": steps,
-            "summary": self.summary(),
+            "summary": self.summary.to_dict(),
         }
 
     @classmethod
     def from_json(cls, doc: Any, where: str = "run") -> "FollowResult":
-        """A run back from its :meth:`to_json` document, without solving (``bhr replay``).
+        """A run back from its :meth:`to_dict` document, without solving (``bhr replay``).
 
         Raises :class:`BhrError` naming the first thing wrong (``where`` names the file).
         """
@@ -297,9 +282,10 @@ def _run_from_json(doc: Any, where: str) -> FollowResult:
     oe = np.stack([array(st["module_orientation_errors_deg"], (n,), f"step {k + 1} module_orientation_errors_deg")
                    for k, st in enumerate(steps)])
     iters = [st["iterations"] for st in steps]
-    if not all(isinstance(v, int) and not isinstance(v, bool) and 0 <= v <= ROBOT_LIMITS["max_iter"][0]
+    max_iter = robot_limits()["max_iter"][0]
+    if not all(isinstance(v, int) and not isinstance(v, bool) and 0 <= v <= max_iter
                for v in iters):
-        raise bad(f"every step's iterations must be a whole number from 0 to {ROBOT_LIMITS['max_iter'][0]:g}")
+        raise bad(f"every step's iterations must be a whole number from 0 to {max_iter:g}")
     codes = None
     if any(st["codes"] is not None for st in steps):
         codes = np.zeros((count, n), dtype=np.int64)
@@ -314,7 +300,7 @@ def _run_from_json(doc: Any, where: str) -> FollowResult:
         raise bad("'solver' must be a name")
     summary = doc.get("summary")
     msgs = summary.get("warnings", []) if isinstance(summary, dict) else []
-    params = tr.get("params") if isinstance(tr.get("params"), dict) else {}
+    params: dict[str, Any] = tr["params"] if isinstance(tr.get("params"), dict) else {}
     traj = Trajectory(str(tr.get("name", "run")), path, dict(params), source=where)
     return FollowResult(traj, robot, solver, pts, np.asarray(iters, dtype=np.int64), pe, oe, codes,
                         [str(m) for m in msgs] if isinstance(msgs, list) else [])
@@ -322,10 +308,6 @@ def _run_from_json(doc: Any, where: str) -> FollowResult:
 
 def load_run(path: Any) -> FollowResult:
     """Read a run saved by ``bhr follow`` (``run.json``; ``-`` reads standard input), without solving."""
-    import json
-    import sys
-    from pathlib import Path
-
     from bhr._input import MAX_FILE_BYTES, read_capped
 
     name = "standard input" if str(path) == "-" else str(path)
@@ -370,7 +352,7 @@ def _as_trajectory(points: Any) -> Trajectory:
     return Trajectory("points", arr)
 
 
-def follow(points: Any, solver: str = "seed", robot: Robot | None = None, *,
+def follow(points: Any, solver: str = "thesis", robot: Robot | None = None, *,
            solver_options: dict[str, Any] | None = None,
            on_step: Callable[[int, np.ndarray | None], None] | None = None,
            compiled: bool = True, body_modules: int | None = None, **robot_options: Any) -> FollowResult:
@@ -433,7 +415,7 @@ def follow(points: Any, solver: str = "seed", robot: Robot | None = None, *,
             P = res.chain.points
             tip = res.orientation_error_deg
             if tip is None:
-                tip = float(_angle_deg(P[n, 0] - P[n - 1, 0], P[n, 1] - P[n - 1, 1], P[n, 2] - P[n - 1, 2], d))
+                tip = float(angle_deg(P[n, 0] - P[n - 1, 0], P[n, 1] - P[n - 1, 1], P[n, 2] - P[n - 1, 2], d))
             out_points[i] = P
             out_iters[i] = res.iterations
             score_step(i, P, path, dirs, f, tip, pe[i], oe[i])
@@ -446,8 +428,6 @@ def follow(points: Any, solver: str = "seed", robot: Robot | None = None, *,
             chain = res.chain.advance(robot.feed, robot.module_length)
     result = FollowResult(traj, robot, solver, out_points, out_iters, pe, oe, codes if has_codes else None, msgs)
     if body_modules is not None:
-        from bhr.body import simulate_body
-
         result.body = simulate_body(result, body_modules)
     return result
 

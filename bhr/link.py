@@ -22,11 +22,12 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-from bhr import protocol as P
+import bhr.protocol as P
 from bhr.codes import check_code, check_codes
 from bhr.errors import BhrError, LinkError
 
-__all__ = ["BoardLink", "Pacer", "StreamInterrupted", "check_board", "interrupted", "stream_codes", "validate_codes", "DEFAULT_BAUD",
+__all__ = ["BoardLink", "Pacer", "StreamInterrupted", "check_board", "interrupted", "stream_codes", "validate_codes",
+           "DEFAULT_BAUD",
            "DEFAULT_TIMEOUT", "DEFAULT_RETRIES"]
 
 DEFAULT_BAUD = 115200
@@ -336,7 +337,7 @@ class Pacer:
     def __call__(self, step: int, codes: Sequence[int] | None) -> None:
         if codes is None:
             raise BhrError("this solver gives no module codes, so nothing can be sent to the board; use "
-                           "--solver seed, optimal, or constrained with --limit binary --axes local")
+                           "--solver thesis, optimal, or constrained with --limit binary --axes local")
         self.send(codes)
 
 

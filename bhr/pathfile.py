@@ -31,6 +31,7 @@ from numba import njit
 
 from bhr._input import MAX_MM, MAX_POINTS, check_keys, choice, number, read_text, text_value, type_name, vector3
 from bhr.errors import BhrError
+from bhr.path import Trajectory
 
 __all__ = ["segments_trajectory", "csv_trajectory", "resample_polyline", "estimate_min_radius",
            "MAX_POINTS", "CURVATURE_WINDOW_MM", "SEGMENT_KEYS"]
@@ -96,7 +97,7 @@ def _build_pieces(segs: list[Any], start: np.ndarray, heading: np.ndarray, up: n
         p0, t0, u0 = p.copy(), t.copy(), u.copy()
         if kind == "straight":
             length = number(seg["length"], f"{w}: length", positive=True, unit="mm", maximum=MAX_MM)
-            pieces.append(_Piece(length, lambda s, p0=p0, t0=t0: p0 + s[:, None] * t0, math.inf, lumen))
+            pieces.append(_Piece(length, lambda s, p0=p0, t0=t0: p0 + s[:, None] * t0, math.inf, lumen))  # type: ignore[misc]
             p = p0 + length * t0
         elif kind == "arc":
             r = number(seg["radius"], f"{w}: radius", positive=True, unit="mm", maximum=MAX_MM)
@@ -106,7 +107,7 @@ def _build_pieces(segs: list[Any], start: np.ndarray, heading: np.ndarray, up: n
             d = {"left": left, "right": -left, "up": u0, "down": -u0}[turn]
             theta = math.radians(ang)
             length = r * theta
-            pieces.append(_Piece(length, lambda s, p0=p0, t0=t0, d=d, r=r:
+            pieces.append(_Piece(length, lambda s, p0=p0, t0=t0, d=d, r=r:  # type: ignore[misc]
                                  p0 + (r * np.sin(s / r))[:, None] * t0 + (r * (1.0 - np.cos(s / r)))[:, None] * d,
                                  r, lumen))
             axis = _unit(np.cross(t0, d))
@@ -176,7 +177,6 @@ def _sample(pieces: list[_Piece], feed: float, where: str) -> tuple[np.ndarray, 
 
 def segments_trajectory(data: dict[str, Any], path: Path, feed: float):
     """A :class:`~bhr.trajectory.Trajectory` from a parsed segment file."""
-    from bhr.trajectory import Trajectory
 
     where = str(path)
     check_keys(data, TOP_KEYS, where)
@@ -417,7 +417,8 @@ def estimate_min_radius(pts: np.ndarray, spacing: float, window: float = CURVATU
 
 
 def _circle_response(kappa: float, spacing: float, m: int, w1: np.ndarray, w2: np.ndarray) -> float:
-    """What the fit of :func:`estimate_min_radius` reads on a circle of curvature ``kappa``, points ``spacing`` apart."""
+    """What the fit of :func:`estimate_min_radius` reads on a circle of curvature ``kappa``, points ``spacing``
+    apart."""
     step = 2.0 * math.asin(min(1.0, 0.5 * spacing * kappa))  # angle between points one chord apart
     a = np.arange(-m, m + 1, dtype=np.float64) * step
     x, y = np.sin(a) / kappa, (1.0 - np.cos(a)) / kappa
@@ -452,7 +453,6 @@ def _unbias(k_est: float, spacing: float, m: int, w1: np.ndarray, w2: np.ndarray
 
 def csv_trajectory(path: Path, feed: float):
     """A :class:`~bhr.trajectory.Trajectory` resampled from a CSV point list."""
-    from bhr.trajectory import Trajectory
 
     where = str(path)
     raw, lumen_raw, lines = read_points_csv(path)

@@ -211,7 +211,7 @@ class StepView:
         else:
             new = self.ax.plot([tgt[0]], [tgt[1]], [tgt[2]], "x", color="tab:green", markersize=9, label="target")
         new += draw_robot(self.ax, r.points[i], r.robot.radius, self.planar)
-        if getattr(r, "body", None) is not None and r.body.modules:
+        if r.body is not None and r.body.modules:
             body = np.vstack([r.points[i, :1], r.body.points[i]])
             new += draw_robot(self.ax, body, r.robot.radius, self.planar, color="tab:orange", label="body")
         self.artists = new
@@ -294,7 +294,7 @@ def save_run_plots(result: "FollowResult", out_dir: str | os.PathLike[str]) -> l
     for kind, (name, _, _) in ERROR_KINDS.items():
         files.append(save_figure(error_figure(result, kind), out / name))
     files.append(save_figure(path_figure(result), out / "path.png"))
-    if getattr(result, "body", None) is not None and result.body.modules:
+    if result.body is not None and result.body.modules:
         files.append(save_figure(body_figure(result), out / "body_errors.png"))
     if result.clearance is not None:
         files.append(save_figure(clearance_figure(result), out / "clearance.png"))
@@ -337,7 +337,7 @@ def _draw_touch_points(ax: Any, result: "FollowResult", planar: bool) -> None:
     where = []
     for step, p in cl.touches():
         i = step - 1
-        where.append(result.points[i, p] if p < n1 else result.body.points[i, p - n1])
+        where.append(result.points[i, p] if p < n1 or result.body is None else result.body.points[i, p - n1])
     w = np.array(where)
     style = {"color": "tab:red", "marker": "o", "markersize": 4, "linestyle": "none", "alpha": 0.6,
              "label": "wall touched"}
@@ -350,6 +350,7 @@ def _draw_touch_points(ax: Any, result: "FollowResult", planar: bool) -> None:
 def body_figure(result: "FollowResult") -> plt.Figure:
     """Position error of the body behind the head: the largest over its points, and its last point."""
     b = result.body
+    assert b is not None, "body_figure needs a run with a body (follow(..., body_modules=M))"
     steps = np.arange(1, result.steps + 1)
     fig, ax = plt.subplots(figsize=(10, 4))
     ax.plot(steps, result.point_errors.max(axis=1), color="tab:blue", linewidth=1.0, label="head (largest point)")
@@ -372,6 +373,7 @@ def body_figure(result: "FollowResult") -> plt.Figure:
 def clearance_figure(result: "FollowResult") -> plt.Figure:
     """Smallest clearance to the lumen wall at each step (mm); below zero the wall is touched."""
     cl = result.clearance
+    assert cl is not None, "clearance_figure needs a trajectory with a lumen"
     steps = np.arange(1, result.steps + 1)
     fig, ax = plt.subplots(figsize=(10, 4))
     ax.plot(steps, cl.per_step, color="tab:green", linewidth=1.0, label="smallest clearance")

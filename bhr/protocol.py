@@ -19,6 +19,7 @@ from dataclasses import dataclass, field
 from typing import Iterable, Sequence
 
 from bhr.errors import BhrError
+from bhr.codes import check_codes
 
 __all__ = [
     "SYNC", "VERSION", "HEADER_LEN", "CRC_LEN", "MAX_PAYLOAD", "MAX_FRAME",
@@ -157,8 +158,6 @@ def set_codes_frame(seq: int, codes: Iterable[int]) -> bytes:
 
     The codes are checked here too: an unstable code is never encoded.
     """
-    from bhr.codes import check_codes
-
     values = check_codes(list(codes))
     if not values:
         raise ProtocolError("SET_CODES needs at least one module code")

@@ -9,7 +9,7 @@ optional ``[defaults]`` table gives values every run starts from, and
 
     title = "Chapter 7"
     [defaults]
-    solver = "seed"
+    solver = "thesis"
     [[run]]
     name = "curve 90"
     traj = "curve"
@@ -50,27 +50,34 @@ from pathlib import Path
 from typing import Any, Callable, Iterable, Sequence
 
 from bhr.errors import BhrError
+from bhr import __version__
+from bhr.atomic import write_json, write_text
+from bhr.follow import BhrWarning, follow
+from bhr.options import BY_NAME, by_group, solver_options_for
+from bhr.robot import Robot
+from bhr.robotfile import load_robot_file
+from bhr.solvers import get_solver
+from bhr.trajectory import GENERATORS, load_trajectory
 
 __all__ = ["RunSpec", "Batch", "load_batch", "parse_batch", "execute_run", "run_batch", "BatchReport",
            "ROW_FIELDS", "TRAJ_KEYS", "ROBOT_KEYS", "CONSTRAINT_KEYS", "NUMBER_KEYS", "INT_KEYS",
            "summary_row", "format_table", "html_page", "csv_text", "robot_from_options"]
 
+# The keys of a run table come from the option registry (bhr.options), as the command-line options do.
 #: Trajectory options (CLI long names with underscores), as in ``bhr follow``.
-TRAJ_KEYS = ("length", "azimuth", "elevation", "radius", "angle", "entry", "exit", "pitch", "turns")
+TRAJ_KEYS = tuple(o.name for o in by_group("trajectory"))
 #: Robot options: batch key -> :class:`bhr.robot.Robot` field (``robot_radius`` is the robot's, ``radius`` the path's).
-ROBOT_KEYS = {
-    "modules": "modules", "module_length": "module_length", "robot_radius": "radius", "alpha": "alpha",
-    "stroke": "stroke", "lever": "lever", "tol_pos": "tol_pos", "tol_ori": "tol_ori", "max_iter": "max_iter",
-    "feed_divisor": "feed_divisor", "weight_pos": "weight_pos", "weight_ori": "weight_ori",
-}
+ROBOT_KEYS = {o.name: o.key for o in by_group("robot")}
 #: Options of the constrained solvers and their allowed values (None: a whole number).
-CONSTRAINT_KEYS: dict[str, tuple[str, ...] | None] = {"limit": ("binary", "continuous", "none"),
-                                                       "axes": ("local", "free"), "warmup": None}
+CONSTRAINT_KEYS: dict[str, tuple[str, ...] | None] = {o.name: o.choices for o in by_group("constraint")}
+#: Options of one solver (``--solver optimal``): key -> the solvers that take it.
+SOLVER_KEYS: dict[str, tuple[str, ...]] = {o.name: o.solvers or () for o in by_group("solver")}
 #: Keys whose value is a whole number.
-INT_KEYS = frozenset({"modules", "max_iter", "feed_divisor", "warmup"})
+INT_KEYS = frozenset(o.name for o in by_group("robot", "trajectory", "constraint", "solver") if o.kind is int)
 #: Keys whose value is a number.
-NUMBER_KEYS = frozenset(TRAJ_KEYS) | frozenset(ROBOT_KEYS) | {"warmup"}
-_STRING_KEYS = frozenset({"name", "description", "traj", "solver", "robot", "limit", "axes"})
+NUMBER_KEYS = frozenset(o.name for o in by_group("robot", "trajectory", "constraint", "solver") if o.choices is None)
+_STRING_KEYS = frozenset({"name", "description", "traj", "solver", "robot"}) | {
+    o.name for o in by_group("constraint") if o.choices is not None}
 RUN_KEYS = frozenset(NUMBER_KEYS | _STRING_KEYS)
 _TOP_KEYS = ("title", "description", "defaults", "run")
 
@@ -95,7 +102,7 @@ class RunSpec:
 
     name: str
     traj: str
-    solver: str = "seed"
+    solver: str = "thesis"
     description: str = ""
     traj_params: dict[str, float] = field(default_factory=dict)
     robot_params: dict[str, Any] = field(default_factory=dict)  # Robot fields
@@ -128,21 +135,11 @@ def _suggest(key: str, allowed: Iterable[str]) -> str:
 
 
 def check_value(key: str, value: Any, where: str) -> Any:
-    """The value of one run key, type-checked; raises BhrError naming ``where`` and the key."""
-    if key in NUMBER_KEYS:
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise BhrError(f"{where}: {key} must be a number, got {value!r}")
-        if not math.isfinite(float(value)):
-            raise BhrError(f"{where}: {key} must be a finite number, got {value!r}")
-        if key in INT_KEYS:
-            if float(value) != int(value):
-                raise BhrError(f"{where}: {key} must be a whole number, got {value!r}")
-            return int(value)
-        return value
+    """The value of one run key, type-checked and within its limits (bhr.options); raises BhrError naming ``where``."""
+    if key in BY_NAME:
+        return BY_NAME[key].check(value, where)
     if not isinstance(value, str):
         raise BhrError(f"{where}: {key} must be a string, got {value!r}")
-    if key in CONSTRAINT_KEYS and value not in (CONSTRAINT_KEYS[key] or ()):
-        raise BhrError(f"{where}: {key} must be one of {', '.join(CONSTRAINT_KEYS[key] or ())}, got {value!r}")
     if key in ("name", "traj", "solver", "robot") and not value.strip():
         raise BhrError(f"{where}: {key} must not be empty")
     return value
@@ -166,8 +163,6 @@ def _resolve(path: str, base: Path) -> str:
 
 def parse_batch(data: dict[str, Any], source: str = "batch", base_dir: str | os.PathLike[str] = ".") -> Batch:
     """A :class:`Batch` from the parsed TOML ``data``; relative paths are taken from ``base_dir``."""
-    from bhr.trajectory import GENERATORS
-
     base = Path(base_dir)
     for key in data:
         if key not in _TOP_KEYS:
@@ -205,11 +200,12 @@ def parse_batch(data: dict[str, Any], source: str = "batch", base_dir: str | os.
                                    f"(its parameters: {', '.join(allowed) or 'none'})")
         else:
             traj = _resolve(traj, base)
+        solver = values.get("solver", "thesis")
         spec = RunSpec(
-            name=name, traj=traj, solver=values.get("solver", "seed"), description=values.get("description", ""),
+            name=name, traj=traj, solver=solver, description=values.get("description", ""),
             traj_params=tp,
             robot_params={fld: values[key] for key, fld in ROBOT_KEYS.items() if key in values},
-            solver_options={key: values[key] for key in CONSTRAINT_KEYS if key in values},
+            solver_options=solver_options_for(solver, values),
             robot_file=_resolve(values["robot"], base) if "robot" in values else None,
         )
         _check_values(spec, where)
@@ -225,10 +221,6 @@ def _check_values(spec: RunSpec, where: str) -> None:
     """
     if spec.robot_file is not None:
         return
-    from bhr.robot import Robot
-    from bhr.solvers import get_solver
-    from bhr.trajectory import GENERATORS, load_trajectory
-
     try:
         robot = Robot(**spec.robot_params)
         get_solver(spec.solver, robot, **spec.solver_options)
@@ -263,14 +255,7 @@ def load_batch(path: str | os.PathLike[str]) -> Batch:
 
 def robot_from_options(robot_params: dict[str, Any], robot_file: str | None = None):
     """The :class:`bhr.robot.Robot` of a run: the robot file (if any) with the options on top."""
-    from bhr.robot import Robot
-
     if robot_file is not None:
-        try:
-            from bhr.robotfile import load_robot_file
-        except ModuleNotFoundError:
-            raise BhrError("robot files need bhr.robotfile, which this installation lacks; "
-                           "give the robot options in the run table instead") from None
         base = load_robot_file(robot_file).robot
         return base.replace(**robot_params) if robot_params else base
     return Robot(**robot_params)
@@ -321,9 +306,6 @@ def execute_run(spec: RunSpec, out_dir: str | os.PathLike[str] | None = None, pl
     (name and parameters), ``robot``, ``stats`` (per point and module),
     ``figures`` (file names written).
     """
-    from bhr.follow import BhrWarning, follow
-    from bhr.trajectory import load_trajectory
-
     t0 = time.perf_counter()
     row: dict[str, Any] = {"name": spec.name, "status": "ok", "traj": spec.traj, "solver": spec.solver,
                            "description": spec.description, "inputs": spec.inputs()}
@@ -341,7 +323,7 @@ def execute_run(spec: RunSpec, out_dir: str | os.PathLike[str] | None = None, pl
             s0 = time.perf_counter()
             result = follow(tr, solver=spec.solver, robot=robot, solver_options=spec.solver_options)
             row["solve_time_s"] = time.perf_counter() - s0
-        summary = result.summary()
+        summary = result.summary.to_dict()
         row.update(summary_row(summary))
         row["warnings"] = [str(w) for w in summary.get("warnings", [])]
         if row["min_clearance_mm"] is not None:
@@ -349,10 +331,8 @@ def execute_run(spec: RunSpec, out_dir: str | os.PathLike[str] | None = None, pl
                                                             "wall_touch_steps")}
         row["stats"] = {"points": summary["points"], "modules": summary["modules"], "global": summary["global"]}
         if out_dir is not None:
-            from bhr.atomic import write_json
-
             out = Path(out_dir)
-            write_json(out / "run.json", result.to_json())
+            write_json(out / "run.json", result.to_dict())
             if plots:
                 from bhr.plots import save_run_plots
 
@@ -416,9 +396,9 @@ def run_batch(batch: Batch, out_dir: str | os.PathLike[str], *, jobs: int = 1, p
     workers = min(jobs, total)
     if workers <= 1:
         for k, job in enumerate(job_list):
-            rows[k] = _execute_job(job)
+            got = rows[k] = _execute_job(job)
             if progress is not None:
-                progress(k + 1, total, rows[k])
+                progress(k + 1, total, got)
     else:
         import multiprocessing
 
@@ -427,10 +407,10 @@ def run_batch(batch: Batch, out_dir: str | os.PathLike[str], *, jobs: int = 1, p
             done = 0
             for fut in as_completed(futures):
                 k = futures[fut]
-                rows[k] = fut.result()
+                got = rows[k] = fut.result()
                 done += 1
                 if progress is not None:
-                    progress(done, total, rows[k])
+                    progress(done, total, got)
     wall = time.perf_counter() - t0
     final: list[dict[str, Any]] = []
     for row, s in zip(rows, slugs):
@@ -470,9 +450,6 @@ def _json_row(row: dict[str, Any]) -> dict[str, Any]:
 
 def write_report(report: BatchReport, inline_images: bool = False) -> list[Path]:
     """Write index.html, summary.csv and summary.json of ``report`` (atomically)."""
-    from bhr import __version__
-    from bhr.atomic import write_json, write_text
-
     out = report.out_dir
     write_text(out / "summary.csv", csv_text(report.rows))
     write_json(out / "summary.json", {
@@ -664,8 +641,6 @@ def _run_section(row: dict[str, Any], anchor: str, out_dir: Path, inline: bool) 
 
 def html_page(report: BatchReport, inline_images: bool = False) -> str:
     """The report page: title, the summary table, then one section per run (escaped, self-contained)."""
-    from bhr import __version__
-
     b = report.batch
     anchors = [f"run-{r['folder'].split('/', 1)[1]}" for r in report.rows]
     failed = len(report.failed)

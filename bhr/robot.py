@@ -13,11 +13,10 @@ from dataclasses import asdict, dataclass, fields
 from typing import Any, Sequence
 
 import numpy as np
-from numba import njit
 
-from bhr._input import ROBOT_LIMITS
+from bhr.options import robot_limits
 from bhr.codes import check_codes
-from bhr.dualquat import k_rotate
+from bhr.kinematics.frames import fk_kernel
 from bhr.errors import BhrError
 
 __all__ = ["Robot", "alpha_from_stroke", "min_turn_radius", "base_frame", "forward_kinematics", "straight_chain"]
@@ -95,9 +94,9 @@ class Robot:
             w = getattr(self, name)
             if not isinstance(w, (int, float)) or not math.isfinite(w) or w < 0:
                 raise BhrError(f"{name.replace('_', '-')} must be a non-negative number, got {w!r}")
-        for key, (top, unit) in ROBOT_LIMITS.items():  # the same upper limits wherever a robot comes from
-            value = getattr(self, key)
-            if value is not None and value > top:
+        for key, (top, unit) in robot_limits().items():  # the registry's upper limits, wherever a robot comes from
+            value = getattr(self, key, None)
+            if value is not None and top is not None and value > top:
                 u = f" {unit}" if unit else ""
                 raise BhrError(f"{key.replace('_', ' ')} {value:g}{u} is too large; the limit is {top:g}{u}")
         object.__setattr__(self, "modules", int(self.modules))
@@ -133,6 +132,16 @@ class Robot:
         data.update(changes)
         return Robot(**data)
 
+    def fk(self, codes: Sequence[int], base: Sequence[float] = (0, 0, 0),
+           frame: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """Points (n+1, 3) and module frames (n, 3, 3) for one code per module (see :func:`forward_kinematics`).
+
+        >>> pts, frames = Robot(modules=2).fk([0, 0])
+        >>> pts[-1].tolist()
+        [20.0, 0.0, 0.0]
+        """
+        return forward_kinematics(self, codes, base, frame)
+
     def to_dict(self) -> dict[str, Any]:
         d = asdict(self)
         d["feed"] = self.feed
@@ -140,7 +149,8 @@ class Robot:
         return d
 
 
-def straight_chain(n: int, length: float, direction: Sequence[float], origin: Sequence[float] = (0, 0, 0),
+def straight_chain(n: int, length: float, direction: Sequence[float] | np.ndarray,
+                   origin: Sequence[float] | np.ndarray = (0, 0, 0),
                    tip_at_origin: bool = False) -> np.ndarray:
     """Points (n+1, 3) of a straight chain along ``direction``, base first.
 
@@ -156,7 +166,7 @@ def straight_chain(n: int, length: float, direction: Sequence[float], origin: Se
     return o + steps * d
 
 
-def base_frame(direction: Sequence[float]) -> np.ndarray:
+def base_frame(direction: Sequence[float] | np.ndarray) -> np.ndarray:
     """A right-handed frame (rows x, y, z) whose z is ``direction``.
 
     For an axis-aligned direction the frame is the cyclic permutation of the
@@ -178,77 +188,6 @@ def base_frame(direction: Sequence[float]) -> np.ndarray:
     return np.stack([x, y, z])
 
 
-@njit(cache=True)
-def tilt_frame(F: np.ndarray, k: int, c: float, s: float, out: np.ndarray) -> None:
-    """Frame ``F`` (rows x, y, z) tilted by alpha about its own +x, +y, -x, -y (k = 1..4) into ``out``.
-
-    ``c``, ``s`` are cos and sin of alpha; ``k = 0`` copies the frame. The
-    search index order (rest, +x, +y, -x, -y) is codes 0, 3, 6, 12, 9.
-    """
-    if k == 0:
-        for a in range(3):
-            for b in range(3):
-                out[a, b] = F[a, b]
-        return
-    ss = s if k <= 2 else -s
-    if k == 1 or k == 3:  # about x: y' = c y + s z, z' = c z - s y
-        for b in range(3):
-            x, y, z = F[0, b], F[1, b], F[2, b]
-            out[0, b] = x
-            out[1, b] = c * y + ss * z
-            out[2, b] = c * z - ss * y
-    else:  # about y: z' = c z + s x, x' = c x - s z
-        for b in range(3):
-            x, y, z = F[0, b], F[1, b], F[2, b]
-            out[0, b] = c * x - ss * z
-            out[1, b] = y
-            out[2, b] = c * z + ss * x
-
-
-@njit(cache=True)
-def _fk_kernel(codes: np.ndarray, base: np.ndarray, frame: np.ndarray, length: float, lift: float,
-               alpha_deg: float, points: np.ndarray, frames: np.ndarray) -> None:
-    """Chain points and module frames from codes (see :func:`forward_kinematics`)."""
-    n = codes.shape[0]
-    h = math.radians(alpha_deg) / 2.0
-    c, s = math.cos(h), math.sin(h)
-    fx = frame[0].copy()
-    fy = frame[1].copy()
-    fz = frame[2].copy()
-    points[0] = base
-    for i in range(n):
-        code = codes[i]
-        extra = 0.0
-        axis_idx = -1
-        sign = 1.0
-        if code == 3:
-            axis_idx = 0
-        elif code == 6:
-            axis_idx = 1
-        elif code == 12:
-            axis_idx = 0
-            sign = -1.0
-        elif code == 9:
-            axis_idx = 1
-            sign = -1.0
-        elif code == 15:
-            extra = lift
-        if axis_idx >= 0:
-            a = fx * sign if axis_idx == 0 else fy * sign
-            # rotate the three frame vectors about a (a is one of them, up to sign)
-            x0, x1, x2 = k_rotate(fx[0], fx[1], fx[2], c, s, a[0], a[1], a[2])
-            y0, y1, y2 = k_rotate(fy[0], fy[1], fy[2], c, s, a[0], a[1], a[2])
-            z0, z1, z2 = k_rotate(fz[0], fz[1], fz[2], c, s, a[0], a[1], a[2])
-            fx[0], fx[1], fx[2] = x0, x1, x2
-            fy[0], fy[1], fy[2] = y0, y1, y2
-            fz[0], fz[1], fz[2] = z0, z1, z2
-        frames[i, 0] = fx
-        frames[i, 1] = fy
-        frames[i, 2] = fz
-        for k in range(3):
-            points[i + 1, k] = points[i, k] + (length + extra) * fz[k]
-
-
 def forward_kinematics(robot: Robot, codes: Sequence[int], base: Sequence[float] = (0, 0, 0),
                        frame: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Points (n+1, 3) and module frames (n, 3, 3) of the chain for ``codes``.
@@ -266,7 +205,7 @@ def forward_kinematics(robot: Robot, codes: Sequence[int], base: Sequence[float]
     fr = base_frame((1, 0, 0)) if frame is None else np.asarray(frame, dtype=np.float64)
     points = np.empty((robot.modules + 1, 3))
     frames = np.empty((robot.modules, 3, 3))
-    _fk_kernel(codes_arr, np.asarray(base, dtype=np.float64), fr, float(robot.module_length),
+    fk_kernel(codes_arr, np.asarray(base, dtype=np.float64), fr, float(robot.module_length),
                float(robot.lift), float(robot.alpha), points, frames)
     return points, frames
 

@@ -21,9 +21,10 @@ from importlib import resources
 from pathlib import Path
 from typing import Any, Sequence
 
-from bhr._input import ROBOT_LIMITS, check_keys, number, read_toml, text_value, type_name
+from bhr._input import check_keys, number, read_toml, text_value, type_name
 from bhr.codes import CODE_AXIS, LIFT, REST, VALID_CODES
 from bhr.errors import BhrError
+from bhr.options import by_group
 from bhr.robot import Robot
 
 __all__ = ["RobotFile", "LinkSettings", "load_robot_file", "default_robot_file", "code_table", "ROBOT_KEYS",
@@ -31,20 +32,12 @@ __all__ = ["RobotFile", "LinkSettings", "load_robot_file", "default_robot_file",
 
 HINT = "see docs/robot-files.md"
 
-#: Robot keys of a robot file (the fields of :class:`bhr.robot.Robot`), with their checks.
+#: Robot keys of a robot file (the fields of :class:`bhr.robot.Robot`) with their checks, from :mod:`bhr.options`.
+#: alpha's range (0, 90) is checked with its own message.
 ROBOT_KEYS: dict[str, dict[str, Any]] = {
-    "modules": {"integer": True, "positive": True},
-    "module_length": {"positive": True, "unit": "mm"},
-    "radius": {"positive": True, "unit": "mm"},
-    "alpha": {"unit": "deg"},  # range (0, 90) checked with its own message
-    "stroke": {"positive": True, "unit": "mm"},
-    "lever": {"positive": True, "unit": "mm"},
-    "tol_pos": {"positive": True, "unit": "mm"},
-    "tol_ori": {"positive": True, "unit": "deg"},
-    "max_iter": {"integer": True, "positive": True},
-    "feed_divisor": {"integer": True, "positive": True},
-    "weight_pos": {"nonneg": True},
-    "weight_ori": {"nonneg": True},
+    o.key: {"integer": o.kind is int, "positive": o.positive, "nonneg": o.nonneg, "unit": o.unit,
+            "maximum": None if o.maximum is None else o.limit}
+    for o in by_group("robot")
 }
 LINK_KEYS = ("port", "baudrate", "module_order", "on_max_ms", "cooldown_ms", "silence_ms")
 TOP_KEYS = ("name", "description", *ROBOT_KEYS, "codes", "link")
@@ -235,8 +228,7 @@ def load_robot_file(path: str | os.PathLike[str]) -> RobotFile:
     fields_: dict[str, Any] = {}
     for key, rules in ROBOT_KEYS.items():
         if key in data:
-            top = None if key == "alpha" else ROBOT_LIMITS[key][0]
-            fields_[key] = number(data[key], f"{where}: {key}", maximum=top, **rules)
+            fields_[key] = number(data[key], f"{where}: {key}", **rules)
     has_sl = "stroke" in fields_ or "lever" in fields_
     if has_sl and "alpha" in fields_:
         raise BhrError(f"{where}: give alpha, or stroke and lever (alpha = asin(stroke/lever)), not both")

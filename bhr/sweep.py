@@ -32,8 +32,16 @@ from pathlib import Path
 from typing import Any, Callable, Iterable, Sequence
 
 from bhr.errors import BhrError
-from bhr.report import (CONSTRAINT_KEYS, NUMBER_KEYS, ROBOT_KEYS, TRAJ_KEYS, _reason, _suggest,
-                        check_value, summary_row)
+from bhr import __version__
+from bhr.atomic import write_json, write_text
+from bhr.follow import BhrWarning, follow
+from bhr.options import solver_options_for
+from bhr.report import (CONSTRAINT_KEYS, NUMBER_KEYS, PAGE_END, ROBOT_KEYS, TRAJ_KEYS, _reason, _suggest,
+                        check_value, page_head, summary_row)
+from bhr.robot import Robot
+from bhr.robotfile import load_robot_file
+from bhr.solvers import available, canonical
+from bhr.trajectory import GENERATORS, load_trajectory
 
 __all__ = ["Sweep", "SweepResult", "GRID_KEYS", "parse_grid_option", "parse_values", "sweep_from_toml",
            "load_sweep", "build_sweep", "run_design", "run_chunk", "run_sweep", "heatmap_axes",
@@ -126,7 +134,7 @@ class Sweep:
     """Trajectories x solvers x grid. ``traj_sources`` maps each trajectory label to what is loaded."""
 
     trajs: tuple[str, ...] = ("curve",)
-    solvers: tuple[str, ...] = ("seed",)
+    solvers: tuple[str, ...] = ("thesis",)
     grid: tuple[tuple[str, tuple[Any, ...]], ...] = ()
     title: str = "bhr sweep"
     description: str = ""
@@ -176,7 +184,7 @@ def sweep_from_toml(data: dict[str, Any], source: str = "sweep", base_dir: str |
         raise BhrError(f"{source}: [grid] must be a table of KEY = values")
     grid = tuple((k, parse_values(k, v, f"{source}: [grid]")) for k, v in grid_table.items())
     trajs = _as_list(data.get("traj", "curve"), "traj", source)
-    solvers = _as_list(data.get("solver", "seed"), "solver", source)
+    solvers = _as_list(data.get("solver", "thesis"), "solver", source)
     robot_file = None
     if "robot" in data:
         if not isinstance(data["robot"], str) or not data["robot"].strip():
@@ -220,9 +228,6 @@ def build_sweep(trajs: Sequence[str], solvers: Sequence[str], grid: Iterable[tup
     ``robot_file``: a robot description (TOML) every design starts from; its
     grid values replace the file's.
     """
-    from bhr.solvers import available
-    from bhr.trajectory import GENERATORS, load_trajectory
-
     grid = tuple(grid)
     keys = [k for k, _ in grid]
     dup = {k for k in keys if keys.count(k) > 1}
@@ -232,7 +237,7 @@ def build_sweep(trajs: Sequence[str], solvers: Sequence[str], grid: Iterable[tup
         raise BhrError(f"{where}: a sweep needs at least one trajectory and one solver")
     names = available()
     for s in solvers:
-        if s not in names:
+        if canonical(s) not in names:
             raise BhrError(f"{where}: unknown solver {s!r}; choose from {', '.join(names)}")
     sources = {}
     base = Path(base_dir)
@@ -245,8 +250,6 @@ def build_sweep(trajs: Sequence[str], solvers: Sequence[str], grid: Iterable[tup
     base_robot: dict[str, Any] = {}
     if robot_file is not None:
         from dataclasses import fields
-
-        from bhr.robotfile import load_robot_file
 
         rb = load_robot_file(robot_file).robot
         base_robot = {f.name: getattr(rb, f.name) for f in fields(rb)}
@@ -266,7 +269,7 @@ def build_sweep(trajs: Sequence[str], solvers: Sequence[str], grid: Iterable[tup
             for v in values[1:]:
                 check_robot({**robot_first, ROBOT_KEYS[k]: v}, f"{k} = {v}")
     for t in trajs:
-        def check_traj(params: dict[str, Any], what: str) -> None:
+        def check_traj(params: dict[str, Any], what: str, t: str = t) -> None:
             try:
                 load_trajectory(sources[t], feed=robot.feed, **params)
             except BhrError as exc:
@@ -294,16 +297,11 @@ def build_sweep(trajs: Sequence[str], solvers: Sequence[str], grid: Iterable[tup
 
 def make_robot(params: dict[str, Any], base: dict[str, Any] | None = None) -> Any:
     """The Robot of a design: ``base`` (a robot file's fields, or bhr's defaults) with ``params`` on top."""
-    from bhr.robot import Robot
-
     return Robot(**base).replace(**params) if base else Robot(**params)
 
 
 def run_design(design: dict[str, Any], traj_source: str, base_robot: dict[str, Any] | None = None) -> dict[str, Any]:
     """Follow one design's trajectory; return its row (design keys, then :data:`METRICS`). Never raises."""
-    from bhr.follow import BhrWarning, follow
-    from bhr.trajectory import load_trajectory
-
     row: dict[str, Any] = dict(design)
     row.update({k: None for k in METRICS})
     row["status"] = "ok"
@@ -314,8 +312,8 @@ def run_design(design: dict[str, Any], traj_source: str, base_robot: dict[str, A
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", BhrWarning)
             res = follow(tr, solver=design["solver"], robot=robot,
-                         solver_options={k: v for k, v in design.items() if k in CONSTRAINT_KEYS})
-        row.update(summary_row(res.summary()))
+                         solver_options=solver_options_for(design["solver"], design))
+        row.update(summary_row(res.summary.to_dict()))
     except (KeyboardInterrupt, SystemExit):
         raise
     except Exception as exc:  # one failed design must not stop the sweep
@@ -489,7 +487,7 @@ def run_sweep(sweep: Sweep, *, jobs: int | None = None, scheduler: Any = None,
         rows[i] = row
     if any(r is None for r in rows):
         raise BhrError("some designs came back without a result; run the sweep again")
-    final = [{"design": i + 1, **r} for i, r in enumerate(rows)]  # type: ignore[arg-type]
+    final = [{"design": i + 1, **r} for i, r in enumerate(rows)]  # type: ignore[arg-type,dict-item]
     return SweepResult(sweep, final, wall, runner, workers)
 
 
@@ -622,9 +620,6 @@ def best_rows(result: SweepResult, count: int = 10) -> list[dict[str, Any]]:
 def _html(result: SweepResult, heatmap: str | None) -> str:
     import html as _h
 
-    from bhr import __version__
-    from bhr.report import PAGE_END, page_head
-
     def e(v: Any) -> str:
         return _h.escape(str(v), quote=True)
 
@@ -676,9 +671,6 @@ def _html(result: SweepResult, heatmap: str | None) -> str:
 def write_outputs(result: SweepResult, out_dir: str | os.PathLike[str], *, plot: bool = True,
                   x: str | None = None, y: str | None = None) -> list[Path]:
     """Write results.csv, results.json, heatmap.png (when ``plot``) and index.html into ``out_dir``."""
-    from bhr import __version__
-    from bhr.atomic import write_json, write_text
-
     out = Path(out_dir)
     files = [out / "results.csv", out / "results.json"]
     write_text(files[0], results_csv(result))

@@ -19,17 +19,21 @@ from __future__ import annotations
 
 import math
 import os
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
 from typing import Any, Callable
 
 import numpy as np
 
+import bhr.pathfile as pathfile
 from bhr._callable import make_callable
+from bhr._input import check_keys, number, read_toml, text_value
 from bhr.errors import BhrError
+from bhr.pathfile import MAX_POINTS
+from bhr.path import Trajectory, path_directions
 
-__all__ = ["Trajectory", "trajectory", "load_trajectory", "builtin_names", "GENERATORS",
+__all__ = ["Trajectory", "path_directions", "trajectory", "load_trajectory", "builtin_names", "GENERATORS",
            "line", "curve", "spiral", "colon"]
 
 
@@ -66,7 +70,8 @@ def spiral(feed: float, radius: float = 80.0, pitch: float = 40.0, turns: float 
     return pts
 
 
-def curve(feed: float, radius: float = 70.0, angle: float = 90.0, entry: float = 30.0, exit: float = 30.0) -> np.ndarray:
+def curve(feed: float, radius: float = 70.0, angle: float = 90.0, entry: float = 30.0,
+          exit: float = 30.0) -> np.ndarray:
     """Entry straight along +x, clockwise arc of ``radius`` turning ``angle`` deg, exit straight."""
     ang = angle * 2 * math.pi / 360
     total = exit + entry + ang * radius
@@ -191,26 +196,6 @@ _POSITIVE = {"length", "radius", "angle", "pitch", "turns"}
 _NONNEG = {"entry", "exit"}
 
 
-@dataclass
-class Trajectory:
-    """Points (N, 3) spaced by the feed, plus what is known about the path."""
-
-    name: str
-    points: np.ndarray
-    params: dict[str, Any] = field(default_factory=dict)
-    min_radius: float = math.inf
-    lumen: np.ndarray | None = None  # lumen diameter (mm) at each point, if known
-    source: str = ""
-    start_direction: tuple[float, float, float] = (1.0, 0.0, 0.0)
-    start_point: tuple[float, float, float] = (0.0, 0.0, 0.0)
-
-    @property
-    def planar(self) -> bool:
-        """True when every point has the same z (drawn from the top)."""
-        z = self.points[:, 2]
-        return bool(np.ptp(z) <= 1e-9 * max(1.0, float(np.abs(self.points).max())))
-
-
 def _check_params(gen_name: str, params: dict[str, Any], where: str) -> dict[str, float]:
     gen = GENERATORS[gen_name]
     out = dict(gen.params)
@@ -288,8 +273,6 @@ def _from_generator(gen_name: str, file_params: dict[str, Any], cli_params: dict
     merged.update({k: v for k, v in cli_params.items() if v is not None})
     p = _check_params(gen_name, merged, where)
     gen = GENERATORS[gen_name]
-    from bhr.pathfile import MAX_POINTS
-
     count = _generator_length(gen_name, p) / feed
     if count > MAX_POINTS:
         raise BhrError(f"{where}: the {gen_name} is {count * feed:g} mm long, {count:.0f} points at a feed of "
@@ -306,8 +289,6 @@ _HINT = "see docs/trajectories.md"
 
 def _generator_lumen(spec: Any, gen_name: str, traj: Trajectory, feed: float, where: str) -> np.ndarray:
     """Lumen diameter per point from a generator file's ``lumen``: one number, or a table per section."""
-    from bhr._input import number, type_name
-
     n = traj.points.shape[0]
     if not isinstance(spec, dict):
         return np.full(n, number(spec, f"{where}: lumen", positive=True, unit="mm", maximum=1e6))
@@ -334,9 +315,6 @@ def _generator_lumen(spec: Any, gen_name: str, traj: Trajectory, feed: float, wh
 
 def _from_file(path: Path, feed: float, params: dict[str, Any], builtin: bool) -> Trajectory:
     """A trajectory file: TOML (a generator and its parameters, or segments) or CSV (points)."""
-    from bhr import pathfile
-    from bhr._input import check_keys, read_toml, text_value
-
     suffix = path.suffix.lower()
     if suffix not in (".toml", ".csv"):
         raise BhrError(f"{path}: trajectory files are .toml (a generator or segments) or .csv (points); {_HINT}")

@@ -1,4 +1,8 @@
-"""Options shared by the commands that simulate: robot, solver constraints, trajectory."""
+"""Options shared by the commands that simulate: robot, solver constraints, trajectory.
+
+Every option here is built from the registry in :mod:`bhr.options` (name, type, unit, limit, default,
+help), the same one robot files, batch files and sweep grids are checked against.
+"""
 from __future__ import annotations
 
 import math
@@ -6,7 +10,7 @@ from typing import Any, Callable
 
 import click
 
-from bhr._input import MAX_MM, ROBOT_LIMITS
+from bhr.options import MAX_MM, Option, by_group
 
 
 def plain_number(text: str) -> bool:
@@ -71,11 +75,6 @@ class PlainIntRange(click.IntRange):
         return super().convert(value, param, ctx)
 
 
-def _lim(field: str, kind: type = float) -> Bounded:
-    top, unit = ROBOT_LIMITS[field]
-    return Bounded(kind, top, unit)
-
-
 #: Slowest streaming rate accepted (Hz): one step every 100 s.
 MIN_RATE = 0.01
 
@@ -83,22 +82,31 @@ MIN_RATE = 0.01
 MM = Bounded(float, MAX_MM, "mm")
 DEG = Bounded(float, 1e6, "deg")
 
-ROBOT_FIELDS = {
-    "modules": "modules",
-    "module_length": "module_length",
-    "robot_radius": "radius",
-    "alpha": "alpha",
-    "stroke": "stroke",
-    "lever": "lever",
-    "tol_pos": "tol_pos",
-    "tol_ori": "tol_ori",
-    "max_iter": "max_iter",
-    "feed_divisor": "feed_divisor",
-    "weight_pos": "weight_pos",
-    "weight_ori": "weight_ori",
-}
-TRAJ_FIELDS = ("length", "azimuth", "elevation", "radius", "angle", "entry", "exit", "pitch", "turns")
-CONSTRAINT_FIELDS = ("limit", "axes", "warmup")
+#: Command-line parameter name -> registry option, for every option built from bhr.options.
+_PARAM: dict[str, Option] = {}
+
+
+def _param(o: Option) -> str:
+    return "exit_" if o.name == "exit" else o.name
+
+
+def _click_option(o: Option) -> Callable[[Any], Any]:
+    """The click option of one registry entry: its flag, type (with the registry's limit), help and default."""
+    _PARAM[_param(o)] = o
+    if o.choices is not None:
+        kind: Any = click.Choice(list(o.choices))
+    elif o.kind == "weights":
+        kind = WeightList()
+    elif o.group == "solver":  # ranges checked by the solver, with its own messages
+        kind = o.kind
+    else:
+        kind = Bounded(o.kind, o.limit, o.unit)
+    return click.option(o.flag, _param(o), type=kind, default=None, help=o.help_text(), metavar=o.metavar)
+
+
+ROBOT_FIELDS = {_param(o): o.key for o in by_group("robot")}
+TRAJ_FIELDS = tuple(o.name for o in by_group("trajectory"))
+CONSTRAINT_FIELDS = tuple(o.name for o in by_group("constraint"))
 
 
 def _stack(*decorators: Callable[[Any], Any]) -> Callable[[Any], Any]:
@@ -111,62 +119,21 @@ def _stack(*decorators: Callable[[Any], Any]) -> Callable[[Any], Any]:
 
 
 def robot_options(feed: bool = True) -> Callable[[Any], Any]:
-    """--modules, --module-length, --robot-radius, --alpha (or --stroke/--lever), tolerances..."""
-    opts = [
-        click.option("--robot", "robot_file", default=None, metavar="FILE",
-                     help="Robot description (TOML); options given here override its values."),
-        click.option("--modules", type=_lim("modules", int), default=None, help="Number of modules the solver moves."),
-        click.option("--module-length", type=_lim("module_length"), default=None, help="Length of one module (mm)."),
-        click.option("--robot-radius", type=_lim("radius"), default=None, help="Robot (disc) radius in mm [5]."),
-        click.option("--alpha", type=DEG,
-                     help="Tilt angle of one actuator pair (deg) [10]."),
-        click.option("--stroke", type=_lim("stroke"),
-                     help="Actuator stroke h (mm); with --lever gives alpha = asin(h/L)."),
-        click.option("--lever", type=_lim("lever"),
-                     help="Actuator lever L (mm); see --stroke."),
-        click.option("--tol-pos", type=_lim("tol_pos"),
-                     help="Position tolerance (mm)."),
-        click.option("--tol-ori", type=_lim("tol_ori"),
-                     help="Orientation tolerance (deg) [20]."),
-        click.option("--max-iter", type=_lim("max_iter", int),
-                     help="Iteration limit per solve [30]."),
-        click.option("--weight-pos", type=_lim("weight_pos"),
-                     help="Weight of position in the global error [0.7]."),
-        click.option("--weight-ori", type=_lim("weight_ori"),
-                     help="Weight of orientation in the global error [0.3]."),
-    ]
-    if feed:
-        opts.append(click.option("--feed-divisor", type=_lim("feed_divisor", int), default=None,
-                                 help="Feed = module length / this [5]; trajectory points are spaced by the feed."))
+    """--robot FILE and the robot options of :mod:`bhr.options` (--modules, --module-length, ...)."""
+    opts = [click.option("--robot", "robot_file", default=None, metavar="FILE",
+                         help="Robot description (TOML); options given here override its values.")]
+    opts += [_click_option(o) for o in by_group("robot") if feed or o.name != "feed_divisor"]
     return _stack(*opts)
 
 
 def constraint_options(f: Any) -> Any:
     """--limit, --axes, --warmup for the constrained solvers (thesis ch. 6 steps)."""
-    return _stack(
-        click.option("--limit", type=click.Choice(["binary", "continuous", "none"]), default=None,
-                     help="Rotation limit of the constrained solvers [binary]."),
-        click.option("--axes", type=click.Choice(["local", "free"]), default=None,
-                     help="Tilt axes: the module's two local axes, or free [local]."),
-        click.option("--warmup", type=int, default=None,
-                     help="Unconstrained warm-up iterations of the constrained solvers [10]."),
-    )(f)
+    return _stack(*[_click_option(o) for o in by_group("constraint")])(f)
 
 
 def trajectory_options(f: Any) -> Any:
-    return _stack(
-        click.option("--length", type=MM, default=None, help="line: length (mm) [70]."),
-        click.option("--azimuth", type=DEG,
-                     help="line: angle to +x in the xy-plane (deg) [0]."),
-        click.option("--elevation", type=DEG,
-                     help="line: angle above the xy-plane (deg) [0]."),
-        click.option("--radius", type=MM, default=None, help="curve/spiral: radius (mm) [70 / 80]."),
-        click.option("--angle", type=DEG, default=None, help="curve: angle turned (deg) [90]."),
-        click.option("--entry", type=MM, default=None, help="curve: entry straight (mm) [30]."),
-        click.option("--exit", "exit_", type=MM, default=None, help="curve: exit straight (mm) [30]."),
-        click.option("--pitch", type=MM, default=None, help="spiral: rise per turn (mm) [40]."),
-        click.option("--turns", type=Bounded(float, 1e6), default=None, help="spiral: number of turns [2]."),
-    )(f)
+    """The generators' parameters (--length, --radius, ...)."""
+    return _stack(*[_click_option(o) for o in by_group("trajectory")])(f)
 
 
 def pop_robot(kwargs: dict[str, Any]) -> dict[str, Any]:
@@ -216,7 +183,7 @@ def pop_trajectory(kwargs: dict[str, Any]) -> dict[str, Any]:
 
 
 # --solver optimal (bhr/solvers/optimal.py, docs/optimal.md)
-OPTIMAL_FIELDS = ("lookahead", "beam", "point_weights", "ori_weight", "drift_weight", "roll_weight")
+OPTIMAL_FIELDS = tuple(o.name for o in by_group("solver") if o.solvers == ("optimal",))
 
 
 class WeightList(click.ParamType):
@@ -238,20 +205,7 @@ class WeightList(click.ParamType):
 
 def optimal_options(f: Any) -> Any:
     """--lookahead, --beam, --point-weights, --ori-weight, --drift-weight, --roll-weight."""
-    return _stack(
-        click.option("--lookahead", type=int, default=None, metavar="STEPS",
-                     help="optimal: steps the base module's tilt is planned ahead [10]."),
-        click.option("--beam", type=int, default=None, metavar="N",
-                     help="optimal: base-tilt sequences kept while planning [10]."),
-        click.option("--point-weights", type=WeightList(), default=None, metavar="W|W0,..,Wn",
-                     help="optimal: weight of each point's squared error, base to tip [1]."),
-        click.option("--ori-weight", type=float, default=None, metavar="MM/DEG",
-                     help="optimal: tip orientation weight, mm of error per degree [0.2]."),
-        click.option("--drift-weight", type=float, default=None,
-                     help="optimal: weight of the predicted along-path drift of the base [10]."),
-        click.option("--roll-weight", type=float, default=None,
-                     help="optimal: weight of tilt axes sitting diagonally to the bend [1000]."),
-    )(f)
+    return _stack(*[_click_option(o) for o in by_group("solver") if o.name in OPTIMAL_FIELDS])(f)
 
 
 def pop_optimal(kwargs: dict[str, Any]) -> dict[str, Any]:

@@ -24,7 +24,7 @@ def bench(cases, repeat, json_path, check):
     time measured in the same run. Results depend on the machine: quote them
     with the machine and this command.
     """
-    from bhr import bench as b
+    from bhr.bench import cases as b
     from bhr.errors import BhrError
 
     check_writable(json_path, "JSON")

@@ -17,7 +17,7 @@ from bhr.cli._options import (build_robot, optimal_options, pop_optimal, pop_tra
               help="line, curve, spiral, colon, or a trajectory file: .toml (segments) or .csv (points). Required.")
 @trajectory_options
 @click.option("--solver", "solvers", multiple=True, metavar="NAME",
-              help="A solver to run; give it once per solver, the first is the reference [seed, optimal].")
+              help="A solver to run; give it once per solver, the first is the reference [thesis, optimal].")
 @robot_options(feed=True)
 @optimal_options
 @click.option("--body-modules", type=int, default=None, metavar="M",
@@ -37,7 +37,7 @@ def compare(traj, solvers, out_dir, json_path, no_plots, **kwargs):
     DIR/compare.png with every run's errors on the same axes. The
     --lookahead ... --roll-weight options apply to the optimal solver.
 
-        bhr compare --traj curve --angle 360 --solver seed --solver optimal
+        bhr compare --traj curve --angle 360 --solver thesis --solver optimal
     """
     from bhr.atomic import write_json
     from bhr.compare import compare_figure, compare_json, compare_runs, format_table
@@ -45,12 +45,12 @@ def compare(traj, solvers, out_dir, json_path, no_plots, **kwargs):
     from bhr.follow import BhrWarning
     from bhr.trajectory import load_trajectory
 
-    from bhr.solvers import available
+    from bhr.solvers import available, canonical
 
-    names = list(solvers) or ["seed", "optimal"]
+    names = list(solvers) or ["thesis", "optimal"]
     known = available()
     for name in names:
-        if name not in known:
+        if canonical(name) not in known:
             raise BhrError(f"unknown solver {name!r}; choose from {', '.join(known)}")
     robot = build_robot(kwargs)
     if traj is None:

@@ -16,7 +16,7 @@ from bhr.cli._options import (MIN_RATE, FiniteRange, PlainIntRange, build_robot,
 
 def summary_lines(result) -> list[str]:
     """The summary table the thesis's script prints: per point and module, max/mean/median/final."""
-    s = result.summary()
+    s = result.summary.to_dict()
     r = result.robot
     lines = [
         f"{s['trajectory']}: {s['steps']} steps, solver {s['solver']}, {r.modules} modules x {r.module_length:g} mm, "
@@ -67,7 +67,8 @@ def body_clearance_lines(s: dict) -> list[str]:
 @click.option("--traj", required=True, metavar="NAME|PATH",
               help="line, curve, spiral, colon, or a trajectory file: .toml (segments) or .csv (points).")
 @trajectory_options
-@click.option("--solver", default="seed", show_default=True, help="seed, constrained, fabrik, ccd, optimal.")
+@click.option("--solver", default="thesis", show_default=True,
+              help="thesis (the thesis's algorithm; alias seed), constrained, fabrik, ccd, optimal.")
 @robot_options(feed=True)
 @constraint_options
 @optimal_options
@@ -159,7 +160,7 @@ def follow(traj, solver, out_dir, json_path, no_plots, **kwargs):
             result = follow_streaming(tr, solver, robot, {**constraints, **optimal}, body_modules, rate, link_kw)
     for w in dict.fromkeys(str(w.message) for w in caught if issubclass(w.category, BhrWarning)):
         click.echo(f"Warning: {w}", err=True)
-    doc = result.to_json()
+    doc = result.to_dict()
     written: list[Path] = []
     if folder is not None:
         with folder:

@@ -18,7 +18,7 @@ def _fmt(v: float | None, digits: int = 5) -> str:
 @click.option("--orientation", nargs=3, type=MM, default=None, metavar="X Y Z",
               help="Wanted direction of the last module (any length).")
 @click.option("--solver", default="fabrik", show_default=True,
-              help="fabrik, ccd, seed (the thesis's binary solver), constrained, optimal.")
+              help="fabrik, ccd, thesis (the thesis's binary solver; alias seed), constrained, optimal.")
 @robot_options(feed=False)
 @constraint_options
 @click.option("--json", "json_path", default=None, metavar="PATH|-", help="Write the result as JSON ('-': stdout).")
@@ -43,7 +43,7 @@ def solve(target, orientation, solver, json_path, plot_path, **kwargs):
     robot = build_robot(kwargs, modules=5, module_length=2.0, tol_pos=0.01, max_iter=30)
     constraints = pop_constraints(kwargs)
     result = run(target, orientation=orientation, solver=solver, robot=robot, solver_options=constraints)
-    doc = result.to_json()
+    doc = result.to_dict()
     if json_path == "-":
         click.echo(json.dumps(doc, indent=1))
     else:

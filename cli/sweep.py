@@ -68,7 +68,7 @@ def sweep(sweep_file, trajs, solvers, grid, robot_file, out_dir, jobs, scheduler
                         base_dir=Path(sweep_file).parent, where=str(sweep_file),
                         robot_file=robot_file or base.robot_file)
     else:
-        s = build_sweep(trajs or ("curve",), solvers or ("seed",), cli_grid, title=title or "bhr sweep",
+        s = build_sweep(trajs or ("curve",), solvers or ("thesis",), cli_grid, title=title or "bhr sweep",
                         robot_file=robot_file)
     heatmap_axes(s, hx, hy)  # refuse unknown heat-map axes before running
     from bhr.atomic import OutputFolder

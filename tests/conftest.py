@@ -40,3 +40,31 @@ def snapshot(folder: Path) -> dict[str, tuple[int, int]]:
             st = p.stat()
             out[str(p.relative_to(folder))] = (st.st_size, st.st_mtime_ns)
     return out
+
+
+# ------------------------------------------------------------------ layers
+# Every test belongs to one layer, so that a fast subset can run alone (README, "Tests"):
+#   unit         the library in-process: kernels against their numpy references, models, readers, API
+#   thesis       the thesis's published figures (chapters 5-7), pinned bit for bit
+#   cli          the `bhr` commands, run as a user runs them
+#   integration  real outside parts: firmware built with avr-gcc and run in simavr, serial ptys, Chromium, Dask
+_LAYER = {
+    "test_solve_chapter5.py": "thesis", "test_constrained_chapter6.py": "thesis", "test_follow_chapter7.py": "thesis",
+    "test_cli_basics.py": "cli", "test_bad_input.py": "cli", "test_report.py": "cli", "test_sweep.py": "cli",
+    "test_compare.py": "cli", "test_replay.py": "cli", "test_animate.py": "cli", "test_startup.py": "cli",
+    "test_bench.py": "cli",
+    "test_firmware_host.py": "integration", "test_firmware_sim.py": "integration", "test_link.py": "integration",
+    "test_liveview.py": "integration", "test_report_browser.py": "integration",
+}
+_INTEGRATION_FIXTURES = {"dask_cluster"}
+
+
+def pytest_collection_modifyitems(config, items):
+    for item in items:
+        layer = _LAYER.get(item.path.name, "unit")
+        fixtures = set(getattr(item, "fixturenames", ()))
+        if fixtures & _INTEGRATION_FIXTURES:
+            layer = "integration"
+        elif layer == "unit" and "run_bhr" in fixtures:
+            layer = "cli"
+        item.add_marker(getattr(pytest.mark, layer))

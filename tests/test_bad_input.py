@@ -434,7 +434,7 @@ CASES += [
         "p.toml"),
 ]
 
-# every command in the issue, so that none is forgotten when it lands
+# every command, so that none is forgotten when it lands
 assert {c.command for c in CASES} >= {"solve", "follow", "fk", "stream", "status", "compare", "report", "sweep",
                                       "replay", "bench"}
 assert len({c.id for c in CASES}) == len(CASES)

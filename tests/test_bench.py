@@ -4,7 +4,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from bhr.bench import (CASES, OPTIMAL_PER_STEP, check_optimal_reference, format_table, numpy_body, numpy_ccd,
+from bhr.bench.cases import (CASES, OPTIMAL_PER_STEP, check_optimal_reference, format_table, numpy_body, numpy_ccd,
                        numpy_fabrik, numpy_optimal_follow, numpy_seed_follow, run_case)
 from bhr.body import BODY_BEAM, module1_frames, simulate_body
 from bhr.follow import follow

@@ -30,7 +30,7 @@ def test_body_shape_and_summary(curve_body):
     r = curve_body
     assert r.body.modules == 15
     assert r.body.points.shape == (r.steps, 15, 3) and r.body.codes.shape == (r.steps, 15)
-    s = r.summary()
+    s = r.summary.to_dict()
     assert s["body_modules"] == 20
     assert s["body_points_max_error_mm"] == pytest.approx(r.body.point_errors.max())
     assert whole_robot(r, 10).shape == (21, 3)
@@ -97,7 +97,7 @@ def test_bad_body_requests():
     with pytest.raises(BhrError, match="no module codes"):
         follow(tr, solver="fabrik", body_modules=10)
     r = follow(tr, solver="seed", body_modules=5)
-    assert r.body.modules == 0 and r.summary()["body_modules"] == 5
+    assert r.body.modules == 0 and r.summary.to_dict()["body_modules"] == 5
     with pytest.raises(BhrError, match="whole number"):
         simulate_body(r, 7.5)
 
@@ -112,7 +112,7 @@ def test_sixty_module_robot_through_the_colon():
     tr = load_trajectory("colon")
     assert tr.lumen is not None
     r = follow(tr, solver="optimal", body_modules=60)
-    s = r.summary()
+    s = r.summary.to_dict()
     assert r.steps == tr.points.shape[0] and s["body_modules"] == 60
     assert r.body.scored[-1].all()  # at the end the whole body is inside the path
     assert s["body_points_max_error_mm"] < r.robot.tol_pos

@@ -29,9 +29,9 @@ def test_table_arithmetic():
 def test_no_lumen_no_clearance():
     r = follow(load_trajectory("curve"), solver="optimal")
     assert r.clearance is None
-    s = r.summary()
+    s = r.summary.to_dict()
     assert "min_clearance_mm" not in s and "wall_touch_steps" not in s
-    assert "clearance_mm" not in r.to_json()["steps"][0]
+    assert "clearance_mm" not in r.to_dict()["steps"][0]
 
 
 def test_touches_are_the_steps_where_some_point_reaches_the_wall():
@@ -44,26 +44,26 @@ def test_touches_are_the_steps_where_some_point_reaches_the_wall():
     scored = np.array([[i - (n - j) * f >= 0 for j in range(n + 1)] for i in range(r.steps)])
     want = [i + 1 for i in range(r.steps) if np.any(scored[i] & (pe[i] >= 3.0))]
     assert want  # the seed solver strays 3 mm on this curve
-    s = r.summary()
+    s = r.summary.to_dict()
     assert s["wall_touch_steps"] == want
     assert s["min_clearance_mm"] == pytest.approx(3.0 - pe[scored].max())
     i = s["min_clearance_step"] - 1
     per = r.clearance.per_step
     assert per[i] == pytest.approx(s["min_clearance_mm"])
-    doc = r.to_json()
+    doc = r.to_dict()
     assert doc["steps"][i]["clearance_mm"] == pytest.approx(s["min_clearance_mm"])
     assert doc["trajectory"]["lumen"][0] == pytest.approx(16.0)
     # the same robot in a wider lumen touches nothing
     wide = follow(with_lumen(load_trajectory("curve", angle=180.0), 2 * (5.0 + pe.max() + 0.01)), solver="seed")
-    assert wide.summary()["wall_touch_steps"] == []
+    assert wide.summary.to_dict()["wall_touch_steps"] == []
 
 
 def test_exactly_at_the_wall_counts_as_touching():
     tr = with_lumen(load_trajectory("line", length=40.0), 10.0)  # lumen radius = robot radius
     r = follow(tr, solver="optimal")
     assert r.point_errors.max() < 1e-9
-    assert r.summary()["min_clearance_mm"] == pytest.approx(0.0, abs=1e-9)
-    assert r.summary()["wall_touch_steps"] == list(range(1, r.steps + 1))
+    assert r.summary.to_dict()["min_clearance_mm"] == pytest.approx(0.0, abs=1e-9)
+    assert r.summary.to_dict()["wall_touch_steps"] == list(range(1, r.steps + 1))
 
 
 def test_colon_lumen_comes_from_the_trajectory_file():
@@ -95,7 +95,7 @@ def test_plots_mark_the_touches(tmp_path):
     from bhr.plots import clearance_figure, error_figure, path_figure, save_run_plots
 
     r = follow(with_lumen(load_trajectory("curve", angle=180.0), 16.0), solver="seed", body_modules=8)
-    assert r.summary()["wall_touch_steps"]
+    assert r.summary.to_dict()["wall_touch_steps"]
     fig = error_figure(r, "position")
     labels = [p.get_label() for ax in fig.axes for p in ax.patches]
     assert "wall touched" in labels

@@ -5,7 +5,7 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from bhr.dualquat import (dq_conj_both, dq_conj_dual, dq_conj_quat, dq_from_point, dq_from_rotation,
+from bhr.kinematics.dualquat import (dq_conj_both, dq_conj_dual, dq_conj_quat, dq_from_point, dq_from_rotation,
                           dq_from_translation, dq_inverse, dq_is_unit, dq_mul, dq_norm, dq_transform_point,
                           k_dq_mul, k_qmul, k_rotate, k_rotate_about)
 

@@ -98,7 +98,7 @@ def test_cli_tight_curve_warning_line(run_bhr, tmp_path):
 
 def test_json_document_contract():
     r = follow(bhr.trajectory("curve"), solver="seed")
-    doc = json.loads(json.dumps(r.to_json()))
+    doc = json.loads(r.to_json())
     assert set(doc) >= {"steps", "summary"}
     steps = doc["steps"]
     assert len(steps) == r.steps and [s["step"] for s in steps] == list(range(1, r.steps + 1))
@@ -126,7 +126,7 @@ def test_cli_follow_writes_everything(tmp_path):
     with contextlib.chdir(tmp_path):
         res = runner.invoke(main, ["follow", "--traj", "curve", "--json", "run.json"])
         assert res.exit_code == 0, res.output
-        (out,) = Path("bhr-out").glob("curve-seed-*")  # one folder, named for the run's settings
+        (out,) = Path("bhr-out").glob("curve-thesis-*")  # one folder, named for the run's settings
         assert Path("bhr-out/latest").resolve() == out.resolve()
         for name in ("position_errors.png", "orientation_errors.png", "global_errors.png", "path.png"):
             data = (out / name).read_bytes()
@@ -143,7 +143,7 @@ def test_console_script_colon_with_defaults(run_bhr, tmp_path):
     """The README's main job: `bhr follow --traj colon` with no other option."""
     res = run_bhr("follow", "--traj", "colon")
     assert res.returncode == 0, res.stderr
-    (out,) = (tmp_path / "bhr-out").glob("colon-seed-*")
+    (out,) = (tmp_path / "bhr-out").glob("colon-thesis-*")
     names = {"position_errors.png", "orientation_errors.png", "global_errors.png", "path.png", "codes.csv", "run.json",
              "manifest.json"}
     assert names <= {p.name for p in out.iterdir()}

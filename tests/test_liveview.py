@@ -178,7 +178,7 @@ def test_follow_show_steps_through_frames_and_quits(display, tmp_path):
 
 def test_replay_show_with_stride_and_escape(display, tmp_path):
     run = follow(load_trajectory("curve"))
-    write_json(tmp_path / "run.json", run.to_json())
+    write_json(tmp_path / "run.json", run.to_dict())
     win = Window(display, ["replay", "run.json", "--show", "--stride", "10"], tmp_path, "bhr curve")
     try:
         # 85 steps in frames of 10 steps play to the end and stop there

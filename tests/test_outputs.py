@@ -61,7 +61,7 @@ def test_newcomer_sequence_leaves_no_mixed_folder(tmp_path):
     assert len(json.loads(r2.stdout)["steps"]) == 85
     assert snapshot(tmp_path / "bhr-out") == before  # stdout was the whole output: no folder touched
     (folder,) = [p for p in (tmp_path / "bhr-out").iterdir() if not p.is_symlink()]
-    assert folder.name.startswith("curve-seed-")
+    assert folder.name.startswith("curve-thesis-")
     man = check_whole(folder)
     assert {"run.json", "codes.csv", "path.png", "position_errors.png"} <= set(man["files"])
     assert json.loads((folder / "run.json").read_text())["trajectory"]["params"]["angle"] == 360.0

@@ -42,11 +42,11 @@ def assert_same_run(a: FollowResult, b: FollowResult) -> None:
 @pytest.mark.parametrize("solver", ["seed", "fabrik"])
 def test_json_round_trip_is_exact(tmp_path, solver):
     run = follow(load_trajectory("spiral", turns=0.5), solver=solver, modules=4, alpha=12.0)
-    write_json(tmp_path / "run.json", run.to_json())
+    write_json(tmp_path / "run.json", run.to_dict())
     back = load_run(tmp_path / "run.json")
     assert_same_run(run, back)
-    assert back.to_json() == json.loads((tmp_path / "run.json").read_text())
-    assert back.summary() == run.summary()
+    assert back.to_dict() == json.loads((tmp_path / "run.json").read_text())
+    assert back.summary.to_dict() == run.summary.to_dict()
 
 
 def test_tight_curve_keeps_its_warning(tmp_path):
@@ -56,7 +56,7 @@ def test_tight_curve_keeps_its_warning(tmp_path):
         warnings.simplefilter("ignore")
         run = follow(load_trajectory("curve", radius=40.0))
     assert run.warnings
-    assert FollowResult.from_json(run.to_json()).warnings == run.warnings
+    assert FollowResult.from_json(run.to_dict()).warnings == run.warnings
 
 
 def test_replay_redraws_the_figures_of_follow(run_bhr, tmp_path):
@@ -73,7 +73,7 @@ def test_replay_redraws_the_figures_of_follow(run_bhr, tmp_path):
 
 def test_replay_uses_the_saved_poses_not_a_new_solve(tmp_path, curve_run):
     """A run whose poses were edited by hand is drawn as edited: replay never solves."""
-    doc = curve_run.to_json()
+    doc = curve_run.to_dict()
     doc["solver"] = "no-such-solver"  # solving again would fail on this name
     for st in doc["steps"]:
         st["points"] = [[x, y + 25.0, z] for x, y, z in st["points"]]
@@ -105,7 +105,7 @@ def test_replay_animation_matches_follow_animation(run_bhr, tmp_path):
 
 
 def test_replay_reads_standard_input_and_draws_a_chosen_step(tmp_path, curve_run):
-    text = json.dumps(curve_run.to_json())
+    text = json.dumps(curve_run.to_dict())
     res = subprocess.run(bhr_exe() + ["replay", "-", "--out", "figs", "--step", "40"], input=text, cwd=tmp_path,
                          capture_output=True, text=True, timeout=300, env=dict(os.environ, MPLBACKEND="Agg"))
     assert res.returncode == 0, res.stderr
@@ -123,7 +123,7 @@ def test_replay_reads_standard_input_and_draws_a_chosen_step(tmp_path, curve_run
 
 
 def _doc(run) -> dict:
-    return run.to_json()
+    return run.to_dict()
 
 
 def _corrupt(kind: str, doc: dict) -> str:
@@ -184,7 +184,7 @@ def test_wrong_run_file_gets_one_line(run_bhr, tmp_path, curve_run, kind, messag
     (["run.json", "--step", "500"], "step 500 is past the end of the run (140 steps)"),
 ])
 def test_replay_refusals(run_bhr, tmp_path, curve_run, args, message):
-    write_json(tmp_path / "run.json", curve_run.to_json())
+    write_json(tmp_path / "run.json", curve_run.to_dict())
     before = snapshot(tmp_path)
     res = run_bhr("replay", *args)
     assert res.returncode != 0

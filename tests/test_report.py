@@ -72,13 +72,13 @@ def test_chapter7_rows_equal_a_direct_follow(chapter7):
     _, out = chapter7
     doc = json.loads((out / "summary.json").read_text())
     row = next(r for r in doc["runs"] if r["name"] == "spiral")
-    s = follow(load_trajectory("spiral", radius=80, pitch=40, turns=2), solver="seed").summary()
+    s = follow(load_trajectory("spiral", radius=80, pitch=40, turns=2), solver="seed").summary.to_dict()
     for key in ("steps", "tip_max_error_mm", "tip_final_error_mm", "points_max_error_mm", "orientation_max_deg",
                 "global_max"):
         assert row[key] == s[key], key
     assert row["stats"]["points"] == s["points"]
     colon = next(r for r in doc["runs"] if r["name"] == "colon")
-    sc = follow(load_trajectory("colon"), solver="seed").summary()
+    sc = follow(load_trajectory("colon"), solver="seed").summary.to_dict()
     assert colon["min_clearance_mm"] == sc["min_clearance_mm"]
     assert colon["clearance"]["min_clearance_step"] == sc["min_clearance_step"]
     assert doc["runs_total"] == 5 and doc["runs_failed"] == 0
@@ -210,7 +210,7 @@ def test_defaults_and_relative_paths(tmp_path):
     assert b.runs[0].robot_params == {"modules": 4, "alpha": 12}
     assert b.runs[1].robot_params == {"modules": 6, "alpha": 12}
     assert b.runs[1].traj_params == {"angle": 45.0} and b.runs[1].solver_options == {"warmup": 5}
-    assert b.runs[1].solver == "seed"
+    assert b.runs[1].solver == "thesis"
 
 
 def test_html_is_escaped_and_self_contained(tmp_path):
@@ -248,7 +248,7 @@ def test_min_clearance_is_reported_where_known(tmp_path):
                              {"name": "open", "traj": "curve", "angle": 180}]}, "inline", tmp_path)
     rep = run_batch(b, tmp_path / "r", plots=False)
     tube, open_ = rep.rows
-    direct = follow(load_trajectory(tmp_path / "tube.toml"), solver="seed").summary()
+    direct = follow(load_trajectory(tmp_path / "tube.toml"), solver="seed").summary.to_dict()
     assert tube["min_clearance_mm"] == direct["min_clearance_mm"] == summary_row(direct)["min_clearance_mm"]
     assert tube["min_clearance_mm"] < 15 - 5  # radius 15 mm tube minus the 5 mm robot radius
     assert open_["min_clearance_mm"] is None
@@ -291,7 +291,7 @@ def test_run_tables_round_trip(values, name):
     spec = b.runs[0]
     assert spec.name == name.strip()
     inputs = spec.inputs()
-    assert inputs.pop("traj") == "curve" and inputs.pop("solver") == "seed"
+    assert inputs.pop("traj") == "curve" and inputs.pop("solver") == "thesis"
     assert inputs == values
 
 
@@ -318,6 +318,6 @@ def test_robot_file_in_a_run(tmp_path):
     rows = run_batch(b, tmp_path / "o", plots=False).rows
     assert rows[0]["robot"]["modules"] == 4 and rows[0]["robot"]["alpha"] == 12
     assert rows[1]["robot"]["modules"] == 4 and rows[1]["robot"]["alpha"] == 9
-    direct = follow(load_trajectory("curve"), solver="seed", robot=bhr.Robot(modules=4, alpha=9)).summary()
+    direct = follow(load_trajectory("curve"), solver="seed", robot=bhr.Robot(modules=4, alpha=9)).summary.to_dict()
     assert rows[1]["tip_max_error_mm"] == direct["tip_max_error_mm"]
     assert rows[2]["status"].startswith("failed: ") and "bad.toml" in rows[2]["status"]

@@ -136,7 +136,7 @@ def test_rows_are_what_follow_gives():
     assert [r["design"] for r in res.rows] == list(range(1, 9))
     for r in res.rows:
         robot = Robot(modules=r["modules"], alpha=r["alpha"])
-        direct = follow(load_trajectory("curve", feed=robot.feed), solver=r["solver"], robot=robot).summary()
+        direct = follow(load_trajectory("curve", feed=robot.feed), solver=r["solver"], robot=robot).summary.to_dict()
         assert r["status"] == "ok"
         for k in ("steps", "tip_max_error_mm", "points_max_error_mm", "orientation_max_deg", "global_max"):
             assert r[k] == direct[k]
@@ -152,7 +152,7 @@ def test_designs_start_from_a_robot_file(tmp_path):
     res = run_sweep(s, jobs=1)
     for r in res.rows:
         robot = Robot(modules=4, module_length=r["module_length"], alpha=r["alpha"])
-        direct = follow(load_trajectory("curve", feed=robot.feed), robot=robot).summary()
+        direct = follow(load_trajectory("curve", feed=robot.feed), robot=robot).summary.to_dict()
         assert r["status"] == "ok" and r["points_max_error_mm"] == direct["points_max_error_mm"]
     # without alpha in the grid the file's stroke and lever give it
     s = build_sweep(["curve"], ["seed"], [("modules", (4,))], robot_file=tmp_path / "r.toml")
@@ -310,9 +310,9 @@ def test_dask_cluster_gives_the_local_results(dask_cluster, tmp_path):
     def kernel_stats():  # runs on each worker: did the seed kernel come from the disk cache?
         import os as _os
 
-        from bhr.solvers import seed
+        from bhr.solvers import thesis
 
-        st_ = seed.follow_seed_kernel.stats
+        st_ = thesis.follow_constrained_kernel.stats
         return {"hits": sum(st_.cache_hits.values()), "misses": sum(st_.cache_misses.values()),
                 "dir": _os.environ.get("NUMBA_CACHE_DIR")}
 
@@ -391,7 +391,7 @@ def test_clearance_where_the_trajectory_has_a_lumen(tmp_path):
     assert all(r["min_clearance_mm"] is None for r in res.rows if r["traj"] == "curve")
     r0 = tube[0]
     robot = Robot(modules=r0["modules"], alpha=r0["alpha"])
-    direct = follow(load_trajectory(tmp_path / "tube.toml", feed=robot.feed), robot=robot).summary()
+    direct = follow(load_trajectory(tmp_path / "tube.toml", feed=robot.feed), robot=robot).summary.to_dict()
     assert r0["min_clearance_mm"] == direct["min_clearance_mm"]
     cells = heatmap_cells(res, "modules", "alpha", "min_clearance_mm", min)
     assert cells[0][0] == min(r["min_clearance_mm"] for r in tube if r["modules"] == 4 and r["alpha"] == 9)

@@ -9,6 +9,7 @@ a new solver is one new file.
 """
 from __future__ import annotations
 
+import json
 import math
 from abc import ABC, abstractmethod
 from dataclasses import dataclass, field
@@ -17,6 +18,7 @@ from typing import Any, ClassVar, Sequence
 import numpy as np
 
 from bhr.errors import BhrError
+from bhr.kinematics.leader import advance_kernel
 from bhr.robot import Robot, base_frame, straight_chain
 
 __all__ = ["Chain", "SolveResult", "Solver", "FollowContext", "register", "REGISTRY"]
@@ -25,10 +27,12 @@ REGISTRY: dict[str, type["Solver"]] = {}
 
 
 def register(cls: type["Solver"]) -> type["Solver"]:
-    """Class decorator: make a solver available by its ``name``."""
+    """Class decorator: make a solver available by its ``name`` (and its older ``aliases``)."""
     if not getattr(cls, "name", None):
         raise TypeError(f"{cls.__name__} has no name")
     REGISTRY[cls.name] = cls
+    for alias in cls.aliases:
+        REGISTRY[alias] = cls
     return cls
 
 
@@ -46,8 +50,8 @@ class Chain:
     axes: np.ndarray
 
     @classmethod
-    def straight(cls, robot: Robot, direction: Sequence[float] = (1, 0, 0), origin: Sequence[float] = (0, 0, 0),
-                 tip_at_origin: bool = False) -> "Chain":
+    def straight(cls, robot: Robot, direction: Sequence[float] | np.ndarray = (1, 0, 0),
+                 origin: Sequence[float] | np.ndarray = (0, 0, 0), tip_at_origin: bool = False) -> "Chain":
         """A straight chain along ``direction``; local axes from :func:`bhr.robot.base_frame`."""
         pts = straight_chain(robot.modules, robot.module_length, direction, origin, tip_at_origin)
         fr = base_frame(direction)
@@ -74,8 +78,6 @@ class Chain:
         Module 1 keeps its local axes; the axes of modules 2..n are reset to
         those of a straight robot along the base module's direction.
         """
-        from bhr.follow import advance_kernel  # the driver owns the compiled advance
-
         out = self.copy()
         advance_kernel(out.points, out.axes[0], out.axes[1], float(feed), float(module_length))
         return out
@@ -92,7 +94,13 @@ class FollowContext:
 
 @dataclass
 class SolveResult:
-    """One solve: the new chain, iterations and errors (mm, degrees), codes if binary."""
+    """One solve: the new chain, iterations and errors (mm, degrees), codes if binary.
+
+    ``success`` is whether the errors are within the robot's tolerances
+    (position, and orientation when a tip direction was asked for); it is set
+    by :func:`bhr.solvers.solve` and by :meth:`Solver.judge`, and is ``None``
+    when nobody judged the result.
+    """
 
     chain: Chain
     iterations: int
@@ -100,13 +108,21 @@ class SolveResult:
     orientation_error_deg: float | None
     codes: list[int] | None = None
     extra: dict[str, Any] = field(default_factory=dict)
+    success: bool | None = None
 
     @property
     def points(self) -> np.ndarray:
         return self.chain.points
 
-    def to_json(self) -> dict[str, Any]:
-        """The ``bhr solve --json`` document (SPEC.md section 3)."""
+    def to_json(self) -> str:
+        """:meth:`to_dict` as a JSON string."""
+        return json.dumps(self.to_dict())
+
+    def to_dict(self) -> dict[str, Any]:
+        """The ``bhr solve --json`` document (its keys are a documented contract, docs/commands.md).
+
+        ``success`` is not part of it: it follows from the errors and the tolerances.
+        """
         return {
             "iterations": int(self.iterations),
             "position_error": float(self.position_error),
@@ -120,15 +136,15 @@ class Solver(ABC):
     """Base class of all solvers.
 
     Subclasses set ``name`` and ``summary`` and implement :meth:`solve`.
-    ``binary`` solvers return codes and keep every tilt at 0 or alpha about a
-    local axis. ``options`` are solver-specific keyword settings, validated in
-    ``__init__``.
+    Solvers that respect the binary actuators return one code per module in
+    their results. ``options`` are solver-specific keyword settings, validated
+    in ``__init__`` (and listed in :mod:`bhr.options`).
     """
 
     name: ClassVar[str] = ""
     summary: ClassVar[str] = ""
-    binary: ClassVar[bool] = False
     accepts_orientation: ClassVar[bool] = True
+    aliases: ClassVar[tuple[str, ...]] = ()
 
     def __init__(self, robot: Robot, **options: Any) -> None:
         self.robot = robot
@@ -140,8 +156,15 @@ class Solver(ABC):
               context: FollowContext | None = None) -> SolveResult:
         """Move ``chain`` toward ``target`` (and ``orientation`` for the tip, if given)."""
 
-    def reset(self) -> None:
+    def reset(self) -> None:  # noqa: B027 (a default, not abstract: most solvers keep no state)
         """Forget any state kept between steps of a run (default: none)."""
+
+    def judge(self, result: SolveResult) -> SolveResult:
+        """Set ``result.success``: errors within the robot's tolerances (mm, and degrees when aimed)."""
+        ori = result.orientation_error_deg
+        result.success = bool(result.position_error <= self.robot.tol_pos
+                              and (ori is None or ori <= self.robot.tol_ori))
+        return result
 
 
 def check_target(target: Sequence[float], what: str = "target") -> np.ndarray:

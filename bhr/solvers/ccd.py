@@ -13,7 +13,7 @@ import math
 import numpy as np
 from numba import njit
 
-from bhr.dualquat import k_rotate
+from bhr.kinematics.dualquat import k_rotate
 from bhr.errors import BhrError
 from bhr.solvers.base import Chain, FollowContext, SolveResult, Solver, register
 from bhr.solvers.fabrik import _dist
@@ -60,7 +60,7 @@ class CCD(Solver):
     def solve(self, chain: Chain, target: np.ndarray, orientation: np.ndarray | None = None,
               context: FollowContext | None = None) -> SolveResult:
         if orientation is not None:
-            raise BhrError("the ccd solver cannot aim the tip; drop --orientation or use --solver fabrik or seed")
+            raise BhrError("the ccd solver cannot aim the tip; drop --orientation or use --solver fabrik or thesis")
         r = self.robot
         out = chain.copy()
         k, err = ccd_kernel(out.points, np.asarray(target, dtype=np.float64), float(r.tol_pos), int(r.max_iter))

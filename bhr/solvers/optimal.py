@@ -37,9 +37,9 @@ terms (see docs/optimal.md):
 * roll: ``w_roll * sin(2 phi)^2 * (k / sin alpha)^2`` where ``phi`` is the
   angle between the path's bending axis at the head and the nearest local
   tilt axis of module 1, and ``k`` the sine of the angle between the path's
-  chords one module length before and after the middle of the head. Tilts about two axes roll the module frames (a helix keeps
-  turning its bending axis), and a head whose tilt axes sit diagonally to
-  the bend fits it badly.
+  chords one module length before and after the middle of the head. Tilts
+  about two axes roll the module frames (a helix keeps turning its bending
+  axis), and a head whose tilt axes sit diagonally to the bend fits it badly.
 
 With ``lookahead=0`` and both steering weights 0 the solver is the plain
 per-step optimum over all modules (the base too) for the current step's cost. Without a trajectory
@@ -55,9 +55,11 @@ import numpy as np
 from numba import njit
 
 from bhr.errors import BhrError
-from bhr.follow import advance_kernel, score_step
-from bhr.robot import tilt_frame as _rot
+from bhr.options import by_group
+from bhr.kinematics.frames import tilt_frame as _rot
+from bhr.kinematics.leader import advance_kernel, score_step
 from bhr.solvers.base import Chain, FollowContext, SolveResult, Solver, register
+from bhr.robot import forward_kinematics
 
 __all__ = ["Optimal", "CODE_OF", "search_all", "search_head", "config_cost", "path_features", "DEFAULTS"]
 
@@ -65,15 +67,8 @@ __all__ = ["Optimal", "CODE_OF", "search_all", "search_head", "config_cost", "pa
 CODE_OF = np.array([0, 3, 6, 12, 9], dtype=np.int64)
 DEG = 180.0 / math.pi
 
-#: Default settings of ``--solver optimal`` (docs/optimal.md explains each).
-DEFAULTS: dict[str, Any] = {
-    "lookahead": 10,
-    "beam": 10,
-    "point_weights": 1.0,
-    "ori_weight": 0.2,
-    "drift_weight": 10.0,
-    "roll_weight": 1000.0,
-}
+#: Default settings of ``--solver optimal`` (docs/optimal.md explains each), from the option registry.
+DEFAULTS: dict[str, Any] = {o.name: o.default for o in by_group("solver") if o.solvers == ("optimal",)}
 #: Two beam states closer than this (mm, and unit-vector difference) count as one.
 DEDUP_POS = 0.2
 DEDUP_DIR = 0.02
@@ -476,8 +471,9 @@ def _search_arrays(n: int):
             np.empty(n + 1), np.zeros(n, dtype=np.int64))
 
 
-def search_all(base: Sequence[float], frame: np.ndarray, targets: np.ndarray, weights: Sequence[float],
-               length: float, alpha: float, tip_dir: Sequence[float] | None = None, ori_weight: float = 0.0,
+def search_all(base: Sequence[float] | np.ndarray, frame: np.ndarray, targets: np.ndarray,
+               weights: Sequence[float] | np.ndarray, length: float, alpha: float,
+               tip_dir: Sequence[float] | np.ndarray | None = None, ori_weight: float = 0.0,
                reach: bool = True) -> tuple[list[int], float]:
     """Exact best codes of all ``n`` modules from ``base`` and base ``frame`` (rows x, y, z).
 
@@ -537,7 +533,6 @@ class Optimal(Solver):
 
     name = "optimal"
     summary = "exact search of the 5^n codes (branch and bound), base tilt planned ahead (docs/optimal.md)"
-    binary = True
 
     def __init__(self, robot, lookahead: int | None = None, beam: int | None = None,
                  point_weights: float | Sequence[float] | None = None, ori_weight: float | None = None,
@@ -570,7 +565,7 @@ class Optimal(Solver):
         self.roll_weight = _number("roll-weight", cfg["roll_weight"])
         if n > 12:
             raise BhrError(f"the optimal solver searches 5^n codes; {n} modules is too many (at most 12), "
-                           "use --solver seed for long heads")
+                           "use --solver thesis for long heads")
         self._features_key: tuple | None = None
         self._features: tuple | None = None
         self.reset()
@@ -602,6 +597,7 @@ class Optimal(Solver):
         if self._features_key != key:
             self._features = path_features(path, dirs, self.robot.feed_divisor)
             self._features_key = key
+        assert self._features is not None
         return self._features
 
     def _beam_args(self) -> tuple:
@@ -664,8 +660,6 @@ class Optimal(Solver):
         frame = chain.base_frame()
         codes, cost = search_all(chain.points[0], frame, T, w, r.module_length, r.alpha, orientation,
                                  self.ori_weight, reach=True)
-        from bhr.robot import forward_kinematics
-
         pts, frames = forward_kinematics(r.replace(modules=n), codes, chain.points[0], frame)
         axes = np.stack([pts[:-1] + frames[:, 0], pts[:-1] + frames[:, 1]])
         err = float(np.linalg.norm(pts[-1] - t))

@@ -8,7 +8,7 @@ neither the default run nor `pytest tests/benchmarks` collects them; name the fi
 import numpy as np
 import pytest
 
-from bhr.bench import numpy_ccd, numpy_fabrik, numpy_seed_follow
+from bhr.bench.cases import numpy_ccd, numpy_fabrik, numpy_seed_follow
 from bhr.follow import follow
 from bhr.robot import straight_chain
 from bhr.solvers.ccd import ccd_kernel
@@ -55,7 +55,7 @@ def test_seed_colon_numpy(benchmark):
 
 
 # --solver optimal without its planner (the exact per-step search) and the 60-module body
-from bhr.bench import OPTIMAL_PER_STEP, numpy_body, numpy_optimal_follow  # noqa: E402
+from bhr.bench.cases import OPTIMAL_PER_STEP, numpy_body, numpy_optimal_follow  # noqa: E402
 from bhr.body import BODY_BEAM, module1_frames, simulate_body  # noqa: E402
 
 PATH = np.ascontiguousarray(COLON.points)
@@ -72,8 +72,8 @@ def test_optimal_step_colon_numpy(benchmark):
 
 
 # the default --solver optimal (planner on) and the seed solver, one solve() call per step driven from Python
-# (bhr.bench_optimal): whole colon per round; divide by the 827 steps for a mean per step (`bhr bench` gives medians)
-from bhr.bench_optimal import _step_times  # noqa: E402
+# (bhr.bench.optimal): whole colon per round; divide by the 827 steps for a mean per step (`bhr bench` gives medians)
+from bhr.bench.optimal import _step_times  # noqa: E402
 from bhr.robot import Robot  # noqa: E402
 
 

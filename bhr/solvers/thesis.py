@@ -14,8 +14,8 @@ limited angle:
 * ``warmup``: iterations run with the orientation constraint alone (10 in the
   thesis); with a warm-up, at least ``warmup + 1`` iterations always run.
 
-``--solver seed`` is the full thesis algorithm (binary, local axes, 10 warm-up
-iterations) and returns module codes (see :mod:`bhr.codes`). Every other
+``--solver thesis`` (also accepted as ``seed``) is the full thesis algorithm
+(binary, local axes, 10 warm-up iterations) and returns module codes (see :mod:`bhr.codes`). Every other
 setting reruns one of the chapter 6 steps.
 """
 from __future__ import annotations
@@ -26,15 +26,16 @@ import numpy as np
 from numba import njit
 
 from bhr.codes import TILT_CODES
-from bhr.dualquat import k_rotate
+from bhr.kinematics.dualquat import k_rotate
 from bhr.errors import BhrError
-from bhr.follow import advance_kernel, score_step
+from bhr.options import BY_NAME
+from bhr.kinematics.leader import advance_kernel, score_step
 from bhr.solvers.base import Chain, FollowContext, SolveResult, Solver, register
 from bhr.solvers.fabrik import _dist, _pull, tip_angle_deg
 
 LIMIT_NONE, LIMIT_CONTINUOUS, LIMIT_BINARY = 0, 1, 2
 LIMITS = {"none": LIMIT_NONE, "continuous": LIMIT_CONTINUOUS, "binary": LIMIT_BINARY}
-AXES = ("local", "free")
+AXES = BY_NAME["axes"].choices or ()
 _TILT = np.array(TILT_CODES, dtype=np.int64)
 
 
@@ -53,7 +54,7 @@ def _rotate_about(A: np.ndarray, j: int, pivot: np.ndarray, ch: float, sh: float
 
 
 @njit(cache=True)
-def seed_kernel(P: np.ndarray, E1: np.ndarray, E2: np.ndarray, target: np.ndarray, direction: np.ndarray,
+def constrained_kernel(P: np.ndarray, E1: np.ndarray, E2: np.ndarray, target: np.ndarray, direction: np.ndarray,
                 has_dir: bool, length: float, tol_pos: float, tol_ori: float, alpha: float, max_iter: int,
                 limit: int, local_axes: bool, warmup: int, codes: np.ndarray, tilts: np.ndarray):
     """Constrained FABRIK on ``P``; ``E1``/``E2`` are the axis points (modified in place).
@@ -182,7 +183,7 @@ def seed_kernel(P: np.ndarray, E1: np.ndarray, E2: np.ndarray, target: np.ndarra
 
 
 @njit(cache=True)
-def follow_seed_kernel(path, dirs, P, E1, E2, length, feed, f, tol_pos, tol_ori, alpha, max_iter, limit,
+def follow_constrained_kernel(path, dirs, P, E1, E2, length, feed, f, tol_pos, tol_ori, alpha, max_iter, limit,
                        local_axes, warmup, out_points, out_iters, pe, oe, codes):
     """The thesis's whole trajectory loop with the constrained FABRIK kernel, compiled."""
     N = path.shape[0]
@@ -191,7 +192,7 @@ def follow_seed_kernel(path, dirs, P, E1, E2, length, feed, f, tol_pos, tol_ori,
     step_codes = np.zeros(n, dtype=np.int64)
     for i in range(N):
         d = dirs[N - 2] if i == N - 1 else dirs[i]
-        k, ep, eo = seed_kernel(P, E1, E2, path[i], d, True, length, tol_pos, tol_ori, alpha, max_iter, limit,
+        k, ep, eo = constrained_kernel(P, E1, E2, path[i], d, True, length, tol_pos, tol_ori, alpha, max_iter, limit,
                                 local_axes, warmup, step_codes, tilts)
         out_points[i] = P
         out_iters[i] = k
@@ -205,9 +206,9 @@ class ConstrainedFabrik(Solver):
 
     name = "constrained"
     summary = "constrained FABRIK with selectable --limit, --axes and --warmup (thesis ch. 6)"
-    default_limit = "binary"
-    default_axes = "local"
-    default_warmup = 10
+    default_limit = BY_NAME["limit"].default
+    default_axes = BY_NAME["axes"].default
+    default_warmup = BY_NAME["warmup"].default
 
     def __init__(self, robot, limit: str | None = None, axes: str | None = None, warmup: int | None = None) -> None:
         super().__init__(robot)
@@ -241,7 +242,7 @@ class ConstrainedFabrik(Solver):
         d = np.zeros(3) if orientation is None else np.asarray(orientation, dtype=np.float64)
         E1 = np.ascontiguousarray(out.axes[0])
         E2 = np.ascontiguousarray(out.axes[1])
-        k, err, ang = seed_kernel(out.points, E1, E2, np.asarray(target, dtype=np.float64), d, has_dir,
+        k, err, ang = constrained_kernel(out.points, E1, E2, np.asarray(target, dtype=np.float64), d, has_dir,
                                   float(r.module_length), float(r.tol_pos), float(r.tol_ori), float(r.alpha),
                                   int(r.max_iter), LIMITS[self.limit], self.axes == "local", int(self.warmup),
                                   codes, tilts)
@@ -257,7 +258,8 @@ class ConstrainedFabrik(Solver):
         """Run the whole follow-the-leader loop compiled (see :mod:`bhr.follow`). Returns whether codes are valid."""
         r = self.robot
         c = chain.copy()
-        follow_seed_kernel(path, dirs, c.points, np.ascontiguousarray(c.axes[0]), np.ascontiguousarray(c.axes[1]),
+        follow_constrained_kernel(path, dirs, c.points, np.ascontiguousarray(c.axes[0]),
+                                  np.ascontiguousarray(c.axes[1]),
                            float(r.module_length), float(r.feed), int(r.feed_divisor), float(r.tol_pos),
                            float(r.tol_ori), float(r.alpha), int(r.max_iter), LIMITS[self.limit],
                            self.axes == "local", int(self.warmup), out_points, out_iters, pe, oe, codes)
@@ -268,8 +270,12 @@ register(ConstrainedFabrik)
 
 
 @register
-class Seed(ConstrainedFabrik):
-    """The thesis's full algorithm: binary actuators, local axes, 10 warm-up iterations."""
+class Thesis(ConstrainedFabrik):
+    """The thesis's full algorithm: binary actuators, local axes, 10 warm-up iterations.
 
-    name = "seed"
+    Registered as ``thesis``; ``seed`` is an older name for it, still accepted.
+    """
+
+    name = "thesis"
+    aliases = ("seed",)
     summary = "the thesis's constrained FABRIK: binary tilts about local axes, returns codes"

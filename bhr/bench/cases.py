@@ -4,7 +4,7 @@ Each case times bhr and a reference in the same process, takes medians over
 repeats, checks both give the same numbers, and reports the ratio. The numpy
 references live here, written the straightforward way (numpy vector maths per
 point, Python loops over points and iterations), so anyone can read what is
-being compared. Run with ``bhr bench`` or ``python -m bhr.bench``; the same
+being compared. Run with ``bhr bench``; the same
 cases run under pytest-benchmark with
 ``pytest tests/benchmarks/bench_kernels.py --benchmark-only``.
 
@@ -14,7 +14,7 @@ Cases: ``fabrik`` and ``ccd`` (the 10-module chapter 5 chain), ``seed-colon``
 terms, which is the exact per-step optimum over all 5**5 codes, compiled
 branch and bound against numpy evaluating every configuration at every step;
 ``optimal-default-colon``, the default solver (planner on) per solve() call
-against the seed solver's call in the same driver, for issue 4's 1 ms),
+against the seed solver's call in the same driver, for the 1 ms per step asked of it),
 ``body-60`` (the whole-body beam search of a 60-module robot along the colon,
 behind the seed solver's head) and ``cli`` (``bhr --help`` and ``bhr follow
 --traj colon`` from a warm cache, whole commands). The numpy references of
@@ -99,7 +99,7 @@ def numpy_fabrik(points: np.ndarray, target: np.ndarray, length: float, tol: flo
 
 
 def _np_rotate(v: np.ndarray, axis: np.ndarray, angle: float) -> np.ndarray:
-    """Quaternion sandwich r v r* with numpy (same maths as bhr.dualquat.k_rotate)."""
+    """Quaternion sandwich r v r* with numpy (same maths as bhr.kinematics.dualquat.k_rotate)."""
     c, s = math.cos(angle / 2), math.sin(angle / 2)
     w, q = c, s * axis
     t_w = -np.dot(q, v)
@@ -327,11 +327,11 @@ def numpy_optimal_follow(path: np.ndarray, start_point: np.ndarray, start_direct
         frames = [F1s[ks[0]]]
         for k in ks[1:]:
             frames.append(_np_tilt(frames[-1], k, c, s))
-        frames = np.stack(frames)
+        fr = np.stack(frames)
         for m in range(n):
-            P[m + 1] = P[m] + L * frames[m, 2]
-        E1 = P[:-1] + frames[:, 0]
-        E2 = P[:-1] + frames[:, 1]
+            P[m + 1] = P[m] + L * fr[m, 2]
+        E1 = P[:-1] + fr[:, 0]
+        E2 = P[:-1] + fr[:, 1]
         codes[i] = codes_of[ks]
         pe[i] = np.where(idx >= 0, np.sqrt(_sq(P, path[np.clip(idx, 0, N - 1)])), 0.0)
         # advance by the feed along the base module; modules 2..n get straight axes again (bhr.follow)
@@ -484,7 +484,7 @@ def check_optimal_reference(res, path: np.ndarray, ref_codes: np.ndarray, ref_pe
 
 def case_optimal(repeat: int = 5) -> list[BenchResult]:
     """--solver optimal over the colon: the exact per-step search against numpy; the default's solve time."""
-    from bhr.bench_optimal import solve_times
+    from bhr.bench.optimal import solve_times
     from bhr.follow import follow
     from bhr.trajectory import load_trajectory
 
@@ -524,6 +524,7 @@ def case_body(repeat: int = 5) -> BenchResult:
     r = res.robot
     steps, nb = res.steps, 60 - r.modules
     body = simulate_body(res, 60)
+    assert res.codes is not None
     start, F1s = module1_frames(res.codes, tr.start_direction, r.alpha)
     P0s = np.ascontiguousarray(res.points[:, 0])
 

@@ -44,9 +44,16 @@ __all__ = [
 
 
 def _quaternion():
-    """numpy-quaternion, imported on first use (it pulls in scipy, slow to load)."""
-    import quaternion
+    """numpy-quaternion, imported on first use (it pulls in scipy, slow to load).
 
+    Only these Python-level reference functions use it (the solvers run the
+    ``k_*`` kernels), so it is installed with the test extras, not with bhr.
+    """
+    try:
+        import quaternion
+    except ModuleNotFoundError:
+        raise ModuleNotFoundError("the dual-quaternion reference functions need numpy-quaternion; "
+                                  "pip install numpy-quaternion (or bhr[test])") from None
     return quaternion
 
 

@@ -1,7 +1,7 @@
-"""Benchmark of ``--solver optimal`` against ``--solver seed``, both measured in the same run.
+"""Benchmark of ``--solver optimal`` against ``--solver thesis``, both measured in the same run.
 
-    python3 -m bhr.bench_optimal            # the table quoted in docs/optimal.md
-    python3 -m bhr.bench_optimal --json -   # the same numbers as JSON
+    python3 -m bhr.bench.optimal            # the table quoted in docs/optimal.md
+    python3 -m bhr.bench.optimal --json -   # the same numbers as JSON
 
 Three measurements, each a plain function returning numbers so that other
 commands can reuse them:
@@ -10,7 +10,7 @@ commands can reuse them:
   spiral, colon) the worst position error over all scored points of the
   whole run (max of ``FollowResult.point_errors``) with the optimal solver,
   divided by the seed solver's, with the thesis's robot (5 modules of 10 mm,
-  alpha 10 deg). The issue's targets: at most 0.8, and 0.6 on the colon.
+  alpha 10 deg). The targets set for the optimal solver: at most 0.8, and 0.6 on the colon.
 * :func:`solve_times`: median time of one ``Solver.solve`` call per step,
   driven step by step from Python as bhr.follow does without the compiled
   loop (so it includes the call overhead), after the kernels are loaded;
@@ -45,7 +45,7 @@ CASES: list[tuple[str, str, dict[str, float]]] = [
     ("spiral", "spiral", {}),
     ("colon", "colon", {}),
 ]
-#: The issue's targets for optimal / seed worst error.
+#: The targets set for the optimal solver: optimal / thesis worst error.
 TARGETS = {"curve 90": 0.8, "curve 360": 0.8, "spiral": 0.8, "colon": 0.6}
 
 
@@ -133,7 +133,7 @@ def body_clearance(body_modules: int = 60, solver: str = "optimal", robot=None, 
     label, name, params = next(c for c in CASES if c[0] == case)
     tr = load_trajectory(name, feed=robot.feed, **params)
     res = follow(tr, solver=solver, robot=robot, body_modules=body_modules)
-    s = res.summary()
+    s = res.summary.to_dict()
     return {"case": label, "solver": solver, "modules": body_modules, "steps": res.steps,
             "lumen_mm": sorted({float(v) for v in tr.lumen}) if tr.lumen is not None else None,
             "head_worst_mm": s["points_max_error_mm"], "body_worst_mm": s["body_points_max_error_mm"],
@@ -230,7 +230,7 @@ def format_report(doc: dict[str, Any]) -> list[str]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python3 -m bhr.bench_optimal", description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(prog="python3 -m bhr.bench.optimal", description=__doc__.splitlines()[0])
     ap.add_argument("--json", metavar="PATH|-", help="also write the numbers as JSON ('-': stdout)")
     ap.add_argument("--sensitivity", action="store_true", help="also rerun the ratios with each setting changed")
     args = ap.parse_args(argv)

@@ -1,0 +1,107 @@
+"""Follow-the-leader kernels: advance the robot, score one step (thesis ch. 7, appendix 1).
+
+After each solve the whole robot advances by the feed along its base module's
+direction; module 1 keeps its local axes and the axes of modules 2..n are
+reset to those of a straight robot along that direction
+(:func:`advance_kernel`). Point ``j`` (0 = base, n = tip) is scored against
+the trajectory point ``(n - j) f`` steps behind the current one (0 before that
+exists), ``f`` the feed divisor; module ``j < n-1`` against the path direction
+there, the tip module against the wanted tip direction (:func:`score_step`).
+
+:func:`advance_reference` and :func:`score_reference` are the same maths in
+numpy, written to be read; the tests hold the kernels equal to them.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+__all__ = ["score_step", "advance_kernel", "angle_deg", "score_reference", "advance_reference"]
+
+
+@njit(cache=True)
+def angle_deg(ax: float, ay: float, az: float, d: np.ndarray) -> float:
+    na = math.sqrt(ax * ax + ay * ay + az * az)
+    nd = math.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
+    c = (ax * d[0] + ay * d[1] + az * d[2]) / (na * nd)
+    return math.degrees(math.acos(max(-1.0, min(1.0, c))))
+
+
+@njit(cache=True)
+def score_step(i: int, P: np.ndarray, path: np.ndarray, dirs: np.ndarray, f: int, tip_ori: float,
+               pe: np.ndarray, oe: np.ndarray) -> None:
+    """Errors of step ``i`` (0-based): points into ``pe`` (n+1), modules into ``oe`` (n)."""
+    n = P.shape[0] - 1
+    for j in range(n + 1):
+        idx = i - (n - j) * f
+        if idx < 0:
+            pe[j] = 0.0
+        else:
+            dx = P[j, 0] - path[idx, 0]
+            dy = P[j, 1] - path[idx, 1]
+            dz = P[j, 2] - path[idx, 2]
+            pe[j] = math.sqrt(dx * dx + dy * dy + dz * dz)
+    oe[n - 1] = tip_ori
+    for j in range(n - 1):
+        idx = i - (n - j) * f
+        if idx < 0:
+            oe[j] = 0.0
+        else:
+            oe[j] = angle_deg(P[j + 1, 0] - P[j, 0], P[j + 1, 1] - P[j, 1], P[j + 1, 2] - P[j, 2], dirs[idx])
+
+
+@njit(cache=True)
+def advance_kernel(P: np.ndarray, E1: np.ndarray, E2: np.ndarray, feed: float, length: float) -> None:
+    """Advance by ``feed`` along the base module; reset the axes of modules 2..n (in place)."""
+    n = P.shape[0] - 1
+    ox, oy, oz = P[1, 0] - P[0, 0], P[1, 1] - P[0, 1], P[1, 2] - P[0, 2]
+    no = math.sqrt(ox * ox + oy * oy + oz * oz)
+    ob = np.array([ox / no, oy / no, oz / no])
+    for j in range(n + 1):
+        for c in range(3):
+            P[j, c] = P[j, c] + feed * ob[c]
+    for j in range(E1.shape[0]):
+        for c in range(3):
+            E1[j, c] = E1[j, c] + feed * ob[c]
+            E2[j, c] = E2[j, c] + feed * ob[c]
+    for E in (E1, E2):
+        dx, dy, dz = E[0, 0] - P[0, 0], E[0, 1] - P[0, 1], E[0, 2] - P[0, 2]
+        nd = math.sqrt(dx * dx + dy * dy + dz * dz)
+        d = np.array([dx / nd, dy / nd, dz / nd])
+        for j in range(1, n):
+            for c in range(3):
+                E[j, c] = P[0, c] + ob[c] * length * j + d[c]
+
+
+def score_reference(i: int, P: np.ndarray, path: np.ndarray, dirs: np.ndarray, f: int,
+                    tip_ori: float) -> tuple[np.ndarray, np.ndarray]:
+    """numpy reference of :func:`score_step`: (point errors (n+1), module errors (n))."""
+    n = P.shape[0] - 1
+    idx = i - (n - np.arange(n + 1)) * f
+    pe = np.where(idx >= 0, np.linalg.norm(P - path[np.maximum(idx, 0)], axis=1), 0.0)
+    oe = np.zeros(n)
+    oe[n - 1] = tip_ori
+    for j in range(n - 1):
+        if idx[j] >= 0:
+            a = P[j + 1] - P[j]
+            d = dirs[idx[j]]
+            c = np.dot(a, d) / (np.linalg.norm(a) * np.linalg.norm(d))
+            oe[j] = math.degrees(math.acos(np.clip(c, -1.0, 1.0)))
+    return pe, oe
+
+
+def advance_reference(P: np.ndarray, E1: np.ndarray, E2: np.ndarray, feed: float,
+                      length: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """numpy reference of :func:`advance_kernel`: new (points, axis-1 points, axis-2 points)."""
+    n = P.shape[0] - 1
+    ob = (P[1] - P[0]) / np.linalg.norm(P[1] - P[0])
+    P2, out = P + feed * ob, []
+    for E in (E1, E2):
+        E = E + feed * ob
+        d = (E[0] - P2[0]) / np.linalg.norm(E[0] - P2[0])
+        j = np.arange(1, n)[:, None]
+        E[1:n] = P2[0] + ob * length * j + d
+        out.append(E)
+    return P2, out[0], out[1]

@@ -1,0 +1,49 @@
+"""The Python API: overrides applied, typed results, to_dict/to_json, deprecated aliases."""
+import json
+import warnings
+
+import numpy as np
+import pytest
+
+import bhr
+from bhr.errors import BhrError
+from bhr.follow import Summary
+
+
+def test_solve_applies_robot_overrides():
+    r = bhr.Robot(modules=5, module_length=2.0, tol_pos=0.01)
+    res = bhr.solve([3, 9, 0], robot=r, modules=7)
+    assert res.points.shape == (8, 3)
+    assert np.isclose(np.linalg.norm(res.points[1] - res.points[0]), 2.0)
+    res = bhr.solve([3, 9, 0], robot=r, module_length=3.0)
+    assert res.points.shape == (6, 3) and np.isclose(np.linalg.norm(res.points[1] - res.points[0]), 3.0)
+    with pytest.raises(BhrError, match="'bogus' is not a robot setting"):
+        bhr.solve([3, 9, 0], robot=r, bogus=1)
+
+
+def test_solve_result_success_and_json():
+    ok = bhr.solve([3, 9, 0], modules=10, tol_pos=0.01)
+    assert ok.success is True and ok.position_error <= 0.01
+    far = bhr.solve([300, 0, 0], modules=5)
+    assert far.success is False
+    doc = ok.to_dict()
+    assert set(doc) == {"iterations", "position_error", "orientation_error_deg", "points", "codes"}
+    assert json.loads(ok.to_json()) == doc
+
+
+def test_follow_result_summary_is_typed_and_old_call_is_deprecated():
+    run = bhr.follow(bhr.trajectory("curve"), solver="thesis")
+    s = run.summary
+    assert isinstance(s, Summary) and s.steps == run.steps and s.tip_final_error_mm == s.to_dict()["tip_final_error_mm"]
+    assert isinstance(run.to_json(), str) and json.loads(run.to_json())["summary"] == s.to_dict()
+    with warnings.catch_warnings(record=True) as w:
+        warnings.simplefilter("always")
+        assert run.summary() == s.to_dict()
+    assert any(issubclass(x.category, DeprecationWarning) for x in w)
+
+
+def test_robot_fk():
+    pts, frames = bhr.Robot(modules=3).fk([3, 0, 15])
+    assert pts.shape == (4, 3) and frames.shape == (3, 3, 3)
+    straight, _ = bhr.Robot(modules=3).fk([0, 0, 0])
+    assert np.allclose(straight[-1], [30, 0, 0])

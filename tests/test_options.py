@@ -1,0 +1,58 @@
+"""One option registry (bhr.options): CLI options, robot files, batch files and sweep grids agree."""
+import dataclasses
+import re
+
+import pytest
+
+from bhr.errors import BhrError
+from bhr.options import OPTIONS, by_group
+from bhr.report import parse_batch
+from bhr.robot import Robot
+from bhr.robotfile import ROBOT_KEYS as FILE_KEYS
+from bhr.solvers.optimal import DEFAULTS
+from bhr.sweep import GRID_KEYS, build_sweep, parse_values, run_design
+
+
+def test_robot_defaults_are_the_registry_defaults():
+    fields = {f.name: f.default for f in dataclasses.fields(Robot)}
+    for o in by_group("robot"):
+        assert fields[o.key] == o.default, o.name
+    assert set(fields) == {o.key for o in by_group("robot")}
+    assert set(FILE_KEYS) == set(fields)
+    assert DEFAULTS == {o.name: o.default for o in by_group("solver")}
+
+
+@pytest.mark.parametrize("command", ["follow", "compare"])
+def test_cli_options_come_from_the_registry(command):
+    import importlib
+
+    cmd = getattr(importlib.import_module(f"bhr.cli.{command}"), command)
+    params = {p.name: p for p in cmd.params}
+    for o in by_group("robot", "trajectory", "solver"):
+        p = params["exit_" if o.name == "exit" else o.name]
+        assert p.opts == [o.flag] and p.help == o.help_text()
+        if hasattr(p.type, "limit"):
+            assert p.type.limit == o.limit
+
+
+@pytest.mark.parametrize("o", [o for o in OPTIONS if o.maximum is not None], ids=lambda o: o.name)
+def test_batch_refuses_what_the_command_line_refuses(o, run_bhr, tmp_path):
+    too_big = int(o.maximum) + 1 if o.kind is int else o.maximum * 2
+    with pytest.raises(BhrError, match=re.escape(f"{o.name} = {too_big:g} is too large; the limit is {o.limit:g}")):
+        parse_batch({"run": [{"name": "a", "traj": "curve", o.name: too_big}]}, "b")
+    with pytest.raises(BhrError, match="is too large"):
+        parse_values(o.name, [too_big], "sweep")
+    if o.group == "robot" and o.name != "feed_divisor":  # bhr fk has no feed
+        r = run_bhr("fk", "--codes", "0", o.flag, str(too_big))
+        assert r.returncode == 2 and f"the limit is {o.limit:g}" in r.stderr
+
+
+def test_optimal_options_in_batch_and_sweep():
+    assert {"lookahead", "beam", "ori_weight", "point_weights"} <= GRID_KEYS
+    b = parse_batch({"run": [{"name": "a", "traj": "line", "solver": "optimal", "lookahead": 0, "beam": 4}]}, "b")
+    assert b.runs[0].solver_options == {"lookahead": 0, "beam": 4}
+    with pytest.raises(BhrError, match="lookahead 300 is more than 200"):
+        parse_batch({"run": [{"name": "a", "traj": "line", "solver": "optimal", "lookahead": 300}]}, "b")
+    s = build_sweep(["line"], ["optimal", "thesis"], [("lookahead", (0, 5)), ("length", (20.0,))])
+    rows = [run_design(d, s.traj_sources[d["traj"]]) for d in s.designs()]
+    assert [r["status"] for r in rows] == ["ok"] * 4
