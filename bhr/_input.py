@@ -85,6 +85,12 @@ def read_toml(path: str | os.PathLike[str], what: str, hint: str) -> dict[str, A
         raise BhrError(f"{path}: not valid TOML ({msg}); {hint}") from None
 
 
+def did_you_mean(word: str, choices: Iterable[str]) -> str:
+    """``"did you mean 'x'? "`` for the choice nearest ``word`` (difflib), or ``""`` when none is close."""
+    close = difflib.get_close_matches(str(word), list(choices), n=1, cutoff=0.6)
+    return f"did you mean {close[0]!r}? " if close else ""
+
+
 def check_keys(table: dict[str, Any], allowed: Iterable[str], where: str) -> None:
     """Refuse keys of ``table`` outside ``allowed``, suggesting the nearest allowed name."""
     allowed = list(allowed)

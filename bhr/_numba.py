@@ -42,4 +42,20 @@ def configure_cache() -> None:
     os.environ["NUMBA_CACHE_DIR"] = str(fallback)
 
 
+def cache_dir() -> str:
+    """The folder numba's compiled cache goes to (set by :func:`configure_cache` unless the user chose one)."""
+    return os.environ.get("NUMBA_CACHE_DIR", "")
+
+
+def cache_has_kernels() -> bool:
+    """Whether numba's cache holds any compiled bhr kernel yet (False on a machine's first run)."""
+    root = Path(cache_dir())
+    # numba keeps each source folder's kernels in "<folder name>_<hash>": bhr's package folders
+    folders = {p.parent.name for p in Path(__file__).parent.rglob("__init__.py")}
+    try:
+        return any(any(root.glob(f"{name}_*/*.nbi")) for name in folders)
+    except OSError:
+        return False
+
+
 configure_cache()

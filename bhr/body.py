@@ -103,10 +103,11 @@ def _body_kernel(P0s, F1s, start, nb, f, feed, L, c, s, beam, pts, codes):
     Ft = np.empty((3, 3))
     for i in range(N):
         # body module 1: the frame module 1 had before this step's tilt (the joint is module 1's own code)
-        if i == 0:
-            bG[1, 0] = start
-        else:
-            bG[1, 0] = F1s[i - 1]
+        # element loops throughout, not array-slice assignment: that compiles numba's
+        # string formatting and cost seconds on a machine's first run
+        for a in range(3):
+            for b in range(3):
+                bG[1, 0, a, b] = start[a, b] if i == 0 else F1s[i - 1, a, b]
         for b in range(3):
             bQ[1, 0, b] = P0s[i, b] - L * bG[1, 0, 2, b]
         bC[0] = 0.0
@@ -116,11 +117,15 @@ def _body_kernel(P0s, F1s, start, nb, f, feed, L, c, s, beam, pts, codes):
             if j >= 0:
                 for b in range(3):
                     R[b] = P0s[j, b]
-                Ft[:, :] = F1s[j]
+                for a in range(3):
+                    for b in range(3):
+                        Ft[a, b] = F1s[j, a, b]
             else:
                 for b in range(3):
                     R[b] = P0s[0, b] + j * feed * start[2, b]
-                Ft[:, :] = start
+                for a in range(3):
+                    for b in range(3):
+                        Ft[a, b] = start[a, b]
             m = 0
             for q in range(nm):
                 for a in range(5):
@@ -139,8 +144,10 @@ def _body_kernel(P0s, F1s, start, nb, f, feed, L, c, s, beam, pts, codes):
             nm = min(B, m)
             for u in range(nm):
                 r = order[u]
-                bG[k, u] = cG[r]
-                bQ[k, u] = cQ[r]
+                for a in range(3):
+                    bQ[k, u, a] = cQ[r, a]
+                    for b in range(3):
+                        bG[k, u, a, b] = cG[r, a, b]
                 bC[u] = cC[r]
                 par[k, u] = cPar[r]
                 act[k, u] = cA[r]

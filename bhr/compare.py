@@ -64,7 +64,10 @@ def compare_runs(traj: Trajectory, solvers: Sequence[str], robot: Robot, *,
     out = []
     for s in names:
         # load (or compile) the solver's kernels first, so that the time is the run's
-        follow(np.ascontiguousarray(traj.points[:3]), solver=s, robot=robot, solver_options=opts.get(s))
+        warm = Trajectory(traj.name, np.ascontiguousarray(traj.points[:3]),
+                          lumen=None if traj.lumen is None else traj.lumen[:3], start_direction=traj.start_direction,
+                          start_point=traj.start_point)
+        follow(warm, solver=s, robot=robot, solver_options=opts.get(s))
         t0 = time.perf_counter()
         res = follow(traj, solver=s, robot=robot, solver_options=opts.get(s), body_modules=body_modules)
         out.append(Compared(s, res, time.perf_counter() - t0))

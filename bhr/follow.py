@@ -55,13 +55,14 @@ def _sharpest_turn(dirs: np.ndarray) -> tuple[int, float] | None:
 
 
 def stats(values: np.ndarray, first: int = 0) -> dict[str, float | int]:
-    """max, mean, median and final of ``values[first:]`` and the worst step (1-based)."""
+    """max, mean, median, root mean square and final of ``values[first:]`` and the worst step (1-based)."""
     v = values[first:] if first < len(values) else values[-1:]
     worst = int(np.argmax(values)) + 1
     return {
         "max": float(np.max(values)),
         "mean": float(np.mean(v)),
         "median": float(np.median(v)),
+        "rmse": float(np.sqrt(np.mean(np.square(v)))),
         "final": float(values[-1]),
         "worst_step": worst,
     }
@@ -76,7 +77,7 @@ class Summary:
     """The summary of a run (thesis ch. 7's figures of merit): errors in mm and degrees, steps from 1.
 
     ``points``, ``modules`` and ``global_`` hold, per point (base first) and per
-    module, the max, mean, median and final error and the worst step (see
+    module, the max, mean, median, RMSE and final error and the worst step (see
     :func:`stats`). ``extra`` holds what the body simulation, the lumen
     clearance and the solver add. :meth:`to_dict` is the ``summary`` object of
     ``run.json``.
@@ -99,6 +100,17 @@ class Summary:
     modules: list[dict[str, float | int]]
     global_: list[dict[str, float | int]]
     warnings: list[str]
+    #: root mean square of the tip's position and orientation error over its scored steps
+    tip_rmse_mm: float = 0.0
+    tip_orientation_rmse_deg: float = 0.0
+    #: the same per point (base first) and per module
+    rmse_point_mm: list[float] = field(default_factory=list)
+    rmse_module_deg: list[float] = field(default_factory=list)
+    #: steps where some point was more than tol_pos off / the tip more than tol_ori off
+    over_tol_pos_steps: int = 0
+    over_tol_ori_steps: int = 0
+    #: either count is not zero (the run completes; the flag tells)
+    tolerance_exceeded: bool = False
     extra: dict[str, Any] = field(default_factory=dict)
 
     def to_dict(self) -> dict[str, Any]:
@@ -166,7 +178,8 @@ class FollowResult:
 
     @property
     def summary(self) -> Summary:
-        """Max, mean, median and final per point and module (leading unscored steps left out of mean/median)."""
+        """Max, mean, median, RMSE and final per point and module (leading unscored steps left out of mean,
+        median and RMSE), and the run's headline figures (see :class:`Summary`)."""
         n = self.modules
         f = self.robot.feed_divisor
         pts = [stats(self.point_errors[:, j], (n - j) * f) for j in range(n + 1)]
@@ -174,6 +187,8 @@ class FollowResult:
         glob = [stats(self.global_errors[:, j], (n - j - 1) * f) for j in range(n)]
         worst_flat = int(np.argmax(self.point_errors.max(axis=1))) + 1
         out: dict[str, Any] = {}
+        over_pos = int(np.count_nonzero(self.point_errors.max(axis=1) > self.robot.tol_pos))
+        over_ori = int(np.count_nonzero(self.orientation_errors[:, -1] > self.robot.tol_ori))
         if self.body is not None:
             b = self.body
             out["body_modules"] = self.modules + b.modules
@@ -188,7 +203,11 @@ class FollowResult:
                        int(pts[-1]["worst_step"]), float(self.point_errors.max()), worst_flat,
                        float(self.orientation_errors.max()), mods[-1]["max"], mods[-1]["final"],
                        float(self.global_errors.max()), float(np.mean(self.iterations)), pts, mods, glob,
-                       list(self.warnings), out)
+                       list(self.warnings), tip_rmse_mm=float(pts[-1]["rmse"]),
+                       tip_orientation_rmse_deg=float(mods[-1]["rmse"]),
+                       rmse_point_mm=[float(p["rmse"]) for p in pts], rmse_module_deg=[float(m["rmse"]) for m in mods],
+                       over_tol_pos_steps=over_pos, over_tol_ori_steps=over_ori,
+                       tolerance_exceeded=bool(over_pos or over_ori), extra=out)
 
     def to_json(self) -> str:
         """:meth:`to_dict` as a JSON string (the text of ``run.json``)."""
@@ -298,12 +317,41 @@ def _run_from_json(doc: Any, where: str) -> FollowResult:
     solver = doc["solver"]
     if not isinstance(solver, str):
         raise bad("'solver' must be a name")
+    lumen = None
+    if tr.get("lumen") is not None:
+        lumen = array(tr["lumen"], (path.shape[0],), "trajectory lumen")
+    body = None
+    if any("body_points" in st for st in steps):
+        body = _body_from_json(steps, robot, bad, array)
     summary = doc.get("summary")
     msgs = summary.get("warnings", []) if isinstance(summary, dict) else []
     params: dict[str, Any] = tr["params"] if isinstance(tr.get("params"), dict) else {}
-    traj = Trajectory(str(tr.get("name", "run")), path, dict(params), source=where)
-    return FollowResult(traj, robot, solver, pts, np.asarray(iters, dtype=np.int64), pe, oe, codes,
-                        [str(m) for m in msgs] if isinstance(msgs, list) else [])
+    traj = Trajectory(str(tr.get("name", "run")), path, dict(params), source=where, lumen=lumen)
+    result = FollowResult(traj, robot, solver, pts, np.asarray(iters, dtype=np.int64), pe, oe, codes,
+                          [str(m) for m in msgs] if isinstance(msgs, list) else [])
+    result.body = body
+    return result
+
+
+def _body_from_json(steps: list, robot: Robot, bad: Callable[[str], BhrError],
+                    array: Callable[..., np.ndarray]) -> BodyRun:
+    """The body behind the head (:class:`bhr.body.BodyRun`) from the ``body_*`` keys of every step."""
+    keys = ("body_points", "body_point_errors_mm", "body_module_orientation_errors_deg", "body_codes")
+    for k, st in enumerate(steps):
+        if not all(key in st for key in keys):
+            raise bad(f"step {k + 1} must have {', '.join(keys)} (the body is in some steps only)")
+    nb = len(steps[0]["body_points"]) if isinstance(steps[0]["body_points"], list) else -1
+    if nb < 1:
+        raise bad("step 1 body_points must be a list of points")
+    pts = np.stack([array(st["body_points"], (nb, 3), f"step {k + 1} body_points") for k, st in enumerate(steps)])
+    pe = np.stack([array(st["body_point_errors_mm"], (nb,), f"step {k + 1} body_point_errors_mm")
+                   for k, st in enumerate(steps)])
+    oe = np.stack([array(st["body_module_orientation_errors_deg"], (nb,),
+                         f"step {k + 1} body_module_orientation_errors_deg") for k, st in enumerate(steps)])
+    codes = np.stack([array(st["body_codes"], (nb,), f"step {k + 1} body_codes") for k, st in enumerate(steps)])
+    # body point k is scored against the trajectory point (n + k) f steps behind (bhr.body)
+    idx = np.arange(len(steps))[:, None] - (robot.modules + np.arange(1, nb + 1)[None, :]) * robot.feed_divisor
+    return BodyRun(nb, pts, codes.astype(np.int64), pe, oe, idx >= 0)
 
 
 def load_run(path: Any) -> FollowResult:
@@ -382,6 +430,7 @@ def follow(points: Any, solver: str = "thesis", robot: Robot | None = None, *,
                        "shorten the path, raise the feed or use fewer modules")
     s = get_solver(solver, robot, **(solver_options or {}))
     s.reset()
+    s.prepare(traj)
     msgs: list[str] = []
     turn = _sharpest_turn(dirs)
     if turn is not None and turn[1] > 90.0:

@@ -27,8 +27,15 @@ from bhr.codes import check_code, check_codes
 from bhr.errors import BhrError, LinkError
 
 __all__ = ["BoardLink", "Pacer", "StreamInterrupted", "check_board", "interrupted", "stream_codes", "validate_codes",
-           "DEFAULT_BAUD",
+           "wait_until_ready", "DEFAULT_BAUD",
            "DEFAULT_TIMEOUT", "DEFAULT_RETRIES"]
+
+try:  # a pty that vanishes between write and drain raises termios.error, which is not an OSError
+    import termios
+
+    _TTY_ERRORS: tuple[type[BaseException], ...] = (termios.error,)
+except ImportError:  # pragma: no cover - not POSIX
+    _TTY_ERRORS = ()
 
 DEFAULT_BAUD = 115200
 DEFAULT_TIMEOUT = 0.25  # seconds to wait for each answer
@@ -36,6 +43,14 @@ DEFAULT_RETRIES = 3     # extra tries after the first
 #: While waiting for the next row, send a heartbeat this often (s). Must stay
 #: well below the board's silence timeout (1 s on the real board).
 DEFAULT_HEARTBEAT = 0.25
+
+
+try:  # POSIX: pyserial's flush() calls termios.tcdrain, whose error is not an OSError
+    import termios as _termios
+
+    _TERMIOS_ERRORS: tuple[type[BaseException], ...] = (_termios.error,)
+except ImportError:  # pragma: no cover - Windows
+    _TERMIOS_ERRORS = ()
 
 
 class StreamInterrupted(KeyboardInterrupt):
@@ -146,11 +161,17 @@ class BoardLink:
         self.last_faults = P.fault_names(faults)
         return self.last_faults
 
-    def status(self) -> dict:
-        """The board's current output codes and faults: ``{"codes": [...], "faults": [...]}``."""
+    def status(self, detail: bool = False) -> dict:
+        """The board's current output codes and faults: ``{"codes": [...], "faults": [...]}``.
+
+        ``detail=True`` adds ``"relaxing"``: the modules (1-based) with a
+        released wire that has not relaxed yet (docs/thermal.md).
+        """
         reply = self._transact(P.status_frame, "STATUS", expect=P.Msg.STATUS_REPLY)
         try:
             doc = P.parse_status(reply)
+            if detail:
+                doc["relaxing"] = P.relaxing_modules(reply)
         except P.ProtocolError as exc:
             raise LinkError(f"board on {self.port} sent a malformed status reply ({exc}); "
                             "check that its firmware matches this bhr") from None
@@ -163,6 +184,9 @@ class BoardLink:
             doc["codes"] = [0] * len(chain)
             for pos, m in enumerate(self.module_order):
                 doc["codes"][m - 1] = chain[pos]
+            if detail:
+                doc["relaxing"] = sorted(self.module_order[k - 1] for k in doc["relaxing"])
+            doc["faults"] = [_rename_module(f, self.module_order) for f in doc["faults"]]
         return doc
 
     def stop_all(self, retries: int | None = None) -> None:
@@ -203,7 +227,7 @@ class BoardLink:
         try:
             self._ser.write(data)
             self._ser.flush()
-        except (self._serial_mod.SerialException, OSError, termios_error) as exc:
+        except (self._serial_mod.SerialException, OSError, *_TTY_ERRORS) as exc:
             raise self._io_error(exc) from None
         self.frames_sent += 1
 
@@ -217,7 +241,7 @@ class BoardLink:
             try:
                 waiting = ser.in_waiting
                 data = ser.read(max(1, min(waiting, 4096)))
-            except (self._serial_mod.SerialException, OSError, termios_error) as exc:
+            except (self._serial_mod.SerialException, OSError, *_TTY_ERRORS) as exc:
                 raise self._io_error(exc) from None
             if data:
                 for frame in self._decoder.feed(data):
@@ -266,10 +290,27 @@ class BoardLink:
         return f"board on {self.port} refused {what}: {text}; check that its firmware matches this bhr"
 
 
-try:  # pyserial lets termios.error (not an OSError) through from tcdrain when a pty's other end vanishes
-    from termios import error as termios_error
-except ImportError:  # pragma: no cover - Windows
-    termios_error = OSError  # type: ignore[misc,assignment]
+def _rename_module(fault: str, order: Sequence[int]) -> str:
+    """``overheat:m2`` of chain position 2 -> the module wired there."""
+    name, _, pos = fault.partition(":m")
+    return f"{name}:m{order[int(pos) - 1]}" if pos.isdigit() and int(pos) <= len(order) else fault
+
+
+def wait_until_ready(link: "BoardLink", timeout: float = 30.0) -> float:
+    """Poll the board until no module is cooling or relaxing (wires cold enough to plan from); return the wait (s).
+
+    Raises LinkError when the board is still not ready after ``timeout`` seconds.
+    """
+    t0 = time.monotonic()
+    while True:
+        doc = link.status(detail=True)
+        busy = [f for f in doc["faults"] if f.startswith("cooling")] + [f"relaxing:m{m}" for m in doc["relaxing"]]
+        if not busy:
+            return time.monotonic() - t0
+        if time.monotonic() - t0 > timeout:
+            raise LinkError(f"board on {link.port} is still {', '.join(busy)} after {timeout:g} s; wait for its "
+                            "wires to cool (bhr status) and try again")
+        time.sleep(0.1)
 
 
 def _reason(exc: BaseException) -> str:
@@ -295,29 +336,51 @@ def validate_codes(codes, where: str = "") -> np.ndarray:
 class Pacer:
     """Send rows of codes to the board no faster than ``rate`` rows per second.
 
-    The first row goes at once; row ``k`` is due ``k / rate`` seconds after
-    it (when the caller is slower, rows follow each other at once). While
-    waiting longer than ``heartbeat`` seconds, heartbeats keep the board's
-    silence timeout from firing. Calling the pacer as ``pacer(step, codes)``
-    fits :func:`bhr.follow.follow`'s ``on_step``, which is how ``bhr follow
-    --port`` streams while it solves. ``sent`` counts acknowledged rows and
-    ``faults`` collects every fault name the board reported.
+    The first row goes at once; each further row is due ``1 / rate`` seconds
+    (or its planned gap, with ``times``: seconds after the first row, one per
+    row, from :func:`bhr.thermal.auto_schedule`) after the row before it was
+    sent, so a late row never shortens the gap after it. While waiting longer
+    than ``heartbeat`` seconds, heartbeats keep the board's silence timeout
+    from firing. ``wait_relaxed``: before a row that energises a recently
+    released wire, ask the board and wait while that module still has a wire
+    relaxing (the board's clock decides, so a board whose clock runs slow is
+    still never asked too early). ``on_fault(step, names)`` is called once for
+    each fault the board raises anew, with the 1-based step and the fault
+    names with their modules (a status request gives the modules);
+    ``known_faults`` (from a status before the stream) are not news. Calling
+    the pacer as ``pacer(step, codes)`` fits :func:`bhr.follow.follow`'s
+    ``on_step``. ``sent`` counts acknowledged rows, ``faults`` collects every
+    fault name the board reported, ``fault_events`` the (step, name) pairs.
     """
 
-    def __init__(self, link: BoardLink, rate: float = 10.0, heartbeat: float = DEFAULT_HEARTBEAT) -> None:
+    def __init__(self, link: BoardLink, rate: float = 10.0, heartbeat: float = DEFAULT_HEARTBEAT,
+                 times: Sequence[float] | None = None,
+                 on_fault: Callable[[int, list[str]], None] | None = None, known_faults: Sequence[str] = (),
+                 wait_relaxed: bool = False) -> None:
         if not rate or not np.isfinite(rate) or rate <= 0:
             raise BhrError(f"rate must be a positive number of rows per second, got {rate}")
         self.link = link
         self.period = 1.0 / float(rate)
+        self.times = None if times is None else [float(t) for t in times]
         self.heartbeat = heartbeat
         self.sent = 0
         self.faults: list[str] = []
+        self.fault_events: list[tuple[int, str]] = []
+        self.on_fault = on_fault
         self._t0: float | None = None
+        self._seen: set[str] = set(known_faults)  # latched before the stream: not news
+        self.wait_relaxed = wait_relaxed
+        self._last: list[int] | None = None
+        self._released: dict[tuple[int, int], float] = {}
 
     def send(self, codes: Sequence[int]) -> None:
         """Wait until the next row is due, then send ``codes`` (one per module, base first)."""
         if self._t0 is not None:
-            due = self._t0 + self.sent * self.period
+            # Each row waits its planned gap after the row before it was actually sent: a late row never
+            # shortens the next gap (the wires' relaxation counts from the release).
+            k = self.sent
+            gap = self.period if self.times is None or k >= len(self.times) else self.times[k] - self.times[k - 1]
+            due = self._t0 + max(gap, 0.0)
             while True:
                 now = time.monotonic()
                 if now >= due:
@@ -327,12 +390,43 @@ class Pacer:
                     self.link.heartbeat()
                 else:
                     time.sleep(due - now)
-        else:
-            self._t0 = time.monotonic()
-        for f in self.link.set_codes(codes):
+        codes = [int(c) for c in codes]
+        if self.wait_relaxed and self._last is not None:
+            # modules asked to energise a wire that was switched off recently (it may still be relaxing)
+            now = time.monotonic()
+            recent = [m for m, (c, p) in enumerate(zip(codes, self._last), start=1)
+                      if any(now - self._released.get((m, b), -1e9) < 10.0 for b in range(4) if (c & ~p) >> b & 1)]
+            if recent:
+                self._await_relaxed(recent)
+        self._t0 = time.monotonic()
+        if self._last is not None:
+            for m, (c, p) in enumerate(zip(codes, self._last), start=1):
+                for b in range(4):
+                    if (p & ~c) >> b & 1:
+                        self._released[(m, b)] = self._t0
+        self._last = codes
+        names = self.link.set_codes(codes)
+        self.sent += 1
+        if any(f != "silence" for f in names):
+            # latched faults: the ACK has no module detail, so ask (only while the board reports a fault)
+            detail = [f for f in self.link.status()["faults"] if f != "silence"]
+            fresh = [f for f in detail if f not in self._seen and f.split(":")[0] != "cooling"]
+            self._seen.update(detail)
+            for f in fresh:
+                self.fault_events.append((self.sent, f))
+            if fresh and self.on_fault is not None:
+                self.on_fault(self.sent, fresh)
+        for f in names:
             if f not in self.faults:
                 self.faults.append(f)
-        self.sent += 1
+
+    def _await_relaxed(self, modules: list[int], timeout: float = 10.0) -> None:
+        end = time.monotonic() + timeout
+        while True:
+            busy = set(self.link.status(detail=True)["relaxing"]) & set(modules)
+            if not busy or time.monotonic() > end:
+                return
+            time.sleep(0.01)
 
     def __call__(self, step: int, codes: Sequence[int] | None) -> None:
         if codes is None:
@@ -363,7 +457,9 @@ def interrupted(link: BoardLink, sent: int) -> StreamInterrupted:
 
 
 def stream_codes(link: BoardLink, codes, rate: float = 10.0, progress: Callable[[int, int], None] | None = None,
-                 heartbeat: float = DEFAULT_HEARTBEAT, start: int = 0) -> int:
+                 heartbeat: float = DEFAULT_HEARTBEAT, start: int = 0, times: Sequence[float] | None = None,
+                 on_fault: Callable[[int, list[str]], None] | None = None, known_faults: Sequence[str] = (),
+                 wait_relaxed: bool = False) -> int:
     """Send each row of ``codes`` (steps x modules) to the board at ``rate`` rows per second.
 
     Every code is validated before the first frame. Rows are paced by
@@ -374,7 +470,11 @@ def stream_codes(link: BoardLink, codes, rate: float = 10.0, progress: Callable[
     the outputs until the board's silence timeout.
     """
     table = validate_codes(codes)
-    pacer = Pacer(link, rate, heartbeat)
+    planned = None if times is None else [float(t) for t in list(times)[start:]]
+    if planned:
+        planned = [t - planned[0] for t in planned]
+    pacer = Pacer(link, rate, heartbeat, times=planned, on_fault=on_fault, known_faults=known_faults,
+                  wait_relaxed=wait_relaxed)
     total = table.shape[0]
     try:
         for i in range(start, total):

@@ -65,6 +65,11 @@ class Option:
     shown: str | None = None
     solvers: tuple[str, ...] | None = None  # solvers taking this option (None: every constrained solver)
     metavar: str | None = None
+    solver_defaults: tuple[tuple[str, Any], ...] = ()  # (solver, default) where a solver's default differs
+
+    def default_for(self, solver: str) -> Any:
+        """The default of this option for ``solver`` (its own where it has one)."""
+        return dict(self.solver_defaults).get(solver, self.default)
 
     @property
     def key(self) -> str:
@@ -114,6 +119,7 @@ class Option:
 
 _R, _T, _C, _S = "robot", "trajectory", "constraint", "solver"
 _OPT = ("optimal",)
+_LUM = ("lumen",)
 
 OPTIONS: tuple[Option, ...] = (
     # the robot (bhr.robot.Robot; thesis ch. 4 and 7)
@@ -141,26 +147,47 @@ OPTIONS: tuple[Option, ...] = (
     Option("exit", _T, float, "curve: exit straight (mm)", 30.0, "mm"),
     Option("pitch", _T, float, "spiral: rise per turn (mm)", 40.0, "mm"),
     Option("turns", _T, float, "spiral: number of turns", 2.0),
+    Option("seed", _T, int, "anatomy: which anatomical colon, a whole number 0 ... 4294967295", 1,
+           maximum=2**32 - 1),
     # the constrained solvers (thesis ch. 6; bhr.solvers.thesis)
     Option("limit", _C, str, "Rotation limit of the constrained solvers", "binary",
            choices=("binary", "continuous", "none")),
     Option("axes", _C, str, "Tilt axes: the module's two local axes, or free", "local", choices=("local", "free")),
     Option("warmup", _C, int, "Unconstrained warm-up iterations of the constrained solvers", 10),
-    # --solver optimal (bhr.solvers.optimal, docs/optimal.md); ranges checked by the solver
-    Option("lookahead", _S, int, "optimal: steps the base module's tilt is planned ahead", 10, solvers=_OPT,
-           metavar="STEPS"),
-    Option("beam", _S, int, "optimal: base-tilt sequences kept while planning", 10, solvers=_OPT, metavar="N"),
+    # --solver optimal (bhr.solvers.optimal, docs/optimal.md) and --solver lumen (bhr.solvers.lumen, docs/lumen.md);
+    # ranges checked by the solver
+    Option("lookahead", _S, int, "optimal, lumen: steps the base module's tilt is planned ahead (lumen [8])", 10,
+           solvers=_OPT + _LUM, metavar="STEPS", solver_defaults=(("lumen", 8),)),
+    Option("beam", _S, int, "optimal, lumen: base-tilt sequences kept while planning (lumen [3])", 10,
+           solvers=_OPT + _LUM, metavar="N", solver_defaults=(("lumen", 3),)),
     Option("point_weights", _S, "weights", "optimal: weight of each point's squared error, base to tip", 1.0,
            solvers=_OPT, metavar="W|W0,..,Wn"),
-    Option("ori_weight", _S, float, "optimal: tip orientation weight, mm of error per degree", 0.2, solvers=_OPT,
-           metavar="MM/DEG"),
+    Option("ori_weight", _S, float, "optimal, lumen: tip orientation weight, mm of error per degree (lumen [0.1])",
+           0.2, solvers=_OPT + _LUM, metavar="MM/DEG", solver_defaults=(("lumen", 0.1),)),
     Option("drift_weight", _S, float, "optimal: weight of the predicted along-path drift of the base", 10.0,
            solvers=_OPT),
     Option("roll_weight", _S, float, "optimal: weight of tilt axes sitting diagonally to the bend", 1000.0,
            solvers=_OPT),
+    Option("wall_weight", _S, float, "lumen: weight of the squared penetration past the margin, per mm^2", 1000.0,
+           solvers=_LUM),
+    Option("margin", _S, float, "lumen: clearance below which the wall cost starts (mm)", 1.0, solvers=_LUM,
+           metavar="MM"),
+    Option("center_weight", _S, float, "lumen: weight of the squared distance of each point to the centerline",
+           0.05, solvers=_LUM),
+    Option("track_weight", _S, float, "lumen: weight of each point's squared error to its trajectory point", 0.0,
+           solvers=_LUM),
+    Option("along_weight", _S, float, "lumen: weight of each point's squared lead along the centerline", 0.05,
+           solvers=_LUM),
+    Option("window", _S, float, "lumen: arc length searched on each side for a point's nearest centerline point "
+           "(mm)", 40.0, solvers=_LUM, metavar="MM"),
 )
 
 BY_NAME: dict[str, Option] = {o.name: o for o in OPTIONS}
+
+
+def solver_defaults(solver: str) -> dict[str, Any]:
+    """Every option ``solver`` takes, with its default for that solver."""
+    return {o.name: o.default_for(solver) for o in OPTIONS if o.group == "solver" and solver in (o.solvers or ())}
 
 
 def by_group(*groups: str) -> tuple[Option, ...]:

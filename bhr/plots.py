@@ -26,7 +26,8 @@ if TYPE_CHECKING:  # pragma: no cover
 
 __all__ = ["error_figure", "path_figure", "chain_figure", "draw_robot", "draw_path", "save_figure",
            "save_run_plots", "ERROR_KINDS", "StepView", "run_is_planar",
-           "body_figure", "clearance_figure", "mark_wall_touches"]
+           "body_figure", "clearance_figure", "mark_wall_touches", "draw_contacts", "draw_tube",
+           "draw_contact_steps"]
 
 ORDINALS = ["First", "Second", "Third", "Fourth", "Fifth", "Sixth", "Seventh", "Eighth", "Ninth", "Tenth"]
 
@@ -175,6 +176,7 @@ class StepView:
         self.step: int | None = None
         self.artists: list[Any] = []
         traj = result.trajectory
+        draw_tube(self.ax, traj, self.planar)
         draw_path(self.ax, traj.points, self.planar)
         pts = np.vstack([traj.points, result.points.reshape(-1, 3)] + _body_points(result))
         _draw_touch_points(self.ax, result, self.planar)
@@ -329,22 +331,48 @@ def mark_wall_touches(ax: Any, result: "FollowResult") -> None:
 
 
 def _draw_touch_points(ax: Any, result: "FollowResult", planar: bool) -> None:
-    """Mark every robot point where it touched the wall (any step) on the path view."""
+    """Mark where the robot touched the wall (any step) on the path view: see :func:`draw_contacts`."""
+    draw_contacts(ax, result, planar)
+
+
+def draw_contacts(ax: Any, result: "FollowResult", planar: bool) -> list[Any]:
+    """Red dots where the robot touched the lumen wall: each touching module's deepest spot, at every step."""
     cl = getattr(result, "clearance", None)
     if cl is None or not cl.touch_steps:
-        return
-    n1 = result.points.shape[1]
-    where = []
-    for step, p in cl.touches():
-        i = step - 1
-        where.append(result.points[i, p] if p < n1 or result.body is None else result.body.points[i, p - n1])
-    w = np.array(where)
-    style = {"color": "tab:red", "marker": "o", "markersize": 4, "linestyle": "none", "alpha": 0.6,
-             "label": "wall touched"}
+        return []
+    w = cl.contacts()
+    if not len(w):
+        return []
+    style = {"color": "tab:red", "marker": "o", "markersize": 3.5, "linestyle": "none", "alpha": 0.55,
+             "label": "wall contact", "zorder": 4}
     if planar:
-        ax.plot(w[:, 0], w[:, 1], **style)
-    else:
-        ax.plot(w[:, 0], w[:, 1], w[:, 2], **style)
+        return ax.plot(w[:, 0], w[:, 1], **style)
+    return ax.plot(w[:, 0], w[:, 1], w[:, 2], **style)
+
+
+def draw_tube(ax: Any, trajectory: Any, planar: bool, rings_every_mm: float = 12.0) -> list[Any]:
+    """The lumen's wall: both sides of the tube from the top (planar runs), rings around the centerline in 3-D."""
+    lumen = getattr(trajectory, "lumen", None)
+    pts = trajectory.points
+    if lumen is None or len(pts) < 2:
+        return []
+    t = np.gradient(pts, axis=0)
+    t /= np.maximum(np.linalg.norm(t, axis=1), 1e-12)[:, None]
+    half = np.asarray(lumen, dtype=float)[: len(pts)] / 2.0
+    style = {"color": "0.45", "linewidth": 0.7, "alpha": 0.8}
+    if planar:
+        side = np.stack([-t[:, 1], t[:, 0]], axis=1)
+        left = pts[:, :2] + half[:, None] * side
+        right = pts[:, :2] - half[:, None] * side
+        return ax.plot(left[:, 0], left[:, 1], label="lumen wall", **style) + ax.plot(right[:, 0], right[:, 1], **style)
+    seg = np.linalg.norm(np.diff(pts, axis=0), axis=1)
+    every = max(1, int(round(rings_every_mm / max(float(np.median(seg)), 1e-9))))
+    artists: list[Any] = []
+    for k in range(0, len(pts), every):
+        c = _circle(pts[k], t[k], half[k], 24)
+        artists += ax.plot(c[:, 0], c[:, 1], c[:, 2], linewidth=0.5, color="0.55", alpha=0.45,
+                           label="lumen wall" if k == 0 else None)
+    return artists
 
 
 def body_figure(result: "FollowResult") -> plt.Figure:
@@ -370,6 +398,18 @@ def body_figure(result: "FollowResult") -> plt.Figure:
     return fig
 
 
+def draw_contact_steps(ax: Any, result: "FollowResult") -> list[Any]:
+    """On a per-step clearance plot: a red dot at each step where the robot touches the wall."""
+    cl = getattr(result, "clearance", None)
+    if cl is None or not cl.touch_steps:
+        return []
+    steps = np.asarray(cl.touch_steps)
+    per = cl.per_step[steps - 1]
+    pen = cl.max_penetration_mm
+    return ax.plot(steps, per, "o", color="tab:red", markersize=2.5, linestyle="none",
+                   label=f"wall contact ({len(steps)} steps, deepest {pen:.2f} mm)")
+
+
 def clearance_figure(result: "FollowResult") -> plt.Figure:
     """Smallest clearance to the lumen wall at each step (mm); below zero the wall is touched."""
     cl = result.clearance
@@ -379,6 +419,7 @@ def clearance_figure(result: "FollowResult") -> plt.Figure:
     ax.plot(steps, cl.per_step, color="tab:green", linewidth=1.0, label="smallest clearance")
     ax.axhline(0.0, color="tab:red", linestyle="--", linewidth=0.8, label="wall")
     mark_wall_touches(ax, result)
+    draw_contact_steps(ax, result)
     if cl.min_step:
         ax.plot([cl.min_step], [cl.min_mm], "v", color="black", markersize=6,
                 label=f"minimum {cl.min_mm:.2f} mm (step {cl.min_step}, {cl.min_point})")

@@ -23,7 +23,7 @@ from bhr.codes import check_codes
 
 __all__ = [
     "SYNC", "VERSION", "HEADER_LEN", "CRC_LEN", "MAX_PAYLOAD", "MAX_FRAME",
-    "Msg", "Nak", "Fault", "MODULE_OVERHEAT", "MODULE_COOLING",
+    "Msg", "Nak", "Fault", "MODULE_OVERHEAT", "MODULE_COOLING", "MODULE_EARLY", "MODULE_RELAXING", "relaxing_modules",
     "ProtocolError", "Frame", "crc16", "encode_frame", "decode_frame",
     "set_codes_frame", "status_frame", "stop_all_frame", "heartbeat_frame",
     "parse_ack", "parse_nak", "parse_status", "describe", "StreamDecoder",
@@ -80,13 +80,20 @@ class Fault(enum.IntFlag):
     """Fault flags: first payload byte of a status reply, second of an ACK."""
 
     SILENCE = 0x01   # outputs were switched off because the host fell silent
-    OVERHEAT = 0x02  # an actuator reached its on-time limit (latched until stop-all)
+    OVERHEAT = 0x02  # a wire reached the thermal model's limit (latched until stop-all)
     COOLING = 0x04   # a module is held off while it cools down
+    EARLY = 0x08     # a module was asked to energise a wire still relaxing, and held off (latched)
+    RESET = 0x10     # the board restarted (watchdog, brown-out, reset pin) keeping its thermal state (latched)
+    FLOOD = 0x20     # replies were dropped: requests came faster than the line could answer (latched)
 
 
 #: Bits of a module byte in a status reply (the low nibble is the code on the outputs).
 MODULE_OVERHEAT = 0x10
 MODULE_COOLING = 0x20
+MODULE_EARLY = 0x40     # this module was asked to energise a wire still relaxing (latched until stop-all)
+MODULE_RELAXING = 0x80  # a released wire of this module has not relaxed yet (a state, not a fault)
+#: Every fault bit this version knows.
+FAULT_MASK = 0x3F
 
 
 class ProtocolError(BhrError):
@@ -182,7 +189,7 @@ def parse_ack(frame: Frame) -> tuple[int, Fault]:
     """(acknowledged type, fault flags) of an ACK."""
     if frame.type != Msg.ACK or len(frame.payload) != 2:
         raise ProtocolError(f"not an ACK: {_raw(frame)}")
-    return frame.payload[0], Fault(frame.payload[1] & 0x07)
+    return frame.payload[0], Fault(frame.payload[1] & FAULT_MASK)
 
 
 def parse_nak(frame: Frame) -> tuple[int, int, int]:
@@ -203,22 +210,32 @@ def nak_text(reason: int, detail: int = 0) -> str:
 def fault_names(faults: int, module_bytes: Sequence[int] = ()) -> list[str]:
     """Fault flags (and per-module bytes of a status reply) as the names ``bhr status`` prints.
 
-    ``silence``; ``overheat:mK`` for each module whose actuator reached its
-    on-time limit since the last stop-all; ``cooling:mK`` for each module held
-    off while it cools down. Flags without module detail appear bare.
+    ``silence``; ``overheat:mK`` for each module whose wire reached the
+    thermal limit since the last stop-all; ``cooling:mK`` for each module held
+    off while it cools down; ``early:mK`` for each module asked to energise a
+    wire that had not relaxed yet; ``reset`` after the board restarted;
+    ``flood`` when replies were dropped. Flags without module detail appear bare.
     """
     names = []
     if faults & Fault.SILENCE:
         names.append("silence")
-    over = [i for i, b in enumerate(module_bytes, start=1) if b & MODULE_OVERHEAT]
-    cool = [i for i, b in enumerate(module_bytes, start=1) if b & MODULE_COOLING]
-    if faults & Fault.OVERHEAT and not over:
-        names.append("overheat")
-    names += [f"overheat:m{i}" for i in over]
-    if faults & Fault.COOLING and not cool:
-        names.append("cooling")
-    names += [f"cooling:m{i}" for i in cool]
+    for flag, bit, name in ((Fault.OVERHEAT, MODULE_OVERHEAT, "overheat"), (Fault.COOLING, MODULE_COOLING, "cooling"),
+                            (Fault.EARLY, MODULE_EARLY, "early")):
+        mods = [i for i, b in enumerate(module_bytes, start=1) if b & bit]
+        if faults & flag and not mods:
+            names.append(name)
+        names += [f"{name}:m{i}" for i in mods]
+    if faults & Fault.RESET:
+        names.append("reset")
+    if faults & Fault.FLOOD:
+        names.append("flood")
     return names
+
+
+def relaxing_modules(frame: "Frame") -> list[int]:
+    """Modules (1-based) of a STATUS_REPLY with a released wire that has not relaxed yet."""
+    p = frame.payload
+    return [i for i, b in enumerate(p[3:], start=1) if b & MODULE_RELAXING]
 
 
 def parse_status(frame: Frame) -> dict:

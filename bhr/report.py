@@ -57,7 +57,7 @@ from bhr.options import BY_NAME, by_group, solver_options_for
 from bhr.robot import Robot
 from bhr.robotfile import load_robot_file
 from bhr.solvers import get_solver
-from bhr.trajectory import GENERATORS, load_trajectory
+from bhr.trajectory import GENERATORS, builtin_names, load_trajectory
 
 __all__ = ["RunSpec", "Batch", "load_batch", "parse_batch", "execute_run", "run_batch", "BatchReport",
            "ROW_FIELDS", "TRAJ_KEYS", "ROBOT_KEYS", "CONSTRAINT_KEYS", "NUMBER_KEYS", "INT_KEYS",
@@ -83,8 +83,8 @@ _TOP_KEYS = ("title", "description", "defaults", "run")
 
 #: Columns of summary.csv, in order (summary.json rows have these and more).
 ROW_FIELDS = ("name", "status", "traj", "solver", "steps", "tip_max_error_mm", "tip_final_error_mm",
-              "points_max_error_mm", "orientation_max_deg", "global_max", "min_clearance_mm", "warnings",
-              "solve_time_s", "wall_time_s")
+              "points_max_error_mm", "orientation_max_deg", "global_max", "tip_rmse_mm", "tip_orientation_rmse_deg",
+              "tolerance_exceeded", "min_clearance_mm", "warnings", "solve_time_s", "wall_time_s")
 
 _FIGURES = (  # file, caption, thesis figures
     ("path.png", "Path and final pose", "Figs. 7.1, 7.5, 7.9, 7.13, 7.18"),
@@ -198,7 +198,7 @@ def parse_batch(data: dict[str, Any], source: str = "batch", base_dir: str | os.
                 if key not in allowed:
                     raise BhrError(f"{where}: the {traj} trajectory has no parameter {key!r} "
                                    f"(its parameters: {', '.join(allowed) or 'none'})")
-        else:
+        elif traj not in builtin_names():
             traj = _resolve(traj, base)
         solver = values.get("solver", "thesis")
         spec = RunSpec(
@@ -289,6 +289,9 @@ def summary_row(summary: dict[str, Any]) -> dict[str, Any]:
         "points_max_error_mm": float(summary["points_max_error_mm"]),
         "orientation_max_deg": float(summary["orientation_max_deg"]),
         "global_max": float(summary["global_max"]),
+        "tip_rmse_mm": float(summary["tip_rmse_mm"]),
+        "tip_orientation_rmse_deg": float(summary["tip_orientation_rmse_deg"]),
+        "tolerance_exceeded": bool(summary["tolerance_exceeded"]),
         "min_clearance_mm": _num(summary.get("min_clearance_mm")),
     }
 
@@ -347,6 +350,26 @@ def execute_run(spec: RunSpec, out_dir: str | os.PathLike[str] | None = None, pl
     return row
 
 
+def _warm_up(solvers: Sequence[str], plots: bool) -> None:
+    """Load what the runs need (modules, compiled kernels, matplotlib) before any run is timed.
+
+    Each process pays this once; without it the first run of every worker
+    carried the start-up in its time and a trivial run read slowest.
+    """
+    import numpy as np
+
+    from bhr.follow import follow
+
+    pts = np.array([[0.0, 0.0, 0.0], [2.0, 0.0, 0.0], [4.0, 0.0, 0.0]])
+    for name in solvers:
+        try:
+            follow(pts, solver=name)
+        except Exception:  # noqa: BLE001  (a bad solver name fails, and is reported, in its run)
+            pass
+    if plots:
+        import bhr.plots  # noqa: F401
+
+
 def _execute_job(job: tuple[RunSpec, str | None, bool]) -> dict[str, Any]:
     spec, out, plots = job
     return execute_run(spec, out, plots)
@@ -394,7 +417,9 @@ def run_batch(batch: Batch, out_dir: str | os.PathLike[str], *, jobs: int = 1, p
     rows: list[dict[str, Any] | None] = [None] * total
     t0 = time.perf_counter()
     workers = min(jobs, total)
+    solvers = tuple(dict.fromkeys(spec.solver for spec in batch.runs))
     if workers <= 1:
+        _warm_up(solvers, plots)
         for k, job in enumerate(job_list):
             got = rows[k] = _execute_job(job)
             if progress is not None:
@@ -402,7 +427,8 @@ def run_batch(batch: Batch, out_dir: str | os.PathLike[str], *, jobs: int = 1, p
     else:
         import multiprocessing
 
-        with ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn")) as pool:
+        with ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn"),
+                                 initializer=_warm_up, initargs=(solvers, plots)) as pool:
             futures = {pool.submit(_execute_job, job): k for k, job in enumerate(job_list)}
             done = 0
             for fut in as_completed(futures):
@@ -481,11 +507,14 @@ def format_table(rows: Sequence[dict[str, Any]]) -> list[str]:
     cols = [("name", "run", None), ("status", "status", None), ("steps", "steps", None),
             ("tip_max_error_mm", "tip max mm", 3), ("points_max_error_mm", "pts max mm", 3),
             ("orientation_max_deg", "ori max deg", 2), ("global_max", "global max", 3),
-            ("min_clearance_mm", "clear. mm", 2), ("wall_time_s", "time s", 2)]
+            ("tip_rmse_mm", "tip rmse mm", 3), ("tip_orientation_rmse_deg", "tip rmse deg", 2),
+            ("tolerance_exceeded", "over tol.", None), ("min_clearance_mm", "clear. mm", 2),
+            ("wall_time_s", "time s", 2)]
     cells = [[h for _, h, _ in cols]]
     for r in rows:
-        cells.append([_fmt(r.get(k), d or 3) if k != "status" else ("ok" if r[k] == "ok" else "FAILED")
-                      for k, _, d in cols])
+        cells.append([("ok" if r[k] == "ok" else "FAILED") if k == "status"
+                      else ("OVER" if r.get(k) else "") if k == "tolerance_exceeded"
+                      else _fmt(r.get(k), d or 3) for k, _, d in cols])
     widths = [max(len(c[i]) for c in cells) for i in range(len(cols))]
     lines = []
     for c in cells:
@@ -546,7 +575,8 @@ PAGE_END = "</main>\n</body>\n</html>\n"
 def _summary_table(rows: Sequence[dict[str, Any]], anchors: Sequence[str]) -> str:
     heads = [("run", "l"), ("status", "l"), ("trajectory", "l"), ("solver", "l"), ("steps", ""),
              ("tip max error (mm)", ""), ("tip final error (mm)", ""), ("worst point error (mm)", ""),
-             ("worst orientation error (deg)", ""), ("global max", ""), ("min clearance (mm)", ""),
+             ("worst orientation error (deg)", ""), ("global max", ""), ("tip RMSE (mm)", ""),
+             ("tip orientation RMSE (deg)", ""), ("over tolerance", ""), ("min clearance (mm)", ""),
              ("wall time (s)", "")]
     out = ["<div class=\"scroll\"><table id=\"summary\">\n<thead><tr>"]
     out += [f"<th class=\"{c}\">{_e(h)}</th>" for h, c in heads]
@@ -559,8 +589,13 @@ def _summary_table(rows: Sequence[dict[str, Any]], anchors: Sequence[str]) -> st
         out.append(f"<td class=\"{'ok' if ok else 'bad'}\">{_e(r['status'])}</td>")
         out.append(f"<td class=\"l\">{_e(traj)}</td><td class=\"l\">{_e(r['solver'])}</td>")
         for k, d in (("steps", 0), ("tip_max_error_mm", 3), ("tip_final_error_mm", 4), ("points_max_error_mm", 3),
-                     ("orientation_max_deg", 2), ("global_max", 3), ("min_clearance_mm", 2), ("wall_time_s", 2)):
-            out.append(f"<td>{_e(_fmt(r.get(k), d))}</td>")
+                     ("orientation_max_deg", 2), ("global_max", 3), ("tip_rmse_mm", 3),
+                     ("tip_orientation_rmse_deg", 2), ("tolerance_exceeded", None), ("min_clearance_mm", 2),
+                     ("wall_time_s", 2)):
+            if k == "tolerance_exceeded":
+                out.append("<td class=\"bad\">over</td>" if r.get(k) else "<td></td>")
+                continue
+            out.append(f"<td>{_e(_fmt(r.get(k), d or 3))}</td>")
         out.append("</tr>\n")
     out.append("</tbody>\n</table></div>\n")
     return "".join(out)
@@ -573,12 +608,12 @@ def _stats_table(stats: dict[str, Any]) -> str:
                                     ("global", "Global error", "module", "1 = tolerance")):
         rows = stats.get(key) or []
         parts.append(f"<table class=\"stats\"><thead><tr><th class=\"l\">{_e(title)} ({_e(unit)})</th><th>max</th>"
-                     "<th>at step</th><th>mean</th><th>median</th><th>final</th></tr></thead><tbody>")
+                     "<th>at step</th><th>mean</th><th>median</th><th>RMSE</th><th>final</th></tr></thead><tbody>")
         for j, st in enumerate(rows):
             tag = " (base)" if j == 0 else (" (tip)" if j == len(rows) - 1 else "")
             parts.append(f"<tr><td class=\"l\">{_e(label)} {j + 1}{_e(tag)}</td><td>{st['max']:.3f}</td>"
                          f"<td>{int(st['worst_step'])}</td><td>{st['mean']:.3f}</td><td>{st['median']:.3f}</td>"
-                         f"<td>{st['final']:.3f}</td></tr>")
+                         f"<td>{_fmt(st.get('rmse'), 3)}</td><td>{st['final']:.3f}</td></tr>")
         parts.append("</tbody></table>\n")
     return "".join(parts)
 

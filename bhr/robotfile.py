@@ -26,6 +26,7 @@ from bhr.codes import CODE_AXIS, LIFT, REST, VALID_CODES
 from bhr.errors import BhrError
 from bhr.options import by_group
 from bhr.robot import Robot
+from bhr.thermal import DEFAULT_THERMAL, ThermalParams, thermal_from_table
 
 __all__ = ["RobotFile", "LinkSettings", "load_robot_file", "default_robot_file", "code_table", "ROBOT_KEYS",
            "LINK_KEYS"]
@@ -40,7 +41,10 @@ ROBOT_KEYS: dict[str, dict[str, Any]] = {
     for o in by_group("robot")
 }
 LINK_KEYS = ("port", "baudrate", "module_order", "on_max_ms", "cooldown_ms", "silence_ms")
-TOP_KEYS = ("name", "description", *ROBOT_KEYS, "codes", "link")
+#: File key -> Robot field where they differ: ``robot_radius`` is the disc radius in robot files, batch
+#: and sweep files and on the command line (``--robot-radius``); ``radius``, its old name here, is accepted.
+KEY_ALIASES = {"robot_radius": "radius"}
+TOP_KEYS = ("name", "description", "robot_radius", *ROBOT_KEYS, "codes", "link", "thermal")
 #: Limits the firmware accepts for its timing settings (firmware/src/config.h), ms.
 TIMING_RANGE = (10, 60000)
 #: Modules one board drives at most (firmware/src/config.h).
@@ -74,11 +78,10 @@ class LinkSettings:
     ``module_order``: ``module_order[k-1]`` is the module (1 = base) wired to
     position ``k`` of the 74HC595 chain (position 1 = the low nibble of the chip
     nearest the microcontroller); the firmware's default wiring is 1, 2, ..., n.
-    ``on_max_ms`` / ``cooldown_ms``: longest continuous on-time of a nitinol
-    actuator and the time it takes to cool down fully from that limit.
+    ``on_max_ms`` / ``cooldown_ms``: accepted for older files; the wires'
+    limits are the robot file's ``[thermal]`` table (docs/thermal.md).
     ``silence_ms``: the board switches everything off when the host is silent
-    this long. The three timings are the firmware's ``ON_MAX_MS``,
-    ``COOLDOWN_MS`` and ``SILENCE_MS`` (docs/firmware.md).
+    this long (the firmware's ``SILENCE_MS``, docs/firmware.md).
     """
 
     port: str | None = None
@@ -110,13 +113,16 @@ class LinkSettings:
 
     def firmware_make_args(self) -> list[str]:
         """``make`` variables that build firmware matching these settings (docs/firmware.md)."""
-        return [f"MODULES={self.modules}", f"BAUD={self.baudrate}", f"ON_MAX_MS={self.on_max_ms}",
-                f"COOLDOWN_MS={self.cooldown_ms}", f"SILENCE_MS={self.silence_ms}"]
+        return [f"MODULES={self.modules}", f"BAUD={self.baudrate}", f"SILENCE_MS={self.silence_ms}"]
 
 
 @dataclass(frozen=True)
 class RobotFile:
-    """A parsed robot file: ``robot`` (:class:`bhr.robot.Robot`), ``link`` and the code table."""
+    """A parsed robot file: ``robot`` (:class:`bhr.robot.Robot`), ``link``, the code table, ``thermal``.
+
+    ``thermal`` (:class:`bhr.thermal.ThermalParams`) is the actuator wire's
+    thermal model from the ``[thermal]`` table (docs/thermal.md).
+    """
 
     robot: Robot
     link: LinkSettings = field(default_factory=LinkSettings)
@@ -124,6 +130,7 @@ class RobotFile:
     name: str = ""
     description: str = ""
     path: Path | None = None
+    thermal: ThermalParams = DEFAULT_THERMAL
 
 
 def default_robot_file() -> Path:
@@ -223,12 +230,17 @@ def load_robot_file(path: str | os.PathLike[str]) -> RobotFile:
         raise BhrError(f"{where}: robot files are TOML (.toml); {HINT}")
     data = read_toml(p, "robot file", f"give a robot description such as {default_robot_file()}")
     check_keys(data, TOP_KEYS, where)
+    if "robot_radius" in data:
+        if "radius" in data:
+            raise BhrError(f"{where}: radius is the old name of robot_radius; give robot_radius only")
+        data = {("radius" if k == "robot_radius" else k): v for k, v in data.items()}
     name = text_value(data.get("name", p.stem), f"{where}: name")
     description = text_value(data.get("description", ""), f"{where}: description")
     fields_: dict[str, Any] = {}
     for key, rules in ROBOT_KEYS.items():
         if key in data:
-            fields_[key] = number(data[key], f"{where}: {key}", **rules)
+            shown = "robot_radius" if key == "radius" else key  # the file's name of the field
+            fields_[key] = number(data[key], f"{where}: {shown}", **rules)
     has_sl = "stroke" in fields_ or "lever" in fields_
     if has_sl and "alpha" in fields_:
         raise BhrError(f"{where}: give alpha, or stroke and lever (alpha = asin(stroke/lever)), not both")
@@ -252,4 +264,5 @@ def load_robot_file(path: str | os.PathLike[str]) -> RobotFile:
         link = _check_link(data["link"], robot.modules, where)
     else:
         link = LinkSettings(module_order=tuple(range(1, robot.modules + 1)))
-    return RobotFile(robot, link, codes, name, description, p)
+    thermal = thermal_from_table(data["thermal"], f"{where}: thermal") if "thermal" in data else DEFAULT_THERMAL
+    return RobotFile(robot, link, codes, name, description, p, thermal)

@@ -51,7 +51,8 @@ __all__ = ["Sweep", "SweepResult", "GRID_KEYS", "parse_grid_option", "parse_valu
 GRID_KEYS = frozenset(NUMBER_KEYS | set(CONSTRAINT_KEYS))
 #: Result columns of every design, after its design keys.
 METRICS = ("status", "steps", "tip_max_error_mm", "tip_final_error_mm", "points_max_error_mm",
-           "orientation_max_deg", "global_max", "min_clearance_mm", "min_turn_radius_mm")
+           "orientation_max_deg", "global_max", "tip_rmse_mm", "tip_orientation_rmse_deg", "tolerance_exceeded",
+           "min_clearance_mm", "min_turn_radius_mm")
 DASK_MISSING = ("--scheduler needs Dask's distributed package, which is not installed; "
                 "install it with: pip install 'bhr[dask]' (or pip install 'dask[distributed]')")
 _TOP_KEYS = ("title", "description", "traj", "solver", "robot", "grid")
@@ -142,6 +143,8 @@ class Sweep:
     #: The robot every design starts from (a robot file's fields), before its grid values; () = bhr's defaults.
     robot: tuple[tuple[str, Any], ...] = ()
     robot_file: str | None = None
+    #: Further keys of each run's summary to keep in its row, after :data:`METRICS` (e.g. lumen keys).
+    extra: tuple[str, ...] = ()
 
     @property
     def axes(self) -> list[tuple[str, tuple[Any, ...]]]:
@@ -239,10 +242,13 @@ def build_sweep(trajs: Sequence[str], solvers: Sequence[str], grid: Iterable[tup
     for s in solvers:
         if canonical(s) not in names:
             raise BhrError(f"{where}: unknown solver {s!r}; choose from {', '.join(names)}")
+    from bhr.trajectory import builtin_names
+
+    shipped = set(builtin_names())
     sources = {}
     base = Path(base_dir)
     for t in trajs:
-        if t in GENERATORS:
+        if t in shipped:
             sources[t] = t
         else:
             p = Path(t).expanduser()
@@ -300,10 +306,12 @@ def make_robot(params: dict[str, Any], base: dict[str, Any] | None = None) -> An
     return Robot(**base).replace(**params) if base else Robot(**params)
 
 
-def run_design(design: dict[str, Any], traj_source: str, base_robot: dict[str, Any] | None = None) -> dict[str, Any]:
-    """Follow one design's trajectory; return its row (design keys, then :data:`METRICS`). Never raises."""
+def run_design(design: dict[str, Any], traj_source: str, base_robot: dict[str, Any] | None = None,
+               extra: Sequence[str] = ()) -> dict[str, Any]:
+    """Follow one design's trajectory; return its row (design keys, :data:`METRICS`, then the summary's
+    ``extra`` keys as they are, None where the summary lacks one). Never raises."""
     row: dict[str, Any] = dict(design)
-    row.update({k: None for k in METRICS})
+    row.update({k: None for k in (*METRICS, *extra)})
     row["status"] = "ok"
     try:
         robot = make_robot({ROBOT_KEYS[k]: v for k, v in design.items() if k in ROBOT_KEYS}, base_robot)
@@ -313,7 +321,9 @@ def run_design(design: dict[str, Any], traj_source: str, base_robot: dict[str, A
             warnings.simplefilter("ignore", BhrWarning)
             res = follow(tr, solver=design["solver"], robot=robot,
                          solver_options=solver_options_for(design["solver"], design))
-        row.update(summary_row(res.summary.to_dict()))
+        summary = res.summary.to_dict()
+        row.update(summary_row(summary))
+        row.update({k: summary.get(k) for k in extra})
     except (KeyboardInterrupt, SystemExit):
         raise
     except Exception as exc:  # one failed design must not stop the sweep
@@ -322,7 +332,7 @@ def run_design(design: dict[str, Any], traj_source: str, base_robot: dict[str, A
 
 
 def run_chunk(chunk: Sequence[tuple[Any, ...]]) -> list[tuple[int, dict[str, Any]]]:
-    """Run ``(index, design, trajectory source[, base robot fields])`` items; return ``(index, row)`` pairs.
+    """Run ``(index, design, trajectory source[, base robot fields[, extra keys]])`` items; return ``(index, row)``.
 
     This is the unit of work of every execution path (in-process, worker
     processes, Dask), so they all compute the same rows.
@@ -344,7 +354,7 @@ class SweepResult:
 
     @property
     def columns(self) -> list[str]:
-        return ["design", *self.sweep.keys, *METRICS]
+        return ["design", *self.sweep.keys, *METRICS, *self.sweep.extra]
 
 
 def _chunks(items: list[Any], workers: int) -> list[list[Any]]:
@@ -448,7 +458,8 @@ def run_sweep(sweep: Sweep, *, jobs: int | None = None, scheduler: Any = None,
         raise BhrError(f"jobs must be a whole number of processes, 1 or more, got {jobs!r}")
     designs = sweep.designs()
     base = dict(sweep.robot) or None
-    items = [(i, d, sweep.traj_sources.get(d["traj"], d["traj"]), base) for i, d in enumerate(designs)]
+    items = [(i, d, sweep.traj_sources.get(d["traj"], d["traj"]), base, *((sweep.extra,) if sweep.extra else ()))
+             for i, d in enumerate(designs)]
     total = len(items)
     done = [0]
 

@@ -34,7 +34,7 @@ from bhr.pathfile import MAX_POINTS
 from bhr.path import Trajectory, path_directions
 
 __all__ = ["Trajectory", "path_directions", "trajectory", "load_trajectory", "builtin_names", "GENERATORS",
-           "line", "curve", "spiral", "colon"]
+           "line", "curve", "spiral", "colon", "anatomy", "anatomy_trajectory"]
 
 
 def _mround(x: float) -> int:
@@ -173,12 +173,44 @@ def colon(feed: float, section_index: list[int] | None = None) -> np.ndarray:
     return np.stack([x, y, np.zeros(m)], axis=1)
 
 
+def anatomy(feed: float, seed: float = 1) -> np.ndarray:
+    """An anatomical colon (anus to cecum) drawn from ``seed``: see :mod:`bhr.anatomy`."""
+    from bhr.anatomy import anatomical_colon, check_seed
+
+    return anatomical_colon(check_seed(seed)).sample(feed)[0]
+
+
 @dataclass(frozen=True)
 class Generator:
     func: Callable[..., np.ndarray]
     params: dict[str, float]
     min_radius: Callable[[dict[str, float]], float]
     doc: str
+    #: Builds the whole Trajectory (lumen, start, exact min radius) when the points alone are not enough.
+    build: Callable[[dict[str, float], float, str], "Trajectory"] | None = None
+
+
+def anatomy_trajectory(seed: Any, feed: float = 2.0, where: str = "anatomy") -> "Trajectory":
+    """The anatomical colon of ``seed`` (:mod:`bhr.anatomy`) as a Trajectory: points ``feed`` mm apart along
+    the centerline from the anus, the lumen diameter at each, the exact smallest bend radius, and the start
+    (the anus, heading up the anal canal)."""
+    from bhr.anatomy import anatomical_colon, check_seed
+
+    s = check_seed(seed, where)
+    colon_ = anatomical_colon(s)
+    pts, lumen, _ = colon_.sample(feed)
+    return Trajectory(f"anatomy-{s}", pts, {"seed": s, "length": colon_.length}, colon_.min_radius, lumen, where,
+                      tuple(float(v) for v in colon_.start_heading), (0.0, 0.0, 0.0))
+
+
+def _anatomy_build(p: dict[str, float], feed: float, where: str) -> "Trajectory":
+    return anatomy_trajectory(p["seed"], feed, where)
+
+
+def _anatomy_min_radius(p: dict[str, float]) -> float:
+    from bhr.anatomy import anatomical_colon, check_seed
+
+    return anatomical_colon(check_seed(p["seed"])).min_radius
 
 
 GENERATORS: dict[str, Generator] = {
@@ -190,10 +222,14 @@ GENERATORS: dict[str, Generator] = {
                         lambda p: p["radius"] + (p["pitch"] / (2 * math.pi)) ** 2 / p["radius"],
                         "helix: --radius mm, --pitch mm per turn, --turns"),
     "colon": Generator(colon, {}, lambda p: 70.0, "the thesis's printed planar large intestine (no parameters)"),
+    "anatomy": Generator(anatomy, {"seed": 1.0}, _anatomy_min_radius,
+                         "anatomical 3-D colon, anus to cecum, with its lumen: --seed N (docs/anatomy.md)",
+                         _anatomy_build),
 }
 
 _POSITIVE = {"length", "radius", "angle", "pitch", "turns"}
 _NONNEG = {"entry", "exit"}
+_WHOLE = {"seed"}
 
 
 def _check_params(gen_name: str, params: dict[str, Any], where: str) -> dict[str, float]:
@@ -214,6 +250,10 @@ def _check_params(gen_name: str, params: dict[str, Any], where: str) -> dict[str
             raise BhrError(f"{where}: {key} must be positive, got {value}")
         if key in _NONNEG and v < 0:
             raise BhrError(f"{where}: {key} must not be negative, got {value}")
+        if key in _WHOLE:
+            from bhr.anatomy import check_seed
+
+            check_seed(value, where)
         if abs(v) > 1e6:
             raise BhrError(f"{where}: {key} must be at most 1e6 in size, got {value:g}")
         out[key] = v
@@ -232,7 +272,27 @@ def _generator_length(gen_name: str, p: dict[str, float]) -> float:
 
 
 def builtin_names() -> list[str]:
-    return list(GENERATORS)
+    """Names ``load_trajectory`` knows: the generators, then the shipped point files (trajectories/NAME.csv)."""
+    return list(GENERATORS) + sorted(_builtin_csvs())
+
+
+def _trajectory_folder() -> Path | None:
+    try:
+        res = resources.files("bhr.trajectories")
+    except ModuleNotFoundError:
+        res = None
+    if res is not None and res.is_dir():
+        return Path(str(res))
+    repo = Path(__file__).resolve().parent.parent / "trajectories"
+    return repo if repo.is_dir() else None
+
+
+def _builtin_csvs() -> dict[str, Path]:
+    """Shipped point files by name (``anatomy-typical`` is trajectories/anatomy-typical.csv)."""
+    folder = _trajectory_folder()
+    if folder is None:
+        return {}
+    return {p.stem: p for p in folder.glob("*.csv") if p.is_file()}
 
 
 def _builtin_file(name: str) -> Path | None:
@@ -263,7 +323,15 @@ def load_trajectory(name_or_path: str | os.PathLike[str], feed: float = 2.0, **p
         return _from_file(path, feed, params, builtin=True)
     p = Path(key)
     if not p.exists():
-        raise BhrError(f"unknown trajectory {key!r}: not a built-in ({', '.join(GENERATORS)}) and no such file")
+        shipped = _builtin_csvs().get(key)
+        if shipped is not None:
+            traj = _from_file(shipped, feed, params, builtin=True)
+            traj.name = key
+            return traj
+        from bhr._input import did_you_mean
+
+        raise BhrError(f"unknown trajectory {key!r}: not a built-in ({', '.join(builtin_names())}) and no such file; "
+                       f"{did_you_mean(key, builtin_names())}give one of the built-ins or a .toml/.csv file")
     return _from_file(p, feed, params, builtin=False)
 
 
@@ -277,6 +345,8 @@ def _from_generator(gen_name: str, file_params: dict[str, Any], cli_params: dict
     if count > MAX_POINTS:
         raise BhrError(f"{where}: the {gen_name} is {count * feed:g} mm long, {count:.0f} points at a feed of "
                        f"{feed:g} mm (limit {MAX_POINTS}); make it shorter")
+    if gen.build is not None:
+        return gen.build(p, feed, where)
     pts = gen.func(feed, **p)
     return Trajectory(gen_name, pts, p, gen.min_radius(p), None, where)
 
@@ -343,6 +413,8 @@ def _from_file(path: Path, feed: float, params: dict[str, Any], builtin: bool) -
         raise BhrError(f"{path}: params must be a table ([params]) of numbers")
     traj = _from_generator(gen_name, file_params, params, feed, f"trajectory {path.stem}" if builtin else str(path))
     traj.name = text_value(data.get("name", path.stem), f"{path}: name")
+    if gen_name == "anatomy":  # one file, many colons: the name says which
+        traj.name = f"{traj.name}-{traj.params['seed']}"
     if "description" in data:
         text_value(data["description"], f"{path}: description")
     traj.source = str(path)

@@ -95,3 +95,44 @@ def stop_on_signals() -> Iterator[None]:
     finally:
         for sig, h in old.items():
             signal.signal(sig, h)
+
+
+SCHEDULE_HELP = ("rate: send at --rate after checking the whole stream against the wires' thermal model "
+                 "(refused, before anything is sent, where the board would fault); auto: stretch each step to "
+                 "what the wires allow (contraction and relaxation), never faster than --rate.")
+
+
+def schedule_option() -> Callable[[Any], Any]:
+    return click.option("--schedule", type=click.Choice(["rate", "auto"]), default="rate", show_default=True,
+                        help=SCHEDULE_HELP)
+
+
+def thermal_params(robot_file):
+    """The robot file's [thermal] table (docs/thermal.md), or the default wire."""
+    from bhr.thermal import DEFAULT_THERMAL
+
+    if robot_file is None:
+        return DEFAULT_THERMAL
+    from bhr.robotfile import load_robot_file
+
+    return load_robot_file(robot_file).thermal
+
+
+def fault_printer(port: str) -> Callable[[int, list[str]], None]:
+    """``on_fault`` for bhr.link.Pacer: one line on stderr per fault the board raises, with module and step."""
+    def show(step: int, names: list[str]) -> None:
+        for name in names:
+            kind, _, module = name.partition(":")
+            where = f"module {module}, " if module else ""
+            click.echo(f"Board fault: {where}step {step}: {kind} ({FAULT_TEXT.get(kind, 'see docs/protocol.md')})",
+                       err=True)
+    return show
+
+
+FAULT_TEXT = {
+    "overheat": "a wire reached the thermal limit; the module is off until it cools",
+    "early": "a wire was asked to contract again before it had relaxed; the module is held off",
+    "reset": "the board restarted",
+    "flood": "the board dropped replies",
+    "cooling": "the module is cooling down",
+}

@@ -118,11 +118,20 @@ def _stack(*decorators: Callable[[Any], Any]) -> Callable[[Any], Any]:
     return apply
 
 
-def robot_options(feed: bool = True) -> Callable[[Any], Any]:
-    """--robot FILE and the robot options of :mod:`bhr.options` (--modules, --module-length, ...)."""
+#: Robot options only a solver uses (tolerances, iteration limit, error weights).
+SOLVING_ONLY = ("tol_pos", "tol_ori", "max_iter", "weight_pos", "weight_ori")
+
+
+def robot_options(feed: bool = True, solving: bool = True) -> Callable[[Any], Any]:
+    """--robot FILE and the robot options of :mod:`bhr.options` (--modules, --module-length, ...).
+
+    ``solving=False`` leaves out what only a solver uses (:data:`SOLVING_ONLY`):
+    ``bhr fk`` solves nothing.
+    """
     opts = [click.option("--robot", "robot_file", default=None, metavar="FILE",
                          help="Robot description (TOML); options given here override its values.")]
-    opts += [_click_option(o) for o in by_group("robot") if feed or o.name != "feed_divisor"]
+    opts += [_click_option(o) for o in by_group("robot")
+             if (feed or o.name != "feed_divisor") and (solving or o.name not in SOLVING_ONLY)]
     return _stack(*opts)
 
 
@@ -183,7 +192,7 @@ def pop_trajectory(kwargs: dict[str, Any]) -> dict[str, Any]:
 
 
 # --solver optimal (bhr/solvers/optimal.py, docs/optimal.md)
-OPTIMAL_FIELDS = tuple(o.name for o in by_group("solver") if o.solvers == ("optimal",))
+OPTIMAL_FIELDS = tuple(o.name for o in by_group("solver") if o.solvers is not None and "optimal" in o.solvers)
 
 
 class WeightList(click.ParamType):
@@ -215,4 +224,32 @@ def pop_optimal(kwargs: dict[str, Any]) -> dict[str, Any]:
         v = kwargs.pop(k, None)
         if v is not None:
             out[k] = list(v) if isinstance(v, tuple) else v
+    return out
+
+
+# --solver lumen (bhr/solvers/lumen.py, docs/lumen.md); it shares --lookahead, --beam and --ori-weight with optimal
+LUMEN_FIELDS = tuple(o.name for o in by_group("solver") if o.solvers == ("lumen",))
+SHARED_FIELDS = tuple(o.name for o in by_group("solver") if o.solvers is not None and len(o.solvers) > 1)
+
+
+def lumen_options(f: Any) -> Any:
+    """--wall-weight, --margin, --center-weight, --track-weight, --window."""
+    return _stack(*[_click_option(o) for o in by_group("solver") if o.name in LUMEN_FIELDS])(f)
+
+
+def pop_solver_options(kwargs: dict[str, Any], solvers: list[str]) -> dict[str, dict[str, Any]]:
+    """The solver options given (optimal, lumen), per solver run; refuses an option no solver run takes."""
+    from bhr.errors import BhrError
+
+    out: dict[str, dict[str, Any]] = {}
+    for o in by_group("solver"):
+        v = kwargs.pop(_param(o), None)
+        if v is None:
+            continue
+        takers = [s for s in solvers if o.solvers is None or s in o.solvers]
+        if not takers:
+            which = " or ".join(f"--solver {s}" for s in (o.solvers or ()))
+            raise BhrError(f"{o.flag} is an option of {which}; drop it or use {which}")
+        for s in takers:
+            out.setdefault(s, {})[o.name] = list(v) if isinstance(v, tuple) else v
     return out

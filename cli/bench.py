@@ -11,7 +11,7 @@ from bhr.cli._options import PlainIntRange
 
 @click.command()
 @click.option("--case", "cases", multiple=True, metavar="NAME",
-              help="Case to run (repeatable): fabrik, ccd, seed-colon, optimal, body-60, cli [all].")
+              help="Case to run (repeatable): fabrik, ccd, seed-colon, optimal, body-60, lumen, cli [all].")
 @click.option("--repeat", type=PlainIntRange(1, 100), default=None, help="Repeats per timing (median taken).")
 @click.option("--json", "json_path", default=None, metavar="PATH|-",
               help="Write the results as JSON ('-': stdout, the table then goes to stderr).")
@@ -25,6 +25,7 @@ def bench(cases, repeat, json_path, check):
     with the machine and this command.
     """
     from bhr.bench import cases as b
+    from bhr.cli._progress import announce_compiles, status
     from bhr.errors import BhrError
 
     check_writable(json_path, "JSON")
@@ -32,7 +33,14 @@ def bench(cases, repeat, json_path, check):
     unknown = [c for c in names if c not in b.CASES]
     if unknown:
         raise BhrError(f"unknown benchmark case {unknown[0]!r}; choose from {', '.join(b.CASES)}")
-    results = b.run_all(names, repeat, progress=lambda name: click.echo(f"running {name} ...", err=True))
+    announce_compiles()
+    with status(f"timing {len(names)} case{'s' * (len(names) != 1)}", total=len(names)) as bar:
+        def progress(name: str) -> None:
+            if bar.item:
+                bar.update(1)
+            bar.item = name
+
+        results = b.run_all(names, repeat, progress=progress)
     # with --json - the JSON alone goes to stdout (parseable), the table to stderr
     click.echo(b.format_table(results), err=json_path == "-")
     doc = [r.to_dict() for r in results]

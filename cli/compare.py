@@ -8,18 +8,20 @@ from pathlib import Path
 import click
 
 from bhr.cli._common import check_parent_folder, check_writable, guarded, json_in_folder, run_folder_name
-from bhr.cli._options import (build_robot, optimal_options, pop_optimal, pop_trajectory, robot_options,
-                              trajectory_options)
+from bhr.cli._options import (build_robot, lumen_options, optimal_options, pop_solver_options, pop_trajectory,
+                              robot_options, trajectory_options)
 
 
 @click.command()
 @click.option("--traj", default=None, metavar="NAME|PATH",
-              help="line, curve, spiral, colon, or a trajectory file: .toml (segments) or .csv (points). Required.")
+              help="line, curve, spiral, colon, anatomy (--seed N), a shipped anatomy-* colon, or a trajectory file: "
+                   ".toml (segments) or .csv (points). Required.")
 @trajectory_options
 @click.option("--solver", "solvers", multiple=True, metavar="NAME",
               help="A solver to run; give it once per solver, the first is the reference [thesis, optimal].")
 @robot_options(feed=True)
 @optimal_options
+@lumen_options
 @click.option("--body-modules", type=int, default=None, metavar="M",
               help="Also simulate the body of a robot of M modules (M >= --modules) in every run.")
 @click.option("--out", "out_dir", default=None, metavar="DIR",
@@ -40,6 +42,7 @@ def compare(traj, solvers, out_dir, json_path, no_plots, **kwargs):
         bhr compare --traj curve --angle 360 --solver thesis --solver optimal
     """
     from bhr.atomic import write_json
+    from bhr.cli._progress import announce_compiles, status
     from bhr.compare import compare_figure, compare_json, compare_runs, format_table
     from bhr.errors import BhrError
     from bhr.follow import BhrWarning
@@ -51,7 +54,9 @@ def compare(traj, solvers, out_dir, json_path, no_plots, **kwargs):
     known = available()
     for name in names:
         if canonical(name) not in known:
-            raise BhrError(f"unknown solver {name!r}; choose from {', '.join(known)}")
+            from bhr._input import did_you_mean
+
+            raise BhrError(f"unknown solver {name!r}; {did_you_mean(name, known)}choose from {', '.join(known)}")
     robot = build_robot(kwargs)
     if traj is None:
         raise BhrError("give the trajectory to compare on: --traj line|curve|spiral|colon|FILE")
@@ -64,20 +69,19 @@ def compare(traj, solvers, out_dir, json_path, no_plots, **kwargs):
     elif not no_plots:
         check_parent_folder("bhr-out")
     check_writable(json_path, "JSON")
-    optimal = pop_optimal(kwargs)
+    per_solver = pop_solver_options(kwargs, names)
     body_modules = kwargs.pop("body_modules")
-    if optimal and "optimal" not in names:
-        raise BhrError(f"--{next(iter(optimal)).replace('_', '-')} is an option of the optimal solver; "
-                       "add --solver optimal or drop it")
+    announce_compiles()
     tr = load_trajectory(traj, feed=robot.feed, **pop_trajectory(kwargs))
     if folder is None and not no_plots:
         name = run_folder_name(f"compare-{stem}", tr.points, tr.lumen if tr.lumen is not None else 0,
-                               robot.to_dict(), names, optimal, body_modules)
+                               robot.to_dict(), names, per_solver, body_modules)
         folder = OutputFolder(Path("bhr-out") / name, "compare", names=COMPARE_NAMES).check()
     json_inside = json_in_folder(json_path, folder, COMPARE_NAMES) if folder is not None else None
-    with warnings.catch_warnings(record=True) as caught:
+    with warnings.catch_warnings(record=True) as caught, \
+            status(f"following {tr.name} ({len(tr.points)} steps) with {', '.join(names)}"):
         warnings.simplefilter("always", BhrWarning)
-        runs = compare_runs(tr, names, robot, solver_options={"optimal": optimal}, body_modules=body_modules)
+        runs = compare_runs(tr, names, robot, solver_options=per_solver, body_modules=body_modules)
     for w in {str(w.message) for w in caught if issubclass(w.category, BhrWarning)}:
         click.echo(f"Warning: {w}", err=True)
     stream = json_path == "-"
@@ -90,7 +94,8 @@ def compare(traj, solvers, out_dir, json_path, no_plots, **kwargs):
             if not no_plots:
                 from bhr.plots import save_figure
 
-                save_figure(compare_figure(runs), folder.path("compare.png"))
+                with status(f"drawing {folder.final('compare.png')}"):
+                    save_figure(compare_figure(runs), folder.path("compare.png"))
                 written.append(folder.final("compare.png"))
             if json_path and json_path != "-" and json_inside is None:
                 write_json(Path(json_path), compare_json(runs))  # before the folder goes in place

@@ -12,7 +12,7 @@ from bhr.cli._options import build_robot, robot_options
 @click.command()
 @click.option("--codes", "codes", required=True, metavar="C1,C2,...",
               help="One code per module, base first, comma-separated (0, 3, 6, 9, 12 or 15).")
-@robot_options(feed=False)
+@robot_options(feed=False, solving=False)
 @click.option("--json", "json_path", default=None, metavar="PATH|-", help="Write points and frames as JSON.")
 @guarded
 def fk(codes, json_path, **kwargs):
@@ -21,6 +21,7 @@ def fk(codes, json_path, **kwargs):
     Example: bhr fk --codes 3,0,6,0,0
     """
     from bhr.atomic import write_json
+    from bhr.cli._progress import announce_compiles
     from bhr.codes import check_codes
     from bhr.errors import BhrError
     from bhr.robot import forward_kinematics
@@ -33,6 +34,7 @@ def fk(codes, json_path, **kwargs):
     if kwargs.get("modules") is None and kwargs.get("robot_file") is None:
         kwargs["modules"] = len(checked)
     robot = build_robot(kwargs)
+    announce_compiles()
     points, frames = forward_kinematics(robot, checked)
     doc = {"codes": checked, "points": points.tolist(), "frames": frames.tolist()}
     if json_path == "-":

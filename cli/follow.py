@@ -8,10 +8,13 @@ from pathlib import Path
 import click
 
 from bhr.cli._common import check_parent_folder, check_writable, guarded, json_in_folder, run_folder_name
-from bhr.cli._link import exit_interrupted, link_options, link_settings, stop_on_signals
+from bhr.cli._progress import announce_compiles, status
+from bhr.cli._link import (exit_interrupted, fault_printer, link_options, link_settings, schedule_option,
+                           stop_on_signals, thermal_params)
 from bhr.cli.replay import STRIDE_HELP, check_view_options, render_animation, run_live_view
-from bhr.cli._options import (MIN_RATE, FiniteRange, PlainIntRange, build_robot, constraint_options, optimal_options,
-                              pop_constraints, pop_optimal, pop_trajectory, robot_options, trajectory_options)
+from bhr.cli._options import (MIN_RATE, FiniteRange, PlainIntRange, build_robot, constraint_options, lumen_options,
+                              optimal_options, pop_constraints, pop_solver_options, pop_trajectory, robot_options,
+                              trajectory_options)
 
 
 def summary_lines(result) -> list[str]:
@@ -22,7 +25,7 @@ def summary_lines(result) -> list[str]:
         f"{s['trajectory']}: {s['steps']} steps, solver {s['solver']}, {r.modules} modules x {r.module_length:g} mm, "
         f"alpha {r.alpha:g} deg, feed {r.feed:g} mm",
     ]
-    head = f"{'':<22}{'max':>9}{'at step':>9}{'mean':>9}{'median':>9}{'final':>9}"
+    head = f"{'':<22}{'max':>9}{'at step':>9}{'mean':>9}{'median':>9}{'rmse':>9}{'final':>9}"
 
     def block(title: str, rows: list[dict], label: str, count: int) -> None:
         lines.append("")
@@ -31,7 +34,7 @@ def summary_lines(result) -> list[str]:
         for j, st in enumerate(rows):
             name = f"{label} {j + 1}" + (" (base)" if j == 0 else "") + (" (tip)" if j == count - 1 else "")
             lines.append(f"  {name:<20}{st['max']:>9.3f}{st['worst_step']:>9d}{st['mean']:>9.3f}"
-                         f"{st['median']:>9.3f}{st['final']:>9.3f}")
+                         f"{st['median']:>9.3f}{st['rmse']:>9.3f}{st['final']:>9.3f}")
 
     block("Position error (mm)", s["points"], "point", len(s["points"]))
     block("Orientation error (deg)", s["modules"], "module", len(s["modules"]))
@@ -39,8 +42,25 @@ def summary_lines(result) -> list[str]:
     lines.append("")
     lines.append(f"Worst step: {s['points_worst_step']} (largest point error {s['points_max_error_mm']:.3f} mm); "
                  f"tip ends {s['tip_final_error_mm']:.4f} mm and {s['tip_orientation_final_deg']:.3f} deg off.")
+    lines += tolerance_lines(s, r)
     lines += body_clearance_lines(s)
     return lines
+
+
+def tolerance_lines(s: dict, robot) -> list[str]:
+    """One line when the run went over its tolerances (summary key tolerance_exceeded); none otherwise."""
+    if not s.get("tolerance_exceeded"):
+        return []
+    parts = []
+    if s["over_tol_pos_steps"]:
+        k = s["over_tol_pos_steps"]
+        parts.append(f"a point was more than {robot.tol_pos:g} mm off at {k} step{'s' * (k != 1)} "
+                     f"(worst {s['points_max_error_mm']:.3f} mm at step {s['points_worst_step']})")
+    if s["over_tol_ori_steps"]:
+        k = s["over_tol_ori_steps"]
+        parts.append(f"the tip's orientation was more than {robot.tol_ori:g} deg off at {k} step{'s' * (k != 1)} "
+                     f"(worst {s['tip_orientation_max_deg']:.3f} deg)")
+    return ["Over tolerance: " + "; ".join(parts) + "."]
 
 
 def body_clearance_lines(s: dict) -> list[str]:
@@ -55,8 +75,8 @@ def body_clearance_lines(s: dict) -> list[str]:
         if s["min_clearance_mm"] is None:
             out.append("Lumen clearance: no point of the robot reached the path yet.")
         else:
-            out.append(f"Lumen clearance: minimum {s['min_clearance_mm']:.3f} mm at step {s['min_clearance_step']} "
-                       f"({s['min_clearance_point']}).")
+            out.append(f"Lumen clearance: minimum {s['min_clearance_mm']:.3f} mm at step {s['min_clearance_step']}, "
+                       f"{s['min_clearance_point']}.")
         touch = s["wall_touch_steps"]
         out.append(f"Wall touched at {len(touch)} step{'s' if len(touch) != 1 else ''}"
                    + (f": {step_ranges(touch)}." if touch else "."))
@@ -65,13 +85,16 @@ def body_clearance_lines(s: dict) -> list[str]:
 
 @click.command()
 @click.option("--traj", required=True, metavar="NAME|PATH",
-              help="line, curve, spiral, colon, or a trajectory file: .toml (segments) or .csv (points).")
+              help="line, curve, spiral, colon, anatomy (--seed N), a shipped anatomy-* colon, or a trajectory file: "
+                   ".toml (segments) or .csv (points).")
 @trajectory_options
 @click.option("--solver", default="thesis", show_default=True,
-              help="thesis (the thesis's algorithm; alias seed), constrained, fabrik, ccd, optimal.")
+              help="thesis (the thesis's algorithm; alias seed), constrained, fabrik, ccd, optimal, lumen (keeps "
+                   "the robot off the lumen wall).")
 @robot_options(feed=True)
 @constraint_options
 @optimal_options
+@lumen_options
 @click.option("--body-modules", type=int, default=None, metavar="M",
               help="Also simulate the body: a robot of M modules (M >= --modules) whose modules behind the head "
                    "follow the leader.")
@@ -89,6 +112,10 @@ def body_clearance_lines(s: dict) -> list[str]:
                         "while solving (the --robot file's [link] gives baud rate and module order).", robot=False)
 @click.option("--rate", default=10.0, show_default=True, metavar="HZ", type=FiniteRange(min=MIN_RATE, max=1000),
               help="With --port: steps sent per second, at most.")
+@schedule_option()
+@click.option("--at-end", "at_end", type=click.Choice(["stop", "hold"]), default="stop", show_default=True,
+              help="With --port, after the last step: 'stop' sends stop-all (every actuator off); 'hold' sends a "
+                   "heartbeat and leaves the last codes on until the board's silence timeout switches them off.")
 @guarded
 def follow(traj, solver, out_dir, json_path, no_plots, **kwargs):
     """Follow a trajectory with follow-the-leader and report the errors.
@@ -101,10 +128,13 @@ def follow(traj, solver, out_dir, json_path, no_plots, **kwargs):
 
         bhr follow --traj curve --radius 70 --angle 360
 
-    With --port the codes of each step go to the actuator board as soon as
-    they are solved, at most --rate steps per second (Ctrl-C sends stop-all):
+    With --port the run is solved first, its codes are checked against the
+    thermal model of the wires (docs/thermal.md), and then streamed to the
+    actuator board at --rate steps per second (--schedule rate: refused
+    before anything is sent where the board would fault) or as fast as the
+    wires allow (--schedule auto); Ctrl-C sends stop-all:
 
-        bhr follow --traj colon --port /dev/ttyUSB0 --rate 10
+        bhr follow --traj colon --port /dev/ttyUSB0 --schedule auto
     """
     from bhr.atomic import OutputFolder, write_json, write_text
     from bhr.codes import format_codes_csv
@@ -113,6 +143,8 @@ def follow(traj, solver, out_dir, json_path, no_plots, **kwargs):
 
     show, animate_path, stride = kwargs.pop("show"), kwargs.pop("animate_path"), kwargs.pop("stride")
     stem = Path(traj).stem if traj not in ("line", "curve", "spiral", "colon") else traj
+    if traj == "anatomy":  # one folder per colon
+        stem = f"anatomy-{kwargs['seed'] if kwargs.get('seed') is not None else 1}"
     # The folder: as given, or bhr-out/<traj>-<solver>-<hash of what makes the run different>.
     # With --json - and --no-plots and no --out, standard output is the whole output: no folder at all.
     to_stdout = json_path == "-"
@@ -125,22 +157,25 @@ def follow(traj, solver, out_dir, json_path, no_plots, **kwargs):
     check_writable(json_path, "JSON")
     check_view_options(show, animate_path)
     rate = kwargs.pop("rate")
+    schedule = kwargs.pop("schedule")
+    at_end = kwargs.pop("at_end")
     link_kw = {k: kwargs.pop(k) for k in ("port", "baud", "timeout", "retries")}
     if link_kw["port"] is None and link_kw["baud"] is not None:
         from bhr.errors import BhrError
 
         raise BhrError("--baud is an option of streaming; give --port too, or drop --baud")
-    link_kw["robot_file"] = kwargs.get("robot_file")
-    robot = build_robot(kwargs)
-    constraints = pop_constraints(kwargs)
-    optimal = pop_optimal(kwargs)
-    body_modules = kwargs.pop("body_modules")
-    if optimal and solver != "optimal":
+    if link_kw["port"] is None and at_end != "stop":
         from bhr.errors import BhrError
 
-        raise BhrError(f"--{next(iter(optimal)).replace('_', '-')} is an option of --solver optimal; "
-                       f"drop it or use --solver optimal")
+        raise BhrError("--at-end is an option of streaming; give --port too, or drop --at-end")
+    robot_file = link_kw["robot_file"] = kwargs.get("robot_file")
+    streaming = link_kw["port"] is not None
+    robot = build_robot(kwargs)
+    constraints = pop_constraints(kwargs)
+    optimal = pop_solver_options(kwargs, [solver]).get(solver, {})
+    body_modules = kwargs.pop("body_modules")
     traj_params = pop_trajectory(kwargs)
+    announce_compiles()
     tr = load_trajectory(traj, feed=robot.feed, **traj_params)
     if folder is None and use_folder:
         name = run_folder_name(f"{stem}-{solver}", tr.points, tr.lumen if tr.lumen is not None else 0,
@@ -151,16 +186,22 @@ def follow(traj, solver, out_dir, json_path, no_plots, **kwargs):
     if folder is not None and animate_path is not None:
         taken = FOLLOW_NAMES + ((json_inside,) if json_inside else ())
         anim_inside = json_in_folder(animate_path, folder, taken, "--animate")
+    out = folder.final("") if folder is not None else Path(".")
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", BhrWarning)
+        stream_faults: list = []
         if link_kw["port"] is None:
-            result = run_follow(tr, solver=solver, robot=robot, solver_options={**constraints, **optimal},
-                                body_modules=body_modules)
+            body = f", body of {body_modules} modules" if body_modules is not None else ""
+            with status(f"following {tr.name} ({len(tr.points)} steps, solver {solver}{body})"):
+                result = run_follow(tr, solver=solver, robot=robot, solver_options={**constraints, **optimal},
+                                    body_modules=body_modules)
         else:
-            result = follow_streaming(tr, solver, robot, {**constraints, **optimal}, body_modules, rate, link_kw)
+            result, stream_faults = follow_streaming(tr, solver, robot, {**constraints, **optimal}, body_modules,
+                                                     rate, link_kw, schedule, at_end)
     for w in dict.fromkeys(str(w.message) for w in caught if issubclass(w.category, BhrWarning)):
         click.echo(f"Warning: {w}", err=True)
-    doc = result.to_dict()
+    with status("writing run.json"):
+        doc = result.to_dict()
     written: list[Path] = []
     if folder is not None:
         with folder:
@@ -174,7 +215,8 @@ def follow(traj, solver, out_dir, json_path, no_plots, **kwargs):
             if not no_plots:
                 from bhr.plots import save_run_plots
 
-                written += [folder.final(p.name) for p in save_run_plots(result, folder.stage)]
+                with status(f"drawing the figures into {out}"):
+                    written += [folder.final(p.name) for p in save_run_plots(result, folder.stage)]
             if anim_inside is not None:  # an animation inside the folder belongs to its set
                 render_animation(result, str(folder.path(anim_inside)), stride, folder.final(anim_inside))
             if json_path not in (None, "-") and json_inside is None:
@@ -189,57 +231,100 @@ def follow(traj, solver, out_dir, json_path, no_plots, **kwargs):
     elif json_path is not None and folder is None:
         write_json(json_path, doc)
         written.append(Path(json_path))
+    stream = to_stdout
     for line in summary_lines(result):
-        click.echo(line, err=to_stdout)
+        click.echo(line, err=stream)
+    if result.codes is not None and not streaming and folder is not None:
+        from bhr.cli._link import thermal_params
+        from bhr.thermal import auto_schedule, format_duration
+
+        sched = auto_schedule(thermal_params(robot_file), result.codes, rate)
+        click.echo(f"Procedure time on the board: {format_duration(sched.total_s)} at the board's limits "
+                   f"(bhr plan --codes {out / 'codes.csv'} shows the schedule).", err=stream)
     if written:
-        click.echo("Wrote " + ", ".join(str(p) for p in written), err=to_stdout)
+        click.echo("Wrote " + ", ".join(str(p) for p in written), err=stream)
     if animate_path and anim_inside is None:
         render_animation(result, animate_path, stride)
     if show:
         run_live_view(result, stride)
+    if stream_faults:
+        from bhr.errors import BhrError
+
+        step, name = stream_faults[0]
+        raise BhrError(f"the board raised {len(stream_faults)} fault{'s' if len(stream_faults) != 1 else ''} during "
+                       f"the stream (first: {name} at step {step}); check the robot file's [thermal] table and "
+                       "'bhr status'")
 
 
 #: What bhr follow writes into its folder (an existing folder holding only such files may be replaced).
 FOLLOW_NAMES = ("run.json", "codes.csv", "*.png", "manifest.json")
 
 
-def follow_streaming(tr, solver, robot, solver_options, body_modules, rate, link_kw):
-    """Run bhr.follow with each step's codes sent to the board (the --port path of the command)."""
+def follow_streaming(tr, solver, robot, solver_options, body_modules, rate, link_kw, schedule="rate", at_end="stop"):
+    """Solve the run, check its codes against the wires' thermal model, then stream them (the --port path).
+
+    After the last step one explicit message goes to the board (``at_end``): stop-all, or a heartbeat that
+    holds the last codes until the board's silence timeout.
+    """
     import contextlib
     import sys
 
     from bhr.errors import BhrError
     from bhr.follow import follow as run_follow
-    from bhr.link import BoardLink, Pacer, check_board, interrupted
+    from bhr.link import BoardLink, Pacer, check_board, interrupted, wait_until_ready
+    from bhr.thermal import format_duration, plan
 
     if body_modules is not None:
-        raise BhrError("--port streams the head's codes while it solves and cannot stream a --body-modules run; "
-                       "drop one of the two")
+        raise BhrError("--port streams the head's codes and cannot stream a --body-modules run; drop one of the two")
+    params = thermal_params(link_kw.get("robot_file"))
     port, link_args = link_settings(link_kw, use_file_port=False)
     order = link_args["module_order"]
     if order is not None and len(order) != robot.modules:
         raise BhrError(f"the robot file's link.module_order lists {len(order)} modules but the robot has "
                        f"{robot.modules}; make them agree")
-    steps = len(tr.points)
     with BoardLink(port, **link_args) as link, stop_on_signals():
-        board = check_board(link, robot.modules)
+        board = check_board(link, robot.modules)  # a wrong board is refused before the solve
+        result = run_follow(tr, solver=solver, robot=robot, solver_options=solver_options)
+        if result.codes is None:
+            Pacer(link, rate)(1, None)  # the one-line refusal of code-less solvers
+        rows = result.codes
+        sched = plan(params, rows, rate, schedule, name=tr.name, sending=True)
         held = [f for f in board["faults"] if f != "silence"]  # silence: the board was idle, which is fine
         if held:
-            click.echo(f"Warning: board on {port} reports {', '.join(held)} before the run; those actuators stay "
-                       "off until they cool down (bhr status shows them)", err=True)
-        pacer = Pacer(link, rate)
+            click.echo(f"Warning: board on {port} reports {', '.join(held)} before the run (latched faults stay "
+                       "until stop-all; a cooling module is waited for)", err=True)
+        wait_until_ready(link)
+        steps = len(rows)
+        times = sched.times_ms / 1000.0 if schedule == "auto" else None
+        pacer = Pacer(link, rate, times=times, on_fault=fault_printer(port), known_faults=board["faults"],
+                      wait_relaxed=schedule == "auto")
         show_bar = sys.stderr.isatty()
+        import time
+
+        t_start = time.monotonic()
         try:
-            with (click.progressbar(length=steps, label=f"solving and streaming to {port}", file=sys.stderr,
+            with (click.progressbar(length=steps, label=f"streaming to {port}", file=sys.stderr,
                                     show_pos=True) if show_bar else contextlib.nullcontext()) as bar:
-                def on_step(i, codes):
-                    pacer(i, codes)
+                for i in range(steps):
+                    pacer.send([int(c) for c in rows[i]])
                     if bar is not None:
                         bar.update(1)
-
-                result = run_follow(tr, solver=solver, robot=robot, solver_options=solver_options, on_step=on_step)
         except KeyboardInterrupt:
             exit_interrupted(interrupted(link, pacer.sent), steps, "steps")
-    click.echo(f"streamed {pacer.sent} steps ({robot.modules} modules) to {port} at up to {rate:g} Hz"
-               + (f"; board reported: {', '.join(pacer.faults)}" if pacer.faults else ""), err=True)
-    return result
+        t_sent = time.monotonic() - t_start
+        end = end_stream(link, at_end)
+    how = f"at {rate:g} Hz" if schedule == "rate" else "at the board's limits"
+    settle = sched.total_s - float(sched.times_ms[-1]) / 1000.0  # the last step's contraction
+    click.echo(f"streamed {pacer.sent} steps ({robot.modules} modules) to {port} {how}; procedure time "
+               f"{format_duration(t_sent + settle)} (planned {format_duration(sched.total_s)}); {end}", err=True)
+    return result, pacer.fault_events
+
+
+def end_stream(link, at_end: str) -> str:
+    """The explicit last message of a stream (``--at-end``): stop-all or a heartbeat that holds; what it did."""
+    if at_end == "hold":
+        link.heartbeat()
+        return ("holding the last codes (--at-end hold): the board switches them off after its silence timeout "
+                "unless the host sends again, and then reports 'silence'")
+    link.stop_all()
+    return "sent stop-all at the end (--at-end stop): every actuator is off"

@@ -16,9 +16,14 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "compare": ("bhr.cli.compare:compare", "Run one trajectory with several solvers; print and plot their errors."),
     "stream": ("bhr.cli.stream:stream", "Send a codes.csv to the actuator board over a serial port."),
     "status": ("bhr.cli.status:status", "Ask the actuator board for its current codes and faults."),
+    "plan": ("bhr.cli.plan:plan", "Plan a codes.csv against the wires' thermal model: schedule and procedure time."),
     "report": ("bhr.cli.report:report", "Run a batch file of follow runs; write an HTML report, CSV and JSON."),
     "sweep": ("bhr.cli.sweep:sweep", "Sweep robot designs over trajectories, locally or on a Dask cluster."),
+    "traverse": ("bhr.cli.traverse:traverse", "Which robot designs get through a population of anatomical colons."),
 }
+
+# commands that run compiled kernels (the first run on a machine compiles them)
+COMPILING = {"solve", "follow", "fk", "bench", "compare", "report", "sweep"}
 
 
 class LazyGroup(click.Group):
@@ -35,6 +40,11 @@ class LazyGroup(click.Group):
             rv = super().main(args, prog_name, complete_var, standalone_mode=False, **extra)
         except click.UsageError as exc:
             where = exc.ctx.command_path if exc.ctx is not None else "bhr"
+            if where == "bhr":  # an error while parsing a command's options: point to that command's help
+                words = list(sys.argv[1:] if args is None else args)
+                cmd = next((w for w in words if not w.startswith("-")), None)
+                if cmd in COMMANDS:
+                    where = f"bhr {cmd}"
             click.echo(f"Error: {exc.format_message()} (see '{where} --help')", err=True)
             sys.exit(exc.exit_code)
         except click.ClickException as exc:
@@ -47,6 +57,15 @@ class LazyGroup(click.Group):
             click.echo("Interrupted.", err=True)
             sys.exit(130)
         sys.exit(rv if isinstance(rv, int) else 0)
+
+    def resolve_command(self, ctx: click.Context, args: list[str]):
+        # The first run on a machine compiles the kernels (several seconds): say so at
+        # once, before the command's imports, from a cheap look at numba's cache.
+        if args and args[0] in COMPILING and not {"--help", "-h"} & set(args[1:]):
+            from bhr.cli._progress import announce_if_cache_empty
+
+            announce_if_cache_empty()
+        return super().resolve_command(ctx, args)
 
     def list_commands(self, ctx: click.Context) -> list[str]:
         return sorted(COMMANDS)

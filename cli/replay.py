@@ -100,23 +100,28 @@ def replay(run, show, animate_path, stride, out_dir, step):
         raise click.BadParameter(f"step {step} is past the end of the run ({result.steps} steps)",
                                  param_hint="'--step'")
     written: list[Path] = []
-    if write_plots and folder is None:
-        from bhr.plots import ERROR_KINDS, error_figure, path_figure, save_figure
+    if write_plots:
+        from bhr.cli._progress import status
+        from bhr.plots import ERROR_KINDS, body_figure, clearance_figure, error_figure, path_figure, save_figure
 
-        for kind, (name, _, _) in ERROR_KINDS.items():
-            written.append(save_figure(error_figure(result, kind), out / name))
-        written.append(save_figure(path_figure(result, None if step is None else step - 1), out / path_name))
-    if folder is not None:
-        from bhr.plots import ERROR_KINDS, error_figure, path_figure, save_figure
-
-        with folder:
-            for kind, (name, _, _) in ERROR_KINDS.items():
-                save_figure(error_figure(result, kind), folder.path(name))
-                written.append(folder.final(name))
-            save_figure(path_figure(result, None if step is None else step - 1), folder.path(path_name))
-            written.append(folder.final(path_name))
+        figures = [(name, lambda kind=kind: error_figure(result, kind)) for kind, (name, _, _) in ERROR_KINDS.items()]
+        figures.append((path_name, lambda: path_figure(result, None if step is None else step - 1)))
+        # everything `bhr follow` drew: the body's errors and the lumen clearance too
+        if result.body is not None and result.body.modules:
+            figures.append(("body_errors.png", lambda: body_figure(result)))
+        if result.clearance is not None:
+            figures.append(("clearance.png", lambda: clearance_figure(result)))
+        with status(f"drawing the figures into {out}"):
+            if folder is None:  # a loose run.json: the figures are written beside it, each whole
+                for name, draw in figures:
+                    written.append(save_figure(draw(), out / name))
+            else:
+                with folder:
+                    for name, draw in figures:
+                        save_figure(draw(), folder.path(name))
+                        written.append(folder.final(name))
     if animate_path:
-        written.append(render_animation(result, animate_path, stride))
+        render_animation(result, animate_path, stride)  # prints its own line
     if written:
         click.echo("Wrote " + ", ".join(str(p) for p in written))
     if show:

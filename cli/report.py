@@ -11,15 +11,17 @@ from bhr.cli._options import PlainIntRange
 
 
 @click.command()
-@click.option("--batch", "batch_path", required=True, metavar="FILE.toml",
+@click.option("--file", "batch_path", default=None, metavar="FILE.toml",
               help="Batch file: [[run]] tables with name, traj, solver and options (see docs/report.md).")
+@click.option("--batch", "batch_old", default=None, metavar="FILE.toml", hidden=True)  # the old spelling
 @click.option("--out", "out_dir", default=None, metavar="DIR", help="Output folder [./bhr-out/<batch name>/].")
 @click.option("--jobs", "-j", type=PlainIntRange(min=1, max=1024), default=None, metavar="N",
               help="Worker processes [the number of CPUs, at most one per run].")
 @click.option("--inline-images", is_flag=True,
               help="Embed the figures in index.html, so the page is one file to share.")
+@click.option("--no-plots", is_flag=True, help="Skip the figures (the page has the tables only).")
 @guarded
-def report(batch_path, out_dir, jobs, inline_images):
+def report(batch_path, batch_old, out_dir, jobs, inline_images, no_plots):
     """Run every run of a batch file and write a report page.
 
     Writes DIR/index.html (the summary table, then each run's figures),
@@ -27,10 +29,17 @@ def report(batch_path, out_dir, jobs, inline_images):
     (figures and run.json of each run). A failed run is recorded with its
     reason and the others still run; the exit status is 1 when any run failed.
 
-        bhr report --batch docs/examples/chapter7.toml --out chapter7
+        bhr report --file docs/examples/chapter7.toml --out chapter7
     """
+    from bhr.cli._progress import announce_compiles, status
+    from bhr.errors import BhrError
     from bhr.report import format_table, load_batch, run_batch
 
+    if batch_path is not None and batch_old is not None:
+        raise BhrError("--batch is the old name of --file; give the batch file once, with --file")
+    batch_path = batch_path or batch_old
+    if batch_path is None:
+        raise BhrError("give the batch file: bhr report --file FILE.toml (see docs/report.md)")
     from bhr.atomic import OutputFolder
 
     batch = load_batch(batch_path)
@@ -38,18 +47,17 @@ def report(batch_path, out_dir, jobs, inline_images):
     folder = OutputFolder(out, "report", names=REPORT_NAMES, what="report folder").check()  # before any work
     total = len(batch.runs)
     workers = min(jobs or os.cpu_count() or 1, total)
-    err = click.get_text_stream("stderr")
-    with click.progressbar(length=total, label=f"Running {total} runs", file=err, show_pos=True,
-                           item_show_func=lambda s: s) as bar:
-        last = [0]
+    announce_compiles()
+    starting = f"(starting {workers} worker processes)" if workers > 1 else ""
+    with status(f"Running {total} runs", total=total) as bar:
+        bar.item = starting
 
         def progress(done: int, _total: int, row: dict) -> None:
-            bar.current_item = row["name"] if row["status"] == "ok" else f"{row['name']} FAILED"
-            bar.update(done - last[0])
-            last[0] = done
+            bar.update(done - bar.done, row["name"] if row["status"] == "ok" else f"{row['name']} FAILED")
 
         with folder:  # runs/<name>/ of an earlier report never survive beside this one
-            rep = run_batch(batch, folder.stage, jobs=workers, inline_images=inline_images, progress=progress)
+            rep = run_batch(batch, folder.stage, jobs=workers, plots=not no_plots, inline_images=inline_images,
+                            progress=progress)
     for line in format_table(rep.rows):
         click.echo(line)
     names = ", ".join(str(out / p.name) for p in rep.files())

@@ -32,7 +32,10 @@ def solve(target, orientation, solver, json_path, plot_path, **kwargs):
 
         bhr solve --modules 5 --module-length 2 --target 3 9 0 --solver ccd
     """
+    from bhr.cli._progress import announce_compiles
     from bhr.solvers import Chain, solve as run
+
+    announce_compiles()
 
     check_writable(json_path, "JSON")
     check_writable(plot_path, "plot")

@@ -42,6 +42,10 @@ def status(json_path, **link_kw):
     if json_path:
         write_json(json_path, doc)
     click.echo(f"board on {port}: {len(doc['codes'])} modules; faults: {', '.join(doc['faults']) or 'none'}")
+    if "silence" in doc["faults"]:
+        click.echo("silence: the host fell silent for longer than the board's silence timeout, so the board "
+                   "switched every actuator off (as it does after a stream or 'follow --port --at-end hold' "
+                   "ends); new codes or stop-all clear it")
     click.echo(f"{'module':<8}{'code':>5}  {'actuators':<10}{'motion'}")
     for i, code in enumerate(doc["codes"], start=1):
         acts = "+".join(str(a) for a in actuators(code)) or "-"

@@ -7,7 +7,8 @@ import sys
 import click
 
 from bhr.cli._common import guarded
-from bhr.cli._link import exit_interrupted, link_options, link_settings, stop_on_signals
+from bhr.cli._link import (exit_interrupted, fault_printer, link_options, link_settings, schedule_option,
+                           stop_on_signals, thermal_params)
 from bhr.cli._options import MIN_RATE, FiniteRange
 
 
@@ -17,15 +18,21 @@ from bhr.cli._options import MIN_RATE, FiniteRange
               help="codes.csv as written by 'bhr follow' (header step,m1,...,mN).")
 @click.option("--rate", default=10.0, show_default=True, metavar="HZ",
               type=FiniteRange(min=MIN_RATE, max=1000), help="Rows sent per second.")
+@schedule_option()
 @click.option("--dry-run", is_flag=True, help="Print the frames as hex, one per line, instead of sending them.")
 @guarded
-def stream(codes_path, rate, dry_run, **link_kw):
+def stream(codes_path, rate, schedule, dry_run, **link_kw):
     """Send the module codes of a run to the actuator board, one row per step.
 
     Every code in FILE is checked before anything is sent: a file with an
     unstable code is refused whole, naming its line and column. Each row is
-    one SET_CODES frame, acknowledged by the board (docs/protocol.md). Ctrl-C
-    sends stop-all. After the last row the board keeps those codes until its
+    one SET_CODES frame, acknowledged by the board (docs/protocol.md). Before
+    the first frame the whole stream is checked against the thermal model of
+    the wires (docs/thermal.md; the --robot file's [thermal] table): at
+    --schedule rate a stream the board would fault on is refused, naming the
+    module, the step and the fix; --schedule auto stretches the steps to what
+    the wires allow. A fault the board raises anyway is printed with its module
+    and step, and the exit status is 1. Ctrl-C sends stop-all. After the last row the board keeps those codes until its
     silence timeout switches everything off. With --robot FILE the file's
     [link] table gives the port, baud rate and module order.
 
@@ -37,6 +44,7 @@ def stream(codes_path, rate, dry_run, **link_kw):
 
     steps, table = read_codes_csv(codes_path)
     n_rows, n_modules = table.shape
+    robot_file = link_kw.get("robot_file")
 
     port, link_args = link_settings(link_kw, need_port=not dry_run, hint=", or use --dry-run to print the frames")
     if dry_run:
@@ -55,9 +63,13 @@ def stream(codes_path, rate, dry_run, **link_kw):
         click.echo(f"dry run: {n_rows} SET_CODES frames for {n_modules} modules (nothing sent)", err=True)
         return
 
-    from bhr.link import BoardLink, StreamInterrupted, stream_codes
+    from bhr.link import BoardLink, StreamInterrupted, stream_codes, wait_until_ready
+    from bhr.thermal import format_duration, plan
 
+    sched = plan(thermal_params(robot_file), table, rate, schedule, name=str(codes_path), sending=True)
+    times = sched.times_ms / 1000.0 if schedule == "auto" else None
     faults: list[str] = []
+    events: list = []
     # The bar only on a terminal: in a pipe or a log, stderr stays empty unless something fails.
     show_bar = sys.stderr.isatty()
     with BoardLink(port, **link_args) as link, stop_on_signals():
@@ -71,8 +83,28 @@ def stream(codes_path, rate, dry_run, **link_kw):
                         if f not in faults:
                             faults.append(f)
 
-                sent = stream_codes(link, table, rate=rate, progress=progress)
+                wait_until_ready(link)
+                known = link.status()["faults"]
+                printer = fault_printer(port)
+
+                def on_fault(step: int, names: list[str]) -> None:
+                    events.extend((step, n) for n in names)
+                    printer(steps[step - 1], names)
+
+                import time
+
+                t_start = time.monotonic()
+                sent = stream_codes(link, table, rate=rate, progress=progress, times=times, on_fault=on_fault,
+                                    known_faults=known, wait_relaxed=schedule == "auto")
+                t_sent = time.monotonic() - t_start
         except StreamInterrupted as exc:
             exit_interrupted(exc, n_rows, "rows")
-    click.echo(f"sent {sent} rows ({n_modules} modules, steps {steps[0]}..{steps[-1]}) to {port} at {rate:g} Hz"
-               + (f"; board reported: {', '.join(faults)}" if faults else ""))
+    how = f"at {rate:g} Hz" if schedule == "rate" else "at the board's limits"
+    click.echo(f"sent {sent} row{'s' * (sent != 1)} ({n_modules} modules, steps {steps[0]}..{steps[-1]}) to {port} "
+               f"{how}; "
+               f"procedure time {format_duration(t_sent + sched.total_s - float(sched.times_ms[-1]) / 1000.0)} "
+               f"(planned {format_duration(sched.total_s)})")
+    if events:
+        raise BhrError(f"the board raised {len(events)} fault{'s' if len(events) != 1 else ''} during the stream "
+                       f"(first: {events[0][1]} at step {steps[events[0][0] - 1]}); check the [thermal] table of "
+                       "the robot file against the wires, and 'bhr status'")

@@ -27,10 +27,12 @@ from bhr.cli._options import PlainIntRange
               help="Run on an existing Dask distributed cluster instead, e.g. tcp://127.0.0.1:8786.")
 @click.option("--x", "hx", default=None, metavar="KEY", help="Heat-map columns [the axis with the most values].")
 @click.option("--y", "hy", default=None, metavar="KEY", help="Heat-map rows [the axis with the next most values].")
-@click.option("--no-plot", is_flag=True, help="Skip heatmap.png.")
+@click.option("--no-plots", "no_plot", is_flag=True, help="Skip heatmap.png.")
+@click.option("--no-plot", "no_plot_old", is_flag=True, hidden=True)  # the old spelling
 @click.option("--title", default=None, help="Title of the heat-map and page.")
 @guarded
-def sweep(sweep_file, trajs, solvers, grid, robot_file, out_dir, jobs, scheduler, hx, hy, no_plot, title):
+def sweep(sweep_file, trajs, solvers, grid, robot_file, out_dir, jobs, scheduler, hx, hy, no_plot, no_plot_old,
+          title):
     """Follow trajectories with every design of a parameter grid.
 
     Writes DIR/results.csv and DIR/results.json (one row per design: its
@@ -41,7 +43,10 @@ def sweep(sweep_file, trajs, solvers, grid, robot_file, out_dir, jobs, scheduler
 
         bhr sweep --traj curve --grid modules=3:12 --grid alpha=6:15 --grid module_length=8,10,12
     """
+    from bhr.cli._progress import announce_compiles, status
     from bhr.errors import BhrError
+
+    no_plot = no_plot or no_plot_old
     from bhr.sweep import build_sweep, format_summary, heatmap_axes, load_sweep, parse_grid_option, run_sweep, \
         write_outputs
 
@@ -56,13 +61,13 @@ def sweep(sweep_file, trajs, solvers, grid, robot_file, out_dir, jobs, scheduler
             raise BhrError(DASK_MISSING) from None
     cli_grid = [parse_grid_option(g) for g in grid]
     if sweep_file:
-        from bhr.trajectory import GENERATORS
+        from bhr.trajectory import builtin_names
 
         base = load_sweep(sweep_file)
         merged = dict(base.grid)
         merged.update(dict(cli_grid))
         # trajectory files named here are relative to the current folder, the file's to its folder
-        given = tuple(t if t in GENERATORS else str(Path(t).resolve()) for t in trajs)
+        given = tuple(t if t in builtin_names() else str(Path(t).resolve()) for t in trajs)
         s = build_sweep(given or base.trajs, solvers or base.solvers, tuple(merged.items()),
                         title=title or base.title, description=base.description,
                         base_dir=Path(sweep_file).parent, where=str(sweep_file),
@@ -81,22 +86,18 @@ def sweep(sweep_file, trajs, solvers, grid, robot_file, out_dir, jobs, scheduler
         from bhr.sweep import connect_scheduler
 
         client = connect_scheduler(scheduler)  # fails in one line before anything starts
-    err = click.get_text_stream("stderr")
     where = f"on {scheduler}" if scheduler else ""
+    announce_compiles()
     try:
-        with click.progressbar(length=total, label=f"Running {total} designs {where}".rstrip(), file=err,
-                               show_pos=True) as bar:
-            last = [0]
-
+        with status(f"Running {total} designs {where}".rstrip(), total=total) as bar:
             def progress(done: int, _total: int) -> None:
-                bar.update(done - last[0])
-                last[0] = done
+                bar.update(done - bar.done)
 
             result = run_sweep(s, jobs=jobs, scheduler=client, progress=progress)
     finally:
         if client is not None:
             client.close()
-    with folder:
+    with status(f"writing {out}"), folder:
         files = [folder.final(p.name) for p in write_outputs(result, folder.stage, plot=not no_plot, x=hx, y=hy)]
     for line in format_summary(result):
         click.echo(line)

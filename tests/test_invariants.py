@@ -53,6 +53,35 @@ def test_coincident_points_do_not_break_solvers(solver, n, length, t):
     assert math.isfinite(res.position_error)
 
 
+def test_ccd_keeps_link_lengths_on_a_target_in_the_underflow_range():
+    # hypothesis found it: |target - joint| ~ 1e-161 makes the squares subnormal,
+    # the rotation axis came out 1.0148 long and so did the second link
+    robot = Robot(modules=2, module_length=1.0, tol_pos=0.01, max_iter=30)
+    res = get_solver("ccd", robot).solve(Chain.straight(robot, (0, 1, 0)), np.array([0.0, 0.0, 9.5e-162]), None)
+    np.testing.assert_allclose(link_lengths(res.points), 1.0, rtol=1e-12)
+    assert res.position_error < 0.01
+
+
+# degenerate targets: zero, subnormal or tiny coordinates, points of the initial chain (its axis)
+tiny = st.one_of(st.just(0.0), st.floats(-1e-150, 1e-150, allow_nan=False, allow_subnormal=True),
+                 st.sampled_from([5e-324, -5e-324, 9.5e-162, 1e-300]))
+degenerate = st.one_of(
+    st.tuples(tiny, tiny, tiny),
+    st.tuples(tiny, st.floats(-12, 12, allow_nan=False), tiny),  # on the chain's axis (+Y), up to both sides
+).map(lambda v: np.array(v, dtype=float))
+
+
+@pytest.mark.parametrize("solver", ["fabrik", "ccd", "seed", "constrained", "optimal"])
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(t=degenerate, n=st.integers(2, 5), length=st.sampled_from([0.5, 1.0, 2.0, 10.0]))
+def test_every_solver_keeps_link_lengths_on_degenerate_targets(solver, t, n, length):
+    robot = Robot(modules=n, module_length=length, tol_pos=0.01, max_iter=30)
+    res = get_solver(solver, robot).solve(Chain.straight(robot, (0, 1, 0)), t, None)
+    assert np.all(np.isfinite(res.points))
+    np.testing.assert_allclose(link_lengths(res.points), length, rtol=1e-9)
+    np.testing.assert_array_equal(res.points[0], [0, 0, 0])
+
+
 def angles_between_modules(points, first_dir):
     dirs = np.diff(points, axis=0)
     dirs /= np.linalg.norm(dirs, axis=1)[:, None]

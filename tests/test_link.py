@@ -309,7 +309,10 @@ def test_stream_and_status_commands_over_a_pty(tmp_path, board):
     assert r.returncode == 0, r.stderr
     assert r.stderr == ""  # no progress bar when stderr is not a terminal
     assert "sent 3 rows" in r.stdout
-    assert [list(fr.payload[1:]) for fr in b.received] == rows
+    # before the rows: status requests (is any wire still cooling or relaxing?), then the rows in order
+    kinds = [fr.type for fr in b.received]
+    assert kinds[-3:] == [P.Msg.SET_CODES] * 3 and set(kinds[:-3]) == {P.Msg.STATUS}
+    assert [list(fr.payload[1:]) for fr in b.received if fr.type == P.Msg.SET_CODES] == rows
 
     r = run_bhr("status", "--port", b.path, "--json", "-")
     assert r.returncode == 0, r.stderr

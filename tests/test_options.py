@@ -9,6 +9,7 @@ from bhr.options import OPTIONS, by_group
 from bhr.report import parse_batch
 from bhr.robot import Robot
 from bhr.robotfile import ROBOT_KEYS as FILE_KEYS
+from bhr.solvers.lumen import DEFAULTS as LUMEN_DEFAULTS
 from bhr.solvers.optimal import DEFAULTS
 from bhr.sweep import GRID_KEYS, build_sweep, parse_values, run_design
 
@@ -19,7 +20,9 @@ def test_robot_defaults_are_the_registry_defaults():
         assert fields[o.key] == o.default, o.name
     assert set(fields) == {o.key for o in by_group("robot")}
     assert set(FILE_KEYS) == set(fields)
-    assert DEFAULTS == {o.name: o.default for o in by_group("solver")}
+    assert DEFAULTS == {o.name: o.default for o in by_group("solver") if "optimal" in o.solvers}
+    assert set(LUMEN_DEFAULTS) == {o.name for o in by_group("solver") if "lumen" in o.solvers}
+    assert LUMEN_DEFAULTS["beam"] == 3 and LUMEN_DEFAULTS["wall_weight"] == 1000.0  # docs/lumen.md
 
 
 @pytest.mark.parametrize("command", ["follow", "compare"])
@@ -42,8 +45,11 @@ def test_batch_refuses_what_the_command_line_refuses(o, run_bhr, tmp_path):
         parse_batch({"run": [{"name": "a", "traj": "curve", o.name: too_big}]}, "b")
     with pytest.raises(BhrError, match="is too large"):
         parse_values(o.name, [too_big], "sweep")
-    if o.group == "robot" and o.name != "feed_divisor":  # bhr fk has no feed
-        r = run_bhr("fk", "--codes", "0", o.flag, str(too_big))
+    if o.group == "robot" and o.name != "feed_divisor":  # bhr fk has no feed, and solves nothing
+        from bhr.cli._options import SOLVING_ONLY
+
+        args = ("solve", "--target", "1", "1", "1") if o.name in SOLVING_ONLY else ("fk", "--codes", "0")
+        r = run_bhr(*args, o.flag, str(too_big))
         assert r.returncode == 2 and f"the limit is {o.limit:g}" in r.stderr
 
 
@@ -56,3 +62,11 @@ def test_optimal_options_in_batch_and_sweep():
     s = build_sweep(["line"], ["optimal", "thesis"], [("lookahead", (0, 5)), ("length", (20.0,))])
     rows = [run_design(d, s.traj_sources[d["traj"]]) for d in s.designs()]
     assert [r["status"] for r in rows] == ["ok"] * 4
+
+
+def test_fk_lists_no_solver_options_and_old_spellings_stay_hidden(run_bhr):
+    fk = run_bhr("fk", "--help").stdout
+    assert "--module-length" in fk and not any(f in fk for f in ("--tol-pos", "--tol-ori", "--max-iter", "--weight"))
+    sweep, report = run_bhr("sweep", "--help").stdout, run_bhr("report", "--help").stdout
+    assert "--no-plots" in sweep and "--no-plot " not in sweep
+    assert "--file" in report and "--no-plots" in report and "--batch" not in report

@@ -71,6 +71,36 @@ def test_replay_redraws_the_figures_of_follow(run_bhr, tmp_path):
     assert "Wrote again/position_errors.png" in res.stdout
 
 
+def test_replay_restores_everything_a_run_wrote(run_bhr, tmp_path):
+    """A body run along a path with a lumen: replay draws clearance.png and body_errors.png too, the same."""
+    res = run_bhr("follow", "--traj", "colon", "--body-modules", "20", "--out", "run")
+    assert res.returncode == 0, res.stderr
+    drawn = sorted(p.name for p in (tmp_path / "run").glob("*.png"))
+    assert "clearance.png" in drawn and "body_errors.png" in drawn
+    back = load_run(tmp_path / "run" / "run.json")
+    assert back.body is not None and back.body.modules == 15 and back.trajectory.lumen is not None
+    doc = json.loads((tmp_path / "run" / "run.json").read_text())
+    assert back.to_dict()["steps"] == doc["steps"]
+    for key in ("body_points_max_error_mm", "min_clearance_mm", "wall_touch_steps", "rmse_point_mm"):
+        assert back.summary.to_dict()[key] == doc["summary"][key], key
+    res = run_bhr("replay", "run/run.json", "--out", "again")
+    assert res.returncode == 0, res.stderr
+    assert sorted(p.name for p in (tmp_path / "again").glob("*.png")) == drawn
+    for name in drawn:
+        a = np.asarray(Image.open(tmp_path / "run" / name).convert("RGB"))
+        b = np.asarray(Image.open(tmp_path / "again" / name).convert("RGB"))
+        assert a.shape == b.shape and np.array_equal(a, b), name
+
+
+def test_replay_names_the_animation_once(run_bhr, tmp_path):
+    res = run_bhr("follow", "--traj", "line", "--length", "20", "--no-plots", "--out", "run")
+    assert res.returncode == 0, res.stderr
+    res = run_bhr("replay", "run/run.json", "--animate", "a.gif")
+    assert res.returncode == 0, res.stderr
+    assert (res.stdout + res.stderr).count("a.gif") == 2  # the progress label and the one Animation line
+    assert "Wrote" not in res.stdout
+
+
 def test_replay_uses_the_saved_poses_not_a_new_solve(tmp_path, curve_run):
     """A run whose poses were edited by hand is drawn as edited: replay never solves."""
     doc = curve_run.to_dict()

@@ -37,7 +37,7 @@ def chapter7(tmp_path_factory):
     import os
 
     out = tmp_path_factory.mktemp("ch7") / "report"
-    proc = subprocess.run(bhr_exe() + ["report", "--batch", str(CHAPTER7), "--out", str(out)], capture_output=True,
+    proc = subprocess.run(bhr_exe() + ["report", "--file", str(CHAPTER7), "--out", str(out)], capture_output=True,
                           text=True, timeout=900, env=dict(os.environ, MPLBACKEND="Agg"), cwd=out.parent)
     return proc, out
 
@@ -129,7 +129,7 @@ angle = 45
 def test_a_failed_run_is_recorded_and_the_others_run(run_bhr, tmp_path):
     (tmp_path / "b.toml").write_text(BATCH_MIXED)
     (tmp_path / "stomach.toml").write_text('generator = "stomach"\n')
-    proc = run_bhr("report", "--batch", "b.toml", "--out", "out", "--jobs", "1")
+    proc = run_bhr("report", "--file", "b.toml", "--out", "out", "--jobs", "1")
     assert proc.returncode == 1
     assert proc.stderr.strip().splitlines()[-1] == "Error: 2 of 4 runs failed; see out/summary.csv"
     rows = read_csv(tmp_path / "out" / "summary.csv")
@@ -177,7 +177,7 @@ def test_bad_batch_is_one_line_and_writes_nothing(run_bhr, tmp_path, body, words
     out.mkdir()
     (out / "index.html").write_text("previous report")
     before = snapshot(out)
-    proc = run_bhr("report", "--batch", "b.toml", "--out", "out")
+    proc = run_bhr("report", "--file", "b.toml", "--out", "out")
     assert proc.returncode != 0
     lines = proc.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("Error: "), proc.stderr
@@ -188,12 +188,12 @@ def test_bad_batch_is_one_line_and_writes_nothing(run_bhr, tmp_path, body, words
 
 
 def test_missing_batch_file_and_unwritable_output(run_bhr, tmp_path):
-    proc = run_bhr("report", "--batch", "nope.toml", "--out", "out")
+    proc = run_bhr("report", "--file", "nope.toml", "--out", "out")
     assert proc.returncode != 0 and proc.stderr.strip() == (
         "Error: no such batch file nope.toml; give a TOML file of [[run]] tables (see docs/report.md)")
     (tmp_path / "b.toml").write_text('[[run]]\nname = "a"\ntraj = "line"\n')
     (tmp_path / "afile").write_text("x")
-    proc = run_bhr("report", "--batch", "b.toml", "--out", "afile/out")
+    proc = run_bhr("report", "--file", "b.toml", "--out", "afile/out")
     assert proc.returncode != 0
     assert len(proc.stderr.strip().splitlines()) == 1 and "cannot write report" in proc.stderr
     assert "Running" not in proc.stderr  # refused before any run

@@ -184,7 +184,7 @@ def chapter7_report(tmp_path_factory):
 
     out = tmp_path_factory.mktemp("report") / "chapter7"
     env = dict(os.environ, MPLBACKEND="Agg")
-    proc = subprocess.run(bhr_exe() + ["report", "--batch", str(CHAPTER7), "--out", str(out), "--jobs", "2"],
+    proc = subprocess.run(bhr_exe() + ["report", "--file", str(CHAPTER7), "--out", str(out), "--jobs", "2"],
                           capture_output=True, text=True, timeout=900, env=env, cwd=out.parent)
     assert proc.returncode == 0, proc.stderr
     return out
@@ -268,7 +268,7 @@ def test_inline_report_is_one_file(browser, tmp_path):
     batch = tmp_path / "b.toml"
     batch.write_text('[[run]]\nname = "curve <90> & co"\ntraj = "curve"\nangle = 90\n')
     out = tmp_path / "out"
-    proc = subprocess.run(bhr_exe() + ["report", "--batch", str(batch), "--out", str(out), "--inline-images"],
+    proc = subprocess.run(bhr_exe() + ["report", "--file", str(batch), "--out", str(out), "--inline-images"],
                           capture_output=True, text=True, timeout=600, env=dict(os.environ, MPLBACKEND="Agg"))
     assert proc.returncode == 0, proc.stderr
     alone = tmp_path / "alone"

@@ -12,7 +12,8 @@ from hypothesis import strategies as st
 from bhr.codes import CODE_AXIS, VALID_CODES
 from bhr.errors import BhrError
 from bhr.robot import Robot
-from bhr.robotfile import (LINK_KEYS, ROBOT_KEYS, LinkSettings, code_table, default_robot_file, load_robot_file)
+from bhr.robotfile import (KEY_ALIASES, LINK_KEYS, ROBOT_KEYS, LinkSettings, code_table, default_robot_file,
+                           load_robot_file)
 
 FAST = settings(max_examples=80, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 
@@ -33,6 +34,7 @@ def test_default_file_is_the_thesis_robot():
     data = tomllib.loads(default_robot_file().read_text())
     text = default_robot_file().read_text()
     for key in ROBOT_KEYS:
+        key = {v: k for k, v in KEY_ALIASES.items()}.get(key, key)  # the file's name of the field
         assert key in data or f"# {key} =" in text
     assert set(data["link"]) == set(LINK_KEYS)
 
@@ -222,3 +224,15 @@ def test_stroke_and_lever_in_the_file_and_alpha_on_the_command_line(run_bhr, tmp
     assert json.loads(res.stdout)["points"][2][0] == pytest.approx(20 * math.cos(a))  # module 1 tilts by alpha
     res = run_bhr("fk", "--codes", "3,0,0,0,0", "--robot", "r.toml", "--alpha", "30", "--json", "-")
     assert json.loads(res.stdout)["points"][2][0] == pytest.approx(20 * math.cos(math.radians(30)))
+
+
+def test_disc_radius_is_robot_radius_and_the_old_name_is_read(tmp_path):
+    new = tmp_path / "new.toml"
+    new.write_text("robot_radius = 7.5\n")
+    old = tmp_path / "old.toml"
+    old.write_text("radius = 7.5\n")
+    assert load_robot_file(new).robot.radius == load_robot_file(old).robot.radius == 7.5
+    both = tmp_path / "both.toml"
+    both.write_text("radius = 7.5\nrobot_radius = 7.5\n")
+    with pytest.raises(BhrError, match="radius is the old name of robot_radius"):
+        load_robot_file(both)

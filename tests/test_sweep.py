@@ -159,7 +159,7 @@ def test_designs_start_from_a_robot_file(tmp_path):
     assert run_sweep(s, jobs=1).rows[0]["min_turn_radius_mm"] == Robot(module_length=12, stroke=1,
                                                                        lever=6).min_turn_radius
     (tmp_path / "s.toml").write_text('robot = "r.toml"\n[grid]\nalpha = [8, 12]\n')
-    r = run_cli("sweep", "--file", "s.toml", "--jobs", "1", "--no-plot", "--out", "o", cwd=tmp_path)
+    r = run_cli("sweep", "--file", "s.toml", "--jobs", "1", "--no-plots", "--out", "o", cwd=tmp_path)
     assert r.returncode == 0, r.stderr
     doc = json.loads((tmp_path / "o" / "results.json").read_text())
     assert doc["robot"]["modules"] == 4 and doc["robot_file"].endswith("r.toml")
@@ -245,7 +245,7 @@ def test_example_file_with_command_line_override(tmp_path):
 
     assert len(load_sweep(ex)) == 1000
     proc = run_cli("sweep", "--file", ex, "--grid", "modules=4", "--grid", "alpha=10", "--grid", "module_length=10",
-                   "--jobs", "1", "--no-plot", "--out", "o", cwd=tmp_path)
+                   "--jobs", "1", "--no-plots", "--out", "o", cwd=tmp_path)
     assert proc.returncode == 0, proc.stderr
     rows = rows_of(tmp_path / "o" / "results.csv")
     assert [(r["angle"], r["modules"], r["alpha"]) for r in rows] == [("90", "4", "10"), ("360", "4", "10")]
@@ -258,10 +258,10 @@ def test_example_file_with_command_line_override(tmp_path):
 def test_worker_processes_load_the_kernels_from_the_disk_cache(tmp_path):
     """With a warm cache, worker processes compile nothing and load each kernel once per worker, not per design."""
     env = {"NUMBA_CACHE_DIR": str(tmp_path / "cache")}
-    warm = run_cli("sweep", "--grid", "modules=4", "--jobs", "1", "--no-plot", "--out", "w", cwd=tmp_path, env=env)
+    warm = run_cli("sweep", "--grid", "modules=4", "--jobs", "1", "--no-plots", "--out", "w", cwd=tmp_path, env=env)
     assert warm.returncode == 0, warm.stderr
     assert any((tmp_path / "cache").rglob("*.nbc"))
-    proc = run_cli("sweep", "--grid", "modules=3:8", "--grid", "alpha=8:12", "--jobs", "2", "--no-plot",
+    proc = run_cli("sweep", "--grid", "modules=3:8", "--grid", "alpha=8:12", "--jobs", "2", "--no-plots",
                    "--out", "p", cwd=tmp_path, env={**env, "NUMBA_DEBUG_CACHE": "1"})
     assert proc.returncode == 0, proc.stderr
     assert "30 designs on 2 processes" in proc.stdout

@@ -545,6 +545,19 @@ def case_body(repeat: int = 5) -> BenchResult:
                                  "numpy: the beam search alone, whole colon"})
 
 
+def case_lumen(repeat: int = 3) -> BenchResult:
+    """--solver lumen (default settings, 5-module head) along anatomical colon 1: median solve() time per step."""
+    from bhr.bench.lumen import solve_times
+
+    st = solve_times(1, repeats=max(1, repeat))
+    tl, ts = st["lumen_ms"] / 1e3, st["seed_ms"] / 1e3
+    return BenchResult("lumen-default-anatomy", "per step", tl, ts, "seed solve (same driver)", ts / tl,
+                       "<= 2 ms median per step", tl <= 2e-3,
+                       {"colon": st["colon"], "steps": st["steps"],
+                        "measured": "median of one Solver.solve() call per step, driven step by step as bhr.follow "
+                                    "does without its compiled loop; median over runs"})
+
+
 def _wall(cmd: list[str], repeat: int, cwd: str) -> float:
     times = []
     env = dict(os.environ, MPLBACKEND="Agg")
@@ -584,6 +597,7 @@ CASES: dict[str, Callable[..., BenchResult | list[BenchResult]]] = {
     "seed-colon": case_seed_colon,
     "optimal": case_optimal,
     "body-60": case_body,
+    "lumen": case_lumen,
     "cli": case_cli,
 }
 

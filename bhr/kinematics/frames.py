@@ -54,13 +54,17 @@ def tilt_frame(F: np.ndarray, k: int, c: float, s: float, out: np.ndarray) -> No
 def fk_kernel(codes: np.ndarray, base: np.ndarray, frame: np.ndarray, length: float, lift: float,
                alpha_deg: float, points: np.ndarray, frames: np.ndarray) -> None:
     """Chain points and module frames from codes (see :func:`bhr.robot.forward_kinematics`)."""
+    # scalars and element loops only: numba's array-slice assignment and array
+    # arithmetic compile its string formatting, which made this kernel's first
+    # compile take ten seconds
     n = codes.shape[0]
     h = math.radians(alpha_deg) / 2.0
     c, s = math.cos(h), math.sin(h)
-    fx = frame[0].copy()
-    fy = frame[1].copy()
-    fz = frame[2].copy()
-    points[0] = base
+    fx0, fx1, fx2 = frame[0, 0], frame[0, 1], frame[0, 2]
+    fy0, fy1, fy2 = frame[1, 0], frame[1, 1], frame[1, 2]
+    fz0, fz1, fz2 = frame[2, 0], frame[2, 1], frame[2, 2]
+    for k in range(3):
+        points[0, k] = base[k]
     for i in range(n):
         code = codes[i]
         extra = 0.0
@@ -79,19 +83,24 @@ def fk_kernel(codes: np.ndarray, base: np.ndarray, frame: np.ndarray, length: fl
         elif code == 15:
             extra = lift
         if axis_idx >= 0:
-            a = fx * sign if axis_idx == 0 else fy * sign
+            if axis_idx == 0:
+                a0, a1, a2 = fx0 * sign, fx1 * sign, fx2 * sign
+            else:
+                a0, a1, a2 = fy0 * sign, fy1 * sign, fy2 * sign
             # rotate the three frame vectors about a (a is one of them, up to sign)
-            x0, x1, x2 = k_rotate(fx[0], fx[1], fx[2], c, s, a[0], a[1], a[2])
-            y0, y1, y2 = k_rotate(fy[0], fy[1], fy[2], c, s, a[0], a[1], a[2])
-            z0, z1, z2 = k_rotate(fz[0], fz[1], fz[2], c, s, a[0], a[1], a[2])
-            fx[0], fx[1], fx[2] = x0, x1, x2
-            fy[0], fy[1], fy[2] = y0, y1, y2
-            fz[0], fz[1], fz[2] = z0, z1, z2
-        frames[i, 0] = fx
-        frames[i, 1] = fy
-        frames[i, 2] = fz
-        for k in range(3):
-            points[i + 1, k] = points[i, k] + (length + extra) * fz[k]
+            x0, x1, x2 = k_rotate(fx0, fx1, fx2, c, s, a0, a1, a2)
+            y0, y1, y2 = k_rotate(fy0, fy1, fy2, c, s, a0, a1, a2)
+            z0, z1, z2 = k_rotate(fz0, fz1, fz2, c, s, a0, a1, a2)
+            fx0, fx1, fx2 = x0, x1, x2
+            fy0, fy1, fy2 = y0, y1, y2
+            fz0, fz1, fz2 = z0, z1, z2
+        frames[i, 0, 0], frames[i, 0, 1], frames[i, 0, 2] = fx0, fx1, fx2
+        frames[i, 1, 0], frames[i, 1, 1], frames[i, 1, 2] = fy0, fy1, fy2
+        frames[i, 2, 0], frames[i, 2, 1], frames[i, 2, 2] = fz0, fz1, fz2
+        step = length + extra
+        points[i + 1, 0] = points[i, 0] + step * fz0
+        points[i + 1, 1] = points[i, 1] + step * fz1
+        points[i + 1, 2] = points[i, 2] + step * fz2
 
 
 def _rotation(axis: np.ndarray, angle: float) -> np.ndarray:

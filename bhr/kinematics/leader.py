@@ -53,26 +53,39 @@ def score_step(i: int, P: np.ndarray, path: np.ndarray, dirs: np.ndarray, f: int
 
 
 @njit(cache=True)
+def _reset_axes(P: np.ndarray, E: np.ndarray, obx: float, oby: float, obz: float, length: float) -> None:
+    dx, dy, dz = E[0, 0] - P[0, 0], E[0, 1] - P[0, 1], E[0, 2] - P[0, 2]
+    nd = math.sqrt(dx * dx + dy * dy + dz * dz)
+    dx, dy, dz = dx / nd, dy / nd, dz / nd
+    for j in range(1, P.shape[0] - 1):
+        E[j, 0] = P[0, 0] + obx * length * j + dx
+        E[j, 1] = P[0, 1] + oby * length * j + dy
+        E[j, 2] = P[0, 2] + obz * length * j + dz
+
+
+@njit(cache=True)
 def advance_kernel(P: np.ndarray, E1: np.ndarray, E2: np.ndarray, feed: float, length: float) -> None:
-    """Advance by ``feed`` along the base module; reset the axes of modules 2..n (in place)."""
+    """Advance by ``feed`` along the base module; reset the axes of modules 2..n (in place).
+
+    Scalars only (no temporary arrays): a smaller first compile.
+    """
     n = P.shape[0] - 1
     ox, oy, oz = P[1, 0] - P[0, 0], P[1, 1] - P[0, 1], P[1, 2] - P[0, 2]
     no = math.sqrt(ox * ox + oy * oy + oz * oz)
-    ob = np.array([ox / no, oy / no, oz / no])
+    obx, oby, obz = ox / no, oy / no, oz / no
     for j in range(n + 1):
-        for c in range(3):
-            P[j, c] = P[j, c] + feed * ob[c]
+        P[j, 0] = P[j, 0] + feed * obx
+        P[j, 1] = P[j, 1] + feed * oby
+        P[j, 2] = P[j, 2] + feed * obz
     for j in range(E1.shape[0]):
-        for c in range(3):
-            E1[j, c] = E1[j, c] + feed * ob[c]
-            E2[j, c] = E2[j, c] + feed * ob[c]
-    for E in (E1, E2):
-        dx, dy, dz = E[0, 0] - P[0, 0], E[0, 1] - P[0, 1], E[0, 2] - P[0, 2]
-        nd = math.sqrt(dx * dx + dy * dy + dz * dz)
-        d = np.array([dx / nd, dy / nd, dz / nd])
-        for j in range(1, n):
-            for c in range(3):
-                E[j, c] = P[0, c] + ob[c] * length * j + d[c]
+        E1[j, 0] = E1[j, 0] + feed * obx
+        E1[j, 1] = E1[j, 1] + feed * oby
+        E1[j, 2] = E1[j, 2] + feed * obz
+        E2[j, 0] = E2[j, 0] + feed * obx
+        E2[j, 1] = E2[j, 1] + feed * oby
+        E2[j, 2] = E2[j, 2] + feed * obz
+    _reset_axes(P, E1, obx, oby, obz, length)
+    _reset_axes(P, E2, obx, oby, obz, length)
 
 
 def score_reference(i: int, P: np.ndarray, path: np.ndarray, dirs: np.ndarray, f: int,

@@ -159,6 +159,9 @@ class Solver(ABC):
     def reset(self) -> None:  # noqa: B027 (a default, not abstract: most solvers keep no state)
         """Forget any state kept between steps of a run (default: none)."""
 
+    def prepare(self, trajectory: Any) -> None:  # noqa: B027 (a default: most solvers need nothing)
+        """Look at the whole trajectory (e.g. its lumen) before a run follows it (default: nothing)."""
+
     def judge(self, result: SolveResult) -> SolveResult:
         """Set ``result.success``: errors within the robot's tolerances (mm, and degrees when aimed)."""
         ori = result.orientation_error_deg

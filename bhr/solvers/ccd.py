@@ -19,6 +19,26 @@ from bhr.solvers.base import Chain, FollowContext, SolveResult, Solver, register
 from bhr.solvers.fabrik import _dist
 
 
+# Below this norm the squares of a vector's components may be subnormal or
+# zero, so sqrt(x*x + y*y + z*z) loses digits (a target 1e-161 from a joint gave
+# a rotation axis of norm 1.0148 and stretched the link behind it).
+_TINY = 1e-150
+
+
+@njit(cache=True)
+def _unit3(x: float, y: float, z: float):
+    """(x, y, z) / |(x, y, z)| and the norm; vectors in the underflow range are scaled first."""
+    nv = math.sqrt(x * x + y * y + z * z)
+    if nv < _TINY:
+        m = max(abs(x), abs(y), abs(z))
+        if m == 0.0:
+            return 0.0, 0.0, 0.0, 0.0
+        x, y, z = x / m, y / m, z / m
+        s = math.sqrt(x * x + y * y + z * z)
+        return x / s, y / s, z / s, m * s
+    return x / nv, y / nv, z / nv, nv
+
+
 @njit(cache=True)
 def ccd_kernel(P: np.ndarray, target: np.ndarray, tol: float, max_iter: int):
     """CCD on ``P`` (modified in place). Returns (iterations, error)."""
@@ -31,15 +51,24 @@ def ccd_kernel(P: np.ndarray, target: np.ndarray, tol: float, max_iter: int):
             tx, ty, tz = target[0] - P[j, 0], target[1] - P[j, 1], target[2] - P[j, 2]
             ne = math.sqrt(ex * ex + ey * ey + ez * ez)
             nt = math.sqrt(tx * tx + ty * ty + tz * tz)
-            if ne == 0.0 or nt == 0.0:
-                continue
+            if ne < _TINY or nt < _TINY:
+                # tiny vectors: work with their directions (the angle and the
+                # axis depend on nothing else)
+                ex, ey, ez, ne = _unit3(ex, ey, ez)
+                tx, ty, tz, nt = _unit3(tx, ty, tz)
+                if ne == 0.0 or nt == 0.0:
+                    continue
+                ne, nt = 1.0, 1.0
             c = (ex * tx + ey * ty + ez * tz) / (ne * nt)
             theta = math.acos(max(-1.0, min(1.0, c)))
             rx, ry, rz = ey * tz - ez * ty, ez * tx - ex * tz, ex * ty - ey * tx
             nr = math.sqrt(rx * rx + ry * ry + rz * rz)
-            if nr == 0.0:
-                continue
-            rx, ry, rz = rx / nr, ry / nr, rz / nr
+            if nr < _TINY:
+                rx, ry, rz, nr = _unit3(rx, ry, rz)
+                if nr == 0.0:
+                    continue
+            else:
+                rx, ry, rz = rx / nr, ry / nr, rz / nr
             ch, sh = math.cos(theta / 2.0), math.sin(theta / 2.0)
             for m in range(j + 1, n + 1):
                 vx, vy, vz = k_rotate(P[m, 0] - P[j, 0], P[m, 1] - P[j, 1], P[m, 2] - P[j, 2], ch, sh, rx, ry, rz)

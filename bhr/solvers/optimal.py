@@ -55,7 +55,7 @@ import numpy as np
 from numba import njit
 
 from bhr.errors import BhrError
-from bhr.options import by_group
+from bhr.options import solver_defaults
 from bhr.kinematics.frames import tilt_frame as _rot
 from bhr.kinematics.leader import advance_kernel, score_step
 from bhr.solvers.base import Chain, FollowContext, SolveResult, Solver, register
@@ -68,7 +68,7 @@ CODE_OF = np.array([0, 3, 6, 12, 9], dtype=np.int64)
 DEG = 180.0 / math.pi
 
 #: Default settings of ``--solver optimal`` (docs/optimal.md explains each), from the option registry.
-DEFAULTS: dict[str, Any] = {o.name: o.default for o in by_group("solver") if o.solvers == ("optimal",)}
+DEFAULTS: dict[str, Any] = solver_defaults("optimal")
 #: Two beam states closer than this (mm, and unit-vector difference) count as one.
 DEDUP_POS = 0.2
 DEDUP_DIR = 0.02
@@ -405,9 +405,13 @@ def follow_optimal_kernel(path, dirs, P, E1, E2, bP, bF, bC, bH, state, cP, cF, 
                                   n, f, feed, L, alpha, w, wo, lookahead, kvec, spacing, kcurve, kbend, wdrift, wroll,
                                   step_codes, tilts)
         d = dirs[N - 2] if i == N - 1 else dirs[i]
-        out_points[i] = P
+        # element loops, not slice assignment (that compiles numba's string formatting: seconds)
+        for j in range(n + 1):
+            for c in range(3):
+                out_points[i, j, c] = P[j, c]
         out_iters[i] = layers
-        codes[i] = step_codes
+        for j in range(n):
+            codes[i, j] = step_codes[j]
         score_step(i, P, path, dirs, f, _tip_angle(P, d), pe[i], oe[i])
         advance_kernel(P, E1, E2, feed, L)
 

@@ -194,9 +194,14 @@ def follow_constrained_kernel(path, dirs, P, E1, E2, length, feed, f, tol_pos, t
         d = dirs[N - 2] if i == N - 1 else dirs[i]
         k, ep, eo = constrained_kernel(P, E1, E2, path[i], d, True, length, tol_pos, tol_ori, alpha, max_iter, limit,
                                 local_axes, warmup, step_codes, tilts)
-        out_points[i] = P
+        # element loops, not slice assignment: numba's broadcasting path
+        # compiles string formatting that doubles the first run's compile time
+        for j in range(n + 1):
+            for c in range(3):
+                out_points[i, j, c] = P[j, c]
         out_iters[i] = k
-        codes[i] = step_codes
+        for j in range(n):
+            codes[i, j] = step_codes[j]
         score_step(i, P, path, dirs, f, eo, pe[i], oe[i])
         advance_kernel(P, E1, E2, feed, length)
 

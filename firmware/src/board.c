@@ -1,18 +1,65 @@
-/* board.c - board state machine (see board.h and docs/firmware.md). */
+/* board.c - board state machine and thermal drive (see board.h, docs/firmware.md, docs/thermal.md).
+ *
+ * Keep in step with bhr/thermal.py (_kernel_py): the host plans streams with
+ * the same integer model, and tests hold the two equal. */
 #include "board.h"
 
 #include <string.h>
 
-/* Thermal model, per actuator, in units of ms x ms: while on, heat rises by
- * BHR_COOLDOWN_MS per ms; while off, it falls by BHR_ON_MAX_MS per ms. It
- * reaches HEAT_LIMIT after BHR_ON_MAX_MS ms of continuous on-time, and a
- * full HEAT_LIMIT drains in BHR_COOLDOWN_MS ms. */
-#define HEAT_LIMIT ((uint32_t)BHR_ON_MAX_MS * (uint32_t)BHR_COOLDOWN_MS)
+/* The model's products fit in 32 bits (no 64-bit arithmetic on the AVR). */
+#if BHR_THETA_FULL * BHR_THETA_A_Q16 >= 0x40000000L
+#error "thermal constants too large for 32-bit arithmetic"
+#endif
+
+/* Equilibrium temperature for each number of on-milliseconds in a period:
+ * (on * BHR_THETA_FULL) / BHR_PWM_PERIOD_MS, computed once (a division costs
+ * hundreds of cycles on the AVR). */
+static int32_t target_tab[BHR_PWM_PERIOD_MS + 1];
+
+static void fill_targets(void)
+{
+    for (uint8_t k = 0; k <= BHR_PWM_PERIOD_MS; k++)
+        target_tab[k] = (int32_t)(((int32_t)k * BHR_THETA_FULL) / (int32_t)BHR_PWM_PERIOD_MS);
+}
 
 void board_init(board_t *b)
 {
+    fill_targets();
     memset(b, 0, sizeof(*b));
+    for (uint8_t i = 0; i < BHR_ACTUATORS; i++)
+        b->theta[i] = BHR_THETA_LIMIT; /* unknown past: assume hot wires */
+    for (uint8_t m = 0; m < BHR_MODULES; m++)
+        b->module_flags[m] = MODULE_COOLING;
+    b->magic = BOARD_MAGIC;
+    b->magic_inv = (uint32_t)~(uint32_t)BOARD_MAGIC;
     b->changed = 1; /* push the all-off state once */
+}
+
+uint8_t board_resume(board_t *b)
+{
+    fill_targets();
+    uint8_t ok = b->magic == BOARD_MAGIC && b->magic_inv == (uint32_t)~(uint32_t)BOARD_MAGIC;
+    for (uint8_t i = 0; ok && i < BHR_ACTUATORS; i++)
+        if (b->theta[i] < 0 || b->theta[i] > 4L * BHR_THETA_FULL)
+            ok = 0;
+    if (!ok) {
+        board_init(b);
+        return 0;
+    }
+    for (uint8_t m = 0; m < BHR_MODULES; m++) {
+        b->requested[m] = 0;
+        b->drive[m] = 0;
+        b->full[m] = 0;
+        b->shown[m] = 0;
+        b->module_flags[m] &= (uint8_t)(MODULE_OVERHEAT | MODULE_COOLING | MODULE_EARLY);
+    }
+    memset(b->on_ticks, 0, sizeof(b->on_ticks));
+    b->phase = 0;
+    b->enabled = 0;
+    b->quiet_ms = 0;
+    b->faults = (uint8_t)((b->faults & (FAULT_SILENCE | FAULT_FLOOD)) | FAULT_RESET);
+    b->changed = 1;
+    return 1;
 }
 
 uint8_t board_faults(const board_t *b)
@@ -23,24 +70,76 @@ uint8_t board_faults(const board_t *b)
             f |= FAULT_OVERHEAT;
         if (b->module_flags[m] & MODULE_COOLING)
             f |= FAULT_COOLING;
+        if (b->module_flags[m] & MODULE_EARLY)
+            f |= FAULT_EARLY;
     }
     return f;
 }
 
-/* Recompute output[] from requested[], enabled and the cooling locks. */
-static void apply(board_t *b)
+void board_reply_dropped(board_t *b)
+{
+    if (b->dropped < 0xFFFFu)
+        b->dropped++;
+    b->faults |= FAULT_FLOOD;
+}
+
+uint8_t board_relaxing(const board_t *b, uint8_t a)
+{
+    return !((b->drive[a / 4u] >> (a % 4u)) & 1u) && b->theta[a] > BHR_THETA_RELAX;
+}
+
+/* 1 when driving `want` on module m would energise a wire that is still relaxing */
+static uint8_t blocked(const board_t *b, uint8_t m, uint8_t want)
+{
+    uint8_t new_on = (uint8_t)(want & ~b->drive[m]);
+    for (uint8_t k = 0; k < 4; k++)
+        if (((new_on >> k) & 1u) && b->theta[m * 4u + k] > BHR_THETA_RELAX)
+            return 1;
+    return 0;
+}
+
+static uint8_t needs_full(const board_t *b, uint8_t m)
+{
+    for (uint8_t k = 0; k < 4; k++)
+        if (((b->drive[m] >> k) & 1u) && b->theta[m * 4u + k] < BHR_THETA_ONE)
+            return 1;
+    return 0;
+}
+
+/* What module m shows this millisecond. */
+static void show(board_t *b)
+{
+    for (uint8_t m = 0; m < BHR_MODULES; m++) {
+        uint8_t s = b->drive[m];
+        if (!b->enabled || (!b->full[m] && b->phase >= BHR_HOLD_TICKS))
+            s = 0;
+        if (!proto_code_valid(s)) /* cannot happen: drive[] holds validated codes */
+            s = 0;
+        if (s != b->shown[m]) {
+            b->shown[m] = s;
+            b->changed = 1;
+        }
+    }
+}
+
+/* A frame changed requested[] or enabled: drive what can be driven now. */
+static void apply(board_t *b, uint8_t from_frame)
 {
     for (uint8_t m = 0; m < BHR_MODULES; m++) {
         uint8_t want = b->enabled ? b->requested[m] : 0;
         if (b->module_flags[m] & MODULE_COOLING)
             want = 0;
-        if (!proto_code_valid(want)) /* cannot happen: requested[] is validated */
+        if (blocked(b, m, want)) {
+            if (from_frame)
+                b->module_flags[m] |= MODULE_EARLY;
             want = 0;
-        if (b->output[m] != want) {
-            b->output[m] = want;
-            b->changed = 1;
+        }
+        if (want != b->drive[m]) {
+            b->drive[m] = want;
+            b->full[m] = needs_full(b, m);
         }
     }
+    show(b);
 }
 
 void board_chain(const board_t *b, uint8_t chain[BHR_CHIPS])
@@ -49,7 +148,7 @@ void board_chain(const board_t *b, uint8_t chain[BHR_CHIPS])
     if (!b->enabled)
         return;
     for (uint8_t m = 0; m < BHR_MODULES; m++) {
-        uint8_t code = proto_code_valid(b->output[m]) ? b->output[m] : 0;
+        uint8_t code = proto_code_valid(b->shown[m]) ? b->shown[m] : 0;
         chain[m / 2] |= (uint8_t)(code << ((m & 1u) * 4u));
     }
 }
@@ -60,46 +159,69 @@ static void all_off(board_t *b)
     if (b->enabled)
         b->changed = 1;
     b->enabled = 0;
-    apply(b);
+    apply(b, 0);
 }
 
-void board_tick(board_t *b, uint16_t dt)
+/* End of a PWM period: the thermal model, the limits, the drive mode. */
+static void period_end(board_t *b)
 {
-    if (dt == 0)
-        return;
+    for (uint8_t i = 0; i < BHR_ACTUATORS; i++) {
+        uint8_t on = b->on_ticks[i] <= BHR_PWM_PERIOD_MS ? b->on_ticks[i] : BHR_PWM_PERIOD_MS;
+        int32_t d = target_tab[on] - b->theta[i];
+        /* arithmetic shift (floor), as in bhr/thermal.py */
+        b->theta[i] += (d * BHR_THETA_A_Q16) >> 16;
+        if (b->theta[i] < 0)
+            b->theta[i] = 0;
+        b->on_ticks[i] = 0;
+    }
+    for (uint8_t m = 0; m < BHR_MODULES; m++) {
+        uint8_t hot = 0, warm = 0;
+        for (uint8_t k = 0; k < 4; k++) {
+            int32_t t = b->theta[m * 4u + k];
+            if (t >= BHR_THETA_LIMIT)
+                hot = 1;
+            if (t > BHR_THETA_RELAX)
+                warm = 1;
+        }
+        if (hot)
+            b->module_flags[m] |= MODULE_OVERHEAT | MODULE_COOLING;
+        else if ((b->module_flags[m] & MODULE_COOLING) && !warm)
+            b->module_flags[m] &= (uint8_t)~MODULE_COOLING;
+        uint8_t want = b->enabled ? b->requested[m] : 0;
+        if (b->module_flags[m] & MODULE_COOLING)
+            want = 0;
+        if (blocked(b, m, want))
+            want = 0;
+        b->drive[m] = want;
+        b->full[m] = needs_full(b, m);
+    }
+}
+
+static void tick1(board_t *b)
+{
     /* silence timeout */
-    if (b->quiet_ms < 0xFFFFu - dt)
-        b->quiet_ms = (uint16_t)(b->quiet_ms + dt);
-    else
-        b->quiet_ms = 0xFFFFu;
+    if (b->quiet_ms < 0xFFFFu)
+        b->quiet_ms++;
     if (b->enabled && b->quiet_ms > BHR_SILENCE_MS) { /* never early: in the tick after the timeout */
         b->faults |= FAULT_SILENCE;
         all_off(b);
     }
-    /* thermal limits */
-    uint32_t up = (uint32_t)dt * BHR_COOLDOWN_MS;
-    uint32_t down = (uint32_t)dt * BHR_ON_MAX_MS;
-    for (uint8_t m = 0; m < BHR_MODULES; m++) {
-        uint8_t code = b->output[m];
-        uint8_t tripped = 0, hot = 0;
-        for (uint8_t a = 0; a < 4; a++) {
-            uint32_t *h = &b->heat[m * 4u + a];
-            if (code & (1u << a)) {
-                *h = (HEAT_LIMIT - *h <= up) ? HEAT_LIMIT : *h + up;
-                if (*h >= HEAT_LIMIT)
-                    tripped = 1;
-            } else {
-                *h = (*h <= down) ? 0 : *h - down;
-            }
-            if (*h)
-                hot = 1;
-        }
-        if (tripped)
-            b->module_flags[m] |= MODULE_OVERHEAT | MODULE_COOLING;
-        else if ((b->module_flags[m] & MODULE_COOLING) && !hot)
-            b->module_flags[m] &= (uint8_t)~MODULE_COOLING;
+    /* the millisecond that just passed, with the outputs it showed */
+    for (uint8_t m = 0; m < BHR_MODULES; m++)
+        for (uint8_t k = 0; k < 4; k++)
+            if ((b->shown[m] >> k) & 1u)
+                b->on_ticks[m * 4u + k]++;
+    if (++b->phase >= BHR_PWM_PERIOD_MS) {
+        b->phase = 0;
+        period_end(b);
     }
-    apply(b);
+    show(b);
+}
+
+void board_tick(board_t *b, uint16_t dt)
+{
+    while (dt--)
+        tick1(b);
 }
 
 static uint8_t nak(uint8_t *reply, uint8_t seq, uint8_t type, uint8_t reason, uint8_t detail)
@@ -140,7 +262,7 @@ uint8_t board_handle(board_t *b, uint8_t event, const proto_frame_t *f, uint8_t 
         b->enabled = 1;
         b->faults &= (uint8_t)~FAULT_SILENCE;
         b->quiet_ms = 0;
-        apply(b);
+        apply(b, 1);
         return ack(b, reply, f->seq, f->type);
     }
     case MSG_STATUS: {
@@ -151,8 +273,13 @@ uint8_t board_handle(board_t *b, uint8_t event, const proto_frame_t *f, uint8_t 
         p[0] = board_faults(b);
         p[1] = b->enabled;
         p[2] = BHR_MODULES;
-        for (uint8_t m = 0; m < BHR_MODULES; m++)
-            p[3 + m] = (uint8_t)((b->enabled ? b->output[m] : 0) | b->module_flags[m]);
+        for (uint8_t m = 0; m < BHR_MODULES; m++) {
+            uint8_t v = (uint8_t)((b->enabled ? b->drive[m] : 0) | b->module_flags[m]);
+            for (uint8_t k = 0; k < 4; k++)
+                if (board_relaxing(b, (uint8_t)(m * 4u + k)))
+                    v |= MODULE_RELAXING;
+            p[3 + m] = v;
+        }
         return proto_encode(reply, MSG_STATUS_REPLY, f->seq, p, (uint8_t)(3 + BHR_MODULES));
     }
     case MSG_STOP_ALL:
@@ -160,8 +287,9 @@ uint8_t board_handle(board_t *b, uint8_t event, const proto_frame_t *f, uint8_t 
             return nak(reply, f->seq, f->type, NAK_BAD_LENGTH, 0);
         all_off(b);
         b->faults = 0;
-        for (uint8_t m = 0; m < BHR_MODULES; m++)
-            b->module_flags[m] &= (uint8_t)~MODULE_OVERHEAT; /* acknowledged; cooling stays */
+        b->dropped = 0;
+        for (uint8_t m = 0; m < BHR_MODULES; m++) /* acknowledged; cooling stays */
+            b->module_flags[m] &= (uint8_t)~(MODULE_OVERHEAT | MODULE_EARLY);
         b->quiet_ms = 0;
         return ack(b, reply, f->seq, f->type);
     case MSG_HEARTBEAT:

@@ -21,16 +21,9 @@
 #define BHR_SILENCE_MS 1000UL
 #endif
 
-/* Longest time a nitinol actuator may stay on continuously. */
-#ifndef BHR_ON_MAX_MS
-#define BHR_ON_MAX_MS 5000UL
-#endif
-
-/* Time an actuator needs to cool down completely after reaching its limit.
- * Off-time cools at BHR_ON_MAX_MS / BHR_COOLDOWN_MS of the heating rate. */
-#ifndef BHR_COOLDOWN_MS
-#define BHR_COOLDOWN_MS 10000UL
-#endif
+/* The thermal model of the actuator wires (contraction, PWM hold, relaxation,
+ * overheat limit) comes from the generated header bhr_gen.h, made from the
+ * robot file's [thermal] table by `python -m bhr.firmware_header`. */
 
 /* A partial frame with no further byte for this long is dropped (NAK
  * "incomplete" when its header was complete). */
@@ -51,9 +44,6 @@
 #endif
 #if BHR_SILENCE_MS < 10 || BHR_SILENCE_MS > 60000UL
 #error "BHR_SILENCE_MS must be 10..60000"
-#endif
-#if BHR_ON_MAX_MS < 10 || BHR_COOLDOWN_MS < 10 || BHR_ON_MAX_MS > 60000UL || BHR_COOLDOWN_MS > 60000UL
-#error "BHR_ON_MAX_MS and BHR_COOLDOWN_MS must be 10..60000"
 #endif
 
 #endif

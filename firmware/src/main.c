@@ -3,8 +3,14 @@
  *
  * UART0 receives frames (RX interrupt into a ring buffer), the portable
  * parser and state machine (proto.c, board.c) decide, and the 74HC595 chain
- * (hc595.c) drives the nitinol actuators. Timer0 gives a 1 ms tick; the
- * watchdog restarts the board (outputs off) if the loop ever stalls.
+ * (hc595.c) drives the nitinol actuators. Replies leave through a second
+ * ring buffer drained by the UART's data-register-empty interrupt, so the
+ * main loop never waits for the line: a reply that does not fit is dropped
+ * and counted (fault "flood"). Timer0 gives a 1 ms tick; the loop runs the
+ * board's tick (PWM, thermal model) for every millisecond and resets the
+ * watchdog whatever arrives. The board's state lives in .noinit RAM, so a
+ * watchdog or brown-out reset keeps the wires' temperatures and the latched
+ * faults (and reports "reset"); a power-up assumes hot wires and cools first.
  */
 #include <avr/interrupt.h>
 #include <avr/io.h>
@@ -16,24 +22,29 @@
 #include "config.h"
 #include "hc595.h"
 #include "proto.h"
+#include "ring.h"
 
 #ifndef F_CPU
 #error "F_CPU must be set (16000000UL)"
 #endif
 
-#define RX_SIZE 128u /* power of two */
-static volatile uint8_t rx_buf[RX_SIZE];
-static volatile uint8_t rx_head, rx_tail;
+/* Bytes handled per pass of the main loop before time is looked at again. */
+#define RX_BURST 16u
+
+static ring_t rx, tx;
 static volatile uint16_t ms_now;
 
-static board_t board;
+/* Not cleared at start-up: survives a watchdog or brown-out reset. */
+static board_t board __attribute__((section(".noinit")));
+static uint8_t reset_cause __attribute__((section(".noinit")));
 static proto_parser_t parser;
 
-/* Keep MCUSR's reset cause out of the way and the watchdog off until main()
+/* Save the reset cause, then clear it and switch the watchdog off until main()
  * sets it: after a watchdog reset it stays armed with the shortest period. */
 void early_wdt_off(void) __attribute__((naked, used, section(".init3")));
 void early_wdt_off(void)
 {
+    reset_cause = MCUSR;
     MCUSR = 0;
     wdt_disable();
 }
@@ -44,11 +55,15 @@ ISR(USART_RX_vect)
     uint8_t c = UDR0;
     if (status & (1u << FE0)) /* framing error: the byte is noise */
         return;
-    uint8_t next = (uint8_t)((rx_head + 1u) & (RX_SIZE - 1u));
-    if (next != rx_tail) { /* on overflow the byte is lost; the CRC catches it */
-        rx_buf[rx_head] = c;
-        rx_head = next;
-    }
+    (void)ring_put(&rx, c); /* on overflow the byte is lost; the CRC catches it */
+}
+
+ISR(USART_UDRE_vect)
+{
+    if (ring_empty(&tx))
+        UCSR0B &= (uint8_t)~(1u << UDRIE0); /* nothing left: stop asking */
+    else
+        UDR0 = ring_get(&tx);
 }
 
 ISR(TIMER0_COMPA_vect)
@@ -76,13 +91,15 @@ static void uart_init(void)
     UCSR0B = (uint8_t)((1u << RXEN0) | (1u << TXEN0) | (1u << RXCIE0));
 }
 
+/* Queue a reply; never waits. A reply that does not fit whole is dropped
+ * (the host retries) and counted. */
 static void uart_send(const uint8_t *p, uint8_t n)
 {
-    while (n--) {
-        while (!(UCSR0A & (1u << UDRE0)))
-            ;
-        UDR0 = *p++;
+    if (!ring_write(&tx, p, n)) {
+        board_reply_dropped(&board);
+        return;
     }
+    UCSR0B |= (uint8_t)(1u << UDRIE0);
 }
 
 static void timer_init(void)
@@ -123,7 +140,11 @@ static void push_outputs(void)
 int main(void)
 {
     hc595_init();
-    board_init(&board);
+    /* a power-on reset (or garbage in RAM) is a cold start: every wire is assumed hot */
+    if (reset_cause & (1u << PORF))
+        board_init(&board);
+    else
+        (void)board_resume(&board);
     proto_parser_init(&parser);
     uart_init();
     timer_init();
@@ -142,10 +163,11 @@ int main(void)
         if (dt) {
             last_tick = now;
             board_tick(&board, dt);
+            if (board.changed) /* PWM edges on time */
+                push_outputs();
         }
-        while (rx_tail != rx_head) {
-            uint8_t c = rx_buf[rx_tail];
-            rx_tail = (uint8_t)((rx_tail + 1u) & (RX_SIZE - 1u));
+        for (uint8_t k = 0; k < RX_BURST && !ring_empty(&rx); k++) {
+            uint8_t c = ring_get(&rx);
             last_rx = millis();
             proto_parser_feed(&parser, c, on_event, 0);
             if (board.changed)
@@ -160,7 +182,7 @@ int main(void)
          * more input; on the chip it is harmless. */
         (void)UCSR0A;
         cli();
-        if (rx_tail == rx_head) {
+        if (ring_empty(&rx) && millis() == last_tick) {
             sleep_enable();
             sei();
             sleep_cpu(); /* the next tick or byte wakes us */

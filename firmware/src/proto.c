@@ -15,7 +15,7 @@ uint16_t proto_crc16(uint16_t crc, const uint8_t *data, uint16_t n)
 
 uint8_t proto_code_valid(uint8_t code)
 {
-    return code == 0 || code == 3 || code == 6 || code == 9 || code == 12 || code == 15;
+    return code < 16u && ((BHR_VALID_CODE_MASK >> code) & 1u);
 }
 
 uint8_t proto_encode(uint8_t *out, uint8_t type, uint8_t seq, const uint8_t *payload, uint8_t len)

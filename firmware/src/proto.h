@@ -13,41 +13,12 @@
 
 #include <stdint.h>
 
-#define PROTO_SYNC0 0xA5u
-#define PROTO_SYNC1 0x5Au
-#define PROTO_VERSION 1u
-#define PROTO_HEADER_LEN 6u
-#define PROTO_CRC_LEN 2u
-#define PROTO_MAX_PAYLOAD 64u
+/* Sync bytes, version, message types, NAK reasons, fault and module bits,
+ * and the code table come from the generated header (bhr/protocol.py and
+ * bhr/codes.py are their single source; see bhr/firmware_header.py). */
+#include "bhr_gen.h"
+
 #define PROTO_MAX_FRAME (PROTO_HEADER_LEN + PROTO_MAX_PAYLOAD + PROTO_CRC_LEN)
-
-/* Message types: host -> board */
-#define MSG_SET_CODES 0x01u
-#define MSG_STATUS 0x02u
-#define MSG_STOP_ALL 0x03u
-#define MSG_HEARTBEAT 0x04u
-/* board -> host */
-#define MSG_ACK 0x81u
-#define MSG_NAK 0x82u
-#define MSG_STATUS_REPLY 0x83u
-
-/* NAK reasons */
-#define NAK_BAD_CRC 0x01u
-#define NAK_BAD_VERSION 0x02u
-#define NAK_BAD_TYPE 0x03u
-#define NAK_BAD_LENGTH 0x04u
-#define NAK_BAD_COUNT 0x05u
-#define NAK_BAD_CODE 0x06u
-#define NAK_INCOMPLETE 0x07u
-
-/* Fault flags (status reply byte 0, ACK byte 1) */
-#define FAULT_SILENCE 0x01u  /* outputs were switched off: host fell silent */
-#define FAULT_OVERHEAT 0x02u /* an actuator reached its on-time limit (latched) */
-#define FAULT_COOLING 0x04u  /* a module is held off while it cools down */
-
-/* Per-module byte of the status reply: low nibble = code on the outputs */
-#define MODULE_OVERHEAT 0x10u
-#define MODULE_COOLING 0x20u
 
 uint16_t proto_crc16(uint16_t crc, const uint8_t *data, uint16_t n);
 #define PROTO_CRC_INIT 0xFFFFu

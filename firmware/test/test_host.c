@@ -11,6 +11,7 @@
  * or corrupted frames change nothing, and that every reply is a well-formed
  * frame.
  */
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -18,6 +19,7 @@
 #include "board.h"
 #include "config.h"
 #include "proto.h"
+#include "ring.h"
 
 static unsigned long checks;
 
@@ -62,7 +64,8 @@ static void check_outputs(const board_t *b, const char *where)
     for (int m = 0; m < BHR_MODULES; m++) {
         uint8_t c = (uint8_t)((chain[m / 2] >> ((m & 1) * 4)) & 0x0F);
         CHECK(proto_code_valid(c), "%s: module %d shows unstable code %d", where, m + 1, c);
-        CHECK(proto_code_valid(b->output[m]), "%s: output[%d] = %d", where, m + 1, b->output[m]);
+        CHECK(proto_code_valid(b->drive[m]), "%s: drive[%d] = %d", where, m + 1, b->drive[m]);
+        CHECK(c == 0 || c == b->drive[m], "%s: module %d shows %d while driving %d", where, m + 1, c, b->drive[m]);
         if (b->module_flags[m] & MODULE_COOLING)
             CHECK(c == 0, "%s: module %d is cooling but shows %d", where, m + 1, c);
     }
@@ -129,15 +132,19 @@ static void handler(void *vc, uint8_t ev, const proto_frame_t *f)
         if (f->type == MSG_SET_CODES) {
             CHECK(r->type == MSG_ACK, "SET_CODES answered with %02x", r->type);
             for (int m = 0; m < BHR_MODULES; m++) {
-                uint8_t want = (c->b->module_flags[m] & MODULE_COOLING) ? 0 : f->payload[1 + m];
-                CHECK(c->b->output[m] == want, "module %d shows %d, sent %d", m + 1, c->b->output[m], want);
+                uint8_t want = (before.module_flags[m] & MODULE_COOLING) ? 0 : f->payload[1 + m];
+                uint8_t new_on = (uint8_t)(want & ~before.drive[m]);
+                for (int k = 0; k < 4; k++)
+                    if (((new_on >> k) & 1) && before.theta[m * 4 + k] > BHR_THETA_RELAX)
+                        want = 0; /* a wire still relaxing: held off */
+                CHECK(c->b->drive[m] == want, "module %d drives %d, sent %d", m + 1, c->b->drive[m], want);
             }
         }
         if (f->type == MSG_STATUS)
             CHECK(r->type == MSG_STATUS_REPLY && r->len == 3 + BHR_MODULES, "bad status reply");
         if (f->type == MSG_STOP_ALL)
             for (int m = 0; m < BHR_MODULES; m++)
-                CHECK(c->b->output[m] == 0, "module %d on after stop-all", m + 1);
+                CHECK(c->b->drive[m] == 0 && c->b->shown[m] == 0, "module %d on after stop-all", m + 1);
     }
 }
 
@@ -155,6 +162,14 @@ static uint8_t set_codes_frame(uint8_t *out, uint8_t seq, const uint8_t *codes, 
     payload[0] = count;
     memcpy(payload + 1, codes, count);
     return proto_encode(out, MSG_SET_CODES, seq, payload, (uint8_t)(count + 1));
+}
+
+/* A board after its power-up cool-down and a long idle time: every wire cold. */
+static void ready_board(board_t *b)
+{
+    board_init(b);
+    board_tick(b, 20000);
+    CHECK(!(board_faults(b) & FAULT_COOLING), "board still cooling after 20 s");
 }
 
 /* ---------------------------------------------------------------- unit tests */
@@ -184,7 +199,7 @@ static void test_codes(void)
 static void test_parser_resync(void)
 {
     board_t b;
-    board_init(&b);
+    ready_board(&b);
     ctx_t c = {.b = &b, .check_invariants = 1};
     proto_parser_t p;
     proto_parser_init(&p);
@@ -200,7 +215,7 @@ static void test_parser_resync(void)
     feed(&p, &c, f, n);
     /* the noise ended in a false header with len 0xFF: dropped silently, frame found */
     CHECK(c.frames == 1, "frame after noise: %d frames", c.frames);
-    CHECK(memcmp(b.output, codes, BHR_MODULES) == 0, "codes applied after noise");
+    CHECK(memcmp(b.drive, codes, BHR_MODULES) == 0, "codes applied after noise");
 
     /* corrupted frame: one bit flipped in the payload -> NAK bad CRC, nothing changes */
     uint8_t g[PROTO_MAX_FRAME];
@@ -225,7 +240,7 @@ static void test_parser_resync(void)
         proto_parser_expire(&p, handler, &c);
     }
     CHECK(c.frames == frames0 + 1, "frame after a truncated one");
-    CHECK(b.output[0] == 15, "codes of the frame after a truncated one");
+    CHECK(b.drive[0] == 15, "codes of the frame after a truncated one");
     CHECK(!proto_parser_pending(&p), "parser empty");
 
     /* header then silence: expire NAKs "incomplete" with the header's seq */
@@ -263,7 +278,7 @@ static uint8_t send(board_t *b, const uint8_t *frame, uint8_t n, const proto_fra
 static void test_board(void)
 {
     board_t b;
-    board_init(&b);
+    ready_board(&b);
     uint8_t f[PROTO_MAX_FRAME];
     const proto_frame_t *r;
     uint8_t codes[BHR_MODULES] = {0};
@@ -279,7 +294,7 @@ static void test_board(void)
     /* set codes */
     n = set_codes_frame(f, 10, codes, BHR_MODULES);
     CHECK(send(&b, f, n, &r) == MSG_ACK && r->payload[0] == MSG_SET_CODES, "ACK set codes");
-    CHECK(b.enabled && memcmp(b.output, codes, BHR_MODULES) == 0, "codes on");
+    CHECK(b.enabled && memcmp(b.drive, codes, BHR_MODULES) == 0, "codes on");
     uint8_t chain[BHR_CHIPS];
     board_chain(&b, chain);
     CHECK(chain[0] == 3, "module 1 in the low nibble of chip 1 (%02x)", chain[0]);
@@ -322,78 +337,293 @@ static void test_board(void)
     CHECK(memcmp(&before, &b, sizeof(b)) == 0, "NAKs changed nothing");
 
     /* heartbeats keep the outputs on; silence switches them off */
-    uint16_t hb_step = (uint16_t)(BHR_SILENCE_MS * 3 / 4 < BHR_ON_MAX_MS / 4 ? BHR_SILENCE_MS * 3 / 4
-                                                                             : BHR_ON_MAX_MS / 4);
-    for (int i = 0; i < 3; i++) { /* longer than the silence timeout, shorter than the on-time limit */
+    uint16_t hb_step = (uint16_t)(BHR_SILENCE_MS * 3 / 4);
+    for (int i = 0; i < 3; i++) { /* longer than the silence timeout */
         board_tick(&b, hb_step);
         n = proto_encode(f, MSG_HEARTBEAT, (uint8_t)(20 + i), NULL, 0);
         CHECK(send(&b, f, n, &r) == MSG_ACK, "heartbeat ACK");
     }
-    CHECK(b.enabled && b.output[0] == 3 && !board_faults(&b), "heartbeats kept the outputs on");
-    /* ... but only within the thermal limit, so start over */
-    n = proto_encode(f, MSG_STOP_ALL, 30, NULL, 0);
-    CHECK(send(&b, f, n, &r) == MSG_ACK, "stop ACK");
-    for (int i = 0; i < 1000; i++)
-        board_tick(&b, 100); /* cool everything */
-    n = set_codes_frame(f, 31, codes, BHR_MODULES);
-    CHECK(send(&b, f, n, &r) == MSG_ACK, "codes again");
+    CHECK(b.enabled && b.drive[0] == 3 && !board_faults(&b), "heartbeats kept the outputs on");
     board_tick(&b, (uint16_t)(BHR_SILENCE_MS - 1));
     board_tick(&b, 1);
-    CHECK(b.enabled && b.output[0] == 3, "still on at the silence timeout");
+    CHECK(b.enabled && b.drive[0] == 3, "still on at the silence timeout");
     board_tick(&b, 1);
-    CHECK(!b.enabled && b.output[0] == 0 && (board_faults(&b) & FAULT_SILENCE), "off at the silence timeout");
+    CHECK(!b.enabled && b.drive[0] == 0 && (board_faults(&b) & FAULT_SILENCE), "off at the silence timeout");
     check_outputs(&b, "silence");
     n = proto_encode(f, MSG_STATUS, 32, NULL, 0);
-    CHECK(send(&b, f, n, &r) == MSG_STATUS_REPLY && (r->payload[0] & FAULT_SILENCE) && r->payload[3] == 0,
-          "status after silence");
+    CHECK(send(&b, f, n, &r) == MSG_STATUS_REPLY && (r->payload[0] & FAULT_SILENCE) && (r->payload[3] & 0x0F) == 0 &&
+              (r->payload[3] & MODULE_RELAXING),
+          "status after silence: off, module 1 relaxing");
     n = proto_encode(f, MSG_HEARTBEAT, 33, NULL, 0);
-    CHECK(send(&b, f, n, &r) == MSG_ACK && b.output[0] == 0, "a heartbeat does not switch back on");
+    CHECK(send(&b, f, n, &r) == MSG_ACK && b.drive[0] == 0, "a heartbeat does not switch back on");
+    board_tick(&b, (uint16_t)(BHR_RELAX_MS + 2 * BHR_PWM_PERIOD_MS)); /* the released wires relax */
     n = set_codes_frame(f, 34, codes, BHR_MODULES);
-    CHECK(send(&b, f, n, &r) == MSG_ACK && b.output[0] == 3 && !(board_faults(&b) & FAULT_SILENCE),
+    CHECK(send(&b, f, n, &r) == MSG_ACK && b.drive[0] == 3 && !(board_faults(&b) & FAULT_SILENCE),
           "codes switch back on and clear the silence fault");
-
-    /* thermal limit: module 1 held on past BHR_ON_MAX_MS with heartbeats */
-    unsigned long t = 0;
-    while (b.output[0] == 3 && t < 10UL * BHR_ON_MAX_MS) {
-        board_tick(&b, 10);
-        t += 10;
-        if (t % (BHR_SILENCE_MS / 2) < 10) {
-            n = proto_encode(f, MSG_HEARTBEAT, 35, NULL, 0);
-            send(&b, f, n, &r);
-        }
-        n = set_codes_frame(f, 36, codes, BHR_MODULES); /* host keeps asking for it */
-        if (t % 100 == 0)
-            send(&b, f, n, &r);
-    }
-    /* the earlier on-time (before silence) counts too: heat drains slowly */
-    CHECK(b.output[0] == 0 && t <= BHR_ON_MAX_MS, "module 1 switched off after %lu ms", t);
-    CHECK(board_faults(&b) & FAULT_OVERHEAT, "overheat fault");
-    CHECK(b.module_flags[0] == (MODULE_OVERHEAT | MODULE_COOLING), "module 1 flags %02x", b.module_flags[0]);
-    if (BHR_MODULES > 2)
-        CHECK(b.output[2] == 6 || (b.module_flags[2] & MODULE_COOLING), "other modules unaffected");
-    check_outputs(&b, "overheat");
-    n = proto_encode(f, MSG_STATUS, 37, NULL, 0);
-    CHECK(send(&b, f, n, &r) == MSG_STATUS_REPLY && (r->payload[0] & (FAULT_OVERHEAT | FAULT_COOLING)) &&
-              r->payload[3] == (MODULE_OVERHEAT | MODULE_COOLING),
-          "status reports the overheat");
-    /* cools down within BHR_COOLDOWN_MS, then follows the host again */
-    uint8_t zero[BHR_MODULES] = {0};
-    n = set_codes_frame(f, 38, zero, BHR_MODULES);
-    send(&b, f, n, &r);
-    t = 0;
-    while ((b.module_flags[0] & MODULE_COOLING) && t < 2UL * BHR_COOLDOWN_MS) {
-        board_tick(&b, 10);
-        t += 10;
-        if (t % 100 == 0)
-            send(&b, f, n, &r);
-    }
-    CHECK(t <= BHR_COOLDOWN_MS + 10, "cooled after %lu ms", t);
-    n = set_codes_frame(f, 39, codes, BHR_MODULES);
-    CHECK(send(&b, f, n, &r) == MSG_ACK && b.output[0] == 3, "module 1 back on after cool-down");
-    CHECK(board_faults(&b) & FAULT_OVERHEAT, "overheat stays latched until stop-all");
     n = proto_encode(f, MSG_STOP_ALL, 40, NULL, 0);
-    CHECK(send(&b, f, n, &r) == MSG_ACK && !b.enabled && !(board_faults(&b) & FAULT_OVERHEAT), "stop-all clears");
+    CHECK(send(&b, f, n, &r) == MSG_ACK && !b.enabled && !board_faults(&b), "stop-all");
     check_outputs(&b, "stop");
+}
+
+/* ---------------------------------------------------------------- thermal model */
+
+/* Keep the host alive and run ms milliseconds, one at a time; measure what
+ * actuator a (0-based) shows on the pins. */
+typedef struct {
+    unsigned long on_ms, run, max_run, first_off; /* first_off: ms until the first off millisecond */
+} pins_t;
+
+static unsigned long clock_ms;
+
+static void run_ms(board_t *b, unsigned long ms, int a, pins_t *p)
+{
+    uint8_t f[PROTO_MAX_FRAME];
+    const proto_frame_t *r;
+    for (unsigned long t = 0; t < ms; t++) {
+        if (++clock_ms % 250 == 0) {
+            uint8_t n = proto_encode(f, MSG_HEARTBEAT, 1, NULL, 0);
+            send(b, f, n, &r);
+        }
+        int on = (b->shown[a / 4] >> (a % 4)) & 1;
+        if (p) {
+            if (on) {
+                p->on_ms++;
+                if (++p->run > p->max_run)
+                    p->max_run = p->run;
+            } else {
+                p->run = 0;
+                if (!p->first_off)
+                    p->first_off = t + 1;
+            }
+        }
+        board_tick(b, 1);
+        CHECK(b->theta[a] < BHR_THETA_LIMIT + 64, "wire %d above the limit (%ld)", a, (long)b->theta[a]);
+    }
+}
+
+static double tau_ms(void)
+{
+    double d = (double)BHR_HOLD_TICKS / BHR_PWM_PERIOD_MS;
+    return BHR_CONTRACT_MS / log(1.0 / (1.0 - d));
+}
+
+static void test_thermal(void)
+{
+    board_t b;
+    uint8_t f[PROTO_MAX_FRAME];
+    const proto_frame_t *r;
+    uint8_t codes[BHR_MODULES] = {0};
+    uint8_t n;
+
+    /* cold start: every wire assumed at the limit; every module cools first */
+    board_init(&b);
+    n = proto_encode(f, MSG_STATUS, 1, NULL, 0);
+    CHECK(send(&b, f, n, &r) == MSG_STATUS_REPLY && (r->payload[0] & FAULT_COOLING) &&
+              (r->payload[3] & MODULE_COOLING),
+          "a cold start reports cooling");
+    codes[0] = 3;
+    n = set_codes_frame(f, 2, codes, BHR_MODULES);
+    CHECK(send(&b, f, n, &r) == MSG_ACK && b.drive[0] == 0, "codes held off while cooling after power-up");
+    unsigned long t = 0;
+    while ((b.module_flags[0] & MODULE_COOLING) && t < 20000) {
+        run_ms(&b, 1, 0, NULL);
+        t++;
+    }
+    double want = tau_ms() * log((double)BHR_THETA_LIMIT / BHR_THETA_RELAX);
+    printf("thermal: power-up cool-down %lu ms (model %.0f ms)\n", t, want);
+    CHECK(fabs((double)t - want) <= 2 * BHR_PWM_PERIOD_MS, "cool-down after power-up took %lu ms, model %.0f", t, want);
+    CHECK(b.drive[0] == 3, "module 1 follows the host once cooled");
+    n = proto_encode(f, MSG_STOP_ALL, 3, NULL, 0);
+    send(&b, f, n, &r);
+
+    /* contraction: from cold, full power for the contraction time */
+    ready_board(&b);
+    n = set_codes_frame(f, 4, codes, BHR_MODULES);
+    CHECK(send(&b, f, n, &r) == MSG_ACK && b.drive[0] == 3 && b.full[0], "full power at once");
+    pins_t p = {0};
+    run_ms(&b, 3000, 0, &p);
+    printf("thermal: contraction at full power %lu ms (datasheet figure %u ms)\n", p.first_off - 1,
+           (unsigned)BHR_CONTRACT_MS);
+    CHECK(p.first_off - 1 >= BHR_CONTRACT_MS && p.first_off - 1 <= BHR_CONTRACT_MS + 2 * BHR_PWM_PERIOD_MS,
+          "full power lasted %lu ms", p.first_off - 1);
+    CHECK(b.theta[0] >= BHR_THETA_ONE && b.theta[1] >= BHR_THETA_ONE, "contracted");
+
+    /* hold: PWM at the hold duty, indefinitely (15 s), no fault, temperature stays at 1 */
+    pins_t h = {0};
+    run_ms(&b, 15000, 0, &h);
+    double duty = (double)h.on_ms / 15000.0;
+    printf("thermal: hold over 15 s: duty %.4f (model %u/%u), longest on %lu ms\n", duty, (unsigned)BHR_HOLD_TICKS,
+           (unsigned)BHR_PWM_PERIOD_MS, h.max_run);
+    CHECK(fabs(duty - (double)BHR_HOLD_TICKS / BHR_PWM_PERIOD_MS) < 0.002, "hold duty %.4f", duty);
+    CHECK(h.max_run <= BHR_HOLD_TICKS, "hold pulses of %lu ms", h.max_run);
+    CHECK(!board_faults(&b) && b.drive[0] == 3, "held 15 s with no fault");
+    CHECK(labs((long)b.theta[0] - BHR_THETA_ONE) < BHR_THETA_ONE / 50, "held at theta = 1 (%ld)", (long)b.theta[0]);
+
+    /* cooling: released, the wires relax in the relaxation time */
+    codes[0] = 0;
+    n = set_codes_frame(f, 5, codes, BHR_MODULES);
+    send(&b, f, n, &r);
+    CHECK(board_relaxing(&b, 0) && board_relaxing(&b, 1), "released wires are relaxing");
+    t = 0;
+    while (board_relaxing(&b, 0) && t < 20000) {
+        run_ms(&b, 1, 0, NULL);
+        t++;
+    }
+    printf("thermal: relaxation %lu ms (datasheet figure %u ms)\n", t, (unsigned)BHR_RELAX_MS);
+    CHECK(t + 2 * BHR_PWM_PERIOD_MS >= BHR_RELAX_MS && t <= BHR_RELAX_MS + 2 * BHR_PWM_PERIOD_MS,
+          "relaxed after %lu ms", t);
+
+    /* re-energising a hot wire: held off (fault "early") until it has relaxed */
+    codes[0] = 3;
+    n = set_codes_frame(f, 6, codes, BHR_MODULES);
+    send(&b, f, n, &r);
+    run_ms(&b, 1500, 0, NULL);
+    codes[0] = 6; /* wire 1 released, wire 3 energised */
+    n = set_codes_frame(f, 7, codes, BHR_MODULES);
+    CHECK(send(&b, f, n, &r) == MSG_ACK && b.drive[0] == 6, "3 -> 6");
+    run_ms(&b, 200, 0, NULL);
+    codes[0] = 3; /* wire 1 again, 200 ms after its release */
+    n = set_codes_frame(f, 8, codes, BHR_MODULES);
+    CHECK(send(&b, f, n, &r) == MSG_ACK && (r->payload[1] & FAULT_EARLY) && b.drive[0] == 0 &&
+              (b.module_flags[0] & MODULE_EARLY),
+          "a hot wire is not re-energised: module held off, fault early");
+    /* the module is off whole, so it waits for its hottest wire to relax */
+    int32_t hottest = 0;
+    for (int k = 0; k < 4; k++)
+        if (b.theta[k] > hottest)
+            hottest = b.theta[k];
+    double wait = tau_ms() * log((double)hottest / BHR_THETA_RELAX);
+    pins_t e = {0};
+    t = 0;
+    while (b.drive[0] != 3 && t < 20000) {
+        run_ms(&b, 1, 0, &e);
+        t++;
+    }
+    printf("thermal: re-energised wire held off %lu ms (model %.0f ms: hottest wire at %.3f)\n", t, wait,
+           (double)hottest / BHR_THETA_ONE);
+    CHECK(e.on_ms == 0, "wire 1 was on while held");
+    CHECK(fabs((double)t - wait) <= 2 * BHR_PWM_PERIOD_MS, "held %lu ms, model %.0f ms", t, wait);
+    n = proto_encode(f, MSG_STOP_ALL, 9, NULL, 0);
+    CHECK(send(&b, f, n, &r) == MSG_ACK && !(board_faults(&b) & FAULT_EARLY), "stop-all clears early");
+
+    /* the last line of defence: a wire at the limit switches its module off */
+    ready_board(&b);
+    codes[0] = 3;
+    if (BHR_MODULES > 2)
+        codes[2] = 6;
+    n = set_codes_frame(f, 10, codes, BHR_MODULES);
+    send(&b, f, n, &r);
+    b.theta[0] = BHR_THETA_LIMIT - 1; /* as if the model had been defeated */
+    run_ms(&b, BHR_PWM_PERIOD_MS, 0, NULL);
+    CHECK(b.drive[0] == 0 && b.module_flags[0] == (MODULE_OVERHEAT | MODULE_COOLING), "overheat switches module 1 off");
+    if (BHR_MODULES > 2)
+        CHECK(b.drive[2] == 6, "other modules unaffected");
+    CHECK(board_faults(&b) & FAULT_OVERHEAT, "overheat fault");
+    check_outputs(&b, "overheat");
+
+    /* a reset keeps the temperatures and the latched faults, switches off, and says so */
+    board_t saved = b;
+    CHECK(board_resume(&b) == 1 && !b.enabled && b.theta[0] == saved.theta[0] &&
+              (board_faults(&b) & (FAULT_RESET | FAULT_OVERHEAT | FAULT_COOLING)) ==
+                  (FAULT_RESET | FAULT_OVERHEAT | FAULT_COOLING),
+          "resume after a reset");
+    b.magic ^= 1u;
+    CHECK(board_resume(&b) == 0 && (board_faults(&b) & FAULT_COOLING) && b.theta[5] == BHR_THETA_LIMIT,
+          "a broken state is a cold start");
+}
+
+/* The attack: all-on codes every 200 ms, back-to-back heartbeats, status
+ * requests and bad-CRC bursts in between, at line rate in both directions.
+ * Replies go through a transmit ring drained at line rate, as on the chip. */
+static void test_flood(void)
+{
+    board_t b;
+    ready_board(&b);
+    proto_parser_t p;
+    proto_parser_init(&p);
+    static ctx_t c;
+    memset(&c, 0, sizeof(c));
+    c.b = &b;
+    ring_t tx;
+    memset(&tx, 0, sizeof(tx));
+    uint8_t all_on[BHR_MODULES];
+    memset(all_on, 15, sizeof(all_on));
+    uint8_t stream[4096];
+    size_t have = 0, at = 0;
+    unsigned long sent_replies = 0, line_in = 0, line_out = 0;
+    unsigned long on_ms[BHR_ACTUATORS] = {0}, run[BHR_ACTUATORS] = {0}, max_run[BHR_ACTUATORS] = {0};
+    const unsigned long total = 15000;
+    uint8_t seq = 0;
+    for (unsigned long t = 0; t < total; t++) {
+        /* 11.52 bytes per ms each way at 115200 baud, 8N1 */
+        unsigned in = (unsigned)((t + 1) * 1152 / 100 - t * 1152 / 100);
+        for (unsigned k = 0; k < in; k++) {
+            if (at == have) { /* next burst */
+                have = at = 0;
+                uint8_t fr[PROTO_MAX_FRAME];
+                unsigned kind = (unsigned)((t / 200) % 3);
+                if (t % 200 < 12) {
+                    have = set_codes_frame(stream, seq++, all_on, BHR_MODULES);
+                } else {
+                    for (int i = 0; i < 40; i++) {
+                        uint8_t type = kind == 0 ? MSG_HEARTBEAT : kind == 1 ? MSG_STATUS : MSG_HEARTBEAT;
+                        uint8_t nn = proto_encode(fr, type, seq++, NULL, 0);
+                        if (kind == 2)
+                            fr[nn - 1] ^= 0x55; /* bad CRC: each one answered by a longer NAK */
+                        memcpy(stream + have, fr, nn);
+                        have += nn;
+                    }
+                }
+            }
+            line_in++;
+            c.replies = 0;
+            c.last_reply_len = 0;
+            proto_parser_feed(&p, stream[at++], handler, &c);
+            if (c.replies) { /* the reply goes to the transmit ring, or is dropped */
+                if (ring_write(&tx, c.last_reply, c.last_reply_len))
+                    sent_replies++;
+                else
+                    board_reply_dropped(&b);
+            }
+        }
+        unsigned out = (unsigned)((t + 1) * 1152 / 100 - t * 1152 / 100);
+        for (unsigned k = 0; k < out && !ring_empty(&tx); k++) {
+            (void)ring_get(&tx);
+            line_out++;
+        }
+        for (int a = 0; a < BHR_ACTUATORS; a++) {
+            if ((b.shown[a / 4] >> (a % 4)) & 1) {
+                on_ms[a]++;
+                if (++run[a] > max_run[a])
+                    max_run[a] = run[a];
+            } else {
+                run[a] = 0;
+            }
+        }
+        board_tick(&b, 1);
+        check_outputs(&b, "flood");
+    }
+    unsigned long worst_run = 0;
+    double worst_duty = 0;
+    for (int a = 0; a < BHR_ACTUATORS; a++) {
+        if (max_run[a] > worst_run)
+            worst_run = max_run[a];
+        double d = (double)on_ms[a] / total;
+        if (d > worst_duty)
+            worst_duty = d;
+    }
+    /* over the whole attack: one contraction, then the hold duty */
+    double allowed = ((double)BHR_CONTRACT_MS + 2 * BHR_PWM_PERIOD_MS +
+                      (double)(total - BHR_CONTRACT_MS) * BHR_HOLD_TICKS / BHR_PWM_PERIOD_MS) / total;
+    printf("flood: %lu bytes in, %lu out, %lu replies sent, %u dropped; longest on %lu ms (limit %u), "
+           "duty %.3f (model allows %.3f)\n",
+           line_in, line_out, sent_replies, (unsigned)b.dropped, worst_run, (unsigned)BHR_MAX_FULL_MS, worst_duty,
+           allowed);
+    CHECK(b.dropped > 0 && (board_faults(&b) & FAULT_FLOOD), "dropped replies are counted");
+    CHECK(worst_run <= BHR_CONTRACT_MS + 2 * BHR_PWM_PERIOD_MS && worst_run < BHR_MAX_FULL_MS, "on for %lu ms",
+          worst_run);
+    CHECK(worst_duty <= allowed + 0.002, "duty %.3f over the attack", worst_duty);
+    CHECK(!(board_faults(&b) & (FAULT_OVERHEAT | FAULT_SILENCE)), "no overheat, no silence");
 }
 
 /* ---------------------------------------------------------------- fuzzer */
@@ -499,7 +729,7 @@ static size_t mutate(uint8_t *buf, size_t n, size_t cap)
 static void fuzz(unsigned long count)
 {
     board_t b;
-    board_init(&b);
+    ready_board(&b);
     ctx_t c = {.b = &b, .check_invariants = 1};
     proto_parser_t p;
     proto_parser_init(&p);
@@ -529,7 +759,7 @@ static void fuzz(unsigned long count)
         bytes += n;
         check_outputs(&b, "fuzz");
         /* time passes: short steps, sometimes an idle gap */
-        unsigned step = rnd_below(4) ? rnd_below(20) : rnd_below(3000);
+        unsigned step = rnd_below(16) ? rnd_below(20) : rnd_below(3000); /* ticks run 1 ms at a time: keep idle gaps rarer */
         board_tick(&b, (uint16_t)step);
         check_outputs(&b, "fuzz tick");
         if (rnd_below(8) == 0 || step >= BHR_FRAME_GAP_MS) {
@@ -575,6 +805,7 @@ static int vectors(void)
     /* board replies, from a fresh board */
     board_t b;
     board_init(&b);
+    board_tick(&b, 20000); /* past the power-up cool-down */
     proto_frame_t fr = {PROTO_VERSION, MSG_SET_CODES, 0, 6, NULL};
     uint8_t payload[6] = {5, 3, 0, 6, 0, 0};
     fr.payload = payload;
@@ -593,20 +824,81 @@ static int vectors(void)
     return 0;
 }
 
+/* `test_host trace`: the thermal model on a fixed scenario, for bhr/thermal.py to
+ * reproduce bit for bit (tests/test_thermal.py). Rows: "t_ms code1 ... codeN"
+ * on stdin; prints the Q14 temperature of every wire at every PWM period end. */
+static int trace(void)
+{
+    board_t b;
+    board_init(&b);
+    for (int i = 0; i < BHR_ACTUATORS; i++)
+        b.theta[i] = 0; /* cold wires */
+    for (int m = 0; m < BHR_MODULES; m++)
+        b.module_flags[m] = 0;
+    unsigned long t = 0, end = 0, at;
+    uint8_t codes[BHR_MODULES];
+    uint8_t f[PROTO_MAX_FRAME];
+    const proto_frame_t *r;
+    char line[512];
+    int more = fgets(line, sizeof(line), stdin) != NULL;
+    if (!more || sscanf(line, "end %lu", &end) != 1)
+        return 2;
+    more = fgets(line, sizeof(line), stdin) != NULL;
+    while (t <= end) {
+        while (more) {
+            char *p = line;
+            int used;
+            if (sscanf(p, "%lu%n", &at, &used) != 1 || at > t)
+                break;
+            p += used;
+            for (int m = 0; m < BHR_MODULES; m++) {
+                unsigned v;
+                if (sscanf(p, "%u%n", &v, &used) != 1)
+                    return 2;
+                codes[m] = (uint8_t)v;
+                p += used;
+            }
+            uint8_t n = set_codes_frame(f, 1, codes, BHR_MODULES);
+            send(&b, f, n, &r);
+            more = fgets(line, sizeof(line), stdin) != NULL;
+        }
+        if (t % BHR_PWM_PERIOD_MS == 0) {
+            printf("%lu", t);
+            for (int i = 0; i < BHR_ACTUATORS; i++)
+                printf(" %ld", (long)b.theta[i]);
+            printf("\n");
+        }
+        if (t == end)
+            break;
+        if (t % 250 == 0) {
+            uint8_t n = proto_encode(f, MSG_HEARTBEAT, 2, NULL, 0);
+            send(&b, f, n, &r);
+        }
+        board_tick(&b, 1);
+        t++;
+    }
+    return 0;
+}
+
 int main(int argc, char **argv)
 {
     if (argc > 1 && strcmp(argv[1], "vectors") == 0)
         return vectors();
+    if (argc > 1 && strcmp(argv[1], "trace") == 0)
+        return trace();
     unsigned long count = argc > 1 ? strtoul(argv[1], NULL, 10) : 120000UL;
     if (argc > 2)
         rng_state = strtoull(argv[2], NULL, 10) | 1ULL;
-    printf("host tests: BHR_MODULES=%d silence=%lu ms on-max=%lu ms cool-down=%lu ms seed=%llu\n", BHR_MODULES,
-           (unsigned long)BHR_SILENCE_MS, (unsigned long)BHR_ON_MAX_MS, (unsigned long)BHR_COOLDOWN_MS,
-           rng_state);
+    printf("host tests: BHR_MODULES=%d silence=%lu ms contraction=%u ms hold=%u/%u ms relax=%u ms full-max=%u ms "
+           "seed=%llu\n",
+           BHR_MODULES, (unsigned long)BHR_SILENCE_MS, (unsigned)BHR_CONTRACT_MS, (unsigned)BHR_HOLD_TICKS,
+           (unsigned)BHR_PWM_PERIOD_MS, (unsigned)BHR_RELAX_MS, (unsigned)BHR_MAX_FULL_MS, rng_state);
     test_crc();
     test_codes();
     test_parser_resync();
     test_board();
+    test_thermal();
+    test_flood();
     fuzz(count);
     printf("OK: %lu checks passed\n", checks);
     return 0;

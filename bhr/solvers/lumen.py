@@ -1,0 +1,698 @@
+"""Wall-aware following: keep every point and module of the head inside the lumen, planning the bends ahead.
+
+``--solver lumen`` is the exact discrete solver of :mod:`bhr.solvers.optimal`
+(each module at rest or tilted by alpha about one of its local axes: codes
+0, 3, 6, 12, 9) with a cost that measures the lumen instead of the distance
+to the trajectory points. It needs a trajectory with a lumen (a diameter per
+point: CSV ``lumen`` column, segment files, generator files).
+
+Cost of one configuration at step ``k`` (lengths in mm)::
+
+    J = w_wall * sum_s max(0, margin - c_s)^2      wall: steep, every sample
+      + w_center * sum_s d_s^2                     centerline: weak
+      + w_track * sum_j |P_j - T_j|^2              keep pace with the path: weak
+      + (w_ori * 180/pi)^2 |u - t|^2               tip along the lumen
+
+The samples ``s`` are the base point and, on every module, its middle and its
+far end; ``d_s`` is the distance from the sample to the nearest point of the
+centerline and ``c_s = R - robot radius - d_s`` its clearance
+(:mod:`bhr.clearance`), the nearest point being searched only within
+``window`` mm of arc length of where the sample is expected (no aliasing
+between loops). ``T_j`` is the trajectory point that point ``j`` is scored
+against (bhr.follow), ``u`` the tip module's direction and ``t`` the
+centerline's direction nearest the tip.
+
+Exact where exhaustive: for the base module's tilt fixed, the codes of
+modules 2..n are found by a depth-first branch and bound over all ``5**(n-1)``
+combinations (every term is non-negative and fixed once its module is
+chosen, so cutting a partial configuration whose cost reaches the best
+complete one loses nothing). The base module's tilt is a steering command
+(the robot advances along it), so it is planned ``lookahead`` steps ahead by
+a fixed-lag beam search keeping the ``beam`` best sequences of base tilts,
+each step of a sequence scored by the exact search of the other modules at
+that step: that part is a heuristic (a beam, not the whole tree), which is
+what lets the robot swing wide before a flexure and cut its inside. With
+``lookahead = 0`` the solver is the exact per-step optimum over all modules.
+
+The nearest-point search of the solver starts from the previous sample's
+nearest point and scans outwards while it improves (capped by the window),
+which is faster than the full window scan of :mod:`bhr.clearance`; runs are
+scored by the latter. The body behind the head (``--body-modules``) follows
+module 1's sweep (:mod:`bhr.body`) and is scored, not planned.
+"""
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+from numba import njit
+
+from bhr.clearance import Tube, make_tube
+from bhr.errors import BhrError
+from bhr.options import solver_defaults
+from bhr.kinematics.frames import tilt_frame as _rot
+from bhr.kinematics.leader import advance_kernel, score_step
+from bhr.solvers.base import Chain, FollowContext, SolveResult, register
+from bhr.solvers.optimal import CODE_OF, DEDUP_DIR, DEDUP_POS, DEG, Optimal, _dist2, _frame_of_chain, _number, \
+    _step_targets, _tip_angle
+
+__all__ = ["Lumen", "DEFAULTS", "head_cost", "lumen_config_cost"]
+
+#: Default settings of ``--solver lumen`` (docs/lumen.md explains each).
+DEFAULTS: dict[str, Any] = solver_defaults("lumen")
+#: Segments scanned on each side of the guessed nearest segment, and the step outwards while it improves.
+_SCAN = 2
+
+
+# ---------------------------------------------------------------------------
+# nearest point, local
+
+
+@njit(cache=True)
+def _scan(C, a, b, px, py, pz, res):
+    """Nearest point on segments a..b-1: res = (d2, segment, t)."""
+    best = 1e300
+    bk = a
+    bt = 0.0
+    for k in range(a, b):
+        ax, ay, az = C[k, 0], C[k, 1], C[k, 2]
+        ux, uy, uz = C[k + 1, 0] - ax, C[k + 1, 1] - ay, C[k + 1, 2] - az
+        uu = ux * ux + uy * uy + uz * uz
+        t = ((px - ax) * ux + (py - ay) * uy + (pz - az) * uz) / uu
+        if t < 0.0:
+            t = 0.0
+        elif t > 1.0:
+            t = 1.0
+        dx, dy, dz = px - (ax + t * ux), py - (ay + t * uy), pz - (az + t * uz)
+        d2 = dx * dx + dy * dy + dz * dz
+        if d2 < best:
+            best = d2
+            bk = k
+            bt = t
+    res[0] = best
+    res[1] = bk
+    res[2] = bt
+
+
+@njit(cache=True)
+def _near_local(C, lo, hi, g, px, py, pz, res, tmp):
+    """Nearest point within segments lo..hi-1, scanning from segment ``g`` outwards while it improves."""
+    if g < lo:
+        g = lo
+    if g > hi - 1:
+        g = hi - 1
+    a = max(lo, g - _SCAN)
+    b = min(hi, g + _SCAN + 1)
+    _scan(C, a, b, px, py, pz, res)
+    while int(res[1]) == a and a > lo:
+        na = max(lo, a - _SCAN)
+        _scan(C, na, a, px, py, pz, tmp)
+        a = na
+        if tmp[0] < res[0]:
+            res[0] = tmp[0]
+            res[1] = tmp[1]
+            res[2] = tmp[2]
+        else:
+            break
+    while int(res[1]) == b - 1 and b < hi:
+        nb = min(hi, b + _SCAN)
+        _scan(C, b, nb, px, py, pz, tmp)
+        b = nb
+        if tmp[0] < res[0]:
+            res[0] = tmp[0]
+            res[1] = tmp[1]
+            res[2] = tmp[2]
+        else:
+            break
+
+
+@njit(cache=True)
+def _near(C, pre, w, g, e, px, py, pz, res, tmp):
+    """Nearest centerline point of a sample expected at trajectory index ``e``: res = (d2, segment, t)."""
+    M = C.shape[0]
+    lo = int(math.floor(e + pre - w))
+    hi = int(math.ceil(e + pre + w))
+    if lo < 0:
+        lo = 0
+    if hi > M - 1:
+        hi = M - 1
+    if lo > M - 2:
+        lo = M - 2
+    if hi <= lo:
+        hi = lo + 1
+    if g < 0:
+        _scan(C, lo, hi, px, py, pz, res)
+    else:
+        _near_local(C, lo, hi, g, px, py, pz, res, tmp)
+
+
+@njit(cache=True)
+def _wall(R, radius, margin, ww, res):
+    """Clearance of the sample in ``res`` and its wall cost."""
+    k = int(res[1])
+    t = res[2]
+    c = R[k] + t * (R[k + 1] - R[k]) - radius - math.sqrt(res[0])
+    p = margin - c
+    return c, (ww * p * p if p > 0.0 else 0.0)
+
+
+@njit(cache=True)
+def _along(res, pre, e, sp):
+    """How far (mm, along the centerline) the nearest point in ``res`` is from where the sample is expected."""
+    return (res[1] + res[2] - pre - e) * sp
+
+
+@njit(cache=True)
+def _module_cost(C, R, pre, w, g, e0, ef, A, B, cA, radius, margin, ww, wc, wa, sp, pre0, dR, res, tmp, out):
+    """Cost of the module A->B: its far end (wall and centerline) and, where the wall may be near, its middle
+    (wall only). ``cA`` is A's clearance; out[0] gets B's. res[1]: the far end's segment.
+
+    The clearance changes by at most 1 mm per mm moved plus the change of the lumen radius (at most ``dR``
+    over half a module), so the middle is skipped when both ends clear the margin by more than half a
+    module plus ``dR``: its wall term is then zero.
+    """
+    half = int(0.5 * ef)  # guesses: the centerline runs on by about half a module per half module of robot
+    _near(C, pre, w, g + int(ef), e0 + ef, B[0], B[1], B[2], res, tmp)
+    cB, cost = _wall(R, radius, margin, ww, res)
+    a = _along(res, pre0, e0 + ef, sp)
+    cost += wc * res[0] + wa * a * a
+    out[0] = cB
+    gB = res[1]
+    tB = res[2]
+    dB = res[0]
+    L2 = 0.5 * math.sqrt((A[0] - B[0]) ** 2 + (A[1] - B[1]) ** 2 + (A[2] - B[2]) ** 2)
+    if min(cA, cB) - L2 - dR <= margin:
+        _near(C, pre, w, g + half, e0 + 0.5 * ef, 0.5 * (A[0] + B[0]), 0.5 * (A[1] + B[1]), 0.5 * (A[2] + B[2]),
+              res, tmp)
+        cM, cm = _wall(R, radius, margin, ww, res)
+        cost += cm
+    res[0] = dB
+    res[1] = gB
+    res[2] = tB
+    return cost
+
+
+@njit(cache=True)
+def _tip_term(C, k, frames_last, wo):
+    ux, uy, uz = C[k + 1, 0] - C[k, 0], C[k + 1, 1] - C[k, 1], C[k + 1, 2] - C[k, 2]
+    nu = math.sqrt(ux * ux + uy * uy + uz * uz)
+    return wo * ((frames_last[2, 0] - ux / nu) ** 2 + (frames_last[2, 1] - uy / nu) ** 2
+                 + (frames_last[2, 2] - uz / nu) ** 2)
+
+
+@njit(cache=True)
+def _head_search(C, R, pre, w, step, n, f, L, c, s, T, prm, best_codes, frames, pts, part, guess, choice, res, tmp):
+    """Exact branch and bound over modules 2..n with module 1's frame in ``frames[0]`` and ``pts[0]`` the base.
+
+    prm = (radius, margin, w_wall, w_center, w_track, w_ori). Returns the best cost; codes in best_codes[1:].
+    """
+    radius, margin, ww, wc, wt, wo = prm[0], prm[1], prm[2], prm[3], prm[4], prm[5]
+    e0 = float(step - n * f)
+    clr = np.empty(n + 1)
+    cout = np.empty(1)
+    dR, wa, sp, pre0 = prm[6], prm[7], prm[8], prm[9]
+    _near(C, pre, w, -1, e0, pts[0, 0], pts[0, 1], pts[0, 2], res, tmp)
+    clr[0], part[0] = _wall(R, radius, margin, ww, res)
+    a0 = _along(res, pre0, e0, sp)
+    part[0] += wc * res[0] + wa * a0 * a0 + wt * _dist2(pts[0], T[0])
+    guess[0] = int(res[1])
+    for b in range(3):
+        pts[1, b] = pts[0, b] + L * frames[0, 2, b]
+    part[1] = part[0] + _module_cost(C, R, pre, w, guess[0], e0, float(f), pts[0], pts[1], clr[0], radius, margin,
+                                     ww, wc, wa, sp, pre0, dR, res, tmp, cout) + wt * _dist2(pts[1], T[1])
+    clr[1] = cout[0]
+    guess[1] = int(res[1])
+    best_codes[0] = 0
+    if n == 1:
+        return part[1] + _tip_term(C, guess[1], frames[0], wo)
+    # a greedy dive first (each module the cheapest for the points so far): a good first bound to cut with
+    best = 1e300
+    for lv in range(1, n):
+        bv = 1e300
+        bq = 0
+        for q in range(5):
+            _rot(frames[lv - 1], q, c, s, frames[lv])
+            for b in range(3):
+                pts[lv + 1, b] = pts[lv, b] + L * frames[lv, 2, b]
+            v = part[lv] + wt * _dist2(pts[lv + 1], T[lv + 1])
+            if v >= bv:
+                continue
+            v += _module_cost(C, R, pre, w, guess[lv], float(step - (n - lv) * f), float(f), pts[lv], pts[lv + 1],
+                              clr[lv], radius, margin, ww, wc, wa, sp, pre0, dR, res, tmp, cout)
+            if lv == n - 1:
+                v += _tip_term(C, int(res[1]), frames[lv], wo)
+            if v < bv:
+                bv = v
+                bq = q
+                clr[lv + 1] = cout[0]
+                guess[lv + 1] = int(res[1])
+        choice[lv] = bq
+        _rot(frames[lv - 1], bq, c, s, frames[lv])
+        for b in range(3):
+            pts[lv + 1, b] = pts[lv, b] + L * frames[lv, 2, b]
+        part[lv + 1] = bv
+    best = part[n]
+    for q in range(1, n):
+        best_codes[q] = choice[q]
+    best *= 1.0 + 1e-12  # the exact search below may find the same configuration again: let it
+    lvl = 1
+    choice[1] = -1
+    while lvl >= 1:
+        choice[lvl] += 1
+        if choice[lvl] >= 5:
+            lvl -= 1
+            continue
+        _rot(frames[lvl - 1], choice[lvl], c, s, frames[lvl])
+        for b in range(3):
+            pts[lvl + 1, b] = pts[lvl, b] + L * frames[lvl, 2, b]
+        v = part[lvl] + wt * _dist2(pts[lvl + 1], T[lvl + 1])
+        if v >= best:
+            continue
+        v += _module_cost(C, R, pre, w, guess[lvl], float(step - (n - lvl) * f), float(f), pts[lvl], pts[lvl + 1],
+                          clr[lvl], radius, margin, ww, wc, wa, sp, pre0, dR, res, tmp, cout)
+        if v >= best:
+            continue
+        clr[lvl + 1] = cout[0]
+        guess[lvl + 1] = int(res[1])
+        part[lvl + 1] = v
+        if lvl == n - 1:
+            tot = v + _tip_term(C, guess[n], frames[n - 1], wo)
+            if tot < best:
+                best = tot
+                for q in range(1, n):
+                    best_codes[q] = choice[q]
+        else:
+            lvl += 1
+            choice[lvl] = -1
+    return best
+
+
+@njit(cache=True)
+def _head_cost(C, R, pre, w, P0, F1, step, n, f, L, c, s, T, prm, best_codes, frames, pts, part, guess, choice,
+               res, tmp):
+    for a in range(3):
+        for b in range(3):
+            frames[0, a, b] = F1[a, b]
+    for b in range(3):
+        pts[0, b] = P0[b]
+    return _head_search(C, R, pre, w, step, n, f, L, c, s, T, prm, best_codes, frames, pts, part, guess, choice,
+                        res, tmp)
+
+
+# ---------------------------------------------------------------------------
+# the fixed-lag beam over the base tilt (as bhr.solvers.optimal, with this cost)
+
+
+@njit(cache=True)
+def _beam_expand(bP, bF, bC, bH, state, cP, cF, cC, cPar, cA, order_buf, C, R, pre, w, path, dirs, n, f, feed, L,
+                 c, s, prm, T, d, best_codes, frames, pts, part, guess, choice, res, tmp, F1):
+    nb = state[0]
+    k = state[1]
+    B = bP.shape[0]
+    RR = bH.shape[1]
+    _step_targets(path, dirs, k, n, f, feed, T, d)
+    m = 0
+    for q in range(nb):
+        for a in range(5):
+            _rot(bF[q], a, c, s, F1)
+            cost = _head_cost(C, R, pre, w, bP[q], F1, k, n, f, L, c, s, T, prm, best_codes, frames, pts, part,
+                              guess, choice, res, tmp)
+            cC[m] = bC[q] + cost
+            for b in range(3):
+                cP[m, b] = bP[q, b] + feed * F1[2, b]
+                for e in range(3):
+                    cF[m, e, b] = F1[e, b]
+            cPar[m] = q
+            cA[m] = a
+            m += 1
+    order = np.argsort(cC[:m], kind="mergesort")
+    kept = 0
+    for qq in range(m):
+        if kept >= B:
+            break
+        r = order[qq]
+        dup = False
+        for u in range(kept):
+            o = order_buf[u]
+            if _dist2(cP[o], cP[r]) < DEDUP_POS * DEDUP_POS:
+                dz = _dist2(cF[o, 1], cF[r, 1]) + _dist2(cF[o, 2], cF[r, 2])
+                if dz < DEDUP_DIR * DEDUP_DIR:
+                    dup = True
+                    break
+        if dup:
+            continue
+        order_buf[kept] = r
+        kept += 1
+    hist = np.empty((kept, RR), dtype=np.int64)
+    for u in range(kept):
+        r = order_buf[u]
+        for t in range(RR):
+            hist[u, t] = bH[cPar[r], t]
+        hist[u, k % RR] = cA[r]
+    for u in range(kept):
+        r = order_buf[u]
+        for b in range(3):
+            bP[u, b] = cP[r, b]
+            for e in range(3):
+                bF[u, e, b] = cF[r, e, b]
+        bC[u] = cC[r]
+        for t in range(RR):
+            bH[u, t] = hist[u, t]
+    state[0] = kept
+    state[1] = k + 1
+
+
+@njit(cache=True)
+def _beam_reset(bP, bF, bC, state, P0, F, step):
+    for b in range(3):
+        bP[0, b] = P0[b]
+        for a in range(3):
+            bF[0, a, b] = F[a, b]
+    bC[0] = 0.0
+    state[0] = 1
+    state[1] = step
+    state[2] = step
+
+
+@njit(cache=True)
+def _beam_commit(bP, bF, bC, bH, state, step):
+    RR = bH.shape[1]
+    a0 = bH[0, step % RR]
+    kept = 0
+    for q in range(state[0]):
+        if bH[q, step % RR] == a0:
+            if kept != q:
+                for b in range(3):
+                    bP[kept, b] = bP[q, b]
+                    for e in range(3):
+                        bF[kept, e, b] = bF[q, e, b]
+                bC[kept] = bC[q]
+                for t in range(RR):
+                    bH[kept, t] = bH[q, t]
+            kept += 1
+    state[0] = kept
+    state[2] = step + 1
+    return a0
+
+
+@njit(cache=True)
+def _lumen_step(P, E1, E2, i, bP, bF, bC, bH, state, cP, cF, cC, cPar, cA, order_buf, C, R, pre, w, path, dirs, n, f,
+                feed, L, alpha, prm, lookahead, lagv, out_codes, tilts):
+    """Solve step ``i`` in place: plan the base tilt, search the rest exactly. Returns (layers, cost)."""
+    N = path.shape[0]
+    c = math.cos(math.radians(alpha))
+    s = math.sin(math.radians(alpha))
+    F = np.empty((3, 3))
+    F1 = np.empty((3, 3))
+    T = np.empty((n + 1, 3))
+    d = np.empty(3)
+    best_codes = np.zeros(n, dtype=np.int64)
+    frames = np.empty((n, 3, 3))
+    pts = np.empty((n + 1, 3))
+    part = np.empty(n + 1)
+    guess = np.zeros(n + 1, dtype=np.int64)
+    choice = np.zeros(n, dtype=np.int64)
+    res = np.empty(3)
+    tmp = np.empty(3)
+    _frame_of_chain(P, E1, E2, F)
+    P0 = P[0].copy()
+    if state[0] == 0 or state[2] != i:
+        _beam_reset(bP, bF, bC, state, P0, F, i)
+        lagv[0] = 0.0
+    # the robot's lead along the centerline: where the base is now, searched around where it was
+    e0 = float(i - n * f)
+    _near(C, pre + lagv[0], w, -1, e0, P0[0], P0[1], P0[2], res, tmp)
+    lagv[0] = res[1] + res[2] - pre - e0
+    pre = pre + lagv[0]
+    layers = 0
+    while state[1] < N and state[1] <= i + lookahead:
+        _beam_expand(bP, bF, bC, bH, state, cP, cF, cC, cPar, cA, order_buf, C, R, pre, w, path, dirs, n, f, feed,
+                     L, c, s, prm, T, d, best_codes, frames, pts, part, guess, choice, res, tmp, F1)
+        layers += 1
+    a0 = _beam_commit(bP, bF, bC, bH, state, i)
+    _step_targets(path, dirs, i, n, f, feed, T, d)
+    _rot(F, a0, c, s, F1)
+    cost = _head_cost(C, R, pre, w, P0, F1, i, n, f, L, c, s, T, prm, best_codes, frames, pts, part, guess, choice,
+                      res, tmp)
+    best_codes[0] = a0
+    _rot(F, a0, c, s, frames[0])
+    for m in range(1, n):
+        _rot(frames[m - 1], best_codes[m], c, s, frames[m])
+    for m in range(n):
+        out_codes[m] = CODE_OF[best_codes[m]]
+        tilts[m] = 0.0 if best_codes[m] == 0 else alpha
+        for b in range(3):
+            P[m + 1, b] = P[m, b] + L * frames[m, 2, b]
+    for m in range(n):
+        for b in range(3):
+            E1[m, b] = P[m, b] + frames[m, 0, b]
+            E2[m, b] = P[m, b] + frames[m, 1, b]
+    return layers, cost
+
+
+@njit(cache=True)
+def follow_lumen_kernel(path, dirs, P, E1, E2, bP, bF, bC, bH, state, cP, cF, cC, cPar, cA, order_buf, C, R, pre, w,
+                        f, feed, L, alpha, prm, lookahead, lagv, out_points, out_iters, pe, oe, codes):
+    """The whole follow-the-leader loop with the lumen solver, compiled (same arithmetic as step by step)."""
+    N = path.shape[0]
+    n = P.shape[0] - 1
+    step_codes = np.zeros(n, dtype=np.int64)
+    tilts = np.zeros(n)
+    for i in range(N):
+        layers, _ = _lumen_step(P, E1, E2, i, bP, bF, bC, bH, state, cP, cF, cC, cPar, cA, order_buf, C, R, pre, w,
+                                path, dirs, n, f, feed, L, alpha, prm, lookahead, lagv, step_codes, tilts)
+        dd = dirs[N - 2] if i == N - 1 else dirs[i]
+        out_points[i] = P
+        out_iters[i] = layers
+        codes[i] = step_codes
+        score_step(i, P, path, dirs, f, _tip_angle(P, dd), pe[i], oe[i])
+        advance_kernel(P, E1, E2, feed, L)
+
+
+# ---------------------------------------------------------------------------
+# checking the search
+
+
+def head_cost(tube, robot, settings: dict[str, float], path: np.ndarray, step: int, base,
+              frame1) -> tuple[list[int], float]:
+    """Exact best codes of modules 2..n (and the cost) at ``step`` with module 1's frame ``frame1`` (rows x, y, z)."""
+    n = robot.modules
+    a = math.radians(robot.alpha)
+    path = np.ascontiguousarray(path, dtype=np.float64)
+    dirs = np.diff(path, axis=0)
+    dirs /= np.linalg.norm(dirs, axis=1)[:, None]
+    T = np.empty((n + 1, 3))
+    d = np.empty(3)
+    _step_targets(path, dirs, step, n, robot.feed_divisor, float(robot.feed), T, d)
+    prm = _prm(robot, settings, tube)
+    best = np.zeros(n, dtype=np.int64)
+    cost = _head_cost(tube.points, tube.radius, float(tube.pre), float(tube.window), np.asarray(base, dtype=float),
+                      np.ascontiguousarray(frame1, dtype=float), step, n, robot.feed_divisor,
+                      float(robot.module_length), math.cos(a), math.sin(a), T, prm, best, np.empty((n, 3, 3)),
+                      np.empty((n + 1, 3)), np.empty(n + 1), np.zeros(n + 1, dtype=np.int64),
+                      np.zeros(n, dtype=np.int64), np.empty(3), np.empty(3))
+    return [int(CODE_OF[k]) for k in best[1:]], float(cost)
+
+
+def lumen_config_cost(tube, robot, settings: dict[str, float], path: np.ndarray, step: int,
+                      points: np.ndarray) -> float:
+    """The cost of a configuration (points (n+1, 3)) as the module doc defines it, in numpy, for the tests.
+
+    Uses the full-window nearest search of :func:`bhr.clearance.point_clearance`.
+    """
+    from bhr.clearance import _nearest_numpy, point_clearance
+
+    n, f = robot.modules, robot.feed_divisor
+    prm = _prm(robot, settings, tube)
+    radius, margin, ww, wc, wt, wo, dR, wa, sp, _ = prm
+    path = np.asarray(path, dtype=float)
+    dirs = np.diff(path, axis=0)
+    dirs /= np.linalg.norm(dirs, axis=1)[:, None]
+    T = np.empty((n + 1, 3))
+    d = np.empty(3)
+    _step_targets(path, dirs, step, n, f, float(robot.feed), T, d)
+
+    def wall(c: float) -> float:
+        return ww * max(0.0, margin - c) ** 2
+
+    J = 0.0
+    clr = []
+    for j in range(n + 1):
+        e = float(step - (n - j) * f)
+        c, pos = _nearest_numpy(tube, radius, points[j], e + tube.pre)
+        dist = _radius_near(tube, points[j], e) - radius - c
+        along = (pos - tube.pre - e) * sp
+        clr.append(c)
+        J += wall(c) + wc * dist * dist + wa * along * along
+    for j in range(n):
+        half = 0.5 * float(np.linalg.norm(points[j + 1] - points[j]))
+        if min(clr[j], clr[j + 1]) - half - dR <= margin:
+            e = float(step - (n - j) * f) + 0.5 * f
+            J += wall(point_clearance(tube, radius, 0.5 * (points[j] + points[j + 1]), e))
+    J += wt * float(np.sum((points - T) ** 2))
+    k = _segment_near(tube, points[n], float(step))
+    t = tube.points[k + 1] - tube.points[k]
+    u = points[n] - points[n - 1]
+    J += wo * float(np.sum((u / np.linalg.norm(u) - t / np.linalg.norm(t)) ** 2))
+    return J
+
+
+def _window_segments(tube, e: float) -> tuple[int, int]:
+    M = tube.points.shape[0]
+    lo = min(max(int(math.floor(e + tube.pre - tube.window)), 0), M - 2)
+    hi = min(int(math.ceil(e + tube.pre + tube.window)), M - 1)
+    return lo, max(hi, lo + 1)
+
+
+def _segment_near(tube, p: np.ndarray, e: float) -> int:
+    lo, hi = _window_segments(tube, e)
+    a, b = tube.points[lo:hi], tube.points[lo + 1:hi + 1]
+    u = b - a
+    t = np.clip(np.einsum("ij,ij->i", p - a, u) / np.einsum("ij,ij->i", u, u), 0.0, 1.0)
+    return lo + int(np.argmin(np.linalg.norm(p - (a + t[:, None] * u), axis=1)))
+
+
+def _radius_near(tube, p: np.ndarray, e: float) -> float:
+    k = _segment_near(tube, p, e)
+    a, b = tube.points[k], tube.points[k + 1]
+    t = float(np.clip(np.dot(p - a, b - a) / np.dot(b - a, b - a), 0.0, 1.0))
+    return float(tube.radius[k] + t * (tube.radius[k + 1] - tube.radius[k]))
+
+
+def _prm(robot, settings: dict[str, float], tube=None) -> np.ndarray:
+    """Kernel settings: radius, margin, weights, and the largest change of the lumen radius along one module."""
+    dR = 0.0
+    sp = float(robot.feed)
+    pre = 0.0
+    if tube is not None:
+        pre = float(tube.pre)
+        f = int(robot.feed_divisor)
+        R = tube.radius
+        dR = float(np.max(np.abs(R[f:] - R[:-f]))) if R.shape[0] > f else 0.0
+        sp = tube.spacing
+    return np.array([float(robot.radius), settings["margin"], settings["wall_weight"], settings["center_weight"],
+                     settings["track_weight"], (settings["ori_weight"] * DEG) ** 2, dR, settings["along_weight"], sp,
+                     pre], dtype=np.float64)
+
+
+# ---------------------------------------------------------------------------
+# the solver
+
+
+@register
+class Lumen(Optimal):
+    """The exact code search with a wall-penetration cost, the base tilt planned ahead through the bends."""
+
+    name = "lumen"
+    summary = "keeps every point and module inside the lumen: exact code search, bends planned ahead (docs/lumen.md)"
+    binary = True
+
+    def __init__(self, robot, lookahead: int | None = None, beam: int | None = None,
+                 wall_weight: float | None = None, margin: float | None = None, center_weight: float | None = None,
+                 track_weight: float | None = None, along_weight: float | None = None,
+                 ori_weight: float | None = None, window: float | None = None) -> None:
+        opt = {k: v for k, v in dict(lookahead=lookahead, beam=beam, wall_weight=wall_weight, margin=margin,
+                                     center_weight=center_weight, track_weight=track_weight,
+                                     along_weight=along_weight, ori_weight=ori_weight,
+                                     window=window).items() if v is not None}
+        cfg = {**DEFAULTS, **opt}
+        super().__init__(robot, lookahead=cfg["lookahead"], beam=cfg["beam"], ori_weight=cfg["ori_weight"])
+        self.wall_weight = _number("wall-weight", cfg["wall_weight"])
+        self.margin = _number("margin", cfg["margin"], minimum=-1e6)
+        self.center_weight = _number("center-weight", cfg["center_weight"])
+        self.track_weight = _number("track-weight", cfg["track_weight"])
+        self.along_weight = _number("along-weight", cfg["along_weight"])
+        self.window = _number("window", cfg["window"])
+        if self.window <= 0 or self.window > 1e4:
+            raise BhrError(f"window must be more than 0 and at most 10000 mm, got {self.window:g}")
+        self._tube: Tube | None = None
+        self._tube_key: tuple | None = None
+        self._checked_path: np.ndarray | None = None
+        self._prm_cache = np.zeros(10)
+        self._lag = np.zeros(1)
+
+    @property
+    def settings(self) -> dict[str, Any]:
+        return {"lookahead": self.lookahead, "beam": self.beam, "wall_weight": self.wall_weight,
+                "margin": self.margin, "center_weight": self.center_weight, "track_weight": self.track_weight,
+                "along_weight": self.along_weight,
+                "ori_weight": self.ori_weight, "window": self.window}
+
+    def prepare(self, trajectory) -> None:
+        """Take the lumen of the trajectory about to be followed (called by bhr.follow)."""
+        if trajectory.lumen is None:
+            raise BhrError(f"--solver lumen needs a trajectory with a lumen; {trajectory.name} has none "
+                           "(give a CSV with a lumen column, or lumen = ... in a trajectory file)")
+        self._tube = make_tube(trajectory.points, trajectory.lumen, trajectory.start_direction, self.window)
+        self._tube_key = (id(trajectory.points), trajectory.points.shape)
+        self._checked_path = None
+
+    def _tube_args(self, path: np.ndarray) -> tuple:
+        t = self._tube
+        if t is None:
+            raise BhrError("--solver lumen was not given the path's lumen; run it through bhr.follow with a "
+                           "trajectory that has a lumen")
+        if path is not self._checked_path:
+            if t.points.shape[0] != path.shape[0] + t.pre + t.post or \
+                    not np.array_equal(t.points[t.pre:t.pre + path.shape[0]], path):
+                raise BhrError("--solver lumen was not given this path's lumen; run it through bhr.follow with a "
+                               "trajectory that has a lumen")
+            self._checked_path = path
+            self._prm_cache = _prm(self.robot, self.settings, t)
+        return t.points, t.radius, float(t.pre), float(t.window)
+
+    def reset(self) -> None:
+        super().reset()
+        self._lag = np.zeros(1)
+
+    def _prm(self) -> np.ndarray:
+        return self._prm_cache
+
+    def solve(self, chain: Chain, target: np.ndarray, orientation: np.ndarray | None = None,
+              context: FollowContext | None = None) -> SolveResult:
+        if context is None:
+            return self._solve_target(chain, target, orientation)
+        r = self.robot
+        n = chain.modules
+        path = np.ascontiguousarray(context.path, dtype=np.float64)
+        dirs = np.ascontiguousarray(context.directions, dtype=np.float64)
+        C, R, pre, w = self._tube_args(path)
+        P = np.ascontiguousarray(chain.points.copy())
+        E1 = np.ascontiguousarray(chain.axes[0].copy())
+        E2 = np.ascontiguousarray(chain.axes[1].copy())
+        i = int(context.step)
+        if self._expect is not None:
+            key, step, eP, e1, e2 = self._expect
+            if not (key == self._tube_key and step == i and np.array_equal(eP, P) and np.array_equal(e1, E1)
+                    and np.array_equal(e2, E2)):
+                self._state[:] = 0
+        codes = np.zeros(n, dtype=np.int64)
+        tilts = np.zeros(n)
+        layers, cost = _lumen_step(P, E1, E2, i, *self._beam_args(), C, R, pre, w, path, dirs, n,
+                                   int(r.feed_divisor), float(r.feed), float(r.module_length), float(r.alpha),
+                                   self._prm(), int(self.lookahead), self._lag, codes, tilts)
+        out = Chain(P, np.stack([E1, E2]))
+        nxt = out.copy()
+        advance_kernel(nxt.points, nxt.axes[0], nxt.axes[1], float(r.feed), float(r.module_length))
+        self._expect = (self._tube_key, i + 1, nxt.points, np.ascontiguousarray(nxt.axes[0]),
+                        np.ascontiguousarray(nxt.axes[1]))
+        err = float(np.linalg.norm(P[-1] - np.asarray(target, dtype=np.float64)))
+        ang = None if orientation is None else float(_tip_angle(P, np.asarray(orientation, dtype=np.float64)))
+        return SolveResult(out, int(layers), err, ang, [int(c) for c in codes],
+                           {"cost": float(cost), "tilts_deg": [float(v) for v in tilts]})
+
+    def follow_kernel(self, path: np.ndarray, dirs: np.ndarray, chain: Chain, out_points: np.ndarray,
+                      out_iters: np.ndarray, pe: np.ndarray, oe: np.ndarray, codes: np.ndarray) -> bool:
+        self.reset()
+        path = np.ascontiguousarray(path, dtype=np.float64)
+        dirs = np.ascontiguousarray(dirs, dtype=np.float64)
+        C, R, pre, w = self._tube_args(path)
+        c = chain.copy()
+        r = self.robot
+        follow_lumen_kernel(path, dirs, np.ascontiguousarray(c.points), np.ascontiguousarray(c.axes[0]),
+                            np.ascontiguousarray(c.axes[1]), *self._beam_args(), C, R, pre, w, int(r.feed_divisor),
+                            float(r.feed), float(r.module_length), float(r.alpha), self._prm(),
+                            int(self.lookahead), self._lag, out_points, out_iters, pe, oe, codes)
+        self.reset()
+        return True

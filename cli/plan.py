@@ -1,0 +1,77 @@
+"""bhr plan: the schedule the actuator board can sustain for a codes.csv, and its procedure time."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import click
+
+from bhr.cli._common import check_writable, guarded
+from bhr.cli._link import schedule_option, thermal_params
+from bhr.cli._options import FiniteRange
+
+
+@click.command()
+@click.option("--codes", "codes_path", required=True, metavar="FILE",
+              help="codes.csv as written by 'bhr follow' (header step,m1,...,mN).")
+@click.option("--rate", default=10.0, show_default=True, metavar="HZ",
+              type=FiniteRange(min=0, min_open=True, max=1000),
+              help="Rows per second: the fixed rate to check, or the fastest an auto schedule may go.")
+@schedule_option()
+@click.option("--robot", "robot_file", default=None, metavar="FILE",
+              help="Robot file whose [thermal] table describes the wires (docs/thermal.md) [the default wire].")
+@click.option("--plot", "plot_path", default=None, metavar="FILE.png",
+              help="Figure of each wire's temperature over the schedule [thermal.png beside FILE].")
+@click.option("--no-plot", is_flag=True, help="Skip the figure.")
+@click.option("--csv", "csv_path", default=None, metavar="FILE",
+              help="Write the whole schedule: step, send time (s), codes.")
+@guarded
+def plan(codes_path, rate, schedule, robot_file, plot_path, no_plot, csv_path):
+    """Plan a stream of module codes against the thermal model of the wires.
+
+    Prints the steps where the codes change with the time each is sent, and
+    the total procedure time. With --schedule rate (the default) it checks
+    that the board can take the rows at --rate and, where it cannot, names the
+    module, the step and the fix; with --schedule auto it stretches each step
+    to what the wires allow (full-power contraction, relaxation before a wire
+    contracts again). The figure shows each wire's normalised temperature.
+
+    \b
+        bhr plan --codes bhr-out/colon-seed/codes.csv --schedule auto
+    """
+    from bhr.atomic import write_text
+    from bhr.codes import read_codes_csv
+    from bhr.thermal import format_duration, plan as make_plan, summarize
+
+    steps, table = read_codes_csv(codes_path)
+    if not no_plot:
+        plot_path = plot_path or str(Path(codes_path).resolve().parent / "thermal.png")
+        check_writable(plot_path, "figure")
+    check_writable(csv_path, "CSV")
+    params = thermal_params(robot_file)
+    name = Path(codes_path).parent.name or Path(codes_path).stem
+    sched = make_plan(params, table, rate, schedule, name=str(codes_path))
+    out = click.get_text_stream("stdout")
+    out.write(f"wires: {params.describe()}\n")
+    out.write(f"{'step':>6} {'sent at':>10}  codes\n")
+    prev = None
+    for i, row in enumerate(table):
+        if prev is None or (row != prev).any() or i == len(table) - 1:
+            out.write(f"{steps[i]:>6} {format_duration(sched.times_ms[i] / 1000.0):>10}  "
+                      f"{','.join(str(int(c)) for c in row)}\n")
+        prev = row
+    out.write(summarize(sched, name) + "\n")
+    out.flush()
+    written = []
+    if csv_path:
+        lines = ["step,time_s," + ",".join(f"m{j + 1}" for j in range(table.shape[1]))]
+        lines += [f"{s},{t / 1000.0:.3f}," + ",".join(str(int(c)) for c in row)
+                  for s, t, row in zip(steps, sched.times_ms, table)]
+        write_text(Path(csv_path), "\n".join(lines) + "\n")
+        written.append(csv_path)
+    if not no_plot:
+        from bhr.thermal_plot import save_schedule_figure
+
+        save_schedule_figure(sched, plot_path, title=name)
+        written.append(plot_path)
+    if written:
+        click.echo("Wrote " + ", ".join(str(p) for p in written), err=True)

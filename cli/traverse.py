@@ -1,0 +1,98 @@
+"""bhr traverse: which robot designs get through a population of anatomical colons."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import click
+
+from bhr.cli._common import check_writable, guarded
+
+OUTPUTS = ("designs.csv", "runs.csv", "study.json", "passrate.png", "worst-colon.png", "index.html")
+
+
+@click.command()
+@click.option("--grid", "-g", "grid", multiple=True, metavar="KEY=VALUES",
+              help="Values of a robot or solver option: alpha=10:30:5, module_length=5,6,8, modules=5:8 "
+                   "(START:STOP[:STEP], STOP included). Repeat for each key.")
+@click.option("--colons", default="1-100", show_default=True, metavar="SEEDS",
+              help="The anatomical colons every design must get through: seeds such as 1-100 or 1,4,10-20.")
+@click.option("--solver", "solvers", multiple=True, metavar="NAME", help="Solver (repeat for several) [seed].")
+@click.option("--target-pass", type=float, default=0.95, show_default=True, metavar="SHARE",
+              help="Share of colons a design must traverse without touching the wall.")
+@click.option("--robot", "robot_file", default=None, metavar="FILE",
+              help="Robot description (TOML) every design starts from; grid values replace its values.")
+@click.option("--out", "out_dir", default=None, metavar="DIR", help="Output folder [./bhr-out/traverse/].")
+@click.option("--jobs", "-j", type=click.IntRange(min=1), default=None, metavar="N",
+              help="Worker processes [the number of CPUs]; 1 runs in this process.")
+@click.option("--scheduler", default=None, metavar="ADDRESS",
+              help="Run on an existing Dask distributed cluster instead, e.g. tcp://127.0.0.1:8786.")
+@click.option("--x", "hx", default=None, metavar="KEY", help="Heat-map columns [the design axis with the most values].")
+@click.option("--y", "hy", default=None, metavar="KEY", help="Heat-map rows [the next one].")
+@click.option("--no-plot", is_flag=True, help="Skip the figures (passrate.png, worst-colon.png).")
+@click.option("--title", default=None, help="Title of the heat-map and page.")
+@guarded
+def traverse(grid, colons, solvers, target_pass, robot_file, out_dir, jobs, scheduler, hx, hy, no_plot, title):
+    """Follow a population of anatomical colons with every design of a grid.
+
+    A colon is traversed when the robot touches its wall at no step. Prints,
+    per design, the share of colons traversed, the worst and median
+    penetration into the wall and the contact length, then the best design
+    that traverses at least --target-pass of the colons. Writes into DIR
+    designs.csv (one row per design), runs.csv (one row per design and
+    colon), study.json, passrate.png (pass rate over two design axes),
+    worst-colon.png (penetration along the answer's worst colon) and
+    index.html. The exit status is 1 when any run failed.
+
+        bhr traverse --grid alpha=10:30:5 --grid module_length=5,6,8,10 --colons 1-100
+    """
+    from bhr.errors import BhrError
+    from bhr.sweep import parse_grid_option
+    from bhr.traverse import build_study, format_study, heatmap_axes, run_study, write_study
+
+    if scheduler is not None and jobs is not None:
+        raise BhrError("--jobs and --scheduler exclude each other: the cluster decides how many workers run")
+    if scheduler is not None:
+        try:
+            import distributed  # noqa: F401
+        except ImportError:
+            from bhr.sweep import DASK_MISSING
+
+            raise BhrError(DASK_MISSING) from None
+    study = build_study([parse_grid_option(g) for g in grid], colons, solvers=solvers or ("seed",),
+                        target=target_pass, robot_file=robot_file, title=title or "bhr traverse")
+    heatmap_axes(study, hx, hy)  # refuse unknown heat-map axes before running
+    out = Path(out_dir) if out_dir else Path("bhr-out") / "traverse"
+    for name in OUTPUTS:
+        check_writable(out / name, "study output")
+    client = None
+    if scheduler is not None:
+        from bhr.sweep import connect_scheduler
+
+        client = connect_scheduler(scheduler)  # fails in one line before anything starts
+    err = click.get_text_stream("stderr")
+    total = len(study)
+    label = f"{total} runs ({study.designs} designs x {len(study.colons)} colons)" + (
+        f" on {scheduler}" if scheduler else "")
+    try:
+        if err.isatty():
+            with click.progressbar(length=total, label=label, file=err, show_pos=True, show_eta=True) as bar:
+                last = [0]
+
+                def progress(done: int, _total: int) -> None:
+                    bar.update(done - last[0])
+                    last[0] = done
+
+                result = run_study(study, jobs=jobs, scheduler=client, progress=progress)
+        else:  # piped or logged: no bar
+            result = run_study(study, jobs=jobs, scheduler=client)
+    finally:
+        if client is not None:
+            client.close()
+    files = write_study(result, out, plot=not no_plot, x=hx, y=hy)
+    for line in format_study(result):
+        click.echo(line)
+    click.echo("Wrote " + ", ".join(str(p) for p in files))
+    if result.failed:
+        click.echo(f"Error: {len(result.failed)} of {total} runs failed; see {out / 'runs.csv'}", err=True)
+        return 1
+    return 0

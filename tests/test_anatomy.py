@@ -1,0 +1,180 @@
+"""Anatomical colons (bhr.anatomy): determinism, spacing, published ranges, continuity, files, command line."""
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings, strategies as st
+
+import bhr
+from bhr.anatomy import RANGES, SECTIONS, SEED_MAX, SHIPPED, anatomical_colon, anatomy_csv_text, check_seed
+from bhr.errors import BhrError
+from bhr.trajectory import anatomy_trajectory, builtin_names, colon, load_trajectory
+from tests.conftest import REPO
+
+seeds = st.integers(min_value=0, max_value=SEED_MAX)
+feeds = st.floats(min_value=0.5, max_value=5.0)
+SETTINGS = settings(max_examples=60, deadline=None)
+
+
+@SETTINGS
+@given(seeds, feeds)
+def test_one_seed_one_colon(seed, feed):
+    a, b = anatomy_trajectory(seed, feed), anatomy_trajectory(seed, feed)
+    assert np.array_equal(a.points, b.points) and np.array_equal(a.lumen, b.lumen)
+    assert a.min_radius == b.min_radius and a.start_direction == b.start_direction
+    other = anatomy_trajectory(seed + 1 if seed < SEED_MAX else seed - 1, feed)
+    n = min(len(a.points), len(other.points))
+    assert not np.array_equal(a.points[:n], other.points[:n])
+
+
+@SETTINGS
+@given(seeds, feeds)
+def test_points_are_one_feed_apart_along_the_path(seed, feed):
+    c = anatomical_colon(seed)
+    pts, lumen, section = c.sample(feed)
+    assert np.array_equal(pts[0], [0.0, 0.0, 0.0])  # the anus
+    assert len(pts) == math.floor(c.length / feed + 1e-9) + 1
+    chord = np.linalg.norm(np.diff(pts, axis=0), axis=1)
+    # a chord of one feed on the tightest arc is shorter than the arc by at most feed^3 / (24 r^2)
+    short = feed ** 3 / (24 * c.min_radius ** 2)
+    assert np.all(chord <= feed + 1e-9) and np.all(chord >= feed - short - 1e-9)
+
+
+@SETTINGS
+@given(seeds)
+def test_lumen_within_the_published_ranges(seed):
+    c = anatomical_colon(seed)
+    pts, lumen, section = c.sample(2.0)
+    lo = min(v[0] for k, v in RANGES.items() if k.startswith("lumen."))
+    hi = max(v[1] for k, v in RANGES.items() if k.startswith("lumen."))
+    assert lumen.min() >= lo and lumen.max() <= hi
+    assert 24.0 <= lumen.min() and lumen.max() <= 60.0  # wall radius 12-30 mm
+    # each section's diameter lies between its own drawn value and its neighbours'
+    for k, name in enumerate(SECTIONS):
+        near = [RANGES[f"lumen.{SECTIONS[j]}"] for j in range(max(0, k - 1), min(len(SECTIONS), k + 2))]
+        sel = lumen[section == k]
+        assert sel.size == 0 or (sel.min() >= min(v[0] for v in near) and sel.max() <= max(v[1] for v in near))
+
+
+@SETTINGS
+@given(seeds)
+def test_section_lengths_and_bends_within_their_ranges(seed):
+    c = anatomical_colon(seed)
+    for name, length in c.section_lengths.items():
+        if f"length.{name}" in RANGES:
+            lo, hi = RANGES[f"length.{name}"]
+            assert lo - 1e-9 <= length <= hi + 1e-9, name
+    for name, (angle, radius) in c.bends.items():
+        key = "fold" if "fold" in name else name
+        rlo, rhi = RANGES[f"radius.{key}"]
+        assert rlo - 1e-9 <= radius <= rhi + 1e-9, name
+        if f"angle.{key}" in RANGES:
+            alo, ahi = RANGES[f"angle.{key}"]
+            assert alo - 1e-9 <= angle <= ahi + 1e-9, name
+    # the named flexures and the top of the sigmoid loop are acute (turn by more than 90 deg)
+    for name in ("splenic flexure", "hepatic flexure", "sigmoid apex"):
+        assert c.bends[name][0] > 90.0
+    assert c.section_lengths["splenic flexure"] == pytest.approx(math.radians(c.bends["splenic flexure"][0])
+                                                                 * c.bends["splenic flexure"][1])
+    total_lo = sum(RANGES[f"length.{s}"][0] for s in SECTIONS if f"length.{s}" in RANGES)
+    assert 1097.0 <= total_lo <= c.length <= 1959.0  # within the CT-colonography range of whole colons
+
+
+@SETTINGS
+@given(seeds, feeds)
+def test_no_kinks_the_path_turns_no_tighter_than_its_smallest_bend(seed, feed):
+    c = anatomical_colon(seed)
+    assert c.min_radius == min(r for kind, _, r, *_ in c.pieces if kind == "arc") >= 10.0
+    # pieces join end to start, tangent to tangent
+    for a, b in zip(c.pieces, c.pieces[1:]):
+        kind, length, r, p0, t0, d, _ = a
+        if kind == "straight":
+            end, tend = p0 + length * t0, t0
+        else:
+            th = length / r
+            end = p0 + r * math.sin(th) * t0 + r * (1 - math.cos(th)) * d
+            tend = math.cos(th) * t0 + math.sin(th) * d
+        assert np.allclose(end, b[3], atol=1e-9) and np.allclose(tend, b[4], atol=1e-12)
+    pts, _, _ = c.sample(feed)
+    v = np.diff(pts, axis=0)
+    v /= np.linalg.norm(v, axis=1)[:, None]
+    turn = np.arccos(np.clip(np.sum(v[1:] * v[:-1], axis=1), -1, 1))
+    assert turn.max() <= feed / c.min_radius * (1 + 1e-9) + 1e-9
+
+
+def test_trajectory_api_and_builtin_file():
+    tr = load_trajectory("anatomy", seed=5)
+    assert tr.name == "anatomy-5" and tr.params["seed"] == 5
+    pts, lumen, _ = anatomical_colon(5).sample(2.0)
+    assert np.array_equal(tr.points, pts) and np.array_equal(tr.lumen, lumen)
+    assert np.array_equal(bhr.trajectory("anatomy", seed=5), pts)
+    assert np.array_equal(load_trajectory("anatomy").points, anatomical_colon(1).sample(2.0)[0])  # file's seed 1
+    assert tr.min_radius == anatomical_colon(5).min_radius
+    assert tr.start_point == (0.0, 0.0, 0.0)
+    assert np.allclose(tr.start_direction, (pts[1] - pts[0]) / np.linalg.norm(pts[1] - pts[0]))
+    # the thesis's planar colon is untouched
+    assert np.array_equal(load_trajectory("colon").points, colon(2.0))
+
+
+@pytest.mark.parametrize("seed", [-1, 1.5, SEED_MAX + 1, math.nan, "7", True, None])
+def test_bad_seeds_are_one_line(seed):
+    with pytest.raises(BhrError, match=r"seed must be a whole number from 0 to 4294967295") as exc:
+        check_seed(seed)
+    assert "\n" not in str(exc.value)
+    if seed is not None:  # None means "the file's seed"
+        with pytest.raises(BhrError, match=r"seed must be (a whole number from 0|finite|a number)"):
+            load_trajectory("anatomy", seed=seed)
+
+
+def test_seed_is_refused_by_other_trajectories():
+    with pytest.raises(BhrError, match="has no parameter 'seed'"):
+        load_trajectory("curve", seed=3)
+
+
+@pytest.mark.parametrize("name", list(SHIPPED))
+def test_shipped_anatomies_are_their_seeds_and_load_by_name(name):
+    seed, note = SHIPPED[name]
+    path = REPO / "trajectories" / f"{name}.csv"
+    assert path.read_text(encoding="utf-8") == anatomy_csv_text(seed, note=note)  # regenerate: make_anatomies.py
+    assert name in builtin_names()
+    tr = load_trajectory(name)
+    c = anatomical_colon(seed)
+    assert tr.name == name and tr.lumen is not None
+    assert tr.params["length"] == pytest.approx(c.length, rel=2e-3)
+    # every point of the resampled 1 mm polyline lies on the colon's centerline (to the file's rounding and the
+    # chords' sag, < 0.02 mm at 1 mm chords on a 10 mm bend), with the lumen there
+    ref, lum, _ = c.sample(0.05)
+    window = np.clip(np.round(np.arange(len(tr.points)) * 2.0 / 0.05).astype(int)[:, None] + np.arange(-100, 101),
+                     0, len(ref) - 1)  # +-5 mm of arc length around where each point should be
+    d = np.linalg.norm(tr.points[:, None, :] - ref[window], axis=2)
+    near = window[np.arange(len(window)), d.argmin(axis=1)]
+    assert d.min(axis=1).max() < 0.05
+    assert np.abs(tr.lumen - lum[near]).max() < 0.02
+
+
+def test_follow_an_anatomical_colon_from_the_command_line(run_bhr, tmp_path):
+    r = run_bhr("follow", "--traj", "anatomy", "--seed", "12", "--no-plots", "--json", "run.json")
+    assert r.returncode == 0, r.stderr
+    doc = json.loads((tmp_path / "run.json").read_text())
+    tr = anatomy_trajectory(12, 2.0)
+    assert doc["trajectory"]["name"] == "anatomy-12" and doc["trajectory"]["params"]["seed"] == 12
+    assert np.allclose(doc["trajectory"]["points"], tr.points) and np.allclose(doc["trajectory"]["lumen"], tr.lumen)
+    assert len(doc["steps"]) == len(tr.points)
+    assert "min_clearance_mm" in doc["summary"]
+    assert (tmp_path / "bhr-out" / "anatomy-12-thesis" / "codes.csv").is_file()
+    assert "tighter than the robot's minimum turn radius" in r.stderr
+
+
+@pytest.mark.parametrize("args, msg", [
+    (["--seed", "-3"], "seed must be a whole number from 0 to 4294967295, got -3"),
+    (["--seed", "2.5"], "'2.5' is not a valid integer"),
+    (["--seed", "5000000000"], "too large"),
+])
+def test_bad_seed_on_the_command_line_is_one_line(run_bhr, args, msg):
+    r = run_bhr("follow", "--traj", "anatomy", *args, "--no-plots")
+    assert r.returncode != 0
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("Error: ") and msg in lines[0], r.stderr

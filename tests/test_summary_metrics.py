@@ -1,0 +1,57 @@
+"""RMSE and the over-tolerance flag: in the summary, the printed table, report rows and sweep rows."""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+
+from bhr.follow import follow
+from bhr.report import summary_row
+from bhr.sweep import METRICS
+from bhr.trajectory import load_trajectory
+
+
+def scored_rmse(values: np.ndarray, first: int) -> float:
+    v = values[first:]
+    return float(np.sqrt(np.sum(v * v) / len(v)))
+
+
+def test_rmse_of_every_point_and_module_over_its_scored_steps():
+    run = follow(load_trajectory("curve", angle=360))
+    s = run.summary.to_dict()
+    n, f = run.modules, run.robot.feed_divisor
+    want_pts = [scored_rmse(run.point_errors[:, j], (n - j) * f) for j in range(n + 1)]
+    want_mods = [scored_rmse(run.orientation_errors[:, j], (n - j - 1) * f) for j in range(n)]
+    np.testing.assert_allclose(s["rmse_point_mm"], want_pts, rtol=1e-12)
+    np.testing.assert_allclose(s["rmse_module_deg"], want_mods, rtol=1e-12)
+    assert s["tip_rmse_mm"] == s["rmse_point_mm"][-1] and s["tip_orientation_rmse_deg"] == s["rmse_module_deg"][-1]
+    # the RMSE lies between the mean and the maximum of the same values
+    for st in s["points"] + s["modules"]:
+        assert st["mean"] - 1e-12 <= st["rmse"] <= st["max"] + 1e-12
+
+
+def test_a_run_over_its_tolerance_is_flagged_and_counted():
+    tr = load_trajectory("curve", angle=360)
+    ok = follow(tr, tol_pos=8.0, tol_ori=90.0).summary.to_dict()
+    assert ok["points_max_error_mm"] < 8.0 and not ok["tolerance_exceeded"]
+    assert ok["over_tol_pos_steps"] == ok["over_tol_ori_steps"] == 0
+    tight = follow(tr, tol_pos=4.0, tol_ori=90.0)
+    s = tight.summary.to_dict()
+    assert s["tolerance_exceeded"]
+    # the solve's tolerance changes the solution too: count against this run's own errors
+    assert s["over_tol_pos_steps"] == int(np.count_nonzero(tight.point_errors.max(axis=1) > 4.0)) > 0
+    row = summary_row(s)
+    assert row["tolerance_exceeded"] is True and row["tip_rmse_mm"] == s["tip_rmse_mm"]
+    assert {"tip_rmse_mm", "tip_orientation_rmse_deg", "tolerance_exceeded"} <= set(METRICS)
+
+
+def test_follow_prints_rmse_and_the_flag_and_exits_0(run_bhr, tmp_path):
+    res = run_bhr("follow", "--traj", "curve", "--angle", "360", "--tol-pos", "4", "--no-plots", "--out", "o")
+    assert res.returncode == 0, res.stderr
+    doc = json.loads((tmp_path / "o" / "run.json").read_text())
+    assert "rmse" in res.stdout.splitlines()[3]
+    line = next(ln for ln in res.stdout.splitlines() if ln.startswith("Over tolerance:"))
+    assert f"more than 4 mm off at {doc['summary']['over_tol_pos_steps']} steps" in line
+    tip = res.stdout.splitlines()[3 + len(doc["summary"]["points"])]  # title, blank, heading, columns, points
+    assert tip.startswith("  point 6 (tip)")
+    assert f"{doc['summary']['tip_rmse_mm']:.3f}" in tip

@@ -1,0 +1,137 @@
+"""The thermal model of the actuator wires (bhr/thermal.py, docs/thermal.md).
+
+The same integer model runs in the firmware (firmware/src/board.c): the C
+build on this machine replays a scenario and bhr.thermal reproduces every
+temperature bit for bit. The compiled kernel equals its numpy reference, the
+generated firmware header is current, and schedules are checked and
+stretched as the docs say.
+"""
+from __future__ import annotations
+
+import math
+import shutil
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import given, settings, strategies as st
+
+from bhr import thermal as T
+from bhr.errors import BhrError
+from bhr.firmware_header import HEADER, render
+
+REPO = Path(__file__).resolve().parent.parent
+FIRMWARE = REPO / "firmware"
+P = T.DEFAULT_THERMAL
+VALID = (0, 3, 6, 9, 12, 15)
+
+
+def test_the_checked_in_firmware_header_is_current():
+    assert HEADER.read_text() == render(), "run 'python -m bhr.firmware_header' and commit firmware/src/bhr_gen.h"
+    assert subprocess.run(["python", "-m", "bhr.firmware_header", "--check"], cwd=REPO).returncode == 0
+
+
+def test_default_figures_follow_from_the_datasheet_values():
+    # docs/thermal.md: 1000 ms contraction, 60 % hold duty, 1100 ms relaxation, 3000 ms full-power limit
+    assert (P.contract_ms, P.hold_duty, P.relax_ms, P.max_full_ms, P.period_ms) == (1000, 0.6, 1100, 3000, 20)
+    assert round(P.tau_ms) == 1091
+    assert round(P.theta_relax, 3) == 0.365 and round(P.theta_limit, 3) == 1.560
+    # the equations: theta(contract) = 1 at full power; hold duty holds 1; cooling 1 -> relax in relax_ms
+    assert P.theta_full * (1 - math.exp(-P.contract_ms / P.tau_ms)) == pytest.approx(1.0)
+    assert P.duty * P.theta_full == pytest.approx(1.0)
+    assert math.exp(-P.relax_ms / P.tau_ms) == pytest.approx(P.theta_relax)
+
+
+def test_a_single_tilt_contracts_holds_and_relaxes_in_the_integer_model():
+    rows = [[3, 0, 0, 0, 0], [0, 0, 0, 0, 0]]
+    sim = T.simulate(P, [0, 16000], rows, end_ms=20000)
+    assert 1000 <= sim.max_on_ms[0, 0] <= 1040           # one full-power pulse of the contraction time
+    assert sim.max_on_ms[0, 2] == 0
+    held = sim.theta[1000 // 20 + 5: 16000 // 20, 0, 0]
+    assert np.all(np.abs(held - 1.0) < 0.02)               # held at theta = 1 for 15 s
+    assert sim.on_ms[0, 0] == pytest.approx(1000 + 15000 * 0.6, abs=60)
+    assert not sim.faults
+    after = sim.theta[16000 // 20:, 0, 0]
+    relaxed_ms = int(np.argmax(after <= P.theta_relax)) * 20
+    assert abs(relaxed_ms - P.relax_ms) <= 40
+
+
+def test_re_energising_a_wire_before_it_relaxed_is_a_fault():
+    rows = [[3, 0, 0, 0, 0], [6, 0, 0, 0, 0], [3, 0, 0, 0, 0]]
+    sim = T.simulate(P, [0, 1500, 1700], rows)
+    assert sim.faults == [("early", 1, 3)]
+    ok = T.simulate(P, [0, 1500, 1500 + 1300], rows)
+    assert ok.faults == []
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.lists(st.tuples(st.integers(0, 900), st.lists(st.sampled_from(VALID), min_size=3, max_size=3)),
+                min_size=1, max_size=12), st.booleans())
+def test_the_compiled_kernel_equals_the_numpy_reference(steps, auto):
+    gaps = [g for g, _ in steps]
+    times = np.cumsum([0] + gaps[1:])
+    rows = [c for _, c in steps]
+    a = T.simulate(P, times, rows, auto=auto, min_gap_ms=50)
+    b = T.simulate(P, times, rows, auto=auto, min_gap_ms=50, reference=True)
+    assert np.array_equal(a.theta, b.theta) and np.array_equal(a.times_ms, b.times_ms)
+    assert np.array_equal(a.early, b.early) and np.array_equal(a.overheat_ms, b.overheat_ms)
+    assert np.array_equal(a.max_on_ms, b.max_on_ms) and np.array_equal(a.on_ms, b.on_ms)
+    assert a.done_ms == b.done_ms and a.end_ms == b.end_ms
+    if auto:
+        assert a.faults == []
+
+
+@pytest.fixture(scope="module")
+def host_exe():
+    if shutil.which("make") is None or shutil.which("cc") is None:
+        pytest.fail("the firmware's host build needs make and cc (Debian: build-essential)")
+    r = subprocess.run(["make", "-s", "-C", str(FIRMWARE), "build/host/test_host_m5"], capture_output=True,
+                       text=True, timeout=300)
+    assert r.returncode == 0, r.stderr
+    return FIRMWARE / "build" / "host" / "test_host_m5"
+
+
+def test_the_firmware_runs_the_same_model_bit_for_bit(host_exe):
+    rng = np.random.default_rng(7)
+    times = [0, 400, 1500, 1700, 2600, 4000, 5200, 5210, 7000, 9000]
+    rows = [[3, 0, 6, 0, 15], [3, 12, 6, 0, 15], [6, 12, 6, 9, 0], [3, 12, 6, 9, 0], [12, 12, 0, 9, 3],
+            [0, 0, 0, 0, 0], [12, 9, 3, 6, 15], [12, 9, 3, 6, 15], [9, 0, 15, 6, 0], [0, 0, 0, 0, 0]]
+    for _ in range(6):
+        times.append(times[-1] + int(rng.integers(30, 1500)))
+        rows.append([int(rng.choice(VALID)) for _ in range(5)])
+    end = times[-1] + 3000
+    text = f"end {end}\n" + "".join(f"{t} {' '.join(map(str, r))}\n" for t, r in zip(times, rows))
+    out = subprocess.run([str(host_exe), "trace"], input=text, capture_output=True, text=True, timeout=60, check=True)
+    c = np.array([[int(v) for v in line.split()] for line in out.stdout.splitlines()])
+    sim = T.simulate(P, times, rows, end_ms=end)
+    py = np.rint(sim.theta.reshape(sim.theta.shape[0], -1) * T.ONE).astype(np.int64)
+    assert c.shape == (end // 20 + 1, 21)
+    assert np.array_equal(c[:, 0], np.arange(0, end + 1, 20))
+    assert np.array_equal(c[:, 1:], py), np.argwhere(c[:, 1:] != py)[:5]
+    assert sim.faults  # the scenario includes early re-energising, as the C board saw it too
+
+
+def test_fixed_rate_schedules_are_checked_and_auto_schedules_fit():
+    rows = np.array([[0, 0, 0]] + [[3, 0, 0]] * 40 + [[6, 3, 0]] * 5 + [[3, 3, 0], [3, 6, 15], [0, 0, 0], [3, 0, 0]])
+    fixed = T.check_schedule(P, rows, 20)
+    assert fixed.faults and fixed.faults[0][0] == "early"
+    auto = T.auto_schedule(P, rows, 20)
+    assert auto.faults == []
+    assert np.all(np.diff(auto.times_ms) >= 50)
+    assert auto.sim.max_on_ms.max() < P.max_full_ms
+    # and the auto schedule, replayed as fixed times (with the link margin), is still accepted
+    again = T.simulate(P, auto.times_ms, rows)
+    assert again.faults == []
+    assert "steps" in T.summarize(auto, "x") and "board's limits" in T.summarize(auto)
+
+
+def test_bad_thermal_tables_are_one_line():
+    with pytest.raises(BhrError, match="hold_duty"):
+        T.thermal_from_table({"hold_duty": 1.5})
+    with pytest.raises(BhrError, match="unknown key 'x'"):
+        T.thermal_from_table({"x": 1})
+    with pytest.raises(BhrError, match="max_full_ms"):
+        T.thermal_from_table({"max_full_ms": 1000})
+    with pytest.raises(BhrError, match="must be a number"):
+        T.thermal_from_table({"relax_ms": "fast"})
