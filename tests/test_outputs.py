@@ -27,7 +27,8 @@ def bhr(*args, cwd: Path, timeout: float = 300, **kw) -> subprocess.CompletedPro
 
 
 def one_line(err: str) -> str:
-    lines = [ln for ln in err.strip().splitlines() if ln.strip()]
+    # the first run after an upgrade may also announce, in its own line, that it compiles the kernels
+    lines = [ln for ln in err.strip().splitlines() if ln.strip() and not ln.startswith("Compiling bhr's kernels")]
     assert len(lines) == 1 and "Traceback" not in err, err
     return lines[0]
 
