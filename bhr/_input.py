@@ -15,11 +15,19 @@ from typing import Any, Iterable
 from bhr.errors import BhrError
 from bhr.options import MAX_MM
 
-__all__ = ["MAX_FILE_BYTES", "MAX_MM", "read_text", "read_toml", "check_keys", "type_name", "number", "vector3",
-           "text_value", "choice"]
+__all__ = ["MAX_FILE_BYTES", "MAX_MM", "MAX_POINTS", "MAX_STEP_POINTS", "read_capped", "read_text", "read_toml",
+           "check_keys", "type_name", "number", "vector3", "text_value", "choice"]
 
-#: Input files larger than this are refused before reading (bytes).
-MAX_FILE_BYTES = 256 * 1024 * 1024
+#: Input files larger than this are refused: at most this many bytes are ever read, whatever the file's size
+#: reads as (a link to /dev/zero reads as 0 bytes and never ends).
+MAX_FILE_BYTES = 64 * 1024 * 1024
+#: A path may have at most this many points after sampling (trajectory generators, segment and CSV files).
+MAX_POINTS = 500_000
+#: A run may hold at most this many robot points in all: steps x (modules + 1), the body's modules when
+#: simulated. Memory grows by about 1.5 kB per step and point (run.json included; measured in
+#: docs/commands.md), so a run at the limit stays within about 5 GB (a 5-module robot on a path of
+#: MAX_POINTS fits).
+MAX_STEP_POINTS = 3_100_000
 
 
 def read_text(path: str | os.PathLike[str], what: str, hint: str) -> str:
@@ -28,10 +36,7 @@ def read_text(path: str | os.PathLike[str], what: str, hint: str) -> str:
     try:
         if p.is_dir():
             raise BhrError(f"{p} is a folder, not a {what}; {hint}")
-        size = p.stat().st_size
-        if size > MAX_FILE_BYTES:
-            raise BhrError(f"{p}: {size} bytes is too large for a {what} (limit {MAX_FILE_BYTES}); {hint}")
-        raw = p.read_bytes()
+        raw = read_capped(p, what, hint)
     except FileNotFoundError:
         raise BhrError(f"no such {what} {p}; {hint}") from None
     except PermissionError:
@@ -49,11 +54,32 @@ def read_text(path: str | os.PathLike[str], what: str, hint: str) -> str:
     return text
 
 
+def read_capped(path: str | os.PathLike[str], what: str, hint: str, limit: int | None = None) -> bytes:
+    """The bytes of ``path``, reading at most ``limit`` (default :data:`MAX_FILE_BYTES`) + 1 of them.
+
+    The size ``stat`` reports is not trusted: /dev/zero, /proc files and
+    FIFOs report 0 and may never end. A longer input is refused.
+    """
+    limit = MAX_FILE_BYTES if limit is None else limit
+    import stat as _stat
+
+    with open(path, "rb") as fh:
+        mode = os.fstat(fh.fileno()).st_mode
+        if _stat.S_ISCHR(mode) or _stat.S_ISBLK(mode):
+            raise BhrError(f"{path} is a device, not a {what}; {hint}")
+        raw = fh.read(limit + 1)
+    if len(raw) > limit:
+        raise BhrError(f"{path} is larger than {limit // (1024 * 1024)} MiB, too large for a {what}; {hint}")
+    return raw
+
+
 def read_toml(path: str | os.PathLike[str], what: str, hint: str) -> dict[str, Any]:
     """Parse ``path`` as TOML; a BhrError naming the line on a syntax error."""
     text = read_text(path, what, hint)
     try:
         return tomllib.loads(text)
+    except RecursionError:
+        raise BhrError(f"{path}: nested too deeply to read; {hint}") from None
     except tomllib.TOMLDecodeError as exc:
         msg = str(exc).splitlines()[0] if str(exc) else "syntax error"
         raise BhrError(f"{path}: not valid TOML ({msg}); {hint}") from None
@@ -118,8 +144,9 @@ def vector3(value: Any, where: str, *, nonzero: bool = False) -> tuple[float, fl
     out = tuple(number(v, f"{where}[{i}]") for i, v in enumerate(value))
     if any(abs(v) > MAX_MM for v in out):
         raise BhrError(f"{where} must have coordinates within +-{MAX_MM:g} mm, got {list(out)}")
-    if nonzero and not any(out):
-        raise BhrError(f"{where} must not be [0, 0, 0]; give a direction such as [1, 0, 0]")
+    if nonzero and math.hypot(*out) < 1e-9:
+        raise BhrError(f"{where} must not be [0, 0, 0] or nearly so (length under 1e-9); give a direction "
+                       "such as [1, 0, 0]")
     return out  # type: ignore[return-value]
 
 

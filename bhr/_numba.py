@@ -3,18 +3,43 @@
 numba writes its cache next to the sources by default, which fails or
 pollutes site-packages for installed copies. Unless the user chose a folder
 with NUMBA_CACHE_DIR, bhr uses ``$XDG_CACHE_HOME/bhr/numba`` (``~/.cache``).
+When that folder cannot be written (a read-only or missing home), bhr falls
+back to a per-user folder in the system's temporary directory, so a run never
+fails for want of a cache (numba refuses to load cached kernels at all when
+no cache folder is writable).
 """
 from __future__ import annotations
 
 import os
+import tempfile
 from pathlib import Path
 
 
+def _usable(folder: Path) -> bool:
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError:
+        return False
+    return folder.is_dir() and os.access(folder, os.W_OK | os.X_OK)
+
+
 def configure_cache() -> None:
-    if os.environ.get("NUMBA_CACHE_DIR"):
+    chosen = os.environ.get("NUMBA_CACHE_DIR")
+    if chosen and _usable(Path(chosen)):
         return
-    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
-    os.environ["NUMBA_CACHE_DIR"] = str(Path(base) / "bhr" / "numba")
+    if not chosen:
+        try:
+            base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+        except RuntimeError:  # no home directory at all
+            base = ""
+        if base and _usable(Path(base) / "bhr" / "numba"):
+            os.environ["NUMBA_CACHE_DIR"] = str(Path(base) / "bhr" / "numba")
+            return
+    uid = os.getuid() if hasattr(os, "getuid") else 0
+    fallback = Path(tempfile.gettempdir()) / f"bhr-numba-{uid}"
+    if not _usable(fallback):
+        fallback = Path(tempfile.mkdtemp(prefix="bhr-numba-"))
+    os.environ["NUMBA_CACHE_DIR"] = str(fallback)
 
 
 def cache_dir() -> str:

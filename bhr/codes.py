@@ -54,9 +54,16 @@ def check_code(code: object, where: str = "") -> int:
     """Return ``code`` as an int, or raise BhrError naming it and the allowed codes."""
     place = f" {where}" if where else ""
     try:
-        value = int(str(code).strip()) if not isinstance(code, (int, np.integer)) else int(code)
+        if isinstance(code, (int, np.integer)):
+            value = int(code)
+        else:
+            text = str(code).strip()
+            if not (text.isascii() and text.lstrip("+-").isdigit()):  # no "1_5", no full-width or Arabic digits
+                raise ValueError(text)
+            value = int(text)
     except ValueError:
-        raise BhrError(f"code {code!r}{place} is not a whole number; use one of 0, 3, 6, 9, 12, 15") from None
+        shown = repr(code) if len(str(code)) <= 40 else repr(str(code)[:40]) + "..."
+        raise BhrError(f"code {shown}{place} is not a whole number; use one of 0, 3, 6, 9, 12, 15") from None
     if value not in _VALID:
         raise BhrError(
             f"code {value}{place} is not a stable actuator code; use one of 0, 3, 6, 9, 12, 15"
@@ -103,14 +110,26 @@ def read_codes_csv(path: str | os.PathLike[str]) -> tuple[list[int], np.ndarray]
     reported with its line and column name, so nothing is ever sent from a
     file that holds one.
     """
+    from bhr._input import MAX_POINTS, read_capped
+
     p = Path(path)
+    hint = "give the codes.csv written by 'bhr follow'"
     try:
-        text = p.read_text(encoding="utf-8")
+        if p.is_dir():
+            raise IsADirectoryError(str(p))
+        text = read_capped(p, "codes file", hint).decode("utf-8-sig")
     except FileNotFoundError:
-        raise BhrError(f"codes file {p} does not exist; give the codes.csv written by 'bhr follow'") from None
-    except (IsADirectoryError, PermissionError, UnicodeDecodeError) as exc:
+        raise BhrError(f"codes file {p} does not exist; {hint}") from None
+    except (OSError, UnicodeDecodeError) as exc:
         raise BhrError(f"cannot read codes file {p}: {exc.__class__.__name__}; give a readable CSV file") from None
-    rows = list(csv.reader(io.StringIO(text)))
+    if "\x00" in text:
+        raise BhrError(f"{p}: binary data (a NUL byte); {hint}")
+    try:
+        rows = list(csv.reader(io.StringIO(text)))
+    except csv.Error as exc:  # e.g. a field longer than csv's 131072-character limit
+        raise BhrError(f"{p}: not a codes table ({str(exc).splitlines()[0][:80]}); {hint}") from None
+    if len(rows) > MAX_POINTS + 1:
+        raise BhrError(f"{p}: more than {MAX_POINTS} steps; split the file ({hint})")
     rows = [r for r in rows if any(cell.strip() for cell in r)]
     if not rows:
         raise BhrError(f"{p} is empty; expected a header 'step,m1,...,mN' and one row per step")
@@ -126,10 +145,10 @@ def read_codes_csv(path: str | os.PathLike[str]) -> tuple[list[int], np.ndarray]
         line = i + 2
         if len(row) != n + 1:
             raise BhrError(f"{p}:{line}: expected {n + 1} columns (step and {n} modules), got {len(row)}")
-        try:
-            steps.append(int(row[0].strip()))
-        except ValueError:
-            raise BhrError(f"{p}:{line}: step {row[0]!r} is not a whole number") from None
+        cell = row[0].strip()
+        if not (cell.isascii() and cell.lstrip("+-").isdigit() and len(cell) <= 12):
+            raise BhrError(f"{p}:{line}: step {cell[:40]!r} is not a whole number of at most 12 digits")
+        steps.append(int(cell))
         for j, cell in enumerate(row[1:]):
             table[i, j] = check_code(cell, f"at {p}:{line} column m{j + 1}")
     return steps, table

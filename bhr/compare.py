@@ -8,6 +8,8 @@ on the same axes (matplotlib is imported only there).
 """
 from __future__ import annotations
 
+import math
+
 import time
 from dataclasses import dataclass
 from typing import Any, Sequence
@@ -50,6 +52,14 @@ def compare_runs(traj: Trajectory, solvers: Sequence[str], robot: Robot, *,
     for s in names:
         if canonical(s) not in known:
             raise BhrError(f"unknown solver {s!r}; choose from {', '.join(known)}")
+    from bhr._input import MAX_STEP_POINTS
+
+    work = traj.points.shape[0] * (max(robot.modules, body_modules or 0) + 1) * len(names)
+    if work > MAX_STEP_POINTS:  # every run is kept for the table and the figure: they share one run's budget
+        raise BhrError(f"{len(names)} runs of {traj.points.shape[0]} steps x "
+                       f"{max(robot.modules, body_modules or 0) + 1} robot points is {work:,} points to keep, "
+                       f"more than the {MAX_STEP_POINTS:,} a command may hold in memory; shorten the path, raise "
+                       "the feed, or compare fewer solvers")
     opts = solver_options or {}
     out = []
     for s in names:
@@ -128,7 +138,8 @@ def compare_json(runs: Sequence[Compared]) -> dict[str, Any]:
     return {
         "trajectory": {"name": r0.trajectory.name, "params": r0.trajectory.params, "steps": r0.steps},
         "robot": r0.robot.to_dict(),
-        "rows": compare_rows(runs),
+        "rows": [{k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in row.items()}
+                 for row in compare_rows(runs)],  # JSON has no NaN: an undefined ratio is null
         "runs": [{"solver": c.solver,
                   "points_max_error_mm": [float(v) for v in c.result.point_errors.max(axis=1)],
                   "tip_error_mm": [float(v) for v in c.result.point_errors[:, -1]],

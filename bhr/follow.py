@@ -18,6 +18,7 @@ advance kernels.
 from __future__ import annotations
 
 import json
+import math
 import sys
 import warnings
 from dataclasses import dataclass, field, fields
@@ -27,7 +28,9 @@ from typing import Any, Callable
 import numpy as np
 
 from bhr._callable import make_callable
+from bhr._input import MAX_MM, MAX_STEP_POINTS
 from bhr.errors import BhrError
+from bhr.options import robot_limits
 from bhr.robot import Robot
 from bhr.solvers import Chain, FollowContext, get_solver
 from bhr.body import BodyRun, simulate_body
@@ -40,6 +43,15 @@ __all__ = ["follow", "FollowResult", "path_directions", "score_step", "advance_k
 
 class BhrWarning(UserWarning):
     """A run that completes but should be read with care (e.g. a curve tighter than the robot can turn)."""
+
+
+def _sharpest_turn(dirs: np.ndarray) -> tuple[int, float] | None:
+    """(index, angle in degrees) of the largest turn between consecutive step directions; None for one step."""
+    if dirs.shape[0] < 2:
+        return None
+    cos = np.clip(np.einsum("ij,ij->i", dirs[:-1], dirs[1:]), -1.0, 1.0)
+    k = int(np.argmin(cos))
+    return k, math.degrees(math.acos(float(cos[k])))
 
 
 def stats(values: np.ndarray, first: int = 0) -> dict[str, float | int]:
@@ -254,13 +266,15 @@ def _run_from_json(doc: Any, where: str) -> FollowResult:
     def array(value: Any, shape: tuple[int | None, ...], what: str) -> np.ndarray:
         try:
             arr = np.asarray(value, dtype=np.float64)
-        except (TypeError, ValueError):
-            raise bad(f"{what} must be numbers") from None
+        except (TypeError, ValueError, OverflowError):
+            raise bad(f"{what} must be numbers of a sensible size") from None
         if arr.ndim != len(shape) or any(w is not None and w != h for w, h in zip(shape, arr.shape)):
             want = " x ".join("N" if w is None else str(w) for w in shape)
             raise bad(f"{what} must be {want} numbers, got shape {' x '.join(map(str, arr.shape)) or 'scalar'}")
         if not np.all(np.isfinite(arr)):
             raise bad(f"{what} must be finite numbers")
+        if arr.size and float(np.abs(arr).max()) > MAX_MM:
+            raise bad(f"{what} must lie within +-{MAX_MM:g} mm (or deg)")
         return arr
 
     if not isinstance(doc, dict) or not all(k in doc for k in ("trajectory", "robot", "solver", "steps")):
@@ -287,16 +301,18 @@ def _run_from_json(doc: Any, where: str) -> FollowResult:
     oe = np.stack([array(st["module_orientation_errors_deg"], (n,), f"step {k + 1} module_orientation_errors_deg")
                    for k, st in enumerate(steps)])
     iters = [st["iterations"] for st in steps]
-    if not all(isinstance(v, int) and not isinstance(v, bool) and v >= 0 for v in iters):
-        raise bad("every step's iterations must be a whole number, 0 or more")
+    max_iter = robot_limits()["max_iter"][0]
+    if not all(isinstance(v, int) and not isinstance(v, bool) and 0 <= v <= max_iter
+               for v in iters):
+        raise bad(f"every step's iterations must be a whole number from 0 to {max_iter:g}")
     codes = None
     if any(st["codes"] is not None for st in steps):
         codes = np.zeros((count, n), dtype=np.int64)
         for k, st in enumerate(steps):
             c = st["codes"]
             if not isinstance(c, list) or len(c) != n or not all(isinstance(v, int) and not isinstance(v, bool)
-                                                                  for v in c):
-                raise bad(f"step {k + 1} codes must be {n} whole numbers (or null in every step)")
+                                                                  and 0 <= v <= 15 for v in c):
+                raise bad(f"step {k + 1} codes must be {n} whole numbers from 0 to 15 (or null in every step)")
             codes[k] = c
     solver = doc["solver"]
     if not isinstance(solver, str):
@@ -340,9 +356,20 @@ def _body_from_json(steps: list, robot: Robot, bad: Callable[[str], BhrError],
 
 def load_run(path: Any) -> FollowResult:
     """Read a run saved by ``bhr follow`` (``run.json``; ``-`` reads standard input), without solving."""
+    from bhr._input import MAX_FILE_BYTES, read_capped
+
     name = "standard input" if str(path) == "-" else str(path)
+    hint = "give a run.json written by 'bhr follow'"
     try:
-        text = sys.stdin.read() if str(path) == "-" else Path(path).read_text(encoding="utf-8")
+        if str(path) == "-":
+            raw = sys.stdin.buffer.read(MAX_FILE_BYTES + 1)
+            if len(raw) > MAX_FILE_BYTES:
+                raise BhrError(f"standard input is larger than {MAX_FILE_BYTES // (1024 * 1024)} MiB; {hint}")
+        else:
+            if Path(path).is_dir():
+                raise IsADirectoryError(str(path))
+            raw = read_capped(path, "run file", hint)
+        text = raw.decode("utf-8-sig")
     except FileNotFoundError:
         raise BhrError(f"no such run file {name}; give the run.json that 'bhr follow' wrote") from None
     except IsADirectoryError:
@@ -355,6 +382,10 @@ def load_run(path: Any) -> FollowResult:
     except json.JSONDecodeError as exc:
         raise BhrError(f"{name}: not valid JSON (line {exc.lineno}: {exc.msg}); give a run.json written by "
                        "'bhr follow'") from None
+    except RecursionError:
+        raise BhrError(f"{name}: JSON nested too deeply for a run; {hint}") from None
+    except ValueError as exc:  # e.g. an integer of more than 4300 digits
+        raise BhrError(f"{name}: unreadable number ({str(exc).splitlines()[0][:80]}); {hint}") from None
     return FollowResult.from_json(doc, name)
 
 
@@ -392,11 +423,22 @@ def follow(points: Any, solver: str = "thesis", robot: Robot | None = None, *,
     if path.shape[0] < 2:
         raise BhrError("a trajectory needs at least two points")
     dirs = path_directions(path)
+    work = path.shape[0] * (max(robot.modules, body_modules or 0) + 1)
+    if work > MAX_STEP_POINTS:
+        raise BhrError(f"{path.shape[0]} steps x {max(robot.modules, body_modules or 0) + 1} robot points is "
+                       f"{work:,} points to keep, more than the {MAX_STEP_POINTS:,} a run may hold in memory; "
+                       "shorten the path, raise the feed or use fewer modules")
     s = get_solver(solver, robot, **(solver_options or {}))
     s.reset()
     s.prepare(traj)
     msgs: list[str] = []
-    if traj.min_radius < robot.min_turn_radius:
+    turn = _sharpest_turn(dirs)
+    if turn is not None and turn[1] > 90.0:
+        msg = (f"the trajectory turns back by {turn[1]:.1f} deg at point {turn[0] + 2} (a reversal: no robot can "
+               "follow it, its turn radius is near 0); expect large errors")
+        msgs.append(msg)
+        warnings.warn(msg, BhrWarning, stacklevel=2)
+    elif traj.min_radius < robot.min_turn_radius:
         msg = (f"the trajectory turns with radius {traj.min_radius:.2f} mm, tighter than the robot's minimum "
                f"turn radius {robot.min_turn_radius:.2f} mm; expect large errors")
         msgs.append(msg)

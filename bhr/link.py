@@ -115,7 +115,11 @@ class BoardLink:
             kwargs["exclusive"] = True  # two programs on one port would steal each other's replies
         try:
             self._ser = serial.serial_for_url(self.port, **kwargs)
-        except (serial.SerialException, OSError, ValueError) as exc:
+        except (serial.SerialException, OSError, ValueError, OverflowError) as exc:
+            text = str(exc)
+            if "exclusively lock" in text or getattr(exc, "errno", None) in (11, 16) or "busy" in text.lower():
+                raise LinkError(f"serial port {self.port} is in use by another program (bhr stream, a serial "
+                                "monitor, ...); close that program and try again") from None
             raise LinkError(f"cannot open serial port {self.port}: {_reason(exc)}; check the port name "
                             "(or pyserial URL) and that the board or simulator is running") from None
         try:
@@ -257,6 +261,9 @@ class BoardLink:
                 self.timeouts += 1
                 self._decoder.reset()  # whatever is buffered is stale
                 continue
+            if reply.version != P.VERSION:
+                raise LinkError(f"board on {self.port} answered {what} in protocol version {reply.version}, bhr "
+                                f"speaks {P.VERSION}; update the firmware or bhr so that they match")
             if reply.type == P.Msg.NAK:
                 _, reason, detail = P.parse_nak(reply) if len(reply.payload) == 3 else (0, 0, 0)
                 if reason in P.RETRYABLE:

@@ -29,15 +29,13 @@ from typing import Any, Callable
 import numpy as np
 from numba import njit
 
-from bhr._input import MAX_MM, check_keys, choice, number, read_text, text_value, type_name, vector3
+from bhr._input import MAX_MM, MAX_POINTS, check_keys, choice, number, read_text, text_value, type_name, vector3
 from bhr.errors import BhrError
 from bhr.path import Trajectory
 
 __all__ = ["segments_trajectory", "csv_trajectory", "resample_polyline", "estimate_min_radius",
            "MAX_POINTS", "CURVATURE_WINDOW_MM", "SEGMENT_KEYS"]
 
-#: A path may have at most this many points after sampling (memory guard).
-MAX_POINTS = 2_000_000
 #: Half-width (mm of arc length) of the window over which CSV curvature is fitted.
 CURVATURE_WINDOW_MM = 15.0
 
@@ -265,6 +263,8 @@ def read_points_csv(path: Path) -> tuple[np.ndarray, np.ndarray | None, np.ndarr
                 continue
             f = fields[cols[name]]
             try:
+                if not (f.isascii() and "_" not in f):  # no "1_5", full-width or Arabic-Indic digits
+                    raise ValueError(f)
                 v = float(f)
             except ValueError:
                 raise BhrError(f"{where}, line {no}: {name} = {f!r} is not a number; give mm as plain numbers "
@@ -465,6 +465,9 @@ def csv_trajectory(path: Path, feed: float):
         pts, lumen = resample_polyline(raw, feed, lumen_raw)
     except BhrError as exc:
         raise BhrError(f"{where}: {exc}") from None
+    if pts.shape[0] < 2:
+        raise BhrError(f"{where}: the path zig-zags within one feed ({feed:g} mm) of its first point and never "
+                       "gets farther; give a centerline that moves forward")
     d0 = pts[1] - pts[0]
     heading = tuple(float(v) for v in d0 / np.linalg.norm(d0))
     params = {"points_in_file": int(raw.shape[0]), "length": length}

@@ -627,12 +627,34 @@ def chain_figure(initial: np.ndarray, final: np.ndarray, target: Sequence[float]
     return fig
 
 
+#: Figure formats bhr writes (by file extension); a path without one (a device such as /dev/null) gets PNG.
+FIGURE_FORMATS = (".png", ".svg", ".pdf")
+
+
+def check_figure_path(path: str | os.PathLike[str]) -> None:
+    """Refuse a figure path whose extension is not a format bhr draws (.png, .svg, .pdf)."""
+    from bhr.errors import BhrError
+
+    suffix = Path(path).suffix.lower()
+    if suffix and suffix not in FIGURE_FORMATS:
+        raise BhrError(f"cannot draw a figure as {path}: give a file ending in .png, .svg or .pdf")
+
+
 def save_figure(fig: plt.Figure, path: str | os.PathLike[str], dpi: int = 110) -> Path:
     """Save ``fig`` atomically as PNG and close it."""
     p = Path(path)
     try:
+        fmt = p.suffix.lower().lstrip(".") if p.suffix.lower() in FIGURE_FORMATS else "png"
         with atomic_path(p) as tmp:
-            fig.savefig(tmp, dpi=dpi, format=p.suffix.lstrip(".") or "png")
+            if tmp == p:  # a device, FIFO or /dev/stdout: render in memory, then one plain write (no seeking)
+                import io
+
+                buf = io.BytesIO()
+                fig.savefig(buf, dpi=dpi, format=fmt)
+                with open(p, "ab" if p.is_file() else "wb") as fh:
+                    fh.write(buf.getvalue())
+            else:
+                fig.savefig(tmp, dpi=dpi, format=fmt)
     finally:
         plt.close(fig)
     return p

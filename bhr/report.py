@@ -232,9 +232,13 @@ def _check_values(spec: RunSpec, where: str) -> None:
 
 def load_batch(path: str | os.PathLike[str]) -> Batch:
     """Read and check a batch file (TOML); raises BhrError with one line naming the problem."""
+    from bhr._input import read_capped
+
     p = Path(path)
     try:
-        text = p.read_text(encoding="utf-8")
+        if p.is_dir():
+            raise IsADirectoryError(str(p))
+        text = read_capped(p, "batch file", "give a TOML batch file").decode("utf-8-sig")
     except FileNotFoundError:
         raise BhrError(f"no such batch file {p}; give a TOML file of [[run]] tables (see docs/report.md)") from None
     except IsADirectoryError:

@@ -14,6 +14,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
+from bhr.options import robot_limits
 from bhr.codes import check_codes
 from bhr.kinematics.frames import fk_kernel
 from bhr.errors import BhrError
@@ -93,6 +94,11 @@ class Robot:
             w = getattr(self, name)
             if not isinstance(w, (int, float)) or not math.isfinite(w) or w < 0:
                 raise BhrError(f"{name.replace('_', '-')} must be a non-negative number, got {w!r}")
+        for key, (top, unit) in robot_limits().items():  # the registry's upper limits, wherever a robot comes from
+            value = getattr(self, key, None)
+            if value is not None and top is not None and value > top:
+                u = f" {unit}" if unit else ""
+                raise BhrError(f"{key.replace('_', ' ')} {value:g}{u} is too large; the limit is {top:g}{u}")
         object.__setattr__(self, "modules", int(self.modules))
         object.__setattr__(self, "max_iter", int(self.max_iter))
         object.__setattr__(self, "feed_divisor", int(self.feed_divisor))

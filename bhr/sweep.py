@@ -56,7 +56,7 @@ METRICS = ("status", "steps", "tip_max_error_mm", "tip_final_error_mm", "points_
 DASK_MISSING = ("--scheduler needs Dask's distributed package, which is not installed; "
                 "install it with: pip install 'bhr[dask]' (or pip install 'dask[distributed]')")
 _TOP_KEYS = ("title", "description", "traj", "solver", "robot", "grid")
-_NUM = re.compile(r"^[+-]?(\d+(\.\d*)?|\.\d+)([eE][+-]?\d+)?$")
+_NUM = re.compile(r"^[+-]?(\d+(\.\d*)?|\.\d+)([eE][+-]?\d+)?$", re.ASCII)
 _MAX_DESIGNS = 1_000_000
 
 
@@ -64,7 +64,7 @@ def _number(text: str, key: str, where: str) -> int | float:
     t = text.strip()
     if not _NUM.match(t):
         raise BhrError(f"{where}: {key} value {text!r} is not a number")
-    return int(t) if re.fullmatch(r"[+-]?\d+", t) else float(t)
+    return int(t) if re.fullmatch(r"[+-]?\d+", t, re.ASCII) else float(t)
 
 
 def _range(start: float, stop: float, step: float, key: str, where: str) -> list[int | float]:
@@ -201,9 +201,13 @@ def sweep_from_toml(data: dict[str, Any], source: str = "sweep", base_dir: str |
 
 def load_sweep(path: str | os.PathLike[str]) -> Sweep:
     """Read a sweep file (TOML); relative trajectory paths are taken from its folder."""
+    from bhr._input import read_capped
+
     p = Path(path)
     try:
-        data = tomllib.loads(p.read_text(encoding="utf-8"))
+        if p.is_dir():
+            raise IsADirectoryError(str(p))
+        data = tomllib.loads(read_capped(p, "sweep file", "give a TOML sweep file").decode("utf-8-sig"))
     except FileNotFoundError:
         raise BhrError(f"no such sweep file {p}; give a TOML file with traj, solver and a [grid] table") from None
     except IsADirectoryError:

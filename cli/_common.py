@@ -1,6 +1,7 @@
 """Helpers shared by the command modules: error reporting and output checks."""
 from __future__ import annotations
 
+import contextlib
 import functools
 import os
 import sys
@@ -12,35 +13,123 @@ import click
 from bhr.errors import BhrError
 
 
+def os_error_line(exc: OSError) -> str:
+    """One line for a failed read or write: what, why, and what to do."""
+    import errno
+
+    what = f"{exc.filename}" if exc.filename is not None else "standard output"
+    why = exc.strerror or type(exc).__name__
+    fixes = {
+        errno.ENOSPC: "free some disk space or write to another device",
+        errno.EDQUOT: "free some of your disk quota or write elsewhere",
+        errno.EROFS: "the file system is read-only; choose another path",
+        errno.EACCES: "check the permissions or choose another path",
+        errno.EPERM: "check the permissions or choose another path",
+        errno.EFBIG: "the file is too large for this file system; write elsewhere",
+        errno.EIO: "the device reported an input/output error; check it and run again",
+    }
+    fix = fixes.get(exc.errno or 0, "check the path and the device, then run again")
+    return f"{what}: {why}; {fix}"
+
+
+def _quiet_stdout() -> None:
+    """Point standard output at /dev/null so that the interpreter's final flush cannot fail again."""
+    with contextlib.suppress(Exception):
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+
+
 def guarded(func: Callable[..., Any]) -> Callable[..., Any]:
-    """Turn a BhrError (and Ctrl-C) into one line on stderr and a non-zero exit."""
+    """Turn a BhrError, a failed write (disk or standard output full), memory exhaustion and Ctrl-C into one
+    line on stderr and a non-zero exit."""
 
     @functools.wraps(func)
     def wrapper(*args: Any, **kwargs: Any) -> Any:
         try:
-            return func(*args, **kwargs)
+            rv = func(*args, **kwargs)
+            sys.stdout.flush()  # a full or closed standard output fails here, inside the guard
+            return rv
         except BhrError as exc:
             raise click.ClickException(str(exc).splitlines()[0] if str(exc) else type(exc).__name__) from None
         except KeyboardInterrupt:
             click.echo("Interrupted.", err=True)
             sys.exit(130)
+        except BrokenPipeError:
+            _quiet_stdout()  # the reader went away (bhr ... | head): stop quietly
+            sys.exit(141)
+        except OSError as exc:
+            if exc.filename is None:
+                _quiet_stdout()
+            raise click.ClickException(os_error_line(exc)) from None
+        except MemoryError:
+            raise click.ClickException("out of memory; use a shorter trajectory, fewer modules or a larger feed "
+                                       "(the limits are in docs/commands.md)") from None
+        except RecursionError:
+            raise click.ClickException("input nested too deeply to read; give a file as bhr writes it") from None
 
     return wrapper
 
 
 def check_writable(path: str | os.PathLike[str] | None, what: str = "output") -> None:
-    """Fail before any work starts when ``path`` cannot be written.
+    """Fail before any work starts when ``path`` cannot be written (or is a read-only file).
 
-    ``-`` (standard output) and ``None`` are always accepted.
+    ``-`` (standard output) and ``None`` are always accepted; devices and
+    FIFOs (``/dev/null``) are written in place and accepted when writable.
     """
     if path is None or str(path) == "-":
         return
-    p = Path(path)
-    if p.exists() and p.is_dir():
-        raise BhrError(f"{what} path {p} is a directory; give a file name")
-    parent = p.parent if str(p.parent) else Path(".")
-    probe = parent
-    while not probe.exists():
+    from bhr.atomic import check_output_file
+
+    check_output_file(path, what)
+
+
+def run_folder_name(readable: str, *parts: Any) -> str:
+    """A folder name for a run: ``readable`` plus 8 hex digits of a hash of what makes the run different.
+
+    ``parts`` are JSON-able descriptions (trajectory points, robot, solver and
+    its options); two runs share a folder only when they agree on all of them.
+    """
+    import hashlib
+    import json
+
+    h = hashlib.sha256()
+    for part in parts:
+        if hasattr(part, "tobytes"):
+            h.update(part.tobytes())
+        else:
+            h.update(json.dumps(part, sort_keys=True, default=repr).encode())
+        h.update(b"\x00")
+    safe = "".join(c if c.isalnum() or c in "-_." else "_" for c in readable)[:60] or "run"
+    return f"{safe}-{h.hexdigest()[:8]}"
+
+
+def json_in_folder(json_path: str | None, folder: Any, taken: tuple[str, ...], option: str = "--json"
+                   ) -> str | None:
+    """The name inside the output folder that ``--json`` (or ``option``) names, if it names a file in it.
+
+    None when it names a file elsewhere. Refuses a name that another output of the same run writes
+    (codes.csv, a figure, the manifest).
+    """
+    import fnmatch
+
+    if json_path is None or json_path == "-":
+        return None
+    real = Path(os.path.abspath(os.path.realpath(json_path)))
+    try:
+        rel = real.relative_to(folder.target)
+    except ValueError:
+        return None
+    name = str(rel)
+    if name == "." or any(fnmatch.fnmatch(name, pat) for pat in taken) or name == "manifest.json":
+        raise BhrError(f"{option} {json_path} names another output of this run; choose another file name")
+    return name
+
+
+def check_parent_folder(folder: str | os.PathLike[str], what: str = "output folder") -> None:
+    """Fail before any work when run folders cannot be made inside ``folder`` (the default ``bhr-out``)."""
+    p = Path(folder)
+    probe = p
+    while not probe.exists() and probe != probe.parent:
         probe = probe.parent
-    if not probe.is_dir() or not os.access(probe, os.W_OK):
-        raise BhrError(f"cannot write {what} {p}: {probe} is not a writable folder; choose another path")
+    if not probe.is_dir() or not os.access(probe, os.W_OK | os.X_OK):
+        raise BhrError(f"cannot make the {what} in {p}: {probe} is not a writable folder; give --out DIR")

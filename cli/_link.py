@@ -1,11 +1,15 @@
 """Options shared by the commands that talk to the actuator board: port, baud, timeout, retries."""
 from __future__ import annotations
 
-from typing import Any, Callable
+import contextlib
+from typing import Any, Callable, Iterator
 
 import click
 
-from bhr.cli._options import FiniteRange, _stack
+from bhr.cli._options import FiniteRange, PlainIntRange, _stack
+
+#: Fastest baud rate accepted (USB serial adapters top out at a few Mbaud).
+MAX_BAUD = 4_000_000
 
 PORT_HELP = "Serial device or pyserial URL (/dev/ttyUSB0, COM3, /dev/pts/N, socket://host:port, loop://)."
 
@@ -14,11 +18,11 @@ def link_options(port_help: str = PORT_HELP, robot: bool = True) -> Callable[[An
     """--port, --baud, --timeout, --retries (and --robot for the file's [link] table)."""
     opts = [
         click.option("--port", default=None, metavar="PORT", help=port_help),
-        click.option("--baud", default=None, metavar="BAUD", type=click.IntRange(min=50),
+        click.option("--baud", default=None, metavar="BAUD", type=PlainIntRange(min=50, max=MAX_BAUD),
                      help="Baud rate [the robot file's link.baudrate, else 115200]."),
         click.option("--timeout", default=0.25, show_default=True, metavar="S",
                      type=FiniteRange(min=0, min_open=True, max=60), help="Seconds to wait for each answer."),
-        click.option("--retries", default=3, show_default=True, metavar="N", type=click.IntRange(min=0, max=100),
+        click.option("--retries", default=3, show_default=True, metavar="N", type=PlainIntRange(min=0, max=100),
                      help="Extra tries for a frame that gets no answer or arrives damaged."),
     ]
     if robot:
@@ -66,6 +70,31 @@ def exit_interrupted(exc, total: int, unit: str) -> None:
         click.echo(f"Interrupted after {exc.sent} of {total} {unit}; stop-all failed ({exc.detail}); "
                    "the board switches off by itself after its silence timeout.", err=True)
     sys.exit(130)
+
+
+@contextlib.contextmanager
+def stop_on_signals() -> Iterator[None]:
+    """While streaming, SIGTERM and SIGHUP (kill, a closed terminal) act like Ctrl-C: stop-all is sent.
+
+    Each raises KeyboardInterrupt in the main thread, which the streaming
+    code answers with stop-all and the one-line "Interrupted" message.
+    """
+    import signal
+
+    def handler(signum: int, frame: Any) -> None:
+        raise KeyboardInterrupt
+
+    old = {}
+    for sig in (signal.SIGTERM, signal.SIGHUP):
+        try:
+            old[sig] = signal.signal(sig, handler)
+        except (ValueError, OSError):  # not the main thread: leave the defaults
+            pass
+    try:
+        yield
+    finally:
+        for sig, h in old.items():
+            signal.signal(sig, h)
 
 
 SCHEDULE_HELP = ("rate: send at --rate after checking the whole stream against the wires' thermal model "

@@ -13,6 +13,15 @@ import click
 from bhr.options import MAX_MM, Option, by_group
 
 
+def plain_number(text: str) -> bool:
+    """True for numbers written with ASCII digits only and no '_' separators ("15", "-2.5e3", "nan").
+
+    Python's int() and float() also take "1_5", full-width "１５" and Arabic-Indic digits; a robot
+    command should not guess what those mean.
+    """
+    return text.isascii() and "_" not in text
+
+
 class Bounded(click.ParamType):
     """A finite int or float no larger in size than ``limit``: one clear line for nan, inf or 1e300.
 
@@ -32,6 +41,8 @@ class Bounded(click.ParamType):
         else:
             text = str(value).strip()
             try:
+                if not plain_number(text):
+                    raise ValueError(text)
                 v = int(text) if self.kind is int else float(text)
             except ValueError:
                 self.fail(f"{value!r} is not a valid {self.name}", param, ctx)
@@ -44,14 +55,28 @@ class Bounded(click.ParamType):
 
 
 class FiniteRange(click.FloatRange):
-    """click.FloatRange that also refuses nan (nan passes every comparison click makes)."""
+    """click.FloatRange that also refuses nan (nan passes every comparison click makes) and non-ASCII digits."""
 
     def convert(self, value: Any, param: Any, ctx: Any) -> Any:
+        if isinstance(value, str) and not plain_number(value.strip()):
+            self.fail(f"{value!r} is not a valid float (write plain ASCII digits)", param, ctx)
         v = super().convert(value, param, ctx)
         if not math.isfinite(v):
             self.fail(f"{value} is not a finite number", param, ctx)
         return v
 
+
+class PlainIntRange(click.IntRange):
+    """click.IntRange that refuses "1_5" and non-ASCII digits."""
+
+    def convert(self, value: Any, param: Any, ctx: Any) -> Any:
+        if isinstance(value, str) and not plain_number(value.strip()):
+            self.fail(f"{value!r} is not a valid integer (write plain ASCII digits)", param, ctx)
+        return super().convert(value, param, ctx)
+
+
+#: Slowest streaming rate accepted (Hz): one step every 100 s.
+MIN_RATE = 0.01
 
 #: Lengths and coordinates in mm (trajectory options, targets), and angles (ranges checked by the library).
 MM = Bounded(float, MAX_MM, "mm")

@@ -6,12 +6,13 @@ import json
 import click
 
 from bhr.cli._common import check_writable, guarded
+from bhr.cli._options import PlainIntRange
 
 
 @click.command()
 @click.option("--case", "cases", multiple=True, metavar="NAME",
               help="Case to run (repeatable): fabrik, ccd, seed-colon, optimal, body-60, lumen, cli [all].")
-@click.option("--repeat", type=click.IntRange(1, 100), default=None, help="Repeats per timing (median taken).")
+@click.option("--repeat", type=PlainIntRange(1, 100), default=None, help="Repeats per timing (median taken).")
 @click.option("--json", "json_path", default=None, metavar="PATH|-",
               help="Write the results as JSON ('-': stdout, the table then goes to stderr).")
 @click.option("--check", is_flag=True, help="Exit with status 1 when a stated requirement is not met.")

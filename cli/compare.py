@@ -7,7 +7,7 @@ from pathlib import Path
 
 import click
 
-from bhr.cli._common import check_writable, guarded
+from bhr.cli._common import check_parent_folder, check_writable, guarded, json_in_folder, run_folder_name
 from bhr.cli._options import (build_robot, lumen_options, optimal_options, pop_solver_options, pop_trajectory,
                               robot_options, trajectory_options)
 
@@ -24,7 +24,8 @@ from bhr.cli._options import (build_robot, lumen_options, optimal_options, pop_s
 @lumen_options
 @click.option("--body-modules", type=int, default=None, metavar="M",
               help="Also simulate the body of a robot of M modules (M >= --modules) in every run.")
-@click.option("--out", "out_dir", default=None, metavar="DIR", help="Output folder [./bhr-out/compare-<traj>/].")
+@click.option("--out", "out_dir", default=None, metavar="DIR",
+              help="Output folder, replaced whole by this run [./bhr-out/compare-<traj>-<hash>/].")
 @click.option("--json", "json_path", default=None, metavar="PATH|-",
               help="Also write the comparison as JSON ('-': stdout).")
 @click.option("--no-plots", is_flag=True, help="Skip the figure.")
@@ -60,14 +61,23 @@ def compare(traj, solvers, out_dir, json_path, no_plots, **kwargs):
     if traj is None:
         raise BhrError("give the trajectory to compare on: --traj line|curve|spiral|colon|FILE")
     stem = Path(traj).stem if traj not in ("line", "curve", "spiral", "colon") else traj
-    out = Path(out_dir) if out_dir else Path("bhr-out") / f"compare-{stem}"
-    if not no_plots:
-        check_writable(out / "compare.png", "output folder")
+    from bhr.atomic import OutputFolder
+
+    folder = None
+    if out_dir is not None:
+        folder = OutputFolder(out_dir, "compare", names=COMPARE_NAMES).check()  # before any work
+    elif not no_plots:
+        check_parent_folder("bhr-out")
     check_writable(json_path, "JSON")
     per_solver = pop_solver_options(kwargs, names)
     body_modules = kwargs.pop("body_modules")
     announce_compiles()
     tr = load_trajectory(traj, feed=robot.feed, **pop_trajectory(kwargs))
+    if folder is None and not no_plots:
+        name = run_folder_name(f"compare-{stem}", tr.points, tr.lumen if tr.lumen is not None else 0,
+                               robot.to_dict(), names, per_solver, body_modules)
+        folder = OutputFolder(Path("bhr-out") / name, "compare", names=COMPARE_NAMES).check()
+    json_inside = json_in_folder(json_path, folder, COMPARE_NAMES) if folder is not None else None
     with warnings.catch_warnings(record=True) as caught, \
             status(f"following {tr.name} ({len(tr.points)} steps) with {', '.join(names)}"):
         warnings.simplefilter("always", BhrWarning)
@@ -76,17 +86,30 @@ def compare(traj, solvers, out_dir, json_path, no_plots, **kwargs):
         click.echo(f"Warning: {w}", err=True)
     stream = json_path == "-"
     written = []
+    if folder is not None:
+        with folder:
+            if json_inside is not None:
+                write_json(folder.path(json_inside), compare_json(runs))
+                written.append(folder.final(json_inside))
+            if not no_plots:
+                from bhr.plots import save_figure
+
+                with status(f"drawing {folder.final('compare.png')}"):
+                    save_figure(compare_figure(runs), folder.path("compare.png"))
+                written.append(folder.final("compare.png"))
+            if json_path and json_path != "-" and json_inside is None:
+                write_json(Path(json_path), compare_json(runs))  # before the folder goes in place
+                written.append(Path(json_path))
     if json_path == "-":
-        click.echo(json.dumps(compare_json(runs)))
-    elif json_path:
+        click.echo(json.dumps(compare_json(runs), allow_nan=False))
+    elif json_path and json_inside is None and folder is None:
         write_json(Path(json_path), compare_json(runs))
         written.append(Path(json_path))
-    if not no_plots:
-        from bhr.plots import save_figure
-
-        with status(f"drawing {out / 'compare.png'}"):
-            written.append(save_figure(compare_figure(runs), out / "compare.png"))
     for line in format_table(runs):
         click.echo(line, err=stream)
     if written:
         click.echo("Wrote " + ", ".join(str(p) for p in written), err=stream)
+
+
+#: What bhr compare writes into its folder.
+COMPARE_NAMES = ("compare.png", "manifest.json")

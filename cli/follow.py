@@ -7,13 +7,14 @@ from pathlib import Path
 
 import click
 
-from bhr.cli._common import check_writable, guarded
+from bhr.cli._common import check_parent_folder, check_writable, guarded, json_in_folder, run_folder_name
 from bhr.cli._progress import announce_compiles, status
 from bhr.cli._link import (exit_interrupted, fault_printer, link_options, link_settings, schedule_option,
-                           thermal_params)
+                           stop_on_signals, thermal_params)
 from bhr.cli.replay import STRIDE_HELP, check_view_options, render_animation, run_live_view
-from bhr.cli._options import (FiniteRange, build_robot, constraint_options, lumen_options, optimal_options,
-                              pop_constraints, pop_solver_options, pop_trajectory, robot_options, trajectory_options)
+from bhr.cli._options import (MIN_RATE, FiniteRange, PlainIntRange, build_robot, constraint_options, lumen_options,
+                              optimal_options, pop_constraints, pop_solver_options, pop_trajectory, robot_options,
+                              trajectory_options)
 
 
 def summary_lines(result) -> list[str]:
@@ -98,17 +99,18 @@ def body_clearance_lines(s: dict) -> list[str]:
               help="Also simulate the body: a robot of M modules (M >= --modules) whose modules behind the head "
                    "follow the leader.")
 @click.option("--out", "out_dir", default=None, metavar="DIR",
-              help="Output folder [./bhr-out/<traj>-<solver>/].")
+              help="Output folder, replaced whole by this run [./bhr-out/<traj>-<solver>-<hash>/, the hash "
+                   "of the trajectory, robot and solver settings].")
 @click.option("--json", "json_path", default=None, metavar="PATH|-",
               help="Where to write the run as JSON ('-': stdout) [DIR/run.json].")
 @click.option("--no-plots", is_flag=True, help="Skip the PNG figures.")
 @click.option("--show", is_flag=True, help="Watch the run step by step in a window (space, n/b, q).")
 @click.option("--animate", "animate_path", default=None, metavar="FILE",
               help="Also write an animation: FILE.gif (Pillow) or FILE.mp4 (needs ffmpeg).")
-@click.option("--stride", type=click.IntRange(min=1), default=None, metavar="N", help=STRIDE_HELP)
+@click.option("--stride", type=PlainIntRange(min=1, max=10**9), default=None, metavar="N", help=STRIDE_HELP)
 @link_options(port_help="Stream each step's codes to the actuator board on this serial device or pyserial URL "
                         "while solving (the --robot file's [link] gives baud rate and module order).", robot=False)
-@click.option("--rate", default=10.0, show_default=True, metavar="HZ", type=FiniteRange(min=0, min_open=True, max=1000),
+@click.option("--rate", default=10.0, show_default=True, metavar="HZ", type=FiniteRange(min=MIN_RATE, max=1000),
               help="With --port: steps sent per second, at most.")
 @schedule_option()
 @click.option("--at-end", "at_end", type=click.Choice(["stop", "hold"]), default="stop", show_default=True,
@@ -134,7 +136,7 @@ def follow(traj, solver, out_dir, json_path, no_plots, **kwargs):
 
         bhr follow --traj colon --port /dev/ttyUSB0 --schedule auto
     """
-    from bhr.atomic import write_json, write_text
+    from bhr.atomic import OutputFolder, write_json, write_text
     from bhr.codes import format_codes_csv
     from bhr.follow import BhrWarning, follow as run_follow
     from bhr.trajectory import load_trajectory
@@ -143,8 +145,15 @@ def follow(traj, solver, out_dir, json_path, no_plots, **kwargs):
     stem = Path(traj).stem if traj not in ("line", "curve", "spiral", "colon") else traj
     if traj == "anatomy":  # one folder per colon
         stem = f"anatomy-{kwargs['seed'] if kwargs.get('seed') is not None else 1}"
-    out = Path(out_dir) if out_dir else Path("bhr-out") / f"{stem}-{solver}"
-    check_writable(out / "run.json", "output folder")  # before any work: a bad path costs nothing
+    # The folder: as given, or bhr-out/<traj>-<solver>-<hash of what makes the run different>.
+    # With --json - and --no-plots and no --out, standard output is the whole output: no folder at all.
+    to_stdout = json_path == "-"
+    use_folder = out_dir is not None or not (to_stdout and no_plots)
+    if out_dir is not None:
+        folder = OutputFolder(out_dir, "follow", names=FOLLOW_NAMES).check()  # before any work
+    else:
+        check_parent_folder("bhr-out")
+        folder = None
     check_writable(json_path, "JSON")
     check_view_options(show, animate_path)
     rate = kwargs.pop("rate")
@@ -168,6 +177,16 @@ def follow(traj, solver, out_dir, json_path, no_plots, **kwargs):
     traj_params = pop_trajectory(kwargs)
     announce_compiles()
     tr = load_trajectory(traj, feed=robot.feed, **traj_params)
+    if folder is None and use_folder:
+        name = run_folder_name(f"{stem}-{solver}", tr.points, tr.lumen if tr.lumen is not None else 0,
+                               robot.to_dict(), solver, constraints, optimal, body_modules)
+        folder = OutputFolder(Path("bhr-out") / name, "follow", names=FOLLOW_NAMES).check()
+    json_inside = json_in_folder(json_path, folder, FOLLOW_NAMES) if folder is not None else None
+    anim_inside = None
+    if folder is not None and animate_path is not None:
+        taken = FOLLOW_NAMES + ((json_inside,) if json_inside else ())
+        anim_inside = json_in_folder(animate_path, folder, taken, "--animate")
+    out = folder.final("") if folder is not None else Path(".")
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", BhrWarning)
         stream_faults: list = []
@@ -179,38 +198,52 @@ def follow(traj, solver, out_dir, json_path, no_plots, **kwargs):
         else:
             result, stream_faults = follow_streaming(tr, solver, robot, {**constraints, **optimal}, body_modules,
                                                      rate, link_kw, schedule, at_end)
-    for w in caught:
-        if issubclass(w.category, BhrWarning):
-            click.echo(f"Warning: {w.message}", err=True)
+    for w in dict.fromkeys(str(w.message) for w in caught if issubclass(w.category, BhrWarning)):
+        click.echo(f"Warning: {w}", err=True)
     with status("writing run.json"):
         doc = result.to_dict()
-    written = []
-    if result.codes is not None:
-        write_text(out / "codes.csv", format_codes_csv(result.codes))
-        written.append(out / "codes.csv")
-    if json_path == "-":
-        click.echo(json.dumps(doc))
-    else:
-        jp = Path(json_path) if json_path else out / "run.json"
-        write_json(jp, doc)
-        written.append(jp)
-    if not no_plots:
-        from bhr.plots import save_run_plots
+    written: list[Path] = []
+    if folder is not None:
+        with folder:
+            if result.codes is not None:
+                write_text(folder.path("codes.csv"), format_codes_csv(result.codes))
+                written.append(folder.final("codes.csv"))
+            if json_path is None or json_inside is not None:
+                name = json_inside or "run.json"
+                write_json(folder.path(name), doc)
+                written.append(folder.final(name))
+            if not no_plots:
+                from bhr.plots import save_run_plots
 
-        with status(f"drawing the figures into {out}"):
-            written += save_run_plots(result, out)
-    stream = json_path == "-"
+                with status(f"drawing the figures into {out}"):
+                    written += [folder.final(p.name) for p in save_run_plots(result, folder.stage)]
+            if anim_inside is not None:  # an animation inside the folder belongs to its set
+                render_animation(result, str(folder.path(anim_inside)), stride, folder.final(anim_inside))
+            if json_path not in (None, "-") and json_inside is None:
+                write_json(json_path, doc)  # before the folder goes in place: a failure here keeps the old set
+                written.append(Path(json_path))
+        if out_dir is None:
+            from bhr.atomic import point_latest
+
+            point_latest(folder.target)  # bhr-out/latest: the run just written
+    if to_stdout:
+        click.echo(json.dumps(doc))
+    elif json_path is not None and folder is None:
+        write_json(json_path, doc)
+        written.append(Path(json_path))
+    stream = to_stdout
     for line in summary_lines(result):
         click.echo(line, err=stream)
-    if result.codes is not None and not streaming:
+    if result.codes is not None and not streaming and folder is not None:
         from bhr.cli._link import thermal_params
         from bhr.thermal import auto_schedule, format_duration
 
         sched = auto_schedule(thermal_params(robot_file), result.codes, rate)
         click.echo(f"Procedure time on the board: {format_duration(sched.total_s)} at the board's limits "
                    f"(bhr plan --codes {out / 'codes.csv'} shows the schedule).", err=stream)
-    click.echo("Wrote " + ", ".join(str(p) for p in written), err=stream)
-    if animate_path:
+    if written:
+        click.echo("Wrote " + ", ".join(str(p) for p in written), err=stream)
+    if animate_path and anim_inside is None:
         render_animation(result, animate_path, stride)
     if show:
         run_live_view(result, stride)
@@ -221,6 +254,10 @@ def follow(traj, solver, out_dir, json_path, no_plots, **kwargs):
         raise BhrError(f"the board raised {len(stream_faults)} fault{'s' if len(stream_faults) != 1 else ''} during "
                        f"the stream (first: {name} at step {step}); check the robot file's [thermal] table and "
                        "'bhr status'")
+
+
+#: What bhr follow writes into its folder (an existing folder holding only such files may be replaced).
+FOLLOW_NAMES = ("run.json", "codes.csv", "*.png", "manifest.json")
 
 
 def follow_streaming(tr, solver, robot, solver_options, body_modules, rate, link_kw, schedule="rate", at_end="stop"):
@@ -245,7 +282,7 @@ def follow_streaming(tr, solver, robot, solver_options, body_modules, rate, link
     if order is not None and len(order) != robot.modules:
         raise BhrError(f"the robot file's link.module_order lists {len(order)} modules but the robot has "
                        f"{robot.modules}; make them agree")
-    with BoardLink(port, **link_args) as link:
+    with BoardLink(port, **link_args) as link, stop_on_signals():
         board = check_board(link, robot.modules)  # a wrong board is refused before the solve
         result = run_follow(tr, solver=solver, robot=robot, solver_options=solver_options)
         if result.codes is None:

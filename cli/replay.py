@@ -9,6 +9,7 @@ from pathlib import Path
 import click
 
 from bhr.cli._common import check_writable, guarded
+from bhr.cli._options import PlainIntRange
 
 STRIDE_HELP = ("Draw every Nth step (the last step always): frames of --animate [default: N keeping it at "
                "300 frames or fewer] and of --show [default: 1].")
@@ -27,7 +28,7 @@ def check_view_options(show: bool, animate_path: str | None) -> None:
         check_display()
 
 
-def render_animation(result, animate_path: str, stride: int | None) -> Path:
+def render_animation(result, animate_path: str, stride: int | None, shown: Path | None = None) -> Path:
     """Render ``result`` to ``animate_path`` with a progress bar on stderr; print what was written."""
     from bhr.animate import animate, default_stride, frame_steps
 
@@ -42,7 +43,7 @@ def render_animation(result, animate_path: str, stride: int | None) -> Path:
 
         anim = animate(result, animate_path, stride=stride, progress=progress)
     click.echo(f"Animation: {anim.frames} frames (every {anim.stride} step{'s' if anim.stride > 1 else ''} of "
-               f"{result.steps}), {anim.bytes / 1e6:.2f} MB -> {anim.path}", err=True)
+               f"{result.steps}), {anim.bytes / 1e6:.2f} MB -> {shown or anim.path}", err=True)
     return anim.path
 
 
@@ -60,10 +61,10 @@ def run_live_view(result, stride: int | None) -> None:
 @click.option("--show", is_flag=True, help="Watch the run step by step in a window (space, n/b, q).")
 @click.option("--animate", "animate_path", default=None, metavar="FILE",
               help="Write an animation: FILE.gif (Pillow) or FILE.mp4 (needs ffmpeg).")
-@click.option("--stride", type=click.IntRange(min=1), default=None, metavar="N", help=STRIDE_HELP)
+@click.option("--stride", type=PlainIntRange(min=1, max=10**9), default=None, metavar="N", help=STRIDE_HELP)
 @click.option("--out", "out_dir", default=None, metavar="DIR",
               help="Write the error figures and path.png here [the run's folder, unless --show/--animate].")
-@click.option("--step", type=click.IntRange(min=1), default=None, metavar="K",
+@click.option("--step", type=PlainIntRange(min=1, max=10**9), default=None, metavar="K",
               help="Draw the robot at step K in the path figure (path-stepK.png) [last step: path.png].")
 @guarded
 def replay(run, show, animate_path, stride, out_dir, step):
@@ -73,15 +74,26 @@ def replay(run, show, animate_path, stride, out_dir, step):
     standard input). With neither --show nor --animate it redraws the
     figures (errors, and the path with the robot) into --out.
 
-        bhr replay bhr-out/colon-seed/run.json --animate colon.gif
+        bhr replay bhr-out/latest/run.json --animate colon.gif
     """
     from bhr.follow import load_run
 
+    import os
+
+    from bhr.atomic import MANIFEST, OutputFolder
+
     write_plots = out_dir is not None or not (show or animate_path)
-    out = Path(out_dir) if out_dir else (Path(run).parent if run != "-" else Path("."))
+    out = Path(out_dir) if out_dir else (Path(run).parent if run != "-" else Path("bhr-out") / "replay")
     path_name = "path.png" if step is None else f"path-step{step}.png"
+    folder = None
     if write_plots:
-        check_writable(out / path_name, "output folder")
+        # Into the run's own folder: the run's files are kept and the folder is replaced whole, figures redrawn.
+        same = run != "-" and os.path.realpath(out) == os.path.realpath(Path(run).parent)
+        if same and not (out / MANIFEST).is_file():
+            check_writable(out / path_name, "output folder")  # a loose run.json: figures written beside it
+        else:
+            folder = OutputFolder(out, "replay", names=("*.png", "run.json", "codes.csv", "manifest.json"),
+                                  keep=same).check()
     check_view_options(show, animate_path)
     result = load_run(run)
     if step is not None and step > result.steps:
@@ -89,20 +101,25 @@ def replay(run, show, animate_path, stride, out_dir, step):
                                  param_hint="'--step'")
     written: list[Path] = []
     if write_plots:
-        from bhr.plots import ERROR_KINDS, error_figure, path_figure, save_figure
-
         from bhr.cli._progress import status
-        from bhr.plots import body_figure, clearance_figure
+        from bhr.plots import ERROR_KINDS, body_figure, clearance_figure, error_figure, path_figure, save_figure
 
+        figures = [(name, lambda kind=kind: error_figure(result, kind)) for kind, (name, _, _) in ERROR_KINDS.items()]
+        figures.append((path_name, lambda: path_figure(result, None if step is None else step - 1)))
+        # everything `bhr follow` drew: the body's errors and the lumen clearance too
+        if result.body is not None and result.body.modules:
+            figures.append(("body_errors.png", lambda: body_figure(result)))
+        if result.clearance is not None:
+            figures.append(("clearance.png", lambda: clearance_figure(result)))
         with status(f"drawing the figures into {out}"):
-            for kind, (name, _, _) in ERROR_KINDS.items():
-                written.append(save_figure(error_figure(result, kind), out / name))
-            written.append(save_figure(path_figure(result, None if step is None else step - 1), out / path_name))
-            # everything `bhr follow` drew: the body's errors and the lumen clearance too
-            if result.body is not None and result.body.modules:
-                written.append(save_figure(body_figure(result), out / "body_errors.png"))
-            if result.clearance is not None:
-                written.append(save_figure(clearance_figure(result), out / "clearance.png"))
+            if folder is None:  # a loose run.json: the figures are written beside it, each whole
+                for name, draw in figures:
+                    written.append(save_figure(draw(), out / name))
+            else:
+                with folder:
+                    for name, draw in figures:
+                        save_figure(draw(), folder.path(name))
+                        written.append(folder.final(name))
     if animate_path:
         render_animation(result, animate_path, stride)  # prints its own line
     if written:

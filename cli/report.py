@@ -6,7 +6,8 @@ from pathlib import Path
 
 import click
 
-from bhr.cli._common import check_writable, guarded
+from bhr.cli._common import guarded
+from bhr.cli._options import PlainIntRange
 
 
 @click.command()
@@ -14,7 +15,7 @@ from bhr.cli._common import check_writable, guarded
               help="Batch file: [[run]] tables with name, traj, solver and options (see docs/report.md).")
 @click.option("--batch", "batch_old", default=None, metavar="FILE.toml", hidden=True)  # the old spelling
 @click.option("--out", "out_dir", default=None, metavar="DIR", help="Output folder [./bhr-out/<batch name>/].")
-@click.option("--jobs", "-j", type=click.IntRange(min=1), default=None, metavar="N",
+@click.option("--jobs", "-j", type=PlainIntRange(min=1, max=1024), default=None, metavar="N",
               help="Worker processes [the number of CPUs, at most one per run].")
 @click.option("--inline-images", is_flag=True,
               help="Embed the figures in index.html, so the page is one file to share.")
@@ -39,10 +40,11 @@ def report(batch_path, batch_old, out_dir, jobs, inline_images, no_plots):
     batch_path = batch_path or batch_old
     if batch_path is None:
         raise BhrError("give the batch file: bhr report --file FILE.toml (see docs/report.md)")
+    from bhr.atomic import OutputFolder
+
     batch = load_batch(batch_path)
     out = Path(out_dir) if out_dir else Path("bhr-out") / Path(batch_path).stem
-    for name in ("index.html", "summary.csv", "summary.json"):
-        check_writable(out / name, "report")
+    folder = OutputFolder(out, "report", names=REPORT_NAMES, what="report folder").check()  # before any work
     total = len(batch.runs)
     workers = min(jobs or os.cpu_count() or 1, total)
     announce_compiles()
@@ -53,12 +55,18 @@ def report(batch_path, batch_old, out_dir, jobs, inline_images, no_plots):
         def progress(done: int, _total: int, row: dict) -> None:
             bar.update(done - bar.done, row["name"] if row["status"] == "ok" else f"{row['name']} FAILED")
 
-        rep = run_batch(batch, out, jobs=workers, plots=not no_plots, inline_images=inline_images,
-                        progress=progress)
+        with folder:  # runs/<name>/ of an earlier report never survive beside this one
+            rep = run_batch(batch, folder.stage, jobs=workers, plots=not no_plots, inline_images=inline_images,
+                            progress=progress)
     for line in format_table(rep.rows):
         click.echo(line)
-    click.echo(f"Wrote {', '.join(str(p) for p in rep.files())} and {out / 'runs'}/ in {rep.wall_time_s:.1f} s")
+    names = ", ".join(str(out / p.name) for p in rep.files())
+    click.echo(f"Wrote {names} and {out / 'runs'}/ in {rep.wall_time_s:.1f} s")
     if rep.failed:
         click.echo(f"Error: {len(rep.failed)} of {total} runs failed; see {out / 'summary.csv'}", err=True)
         return 1
     return 0
+
+
+#: What bhr report writes at the top of its folder (besides runs/).
+REPORT_NAMES = ("index.html", "summary.csv", "summary.json", "manifest.json")

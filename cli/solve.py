@@ -39,6 +39,10 @@ def solve(target, orientation, solver, json_path, plot_path, **kwargs):
 
     check_writable(json_path, "JSON")
     check_writable(plot_path, "plot")
+    if plot_path is not None:
+        from bhr.plots import check_figure_path
+
+        check_figure_path(plot_path)
     robot = build_robot(kwargs, modules=5, module_length=2.0, tol_pos=0.01, max_iter=30)
     constraints = pop_constraints(kwargs)
     result = run(target, orientation=orientation, solver=solver, robot=robot, solver_options=constraints)

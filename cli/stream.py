@@ -8,8 +8,8 @@ import click
 
 from bhr.cli._common import guarded
 from bhr.cli._link import (exit_interrupted, fault_printer, link_options, link_settings, schedule_option,
-                           thermal_params)
-from bhr.cli._options import FiniteRange
+                           stop_on_signals, thermal_params)
+from bhr.cli._options import MIN_RATE, FiniteRange
 
 
 @click.command()
@@ -17,7 +17,7 @@ from bhr.cli._options import FiniteRange
 @click.option("--codes", "codes_path", required=True, metavar="FILE",
               help="codes.csv as written by 'bhr follow' (header step,m1,...,mN).")
 @click.option("--rate", default=10.0, show_default=True, metavar="HZ",
-              type=FiniteRange(min=0, min_open=True, max=1000), help="Rows sent per second.")
+              type=FiniteRange(min=MIN_RATE, max=1000), help="Rows sent per second.")
 @schedule_option()
 @click.option("--dry-run", is_flag=True, help="Print the frames as hex, one per line, instead of sending them.")
 @guarded
@@ -37,7 +37,7 @@ def stream(codes_path, rate, schedule, dry_run, **link_kw):
     [link] table gives the port, baud rate and module order.
 
     \b
-        bhr stream --port /dev/ttyUSB0 --codes bhr-out/colon-seed/codes.csv --rate 10
+        bhr stream --port /dev/ttyUSB0 --codes bhr-out/latest/codes.csv --rate 10
     """
     from bhr.codes import read_codes_csv
     from bhr.errors import BhrError
@@ -72,7 +72,7 @@ def stream(codes_path, rate, schedule, dry_run, **link_kw):
     events: list = []
     # The bar only on a terminal: in a pipe or a log, stderr stays empty unless something fails.
     show_bar = sys.stderr.isatty()
-    with BoardLink(port, **link_args) as link:
+    with BoardLink(port, **link_args) as link, stop_on_signals():
         try:
             with (click.progressbar(length=n_rows, label=f"streaming to {port}", file=sys.stderr, show_pos=True)
                   if show_bar else contextlib.nullcontext()) as bar:

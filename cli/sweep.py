@@ -5,7 +5,8 @@ from pathlib import Path
 
 import click
 
-from bhr.cli._common import check_writable, guarded
+from bhr.cli._common import guarded
+from bhr.cli._options import PlainIntRange
 
 
 @click.command()
@@ -20,7 +21,7 @@ from bhr.cli._common import check_writable, guarded
 @click.option("--robot", "robot_file", default=None, metavar="FILE",
               help="Robot description (TOML) every design starts from; grid values replace its values.")
 @click.option("--out", "out_dir", default=None, metavar="DIR", help="Output folder [./bhr-out/sweep/].")
-@click.option("--jobs", "-j", type=click.IntRange(min=1), default=None, metavar="N",
+@click.option("--jobs", "-j", type=PlainIntRange(min=1, max=1024), default=None, metavar="N",
               help="Worker processes [the number of CPUs]; 1 runs in this process.")
 @click.option("--scheduler", default=None, metavar="ADDRESS",
               help="Run on an existing Dask distributed cluster instead, e.g. tcp://127.0.0.1:8786.")
@@ -75,9 +76,10 @@ def sweep(sweep_file, trajs, solvers, grid, robot_file, out_dir, jobs, scheduler
         s = build_sweep(trajs or ("curve",), solvers or ("thesis",), cli_grid, title=title or "bhr sweep",
                         robot_file=robot_file)
     heatmap_axes(s, hx, hy)  # refuse unknown heat-map axes before running
+    from bhr.atomic import OutputFolder
+
     out = Path(out_dir) if out_dir else Path("bhr-out") / (Path(sweep_file).stem if sweep_file else "sweep")
-    for name in ("results.csv", "results.json", "heatmap.png", "index.html"):
-        check_writable(out / name, "sweep output")
+    folder = OutputFolder(out, "sweep", names=SWEEP_NAMES, what="sweep output folder").check()  # before any work
     total = len(s)
     client = None
     if scheduler is not None:
@@ -95,8 +97,8 @@ def sweep(sweep_file, trajs, solvers, grid, robot_file, out_dir, jobs, scheduler
     finally:
         if client is not None:
             client.close()
-    with status(f"writing {out}"):
-        files = write_outputs(result, out, plot=not no_plot, x=hx, y=hy)
+    with status(f"writing {out}"), folder:
+        files = [folder.final(p.name) for p in write_outputs(result, folder.stage, plot=not no_plot, x=hx, y=hy)]
     for line in format_summary(result):
         click.echo(line)
     click.echo("Wrote " + ", ".join(str(p) for p in files))
@@ -104,3 +106,7 @@ def sweep(sweep_file, trajs, solvers, grid, robot_file, out_dir, jobs, scheduler
         click.echo(f"Error: {len(result.failed)} of {total} designs failed; see {out / 'results.csv'}", err=True)
         return 1
     return 0
+
+
+#: What bhr sweep writes into its folder (an existing folder holding only such files may be replaced).
+SWEEP_NAMES = ("results.csv", "results.json", "heatmap.png", "index.html", "manifest.json")

@@ -31,6 +31,7 @@ class Bad:
     args: list[str]
     files: dict[str, str | bytes] = field(default_factory=dict)
     expect: str = ""  # a fragment the one line must contain (case-insensitive)
+    links: dict[str, str] = field(default_factory=dict)  # symbolic links to make: name -> where it points
 
 
 GOOD_JSON = '{"good": true}\n'
@@ -135,7 +136,7 @@ CASES += [
         expect="not a writable folder"),
     Bad("follow-json-under-a-file", "follow", ["--traj", "line", "--out", "o", "--json", "afile/r.json"],
         expect="not a writable folder"),
-    Bad("follow-bad-keeps-good-json", "follow", ["--traj", "p.csv", "--json", "good.json", "--out", "."],
+    Bad("follow-bad-keeps-good-json", "follow", ["--traj", "p.csv", "--json", "good.json", "--out", "o"],
         {"p.csv": "x,y,z\n0,0,0\n"}, expect="two distinct points"),
     Bad("follow-bad-keeps-previous-run", "follow", ["--traj", "curve", "--radius", "0", "--out", "prev"],
         {"prev/run.json": GOOD_JSON, "prev/codes.csv": CODES_OK}, expect="radius must be positive"),
@@ -320,6 +321,153 @@ CASES += [
     Bad("bench-json-under-a-file", "bench", ["--json", "afile/b.json"], expect="not a writable folder"),
 ]
 
+# --- hostile input: every kind of file, number and output path (each must cost one line within seconds) ---------
+
+ZIGZAG = {"z.csv": "x,y,z\n0,0,0\n1,0,0\n0,0,0.5\n1,0,0.5\n0,0,0\n"}  # never one feed away from its start
+RUN_OK = ('{"trajectory": {"points": [[0,0,0],[2,0,0]]}, "robot": {"modules": 1}, "solver": "seed", "steps": '
+          '[{"points": [[0,0,0],[10,0,0]], "point_errors_mm": [0,0], "module_orientation_errors_deg": [0], '
+          '"codes": [0], "iterations": 1}]}')
+ONE = ["--codes", "c.csv", "--dry-run"]
+CASES += [
+    # zig-zag path files (IndexError before): every command that follows a trajectory
+    Bad("traj-csv-zigzag", "follow", ["--traj", "z.csv", "--out", "o"], ZIGZAG, "zig-zags"),
+    Bad("compare-csv-zigzag", "compare", ["--traj", "z.csv", "--solver", "seed", "--solver", "ccd"], ZIGZAG,
+        "zig-zags"),
+    Bad("sweep-csv-zigzag", "sweep", ["--traj", "z.csv", "--grid", "alpha=8,10", "--out", "s"], ZIGZAG, "zig-zags"),
+    # full devices as outputs (ENOSPC); the device itself is never replaced (checked by test_outputs too)
+    Bad("solve-json-dev-full", "solve", T + ["--json", "/dev/full"], expect="no space left"),
+    Bad("solve-plot-dev-full", "solve", T + ["--plot", "/dev/full"], expect="no space left"),
+    Bad("fk-json-dev-full", "fk", ["--codes", "3,0", "--json", "/dev/full"], expect="no space left"),
+    Bad("follow-json-dev-full", "follow", ["--traj", "line", "--no-plots", "--json", "/dev/full"],
+        expect="no space left"),
+    Bad("compare-json-dev-full", "compare", ["--traj", "line", "--solver", "seed", "--solver", "ccd", "--no-plots",
+                                            "--json", "/dev/full"], expect="no space left"),
+    Bad("bench-json-dev-full", "bench", ["--case", "fabrik", "--repeat", "1", "--json", "/dev/full"],
+        expect="no space left"),
+    Bad("replay-animate-dev-full", "replay", ["r.json", "--animate", "/dev/full"], {"r.json": RUN_OK}, ".gif"),
+    # figure and animation paths of a format bhr does not draw
+    Bad("solve-plot-txt", "solve", T + ["--plot", "x.txt"], expect=".png"),
+    Bad("solve-plot-no-folder", "solve", T + ["--plot", "nope/deeper/x.png", "--json", "afile/x"],
+        expect="not a writable folder"),
+    # outputs that are another output of the same run, the current folder, or a folder of other files
+    Bad("follow-json-is-codes", "follow", ["--traj", "line", "--out", "o", "--json", "o/codes.csv"],
+        expect="another output"),
+    Bad("follow-json-is-figure", "follow", ["--traj", "line", "--out", "o", "--json", "o/path.png"],
+        expect="another output"),
+    Bad("follow-out-is-cwd", "follow", ["--traj", "line", "--out", "."], expect="replace the folder itself"),
+    Bad("follow-out-foreign-folder", "follow", ["--traj", "line", "--out", "mine"], {"mine/thesis.tex": "text"},
+        "no bhr run wrote"),
+    Bad("follow-out-is-file", "follow", ["--traj", "line", "--out", "afile"], expect="is a file"),
+    Bad("compare-out-foreign-folder", "compare", ["--traj", "line", "--solver", "seed", "--solver", "ccd",
+                                                 "--out", "mine"], {"mine/notes.txt": "x"}, "no bhr run wrote"),
+    Bad("sweep-out-foreign-folder", "sweep", ["--traj", "line", "--grid", "alpha=8,10", "--out", "mine"],
+        {"mine/notes.txt": "x"}, "no bhr run wrote"),
+    Bad("report-out-foreign-folder", "report", ["--batch", "b.toml", "--out", "mine"],
+        {"mine/notes.txt": "x", "b.toml": '[[run]]\nname = "a"\ntraj = "line"\n'}, "no bhr run wrote"),
+    Bad("follow-out-dev-null", "follow", ["--traj", "line", "--out", "/dev/null"], expect="not a folder"),
+    Bad("sweep-out-is-file", "sweep", ["--traj", "line", "--grid", "alpha=8,10", "--out", "afile"],
+        expect="not a folder"),
+    Bad("report-out-is-file", "report", ["--batch", "b.toml", "--out", "afile"],
+        {"b.toml": '[[run]]\nname = "a"\ntraj = "line"\n'}, "not a folder"),
+    Bad("solve-json-link-to-folder", "solve", T + ["--json", "d.json"], {"d/x": "x"}, "directory",
+        links={"d.json": "d"}),
+    Bad("replay-out-foreign-folder", "replay", ["r.json", "--out", "mine"], {"r.json": RUN_OK, "mine/a.tex": "x"},
+        "no bhr run wrote"),
+    Bad("fk-json-dangling-link", "fk", ["--codes", "3", "--json", "l.json"], expect="symbolic link",
+        links={"l.json": "missing/x.json"}),
+    # huge numbers where a whole number is read
+    Bad("stream-baud-huge", "stream", ["--codes", "c.csv", "--port", "loop://", "--baud", "99999999999"],
+        {"c.csv": CODES_OK}, "--baud"),
+    Bad("status-baud-huge", "status", ["--port", "loop://", "--baud", "99999999999"], expect="--baud"),
+    Bad("follow-baud-huge", "follow", ["--traj", "line", "--out", "o", "--port", "loop://", "--baud",
+                                       "99999999999"], expect="--baud"),
+    Bad("stream-rate-tiny", "stream", ONE + ["--rate", "1e-300"], {"c.csv": CODES_OK}, "--rate"),
+    Bad("follow-port-rate-tiny", "follow", ["--traj", "line", "--out", "o", "--port", "loop://", "--rate", "1e-300"],
+        expect="--rate"),
+    Bad("stream-timeout-huge", "stream", ["--codes", "c.csv", "--port", "loop://", "--timeout", "1e300"],
+        {"c.csv": CODES_OK}, "--timeout"),
+    Bad("stream-retries-huge", "stream", ["--codes", "c.csv", "--port", "loop://", "--retries", "10**9"],
+        {"c.csv": CODES_OK}, "--retries"),
+    Bad("follow-stride-huge", "follow", ["--traj", "line", "--out", "o", "--stride", "99999999999999999999"],
+        expect="--stride"),
+    Bad("replay-step-huge", "replay", ["r.json", "--step", "99999999999999999999"], {"r.json": RUN_OK}, "--step"),
+    Bad("report-jobs-huge", "report", ["--batch", "b.toml", "--jobs", "99999999999"],
+        {"b.toml": '[[run]]\nname = "a"\ntraj = "line"\n'}, "--jobs"),
+    Bad("sweep-jobs-huge", "sweep", ["--traj", "line", "--grid", "alpha=8,10", "--jobs", "99999999999"],
+        expect="--jobs"),
+    Bad("bench-repeat-huge", "bench", ["--repeat", "99999999999"], expect="--repeat"),
+    # digits other than ASCII, and '_' separators, in codes and coordinates
+    Bad("fk-code-fullwidth", "fk", ["--codes", "\uff11\uff15"], expect="not a whole number"),
+    Bad("fk-code-arabic-indic", "fk", ["--codes", "\u0661\u0665"], expect="not a whole number"),
+    Bad("fk-code-underscore", "fk", ["--codes", "1_5"], expect="not a whole number"),
+    Bad("stream-code-fullwidth", "stream", ONE, {"c.csv": "step,m1,m2\n1,0,\uff13\n"}, "not a whole number"),
+    Bad("stream-code-underscore", "stream", ONE, {"c.csv": "step,m1,m2\n1,0,1_5\n"}, "not a whole number"),
+    Bad("stream-step-underscore", "stream", ONE, {"c.csv": "step,m1,m2\n1_0,0,3\n"}, "not a whole number"),
+    Bad("solve-target-fullwidth", "solve", ["--target", "\uff13", "9", "0"], expect="not a valid float"),
+    Bad("solve-target-arabic-indic", "solve", ["--target", "\u0663", "9", "0"], expect="not a valid float"),
+    Bad("solve-target-underscore", "solve", ["--target", "1_5", "9", "0"], expect="not a valid float"),
+    Bad("solve-modules-underscore", "solve", T + ["--modules", "1_0"], expect="not a valid integer"),
+    Bad("follow-radius-fullwidth", "follow", ["--traj", "curve", "--radius", "\uff17\uff10"],
+        expect="not a valid float"),
+    Bad("stream-rate-fullwidth", "stream", ONE + ["--rate", "\uff11"], {"c.csv": CODES_OK}, "--rate"),
+    Bad("traj-csv-fullwidth", "follow", ["--traj", "p.csv"], {"p.csv": "x,y,z\n0,0,0\n\uff19,0,0\n"},
+        "not a number"),
+    Bad("traj-csv-underscore", "follow", ["--traj", "p.csv"], {"p.csv": "x,y,z\n0,0,0\n1_9,0,0\n"}, "not a number"),
+    Bad("sweep-grid-fullwidth", "sweep", ["--traj", "line", "--grid", "alpha=\uff18,10"], expect="not a number"),
+    # oversized fields, files and runs: refused before memory runs out
+    Bad("stream-field-over-csv-limit", "stream", ONE, {"c.csv": "step,m1\n1," + "3" * 140_000 + "\n"},
+        "field limit"),
+    Bad("stream-code-long", "stream", ONE, {"c.csv": "step,m1\n1," + "3" * 100_000 + "\n"}, "not a whole number"),
+    Bad("stream-dev-zero", "stream", ["--codes", "/dev/zero", "--dry-run"], expect="device"),
+    Bad("stream-link-to-dev-zero", "stream", ["--codes", "z.csv", "--dry-run"], expect="device",
+        links={"z.csv": "/dev/zero"}),
+    Bad("traj-csv-link-to-dev-zero", "follow", ["--traj", "z.csv"], expect="device", links={"z.csv": "/dev/zero"}),
+    Bad("traj-toml-link-to-dev-zero", "follow", ["--traj", "z.toml"], expect="device", links={"z.toml": "/dev/zero"}),
+    Bad("robot-link-to-dev-zero", "solve", T + ["--robot", "r.toml"], expect="device", links={"r.toml": "/dev/zero"}),
+    Bad("replay-link-to-dev-zero", "replay", ["r.json"], expect="device", links={"r.json": "/dev/zero"}),
+    Bad("report-batch-dev-zero", "report", ["--batch", "b.toml"], expect="device", links={"b.toml": "/dev/zero"}),
+    Bad("sweep-file-dev-zero", "sweep", ["--file", "s.toml"], expect="device", links={"s.toml": "/dev/zero"}),
+    Bad("traj-csv-too-many-points", "follow", ["--traj", "p.csv", "--out", "o"],
+        {"p.csv": "x,y,z\n" + "".join(f"{i},0,0\n" for i in range(500_002))}, "more than 500000 points"),
+    Bad("follow-line-too-many-points", "follow", ["--traj", "line", "--length", "1e6", "--feed-divisor", "1000"],
+        expect="limit 500000"),
+    Bad("follow-body-too-large", "follow", ["--traj", "line", "--length", "10000", "--body-modules", "1000",
+                                            "--out", "o"], expect="in memory"),
+    Bad("compare-too-large", "compare", ["--traj", "line", "--length", "600000", "--solver", "seed", "--solver",
+                                         "ccd", "--no-plots"], expect="in memory"),
+    Bad("follow-modules-over-limit", "follow", ["--traj", "line", "--modules", "1001"], expect="too large"),
+    # the robot limits of the command line hold in batch and sweep files too
+    Bad("report-modules-huge", "report", ["--batch", "b.toml"],
+        {"b.toml": '[[run]]\nname = "a"\ntraj = "line"\nmodules = 1000000\n'}, "too large"),
+    Bad("report-max-iter-huge", "report", ["--batch", "b.toml"],
+        {"b.toml": '[[run]]\nname = "a"\ntraj = "line"\nmax_iter = 100000000\n'}, "too large"),
+    Bad("report-module-length-huge", "report", ["--batch", "b.toml"],
+        {"b.toml": '[[run]]\nname = "a"\ntraj = "line"\nmodule_length = 1e9\n'}, "too large"),
+    Bad("sweep-grid-modules-huge", "sweep", ["--traj", "line", "--grid", "modules=1:1000000"], expect="too large"),
+    Bad("sweep-grid-max-iter-huge", "sweep", ["--traj", "line", "--grid", "max_iter=10,100000000"],
+        expect="too large"),
+    Bad("sweep-file-modules-huge", "sweep", ["--file", "s.toml"],
+        {"s.toml": 'traj = "line"\n[grid]\nmodules = [5, 1000000]\n'}, "too large"),
+    # tampered run.json
+    Bad("replay-deep-nesting", "replay", ["r.json"], {"r.json": '{"a":' * 100_000 + "1" + "}" * 100_000},
+        "nested too deeply"),
+    Bad("replay-huge-integer", "replay", ["r.json"], {"r.json": RUN_OK.replace('"iterations": 1', '"iterations": '
+                                                                               + "9" * 5000)}, "r.json"),
+    Bad("replay-big-int-iterations", "replay", ["r.json"],
+        {"r.json": RUN_OK.replace('"iterations": 1', '"iterations": 99999999999999999999999')}, "iterations"),
+    Bad("replay-1e308", "replay", ["r.json"], {"r.json": RUN_OK.replace("[10,0,0]", "[1e308,0,0]")}, "within"),
+    Bad("replay-code-huge", "replay", ["r.json"], {"r.json": RUN_OK.replace('"codes": [0]', '"codes": [1e400]')},
+        "r.json"),
+    Bad("replay-robot-huge", "replay", ["r.json"], {"r.json": RUN_OK.replace('"modules": 1', '"modules": 1e300')},
+        "r.json"),
+    Bad("replay-robot-huge-int", "replay", ["r.json"],
+        {"r.json": RUN_OK.replace('"modules": 1', '"modules": 10000000000000000000000')}, "too large"),
+    # misleading messages made plain
+    Bad("traj-toml-heading-tiny", "follow", ["--traj", "p.toml"], seg("heading = [1e-320, 0, 0]\n" + SEG), "nearly"),
+    Bad("traj-toml-deep-nesting", "follow", ["--traj", "p.toml"], seg("a = " + "[" * 5000 + "]" * 5000 + "\n"),
+        "p.toml"),
+]
+
 # every command, so that none is forgotten when it lands
 assert {c.command for c in CASES} >= {"solve", "follow", "fk", "stream", "status", "compare", "report", "sweep",
                                       "replay", "bench"}
@@ -329,6 +477,8 @@ assert len({c.id for c in CASES}) == len(CASES)
 def _prepare(folder, case: Bad) -> None:
     (folder / "good.json").write_text(GOOD_JSON)
     (folder / "afile").write_text("a plain file\n")
+    for name, to in case.links.items():
+        (folder / name).symlink_to(to)
     for name, content in case.files.items():
         p = folder / name
         p.parent.mkdir(parents=True, exist_ok=True)

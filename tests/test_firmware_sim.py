@@ -719,3 +719,38 @@ def test_status_explains_silence(sim, tmp_path):
     assert st.returncode == 0, st.stderr
     assert "silence" in st.stdout
     assert "the host fell silent for longer than the board's silence timeout" in st.stdout
+
+
+@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGHUP], ids=["SIGTERM", "SIGHUP"])
+@pytest.mark.parametrize("command", ["stream", "follow"])
+def test_sigterm_and_sighup_send_stop_all_like_ctrl_c(sim, tmp_path, sig, command):
+    """kill (SIGTERM) or a closed terminal (SIGHUP) mid-stream: stop-all reaches the pins, exit 130, one line."""
+    s = sim()
+    if command == "stream":
+        rows = [[3, 6, 9, 12, 15] if i % 2 else [6, 9, 12, 15, 3] for i in range(400)]
+        f = tmp_path / "codes.csv"
+        f.write_text(format_codes_csv(rows))
+        args = ["stream", "--port", s.pty, "--codes", str(f), "--rate", "40"]
+    else:
+        args = ["follow", "--traj", "colon", "--no-plots", "--out", str(tmp_path / "o"), "--port", s.pty,
+                "--rate", "40"]
+    proc = subprocess.Popen(bhr_cmd() + args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    s.wait_for(lambda evs: sum(e["ev"] == "latch" for e in evs) > 10, 60)
+    proc.send_signal(sig)
+    out, err = proc.communicate(timeout=30)
+    assert proc.returncode == 130, err
+    assert "sent stop-all" in one_line(err)
+    s.wait_for(lambda evs: evs[-1]["codes"] == [0] * MODULES and evs[-1]["latched"] == [0] * MODULES, 5)
+    assert not (tmp_path / "o").exists()  # an interrupted run writes no folder
+
+
+def test_status_to_a_full_device_is_one_line(sim, tmp_path):
+    """The board answers, but the --json target (a real full device) cannot take it: one line, the device kept."""
+    import stat
+
+    s = sim()
+    full = tmp_path / "full"
+    os.mknod(full, 0o666 | stat.S_IFCHR, os.makedev(1, 7))  # the suite runs as root
+    r = run_bhr("status", "--port", s.pty, "--json", str(full))
+    assert r.returncode == 1 and "No space left on device" in one_line(r.stderr)
+    assert stat.S_ISCHR(full.lstat().st_mode)

@@ -126,7 +126,8 @@ def test_cli_follow_writes_everything(tmp_path):
     with contextlib.chdir(tmp_path):
         res = runner.invoke(main, ["follow", "--traj", "curve", "--json", "run.json"])
         assert res.exit_code == 0, res.output
-        out = Path("bhr-out/curve-thesis")
+        (out,) = Path("bhr-out").glob("curve-thesis-*")  # one folder, named for the run's settings
+        assert Path("bhr-out/latest").resolve() == out.resolve()
         for name in ("position_errors.png", "orientation_errors.png", "global_errors.png", "path.png"):
             data = (out / name).read_bytes()
             assert data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 20000, name
@@ -142,10 +143,12 @@ def test_console_script_colon_with_defaults(run_bhr, tmp_path):
     """The README's main job: `bhr follow --traj colon` with no other option."""
     res = run_bhr("follow", "--traj", "colon")
     assert res.returncode == 0, res.stderr
-    out = tmp_path / "bhr-out" / "colon-thesis"
-    names = {"position_errors.png", "orientation_errors.png", "global_errors.png", "path.png", "codes.csv", "run.json"}
+    (out,) = (tmp_path / "bhr-out").glob("colon-thesis-*")
+    names = {"position_errors.png", "orientation_errors.png", "global_errors.png", "path.png", "codes.csv", "run.json",
+             "manifest.json"}
     assert names <= {p.name for p in out.iterdir()}
     assert not [p for p in out.iterdir() if p.name.startswith(".")]  # no temporary files left behind
+    assert not [p for p in out.parent.iterdir() if p.name.startswith(".")]  # no staging folder left behind
     doc = json.loads((out / "run.json").read_text())
     assert len(doc["steps"]) == 827
     rows = (out / "codes.csv").read_text().splitlines()
