@@ -108,7 +108,7 @@ class Study:
 
 
 def build_study(grid: Sequence[tuple[str, tuple[Any, ...]]], colons: Sequence[int] | str, *,
-                solvers: Sequence[str] = ("seed",), target: float = 0.95, robot_file: str | None = None,
+                solvers: Sequence[str] = ("thesis",), target: float = 0.95, robot_file: str | None = None,
                 title: str = "bhr traverse", where: str = "traverse") -> Study:
     """Check and assemble a study; every design and colon is checked before anything runs."""
     from bhr.report import TRAJ_KEYS

@@ -21,7 +21,7 @@ from bhr.cli._options import FiniteRange
               help="Robot file whose [thermal] table describes the wires (docs/thermal.md) [the default wire].")
 @click.option("--plot", "plot_path", default=None, metavar="FILE.png",
               help="Figure of each wire's temperature over the schedule [thermal.png beside FILE].")
-@click.option("--no-plot", is_flag=True, help="Skip the figure.")
+@click.option("--no-plots", "no_plot", is_flag=True, help="Skip the figure.")
 @click.option("--csv", "csv_path", default=None, metavar="FILE",
               help="Write the whole schedule: step, send time (s), codes.")
 @guarded
@@ -36,7 +36,7 @@ def plan(codes_path, rate, schedule, robot_file, plot_path, no_plot, csv_path):
     contracts again). The figure shows each wire's normalised temperature.
 
     \b
-        bhr plan --codes bhr-out/colon-seed/codes.csv --schedule auto
+        bhr plan --codes bhr-out/latest/codes.csv --schedule auto
     """
     from bhr.atomic import write_text
     from bhr.codes import read_codes_csv
@@ -48,7 +48,7 @@ def plan(codes_path, rate, schedule, robot_file, plot_path, no_plot, csv_path):
         check_writable(plot_path, "figure")
     check_writable(csv_path, "CSV")
     params = thermal_params(robot_file)
-    name = Path(codes_path).parent.name or Path(codes_path).stem
+    name = Path(codes_path).resolve().parent.name or Path(codes_path).stem
     sched = make_plan(params, table, rate, schedule, name=str(codes_path))
     out = click.get_text_stream("stdout")
     out.write(f"wires: {params.describe()}\n")

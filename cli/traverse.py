@@ -16,7 +16,7 @@ OUTPUTS = ("designs.csv", "runs.csv", "study.json", "passrate.png", "worst-colon
                    "(START:STOP[:STEP], STOP included). Repeat for each key.")
 @click.option("--colons", default="1-100", show_default=True, metavar="SEEDS",
               help="The anatomical colons every design must get through: seeds such as 1-100 or 1,4,10-20.")
-@click.option("--solver", "solvers", multiple=True, metavar="NAME", help="Solver (repeat for several) [seed].")
+@click.option("--solver", "solvers", multiple=True, metavar="NAME", help="Solver (repeat for several) [thesis].")
 @click.option("--target-pass", type=float, default=0.95, show_default=True, metavar="SHARE",
               help="Share of colons a design must traverse without touching the wall.")
 @click.option("--robot", "robot_file", default=None, metavar="FILE",
@@ -28,7 +28,7 @@ OUTPUTS = ("designs.csv", "runs.csv", "study.json", "passrate.png", "worst-colon
               help="Run on an existing Dask distributed cluster instead, e.g. tcp://127.0.0.1:8786.")
 @click.option("--x", "hx", default=None, metavar="KEY", help="Heat-map columns [the design axis with the most values].")
 @click.option("--y", "hy", default=None, metavar="KEY", help="Heat-map rows [the next one].")
-@click.option("--no-plot", is_flag=True, help="Skip the figures (passrate.png, worst-colon.png).")
+@click.option("--no-plots", "no_plot", is_flag=True, help="Skip the figures (passrate.png, worst-colon.png).")
 @click.option("--title", default=None, help="Title of the heat-map and page.")
 @guarded
 def traverse(grid, colons, solvers, target_pass, robot_file, out_dir, jobs, scheduler, hx, hy, no_plot, title):
@@ -58,7 +58,7 @@ def traverse(grid, colons, solvers, target_pass, robot_file, out_dir, jobs, sche
             from bhr.sweep import DASK_MISSING
 
             raise BhrError(DASK_MISSING) from None
-    study = build_study([parse_grid_option(g) for g in grid], colons, solvers=solvers or ("seed",),
+    study = build_study([parse_grid_option(g) for g in grid], colons, solvers=solvers or ("thesis",),
                         target=target_pass, robot_file=robot_file, title=title or "bhr traverse")
     heatmap_axes(study, hx, hy)  # refuse unknown heat-map axes before running
     out = Path(out_dir) if out_dir else Path("bhr-out") / "traverse"

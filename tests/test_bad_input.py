@@ -248,7 +248,7 @@ CASES += [
         {"c.csv": CODES_OK, "r.toml": "[thermal]\nhold_time = 3\n"}, "hold_time"),
     Bad("plan-thermal-text", "plan", ["--codes", "c.csv", "--robot", "r.toml"],
         {"c.csv": CODES_OK, "r.toml": '[thermal]\nrelax_ms = "slow"\n'}, "relax_ms"),
-    Bad("plan-too-fast", "plan", ["--codes", "c.csv", "--rate", "50", "--no-plot"],
+    Bad("plan-too-fast", "plan", ["--codes", "c.csv", "--rate", "50", "--no-plots"],
         {"c.csv": "step,m1\n" + "".join(f"{i},{3 if i < 60 or i == 64 else 6}\n" for i in range(1, 70))},
         "--schedule auto"),
     Bad("plan-plot-under-a-file", "plan", ["--codes", "c.csv", "--plot", "afile/t.png"], {"c.csv": CODES_OK}, ""),

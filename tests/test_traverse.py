@@ -193,11 +193,11 @@ def test_command_answers_the_question(small_study):
 
 
 def test_no_design_meets_a_target_nothing_reaches(tmp_path):
-    proc = run_cli("traverse", "--grid", "alpha=10", "--colons", "3", "--no-plot", "--out", "o", cwd=tmp_path)
+    proc = run_cli("traverse", "--grid", "alpha=10", "--colons", "3", "--no-plots", "--out", "o", cwd=tmp_path)
     assert proc.returncode == 0, proc.stderr
     s = follow_summary(3, "seed")
     assert s["wall_touch_steps"]  # the thesis robot touches this colon's wall
-    assert "No design traverses 95% of the 1 colons; the best, design #1 (solver=seed, alpha=10), " \
+    assert "No design traverses 95% of the 1 colons; the best, design #1 (solver=thesis, alpha=10), " \
            "traverses 0/1 (0%)" in proc.stdout
     assert json.loads((tmp_path / "o" / "study.json").read_text())["answer"] is None
     assert sorted(p.name for p in (tmp_path / "o").iterdir()) == ["designs.csv", "index.html", "runs.csv",
@@ -207,7 +207,7 @@ def test_no_design_meets_a_target_nothing_reaches(tmp_path):
 def test_progress_bar_on_a_terminal(tmp_path):
     master, slave = pty.openpty()
     try:
-        proc = subprocess.run(bhr_exe() + ["traverse", "--grid", "alpha=10", "--colons", "1-2", "--no-plot",
+        proc = subprocess.run(bhr_exe() + ["traverse", "--grid", "alpha=10", "--colons", "1-2", "--no-plots",
                                            "--jobs", "1", "--out", "o"], cwd=tmp_path, stdout=subprocess.PIPE,
                               stderr=slave, text=True, timeout=600, env=dict(os.environ, MPLBACKEND="Agg"))
         os.close(slave)
@@ -260,7 +260,7 @@ def test_output_folder_that_is_a_file_fails_before_running(tmp_path):
 
 def test_dask_cluster_gives_the_local_study(dask_cluster, small_study):  # noqa: F811
     cwd, _ = small_study
-    proc = run_cli("traverse", *SMALL, "--no-plot", "--out", "dask", "--scheduler", dask_cluster.scheduler_address,
+    proc = run_cli("traverse", *SMALL, "--no-plots", "--out", "dask", "--scheduler", dask_cluster.scheduler_address,
                    cwd=cwd)
     assert proc.returncode == 0, proc.stderr
     assert f"on dask {dask_cluster.scheduler_address}" in proc.stdout
