@@ -54,8 +54,8 @@ from bhr.options import solver_defaults
 from bhr.kinematics.frames import tilt_frame as _rot
 from bhr.kinematics.leader import advance_kernel, score_step
 from bhr.solvers.base import Chain, FollowContext, SolveResult, register
-from bhr.solvers.optimal import CODE_OF, DEDUP_DIR, DEDUP_POS, DEG, Optimal, _dist2, _frame_of_chain, _number, \
-    _step_targets, _tip_angle
+from bhr.solvers.optimal import CODE_OF, DEG, Optimal, _beam_commit, _beam_keep, _beam_reset, _dist2, \
+    _frame_of_chain, _number, _step_targets, _tip_angle
 
 __all__ = ["Lumen", "DEFAULTS", "head_cost", "lumen_config_cost"]
 
@@ -309,8 +309,6 @@ def _beam_expand(bP, bF, bC, bH, state, cP, cF, cC, cPar, cA, order_buf, C, R, p
                  c, s, prm, T, d, best_codes, frames, pts, part, guess, choice, res, tmp, F1):
     nb = state[0]
     k = state[1]
-    B = bP.shape[0]
-    RR = bH.shape[1]
     _step_targets(path, dirs, k, n, f, feed, T, d)
     m = 0
     for q in range(nb):
@@ -326,74 +324,7 @@ def _beam_expand(bP, bF, bC, bH, state, cP, cF, cC, cPar, cA, order_buf, C, R, p
             cPar[m] = q
             cA[m] = a
             m += 1
-    order = np.argsort(cC[:m], kind="mergesort")
-    kept = 0
-    for qq in range(m):
-        if kept >= B:
-            break
-        r = order[qq]
-        dup = False
-        for u in range(kept):
-            o = order_buf[u]
-            if _dist2(cP[o], cP[r]) < DEDUP_POS * DEDUP_POS:
-                dz = _dist2(cF[o, 1], cF[r, 1]) + _dist2(cF[o, 2], cF[r, 2])
-                if dz < DEDUP_DIR * DEDUP_DIR:
-                    dup = True
-                    break
-        if dup:
-            continue
-        order_buf[kept] = r
-        kept += 1
-    hist = np.empty((kept, RR), dtype=np.int64)
-    for u in range(kept):
-        r = order_buf[u]
-        for t in range(RR):
-            hist[u, t] = bH[cPar[r], t]
-        hist[u, k % RR] = cA[r]
-    for u in range(kept):
-        r = order_buf[u]
-        for b in range(3):
-            bP[u, b] = cP[r, b]
-            for e in range(3):
-                bF[u, e, b] = cF[r, e, b]
-        bC[u] = cC[r]
-        for t in range(RR):
-            bH[u, t] = hist[u, t]
-    state[0] = kept
-    state[1] = k + 1
-
-
-@njit(cache=True)
-def _beam_reset(bP, bF, bC, state, P0, F, step):
-    for b in range(3):
-        bP[0, b] = P0[b]
-        for a in range(3):
-            bF[0, a, b] = F[a, b]
-    bC[0] = 0.0
-    state[0] = 1
-    state[1] = step
-    state[2] = step
-
-
-@njit(cache=True)
-def _beam_commit(bP, bF, bC, bH, state, step):
-    RR = bH.shape[1]
-    a0 = bH[0, step % RR]
-    kept = 0
-    for q in range(state[0]):
-        if bH[q, step % RR] == a0:
-            if kept != q:
-                for b in range(3):
-                    bP[kept, b] = bP[q, b]
-                    for e in range(3):
-                        bF[kept, e, b] = bF[q, e, b]
-                bC[kept] = bC[q]
-                for t in range(RR):
-                    bH[kept, t] = bH[q, t]
-            kept += 1
-    state[0] = kept
-    state[2] = step + 1
-    return a0
+    _beam_keep(cP, cF, cC, cPar, cA, m, order_buf, bP, bF, bC, bH, state, k)
 
 
 @njit(cache=True)
@@ -418,7 +349,7 @@ def _lumen_step(P, E1, E2, i, bP, bF, bC, bH, state, cP, cF, cC, cPar, cA, order
     _frame_of_chain(P, E1, E2, F)
     P0 = P[0].copy()
     if state[0] == 0 or state[2] != i:
-        _beam_reset(bP, bF, bC, state, P0, F, i)
+        _beam_reset(bP, bF, bC, bH, state, P0, F, i)
         lagv[0] = 0.0
     # the robot's lead along the centerline: where the base is now, searched around where it was
     e0 = float(i - n * f)

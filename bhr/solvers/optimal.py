@@ -242,30 +242,10 @@ def _beam_reset(bP, bF, bC, bH, state, P0, F, step):
 
 
 @njit(cache=True)
-def _beam_expand(bP, bF, bC, bH, state, cP, cF, cC, cPar, cA, order_buf, path, dirs, n, f, feed, L, c, s, w, wo,
-                 kvec, spacing, kcurve, kbend, wdrift, wroll, inv_sin2, T, d, codes, best_codes, frames, pts, part,
-                 choice, F1):
-    """Expand every member by the five base tilts at step ``state[1]``; keep the best distinct ones."""
-    nb = state[0]
-    k = state[1]
+def _beam_keep(cP, cF, cC, cPar, cA, m, order_buf, bP, bF, bC, bH, state, k):
+    """Keep the ``B`` cheapest of the ``m`` candidates of step ``k`` as the new beam (near-duplicates skipped)."""
     B = bP.shape[0]
     R = bH.shape[1]
-    _step_targets(path, dirs, k, n, f, feed, T, d)
-    m = 0
-    for q in range(nb):
-        for a in range(5):
-            _rot(bF[q], a, c, s, F1)
-            cost = _head_cost(bP[q], F1, n, T, w, d, wo, L, c, s, codes, best_codes, frames, pts, part, choice)
-            cost += _steer_cost(bP[q], F1, k, n, f, feed, path, dirs, T, kvec, spacing, kcurve, kbend, wdrift, wroll,
-                                inv_sin2)
-            cC[m] = bC[q] + cost
-            for b in range(3):
-                cP[m, b] = bP[q, b] + feed * F1[2, b]
-                for e in range(3):
-                    cF[m, e, b] = F1[e, b]
-            cPar[m] = q
-            cA[m] = a
-            m += 1
     order = np.argsort(cC[:m], kind="mergesort")
     # keep the cheapest candidates, skipping near-duplicates of those already kept (their indices in order_buf)
     kept = 0
@@ -303,6 +283,32 @@ def _beam_expand(bP, bF, bC, bH, state, cP, cF, cC, cPar, cA, order_buf, path, d
             bH[u, t] = hist[u, t]
     state[0] = kept
     state[1] = k + 1
+
+
+@njit(cache=True)
+def _beam_expand(bP, bF, bC, bH, state, cP, cF, cC, cPar, cA, order_buf, path, dirs, n, f, feed, L, c, s, w, wo,
+                 kvec, spacing, kcurve, kbend, wdrift, wroll, inv_sin2, T, d, codes, best_codes, frames, pts, part,
+                 choice, F1):
+    """Expand every member by the five base tilts at step ``state[1]``; keep the best distinct ones."""
+    nb = state[0]
+    k = state[1]
+    _step_targets(path, dirs, k, n, f, feed, T, d)
+    m = 0
+    for q in range(nb):
+        for a in range(5):
+            _rot(bF[q], a, c, s, F1)
+            cost = _head_cost(bP[q], F1, n, T, w, d, wo, L, c, s, codes, best_codes, frames, pts, part, choice)
+            cost += _steer_cost(bP[q], F1, k, n, f, feed, path, dirs, T, kvec, spacing, kcurve, kbend, wdrift, wroll,
+                                inv_sin2)
+            cC[m] = bC[q] + cost
+            for b in range(3):
+                cP[m, b] = bP[q, b] + feed * F1[2, b]
+                for e in range(3):
+                    cF[m, e, b] = F1[e, b]
+            cPar[m] = q
+            cA[m] = a
+            m += 1
+    _beam_keep(cP, cF, cC, cPar, cA, m, order_buf, bP, bF, bC, bH, state, k)
 
 
 @njit(cache=True)
