@@ -114,11 +114,11 @@ def make_tube(path: np.ndarray, lumen: np.ndarray, start_direction=None, window_
 
 
 @njit(cache=True)
-def nearest_kernel(C, R, lo, hi, px, py, pz):
+def segment_scan(C, lo, hi, px, py, pz):
     """Nearest point to (px, py, pz) on the centerline segments ``lo..hi-1`` of ``C``.
 
-    Returns (distance, radius there, position as a fractional index into C).
-    The first of equally near segments wins.
+    Returns (squared distance, segment, position 0..1 along it); the first of
+    equally near segments wins.
     """
     best = 1e300
     bk = lo
@@ -138,6 +138,17 @@ def nearest_kernel(C, R, lo, hi, px, py, pz):
             best = d2
             bk = k
             bt = t
+    return best, bk, bt
+
+
+@njit(cache=True)
+def nearest_kernel(C, R, lo, hi, px, py, pz):
+    """Nearest point to (px, py, pz) on the centerline segments ``lo..hi-1`` of ``C``.
+
+    Returns (distance, radius there, position as a fractional index into C).
+    The first of equally near segments wins.
+    """
+    best, bk, bt = segment_scan(C, lo, hi, px, py, pz)
     return math.sqrt(best), R[bk] + bt * (R[bk + 1] - R[bk]), bk + bt
 
 

@@ -48,7 +48,7 @@ from typing import Any
 import numpy as np
 from numba import njit
 
-from bhr.clearance import Tube, make_tube
+from bhr.clearance import Tube, make_tube, segment_scan
 from bhr.errors import BhrError
 from bhr.options import solver_defaults
 from bhr.kinematics.frames import tilt_frame as _rot
@@ -72,24 +72,7 @@ _SCAN = 2
 @njit(cache=True)
 def _scan(C, a, b, px, py, pz, res):
     """Nearest point on segments a..b-1: res = (d2, segment, t)."""
-    best = 1e300
-    bk = a
-    bt = 0.0
-    for k in range(a, b):
-        ax, ay, az = C[k, 0], C[k, 1], C[k, 2]
-        ux, uy, uz = C[k + 1, 0] - ax, C[k + 1, 1] - ay, C[k + 1, 2] - az
-        uu = ux * ux + uy * uy + uz * uz
-        t = ((px - ax) * ux + (py - ay) * uy + (pz - az) * uz) / uu
-        if t < 0.0:
-            t = 0.0
-        elif t > 1.0:
-            t = 1.0
-        dx, dy, dz = px - (ax + t * ux), py - (ay + t * uy), pz - (az + t * uz)
-        d2 = dx * dx + dy * dy + dz * dz
-        if d2 < best:
-            best = d2
-            bk = k
-            bt = t
+    best, bk, bt = segment_scan(C, a, b, px, py, pz)
     res[0] = best
     res[1] = bk
     res[2] = bt
