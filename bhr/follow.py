@@ -154,9 +154,9 @@ class FollowResult:
         """The clearance report when the trajectory has a lumen (head and body points), else None."""
         if self.trajectory.lumen is None:
             return None
-        key = (id(self.body), id(self.trajectory.lumen), self.point_errors.shape)
+        key = (self.body, self.trajectory.lumen, self.point_errors)  # held, compared by identity
         cached = getattr(self, "_clearance_cache", None)
-        if cached is None or cached[0] != key:
+        if cached is None or any(a is not b for a, b in zip(cached[0], key)):
             cached = (key, clearance_report(self))
             self._clearance_cache = cached
         return cached[1]

@@ -521,7 +521,7 @@ class Lumen(Optimal):
         if self.window <= 0 or self.window > 1e4:
             raise BhrError(f"window must be more than 0 and at most 10000 mm, got {self.window:g}")
         self._tube: Tube | None = None
-        self._tube_key: tuple | None = None
+        self._tube_path: np.ndarray | None = None  # the points the tube was made from (held)
         self._checked_path: np.ndarray | None = None
         self._prm_cache = np.zeros(10)
         self._lag = np.zeros(1)
@@ -539,7 +539,7 @@ class Lumen(Optimal):
             raise BhrError(f"--solver lumen needs a trajectory with a lumen; {trajectory.name} has none "
                            "(give a CSV with a lumen column, or lumen = ... in a trajectory file)")
         self._tube = make_tube(trajectory.points, trajectory.lumen, trajectory.start_direction, self.window)
-        self._tube_key = (id(trajectory.points), trajectory.points.shape)
+        self._tube_path = trajectory.points
         self._checked_path = None
 
     def _tube_args(self, path: np.ndarray) -> tuple:
@@ -578,7 +578,7 @@ class Lumen(Optimal):
         i = int(context.step)
         if self._expect is not None:
             key, step, eP, e1, e2 = self._expect
-            if not (key == self._tube_key and step == i and np.array_equal(eP, P) and np.array_equal(e1, E1)
+            if not (key is self._tube_path and step == i and np.array_equal(eP, P) and np.array_equal(e1, E1)
                     and np.array_equal(e2, E2)):
                 self._state[:] = 0
         codes = np.zeros(n, dtype=np.int64)
@@ -589,7 +589,7 @@ class Lumen(Optimal):
         out = Chain(P, np.stack([E1, E2]))
         nxt = out.copy()
         advance_kernel(nxt.points, nxt.axes[0], nxt.axes[1], float(r.feed), float(r.module_length))
-        self._expect = (self._tube_key, i + 1, nxt.points, np.ascontiguousarray(nxt.axes[0]),
+        self._expect = (self._tube_path, i + 1, nxt.points, np.ascontiguousarray(nxt.axes[0]),
                         np.ascontiguousarray(nxt.axes[1]))
         err = float(np.linalg.norm(P[-1] - np.asarray(target, dtype=np.float64)))
         ang = None if orientation is None else float(_tip_angle(P, np.asarray(orientation, dtype=np.float64)))

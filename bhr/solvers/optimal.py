@@ -576,7 +576,7 @@ class Optimal(Solver):
         if n > 12:
             raise BhrError(f"the optimal solver searches 5^n codes; {n} modules is too many (at most 12), "
                            "use --solver thesis for long heads")
-        self._features_key: tuple | None = None
+        self._features_path: np.ndarray | None = None  # the path the features were computed for (held)
         self._features: tuple | None = None
         self.reset()
 
@@ -603,10 +603,10 @@ class Optimal(Solver):
         self._expect: tuple | None = None
 
     def _path_features(self, path: np.ndarray, dirs: np.ndarray) -> tuple:
-        key = (id(path), path.shape, float(path[0, 0]), float(path[-1, -1]))
-        if self._features_key != key:
+        known = self._features_path
+        if known is None or not (path is known or (path.shape == known.shape and np.array_equal(path, known))):
             self._features = path_features(path, dirs, self.robot.feed_divisor)
-            self._features_key = key
+            self._features_path = path
         assert self._features is not None
         return self._features
 
@@ -639,7 +639,7 @@ class Optimal(Solver):
         # keep the beam only when this is the state and step it expects
         if self._expect is not None:
             key, step, eP, e1, e2 = self._expect
-            if not (key == self._features_key and step == i and np.array_equal(eP, P) and np.array_equal(e1, E1)
+            if not (key is self._features_path and step == i and np.array_equal(eP, P) and np.array_equal(e1, E1)
                     and np.array_equal(e2, E2)):
                 self._state[:] = 0
         f, feed, L, alpha, w, wo, look = self._kernel_settings()
@@ -650,7 +650,7 @@ class Optimal(Solver):
         out = Chain(P, np.stack([E1, E2]))
         nxt = out.copy()
         advance_kernel(nxt.points, nxt.axes[0], nxt.axes[1], feed, L)
-        self._expect = (self._features_key, i + 1, nxt.points, np.ascontiguousarray(nxt.axes[0]),
+        self._expect = (self._features_path, i + 1, nxt.points, np.ascontiguousarray(nxt.axes[0]),
                         np.ascontiguousarray(nxt.axes[1]))
         t = np.asarray(target, dtype=np.float64)
         err = float(np.linalg.norm(P[-1] - t))
