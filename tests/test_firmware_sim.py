@@ -730,10 +730,10 @@ def test_sigterm_and_sighup_send_stop_all_like_ctrl_c(sim, tmp_path, sig, comman
         rows = [[3, 6, 9, 12, 15] if i % 2 else [6, 9, 12, 15, 3] for i in range(400)]
         f = tmp_path / "codes.csv"
         f.write_text(format_codes_csv(rows))
-        args = ["stream", "--port", s.pty, "--codes", str(f), "--rate", "40"]
+        args = ["stream", "--port", s.pty, "--codes", str(f), "--rate", "40", "--schedule", "auto"]
     else:
         args = ["follow", "--traj", "colon", "--no-plots", "--out", str(tmp_path / "o"), "--port", s.pty,
-                "--rate", "40"]
+                "--rate", "40", "--schedule", "auto"]  # at the wires' pace: the stream starts, then is cut
     proc = subprocess.Popen(bhr_cmd() + args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     s.wait_for(lambda evs: sum(e["ev"] == "latch" for e in evs) > 10, 60)
     proc.send_signal(sig)
