@@ -32,7 +32,7 @@ from pathlib import Path
 from typing import Any, Callable, Sequence
 
 from bhr.errors import BhrError
-from bhr.sweep import Sweep, SweepResult, build_sweep, run_sweep
+from bhr.sweep import Sweep, SweepResult, axis_label, build_sweep, run_sweep
 
 __all__ = ["Study", "StudyResult", "parse_colons", "build_study", "run_study", "design_rows", "answer",
            "write_study", "format_study", "DESIGN_COLUMNS", "RUN_COLUMNS", "LUMEN_KEYS"]
@@ -308,8 +308,8 @@ def passrate_figure(result: StudyResult, x: str | None = None, y: str | None = N
     fig.colorbar(im, ax=ax, label="colons traversed without wall contact (%)")
     ax.set_xticks(range(len(xs)), [_label(v) for v in xs])
     ax.set_yticks(range(len(ys)), [_label(v) for v in ys])
-    ax.set_xlabel(x or "")
-    ax.set_ylabel(y or "")
+    ax.set_xlabel(axis_label(x))
+    ax.set_ylabel(axis_label(y))
     for (j, i), v in np.ndenumerate(data):
         cell = best.get((j, i))
         text = "-" if not np.isfinite(v) else f"{100 * v:.0f}%"
