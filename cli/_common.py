@@ -133,3 +133,16 @@ def check_parent_folder(folder: str | os.PathLike[str], what: str = "output fold
         probe = probe.parent
     if not probe.is_dir() or not os.access(probe, os.W_OK | os.X_OK):
         raise BhrError(f"cannot make the {what} in {p}: {probe} is not a writable folder; give --out DIR")
+
+
+def check_executor(jobs: int | None, scheduler: str | None) -> None:
+    """Local worker processes or a Dask cluster, not both; Dask installed when a cluster is named."""
+    if scheduler is not None and jobs is not None:
+        raise BhrError("--jobs and --scheduler exclude each other: the cluster decides how many workers run")
+    if scheduler is not None:
+        try:
+            import distributed  # noqa: F401
+        except ImportError:
+            from bhr.sweep import DASK_MISSING
+
+            raise BhrError(DASK_MISSING) from None

@@ -5,7 +5,7 @@ from pathlib import Path
 
 import click
 
-from bhr.cli._common import guarded
+from bhr.cli._common import check_executor, guarded
 from bhr.cli._options import PlainIntRange
 
 
@@ -44,21 +44,12 @@ def sweep(sweep_file, trajs, solvers, grid, robot_file, out_dir, jobs, scheduler
         bhr sweep --traj curve --grid modules=3:12 --grid alpha=6:15 --grid module_length=8,10,12
     """
     from bhr.cli._progress import announce_compiles, status
-    from bhr.errors import BhrError
 
     no_plot = no_plot or no_plot_old
     from bhr.sweep import build_sweep, format_summary, heatmap_axes, load_sweep, parse_grid_option, run_sweep, \
         write_outputs
 
-    if scheduler is not None and jobs is not None:
-        raise BhrError("--jobs and --scheduler exclude each other: the cluster decides how many workers run")
-    if scheduler is not None:
-        try:
-            import distributed  # noqa: F401
-        except ImportError:
-            from bhr.sweep import DASK_MISSING
-
-            raise BhrError(DASK_MISSING) from None
+    check_executor(jobs, scheduler)
     cli_grid = [parse_grid_option(g) for g in grid]
     if sweep_file:
         from bhr.trajectory import builtin_names

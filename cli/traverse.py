@@ -5,7 +5,7 @@ from pathlib import Path
 
 import click
 
-from bhr.cli._common import check_writable, guarded
+from bhr.cli._common import check_executor, check_writable, guarded
 
 OUTPUTS = ("designs.csv", "runs.csv", "study.json", "passrate.png", "worst-colon.png", "index.html")
 
@@ -45,19 +45,10 @@ def traverse(grid, colons, solvers, target_pass, robot_file, out_dir, jobs, sche
 
         bhr traverse --grid alpha=10:30:5 --grid module_length=5,6,8,10 --colons 1-100
     """
-    from bhr.errors import BhrError
     from bhr.sweep import parse_grid_option
     from bhr.traverse import build_study, format_study, heatmap_axes, run_study, write_study
 
-    if scheduler is not None and jobs is not None:
-        raise BhrError("--jobs and --scheduler exclude each other: the cluster decides how many workers run")
-    if scheduler is not None:
-        try:
-            import distributed  # noqa: F401
-        except ImportError:
-            from bhr.sweep import DASK_MISSING
-
-            raise BhrError(DASK_MISSING) from None
+    check_executor(jobs, scheduler)
     study = build_study([parse_grid_option(g) for g in grid], colons, solvers=solvers or ("thesis",),
                         target=target_pass, robot_file=robot_file, title=title or "bhr traverse")
     heatmap_axes(study, hx, hy)  # refuse unknown heat-map axes before running
