@@ -32,6 +32,7 @@ from typing import Any
 import numpy as np
 
 from bhr.errors import BhrError
+from bhr.pathfile import _rotate, _unit
 
 __all__ = ["SECTIONS", "RANGES", "SEED_MAX", "SHIPPED", "Colon", "anatomical_colon", "check_seed",
            "anatomy_csv_text"]
@@ -108,15 +109,6 @@ def check_seed(seed: Any, where: str = "anatomy") -> int:
     if not math.isfinite(v) or v != math.floor(v) or v < 0 or v > SEED_MAX:
         raise BhrError(f"{where}: seed must be a whole number from 0 to {SEED_MAX}, got {seed!r}")
     return int(v)
-
-
-def _unit(v: np.ndarray) -> np.ndarray:
-    return v / np.linalg.norm(v)
-
-
-def _rotate(v: np.ndarray, axis: np.ndarray, angle: float) -> np.ndarray:
-    c, s = math.cos(angle), math.sin(angle)
-    return v * c + np.cross(axis, v) * s + axis * float(np.dot(axis, v)) * (1.0 - c)
 
 
 @dataclass

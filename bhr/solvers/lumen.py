@@ -48,7 +48,7 @@ from typing import Any
 import numpy as np
 from numba import njit
 
-from bhr.clearance import Tube, make_tube, segment_scan
+from bhr.clearance import Tube, _window, make_tube, segment_scan
 from bhr.errors import BhrError
 from bhr.options import solver_defaults
 from bhr.kinematics.frames import tilt_frame as _rot
@@ -114,16 +114,7 @@ def _near_local(C, lo, hi, g, px, py, pz, res, tmp):
 def _near(C, pre, w, g, e, px, py, pz, res, tmp):
     """Nearest centerline point of a sample expected at trajectory index ``e``: res = (d2, segment, t)."""
     M = C.shape[0]
-    lo = int(math.floor(e + pre - w))
-    hi = int(math.ceil(e + pre + w))
-    if lo < 0:
-        lo = 0
-    if hi > M - 1:
-        hi = M - 1
-    if lo > M - 2:
-        lo = M - 2
-    if hi <= lo:
-        hi = lo + 1
+    lo, hi = _window(M, e + pre, w)
     if g < 0:
         _scan(C, lo, hi, px, py, pz, res)
     else:
