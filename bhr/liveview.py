@@ -225,6 +225,7 @@ class LiveView:
         if handler is not None:
             fig.canvas.mpl_disconnect(handler)
         fig.canvas.mpl_connect("key_press_event", self.on_key)
+        _forward_early_keys(fig.canvas)
         self.goto(0)
         self.timer = fig.canvas.new_timer(interval=self.interval)
         self.timer.add_callback(self._tick)
@@ -233,6 +234,26 @@ class LiveView:
         if self.timer is not None:
             self.timer.stop()
         return self.report
+
+
+def _forward_early_keys(canvas: Any) -> None:
+    """In a Tk window, pass keys that reach the window itself on to the figure.
+
+    When a Tk window gets the keyboard focus, Tk first gives it to the window
+    and only a moment later to the widget inside that asked for it (the
+    figure's canvas); matplotlib listens on the canvas alone, so a key pressed
+    in between would be lost. Other backends need nothing.
+    """
+    window = getattr(getattr(canvas, "manager", None), "window", None)
+    key_press = getattr(canvas, "key_press", None)
+    if window is None or key_press is None or not hasattr(window, "bind") or not hasattr(canvas, "get_tk_widget"):
+        return
+
+    def on_window_key(event: Any) -> None:
+        if str(event.widget) == str(window):  # keys on the canvas itself reach matplotlib already
+            key_press(event)
+
+    window.bind("<KeyPress>", on_window_key, add="+")
 
 
 def show(result: "FollowResult", stride: int = 1, interval_ms: int = DEFAULT_INTERVAL_MS,
