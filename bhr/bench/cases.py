@@ -36,6 +36,8 @@ from typing import Any, Callable
 
 import numpy as np
 
+from bhr.kinematics.codetable import SEARCH_CODES, SEARCH_INVERSE
+
 __all__ = ["CASES", "BenchResult", "run_case", "run_all", "numpy_fabrik", "numpy_ccd", "numpy_seed_follow",
            "numpy_optimal_follow", "check_optimal_reference", "numpy_body"]
 
@@ -309,7 +311,7 @@ def numpy_optimal_follow(path: np.ndarray, start_point: np.ndarray, start_direct
     chain = Chain.straight(Robot(modules=n, module_length=L, alpha=alpha, feed_divisor=f), start_direction,
                            start_point, tip_at_origin=True)
     P, E1, E2 = chain.points.copy(), chain.axes[0].copy(), chain.axes[1].copy()
-    codes_of = np.array([0, 3, 6, 12, 9])
+    codes_of = SEARCH_CODES
     codes = np.zeros((N, n), dtype=np.int64)
     pe = np.zeros((N, n + 1))
     costs = np.zeros(N)
@@ -352,8 +354,8 @@ def numpy_body(P0s: np.ndarray, F1s: np.ndarray, start: np.ndarray, nb: int, f: 
     """The body's beam search (bhr.body) in numpy: rear ends (N, nb, 3) and codes (N, nb) at every step."""
     a = math.radians(alpha)
     c, s = math.cos(a), math.sin(a)
-    inverse = [0, 3, 4, 1, 2]
-    code = np.array([0, 3, 6, 12, 9])
+    inverse = SEARCH_INVERSE
+    code = SEARCH_CODES
     N = P0s.shape[0]
     pts = np.zeros((N, nb, 3))
     codes = np.zeros((N, nb), dtype=np.int64)

@@ -57,14 +57,15 @@ from numba import njit
 from bhr.errors import BhrError
 from bhr.options import solver_defaults
 from bhr.kinematics.frames import tilt_frame as _rot
+from bhr.kinematics.codetable import SEARCH_CODES
 from bhr.kinematics.leader import advance_kernel, score_step
 from bhr.solvers.base import Chain, FollowContext, SolveResult, Solver, register
 from bhr.robot import forward_kinematics
 
 __all__ = ["Optimal", "CODE_OF", "search_all", "search_head", "config_cost", "path_features", "DEFAULTS"]
 
-#: Search index -> module code: rest, +x, +y, -x, -y (bhr.codes).
-CODE_OF = np.array([0, 3, 6, 12, 9], dtype=np.int64)
+#: Search index -> module code: rest, +x, +y, -x, -y (the code table's search order).
+CODE_OF = SEARCH_CODES
 DEG = 180.0 / math.pi
 
 #: Default settings of ``--solver optimal`` (docs/optimal.md explains each), from the option registry.
