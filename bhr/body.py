@@ -179,7 +179,7 @@ def module1_frames(codes: np.ndarray, start_direction, alpha: float) -> tuple[np
 
 
 def simulate_body(result, body_modules: int) -> BodyRun:
-    """The ``body_modules - n`` modules behind the head of ``result`` (a :class:`bhr.follow.FollowResult`).
+    """The ``body_modules - n`` modules behind the head of ``result`` (a :class:`bhr.driver.FollowResult`).
 
     ``body_modules`` is the whole robot's module count M (head included).
     Needs a run whose solver returns codes (binary tilts about local axes).

@@ -25,7 +25,7 @@ import numpy as np  # noqa: E402
 from bhr.atomic import atomic_path  # noqa: E402
 
 if TYPE_CHECKING:  # pragma: no cover
-    from bhr.follow import FollowResult
+    from bhr.driver import FollowResult
 
 __all__ = ["error_figure", "path_figure", "chain_figure", "draw_robot", "draw_path", "save_figure",
            "save_run_plots", "ERROR_KINDS", "StepView", "run_is_planar",

@@ -52,12 +52,12 @@ from typing import Any, Callable, Iterable, Sequence
 from bhr.errors import BhrError
 from bhr import __version__
 from bhr.atomic import write_json, write_text
-from bhr.follow import BhrWarning, follow
+from bhr.driver import BhrWarning, follow
 from bhr.options import BY_NAME, by_group, solver_options_for
 from bhr.robot import Robot
 from bhr.robotfile import load_robot_file
 from bhr.solvers import get_solver
-from bhr.trajectory import GENERATORS, builtin_names, load_trajectory
+from bhr.generators import GENERATORS, builtin_names, load_trajectory
 
 __all__ = ["RunSpec", "Batch", "load_batch", "parse_batch", "execute_run", "run_batch", "BatchReport",
            "ROW_FIELDS", "TRAJ_KEYS", "ROBOT_KEYS", "CONSTRAINT_KEYS", "NUMBER_KEYS", "INT_KEYS",
@@ -358,7 +358,7 @@ def _warm_up(solvers: Sequence[str], plots: bool) -> None:
     """
     import numpy as np
 
-    from bhr.follow import follow
+    from bhr.driver import follow
 
     pts = np.array([[0.0, 0.0, 0.0], [2.0, 0.0, 0.0], [4.0, 0.0, 0.0]])
     for name in solvers:

@@ -34,14 +34,14 @@ from typing import Any, Callable, Iterable, Sequence
 from bhr.errors import BhrError
 from bhr import __version__
 from bhr.atomic import write_json, write_text
-from bhr.follow import BhrWarning, follow
+from bhr.driver import BhrWarning, follow
 from bhr.options import solver_options_for
 from bhr.report import (CONSTRAINT_KEYS, NUMBER_KEYS, PAGE_END, ROBOT_KEYS, TRAJ_KEYS, _reason, _suggest,
                         check_value, page_head, summary_row)
 from bhr.robot import Robot
 from bhr.robotfile import load_robot_file
 from bhr.solvers import available, canonical
-from bhr.trajectory import GENERATORS, load_trajectory
+from bhr.generators import GENERATORS, load_trajectory
 
 __all__ = ["Sweep", "SweepResult", "GRID_KEYS", "parse_grid_option", "parse_values", "sweep_from_toml",
            "load_sweep", "build_sweep", "run_design", "run_chunk", "run_sweep", "heatmap_axes",
@@ -242,7 +242,7 @@ def build_sweep(trajs: Sequence[str], solvers: Sequence[str], grid: Iterable[tup
     for s in solvers:
         if canonical(s) not in names:
             raise BhrError(f"{where}: unknown solver {s!r}; choose from {', '.join(names)}")
-    from bhr.trajectory import builtin_names
+    from bhr.generators import builtin_names
 
     shipped = set(builtin_names())
     sources = {}

@@ -330,10 +330,10 @@ def worst_colon_run(result: StudyResult, design: dict[str, Any]):
     """Follow ``design``'s worst colon again (same robot, solver and options) and return the run."""
     import warnings
 
-    from bhr.follow import BhrWarning, follow
+    from bhr.driver import BhrWarning, follow
     from bhr.report import CONSTRAINT_KEYS, ROBOT_KEYS
     from bhr.sweep import make_robot
-    from bhr.trajectory import load_trajectory
+    from bhr.generators import load_trajectory
 
     s = result.study.sweep
     robot = make_robot({ROBOT_KEYS[k]: design[k] for k in result.study.design_keys if k in ROBOT_KEYS},

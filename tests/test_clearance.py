@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 from bhr.clearance import clearance_table, step_ranges
-from bhr.follow import follow
-from bhr.trajectory import COLON_SECTIONS, colon, load_trajectory
+from bhr.driver import follow
+from bhr.generators import COLON_SECTIONS, colon, load_trajectory
 
 
 def with_lumen(tr, diameter):

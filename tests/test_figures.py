@@ -19,10 +19,10 @@ import pytest  # noqa: E402
 from matplotlib.backends.backend_agg import FigureCanvasAgg  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 
-from bhr.follow import follow  # noqa: E402
+from bhr.driver import follow  # noqa: E402
 from bhr.plots import (ERROR_KINDS, FRAME_INCHES, LUMEN_WALL, StepView, body_figure, error_figure,  # noqa: E402
                        lumen_walls, path_figure, zoom_half_width, FRAME_ZOOM)
-from bhr.trajectory import load_trajectory  # noqa: E402
+from bhr.generators import load_trajectory  # noqa: E402
 
 
 @pytest.fixture(scope="module")

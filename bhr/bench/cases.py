@@ -291,12 +291,12 @@ def numpy_optimal_follow(path: np.ndarray, start_point: np.ndarray, start_direct
     The argmin (the first in lexicographic order of the codes, module 1 most
     significant, as the branch and bound keeps it on ties) is the pose; then
     the robot advances by the feed along its base module and modules 2..n get
-    straight axes again (bhr.follow.advance_kernel).
+    straight axes again (bhr.driver.advance_kernel).
 
     Returns (codes (N, n), point errors (N, n+1)) and, with ``return_costs``,
     the minimum cost of each step (N,).
     """
-    from bhr.follow import path_directions
+    from bhr.driver import path_directions
     from bhr.robot import Robot
     from bhr.solvers import Chain
 
@@ -432,8 +432,8 @@ def case_ccd(repeat: int = 7) -> BenchResult:
 
 def case_seed_colon(repeat: int = 5) -> BenchResult:
     """--solver seed over the whole colon, per step (compiled loop against the numpy loop)."""
-    from bhr.follow import follow
-    from bhr.trajectory import load_trajectory
+    from bhr.driver import follow
+    from bhr.generators import load_trajectory
 
     tr = load_trajectory("colon")
     steps = len(tr.points)
@@ -461,7 +461,7 @@ def check_optimal_reference(res, path: np.ndarray, ref_codes: np.ndarray, ref_pe
     (to ``tol_cost``: a tie, which the two break differently), the runs are
     compared up to that step only, and the tie is reported in the result.
     """
-    from bhr.follow import path_directions
+    from bhr.driver import path_directions
     from bhr.solvers.optimal import config_cost
 
     n = res.modules
@@ -487,8 +487,8 @@ def check_optimal_reference(res, path: np.ndarray, ref_codes: np.ndarray, ref_pe
 def case_optimal(repeat: int = 5) -> list[BenchResult]:
     """--solver optimal over the colon: the exact per-step search against numpy; the default's solve time."""
     from bhr.bench.optimal import solve_times
-    from bhr.follow import follow
-    from bhr.trajectory import load_trajectory
+    from bhr.driver import follow
+    from bhr.generators import load_trajectory
 
     tr = load_trajectory("colon")
     steps = len(tr.points)
@@ -518,8 +518,8 @@ def case_optimal(repeat: int = 5) -> list[BenchResult]:
 def case_body(repeat: int = 5) -> BenchResult:
     """Whole-body follow-the-leader, 60 modules (5 head + 55 body) along the colon, per step."""
     from bhr.body import BODY_BEAM, module1_frames, simulate_body
-    from bhr.follow import follow
-    from bhr.trajectory import load_trajectory
+    from bhr.driver import follow
+    from bhr.generators import load_trajectory
 
     tr = load_trajectory("colon")
     res = follow(tr)

@@ -680,7 +680,7 @@ class Optimal(Solver):
 
     def follow_kernel(self, path: np.ndarray, dirs: np.ndarray, chain: Chain, out_points: np.ndarray,
                       out_iters: np.ndarray, pe: np.ndarray, oe: np.ndarray, codes: np.ndarray) -> bool:
-        """Run the whole follow-the-leader loop compiled (see :mod:`bhr.follow`). Codes are always valid."""
+        """Run the whole follow-the-leader loop compiled (see :mod:`bhr.driver`). Codes are always valid."""
         self.reset()
         path = np.ascontiguousarray(path, dtype=np.float64)
         dirs = np.ascontiguousarray(dirs, dtype=np.float64)

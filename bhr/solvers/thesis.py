@@ -260,7 +260,7 @@ class ConstrainedFabrik(Solver):
 
     def follow_kernel(self, path: np.ndarray, dirs: np.ndarray, chain: Chain, out_points: np.ndarray,
                       out_iters: np.ndarray, pe: np.ndarray, oe: np.ndarray, codes: np.ndarray) -> bool:
-        """Run the whole follow-the-leader loop compiled (see :mod:`bhr.follow`). Returns whether codes are valid."""
+        """Run the whole follow-the-leader loop compiled (see :mod:`bhr.driver`). Returns whether codes are valid."""
         r = self.robot
         c = chain.copy()
         follow_constrained_kernel(path, dirs, c.points, np.ascontiguousarray(c.axes[0]),

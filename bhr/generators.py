@@ -27,7 +27,6 @@ from typing import Any, Callable
 import numpy as np
 
 import bhr.pathfile as pathfile
-from bhr._callable import make_callable
 from bhr._input import check_keys, number, read_toml, text_value
 from bhr.errors import BhrError
 from bhr.pathfile import MAX_POINTS
@@ -432,4 +431,3 @@ def trajectory(name_or_path: str | os.PathLike[str], feed: float = 2.0, **params
     return load_trajectory(name_or_path, feed=feed, **params).points
 
 
-make_callable(__name__, "trajectory")
