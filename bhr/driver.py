@@ -34,10 +34,10 @@ from bhr.robot import Robot
 from bhr.solvers import Chain, FollowContext, get_solver
 from bhr.body import BodyRun, simulate_body
 from bhr.clearance import ClearanceReport, clearance_report
-from bhr.kinematics.leader import advance_kernel, angle_deg, score_step
+from bhr.kinematics.leader import angle_deg, score_step
 from bhr.path import Trajectory, path_directions
 
-__all__ = ["follow", "FollowResult", "path_directions", "score_step", "advance_kernel", "stats", "load_run"]
+__all__ = ["follow", "FollowResult", "Summary", "BhrWarning", "stats", "load_run"]
 
 
 class BhrWarning(UserWarning):

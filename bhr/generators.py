@@ -30,9 +30,9 @@ import bhr.pathfile as pathfile
 from bhr._input import check_keys, number, read_toml, text_value
 from bhr.errors import BhrError
 from bhr.pathfile import MAX_POINTS
-from bhr.path import Trajectory, path_directions
+from bhr.path import Trajectory
 
-__all__ = ["Trajectory", "path_directions", "trajectory", "load_trajectory", "builtin_names", "GENERATORS",
+__all__ = ["Trajectory", "trajectory", "load_trajectory", "builtin_names", "GENERATORS",
            "line", "curve", "spiral", "colon", "anatomy", "anatomy_trajectory"]
 
 

@@ -291,12 +291,12 @@ def numpy_optimal_follow(path: np.ndarray, start_point: np.ndarray, start_direct
     The argmin (the first in lexicographic order of the codes, module 1 most
     significant, as the branch and bound keeps it on ties) is the pose; then
     the robot advances by the feed along its base module and modules 2..n get
-    straight axes again (bhr.driver.advance_kernel).
+    straight axes again (bhr.kinematics.leader.advance_kernel).
 
     Returns (codes (N, n), point errors (N, n+1)) and, with ``return_costs``,
     the minimum cost of each step (N,).
     """
-    from bhr.driver import path_directions
+    from bhr.path import path_directions
     from bhr.robot import Robot
     from bhr.solvers import Chain
 
@@ -461,7 +461,7 @@ def check_optimal_reference(res, path: np.ndarray, ref_codes: np.ndarray, ref_pe
     (to ``tol_cost``: a tie, which the two break differently), the runs are
     compared up to that step only, and the tie is reported in the result.
     """
-    from bhr.driver import path_directions
+    from bhr.path import path_directions
     from bhr.solvers.optimal import config_cost
 
     n = res.modules

@@ -76,7 +76,7 @@ def worst_error_ratios(robot=None, solver_options: dict[str, Any] | None = None)
 
 def _step_times(tr, solver: str, robot, options: dict[str, Any] | None) -> np.ndarray:
     """Seconds of each solve() call along ``tr``, driven as bhr.follow's step-by-step loop."""
-    from bhr.driver import path_directions
+    from bhr.path import path_directions
     from bhr.solvers import Chain, FollowContext, get_solver
 
     path = np.ascontiguousarray(tr.points, dtype=np.float64)
