@@ -52,7 +52,7 @@ from bhr.clearance import Tube, _window, make_tube, segment_scan
 from bhr.errors import BhrError
 from bhr.options import solver_defaults
 from bhr.kinematics.frames import tilt_frame as _rot
-from bhr.kinematics.leader import advance_kernel, score_step
+from bhr.kinematics.leader import advance_kernel, finish_step
 from bhr.solvers.base import Chain, FollowContext, SolveResult, register
 from bhr.solvers.optimal import CODE_OF, DEG, Optimal, _beam_commit, _beam_keep, _beam_reset, _dist2, \
     _frame_of_chain, _number, _step_targets, _tip_angle
@@ -368,11 +368,8 @@ def follow_lumen_kernel(path, dirs, P, E1, E2, bP, bF, bC, bH, state, cP, cF, cC
         layers, _ = _lumen_step(P, E1, E2, i, bP, bF, bC, bH, state, cP, cF, cC, cPar, cA, order_buf, C, R, pre, w,
                                 path, dirs, n, f, feed, L, alpha, prm, lookahead, lagv, step_codes, tilts)
         dd = dirs[N - 2] if i == N - 1 else dirs[i]
-        out_points[i] = P
-        out_iters[i] = layers
-        codes[i] = step_codes
-        score_step(i, P, path, dirs, f, _tip_angle(P, dd), pe[i], oe[i])
-        advance_kernel(P, E1, E2, feed, L)
+        finish_step(i, P, E1, E2, path, dirs, f, feed, L, _tip_angle(P, dd), layers, step_codes, out_points, out_iters,
+                    pe, oe, codes)
 
 
 # ---------------------------------------------------------------------------

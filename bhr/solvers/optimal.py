@@ -58,7 +58,7 @@ from bhr.errors import BhrError
 from bhr.options import solver_defaults
 from bhr.kinematics.frames import tilt_frame as _rot
 from bhr.kinematics.codetable import SEARCH_CODES
-from bhr.kinematics.leader import advance_kernel, score_step
+from bhr.kinematics.leader import advance_kernel, finish_step
 from bhr.solvers.base import Chain, FollowContext, SolveResult, Solver, register
 from bhr.robot import forward_kinematics
 
@@ -412,15 +412,8 @@ def follow_optimal_kernel(path, dirs, P, E1, E2, bP, bF, bC, bH, state, cP, cF, 
                                   n, f, feed, L, alpha, w, wo, lookahead, kvec, spacing, kcurve, kbend, wdrift, wroll,
                                   step_codes, tilts)
         d = dirs[N - 2] if i == N - 1 else dirs[i]
-        # element loops, not slice assignment (that compiles numba's string formatting: seconds)
-        for j in range(n + 1):
-            for c in range(3):
-                out_points[i, j, c] = P[j, c]
-        out_iters[i] = layers
-        for j in range(n):
-            codes[i, j] = step_codes[j]
-        score_step(i, P, path, dirs, f, _tip_angle(P, d), pe[i], oe[i])
-        advance_kernel(P, E1, E2, feed, L)
+        finish_step(i, P, E1, E2, path, dirs, f, feed, L, _tip_angle(P, d), layers, step_codes, out_points, out_iters,
+                    pe, oe, codes)
 
 
 # ---------------------------------------------------------------------------
