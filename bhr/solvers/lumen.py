@@ -54,7 +54,7 @@ from bhr.options import solver_defaults
 from bhr.kinematics.frames import tilt_frame as _rot
 from bhr.kinematics.leader import advance_kernel, finish_step
 from bhr.solvers.base import Chain, FollowContext, SolveResult, register
-from bhr.solvers.optimal import CODE_OF, DEG, Optimal, _beam_commit, _beam_keep, _beam_reset, _dist2, \
+from bhr.solvers.optimal import CODE_OF, DEG, Optimal, _beam_commit, _beam_keep, _beam_reset, _dist2, _write_pose, \
     _frame_of_chain, _number, _step_targets, _tip_angle
 
 __all__ = ["Lumen", "DEFAULTS", "head_cost", "lumen_config_cost"]
@@ -341,18 +341,7 @@ def _lumen_step(P, E1, E2, i, bP, bF, bC, bH, state, cP, cF, cC, cPar, cA, order
     cost = _head_cost(C, R, pre, w, P0, F1, i, n, f, L, c, s, T, prm, best_codes, frames, pts, part, guess, choice,
                       res, tmp)
     best_codes[0] = a0
-    _rot(F, a0, c, s, frames[0])
-    for m in range(1, n):
-        _rot(frames[m - 1], best_codes[m], c, s, frames[m])
-    for m in range(n):
-        out_codes[m] = CODE_OF[best_codes[m]]
-        tilts[m] = 0.0 if best_codes[m] == 0 else alpha
-        for b in range(3):
-            P[m + 1, b] = P[m, b] + L * frames[m, 2, b]
-    for m in range(n):
-        for b in range(3):
-            E1[m, b] = P[m, b] + frames[m, 0, b]
-            E2[m, b] = P[m, b] + frames[m, 1, b]
+    _write_pose(F, best_codes, c, s, L, alpha, frames, P, E1, E2, out_codes, tilts)
     return layers, cost
 
 

@@ -335,6 +335,29 @@ def _beam_commit(bP, bF, bC, bH, state, step):
 
 
 @njit(cache=True)
+def _write_pose(F, best_codes, c, s, L, alpha, frames, P, E1, E2, out_codes, tilts):
+    """Put the chain in the pose of ``best_codes`` (search indices, module 1 first) from the base frame ``F``.
+
+    Writes the module frames, the points ``P[1:]`` and the axis points ``E1``,
+    ``E2`` (each module's x and y from its rear point), the codes and the
+    tilts (degrees) of the pose.
+    """
+    n = best_codes.shape[0]
+    _rot(F, best_codes[0], c, s, frames[0])
+    for m in range(1, n):
+        _rot(frames[m - 1], best_codes[m], c, s, frames[m])
+    for m in range(n):
+        out_codes[m] = CODE_OF[best_codes[m]]
+        tilts[m] = 0.0 if best_codes[m] == 0 else alpha
+        for b in range(3):
+            P[m + 1, b] = P[m, b] + L * frames[m, 2, b]
+    for m in range(n):
+        for b in range(3):
+            E1[m, b] = P[m, b] + frames[m, 0, b]
+            E2[m, b] = P[m, b] + frames[m, 1, b]
+
+
+@njit(cache=True)
 def _optimal_step(P, E1, E2, i, bP, bF, bC, bH, state, cP, cF, cC, cPar, cA, order_buf, path, dirs, n, f, feed, L,
                   alpha, w, wo, lookahead, kvec, spacing, kcurve, kbend, wdrift, wroll, out_codes, tilts):
     """Solve step ``i`` in place: plan the base tilt, search the rest exactly, write the pose into P, E1, E2.
@@ -371,18 +394,7 @@ def _optimal_step(P, E1, E2, i, bP, bF, bC, bH, state, cP, cF, cC, cPar, cA, ord
     _rot(F, a0, c, s, F1)
     cost = _head_cost(P0, F1, n, T, w, d, wo, L, c, s, codes, best_codes, frames, pts, part, choice)
     best_codes[0] = a0
-    _rot(F, a0, c, s, frames[0])
-    for m in range(1, n):
-        _rot(frames[m - 1], best_codes[m], c, s, frames[m])
-    for m in range(n):
-        out_codes[m] = CODE_OF[best_codes[m]]
-        tilts[m] = 0.0 if best_codes[m] == 0 else alpha
-        for b in range(3):
-            P[m + 1, b] = P[m, b] + L * frames[m, 2, b]
-    for m in range(n):
-        for b in range(3):
-            E1[m, b] = P[m, b] + frames[m, 0, b]
-            E2[m, b] = P[m, b] + frames[m, 1, b]
+    _write_pose(F, best_codes, c, s, L, alpha, frames, P, E1, E2, out_codes, tilts)
     return layers, cost
 
 
