@@ -442,6 +442,16 @@ def follow(points: Any, solver: str = "thesis", robot: Robot | None = None, *,
                f"turn radius {robot.min_turn_radius:.2f} mm; expect large errors")
         msgs.append(msg)
         warnings.warn(msg, BhrWarning, stacklevel=2)
+    lumen = getattr(traj, "lumen", None)
+    if lumen is not None and len(lumen):
+        narrow = np.flatnonzero(np.asarray(lumen, dtype=float) < 2.0 * robot.radius)
+        if narrow.size:
+            k = int(narrow[np.argmin(np.asarray(lumen)[narrow])])
+            msg = (f"the lumen is narrower than the robot ({2.0 * robot.radius:g} mm across) at {narrow.size} of "
+                   f"{len(lumen)} points, narrowest {float(lumen[k]):.2f} mm at point {k + 1}; the robot touches the "
+                   "wall there whatever the solver does")
+            msgs.append(msg)
+            warnings.warn(msg, BhrWarning, stacklevel=2)
     n = robot.modules
     N = path.shape[0]
     chain = Chain.straight(robot, traj.start_direction, traj.start_point, tip_at_origin=True)

@@ -460,7 +460,8 @@ def csv_trajectory(path: Path, feed: float):
     length = float(np.linalg.norm(np.diff(raw, axis=0), axis=1).sum())
     if length < feed * (1 - 1e-9):
         raise BhrError(f"{where}: the path is {length:g} mm long, shorter than one feed ({feed:g} mm); "
-                       "give a longer centerline")
+                       "coordinates are read in millimetres (a centerline in metres needs multiplying by 1000), "
+                       "so give a longer centerline")
     try:
         pts, lumen = resample_polyline(raw, feed, lumen_raw)
     except BhrError as exc:
