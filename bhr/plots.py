@@ -689,11 +689,6 @@ def save_run_plots(result: "FollowResult", out_dir: str | os.PathLike[str]) -> l
 # --- lumen clearance and the whole body (bhr.clearance, bhr.body) ---
 
 
-def _body_points(result: "FollowResult") -> list[np.ndarray]:
-    body = getattr(result, "body", None)
-    return [body.points.reshape(-1, 3)] if body is not None and body.modules else []
-
-
 def mark_wall_touches(ax: Any, result: "FollowResult") -> None:
     """Shade the steps where some point of the robot touches the lumen wall (clearance <= 0)."""
     cl = getattr(result, "clearance", None)

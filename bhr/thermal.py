@@ -557,20 +557,6 @@ def summarize(schedule: Schedule, name: str = "") -> str:
     return f"{name + ': ' if name else ''}{n} steps, {format_duration(schedule.total_s)} {when}"
 
 
-def fault_lines(schedule: Schedule, limit: int = 5) -> list[str]:
-    """One line per fault the model predicts (first ``limit``)."""
-    p = schedule.sim.params
-    out = []
-    for kind, module, step in schedule.faults[:limit]:
-        if kind == "early":
-            out.append(f"module m{module}, step {step}: a wire released earlier has not relaxed yet "
-                       f"(relaxation takes {p.relax_ms:g} ms)")
-        else:
-            out.append(f"module m{module}, step {step}: a wire would overheat (over {p.max_full_ms:g} ms of "
-                       "full power)")
-    return out
-
-
 def max_safe_rate(params: ThermalParams, rows, rate: float) -> float | None:
     """The highest fixed rate (<= rate, to 0.1 Hz, at least 0.1 Hz) the model accepts, or None."""
     lo, hi = 0.1, float(rate)

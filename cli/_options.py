@@ -217,16 +217,6 @@ def optimal_options(f: Any) -> Any:
     return _stack(*[_click_option(o) for o in by_group("solver") if o.name in OPTIMAL_FIELDS])(f)
 
 
-def pop_optimal(kwargs: dict[str, Any]) -> dict[str, Any]:
-    """Remove the optimal solver's options from ``kwargs``; return the given ones as solver options."""
-    out = {}
-    for k in OPTIMAL_FIELDS:
-        v = kwargs.pop(k, None)
-        if v is not None:
-            out[k] = list(v) if isinstance(v, tuple) else v
-    return out
-
-
 # --solver lumen (bhr/solvers/lumen.py, docs/lumen.md); it shares --lookahead, --beam and --ori-weight with optimal
 LUMEN_FIELDS = tuple(o.name for o in by_group("solver") if o.solvers == ("lumen",))
 SHARED_FIELDS = tuple(o.name for o in by_group("solver") if o.solvers is not None and len(o.solvers) > 1)
