@@ -8,11 +8,12 @@ name with underscores (``modules``, ``module_length``, ``alpha``,
 the result is one row per design with its worst errors and, where the
 trajectory has a lumen, its minimum clearance.
 
-Designs run in chunks. :func:`run_sweep` runs the chunks in this process
-(``jobs=1``), in a pool of worker processes (``jobs>1``; the workers load
-the compiled kernels from numba's on-disk cache once each), or on an existing
-Dask distributed cluster (``scheduler="tcp://host:port"``); every path calls
-the same :func:`run_chunk` on the same designs, so the rows are the same.
+:func:`run_sweep` runs the designs through the studies' executor
+(:mod:`bhr.executor`): in this process (``jobs=1``), in a pool of worker
+processes (``jobs>1``; the workers load the compiled kernels from numba's
+on-disk cache once each), or on an existing Dask distributed cluster
+(``scheduler="tcp://host:port"``); every path runs the same
+:func:`run_design` on the same designs, so the rows are the same.
 
 Neither matplotlib nor Dask is imported until a heat-map is drawn or a
 scheduler is given.
@@ -324,7 +325,10 @@ def run_design(design: dict[str, Any], traj_source: str, base_robot: dict[str, A
 
 
 def run_chunk(chunk: Sequence[tuple[Any, ...]]) -> list[tuple[int, dict[str, Any]]]:
-    """Run ``(index, design, trajectory source[, base robot fields[, extra keys]])`` items; return ``(index, row)``."""
+    """Run ``(index, design, trajectory source[, base robot fields[, extra keys]])`` items; return ``(index, row)``.
+
+    Kept for callers of earlier versions; :func:`run_sweep` hands single designs to :mod:`bhr.executor`.
+    """
     return [(item[0], run_design(*item[1:])) for item in chunk]
 
 
