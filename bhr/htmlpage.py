@@ -6,7 +6,7 @@ it opens from a folder, over HTTP, or alone as one file. Every value goes
 through :func:`escape`. Figures (:func:`figure`) link to their PNG, which
 opens at full size, and can be embedded in the page (``inline``) so the page
 is one file to share. Tables (:func:`table`) take their headers in words with
-units from the option registry (:func:`bhr.study.column_title`).
+units from the option registry (:func:`bhr.names.column_title`).
 """
 from __future__ import annotations
 
@@ -15,7 +15,7 @@ import html
 from pathlib import Path
 from typing import Any, Callable, Sequence
 
-from bhr.study import column_title
+from bhr.names import column_title
 
 __all__ = ["CSS", "page_head", "PAGE_END", "escape", "fmt", "image_src", "figure", "table"]
 
@@ -98,7 +98,7 @@ def table(table_id: str, columns: Sequence[str], rows: Sequence[Any],
           head_class: Callable[[str], str] | None = None, row_class: Callable[[Any], str] | None = None) -> str:
     """A table, scrolling sideways when wide: one column per key, one row per item.
 
-    Headers are :func:`bhr.study.column_title` of each key unless ``heads``
+    Headers are :func:`bhr.names.column_title` of each key unless ``heads``
     names it; ``cell(row, key)`` gives a cell's HTML (escaped) and CSS class;
     ``head_class(key)`` and ``row_class(row)`` the classes of headers and rows.
     """

@@ -40,11 +40,11 @@ from bhr.options import solver_options_for
 from bhr.robot import Robot
 from bhr.robotfile import load_robot_file
 from bhr.solvers import available, canonical
-from bhr.study import (AXIS_NAMES, COLUMN_TITLES, CONSTRAINT_KEYS, NUMBER_KEYS, ROBOT_KEYS, TRAJ_KEYS, axis_label,
-                       axis_value, check_value, column_title, csv_text, make_robot, suggest, summary_row,
-                       warm_up)
-from bhr.study import label as _label
-from bhr.trajectory import GENERATORS, load_trajectory
+from bhr.names import AXIS_NAMES, COLUMN_TITLES, axis_label, axis_value, column_title
+from bhr.names import label as _label
+from bhr.study import (CONSTRAINT_KEYS, NUMBER_KEYS, ROBOT_KEYS, TRAJ_KEYS, check_value, csv_text, make_robot, suggest,
+                       summary_row, warm_up)
+from bhr.trajectory import GENERATORS, builtin_names, load_trajectory
 
 __all__ = ["Sweep", "SweepResult", "GRID_KEYS", "parse_grid_option", "parse_values", "sweep_from_toml",
            "load_sweep", "build_sweep", "run_design", "run_chunk", "run_sweep", "heatmap_axes",
@@ -244,8 +244,6 @@ def build_sweep(trajs: Sequence[str], solvers: Sequence[str], grid: Iterable[tup
     for s in solvers:
         if canonical(s) not in names:
             raise BhrError(f"{where}: unknown solver {s!r}; choose from {', '.join(names)}")
-    from bhr.trajectory import builtin_names
-
     shipped = set(builtin_names())
     sources = {}
     base = Path(base_dir)
