@@ -19,8 +19,8 @@ milliseconds. The lumen diameter is drawn per section and interpolated
 linearly along the arc length between section midpoints.
 
 ``bhr.trajectory("anatomy", seed=N)`` and ``bhr follow --traj anatomy --seed N``
-give the same colon as a :class:`~bhr.trajectory.Trajectory` (points spaced
-by the feed, lumen diameter per point; :func:`bhr.trajectory.anatomy_trajectory`).
+give the same colon as a :class:`~bhr.generators.Trajectory` (points spaced
+by the feed, lumen diameter per point; :func:`bhr.generators.anatomy_trajectory`).
 This module imports nothing of bhr but its errors.
 """
 from __future__ import annotations

@@ -28,7 +28,7 @@ from bhr.errors import BhrError
 from bhr.atomic import atomic_path
 
 if TYPE_CHECKING:  # pragma: no cover
-    from bhr.follow import FollowResult
+    from bhr.driver import FollowResult
     from bhr.plots import StepView
 
 __all__ = ["animate", "check_target", "default_stride", "frame_steps", "frame_view", "ffmpeg_program",

@@ -48,15 +48,16 @@ import numpy as np
 from numba import njit
 
 from bhr.errors import BhrError
+from bhr.kinematics.codetable import SEARCH_CODES, SEARCH_INVERSE
 from bhr.kinematics.frames import tilt_frame as _rot
 from bhr.path import path_directions
 from bhr.robot import base_frame
 
 __all__ = ["BodyRun", "simulate_body", "module1_frames", "whole_robot"]
 
-_IDX = {0: 0, 3: 1, 6: 2, 12: 3, 9: 4}
-_CODE = np.array([0, 3, 6, 12, 9], dtype=np.int64)
-_INVERSE = np.array([0, 3, 4, 1, 2], dtype=np.int64)  # +x <-> -x, +y <-> -y
+_CODE = SEARCH_CODES  # search index (rest, +x, +y, -x, -y) -> code
+_IDX = {int(code): k for k, code in enumerate(SEARCH_CODES)}
+_INVERSE = SEARCH_INVERSE  # +x <-> -x, +y <-> -y
 #: Joint-code sequences kept while fitting the body to the trail, module by module.
 BODY_BEAM = 16
 
@@ -169,8 +170,8 @@ def module1_frames(codes: np.ndarray, start_direction, alpha: float) -> tuple[np
         idx = np.array([_IDX[int(c)] for c in codes[:, 0]], dtype=np.int64)
     except KeyError:
         bad = next(int(c) for c in codes[:, 0] if int(c) not in _IDX)
-        raise BhrError(f"module 1 has code {bad} in the run; the body follows tilts only (codes 0, 3, 6, 9, 12)") \
-            from None
+        shapes = ", ".join(map(str, sorted(_IDX)))
+        raise BhrError(f"module 1 has code {bad} in the run; the body follows tilts only (codes {shapes})") from None
     out = np.empty((len(idx), 3, 3))
     a = math.radians(alpha)
     _frames_kernel(start, idx, math.cos(a), math.sin(a), out)
@@ -178,7 +179,7 @@ def module1_frames(codes: np.ndarray, start_direction, alpha: float) -> tuple[np
 
 
 def simulate_body(result, body_modules: int) -> BodyRun:
-    """The ``body_modules - n`` modules behind the head of ``result`` (a :class:`bhr.follow.FollowResult`).
+    """The ``body_modules - n`` modules behind the head of ``result`` (a :class:`bhr.driver.FollowResult`).
 
     ``body_modules`` is the whole robot's module count M (head included).
     Needs a run whose solver returns codes (binary tilts about local axes).

@@ -1,7 +1,7 @@
 """Lumen clearance: how far the robot's surface stays from the wall of the lumen it follows.
 
 A trajectory may carry the lumen's inner diameter at each point
-(:attr:`bhr.trajectory.Trajectory.lumen`: a CSV ``lumen`` column, segment
+(:attr:`bhr.generators.Trajectory.lumen`: a CSV ``lumen`` column, segment
 files, generator files; the built-in colon has 30 mm in the rectum and 45 mm
 elsewhere). The lumen is then a tube: the trajectory is its centerline and
 the diameter varies linearly between points. The clearance of a point ``p``
@@ -14,7 +14,7 @@ in mm, where ``C(s*)`` is the point of the centerline nearest to ``p`` and
 wall. Zero or less means the wall is touched; its negative is the
 penetration. The nearest point is searched **locally**: only the centerline
 within ``window`` mm of arc length of where the point is expected (the
-trajectory point it is scored against in :mod:`bhr.follow`), so that two
+trajectory point it is scored against in :mod:`bhr.driver`), so that two
 loops of the colon passing close to each other are never mistaken for one
 another.
 
@@ -502,7 +502,7 @@ def run_chain(result) -> tuple[np.ndarray, np.ndarray, int]:
 
 
 def clearance_report(result, window_mm: float = WINDOW_MM, sample_mm: float = SAMPLE_MM) -> ClearanceReport | None:
-    """The geometric clearance of a run (:class:`bhr.follow.FollowResult`) whose trajectory has a lumen, else None."""
+    """The geometric clearance of a run (:class:`bhr.driver.FollowResult`) whose trajectory has a lumen, else None."""
     tr = result.trajectory
     if tr.lumen is None:
         return None

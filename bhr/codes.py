@@ -1,26 +1,10 @@
-"""Module codes: which actuators are on, and which tilt or lift that gives.
+"""Module codes: checking them, naming their actuators, reading and writing ``codes.csv``.
 
-Each module carries four nitinol actuators numbered 1-4 around its axis. A
-module's *code* is a 4-bit number with bit ``k-1`` set when actuator ``k`` is
-on (thesis Table 4.1). Only six codes are stable (thesis Table 4.2):
-
-====  =========  ===========================================  ==================
-code  actuators  motion of the next module                    signed local axis
-====  =========  ===========================================  ==================
-0     none       rest (straight)                              --
-3     1+2        tilt by alpha                                +x
-6     2+3        tilt by alpha                                +y
-12    3+4        tilt by alpha                                -x
-9     4+1        tilt by alpha                                -y
-15    all four   lift (straight, longer by the stroke)        --
-====  =========  ===========================================  ==================
-
-Local frame of a module: ``z`` along the module (base to tip), ``x`` and ``y``
-its two tilt axes, right-handed. Actuator ``k`` sits at azimuth
-``45 deg + (k-1)*90 deg`` from ``x`` toward ``y``; raising two neighbours
-raises that side, which tips the next module away from it, i.e. a right-hand
-rotation by alpha about the axis in the table. The same table is used by the
-solvers, the serial protocol and the firmware (docs/conventions.md).
+A module's *code* says which of its four nitinol actuators are on (bit
+``k-1`` for actuator ``k``, thesis Table 4.1); only six codes are stable
+(thesis Table 4.2): 0 rest, 3/6/12/9 tilt by alpha about local +x/+y/-x/-y,
+15 lift. The table itself, and what every other part of bhr derives from it,
+is :mod:`bhr.kinematics.codetable` (docs/conventions.md shows it).
 """
 from __future__ import annotations
 
@@ -33,20 +17,17 @@ from typing import Iterable, Sequence
 import numpy as np
 
 from bhr.errors import BhrError
+from bhr.kinematics.codetable import CODE_AXIS, LIFT, REST, TILT_CODES, VALID_CODES
 
-REST = 0
-LIFT = 15
-#: The stable codes, in the order rest, +x, +y, -x, -y, lift.
-VALID_CODES: tuple[int, ...] = (0, 3, 6, 12, 9, 15)
-#: Tilt codes indexed by signed axis: 0 -> +x, 1 -> +y, 2 -> -x, 3 -> -y.
-TILT_CODES: tuple[int, ...] = (3, 6, 12, 9)
-#: For each tilt code, (axis index 0=x/1=y, sign +1/-1).
-CODE_AXIS: dict[int, tuple[int, int]] = {3: (0, 1), 6: (1, 1), 12: (0, -1), 9: (1, -1)}
+__all__ = ["REST", "LIFT", "VALID_CODES", "TILT_CODES", "CODE_AXIS", "is_valid_code", "check_code", "check_codes",
+           "actuators", "format_codes_csv", "read_codes_csv"]
+
 _VALID = frozenset(VALID_CODES)
+_ALLOWED = ", ".join(map(str, sorted(VALID_CODES)))
 
 
 def is_valid_code(code: int) -> bool:
-    """True when ``code`` is one of the six stable codes 0, 3, 6, 9, 12, 15."""
+    """True when ``code`` is one of the six stable codes (0, 3, 6, 9, 12, 15)."""
     return isinstance(code, (int, np.integer)) and int(code) in _VALID
 
 
@@ -63,10 +44,10 @@ def check_code(code: object, where: str = "") -> int:
             value = int(text)
     except ValueError:
         shown = repr(code) if len(str(code)) <= 40 else repr(str(code)[:40]) + "..."
-        raise BhrError(f"code {shown}{place} is not a whole number; use one of 0, 3, 6, 9, 12, 15") from None
+        raise BhrError(f"code {shown}{place} is not a whole number; use one of {_ALLOWED}") from None
     if value not in _VALID:
         raise BhrError(
-            f"code {value}{place} is not a stable actuator code; use one of 0, 3, 6, 9, 12, 15"
+            f"code {value}{place} is not a stable actuator code; use one of {_ALLOWED}"
         )
     return value
 

@@ -18,8 +18,8 @@ import numpy as np
 
 from bhr.errors import BhrError
 from bhr.robot import Robot
-from bhr.trajectory import Trajectory
-from bhr.follow import follow
+from bhr.generators import Trajectory
+from bhr.driver import follow
 from bhr.solvers import available, canonical
 
 __all__ = ["Compared", "compare_runs", "compare_rows", "format_table", "compare_figure", "compare_json"]
@@ -30,7 +30,7 @@ class Compared:
     """One solver's run and how long it took (seconds, whole run)."""
 
     solver: str
-    result: Any  # bhr.follow.FollowResult
+    result: Any  # bhr.driver.FollowResult
     seconds: float
 
     @property

@@ -348,7 +348,7 @@ class Pacer:
     each fault the board raises anew, with the 1-based step and the fault
     names with their modules (a status request gives the modules);
     ``known_faults`` (from a status before the stream) are not news. Calling
-    the pacer as ``pacer(step, codes)`` fits :func:`bhr.follow.follow`'s
+    the pacer as ``pacer(step, codes)`` fits :func:`bhr.driver.follow`'s
     ``on_step``. ``sent`` counts acknowledged rows, ``faults`` collects every
     fault name the board reported, ``fault_events`` the (step, name) pairs.
     """

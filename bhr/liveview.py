@@ -23,7 +23,7 @@ from typing import TYPE_CHECKING, Any
 from bhr.errors import BhrError
 
 if TYPE_CHECKING:  # pragma: no cover
-    from bhr.follow import FollowResult
+    from bhr.driver import FollowResult
 
 __all__ = ["LiveView", "ViewReport", "check_display", "show", "KEYS", "DEFAULT_INTERVAL_MS"]
 

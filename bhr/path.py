@@ -1,6 +1,6 @@
 """A trajectory as the solvers and the follow-the-leader driver see it: points and what is known about them.
 
-:class:`Trajectory` is what :func:`bhr.trajectory.load_trajectory` returns for a
+:class:`Trajectory` is what :func:`bhr.generators.load_trajectory` returns for a
 built-in generator or a trajectory file (:mod:`bhr.pathfile`);
 :func:`path_directions` gives the unit vectors between its points that the
 follow-the-leader loop aims the tip along (thesis ch. 7).

@@ -1,6 +1,6 @@
 """Trajectory files made of segments (TOML) or of measured points (CSV).
 
-Both are documented in docs/trajectories.md; :func:`bhr.trajectory.load_trajectory`
+Both are documented in docs/trajectories.md; :func:`bhr.generators.load_trajectory`
 calls :func:`segments_trajectory` and :func:`csv_trajectory` by file type.
 
 * A segment file lists ``[[segment]]`` tables (``straight``, ``arc``,
@@ -176,7 +176,7 @@ def _sample(pieces: list[_Piece], feed: float, where: str) -> tuple[np.ndarray, 
 
 
 def segments_trajectory(data: dict[str, Any], path: Path, feed: float):
-    """A :class:`~bhr.trajectory.Trajectory` from a parsed segment file."""
+    """A :class:`~bhr.generators.Trajectory` from a parsed segment file."""
 
     where = str(path)
     check_keys(data, TOP_KEYS, where)
@@ -452,7 +452,7 @@ def _unbias(k_est: float, spacing: float, m: int, w1: np.ndarray, w2: np.ndarray
 
 
 def csv_trajectory(path: Path, feed: float):
-    """A :class:`~bhr.trajectory.Trajectory` resampled from a CSV point list."""
+    """A :class:`~bhr.generators.Trajectory` resampled from a CSV point list."""
 
     where = str(path)
     raw, lumen_raw, lines = read_points_csv(path)
@@ -460,7 +460,8 @@ def csv_trajectory(path: Path, feed: float):
     length = float(np.linalg.norm(np.diff(raw, axis=0), axis=1).sum())
     if length < feed * (1 - 1e-9):
         raise BhrError(f"{where}: the path is {length:g} mm long, shorter than one feed ({feed:g} mm); "
-                       "give a longer centerline")
+                       "coordinates are read in millimetres (a centerline in metres needs multiplying by 1000), "
+                       "so give a longer centerline")
     try:
         pts, lumen = resample_polyline(raw, feed, lumen_raw)
     except BhrError as exc:

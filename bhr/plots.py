@@ -25,13 +25,13 @@ import numpy as np  # noqa: E402
 from bhr.atomic import atomic_path  # noqa: E402
 
 if TYPE_CHECKING:  # pragma: no cover
-    from bhr.follow import FollowResult
+    from bhr.driver import FollowResult
 
 __all__ = ["error_figure", "path_figure", "chain_figure", "draw_robot", "draw_path", "save_figure",
            "save_run_plots", "ERROR_KINDS", "StepView", "run_is_planar",
            "body_figure", "clearance_figure", "mark_wall_touches", "mark_worst", "draw_lumen_wall", "lumen_walls",
            "draw_start_end", "draw_target", "marker_stride", "zoom_half_width", "FRAME_INCHES", "draw_contacts",
-           "draw_tube", "draw_contact_steps"]
+           "draw_contact_steps"]
 
 ORDINALS = ["First", "Second", "Third", "Fourth", "Fifth", "Sixth", "Seventh", "Eighth", "Ninth", "Tenth"]
 
@@ -183,18 +183,30 @@ def lumen_walls(traj: Any, planar: bool) -> tuple[np.ndarray, np.ndarray] | None
 
 
 def draw_lumen_wall(ax: Any, traj: Any, planar: bool) -> list[Any]:
-    """The lumen's wall on both sides of the path (and, from the top, the lumen shaded); [] without a lumen."""
+    """The lumen's wall: from the top, both sides of the tube with the lumen shaded; in 3-D, rings around
+    the centerline (one about every half lumen diameter). [] without a lumen."""
     walls = lumen_walls(traj, planar)
     if walls is None:
         return []
-    left, right = walls
+    style = {"color": LUMEN_WALL, "linewidth": 0.9, "zorder": 1}
     artists: list[Any] = []
     if planar:
+        left, right = walls
         ring = np.vstack([left[:, :2], right[::-1, :2]])
         artists += ax.fill(ring[:, 0], ring[:, 1], color=LUMEN_FILL, linewidth=0, zorder=0.5, label="lumen")
-    style = {"color": LUMEN_WALL, "linewidth": 0.9, "zorder": 1}
-    artists += _plot(ax, left, planar, label="lumen wall", **style)
-    artists += _plot(ax, right, planar, label="_lumen wall (other side)", **style)
+        artists += _plot(ax, left, planar, label="lumen wall", **style)
+        artists += _plot(ax, right, planar, label="_lumen wall (other side)", **style)
+        return artists
+    pts = np.asarray(traj.points, dtype=float)
+    diameter = np.asarray(traj.lumen, dtype=float)[: len(pts)]
+    t = np.gradient(pts, axis=0)
+    t /= np.maximum(np.linalg.norm(t, axis=1), 1e-12)[:, None]
+    seg = float(np.median(np.linalg.norm(np.diff(pts, axis=0), axis=1)))
+    every = max(1, int(round(0.5 * float(np.median(diameter)) / max(seg, 1e-9))))
+    style.update(linewidth=0.6, alpha=0.55)
+    for n, k in enumerate(list(range(0, len(pts), every)) + ([len(pts) - 1] if (len(pts) - 1) % every else [])):
+        c = _circle(pts[k], t[k], diameter[k] / 2.0, 32)
+        artists += _plot(ax, c, False, label="lumen wall" if n == 0 else "_lumen ring", **style)
     return artists
 
 
@@ -719,31 +731,6 @@ def draw_contacts(ax: Any, result: "FollowResult", planar: bool) -> list[Any]:
     if planar:
         return ax.plot(w[:, 0], w[:, 1], **style)
     return ax.plot(w[:, 0], w[:, 1], w[:, 2], **style)
-
-
-def draw_tube(ax: Any, trajectory: Any, planar: bool, rings_every_mm: float = 12.0) -> list[Any]:
-    """The lumen's wall: both sides of the tube from the top (planar runs), rings around the centerline in 3-D."""
-    lumen = getattr(trajectory, "lumen", None)
-    pts = trajectory.points
-    if lumen is None or len(pts) < 2:
-        return []
-    t = np.gradient(pts, axis=0)
-    t /= np.maximum(np.linalg.norm(t, axis=1), 1e-12)[:, None]
-    half = np.asarray(lumen, dtype=float)[: len(pts)] / 2.0
-    style = {"color": "0.45", "linewidth": 0.7, "alpha": 0.8}
-    if planar:
-        side = np.stack([-t[:, 1], t[:, 0]], axis=1)
-        left = pts[:, :2] + half[:, None] * side
-        right = pts[:, :2] - half[:, None] * side
-        return ax.plot(left[:, 0], left[:, 1], label="lumen wall", **style) + ax.plot(right[:, 0], right[:, 1], **style)
-    seg = np.linalg.norm(np.diff(pts, axis=0), axis=1)
-    every = max(1, int(round(rings_every_mm / max(float(np.median(seg)), 1e-9))))
-    artists: list[Any] = []
-    for k in range(0, len(pts), every):
-        c = _circle(pts[k], t[k], half[k], 24)
-        artists += ax.plot(c[:, 0], c[:, 1], c[:, 2], linewidth=0.5, color="0.55", alpha=0.45,
-                           label="lumen wall" if k == 0 else None)
-    return artists
 
 
 def body_figure(result: "FollowResult") -> plt.Figure:

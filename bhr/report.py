@@ -45,7 +45,8 @@ from bhr import __version__
 from bhr.atomic import write_json, write_text
 from bhr.errors import BhrError
 from bhr.executor import capture, run_jobs
-from bhr.follow import BhrWarning, follow
+from bhr.generators import GENERATORS, builtin_names, load_trajectory
+from bhr.driver import BhrWarning, follow
 from bhr.htmlpage import PAGE_END, escape, figure, fmt, page_head
 from bhr.htmlpage import table as html_table
 from bhr.options import by_group, solver_options_for
@@ -55,7 +56,6 @@ from bhr.solvers import get_solver
 from bhr.study import (CONSTRAINT_KEYS, INT_KEYS, NUMBER_KEYS, ROBOT_KEYS, SOLVER_KEYS, TRAJ_KEYS, check_value,
                        suggest, summary_row, warm_up)
 from bhr.study import csv_text as _csv_text
-from bhr.trajectory import GENERATORS, builtin_names, load_trajectory
 
 __all__ = ["RunSpec", "Batch", "load_batch", "parse_batch", "execute_run", "run_batch", "BatchReport",
            "ROW_FIELDS", "TRAJ_KEYS", "ROBOT_KEYS", "CONSTRAINT_KEYS", "SOLVER_KEYS", "NUMBER_KEYS", "INT_KEYS",

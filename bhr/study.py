@@ -17,7 +17,7 @@ import math
 from typing import Any, Iterable, Sequence
 
 from bhr.errors import BhrError
-from bhr.follow import follow
+from bhr.driver import follow
 from bhr.options import BY_NAME, by_group
 from bhr.robot import Robot
 

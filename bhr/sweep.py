@@ -34,7 +34,8 @@ from bhr import __version__
 from bhr.atomic import write_json, write_text
 from bhr.errors import BhrError
 from bhr.executor import DASK_MISSING, capture, connect_scheduler, run_jobs
-from bhr.follow import BhrWarning, follow
+from bhr.generators import GENERATORS, builtin_names, load_trajectory
+from bhr.driver import BhrWarning, follow
 from bhr.htmlpage import PAGE_END, escape, figure, fmt, page_head, table
 from bhr.options import solver_options_for
 from bhr.robot import Robot
@@ -44,7 +45,6 @@ from bhr.names import AXIS_NAMES, COLUMN_TITLES, axis_label, axis_value, column_
 from bhr.names import label as _label
 from bhr.study import (CONSTRAINT_KEYS, NUMBER_KEYS, ROBOT_KEYS, TRAJ_KEYS, check_value, csv_text, make_robot, suggest,
                        summary_row, warm_up)
-from bhr.trajectory import GENERATORS, builtin_names, load_trajectory
 
 __all__ = ["Sweep", "SweepResult", "GRID_KEYS", "parse_grid_option", "parse_values", "sweep_from_toml",
            "load_sweep", "build_sweep", "run_design", "run_chunk", "run_sweep", "heatmap_axes",

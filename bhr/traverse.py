@@ -35,14 +35,14 @@ from typing import Any, Callable, Sequence
 from bhr import __version__
 from bhr.atomic import write_json, write_text
 from bhr.errors import BhrError
-from bhr.follow import BhrWarning, follow
+from bhr.driver import BhrWarning, follow
 from bhr.htmlpage import PAGE_END, escape, figure, fmt, page_head, table
 from bhr.names import axis_label
 from bhr.names import label as _label
 from bhr.study import CONSTRAINT_KEYS, ROBOT_KEYS, TRAJ_KEYS, csv_text, make_robot
 from bhr.sweep import Sweep, SweepResult, build_sweep, run_sweep
 from bhr.sweep import heatmap_axes as _sweep_axes
-from bhr.trajectory import load_trajectory
+from bhr.generators import load_trajectory
 
 __all__ = ["Study", "StudyResult", "parse_colons", "build_study", "run_study", "design_rows", "answer",
            "write_study", "format_study", "DESIGN_COLUMNS", "RUN_COLUMNS", "LUMEN_KEYS"]

@@ -45,8 +45,8 @@ def compare(traj, solvers, out_dir, json_path, no_plots, **kwargs):
     from bhr.cli._progress import announce_compiles, status
     from bhr.compare import compare_figure, compare_json, compare_runs, format_table
     from bhr.errors import BhrError
-    from bhr.follow import BhrWarning
-    from bhr.trajectory import load_trajectory
+    from bhr.driver import BhrWarning
+    from bhr.generators import load_trajectory
 
     from bhr.solvers import available, canonical
 

@@ -138,8 +138,8 @@ def follow(traj, solver, out_dir, json_path, no_plots, **kwargs):
     """
     from bhr.atomic import OutputFolder, write_json, write_text
     from bhr.codes import format_codes_csv
-    from bhr.follow import BhrWarning, follow as run_follow
-    from bhr.trajectory import load_trajectory
+    from bhr.driver import BhrWarning, follow as run_follow
+    from bhr.generators import load_trajectory
 
     show, animate_path, stride = kwargs.pop("show"), kwargs.pop("animate_path"), kwargs.pop("stride")
     stem = Path(traj).stem if traj not in ("line", "curve", "spiral", "colon") else traj
@@ -270,7 +270,7 @@ def follow_streaming(tr, solver, robot, solver_options, body_modules, rate, link
     import sys
 
     from bhr.errors import BhrError
-    from bhr.follow import follow as run_follow
+    from bhr.driver import follow as run_follow
     from bhr.link import BoardLink, Pacer, check_board, interrupted, wait_until_ready
     from bhr.thermal import format_duration, plan
 

@@ -69,9 +69,16 @@ def plan(codes_path, rate, schedule, robot_file, plot_path, no_plot, csv_path):
         write_text(Path(csv_path), "\n".join(lines) + "\n")
         written.append(csv_path)
     if not no_plot:
+        from bhr.atomic import MANIFEST, OutputFolder
         from bhr.thermal_plot import save_schedule_figure
 
-        save_schedule_figure(sched, plot_path, title=name)
+        run_folder = Path(plot_path).parent
+        if (run_folder / MANIFEST).is_file():
+            # a run's folder: put it back whole with the figure added, so its manifest lists every file
+            with OutputFolder(run_folder, "plan", keep=True) as folder:
+                save_schedule_figure(sched, folder.path(Path(plot_path).name), title=name)
+        else:
+            save_schedule_figure(sched, plot_path, title=name)
         written.append(plot_path)
     if written:
         click.echo("Wrote " + ", ".join(str(p) for p in written), err=True)

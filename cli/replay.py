@@ -76,7 +76,7 @@ def replay(run, show, animate_path, stride, out_dir, step):
 
         bhr replay bhr-out/latest/run.json --animate colon.gif
     """
-    from bhr.follow import load_run
+    from bhr.driver import load_run
 
     import os
 

@@ -52,7 +52,7 @@ def sweep(sweep_file, trajs, solvers, grid, robot_file, out_dir, jobs, scheduler
     check_executor(jobs, scheduler)
     cli_grid = [parse_grid_option(g) for g in grid]
     if sweep_file:
-        from bhr.trajectory import builtin_names
+        from bhr.generators import builtin_names
 
         base = load_sweep(sweep_file)
         merged = dict(base.grid)

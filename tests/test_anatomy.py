@@ -11,7 +11,7 @@ from hypothesis import given, settings, strategies as st
 import bhr
 from bhr.anatomy import RANGES, SECTIONS, SEED_MAX, SHIPPED, anatomical_colon, anatomy_csv_text, check_seed
 from bhr.errors import BhrError
-from bhr.trajectory import anatomy_trajectory, builtin_names, colon, load_trajectory
+from bhr.generators import anatomy_trajectory, builtin_names, colon, load_trajectory
 from tests.conftest import REPO
 
 seeds = st.integers(min_value=0, max_value=SEED_MAX)

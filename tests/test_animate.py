@@ -23,7 +23,7 @@ from PIL import Image
 
 from bhr.animate import MAX_FRAMES, default_stride, frame_steps, frame_view
 from bhr.errors import BhrError
-from bhr.follow import load_run
+from bhr.driver import load_run
 from tests.conftest import bhr_exe, snapshot
 
 TEN_MB = 10 * 1024 * 1024
@@ -294,8 +294,8 @@ def test_animation_refused_with_one_line_before_any_work(tmp_path, args, env, me
 
 def test_failed_render_leaves_the_old_file_untouched(tmp_path):
     from bhr.animate import animate
-    from bhr.follow import follow
-    from bhr.trajectory import load_trajectory
+    from bhr.driver import follow
+    from bhr.generators import load_trajectory
 
     result = follow(load_trajectory("line", length=30))
     target = tmp_path / "anim.gif"

@@ -7,7 +7,7 @@ import pytest
 
 import bhr
 from bhr.errors import BhrError
-from bhr.follow import Summary
+from bhr.driver import Summary
 
 
 def test_solve_applies_robot_overrides():
@@ -47,3 +47,33 @@ def test_robot_fk():
     assert pts.shape == (4, 3) and frames.shape == (3, 3, 3)
     straight, _ = bhr.Robot(modules=3).fk([0, 0, 0])
     assert np.allclose(straight[-1], [30, 0, 0])
+
+
+def test_follow_and_trajectory_are_plain_functions_in_modules_of_other_names():
+    import inspect
+    import subprocess
+    import sys
+
+    import bhr.driver
+    import bhr.generators
+
+    assert inspect.isfunction(bhr.follow) and bhr.follow is bhr.driver.follow
+    assert inspect.isfunction(bhr.trajectory) and bhr.trajectory is bhr.generators.trajectory
+    # the old module names still import, once more with a warning, and never shadow the functions
+    code = ("import warnings, inspect\n"
+            "warnings.simplefilter('error', DeprecationWarning)\n"
+            "import bhr, bhr.follow, bhr.trajectory\n"
+            "assert inspect.isfunction(bhr.follow) and inspect.isfunction(bhr.trajectory)\n"
+            "try:\n"
+            "    from bhr.follow import load_run\n"
+            "except DeprecationWarning as w:\n"
+            "    print(w)\n"
+            "warnings.simplefilter('ignore', DeprecationWarning)\n"
+            "from bhr.follow import load_run\n"
+            "from bhr.trajectory import load_trajectory\n"
+            "import bhr.driver, bhr.generators\n"
+            "assert load_run is bhr.driver.load_run and load_trajectory is bhr.generators.load_trajectory\n"
+            "assert inspect.isfunction(bhr.follow) and inspect.isfunction(bhr.trajectory)\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip() == "bhr.follow is deprecated; import load_run from bhr.driver"

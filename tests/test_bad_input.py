@@ -180,6 +180,8 @@ CASES += [
     Bad("traj-csv-one-point", "follow", ["--traj", "p.csv"], {"p.csv": "x,y,z\n1,2,3\n"}, "two distinct points"),
     Bad("traj-csv-no-points", "follow", ["--traj", "p.csv"], {"p.csv": "x,y,z\n"}, "two distinct points"),
     Bad("traj-csv-empty", "follow", ["--traj", "p.csv"], {"p.csv": ""}, "no header"),
+    Bad("traj-csv-in-metres", "follow", ["--traj", "p.csv"],
+        {"p.csv": "x,y,z,lumen\n0,0,0,0.04\n0.3,0,0,0.04\n0.3,0.2,0,0.04\n"}, "multiplying by 1000"),
     Bad("traj-csv-all-same", "follow", ["--traj", "p.csv"], {"p.csv": "x,y,z\n1,1,1\n1,1,1\n"}, "distinct"),
     Bad("traj-csv-duplicate", "follow", ["--traj", "p.csv"], {"p.csv": "x,y,z\n0,0,0\n9,0,0\n9,0,0\n20,0,0\n"},
         "line 4: repeats the point of line 3"),

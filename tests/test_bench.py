@@ -7,11 +7,11 @@ import pytest
 from bhr.bench.cases import (CASES, OPTIMAL_PER_STEP, check_optimal_reference, format_table, numpy_body, numpy_ccd,
                        numpy_fabrik, numpy_optimal_follow, numpy_seed_follow, run_case)
 from bhr.body import BODY_BEAM, module1_frames, simulate_body
-from bhr.follow import follow
+from bhr.driver import follow
 from bhr.robot import straight_chain
 from bhr.solvers.ccd import ccd_kernel
 from bhr.solvers.fabrik import fabrik_kernel
-from bhr.trajectory import load_trajectory
+from bhr.generators import load_trajectory
 
 
 @pytest.mark.parametrize("target", [(15.0, 6.0, 0.0), (3.0, 9.0, 0.0), (-4.0, 7.0, 5.0)])

@@ -9,8 +9,8 @@ import pytest
 
 from bhr.body import module1_frames, simulate_body, whole_robot
 from bhr.errors import BhrError
-from bhr.follow import follow
-from bhr.trajectory import load_trajectory
+from bhr.driver import follow
+from bhr.generators import load_trajectory
 
 
 def unit(v):

@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 from bhr.clearance import clearance_table, step_ranges
-from bhr.follow import follow
-from bhr.trajectory import COLON_SECTIONS, colon, load_trajectory
+from bhr.driver import follow
+from bhr.generators import COLON_SECTIONS, colon, load_trajectory
 
 
 def with_lumen(tr, diameter):
@@ -235,3 +235,26 @@ def test_a_point_is_followed_along_the_centerline_from_step_to_step():
     Q = path[0] + 2.0 * (E + lead)[..., None] * d + np.array([0.0, 3.0, 0.0])
     pt, _, _ = clearance_run(tube, 5.0, Q, E)
     assert np.allclose(pt, 15 - 5 - 3, atol=1e-9)
+
+
+def test_a_lumen_narrower_than_the_robot_is_warned_about(tmp_path):
+    import warnings
+
+    from bhr.driver import BhrWarning
+    from bhr.generators import load_trajectory
+
+    x = np.arange(0.0, 60.0, 1.0)
+    for width, warned in ((8.0, True), (10.0, False), (30.0, False)):
+        lumen = np.full(len(x), 30.0)
+        lumen[20:25] = width  # a stricture
+        p = tmp_path / f"w{width:g}.csv"
+        p.write_text("x,y,z,lumen\n" + "".join(f"{v},0,0,{d}\n" for v, d in zip(x, lumen)))
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            run = follow(load_trajectory(str(p)), solver="thesis")
+        said = [w for w in run.summary.warnings if "narrower than the robot" in w]
+        assert bool(said) == warned, run.summary.warnings
+        assert any(issubclass(c.category, BhrWarning) and "narrower" in str(c.message) for c in caught) == warned
+        if warned:
+            assert "narrowest 8.00 mm" in said[0] and "(10 mm across)" in said[0]
+            assert run.summary.to_dict()["min_clearance_mm"] < 0  # and the clearance shows the contact

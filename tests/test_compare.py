@@ -8,9 +8,9 @@ import pytest
 
 from bhr.compare import compare_rows, compare_runs, format_table
 from bhr.errors import BhrError
-from bhr.follow import follow
+from bhr.driver import follow
 from bhr.robot import Robot
-from bhr.trajectory import load_trajectory
+from bhr.generators import load_trajectory
 
 
 def test_rows_are_the_runs_numbers():

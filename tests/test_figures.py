@@ -19,10 +19,10 @@ import pytest  # noqa: E402
 from matplotlib.backends.backend_agg import FigureCanvasAgg  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 
-from bhr.follow import follow  # noqa: E402
+from bhr.driver import follow  # noqa: E402
 from bhr.plots import (ERROR_KINDS, FRAME_INCHES, LUMEN_WALL, StepView, body_figure, error_figure,  # noqa: E402
                        lumen_walls, path_figure, zoom_half_width, FRAME_ZOOM)
-from bhr.trajectory import load_trajectory  # noqa: E402
+from bhr.generators import load_trajectory  # noqa: E402
 
 
 @pytest.fixture(scope="module")
@@ -83,6 +83,27 @@ def _line(ax, label):
     found = [ln for ln in ax.lines if ln.get_label() == label]
     assert found, f"no {label!r} in {[ln.get_label() for ln in ax.lines]}"
     return found[0]
+
+
+def test_3d_path_png_draws_the_lumen_wall_as_rings_around_the_centerline():
+    """In 3-D the wall is a tube: rings of the lumen's radius, square to the path, about every half diameter."""
+    run = follow(load_trajectory("anatomy", seed=3), solver="lumen")
+    traj = run.trajectory
+    spacing = float(np.median(np.linalg.norm(np.diff(traj.points, axis=0), axis=1)))
+    fig = path_figure(run)
+    for ax in fig.axes[:2]:  # the whole colon and the zoom on the robot
+        rings = [ln for ln in ax.lines if ln.get_color() == LUMEN_WALL]
+        assert [ln.get_label() for ln in rings].count("lumen wall") == 1  # one legend entry
+        for ln in rings:
+            xyz = np.column_stack(ln.get_data_3d())
+            c = xyz[:-1].mean(axis=0)  # (the last point closes the ring)
+            k = int(np.argmin(np.linalg.norm(traj.points - c, axis=1)))
+            np.testing.assert_allclose(c, traj.points[k], atol=1e-6)
+            np.testing.assert_allclose(np.linalg.norm(xyz - c, axis=1), traj.lumen[k] / 2, rtol=1e-9)
+            t = traj.points[min(k + 1, len(traj.points) - 1)] - traj.points[max(k - 1, 0)]
+            assert np.abs((xyz - c) @ (t / np.linalg.norm(t))).max() < 1e-6 * traj.lumen[k]
+        expected = len(traj.points) * spacing / (0.5 * float(np.median(traj.lumen)))
+        assert 0.8 * expected <= len(rings) <= 1.25 * expected + 1
 
 
 def test_path_png_shows_the_whole_colon_its_wall_start_end_and_an_inset(colon):

@@ -18,8 +18,8 @@ import numpy as np
 import pytest
 
 from bhr.atomic import write_json
-from bhr.follow import follow, load_run
-from bhr.trajectory import load_trajectory
+from bhr.driver import follow, load_run
+from bhr.generators import load_trajectory
 from tests.conftest import bhr_exe, snapshot
 from tests.test_animate import check_frame, need_tool
 

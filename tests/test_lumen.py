@@ -10,11 +10,11 @@ import pytest
 from bhr.bench.lumen import tight_colon
 from bhr.clearance import make_tube
 from bhr.errors import BhrError
-from bhr.follow import follow
+from bhr.driver import follow
 from bhr.robot import Robot, forward_kinematics
 from bhr.solvers import get_solver
 from bhr.solvers.lumen import DEFAULTS, head_cost, lumen_config_cost
-from bhr.trajectory import Trajectory, load_trajectory
+from bhr.generators import Trajectory, load_trajectory
 
 CODES = (0, 3, 6, 12, 9)
 

@@ -12,11 +12,12 @@ from hypothesis import strategies as st
 
 from bhr.codes import VALID_CODES
 from bhr.errors import BhrError
-from bhr.follow import follow, path_directions
+from bhr.driver import follow
+from bhr.path import path_directions
 from bhr.robot import Robot, base_frame, forward_kinematics
 from bhr.solvers import get_solver
 from bhr.solvers.optimal import DEFAULTS, config_cost, path_features, search_all, search_head
-from bhr.trajectory import load_trajectory
+from bhr.generators import load_trajectory
 
 SEARCHED = (0, 3, 6, 12, 9)  # rest and the four tilts; lift (15) is not searched
 

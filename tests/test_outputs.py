@@ -8,6 +8,7 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+import re
 import resource
 import signal
 import stat
@@ -427,3 +428,26 @@ def test_output_folder_always_holds_the_last_whole_set(tmp_path_factory):
             assert [p.name for p in parent.iterdir()] in ([], ["o"])
 
     check()
+
+
+def test_plan_adds_its_figure_to_the_run_folder_whole(tmp_path):
+    """bhr plan on a run's codes.csv: the wires' figure joins that run's folder, which stays one listed set."""
+    r = bhr("follow", "--traj", "curve", "--no-plots", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    latest = tmp_path / "bhr-out" / "latest"
+    run_files = {k: v for k, v in check_whole(latest.resolve())["files"].items()}
+    p = bhr("plan", "--codes", latest / "codes.csv", "--schedule", "auto", cwd=tmp_path)
+    assert p.returncode == 0, p.stderr
+    assert re.search(r": 85 steps, [\d.]+ s at the board.s limits", p.stdout), p.stdout
+    man = check_whole(latest.resolve())
+    assert set(man["files"]) == set(run_files) | {"thermal.png"}
+    assert all(man["files"][k] == v for k, v in run_files.items())  # the run's own files untouched
+    assert (latest / "thermal.png").stat().st_size > 10_000
+    # a loose codes.csv (no run folder): the figure is written beside it, nothing else appears
+    loose = tmp_path / "loose"
+    loose.mkdir()
+    (loose / "codes.csv").write_bytes((latest / "codes.csv").read_bytes())
+    p = bhr("plan", "--codes", "loose/codes.csv", "--schedule", "auto", cwd=tmp_path)
+    assert p.returncode == 0, p.stderr
+    assert sorted(q.name for q in loose.iterdir()) == ["codes.csv", "thermal.png"]
+    no_staging(tmp_path / "bhr-out")

@@ -13,8 +13,8 @@ from PIL import Image
 from bhr.animate import frame_steps, frame_view
 from bhr.atomic import write_json
 from bhr.errors import BhrError
-from bhr.follow import FollowResult, follow, load_run
-from bhr.trajectory import load_trajectory
+from bhr.driver import FollowResult, follow, load_run
+from bhr.generators import load_trajectory
 from tests.conftest import bhr_exe, snapshot
 from tests.test_animate import check_frame, gif_frame
 

@@ -14,10 +14,10 @@ from hypothesis import strategies as st
 
 import bhr
 from bhr.errors import BhrError
-from bhr.follow import follow
+from bhr.driver import follow
 from bhr.report import (ROW_FIELDS, RunSpec, execute_run, format_table, load_batch, parse_batch,
                         run_batch, summary_row)
-from bhr.trajectory import load_trajectory
+from bhr.generators import load_trajectory
 from tests.conftest import snapshot
 
 REPO = Path(__file__).resolve().parent.parent

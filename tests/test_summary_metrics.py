@@ -5,10 +5,10 @@ import json
 
 import numpy as np
 
-from bhr.follow import follow
+from bhr.driver import follow
 from bhr.report import summary_row
 from bhr.sweep import METRICS
-from bhr.trajectory import load_trajectory
+from bhr.generators import load_trajectory
 
 
 def scored_rmse(values: np.ndarray, first: int) -> float:

@@ -15,11 +15,11 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from bhr.errors import BhrError
-from bhr.follow import follow
+from bhr.driver import follow
 from bhr.robot import Robot
 from bhr.sweep import (Sweep, build_sweep, heatmap_axes, heatmap_cells, parse_grid_option, parse_values,
                        run_sweep, sweep_from_toml)
-from bhr.trajectory import load_trajectory
+from bhr.generators import load_trajectory
 from tests.conftest import bhr_exe, snapshot
 
 REPO = Path(__file__).resolve().parent.parent
@@ -143,7 +143,7 @@ def test_rows_are_what_follow_gives():
         assert r["min_turn_radius_mm"] == robot.min_turn_radius and r["min_clearance_mm"] is None
 
 
-@pytest.mark.filterwarnings("ignore::bhr.follow.BhrWarning")
+@pytest.mark.filterwarnings("ignore::bhr.driver.BhrWarning")
 def test_designs_start_from_a_robot_file(tmp_path):
     """--robot / robot = "FILE": every design is the file's robot with its grid values on top."""
     (tmp_path / "r.toml").write_text("modules = 4\nmodule_length = 12\nstroke = 1\nlever = 6\n")

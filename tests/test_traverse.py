@@ -16,9 +16,9 @@ from hypothesis import given, settings, strategies as st
 
 import bhr
 from bhr.errors import BhrError
-from bhr.follow import BhrWarning
+from bhr.driver import BhrWarning
 from bhr.robot import Robot
-from bhr.trajectory import load_trajectory
+from bhr.generators import load_trajectory
 from bhr.traverse import answer, build_study, design_rows, parse_colons, run_study
 from tests.conftest import bhr_exe
 from tests.test_sweep import dask_cluster  # noqa: F401 - the real LocalCluster fixture

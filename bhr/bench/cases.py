@@ -36,6 +36,8 @@ from typing import Any, Callable
 
 import numpy as np
 
+from bhr.kinematics.codetable import SEARCH_CODES, SEARCH_INVERSE
+
 __all__ = ["CASES", "BenchResult", "run_case", "run_all", "numpy_fabrik", "numpy_ccd", "numpy_seed_follow",
            "numpy_optimal_follow", "check_optimal_reference", "numpy_body"]
 
@@ -289,12 +291,12 @@ def numpy_optimal_follow(path: np.ndarray, start_point: np.ndarray, start_direct
     The argmin (the first in lexicographic order of the codes, module 1 most
     significant, as the branch and bound keeps it on ties) is the pose; then
     the robot advances by the feed along its base module and modules 2..n get
-    straight axes again (bhr.follow.advance_kernel).
+    straight axes again (bhr.kinematics.leader.advance_kernel).
 
     Returns (codes (N, n), point errors (N, n+1)) and, with ``return_costs``,
     the minimum cost of each step (N,).
     """
-    from bhr.follow import path_directions
+    from bhr.path import path_directions
     from bhr.robot import Robot
     from bhr.solvers import Chain
 
@@ -309,7 +311,7 @@ def numpy_optimal_follow(path: np.ndarray, start_point: np.ndarray, start_direct
     chain = Chain.straight(Robot(modules=n, module_length=L, alpha=alpha, feed_divisor=f), start_direction,
                            start_point, tip_at_origin=True)
     P, E1, E2 = chain.points.copy(), chain.axes[0].copy(), chain.axes[1].copy()
-    codes_of = np.array([0, 3, 6, 12, 9])
+    codes_of = SEARCH_CODES
     codes = np.zeros((N, n), dtype=np.int64)
     pe = np.zeros((N, n + 1))
     costs = np.zeros(N)
@@ -352,8 +354,8 @@ def numpy_body(P0s: np.ndarray, F1s: np.ndarray, start: np.ndarray, nb: int, f: 
     """The body's beam search (bhr.body) in numpy: rear ends (N, nb, 3) and codes (N, nb) at every step."""
     a = math.radians(alpha)
     c, s = math.cos(a), math.sin(a)
-    inverse = [0, 3, 4, 1, 2]
-    code = np.array([0, 3, 6, 12, 9])
+    inverse = SEARCH_INVERSE
+    code = SEARCH_CODES
     N = P0s.shape[0]
     pts = np.zeros((N, nb, 3))
     codes = np.zeros((N, nb), dtype=np.int64)
@@ -430,8 +432,8 @@ def case_ccd(repeat: int = 7) -> BenchResult:
 
 def case_seed_colon(repeat: int = 5) -> BenchResult:
     """--solver seed over the whole colon, per step (compiled loop against the numpy loop)."""
-    from bhr.follow import follow
-    from bhr.trajectory import load_trajectory
+    from bhr.driver import follow
+    from bhr.generators import load_trajectory
 
     tr = load_trajectory("colon")
     steps = len(tr.points)
@@ -459,7 +461,7 @@ def check_optimal_reference(res, path: np.ndarray, ref_codes: np.ndarray, ref_pe
     (to ``tol_cost``: a tie, which the two break differently), the runs are
     compared up to that step only, and the tie is reported in the result.
     """
-    from bhr.follow import path_directions
+    from bhr.path import path_directions
     from bhr.solvers.optimal import config_cost
 
     n = res.modules
@@ -485,8 +487,8 @@ def check_optimal_reference(res, path: np.ndarray, ref_codes: np.ndarray, ref_pe
 def case_optimal(repeat: int = 5) -> list[BenchResult]:
     """--solver optimal over the colon: the exact per-step search against numpy; the default's solve time."""
     from bhr.bench.optimal import solve_times
-    from bhr.follow import follow
-    from bhr.trajectory import load_trajectory
+    from bhr.driver import follow
+    from bhr.generators import load_trajectory
 
     tr = load_trajectory("colon")
     steps = len(tr.points)
@@ -516,8 +518,8 @@ def case_optimal(repeat: int = 5) -> list[BenchResult]:
 def case_body(repeat: int = 5) -> BenchResult:
     """Whole-body follow-the-leader, 60 modules (5 head + 55 body) along the colon, per step."""
     from bhr.body import BODY_BEAM, module1_frames, simulate_body
-    from bhr.follow import follow
-    from bhr.trajectory import load_trajectory
+    from bhr.driver import follow
+    from bhr.generators import load_trajectory
 
     tr = load_trajectory("colon")
     res = follow(tr)

@@ -27,10 +27,10 @@ from typing import Any
 
 import numpy as np
 
-from bhr.follow import follow
+from bhr.driver import follow
 from bhr.pathfile import segments_trajectory
 from bhr.robot import Robot
-from bhr.trajectory import Trajectory
+from bhr.generators import Trajectory
 
 __all__ = ["tight_colon", "colon_for", "population", "solve_times", "main"]
 
@@ -79,7 +79,7 @@ def tight_colon(seed: int, feed: float = 2.0) -> Trajectory:
 
 def colon_for(seed: int, feed: float = 2.0) -> Trajectory:
     """The anatomical colon of ``seed`` when bhr has the generator, else the stand-in :func:`tight_colon`."""
-    from bhr.trajectory import GENERATORS, load_trajectory
+    from bhr.generators import GENERATORS, load_trajectory
 
     if "anatomy" in GENERATORS:
         return load_trajectory("anatomy", feed=feed, seed=seed)

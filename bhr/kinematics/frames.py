@@ -1,12 +1,12 @@
 """Module frames: a frame tilted by alpha about a local axis, and forward kinematics from codes.
 
 A module's frame has rows x, y, z (z along the module). The code table
-(:mod:`bhr.codes`, thesis Table 4.2) turns the next module by alpha about its
-own +x (code 3), +y (6), -x (12) or -y (9); 0 keeps the frame and 15 keeps it
-and lengthens the module by the lift. :func:`tilt_frame` and
-:func:`fk_kernel` are the compiled kernels; :func:`tilt_reference` and
-:func:`fk_reference` the same maths in numpy (a rotation matrix about the
-axis), which the tests hold them equal to.
+(:mod:`bhr.kinematics.codetable`, thesis Table 4.2) turns the next module by
+alpha about its own +x (code 3), +y (6), -x (12) or -y (9); 0 keeps the frame
+and 15 keeps it and lengthens the module by the lift. :func:`tilt_frame` is
+the one tilt every kernel uses; :func:`fk_kernel` chains it along the robot.
+:func:`tilt_reference` and :func:`fk_reference` are the same maths in numpy (a
+rotation matrix about the axis, Rodrigues), which the tests hold them equal to.
 """
 from __future__ import annotations
 
@@ -15,12 +15,12 @@ import math
 import numpy as np
 from numba import njit
 
-from bhr.kinematics.dualquat import k_rotate
+from bhr.kinematics.codetable import CODE_AXIS, LIFT_OF, SEARCH_INDEX
 
 __all__ = ["tilt_frame", "fk_kernel", "tilt_reference", "fk_reference", "TILT_AXES"]
 
 #: Code -> (local axis index 0 = x, 1 = y; sign) of the tilt it makes; 0 and 15 do not tilt.
-TILT_AXES: dict[int, tuple[int, float]] = {3: (0, 1.0), 6: (1, 1.0), 12: (0, -1.0), 9: (1, -1.0)}
+TILT_AXES: dict[int, tuple[int, float]] = {code: (axis, float(sign)) for code, (axis, sign) in CODE_AXIS.items()}
 
 
 @njit(cache=True)
@@ -53,54 +53,32 @@ def tilt_frame(F: np.ndarray, k: int, c: float, s: float, out: np.ndarray) -> No
 @njit(cache=True)
 def fk_kernel(codes: np.ndarray, base: np.ndarray, frame: np.ndarray, length: float, lift: float,
                alpha_deg: float, points: np.ndarray, frames: np.ndarray) -> None:
-    """Chain points and module frames from codes (see :func:`bhr.robot.forward_kinematics`)."""
-    # scalars and element loops only: numba's array-slice assignment and array
-    # arithmetic compile its string formatting, which made this kernel's first
-    # compile take ten seconds
+    """Chain points and module frames from codes (see :func:`bhr.robot.forward_kinematics`).
+
+    Module ``i``'s frame is module ``i-1``'s (``frame`` for the first) tilted
+    by :func:`tilt_frame` as its code says; the module runs from point ``i``
+    along that frame's z, longer by ``lift`` for the lift code.
+    """
+    # element loops only: numba's array-slice assignment and array arithmetic
+    # compile its string formatting, which made this kernel's first compile
+    # take ten seconds
     n = codes.shape[0]
-    h = math.radians(alpha_deg) / 2.0
-    c, s = math.cos(h), math.sin(h)
-    fx0, fx1, fx2 = frame[0, 0], frame[0, 1], frame[0, 2]
-    fy0, fy1, fy2 = frame[1, 0], frame[1, 1], frame[1, 2]
-    fz0, fz1, fz2 = frame[2, 0], frame[2, 1], frame[2, 2]
-    for k in range(3):
-        points[0, k] = base[k]
+    a = math.radians(alpha_deg)
+    c, s = math.cos(a), math.sin(a)
+    F = np.empty((3, 3))
+    for r in range(3):
+        for b in range(3):
+            F[r, b] = frame[r, b]
+        points[0, r] = base[r]
     for i in range(n):
         code = codes[i]
-        extra = 0.0
-        axis_idx = -1
-        sign = 1.0
-        if code == 3:
-            axis_idx = 0
-        elif code == 6:
-            axis_idx = 1
-        elif code == 12:
-            axis_idx = 0
-            sign = -1.0
-        elif code == 9:
-            axis_idx = 1
-            sign = -1.0
-        elif code == 15:
-            extra = lift
-        if axis_idx >= 0:
-            if axis_idx == 0:
-                a0, a1, a2 = fx0 * sign, fx1 * sign, fx2 * sign
-            else:
-                a0, a1, a2 = fy0 * sign, fy1 * sign, fy2 * sign
-            # rotate the three frame vectors about a (a is one of them, up to sign)
-            x0, x1, x2 = k_rotate(fx0, fx1, fx2, c, s, a0, a1, a2)
-            y0, y1, y2 = k_rotate(fy0, fy1, fy2, c, s, a0, a1, a2)
-            z0, z1, z2 = k_rotate(fz0, fz1, fz2, c, s, a0, a1, a2)
-            fx0, fx1, fx2 = x0, x1, x2
-            fy0, fy1, fy2 = y0, y1, y2
-            fz0, fz1, fz2 = z0, z1, z2
-        frames[i, 0, 0], frames[i, 0, 1], frames[i, 0, 2] = fx0, fx1, fx2
-        frames[i, 1, 0], frames[i, 1, 1], frames[i, 1, 2] = fy0, fy1, fy2
-        frames[i, 2, 0], frames[i, 2, 1], frames[i, 2, 2] = fz0, fz1, fz2
-        step = length + extra
-        points[i + 1, 0] = points[i, 0] + step * fz0
-        points[i + 1, 1] = points[i, 1] + step * fz1
-        points[i + 1, 2] = points[i, 2] + step * fz2
+        tilt_frame(F, SEARCH_INDEX[code], c, s, frames[i])
+        for r in range(3):
+            for b in range(3):
+                F[r, b] = frames[i, r, b]
+        step = length + lift * LIFT_OF[code]
+        for b in range(3):
+            points[i + 1, b] = points[i, b] + step * F[2, b]
 
 
 def _rotation(axis: np.ndarray, angle: float) -> np.ndarray:

@@ -7,6 +7,8 @@ reset to those of a straight robot along that direction
 the trajectory point ``(n - j) f`` steps behind the current one (0 before that
 exists), ``f`` the feed divisor; module ``j < n-1`` against the path direction
 there, the tip module against the wanted tip direction (:func:`score_step`).
+:func:`finish_step` is what every compiled follow-the-leader loop does after
+its solver's step: record the chain, iterations and codes, score, advance.
 
 :func:`advance_reference` and :func:`score_reference` are the same maths in
 numpy, written to be read; the tests hold the kernels equal to them.
@@ -18,7 +20,7 @@ import math
 import numpy as np
 from numba import njit
 
-__all__ = ["score_step", "advance_kernel", "angle_deg", "score_reference", "advance_reference"]
+__all__ = ["score_step", "advance_kernel", "finish_step", "angle_deg", "score_reference", "advance_reference"]
 
 
 @njit(cache=True)
@@ -86,6 +88,31 @@ def advance_kernel(P: np.ndarray, E1: np.ndarray, E2: np.ndarray, feed: float, l
         E2[j, 2] = E2[j, 2] + feed * obz
     _reset_axes(P, E1, obx, oby, obz, length)
     _reset_axes(P, E2, obx, oby, obz, length)
+
+
+@njit(cache=True)
+def finish_step(i: int, P: np.ndarray, E1: np.ndarray, E2: np.ndarray, path: np.ndarray, dirs: np.ndarray, f: int,
+                feed: float, length: float, tip_ori: float, iterations: int, step_codes: np.ndarray,
+                out_points: np.ndarray, out_iters: np.ndarray, pe: np.ndarray, oe: np.ndarray,
+                codes: np.ndarray) -> None:
+    """End step ``i`` of a compiled follow-the-leader run, after the solver moved the chain ``P``.
+
+    Records the chain, the iterations and the step's codes in row ``i`` of the
+    run's arrays, scores the step (:func:`score_step`, ``tip_ori`` the tip
+    module's orientation error in degrees) and advances the robot
+    (:func:`advance_kernel`): the same as the driver's step-by-step loop.
+    """
+    n = P.shape[0] - 1
+    # element loops, not slice assignment: numba's broadcasting path compiles
+    # string formatting that doubles the first run's compile time
+    for j in range(n + 1):
+        for c in range(3):
+            out_points[i, j, c] = P[j, c]
+    out_iters[i] = iterations
+    for j in range(n):
+        codes[i, j] = step_codes[j]
+    score_step(i, P, path, dirs, f, tip_ori, pe[i], oe[i])
+    advance_kernel(P, E1, E2, feed, length)
 
 
 def score_reference(i: int, P: np.ndarray, path: np.ndarray, dirs: np.ndarray, f: int,

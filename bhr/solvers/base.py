@@ -162,6 +162,21 @@ class Solver(ABC):
     def prepare(self, trajectory: Any) -> None:  # noqa: B027 (a default: most solvers need nothing)
         """Look at the whole trajectory (e.g. its lumen) before a run follows it (default: nothing)."""
 
+    def follow_kernel(self, path: np.ndarray, dirs: np.ndarray, chain: Chain, out_points: np.ndarray,
+                      out_iters: np.ndarray, pe: np.ndarray, oe: np.ndarray, codes: np.ndarray) -> bool | None:
+        """Optionally run a whole follow-the-leader run compiled; default: no (``None``).
+
+        A solver that has a compiled per-step kernel may run the driver's loop
+        (:func:`bhr.driver.follow`) in one compiled call: solve step ``i``
+        toward ``path[i]`` with the tip along ``dirs[i]``, write the chain into
+        ``out_points[i]``, iterations, scores (``pe``, ``oe``, with
+        :func:`bhr.kinematics.leader.score_step`) and codes, then advance with
+        :func:`bhr.kinematics.leader.advance_kernel`, giving the same numbers
+        as the step-by-step driver. Return whether ``codes`` were filled, or
+        ``None`` to be driven step by step through :meth:`solve`.
+        """
+        return None
+
     def judge(self, result: SolveResult) -> SolveResult:
         """Set ``result.success``: errors within the robot's tolerances (mm, and degrees when aimed)."""
         ori = result.orientation_error_deg

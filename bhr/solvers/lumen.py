@@ -52,9 +52,9 @@ from bhr.clearance import Tube, _window, make_tube, segment_scan
 from bhr.errors import BhrError
 from bhr.options import solver_defaults
 from bhr.kinematics.frames import tilt_frame as _rot
-from bhr.kinematics.leader import advance_kernel, score_step
+from bhr.kinematics.leader import advance_kernel, finish_step
 from bhr.solvers.base import Chain, FollowContext, SolveResult, register
-from bhr.solvers.optimal import CODE_OF, DEG, Optimal, _beam_commit, _beam_keep, _beam_reset, _dist2, \
+from bhr.solvers.optimal import CODE_OF, DEG, Optimal, _beam_commit, _beam_keep, _beam_reset, _dist2, _write_pose, \
     _frame_of_chain, _number, _step_targets, _tip_angle
 
 __all__ = ["Lumen", "DEFAULTS", "head_cost", "lumen_config_cost"]
@@ -341,18 +341,7 @@ def _lumen_step(P, E1, E2, i, bP, bF, bC, bH, state, cP, cF, cC, cPar, cA, order
     cost = _head_cost(C, R, pre, w, P0, F1, i, n, f, L, c, s, T, prm, best_codes, frames, pts, part, guess, choice,
                       res, tmp)
     best_codes[0] = a0
-    _rot(F, a0, c, s, frames[0])
-    for m in range(1, n):
-        _rot(frames[m - 1], best_codes[m], c, s, frames[m])
-    for m in range(n):
-        out_codes[m] = CODE_OF[best_codes[m]]
-        tilts[m] = 0.0 if best_codes[m] == 0 else alpha
-        for b in range(3):
-            P[m + 1, b] = P[m, b] + L * frames[m, 2, b]
-    for m in range(n):
-        for b in range(3):
-            E1[m, b] = P[m, b] + frames[m, 0, b]
-            E2[m, b] = P[m, b] + frames[m, 1, b]
+    _write_pose(F, best_codes, c, s, L, alpha, frames, P, E1, E2, out_codes, tilts)
     return layers, cost
 
 
@@ -368,11 +357,8 @@ def follow_lumen_kernel(path, dirs, P, E1, E2, bP, bF, bC, bH, state, cP, cF, cC
         layers, _ = _lumen_step(P, E1, E2, i, bP, bF, bC, bH, state, cP, cF, cC, cPar, cA, order_buf, C, R, pre, w,
                                 path, dirs, n, f, feed, L, alpha, prm, lookahead, lagv, step_codes, tilts)
         dd = dirs[N - 2] if i == N - 1 else dirs[i]
-        out_points[i] = P
-        out_iters[i] = layers
-        codes[i] = step_codes
-        score_step(i, P, path, dirs, f, _tip_angle(P, dd), pe[i], oe[i])
-        advance_kernel(P, E1, E2, feed, L)
+        finish_step(i, P, E1, E2, path, dirs, f, feed, L, _tip_angle(P, dd), layers, step_codes, out_points, out_iters,
+                    pe, oe, codes)
 
 
 # ---------------------------------------------------------------------------

@@ -57,14 +57,15 @@ from numba import njit
 from bhr.errors import BhrError
 from bhr.options import solver_defaults
 from bhr.kinematics.frames import tilt_frame as _rot
-from bhr.kinematics.leader import advance_kernel, score_step
+from bhr.kinematics.codetable import SEARCH_CODES
+from bhr.kinematics.leader import advance_kernel, finish_step
 from bhr.solvers.base import Chain, FollowContext, SolveResult, Solver, register
 from bhr.robot import forward_kinematics
 
 __all__ = ["Optimal", "CODE_OF", "search_all", "search_head", "config_cost", "path_features", "DEFAULTS"]
 
-#: Search index -> module code: rest, +x, +y, -x, -y (bhr.codes).
-CODE_OF = np.array([0, 3, 6, 12, 9], dtype=np.int64)
+#: Search index -> module code: rest, +x, +y, -x, -y (the code table's search order).
+CODE_OF = SEARCH_CODES
 DEG = 180.0 / math.pi
 
 #: Default settings of ``--solver optimal`` (docs/optimal.md explains each), from the option registry.
@@ -334,6 +335,29 @@ def _beam_commit(bP, bF, bC, bH, state, step):
 
 
 @njit(cache=True)
+def _write_pose(F, best_codes, c, s, L, alpha, frames, P, E1, E2, out_codes, tilts):
+    """Put the chain in the pose of ``best_codes`` (search indices, module 1 first) from the base frame ``F``.
+
+    Writes the module frames, the points ``P[1:]`` and the axis points ``E1``,
+    ``E2`` (each module's x and y from its rear point), the codes and the
+    tilts (degrees) of the pose.
+    """
+    n = best_codes.shape[0]
+    _rot(F, best_codes[0], c, s, frames[0])
+    for m in range(1, n):
+        _rot(frames[m - 1], best_codes[m], c, s, frames[m])
+    for m in range(n):
+        out_codes[m] = CODE_OF[best_codes[m]]
+        tilts[m] = 0.0 if best_codes[m] == 0 else alpha
+        for b in range(3):
+            P[m + 1, b] = P[m, b] + L * frames[m, 2, b]
+    for m in range(n):
+        for b in range(3):
+            E1[m, b] = P[m, b] + frames[m, 0, b]
+            E2[m, b] = P[m, b] + frames[m, 1, b]
+
+
+@njit(cache=True)
 def _optimal_step(P, E1, E2, i, bP, bF, bC, bH, state, cP, cF, cC, cPar, cA, order_buf, path, dirs, n, f, feed, L,
                   alpha, w, wo, lookahead, kvec, spacing, kcurve, kbend, wdrift, wroll, out_codes, tilts):
     """Solve step ``i`` in place: plan the base tilt, search the rest exactly, write the pose into P, E1, E2.
@@ -370,18 +394,7 @@ def _optimal_step(P, E1, E2, i, bP, bF, bC, bH, state, cP, cF, cC, cPar, cA, ord
     _rot(F, a0, c, s, F1)
     cost = _head_cost(P0, F1, n, T, w, d, wo, L, c, s, codes, best_codes, frames, pts, part, choice)
     best_codes[0] = a0
-    _rot(F, a0, c, s, frames[0])
-    for m in range(1, n):
-        _rot(frames[m - 1], best_codes[m], c, s, frames[m])
-    for m in range(n):
-        out_codes[m] = CODE_OF[best_codes[m]]
-        tilts[m] = 0.0 if best_codes[m] == 0 else alpha
-        for b in range(3):
-            P[m + 1, b] = P[m, b] + L * frames[m, 2, b]
-    for m in range(n):
-        for b in range(3):
-            E1[m, b] = P[m, b] + frames[m, 0, b]
-            E2[m, b] = P[m, b] + frames[m, 1, b]
+    _write_pose(F, best_codes, c, s, L, alpha, frames, P, E1, E2, out_codes, tilts)
     return layers, cost
 
 
@@ -411,15 +424,8 @@ def follow_optimal_kernel(path, dirs, P, E1, E2, bP, bF, bC, bH, state, cP, cF, 
                                   n, f, feed, L, alpha, w, wo, lookahead, kvec, spacing, kcurve, kbend, wdrift, wroll,
                                   step_codes, tilts)
         d = dirs[N - 2] if i == N - 1 else dirs[i]
-        # element loops, not slice assignment (that compiles numba's string formatting: seconds)
-        for j in range(n + 1):
-            for c in range(3):
-                out_points[i, j, c] = P[j, c]
-        out_iters[i] = layers
-        for j in range(n):
-            codes[i, j] = step_codes[j]
-        score_step(i, P, path, dirs, f, _tip_angle(P, d), pe[i], oe[i])
-        advance_kernel(P, E1, E2, feed, L)
+        finish_step(i, P, E1, E2, path, dirs, f, feed, L, _tip_angle(P, d), layers, step_codes, out_points, out_iters,
+                    pe, oe, codes)
 
 
 # ---------------------------------------------------------------------------
@@ -679,7 +685,7 @@ class Optimal(Solver):
 
     def follow_kernel(self, path: np.ndarray, dirs: np.ndarray, chain: Chain, out_points: np.ndarray,
                       out_iters: np.ndarray, pe: np.ndarray, oe: np.ndarray, codes: np.ndarray) -> bool:
-        """Run the whole follow-the-leader loop compiled (see :mod:`bhr.follow`). Codes are always valid."""
+        """Run the whole follow-the-leader loop compiled (see :mod:`bhr.driver`). Codes are always valid."""
         self.reset()
         path = np.ascontiguousarray(path, dtype=np.float64)
         dirs = np.ascontiguousarray(dirs, dtype=np.float64)

@@ -29,7 +29,7 @@ from bhr.codes import TILT_CODES
 from bhr.kinematics.dualquat import k_rotate
 from bhr.errors import BhrError
 from bhr.options import BY_NAME
-from bhr.kinematics.leader import advance_kernel, score_step
+from bhr.kinematics.leader import finish_step
 from bhr.solvers.base import Chain, FollowContext, SolveResult, Solver, register
 from bhr.solvers.fabrik import _dist, _pull, tip_angle_deg
 
@@ -194,16 +194,7 @@ def follow_constrained_kernel(path, dirs, P, E1, E2, length, feed, f, tol_pos, t
         d = dirs[N - 2] if i == N - 1 else dirs[i]
         k, ep, eo = constrained_kernel(P, E1, E2, path[i], d, True, length, tol_pos, tol_ori, alpha, max_iter, limit,
                                 local_axes, warmup, step_codes, tilts)
-        # element loops, not slice assignment: numba's broadcasting path
-        # compiles string formatting that doubles the first run's compile time
-        for j in range(n + 1):
-            for c in range(3):
-                out_points[i, j, c] = P[j, c]
-        out_iters[i] = k
-        for j in range(n):
-            codes[i, j] = step_codes[j]
-        score_step(i, P, path, dirs, f, eo, pe[i], oe[i])
-        advance_kernel(P, E1, E2, feed, length)
+        finish_step(i, P, E1, E2, path, dirs, f, feed, length, eo, k, step_codes, out_points, out_iters, pe, oe, codes)
 
 
 class ConstrainedFabrik(Solver):
@@ -260,7 +251,7 @@ class ConstrainedFabrik(Solver):
 
     def follow_kernel(self, path: np.ndarray, dirs: np.ndarray, chain: Chain, out_points: np.ndarray,
                       out_iters: np.ndarray, pe: np.ndarray, oe: np.ndarray, codes: np.ndarray) -> bool:
-        """Run the whole follow-the-leader loop compiled (see :mod:`bhr.follow`). Returns whether codes are valid."""
+        """Run the whole follow-the-leader loop compiled (see :mod:`bhr.driver`). Returns whether codes are valid."""
         r = self.robot
         c = chain.copy()
         follow_constrained_kernel(path, dirs, c.points, np.ascontiguousarray(c.axes[0]),

@@ -9,11 +9,11 @@ import numpy as np
 import pytest
 
 from bhr.bench.cases import numpy_ccd, numpy_fabrik, numpy_seed_follow
-from bhr.follow import follow
+from bhr.driver import follow
 from bhr.robot import straight_chain
 from bhr.solvers.ccd import ccd_kernel
 from bhr.solvers.fabrik import fabrik_kernel
-from bhr.trajectory import load_trajectory
+from bhr.generators import load_trajectory
 
 P0 = straight_chain(10, 2.0, (0, 1, 0))
 T = np.array([15.0, 6.0, 0.0])

@@ -27,13 +27,12 @@ from typing import Any, Callable
 import numpy as np
 
 import bhr.pathfile as pathfile
-from bhr._callable import make_callable
 from bhr._input import check_keys, number, read_toml, text_value
 from bhr.errors import BhrError
 from bhr.pathfile import MAX_POINTS
-from bhr.path import Trajectory, path_directions
+from bhr.path import Trajectory
 
-__all__ = ["Trajectory", "path_directions", "trajectory", "load_trajectory", "builtin_names", "GENERATORS",
+__all__ = ["Trajectory", "trajectory", "load_trajectory", "builtin_names", "GENERATORS",
            "line", "curve", "spiral", "colon", "anatomy", "anatomy_trajectory"]
 
 
@@ -432,4 +431,3 @@ def trajectory(name_or_path: str | os.PathLike[str], feed: float = 2.0, **params
     return load_trajectory(name_or_path, feed=feed, **params).points
 
 
-make_callable(__name__, "trajectory")

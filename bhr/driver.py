@@ -11,9 +11,9 @@ behind the current one (0 before that exists), ``f`` the feed divisor;
 module ``j < n`` against the path direction there, and the tip module against
 the wanted tip direction.
 
-Solvers that provide ``follow_kernel`` run the whole loop compiled; any other
-solver is driven step by step from Python with the same compiled scoring and
-advance kernels.
+Solvers whose :meth:`~bhr.solvers.base.Solver.follow_kernel` runs the whole
+loop compiled are run that way; any other solver is driven step by step from
+Python with the same compiled scoring and advance kernels.
 """
 from __future__ import annotations
 
@@ -27,7 +27,6 @@ from typing import Any, Callable
 
 import numpy as np
 
-from bhr._callable import make_callable
 from bhr._input import MAX_MM, MAX_STEP_POINTS
 from bhr.errors import BhrError
 from bhr.options import robot_limits
@@ -35,10 +34,10 @@ from bhr.robot import Robot
 from bhr.solvers import Chain, FollowContext, get_solver
 from bhr.body import BodyRun, simulate_body
 from bhr.clearance import ClearanceReport, clearance_report
-from bhr.kinematics.leader import advance_kernel, angle_deg, score_step
+from bhr.kinematics.leader import angle_deg, score_step
 from bhr.path import Trajectory, path_directions
 
-__all__ = ["follow", "FollowResult", "path_directions", "score_step", "advance_kernel", "stats", "load_run"]
+__all__ = ["follow", "FollowResult", "Summary", "BhrWarning", "stats", "load_run"]
 
 
 class BhrWarning(UserWarning):
@@ -443,6 +442,16 @@ def follow(points: Any, solver: str = "thesis", robot: Robot | None = None, *,
                f"turn radius {robot.min_turn_radius:.2f} mm; expect large errors")
         msgs.append(msg)
         warnings.warn(msg, BhrWarning, stacklevel=2)
+    lumen = getattr(traj, "lumen", None)
+    if lumen is not None and len(lumen):
+        narrow = np.flatnonzero(np.asarray(lumen, dtype=float) < 2.0 * robot.radius)
+        if narrow.size:
+            k = int(narrow[np.argmin(np.asarray(lumen)[narrow])])
+            msg = (f"the lumen is narrower than the robot ({2.0 * robot.radius:g} mm across) at {narrow.size} of "
+                   f"{len(lumen)} points, narrowest {float(lumen[k]):.2f} mm at point {k + 1}; the robot touches the "
+                   "wall there whatever the solver does")
+            msgs.append(msg)
+            warnings.warn(msg, BhrWarning, stacklevel=2)
     n = robot.modules
     N = path.shape[0]
     chain = Chain.straight(robot, traj.start_direction, traj.start_point, tip_at_origin=True)
@@ -451,11 +460,10 @@ def follow(points: Any, solver: str = "thesis", robot: Robot | None = None, *,
     pe = np.zeros((N, n + 1))
     oe = np.zeros((N, n))
     codes = np.zeros((N, n), dtype=np.int64)
-    has_codes = True
-    kernel = getattr(s, "follow_kernel", None)
-    if compiled and on_step is None and kernel is not None:
-        has_codes = kernel(path, dirs, chain, out_points, out_iters, pe, oe, codes)
-    else:
+    filled = s.follow_kernel(path, dirs, chain, out_points, out_iters, pe, oe, codes) \
+        if compiled and on_step is None else None
+    has_codes = True if filled is None else filled
+    if filled is None:
         f = robot.feed_divisor
         for i in range(N):
             d = dirs[-1] if i == N - 1 else dirs[i]
@@ -481,4 +489,3 @@ def follow(points: Any, solver: str = "thesis", robot: Robot | None = None, *,
     return result
 
 
-make_callable(__name__, "follow")
