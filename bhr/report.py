@@ -32,50 +32,36 @@ This module does not import matplotlib until a run draws its figures.
 """
 from __future__ import annotations
 
-import base64
-import csv
-import difflib
-import html
-import io
-import math
 import os
 import re
 import time
 import tomllib
-import traceback
 import warnings
-from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable, Iterable, Sequence
+from typing import Any, Callable, Sequence
 
-from bhr.errors import BhrError
 from bhr import __version__
 from bhr.atomic import write_json, write_text
+from bhr.errors import BhrError
+from bhr.executor import capture, run_jobs
+from bhr.generators import GENERATORS, builtin_names, load_trajectory
 from bhr.driver import BhrWarning, follow
-from bhr.options import BY_NAME, by_group, solver_options_for
+from bhr.htmlpage import PAGE_END, escape, figure, fmt, page_head
+from bhr.htmlpage import table as html_table
+from bhr.options import by_group, solver_options_for
 from bhr.robot import Robot
 from bhr.robotfile import load_robot_file
 from bhr.solvers import get_solver
-from bhr.generators import GENERATORS, builtin_names, load_trajectory
+from bhr.study import (CONSTRAINT_KEYS, INT_KEYS, NUMBER_KEYS, ROBOT_KEYS, SOLVER_KEYS, TRAJ_KEYS, check_value,
+                       suggest, summary_row, warm_up)
+from bhr.study import csv_text as _csv_text
 
 __all__ = ["RunSpec", "Batch", "load_batch", "parse_batch", "execute_run", "run_batch", "BatchReport",
-           "ROW_FIELDS", "TRAJ_KEYS", "ROBOT_KEYS", "CONSTRAINT_KEYS", "NUMBER_KEYS", "INT_KEYS",
+           "ROW_FIELDS", "TRAJ_KEYS", "ROBOT_KEYS", "CONSTRAINT_KEYS", "SOLVER_KEYS", "NUMBER_KEYS", "INT_KEYS",
            "summary_row", "format_table", "html_page", "csv_text", "robot_from_options"]
 
-# The keys of a run table come from the option registry (bhr.options), as the command-line options do.
-#: Trajectory options (CLI long names with underscores), as in ``bhr follow``.
-TRAJ_KEYS = tuple(o.name for o in by_group("trajectory"))
-#: Robot options: batch key -> :class:`bhr.robot.Robot` field (``robot_radius`` is the robot's, ``radius`` the path's).
-ROBOT_KEYS = {o.name: o.key for o in by_group("robot")}
-#: Options of the constrained solvers and their allowed values (None: a whole number).
-CONSTRAINT_KEYS: dict[str, tuple[str, ...] | None] = {o.name: o.choices for o in by_group("constraint")}
-#: Options of one solver (``--solver optimal``): key -> the solvers that take it.
-SOLVER_KEYS: dict[str, tuple[str, ...]] = {o.name: o.solvers or () for o in by_group("solver")}
-#: Keys whose value is a whole number.
-INT_KEYS = frozenset(o.name for o in by_group("robot", "trajectory", "constraint", "solver") if o.kind is int)
-#: Keys whose value is a number.
-NUMBER_KEYS = frozenset(o.name for o in by_group("robot", "trajectory", "constraint", "solver") if o.choices is None)
+# The keys of a run table (TRAJ_KEYS, ROBOT_KEYS, ...) come from the option registry, via bhr.study.
 _STRING_KEYS = frozenset({"name", "description", "traj", "solver", "robot"}) | {
     o.name for o in by_group("constraint") if o.choices is not None}
 RUN_KEYS = frozenset(NUMBER_KEYS | _STRING_KEYS)
@@ -129,29 +115,13 @@ class Batch:
     source: str = ""
 
 
-def _suggest(key: str, allowed: Iterable[str]) -> str:
-    near = difflib.get_close_matches(key.replace("-", "_"), sorted(allowed), n=1, cutoff=0.6)
-    return f"did you mean {near[0]!r}?" if near else "see docs/report.md for the keys"
-
-
-def check_value(key: str, value: Any, where: str) -> Any:
-    """The value of one run key, type-checked and within its limits (bhr.options); raises BhrError naming ``where``."""
-    if key in BY_NAME:
-        return BY_NAME[key].check(value, where)
-    if not isinstance(value, str):
-        raise BhrError(f"{where}: {key} must be a string, got {value!r}")
-    if key in ("name", "traj", "solver", "robot") and not value.strip():
-        raise BhrError(f"{where}: {key} must not be empty")
-    return value
-
-
 def _check_table(table: Any, where: str, allowed: frozenset[str]) -> dict[str, Any]:
     if not isinstance(table, dict):
         raise BhrError(f"{where} must be a table of keys, got {type(table).__name__}")
     out = {}
     for key, value in table.items():
         if key not in allowed:
-            raise BhrError(f"{where}: unknown key {key!r}; {_suggest(key, allowed)}")
+            raise BhrError(f"{where}: unknown key {key!r}; {suggest(key, allowed)}")
         out[key] = check_value(key, value, where)
     return out
 
@@ -261,41 +231,6 @@ def robot_from_options(robot_params: dict[str, Any], robot_file: str | None = No
     return Robot(**robot_params)
 
 
-def _reason(exc: BaseException) -> str:
-    if isinstance(exc, BhrError):
-        text = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-    else:
-        lines = str(exc).splitlines()
-        text = f"{type(exc).__name__}: {lines[0]}" if lines else type(exc).__name__
-    return text
-
-
-def _num(value: Any) -> float | None:
-    if value is None:
-        return None
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        return None
-    return v if math.isfinite(v) else None
-
-
-def summary_row(summary: dict[str, Any]) -> dict[str, Any]:
-    """The metrics of one run's summary as a report row (``min_clearance_mm`` None when unknown)."""
-    return {
-        "steps": int(summary["steps"]),
-        "tip_max_error_mm": float(summary["tip_max_error_mm"]),
-        "tip_final_error_mm": float(summary["tip_final_error_mm"]),
-        "points_max_error_mm": float(summary["points_max_error_mm"]),
-        "orientation_max_deg": float(summary["orientation_max_deg"]),
-        "global_max": float(summary["global_max"]),
-        "tip_rmse_mm": float(summary["tip_rmse_mm"]),
-        "tip_orientation_rmse_deg": float(summary["tip_orientation_rmse_deg"]),
-        "tolerance_exceeded": bool(summary["tolerance_exceeded"]),
-        "min_clearance_mm": _num(summary.get("min_clearance_mm")),
-    }
-
-
 def _slug(name: str) -> str:
     s = re.sub(r"[^a-z0-9._-]+", "-", name.lower()).strip("-.")
     return s or "run"
@@ -316,7 +251,7 @@ def execute_run(spec: RunSpec, out_dir: str | os.PathLike[str] | None = None, pl
         row.setdefault(key, None)
     row["warnings"] = []
     row["figures"] = []
-    try:
+    with capture(row, keep_traceback=True):  # one failed run must not stop the batch
         robot = robot_from_options(spec.robot_params, spec.robot_file)
         row["robot"] = robot.to_dict()
         tr = load_trajectory(spec.traj, feed=robot.feed, **spec.traj_params)
@@ -340,34 +275,8 @@ def execute_run(spec: RunSpec, out_dir: str | os.PathLike[str] | None = None, pl
                 from bhr.plots import save_run_plots
 
                 row["figures"] = [p.name for p in save_run_plots(result, out)]
-    except (KeyboardInterrupt, SystemExit):
-        raise
-    except Exception as exc:  # one failed run must not stop the batch
-        row["status"] = f"failed: {_reason(exc)}"
-        if not isinstance(exc, BhrError):
-            row["traceback"] = traceback.format_exc(limit=8)
     row["wall_time_s"] = time.perf_counter() - t0
     return row
-
-
-def _warm_up(solvers: Sequence[str], plots: bool) -> None:
-    """Load what the runs need (modules, compiled kernels, matplotlib) before any run is timed.
-
-    Each process pays this once; without it the first run of every worker
-    carried the start-up in its time and a trivial run read slowest.
-    """
-    import numpy as np
-
-    from bhr.driver import follow
-
-    pts = np.array([[0.0, 0.0, 0.0], [2.0, 0.0, 0.0], [4.0, 0.0, 0.0]])
-    for name in solvers:
-        try:
-            follow(pts, solver=name)
-        except Exception:  # noqa: BLE001  (a bad solver name fails, and is reported, in its run)
-            pass
-    if plots:
-        import bhr.plots  # noqa: F401
 
 
 def _execute_job(job: tuple[RunSpec, str | None, bool]) -> dict[str, Any]:
@@ -402,7 +311,7 @@ def run_batch(batch: Batch, out_dir: str | os.PathLike[str], *, jobs: int = 1, p
     is called as each run finishes. Returns the rows in batch order; failed
     runs are rows whose ``status`` starts with ``failed:``.
     """
-    if not isinstance(jobs, int) or jobs < 1:
+    if isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1:
         raise BhrError(f"jobs must be a whole number of processes, 1 or more, got {jobs!r}")
     out = Path(out_dir)
     slugs: list[str] = []
@@ -413,31 +322,11 @@ def run_batch(batch: Batch, out_dir: str | os.PathLike[str], *, jobs: int = 1, p
             k += 1
         slugs.append(s)
     job_list = [(spec, str(out / "runs" / s), plots) for spec, s in zip(batch.runs, slugs)]
-    total = len(job_list)
-    rows: list[dict[str, Any] | None] = [None] * total
-    t0 = time.perf_counter()
-    workers = min(jobs, total)
     solvers = tuple(dict.fromkeys(spec.solver for spec in batch.runs))
-    if workers <= 1:
-        _warm_up(solvers, plots)
-        for k, job in enumerate(job_list):
-            got = rows[k] = _execute_job(job)
-            if progress is not None:
-                progress(k + 1, total, got)
-    else:
-        import multiprocessing
-
-        with ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn"),
-                                 initializer=_warm_up, initargs=(solvers, plots)) as pool:
-            futures = {pool.submit(_execute_job, job): k for k, job in enumerate(job_list)}
-            done = 0
-            for fut in as_completed(futures):
-                k = futures[fut]
-                got = rows[k] = fut.result()
-                done += 1
-                if progress is not None:
-                    progress(done, total, got)
-    wall = time.perf_counter() - t0
+    # one run per job: runs last from a fraction of a second to minutes, so workers take them one at a time
+    done = run_jobs(_execute_job, job_list, jobs=jobs, warm_up=warm_up, warm_up_args=(solvers, plots), max_chunk=1,
+                    progress=progress)
+    rows, wall = done.rows, done.wall_time_s
     final: list[dict[str, Any]] = []
     for row, s in zip(rows, slugs):
         assert row is not None
@@ -448,24 +337,9 @@ def run_batch(batch: Batch, out_dir: str | os.PathLike[str], *, jobs: int = 1, p
     return report
 
 
-def _csv_cell(key: str, value: Any) -> str:
-    if value is None:
-        return ""
-    if key == "warnings":
-        return "; ".join(value)
-    if isinstance(value, float):
-        return repr(value)
-    return str(value)
-
-
 def csv_text(rows: Sequence[dict[str, Any]], fields: Sequence[str] = ROW_FIELDS) -> str:
     """CSV of ``rows`` with ``fields`` as header; unknown values are empty cells, floats in full."""
-    buf = io.StringIO()
-    w = csv.writer(buf, lineterminator="\n")
-    w.writerow(fields)
-    for r in rows:
-        w.writerow([_csv_cell(k, r.get(k)) for k in fields])
-    return buf.getvalue()
+    return _csv_text(rows, fields, joined=("warnings",))
 
 
 def _json_row(row: dict[str, Any]) -> dict[str, Any]:
@@ -494,14 +368,6 @@ def write_report(report: BatchReport, inline_images: bool = False) -> list[Path]
 # ---------------------------------------------------------------------------------------------- text
 
 
-def _fmt(value: Any, digits: int = 3) -> str:
-    if value is None:
-        return "-"
-    if isinstance(value, float):
-        return f"{value:.{digits}f}"
-    return str(value)
-
-
 def format_table(rows: Sequence[dict[str, Any]]) -> list[str]:
     """The summary as fixed-width text lines (what ``bhr report`` prints)."""
     cols = [("name", "run", None), ("status", "status", None), ("steps", "steps", None),
@@ -514,7 +380,7 @@ def format_table(rows: Sequence[dict[str, Any]]) -> list[str]:
     for r in rows:
         cells.append([("ok" if r[k] == "ok" else "FAILED") if k == "status"
                       else ("OVER" if r.get(k) else "") if k == "tolerance_exceeded"
-                      else _fmt(r.get(k), d or 3) for k, _, d in cols])
+                      else fmt(r.get(k), d or 3) for k, _, d in cols])
     widths = [max(len(c[i]) for c in cells) for i in range(len(cols))]
     lines = []
     for c in cells:
@@ -527,79 +393,32 @@ def format_table(rows: Sequence[dict[str, Any]]) -> list[str]:
 
 # ---------------------------------------------------------------------------------------------- HTML
 
-_CSS = """
-body{font-family:system-ui,-apple-system,"Segoe UI",Roboto,Helvetica,Arial,sans-serif;margin:0;color:#1d2327;
-background:#fafafa}
-main{max-width:1200px;margin:0 auto;padding:1.2rem 1.5rem 3rem}
-h1{font-size:1.6rem;margin:.2rem 0 .4rem} h2{font-size:1.3rem;margin:2.2rem 0 .4rem;padding-top:.6rem;
-border-top:2px solid #ccd} h3{font-size:1rem;margin:1rem 0 .3rem}
-p.meta{color:#555;margin:.2rem 0 1rem}
-table{border-collapse:collapse;margin:.4rem 0 1rem;font-size:.9rem;background:#fff}
-th,td{border:1px solid #ccd;padding:.25rem .55rem;text-align:right;white-space:nowrap}
-th{background:#eef0f4;text-align:center;white-space:normal;vertical-align:bottom}
-.scroll{overflow-x:auto} td.l,th.l{text-align:left}
-tr.failed td{background:#fdecea} td.ok{color:#1a7f37;font-weight:600} td.bad{color:#b42318;font-weight:600;
-white-space:normal;text-align:left}
-.figs{display:grid;grid-template-columns:repeat(auto-fill,minmax(520px,1fr));gap:1rem}
-figure{margin:0;background:#fff;border:1px solid #dde;padding:.4rem}
-figure img{width:100%;height:auto;display:block;cursor:zoom-in}
-th.rank,td.rank{background:#fff6d5;font-weight:600}
-figcaption{font-size:.85rem;color:#444;margin-top:.3rem}
-.warn{color:#8a5a00} .reason{color:#b42318;font-weight:600} dl{display:grid;grid-template-columns:max-content auto;
-gap:.1rem .8rem;font-size:.9rem} dt{color:#555} dd{margin:0}
-details{margin:.5rem 0} pre{background:#f3f3f3;padding:.5rem;overflow:auto;font-size:.8rem}
-"""
-
-
-def _e(value: Any) -> str:
-    return html.escape(str(value), quote=True)
-
-
-def _img_src(folder: Path, rel: str, inline: bool) -> str:
-    if not inline:
-        return _e(rel)
-    data = base64.b64encode((folder / rel).read_bytes()).decode("ascii")
-    return f"data:image/png;base64,{data}"
-
-
-def page_head(title: str) -> str:
-    """The opening of a self-contained page (inline CSS, no scripts, no external resources)."""
-    return ("<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n"
-            "<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">\n"
-            "<link rel=\"icon\" href=\"data:,\">\n"
-            f"<title>{_e(title)}</title>\n<style>{_CSS}</style>\n</head>\n<body>\n<main>\n")
-
-
-PAGE_END = "</main>\n</body>\n</html>\n"
+#: The summary table's columns and the decimals of each number.
+_SUMMARY = (("name", 0), ("status", 0), ("traj", 0), ("solver", 0), ("steps", 0), ("tip_max_error_mm", 3),
+            ("tip_final_error_mm", 4), ("points_max_error_mm", 3), ("orientation_max_deg", 2), ("global_max", 3),
+            ("tip_rmse_mm", 3), ("tip_orientation_rmse_deg", 2), ("tolerance_exceeded", 0), ("min_clearance_mm", 2),
+            ("wall_time_s", 2))
+_DIGITS = dict(_SUMMARY)
 
 
 def _summary_table(rows: Sequence[dict[str, Any]], anchors: Sequence[str]) -> str:
-    heads = [("run", "l"), ("status", "l"), ("trajectory", "l"), ("solver", "l"), ("steps", ""),
-             ("tip max error (mm)", ""), ("tip final error (mm)", ""), ("worst point error (mm)", ""),
-             ("worst orientation error (deg)", ""), ("global max", ""), ("tip RMSE (mm)", ""),
-             ("tip orientation RMSE (deg)", ""), ("over tolerance", ""), ("min clearance (mm)", ""),
-             ("wall time (s)", "")]
-    out = ["<div class=\"scroll\"><table id=\"summary\">\n<thead><tr>"]
-    out += [f"<th class=\"{c}\">{_e(h)}</th>" for h, c in heads]
-    out.append("</tr></thead>\n<tbody>\n")
-    for r, a in zip(rows, anchors):
-        ok = r["status"] == "ok"
-        traj = (r.get("trajectory") or {}).get("name", r["traj"])
-        out.append(f"<tr class=\"{'ok' if ok else 'failed'}\">")
-        out.append(f"<td class=\"l\"><a href=\"#{_e(a)}\">{_e(r['name'])}</a></td>")
-        out.append(f"<td class=\"{'ok' if ok else 'bad'}\">{_e(r['status'])}</td>")
-        out.append(f"<td class=\"l\">{_e(traj)}</td><td class=\"l\">{_e(r['solver'])}</td>")
-        for k, d in (("steps", 0), ("tip_max_error_mm", 3), ("tip_final_error_mm", 4), ("points_max_error_mm", 3),
-                     ("orientation_max_deg", 2), ("global_max", 3), ("tip_rmse_mm", 3),
-                     ("tip_orientation_rmse_deg", 2), ("tolerance_exceeded", None), ("min_clearance_mm", 2),
-                     ("wall_time_s", 2)):
-            if k == "tolerance_exceeded":
-                out.append("<td class=\"bad\">over</td>" if r.get(k) else "<td></td>")
-                continue
-            out.append(f"<td>{_e(_fmt(r.get(k), d or 3))}</td>")
-        out.append("</tr>\n")
-    out.append("</tbody>\n</table></div>\n")
-    return "".join(out)
+    def cell(item: tuple[dict[str, Any], str], k: str) -> tuple[str, str]:
+        r, anchor = item
+        if k == "name":
+            return f"<a href=\"#{escape(anchor)}\">{escape(r['name'])}</a>", "l"
+        if k == "status":
+            return escape(r["status"]), "ok" if r["status"] == "ok" else "bad"
+        if k == "traj":
+            return escape((r.get("trajectory") or {}).get("name", r["traj"])), "l"
+        if k == "solver":
+            return escape(r["solver"]), "l"
+        if k == "tolerance_exceeded":
+            return ("over", "bad") if r.get(k) else ("", "")
+        return escape(fmt(r.get(k), _DIGITS[k] or 3)), ""
+
+    return html_table("summary", [k for k, _ in _SUMMARY], list(zip(rows, anchors)), cell,
+                 head_class=lambda k: "l" if k in ("name", "status", "traj", "solver") else "",
+                 row_class=lambda item: "ok" if item[0]["status"] == "ok" else "failed")
 
 
 def _stats_table(stats: dict[str, Any]) -> str:
@@ -608,24 +427,25 @@ def _stats_table(stats: dict[str, Any]) -> str:
                                     ("modules", "Orientation error", "module", "deg"),
                                     ("global", "Global error", "module", "1 = tolerance")):
         rows = stats.get(key) or []
-        parts.append(f"<table class=\"stats\"><thead><tr><th class=\"l\">{_e(title)} ({_e(unit)})</th><th>max</th>"
-                     "<th>at step</th><th>mean</th><th>median</th><th>RMSE</th><th>final</th></tr></thead><tbody>")
+        parts.append(f"<table class=\"stats\"><thead><tr><th class=\"l\">{escape(title)} ({escape(unit)})</th>"
+                     "<th>max</th><th>at step</th><th>mean</th><th>median</th><th>RMSE</th><th>final</th></tr>"
+                     "</thead><tbody>")
         for j, st in enumerate(rows):
             tag = " (base)" if j == 0 else (" (tip)" if j == len(rows) - 1 else "")
-            parts.append(f"<tr><td class=\"l\">{_e(label)} {j + 1}{_e(tag)}</td><td>{st['max']:.3f}</td>"
+            parts.append(f"<tr><td class=\"l\">{escape(label)} {j + 1}{escape(tag)}</td><td>{st['max']:.3f}</td>"
                          f"<td>{int(st['worst_step'])}</td><td>{st['mean']:.3f}</td><td>{st['median']:.3f}</td>"
-                         f"<td>{_fmt(st.get('rmse'), 3)}</td><td>{st['final']:.3f}</td></tr>")
+                         f"<td>{fmt(st.get('rmse'), 3)}</td><td>{st['final']:.3f}</td></tr>")
         parts.append("</tbody></table>\n")
     return "".join(parts)
 
 
 def _run_section(row: dict[str, Any], anchor: str, out_dir: Path, inline: bool) -> str:
     ok = row["status"] == "ok"
-    out = [f"<section id=\"{_e(anchor)}\">\n<h2>{_e(row['name'])}</h2>\n"]
+    out = [f"<section id=\"{escape(anchor)}\">\n<h2>{escape(row['name'])}</h2>\n"]
     if row.get("description"):
-        out.append(f"<p>{_e(row['description'])}</p>\n")
+        out.append(f"<p>{escape(row['description'])}</p>\n")
     if not ok:
-        out.append(f"<p class=\"reason\">{_e(row['status'])}</p>\n")
+        out.append(f"<p class=\"reason\">{escape(row['status'])}</p>\n")
     dl = []
     tr = row.get("trajectory")
     if tr:
@@ -651,9 +471,9 @@ def _run_section(row: dict[str, Any], anchor: str, out_dir: Path, inline: bool) 
             dl.append(("min clearance", f"{row['min_clearance_mm']:.3f} mm{at}"
                                         + (f"; touches the wall at {touch} steps" if touch else "")))
     dl.append(("wall time", f"{row['wall_time_s']:.2f} s"))
-    out.append("<dl>" + "".join(f"<dt>{_e(k)}</dt><dd>{_e(v)}</dd>" for k, v in dl) + "</dl>\n")
+    out.append("<dl>" + "".join(f"<dt>{escape(k)}</dt><dd>{escape(v)}</dd>" for k, v in dl) + "</dl>\n")
     for w in row.get("warnings") or []:
-        out.append(f"<p class=\"warn\">Warning: {_e(w)}</p>\n")
+        out.append(f"<p class=\"warn\">Warning: {escape(w)}</p>\n")
     figs = list(row.get("figures") or [])
     known = [f for f, _, _ in _FIGURES]
     shown = [(f, cap, ref) for f, cap, ref in _FIGURES if f in figs]
@@ -662,18 +482,15 @@ def _run_section(row: dict[str, Any], anchor: str, out_dir: Path, inline: bool) 
         out.append("<div class=\"figs\">\n")
         for f, cap, ref in shown:
             rel = f"{row['folder']}/{f}"
-            # The figure links to its PNG, which opens at full size (the page shows it shrunk to its column).
-            out.append(f"<figure><a href=\"{_e(rel)}\" title=\"open at full size\">"
-                       f"<img src=\"{_img_src(out_dir, rel, inline)}\" alt=\"{_e(cap)} - {_e(row['name'])}\"></a>"
-                       f"<figcaption>{_e(cap)}{f' (thesis {_e(ref)})' if ref else ''}; "
-                       f"<a href=\"{_e(rel)}\">full size</a></figcaption></figure>\n")
+            caption = escape(cap) + (f" (thesis {escape(ref)})" if ref else "")
+            out.append(figure(rel, f"{cap} - {row['name']}", caption, folder=out_dir, inline=inline))
         out.append("</div>\n")
     if row.get("stats"):
         out.append("<details><summary>Errors per point and module</summary>\n")
         out.append(_stats_table(row["stats"]))
         out.append("</details>\n")
     if row.get("traceback"):
-        out.append(f"<details><summary>Traceback</summary><pre>{_e(row['traceback'])}</pre></details>\n")
+        out.append(f"<details><summary>Traceback</summary><pre>{escape(row['traceback'])}</pre></details>\n")
     out.append("</section>\n")
     return "".join(out)
 
@@ -683,11 +500,11 @@ def html_page(report: BatchReport, inline_images: bool = False) -> str:
     b = report.batch
     anchors = [f"run-{r['folder'].split('/', 1)[1]}" for r in report.rows]
     failed = len(report.failed)
-    parts = [page_head(b.title), f"<h1>{_e(b.title)}</h1>\n"]
+    parts = [page_head(b.title), f"<h1>{escape(b.title)}</h1>\n"]
     if b.description:
-        parts.append(f"<p>{_e(b.description)}</p>\n")
-    parts.append(f"<p class=\"meta\">{len(report.rows)} runs, {failed} failed; batch {_e(b.source)}; "
-                 f"{report.wall_time_s:.1f} s; bhr {_e(__version__)}. "
+        parts.append(f"<p>{escape(b.description)}</p>\n")
+    parts.append(f"<p class=\"meta\">{len(report.rows)} runs, {failed} failed; batch {escape(b.source)}; "
+                 f"{report.wall_time_s:.1f} s; bhr {escape(__version__)}. "
                  "Errors are in mm and degrees; the global error is 1 at the tolerances.</p>\n")
     parts.append(_summary_table(report.rows, anchors))
     for row, a in zip(report.rows, anchors):

@@ -8,11 +8,12 @@ name with underscores (``modules``, ``module_length``, ``alpha``,
 the result is one row per design with its worst errors and, where the
 trajectory has a lumen, its minimum clearance.
 
-Designs run in chunks. :func:`run_sweep` runs the chunks in this process
-(``jobs=1``), in a pool of worker processes (``jobs>1``; the workers load
-the compiled kernels from numba's on-disk cache once each), or on an existing
-Dask distributed cluster (``scheduler="tcp://host:port"``); every path calls
-the same :func:`run_chunk` on the same designs, so the rows are the same.
+:func:`run_sweep` runs the designs through the studies' executor
+(:mod:`bhr.executor`): in this process (``jobs=1``), in a pool of worker
+processes (``jobs>1``; the workers load the compiled kernels from numba's
+on-disk cache once each), or on an existing Dask distributed cluster
+(``scheduler="tcp://host:port"``); every path runs the same
+:func:`run_design` on the same designs, so the rows are the same.
 
 Neither matplotlib nor Dask is imported until a heat-map is drawn or a
 scheduler is given.
@@ -23,29 +24,32 @@ import itertools
 import math
 import os
 import re
-import time
 import tomllib
 import warnings
-from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Iterable, Sequence
 
-from bhr.errors import BhrError
 from bhr import __version__
 from bhr.atomic import write_json, write_text
+from bhr.errors import BhrError
+from bhr.executor import DASK_MISSING, capture, connect_scheduler, run_jobs
+from bhr.generators import GENERATORS, builtin_names, load_trajectory
 from bhr.driver import BhrWarning, follow
+from bhr.htmlpage import PAGE_END, escape, figure, fmt, page_head, table
 from bhr.options import solver_options_for
-from bhr.report import (CONSTRAINT_KEYS, NUMBER_KEYS, PAGE_END, ROBOT_KEYS, TRAJ_KEYS, _reason, _suggest,
-                        check_value, page_head, summary_row)
 from bhr.robot import Robot
 from bhr.robotfile import load_robot_file
 from bhr.solvers import available, canonical
-from bhr.generators import GENERATORS, load_trajectory
+from bhr.names import AXIS_NAMES, COLUMN_TITLES, axis_label, axis_value, column_title
+from bhr.names import label as _label
+from bhr.study import (CONSTRAINT_KEYS, NUMBER_KEYS, ROBOT_KEYS, TRAJ_KEYS, check_value, csv_text, make_robot, suggest,
+                       summary_row, warm_up)
 
 __all__ = ["Sweep", "SweepResult", "GRID_KEYS", "parse_grid_option", "parse_values", "sweep_from_toml",
            "load_sweep", "build_sweep", "run_design", "run_chunk", "run_sweep", "heatmap_axes",
-           "heatmap_figure", "write_outputs", "METRICS", "DASK_MISSING", "connect_scheduler"]
+           "heatmap_figure", "write_outputs", "METRICS", "DASK_MISSING", "connect_scheduler", "make_robot",
+           "axis_label", "axis_value", "column_title", "AXIS_NAMES", "COLUMN_TITLES"]
 
 #: Keys a grid may vary: trajectory and robot options, and the constrained solvers' options.
 GRID_KEYS = frozenset(NUMBER_KEYS | set(CONSTRAINT_KEYS))
@@ -53,8 +57,6 @@ GRID_KEYS = frozenset(NUMBER_KEYS | set(CONSTRAINT_KEYS))
 METRICS = ("status", "steps", "tip_max_error_mm", "tip_final_error_mm", "points_max_error_mm",
            "orientation_max_deg", "global_max", "tip_rmse_mm", "tip_orientation_rmse_deg", "tolerance_exceeded",
            "min_clearance_mm", "min_turn_radius_mm")
-DASK_MISSING = ("--scheduler needs Dask's distributed package, which is not installed; "
-                "install it with: pip install 'bhr[dask]' (or pip install 'dask[distributed]')")
 _TOP_KEYS = ("title", "description", "traj", "solver", "robot", "grid")
 _NUM = re.compile(r"^[+-]?(\d+(\.\d*)?|\.\d+)([eE][+-]?\d+)?$", re.ASCII)
 _MAX_DESIGNS = 1_000_000
@@ -91,7 +93,7 @@ def parse_values(key: str, value: Any, where: str) -> tuple[Any, ...]:
     STEP defaults to 1. Values are type-checked for ``key``; raises BhrError.
     """
     if key not in GRID_KEYS:
-        raise BhrError(f"{where}: {key!r} is not a parameter a sweep can vary; {_suggest(key, GRID_KEYS)}")
+        raise BhrError(f"{where}: {key!r} is not a parameter a sweep can vary; {suggest(key, GRID_KEYS)}")
     if isinstance(value, str):
         text = value.strip()
         if not text:
@@ -242,8 +244,6 @@ def build_sweep(trajs: Sequence[str], solvers: Sequence[str], grid: Iterable[tup
     for s in solvers:
         if canonical(s) not in names:
             raise BhrError(f"{where}: unknown solver {s!r}; choose from {', '.join(names)}")
-    from bhr.generators import builtin_names
-
     shipped = set(builtin_names())
     sources = {}
     base = Path(base_dir)
@@ -301,11 +301,6 @@ def build_sweep(trajs: Sequence[str], solvers: Sequence[str], grid: Iterable[tup
 # ------------------------------------------------------------------------------------------ running
 
 
-def make_robot(params: dict[str, Any], base: dict[str, Any] | None = None) -> Any:
-    """The Robot of a design: ``base`` (a robot file's fields, or bhr's defaults) with ``params`` on top."""
-    return Robot(**base).replace(**params) if base else Robot(**params)
-
-
 def run_design(design: dict[str, Any], traj_source: str, base_robot: dict[str, Any] | None = None,
                extra: Sequence[str] = ()) -> dict[str, Any]:
     """Follow one design's trajectory; return its row (design keys, :data:`METRICS`, then the summary's
@@ -313,7 +308,7 @@ def run_design(design: dict[str, Any], traj_source: str, base_robot: dict[str, A
     row: dict[str, Any] = dict(design)
     row.update({k: None for k in (*METRICS, *extra)})
     row["status"] = "ok"
-    try:
+    with capture(row):  # one failed design must not stop the sweep
         robot = make_robot({ROBOT_KEYS[k]: v for k, v in design.items() if k in ROBOT_KEYS}, base_robot)
         row["min_turn_radius_mm"] = robot.min_turn_radius
         tr = load_trajectory(traj_source, feed=robot.feed, **{k: v for k, v in design.items() if k in TRAJ_KEYS})
@@ -324,20 +319,20 @@ def run_design(design: dict[str, Any], traj_source: str, base_robot: dict[str, A
         summary = res.summary.to_dict()
         row.update(summary_row(summary))
         row.update({k: summary.get(k) for k in extra})
-    except (KeyboardInterrupt, SystemExit):
-        raise
-    except Exception as exc:  # one failed design must not stop the sweep
-        row["status"] = f"failed: {_reason(exc)}"
     return row
 
 
 def run_chunk(chunk: Sequence[tuple[Any, ...]]) -> list[tuple[int, dict[str, Any]]]:
     """Run ``(index, design, trajectory source[, base robot fields[, extra keys]])`` items; return ``(index, row)``.
 
-    This is the unit of work of every execution path (in-process, worker
-    processes, Dask), so they all compute the same rows.
+    Kept for callers of earlier versions; :func:`run_sweep` hands single designs to :mod:`bhr.executor`.
     """
     return [(item[0], run_design(*item[1:])) for item in chunk]
+
+
+def _design_job(item: tuple[Any, ...]) -> dict[str, Any]:
+    """One design: ``(design, trajectory source, base robot fields[, extra keys])``, the job of every path."""
+    return run_design(*item)
 
 
 @dataclass
@@ -357,92 +352,6 @@ class SweepResult:
         return ["design", *self.sweep.keys, *METRICS, *self.sweep.extra]
 
 
-def _chunks(items: list[Any], workers: int) -> list[list[Any]]:
-    size = max(1, min(64, math.ceil(len(items) / (workers * 8))))
-    return [items[k:k + size] for k in range(0, len(items), size)]
-
-
-def _cannot(address: str, reason: str) -> BhrError:
-    return BhrError(f"cannot connect to the Dask scheduler at {address} ({reason}); check the address "
-                    "(e.g. tcp://127.0.0.1:8786) and that the scheduler is running")
-
-
-def connect_scheduler(address: str, timeout: float = 15.0) -> Any:
-    """A ``distributed.Client`` on the scheduler at ``address``, or one BhrError line saying why not.
-
-    The address is checked, then a Dask handshake is tried with a deadline
-    (so a port that answers but is not a scheduler fails in ``timeout``
-    seconds instead of hanging), then the client is made.
-    """
-    import asyncio
-
-    try:
-        from distributed import Client
-        from distributed.comm import connect
-        from distributed.comm.addressing import parse_address, parse_host_port
-    except ImportError:
-        raise BhrError(DASK_MISSING) from None
-    try:
-        scheme, loc = parse_address(address.strip())
-        if scheme in ("tcp", "tls"):
-            parse_host_port(loc)
-    except (ValueError, TypeError) as exc:
-        raise _cannot(address, str(exc).splitlines()[0] if str(exc) else "malformed address") from None
-
-    if scheme == "tcp":  # a closed port fails at once, without Dask's retries
-        import socket
-
-        host, port = parse_host_port(loc)
-        try:
-            socket.create_connection((host, port), timeout=timeout).close()
-        except OSError as exc:
-            raise _cannot(address, exc.strerror or exc.__class__.__name__) from None
-
-    async def handshake() -> None:
-        comm = await connect(address.strip(), timeout=f"{timeout}s")
-        await comm.close()
-
-    async def bounded() -> None:
-        # Dask's connect() does not bound the handshake: a port that answers but never speaks Dask would hang
-        await asyncio.wait_for(handshake(), timeout)
-
-    try:
-        asyncio.run(bounded())
-    except (asyncio.TimeoutError, TimeoutError):
-        raise _cannot(address, f"no Dask handshake within {timeout:g} s; is it a Dask scheduler?") from None
-    except Exception as exc:  # OSError, ValueError
-        raise _cannot(address, str(exc).splitlines()[0] if str(exc) else exc.__class__.__name__) from None
-    try:
-        return Client(address.strip(), timeout=f"{timeout}s", set_as_default=False)
-    except Exception as exc:
-        raise _cannot(address, str(exc).splitlines()[0] if str(exc) else exc.__class__.__name__) from None
-
-
-def _run_dask(scheduler: Any, chunks: list[list[Any]], progress: Callable[[int], None]) -> tuple[list[Any], int]:
-    try:
-        from distributed import as_completed as dask_completed
-    except ImportError:
-        raise BhrError(DASK_MISSING) from None
-    own = isinstance(scheduler, str)
-    client = connect_scheduler(scheduler) if own else scheduler
-    out: list[Any] = []
-    try:
-        workers = max(1, sum(client.nthreads().values()))
-        futures = client.map(run_chunk, chunks, pure=False)
-        for fut in dask_completed(futures, loop=client.loop):
-            try:
-                part = fut.result()
-            except Exception as exc:
-                raise BhrError(f"a Dask worker failed ({_reason(exc)}); check that every worker has this bhr "
-                               "installed") from None
-            out.extend(part)
-            progress(len(part))
-    finally:
-        if own:
-            client.close()
-    return out, workers
-
-
 def run_sweep(sweep: Sweep, *, jobs: int | None = None, scheduler: Any = None,
               progress: Callable[[int, int], None] | None = None) -> SweepResult:
     """Run every design of ``sweep``; rows come back in design order whatever ran them.
@@ -450,56 +359,16 @@ def run_sweep(sweep: Sweep, *, jobs: int | None = None, scheduler: Any = None,
     ``jobs``: worker processes (default: the number of CPUs; 1 runs in this
     process). ``scheduler``: address of a Dask distributed scheduler to run
     on instead, or a ``distributed.Client`` (see :func:`connect_scheduler`).
-    ``progress(done, total)`` is called as chunks finish.
+    ``progress(done, total)`` is called as designs finish.
     """
-    if scheduler is not None and jobs is not None:
-        raise BhrError("give either jobs (local processes) or a Dask scheduler, not both")
-    if jobs is not None and (not isinstance(jobs, int) or jobs < 1):
-        raise BhrError(f"jobs must be a whole number of processes, 1 or more, got {jobs!r}")
-    designs = sweep.designs()
     base = dict(sweep.robot) or None
-    items = [(i, d, sweep.traj_sources.get(d["traj"], d["traj"]), base, *((sweep.extra,) if sweep.extra else ()))
-             for i, d in enumerate(designs)]
-    total = len(items)
-    done = [0]
-
-    def tick(n: int) -> None:
-        done[0] += n
-        if progress is not None:
-            progress(done[0], total)
-
-    t0 = time.perf_counter()
-    if scheduler is not None:
-        pairs, workers = _run_dask(scheduler, _chunks(items, 8), tick)
-        runner = f"dask {scheduler if isinstance(scheduler, str) else scheduler.scheduler.address}"
-    else:
-        workers = min(jobs or os.cpu_count() or 1, total)
-        if workers <= 1:
-            pairs = []
-            for chunk in _chunks(items, 4):
-                pairs.extend(run_chunk(chunk))
-                tick(len(chunk))
-            runner, workers = "in-process", 1
-        else:
-            import multiprocessing
-
-            pairs = []
-            ctx = multiprocessing.get_context("spawn")  # safe next to threads (a Dask client, a GUI)
-            with ProcessPoolExecutor(max_workers=workers, mp_context=ctx) as pool:
-                futures = [pool.submit(run_chunk, c) for c in _chunks(items, workers)]
-                for fut in as_completed(futures):
-                    part = fut.result()
-                    pairs.extend(part)
-                    tick(len(part))
-            runner = f"{workers} processes"
-    wall = time.perf_counter() - t0
-    rows: list[dict[str, Any] | None] = [None] * total
-    for i, row in pairs:
-        rows[i] = row
-    if any(r is None for r in rows):
-        raise BhrError("some designs came back without a result; run the sweep again")
-    final = [{"design": i + 1, **r} for i, r in enumerate(rows)]  # type: ignore[arg-type,dict-item]
-    return SweepResult(sweep, final, wall, runner, workers)
+    items = [(d, sweep.traj_sources.get(d["traj"], d["traj"]), base, *((sweep.extra,) if sweep.extra else ()))
+             for d in sweep.designs()]
+    done = run_jobs(_design_job, items, jobs=jobs, scheduler=scheduler, warm_up=warm_up,
+                    warm_up_args=(sweep.solvers,),
+                    progress=None if progress is None else (lambda d, t, _row: progress(d, t)))
+    final = [{"design": i + 1, **r} for i, r in enumerate(done.rows)]
+    return SweepResult(sweep, final, done.wall_time_s, done.runner, done.workers)
 
 
 # ------------------------------------------------------------------------------------------ heat-map
@@ -554,50 +423,8 @@ def heatmap_cells(result: SweepResult, x: str | None, y: str | None, metric: str
     return [[worst(c) if c else math.nan for c in row] for row in cells]
 
 
-#: Heat-map axis and table names of the grid keys, in words (the unit comes from bhr.options).
-AXIS_NAMES = {
-    "module_length": "module length", "robot_radius": "robot radius", "tol_pos": "position tolerance",
-    "tol_ori": "orientation tolerance", "max_iter": "iterations (at most)", "feed_divisor": "feed divisor",
-    "weight_pos": "position weight", "weight_ori": "orientation weight", "radius": "path radius",
-    "angle": "turned angle", "entry": "entry straight", "exit": "exit straight", "traj": "trajectory",
-    "warmup": "warm-up iterations", "limit": "rotation limit", "axes": "rotation axes",
-}
 #: At most this many panels, one per value of the third axis; more and the third axis joins the worst case.
 MAX_PANELS = 9
-
-
-def axis_label(key: str | None) -> str:
-    """A heat-map axis's name with its unit, e.g. ``alpha (deg)``."""
-    if key is None:
-        return ""
-    from bhr.options import BY_NAME
-
-    name = AXIS_NAMES.get(key, key.replace("_", " "))
-    unit = BY_NAME[key].unit if key in BY_NAME else ""
-    return f"{name} ({unit})" if unit else name
-
-
-def axis_value(key: str, value: Any) -> str:
-    """An axis value with its name and unit, e.g. ``module length 10 mm``."""
-    name = axis_label(key)
-    if name.endswith(")") and " (" in name:
-        name, unit = name[:-1].split(" (", 1)
-        return f"{name} {_label(value)} {unit}"
-    return f"{name} {_label(value)}"
-
-
-#: Table headers of the result columns (the design's keys use :func:`axis_label`).
-COLUMN_TITLES = {
-    "design": "design", "status": "status", "steps": "steps", "tip_max_error_mm": "tip max error (mm)",
-    "tip_final_error_mm": "tip final error (mm)", "points_max_error_mm": "worst point error (mm)",
-    "orientation_max_deg": "worst orientation error (deg)", "global_max": "global max (1 = tolerance)",
-    "min_clearance_mm": "min clearance (mm)", "min_turn_radius_mm": "min turn radius (mm)",
-}
-
-
-def column_title(key: str) -> str:
-    """A friendly header for a result column or design key."""
-    return COLUMN_TITLES.get(key) or axis_label(key)
 
 
 def heatmap_panels(sweep: Sweep, x: str | None, y: str | None) -> str | None:
@@ -611,8 +438,6 @@ def heatmap_panels(sweep: Sweep, x: str | None, y: str | None) -> str | None:
 
 def _thesis_value(key: str) -> Any:
     """The thesis design's value of a robot key (bhr's default robot), or None for any other key."""
-    from bhr.robot import Robot
-
     return getattr(Robot(), ROBOT_KEYS[key]) if key in ROBOT_KEYS else None
 
 
@@ -749,36 +574,12 @@ def heatmap_figure(result: SweepResult, x: str | None = None, y: str | None = No
     return fig
 
 
-def _label(v: Any) -> str:
-    if isinstance(v, float):
-        return f"{v:g}"
-    s = str(v)
-    return Path(s).stem if ("/" in s or s.endswith(".toml")) else s
-
-
 # ------------------------------------------------------------------------------------------ outputs
-
-
-def _cell(v: Any) -> str:
-    if v is None:
-        return ""
-    if isinstance(v, float):
-        return repr(v)
-    return str(v)
 
 
 def results_csv(result: SweepResult) -> str:
     """One row per design: design number, its keys, then :data:`METRICS` (floats in full, unknown empty)."""
-    import csv
-    import io
-
-    buf = io.StringIO()
-    w = csv.writer(buf, lineterminator="\n")
-    cols = result.columns
-    w.writerow(cols)
-    for r in result.rows:
-        w.writerow([_cell(r.get(c)) for c in cols])
-    return buf.getvalue()
+    return csv_text(result.rows, result.columns)
 
 
 def best_rows(result: SweepResult, count: int = 10) -> list[dict[str, Any]]:
@@ -788,62 +589,43 @@ def best_rows(result: SweepResult, count: int = 10) -> list[dict[str, Any]]:
 
 
 def _html(result: SweepResult, heatmap: str | None) -> str:
-    import html as _h
-
-    def e(v: Any) -> str:
-        return _h.escape(str(v), quote=True)
-
-    def fmt(v: Any) -> str:
-        if v is None:
-            return "-"
-        return f"{v:.3f}" if isinstance(v, float) else str(v)
-
     # The ranking column (worst point error) right after the design's values, so it shows without scrolling.
     rank = "points_max_error_mm"
     cols = ["design", *result.sweep.keys, rank, *[m for m in METRICS if m != rank]]
 
-    def table(rows: Sequence[dict[str, Any]], tid: str, ranked: bool = False) -> str:
-        out = [f"<div class=\"scroll\"><table id=\"{tid}\"><thead><tr>"]
-        if ranked:
-            out.append("<th>rank</th>")
-        out += [f"<th class=\"rank\">{e(column_title(c))}</th>" if c == rank else f"<th>{e(column_title(c))}</th>"
-                for c in cols]
-        out.append("</tr></thead><tbody>\n")
-        for n, r in enumerate(rows, 1):
-            ok = r["status"] == "ok"
-            out.append(f"<tr class=\"{'ok' if ok else 'failed'}\">")
-            if ranked:
-                out.append(f"<td>{n}</td>")
-            for c in cols:
-                cls = " class=\"l\"" if c in ("traj", "solver") else (
-                    (" class=\"ok\"" if ok else " class=\"bad\"") if c == "status" else
-                    (" class=\"rank\"" if c == rank else ""))
-                v = _label(r[c]) if c == "traj" else r.get(c)
-                out.append(f"<td{cls}>{e(fmt(v))}</td>")
-            out.append("</tr>\n")
-        out.append("</tbody></table></div>\n")
-        return "".join(out)
+    def cell(item: tuple[int, dict[str, Any]], c: str) -> tuple[str, str]:
+        n, r = item
+        if c == "rank":
+            return str(n), ""
+        if c == "status":
+            return escape(r["status"]), "ok" if r["status"] == "ok" else "bad"
+        v = _label(r[c]) if c == "traj" else r.get(c)
+        return escape(fmt(v)), "l" if c in ("traj", "solver") else ("rank" if c == rank else "")
+
+    def designs(rows: Sequence[dict[str, Any]], tid: str, ranked: bool = False) -> str:
+        return table(tid, ["rank", *cols] if ranked else cols, list(enumerate(rows, 1)), cell,
+                     head_class=lambda c: "rank" if c == rank else "",
+                     row_class=lambda item: "ok" if item[1]["status"] == "ok" else "failed")
 
     s = result.sweep
-    parts = [page_head(s.title), f"<h1>{e(s.title)}</h1>\n"]
+    parts = [page_head(s.title), f"<h1>{escape(s.title)}</h1>\n"]
     if s.description:
-        parts.append(f"<p>{e(s.description)}</p>\n")
+        parts.append(f"<p>{escape(s.description)}</p>\n")
     axes = "; ".join(f"{k}: {', '.join(_label(v) for v in vals)}" for k, vals in s.axes)
     if s.robot_file:
         axes += f"; robot file: {s.robot_file}"
     parts.append(f"<p class=\"meta\">{len(result.rows)} designs, {len(result.failed)} failed, "
-                 f"{result.wall_time_s:.1f} s on {e(result.runner)}; bhr {e(__version__)}.<br>{e(axes)}</p>\n")
+                 f"{result.wall_time_s:.1f} s on {escape(result.runner)}; bhr {escape(__version__)}.<br>"
+                 f"{escape(axes)}</p>\n")
     if heatmap:
-        parts.append(f"<figure><a href=\"{e(heatmap)}\"><img src=\"{e(heatmap)}\" "
-                     "alt=\"heat-map of worst error per design\"></a>"
-                     "<figcaption>Worst point error (largest error of any point at any step) and, where the "
-                     "trajectory has a lumen, minimum clearance per design; hatched: over the position tolerance; "
-                     "framed in red: the thesis design; grey: every design in the cell failed. "
-                     f"<a href=\"{e(heatmap)}\">Full size</a>.</figcaption></figure>\n")
+        parts.append(figure(heatmap, "heat-map of worst error per design",
+                            "Worst point error (largest error of any point at any step) and, where the trajectory "
+                            "has a lumen, minimum clearance per design; hatched: over the position tolerance; "
+                            "framed in red: the thesis design; grey: every design in the cell failed"))
     parts.append("<h2>Best designs (smallest worst point error)</h2>\n")
-    parts.append(table(best_rows(result), "best", ranked=True))
+    parts.append(designs(best_rows(result), "best", ranked=True))
     parts.append("<h2>Every design</h2>\n")
-    parts.append(table(result.rows, "designs"))
+    parts.append(designs(result.rows, "designs"))
     parts.append(PAGE_END)
     return "".join(parts)
 

@@ -27,12 +27,22 @@ import math
 import os
 import re
 import statistics
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable, Sequence
 
+from bhr import __version__
+from bhr.atomic import write_json, write_text
 from bhr.errors import BhrError
-from bhr.sweep import Sweep, SweepResult, axis_label, build_sweep, run_sweep
+from bhr.driver import BhrWarning, follow
+from bhr.htmlpage import PAGE_END, escape, figure, fmt, page_head, table
+from bhr.names import axis_label
+from bhr.names import label as _label
+from bhr.study import CONSTRAINT_KEYS, ROBOT_KEYS, TRAJ_KEYS, csv_text, make_robot
+from bhr.sweep import Sweep, SweepResult, build_sweep, run_sweep
+from bhr.sweep import heatmap_axes as _sweep_axes
+from bhr.generators import load_trajectory
 
 __all__ = ["Study", "StudyResult", "parse_colons", "build_study", "run_study", "design_rows", "answer",
            "write_study", "format_study", "DESIGN_COLUMNS", "RUN_COLUMNS", "LUMEN_KEYS"]
@@ -111,8 +121,6 @@ def build_study(grid: Sequence[tuple[str, tuple[Any, ...]]], colons: Sequence[in
                 solvers: Sequence[str] = ("thesis",), target: float = 0.95, robot_file: str | None = None,
                 title: str = "bhr traverse", where: str = "traverse") -> Study:
     """Check and assemble a study; every design and colon is checked before anything runs."""
-    from bhr.report import TRAJ_KEYS
-
     seeds = parse_colons(colons) if isinstance(colons, str) else parse_colons(list(colons))
     if isinstance(target, bool) or not isinstance(target, (int, float)) or not 0.0 < float(target) <= 1.0:
         raise BhrError(f"--target-pass must be a share of colons above 0 and at most 1 (e.g. 0.95), got {target!r}")
@@ -259,21 +267,15 @@ def run_study(study: Study, *, jobs: int | None = None, scheduler: Any = None,
 # ------------------------------------------------------------------------------------------ figures
 
 
-def _label(v: Any) -> str:
-    return f"{v:g}" if isinstance(v, float) else str(v)
-
-
 def heatmap_axes(study: Study, x: str | None = None, y: str | None = None) -> tuple[str | None, str | None]:
     """The heat-map's axes: ``x`` and ``y`` when given, else the two design axes with the most values."""
-    from bhr.sweep import heatmap_axes as sweep_axes
-
     design_only = Sweep(trajs=("anatomy",), solvers=study.sweep.solvers,
                         grid=tuple((k, v) for k, v in study.sweep.grid if k != "seed"))
     for name, val in (("x", x), ("y", y)):
         if val in ("traj", "seed"):
             raise BhrError(f"heat-map {name} axis {val!r} is not a design axis; choose one of "
                            f"{', '.join(study.design_keys)}")
-    return sweep_axes(design_only, x, y)
+    return _sweep_axes(design_only, x, y)
 
 
 def passrate_figure(result: StudyResult, x: str | None = None, y: str | None = None):
@@ -328,13 +330,6 @@ def passrate_figure(result: StudyResult, x: str | None = None, y: str | None = N
 
 def worst_colon_run(result: StudyResult, design: dict[str, Any]):
     """Follow ``design``'s worst colon again (same robot, solver and options) and return the run."""
-    import warnings
-
-    from bhr.driver import BhrWarning, follow
-    from bhr.report import CONSTRAINT_KEYS, ROBOT_KEYS
-    from bhr.sweep import make_robot
-    from bhr.generators import load_trajectory
-
     s = result.study.sweep
     robot = make_robot({ROBOT_KEYS[k]: design[k] for k in result.study.design_keys if k in ROBOT_KEYS},
                        dict(s.robot) or None)
@@ -395,26 +390,6 @@ def penetration_figure(result: StudyResult, design: dict[str, Any], run):
 # ------------------------------------------------------------------------------------------ outputs
 
 
-def _cell(v: Any) -> str:
-    if v is None:
-        return ""
-    if isinstance(v, float):
-        return repr(v)
-    return str(v)
-
-
-def _csv(rows: Sequence[dict[str, Any]], cols: Sequence[str]) -> str:
-    import csv
-    import io
-
-    buf = io.StringIO()
-    w = csv.writer(buf, lineterminator="\n")
-    w.writerow(cols)
-    for r in rows:
-        w.writerow([_cell(r.get(c)) for c in cols])
-    return buf.getvalue()
-
-
 def design_columns(study: Study) -> list[str]:
     return ["design", *study.design_keys, *DESIGN_COLUMNS]
 
@@ -467,59 +442,41 @@ def format_study(result: StudyResult, count: int = 8) -> list[str]:
 
 
 def _html(result: StudyResult, heat: str | None, worst: str | None, worst_design: dict[str, Any] | None) -> str:
-    import html as _h
-
-    from bhr import __version__
-    from bhr.report import PAGE_END, page_head
-
-    def e(v: Any) -> str:
-        return _h.escape(str(v), quote=True)
-
-    def fmt(v: Any) -> str:
-        if v is None:
-            return "-"
-        if isinstance(v, bool):
-            return "yes" if v else "no"
-        return f"{v:.3f}" if isinstance(v, float) else str(v)
-
     study = result.study
     cols = design_columns(study)
     best, meeting = answer(result)
-    parts = [page_head(study.sweep.title), f"<h1>{e(study.sweep.title)}</h1>\n"]
+    ids = {d["design"] for d in meeting}
+    parts = [page_head(study.sweep.title), f"<h1>{escape(study.sweep.title)}</h1>\n"]
     axes = "; ".join(f"{k}: {', '.join(_label(v) for v in vals)}" for k, vals in study.design_axes)
     seeds = study.colons
     span = f"{seeds[0]}-{seeds[-1]}" if list(seeds) == list(range(seeds[0], seeds[-1] + 1)) else ", ".join(
         map(str, seeds[:20])) + (" ..." if len(seeds) > 20 else "")
     parts.append(f"<p class=\"meta\">{len(result.designs)} designs &times; {len(seeds)} anatomical colons (seeds "
-                 f"{e(span)}), {len(result.runs)} runs, {len(result.failed)} failed, {result.wall_time_s:.1f} s on "
-                 f"{e(result.runner)}; penetration from the {e(result.clearance_kind)} clearance; bhr "
-                 f"{e(__version__)}.<br>{e(axes)}"
-                 + (f"; robot file: {e(study.sweep.robot_file)}" if study.sweep.robot_file else "") + "</p>\n")
-    parts.append(f"<p id=\"answer\"><strong>{e(answer_line(result))}.</strong></p>\n")
+                 f"{escape(span)}), {len(result.runs)} runs, {len(result.failed)} failed, {result.wall_time_s:.1f} s "
+                 f"on {escape(result.runner)}; penetration from the {escape(result.clearance_kind)} clearance; bhr "
+                 f"{escape(__version__)}.<br>{escape(axes)}"
+                 + (f"; robot file: {escape(study.sweep.robot_file)}" if study.sweep.robot_file else "") + "</p>\n")
+    parts.append(f"<p id=\"answer\"><strong>{escape(answer_line(result))}.</strong></p>\n")
     if heat:
-        parts.append(f"<figure style=\"max-width:760px\"><img src=\"{e(heat)}\" alt=\"pass rate per design\">"
-                     "<figcaption>Share of colons "
-                     "traversed without touching the wall, per design; outlined cells reach the target."
-                     "</figcaption></figure>\n")
+        parts.append(figure(heat, "pass rate per design", "Share of colons traversed without touching the wall, "
+                            "per design; outlined cells reach the target", style="max-width:760px"))
     if worst and worst_design is not None:
-        parts.append(f"<h2>Worst colon of design #{worst_design['design']}</h2>\n<figure><img src=\"{e(worst)}\" "
-                     "alt=\"clearance along the worst colon\"><figcaption>The robot's smallest clearance to the wall "
-                     "at each step of the design's worst colon (the largest max_penetration_mm, then the least "
-                     "clearance), against the tip's distance from the anus; red: how deep it is in the wall; grey "
-                     "bands: the colon's sections.</figcaption></figure>\n")
-    parts.append("<h2>Designs, best first</h2>\n<div class=\"scroll\"><table id=\"designs\"><thead><tr>")
-    parts += [f"<th>{e(c)}</th>" for c in cols]
-    parts.append("</tr></thead><tbody>\n")
-    ids = {d["design"] for d in meeting}
-    for d in sorted(result.designs, key=_rank):
-        hit = d["design"] in ids
-        cells = []
-        for c in cols:
-            text = f"{100 * d[c]:.1f}%" if c == "pass_rate" else fmt(d.get(c))
-            cls = ' class="ok"' if (c == "pass_rate" and hit) else ""
-            cells.append(f"<td{cls}>{e(text)}</td>")
-        parts.append(f"<tr class=\"{'meets' if hit else 'below'}\">" + "".join(cells) + "</tr>\n")
-    parts.append("</tbody></table></div>\n<p>Every run: <a href=\"runs.csv\">runs.csv</a>; per design: "
+        parts.append(f"<h2>Worst colon of design #{worst_design['design']}</h2>\n")
+        parts.append(figure(worst, "clearance along the worst colon", "The robot's smallest clearance to the wall "
+                            "at each step of the design's worst colon (the largest max_penetration_mm, then the least "
+                            "clearance), against the tip's distance from the anus; red: how deep it is in the wall; "
+                            "grey bands: the colon's sections"))
+
+    def cell(d: dict[str, Any], c: str) -> tuple[str, str]:
+        if c == "pass_rate":
+            return escape(f"{100 * d[c]:.1f}%"), "ok" if d["design"] in ids else ""
+        v = d.get(c)
+        return escape(("yes" if v else "no") if isinstance(v, bool) else fmt(v)), ""
+
+    parts.append("<h2>Designs, best first</h2>\n")
+    parts.append(table("designs", cols, sorted(result.designs, key=_rank), cell,
+                       row_class=lambda d: "meets" if d["design"] in ids else "below"))
+    parts.append("<p>Every run: <a href=\"runs.csv\">runs.csv</a>; per design: "
                  "<a href=\"designs.csv\">designs.csv</a>; everything: <a href=\"study.json\">study.json</a>.</p>\n")
     parts.append(PAGE_END)
     return "".join(parts)
@@ -535,9 +492,6 @@ def write_study(result: StudyResult, out_dir: str | os.PathLike[str], *, plot: b
     import shutil
     import tempfile
 
-    from bhr import __version__
-    from bhr.atomic import write_json, write_text
-
     study = result.study
     out = Path(out_dir)
     parent = out.parent if str(out.parent) else Path(".")
@@ -545,8 +499,8 @@ def write_study(result: StudyResult, out_dir: str | os.PathLike[str], *, plot: b
     stage = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=parent))
     try:
         names = ["designs.csv", "runs.csv", "study.json"]
-        write_text(stage / "designs.csv", _csv(result.designs, design_columns(study)))
-        write_text(stage / "runs.csv", _csv(result.runs, run_columns(study)))
+        write_text(stage / "designs.csv", csv_text(result.designs, design_columns(study)))
+        write_text(stage / "runs.csv", csv_text(result.runs, run_columns(study)))
         best, meeting = answer(result)
         focus = best if best is not None else best_design(result)
         hx, hy = heatmap_axes(study, x, y)

@@ -143,6 +143,6 @@ def check_executor(jobs: int | None, scheduler: str | None) -> None:
         try:
             import distributed  # noqa: F401
         except ImportError:
-            from bhr.sweep import DASK_MISSING
+            from bhr.executor import DASK_MISSING
 
             raise BhrError(DASK_MISSING) from None

@@ -74,7 +74,7 @@ def sweep(sweep_file, trajs, solvers, grid, robot_file, out_dir, jobs, scheduler
     total = len(s)
     client = None
     if scheduler is not None:
-        from bhr.sweep import connect_scheduler
+        from bhr.executor import connect_scheduler
 
         client = connect_scheduler(scheduler)  # fails in one line before anything starts
     where = f"on {scheduler}" if scheduler else ""

@@ -57,7 +57,7 @@ def traverse(grid, colons, solvers, target_pass, robot_file, out_dir, jobs, sche
         check_writable(out / name, "study output")
     client = None
     if scheduler is not None:
-        from bhr.sweep import connect_scheduler
+        from bhr.executor import connect_scheduler
 
         client = connect_scheduler(scheduler)  # fails in one line before anything starts
     err = click.get_text_stream("stderr")

@@ -1,0 +1,95 @@
+"""The studies' executor: rows in job order on every path, one warm-up per process, progress, failures."""
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import pytest
+
+from bhr.errors import BhrError
+from bhr.executor import capture, reason, run_jobs
+
+
+def square(job: tuple[int, str]) -> dict:
+    n, folder = job
+    row = {"n": n, "status": "ok", "pid": os.getpid()}
+    with capture(row, keep_traceback=True):
+        if n == 3:
+            raise ValueError("three is bad\nsecond line")
+        if n == 5:
+            raise BhrError("five is refused; give another number")
+        row["square"] = n * n
+    return row
+
+
+def note_warm_up(folder: str, tag: str) -> None:
+    """Leaves one file per call, named by process and tag."""
+    Path(folder, f"{os.getpid()}-{tag}-{len(os.listdir(folder))}").write_text("")
+
+
+def die(job: int) -> int:
+    if job == 2:
+        os._exit(3)  # a worker that vanishes (killed, out of memory)
+    return job
+
+
+def test_rows_come_back_in_job_order_on_both_local_paths(tmp_path):
+    jobs = [(n, str(tmp_path)) for n in range(12)]
+    seen: list[tuple[int, int, int]] = []
+    serial = run_jobs(square, jobs, jobs=1, progress=lambda d, t, r: seen.append((d, t, r["n"])))
+    pool = run_jobs(square, jobs, jobs=2, max_chunk=2)
+    assert serial.runner == "in-process" and serial.workers == 1
+    assert pool.runner == "2 processes" and pool.workers == 2
+    assert [r["n"] for r in pool.rows] == list(range(12))
+    drop = ("pid", "traceback")
+    assert [{k: v for k, v in r.items() if k not in drop} for r in serial.rows] == \
+           [{k: v for k, v in r.items() if k not in drop} for r in pool.rows]
+    assert [d for d, _, _ in seen] == list(range(1, 13)) and {t for _, t, _ in seen} == {12}
+    assert {r["pid"] for r in pool.rows} - {os.getpid()}  # they did run elsewhere
+    assert os.getpid() not in {r["pid"] for r in pool.rows}
+
+
+def test_a_job_that_raises_is_a_failed_row_with_a_one_line_reason():
+    rows = run_jobs(square, [(n, "") for n in (2, 3, 5)], jobs=1).rows
+    assert rows[0] == {"n": 2, "status": "ok", "pid": os.getpid(), "square": 4}
+    assert rows[1]["status"] == "failed: ValueError: three is bad" and "square" not in rows[1]
+    assert "Traceback" in rows[1]["traceback"] and "three is bad" in rows[1]["traceback"]
+    assert rows[2]["status"] == "failed: five is refused; give another number" and "traceback" not in rows[2]
+    assert reason(KeyError()) == "KeyError"
+
+
+def test_ctrl_c_is_not_captured():
+    row: dict = {}
+    with pytest.raises(KeyboardInterrupt):
+        with capture(row):
+            raise KeyboardInterrupt
+    assert row == {}
+
+
+def test_warm_up_runs_once_in_each_process(tmp_path):
+    marks = tmp_path / "marks"
+    marks.mkdir()
+    jobs = [(n, "") for n in range(8)]
+    res = run_jobs(square, jobs, jobs=2, max_chunk=1, warm_up=note_warm_up, warm_up_args=(str(marks), "a"))
+    pids = {r["pid"] for r in res.rows}
+    warmed = {p.name.split("-")[0] for p in marks.iterdir()}
+    assert warmed == {str(p) for p in pids}  # every process that ran a job warmed up first, once
+    assert len(list(marks.iterdir())) == len(pids)
+    run_jobs(square, jobs, jobs=1, warm_up=note_warm_up, warm_up_args=(str(marks), "b"))
+    run_jobs(square, jobs, jobs=1, warm_up=note_warm_up, warm_up_args=(str(marks), "b"))
+    assert len([p for p in marks.iterdir() if f"{os.getpid()}-b-" in p.name]) == 1  # once in this process too
+
+
+def test_a_worker_that_dies_stops_the_study_with_one_line():
+    with pytest.raises(BhrError, match=r"^a worker process stopped \(.*\); run again") as err:
+        run_jobs(die, list(range(6)), jobs=2, max_chunk=1)
+    assert "\n" not in str(err.value)
+
+
+@pytest.mark.parametrize("kwargs, msg", [
+    ({"jobs": 0}, "jobs must be a whole number"), ({"jobs": True}, "jobs must be a whole number"),
+    ({"jobs": 2, "scheduler": "tcp://127.0.0.1:1"}, "not both"),
+])
+def test_bad_executor_settings(kwargs, msg):
+    with pytest.raises(BhrError, match=msg):
+        run_jobs(square, [(1, "")], **kwargs)
