@@ -190,7 +190,7 @@ def simulate_body(result, body_modules: int) -> BodyRun:
         raise BhrError(f"body modules must be a whole number, got {body_modules!r}")
     M = int(body_modules)
     if M < n:
-        raise BhrError(f"--body-modules {M} is fewer than the {n} head modules; give at least {n}")
+        raise BhrError(f"body_modules {M} is fewer than the {n} head modules; give at least {n} (the whole robot)")
     if M > 10000:
         raise BhrError(f"--body-modules {M} is more than 10000; give a smaller robot")
     if result.codes is None:

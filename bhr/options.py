@@ -50,7 +50,7 @@ class Option:
     """
 
     name: str
-    group: str  # "robot", "trajectory", "constraint" or "solver"
+    group: str  # "robot", "trajectory", "constraint", "solver" or "run"
     kind: Any
     help: str
     default: Any = None
@@ -117,7 +117,7 @@ class Option:
         return int(value) if self.kind is int else value
 
 
-_R, _T, _C, _S = "robot", "trajectory", "constraint", "solver"
+_R, _T, _C, _S, _RUN = "robot", "trajectory", "constraint", "solver", "run"
 _OPT = ("optimal",)
 _LUM = ("lumen",)
 
@@ -180,6 +180,10 @@ OPTIONS: tuple[Option, ...] = (
            solvers=_LUM),
     Option("window", _S, float, "lumen: arc length searched on each side for a point's nearest centerline point "
            "(mm)", 40.0, solvers=_LUM, metavar="MM"),
+    # how a run is simulated (bhr.driver.follow)
+    Option("body_modules", _RUN, int, "Also simulate the body: the whole robot has M modules (M >= --modules), "
+           "those behind the head follow the leader and count in the errors and the lumen clearance", None,
+           maximum=100000, positive=True, metavar="M", shown="head only"),
 )
 
 BY_NAME: dict[str, Option] = {o.name: o for o in OPTIONS}

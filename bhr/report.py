@@ -54,7 +54,7 @@ from bhr.robot import Robot
 from bhr.robotfile import load_robot_file
 from bhr.solvers import get_solver
 from bhr.study import (CONSTRAINT_KEYS, INT_KEYS, NUMBER_KEYS, ROBOT_KEYS, SOLVER_KEYS, TRAJ_KEYS, check_value,
-                       suggest, summary_row, warm_up)
+                       check_body, sim_options, suggest, summary_row, warm_up)
 from bhr.study import csv_text as _csv_text
 
 __all__ = ["RunSpec", "Batch", "load_batch", "parse_batch", "execute_run", "run_batch", "BatchReport",
@@ -94,6 +94,7 @@ class RunSpec:
     robot_params: dict[str, Any] = field(default_factory=dict)  # Robot fields
     solver_options: dict[str, Any] = field(default_factory=dict)
     robot_file: str | None = None
+    sim_options: dict[str, Any] = field(default_factory=dict)  # how the run is simulated (body_modules)
 
     def inputs(self) -> dict[str, Any]:
         """The run's table as given (batch keys), for summary.json."""
@@ -102,6 +103,7 @@ class RunSpec:
         back = {v: k for k, v in ROBOT_KEYS.items()}
         out.update({back.get(k, k): v for k, v in self.robot_params.items()})
         out.update(self.solver_options)
+        out.update(self.sim_options)
         if self.robot_file is not None:
             out["robot"] = self.robot_file
         return out
@@ -177,6 +179,7 @@ def parse_batch(data: dict[str, Any], source: str = "batch", base_dir: str | os.
             robot_params={fld: values[key] for key, fld in ROBOT_KEYS.items() if key in values},
             solver_options=solver_options_for(solver, values),
             robot_file=_resolve(values["robot"], base) if "robot" in values else None,
+            sim_options=sim_options(values),
         )
         _check_values(spec, where)
         specs.append(spec)
@@ -194,6 +197,7 @@ def _check_values(spec: RunSpec, where: str) -> None:
     try:
         robot = Robot(**spec.robot_params)
         get_solver(spec.solver, robot, **spec.solver_options)
+        check_body(spec.sim_options, robot)
         if spec.traj in GENERATORS:
             load_trajectory(spec.traj, feed=robot.feed, **spec.traj_params)
     except BhrError as exc:
@@ -259,7 +263,8 @@ def execute_run(spec: RunSpec, out_dir: str | os.PathLike[str] | None = None, pl
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", BhrWarning)
             s0 = time.perf_counter()
-            result = follow(tr, solver=spec.solver, robot=robot, solver_options=spec.solver_options)
+            result = follow(tr, solver=spec.solver, robot=robot, solver_options=spec.solver_options,
+                            **spec.sim_options)
             row["solve_time_s"] = time.perf_counter() - s0
         summary = result.summary.to_dict()
         row.update(summary_row(summary))

@@ -21,7 +21,8 @@ from bhr.driver import follow
 from bhr.options import BY_NAME, by_group
 from bhr.robot import Robot
 
-__all__ = ["TRAJ_KEYS", "ROBOT_KEYS", "CONSTRAINT_KEYS", "SOLVER_KEYS", "INT_KEYS", "NUMBER_KEYS", "suggest",
+__all__ = ["TRAJ_KEYS", "ROBOT_KEYS", "CONSTRAINT_KEYS", "SOLVER_KEYS", "SIM_KEYS", "INT_KEYS", "NUMBER_KEYS",
+           "sim_options", "check_body", "suggest",
            "check_value", "summary_row", "make_robot", "warm_up", "csv_text"]
 
 # The keys of a run table come from the option registry (bhr.options), as the command-line options do.
@@ -33,10 +34,26 @@ ROBOT_KEYS = {o.name: o.key for o in by_group("robot")}
 CONSTRAINT_KEYS: dict[str, tuple[str, ...] | None] = {o.name: o.choices for o in by_group("constraint")}
 #: Options of one solver (``--solver optimal``): key -> the solvers that take it.
 SOLVER_KEYS: dict[str, tuple[str, ...]] = {o.name: o.solvers or () for o in by_group("solver")}
+#: How each run is simulated (``body_modules``): keyword arguments of :func:`bhr.driver.follow`.
+SIM_KEYS = tuple(o.name for o in by_group("run"))
+_GROUPS = ("robot", "trajectory", "constraint", "solver", "run")
 #: Keys whose value is a whole number.
-INT_KEYS = frozenset(o.name for o in by_group("robot", "trajectory", "constraint", "solver") if o.kind is int)
+INT_KEYS = frozenset(o.name for o in by_group(*_GROUPS) if o.kind is int)
 #: Keys whose value is a number.
-NUMBER_KEYS = frozenset(o.name for o in by_group("robot", "trajectory", "constraint", "solver") if o.choices is None)
+NUMBER_KEYS = frozenset(o.name for o in by_group(*_GROUPS) if o.choices is None)
+
+
+def check_body(options: dict[str, Any], robot: Robot) -> None:
+    """Refuse a ``body_modules`` (the whole robot) shorter than the robot's head."""
+    m = options.get("body_modules")
+    if m is not None and m < robot.modules:
+        raise BhrError(f"body_modules {m} is fewer than the {robot.modules} head modules; give at least "
+                       f"{robot.modules} (the whole robot)")
+
+
+def sim_options(values: dict[str, Any]) -> dict[str, Any]:
+    """The :data:`SIM_KEYS` among ``values``: how :func:`bhr.driver.follow` simulates the run."""
+    return {k: values[k] for k in SIM_KEYS if k in values and values[k] is not None}
 
 
 def suggest(key: str, allowed: Iterable[str]) -> str:

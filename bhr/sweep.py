@@ -43,8 +43,8 @@ from bhr.robotfile import load_robot_file
 from bhr.solvers import available, canonical
 from bhr.names import AXIS_NAMES, COLUMN_TITLES, axis_label, axis_value, column_title
 from bhr.names import label as _label
-from bhr.study import (CONSTRAINT_KEYS, NUMBER_KEYS, ROBOT_KEYS, TRAJ_KEYS, check_value, csv_text, make_robot, suggest,
-                       summary_row, warm_up)
+from bhr.study import (CONSTRAINT_KEYS, NUMBER_KEYS, ROBOT_KEYS, TRAJ_KEYS, check_body, check_value, csv_text,
+                       make_robot, sim_options, suggest, summary_row, warm_up)
 
 __all__ = ["Sweep", "SweepResult", "GRID_KEYS", "parse_grid_option", "parse_values", "sweep_from_toml",
            "load_sweep", "build_sweep", "run_design", "run_chunk", "run_sweep", "heatmap_axes",
@@ -274,6 +274,14 @@ def build_sweep(trajs: Sequence[str], solvers: Sequence[str], grid: Iterable[tup
         if k in ROBOT_KEYS:
             for v in values[1:]:
                 check_robot({**robot_first, ROBOT_KEYS[k]: v}, f"{k} = {v}")
+    body = dict(grid).get("body_modules")
+    if body is not None:  # the whole robot is at least its head, with every head of the grid
+        most = max(check_robot({**robot_first, "modules": m}, f"modules = {m}").modules
+                   for m in dict(grid).get("modules", (robot.modules,)))
+        try:
+            check_body({"body_modules": min(body)}, make_robot({**robot_first, "modules": most}, base_robot))
+        except BhrError as exc:
+            raise BhrError(f"{where}: {exc}") from None
     for t in trajs:
         def check_traj(params: dict[str, Any], what: str, t: str = t) -> None:
             try:
@@ -315,7 +323,7 @@ def run_design(design: dict[str, Any], traj_source: str, base_robot: dict[str, A
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", BhrWarning)
             res = follow(tr, solver=design["solver"], robot=robot,
-                         solver_options=solver_options_for(design["solver"], design))
+                         solver_options=solver_options_for(design["solver"], design), **sim_options(design))
         summary = res.summary.to_dict()
         row.update(summary_row(summary))
         row.update({k: summary.get(k) for k in extra})
@@ -516,8 +524,9 @@ def heatmap_figure(result: SweepResult, x: str | None = None, y: str | None = No
             data, zv = datas[k], zs[k]
             im = ax.imshow(np.ma.masked_invalid(data), origin="lower", aspect="auto", cmap=cm,
                            interpolation="nearest", norm=norm)
-            ax.set_xticks(range(len(xs)), [_label(v) for v in xs], rotation=45 if len(xs) > 8 else 0, fontsize=8)
-            ax.set_yticks(range(len(ys)), [_label(v) for v in ys], fontsize=8)
+            ax.set_xticks(range(len(xs)), [_label(v) for v in xs] if x else [""], rotation=45 if len(xs) > 8 else 0,
+                          fontsize=8)  # one column or row: no axis to name
+            ax.set_yticks(range(len(ys)), [_label(v) for v in ys] if y else [""], fontsize=8)
             ax.set_xlabel(axis_label(x))
             ax.set_ylabel(axis_label(y))
             mid = float(norm.inverse(0.5))
@@ -551,8 +560,11 @@ def heatmap_figure(result: SweepResult, x: str | None = None, y: str | None = No
         what = ", ".join(f"{axis_label(k).split(' (')[0]} {_label(v)}" for k, v in thesis.items())
         handles.append(Patch(facecolor="none", edgecolor="red", linewidth=2.5, label=f"thesis design ({what})"))
     handles.append(Patch(facecolor="#d0d0d0", label="every design in the cell failed"))
-    fig.legend(handles=handles, loc="lower center", ncol=len(handles), fontsize=9, frameon=False)
+    legend = fig.legend(handles=handles, loc="lower center", ncol=len(handles), fontsize=9, frameon=False)
     fig.suptitle(f"{result.sweep.title}: {len(result.rows)} designs", fontsize=12)
+    need = legend.get_window_extent(fig.canvas.get_renderer()).width / fig.dpi + 0.4
+    if need > fig.get_figwidth():  # a narrow grid: widen the canvas so that the legend is whole
+        fig.set_figwidth(need)
     fh, fw = fig.get_figheight(), fig.get_figwidth()
     fig.subplots_adjust(bottom=0.95 / fh, top=1 - 1.15 / fh, hspace=1.6 / (h - 1.6), wspace=1.0 / (w - 1.0),
                         left=0.85 / fw, right=1 - 1.3 / fw)

@@ -39,7 +39,8 @@ from bhr.driver import BhrWarning, follow
 from bhr.htmlpage import PAGE_END, escape, figure, fmt, page_head, table
 from bhr.names import axis_label
 from bhr.names import label as _label
-from bhr.study import CONSTRAINT_KEYS, ROBOT_KEYS, TRAJ_KEYS, csv_text, make_robot
+from bhr.options import solver_options_for
+from bhr.study import ROBOT_KEYS, TRAJ_KEYS, csv_text, make_robot, sim_options
 from bhr.sweep import Sweep, SweepResult, build_sweep, run_sweep
 from bhr.sweep import heatmap_axes as _sweep_axes
 from bhr.generators import load_trajectory
@@ -308,8 +309,8 @@ def passrate_figure(result: StudyResult, x: str | None = None, y: str | None = N
     im = ax.imshow(data * 100, origin="lower", aspect="auto", cmap="RdYlGn", vmin=0, vmax=100,
                    interpolation="nearest")
     fig.colorbar(im, ax=ax, label="colons traversed without wall contact (%)")
-    ax.set_xticks(range(len(xs)), [_label(v) for v in xs])
-    ax.set_yticks(range(len(ys)), [_label(v) for v in ys])
+    ax.set_xticks(range(len(xs)), [_label(v) for v in xs] if x else [""])  # one column: no axis to name
+    ax.set_yticks(range(len(ys)), [_label(v) for v in ys] if y else [""])
     ax.set_xlabel(axis_label(x))
     ax.set_ylabel(axis_label(y))
     for (j, i), v in np.ndenumerate(data):
@@ -336,8 +337,9 @@ def worst_colon_run(result: StudyResult, design: dict[str, Any]):
     tr = load_trajectory("anatomy", feed=robot.feed, seed=design["worst_colon"])
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", BhrWarning)
-        return follow(tr, solver=design["solver"], robot=robot,
-                      solver_options={k: design[k] for k in result.study.design_keys if k in CONSTRAINT_KEYS})
+        keys = {k: design[k] for k in result.study.design_keys}
+        return follow(tr, solver=design["solver"], robot=robot, solver_options=solver_options_for(design["solver"],
+                      keys), **sim_options(keys))
 
 
 def penetration_figure(result: StudyResult, design: dict[str, Any], run):
@@ -380,7 +382,7 @@ def penetration_figure(result: StudyResult, design: dict[str, Any], run):
     ax.legend(loc="lower right", fontsize=8)
     keys = ", ".join(f"{k} {_label(design[k])}" for k in result.study.design_keys)
     pen = design["worst_penetration_mm"]
-    ax.set_title(f"Worst colon (seed {design['worst_colon']}) of design #{design['design']} ({keys}): "
+    ax.set_title(f"Worst colon (seed {design['worst_colon']}) of design #{design['design']} ({keys}):\n"
                  f"{pen:.2f} mm into the wall at worst, smallest clearance {np.nanmin(clearance):.2f} mm; "
                  f"{result.clearance_kind} clearance", fontsize=9)
     fig.tight_layout()

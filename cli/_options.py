@@ -140,6 +140,11 @@ def constraint_options(f: Any) -> Any:
     return _stack(*[_click_option(o) for o in by_group("constraint")])(f)
 
 
+def run_options(f: Any) -> Any:
+    """How a run is simulated (--body-modules), from :mod:`bhr.options`."""
+    return _stack(*[_click_option(o) for o in by_group("run")])(f)
+
+
 def trajectory_options(f: Any) -> Any:
     """The generators' parameters (--length, --radius, ...)."""
     return _stack(*[_click_option(o) for o in by_group("trajectory")])(f)

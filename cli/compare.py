@@ -9,7 +9,7 @@ import click
 
 from bhr.cli._common import check_parent_folder, check_writable, guarded, json_in_folder, run_folder_name
 from bhr.cli._options import (build_robot, lumen_options, optimal_options, pop_solver_options, pop_trajectory,
-                              robot_options, trajectory_options)
+                              robot_options, run_options, trajectory_options)
 
 
 @click.command()
@@ -22,8 +22,7 @@ from bhr.cli._options import (build_robot, lumen_options, optimal_options, pop_s
 @robot_options(feed=True)
 @optimal_options
 @lumen_options
-@click.option("--body-modules", type=int, default=None, metavar="M",
-              help="Also simulate the body of a robot of M modules (M >= --modules) in every run.")
+@run_options
 @click.option("--out", "out_dir", default=None, metavar="DIR",
               help="Output folder, replaced whole by this run [./bhr-out/compare-<traj>-<hash>/].")
 @click.option("--json", "json_path", default=None, metavar="PATH|-",

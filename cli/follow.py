@@ -14,7 +14,7 @@ from bhr.cli._link import (exit_interrupted, fault_printer, link_options, link_s
 from bhr.cli.replay import STRIDE_HELP, check_view_options, render_animation, run_live_view
 from bhr.cli._options import (MIN_RATE, FiniteRange, PlainIntRange, build_robot, constraint_options, lumen_options,
                               optimal_options, pop_constraints, pop_solver_options, pop_trajectory, robot_options,
-                              trajectory_options)
+                              run_options, trajectory_options)
 
 
 def summary_lines(result) -> list[str]:
@@ -95,9 +95,7 @@ def body_clearance_lines(s: dict) -> list[str]:
 @constraint_options
 @optimal_options
 @lumen_options
-@click.option("--body-modules", type=int, default=None, metavar="M",
-              help="Also simulate the body: a robot of M modules (M >= --modules) whose modules behind the head "
-                   "follow the leader.")
+@run_options
 @click.option("--out", "out_dir", default=None, metavar="DIR",
               help="Output folder, replaced whole by this run [./bhr-out/<traj>-<solver>-<hash>/, the hash "
                    "of the trajectory, robot and solver settings].")

@@ -170,6 +170,7 @@ def test_a_failed_run_is_recorded_and_the_others_run(run_bhr, tmp_path):
     ('runs = 3\n', ["unknown top-level key 'runs'"]),
     ('[defaults]\nalfa = 3\n[[run]]\nname = "a"\ntraj = "line"\n', ["[defaults]", "'alfa'", "'alpha'"]),
     ('[[run]\nname = "a"\n', ["b.toml", "not valid TOML"]),
+    ('[[run]]\nname = "a"\ntraj = "curve"\nbody_modules = 3\n', ["run 1 ('a')", "body_modules 3 is fewer than the 5"]),
 ])
 def test_bad_batch_is_one_line_and_writes_nothing(run_bhr, tmp_path, body, words):
     (tmp_path / "b.toml").write_text(body)
@@ -260,6 +261,21 @@ def test_min_clearance_is_reported_where_known(tmp_path):
     page = (tmp_path / "r" / "index.html").read_text()
     assert f"{tube['min_clearance_mm']:.3f} mm at step {tube['clearance']['min_clearance_step']}" in page
     assert any(f"{tube['min_clearance_mm']:.2f}" in line for line in format_table(rep.rows))
+
+
+def test_a_run_with_the_whole_body(tmp_path):
+    """body_modules in a run table: the run is bhr.follow with that body, and its page shows the body's errors."""
+    b = parse_batch({"run": [{"name": "whole", "traj": "colon", "body_modules": 20}]}, "inline", tmp_path)
+    assert b.runs[0].inputs()["body_modules"] == 20
+    rep = run_batch(b, tmp_path / "r", plots=True)
+    (row,) = rep.rows
+    direct = follow(load_trajectory("colon"), solver="thesis", body_modules=20).summary.to_dict()
+    assert direct["body_modules"] == 20
+    assert row["min_clearance_mm"] == direct["min_clearance_mm"] and row["global_max"] == direct["global_max"]
+    run_dir = tmp_path / "r" / "runs" / "whole"
+    assert (run_dir / "body_errors.png").stat().st_size > 10_000
+    assert json.loads((run_dir / "run.json").read_text())["summary"]["body_modules"] == 20
+    assert "body_errors.png" in (tmp_path / "r" / "index.html").read_text()
 
 
 def test_a_crash_inside_a_run_is_a_failed_row(tmp_path):

@@ -107,6 +107,8 @@ def test_designs_are_the_product_in_order():
     ((["curve"], ["seed"], [("radius", (70, -5))]), "trajectory curve with radius = -5: .*radius must be positive"),
     ((["missing.toml"], ["seed"], []), "trajectory missing.toml: unknown trajectory"),
     ((["curve"], ["seed"], [("modules", (4,)), ("modules", (5,))]), "given twice"),
+    ((["curve"], ["seed"], [("modules", (4, 7)), ("body_modules", (6, 40))]),
+     "body_modules 6 is fewer than the 7 head modules"),
 ])
 def test_sweeps_are_checked_before_running(args, msg):
     with pytest.raises(BhrError, match=msg):

@@ -123,6 +123,31 @@ def test_every_run_is_what_follow_gives_and_designs_aggregate_them():
     assert [d["design"] for d in res.designs] == [1, 2, 3, 4]
 
 
+def test_the_whole_robot_counts_when_the_study_gives_its_length():
+    """--grid body_modules=M: every run is bhr.follow with that body, and its contacts decide the pass."""
+    study = build_study([("alpha", (25,)), ("module_length", (5,)), ("body_modules", (5, 60))], "2,7",
+                        solvers=("lumen",))
+    assert study.design_keys == ["solver", "alpha", "module_length", "body_modules"]
+    res = run_study(study, jobs=1)
+    assert not res.failed
+    for r in res.runs:
+        rb = Robot(alpha=25, module_length=5)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", BhrWarning)
+            s = bhr.follow(load_trajectory("anatomy", feed=rb.feed, seed=r["seed"]), solver="lumen", robot=rb,
+                           body_modules=r["body_modules"]).summary.to_dict()
+        assert r["traversed"] == (len(s["wall_touch_steps"]) == 0)
+        assert r["max_penetration_mm"] == pytest.approx(penetration(s), abs=1e-12)
+        assert r["min_clearance_mm"] == s["min_clearance_mm"]
+    head = {r["seed"]: r for r in res.runs if r["body_modules"] == 5}
+    whole = {r["seed"]: r for r in res.runs if r["body_modules"] == 60}
+    for seed in (2, 7):  # a longer robot can only touch the wall more
+        assert whole[seed]["min_clearance_mm"] <= head[seed]["min_clearance_mm"] + 1e-9
+        assert whole[seed]["touch_steps"] >= head[seed]["touch_steps"]
+    with pytest.raises(BhrError, match="body_modules 4 is fewer than the 6 head modules"):
+        build_study([("modules", (5, 6)), ("body_modules", (4, 60))], "1")
+
+
 def test_pass_rates_contact_and_answer_from_lumen_keys():
     """Rows carrying the lumen keys (geometric penetration, contact per module) are read as given."""
     study = build_study([("alpha", (10, 20))], "1-4")
