@@ -355,27 +355,22 @@ def _body_from_json(steps: list, robot: Robot, bad: Callable[[str], BhrError],
 
 def load_run(path: Any) -> FollowResult:
     """Read a run saved by ``bhr follow`` (``run.json``; ``-`` reads standard input), without solving."""
-    from bhr._input import MAX_FILE_BYTES, read_capped
+    from bhr._input import MAX_FILE_BYTES, read_text
 
     name = "standard input" if str(path) == "-" else str(path)
     hint = "give a run.json written by 'bhr follow'"
-    try:
-        if str(path) == "-":
-            raw = sys.stdin.buffer.read(MAX_FILE_BYTES + 1)
-            if len(raw) > MAX_FILE_BYTES:
-                raise BhrError(f"standard input is larger than {MAX_FILE_BYTES // (1024 * 1024)} MiB; {hint}")
-        else:
-            if Path(path).is_dir():
-                raise IsADirectoryError(str(path))
-            raw = read_capped(path, "run file", hint)
-        text = raw.decode("utf-8-sig")
-    except FileNotFoundError:
-        raise BhrError(f"no such run file {name}; give the run.json that 'bhr follow' wrote") from None
-    except IsADirectoryError:
-        raise BhrError(f"{name} is a folder; give the run.json inside it") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise BhrError(f"cannot read {name} ({exc.__class__.__name__}); give a run.json written by 'bhr follow'") \
-            from None
+    if str(path) == "-":
+        raw = sys.stdin.buffer.read(MAX_FILE_BYTES + 1)
+        if len(raw) > MAX_FILE_BYTES:
+            raise BhrError(f"standard input is larger than {MAX_FILE_BYTES // (1024 * 1024)} MiB; {hint}")
+        try:
+            text = raw.decode("utf-8-sig")
+        except UnicodeDecodeError:
+            raise BhrError(f"standard input is not UTF-8 text; {hint}") from None
+    elif Path(path).is_dir():
+        raise BhrError(f"{name} is a folder; give the run.json inside it")
+    else:
+        text = read_text(path, "run file", hint)
     try:
         doc = json.loads(text)
     except json.JSONDecodeError as exc:

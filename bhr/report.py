@@ -35,7 +35,6 @@ from __future__ import annotations
 import os
 import re
 import time
-import tomllib
 import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -206,24 +205,12 @@ def _check_values(spec: RunSpec, where: str) -> None:
 
 def load_batch(path: str | os.PathLike[str]) -> Batch:
     """Read and check a batch file (TOML); raises BhrError with one line naming the problem."""
-    from bhr._input import read_capped
+    from bhr._input import read_toml
 
     p = Path(path)
-    try:
-        if p.is_dir():
-            raise IsADirectoryError(str(p))
-        text = read_capped(p, "batch file", "give a TOML batch file").decode("utf-8-sig")
-    except FileNotFoundError:
-        raise BhrError(f"no such batch file {p}; give a TOML file of [[run]] tables (see docs/report.md)") from None
-    except IsADirectoryError:
-        raise BhrError(f"{p} is a folder; give a batch file (.toml)") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise BhrError(f"cannot read batch file {p} ({exc.__class__.__name__}); give a readable UTF-8 TOML file") \
-            from None
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise BhrError(f"{p}: not valid TOML ({str(exc).splitlines()[0]}); fix the file") from None
+    if p.is_dir():
+        raise BhrError(f"{p} is a folder; give a batch file (.toml)")
+    data = read_toml(p, "batch file", "give a TOML file of [[run]] tables (see docs/report.md)")
     return parse_batch(data, str(p), p.parent)
 
 

@@ -24,7 +24,6 @@ import itertools
 import math
 import os
 import re
-import tomllib
 import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -203,21 +202,12 @@ def sweep_from_toml(data: dict[str, Any], source: str = "sweep", base_dir: str |
 
 def load_sweep(path: str | os.PathLike[str]) -> Sweep:
     """Read a sweep file (TOML); relative trajectory paths are taken from its folder."""
-    from bhr._input import read_capped
+    from bhr._input import read_toml
 
     p = Path(path)
-    try:
-        if p.is_dir():
-            raise IsADirectoryError(str(p))
-        data = tomllib.loads(read_capped(p, "sweep file", "give a TOML sweep file").decode("utf-8-sig"))
-    except FileNotFoundError:
-        raise BhrError(f"no such sweep file {p}; give a TOML file with traj, solver and a [grid] table") from None
-    except IsADirectoryError:
-        raise BhrError(f"{p} is a folder; give a sweep file (.toml)") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise BhrError(f"cannot read sweep file {p} ({exc.__class__.__name__}); give a readable TOML file") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise BhrError(f"{p}: not valid TOML ({str(exc).splitlines()[0]}); fix the file") from None
+    if p.is_dir():
+        raise BhrError(f"{p} is a folder; give a sweep file (.toml)")
+    data = read_toml(p, "sweep file", "give a TOML file with traj, solver and a [grid] table")
     return sweep_from_toml(data, str(p), p.parent)
 
 
@@ -562,7 +552,7 @@ def heatmap_figure(result: SweepResult, x: str | None = None, y: str | None = No
     handles.append(Patch(facecolor="#d0d0d0", label="every design in the cell failed"))
     legend = fig.legend(handles=handles, loc="lower center", ncol=len(handles), fontsize=9, frameon=False)
     fig.suptitle(f"{result.sweep.title}: {len(result.rows)} designs", fontsize=12)
-    need = legend.get_window_extent(fig.canvas.get_renderer()).width / fig.dpi + 0.4
+    need = legend.get_window_extent().width / fig.dpi + 0.4
     if need > fig.get_figwidth():  # a narrow grid: widen the canvas so that the legend is whole
         fig.set_figwidth(need)
     fh, fw = fig.get_figheight(), fig.get_figwidth()
