@@ -113,7 +113,7 @@ def parse_values(key: str, value: Any, where: str) -> tuple[Any, ...]:
         raw = [value]
     if not raw:
         raise BhrError(f"{where}: {key} has no values")
-    out = [check_value(key, v, f"{where}: grid") for v in raw]
+    out = [check_value(key, v, where) for v in raw]
     seen = set()
     for v in out:
         if v in seen:
