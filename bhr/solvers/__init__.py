@@ -83,7 +83,10 @@ def solve(target: Sequence[float], *, modules: int | None = None, module_length:
             raise BhrError(f"robot must be a bhr.Robot, got {type(robot).__name__}")
         unknown = sorted(set(given) - set(Robot.__dataclass_fields__))
         if unknown:
-            raise BhrError(f"{unknown[0]!r} is not a robot setting; give Robot fields such as modules or alpha")
+            from bhr._input import did_you_mean
+
+            tip = did_you_mean(unknown[0], Robot.__dataclass_fields__)
+            raise BhrError(f"{unknown[0]!r} is not a robot setting; {tip}give Robot fields such as modules or alpha")
         robot = robot.replace(**given)
     s = get_solver(solver, robot, **(solver_options or {}))
     if d is not None and not s.accepts_orientation:
