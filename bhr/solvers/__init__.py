@@ -11,6 +11,7 @@ import importlib
 import pkgutil
 from typing import Any, Sequence
 
+from bhr._input import did_you_mean
 from bhr.errors import BhrError
 from bhr.robot import Robot
 from bhr.solvers.base import REGISTRY, Chain, FollowContext, SolveResult, Solver, check_direction, check_target
@@ -83,8 +84,6 @@ def solve(target: Sequence[float], *, modules: int | None = None, module_length:
             raise BhrError(f"robot must be a bhr.Robot, got {type(robot).__name__}")
         unknown = sorted(set(given) - set(Robot.__dataclass_fields__))
         if unknown:
-            from bhr._input import did_you_mean
-
             tip = did_you_mean(unknown[0], Robot.__dataclass_fields__)
             raise BhrError(f"{unknown[0]!r} is not a robot setting; {tip}give Robot fields such as modules or alpha")
         robot = robot.replace(**given)
