@@ -17,6 +17,7 @@ from typing import Iterable, Sequence
 import numpy as np
 
 from bhr.errors import BhrError
+from bhr._input import MAX_POINTS, read_capped
 from bhr.kinematics.codetable import CODE_AXIS, LIFT, REST, TILT_CODES, VALID_CODES
 
 __all__ = ["REST", "LIFT", "VALID_CODES", "TILT_CODES", "CODE_AXIS", "is_valid_code", "check_code", "check_codes",
@@ -91,8 +92,6 @@ def read_codes_csv(path: str | os.PathLike[str]) -> tuple[list[int], np.ndarray]
     reported with its line and column name, so nothing is ever sent from a
     file that holds one.
     """
-    from bhr._input import MAX_POINTS, read_capped
-
     p = Path(path)
     hint = "give the codes.csv written by 'bhr follow'"
     try:

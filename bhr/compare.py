@@ -17,6 +17,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from bhr.errors import BhrError
+from bhr._input import MAX_STEP_POINTS
 from bhr.robot import Robot
 from bhr.generators import Trajectory
 from bhr.driver import follow
@@ -52,8 +53,6 @@ def compare_runs(traj: Trajectory, solvers: Sequence[str], robot: Robot, *,
     for s in names:
         if canonical(s) not in known:
             raise BhrError(f"unknown solver {s!r}; choose from {', '.join(known)}")
-    from bhr._input import MAX_STEP_POINTS
-
     work = traj.points.shape[0] * (max(robot.modules, body_modules or 0) + 1) * len(names)
     if work > MAX_STEP_POINTS:  # every run is kept for the table and the figure: they share one run's budget
         raise BhrError(f"{len(names)} runs of {traj.points.shape[0]} steps x "

@@ -27,7 +27,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from bhr._input import MAX_MM, MAX_STEP_POINTS
+from bhr._input import MAX_FILE_BYTES, MAX_MM, MAX_STEP_POINTS, read_text
 from bhr.errors import BhrError
 from bhr.options import robot_limits
 from bhr.robot import Robot
@@ -355,8 +355,6 @@ def _body_from_json(steps: list, robot: Robot, bad: Callable[[str], BhrError],
 
 def load_run(path: Any) -> FollowResult:
     """Read a run saved by ``bhr follow`` (``run.json``; ``-`` reads standard input), without solving."""
-    from bhr._input import MAX_FILE_BYTES, read_text
-
     name = "standard input" if str(path) == "-" else str(path)
     hint = "give a run.json written by 'bhr follow'"
     if str(path) == "-":

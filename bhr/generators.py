@@ -27,8 +27,9 @@ from typing import Any, Callable
 import numpy as np
 
 import bhr.pathfile as pathfile
-from bhr._input import check_keys, number, read_toml, text_value
+from bhr._input import check_keys, did_you_mean, number, read_toml, text_value
 from bhr.errors import BhrError
+from bhr.anatomy import anatomical_colon, check_seed
 from bhr.pathfile import MAX_POINTS
 from bhr.path import Trajectory
 
@@ -174,8 +175,6 @@ def colon(feed: float, section_index: list[int] | None = None) -> np.ndarray:
 
 def anatomy(feed: float, seed: float = 1) -> np.ndarray:
     """An anatomical colon (anus to cecum) drawn from ``seed``: see :mod:`bhr.anatomy`."""
-    from bhr.anatomy import anatomical_colon, check_seed
-
     return anatomical_colon(check_seed(seed)).sample(feed)[0]
 
 
@@ -193,8 +192,6 @@ def anatomy_trajectory(seed: Any, feed: float = 2.0, where: str = "anatomy") -> 
     """The anatomical colon of ``seed`` (:mod:`bhr.anatomy`) as a Trajectory: points ``feed`` mm apart along
     the centerline from the anus, the lumen diameter at each, the exact smallest bend radius, and the start
     (the anus, heading up the anal canal)."""
-    from bhr.anatomy import anatomical_colon, check_seed
-
     s = check_seed(seed, where)
     colon_ = anatomical_colon(s)
     pts, lumen, _ = colon_.sample(feed)
@@ -207,8 +204,6 @@ def _anatomy_build(p: dict[str, float], feed: float, where: str) -> "Trajectory"
 
 
 def _anatomy_min_radius(p: dict[str, float]) -> float:
-    from bhr.anatomy import anatomical_colon, check_seed
-
     return anatomical_colon(check_seed(p["seed"])).min_radius
 
 
@@ -250,8 +245,6 @@ def _check_params(gen_name: str, params: dict[str, Any], where: str) -> dict[str
         if key in _NONNEG and v < 0:
             raise BhrError(f"{where}: {key} must not be negative, got {value}")
         if key in _WHOLE:
-            from bhr.anatomy import check_seed
-
             check_seed(value, where)
         if abs(v) > 1e6:
             raise BhrError(f"{where}: {key} must be at most 1e6 in size, got {value:g}")
@@ -327,8 +320,6 @@ def load_trajectory(name_or_path: str | os.PathLike[str], feed: float = 2.0, **p
             traj = _from_file(shipped, feed, params, builtin=True)
             traj.name = key
             return traj
-        from bhr._input import did_you_mean
-
         raise BhrError(f"unknown trajectory {key!r}: not a built-in ({', '.join(builtin_names())}) and no such file; "
                        f"{did_you_mean(key, builtin_names())}give one of the built-ins or a .toml/.csv file")
     return _from_file(p, feed, params, builtin=False)

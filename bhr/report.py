@@ -43,6 +43,7 @@ from typing import Any, Callable, Sequence
 from bhr import __version__
 from bhr.atomic import write_json, write_text
 from bhr.errors import BhrError
+from bhr._input import read_toml
 from bhr.executor import capture, run_jobs
 from bhr.generators import GENERATORS, builtin_names, load_trajectory
 from bhr.driver import BhrWarning, follow
@@ -205,8 +206,6 @@ def _check_values(spec: RunSpec, where: str) -> None:
 
 def load_batch(path: str | os.PathLike[str]) -> Batch:
     """Read and check a batch file (TOML); raises BhrError with one line naming the problem."""
-    from bhr._input import read_toml
-
     p = Path(path)
     if p.is_dir():
         raise BhrError(f"{p} is a folder; give a batch file (.toml)")

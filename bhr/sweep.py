@@ -32,6 +32,7 @@ from typing import Any, Callable, Iterable, Sequence
 from bhr import __version__
 from bhr.atomic import write_json, write_text
 from bhr.errors import BhrError
+from bhr._input import read_toml
 from bhr.executor import DASK_MISSING, capture, connect_scheduler, run_jobs
 from bhr.generators import GENERATORS, builtin_names, load_trajectory
 from bhr.driver import BhrWarning, follow
@@ -202,8 +203,6 @@ def sweep_from_toml(data: dict[str, Any], source: str = "sweep", base_dir: str |
 
 def load_sweep(path: str | os.PathLike[str]) -> Sweep:
     """Read a sweep file (TOML); relative trajectory paths are taken from its folder."""
-    from bhr._input import read_toml
-
     p = Path(path)
     if p.is_dir():
         raise BhrError(f"{p} is a folder; give a sweep file (.toml)")

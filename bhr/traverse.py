@@ -33,6 +33,7 @@ from pathlib import Path
 from typing import Any, Callable, Sequence
 
 from bhr import __version__
+from bhr.anatomy import SECTIONS, SEED_MAX, anatomical_colon, check_seed
 from bhr.atomic import write_json, write_text
 from bhr.errors import BhrError
 from bhr.driver import BhrWarning, follow
@@ -63,8 +64,6 @@ _RANGE = re.compile(r"^\s*(\d+)\s*(?:-\s*(\d+))?\s*$")
 
 def parse_colons(text: str | Sequence[int]) -> tuple[int, ...]:
     """Seeds from ``"1-100"``, ``"1-50,61,70-80"`` (ends included) or a list of whole numbers."""
-    from bhr.anatomy import SEED_MAX, check_seed
-
     if isinstance(text, str):
         if not text.strip():
             raise BhrError("--colons is empty; give seeds such as 1-100 or 1,2,5-9")
@@ -351,8 +350,6 @@ def penetration_figure(result: StudyResult, design: dict[str, Any], run):
         matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     import numpy as np
-
-    from bhr.anatomy import SECTIONS, anatomical_colon
 
     doc = run.to_dict()
     clearance = np.array([np.nan if st.get("clearance_mm") is None else st["clearance_mm"] for st in doc["steps"]],

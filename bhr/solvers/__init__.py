@@ -48,8 +48,6 @@ def get_solver(name: str, robot: Robot, **options: Any) -> Solver:
     """Build the solver called ``name`` for ``robot``; options go to its constructor."""
     _load_all()
     if name not in REGISTRY:
-        from bhr._input import did_you_mean
-
         raise BhrError(f"unknown solver {name!r}; {did_you_mean(name, REGISTRY)}choose one of "
                        f"{', '.join(available())}")
     options = {k: v for k, v in options.items() if v is not None}

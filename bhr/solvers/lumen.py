@@ -48,7 +48,7 @@ from typing import Any
 import numpy as np
 from numba import njit
 
-from bhr.clearance import Tube, _window, make_tube, segment_scan
+from bhr.clearance import Tube, _nearest_numpy, _window, make_tube, point_clearance, segment_scan
 from bhr.errors import BhrError
 from bhr.options import solver_defaults
 from bhr.kinematics.frames import tilt_frame as _rot
@@ -392,8 +392,6 @@ def lumen_config_cost(tube, robot, settings: dict[str, float], path: np.ndarray,
 
     Uses the full-window nearest search of :func:`bhr.clearance.point_clearance`.
     """
-    from bhr.clearance import _nearest_numpy, point_clearance
-
     n, f = robot.modules, robot.feed_divisor
     prm = _prm(robot, settings, tube)
     radius, margin, ww, wc, wt, wo, dR, wa, sp, _ = prm
