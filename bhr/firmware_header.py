@@ -19,6 +19,8 @@ from pathlib import Path
 
 from bhr import protocol as P
 from bhr.codes import LIFT, REST, TILT_CODES, VALID_CODES
+from bhr.errors import BhrError
+from bhr.robotfile import default_robot_file, load_robot_file
 from bhr.thermal import DEFAULT_THERMAL, ThermalParams, model_constants
 
 HEADER = Path(__file__).resolve().parent.parent / "firmware" / "src" / "bhr_gen.h"
@@ -92,17 +94,12 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     thermal, source = DEFAULT_THERMAL, "bhr/data/robot.toml"
     if args.robot:
-        from bhr.errors import BhrError
-        from bhr.robotfile import load_robot_file
-
         try:
             thermal, source = load_robot_file(args.robot).thermal, args.robot
         except BhrError as exc:
             print(f"Error: {exc}", file=sys.stderr)
             return 1
     else:
-        from bhr.robotfile import default_robot_file, load_robot_file
-
         thermal = load_robot_file(default_robot_file()).thermal
     text = render(thermal, source)
     out = Path(args.out)

@@ -23,6 +23,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from bhr.atomic import atomic_path  # noqa: E402
+from bhr.errors import BhrError  # noqa: E402
 
 if TYPE_CHECKING:  # pragma: no cover
     from bhr.driver import FollowResult
@@ -272,8 +273,6 @@ def run_is_planar(result: "FollowResult") -> bool:
 
 def _check_step(result: "FollowResult", i: int) -> int:
     if not -result.steps <= i < result.steps:
-        from bhr.errors import BhrError
-
         raise BhrError(f"step {i + 1} is outside the run (steps 1 to {result.steps}); choose a step in that range")
     return i % result.steps
 
@@ -645,8 +644,6 @@ FIGURE_FORMATS = (".png", ".svg", ".pdf")
 
 def check_figure_path(path: str | os.PathLike[str]) -> None:
     """Refuse a figure path whose extension is not a format bhr draws (.png, .svg, .pdf)."""
-    from bhr.errors import BhrError
-
     suffix = Path(path).suffix.lower()
     if suffix and suffix not in FIGURE_FORMATS:
         raise BhrError(f"cannot draw a figure as {path}: give a file ending in .png, .svg or .pdf")
