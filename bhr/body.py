@@ -43,6 +43,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numba import njit
@@ -53,7 +54,7 @@ from bhr.kinematics.frames import tilt_frame as _rot
 from bhr.path import path_directions
 from bhr.robot import base_frame
 
-__all__ = ["BodyRun", "simulate_body", "module1_frames", "whole_robot"]
+__all__ = ["BodyRun", "simulate_body", "check_body_modules", "module1_frames", "whole_robot"]
 
 _CODE = SEARCH_CODES  # search index (rest, +x, +y, -x, -y) -> code
 _IDX = {int(code): k for k, code in enumerate(SEARCH_CODES)}
@@ -178,6 +179,19 @@ def module1_frames(codes: np.ndarray, start_direction, alpha: float) -> tuple[np
     return start, out
 
 
+def check_body_modules(body_modules: Any, head: int, name: str = "body_modules") -> int:
+    """``body_modules`` (the whole robot's modules) as an int, at least the ``head`` modules; else BhrError
+    naming it as the user gave it (``name``: ``--body-modules`` on the command line)."""
+    if isinstance(body_modules, bool) or not isinstance(body_modules, (int, np.integer)):
+        raise BhrError(f"{name} must be a whole number of modules, got {body_modules!r}")
+    M = int(body_modules)
+    if M < head:
+        raise BhrError(f"{name} {M} is fewer than the {head} head modules; give at least {head} (the whole robot)")
+    if M > 10000:
+        raise BhrError(f"{name} {M} is more than 10000; give a smaller robot")
+    return M
+
+
 def simulate_body(result, body_modules: int) -> BodyRun:
     """The ``body_modules - n`` modules behind the head of ``result`` (a :class:`bhr.driver.FollowResult`).
 
@@ -186,13 +200,7 @@ def simulate_body(result, body_modules: int) -> BodyRun:
     """
     r = result.robot
     n = r.modules
-    if isinstance(body_modules, bool) or not isinstance(body_modules, (int, np.integer)):
-        raise BhrError(f"body modules must be a whole number, got {body_modules!r}")
-    M = int(body_modules)
-    if M < n:
-        raise BhrError(f"body_modules {M} is fewer than the {n} head modules; give at least {n} (the whole robot)")
-    if M > 10000:
-        raise BhrError(f"--body-modules {M} is more than 10000; give a smaller robot")
+    M = check_body_modules(body_modules, n)
     if result.codes is None:
         raise BhrError(f"the {result.solver} solver gives no module codes, so no body can repeat them; "
                        "use --solver thesis or --solver optimal with --body-modules")

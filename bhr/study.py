@@ -17,6 +17,7 @@ import math
 from typing import Any, Iterable, Sequence
 
 from bhr.errors import BhrError
+from bhr.body import check_body_modules
 from bhr.driver import follow
 from bhr.options import BY_NAME, by_group
 from bhr.robot import Robot
@@ -45,10 +46,8 @@ NUMBER_KEYS = frozenset(o.name for o in by_group(*_GROUPS) if o.choices is None)
 
 def check_body(options: dict[str, Any], robot: Robot) -> None:
     """Refuse a ``body_modules`` (the whole robot) shorter than the robot's head."""
-    m = options.get("body_modules")
-    if m is not None and m < robot.modules:
-        raise BhrError(f"body_modules {m} is fewer than the {robot.modules} head modules; give at least "
-                       f"{robot.modules} (the whole robot)")
+    if options.get("body_modules") is not None:
+        check_body_modules(options["body_modules"], robot.modules)
 
 
 def sim_options(values: dict[str, Any]) -> dict[str, Any]:

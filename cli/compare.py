@@ -41,6 +41,7 @@ def compare(traj, solvers, out_dir, json_path, no_plots, **kwargs):
         bhr compare --traj curve --angle 360 --solver thesis --solver optimal
     """
     from bhr.atomic import write_json
+    from bhr.body import check_body_modules
     from bhr.cli._progress import announce_compiles, status
     from bhr.compare import compare_figure, compare_json, compare_runs, format_table
     from bhr.errors import BhrError
@@ -70,6 +71,8 @@ def compare(traj, solvers, out_dir, json_path, no_plots, **kwargs):
     check_writable(json_path, "JSON")
     per_solver = pop_solver_options(kwargs, names)
     body_modules = kwargs.pop("body_modules")
+    if body_modules is not None:
+        check_body_modules(body_modules, robot.modules, "--body-modules")
     announce_compiles()
     tr = load_trajectory(traj, feed=robot.feed, **pop_trajectory(kwargs))
     if folder is None and not no_plots:

@@ -135,6 +135,7 @@ def follow(traj, solver, out_dir, json_path, no_plots, **kwargs):
         bhr follow --traj colon --port /dev/ttyUSB0 --schedule auto
     """
     from bhr.atomic import OutputFolder, write_json, write_text
+    from bhr.body import check_body_modules
     from bhr.codes import format_codes_csv
     from bhr.driver import BhrWarning, follow as run_follow
     from bhr.generators import load_trajectory
@@ -172,6 +173,8 @@ def follow(traj, solver, out_dir, json_path, no_plots, **kwargs):
     constraints = pop_constraints(kwargs)
     optimal = pop_solver_options(kwargs, [solver]).get(solver, {})
     body_modules = kwargs.pop("body_modules")
+    if body_modules is not None:
+        check_body_modules(body_modules, robot.modules, "--body-modules")
     traj_params = pop_trajectory(kwargs)
     announce_compiles()
     tr = load_trajectory(traj, feed=robot.feed, **traj_params)
