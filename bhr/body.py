@@ -51,6 +51,7 @@ from numba import njit
 from bhr.errors import BhrError
 from bhr.kinematics.codetable import SEARCH_CODES, SEARCH_INVERSE
 from bhr.kinematics.frames import tilt_frame as _rot
+from bhr.options import BY_NAME
 from bhr.path import path_directions
 from bhr.robot import base_frame
 
@@ -187,8 +188,9 @@ def check_body_modules(body_modules: Any, head: int, name: str = "body_modules")
     M = int(body_modules)
     if M < head:
         raise BhrError(f"{name} {M} is fewer than the {head} head modules; give at least {head} (the whole robot)")
-    if M > 10000:
-        raise BhrError(f"{name} {M} is more than 10000; give a smaller robot")
+    most = BY_NAME["body_modules"].limit
+    if M > most:
+        raise BhrError(f"{name} {M} is more than {most:g}; give a smaller robot")
     return M
 
 

@@ -183,7 +183,7 @@ OPTIONS: tuple[Option, ...] = (
     # how a run is simulated (bhr.driver.follow)
     Option("body_modules", _RUN, int, "Also simulate the body: the whole robot has M modules (M >= --modules), "
            "those behind the head follow the leader and count in the errors and the lumen clearance", None,
-           maximum=100000, positive=True, metavar="M", shown="head only"),
+           maximum=10000, positive=True, metavar="M", shown="head only"),
 )
 
 BY_NAME: dict[str, Option] = {o.name: o for o in OPTIONS}
