@@ -54,8 +54,8 @@ from bhr.options import solver_defaults
 from bhr.kinematics.frames import tilt_frame as _rot
 from bhr.kinematics.leader import advance_kernel, finish_step
 from bhr.solvers.base import Chain, FollowContext, SolveResult, register
-from bhr.solvers.optimal import CODE_OF, DEG, Optimal, _beam_commit, _beam_keep, _beam_reset, _dist2, _write_pose, \
-    _frame_of_chain, _number, _step_targets, _tip_angle
+from bhr.solvers.optimal import (CODE_OF, DEG, Optimal, _beam_candidate, _beam_commit, _beam_keep, _beam_reset,
+                                 _dist2, _frame_of_chain, _number, _step_targets, _tip_angle, _write_pose)
 
 __all__ = ["Lumen", "DEFAULTS", "head_cost", "lumen_config_cost"]
 
@@ -290,13 +290,7 @@ def _beam_expand(bP, bF, bC, bH, state, cP, cF, cC, cPar, cA, order_buf, C, R, p
             _rot(bF[q], a, c, s, F1)
             cost = _head_cost(C, R, pre, w, bP[q], F1, k, n, f, L, c, s, T, prm, best_codes, frames, pts, part,
                               guess, choice, res, tmp)
-            cC[m] = bC[q] + cost
-            for b in range(3):
-                cP[m, b] = bP[q, b] + feed * F1[2, b]
-                for e in range(3):
-                    cF[m, e, b] = F1[e, b]
-            cPar[m] = q
-            cA[m] = a
+            _beam_candidate(bP, bF, bC, q, a, F1, cost, feed, m, cP, cF, cC, cPar, cA)
             m += 1
     _beam_keep(cP, cF, cC, cPar, cA, m, order_buf, bP, bF, bC, bH, state, k)
 

@@ -301,15 +301,21 @@ def _beam_expand(bP, bF, bC, bH, state, cP, cF, cC, cPar, cA, order_buf, path, d
             cost = _head_cost(bP[q], F1, n, T, w, d, wo, L, c, s, codes, best_codes, frames, pts, part, choice)
             cost += _steer_cost(bP[q], F1, k, n, f, feed, path, dirs, T, kvec, spacing, kcurve, kbend, wdrift, wroll,
                                 inv_sin2)
-            cC[m] = bC[q] + cost
-            for b in range(3):
-                cP[m, b] = bP[q, b] + feed * F1[2, b]
-                for e in range(3):
-                    cF[m, e, b] = F1[e, b]
-            cPar[m] = q
-            cA[m] = a
+            _beam_candidate(bP, bF, bC, q, a, F1, cost, feed, m, cP, cF, cC, cPar, cA)
             m += 1
     _beam_keep(cP, cF, cC, cPar, cA, m, order_buf, bP, bF, bC, bH, state, k)
+
+
+@njit(cache=True)
+def _beam_candidate(bP, bF, bC, q, a, F1, cost, feed, m, cP, cF, cC, cPar, cA):
+    """Candidate ``m``: beam member ``q`` with base tilt ``a`` (frame ``F1``), one feed on, its cost plus ``cost``."""
+    cC[m] = bC[q] + cost
+    for b in range(3):
+        cP[m, b] = bP[q, b] + feed * F1[2, b]
+        for e in range(3):
+            cF[m, e, b] = F1[e, b]
+    cPar[m] = q
+    cA[m] = a
 
 
 @njit(cache=True)
