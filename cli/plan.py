@@ -1,6 +1,7 @@
 """bhr plan: the schedule the actuator board can sustain for a codes.csv, and its procedure time."""
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 
 import click
@@ -50,7 +51,7 @@ def plan(codes_path, rate, schedule, robot_file, plot_path, no_plot, csv_path):
     params = thermal_params(robot_file)
     name = Path(codes_path).resolve().parent.name or Path(codes_path).stem
     sched = make_plan(params, table, rate, schedule, name=str(codes_path))
-    out = click.get_text_stream("stdout")
+    out = sys.stdout
     out.write(f"wires: {params.describe()}\n")
     out.write(f"{'step':>6} {'sent at':>10}  codes\n")
     prev = None

@@ -4,7 +4,9 @@ Also home of the helpers that ``bhr follow --show/--animate`` share with it.
 """
 from __future__ import annotations
 
+import sys
 from pathlib import Path
+from typing import Any
 
 import click
 
@@ -33,8 +35,9 @@ def render_animation(result, animate_path: str, stride: int | None, shown: Path 
     from bhr.animate import animate, default_stride, frame_steps
 
     total = len(frame_steps(result.steps, stride or default_stride(result.steps)))
-    with click.progressbar(length=total, label=f"Rendering {animate_path}", file=click.get_text_stream("stderr"),
-                           show_pos=True) as bar:
+    progressbar: Any = click.progressbar(length=total, label=f"Rendering {animate_path}",
+                                         file=sys.stderr, show_pos=True)
+    with progressbar as bar:
         done = [0]
 
         def progress(k: int, _total: int) -> None:

@@ -54,7 +54,7 @@ def stream(codes_path, rate, schedule, dry_run, **link_kw):
         if order is not None and len(order) != n_modules:
             raise BhrError(f"{codes_path} has {n_modules} modules but the robot file's link.module_order lists "
                            f"{len(order)}; use codes for {len(order)} modules")
-        out = click.get_text_stream("stdout")
+        out = sys.stdout
         for i, row in enumerate(table):
             codes = row.tolist() if order is None else [int(row[m - 1]) for m in order]
             frame = set_codes_frame(i & 0xFF, codes)

@@ -1,6 +1,7 @@
 """bhr traverse: which robot designs get through a population of anatomical colons."""
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 
 import click
@@ -60,7 +61,7 @@ def traverse(grid, colons, solvers, target_pass, robot_file, out_dir, jobs, sche
         from bhr.executor import connect_scheduler
 
         client = connect_scheduler(scheduler)  # fails in one line before anything starts
-    err = click.get_text_stream("stderr")
+    err = sys.stderr
     total = len(study)
     label = f"{total} runs ({study.designs} designs x {len(study.colons)} colons)" + (
         f" on {scheduler}" if scheduler else "")
