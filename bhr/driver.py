@@ -30,12 +30,12 @@ import numpy as np
 from bhr._input import MAX_FILE_BYTES, MAX_MM, MAX_STEP_POINTS, read_text
 from bhr.errors import BhrError
 from bhr.options import robot_limits
-from bhr.robot import Robot
-from bhr.solvers import Chain, FollowContext, get_solver
+from bhr.robot import THESIS_ROBOT, Robot, robot_with
+from bhr.solvers import Chain, FollowContext, Solver, get_solver
 from bhr.body import BodyRun, simulate_body
 from bhr.clearance import ClearanceReport, clearance_report
 from bhr.kinematics.leader import angle_deg, score_step
-from bhr.path import Trajectory, path_directions
+from bhr.path import Trajectory, path_directions, spacing
 
 __all__ = ["follow", "FollowResult", "Summary", "BhrWarning", "stats", "load_run"]
 
@@ -126,15 +126,25 @@ class Summary:
         """:meth:`to_dict` as a JSON string."""
         return json.dumps(self.to_dict())
 
+    def __repr__(self) -> str:
+        return (f"Summary({self.solver} on {self.trajectory}, {self.steps} steps: tip worst "
+                f"{self.tip_max_error_mm:.4g} mm at step {self.tip_worst_step}, ends "
+                f"{self.tip_final_error_mm:.4g} mm and {self.tip_orientation_final_deg:.4g} deg off)")
+
     def __call__(self) -> dict[str, Any]:
         """Deprecated: ``result.summary()`` was a dict; use ``result.summary.to_dict()``."""
         _deprecated("FollowResult.summary()", "FollowResult.summary.to_dict()")
         return self.to_dict()
 
 
-@dataclass
+@dataclass(repr=False)
 class FollowResult:
-    """A whole run: per-step poses, codes and errors, with the summary of the thesis's script."""
+    """A whole run: per-step poses, codes and errors, with the summary of the thesis's script.
+
+    ``success`` and ``status`` say whether the run kept every scored point
+    within the robot's tolerances and, when the path has a lumen, off the
+    wall; ``reason`` says why not, in words.
+    """
 
     trajectory: Trajectory
     robot: Robot
@@ -163,6 +173,41 @@ class FollowResult:
     @property
     def steps(self) -> int:
         return int(self.points.shape[0])
+
+    @property
+    def success(self) -> bool:
+        """Every scored point within ``tol_pos``, the tip within ``tol_ori`` and (with a lumen) no wall contact."""
+        return self.status == "followed"
+
+    @property
+    def status(self) -> str:
+        """``"followed"``, ``"out of tolerance"`` or ``"touched the wall"`` (the wall first when both)."""
+        return self._verdict()[0]
+
+    @property
+    def reason(self) -> str:
+        """Why :attr:`status` is what it is, in words with the figures."""
+        return self._verdict()[1]
+
+    def _verdict(self) -> tuple[str, str]:
+        s = self.summary
+        touch = s.extra.get("wall_touch_steps") or []
+        if touch:
+            return ("touched the wall", f"the robot touches the wall at {len(touch)} of {self.steps} steps (first "
+                    f"step {touch[0]}), up to {s.extra.get('max_penetration_mm', 0.0):.4g} mm deep")
+        if s.tolerance_exceeded:
+            return ("out of tolerance", f"{s.over_tol_pos_steps} steps with a point more than "
+                    f"{self.robot.tol_pos:g} mm off and {s.over_tol_ori_steps} with the tip more than "
+                    f"{self.robot.tol_ori:g} deg off (worst {s.points_max_error_mm:.4g} mm at step "
+                    f"{s.points_worst_step})")
+        return ("followed", f"every scored point within {self.robot.tol_pos:g} mm and the tip within "
+                f"{self.robot.tol_ori:g} deg over {self.steps} steps")
+
+    def __repr__(self) -> str:
+        s = self.summary
+        body = f" (+{self.body.modules} body modules)" if self.body is not None else ""
+        return (f"FollowResult({self.solver} on {self.trajectory.name}, {self.modules} modules{body}, {self.steps} "
+                f"steps: {self.status}; tip worst {s.tip_max_error_mm:.4g} mm at step {s.tip_worst_step})")
 
     @property
     def modules(self) -> int:
@@ -381,36 +426,57 @@ def load_run(path: Any) -> FollowResult:
     return FollowResult.from_json(doc, name)
 
 
-def _as_trajectory(points: Any) -> Trajectory:
+#: How far (relative) the spacing of points given as an array may differ from the robot's feed.
+FEED_TOLERANCE = 0.1
+
+
+def _as_trajectory(points: Any, robot: Robot) -> Trajectory:
+    """``points`` as a Trajectory spaced by the robot's feed: drawn again (or resampled) at that feed when its
+    own feed differs; points given as an array must already be spaced by the feed."""
     if isinstance(points, Trajectory):
-        return points
+        return points.at_feed(robot.feed)
     arr = np.asarray(points, dtype=np.float64)
     if arr.ndim != 2 or arr.shape[1] != 3:
         raise BhrError("trajectory points must be an (N, 3) array of x, y, z in mm")
     if not np.all(np.isfinite(arr)):
         raise BhrError("trajectory points must be finite numbers")
-    return Trajectory("points", arr)
+    gap = spacing(arr)
+    if arr.shape[0] >= 2 and abs(gap - robot.feed) > FEED_TOLERANCE * robot.feed:
+        raise BhrError(f"the trajectory's points are {gap:.4g} mm apart but the robot advances {robot.feed:g} mm a "
+                       f"step (module_length / feed_divisor); sample the path at the feed, e.g. "
+                       f"bhr.trajectory(name, feed={robot.feed:g}), or pass bhr.Trajectory('points', "
+                       f"points).at_feed({robot.feed:g})")
+    return Trajectory("points", arr, feed=robot.feed)
 
 
-def follow(points: Any, solver: str = "thesis", robot: Robot | None = None, *,
+def follow(points: Any, solver: str | Solver = "thesis", robot: Robot | None = THESIS_ROBOT, *,
            solver_options: dict[str, Any] | None = None,
            on_step: Callable[[int, np.ndarray | None], None] | None = None,
            compiled: bool = True, body_modules: int | None = None, **robot_options: Any) -> FollowResult:
-    """Run follow-the-leader along ``points`` ((N, 3) array or a :class:`Trajectory`).
+    """Run follow-the-leader along ``points`` (a :class:`Trajectory` or an (N, 3) array) with ``solver``.
 
-    ``robot_options`` are :class:`bhr.robot.Robot` fields (``modules``,
-    ``module_length``, ``alpha``, ``tol_pos``, ...); defaults are the thesis's.
-    ``on_step(i, codes)`` is called after each step (0-based) when given, e.g.
-    to stream codes to the board; it forces the step-by-step driver.
-    ``body_modules`` (M >= modules) also simulates the modules behind the head
-    (:mod:`bhr.body`); the result's ``body`` holds them and they are scored and
-    counted in the clearance too.
+    ``robot`` defaults to the thesis's robot (5 modules of 10 mm, alpha 10
+    deg, feed 2 mm); ``robot_options`` change its settings (``modules``,
+    ``module_length``, ``alpha``, ``tol_pos``, ... as in the option
+    registry, :mod:`bhr.options`). A :class:`Trajectory` is drawn again at the
+    robot's feed when its own differs (``bhr.trajectory`` samples at the
+    thesis's 2 mm); points given as an array must be spaced by the feed.
+    ``solver`` is a name (:func:`bhr.solvers.available`) or a
+    :class:`bhr.solvers.Solver` object. ``on_step(i, codes)`` is called after
+    each step (0-based) when given, e.g. to stream codes to the board; it
+    forces the step-by-step driver. ``body_modules`` (M >= modules) also
+    simulates the modules behind the head (:mod:`bhr.body`); the result's
+    ``body`` holds them and they are scored and counted in the clearance too.
+
+    >>> import bhr
+    >>> run = bhr.follow(bhr.trajectory("curve", radius=70, angle=90))
+    >>> round(run.summary.tip_final_error_mm, 4)
+    0.9099
     """
-    traj = _as_trajectory(points)
-    if robot is None:
-        robot = Robot(**robot_options)
-    elif robot_options:
-        robot = robot.replace(**robot_options)
+    if isinstance(solver, Solver) and robot is THESIS_ROBOT and not robot_options:
+        robot = solver.robot  # a configured solver brings its robot
+    robot = robot_with(robot, robot_options)
+    traj = _as_trajectory(points, robot)
     path = np.ascontiguousarray(traj.points, dtype=np.float64)
     if path.shape[0] < 2:
         raise BhrError("a trajectory needs at least two points")
@@ -421,6 +487,7 @@ def follow(points: Any, solver: str = "thesis", robot: Robot | None = None, *,
                        f"{work:,} points to keep, more than the {MAX_STEP_POINTS:,} a run may hold in memory; "
                        "shorten the path, raise the feed or use fewer modules")
     s = get_solver(solver, robot, **(solver_options or {}))
+    solver = solver if isinstance(solver, str) else s.name
     s.reset()
     s.prepare(traj)
     msgs: list[str] = []

@@ -17,6 +17,7 @@ colon's length), because the published figures depend on them.
 """
 from __future__ import annotations
 
+import functools
 import math
 import os
 from dataclasses import dataclass
@@ -305,8 +306,15 @@ def load_trajectory(name_or_path: str | os.PathLike[str], feed: float = 2.0, **p
     and generator files only; segment and CSV files refuse them. Raises
     :class:`BhrError` with one line naming the file and the problem.
     """
-    if not (isinstance(feed, (int, float)) and math.isfinite(feed) and feed > 0):
+    if isinstance(feed, bool) or not (isinstance(feed, (int, float)) and math.isfinite(feed) and feed > 0):
         raise BhrError(f"feed must be a positive number of mm, got {feed!r}")
+    traj = _load(name_or_path, float(feed), params)
+    traj.feed = float(feed)
+    traj.redraw = functools.partial(load_trajectory, name_or_path, **params)
+    return traj
+
+
+def _load(name_or_path: str | os.PathLike[str], feed: float, params: dict[str, Any]) -> Trajectory:
     key = str(name_or_path)
     if key in GENERATORS:
         path = _builtin_file(key)
@@ -413,12 +421,21 @@ def _from_file(path: Path, feed: float, params: dict[str, Any], builtin: bool) -
     return traj
 
 
-def trajectory(name_or_path: str | os.PathLike[str], feed: float = 2.0, **params: Any) -> np.ndarray:
-    """The (N, 3) points of a built-in trajectory or trajectory file, spaced by ``feed`` mm.
+def trajectory(name_or_path: str | os.PathLike[str], feed: float = 2.0, **params: Any) -> Trajectory:
+    """A built-in trajectory or trajectory file, its points spaced by ``feed`` mm (the thesis robot's feed).
 
-    >>> trajectory("line", length=10).shape
-    (6, 3)
+    The :class:`Trajectory` carries its points, its feed and its lumen (the
+    anatomical colons have one); it reads as the (N, 3) points wherever numpy
+    expects an array. :func:`bhr.follow` draws it again at the robot's feed
+    when that differs. ``params`` are the generator's parameters
+    (docs/trajectories.md).
+
+    >>> t = trajectory("line", length=10)
+    >>> t.shape, t.feed
+    ((6, 3), 2.0)
+    >>> trajectory("anatomy", seed=7).lumen is not None
+    True
     """
-    return load_trajectory(name_or_path, feed=feed, **params).points
+    return load_trajectory(name_or_path, feed=feed, **params)
 
 

@@ -27,11 +27,10 @@ from pathlib import Path
 from typing import Any, Callable
 
 import numpy as np
-from numba import njit
 
 from bhr._input import MAX_MM, MAX_POINTS, check_keys, choice, number, read_text, text_value, type_name, vector3
 from bhr.errors import BhrError
-from bhr.path import Trajectory
+from bhr.path import Trajectory, resample_polyline
 
 __all__ = ["segments_trajectory", "csv_trajectory", "resample_polyline", "estimate_min_radius",
            "MAX_POINTS", "CURVATURE_WINDOW_MM", "SEGMENT_KEYS"]
@@ -311,69 +310,6 @@ def check_points(pts: np.ndarray, lines: np.ndarray, where: str) -> None:
                        "remove the duplicate")
     if not np.isfinite(step).all():
         raise BhrError(f"{where}: coordinates too large to measure; give mm as plain numbers")
-
-
-@njit(cache=True)
-def _walk_kernel(pts: np.ndarray, vals: np.ndarray, feed: float, out: np.ndarray, out_vals: np.ndarray) -> int:
-    """Sphere-intersection walk (see :func:`resample_polyline`); returns the number of points written."""
-    n = pts.shape[0]
-    f2 = feed * feed
-    cx, cy, cz = pts[0, 0], pts[0, 1], pts[0, 2]
-    out[0, 0], out[0, 1], out[0, 2] = cx, cy, cz
-    out_vals[0] = vals[0]
-    count = 1
-    j = 0
-    t = 0.0
-    cap = out.shape[0]
-    while j < n - 1:
-        ax, ay, az = pts[j, 0], pts[j, 1], pts[j, 2]
-        dx, dy, dz = pts[j + 1, 0] - ax, pts[j + 1, 1] - ay, pts[j + 1, 2] - az
-        ex, ey, ez = ax - cx, ay - cy, az - cz
-        a = dx * dx + dy * dy + dz * dz
-        b = 2.0 * (ex * dx + ey * dy + ez * dz)
-        c = ex * ex + ey * ey + ez * ez - f2
-        disc = b * b - 4.0 * a * c
-        if disc < 0.0:
-            disc = 0.0
-        t2 = (-b + math.sqrt(disc)) / (2.0 * a)  # where the segment leaves the sphere around the last point
-        if t2 <= 1.0 and t2 >= t:
-            if count == cap:
-                return -1
-            cx, cy, cz = ax + t2 * dx, ay + t2 * dy, az + t2 * dz
-            out[count, 0], out[count, 1], out[count, 2] = cx, cy, cz
-            out_vals[count] = vals[j] + t2 * (vals[j + 1] - vals[j])
-            count += 1
-            t = t2
-        else:
-            j += 1
-            t = 0.0
-    return count
-
-
-def resample_polyline(pts: np.ndarray, feed: float, values: np.ndarray | None = None
-                      ) -> tuple[np.ndarray, np.ndarray | None]:
-    """Points exactly ``feed`` mm apart, walking along the polyline ``pts`` (first point kept).
-
-    Each next point is where the polyline, followed from the previous point,
-    first leaves the sphere of radius ``feed`` around it. On a smooth curve
-    this is resampling by arc length (chord and arc of one feed differ by
-    feed^2 / (24 R^2), relatively: 5e-5 at 2 mm on a 57 mm radius); on a
-    densely measured noisy centerline it does not count the zigzag of the
-    raw points as length, as summing the raw segment lengths would.
-    ``values`` (one per input point, e.g. lumen diameters) are interpolated
-    linearly along the segment where each new point falls. The remainder
-    shorter than one feed is dropped.
-    """
-    pts = np.ascontiguousarray(pts, dtype=np.float64)
-    vals = np.zeros(pts.shape[0]) if values is None else np.ascontiguousarray(values, dtype=np.float64)
-    length = float(np.linalg.norm(np.diff(pts, axis=0), axis=1).sum())
-    cap = min(MAX_POINTS, int(length / feed) + 2)  # chords are never longer than the arcs they span
-    out = np.empty((cap, 3))
-    out_vals = np.empty(cap)
-    count = _walk_kernel(pts, vals, float(feed), out, out_vals)
-    if count < 0:
-        raise BhrError(f"the path gives more than {MAX_POINTS} points at a feed of {feed:g} mm; raise the feed")
-    return out[:count].copy(), (None if values is None else out_vals[:count].copy())
 
 
 def estimate_min_radius(pts: np.ndarray, spacing: float, window: float = CURVATURE_WINDOW_MM) -> float:

@@ -14,12 +14,14 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from bhr.options import robot_limits
+from bhr._input import did_you_mean
+from bhr.options import by_group, robot_limits
 from bhr.codes import check_codes
 from bhr.kinematics.frames import fk_kernel
 from bhr.errors import BhrError
 
-__all__ = ["Robot", "alpha_from_stroke", "min_turn_radius", "base_frame", "forward_kinematics", "straight_chain"]
+__all__ = ["Robot", "THESIS_ROBOT", "CHAPTER5_ROBOT", "robot_with", "alpha_from_stroke", "min_turn_radius",
+           "base_frame", "forward_kinematics", "straight_chain"]
 
 
 def alpha_from_stroke(stroke: float, lever: float) -> float:
@@ -147,6 +149,52 @@ class Robot:
         d["feed"] = self.feed
         d["min_turn_radius"] = self.min_turn_radius
         return d
+
+    def __repr__(self) -> str:
+        changed = [f"{f.name}={getattr(self, f.name)!r}" for f in fields(self)
+                   if getattr(self, f.name) != f.default]
+        return f"Robot({', '.join(changed)})"
+
+
+#: The thesis's trajectory-following robot (ch. 7): 5 modules of 10 mm, alpha 10 deg; :func:`bhr.follow`'s default.
+THESIS_ROBOT = Robot()
+#: The chapter 5 chain: 5 modules of 2 mm, straight along +Y; :func:`bhr.solve`'s default.
+CHAPTER5_ROBOT = Robot(modules=5, module_length=2.0)
+
+#: The registry's robot options by every name the library accepts: the registry's (robot_radius) and the
+#: Robot field's (radius).
+_ROBOT_OPTIONS = {**{o.key: o for o in by_group("robot")}, **{o.name: o for o in by_group("robot")}}
+
+
+def robot_with(robot: Robot | None, options: dict[str, Any], default: Robot = THESIS_ROBOT) -> Robot:
+    """``robot`` (``default`` when None) with ``options`` changed, each checked by the option registry.
+
+    An unknown name gets a did-you-mean; a value of the wrong type or out of
+    range the registry's message (:class:`bhr.errors.BhrError`).
+
+    >>> robot_with(None, {"modules": 7}).modules
+    7
+    >>> robot_with(None, {"modles": 7})
+    Traceback (most recent call last):
+    ...
+    bhr.errors.BhrError: 'modles' is not a robot setting; did you mean 'modules'? robot settings: modules, \
+module_length, robot_radius, alpha, stroke, lever, tol_pos, tol_ori, max_iter, feed_divisor, weight_pos, weight_ori
+    """
+    if robot is None:
+        robot = default
+    elif not isinstance(robot, Robot):
+        raise BhrError(f"robot must be a bhr.Robot, got {type(robot).__name__}")
+    if not options:
+        return robot
+    changes: dict[str, Any] = {}
+    for name, value in options.items():
+        opt = _ROBOT_OPTIONS.get(name)
+        if opt is None:
+            names = [o.name for o in by_group("robot")]
+            raise BhrError(f"{name!r} is not a robot setting; {did_you_mean(name, list(_ROBOT_OPTIONS))}"
+                           f"robot settings: {', '.join(names)}")
+        changes[opt.key] = value if value is None else opt.check(value, "robot")
+    return robot.replace(**changes)
 
 
 def straight_chain(n: int, length: float, direction: Sequence[float] | np.ndarray,

@@ -55,7 +55,7 @@ def solve(target, orientation, solver, json_path, plot_path, **kwargs):
             ("modules", f"{robot.modules} x {robot.module_length:g}"),
             ("target", " ".join(f"{v:g}" for v in target)),
             ("iterations", str(result.iterations)),
-            ("position error", _fmt(result.position_error)),
+            ("position error", _fmt(result.position_error_mm)),
             ("orientation error (deg)", _fmt(result.orientation_error_deg, 4)),
             ("codes", "-" if result.codes is None else " ".join(str(c) for c in result.codes)),
         ]

@@ -23,11 +23,17 @@ def test_solve_applies_robot_overrides():
 
 def test_solve_result_success_and_json():
     ok = bhr.solve([3, 9, 0], modules=10, tol_pos=0.01)
-    assert ok.success is True and ok.position_error <= 0.01
+    assert ok.success is True and ok.position_error_mm <= 0.01
+    assert ok.status == "reached" and "within tolerance" in ok.reason
     far = bhr.solve([300, 0, 0], modules=5)
-    assert far.success is False
+    assert far.success is False and far.status == "out of reach" and "300 mm from the base" in far.reason
+    short = bhr.solve([3, 9, 0], modules=10, tol_pos=1e-9, max_iter=1)
+    assert short.success is False and short.status == "not reached" and "after 1 iterations" in short.reason
     doc = ok.to_dict()
-    assert set(doc) == {"iterations", "position_error", "orientation_error_deg", "points", "codes"}
+    # SPEC's keys, and whether and why the target was reached
+    assert set(doc) == {"iterations", "position_error", "orientation_error_deg", "points", "codes",
+                        "success", "status", "reason"}
+    assert doc["position_error"] == ok.position_error_mm and doc["success"] is True and doc["status"] == "reached"
     assert json.loads(ok.to_json()) == doc
 
 

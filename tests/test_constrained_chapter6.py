@@ -38,7 +38,7 @@ CASES = [
 def test_chapter6_tables(target, orientation, tol, options, expected):
     res = solve(target, orientation=orientation, modules=10, module_length=2, tol_pos=tol, tol_ori=10,
                 alpha=10, max_iter=30, solver="seed" if not options else "constrained", solver_options=options)
-    assert (round(res.position_error, 4), round(res.orientation_error_deg, 4), res.iterations) == expected
+    assert (round(res.position_error_mm, 4), round(res.orientation_error_deg, 4), res.iterations) == expected
 
 
 def test_seed_codes_rebuild_the_chain():

@@ -208,7 +208,7 @@ def test_options_are_validated():
         get_solver("optimal", robot, lookahead=-1)
     with pytest.raises(BhrError, match="beam"):
         get_solver("optimal", robot, beam=0)
-    with pytest.raises(BhrError, match="ori-weight"):
+    with pytest.raises(BhrError, match="ori.weight"):
         get_solver("optimal", robot, ori_weight=float("nan"))
     with pytest.raises(BhrError, match="positive"):
         get_solver("optimal", robot, point_weights=0.0)
@@ -234,8 +234,8 @@ def test_point_weights_change_what_is_fitted(curve90):
         a = get_solver("optimal", robot, **plain).solve(chain, path[step], dirs[step], ctx)
         b = get_solver("optimal", robot, **plain, point_weights=[0, 0, 0, 0, 0, 1], ori_weight=0.0).solve(
             chain, path[step], dirs[step], ctx)
-        assert b.position_error <= a.position_error + 1e-12
-        better += b.position_error < a.position_error - 1e-6
+        assert b.position_error_mm <= a.position_error_mm + 1e-12
+        better += b.position_error_mm < a.position_error_mm - 1e-6
     assert better >= 1
 
 
@@ -261,13 +261,13 @@ def test_solve_one_target_is_exact(run_bhr):
     T[3] = target
     best, args = enumerate_best(robot, np.zeros(3), frame, T, np.array([0, 0, 0, 1.0]), None, 0.0)
     assert tuple(res.codes) in args
-    assert res.position_error == pytest.approx(math.sqrt(best))
+    assert res.position_error_mm == pytest.approx(math.sqrt(best))
     out = run_bhr("solve", "--solver", "optimal", "--modules", "3", "--module-length", "2", "--target", "1.5", "4",
                   "2", "--json", "-")
     assert out.returncode == 0, out.stderr
     doc = json.loads(out.stdout)
     assert doc["codes"] == list(res.codes)
-    assert doc["position_error"] == pytest.approx(res.position_error)
+    assert doc["position_error"] == pytest.approx(res.position_error_mm)
 
 
 def test_follow_cli_takes_the_optimal_options(run_bhr, tmp_path):

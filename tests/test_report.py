@@ -286,7 +286,7 @@ def test_a_crash_inside_a_run_is_a_failed_row(tmp_path):
     assert "Traceback" in row["traceback"] and row["steps"] is None and row["wall_time_s"] >= 0
     spec = RunSpec(name="c", traj="curve", solver="seed", solver_options={"no_such_option": 1})
     row = execute_run(spec)
-    assert row["status"].startswith("failed: solver seed does not take these options")
+    assert row["status"].startswith("failed: solver thesis does not take the option 'no_such_option'")
     assert "traceback" not in row
 
 

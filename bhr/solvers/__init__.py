@@ -1,22 +1,30 @@
 """Solvers behind one interface (:class:`bhr.solvers.base.Solver`).
 
 Every module in this package that registers a solver is found here, so a new
-solver is one new file. ``get_solver(name, robot, **options)`` builds one;
-``solve(...)`` runs one target from the chapter 5 start (a straight chain
-along +Y from the origin).
+solver is one new file; a solver in another package registers itself through
+the ``bhr.solvers`` entry point group (docs/model.md, "Adding a solver").
+``get_solver(name, robot, **options)`` builds one; ``solve(...)`` runs one
+target from the chapter 5 start (a straight chain along +Y from the origin).
 """
 from __future__ import annotations
 
 import importlib
+import importlib.metadata
+import inspect
 import pkgutil
 from typing import Any, Sequence
 
 from bhr._input import did_you_mean
 from bhr.errors import BhrError
-from bhr.robot import Robot
+from bhr.options import BY_NAME
+from bhr.robot import CHAPTER5_ROBOT, Robot, robot_with
 from bhr.solvers.base import REGISTRY, Chain, FollowContext, SolveResult, Solver, check_direction, check_target
 
-__all__ = ["Chain", "FollowContext", "SolveResult", "Solver", "available", "canonical", "get_solver", "solve"]
+__all__ = ["Chain", "FollowContext", "SolveResult", "Solver", "available", "canonical", "get_solver", "solve",
+           "ENTRY_POINTS"]
+
+#: The entry-point group through which other packages add solvers: ``name = "package.module:SolverClass"``.
+ENTRY_POINTS = "bhr.solvers"
 
 _loaded = False
 
@@ -25,10 +33,23 @@ def _load_all() -> None:
     global _loaded
     if _loaded:
         return
+    _loaded = True
     for info in pkgutil.iter_modules(__path__):
         if not info.name.startswith("_") and info.name != "base":
             importlib.import_module(f"{__name__}.{info.name}")
-    _loaded = True
+    for ep in importlib.metadata.entry_points(group=ENTRY_POINTS):
+        try:
+            cls = ep.load()
+        except Exception as exc:  # a broken plug-in names itself, it does not break bhr
+            raise BhrError(f"the solver {ep.name!r} of entry point {ep.value!r} does not load ({type(exc).__name__}: "
+                           f"{str(exc).splitlines()[0] if str(exc) else ''}); fix or uninstall that package") from None
+        if not (isinstance(cls, type) and issubclass(cls, Solver)):
+            raise BhrError(f"entry point {ep.name!r} ({ep.value}) is not a bhr.solvers.Solver subclass; "
+                           "fix or uninstall that package")
+        if cls.name not in REGISTRY:
+            REGISTRY[cls.name] = cls
+            for alias in cls.aliases:
+                REGISTRY.setdefault(alias, cls)
 
 
 def available() -> dict[str, str]:
@@ -44,49 +65,75 @@ def canonical(name: str) -> str:
     return cls.name if cls is not None else name
 
 
-def get_solver(name: str, robot: Robot, **options: Any) -> Solver:
-    """Build the solver called ``name`` for ``robot``; options go to its constructor."""
+def _check_solver_options(cls: type[Solver], options: dict[str, Any]) -> dict[str, Any]:
+    """``options`` checked against what ``cls`` takes (did-you-mean) and, where it knows them, the registry."""
+    params = inspect.signature(cls.__init__).parameters
+    takes_any = any(p.kind is inspect.Parameter.VAR_KEYWORD for p in params.values())
+    allowed = [k for k, p in params.items() if k not in ("self", "robot")
+               and p.kind in (inspect.Parameter.KEYWORD_ONLY, inspect.Parameter.POSITIONAL_OR_KEYWORD)]
+    out = {}
+    for key, value in options.items():
+        if not takes_any and key not in allowed:
+            takes = f"its options: {', '.join(allowed)}" if allowed else "it takes no options"
+            raise BhrError(f"solver {cls.name} does not take the option {key!r}; {did_you_mean(key, allowed)}{takes}")
+        opt = BY_NAME.get(key)
+        out[key] = opt.check(value, f"solver {cls.name}") if opt is not None and opt.group in (
+            "solver", "constraint") else value
+    return out
+
+
+def get_solver(name: str | Solver | type[Solver], robot: Robot, **options: Any) -> Solver:
+    """Build the solver called ``name`` for ``robot``; options go to its constructor.
+
+    ``name`` may also be a :class:`Solver` subclass (built here) or a
+    configured :class:`Solver` object, used as it is when it was built for
+    ``robot`` and given no further options.
+    """
     _load_all()
-    if name not in REGISTRY:
-        raise BhrError(f"unknown solver {name!r}; {did_you_mean(name, REGISTRY)}choose one of "
-                       f"{', '.join(available())}")
     options = {k: v for k, v in options.items() if v is not None}
-    try:
-        return REGISTRY[name](robot, **options)
-    except TypeError as exc:
-        raise BhrError(f"solver {name} does not take these options ({exc}); see 'bhr solve --help'") from None
+    if isinstance(name, Solver):
+        if options:
+            raise BhrError(f"the {name.name} solver object is already configured; give its options when building it "
+                           f"(not also as solver_options: {', '.join(sorted(options))})")
+        if name.robot != robot:
+            raise BhrError(f"the {name.name} solver object was built for {name.robot!r}, not for {robot!r}; build it "
+                           "with this robot, or give no robot settings")
+        return name
+    if isinstance(name, type) and issubclass(name, Solver):
+        cls = name
+    elif isinstance(name, str) and name in REGISTRY:
+        cls = REGISTRY[name]
+    else:
+        shown = name if isinstance(name, str) else type(name).__name__
+        raise BhrError(f"unknown solver {shown!r}; {did_you_mean(str(shown), available())}choose one of "
+                       f"{', '.join(available())}, or give a bhr.solvers.Solver object")
+    return cls(robot, **_check_solver_options(cls, options))
 
 
-def solve(target: Sequence[float], *, modules: int | None = None, module_length: float | None = None,
-          orientation: Sequence[float] | None = None, solver: str = "fabrik",
-          direction: Sequence[float] = (0, 1, 0), robot: Robot | None = None,
+def solve(target: Sequence[float], *, robot: Robot | None = CHAPTER5_ROBOT, solver: str | Solver = "fabrik",
+          orientation: Sequence[float] | None = None, direction: Sequence[float] = (0, 1, 0),
           solver_options: dict[str, Any] | None = None, **robot_options: Any) -> SolveResult:
     """Solve one target from a straight chain (default along +Y from the origin, as thesis ch. 5).
 
-    ``modules`` (default 5), ``module_length`` (default 2 mm) and
-    ``robot_options`` are :class:`bhr.robot.Robot` fields (``alpha``,
-    ``tol_pos``, ``tol_ori``, ``max_iter`` ...); the chapter 5 experiments use
-    ``tol_pos=0.01`` and ``max_iter=30``. With ``robot`` given they override
-    its fields (``bhr.solve(t, robot=r, modules=7)`` solves with 7 modules).
-    The result's ``success`` says whether the errors are within tolerance.
+    ``robot`` defaults to the chapter 5 chain (5 modules of 2 mm);
+    ``robot_options`` change its settings (``modules``, ``module_length``,
+    ``alpha``, ``tol_pos``, ``tol_ori``, ``max_iter`` ... as in the option
+    registry); the chapter 5 experiments use ``tol_pos=0.01`` and
+    ``max_iter=30``. ``solver`` is a name or a :class:`Solver` object. The
+    result's ``success`` and ``status`` say whether the target was reached
+    within the tolerances, and why not.
+
+    >>> res = solve([3, 9, 0], modules=10, tol_pos=0.01)
+    >>> res.success, res.iterations
+    (True, 1)
     """
     t = check_target(target)
     d = check_direction(orientation)
-    given: dict[str, Any] = {k: v for k, v in dict(modules=modules, module_length=module_length).items()
-                             if v is not None}
-    given.update(robot_options)
-    if robot is None:
-        robot = Robot(**{"modules": 5, "module_length": 2.0, **given})
-    elif given:
-        if not isinstance(robot, Robot):
-            raise BhrError(f"robot must be a bhr.Robot, got {type(robot).__name__}")
-        unknown = sorted(set(given) - set(Robot.__dataclass_fields__))
-        if unknown:
-            tip = did_you_mean(unknown[0], Robot.__dataclass_fields__)
-            raise BhrError(f"{unknown[0]!r} is not a robot setting; {tip}give Robot fields such as modules or alpha")
-        robot = robot.replace(**given)
+    if isinstance(solver, Solver) and robot is CHAPTER5_ROBOT and not robot_options:
+        robot = solver.robot
+    robot = robot_with(robot, robot_options, default=CHAPTER5_ROBOT)
     s = get_solver(solver, robot, **(solver_options or {}))
     if d is not None and not s.accepts_orientation:
-        raise BhrError(f"the {solver} solver cannot aim the tip; drop --orientation or use --solver fabrik or thesis")
+        raise BhrError(f"the {s.name} solver cannot aim the tip; drop --orientation or use --solver fabrik or thesis")
     chain = Chain.straight(robot, direction)
-    return s.judge(s.solve(chain, t, d))
+    return s.solve(chain, t, d)

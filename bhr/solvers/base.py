@@ -9,8 +9,10 @@ a new solver is one new file.
 """
 from __future__ import annotations
 
+import functools
 import json
 import math
+import warnings
 from abc import ABC, abstractmethod
 from dataclasses import dataclass, field
 from typing import Any, ClassVar, Sequence
@@ -92,43 +94,61 @@ class FollowContext:
     step: int  # 0-based index of the current target
 
 
-@dataclass
+@dataclass(repr=False)
 class SolveResult:
     """One solve: the new chain, iterations and errors (mm, degrees), codes if binary.
 
     ``success`` is whether the errors are within the robot's tolerances
-    (position, and orientation when a tip direction was asked for); it is set
-    by :func:`bhr.solvers.solve` and by :meth:`Solver.judge`, and is ``None``
-    when nobody judged the result.
+    (position, and orientation when a tip direction was asked for), and
+    ``status`` says which: ``"reached"``, ``"not reached"`` (the solver
+    stopped at its iteration limit short of the tolerance) or ``"out of
+    reach"`` (the target lies farther from the base than the robot is
+    long); ``reason`` says it in words, with the figures. Every solver's
+    :meth:`Solver.solve` sets them.
     """
 
     chain: Chain
     iterations: int
-    position_error: float
+    position_error_mm: float
     orientation_error_deg: float | None
     codes: list[int] | None = None
     extra: dict[str, Any] = field(default_factory=dict)
     success: bool | None = None
+    status: str = ""
+    reason: str = ""
 
     @property
     def points(self) -> np.ndarray:
         return self.chain.points
+
+    @property
+    def position_error(self) -> float:
+        """Deprecated name of :attr:`position_error_mm`."""
+        warnings.warn("SolveResult.position_error is deprecated; use position_error_mm", DeprecationWarning,
+                      stacklevel=2)
+        return self.position_error_mm
+
+    def __repr__(self) -> str:
+        ori = "" if self.orientation_error_deg is None else f", tip {self.orientation_error_deg:.4g} deg off"
+        codes = "" if self.codes is None else f", codes {list(self.codes)}"
+        return (f"SolveResult({self.status or 'not judged'}: {self.position_error_mm:.4g} mm off{ori}, "
+                f"{self.iterations} iterations{codes})")
 
     def to_json(self) -> str:
         """:meth:`to_dict` as a JSON string."""
         return json.dumps(self.to_dict())
 
     def to_dict(self) -> dict[str, Any]:
-        """The ``bhr solve --json`` document (its keys are a documented contract, docs/commands.md).
-
-        ``success`` is not part of it: it follows from the errors and the tolerances.
-        """
+        """The ``bhr solve --json`` document (its keys are a documented contract, docs/commands.md)."""
         return {
             "iterations": int(self.iterations),
-            "position_error": float(self.position_error),
+            "position_error": float(self.position_error_mm),
             "orientation_error_deg": None if self.orientation_error_deg is None else float(self.orientation_error_deg),
             "points": [[float(v) for v in row] for row in self.chain.points],
             "codes": None if self.codes is None else [int(c) for c in self.codes],
+            "success": self.success,
+            "status": self.status,
+            "reason": self.reason,
         }
 
 
@@ -177,11 +197,51 @@ class Solver(ABC):
         """
         return None
 
-    def judge(self, result: SolveResult) -> SolveResult:
-        """Set ``result.success``: errors within the robot's tolerances (mm, and degrees when aimed)."""
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        """Every subclass's :meth:`solve` judges its result (success, status, reason) before returning it."""
+        super().__init_subclass__(**kwargs)
+        inner = cls.__dict__.get("solve")
+        if inner is None or getattr(inner, "_judged", False) or getattr(inner, "__isabstractmethod__", False):
+            return
+
+        @functools.wraps(inner)
+        def solve(self: "Solver", chain: Chain, target: np.ndarray, orientation: np.ndarray | None = None,
+                  context: FollowContext | None = None) -> SolveResult:
+            return self.judge(inner(self, chain, target, orientation, context), chain, target)
+
+        solve._judged = True  # type: ignore[attr-defined]
+        cls.solve = solve  # type: ignore[method-assign]
+
+    def judge(self, result: SolveResult, start: Chain | None = None, target: Any = None) -> SolveResult:
+        """Set ``result``'s ``success``, ``status`` and ``reason`` from the robot's tolerances (mm, and degrees
+        when aimed); ``start`` and ``target`` tell an unreachable target from one the solver fell short of."""
+        r = self.robot
         ori = result.orientation_error_deg
-        result.success = bool(result.position_error <= self.robot.tol_pos
-                              and (ori is None or ori <= self.robot.tol_ori))
+        pos_ok = result.position_error_mm <= r.tol_pos
+        ori_ok = ori is None or ori <= r.tol_ori
+        result.success = bool(pos_ok and ori_ok)
+        if result.success:
+            result.status = "reached"
+            aimed = "" if ori is None else f" and {ori:.4g} deg (tolerance {r.tol_ori:g} deg)"
+            result.reason = (f"within tolerance: {result.position_error_mm:.4g} mm (tolerance {r.tol_pos:g} mm)"
+                             f"{aimed} after {result.iterations} iterations")
+            return result
+        reach = r.modules * (r.module_length + max(r.lift, 0.0))
+        far = None
+        if start is not None and target is not None:
+            far = float(np.linalg.norm(np.asarray(target, dtype=np.float64) - start.points[0]))
+        if far is not None and far > reach and not pos_ok:
+            result.status = "out of reach"
+            result.reason = (f"the target is {far:.4g} mm from the base but the robot is at most {reach:.4g} mm long; "
+                             f"the tip stops {result.position_error_mm:.4g} mm short")
+            return result
+        result.status = "not reached"
+        parts = []
+        if not pos_ok:
+            parts.append(f"position {result.position_error_mm:.4g} mm off (tolerance {r.tol_pos:g} mm)")
+        if not ori_ok:
+            parts.append(f"tip {ori:.4g} deg off (tolerance {r.tol_ori:g} deg)")
+        result.reason = f"{' and '.join(parts)} after {result.iterations} iterations"
         return result
 
 
