@@ -1,13 +1,18 @@
-"""Dual quaternions: the thesis's worked examples, algebra, and kernels equal to numpy-quaternion."""
+"""Dual quaternions: the thesis's worked examples, algebra, the kernels equal to the numpy-quaternion reference,
+and the reference equal to an independent library (pytransform3d)."""
 import math
 
 import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from bhr.kinematics.dualquat import (dq_conj_both, dq_conj_dual, dq_conj_quat, dq_from_point, dq_from_rotation,
-                          dq_from_translation, dq_inverse, dq_is_unit, dq_mul, dq_norm, dq_transform_point,
-                          k_dq_mul, k_qmul, k_rotate, k_rotate_about)
+import pytransform3d.rotations as pr
+import pytransform3d.transformations as pt
+
+from bhr.kinematics.dualquat import k_dq_mul, k_qmul, k_rotate, k_rotate_about
+from tests.dualquat_reference import (dq_conj_both, dq_conj_dual, dq_conj_quat, dq_from_point, dq_from_rotation,
+                                      dq_from_translation, dq_inverse, dq_is_unit, dq_mul, dq_norm,
+                                      dq_transform_point)
 
 A = np.array([1.0, 0.0, 1.0])
 
@@ -99,3 +104,21 @@ def test_rotation_kernel_equals_python_path(axis, angle_deg, v):
 def test_point_round_trip():
     np.testing.assert_array_equal(dq_from_point([1, 2, 3]), [1, 0, 0, 0, 0, 1, 2, 3])
     assert not dq_is_unit(np.array([2.0, 0, 0, 0, 0, 0, 0, 0]))
+
+
+@settings(max_examples=200, deadline=None)
+@given(vec3, st.floats(-7, 7), vec3, vec3, st.floats(-7, 7), vec3, vec3)
+def test_reference_equals_pytransform3d(axis, angle, d, p, angle2, axis2, d2):
+    """The reference's motions, products, conjugates and moved points equal pytransform3d's (same layout:
+    real part w, x, y, z then dual part)."""
+    q = unit_motion(axis, angle, d)
+    a = axis / np.linalg.norm(axis) if np.linalg.norm(axis) >= 1e-3 else np.array([0.0, 0.0, 1.0])
+    theirs = pt.dual_quaternion_from_pq(np.concatenate([d, pr.quaternion_from_axis_angle(np.concatenate([a, [angle]]))]))
+    # a dual quaternion and its negative are the same motion
+    sign = 1.0 if np.dot(q[:4], theirs[:4]) >= 0 else -1.0
+    np.testing.assert_allclose(q, sign * theirs, atol=1e-9)
+    np.testing.assert_allclose(dq_transform_point(q, p), pt.dq_prod_vector(theirs, p), atol=1e-8)
+    np.testing.assert_allclose(dq_conj_both(q), pt.dq_conj(q), atol=1e-12)
+    np.testing.assert_allclose(dq_conj_quat(q), pt.dq_q_conj(q), atol=1e-12)
+    r = unit_motion(axis2, angle2, d2)
+    np.testing.assert_allclose(dq_mul(q, r), pt.concatenate_dual_quaternions(q, r), atol=1e-8)

@@ -5,12 +5,11 @@ numbers ``[a_w, a_x, a_y, a_z, b_w, b_x, b_y, b_z]``. A unit dual quaternion
 (|a| = 1, a.b = 0) is a rigid motion; a point ``p`` is the dual quaternion
 ``1 + eps*p`` and moves as ``q (1 + eps p) conj_both(q)`` (Ec. 3.44).
 
-Two layers with the same maths:
-
-* Python-level functions (``dq_mul``, ``dq_transform_point``, ...) built on
-  numpy-quaternion, for clarity and for checking;
-* numba kernels (``k_*``, compiled with ``cache=True``) over plain float64
-  values, used in the solvers' hot loops. Tests check that both agree.
+The numba kernels here (``k_*``, compiled with ``cache=True``) work over
+plain float64 values in the solvers' hot loops. The tests hold them equal to
+a readable reference of the same maths (``tests/dualquat_reference.py``,
+on numpy-quaternion), which is itself checked against an independent library
+(pytransform3d).
 
 Examples (thesis ch. 3): A = (1, 0, 1) rotated 180 deg about -x gives
 (1, 0, -1); translated by (1, 0, 1) gives (2, 0, 2); rotated 180 deg about x
@@ -24,131 +23,11 @@ import numpy as np
 from numba import njit
 
 __all__ = [
-    "dq_mul",
-    "dq_conj_quat",
-    "dq_conj_dual",
-    "dq_conj_both",
-    "dq_norm",
-    "dq_inverse",
-    "dq_is_unit",
-    "dq_from_rotation",
-    "dq_from_translation",
-    "dq_from_point",
-    "dq_to_point",
-    "dq_transform_point",
     "k_qmul",
     "k_dq_mul",
     "k_rotate",
     "k_rotate_about",
 ]
-
-
-def _quaternion():
-    """numpy-quaternion, imported on first use (it pulls in scipy, slow to load).
-
-    Only these Python-level reference functions use it (the solvers run the
-    ``k_*`` kernels), so it is installed with the test extras, not with bhr.
-    """
-    try:
-        import quaternion
-    except ModuleNotFoundError:
-        raise ModuleNotFoundError("the dual-quaternion reference functions need numpy-quaternion; "
-                                  "pip install numpy-quaternion (or bhr[test])") from None
-    return quaternion
-
-
-def _split(q: np.ndarray):
-    quaternion = _quaternion()
-    q = np.asarray(q, dtype=np.float64)
-    if q.shape != (8,):
-        raise ValueError(f"a dual quaternion has 8 components, got shape {q.shape}")
-    return quaternion.from_float_array(q[:4]), quaternion.from_float_array(q[4:])
-
-
-def _join(a, b) -> np.ndarray:
-    quaternion = _quaternion()
-    return np.concatenate([quaternion.as_float_array(a), quaternion.as_float_array(b)])
-
-
-def dq_mul(p: np.ndarray, q: np.ndarray) -> np.ndarray:
-    """Product ``p q = a a' + (a b' + b a') eps`` (Ec. 3.33)."""
-    a, b = _split(p)
-    c, d = _split(q)
-    return _join(a * c, a * d + b * c)
-
-
-def dq_conj_quat(q: np.ndarray) -> np.ndarray:
-    """Quaternion conjugate ``a* + b* eps`` (Ec. 3.35)."""
-    a, b = _split(q)
-    return _join(a.conjugate(), b.conjugate())
-
-
-def dq_conj_dual(q: np.ndarray) -> np.ndarray:
-    """Dual conjugate ``a - b eps``."""
-    a, b = _split(q)
-    return _join(a, -b)
-
-
-def dq_conj_both(q: np.ndarray) -> np.ndarray:
-    """Both conjugates ``a* - b* eps`` (Ec. 3.36), used to move points."""
-    a, b = _split(q)
-    return _join(a.conjugate(), -b.conjugate())
-
-
-def dq_norm(q: np.ndarray) -> tuple[float, float]:
-    """Dual-number norm ``|a| + (a.b / |a|) eps`` (Ec. 3.34), as (real, dual)."""
-    q = np.asarray(q, dtype=np.float64)
-    na = float(np.linalg.norm(q[:4]))
-    if na == 0.0:
-        raise ValueError("the real part of the dual quaternion is zero; its norm has no dual part")
-    return na, float(np.dot(q[:4], q[4:]) / na)
-
-
-def dq_inverse(q: np.ndarray) -> np.ndarray:
-    """Inverse ``a^-1 - a^-1 b a^-1 eps`` (equal to Ec. 3.37), defined for a != 0."""
-    a, b = _split(q)
-    if a.norm() == 0.0:
-        raise ValueError("a dual quaternion with zero real part has no inverse")
-    ai = a.inverse()
-    return _join(ai, -(ai * b * ai))
-
-
-def dq_is_unit(q: np.ndarray, tol: float = 1e-9) -> bool:
-    """True when |a| = 1 and a.b = 0 within ``tol`` (Ec. 3.38)."""
-    q = np.asarray(q, dtype=np.float64)
-    return abs(float(np.dot(q[:4], q[:4])) - 1.0) <= tol and abs(float(np.dot(q[:4], q[4:]))) <= tol
-
-
-def dq_from_rotation(axis: np.ndarray, angle_rad: float) -> np.ndarray:
-    """Rotation by ``angle_rad`` about the unit ``axis`` through the origin (Ec. 3.40)."""
-    axis = np.asarray(axis, dtype=np.float64)
-    n = float(np.linalg.norm(axis))
-    if n == 0.0:
-        raise ValueError("rotation axis must not be the zero vector")
-    s = math.sin(angle_rad / 2.0)
-    return np.array([math.cos(angle_rad / 2.0), *(s * axis / n), 0.0, 0.0, 0.0, 0.0])
-
-
-def dq_from_translation(d: np.ndarray) -> np.ndarray:
-    """Translation by ``d`` (Ec. 3.41): ``1 + (d/2) eps``."""
-    d = np.asarray(d, dtype=np.float64)
-    return np.array([1.0, 0.0, 0.0, 0.0, 0.0, *(d / 2.0)])
-
-
-def dq_from_point(p: np.ndarray) -> np.ndarray:
-    """The dual quaternion of a point, ``1 + p eps`` (Ec. 3.39)."""
-    p = np.asarray(p, dtype=np.float64)
-    return np.array([1.0, 0.0, 0.0, 0.0, 0.0, *p])
-
-
-def dq_to_point(q: np.ndarray) -> np.ndarray:
-    """The point held in the dual vector part of ``1 + p eps``."""
-    return np.asarray(q, dtype=np.float64)[5:8].copy()
-
-
-def dq_transform_point(q: np.ndarray, p: np.ndarray) -> np.ndarray:
-    """Move point ``p`` by the unit dual quaternion ``q``: ``q (1 + p eps) conj_both(q)``."""
-    return dq_to_point(dq_mul(dq_mul(q, dq_from_point(p)), dq_conj_both(q)))
 
 
 # ---------------------------------------------------------------------------
