@@ -20,13 +20,13 @@ import warnings
 from typing import TYPE_CHECKING, Any
 
 from bhr import _numba  # noqa: F401  (sets NUMBA_CACHE_DIR before numba loads)
-from bhr.errors import BhrError, LinkError
+from bhr.settings.errors import BhrError, LinkError
 
 if TYPE_CHECKING:  # what the lazy names below are, for type checkers
-    from bhr.driver import follow as follow
-    from bhr.generators import trajectory as trajectory
-    from bhr.path import Trajectory as Trajectory
-    from bhr.robot import Robot as Robot
+    from bhr.run.driver import follow as follow
+    from bhr.model.generators import trajectory as trajectory
+    from bhr.model.path import Trajectory as Trajectory
+    from bhr.model.robot import Robot as Robot
     from bhr.solvers import Solver as Solver
     from bhr.solvers import solve as solve
 
@@ -35,16 +35,16 @@ __version__ = "0.1.0"
 __all__ = ["BhrError", "LinkError", "Robot", "Solver", "Trajectory", "follow", "trajectory", "solve", "__version__"]
 
 #: The lazy re-exports: name -> (module, attribute).
-_LAZY = {"follow": ("bhr.driver", "follow"), "trajectory": ("bhr.generators", "trajectory"),
-         "solve": ("bhr.solvers", "solve"), "Robot": ("bhr.robot", "Robot"), "Trajectory": ("bhr.path", "Trajectory"),
-         "Solver": ("bhr.solvers", "Solver")}
+_LAZY = {"follow": ("bhr.run.driver", "follow"), "trajectory": ("bhr.model.generators", "trajectory"),
+         "solve": ("bhr.solvers", "solve"), "Robot": ("bhr.model.robot", "Robot"),
+         "Trajectory": ("bhr.model.path", "Trajectory"), "Solver": ("bhr.solvers", "Solver")}
 
 
 def __getattr__(name: str) -> Any:  # PEP 562: lazy re-exports keep `import bhr` cheap
     if name in _LAZY:
         module, attr = _LAZY[name]
         return getattr(importlib.import_module(module), attr)
-    if not name.startswith("_") and name.isidentifier():  # a submodule, e.g. bhr.generators.load_trajectory
+    if not name.startswith("_") and name.isidentifier():  # a submodule, e.g. bhr.model or bhr.solvers
         try:
             return importlib.import_module(f"bhr.{name}")
         except ModuleNotFoundError as exc:
@@ -68,9 +68,44 @@ class _MovedModule(types.ModuleType):
         return getattr(importlib.import_module(self._new), name)
 
 
-# ``bhr.follow`` and ``bhr.trajectory`` are functions; the modules that held them
-# were renamed ``bhr.driver`` and ``bhr.generators``. ``from bhr.follow import X``
-# still works (with a DeprecationWarning) through these stand-ins, which are
-# never set as attributes of this package, so ``bhr.follow`` stays the function.
-for _old, _new in (("bhr.follow", "bhr.driver"), ("bhr.trajectory", "bhr.generators")):
+#: Modules' old names (bhr was flat until its layers became subpackages), kept for one release.
+_MOVED = {
+    # ``bhr.follow`` and ``bhr.trajectory`` are functions; the modules that held them are the driver and
+    # the generators. The stand-ins are never set as attributes of this package, so ``bhr.follow`` stays
+    # the function.
+    "bhr.follow": "bhr.run.driver",
+    "bhr.trajectory": "bhr.model.generators",
+    "bhr.errors": "bhr.settings.errors",
+    "bhr.options": "bhr.settings.options",
+    "bhr._input": "bhr.settings.inputs",
+    "bhr.names": "bhr.settings.names",
+    "bhr.codes": "bhr.model.codes",
+    "bhr.robot": "bhr.model.robot",
+    "bhr.path": "bhr.model.path",
+    "bhr.generators": "bhr.model.generators",
+    "bhr.pathfile": "bhr.model.pathfile",
+    "bhr.anatomy": "bhr.model.anatomy",
+    "bhr.robotfile": "bhr.model.robotfile",
+    "bhr.driver": "bhr.run.driver",
+    "bhr.body": "bhr.run.body",
+    "bhr.clearance": "bhr.run.clearance",
+    "bhr.plots": "bhr.output.plots",
+    "bhr.animate": "bhr.output.animate",
+    "bhr.liveview": "bhr.output.liveview",
+    "bhr.htmlpage": "bhr.output.htmlpage",
+    "bhr.atomic": "bhr.output.atomic",
+    "bhr.thermal_plot": "bhr.output.thermal_plot",
+    "bhr.report": "bhr.studies.report",
+    "bhr.sweep": "bhr.studies.sweep",
+    "bhr.traverse": "bhr.studies.traverse",
+    "bhr.compare": "bhr.studies.compare",
+    "bhr.executor": "bhr.studies.executor",
+    "bhr.study": "bhr.studies.study",
+    "bhr.thermal": "bhr.hardware.thermal",
+    "bhr.protocol": "bhr.hardware.protocol",
+    "bhr.link": "bhr.hardware.link",
+    "bhr.firmware_header": "bhr.hardware.firmware_header",
+}
+# ``from bhr.clearance import X`` still works, with a DeprecationWarning, through these stand-ins.
+for _old, _new in _MOVED.items():
     sys.modules.setdefault(_old, _MovedModule(_old, _new))

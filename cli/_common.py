@@ -10,7 +10,7 @@ from typing import Any, Callable
 
 import click
 
-from bhr.errors import BhrError
+from bhr.settings.errors import BhrError
 
 
 def os_error_line(exc: OSError) -> str:
@@ -78,7 +78,7 @@ def check_writable(path: str | os.PathLike[str] | None, what: str = "output") ->
     """
     if path is None or str(path) == "-":
         return
-    from bhr.atomic import check_output_file
+    from bhr.output.atomic import check_output_file
 
     check_output_file(path, what)
 
@@ -143,6 +143,6 @@ def check_executor(jobs: int | None, scheduler: str | None) -> None:
         try:
             import distributed  # noqa: F401
         except ImportError:
-            from bhr.executor import DASK_MISSING
+            from bhr.studies.executor import DASK_MISSING
 
             raise BhrError(DASK_MISSING) from None

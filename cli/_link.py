@@ -6,7 +6,7 @@ from typing import Any, Callable, Iterator
 
 import click
 
-from bhr.cli._options import FiniteRange, PlainIntRange, _stack
+from bhr.cli._options import FiniteRange, PlainIntRange, stack_options
 
 #: Fastest baud rate accepted (USB serial adapters top out at a few Mbaud).
 MAX_BAUD = 4_000_000
@@ -29,7 +29,7 @@ def link_options(port_help: str = PORT_HELP, robot: bool = True) -> Callable[[An
         opts.insert(0, click.option("--robot", "robot_file", default=None, metavar="FILE",
                                     help="Robot description (TOML) whose [link] table gives the port, baud rate "
                                          "and module order; options given here override it."))
-    return _stack(*opts)
+    return stack_options(*opts)
 
 
 def link_settings(kwargs: dict[str, Any], need_port: bool = True, use_file_port: bool = True, hint: str = ""):
@@ -38,15 +38,15 @@ def link_settings(kwargs: dict[str, Any], need_port: bool = True, use_file_port:
     The robot file's ``[link]`` table (if ``--robot`` was given) supplies the
     defaults: port (when ``use_file_port``), baud rate and module order.
     """
-    from bhr.errors import BhrError
-    from bhr.link import DEFAULT_BAUD
+    from bhr.settings.errors import BhrError
+    from bhr.hardware.link import DEFAULT_BAUD
 
     path = kwargs.pop("robot_file", None)
     port, baud = kwargs.pop("port", None), kwargs.pop("baud", None)
     timeout, retries = kwargs.pop("timeout"), kwargs.pop("retries")
     order = None
     if path is not None:
-        from bhr.robotfile import load_robot_file
+        from bhr.model.robotfile import load_robot_file
 
         link = load_robot_file(path).link
         if port is None and use_file_port:
@@ -61,7 +61,7 @@ def link_settings(kwargs: dict[str, Any], need_port: bool = True, use_file_port:
 
 
 def exit_interrupted(exc, total: int, unit: str) -> None:
-    """After Ctrl-C while streaming (a bhr.link.StreamInterrupted): one line on stderr, exit status 130."""
+    """After Ctrl-C while streaming (a bhr.hardware.link.StreamInterrupted): one line on stderr, exit status 130."""
     import sys
 
     if exc.stopped:
@@ -109,17 +109,17 @@ def schedule_option() -> Callable[[Any], Any]:
 
 def thermal_params(robot_file):
     """The robot file's [thermal] table (docs/thermal.md), or the default wire."""
-    from bhr.thermal import DEFAULT_THERMAL
+    from bhr.hardware.thermal import DEFAULT_THERMAL
 
     if robot_file is None:
         return DEFAULT_THERMAL
-    from bhr.robotfile import load_robot_file
+    from bhr.model.robotfile import load_robot_file
 
     return load_robot_file(robot_file).thermal
 
 
 def fault_printer(port: str) -> Callable[[int, list[str]], None]:
-    """``on_fault`` for bhr.link.Pacer: one line on stderr per fault the board raises, with module and step."""
+    """``on_fault`` for bhr.hardware.link.Pacer: one line on stderr per fault the board raises, with module and step."""
     def show(step: int, names: list[str]) -> None:
         for name in names:
             kind, _, module = name.partition(":")

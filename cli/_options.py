@@ -1,6 +1,6 @@
 """Options shared by the commands that simulate: robot, solver constraints, trajectory.
 
-Every option here is built from the registry in :mod:`bhr.options` (name, type, unit, limit, default,
+Every option here is built from the registry in :mod:`bhr.settings.options` (name, type, unit, limit, default,
 help), the same one robot files, batch files and sweep grids are checked against.
 """
 from __future__ import annotations
@@ -10,7 +10,7 @@ from typing import Any, Callable
 
 import click
 
-from bhr.options import MAX_MM, Option, by_group
+from bhr.settings.options import MAX_MM, Option, by_group
 
 
 def plain_number(text: str) -> bool:
@@ -25,7 +25,7 @@ def plain_number(text: str) -> bool:
 class Bounded(click.ParamType):
     """A finite int or float no larger in size than ``limit``: one clear line for nan, inf or 1e300.
 
-    Signs and lower bounds are left to the library (bhr.robot.Robot, the
+    Signs and lower bounds are left to the library (bhr.model.robot.Robot, the
     trajectory checks), whose messages name the allowed range.
     """
 
@@ -82,7 +82,7 @@ MIN_RATE = 0.01
 MM = Bounded(float, MAX_MM, "mm")
 DEG = Bounded(float, 1e6, "deg")
 
-#: Command-line parameter name -> registry option, for every option built from bhr.options.
+#: Command-line parameter name -> registry option, for every option built from bhr.settings.options.
 _PARAM: dict[str, Option] = {}
 
 
@@ -109,7 +109,7 @@ TRAJ_FIELDS = tuple(o.name for o in by_group("trajectory"))
 CONSTRAINT_FIELDS = tuple(o.name for o in by_group("constraint"))
 
 
-def _stack(*decorators: Callable[[Any], Any]) -> Callable[[Any], Any]:
+def stack_options(*decorators: Callable[[Any], Any]) -> Callable[[Any], Any]:
     def apply(f: Any) -> Any:
         for d in reversed(decorators):
             f = d(f)
@@ -123,7 +123,7 @@ SOLVING_ONLY = ("tol_pos", "tol_ori", "max_iter", "weight_pos", "weight_ori")
 
 
 def robot_options(feed: bool = True, solving: bool = True) -> Callable[[Any], Any]:
-    """--robot FILE and the robot options of :mod:`bhr.options` (--modules, --module-length, ...).
+    """--robot FILE and the robot options of :mod:`bhr.settings.options` (--modules, --module-length, ...).
 
     ``solving=False`` leaves out what only a solver uses (:data:`SOLVING_ONLY`):
     ``bhr fk`` solves nothing.
@@ -132,22 +132,22 @@ def robot_options(feed: bool = True, solving: bool = True) -> Callable[[Any], An
                          help="Robot description (TOML); options given here override its values.")]
     opts += [_click_option(o) for o in by_group("robot")
              if (feed or o.name != "feed_divisor") and (solving or o.name not in SOLVING_ONLY)]
-    return _stack(*opts)
+    return stack_options(*opts)
 
 
 def constraint_options(f: Any) -> Any:
     """--limit, --axes, --warmup for the constrained solvers (thesis ch. 6 steps)."""
-    return _stack(*[_click_option(o) for o in by_group("constraint")])(f)
+    return stack_options(*[_click_option(o) for o in by_group("constraint")])(f)
 
 
 def run_options(f: Any) -> Any:
-    """How a run is simulated (--body-modules), from :mod:`bhr.options`."""
-    return _stack(*[_click_option(o) for o in by_group("run")])(f)
+    """How a run is simulated (--body-modules), from :mod:`bhr.settings.options`."""
+    return stack_options(*[_click_option(o) for o in by_group("run")])(f)
 
 
 def trajectory_options(f: Any) -> Any:
     """The generators' parameters (--length, --radius, ...)."""
-    return _stack(*[_click_option(o) for o in by_group("trajectory")])(f)
+    return stack_options(*[_click_option(o) for o in by_group("trajectory")])(f)
 
 
 def pop_robot(kwargs: dict[str, Any]) -> dict[str, Any]:
@@ -165,12 +165,12 @@ def build_robot(kwargs: dict[str, Any], **defaults: Any):
 
     Removes the robot options (and --robot) from ``kwargs``.
     """
-    from bhr.robot import Robot
+    from bhr.model.robot import Robot
 
     path = kwargs.pop("robot_file", None)
     given = pop_robot(kwargs)
     if path is not None:
-        from bhr.robotfile import load_robot_file
+        from bhr.model.robotfile import load_robot_file
 
         base = load_robot_file(path).robot
         return base.replace(**given) if given else base
@@ -219,7 +219,7 @@ class WeightList(click.ParamType):
 
 def optimal_options(f: Any) -> Any:
     """--lookahead, --beam, --point-weights, --ori-weight, --drift-weight, --roll-weight."""
-    return _stack(*[_click_option(o) for o in by_group("solver") if o.name in OPTIMAL_FIELDS])(f)
+    return stack_options(*[_click_option(o) for o in by_group("solver") if o.name in OPTIMAL_FIELDS])(f)
 
 
 # --solver lumen (bhr/solvers/lumen.py, docs/lumen.md); it shares --lookahead, --beam and --ori-weight with optimal
@@ -229,12 +229,12 @@ SHARED_FIELDS = tuple(o.name for o in by_group("solver") if o.solvers is not Non
 
 def lumen_options(f: Any) -> Any:
     """--wall-weight, --margin, --center-weight, --track-weight, --window."""
-    return _stack(*[_click_option(o) for o in by_group("solver") if o.name in LUMEN_FIELDS])(f)
+    return stack_options(*[_click_option(o) for o in by_group("solver") if o.name in LUMEN_FIELDS])(f)
 
 
 def pop_solver_options(kwargs: dict[str, Any], solvers: list[str]) -> dict[str, dict[str, Any]]:
     """The solver options given (optimal, lumen), per solver run; refuses an option no solver run takes."""
-    from bhr.errors import BhrError
+    from bhr.settings.errors import BhrError
 
     out: dict[str, dict[str, Any]] = {}
     for o in by_group("solver"):

@@ -26,7 +26,7 @@ def bench(cases, repeat, json_path, check):
     """
     from bhr.bench import cases as b
     from bhr.cli._progress import announce_compiles, status
-    from bhr.errors import BhrError
+    from bhr.settings.errors import BhrError
 
     check_writable(json_path, "JSON")
     names = list(cases) or list(b.CASES)
@@ -47,7 +47,7 @@ def bench(cases, repeat, json_path, check):
     if json_path == "-":
         click.echo(json.dumps(doc, indent=1))
     elif json_path:
-        from bhr.atomic import write_json
+        from bhr.output.atomic import write_json
 
         write_json(json_path, doc)
     if check and any(r.ok is False for r in results):

@@ -40,13 +40,13 @@ def compare(traj, solvers, out_dir, json_path, no_plots, **kwargs):
 
         bhr compare --traj curve --angle 360 --solver thesis --solver optimal
     """
-    from bhr.atomic import write_json
-    from bhr.body import check_body_modules
+    from bhr.output.atomic import write_json
+    from bhr.run.body import check_body_modules
     from bhr.cli._progress import announce_compiles, status
-    from bhr.compare import compare_figure, compare_json, compare_runs, format_table
-    from bhr.errors import BhrError
-    from bhr.driver import BhrWarning
-    from bhr.generators import load_trajectory
+    from bhr.studies.compare import compare_figure, compare_json, compare_runs, format_table
+    from bhr.settings.errors import BhrError
+    from bhr.run.driver import BhrWarning
+    from bhr.model.generators import load_trajectory
 
     from bhr.solvers import available, canonical
 
@@ -54,14 +54,14 @@ def compare(traj, solvers, out_dir, json_path, no_plots, **kwargs):
     known = available()
     for name in names:
         if canonical(name) not in known:
-            from bhr._input import did_you_mean
+            from bhr.settings.inputs import did_you_mean
 
             raise BhrError(f"unknown solver {name!r}; {did_you_mean(name, known)}choose from {', '.join(known)}")
     robot = build_robot(kwargs)
     if traj is None:
         raise BhrError("give the trajectory to compare on: --traj line|curve|spiral|colon|FILE")
     stem = Path(traj).stem if traj not in ("line", "curve", "spiral", "colon") else traj
-    from bhr.atomic import OutputFolder
+    from bhr.output.atomic import OutputFolder
 
     folder = None
     if out_dir is not None:
@@ -94,7 +94,7 @@ def compare(traj, solvers, out_dir, json_path, no_plots, **kwargs):
                 write_json(folder.path(json_inside), compare_json(runs))
                 written.append(folder.final(json_inside))
             if not no_plots:
-                from bhr.plots import save_figure
+                from bhr.output.plots import save_figure
 
                 with status(f"drawing {folder.final('compare.png')}"):
                     save_figure(compare_figure(runs), folder.path("compare.png"))

@@ -20,11 +20,11 @@ def fk(codes, json_path, **kwargs):
 
     Example: bhr fk --codes 3,0,6,0,0
     """
-    from bhr.atomic import write_json
+    from bhr.output.atomic import write_json
     from bhr.cli._progress import announce_compiles
-    from bhr.codes import check_codes
-    from bhr.errors import BhrError
-    from bhr.robot import forward_kinematics
+    from bhr.model.codes import check_codes
+    from bhr.settings.errors import BhrError
+    from bhr.model.robot import forward_kinematics
 
     check_writable(json_path, "JSON")
     values = [c for c in codes.replace(" ", ",").split(",") if c != ""]

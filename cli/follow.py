@@ -65,7 +65,7 @@ def tolerance_lines(s: dict, robot) -> list[str]:
 
 def body_clearance_lines(s: dict) -> list[str]:
     """The whole body's errors and the lumen clearance, when the run has them (summary keys)."""
-    from bhr.clearance import step_ranges
+    from bhr.run.clearance import step_ranges
 
     out = []
     if "body_modules" in s:
@@ -134,11 +134,11 @@ def follow(traj, solver, out_dir, json_path, no_plots, **kwargs):
 
         bhr follow --traj colon --port /dev/ttyUSB0 --schedule auto
     """
-    from bhr.atomic import OutputFolder, write_json, write_text
-    from bhr.body import check_body_modules
-    from bhr.codes import format_codes_csv
-    from bhr.driver import BhrWarning, follow as run_follow
-    from bhr.generators import load_trajectory
+    from bhr.output.atomic import OutputFolder, write_json, write_text
+    from bhr.run.body import check_body_modules
+    from bhr.model.codes import format_codes_csv
+    from bhr.run.driver import BhrWarning, follow as run_follow
+    from bhr.model.generators import load_trajectory
 
     show, animate_path, stride = kwargs.pop("show"), kwargs.pop("animate_path"), kwargs.pop("stride")
     stem = Path(traj).stem if traj not in ("line", "curve", "spiral", "colon") else traj
@@ -160,11 +160,11 @@ def follow(traj, solver, out_dir, json_path, no_plots, **kwargs):
     at_end = kwargs.pop("at_end")
     link_kw = {k: kwargs.pop(k) for k in ("port", "baud", "timeout", "retries")}
     if link_kw["port"] is None and link_kw["baud"] is not None:
-        from bhr.errors import BhrError
+        from bhr.settings.errors import BhrError
 
         raise BhrError("--baud is an option of streaming; give --port too, or drop --baud")
     if link_kw["port"] is None and at_end != "stop":
-        from bhr.errors import BhrError
+        from bhr.settings.errors import BhrError
 
         raise BhrError("--at-end is an option of streaming; give --port too, or drop --at-end")
     robot_file = link_kw["robot_file"] = kwargs.get("robot_file")
@@ -214,7 +214,7 @@ def follow(traj, solver, out_dir, json_path, no_plots, **kwargs):
                 write_json(folder.path(name), doc)
                 written.append(folder.final(name))
             if not no_plots:
-                from bhr.plots import save_run_plots
+                from bhr.output.plots import save_run_plots
 
                 with status(f"drawing the figures into {out}"):
                     written += [folder.final(p.name) for p in save_run_plots(result, folder.stage)]
@@ -224,7 +224,7 @@ def follow(traj, solver, out_dir, json_path, no_plots, **kwargs):
                 write_json(json_path, doc)  # before the folder goes in place: a failure here keeps the old set
                 written.append(Path(json_path))
         if out_dir is None:
-            from bhr.atomic import point_latest
+            from bhr.output.atomic import point_latest
 
             point_latest(folder.target)  # bhr-out/latest: the run just written
     if to_stdout:
@@ -237,7 +237,7 @@ def follow(traj, solver, out_dir, json_path, no_plots, **kwargs):
         click.echo(line, err=stream)
     if result.codes is not None and not streaming and folder is not None:
         from bhr.cli._link import thermal_params
-        from bhr.thermal import auto_schedule, format_duration
+        from bhr.hardware.thermal import auto_schedule, format_duration
 
         sched = auto_schedule(thermal_params(robot_file), result.codes, rate)
         click.echo(f"Procedure time on the board: {format_duration(sched.total_s)} at the board's limits "
@@ -249,7 +249,7 @@ def follow(traj, solver, out_dir, json_path, no_plots, **kwargs):
     if show:
         run_live_view(result, stride)
     if stream_faults:
-        from bhr.errors import BhrError
+        from bhr.settings.errors import BhrError
 
         step, name = stream_faults[0]
         raise BhrError(f"the board raised {len(stream_faults)} fault{'s' if len(stream_faults) != 1 else ''} during "
@@ -270,10 +270,10 @@ def follow_streaming(tr, solver, robot, solver_options, body_modules, rate, link
     import contextlib
     import sys
 
-    from bhr.errors import BhrError
-    from bhr.driver import follow as run_follow
-    from bhr.link import BoardLink, Pacer, check_board, interrupted, wait_until_ready
-    from bhr.thermal import format_duration, plan
+    from bhr.settings.errors import BhrError
+    from bhr.run.driver import follow as run_follow
+    from bhr.hardware.link import BoardLink, Pacer, check_board, interrupted, wait_until_ready
+    from bhr.hardware.thermal import format_duration, plan
 
     if body_modules is not None:
         raise BhrError("--port streams the head's codes and cannot stream a --body-modules run; drop one of the two")

@@ -39,9 +39,9 @@ def plan(codes_path, rate, schedule, robot_file, plot_path, no_plot, csv_path):
     \b
         bhr plan --codes bhr-out/latest/codes.csv --schedule auto
     """
-    from bhr.atomic import write_text
-    from bhr.codes import read_codes_csv
-    from bhr.thermal import format_duration, plan as make_plan, summarize
+    from bhr.output.atomic import write_text
+    from bhr.model.codes import read_codes_csv
+    from bhr.hardware.thermal import format_duration, plan as make_plan, summarize
 
     steps, table = read_codes_csv(codes_path)
     if not no_plot:
@@ -70,8 +70,8 @@ def plan(codes_path, rate, schedule, robot_file, plot_path, no_plot, csv_path):
         write_text(Path(csv_path), "\n".join(lines) + "\n")
         written.append(csv_path)
     if not no_plot:
-        from bhr.atomic import MANIFEST, OutputFolder
-        from bhr.thermal_plot import save_schedule_figure
+        from bhr.output.atomic import MANIFEST, OutputFolder
+        from bhr.output.thermal_plot import save_schedule_figure
 
         run_folder = Path(plot_path).parent
         if (run_folder / MANIFEST).is_file():

@@ -20,19 +20,19 @@ STRIDE_HELP = ("Draw every Nth step (the last step always): frames of --animate 
 def check_view_options(show: bool, animate_path: str | None) -> None:
     """Refuse, before any work, an animation that cannot be written or a window that cannot open."""
     if animate_path is not None:
-        from bhr.animate import check_target
+        from bhr.output.animate import check_target
 
         check_target(animate_path)
         check_writable(animate_path, "animation")
     if show:
-        from bhr.liveview import check_display
+        from bhr.output.liveview import check_display
 
         check_display()
 
 
 def render_animation(result, animate_path: str, stride: int | None, shown: Path | None = None) -> Path:
     """Render ``result`` to ``animate_path`` with a progress bar on stderr; print what was written."""
-    from bhr.animate import animate, default_stride, frame_steps
+    from bhr.output.animate import animate, default_stride, frame_steps
 
     total = len(frame_steps(result.steps, stride or default_stride(result.steps)))
     progressbar: Any = click.progressbar(length=total, label=f"Rendering {animate_path}",
@@ -52,7 +52,7 @@ def render_animation(result, animate_path: str, stride: int | None, shown: Path 
 
 def run_live_view(result, stride: int | None) -> None:
     """Open the live view (blocks until the user quits) and print what it showed."""
-    from bhr.liveview import keys_help, show
+    from bhr.output.liveview import keys_help, show
 
     click.echo(f"Live view: {keys_help()}", err=True)
     report = show(result, stride=stride or 1)
@@ -79,11 +79,11 @@ def replay(run, show, animate_path, stride, out_dir, step):
 
         bhr replay bhr-out/latest/run.json --animate colon.gif
     """
-    from bhr.driver import load_run
+    from bhr.run.driver import load_run
 
     import os
 
-    from bhr.atomic import MANIFEST, OutputFolder
+    from bhr.output.atomic import MANIFEST, OutputFolder
 
     write_plots = out_dir is not None or not (show or animate_path)
     out = Path(out_dir) if out_dir else (Path(run).parent if run != "-" else Path("bhr-out") / "replay")
@@ -105,7 +105,7 @@ def replay(run, show, animate_path, stride, out_dir, step):
     written: list[Path] = []
     if write_plots:
         from bhr.cli._progress import status
-        from bhr.plots import ERROR_KINDS, body_figure, clearance_figure, error_figure, path_figure, save_figure
+        from bhr.output.plots import ERROR_KINDS, body_figure, clearance_figure, error_figure, path_figure, save_figure
 
         figures = [(name, lambda kind=kind: error_figure(result, kind)) for kind, (name, _, _) in ERROR_KINDS.items()]
         figures.append((path_name, lambda: path_figure(result, None if step is None else step - 1)))

@@ -32,15 +32,15 @@ def report(batch_path, batch_old, out_dir, jobs, inline_images, no_plots):
         bhr report --file docs/examples/chapter7.toml --out chapter7
     """
     from bhr.cli._progress import announce_compiles, status
-    from bhr.errors import BhrError
-    from bhr.report import format_table, load_batch, run_batch
+    from bhr.settings.errors import BhrError
+    from bhr.studies.report import format_table, load_batch, run_batch
 
     if batch_path is not None and batch_old is not None:
         raise BhrError("--batch is the old name of --file; give the batch file once, with --file")
     batch_path = batch_path or batch_old
     if batch_path is None:
         raise BhrError("give the batch file: bhr report --file FILE.toml (see docs/report.md)")
-    from bhr.atomic import OutputFolder
+    from bhr.output.atomic import OutputFolder
 
     batch = load_batch(batch_path)
     out = Path(out_dir) if out_dir else Path("bhr-out") / Path(batch_path).stem

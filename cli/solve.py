@@ -40,7 +40,7 @@ def solve(target, orientation, solver, json_path, plot_path, **kwargs):
     check_writable(json_path, "JSON")
     check_writable(plot_path, "plot")
     if plot_path is not None:
-        from bhr.plots import check_figure_path
+        from bhr.output.plots import check_figure_path
 
         check_figure_path(plot_path)
     robot = build_robot(kwargs, modules=5, module_length=2.0, tol_pos=0.01, max_iter=30)
@@ -66,11 +66,11 @@ def solve(target, orientation, solver, json_path, plot_path, **kwargs):
         for j, p in enumerate(result.points, start=1):
             click.echo(f"{j:>5} {p[0]:>10.5f} {p[1]:>10.5f} {p[2]:>10.5f}")
     if json_path not in (None, "-"):
-        from bhr.atomic import write_json
+        from bhr.output.atomic import write_json
 
         write_json(json_path, doc)
     if plot_path:
-        from bhr.plots import chain_figure, save_figure
+        from bhr.output.plots import chain_figure, save_figure
 
         initial = Chain.straight(robot, (0, 1, 0)).points
         title = f"{solver}: target ({', '.join(f'{v:g}' for v in target)}), {result.iterations} iterations"

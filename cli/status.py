@@ -28,9 +28,9 @@ def status(json_path, **link_kw):
     \b
         bhr status --port /dev/ttyUSB0 --json -
     """
-    from bhr.atomic import write_json
-    from bhr.codes import actuators
-    from bhr.link import BoardLink
+    from bhr.output.atomic import write_json
+    from bhr.model.codes import actuators
+    from bhr.hardware.link import BoardLink
 
     check_writable(json_path, "JSON")
     port, link_args = link_settings(link_kw)

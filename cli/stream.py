@@ -39,8 +39,8 @@ def stream(codes_path, rate, schedule, dry_run, **link_kw):
     \b
         bhr stream --port /dev/ttyUSB0 --codes bhr-out/latest/codes.csv --rate 10
     """
-    from bhr.codes import read_codes_csv
-    from bhr.errors import BhrError
+    from bhr.model.codes import read_codes_csv
+    from bhr.settings.errors import BhrError
 
     steps, table = read_codes_csv(codes_path)
     n_rows, n_modules = table.shape
@@ -48,7 +48,7 @@ def stream(codes_path, rate, schedule, dry_run, **link_kw):
 
     port, link_args = link_settings(link_kw, need_port=not dry_run, hint=", or use --dry-run to print the frames")
     if dry_run:
-        from bhr.protocol import set_codes_frame
+        from bhr.hardware.protocol import set_codes_frame
 
         order = link_args["module_order"]
         if order is not None and len(order) != n_modules:
@@ -63,8 +63,8 @@ def stream(codes_path, rate, schedule, dry_run, **link_kw):
         click.echo(f"dry run: {n_rows} SET_CODES frames for {n_modules} modules (nothing sent)", err=True)
         return
 
-    from bhr.link import BoardLink, StreamInterrupted, stream_codes, wait_until_ready
-    from bhr.thermal import format_duration, plan
+    from bhr.hardware.link import BoardLink, StreamInterrupted, stream_codes, wait_until_ready
+    from bhr.hardware.thermal import format_duration, plan
 
     sched = plan(thermal_params(robot_file), table, rate, schedule, name=str(codes_path), sending=True)
     times = sched.times_ms / 1000.0 if schedule == "auto" else None

@@ -46,13 +46,13 @@ def sweep(sweep_file, trajs, solvers, grid, robot_file, out_dir, jobs, scheduler
     from bhr.cli._progress import announce_compiles, status
 
     no_plot = no_plot or no_plot_old
-    from bhr.sweep import build_sweep, format_summary, heatmap_axes, load_sweep, parse_grid_option, run_sweep, \
+    from bhr.studies.sweep import build_sweep, format_summary, heatmap_axes, load_sweep, parse_grid_option, run_sweep, \
         write_outputs
 
     check_executor(jobs, scheduler)
     cli_grid = [parse_grid_option(g) for g in grid]
     if sweep_file:
-        from bhr.generators import builtin_names
+        from bhr.model.generators import builtin_names
 
         base = load_sweep(sweep_file)
         merged = dict(base.grid)
@@ -67,14 +67,14 @@ def sweep(sweep_file, trajs, solvers, grid, robot_file, out_dir, jobs, scheduler
         s = build_sweep(trajs or ("curve",), solvers or ("thesis",), cli_grid, title=title or "bhr sweep",
                         robot_file=robot_file)
     heatmap_axes(s, hx, hy)  # refuse unknown heat-map axes before running
-    from bhr.atomic import OutputFolder
+    from bhr.output.atomic import OutputFolder
 
     out = Path(out_dir) if out_dir else Path("bhr-out") / (Path(sweep_file).stem if sweep_file else "sweep")
     folder = OutputFolder(out, "sweep", names=SWEEP_NAMES, what="sweep output folder").check()  # before any work
     total = len(s)
     client = None
     if scheduler is not None:
-        from bhr.executor import connect_scheduler
+        from bhr.studies.executor import connect_scheduler
 
         client = connect_scheduler(scheduler)  # fails in one line before anything starts
     where = f"on {scheduler}" if scheduler else ""

@@ -46,8 +46,8 @@ def traverse(grid, colons, solvers, target_pass, robot_file, out_dir, jobs, sche
 
         bhr traverse --grid alpha=10:30:5 --grid module_length=5,6,8,10 --colons 1-100
     """
-    from bhr.sweep import parse_grid_option
-    from bhr.traverse import build_study, format_study, heatmap_axes, run_study, write_study
+    from bhr.studies.sweep import parse_grid_option
+    from bhr.studies.traverse import build_study, format_study, heatmap_axes, run_study, write_study
 
     check_executor(jobs, scheduler)
     study = build_study([parse_grid_option(g) for g in grid], colons, solvers=solvers or ("thesis",),
@@ -58,7 +58,7 @@ def traverse(grid, colons, solvers, target_pass, robot_file, out_dir, jobs, sche
         check_writable(out / name, "study output")
     client = None
     if scheduler is not None:
-        from bhr.executor import connect_scheduler
+        from bhr.studies.executor import connect_scheduler
 
         client = connect_scheduler(scheduler)  # fails in one line before anything starts
     err = sys.stderr

@@ -1,4 +1,4 @@
-"""Anatomical colons (bhr.anatomy): determinism, spacing, published ranges, continuity, files, command line."""
+"""Anatomical colons (bhr.model.anatomy): determinism, spacing, published ranges, continuity, files, command line."""
 from __future__ import annotations
 
 import json
@@ -9,9 +9,9 @@ import pytest
 from hypothesis import given, settings, strategies as st
 
 import bhr
-from bhr.anatomy import RANGES, SECTIONS, SEED_MAX, SHIPPED, anatomical_colon, anatomy_csv_text, check_seed
-from bhr.errors import BhrError
-from bhr.generators import anatomy_trajectory, builtin_names, colon, load_trajectory
+from bhr.model.anatomy import RANGES, SECTIONS, SEED_MAX, SHIPPED, anatomical_colon, anatomy_csv_text, check_seed
+from bhr.settings.errors import BhrError
+from bhr.model.generators import anatomy_trajectory, builtin_names, colon, load_trajectory
 from tests.conftest import REPO
 
 seeds = st.integers(min_value=0, max_value=SEED_MAX)

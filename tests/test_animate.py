@@ -21,9 +21,9 @@ import pytest
 from hypothesis import given, strategies as st
 from PIL import Image
 
-from bhr.animate import MAX_FRAMES, default_stride, frame_steps, frame_view
-from bhr.errors import BhrError
-from bhr.driver import load_run
+from bhr.output.animate import MAX_FRAMES, default_stride, frame_steps, frame_view
+from bhr.settings.errors import BhrError
+from bhr.run.driver import load_run
 from tests.conftest import bhr_exe, snapshot
 
 TEN_MB = 10 * 1024 * 1024
@@ -293,9 +293,9 @@ def test_animation_refused_with_one_line_before_any_work(tmp_path, args, env, me
 
 
 def test_failed_render_leaves_the_old_file_untouched(tmp_path):
-    from bhr.animate import animate
-    from bhr.driver import follow
-    from bhr.generators import load_trajectory
+    from bhr.output.animate import animate
+    from bhr.run.driver import follow
+    from bhr.model.generators import load_trajectory
 
     result = follow(load_trajectory("line", length=30))
     target = tmp_path / "anim.gif"

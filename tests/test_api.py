@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 import bhr
-from bhr.errors import BhrError
-from bhr.driver import Summary
+from bhr.settings.errors import BhrError
+from bhr.run.driver import Summary
 
 
 def test_solve_applies_robot_overrides():
@@ -60,11 +60,11 @@ def test_follow_and_trajectory_are_plain_functions_in_modules_of_other_names():
     import subprocess
     import sys
 
-    import bhr.driver
-    import bhr.generators
+    import bhr.run.driver
+    import bhr.model.generators
 
-    assert inspect.isfunction(bhr.follow) and bhr.follow is bhr.driver.follow
-    assert inspect.isfunction(bhr.trajectory) and bhr.trajectory is bhr.generators.trajectory
+    assert inspect.isfunction(bhr.follow) and bhr.follow is bhr.run.driver.follow
+    assert inspect.isfunction(bhr.trajectory) and bhr.trajectory is bhr.model.generators.trajectory
     # the old module names still import, once more with a warning, and never shadow the functions
     code = ("import warnings, inspect\n"
             "warnings.simplefilter('error', DeprecationWarning)\n"
@@ -77,9 +77,9 @@ def test_follow_and_trajectory_are_plain_functions_in_modules_of_other_names():
             "warnings.simplefilter('ignore', DeprecationWarning)\n"
             "from bhr.follow import load_run\n"
             "from bhr.trajectory import load_trajectory\n"
-            "import bhr.driver, bhr.generators\n"
-            "assert load_run is bhr.driver.load_run and load_trajectory is bhr.generators.load_trajectory\n"
+            "import bhr.run.driver, bhr.model.generators\n"
+            "assert load_run is bhr.run.driver.load_run and load_trajectory is bhr.model.generators.load_trajectory\n"
             "assert inspect.isfunction(bhr.follow) and inspect.isfunction(bhr.trajectory)\n")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert out.returncode == 0, out.stderr
-    assert out.stdout.strip() == "bhr.follow is deprecated; import load_run from bhr.driver"
+    assert out.stdout.strip() == "bhr.follow is deprecated; import load_run from bhr.run.driver"

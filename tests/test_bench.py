@@ -6,12 +6,12 @@ import pytest
 
 from bhr.bench.cases import (CASES, OPTIMAL_PER_STEP, check_optimal_reference, format_table, numpy_body, numpy_ccd,
                        numpy_fabrik, numpy_optimal_follow, numpy_seed_follow, run_case)
-from bhr.body import BODY_BEAM, module1_frames, simulate_body
-from bhr.driver import follow
-from bhr.robot import straight_chain
+from bhr.run.body import BODY_BEAM, module1_frames, simulate_body
+from bhr.run.driver import follow
+from bhr.model.robot import straight_chain
 from bhr.solvers.ccd import ccd_kernel
 from bhr.solvers.fabrik import fabrik_kernel
-from bhr.generators import load_trajectory
+from bhr.model.generators import load_trajectory
 
 
 @pytest.mark.parametrize("target", [(15.0, 6.0, 0.0), (3.0, 9.0, 0.0), (-4.0, 7.0, 5.0)])
@@ -45,7 +45,7 @@ def test_optimal_reference_chooses_the_same_codes(name, params):
 
 def test_optimal_reference_cost_is_the_solvers():
     """The reference's minimum cost at a step is the cost the solver's own search finds from the same chain."""
-    from bhr.robot import Robot
+    from bhr.model.robot import Robot
     from bhr.solvers import Chain
     from bhr.solvers.optimal import search_all
 

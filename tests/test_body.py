@@ -7,10 +7,10 @@ import math
 import numpy as np
 import pytest
 
-from bhr.body import module1_frames, simulate_body, whole_robot
-from bhr.errors import BhrError
-from bhr.driver import follow
-from bhr.generators import load_trajectory
+from bhr.run.body import module1_frames, simulate_body, whole_robot
+from bhr.settings.errors import BhrError
+from bhr.run.driver import follow
+from bhr.model.generators import load_trajectory
 
 
 def unit(v):

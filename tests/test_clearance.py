@@ -6,9 +6,9 @@ import json
 import numpy as np
 import pytest
 
-from bhr.clearance import clearance_table, step_ranges
-from bhr.driver import follow
-from bhr.generators import COLON_SECTIONS, colon, load_trajectory
+from bhr.run.clearance import clearance_table, step_ranges
+from bhr.run.driver import follow
+from bhr.model.generators import COLON_SECTIONS, colon, load_trajectory
 
 
 def with_lumen(tr, diameter):
@@ -98,7 +98,7 @@ def test_plots_mark_the_touches(tmp_path):
     import matplotlib
 
     matplotlib.use("Agg")
-    from bhr.plots import clearance_figure, error_figure, path_figure, save_run_plots
+    from bhr.output.plots import clearance_figure, error_figure, path_figure, save_run_plots
 
     r = follow(with_lumen(load_trajectory("curve", angle=180.0), 16.0), solver="seed", body_modules=8)
     assert r.summary.to_dict()["wall_touch_steps"]
@@ -129,7 +129,7 @@ def test_follow_cli_reports_clearance(run_bhr, tmp_path):
 from hypothesis import given, settings  # noqa: E402
 from hypothesis import strategies as st  # noqa: E402
 
-from bhr.clearance import clearance_run, clearance_run_numpy, make_tube, run_chain  # noqa: E402
+from bhr.run.clearance import clearance_run, clearance_run_numpy, make_tube, run_chain  # noqa: E402
 
 
 def test_kernel_equals_numpy_reference_on_a_run_with_a_body():
@@ -240,8 +240,8 @@ def test_a_point_is_followed_along_the_centerline_from_step_to_step():
 def test_a_lumen_narrower_than_the_robot_is_warned_about(tmp_path):
     import warnings
 
-    from bhr.driver import BhrWarning
-    from bhr.generators import load_trajectory
+    from bhr.run.driver import BhrWarning
+    from bhr.model.generators import load_trajectory
 
     x = np.arange(0.0, 60.0, 1.0)
     for width, warned in ((8.0, True), (10.0, False), (30.0, False)):

@@ -7,10 +7,10 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from bhr import codes
+from bhr.model import codes
 from bhr.kinematics import codetable as T
 from bhr.kinematics.frames import TILT_AXES, tilt_frame, tilt_reference
-from bhr.robot import base_frame
+from bhr.model.robot import base_frame
 
 DOCS = Path(__file__).resolve().parent.parent / "docs" / "conventions.md"
 
@@ -32,7 +32,7 @@ def test_codes_bits_are_the_actuators_on():
 
 
 def test_every_part_of_bhr_uses_the_one_table():
-    from bhr.body import _CODE, _INVERSE
+    from bhr.run.body import _CODE, _INVERSE
     from bhr.solvers.optimal import CODE_OF
 
     assert codes.VALID_CODES is T.VALID_CODES and codes.TILT_CODES is T.TILT_CODES

@@ -6,11 +6,11 @@ import json
 import numpy as np
 import pytest
 
-from bhr.compare import compare_rows, compare_runs, format_table
-from bhr.errors import BhrError
-from bhr.driver import follow
-from bhr.robot import Robot
-from bhr.generators import load_trajectory
+from bhr.studies.compare import compare_rows, compare_runs, format_table
+from bhr.settings.errors import BhrError
+from bhr.run.driver import follow
+from bhr.model.robot import Robot
+from bhr.model.generators import load_trajectory
 
 
 def test_rows_are_the_runs_numbers():

@@ -6,8 +6,8 @@ from pathlib import Path
 
 import pytest
 
-from bhr.errors import BhrError
-from bhr.executor import capture, reason, run_jobs
+from bhr.settings.errors import BhrError
+from bhr.studies.executor import capture, reason, run_jobs
 
 
 def square(job: tuple[int, str]) -> dict:

@@ -19,10 +19,10 @@ import pytest  # noqa: E402
 from matplotlib.backends.backend_agg import FigureCanvasAgg  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 
-from bhr.driver import follow  # noqa: E402
-from bhr.plots import (ERROR_KINDS, FRAME_INCHES, LUMEN_WALL, StepView, body_figure, error_figure,  # noqa: E402
+from bhr.run.driver import follow  # noqa: E402
+from bhr.output.plots import (ERROR_KINDS, FRAME_INCHES, LUMEN_WALL, StepView, body_figure, error_figure,  # noqa: E402
                        lumen_walls, path_figure, zoom_half_width, FRAME_ZOOM)
-from bhr.generators import load_trajectory  # noqa: E402
+from bhr.model.generators import load_trajectory  # noqa: E402
 
 
 @pytest.fixture(scope="module")
@@ -216,8 +216,8 @@ def test_3d_frames_follow_the_robot(spiral):
 
 
 def test_compare_figure_has_step_numbers_tolerance_and_each_solvers_worst_step():
-    from bhr.compare import compare_figure, compare_runs
-    from bhr.robot import Robot
+    from bhr.studies.compare import compare_figure, compare_runs
+    from bhr.model.robot import Robot
 
     runs = compare_runs(load_trajectory("curve", angle=180.0), ["seed", "fabrik"], Robot())
     fig = compare_figure(runs)

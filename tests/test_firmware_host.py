@@ -16,8 +16,7 @@ from pathlib import Path
 
 import pytest
 
-from bhr import protocol as P
-
+from bhr.hardware import protocol as P
 REPO = Path(__file__).resolve().parent.parent
 FIRMWARE = REPO / "firmware"
 

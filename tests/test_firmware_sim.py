@@ -29,9 +29,9 @@ from pathlib import Path
 
 import pytest
 
-from bhr import protocol as P
-from bhr.codes import format_codes_csv, read_codes_csv
-from bhr.thermal import DEFAULT_THERMAL as THERMAL
+from bhr.hardware import protocol as P
+from bhr.model.codes import format_codes_csv, read_codes_csv
+from bhr.hardware.thermal import DEFAULT_THERMAL as THERMAL
 
 REPO = Path(__file__).resolve().parent.parent
 FIRMWARE = REPO / "firmware"
@@ -138,7 +138,7 @@ class Sim:
             self.stop()
             raise AssertionError(f"no PTY line from {cmd}: {self.preamble} {self.err_path.read_text()}")
         self.wait_for(lambda ev: ev[-1]["ev"] == "latch", 5)  # firmware booted and cleared the chain
-        from bhr.link import BoardLink, wait_until_ready
+        from bhr.hardware.link import BoardLink, wait_until_ready
 
         with BoardLink(self.pty) as link:  # a powered-up board cools its wires first
             self.cooled_s = wait_until_ready(link, timeout=10)
@@ -351,7 +351,7 @@ def test_every_code_on_every_module_reaches_the_outputs_in_order(sim, tmp_path):
     assert r.returncode == 0, r.stderr
     assert_last_row_on_the_pins(s, rows[-1])
     check_stream_reached_the_pins(s, rows)
-    from bhr.link import BoardLink
+    from bhr.hardware.link import BoardLink
 
     with BoardLink(s.pty) as link:
         link.stop_all()  # a state that does not change with time, for the command below
@@ -369,7 +369,7 @@ def test_every_code_on_every_module_reaches_the_outputs_in_order(sim, tmp_path):
 
 
 def test_a_fast_stream_needs_no_retry(sim):
-    from bhr.link import BoardLink, stream_codes
+    from bhr.hardware.link import BoardLink, stream_codes
 
     # wires only ever come on (a wire released and energised again within its relaxation time would be
     # held off by the board): 500 rows, one module more every 100
@@ -461,7 +461,7 @@ def test_a_silent_host_gets_everything_switched_off_within_the_timeout(sim, tmp_
 
 
 def test_a_tilt_held_15_s_stays_held_with_the_model_s_hold_duty(sim):
-    from bhr.link import BoardLink
+    from bhr.hardware.link import BoardLink
 
     s = sim()
     time.sleep(4.0)  # let the wires cool from the power-up cool-down to ambient (theta 0.009)
@@ -493,7 +493,7 @@ def test_a_tilt_held_15_s_stays_held_with_the_model_s_hold_duty(sim):
 
 
 def test_a_hot_wire_is_not_re_energised_before_it_relaxed(sim):
-    from bhr.link import BoardLink
+    from bhr.hardware.link import BoardLink
 
     s = sim()
     with BoardLink(s.pty) as link:
@@ -550,7 +550,7 @@ def test_floods_of_every_frame_type_leave_on_time_and_duty_within_limits(sim):
             port.reset_input_buffer()
         t_end = time.monotonic()
         time.sleep(1.0)  # the board answers the last burst's backlog (replies whose seq numbers a new link would reuse)
-    from bhr.link import BoardLink
+    from bhr.hardware.link import BoardLink
 
     with BoardLink(s.pty) as link:
         doc = link.status()
@@ -689,7 +689,7 @@ def test_robot_file_link_gives_port_and_module_order(sim, tmp_path):
     f.write_text(format_codes_csv([[3, 6, 0, 0, 15]]))
     r = run_bhr("stream", "--robot", robot, "--codes", f, "--rate", "20")
     assert r.returncode == 0, r.stderr
-    from bhr.link import BoardLink
+    from bhr.hardware.link import BoardLink
 
     # (in this process: a `bhr status` started on a busy machine can take longer than the silence timeout)
     with BoardLink(s.pty, module_order=(5, 4, 3, 2, 1)) as link:

@@ -9,8 +9,8 @@ from click.testing import CliRunner
 
 import bhr
 from bhr.cli.main import main
-from bhr.driver import BhrWarning, follow
-from bhr.generators import load_trajectory
+from bhr.run.driver import BhrWarning, follow
+from bhr.model.generators import load_trajectory
 
 DATA = Path(__file__).parent / "data"
 

@@ -6,9 +6,9 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from bhr.codes import VALID_CODES, check_code, is_valid_code
-from bhr.errors import BhrError
-from bhr.robot import Robot, base_frame, forward_kinematics
+from bhr.model.codes import VALID_CODES, check_code, is_valid_code
+from bhr.settings.errors import BhrError
+from bhr.model.robot import Robot, base_frame, forward_kinematics
 from bhr.solvers import Chain, get_solver
 
 coord = st.floats(-30, 30, allow_nan=False)

@@ -7,9 +7,9 @@ from hypothesis import strategies as st
 
 from bhr.kinematics.frames import fk_kernel, fk_reference, tilt_frame, tilt_reference
 from bhr.kinematics.leader import advance_kernel, advance_reference, score_reference, score_step
-from bhr.robot import Robot, base_frame, forward_kinematics
-from bhr.generators import load_trajectory
-from bhr.driver import follow
+from bhr.model.robot import Robot, base_frame, forward_kinematics
+from bhr.model.generators import load_trajectory
+from bhr.run.driver import follow
 
 seeds = st.integers(min_value=0, max_value=2**32 - 1)
 

@@ -16,8 +16,8 @@ from hypothesis import strategies as st
 
 import bhr
 import bhr.solvers as solvers
-from bhr.errors import BhrError
-from bhr.path import Trajectory, resample_polyline, spacing
+from bhr.settings.errors import BhrError
+from bhr.model.path import Trajectory, resample_polyline, spacing
 
 
 def _library_modules():
@@ -54,7 +54,7 @@ def test_trajectory_carries_points_feed_and_lumen():
 def test_follow_draws_a_trajectory_again_at_the_robots_feed():
     """The library gives the command line's answer: the curve at module length 5 mm is drawn at a 1 mm feed."""
     lib = bhr.follow(bhr.trajectory("curve"), module_length=5)
-    cli_like = bhr.follow(bhr.generators.load_trajectory("curve", feed=1.0), module_length=5)
+    cli_like = bhr.follow(bhr.model.generators.load_trajectory("curve", feed=1.0), module_length=5)
     assert lib.trajectory.feed == 1.0 and lib.steps == cli_like.steps
     assert lib.summary.tip_max_error_mm == cli_like.summary.tip_max_error_mm
     assert lib.summary.tip_max_error_mm < 1.0  # not the 63 mm of a 2 mm path driven at a 1 mm feed
@@ -75,7 +75,7 @@ def test_points_spaced_otherwise_than_the_feed_are_refused_naming_the_fix():
 
 def test_at_feed_draws_builtins_again_exactly():
     t = bhr.trajectory("spiral").at_feed(1.0)
-    assert np.array_equal(t.points, bhr.generators.load_trajectory("spiral", feed=1.0).points)
+    assert np.array_equal(t.points, bhr.model.generators.load_trajectory("spiral", feed=1.0).points)
     assert t.at_feed(1.0) is t
 
 

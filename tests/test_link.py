@@ -1,8 +1,8 @@
-"""bhr.link and the `bhr stream` / `bhr status` commands over real serial I/O.
+"""bhr.hardware.link and the `bhr stream` / `bhr status` commands over real serial I/O.
 
 The peer is either pyserial's ``loop://`` (which answers nothing: every frame
 comes back as itself) or a small board emulator on the master side of a
-pseudo-terminal pair, speaking bhr.protocol. The real firmware is exercised
+pseudo-terminal pair, speaking bhr.hardware.protocol. The real firmware is exercised
 in test_firmware_sim.py.
 """
 from __future__ import annotations
@@ -20,9 +20,9 @@ from pathlib import Path
 
 import pytest
 
-from bhr import protocol as P
-from bhr.errors import BhrError, LinkError
-from bhr.link import BoardLink, StreamInterrupted, stream_codes
+from bhr.hardware import protocol as P
+from bhr.settings.errors import BhrError, LinkError
+from bhr.hardware.link import BoardLink, StreamInterrupted, stream_codes
 
 VALID = (0, 3, 6, 9, 12, 15)
 
@@ -259,7 +259,7 @@ def test_port_vanishing_mid_stream_is_one_line(board):
 
 
 def write_codes(path: Path, rows) -> Path:
-    from bhr.codes import format_codes_csv
+    from bhr.model.codes import format_codes_csv
 
     path.write_text(format_codes_csv(rows))
     return path

@@ -17,9 +17,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bhr.atomic import write_json
-from bhr.driver import follow, load_run
-from bhr.generators import load_trajectory
+from bhr.output.atomic import write_json
+from bhr.run.driver import follow, load_run
+from bhr.model.generators import load_trajectory
 from tests.conftest import bhr_exe, snapshot
 from tests.test_animate import check_frame, need_tool
 
@@ -124,7 +124,7 @@ def screen_view(result):
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
-    from bhr.plots import FRAME_INCHES, StepView
+    from bhr.output.plots import FRAME_INCHES, StepView
 
     fig = Figure(figsize=FRAME_INCHES, dpi=100)
     FigureCanvasAgg(fig)

@@ -8,13 +8,13 @@ import numpy as np
 import pytest
 
 from bhr.bench.lumen import tight_colon
-from bhr.clearance import make_tube
-from bhr.errors import BhrError
-from bhr.driver import follow
-from bhr.robot import Robot, forward_kinematics
+from bhr.run.clearance import make_tube
+from bhr.settings.errors import BhrError
+from bhr.run.driver import follow
+from bhr.model.robot import Robot, forward_kinematics
 from bhr.solvers import get_solver
 from bhr.solvers.lumen import DEFAULTS, head_cost, lumen_config_cost
-from bhr.generators import Trajectory, load_trajectory
+from bhr.model.generators import Trajectory, load_trajectory
 
 CODES = (0, 3, 6, 12, 9)
 

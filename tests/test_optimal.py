@@ -10,14 +10,14 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from bhr.codes import VALID_CODES
-from bhr.errors import BhrError
-from bhr.driver import follow
-from bhr.path import path_directions
-from bhr.robot import Robot, base_frame, forward_kinematics
+from bhr.model.codes import VALID_CODES
+from bhr.settings.errors import BhrError
+from bhr.run.driver import follow
+from bhr.model.path import path_directions
+from bhr.model.robot import Robot, base_frame, forward_kinematics
 from bhr.solvers import get_solver
 from bhr.solvers.optimal import DEFAULTS, config_cost, path_features, search_all, search_head
-from bhr.generators import load_trajectory
+from bhr.model.generators import load_trajectory
 
 SEARCHED = (0, 3, 6, 12, 9)  # rest and the four tilts; lift (15) is not searched
 

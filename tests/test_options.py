@@ -1,17 +1,17 @@
-"""One option registry (bhr.options): CLI options, robot files, batch files and sweep grids agree."""
+"""One option registry (bhr.settings.options): CLI options, robot files, batch files and sweep grids agree."""
 import dataclasses
 import re
 
 import pytest
 
-from bhr.errors import BhrError
-from bhr.options import OPTIONS, by_group
-from bhr.report import parse_batch
-from bhr.robot import Robot
-from bhr.robotfile import ROBOT_KEYS as FILE_KEYS
+from bhr.settings.errors import BhrError
+from bhr.settings.options import OPTIONS, by_group
+from bhr.studies.report import parse_batch
+from bhr.model.robot import Robot
+from bhr.model.robotfile import ROBOT_KEYS as FILE_KEYS
 from bhr.solvers.lumen import DEFAULTS as LUMEN_DEFAULTS
 from bhr.solvers.optimal import DEFAULTS
-from bhr.sweep import GRID_KEYS, build_sweep, parse_values, run_design
+from bhr.studies.sweep import GRID_KEYS, build_sweep, parse_values, run_design
 
 
 def test_robot_defaults_are_the_registry_defaults():

@@ -304,8 +304,7 @@ def test_a_busy_port_says_so(tmp_path):
 
 def test_replies_of_another_protocol_version_are_refused(tmp_path):
     """A peer on a real pty answers every frame correctly framed but in protocol version 2: one clear line."""
-    from bhr import protocol as P
-
+    from bhr.hardware import protocol as P
     master, slave = os.openpty()
     name = os.ttyname(slave)
     import tty
@@ -356,7 +355,7 @@ def test_dev_stdout_as_a_target_is_written_in_place(tmp_path):
 def test_a_user_may_write_to_a_device_in_a_folder_they_cannot_write(tmp_path):
     """Non-root --json /dev/null: the device's own permission counts, not its folder's (a forked child drops to
     uid 65534 and runs the same check and write the command runs)."""
-    from bhr.atomic import check_output_file, write_json
+    from bhr.output.atomic import check_output_file, write_json
 
     import shutil
     import tempfile
@@ -399,7 +398,7 @@ def test_output_folder_always_holds_the_last_whole_set(tmp_path_factory):
     from hypothesis import given, settings
     from hypothesis import strategies as st
 
-    from bhr.atomic import OutputFolder, write_text
+    from bhr.output.atomic import OutputFolder, write_text
 
     names = st.sets(st.sampled_from(["run.json", "codes.csv", "a.png", "b.png"]), min_size=1)
 

@@ -1,12 +1,12 @@
-"""bhr.protocol: frames, CRC, status parsing and the resynchronizing stream decoder."""
+"""bhr.hardware.protocol: frames, CRC, status parsing and the resynchronizing stream decoder."""
 from __future__ import annotations
 
 import random
 
 import pytest
 
-from bhr import protocol as P
-from bhr.errors import BhrError
+from bhr.hardware import protocol as P
+from bhr.settings.errors import BhrError
 
 P_VALID = (0, 3, 6, 9, 12, 15)
 
@@ -151,8 +151,8 @@ def test_protocol_imports_without_click():
     import subprocess
     import sys
 
-    code = ("import sys; sys.modules['click'] = None; import bhr.protocol, bhr.link; "
-            "print(bhr.protocol.crc16(b'123456789'))")
+    code = ("import sys; sys.modules['click'] = None; import bhr.hardware.protocol, bhr.hardware.link; "
+            "print(bhr.hardware.protocol.crc16(b'123456789'))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
     assert out.returncode == 0, out.stderr
     assert out.stdout.strip() == str(0x29B1)

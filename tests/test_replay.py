@@ -10,11 +10,11 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from bhr.animate import frame_steps, frame_view
-from bhr.atomic import write_json
-from bhr.errors import BhrError
-from bhr.driver import FollowResult, follow, load_run
-from bhr.generators import load_trajectory
+from bhr.output.animate import frame_steps, frame_view
+from bhr.output.atomic import write_json
+from bhr.settings.errors import BhrError
+from bhr.run.driver import FollowResult, follow, load_run
+from bhr.model.generators import load_trajectory
 from tests.conftest import bhr_exe, snapshot
 from tests.test_animate import check_frame, gif_frame
 
@@ -141,7 +141,7 @@ def test_replay_reads_standard_input_and_draws_a_chosen_step(tmp_path, curve_run
     assert res.returncode == 0, res.stderr
     assert sorted(p.name for p in (tmp_path / "figs").iterdir()) == [
         "global_errors.png", "manifest.json", "orientation_errors.png", "path-step40.png", "position_errors.png"]
-    from bhr.plots import path_figure
+    from bhr.output.plots import path_figure
 
     img = np.asarray(Image.open(tmp_path / "figs" / "path-step40.png").convert("RGB"))
     fig = path_figure(curve_run, 39)

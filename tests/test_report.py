@@ -13,11 +13,11 @@ from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 import bhr
-from bhr.errors import BhrError
-from bhr.driver import follow
-from bhr.report import (ROW_FIELDS, RunSpec, execute_run, format_table, load_batch, parse_batch,
+from bhr.settings.errors import BhrError
+from bhr.run.driver import follow
+from bhr.studies.report import (ROW_FIELDS, RunSpec, execute_run, format_table, load_batch, parse_batch,
                         run_batch, summary_row)
-from bhr.generators import load_trajectory
+from bhr.model.generators import load_trajectory
 from tests.conftest import snapshot
 
 REPO = Path(__file__).resolve().parent.parent
@@ -312,7 +312,7 @@ def test_run_tables_round_trip(values, name):
 
 
 def test_library_imports_without_matplotlib_or_dask():
-    code = ("import sys, bhr.report, bhr.sweep; bad = [m for m in ('matplotlib', 'dask', 'distributed', 'click') "
+    code = ("import sys, bhr.studies.report, bhr.studies.sweep; bad = [m for m in ('matplotlib', 'dask', 'distributed', 'click') "
             "if m in sys.modules]; print(bad); sys.exit(1 if bad else 0)")
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert proc.returncode == 0, proc.stdout + proc.stderr

@@ -9,10 +9,10 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from bhr.codes import CODE_AXIS, VALID_CODES
-from bhr.errors import BhrError
-from bhr.robot import Robot
-from bhr.robotfile import (KEY_ALIASES, LINK_KEYS, ROBOT_KEYS, LinkSettings, code_table, default_robot_file,
+from bhr.model.codes import CODE_AXIS, VALID_CODES
+from bhr.settings.errors import BhrError
+from bhr.model.robot import Robot
+from bhr.model.robotfile import (KEY_ALIASES, LINK_KEYS, ROBOT_KEYS, LinkSettings, code_table, default_robot_file,
                            load_robot_file)
 
 FAST = settings(max_examples=80, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])

@@ -5,10 +5,10 @@ import json
 
 import numpy as np
 
-from bhr.driver import follow
-from bhr.report import summary_row
-from bhr.sweep import METRICS
-from bhr.generators import load_trajectory
+from bhr.run.driver import follow
+from bhr.studies.report import summary_row
+from bhr.studies.sweep import METRICS
+from bhr.model.generators import load_trajectory
 
 
 def scored_rmse(values: np.ndarray, first: int) -> float:

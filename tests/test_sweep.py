@@ -14,12 +14,12 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from bhr.errors import BhrError
-from bhr.driver import follow
-from bhr.robot import Robot
-from bhr.sweep import (Sweep, build_sweep, heatmap_axes, heatmap_cells, parse_grid_option, parse_values,
+from bhr.settings.errors import BhrError
+from bhr.run.driver import follow
+from bhr.model.robot import Robot
+from bhr.studies.sweep import (Sweep, build_sweep, heatmap_axes, heatmap_cells, parse_grid_option, parse_values,
                        run_sweep, sweep_from_toml)
-from bhr.generators import load_trajectory
+from bhr.model.generators import load_trajectory
 from tests.conftest import bhr_exe, snapshot
 
 REPO = Path(__file__).resolve().parent.parent
@@ -145,7 +145,7 @@ def test_rows_are_what_follow_gives():
         assert r["min_turn_radius_mm"] == robot.min_turn_radius and r["min_clearance_mm"] is None
 
 
-@pytest.mark.filterwarnings("ignore::bhr.driver.BhrWarning")
+@pytest.mark.filterwarnings("ignore::bhr.run.driver.BhrWarning")
 def test_designs_start_from_a_robot_file(tmp_path):
     """--robot / robot = "FILE": every design is the file's robot with its grid values on top."""
     (tmp_path / "r.toml").write_text("modules = 4\nmodule_length = 12\nstroke = 1\nlever = 6\n")
@@ -243,7 +243,7 @@ def test_bad_command_lines_are_one_line(tmp_path):
 def test_example_file_with_command_line_override(tmp_path):
     """The documented 1,000-design file parses to 1,000 designs; --grid replaces one of its keys."""
     ex = REPO / "docs" / "examples" / "sweep1000.toml"
-    from bhr.sweep import load_sweep
+    from bhr.studies.sweep import load_sweep
 
     assert len(load_sweep(ex)) == 1000
     proc = run_cli("sweep", "--file", ex, "--grid", "modules=4", "--grid", "alpha=10", "--grid", "module_length=10",
@@ -352,7 +352,7 @@ def test_unreachable_scheduler_is_one_line(tmp_path):
 
 def test_a_port_that_is_not_a_scheduler_times_out():
     """A listening socket that never speaks Dask fails after the timeout instead of hanging."""
-    from bhr.sweep import connect_scheduler
+    from bhr.studies.sweep import connect_scheduler
 
     with socket.socket() as srv:
         srv.bind(("127.0.0.1", 0))
@@ -397,7 +397,7 @@ def test_clearance_where_the_trajectory_has_a_lumen(tmp_path):
     assert r0["min_clearance_mm"] == direct["min_clearance_mm"]
     cells = heatmap_cells(res, "modules", "alpha", "min_clearance_mm", min)
     assert cells[0][0] == min(r["min_clearance_mm"] for r in tube if r["modules"] == 4 and r["alpha"] == 9)
-    from bhr.sweep import heatmap_figure
+    from bhr.studies.sweep import heatmap_figure
 
     fig = heatmap_figure(res)
     titles = [ax.get_title() for ax in fig.axes if ax.get_title()]
@@ -413,7 +413,7 @@ def test_heatmap_has_a_panel_per_third_axis_units_over_tolerance_and_the_thesis_
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from bhr.sweep import heatmap_figure, heatmap_panels
+    from bhr.studies.sweep import heatmap_figure, heatmap_panels
 
     s = build_sweep(["curve"], ["seed"], [("angle", (90, 360)), ("modules", (4, 5, 6)), ("alpha", (6, 10, 14)),
                                           ("module_length", (10, 16))])
@@ -449,7 +449,7 @@ def test_heatmap_has_a_panel_per_third_axis_units_over_tolerance_and_the_thesis_
 
 
 def test_sweep_page_headers_are_words_and_ranking_comes_first(tmp_path):
-    from bhr.sweep import METRICS, write_outputs
+    from bhr.studies.sweep import METRICS, write_outputs
 
     s = build_sweep(["curve"], ["seed"], [("modules", (4, 5)), ("module_length", (8, 10))])
     res = run_sweep(s, jobs=1)
@@ -474,7 +474,7 @@ def test_heatmap_names_the_thesis_design_only_where_it_frames_it():
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from bhr.sweep import heatmap_figure
+    from bhr.studies.sweep import heatmap_figure
 
     res = run_sweep(build_sweep(["curve"], ["seed"], [("modules", (4, 5)), ("alpha", (9, 11))]), jobs=1)
     fig = heatmap_figure(res)  # alpha 10 is not on the grid: nothing to frame, nothing to name

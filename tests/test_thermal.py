@@ -1,7 +1,7 @@
 """The thermal model of the actuator wires (bhr/thermal.py, docs/thermal.md).
 
 The same integer model runs in the firmware (firmware/src/board.c): the C
-build on this machine replays a scenario and bhr.thermal reproduces every
+build on this machine replays a scenario and bhr.hardware.thermal reproduces every
 temperature bit for bit. The compiled kernel equals its numpy reference, the
 generated firmware header is current, and schedules are checked and
 stretched as the docs say.
@@ -17,9 +17,9 @@ import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
-from bhr import thermal as T
-from bhr.errors import BhrError
-from bhr.firmware_header import HEADER, render
+from bhr.hardware import thermal as T
+from bhr.settings.errors import BhrError
+from bhr.hardware.firmware_header import HEADER, render
 
 REPO = Path(__file__).resolve().parent.parent
 FIRMWARE = REPO / "firmware"
@@ -28,8 +28,8 @@ VALID = (0, 3, 6, 9, 12, 15)
 
 
 def test_the_checked_in_firmware_header_is_current():
-    assert HEADER.read_text() == render(), "run 'python -m bhr.firmware_header' and commit firmware/src/bhr_gen.h"
-    assert subprocess.run(["python", "-m", "bhr.firmware_header", "--check"], cwd=REPO).returncode == 0
+    assert HEADER.read_text() == render(), "run 'python -m bhr.hardware.firmware_header' and commit firmware/src/bhr_gen.h"
+    assert subprocess.run(["python", "-m", "bhr.hardware.firmware_header", "--check"], cwd=REPO).returncode == 0
 
 
 def test_default_figures_follow_from_the_datasheet_values():

@@ -6,7 +6,7 @@ import pytest
 
 import bhr
 from bhr.solvers import available, canonical, get_solver
-from bhr.robot import Robot
+from bhr.model.robot import Robot
 
 
 def test_seed_is_an_alias_of_thesis():

@@ -9,9 +9,9 @@ import pytest
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
-from bhr.errors import BhrError
-from bhr.pathfile import estimate_min_radius, resample_polyline
-from bhr.generators import COLON_SECTIONS, GENERATORS, colon, load_trajectory
+from bhr.settings.errors import BhrError
+from bhr.model.pathfile import estimate_min_radius, resample_polyline
+from bhr.model.generators import COLON_SECTIONS, GENERATORS, colon, load_trajectory
 
 FAST = settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 

@@ -15,11 +15,11 @@ import pytest
 from hypothesis import given, settings, strategies as st
 
 import bhr
-from bhr.errors import BhrError
-from bhr.driver import BhrWarning
-from bhr.robot import Robot
-from bhr.generators import load_trajectory
-from bhr.traverse import answer, build_study, design_rows, parse_colons, run_study
+from bhr.settings.errors import BhrError
+from bhr.run.driver import BhrWarning
+from bhr.model.robot import Robot
+from bhr.model.generators import load_trajectory
+from bhr.studies.traverse import answer, build_study, design_rows, parse_colons, run_study
 from tests.conftest import bhr_exe
 from tests.test_sweep import dask_cluster  # noqa: F401 - the real LocalCluster fixture
 

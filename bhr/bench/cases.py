@@ -296,8 +296,8 @@ def numpy_optimal_follow(path: np.ndarray, start_point: np.ndarray, start_direct
     Returns (codes (N, n), point errors (N, n+1)) and, with ``return_costs``,
     the minimum cost of each step (N,).
     """
-    from bhr.path import path_directions
-    from bhr.robot import Robot
+    from bhr.model.path import path_directions
+    from bhr.model.robot import Robot
     from bhr.solvers import Chain
 
     DEG = 180.0 / math.pi
@@ -351,7 +351,7 @@ def numpy_optimal_follow(path: np.ndarray, start_point: np.ndarray, start_direct
 
 def numpy_body(P0s: np.ndarray, F1s: np.ndarray, start: np.ndarray, nb: int, f: int, feed: float, L: float,
                alpha: float, beam: int = 16):
-    """The body's beam search (bhr.body) in numpy: rear ends (N, nb, 3) and codes (N, nb) at every step."""
+    """The body's beam search (bhr.run.body) in numpy: rear ends (N, nb, 3) and codes (N, nb) at every step."""
     a = math.radians(alpha)
     c, s = math.cos(a), math.sin(a)
     inverse = SEARCH_INVERSE
@@ -390,7 +390,7 @@ def numpy_body(P0s: np.ndarray, F1s: np.ndarray, start: np.ndarray, nb: int, f: 
 
 def case_fabrik(repeat: int = 7) -> BenchResult:
     """Unconstrained FABRIK, 10-module chapter 5 chain, target (15, 6, 0) (Table 5.7)."""
-    from bhr.robot import straight_chain
+    from bhr.model.robot import straight_chain
     from bhr.solvers.fabrik import fabrik_kernel
 
     P0 = straight_chain(10, 2.0, (0, 1, 0))
@@ -412,7 +412,7 @@ def case_fabrik(repeat: int = 7) -> BenchResult:
 
 def case_ccd(repeat: int = 7) -> BenchResult:
     """CCD, 10-module chapter 5 chain, target (15, 6, 0) (Table 5.7)."""
-    from bhr.robot import straight_chain
+    from bhr.model.robot import straight_chain
     from bhr.solvers.ccd import ccd_kernel
 
     P0 = straight_chain(10, 2.0, (0, 1, 0))
@@ -432,8 +432,8 @@ def case_ccd(repeat: int = 7) -> BenchResult:
 
 def case_seed_colon(repeat: int = 5) -> BenchResult:
     """--solver seed over the whole colon, per step (compiled loop against the numpy loop)."""
-    from bhr.driver import follow
-    from bhr.generators import load_trajectory
+    from bhr.run.driver import follow
+    from bhr.model.generators import load_trajectory
 
     tr = load_trajectory("colon")
     steps = len(tr.points)
@@ -461,7 +461,7 @@ def check_optimal_reference(res, path: np.ndarray, ref_codes: np.ndarray, ref_pe
     (to ``tol_cost``: a tie, which the two break differently), the runs are
     compared up to that step only, and the tie is reported in the result.
     """
-    from bhr.path import path_directions
+    from bhr.model.path import path_directions
     from bhr.solvers.optimal import config_cost
 
     n = res.modules
@@ -487,8 +487,8 @@ def check_optimal_reference(res, path: np.ndarray, ref_codes: np.ndarray, ref_pe
 def case_optimal(repeat: int = 5) -> list[BenchResult]:
     """--solver optimal over the colon: the exact per-step search against numpy; the default's solve time."""
     from bhr.bench.optimal import solve_times
-    from bhr.driver import follow
-    from bhr.generators import load_trajectory
+    from bhr.run.driver import follow
+    from bhr.model.generators import load_trajectory
 
     tr = load_trajectory("colon")
     steps = len(tr.points)
@@ -517,9 +517,9 @@ def case_optimal(repeat: int = 5) -> list[BenchResult]:
 
 def case_body(repeat: int = 5) -> BenchResult:
     """Whole-body follow-the-leader, 60 modules (5 head + 55 body) along the colon, per step."""
-    from bhr.body import BODY_BEAM, module1_frames, simulate_body
-    from bhr.driver import follow
-    from bhr.generators import load_trajectory
+    from bhr.run.body import BODY_BEAM, module1_frames, simulate_body
+    from bhr.run.driver import follow
+    from bhr.model.generators import load_trajectory
 
     tr = load_trajectory("colon")
     res = follow(tr)

@@ -9,7 +9,7 @@ same features: ~660 mm from the rectum to the cecum in 3-D, flexures bent to
 10-15 mm radius, lumen diameter 32-52 mm varying along it. Robot: the
 thesis's (5 modules of 10 mm, alpha 10 deg, radius 5 mm, feed 2 mm).
 
-Per colon, for each solver, the geometric clearance (:mod:`bhr.clearance`):
+Per colon, for each solver, the geometric clearance (:mod:`bhr.run.clearance`):
 ``max_penetration_mm`` and the number of wall-touch steps; then the median
 over colons and the ratios lumen / seed. And the time per step of
 ``--solver lumen`` against ``--solver seed`` on one colon, both driven
@@ -27,10 +27,10 @@ from typing import Any
 
 import numpy as np
 
-from bhr.driver import follow
-from bhr.pathfile import segments_trajectory
-from bhr.robot import Robot
-from bhr.generators import Trajectory
+from bhr.run.driver import follow
+from bhr.model.pathfile import segments_trajectory
+from bhr.model.robot import Robot
+from bhr.model.generators import Trajectory
 
 __all__ = ["tight_colon", "colon_for", "population", "solve_times", "main"]
 
@@ -79,7 +79,7 @@ def tight_colon(seed: int, feed: float = 2.0) -> Trajectory:
 
 def colon_for(seed: int, feed: float = 2.0) -> Trajectory:
     """The anatomical colon of ``seed`` when bhr has the generator, else the stand-in :func:`tight_colon`."""
-    from bhr.generators import GENERATORS, load_trajectory
+    from bhr.model.generators import GENERATORS, load_trajectory
 
     if "anatomy" in GENERATORS:
         return load_trajectory("anatomy", feed=feed, seed=seed)

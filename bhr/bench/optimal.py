@@ -50,15 +50,15 @@ TARGETS = {"curve 90": 0.8, "curve 360": 0.8, "spiral": 0.8, "colon": 0.6}
 
 
 def _robot(robot=None):
-    from bhr.robot import Robot
+    from bhr.model.robot import Robot
 
     return Robot() if robot is None else robot
 
 
 def worst_error_ratios(robot=None, solver_options: dict[str, Any] | None = None) -> list[dict[str, Any]]:
     """Worst point error of optimal and seed on every case, and their ratio (module doc)."""
-    from bhr.driver import follow
-    from bhr.generators import load_trajectory
+    from bhr.run.driver import follow
+    from bhr.model.generators import load_trajectory
 
     robot = _robot(robot)
     rows = []
@@ -76,7 +76,7 @@ def worst_error_ratios(robot=None, solver_options: dict[str, Any] | None = None)
 
 def _step_times(tr, solver: str, robot, options: dict[str, Any] | None) -> np.ndarray:
     """Seconds of each solve() call along ``tr``, driven as bhr.follow's step-by-step loop."""
-    from bhr.path import path_directions
+    from bhr.model.path import path_directions
     from bhr.solvers import Chain, FollowContext, get_solver
 
     path = np.ascontiguousarray(tr.points, dtype=np.float64)
@@ -99,8 +99,8 @@ def _step_times(tr, solver: str, robot, options: dict[str, Any] | None) -> np.nd
 def solve_times(case: str = "colon", robot=None, repeat: int = 3,
                 solver_options: dict[str, Any] | None = None) -> dict[str, Any]:
     """Median per-step solve time (s) of optimal and seed, step by step and in the compiled loop (module doc)."""
-    from bhr.driver import follow
-    from bhr.generators import load_trajectory
+    from bhr.run.driver import follow
+    from bhr.model.generators import load_trajectory
 
     robot = _robot(robot)
     label, name, params = next(c for c in CASES if c[0] == case)
@@ -126,8 +126,8 @@ def solve_times(case: str = "colon", robot=None, repeat: int = 3,
 
 def body_clearance(body_modules: int = 60, solver: str = "optimal", robot=None, case: str = "colon") -> dict[str, Any]:
     """A robot of ``body_modules`` modules along ``case``: body error, minimum clearance, wall touches."""
-    from bhr.driver import follow
-    from bhr.generators import load_trajectory
+    from bhr.run.driver import follow
+    from bhr.model.generators import load_trajectory
 
     robot = _robot(robot)
     label, name, params = next(c for c in CASES if c[0] == case)
@@ -165,8 +165,8 @@ VARIANTS: list[tuple[str, dict[str, Any]]] = [
 
 def sensitivity(robot=None) -> list[dict[str, Any]]:
     """The four ratios for every entry of :data:`VARIANTS` (seed measured once per case)."""
-    from bhr.driver import follow
-    from bhr.generators import load_trajectory
+    from bhr.run.driver import follow
+    from bhr.model.generators import load_trajectory
 
     robot = _robot(robot)
     trajs = [(label, load_trajectory(name, feed=robot.feed, **params)) for label, name, params in CASES]
@@ -242,7 +242,7 @@ def main(argv: list[str] | None = None) -> int:
     else:
         print(text)
         if args.json:
-            from bhr.atomic import write_json
+            from bhr.output.atomic import write_json
 
             write_json(args.json, doc)
     return 0 if all(r["ok"] for r in doc["ratios"]) else 1

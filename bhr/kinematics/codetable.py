@@ -10,9 +10,9 @@ lift). Only these six codes are stable.
 
 :data:`TABLE` is written once, here; everything else is derived from it: the
 constants and lookup arrays below (the compiled kernels index them), the
-checks and CSV reading of :mod:`bhr.codes`, the table in the documentation
+checks and CSV reading of :mod:`bhr.model.codes`, the table in the documentation
 (:func:`markdown_table`, held equal to ``docs/conventions.md`` by a test) and
-the firmware's header (:mod:`bhr.firmware_header`).
+the firmware's header (:mod:`bhr.hardware.firmware_header`).
 
 The kernels number the five shapes a joint can take in *search order*: 0 rest,
 then the tilts about +x, +y, -x, -y (1..4); :data:`SEARCH_CODES` maps that

@@ -53,7 +53,7 @@ def tilt_frame(F: np.ndarray, k: int, c: float, s: float, out: np.ndarray) -> No
 @njit(cache=True)
 def fk_kernel(codes: np.ndarray, base: np.ndarray, frame: np.ndarray, length: float, lift: float,
                alpha_deg: float, points: np.ndarray, frames: np.ndarray) -> None:
-    """Chain points and module frames from codes (see :func:`bhr.robot.forward_kinematics`).
+    """Chain points and module frames from codes (see :func:`bhr.model.robot.forward_kinematics`).
 
     Module ``i``'s frame is module ``i-1``'s (``frame`` for the first) tilted
     by :func:`tilt_frame` as its code says; the module runs from point ``i``

@@ -1,4 +1,4 @@
-"""Walking a polyline at a fixed step: the kernel behind :func:`bhr.path.resample_polyline`."""
+"""Walking a polyline at a fixed step: the kernel behind :func:`bhr.model.path.resample_polyline`."""
 from __future__ import annotations
 
 import math
@@ -11,7 +11,7 @@ __all__ = ["walk_kernel"]
 
 @njit(cache=True)
 def walk_kernel(pts: np.ndarray, vals: np.ndarray, feed: float, out: np.ndarray, out_vals: np.ndarray) -> int:
-    """Sphere-intersection walk (see :func:`bhr.path.resample_polyline`); returns the number of points written."""
+    """Sphere-intersection walk (see :func:`bhr.model.path.resample_polyline`); returns the number of points written."""
     n = pts.shape[0]
     f2 = feed * feed
     cx, cy, cz = pts[0, 0], pts[0, 1], pts[0, 2]

@@ -14,10 +14,10 @@ import inspect
 import pkgutil
 from typing import Any, Sequence
 
-from bhr._input import did_you_mean
-from bhr.errors import BhrError
-from bhr.options import BY_NAME
-from bhr.robot import CHAPTER5_ROBOT, Robot, robot_with
+from bhr.settings.inputs import did_you_mean
+from bhr.settings.errors import BhrError
+from bhr.settings.options import BY_NAME
+from bhr.model.robot import CHAPTER5_ROBOT, Robot, robot_with
 from bhr.solvers.base import REGISTRY, Chain, FollowContext, SolveResult, Solver, check_direction, check_target
 
 __all__ = ["Chain", "FollowContext", "SolveResult", "Solver", "available", "canonical", "get_solver", "solve",

@@ -19,9 +19,9 @@ from typing import Any, ClassVar, Sequence
 
 import numpy as np
 
-from bhr.errors import BhrError
+from bhr.settings.errors import BhrError
 from bhr.kinematics.leader import advance_kernel
-from bhr.robot import Robot, base_frame, straight_chain
+from bhr.model.robot import Robot, base_frame, straight_chain
 
 __all__ = ["Chain", "SolveResult", "Solver", "FollowContext", "register", "REGISTRY"]
 
@@ -54,7 +54,7 @@ class Chain:
     @classmethod
     def straight(cls, robot: Robot, direction: Sequence[float] | np.ndarray = (1, 0, 0),
                  origin: Sequence[float] | np.ndarray = (0, 0, 0), tip_at_origin: bool = False) -> "Chain":
-        """A straight chain along ``direction``; local axes from :func:`bhr.robot.base_frame`."""
+        """A straight chain along ``direction``; local axes from :func:`bhr.model.robot.base_frame`."""
         pts = straight_chain(robot.modules, robot.module_length, direction, origin, tip_at_origin)
         fr = base_frame(direction)
         axes = np.stack([pts[:-1] + fr[0], pts[:-1] + fr[1]])
@@ -158,7 +158,7 @@ class Solver(ABC):
     Subclasses set ``name`` and ``summary`` and implement :meth:`solve`.
     Solvers that respect the binary actuators return one code per module in
     their results. ``options`` are solver-specific keyword settings, validated
-    in ``__init__`` (and listed in :mod:`bhr.options`).
+    in ``__init__`` (and listed in :mod:`bhr.settings.options`).
     """
 
     name: ClassVar[str] = ""
@@ -187,7 +187,7 @@ class Solver(ABC):
         """Optionally run a whole follow-the-leader run compiled; default: no (``None``).
 
         A solver that has a compiled per-step kernel may run the driver's loop
-        (:func:`bhr.driver.follow`) in one compiled call: solve step ``i``
+        (:func:`bhr.run.driver.follow`) in one compiled call: solve step ``i``
         toward ``path[i]`` with the tip along ``dirs[i]``, write the chain into
         ``out_points[i]``, iterations, scores (``pe``, ``oe``, with
         :func:`bhr.kinematics.leader.score_step`) and codes, then advance with

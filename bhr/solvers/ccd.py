@@ -14,9 +14,9 @@ import numpy as np
 from numba import njit
 
 from bhr.kinematics.dualquat import k_rotate
-from bhr.errors import BhrError
+from bhr.settings.errors import BhrError
 from bhr.solvers.base import Chain, FollowContext, SolveResult, Solver, register
-from bhr.solvers.fabrik import _dist
+from bhr.solvers.fabrik import point_distance
 
 
 # Below this norm the squares of a vector's components may be subnormal or
@@ -43,7 +43,7 @@ def _unit3(x: float, y: float, z: float):
 def ccd_kernel(P: np.ndarray, target: np.ndarray, tol: float, max_iter: int):
     """CCD on ``P`` (modified in place). Returns (iterations, error)."""
     n = P.shape[0] - 1
-    err = _dist(P, n, target)
+    err = point_distance(P, n, target)
     k = 0
     while err > tol and k < max_iter:
         for j in range(n - 1, -1, -1):
@@ -73,7 +73,7 @@ def ccd_kernel(P: np.ndarray, target: np.ndarray, tol: float, max_iter: int):
             for m in range(j + 1, n + 1):
                 vx, vy, vz = k_rotate(P[m, 0] - P[j, 0], P[m, 1] - P[j, 1], P[m, 2] - P[j, 2], ch, sh, rx, ry, rz)
                 P[m, 0], P[m, 1], P[m, 2] = P[j, 0] + vx, P[j, 1] + vy, P[j, 2] + vz
-        err = _dist(P, n, target)
+        err = point_distance(P, n, target)
         k += 1
     return k, err
 

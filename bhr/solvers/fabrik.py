@@ -39,7 +39,7 @@ def _away(P: np.ndarray, src: int, dst: int):
 
 
 @njit(cache=True)
-def _pull(P: np.ndarray, src: int, dst: int, length: float) -> None:
+def pull_point(P: np.ndarray, src: int, dst: int, length: float) -> None:
     """Move P[dst] onto the line P[src]-P[dst], ``length`` from P[src].
 
     Written ``(1 - lam) P[src] + lam P[dst]`` as the thesis's MATLAB does (the
@@ -63,7 +63,7 @@ def _pull(P: np.ndarray, src: int, dst: int, length: float) -> None:
 
 
 @njit(cache=True)
-def _dist(P: np.ndarray, i: int, t: np.ndarray) -> float:
+def point_distance(P: np.ndarray, i: int, t: np.ndarray) -> float:
     dx = t[0] - P[i, 0]
     dy = t[1] - P[i, 1]
     dz = t[2] - P[i, 2]
@@ -94,12 +94,12 @@ def fabrik_kernel(P: np.ndarray, target: np.ndarray, length: float, tol: float, 
         if reach > n * length:
             # unreachable: stretch the chain toward the target
             for i in range(n):
-                r = _dist(P, i, target)
+                r = point_distance(P, i, target)
                 lam = length / r
                 for k in range(3):
                     P[i + 1, k] = (1.0 - lam) * P[i, k] + lam * target[k]
-            return 0, _dist(P, n, target), 0.0
-    err = _dist(P, n, target)
+            return 0, point_distance(P, n, target), 0.0
+    err = point_distance(P, n, target)
     ang = tip_angle_deg(P, direction) if has_dir else 0.0
     k = 0
     while (err > tol or (has_dir and ang > tol_ori)) and k < max_iter:
@@ -115,7 +115,7 @@ def fabrik_kernel(P: np.ndarray, target: np.ndarray, length: float, tol: float, 
             dx, dy, dz = P[i, 0] - sx, P[i, 1] - sy, P[i, 2] - sz
             r = math.sqrt(dx * dx + dy * dy + dz * dz)
             if r == 0.0:
-                _pull(P, i + 1, i, length)
+                pull_point(P, i + 1, i, length)
                 sx, sy, sz = P[i, 0], P[i, 1], P[i, 2]
                 continue
             lam = length / r
@@ -128,13 +128,13 @@ def fabrik_kernel(P: np.ndarray, target: np.ndarray, length: float, tol: float, 
             dx, dy, dz = P[i + 1, 0] - sx, P[i + 1, 1] - sy, P[i + 1, 2] - sz
             r = math.sqrt(dx * dx + dy * dy + dz * dz)
             if r == 0.0:
-                _pull(P, i, i + 1, length)
+                pull_point(P, i, i + 1, length)
                 sx, sy, sz = P[i + 1, 0], P[i + 1, 1], P[i + 1, 2]
                 continue
             lam = length / r
             sx, sy, sz = sx + lam * dx, sy + lam * dy, sz + lam * dz
             P[i + 1, 0], P[i + 1, 1], P[i + 1, 2] = sx, sy, sz
-        err = _dist(P, n, target)
+        err = point_distance(P, n, target)
         if has_dir:
             ang = tip_angle_deg(P, direction)
         k += 1

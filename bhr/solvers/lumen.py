@@ -16,7 +16,7 @@ Cost of one configuration at step ``k`` (lengths in mm)::
 The samples ``s`` are the base point and, on every module, its middle and its
 far end; ``d_s`` is the distance from the sample to the nearest point of the
 centerline and ``c_s = R - robot radius - d_s`` its clearance
-(:mod:`bhr.clearance`), the nearest point being searched only within
+(:mod:`bhr.run.clearance`), the nearest point being searched only within
 ``window`` mm of arc length of where the sample is expected (no aliasing
 between loops). ``T_j`` is the trajectory point that point ``j`` is scored
 against (bhr.follow), ``u`` the tip module's direction and ``t`` the
@@ -36,9 +36,9 @@ what lets the robot swing wide before a flexure and cut its inside. With
 
 The nearest-point search of the solver starts from the previous sample's
 nearest point and scans outwards while it improves (capped by the window),
-which is faster than the full window scan of :mod:`bhr.clearance`; runs are
+which is faster than the full window scan of :mod:`bhr.run.clearance`; runs are
 scored by the latter. The body behind the head (``--body-modules``) follows
-module 1's sweep (:mod:`bhr.body`) and is scored, not planned.
+module 1's sweep (:mod:`bhr.run.body`) and is scored, not planned.
 """
 from __future__ import annotations
 
@@ -48,9 +48,9 @@ from typing import Any
 import numpy as np
 from numba import njit
 
-from bhr.clearance import Tube, _nearest_numpy, _window, make_tube, point_clearance, segment_scan
-from bhr.errors import BhrError
-from bhr.options import solver_defaults
+from bhr.run.clearance import Tube, _nearest_numpy, _window, make_tube, point_clearance, segment_scan
+from bhr.settings.errors import BhrError
+from bhr.settings.options import solver_defaults
 from bhr.kinematics.frames import tilt_frame as _rot
 from bhr.kinematics.leader import advance_kernel, finish_step
 from bhr.solvers.base import Chain, FollowContext, SolveResult, register
@@ -384,7 +384,7 @@ def lumen_config_cost(tube, robot, settings: dict[str, float], path: np.ndarray,
                       points: np.ndarray) -> float:
     """The cost of a configuration (points (n+1, 3)) as the module doc defines it, in numpy, for the tests.
 
-    Uses the full-window nearest search of :func:`bhr.clearance.point_clearance`.
+    Uses the full-window nearest search of :func:`bhr.run.clearance.point_clearance`.
     """
     n, f = robot.modules, robot.feed_divisor
     prm = _prm(robot, settings, tube)

@@ -54,13 +54,13 @@ from typing import Any, Sequence
 import numpy as np
 from numba import njit
 
-from bhr.errors import BhrError
-from bhr.options import solver_defaults
+from bhr.settings.errors import BhrError
+from bhr.settings.options import solver_defaults
 from bhr.kinematics.frames import tilt_frame as _rot
 from bhr.kinematics.codetable import SEARCH_CODES
 from bhr.kinematics.leader import advance_kernel, finish_step
 from bhr.solvers.base import Chain, FollowContext, SolveResult, Solver, register
-from bhr.robot import forward_kinematics
+from bhr.model.robot import forward_kinematics
 
 __all__ = ["Optimal", "CODE_OF", "search_all", "search_head", "config_cost", "path_features", "DEFAULTS"]
 
@@ -691,7 +691,7 @@ class Optimal(Solver):
 
     def follow_kernel(self, path: np.ndarray, dirs: np.ndarray, chain: Chain, out_points: np.ndarray,
                       out_iters: np.ndarray, pe: np.ndarray, oe: np.ndarray, codes: np.ndarray) -> bool:
-        """Run the whole follow-the-leader loop compiled (see :mod:`bhr.driver`). Codes are always valid."""
+        """Run the whole follow-the-leader loop compiled (see :mod:`bhr.run.driver`). Codes are always valid."""
         self.reset()
         path = np.ascontiguousarray(path, dtype=np.float64)
         dirs = np.ascontiguousarray(dirs, dtype=np.float64)

@@ -15,7 +15,7 @@ limited angle:
   thesis); with a warm-up, at least ``warmup + 1`` iterations always run.
 
 ``--solver thesis`` (also accepted as ``seed``) is the full thesis algorithm
-(binary, local axes, 10 warm-up iterations) and returns module codes (see :mod:`bhr.codes`). Every other
+(binary, local axes, 10 warm-up iterations) and returns module codes (see :mod:`bhr.model.codes`). Every other
 setting reruns one of the chapter 6 steps.
 """
 from __future__ import annotations
@@ -25,13 +25,13 @@ import math
 import numpy as np
 from numba import njit
 
-from bhr.codes import TILT_CODES
+from bhr.model.codes import TILT_CODES
 from bhr.kinematics.dualquat import k_rotate
-from bhr.errors import BhrError
-from bhr.options import BY_NAME
+from bhr.settings.errors import BhrError
+from bhr.settings.options import BY_NAME
 from bhr.kinematics.leader import finish_step
 from bhr.solvers.base import Chain, FollowContext, SolveResult, Solver, register
-from bhr.solvers.fabrik import _dist, _pull, tip_angle_deg
+from bhr.solvers.fabrik import point_distance, pull_point, tip_angle_deg
 
 LIMIT_NONE, LIMIT_CONTINUOUS, LIMIT_BINARY = 0, 1, 2
 LIMITS = {"none": LIMIT_NONE, "continuous": LIMIT_CONTINUOUS, "binary": LIMIT_BINARY}
@@ -75,7 +75,7 @@ def constrained_kernel(P: np.ndarray, E1: np.ndarray, E2: np.ndarray, target: np
     base = P[0].copy()
     for c in range(3):
         before[c] = P[0, c] - length * d0[c]
-    err = _dist(P, n, target)
+    err = point_distance(P, n, target)
     ang = tip_angle_deg(P, direction) if has_dir else 0.0
     min_iter = warmup + 1 if warmup > 0 else 0
     g = np.empty((4, 3))
@@ -94,7 +94,7 @@ def constrained_kernel(P: np.ndarray, E1: np.ndarray, E2: np.ndarray, target: np
                 P[n - 1, c] = target[c] - length * direction[c]
             start = n - 2
         for i in range(start, -1, -1):
-            _pull(P, i + 1, i, length)
+            pull_point(P, i + 1, i, length)
         # base to tip
         for c in range(3):
             P[0, c] = base[c]
@@ -105,7 +105,7 @@ def constrained_kernel(P: np.ndarray, E1: np.ndarray, E2: np.ndarray, target: np
         constrained = k >= warmup and limit != LIMIT_NONE
         for i in range(n):
             if not constrained:
-                _pull(P, i, i + 1, length)
+                pull_point(P, i, i + 1, length)
                 continue
             for j in range(i, n):
                 for c in range(3):
@@ -168,7 +168,7 @@ def constrained_kernel(P: np.ndarray, E1: np.ndarray, E2: np.ndarray, target: np
                 _rotate_about(A1, j, P[i], ch, sh, ax, ay, az)
             for j in range(i, n):
                 _rotate_about(A2, j, P[i], ch, sh, ax, ay, az)
-        err = _dist(P, n, target)
+        err = point_distance(P, n, target)
         if has_dir:
             ang = tip_angle_deg(P, direction)
         k += 1
@@ -251,7 +251,8 @@ class ConstrainedFabrik(Solver):
 
     def follow_kernel(self, path: np.ndarray, dirs: np.ndarray, chain: Chain, out_points: np.ndarray,
                       out_iters: np.ndarray, pe: np.ndarray, oe: np.ndarray, codes: np.ndarray) -> bool:
-        """Run the whole follow-the-leader loop compiled (see :mod:`bhr.driver`). Returns whether codes are valid."""
+        """Run the whole follow-the-leader loop compiled (see :mod:`bhr.run.driver`); returns whether codes are
+        valid."""
         r = self.robot
         c = chain.copy()
         follow_constrained_kernel(path, dirs, c.points, np.ascontiguousarray(c.axes[0]),

@@ -9,8 +9,8 @@ import time
 
 import numpy as np
 
-from bhr.anatomy import SECTIONS, anatomical_colon
-from bhr.generators import load_trajectory
+from bhr.model.anatomy import SECTIONS, anatomical_colon
+from bhr.model.generators import load_trajectory
 
 first, last = (int(sys.argv[1]), int(sys.argv[2])) if len(sys.argv) > 2 else (1, 100)
 seeds = range(first, last + 1)

@@ -9,11 +9,11 @@ import numpy as np
 import pytest
 
 from bhr.bench.cases import numpy_ccd, numpy_fabrik, numpy_seed_follow
-from bhr.driver import follow
-from bhr.robot import straight_chain
+from bhr.run.driver import follow
+from bhr.model.robot import straight_chain
 from bhr.solvers.ccd import ccd_kernel
 from bhr.solvers.fabrik import fabrik_kernel
-from bhr.generators import load_trajectory
+from bhr.model.generators import load_trajectory
 
 P0 = straight_chain(10, 2.0, (0, 1, 0))
 T = np.array([15.0, 6.0, 0.0])
@@ -56,7 +56,7 @@ def test_seed_colon_numpy(benchmark):
 
 # --solver optimal without its planner (the exact per-step search) and the 60-module body
 from bhr.bench.cases import OPTIMAL_PER_STEP, numpy_body, numpy_optimal_follow  # noqa: E402
-from bhr.body import BODY_BEAM, module1_frames, simulate_body  # noqa: E402
+from bhr.run.body import BODY_BEAM, module1_frames, simulate_body  # noqa: E402
 
 PATH = np.ascontiguousarray(COLON.points)
 
@@ -74,7 +74,7 @@ def test_optimal_step_colon_numpy(benchmark):
 # the default --solver optimal (planner on) and the seed solver, one solve() call per step driven from Python
 # (bhr.bench.optimal): whole colon per round; divide by the 827 steps for a mean per step (`bhr bench` gives medians)
 from bhr.bench.optimal import _step_times  # noqa: E402
-from bhr.robot import Robot  # noqa: E402
+from bhr.model.robot import Robot  # noqa: E402
 
 
 @pytest.mark.benchmark(group="optimal-default-colon")

@@ -1,0 +1,616 @@
+"""The thermal model of the nitinol actuator wires, and schedules the board can sustain (docs/thermal.md).
+
+One first-order lumped model per wire, in a normalised temperature
+``theta`` (0 = ambient, 1 = fully contracted, i.e. the end of the austenite
+transformation):
+
+    tau * d(theta)/dt = u(t) * theta_full - theta
+
+``u`` is the power applied (1 = full power, the PWM duty in between) and
+``theta_full`` the temperature full power would reach in the end. Four
+figures of the wire (a robot file's ``[thermal]`` table, from the wire's
+datasheet) fix everything else:
+
+- ``contract_ms``: full power contracts a cold wire in this time
+  (theta reaches 1);
+- ``hold_duty``: the PWM duty that holds a contracted wire at theta = 1,
+  hence ``theta_full = 1 / hold_duty`` and
+  ``tau = contract_ms / ln(1 / (1 - hold_duty))``;
+- ``relax_ms``: a contracted wire left unpowered relaxes in this time,
+  hence the relaxed temperature ``theta_relax = exp(-relax_ms / tau)``;
+- ``max_full_ms``: the longest full-power time allowed from cold, hence the
+  temperature limit ``theta_limit = theta_full * (1 - exp(-max_full_ms / tau))``.
+
+The firmware runs exactly the integer version of this model
+(:func:`model_constants`; the constants are generated into
+``firmware/src/bhr_gen.h`` by :mod:`bhr.hardware.firmware_header`), updated once per
+PWM period, and drives each module: full power while one of its energised
+wires is below theta = 1, then PWM hold; a released wire is not energised
+again before it has relaxed (theta <= theta_relax); a wire that reaches
+theta_limit switches its module off (overheat, the last line of defence).
+:func:`simulate` replays that logic millisecond by millisecond, so the host
+can check a stream before sending it (:func:`check_schedule`) or stretch it
+until it fits (:func:`auto_schedule`).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any, Mapping
+
+import numpy as np
+
+from bhr import _numba  # noqa: F401 - sets numba's cache folder before numba is imported
+from bhr.settings.errors import BhrError
+
+__all__ = ["ThermalParams", "DEFAULT_THERMAL", "THERMAL_KEYS", "ONE", "model_constants", "thermal_from_table",
+           "simulate", "simulate_reference", "Schedule", "check_schedule", "auto_schedule", "format_duration"]
+
+#: theta = 1 in the integer model (Q14 fixed point), as on the board.
+ONE = 1 << 14
+#: Fractional bits of the per-period cooling factor.
+A_SHIFT = 16
+#: The host keeps this much time (ms) in hand for the serial link's latency when planning.
+LINK_MARGIN_MS = 30
+
+THERMAL_KEYS: dict[str, tuple[str, float, float]] = {
+    # key: (meaning, lowest, highest)
+    "contract_ms": ("full-power time that contracts a cold wire", 50, 20000),
+    "hold_duty": ("PWM duty that holds a contracted wire", 0.3, 0.95),
+    "relax_ms": ("time a contracted wire takes to relax unpowered", 50, 60000),
+    "max_full_ms": ("longest full-power time from cold (the board's overheat limit)", 60, 60000),
+    "period_ms": ("PWM period of the hold drive", 5, 100),
+}
+
+
+@dataclass(frozen=True)
+class ThermalParams:
+    """The wire's four datasheet figures and the PWM period (see the module docstring)."""
+
+    contract_ms: float = 1000.0
+    hold_duty: float = 0.6
+    relax_ms: float = 1100.0
+    max_full_ms: float = 3000.0
+    period_ms: int = 20
+
+    def __post_init__(self) -> None:
+        for key, (what, lo, hi) in THERMAL_KEYS.items():
+            v = getattr(self, key)
+            if not isinstance(v, (int, float)) or not math.isfinite(v) or not lo <= v <= hi:
+                raise BhrError(f"thermal.{key} ({what}) must be between {lo:g} and {hi:g}, got {v!r}")
+        if self.max_full_ms <= 1.5 * self.contract_ms:
+            raise BhrError(f"thermal.max_full_ms ({self.max_full_ms:g}) must exceed 1.5 x contract_ms "
+                           f"({self.contract_ms:g}): the drive needs room above the contraction")
+        if int(self.period_ms) != self.period_ms:
+            raise BhrError(f"thermal.period_ms must be a whole number of milliseconds, got {self.period_ms}")
+        if not 1 <= self.hold_ticks < self.period_ms:
+            raise BhrError(f"thermal.hold_duty {self.hold_duty:g} leaves no PWM off-time in a "
+                           f"{self.period_ms} ms period; use a lower duty")
+
+    # -- the PWM the board really applies ------------------------------------
+    @property
+    def hold_ticks(self) -> int:
+        """Milliseconds on in each PWM period while holding."""
+        return int(round(self.hold_duty * self.period_ms))
+
+    @property
+    def duty(self) -> float:
+        """The hold duty the board applies (hold_ticks / period_ms)."""
+        return self.hold_ticks / self.period_ms
+
+    # -- derived dynamics (float) -------------------------------------------
+    @property
+    def theta_full(self) -> float:
+        return 1.0 / self.duty
+
+    @property
+    def tau_ms(self) -> float:
+        return self.contract_ms / math.log(1.0 / (1.0 - self.duty))
+
+    @property
+    def theta_relax(self) -> float:
+        return math.exp(-self.relax_ms / self.tau_ms)
+
+    @property
+    def theta_limit(self) -> float:
+        return self.theta_full * (1.0 - math.exp(-self.max_full_ms / self.tau_ms))
+
+    def describe(self) -> str:
+        return (f"contraction {self.contract_ms:g} ms at full power, hold duty {self.duty:.0%} "
+                f"({self.hold_ticks}/{self.period_ms} ms), relaxation {self.relax_ms:g} ms, full-power limit "
+                f"{self.max_full_ms:g} ms (tau {self.tau_ms:.0f} ms, theta_relax {self.theta_relax:.3f}, "
+                f"theta_limit {self.theta_limit:.3f})")
+
+
+DEFAULT_THERMAL = ThermalParams()
+
+
+def thermal_from_table(table: Any, where: str = "thermal") -> ThermalParams:
+    """A robot file's ``[thermal]`` table as ThermalParams (keys left out keep their defaults)."""
+    if not isinstance(table, Mapping):
+        raise BhrError(f"{where} must be a table ([thermal]) with keys {', '.join(THERMAL_KEYS)}")
+    unknown = [k for k in table if k not in THERMAL_KEYS]
+    if unknown:
+        raise BhrError(f"{where}: unknown key {unknown[0]!r}; known keys: {', '.join(THERMAL_KEYS)}")
+    vals: dict[str, Any] = {}
+    for k, v in table.items():
+        if isinstance(v, bool) or not isinstance(v, (int, float)):
+            raise BhrError(f"{where}.{k} must be a number, got {type(v).__name__}")
+        vals[k] = float(v) if k != "period_ms" else v
+    try:
+        return ThermalParams(**vals)
+    except BhrError as exc:
+        raise BhrError(f"{where}: {exc}") from None
+
+
+def model_constants(p: ThermalParams) -> dict[str, int]:
+    """The integer constants of the model, as the board uses them (Q14 temperatures)."""
+    a = 1.0 - math.exp(-p.period_ms / p.tau_ms)
+    return {
+        "PERIOD_MS": int(p.period_ms),
+        "HOLD_TICKS": p.hold_ticks,
+        "THETA_ONE": ONE,
+        "THETA_FULL": int(round(ONE * p.theta_full)),
+        "THETA_RELAX": int(round(ONE * p.theta_relax)),
+        "THETA_LIMIT": int(round(ONE * p.theta_limit)),
+        "A_Q16": int(round(a * (1 << A_SHIFT))),
+    }
+
+
+def _const_array(p: ThermalParams) -> np.ndarray:
+    c = model_constants(p)
+    return np.array([c["PERIOD_MS"], c["HOLD_TICKS"], c["THETA_FULL"], c["THETA_RELAX"], c["THETA_LIMIT"],
+                     c["A_Q16"]], dtype=np.int64)
+
+
+# ---------------------------------------------------------------------------
+# The board's drive, millisecond by millisecond (firmware/src/board.c).
+#
+# Both versions below take: row_t (int64[n], the time each row reaches the board; in auto mode
+# only row_t[0] is read and the rest is filled in), rows (int64[n, m] codes), end_t (last ms
+# simulated), k (model constants, _const_array), theta0 (int64[4m], Q14), stride (trace sampling,
+# ms), auto (0/1), min_gap and margin (ms, auto mode). They return (trace, early, overheat_t,
+# max_run, max_theta, on_ms, done_t, t_stop): the Q14 temperatures every stride ms, which rows
+# asked a module for a wire still relaxing, each module's first overheat time (-1: none), the longest
+# continuous on-time and highest temperature per wire, the total on-time per wire, when the
+# last row's code was reached (every energised wire contracted; -1: never), and where the run stopped.
+
+
+def _kernel_py(row_t, rows, end_t, k, theta0, stride, auto, min_gap, margin):
+    period, hold, full, relax, limit, a = k[0], k[1], k[2], k[3], k[4], k[5]
+    n_rows, m = rows.shape
+    na = 4 * m
+    theta = theta0.copy()
+    on_ticks = np.zeros(na, np.int64)
+    drive = np.zeros(m, np.int64)
+    requested = np.zeros(m, np.int64)
+    mode_full = np.zeros(m, np.int64)
+    cooling = np.zeros(m, np.int64)
+    for j in range(m):
+        for b in range(4):
+            if theta[4 * j + b] > relax:
+                cooling[j] = 1
+    trace = np.zeros((end_t // stride + 1, na), np.int64)
+    for i in range(na):
+        trace[0, i] = theta[i]
+    on_ms = np.zeros(na, np.int64)
+    run = np.zeros(na, np.int64)
+    max_run = np.zeros(na, np.int64)
+    max_theta = theta0.copy()
+    early = np.zeros((n_rows, m), np.int64)
+    overheat_t = np.full(m, -1, np.int64)
+    phase = 0
+    r = 0
+    ready_t = -1  # auto mode: when the next row became sendable
+    done_t = -1
+    t_stop = end_t
+    if auto == 1:
+        for i in range(1, n_rows):
+            row_t[i] = end_t + 1
+    for t in range(end_t + 1):
+        if auto == 1 and r < n_rows and r > 0:
+            # is the board ready for row r?  previous row reached (no module held, every wire contracted),
+            # no wire of row r still relaxing, and the minimum gap kept
+            ok = 1
+            if t < row_t[r - 1] + min_gap:
+                ok = 0
+            for j in range(m):
+                if drive[j] != requested[j] or mode_full[j] == 1:
+                    ok = 0
+                new_on = rows[r, j] & ~drive[j]
+                for b in range(4):
+                    if (new_on >> b) & 1 and theta[4 * j + b] > relax:
+                        ok = 0
+            if ok == 1:
+                if ready_t < 0:
+                    ready_t = t
+                if t >= ready_t + margin:
+                    row_t[r] = t
+                    ready_t = -1
+            else:
+                ready_t = -1
+            if row_t[r] != t:
+                row_t[r] = t + 1 + end_t  # not yet: keep it in the future
+        while r < n_rows and row_t[r] <= t:
+            for j in range(m):
+                requested[j] = rows[r, j]
+            for j in range(m):
+                want = requested[j]
+                if cooling[j] == 1:
+                    want = 0
+                new_on = want & ~drive[j]
+                for b in range(4):
+                    if (new_on >> b) & 1 and theta[4 * j + b] > relax:
+                        early[r, j] = 1
+                if early[r, j] == 1:
+                    want = 0
+                if want != drive[j]:
+                    drive[j] = want
+                    mf = 0
+                    for b in range(4):
+                        if (want >> b) & 1 and theta[4 * j + b] < ONE:
+                            mf = 1
+                    mode_full[j] = mf
+            r += 1
+        if r == n_rows and done_t < 0:
+            ok = 1
+            for j in range(m):
+                if drive[j] != requested[j] or mode_full[j] == 1:
+                    ok = 0
+            if ok == 1:
+                done_t = t
+                if auto == 1:
+                    t_stop = t
+                    break
+        if t == end_t:
+            break
+        for j in range(m):
+            show = drive[j]
+            if mode_full[j] == 0 and phase >= hold:
+                show = 0
+            for b in range(4):
+                i = 4 * j + b
+                if (show >> b) & 1:
+                    on_ticks[i] += 1
+                    on_ms[i] += 1
+                    run[i] += 1
+                    if run[i] > max_run[i]:
+                        max_run[i] = run[i]
+                else:
+                    run[i] = 0
+        phase += 1
+        if phase == period:
+            phase = 0
+            for i in range(na):
+                target = (on_ticks[i] * full) // period
+                theta[i] += ((target - theta[i]) * a) >> 16
+                if theta[i] < 0:
+                    theta[i] = 0
+                if theta[i] > max_theta[i]:
+                    max_theta[i] = theta[i]
+                on_ticks[i] = 0
+            for j in range(m):
+                hot = 0
+                warm = 0
+                for b in range(4):
+                    if theta[4 * j + b] >= limit:
+                        hot = 1
+                    if theta[4 * j + b] > relax:
+                        warm = 1
+                if hot == 1:
+                    cooling[j] = 1
+                    if overheat_t[j] < 0:
+                        overheat_t[j] = t + 1
+                elif cooling[j] == 1 and warm == 0:
+                    cooling[j] = 0
+                want = requested[j]
+                if cooling[j] == 1:
+                    want = 0
+                new_on = want & ~drive[j]
+                for b in range(4):
+                    if (new_on >> b) & 1 and theta[4 * j + b] > relax:
+                        want = 0
+                drive[j] = want
+                mf = 0
+                for b in range(4):
+                    if (want >> b) & 1 and theta[4 * j + b] < ONE:
+                        mf = 1
+                mode_full[j] = mf
+        if (t + 1) % stride == 0:
+            s = (t + 1) // stride
+            for i in range(na):
+                trace[s, i] = theta[i]
+    return trace, early, overheat_t, max_run, max_theta, on_ms, done_t, t_stop
+
+
+def simulate_reference(row_t, rows, end_t, k, theta0, stride, auto, min_gap, margin):
+    """The same drive with numpy arrays over the wires (the readable reference of the kernel)."""
+    period, hold, full, relax, limit, a = (int(x) for x in k)
+    n_rows, m = rows.shape
+    bit = np.arange(4)
+
+    def wires(codes):  # (m,) codes -> (m, 4) bools
+        return ((np.asarray(codes)[:, None] >> bit[None, :]) & 1).astype(bool)
+
+    th = theta0.reshape(m, 4).astype(np.int64).copy()
+    on_ticks = np.zeros((m, 4), np.int64)
+    drive = np.zeros(m, np.int64)
+    requested = np.zeros(m, np.int64)
+    mode_full = np.zeros(m, bool)
+    cooling = (th > relax).any(axis=1)
+    trace = np.zeros((end_t // stride + 1, 4 * m), np.int64)
+    trace[0] = th.reshape(-1)
+    on_ms = np.zeros((m, 4), np.int64)
+    run = np.zeros((m, 4), np.int64)
+    max_run = np.zeros((m, 4), np.int64)
+    max_theta = th.copy()
+    early = np.zeros((n_rows, m), np.int64)
+    over = np.full(m, -1, np.int64)
+    phase, r, ready_t, done_t, t_stop = 0, 0, -1, -1, end_t
+    if auto:
+        row_t[1:] = end_t + 1
+
+    def blocked(codes):  # modules where `codes` would energise a wire still relaxing
+        return (wires(codes & ~drive) & (th > relax)).any(axis=1)
+
+    def reached():
+        return bool(np.all(drive == requested) and not mode_full.any())
+
+    for t in range(end_t + 1):
+        if auto and 0 < r < n_rows:
+            ok = t >= row_t[r - 1] + min_gap and reached() and not blocked(rows[r]).any()
+            if ok:
+                ready_t = t if ready_t < 0 else ready_t
+                if t >= ready_t + margin:
+                    row_t[r], ready_t = t, -1
+            else:
+                ready_t = -1
+            if row_t[r] != t:
+                row_t[r] = t + 1 + end_t
+        while r < n_rows and row_t[r] <= t:
+            requested[:] = rows[r]
+            want = np.where(cooling, 0, requested)
+            early[r] = blocked(want)
+            want = np.where(early[r] == 1, 0, want)
+            changed = want != drive
+            drive[changed] = want[changed]
+            mode_full[changed] = (wires(drive) & (th < ONE)).any(axis=1)[changed]
+            r += 1
+        if r == n_rows and done_t < 0 and reached():
+            done_t = t
+            if auto:
+                t_stop = t
+                break
+        if t == end_t:
+            break
+        show = np.where(mode_full | (phase < hold), drive, 0)
+        on = wires(show)
+        on_ticks += on
+        on_ms += on
+        run = np.where(on, run + 1, 0)
+        max_run = np.maximum(max_run, run)
+        phase += 1
+        if phase == period:
+            phase = 0
+            th = np.maximum(th + (((on_ticks * full) // period - th) * a >> 16), 0)
+            max_theta = np.maximum(max_theta, th)
+            on_ticks[:] = 0
+            hot = (th >= limit).any(axis=1)
+            warm = (th > relax).any(axis=1)
+            over = np.where(hot & (over < 0), t + 1, over)
+            cooling = hot | (cooling & warm)
+            want = np.where(cooling, 0, requested)
+            drive = np.where(blocked(want), 0, want)
+            mode_full = (wires(drive) & (th < ONE)).any(axis=1)
+        if (t + 1) % stride == 0:
+            trace[(t + 1) // stride] = th.reshape(-1)
+    return (trace, early, over, max_run.reshape(-1), max_theta.reshape(-1), on_ms.reshape(-1), done_t, t_stop)
+
+
+_kernel = None
+
+
+def _compiled():
+    global _kernel
+    if _kernel is None:
+        from numba import njit
+
+        _kernel = njit(cache=True)(_kernel_py)
+    return _kernel
+
+
+@dataclass
+class Simulation:
+    """What the board's drive does with rows of codes reaching it at ``times_ms``."""
+
+    params: ThermalParams
+    times_ms: np.ndarray      # when each row reaches the board (ms)
+    rows: np.ndarray          # (rows, modules) codes
+    theta: np.ndarray         # (samples, modules, 4) normalised temperature, every `stride` ms
+    stride: int
+    early: np.ndarray         # (rows, modules) 1 where the row asked for a wire still relaxing
+    overheat_ms: np.ndarray   # (modules,) first overheat time, -1: none
+    max_on_ms: np.ndarray     # (modules, 4) longest continuous on-time on the pins
+    max_theta: np.ndarray     # (modules, 4)
+    on_ms: np.ndarray         # (modules, 4) total on-time
+    done_ms: int              # the last row's code reached (-1: not within the run)
+    end_ms: int
+
+    @property
+    def faults(self) -> list[tuple[str, int, int]]:
+        """(kind, module 1-based, step 1-based) of each fault the board would raise, in time order."""
+        out = []
+        for r, j in zip(*np.nonzero(self.early)):
+            out.append((int(self.times_ms[r]), "early", int(j) + 1, int(r) + 1))
+        for j, t in enumerate(self.overheat_ms):
+            if t >= 0:
+                step = int(np.searchsorted(self.times_ms, t, side="right"))
+                out.append((int(t), "overheat", j + 1, max(step, 1)))
+        out.sort()
+        return [f[1:] for f in out]
+
+
+def simulate(params: ThermalParams, times_ms, rows, end_ms: int | None = None, theta0=None,
+             stride: int | None = None, reference: bool = False, auto: bool = False, min_gap_ms: int = 0,
+             margin_ms: int = LINK_MARGIN_MS) -> Simulation:
+    """Replay the board's drive: row ``i`` of ``rows`` (codes per module) reaches it at ``times_ms[i]``.
+
+    ``end_ms`` (default: long enough for every row to be reached) ends the
+    run; ``theta0`` (modules x 4, Q14) gives the starting temperatures (default
+    cold). The temperatures are sampled every ``stride`` ms (default: the PWM
+    period). ``auto=True`` ignores ``times_ms`` after the first and sends each
+    row as soon as the board is ready for it (see :func:`auto_schedule`).
+    ``reference=True`` runs the numpy reference instead of the compiled kernel.
+    """
+    rows = np.ascontiguousarray(np.asarray(rows, dtype=np.int64))
+    if rows.ndim != 2 or rows.shape[0] == 0:
+        raise BhrError("simulate needs a non-empty table of codes (steps x modules)")
+    n, m = rows.shape
+    t = np.array(np.asarray(times_ms, dtype=np.int64), copy=True)
+    if t.shape != (n,) or (not auto and np.any(np.diff(t) < 0)) or t[0] < 0:
+        raise BhrError("row times must be non-negative, one per row, in order")
+    per_row = int(params.contract_ms + params.relax_ms * 3 + params.max_full_ms + min_gap_ms + margin_ms
+                  + 4 * params.period_ms)
+    if end_ms is None:
+        end_ms = (int(t[0]) + n * per_row) if auto else int(t[-1] + per_row)
+    stride = int(stride or params.period_ms)
+    th0 = np.zeros(4 * m, np.int64) if theta0 is None else np.asarray(theta0, np.int64).reshape(4 * m).copy()
+    k = _const_array(params)
+    fn = simulate_reference if reference else _compiled()
+    trace, early, over, max_run, max_theta, on_ms, done_t, t_stop = fn(
+        t, rows, int(end_ms), k, th0, stride, int(auto), int(min_gap_ms), int(margin_ms))
+    trace = trace[: t_stop // stride + 1]
+    return Simulation(params, t, rows, trace.reshape(trace.shape[0], m, 4) / ONE, stride, early, over,
+                      max_run.reshape(m, 4), max_theta.reshape(m, 4) / ONE, on_ms.reshape(m, 4), int(done_t),
+                      int(t_stop))
+
+
+# ---------------------------------------------------------------------------
+# Planning a stream
+
+
+def format_duration(seconds: float) -> str:
+    """``6 min 12 s``, ``48.3 s``, ``1 h 02 min``."""
+    if seconds < 60:
+        return f"{seconds:.1f} s"
+    m, s = divmod(int(round(seconds)), 60)
+    if m < 60:
+        return f"{m} min {s} s"
+    h, m = divmod(m, 60)
+    return f"{h} h {m:02d} min"
+
+
+@dataclass
+class Schedule:
+    """When each row is sent (ms after the first) and what the board's model makes of it."""
+
+    times_ms: np.ndarray
+    sim: Simulation
+    mode: str   # "rate": fixed rate; "auto": stretched to the board's limits
+    rate: float
+
+    @property
+    def total_s(self) -> float:
+        """Procedure time: from the first row until the last row's code has been reached."""
+        done = self.sim.done_ms if self.sim.done_ms >= 0 else self.sim.end_ms
+        return max(float(done), float(self.times_ms[-1])) / 1000.0
+
+    @property
+    def faults(self) -> list[tuple[str, int, int]]:
+        return self.sim.faults
+
+
+def check_schedule(params: ThermalParams, rows, rate: float, theta0=None) -> Schedule:
+    """Rows sent at a fixed ``rate`` (rows/s): the model's verdict (``Schedule.faults``; empty = safe).
+
+    The link's latency is allowed for: every row but the first is checked as
+    if it reached the board LINK_MARGIN_MS early.
+    """
+    rows = np.asarray(rows, dtype=np.int64)
+    times = np.round(np.arange(rows.shape[0]) * (1000.0 / float(rate))).astype(np.int64)
+    early = times.copy()
+    early[1:] = np.maximum(times[1:] - LINK_MARGIN_MS, 0)
+    early = np.maximum.accumulate(early)
+    sim = simulate(params, early, rows, theta0=theta0)
+    sim.times_ms = times
+    return Schedule(times, sim, "rate", float(rate))
+
+
+def auto_schedule(params: ThermalParams, rows, rate: float, theta0=None) -> Schedule:
+    """The fastest schedule, never faster than ``rate``, that the board's model accepts.
+
+    Row ``i+1`` is sent LINK_MARGIN_MS after the board is ready for it: row
+    ``i`` has been on for 1/rate, every wire it energises has contracted
+    (theta >= 1) and every wire row ``i+1`` energises anew has relaxed
+    (theta <= theta_relax).
+    """
+    rows = np.asarray(rows, dtype=np.int64)
+    gap = int(math.ceil(1000.0 / float(rate)))
+    sim = simulate(params, np.zeros(rows.shape[0], np.int64), rows, auto=True, min_gap_ms=gap, theta0=theta0)
+    return Schedule(sim.times_ms, sim, "auto", float(rate))
+
+
+def summarize(schedule: Schedule, name: str = "") -> str:
+    """``colon: 827 steps, 6 min 12 s at the board's limits``."""
+    n = len(schedule.times_ms)
+    when = "at the board's limits" if schedule.mode == "auto" else f"at {schedule.rate:g} Hz"
+    return f"{name + ': ' if name else ''}{n} steps, {format_duration(schedule.total_s)} {when}"
+
+
+def max_safe_rate(params: ThermalParams, rows, rate: float) -> float | None:
+    """The highest fixed rate (<= rate, to 0.1 Hz, at least 0.1 Hz) the model accepts, or None."""
+    lo, hi = 0.1, float(rate)
+    if check_schedule(params, rows, lo).faults:
+        return None
+    for _ in range(14):
+        mid = (lo + hi) / 2
+        if check_schedule(params, rows, mid).faults:
+            hi = mid
+        else:
+            lo = mid
+    return math.floor(lo * 10) / 10 or None
+
+
+def _released_step(rows: np.ndarray, step: int, module: int) -> int | None:
+    """The 1-based step at which a wire that ``step`` energises anew on ``module`` was last switched off."""
+    j = module - 1
+    now, before = int(rows[step - 1, j]), int(rows[step - 2, j]) if step >= 2 else 0
+    newly = now & ~before
+    for k in range(step - 2, 0, -1):
+        if int(rows[k - 1, j]) & newly and not int(rows[k, j]) & newly:
+            return k + 1
+    return None
+
+
+SCHEDULES = ("rate", "auto")
+
+
+def plan(params: ThermalParams, rows, rate: float, schedule: str = "rate", name: str = "",
+         sending: bool = False) -> Schedule:
+    """Check (``schedule="rate"``) or stretch (``"auto"``) a stream of codes before anything is sent.
+
+    A fixed-rate stream that the board's model would fault on raises
+    BhrError, one line naming the module, the step and the fix.
+    """
+    rows = np.asarray(rows, dtype=np.int64)
+    if schedule not in SCHEDULES:
+        raise BhrError(f"schedule {schedule!r} is not one of {', '.join(SCHEDULES)}")
+    if schedule == "auto":
+        return auto_schedule(params, rows, rate)
+    sched = check_schedule(params, rows, rate)
+    if not sched.faults:
+        return sched
+    kind, module, step = sched.faults[0]
+    auto = auto_schedule(params, rows, rate)
+    safe = max_safe_rate(params, rows, rate)
+    fix = (f"use --rate {safe:g}" if safe else "no fixed rate fits") + \
+        f" or --schedule auto ({format_duration(auto.total_s)} at the board's limits)"
+    where = f"{name + ': ' if name else ''}module m{module}, step {step}"
+    if kind == "early":
+        rel = _released_step(rows, step, module)
+        what = (f"a wire released at step {rel} has not relaxed yet" if rel else "a wire has not relaxed yet") + \
+            f" (relaxation {params.relax_ms:g} ms) when it is energised again at {rate:g} Hz"
+    else:
+        what = f"a wire would overheat at {rate:g} Hz (over {params.max_full_ms:g} ms of full power)"
+    note = " nothing was sent;" if sending else ""
+    raise BhrError(f"{where}: {what}, and the board would hold the module off;{note} {fix}")

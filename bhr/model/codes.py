@@ -1,0 +1,134 @@
+"""Module codes: checking them, naming their actuators, reading and writing ``codes.csv``.
+
+A module's *code* says which of its four nitinol actuators are on (bit
+``k-1`` for actuator ``k``, thesis Table 4.1); only six codes are stable
+(thesis Table 4.2): 0 rest, 3/6/12/9 tilt by alpha about local +x/+y/-x/-y,
+15 lift. The table itself, and what every other part of bhr derives from it,
+is :mod:`bhr.kinematics.codetable` (docs/conventions.md shows it).
+"""
+from __future__ import annotations
+
+import csv
+import io
+import os
+from pathlib import Path
+from typing import Iterable, Sequence
+
+import numpy as np
+
+from bhr.settings.errors import BhrError
+from bhr.settings.inputs import MAX_POINTS, read_capped
+from bhr.kinematics.codetable import CODE_AXIS, LIFT, REST, TILT_CODES, VALID_CODES
+
+__all__ = ["REST", "LIFT", "VALID_CODES", "TILT_CODES", "CODE_AXIS", "is_valid_code", "check_code", "check_codes",
+           "actuators", "format_codes_csv", "read_codes_csv"]
+
+_VALID = frozenset(VALID_CODES)
+_ALLOWED = ", ".join(map(str, sorted(VALID_CODES)))
+
+
+def is_valid_code(code: int) -> bool:
+    """True when ``code`` is one of the six stable codes (0, 3, 6, 9, 12, 15)."""
+    return isinstance(code, (int, np.integer)) and int(code) in _VALID
+
+
+def check_code(code: object, where: str = "") -> int:
+    """Return ``code`` as an int, or raise BhrError naming it and the allowed codes."""
+    place = f" {where}" if where else ""
+    try:
+        if isinstance(code, (int, np.integer)):
+            value = int(code)
+        else:
+            text = str(code).strip()
+            if not (text.isascii() and text.lstrip("+-").isdigit()):  # no "1_5", no full-width or Arabic digits
+                raise ValueError(text)
+            value = int(text)
+    except ValueError:
+        shown = repr(code) if len(str(code)) <= 40 else repr(str(code)[:40]) + "..."
+        raise BhrError(f"code {shown}{place} is not a whole number; use one of {_ALLOWED}") from None
+    if value not in _VALID:
+        raise BhrError(
+            f"code {value}{place} is not a stable actuator code; use one of {_ALLOWED}"
+        )
+    return value
+
+
+def check_codes(codes: Iterable[object], where: str = "") -> list[int]:
+    """Validate a sequence of codes, naming the module (1-based) of the first bad one."""
+    out = []
+    for i, c in enumerate(codes, start=1):
+        out.append(check_code(c, f"for module {i}{' ' + where if where else ''}"))
+    return out
+
+
+def actuators(code: int) -> tuple[int, ...]:
+    """The actuators (1-4) that are on for ``code``."""
+    return tuple(k for k in range(1, 5) if code & (1 << (k - 1)))
+
+
+# ---------------------------------------------------------------------------
+# codes.csv: header ``step,m1,...,mN`` then one row per step.
+
+
+def format_codes_csv(codes: np.ndarray | Sequence[Sequence[int]], steps: Sequence[int] | None = None) -> str:
+    """Render a (steps, modules) array of codes as the text of ``codes.csv``."""
+    arr = np.asarray(codes, dtype=np.int64)
+    if arr.ndim != 2:
+        raise BhrError("codes must be a table of steps by modules")
+    if steps is None:
+        steps = range(1, arr.shape[0] + 1)
+    buf = io.StringIO()
+    writer = csv.writer(buf, lineterminator="\n")
+    writer.writerow(["step"] + [f"m{j}" for j in range(1, arr.shape[1] + 1)])
+    for s, row in zip(steps, arr):
+        writer.writerow([int(s)] + [int(v) for v in row])
+    return buf.getvalue()
+
+
+def read_codes_csv(path: str | os.PathLike[str]) -> tuple[list[int], np.ndarray]:
+    """Read and validate a ``codes.csv``; return (steps, codes array of shape (steps, N)).
+
+    The whole file is checked before anything is returned: an invalid code is
+    reported with its line and column name, so nothing is ever sent from a
+    file that holds one.
+    """
+    p = Path(path)
+    hint = "give the codes.csv written by 'bhr follow'"
+    try:
+        if p.is_dir():
+            raise IsADirectoryError(str(p))
+        text = read_capped(p, "codes file", hint).decode("utf-8-sig")
+    except FileNotFoundError:
+        raise BhrError(f"codes file {p} does not exist; {hint}") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise BhrError(f"cannot read codes file {p}: {exc.__class__.__name__}; give a readable CSV file") from None
+    if "\x00" in text:
+        raise BhrError(f"{p}: binary data (a NUL byte); {hint}")
+    try:
+        rows = list(csv.reader(io.StringIO(text)))
+    except csv.Error as exc:  # e.g. a field longer than csv's 131072-character limit
+        raise BhrError(f"{p}: not a codes table ({str(exc).splitlines()[0][:80]}); {hint}") from None
+    if len(rows) > MAX_POINTS + 1:
+        raise BhrError(f"{p}: more than {MAX_POINTS} steps; split the file ({hint})")
+    rows = [r for r in rows if any(cell.strip() for cell in r)]
+    if not rows:
+        raise BhrError(f"{p} is empty; expected a header 'step,m1,...,mN' and one row per step")
+    header = [h.strip() for h in rows[0]]
+    n = len(header) - 1
+    if n < 1 or header[0] != "step" or header[1:] != [f"m{j}" for j in range(1, n + 1)]:
+        raise BhrError(f"{p}:1: header must be 'step,m1,...,mN' (as 'bhr follow' writes), got {','.join(header)!r}")
+    if len(rows) < 2:
+        raise BhrError(f"{p} has a header but no steps; add at least one row")
+    steps: list[int] = []
+    table = np.zeros((len(rows) - 1, n), dtype=np.int64)
+    for i, row in enumerate(rows[1:]):
+        line = i + 2
+        if len(row) != n + 1:
+            raise BhrError(f"{p}:{line}: expected {n + 1} columns (step and {n} modules), got {len(row)}")
+        cell = row[0].strip()
+        if not (cell.isascii() and cell.lstrip("+-").isdigit() and len(cell) <= 12):
+            raise BhrError(f"{p}:{line}: step {cell[:40]!r} is not a whole number of at most 12 digits")
+        steps.append(int(cell))
+        for j, cell in enumerate(row[1:]):
+            table[i, j] = check_code(cell, f"at {p}:{line} column m{j + 1}")
+    return steps, table

@@ -1,0 +1,149 @@
+"""A trajectory as the solvers and the follow-the-leader driver see it: points and what is known about them.
+
+:class:`Trajectory` is what :func:`bhr.model.generators.load_trajectory` returns for a
+built-in generator or a trajectory file (:mod:`bhr.model.pathfile`);
+:func:`path_directions` gives the unit vectors between its points that the
+follow-the-leader loop aims the tip along (thesis ch. 7).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any, Callable
+
+import numpy as np
+
+from bhr.settings.inputs import MAX_POINTS
+from bhr.settings.errors import BhrError
+from bhr.kinematics.polyline import walk_kernel
+
+__all__ = ["Trajectory", "path_directions", "spacing", "resample_polyline"]
+
+
+@dataclass
+class Trajectory:
+    """Points (N, 3) spaced by the feed, plus what is known about the path.
+
+    ``feed`` is the spacing (mm) the points were sampled at, ``None`` when
+    unknown (points given as an array); ``lumen`` the lumen diameter (mm) at
+    each point, if known. A trajectory reads as its points wherever numpy
+    expects an array (``np.asarray(traj)``, ``traj.shape``, ``traj[i]``).
+    :meth:`at_feed` gives the same path sampled at another feed: built-ins and
+    trajectory files are drawn again at that feed, exactly as ``bhr follow``
+    draws them; other points are resampled along their polyline.
+
+    >>> import bhr
+    >>> t = bhr.trajectory("line", length=10)
+    >>> t
+    Trajectory('line', 6 points, feed 2 mm, 10 mm long)
+    >>> t.at_feed(1.0).shape
+    (11, 3)
+    """
+
+    name: str
+    points: np.ndarray
+    params: dict[str, Any] = field(default_factory=dict)
+    min_radius: float = math.inf
+    lumen: np.ndarray | None = None  # lumen diameter (mm) at each point, if known
+    source: str = ""
+    start_direction: tuple[float, ...] = (1.0, 0.0, 0.0)  # x, y, z
+    start_point: tuple[float, ...] = (0.0, 0.0, 0.0)
+    #: the spacing (mm) the points were sampled at; None: not known
+    feed: float | None = None
+    #: draws the same trajectory at another feed (set by bhr.model.generators.load_trajectory); picklable
+    redraw: Callable[[float], "Trajectory"] | None = field(default=None, repr=False, compare=False)
+
+    @property
+    def planar(self) -> bool:
+        """True when every point has the same z (drawn from the top)."""
+        z = self.points[:, 2]
+        return bool(np.ptp(z) <= 1e-9 * max(1.0, float(np.abs(self.points).max())))
+
+    @property
+    def length_mm(self) -> float:
+        """Length of the polyline through the points (mm)."""
+        return float(np.linalg.norm(np.diff(self.points, axis=0), axis=1).sum())
+
+    # read as the (N, 3) points where numpy expects an array
+    def __array__(self, dtype: Any = None, copy: Any = None) -> np.ndarray:
+        return np.asarray(self.points, dtype=dtype) if copy is None or copy is False else \
+            np.array(self.points, dtype=dtype, copy=True)
+
+    def __len__(self) -> int:
+        return int(self.points.shape[0])
+
+    def __getitem__(self, index: Any) -> Any:
+        return self.points[index]
+
+    @property
+    def shape(self) -> tuple[int, ...]:
+        return tuple(self.points.shape)
+
+    def __repr__(self) -> str:
+        feed = "feed unknown" if self.feed is None else f"feed {self.feed:g} mm"
+        lumen = "" if self.lumen is None else ", with lumen"
+        return f"Trajectory({self.name!r}, {len(self)} points, {feed}, {self.length_mm:.4g} mm long{lumen})"
+
+    def at_feed(self, feed: float) -> "Trajectory":
+        """This trajectory sampled every ``feed`` mm (itself when it already is).
+
+        Built-ins and trajectory files are drawn again at ``feed``; other points
+        are resampled along the polyline (:func:`resample_polyline`), the lumen
+        with them.
+        """
+        if not (isinstance(feed, (int, float)) and not isinstance(feed, bool) and math.isfinite(feed) and feed > 0):
+            raise BhrError(f"feed must be a positive number of mm, got {feed!r}")
+        if self.feed is not None and math.isclose(self.feed, feed, rel_tol=1e-12):
+            return self
+        if self.redraw is not None:
+            return self.redraw(float(feed))
+        if self.length_mm < feed:
+            raise BhrError(f"the trajectory is {self.length_mm:g} mm long, shorter than one feed ({feed:g} mm); "
+                           "give a longer path or a smaller feed")
+        pts, lumen = resample_polyline(self.points, float(feed), self.lumen)
+        return Trajectory(self.name, pts, dict(self.params), self.min_radius, lumen, self.source,
+                          self.start_direction, self.start_point, float(feed))
+
+
+def spacing(points: np.ndarray) -> float:
+    """Median distance between consecutive points (mm); 0 for fewer than two points."""
+    pts = np.asarray(points, dtype=np.float64)
+    if pts.shape[0] < 2:
+        return 0.0
+    return float(np.median(np.linalg.norm(np.diff(pts, axis=0), axis=1)))
+
+
+def resample_polyline(pts: np.ndarray, feed: float, values: np.ndarray | None = None
+                      ) -> tuple[np.ndarray, np.ndarray | None]:
+    """Points exactly ``feed`` mm apart, walking along the polyline ``pts`` (first point kept).
+
+    Each next point is where the polyline, followed from the previous point,
+    first leaves the sphere of radius ``feed`` around it. On a smooth curve
+    this is resampling by arc length (chord and arc of one feed differ by
+    feed^2 / (24 R^2), relatively: 5e-5 at 2 mm on a 57 mm radius); on a
+    densely measured noisy centerline it does not count the zigzag of the
+    raw points as length, as summing the raw segment lengths would.
+    ``values`` (one per input point, e.g. lumen diameters) are interpolated
+    linearly along the segment where each new point falls. The remainder
+    shorter than one feed is dropped.
+    """
+    pts = np.ascontiguousarray(pts, dtype=np.float64)
+    vals = np.zeros(pts.shape[0]) if values is None else np.ascontiguousarray(values, dtype=np.float64)
+    length = float(np.linalg.norm(np.diff(pts, axis=0), axis=1).sum())
+    cap = min(MAX_POINTS, int(length / feed) + 2)  # chords are never longer than the arcs they span
+    out = np.empty((cap, 3))
+    out_vals = np.empty(cap)
+    count = walk_kernel(pts, vals, float(feed), out, out_vals)
+    if count < 0:
+        raise BhrError(f"the path gives more than {MAX_POINTS} points at a feed of {feed:g} mm; raise the feed")
+    return out[:count].copy(), (None if values is None else out_vals[:count].copy())
+
+
+def path_directions(path: np.ndarray) -> np.ndarray:
+    """Unit vectors from each trajectory point to the next, (N-1, 3)."""
+    diff = np.diff(path, axis=0)
+    norms = np.linalg.norm(diff, axis=1)
+    if np.any(norms == 0):
+        k = int(np.argmin(norms))
+        raise BhrError(f"trajectory points {k + 1} and {k + 2} are the same point; remove the duplicate")
+    return diff / norms[:, None]

@@ -1,0 +1,441 @@
+"""Outputs written whole or not at all: single files and whole output folders.
+
+Single files (:func:`atomic_path`, :func:`write_text`, :func:`write_json`)
+are written to a temporary file beside the target and renamed onto it, so an
+interrupted or failed run never leaves a half-written file and never
+replaces a good file with a bad one. Targets that are not regular files
+(``/dev/null``, ``/dev/stdout``, a FIFO, a terminal) are written in place and
+never replaced; a symbolic link is followed and the file it points to is
+replaced, never the link itself; a read-only file is refused.
+
+Output folders (:class:`OutputFolder`) hold the files of one run (for
+``bhr follow``: ``run.json``, ``codes.csv``, the figures). They are staged in
+a hidden folder beside the target (``.NAME.bhr-stage-PID-XXXX``) and put in
+place in one step: ``rename`` onto a new name, or an atomic exchange with the
+previous folder (Linux ``renameat2(RENAME_EXCHANGE)``), after which the
+previous folder is deleted. A folder therefore always holds the complete set
+of exactly one run, also when a run is killed (``kill -9``), the disk fills
+up, or two runs write the same folder at once (the last to finish wins
+whole). ``manifest.json`` in the folder names the run (``run_id``, the
+command) and lists every file with its size and SHA-256. Staging folders of
+runs that died are deleted by the next run into the same place.
+"""
+from __future__ import annotations
+
+import contextlib
+import ctypes
+import errno
+import hashlib
+import json
+import os
+import shutil
+import stat
+import tempfile
+import time
+import uuid
+from pathlib import Path
+from typing import Any, Iterable, Iterator
+
+from bhr.settings.errors import BhrError
+
+__all__ = ["atomic_path", "write_text", "write_json", "check_output_file", "OutputFolder", "MANIFEST",
+           "in_place_target", "point_latest"]
+
+#: The file in every output folder that ties its files to one run.
+MANIFEST = "manifest.json"
+_STAGE = ".bhr-stage-"
+_ASIDE = ".bhr-old-"
+
+
+# --- single files ------------------------------------------------------------------------------------------------
+
+def in_place_target(path: str | os.PathLike[str]) -> bool:
+    """True when ``path`` exists and is not a regular file (a device, FIFO, socket, terminal, /dev/stdout).
+
+    Such targets are written in place: replacing them would destroy them
+    (``/dev/null`` as root) or cut the link to whoever reads them.
+    """
+    try:
+        st = os.stat(path)  # follows symbolic links
+    except OSError:
+        return False
+    if not stat.S_ISREG(st.st_mode) and not stat.S_ISDIR(st.st_mode):
+        return True
+    return stat.S_ISREG(st.st_mode) and _via_special(path)
+
+
+def _via_special(path: str | os.PathLike[str]) -> bool:
+    """True when ``path`` or a link on the way to its file is under /dev or /proc (``/dev/stdout`` redirected
+    to a file): the file is someone else's open descriptor and is written in place, not replaced."""
+    p = os.path.abspath(path)
+    for _ in range(40):
+        if p.startswith(("/dev/", "/proc/")):
+            return True
+        if not os.path.islink(p):
+            return False
+        p = os.path.abspath(os.path.join(os.path.dirname(p), os.readlink(p)))
+    return False
+
+
+def _real_target(path: Path) -> Path:
+    """Where a write to ``path`` should land: the file a symbolic link points to (the link is kept)."""
+    if path.is_symlink():
+        return Path(os.path.realpath(path))
+    return path
+
+
+def check_output_file(path: str | os.PathLike[str], what: str = "output") -> None:
+    """Refuse, before any work, an output file that cannot be written or must not be replaced.
+
+    ``-`` (standard output) is always accepted. Devices and FIFOs must be
+    writable by this user; a regular file must not be read-only; a new
+    file needs a writable folder.
+    """
+    if str(path) == "-":
+        return
+    p = Path(path)
+    if p.is_symlink() and not p.exists():
+        raise BhrError(f"{what} {p} is a symbolic link to a missing {os.readlink(p)}; "
+                       "create its target or choose another path")
+    if p.is_dir():
+        raise BhrError(f"{what} path {p} is a directory; give a file name")
+    if in_place_target(p):
+        if not os.access(p, os.W_OK):
+            raise BhrError(f"cannot write {what} {p}: permission denied; choose another path")
+        return
+    real = _real_target(p)
+    if real.exists():
+        mode = real.stat().st_mode
+        if not (mode & 0o222) or not os.access(real, os.W_OK):
+            raise BhrError(f"{what} {p} is read-only; make it writable (chmod u+w) or choose another path")
+    parent = real.parent if str(real.parent) else Path(".")
+    probe = parent
+    while not probe.exists() and probe != probe.parent:
+        probe = probe.parent
+    if not probe.is_dir() or not os.access(probe, os.W_OK | os.X_OK):
+        raise BhrError(f"cannot write {what} {p}: {probe} is not a writable folder; choose another path")
+
+
+@contextlib.contextmanager
+def atomic_path(path: str | os.PathLike[str], suffix: str | None = None) -> Iterator[Path]:
+    """Yield a temporary path in the target's folder; rename it onto ``path`` on success.
+
+    The temporary name keeps the target's extension (``suffix``) so writers
+    that look at it (matplotlib, Pillow) pick the right format. A target
+    that is not a regular file is yielded itself (written in place); a
+    symbolic link is followed, so the file it points to is replaced.
+    """
+    target = Path(path)
+    if in_place_target(target):
+        try:
+            yield target
+        except OSError as exc:
+            if exc.filename is None:
+                exc.filename = str(target)  # so that the one-line message names the device
+            raise
+        return
+    target = _real_target(target)
+    if target.exists() and not (target.stat().st_mode & 0o222 and os.access(target, os.W_OK)):
+        raise BhrError(f"{path} is read-only; make it writable (chmod u+w) or choose another path")
+    target.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=suffix if suffix is not None else target.suffix,
+                               dir=target.parent)
+    os.close(fd)
+    tmp_path = Path(tmp)
+    try:
+        yield tmp_path
+        os.chmod(tmp_path, _mode_for(target))
+        os.replace(tmp_path, target)
+    finally:
+        if tmp_path.exists():
+            tmp_path.unlink()
+
+
+def _mode_for(target: Path) -> int:
+    """The permissions a plain ``open(target, "w")`` would give: the old file's, else 0o666 less the umask.
+
+    (mkstemp creates its file 0o600, which would hide outputs from the
+    user's group.)
+    """
+    try:
+        return target.stat().st_mode & 0o7777
+    except OSError:
+        mask = os.umask(0)
+        os.umask(mask)
+        return 0o666 & ~mask
+
+
+def write_text(path: str | os.PathLike[str], text: str) -> None:
+    """Write ``text`` to ``path`` atomically (UTF-8)."""
+    with atomic_path(path) as tmp:
+        if tmp == Path(path) or in_place_target(tmp):
+            # a device or FIFO: written in place; a file reached through /dev/stdout: appended, not truncated
+            with open(tmp, "a" if os.path.isfile(tmp) else "w", encoding="utf-8") as fh:
+                fh.write(text)
+        else:
+            tmp.write_text(text, encoding="utf-8")
+
+
+def write_json(path: str | os.PathLike[str], doc: Any) -> None:
+    """Write ``doc`` as indented JSON to ``path`` atomically."""
+    write_text(path, json.dumps(doc, indent=1, allow_nan=False) + "\n")
+
+
+# --- whole folders -----------------------------------------------------------------------------------------------
+
+_RENAME_NOREPLACE = 1
+_RENAME_EXCHANGE = 2
+_AT_FDCWD = -100
+
+
+def _renameat2(src: Path, dst: Path, flags: int) -> None:
+    """``renameat2(2)``; OSError with the errno on failure (ENOSYS/EINVAL where unsupported)."""
+    libc = ctypes.CDLL(None, use_errno=True)
+    fn = getattr(libc, "renameat2", None)
+    if fn is None:
+        raise OSError(errno.ENOSYS, "renameat2 not available")
+    if fn(_AT_FDCWD, os.fsencode(src), _AT_FDCWD, os.fsencode(dst), flags) != 0:
+        e = ctypes.get_errno()
+        raise OSError(e, os.strerror(e), str(dst))
+
+
+def _pid_alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
+
+
+def _sha256(path: Path) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for block in iter(lambda: fh.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+class OutputFolder:
+    """Stage an output folder beside ``target`` and put it in place whole when the ``with`` block succeeds.
+
+    ``names`` are the files a run may write at the top of the folder
+    (patterns like ``*.png`` allowed); an existing folder is replaced only
+    when it is empty, holds a bhr ``manifest.json``, or holds nothing but
+    such files, so that ``--out`` naming a folder of other work is refused
+    instead of swept away. With ``keep`` the files of the existing folder
+    are carried over (hard links) unless the run writes them again (used by
+    ``bhr replay`` to redraw figures beside a run's data).
+
+        with OutputFolder("bhr-out/curve", command="follow") as of:
+            write_json(of.path("run.json"), doc)
+    """
+
+    def __init__(self, target: str | os.PathLike[str], command: str, names: Iterable[str] = (),
+                 keep: bool = False, what: str = "output folder") -> None:
+        self.given = Path(target)
+        self.command = command
+        self.names = tuple(names)
+        self.keep = keep
+        self.what = what
+        self.run_id = uuid.uuid4().hex
+        self.stage: Path | None = None
+        self.target = self._resolve()
+
+    # -- checks (also callable before any work starts) --
+
+    def _resolve(self) -> Path:
+        p = self.given
+        if p.is_symlink():
+            if not p.exists():
+                raise BhrError(f"{self.what} {p} is a symbolic link to a missing {os.readlink(p)}; "
+                               "create its target or choose another folder")
+            p = Path(os.path.realpath(p))
+        return Path(os.path.abspath(p))
+
+    def check(self) -> "OutputFolder":
+        """Refuse, before any work, a target that is a file, a folder of other files, or not writable."""
+        t = self.target
+        if t.exists() and not t.is_dir():
+            raise BhrError(f"{self.what} {self.given} is a file, not a folder; choose a folder name")
+        if t == Path(os.path.abspath(os.sep)) or t == Path.home().resolve() or t == Path.cwd().resolve():
+            raise BhrError(f"{self.what} {self.given} would replace the folder itself; give a new folder for "
+                           "the output, such as out/run1")
+        if t.is_dir() and not self._replaceable(t):
+            raise BhrError(f"{self.what} {self.given} already holds files that no bhr run wrote; give a new or "
+                           "empty folder (bhr replaces the whole folder with the new run)")
+        probe = t.parent
+        while not probe.exists() and probe != probe.parent:
+            probe = probe.parent
+        if not probe.is_dir() or not os.access(probe, os.W_OK | os.X_OK):
+            raise BhrError(f"cannot write {self.what} {self.given}: {probe} is not a writable folder; "
+                           "choose another path")
+        return self
+
+    def _replaceable(self, folder: Path) -> bool:
+        try:
+            entries = list(folder.iterdir())
+        except OSError as exc:
+            raise BhrError(f"cannot read {self.what} {self.given} ({exc.strerror}); choose another folder") from None
+        if not entries or (folder / MANIFEST).is_file():
+            return True
+        import fnmatch
+
+        for e in entries:
+            if not e.is_file() or e.is_symlink():
+                return False
+            if not any(fnmatch.fnmatch(e.name, pat) for pat in self.names):
+                return False
+        return True
+
+    # -- staging --
+
+    def _clean_stale(self) -> None:
+        """Delete staging folders of dead runs into this target; put back a folder left aside by one."""
+        parent, name = self.target.parent, self.target.name
+        if not parent.is_dir():
+            return
+        for e in parent.iterdir():
+            for mark in (_STAGE, _ASIDE):
+                prefix = f".{name}{mark}"
+                if not e.name.startswith(prefix):
+                    continue
+                try:
+                    pid = int(e.name[len(prefix):].split("-", 1)[0])
+                except ValueError:
+                    continue
+                if _pid_alive(pid) and pid != os.getpid():
+                    continue
+                if mark == _ASIDE and not self.target.exists():
+                    with contextlib.suppress(OSError):
+                        os.rename(e, self.target)  # the fallback swap died half-way: restore the old set
+                        continue
+                shutil.rmtree(e, ignore_errors=True)
+
+    def __enter__(self) -> "OutputFolder":
+        self.check()
+        self.target.parent.mkdir(parents=True, exist_ok=True)
+        self._clean_stale()
+        self.stage = Path(tempfile.mkdtemp(prefix=f".{self.target.name}{_STAGE}{os.getpid()}-",
+                                           dir=self.target.parent))
+        os.chmod(self.stage, _mode_for_dir(self.target))
+        if self.keep and self.target.is_dir():
+            for e in self.target.iterdir():
+                if e.is_file() and not e.is_symlink() and e.name != MANIFEST:
+                    try:
+                        os.link(e, self.stage / e.name)
+                    except OSError:
+                        shutil.copy2(e, self.stage / e.name)
+        return self
+
+    def path(self, name: str | os.PathLike[str]) -> Path:
+        """Where to write ``name`` (relative to the folder) while staging."""
+        assert self.stage is not None, "use OutputFolder in a with block"
+        p = self.stage / name
+        p.parent.mkdir(parents=True, exist_ok=True)
+        if p.is_file() or p.is_symlink():
+            p.unlink()  # a carried-over hard link: never write through it into the old folder
+        return p
+
+    def final(self, name: str | os.PathLike[str]) -> Path:
+        """Where ``name`` will be once the folder is in place (as the user named the folder)."""
+        return self.given / name
+
+    def __exit__(self, exc_type: Any, exc: Any, tb: Any) -> None:
+        assert self.stage is not None
+        if exc_type is not None:
+            shutil.rmtree(self.stage, ignore_errors=True)
+            return
+        try:
+            self._write_manifest()
+            old = self._commit()
+        except BaseException:
+            shutil.rmtree(self.stage, ignore_errors=True)
+            raise
+        if old is not None:
+            shutil.rmtree(old, ignore_errors=True)
+
+    def _write_manifest(self) -> None:
+        assert self.stage is not None
+        files = {}
+        for p in sorted(self.stage.rglob("*")):
+            if p.is_file() and p.name != MANIFEST:
+                files[str(p.relative_to(self.stage))] = {"bytes": p.stat().st_size, "sha256": _sha256(p)}
+        doc = {"bhr_output": 1, "command": self.command, "run_id": self.run_id,
+               "written": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()), "files": files}
+        (self.stage / MANIFEST).write_text(json.dumps(doc, indent=1) + "\n", encoding="utf-8")
+        os.chmod(self.stage / MANIFEST, _mode_for(self.target / MANIFEST))
+
+    def _commit(self) -> Path | None:
+        """Put the staged folder in place; return the folder it displaced (to delete), if any."""
+        assert self.stage is not None
+        stage, target = self.stage, self.target
+        for _ in range(1000):
+            try:
+                _renameat2(stage, target, _RENAME_NOREPLACE)
+                return None
+            except FileExistsError:
+                pass
+            except OSError as exc:
+                if exc.errno in (errno.ENOSYS, errno.EINVAL):
+                    return self._commit_fallback()
+                raise
+            try:
+                _renameat2(stage, target, _RENAME_EXCHANGE)
+                return stage  # now holds the previous set
+            except FileNotFoundError:
+                continue  # the target vanished in between (another run's swap): try again
+            except NotADirectoryError:
+                raise BhrError(f"{self.what} {self.given} became a file while the run worked; "
+                               "choose another folder") from None
+        raise BhrError(f"could not put {self.what} {self.given} in place (another run keeps replacing it); "
+                       "run again")
+
+    def _commit_fallback(self) -> Path | None:
+        """Without renameat2: under a lock, move the old folder aside, then the new one in (restored if killed)."""
+        import fcntl
+
+        assert self.stage is not None
+        lock = self.target.parent / f".{self.target.name}.bhr-lock"
+        with open(lock, "a") as fh:
+            fcntl.flock(fh, fcntl.LOCK_EX)
+            aside = None
+            if self.target.exists():
+                aside = Path(tempfile.mkdtemp(prefix=f".{self.target.name}{_ASIDE}{os.getpid()}-",
+                                              dir=self.target.parent))
+                os.rmdir(aside)
+                os.rename(self.target, aside)
+            os.rename(self.stage, self.target)
+            return aside
+
+
+def _mode_for_dir(target: Path) -> int:
+    try:
+        return target.stat().st_mode & 0o7777
+    except OSError:
+        mask = os.umask(0)
+        os.umask(mask)
+        return 0o777 & ~mask
+
+
+def point_latest(folder: str | os.PathLike[str], link_name: str = "latest") -> Path | None:
+    """Make ``<parent>/latest`` a symbolic link to ``folder`` (the run just written); return the link.
+
+    The link is replaced by a rename, so it always points at a whole folder.
+    Nothing is done when ``latest`` exists and is not a symbolic link (a
+    user's own file or folder), or when the file system has no links.
+    """
+    target = Path(folder)
+    link = target.parent / link_name
+    if link.exists() and not link.is_symlink():
+        return None
+    tmp = target.parent / f".{link_name}.bhr-link-{os.getpid()}-{uuid.uuid4().hex[:8]}"
+    try:
+        os.symlink(target.name, tmp)
+        os.replace(tmp, link)
+    except OSError:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+        return None
+    return link

@@ -1,0 +1,551 @@
+"""Follow-the-leader driver: advance along a trajectory, re-solve, score (thesis ch. 7).
+
+The robot starts straight with its tip on the trajectory's start (the thesis:
+tip at the origin, body along -x). At step ``i`` the target is trajectory
+point ``i`` and the wanted tip direction the unit vector to point ``i+1`` (the
+last step reuses the previous one). After each solve the whole robot advances
+by the feed along its base module, and the local axes of modules 2..n are
+reset to those of a straight robot (module 1 keeps its own). Point ``j`` (1 =
+base, n+1 = tip) is scored against the trajectory point ``(n+1-j) f`` steps
+behind the current one (0 before that exists), ``f`` the feed divisor;
+module ``j < n`` against the path direction there, and the tip module against
+the wanted tip direction.
+
+Solvers whose :meth:`~bhr.solvers.base.Solver.follow_kernel` runs the whole
+loop compiled are run that way; any other solver is driven step by step from
+Python with the same compiled scoring and advance kernels.
+"""
+from __future__ import annotations
+
+import json
+import math
+import sys
+import warnings
+from dataclasses import dataclass, field, fields
+from pathlib import Path
+from typing import Any, Callable
+
+import numpy as np
+
+from bhr.settings.inputs import MAX_FILE_BYTES, MAX_MM, MAX_STEP_POINTS, read_text
+from bhr.settings.errors import BhrError
+from bhr.settings.options import robot_limits
+from bhr.model.robot import THESIS_ROBOT, Robot, robot_with
+from bhr.solvers import Chain, FollowContext, Solver, get_solver
+from bhr.run.body import BodyRun, simulate_body
+from bhr.run.clearance import ClearanceReport, clearance_report
+from bhr.kinematics.leader import angle_deg, score_step
+from bhr.model.path import Trajectory, path_directions, spacing
+
+__all__ = ["follow", "FollowResult", "Summary", "BhrWarning", "stats", "load_run"]
+
+
+class BhrWarning(UserWarning):
+    """A run that completes but should be read with care (e.g. a curve tighter than the robot can turn)."""
+
+
+def _sharpest_turn(dirs: np.ndarray) -> tuple[int, float] | None:
+    """(index, angle in degrees) of the largest turn between consecutive step directions; None for one step."""
+    if dirs.shape[0] < 2:
+        return None
+    cos = np.clip(np.einsum("ij,ij->i", dirs[:-1], dirs[1:]), -1.0, 1.0)
+    k = int(np.argmin(cos))
+    return k, math.degrees(math.acos(float(cos[k])))
+
+
+def stats(values: np.ndarray, first: int = 0) -> dict[str, float | int]:
+    """max, mean, median, root mean square and final of ``values[first:]`` and the worst step (1-based)."""
+    v = values[first:] if first < len(values) else values[-1:]
+    worst = int(np.argmax(values)) + 1
+    return {
+        "max": float(np.max(values)),
+        "mean": float(np.mean(v)),
+        "median": float(np.median(v)),
+        "rmse": float(np.sqrt(np.mean(np.square(v)))),
+        "final": float(values[-1]),
+        "worst_step": worst,
+    }
+
+
+def _deprecated(old: str, new: str) -> None:
+    warnings.warn(f"{old} is deprecated; use {new}", DeprecationWarning, stacklevel=3)
+
+
+@dataclass
+class Summary:
+    """The summary of a run (thesis ch. 7's figures of merit): errors in mm and degrees, steps from 1.
+
+    ``points``, ``modules`` and ``global_`` hold, per point (base first) and per
+    module, the max, mean, median, RMSE and final error and the worst step (see
+    :func:`stats`). ``extra`` holds what the body simulation, the lumen
+    clearance and the solver add. :meth:`to_dict` is the ``summary`` object of
+    ``run.json``.
+    """
+
+    steps: int
+    solver: str
+    trajectory: str
+    tip_max_error_mm: float
+    tip_final_error_mm: float
+    tip_worst_step: int
+    points_max_error_mm: float
+    points_worst_step: int
+    orientation_max_deg: float
+    tip_orientation_max_deg: float
+    tip_orientation_final_deg: float
+    global_max: float
+    mean_iterations: float
+    points: list[dict[str, float | int]]
+    modules: list[dict[str, float | int]]
+    global_: list[dict[str, float | int]]
+    warnings: list[str]
+    #: root mean square of the tip's position and orientation error over its scored steps
+    tip_rmse_mm: float = 0.0
+    tip_orientation_rmse_deg: float = 0.0
+    #: the same per point (base first) and per module
+    rmse_point_mm: list[float] = field(default_factory=list)
+    rmse_module_deg: list[float] = field(default_factory=list)
+    #: steps where some point was more than tol_pos off / the tip more than tol_ori off
+    over_tol_pos_steps: int = 0
+    over_tol_ori_steps: int = 0
+    #: either count is not zero (the run completes; the flag tells)
+    tolerance_exceeded: bool = False
+    extra: dict[str, Any] = field(default_factory=dict)
+
+    def to_dict(self) -> dict[str, Any]:
+        """The summary as plain JSON types, in the key order of ``run.json``."""
+        out: dict[str, Any] = {}
+        for f in fields(self):
+            if f.name != "extra":
+                out["global" if f.name == "global_" else f.name] = getattr(self, f.name)
+        out["warnings"] = list(self.warnings)
+        out.update(self.extra)
+        return out
+
+    def to_json(self) -> str:
+        """:meth:`to_dict` as a JSON string."""
+        return json.dumps(self.to_dict())
+
+    def __repr__(self) -> str:
+        return (f"Summary({self.solver} on {self.trajectory}, {self.steps} steps: tip worst "
+                f"{self.tip_max_error_mm:.4g} mm at step {self.tip_worst_step}, ends "
+                f"{self.tip_final_error_mm:.4g} mm and {self.tip_orientation_final_deg:.4g} deg off)")
+
+    def __call__(self) -> dict[str, Any]:
+        """Deprecated: ``result.summary()`` was a dict; use ``result.summary.to_dict()``."""
+        _deprecated("FollowResult.summary()", "FollowResult.summary.to_dict()")
+        return self.to_dict()
+
+
+@dataclass(repr=False)
+class FollowResult:
+    """A whole run: per-step poses, codes and errors, with the summary of the thesis's script.
+
+    ``success`` and ``status`` say whether the run kept every scored point
+    within the robot's tolerances and, when the path has a lumen, off the
+    wall; ``reason`` says why not, in words.
+    """
+
+    trajectory: Trajectory
+    robot: Robot
+    solver: str
+    points: np.ndarray  # (N, n+1, 3) solved pose at each step
+    iterations: np.ndarray  # (N,)
+    point_errors: np.ndarray  # (N, n+1) mm, base first
+    orientation_errors: np.ndarray  # (N, n) degrees
+    codes: np.ndarray | None = None  # (N, n)
+    warnings: list[str] = field(default_factory=list)
+    extra: dict[str, Any] = field(default_factory=dict)
+    body: BodyRun | None = None  # the modules behind the head (follow(..., body_modules=M))
+
+    @property
+    def clearance(self) -> ClearanceReport | None:
+        """The clearance report when the trajectory has a lumen (head and body points), else None."""
+        if self.trajectory.lumen is None:
+            return None
+        key = (self.body, self.trajectory.lumen, self.point_errors)  # held, compared by identity
+        cached = getattr(self, "_clearance_cache", None)
+        if cached is None or any(a is not b for a, b in zip(cached[0], key)):
+            cached = (key, clearance_report(self))
+            self._clearance_cache = cached
+        return cached[1]
+
+    @property
+    def steps(self) -> int:
+        return int(self.points.shape[0])
+
+    @property
+    def success(self) -> bool:
+        """Every scored point within ``tol_pos``, the tip within ``tol_ori`` and (with a lumen) no wall contact."""
+        return self.status == "followed"
+
+    @property
+    def status(self) -> str:
+        """``"followed"``, ``"out of tolerance"`` or ``"touched the wall"`` (the wall first when both)."""
+        return self._verdict()[0]
+
+    @property
+    def reason(self) -> str:
+        """Why :attr:`status` is what it is, in words with the figures."""
+        return self._verdict()[1]
+
+    def _verdict(self) -> tuple[str, str]:
+        s = self.summary
+        touch = s.extra.get("wall_touch_steps") or []
+        if touch:
+            return ("touched the wall", f"the robot touches the wall at {len(touch)} of {self.steps} steps (first "
+                    f"step {touch[0]}), up to {s.extra.get('max_penetration_mm', 0.0):.4g} mm deep")
+        if s.tolerance_exceeded:
+            return ("out of tolerance", f"{s.over_tol_pos_steps} steps with a point more than "
+                    f"{self.robot.tol_pos:g} mm off and {s.over_tol_ori_steps} with the tip more than "
+                    f"{self.robot.tol_ori:g} deg off (worst {s.points_max_error_mm:.4g} mm at step "
+                    f"{s.points_worst_step})")
+        return ("followed", f"every scored point within {self.robot.tol_pos:g} mm and the tip within "
+                f"{self.robot.tol_ori:g} deg over {self.steps} steps")
+
+    def __repr__(self) -> str:
+        s = self.summary
+        body = f" (+{self.body.modules} body modules)" if self.body is not None else ""
+        return (f"FollowResult({self.solver} on {self.trajectory.name}, {self.modules} modules{body}, {self.steps} "
+                f"steps: {self.status}; tip worst {s.tip_max_error_mm:.4g} mm at step {s.tip_worst_step})")
+
+    @property
+    def modules(self) -> int:
+        return int(self.points.shape[1] - 1)
+
+    @property
+    def global_errors(self) -> np.ndarray:
+        """(N, n): module j pairs point j+1 with module j, weighted and normalised by the tolerances."""
+        r = self.robot
+        return (r.weight_pos * self.point_errors[:, 1:] / r.tol_pos
+                + r.weight_ori * self.orientation_errors / r.tol_ori)
+
+    @property
+    def summary(self) -> Summary:
+        """Max, mean, median, RMSE and final per point and module (leading unscored steps left out of mean,
+        median and RMSE), and the run's headline figures (see :class:`Summary`)."""
+        n = self.modules
+        f = self.robot.feed_divisor
+        pts = [stats(self.point_errors[:, j], (n - j) * f) for j in range(n + 1)]
+        mods = [stats(self.orientation_errors[:, j], (n - j - 1) * f) for j in range(n)]
+        glob = [stats(self.global_errors[:, j], (n - j - 1) * f) for j in range(n)]
+        worst_flat = int(np.argmax(self.point_errors.max(axis=1))) + 1
+        out: dict[str, Any] = {}
+        over_pos = int(np.count_nonzero(self.point_errors.max(axis=1) > self.robot.tol_pos))
+        over_ori = int(np.count_nonzero(self.orientation_errors[:, -1] > self.robot.tol_ori))
+        if self.body is not None:
+            b = self.body
+            out["body_modules"] = self.modules + b.modules
+            out["body_points_max_error_mm"] = float(b.point_errors.max()) if b.modules else 0.0
+            out["body_worst_step"] = int(np.argmax(b.point_errors.max(axis=1))) + 1 if b.modules else 0
+            out["body_orientation_max_deg"] = float(b.orientation_errors.max()) if b.modules else 0.0
+        cl = self.clearance
+        if cl is not None:
+            out.update(cl.summary())
+        out.update(self.extra.get("summary", {}))
+        return Summary(self.steps, self.solver, self.trajectory.name, pts[-1]["max"], pts[-1]["final"],
+                       int(pts[-1]["worst_step"]), float(self.point_errors.max()), worst_flat,
+                       float(self.orientation_errors.max()), mods[-1]["max"], mods[-1]["final"],
+                       float(self.global_errors.max()), float(np.mean(self.iterations)), pts, mods, glob,
+                       list(self.warnings), tip_rmse_mm=float(pts[-1]["rmse"]),
+                       tip_orientation_rmse_deg=float(mods[-1]["rmse"]),
+                       rmse_point_mm=[float(p["rmse"]) for p in pts], rmse_module_deg=[float(m["rmse"]) for m in mods],
+                       over_tol_pos_steps=over_pos, over_tol_ori_steps=over_ori,
+                       tolerance_exceeded=bool(over_pos or over_ori), extra=out)
+
+    def to_json(self) -> str:
+        """:meth:`to_dict` as a JSON string (the text of ``run.json``)."""
+        return json.dumps(self.to_dict())
+
+    def to_dict(self) -> dict[str, Any]:
+        """The ``bhr follow --json`` document (its keys are a documented contract, docs/commands.md)."""
+        steps = []
+        for i in range(self.steps):
+            steps.append({
+                "step": i + 1,
+                "target": [float(v) for v in self.trajectory.points[i]],
+                "points": [[float(v) for v in row] for row in self.points[i]],
+                "point_errors_mm": [float(v) for v in self.point_errors[i]],
+                "module_orientation_errors_deg": [float(v) for v in self.orientation_errors[i]],
+                "codes": None if self.codes is None else [int(c) for c in self.codes[i]],
+                "iterations": int(self.iterations[i]),
+            })
+        cl = self.clearance
+        if cl is not None:
+            per = cl.per_step
+            for i, st in enumerate(steps):
+                st["clearance_mm"] = None if np.isnan(per[i]) else float(per[i])
+        if self.body is not None and self.body.modules:
+            b = self.body
+            for i, st in enumerate(steps):
+                st["body_points"] = [[float(v) for v in row] for row in b.points[i]]
+                st["body_point_errors_mm"] = [float(v) for v in b.point_errors[i]]
+                st["body_module_orientation_errors_deg"] = [float(v) for v in b.orientation_errors[i]]
+                st["body_codes"] = [int(c) for c in b.codes[i]]
+        traj_doc = {"name": self.trajectory.name, "params": self.trajectory.params,
+                    "points": self.trajectory.points.tolist()}
+        if self.trajectory.lumen is not None:
+            traj_doc["lumen"] = [float(v) for v in self.trajectory.lumen]
+        return {
+            "trajectory": traj_doc,
+            "robot": self.robot.to_dict(),
+            "solver": self.solver,
+            "steps": steps,
+            "summary": self.summary.to_dict(),
+        }
+
+    @classmethod
+    def from_json(cls, doc: Any, where: str = "run") -> "FollowResult":
+        """A run back from its :meth:`to_dict` document, without solving (``bhr replay``).
+
+        Raises :class:`BhrError` naming the first thing wrong (``where`` names the file).
+        """
+        return _run_from_json(doc, where)
+
+
+def _run_from_json(doc: Any, where: str) -> FollowResult:
+    def bad(what: str) -> BhrError:
+        return BhrError(f"{where}: {what}; give a run.json written by 'bhr follow'")
+
+    def array(value: Any, shape: tuple[int | None, ...], what: str) -> np.ndarray:
+        try:
+            arr = np.asarray(value, dtype=np.float64)
+        except (TypeError, ValueError, OverflowError):
+            raise bad(f"{what} must be numbers of a sensible size") from None
+        if arr.ndim != len(shape) or any(w is not None and w != h for w, h in zip(shape, arr.shape)):
+            want = " x ".join("N" if w is None else str(w) for w in shape)
+            raise bad(f"{what} must be {want} numbers, got shape {' x '.join(map(str, arr.shape)) or 'scalar'}")
+        if not np.all(np.isfinite(arr)):
+            raise bad(f"{what} must be finite numbers")
+        if arr.size and float(np.abs(arr).max()) > MAX_MM:
+            raise bad(f"{what} must lie within +-{MAX_MM:g} mm (or deg)")
+        return arr
+
+    if not isinstance(doc, dict) or not all(k in doc for k in ("trajectory", "robot", "solver", "steps")):
+        raise bad("not a bhr run (it needs 'trajectory', 'robot', 'solver' and 'steps')")
+    tr, rb, steps = doc["trajectory"], doc["robot"], doc["steps"]
+    if not isinstance(tr, dict) or not isinstance(rb, dict) or not isinstance(steps, list) or not steps:
+        raise bad("'trajectory' and 'robot' must be objects and 'steps' a non-empty list")
+    path = array(tr.get("points"), (None, 3), "trajectory points")
+    names = set(Robot.__dataclass_fields__)
+    try:
+        robot = Robot(**{k: v for k, v in rb.items() if k in names})
+    except (BhrError, TypeError) as exc:
+        raise bad(f"robot: {str(exc).splitlines()[0]}") from None
+    n, count = robot.modules, len(steps)
+    if count > path.shape[0]:
+        raise bad(f"{count} steps but only {path.shape[0]} trajectory points")
+    keys = ("points", "point_errors_mm", "module_orientation_errors_deg", "codes", "iterations")
+    for k, st in enumerate(steps):
+        if not isinstance(st, dict) or not all(key in st for key in keys):
+            raise bad(f"step {k + 1} must be an object with {', '.join(keys)}")
+    pts = np.stack([array(st["points"], (n + 1, 3), f"step {k + 1} points") for k, st in enumerate(steps)])
+    pe = np.stack([array(st["point_errors_mm"], (n + 1,), f"step {k + 1} point_errors_mm")
+                   for k, st in enumerate(steps)])
+    oe = np.stack([array(st["module_orientation_errors_deg"], (n,), f"step {k + 1} module_orientation_errors_deg")
+                   for k, st in enumerate(steps)])
+    iters = [st["iterations"] for st in steps]
+    max_iter = robot_limits()["max_iter"][0]
+    if not all(isinstance(v, int) and not isinstance(v, bool) and 0 <= v <= max_iter
+               for v in iters):
+        raise bad(f"every step's iterations must be a whole number from 0 to {max_iter:g}")
+    codes = None
+    if any(st["codes"] is not None for st in steps):
+        codes = np.zeros((count, n), dtype=np.int64)
+        for k, st in enumerate(steps):
+            c = st["codes"]
+            if not isinstance(c, list) or len(c) != n or not all(isinstance(v, int) and not isinstance(v, bool)
+                                                                  and 0 <= v <= 15 for v in c):
+                raise bad(f"step {k + 1} codes must be {n} whole numbers from 0 to 15 (or null in every step)")
+            codes[k] = c
+    solver = doc["solver"]
+    if not isinstance(solver, str):
+        raise bad("'solver' must be a name")
+    lumen = None
+    if tr.get("lumen") is not None:
+        lumen = array(tr["lumen"], (path.shape[0],), "trajectory lumen")
+    body = None
+    if any("body_points" in st for st in steps):
+        body = _body_from_json(steps, robot, bad, array)
+    summary = doc.get("summary")
+    msgs = summary.get("warnings", []) if isinstance(summary, dict) else []
+    params: dict[str, Any] = tr["params"] if isinstance(tr.get("params"), dict) else {}
+    traj = Trajectory(str(tr.get("name", "run")), path, dict(params), source=where, lumen=lumen)
+    result = FollowResult(traj, robot, solver, pts, np.asarray(iters, dtype=np.int64), pe, oe, codes,
+                          [str(m) for m in msgs] if isinstance(msgs, list) else [])
+    result.body = body
+    return result
+
+
+def _body_from_json(steps: list, robot: Robot, bad: Callable[[str], BhrError],
+                    array: Callable[..., np.ndarray]) -> BodyRun:
+    """The body behind the head (:class:`bhr.run.body.BodyRun`) from the ``body_*`` keys of every step."""
+    keys = ("body_points", "body_point_errors_mm", "body_module_orientation_errors_deg", "body_codes")
+    for k, st in enumerate(steps):
+        if not all(key in st for key in keys):
+            raise bad(f"step {k + 1} must have {', '.join(keys)} (the body is in some steps only)")
+    nb = len(steps[0]["body_points"]) if isinstance(steps[0]["body_points"], list) else -1
+    if nb < 1:
+        raise bad("step 1 body_points must be a list of points")
+    pts = np.stack([array(st["body_points"], (nb, 3), f"step {k + 1} body_points") for k, st in enumerate(steps)])
+    pe = np.stack([array(st["body_point_errors_mm"], (nb,), f"step {k + 1} body_point_errors_mm")
+                   for k, st in enumerate(steps)])
+    oe = np.stack([array(st["body_module_orientation_errors_deg"], (nb,),
+                         f"step {k + 1} body_module_orientation_errors_deg") for k, st in enumerate(steps)])
+    codes = np.stack([array(st["body_codes"], (nb,), f"step {k + 1} body_codes") for k, st in enumerate(steps)])
+    # body point k is scored against the trajectory point (n + k) f steps behind (bhr.run.body)
+    idx = np.arange(len(steps))[:, None] - (robot.modules + np.arange(1, nb + 1)[None, :]) * robot.feed_divisor
+    return BodyRun(nb, pts, codes.astype(np.int64), pe, oe, idx >= 0)
+
+
+def load_run(path: Any) -> FollowResult:
+    """Read a run saved by ``bhr follow`` (``run.json``; ``-`` reads standard input), without solving."""
+    name = "standard input" if str(path) == "-" else str(path)
+    hint = "give a run.json written by 'bhr follow'"
+    if str(path) == "-":
+        raw = sys.stdin.buffer.read(MAX_FILE_BYTES + 1)
+        if len(raw) > MAX_FILE_BYTES:
+            raise BhrError(f"standard input is larger than {MAX_FILE_BYTES // (1024 * 1024)} MiB; {hint}")
+        try:
+            text = raw.decode("utf-8-sig")
+        except UnicodeDecodeError:
+            raise BhrError(f"standard input is not UTF-8 text; {hint}") from None
+    elif Path(path).is_dir():
+        raise BhrError(f"{name} is a folder; give the run.json inside it")
+    else:
+        text = read_text(path, "run file", hint)
+    try:
+        doc = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise BhrError(f"{name}: not valid JSON (line {exc.lineno}: {exc.msg}); give a run.json written by "
+                       "'bhr follow'") from None
+    except RecursionError:
+        raise BhrError(f"{name}: JSON nested too deeply for a run; {hint}") from None
+    except ValueError as exc:  # e.g. an integer of more than 4300 digits
+        raise BhrError(f"{name}: unreadable number ({str(exc).splitlines()[0][:80]}); {hint}") from None
+    return FollowResult.from_json(doc, name)
+
+
+#: How far (relative) the spacing of points given as an array may differ from the robot's feed.
+FEED_TOLERANCE = 0.1
+
+
+def _as_trajectory(points: Any, robot: Robot) -> Trajectory:
+    """``points`` as a Trajectory spaced by the robot's feed: drawn again (or resampled) at that feed when its
+    own feed differs; points given as an array must already be spaced by the feed."""
+    if isinstance(points, Trajectory):
+        return points.at_feed(robot.feed)
+    arr = np.asarray(points, dtype=np.float64)
+    if arr.ndim != 2 or arr.shape[1] != 3:
+        raise BhrError("trajectory points must be an (N, 3) array of x, y, z in mm")
+    if not np.all(np.isfinite(arr)):
+        raise BhrError("trajectory points must be finite numbers")
+    gap = spacing(arr)
+    if arr.shape[0] >= 2 and abs(gap - robot.feed) > FEED_TOLERANCE * robot.feed:
+        raise BhrError(f"the trajectory's points are {gap:.4g} mm apart but the robot advances {robot.feed:g} mm a "
+                       f"step (module_length / feed_divisor); sample the path at the feed, e.g. "
+                       f"bhr.trajectory(name, feed={robot.feed:g}), or pass bhr.Trajectory('points', "
+                       f"points).at_feed({robot.feed:g})")
+    return Trajectory("points", arr, feed=robot.feed)
+
+
+def follow(points: Any, solver: str | Solver = "thesis", robot: Robot | None = THESIS_ROBOT, *,
+           solver_options: dict[str, Any] | None = None,
+           on_step: Callable[[int, np.ndarray | None], None] | None = None,
+           compiled: bool = True, body_modules: int | None = None, **robot_options: Any) -> FollowResult:
+    """Run follow-the-leader along ``points`` (a :class:`Trajectory` or an (N, 3) array) with ``solver``.
+
+    ``robot`` defaults to the thesis's robot (5 modules of 10 mm, alpha 10
+    deg, feed 2 mm); ``robot_options`` change its settings (``modules``,
+    ``module_length``, ``alpha``, ``tol_pos``, ... as in the option
+    registry, :mod:`bhr.settings.options`). A :class:`Trajectory` is drawn again at the
+    robot's feed when its own differs (``bhr.trajectory`` samples at the
+    thesis's 2 mm); points given as an array must be spaced by the feed.
+    ``solver`` is a name (:func:`bhr.solvers.available`) or a
+    :class:`bhr.solvers.Solver` object. ``on_step(i, codes)`` is called after
+    each step (0-based) when given, e.g. to stream codes to the board; it
+    forces the step-by-step driver. ``body_modules`` (M >= modules) also
+    simulates the modules behind the head (:mod:`bhr.run.body`); the result's
+    ``body`` holds them and they are scored and counted in the clearance too.
+
+    >>> import bhr
+    >>> run = bhr.follow(bhr.trajectory("curve", radius=70, angle=90))
+    >>> round(run.summary.tip_final_error_mm, 4)
+    0.9099
+    """
+    if isinstance(solver, Solver) and robot is THESIS_ROBOT and not robot_options:
+        robot = solver.robot  # a configured solver brings its robot
+    robot = robot_with(robot, robot_options)
+    traj = _as_trajectory(points, robot)
+    path = np.ascontiguousarray(traj.points, dtype=np.float64)
+    if path.shape[0] < 2:
+        raise BhrError("a trajectory needs at least two points")
+    dirs = path_directions(path)
+    work = path.shape[0] * (max(robot.modules, body_modules or 0) + 1)
+    if work > MAX_STEP_POINTS:
+        raise BhrError(f"{path.shape[0]} steps x {max(robot.modules, body_modules or 0) + 1} robot points is "
+                       f"{work:,} points to keep, more than the {MAX_STEP_POINTS:,} a run may hold in memory; "
+                       "shorten the path, raise the feed or use fewer modules")
+    s = get_solver(solver, robot, **(solver_options or {}))
+    solver = solver if isinstance(solver, str) else s.name
+    s.reset()
+    s.prepare(traj)
+    msgs: list[str] = []
+    turn = _sharpest_turn(dirs)
+    if turn is not None and turn[1] > 90.0:
+        msg = (f"the trajectory turns back by {turn[1]:.1f} deg at point {turn[0] + 2} (a reversal: no robot can "
+               "follow it, its turn radius is near 0); expect large errors")
+        msgs.append(msg)
+        warnings.warn(msg, BhrWarning, stacklevel=2)
+    elif traj.min_radius < robot.min_turn_radius:
+        msg = (f"the trajectory turns with radius {traj.min_radius:.2f} mm, tighter than the robot's minimum "
+               f"turn radius {robot.min_turn_radius:.2f} mm; expect large errors")
+        msgs.append(msg)
+        warnings.warn(msg, BhrWarning, stacklevel=2)
+    lumen = getattr(traj, "lumen", None)
+    if lumen is not None and len(lumen):
+        narrow = np.flatnonzero(np.asarray(lumen, dtype=float) < 2.0 * robot.radius)
+        if narrow.size:
+            k = int(narrow[np.argmin(np.asarray(lumen)[narrow])])
+            msg = (f"the lumen is narrower than the robot ({2.0 * robot.radius:g} mm across) at {narrow.size} of "
+                   f"{len(lumen)} points, narrowest {float(lumen[k]):.2f} mm at point {k + 1}; the robot touches the "
+                   "wall there whatever the solver does")
+            msgs.append(msg)
+            warnings.warn(msg, BhrWarning, stacklevel=2)
+    n = robot.modules
+    N = path.shape[0]
+    chain = Chain.straight(robot, traj.start_direction, traj.start_point, tip_at_origin=True)
+    out_points = np.zeros((N, n + 1, 3))
+    out_iters = np.zeros(N, dtype=np.int64)
+    pe = np.zeros((N, n + 1))
+    oe = np.zeros((N, n))
+    codes = np.zeros((N, n), dtype=np.int64)
+    filled = s.follow_kernel(path, dirs, chain, out_points, out_iters, pe, oe, codes) \
+        if compiled and on_step is None else None
+    has_codes = True if filled is None else filled
+    if filled is None:
+        f = robot.feed_divisor
+        for i in range(N):
+            d = dirs[-1] if i == N - 1 else dirs[i]
+            res = s.solve(chain, path[i], d if s.accepts_orientation else None,
+                          FollowContext(path, dirs, i))
+            P = res.chain.points
+            tip = res.orientation_error_deg
+            if tip is None:
+                tip = float(angle_deg(P[n, 0] - P[n - 1, 0], P[n, 1] - P[n - 1, 1], P[n, 2] - P[n - 1, 2], d))
+            out_points[i] = P
+            out_iters[i] = res.iterations
+            score_step(i, P, path, dirs, f, tip, pe[i], oe[i])
+            if res.codes is None:
+                has_codes = False
+            else:
+                codes[i] = res.codes
+            if on_step is not None:
+                on_step(i, None if res.codes is None else codes[i])
+            chain = res.chain.advance(robot.feed, robot.module_length)
+    result = FollowResult(traj, robot, solver, out_points, out_iters, pe, oe, codes if has_codes else None, msgs)
+    if body_modules is not None:
+        result.body = simulate_body(result, body_modules)
+    return result
+
+

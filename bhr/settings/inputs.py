@@ -1,0 +1,164 @@
+"""Checks shared by the input-file readers (robot files, trajectory files).
+
+Every problem becomes a :class:`~bhr.settings.errors.BhrError` whose one-line message
+names the file, the key (or line), what is wrong and what is allowed.
+"""
+from __future__ import annotations
+
+import difflib
+import math
+import os
+import tomllib
+from pathlib import Path
+from typing import Any, Iterable
+
+from bhr.settings.errors import BhrError
+from bhr.settings.options import MAX_MM
+
+__all__ = ["MAX_FILE_BYTES", "MAX_MM", "MAX_POINTS", "MAX_STEP_POINTS", "read_capped", "read_text", "read_toml",
+           "check_keys", "type_name", "number", "vector3", "text_value", "choice"]
+
+#: Input files larger than this are refused: at most this many bytes are ever read, whatever the file's size
+#: reads as (a link to /dev/zero reads as 0 bytes and never ends).
+MAX_FILE_BYTES = 64 * 1024 * 1024
+#: A path may have at most this many points after sampling (trajectory generators, segment and CSV files).
+MAX_POINTS = 500_000
+#: A run may hold at most this many robot points in all: steps x (modules + 1), the body's modules when
+#: simulated. Memory grows by about 1.5 kB per step and point (run.json included; measured in
+#: docs/commands.md), so a run at the limit stays within about 5 GB (a 5-module robot on a path of
+#: MAX_POINTS fits).
+MAX_STEP_POINTS = 3_100_000
+
+
+def read_text(path: str | os.PathLike[str], what: str, hint: str) -> str:
+    """The UTF-8 text of ``path``; a BhrError naming ``what`` and ``hint`` otherwise."""
+    p = Path(path)
+    try:
+        if p.is_dir():
+            raise BhrError(f"{p} is a folder, not a {what}; {hint}")
+        raw = read_capped(p, what, hint)
+    except FileNotFoundError:
+        raise BhrError(f"no such {what} {p}; {hint}") from None
+    except PermissionError:
+        raise BhrError(f"cannot read {what} {p}: permission denied; {hint}") from None
+    except OSError as exc:
+        raise BhrError(f"cannot read {what} {p} ({exc.strerror or exc.__class__.__name__}); {hint}") from None
+    try:
+        text = raw.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        line = raw[:exc.start].count(b"\n") + 1
+        raise BhrError(f"{p}, line {line}: not UTF-8 text; save the {what} as UTF-8 ({hint})") from None
+    if "\x00" in text:
+        line = text[:text.index("\x00")].count("\n") + 1
+        raise BhrError(f"{p}, line {line}: binary data (a NUL byte); give a {what} in text form ({hint})")
+    return text
+
+
+def read_capped(path: str | os.PathLike[str], what: str, hint: str, limit: int | None = None) -> bytes:
+    """The bytes of ``path``, reading at most ``limit`` (default :data:`MAX_FILE_BYTES`) + 1 of them.
+
+    The size ``stat`` reports is not trusted: /dev/zero, /proc files and
+    FIFOs report 0 and may never end. A longer input is refused.
+    """
+    limit = MAX_FILE_BYTES if limit is None else limit
+    import stat as _stat
+
+    with open(path, "rb") as fh:
+        mode = os.fstat(fh.fileno()).st_mode
+        if _stat.S_ISCHR(mode) or _stat.S_ISBLK(mode):
+            raise BhrError(f"{path} is a device, not a {what}; {hint}")
+        raw = fh.read(limit + 1)
+    if len(raw) > limit:
+        raise BhrError(f"{path} is larger than {limit // (1024 * 1024)} MiB, too large for a {what}; {hint}")
+    return raw
+
+
+def read_toml(path: str | os.PathLike[str], what: str, hint: str) -> dict[str, Any]:
+    """Parse ``path`` as TOML; a BhrError naming the line on a syntax error."""
+    text = read_text(path, what, hint)
+    try:
+        return tomllib.loads(text)
+    except RecursionError:
+        raise BhrError(f"{path}: nested too deeply to read; {hint}") from None
+    except tomllib.TOMLDecodeError as exc:
+        msg = str(exc).splitlines()[0] if str(exc) else "syntax error"
+        raise BhrError(f"{path}: not valid TOML ({msg}); {hint}") from None
+
+
+def did_you_mean(word: str, choices: Iterable[str]) -> str:
+    """``"did you mean 'x'? "`` for the choice nearest ``word`` (difflib), or ``""`` when none is close."""
+    close = difflib.get_close_matches(str(word), list(choices), n=1, cutoff=0.6)
+    return f"did you mean {close[0]!r}? " if close else ""
+
+
+def check_keys(table: dict[str, Any], allowed: Iterable[str], where: str) -> None:
+    """Refuse keys of ``table`` outside ``allowed``, suggesting the nearest allowed name."""
+    allowed = list(allowed)
+    for key in table:
+        if key not in allowed:
+            close = difflib.get_close_matches(str(key), allowed, n=1, cutoff=0.6)
+            tip = f"did you mean {close[0]!r}? " if close else ""
+            raise BhrError(f"{where}: unknown key {key!r}; {tip}allowed: {', '.join(allowed)}")
+
+
+def type_name(value: Any) -> str:
+    if isinstance(value, bool):
+        return "a boolean"
+    if isinstance(value, str):
+        return f"the text {value!r}"
+    if isinstance(value, dict):
+        return "a table"
+    if isinstance(value, list):
+        return "a list"
+    return type(value).__name__
+
+
+def number(value: Any, where: str, *, positive: bool = False, nonneg: bool = False, integer: bool = False,
+           unit: str = "", maximum: float | None = None) -> float:
+    """A finite number (int or float, not bool) with the given sign and at most ``maximum``; BhrError otherwise."""
+    kind = "a whole number" if integer else "a number"
+    u = f" {unit}" if unit else ""
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise BhrError(f"{where} must be {kind}, got {type_name(value)}")
+    if isinstance(value, float) and not math.isfinite(value):
+        raise BhrError(f"{where} must be a finite number, got {value}")
+    if integer and not isinstance(value, int):
+        if float(value).is_integer():
+            value = int(value)
+        else:
+            raise BhrError(f"{where} must be a whole number, got {value}")
+    if positive and value <= 0:
+        raise BhrError(f"{where} must be greater than 0{u}, got {value}")
+    if nonneg and value < 0:
+        raise BhrError(f"{where} must be 0 or more{u}, got {value}")
+    if maximum is not None and value > maximum:
+        raise BhrError(f"{where} must be at most {maximum:g}{u}, got {value:g}")
+    return int(value) if integer else float(value)
+
+
+def vector3(value: Any, where: str, *, nonzero: bool = False) -> tuple[float, float, float]:
+    """Three finite numbers ``[x, y, z]`` (not all zero when ``nonzero``)."""
+    if not isinstance(value, list) or len(value) != 3:
+        raise BhrError(f"{where} must be a list of three numbers [x, y, z], got {type_name(value)}"
+                       + (f" of {len(value)}" if isinstance(value, list) else ""))
+    out = tuple(number(v, f"{where}[{i}]") for i, v in enumerate(value))
+    if any(abs(v) > MAX_MM for v in out):
+        raise BhrError(f"{where} must have coordinates within +-{MAX_MM:g} mm, got {list(out)}")
+    if nonzero and math.hypot(*out) < 1e-9:
+        raise BhrError(f"{where} must not be [0, 0, 0] or nearly so (length under 1e-9); give a direction "
+                       "such as [1, 0, 0]")
+    return out  # type: ignore[return-value]
+
+
+def text_value(value: Any, where: str) -> str:
+    if not isinstance(value, str):
+        raise BhrError(f"{where} must be text in quotes, got {type_name(value)}")
+    return value
+
+
+def choice(value: Any, where: str, allowed: Iterable[str]) -> str:
+    allowed = list(allowed)
+    if not isinstance(value, str) or value not in allowed:
+        shown = repr(value) if isinstance(value, str) else type_name(value)
+        raise BhrError(f"{where} must be one of {', '.join(repr(a) for a in allowed)}, got {shown}")
+    return value

@@ -1,0 +1,223 @@
+"""The one registry of settings: robot, trajectory, solver and constraint options.
+
+Every setting a user can give -- on the command line (``--module-length``), in a
+robot file (``module_length = 10``), in a batch run table, or as a sweep grid
+key -- is one :class:`Option` here, with its type, unit, default, limits and
+help. The command-line options (``bhr.cli._options``), the robot-file reader
+(:mod:`bhr.model.robotfile`), the batch reader (:mod:`bhr.studies.report`) and the sweep
+grids (:mod:`bhr.studies.sweep`) are all derived from :data:`OPTIONS`, so a setting has
+the same name, limits and message everywhere.
+
+Lower bounds and ranges that depend on other settings (alpha in (0, 90),
+stroke shorter than lever, lookahead at most 200) are checked once, by
+:class:`bhr.model.robot.Robot` and by the solver's constructor, which every path
+goes through.
+
+A new solver option is one entry here (group ``"solver"``, ``solvers`` naming
+the solvers that take it) plus the keyword argument of the solver's
+``__init__``.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+from bhr.settings.errors import BhrError
+
+__all__ = ["Option", "OPTIONS", "MAX_MM", "by_group", "robot_limits", "check_option", "solver_options_for"]
+
+#: Largest length or coordinate accepted anywhere (mm): 1 km. Larger values only overflow the arithmetic.
+MAX_MM = 1e6
+#: Largest angle (deg) or count accepted where no tighter limit applies.
+MAX_ANY = 1e6
+
+
+@dataclass(frozen=True)
+class Option:
+    """One setting.
+
+    ``name`` is the key in batch files and sweep grids and, with dashes, the
+    command-line option (``cli`` overrides it); ``field`` the
+    :class:`bhr.model.robot.Robot` field and robot-file key when it differs
+    (``robot_radius`` -> ``radius``). ``kind`` is ``int``, ``float``, ``str``
+    (with ``choices``) or ``"weights"`` (one number or one per point).
+    ``maximum`` is the largest value accepted (``None``: checked elsewhere,
+    magnitude capped at ``cap``); ``positive``/``nonneg`` the sign rule of robot
+    files. ``default`` is the value used when the option is not given (``None``:
+    none, or it depends on the trajectory); ``shown`` overrides how the help
+    states it.
+    """
+
+    name: str
+    group: str  # "robot", "trajectory", "constraint", "solver" or "run"
+    kind: Any
+    help: str
+    default: Any = None
+    unit: str = ""
+    maximum: float | None = None
+    cap: float = MAX_ANY
+    positive: bool = False
+    nonneg: bool = False
+    choices: tuple[str, ...] | None = None
+    field: str | None = None
+    cli: str | None = None
+    shown: str | None = None
+    solvers: tuple[str, ...] | None = None  # solvers taking this option (None: every constrained solver)
+    metavar: str | None = None
+    solver_defaults: tuple[tuple[str, Any], ...] = ()  # (solver, default) where a solver's default differs
+
+    def default_for(self, solver: str) -> Any:
+        """The default of this option for ``solver`` (its own where it has one)."""
+        return dict(self.solver_defaults).get(solver, self.default)
+
+    @property
+    def key(self) -> str:
+        """The Robot field / robot-file key (robot options) or the keyword of the solver or trajectory."""
+        return self.field or self.name
+
+    @property
+    def flag(self) -> str:
+        """The command-line option, e.g. ``--module-length``."""
+        return "--" + (self.cli or self.name.replace("_", "-"))
+
+    @property
+    def limit(self) -> float:
+        """Largest magnitude accepted on the command line and in files."""
+        return self.maximum if self.maximum is not None else (MAX_MM if self.unit == "mm" else self.cap)
+
+    def help_text(self) -> str:
+        shown = self.shown if self.shown is not None else (None if self.default is None else f"{self.default:g}"
+                                                           if isinstance(self.default, (int, float))
+                                                           else str(self.default))
+        return f"{self.help} [{shown}]." if shown else f"{self.help}."
+
+    def check(self, value: Any, where: str) -> Any:
+        """``value`` type-checked and within limits; BhrError naming ``where`` and the key otherwise."""
+        key = self.name
+        if self.choices is not None:
+            if not isinstance(value, str) or value not in self.choices:
+                raise BhrError(f"{where}: {key} must be one of {', '.join(self.choices)}, got {value!r}")
+            return value
+        if self.kind == "weights" and isinstance(value, (list, tuple)):
+            return [self._number(v, where) for v in value]
+        return self._number(value, where)
+
+    def _number(self, value: Any, where: str) -> Any:
+        key = self.name
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise BhrError(f"{where}: {key} must be a number, got {value!r}")
+        if not math.isfinite(float(value)):
+            raise BhrError(f"{where}: {key} must be a finite number, got {value!r}")
+        if self.kind is int and float(value) != int(value):
+            raise BhrError(f"{where}: {key} must be a whole number, got {value!r}")
+        u = f" {self.unit}" if self.unit else ""
+        if abs(value) > self.limit:
+            raise BhrError(f"{where}: {key} = {value:g} is too large; the limit is {self.limit:g}{u}")
+        return int(value) if self.kind is int else value
+
+
+_R, _T, _C, _S, _RUN = "robot", "trajectory", "constraint", "solver", "run"
+_OPT = ("optimal",)
+_LUM = ("lumen",)
+
+OPTIONS: tuple[Option, ...] = (
+    # the robot (bhr.model.robot.Robot; thesis ch. 4 and 7)
+    Option("modules", _R, int, "Number of modules the solver moves", 5, maximum=1000, positive=True, shown=""),
+    Option("module_length", _R, float, "Length of one module (mm)", 10.0, "mm", 1e4, positive=True, shown=""),
+    Option("robot_radius", _R, float, "Robot (disc) radius in mm", 5.0, "mm", 1e4, positive=True, field="radius"),
+    Option("alpha", _R, float, "Tilt angle of one actuator pair (deg)", 10.0, "deg"),  # (0, 90): Robot
+    Option("stroke", _R, float, "Actuator stroke h (mm); with --lever gives alpha = asin(h/L)", None, "mm", 1e4,
+           positive=True),
+    Option("lever", _R, float, "Actuator lever L (mm); see --stroke", None, "mm", 1e4, positive=True),
+    Option("tol_pos", _R, float, "Position tolerance (mm)", 8.0, "mm", MAX_MM, positive=True, shown=""),
+    Option("tol_ori", _R, float, "Orientation tolerance (deg)", 20.0, "deg", 180.0, positive=True),
+    Option("max_iter", _R, int, "Iteration limit per solve", 30, maximum=100000, positive=True),
+    Option("feed_divisor", _R, int, "Feed = module length / this; trajectory points are spaced by the feed", 5,
+           maximum=1000, positive=True),
+    Option("weight_pos", _R, float, "Weight of position in the global error", 0.7, maximum=1e6, nonneg=True),
+    Option("weight_ori", _R, float, "Weight of orientation in the global error", 0.3, maximum=1e6, nonneg=True),
+    # the trajectory generators (thesis appendix 3; bhr.trajectory)
+    Option("length", _T, float, "line: length (mm)", 70.0, "mm"),
+    Option("azimuth", _T, float, "line: angle to +x in the xy-plane (deg)", 0.0, "deg"),
+    Option("elevation", _T, float, "line: angle above the xy-plane (deg)", 0.0, "deg"),
+    Option("radius", _T, float, "curve/spiral: radius (mm)", None, "mm", shown="70 / 80"),
+    Option("angle", _T, float, "curve: angle turned (deg)", 90.0, "deg"),
+    Option("entry", _T, float, "curve: entry straight (mm)", 30.0, "mm"),
+    Option("exit", _T, float, "curve: exit straight (mm)", 30.0, "mm"),
+    Option("pitch", _T, float, "spiral: rise per turn (mm)", 40.0, "mm"),
+    Option("turns", _T, float, "spiral: number of turns", 2.0),
+    Option("seed", _T, int, "anatomy: which anatomical colon, a whole number 0 ... 4294967295", 1,
+           maximum=2**32 - 1),
+    # the constrained solvers (thesis ch. 6; bhr.solvers.thesis)
+    Option("limit", _C, str, "Rotation limit of the constrained solvers", "binary",
+           choices=("binary", "continuous", "none")),
+    Option("axes", _C, str, "Tilt axes: the module's two local axes, or free", "local", choices=("local", "free")),
+    Option("warmup", _C, int, "Unconstrained warm-up iterations of the constrained solvers", 10),
+    # --solver optimal (bhr.solvers.optimal, docs/optimal.md) and --solver lumen (bhr.solvers.lumen, docs/lumen.md);
+    # ranges checked by the solver
+    Option("lookahead", _S, int, "optimal, lumen: steps the base module's tilt is planned ahead (lumen [8])", 10,
+           solvers=_OPT + _LUM, metavar="STEPS", solver_defaults=(("lumen", 8),)),
+    Option("beam", _S, int, "optimal, lumen: base-tilt sequences kept while planning (lumen [3])", 10,
+           solvers=_OPT + _LUM, metavar="N", solver_defaults=(("lumen", 3),)),
+    Option("point_weights", _S, "weights", "optimal: weight of each point's squared error, base to tip", 1.0,
+           solvers=_OPT, metavar="W|W0,..,Wn"),
+    Option("ori_weight", _S, float, "optimal, lumen: tip orientation weight, mm of error per degree (lumen [0.1])",
+           0.2, solvers=_OPT + _LUM, metavar="MM/DEG", solver_defaults=(("lumen", 0.1),)),
+    Option("drift_weight", _S, float, "optimal: weight of the predicted along-path drift of the base", 10.0,
+           solvers=_OPT),
+    Option("roll_weight", _S, float, "optimal: weight of tilt axes sitting diagonally to the bend", 1000.0,
+           solvers=_OPT),
+    Option("wall_weight", _S, float, "lumen: weight of the squared penetration past the margin, per mm^2", 1000.0,
+           solvers=_LUM),
+    Option("margin", _S, float, "lumen: clearance below which the wall cost starts (mm)", 1.0, solvers=_LUM,
+           metavar="MM"),
+    Option("center_weight", _S, float, "lumen: weight of the squared distance of each point to the centerline",
+           0.05, solvers=_LUM),
+    Option("track_weight", _S, float, "lumen: weight of each point's squared error to its trajectory point", 0.0,
+           solvers=_LUM),
+    Option("along_weight", _S, float, "lumen: weight of each point's squared lead along the centerline", 0.05,
+           solvers=_LUM),
+    Option("window", _S, float, "lumen: arc length searched on each side for a point's nearest centerline point "
+           "(mm)", 40.0, solvers=_LUM, metavar="MM"),
+    # how a run is simulated (bhr.run.driver.follow)
+    Option("body_modules", _RUN, int, "Also simulate the body: the whole robot has M modules (M >= --modules), "
+           "those behind the head follow the leader and count in the errors and the lumen clearance", None,
+           maximum=10000, positive=True, metavar="M", shown="head only"),
+)
+
+BY_NAME: dict[str, Option] = {o.name: o for o in OPTIONS}
+
+
+def solver_defaults(solver: str) -> dict[str, Any]:
+    """Every option ``solver`` takes, with its default for that solver."""
+    return {o.name: o.default_for(solver) for o in OPTIONS if o.group == "solver" and solver in (o.solvers or ())}
+
+
+def by_group(*groups: str) -> tuple[Option, ...]:
+    """The options of the given groups, in registry order."""
+    return tuple(o for o in OPTIONS if o.group in groups)
+
+
+def robot_limits() -> dict[str, tuple[float, str]]:
+    """Robot field -> (largest value, unit), for readers that check robot settings."""
+    return {o.key: (o.limit, o.unit) for o in by_group(_R)}
+
+
+def check_option(name: str, value: Any, where: str) -> Any:
+    """Check one option by its batch/grid name (see :meth:`Option.check`)."""
+    return BY_NAME[name].check(value, where)
+
+
+def solver_options_for(solver: str, values: dict[str, Any]) -> dict[str, Any]:
+    """The constraint and solver options among ``values`` that ``solver`` takes.
+
+    Constraint options go to every solver (one that does not take them says
+    so); options of a named solver (``solvers``) only to that solver, so a sweep
+    over several solvers can vary one solver's options.
+    """
+    out = {}
+    for o in by_group(_C, _S):
+        if o.name in values and (o.solvers is None or solver in o.solvers):
+            out[o.name] = values[o.name]
+    return out

@@ -1,0 +1,186 @@
+"""Side-by-side runs: the same trajectory and robot with several solvers (``bhr compare``).
+
+:func:`compare_runs` runs each solver and times it; :func:`compare_rows` and
+:func:`format_table` give the numbers the command prints (worst error over all
+scored points, tip errors, clearance, time per step, and the worst error as a
+ratio to the first solver's); :func:`compare_figure` draws every run's errors
+on the same axes (matplotlib is imported only there).
+"""
+from __future__ import annotations
+
+import math
+
+import time
+from dataclasses import dataclass
+from typing import Any, Sequence
+
+import numpy as np
+
+from bhr.settings.errors import BhrError
+from bhr.settings.inputs import MAX_STEP_POINTS
+from bhr.model.robot import Robot
+from bhr.model.generators import Trajectory
+from bhr.run.driver import follow
+from bhr.solvers import available, canonical
+
+__all__ = ["Compared", "compare_runs", "compare_rows", "format_table", "compare_figure", "compare_json"]
+
+
+@dataclass
+class Compared:
+    """One solver's run and how long it took (seconds, whole run)."""
+
+    solver: str
+    result: Any  # bhr.run.driver.FollowResult
+    seconds: float
+
+    @property
+    def ms_per_step(self) -> float:
+        return 1000.0 * self.seconds / self.result.steps
+
+
+def compare_runs(traj: Trajectory, solvers: Sequence[str], robot: Robot, *,
+                 solver_options: dict[str, dict[str, Any]] | None = None,
+                 body_modules: int | None = None) -> list[Compared]:
+    """Run ``traj`` with each solver (options per solver name); raises BhrError for fewer than two or repeats."""
+    names = list(solvers)
+    if len(names) < 2:
+        raise BhrError("compare needs at least two solvers, e.g. --solver thesis --solver optimal")
+    dup = next((s for s in names if names.count(s) > 1), None)
+    if dup is not None:
+        raise BhrError(f"solver {dup} is given twice; give each solver once")
+    known = available()
+    for s in names:
+        if canonical(s) not in known:
+            raise BhrError(f"unknown solver {s!r}; choose from {', '.join(known)}")
+    work = traj.points.shape[0] * (max(robot.modules, body_modules or 0) + 1) * len(names)
+    if work > MAX_STEP_POINTS:  # every run is kept for the table and the figure: they share one run's budget
+        raise BhrError(f"{len(names)} runs of {traj.points.shape[0]} steps x "
+                       f"{max(robot.modules, body_modules or 0) + 1} robot points is {work:,} points to keep, "
+                       f"more than the {MAX_STEP_POINTS:,} a command may hold in memory; shorten the path, raise "
+                       "the feed, or compare fewer solvers")
+    opts = solver_options or {}
+    out = []
+    for s in names:
+        # load (or compile) the solver's kernels first, so that the time is the run's
+        warm = Trajectory(traj.name, np.ascontiguousarray(traj.points[:3]),
+                          lumen=None if traj.lumen is None else traj.lumen[:3], start_direction=traj.start_direction,
+                          start_point=traj.start_point)
+        follow(warm, solver=s, robot=robot, solver_options=opts.get(s))
+        t0 = time.perf_counter()
+        res = follow(traj, solver=s, robot=robot, solver_options=opts.get(s), body_modules=body_modules)
+        out.append(Compared(s, res, time.perf_counter() - t0))
+    return out
+
+
+def compare_rows(runs: Sequence[Compared]) -> list[dict[str, Any]]:
+    """Per solver: worst point error and its step, tip max and final, tip orientation max, clearance, time."""
+    ref = runs[0].result.point_errors.max()
+    rows = []
+    for c in runs:
+        s = c.result.summary.to_dict()
+        worst = float(c.result.point_errors.max())
+        row = {
+            "solver": c.solver,
+            "points_max_error_mm": worst,
+            "points_worst_step": s["points_worst_step"],
+            "tip_max_error_mm": s["tip_max_error_mm"],
+            "tip_final_error_mm": s["tip_final_error_mm"],
+            "tip_orientation_max_deg": s["tip_orientation_max_deg"],
+            "ms_per_step": c.ms_per_step,
+            "ratio_to_first": worst / ref if ref > 0 else float("nan"),
+        }
+        if "body_points_max_error_mm" in s:
+            row["body_points_max_error_mm"] = s["body_points_max_error_mm"]
+        if "min_clearance_mm" in s:
+            row["min_clearance_mm"] = s["min_clearance_mm"]
+            row["wall_touch_steps"] = s["wall_touch_steps"]
+        rows.append(row)
+    return rows
+
+
+def format_table(runs: Sequence[Compared]) -> list[str]:
+    """The lines ``bhr compare`` prints."""
+    rows = compare_rows(runs)
+    r0 = runs[0].result
+    rb = r0.robot
+    lines = [f"{r0.trajectory.name}: {r0.steps} steps, {rb.modules} modules x {rb.module_length:g} mm, "
+             f"alpha {rb.alpha:g} deg, feed {rb.feed:g} mm", ""]
+    body = "body_points_max_error_mm" in rows[0]
+    lumen = "min_clearance_mm" in rows[0]
+    head = f"{'solver':<13}{'worst mm':>10}{'at step':>9}{'tip max':>9}{'tip end':>9}{'tip deg':>9}"
+    if body:
+        head += f"{'body mm':>9}"
+    if lumen:
+        head += f"{'clear mm':>10}{'touches':>9}"
+    head += f"{'ms/step':>9}{'x ' + rows[0]['solver']:>12}"
+    lines.append(head)
+    for row in rows:
+        line = (f"{row['solver']:<13}{row['points_max_error_mm']:>10.3f}{row['points_worst_step']:>9d}"
+                f"{row['tip_max_error_mm']:>9.3f}{row['tip_final_error_mm']:>9.3f}{row['tip_orientation_max_deg']:>9.2f}")
+        if body:
+            line += f"{row['body_points_max_error_mm']:>9.3f}"
+        if lumen:
+            mc = row["min_clearance_mm"]
+            line += f"{'-' if mc is None else format(mc, '.3f'):>10}{len(row['wall_touch_steps']):>9d}"
+        line += f"{row['ms_per_step']:>9.3f}{row['ratio_to_first']:>12.3f}"
+        lines.append(line)
+    lines.append("")
+    lines.append(f"worst mm: largest position error over all scored points and steps; x {rows[0]['solver']}: "
+                 f"that error divided by {rows[0]['solver']}'s; ms/step: run time / steps, after loading the kernels.")
+    return lines
+
+
+def compare_json(runs: Sequence[Compared]) -> dict[str, Any]:
+    """The ``bhr compare --json`` document: the rows, and each run's largest point error and tip error per step."""
+    r0 = runs[0].result
+    return {
+        "trajectory": {"name": r0.trajectory.name, "params": r0.trajectory.params, "steps": r0.steps},
+        "robot": r0.robot.to_dict(),
+        "rows": [{k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in row.items()}
+                 for row in compare_rows(runs)],  # JSON has no NaN: an undefined ratio is null
+        "runs": [{"solver": c.solver,
+                  "points_max_error_mm": [float(v) for v in c.result.point_errors.max(axis=1)],
+                  "tip_error_mm": [float(v) for v in c.result.point_errors[:, -1]],
+                  "summary": c.result.summary.to_dict()} for c in runs],
+    }
+
+
+def compare_figure(runs: Sequence[Compared]):
+    """Largest point error and tip error per step, every solver on the same axes; wall touches shaded."""
+    import matplotlib.pyplot as plt
+
+    from bhr.output import plots  # (also chooses a backend without a display)
+
+    colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    fig, axes = plt.subplots(2, 1, figsize=(10, 6.5), sharex=True)
+    r0 = runs[0].result
+    for k, c in enumerate(runs):
+        res = c.result
+        col = colors[k % len(colors)]
+        steps = np.arange(1, res.steps + 1)
+        worst, tip = res.point_errors.max(axis=1), res.point_errors[:, -1]
+        axes[0].plot(steps, worst, color=col, linewidth=1.0, label=c.solver)
+        axes[1].plot(steps, tip, color=col, linewidth=1.0, label=c.solver)
+        plots.mark_worst(axes[0], steps, worst, "mm", color=col, what=f"{c.solver} worst")
+        plots.mark_worst(axes[1], steps, tip, "mm", color=col, what=f"{c.solver} worst")
+        cl = res.clearance
+        if cl is not None and cl.touch_steps:
+            for ax in axes:
+                ax.plot(cl.touch_steps, np.zeros(len(cl.touch_steps)), "|", color=col, markersize=12,
+                        label=f"{c.solver}: wall touched" if ax is axes[0] else None)
+    for ax, title in zip(axes, ("Largest position error over the robot's points", "Tip position error")):
+        ax.axhline(r0.robot.tol_pos, color="tab:red", linestyle="--", linewidth=0.8,
+                   label=f"tolerance {r0.robot.tol_pos:g} mm")
+        ax.set_ylabel("error (mm)")
+        ax.set_title(title, fontsize=10)
+        ax.grid(True, alpha=0.3)
+        top = max([r0.robot.tol_pos] + [float(c.result.point_errors.max()) for c in runs])
+        ax.set_ylim(0, 1.4 * top)  # room above for the legend
+        ax.tick_params(labelbottom=True)  # step numbers under both panels
+        ax.set_xlim(1, max(2, r0.steps))
+        ax.legend(loc="upper right", fontsize=8, ncol=2)
+    axes[1].set_xlabel("trajectory step")
+    fig.suptitle(f"{r0.trajectory.name}: " + " vs ".join(c.solver for c in runs), fontsize=12)
+    fig.tight_layout()
+    return fig

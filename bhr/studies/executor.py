@@ -1,0 +1,272 @@
+"""Where a study's runs execute: in this process, in local worker processes, or on a Dask cluster.
+
+Every study (batch reports, sweeps, traversability studies) is a list of
+independent, picklable jobs and one function that runs a job and returns its
+row. :func:`run_jobs` runs them
+
+- in this process (``jobs=1``),
+- in ``jobs`` local worker processes (started with ``spawn``, safe next to
+  threads such as a Dask client or a GUI), or
+- on an existing Dask distributed cluster (``scheduler``: its address or a
+  ``distributed.Client``),
+
+and returns the rows in job order whatever ran them. Jobs travel in chunks
+(at most ``max_chunk`` jobs each) so that many short jobs cost few round
+trips. The same conventions hold on every path:
+
+- **warm-up**: ``warm_up(*warm_up_args)`` runs once in each process before
+  its first job (loading modules and compiled kernels), so no job's own
+  timing carries the start-up;
+- **progress**: ``progress(done, total, row)`` is called in this process once
+  per finished job, in the order they finish;
+- **failures**: a job never raises; the code that runs one records a failure
+  in its row with :class:`capture` (``status`` = ``failed: <one-line
+  reason>``), and the other jobs still run. A worker that dies or a cluster
+  that cannot run the jobs stops the study with one line (:class:`BhrError`).
+
+Dask is imported only when a scheduler is given.
+"""
+from __future__ import annotations
+
+import functools
+import math
+import os
+import time
+import traceback
+from dataclasses import dataclass
+from typing import Any, Callable, Generic, Sequence, TypeVar
+
+from bhr.settings.errors import BhrError
+
+__all__ = ["run_jobs", "Executed", "capture", "reason", "connect_scheduler", "DASK_MISSING"]
+
+J = TypeVar("J")
+R = TypeVar("R")
+
+DASK_MISSING = ("--scheduler needs Dask's distributed package, which is not installed; "
+                "install it with: pip install 'bhr[dask]' (or pip install 'dask[distributed]')")
+
+
+# ------------------------------------------------------------------------------------------ failures
+
+
+def reason(exc: BaseException) -> str:
+    """One line saying why a run failed: a BhrError's own first line, else the exception's type and first line."""
+    if isinstance(exc, BhrError):
+        return str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+    lines = str(exc).splitlines()
+    return f"{type(exc).__name__}: {lines[0]}" if lines else type(exc).__name__
+
+
+class capture:
+    """``with capture(row):`` -- an exception inside (not Ctrl-C) becomes ``row["status"] = "failed: <reason>"``.
+
+    With ``keep_traceback`` the traceback of an unexpected error (anything
+    but a BhrError, which explains itself) is kept in ``row["traceback"]``.
+    One failed run must not stop a study: the others still run.
+    """
+
+    def __init__(self, row: dict[str, Any], *, keep_traceback: bool = False) -> None:
+        self.row = row
+        self.keep_traceback = keep_traceback
+
+    def __enter__(self) -> dict[str, Any]:
+        return self.row
+
+    def __exit__(self, kind: Any, exc: BaseException | None, tb: Any) -> bool:
+        if exc is None or not isinstance(exc, Exception):  # KeyboardInterrupt, SystemExit go on
+            return False
+        self.row["status"] = f"failed: {reason(exc)}"
+        if self.keep_traceback and not isinstance(exc, BhrError):
+            self.row["traceback"] = "".join(traceback.format_exception(kind, exc, tb, limit=8))
+        return True
+
+
+# ------------------------------------------------------------------------------------------ running
+
+
+@dataclass
+class Executed(Generic[R]):
+    """What :func:`run_jobs` did: the rows in job order, the time, and what ran them."""
+
+    rows: list[R]
+    wall_time_s: float
+    runner: str  # "in-process", "N processes" or "dask tcp://..."
+    workers: int
+
+
+_WARMED: set[tuple[str, str, tuple[Any, ...]]] = set()  # the warm-ups this process has run
+
+
+def _warm(warm_up: Callable[..., Any] | None, args: tuple[Any, ...]) -> None:
+    if warm_up is None:
+        return
+    key = (warm_up.__module__, warm_up.__qualname__, args)
+    if key not in _WARMED:
+        warm_up(*args)
+        _WARMED.add(key)
+
+
+def _run_chunk(fn: Callable[[Any], Any], warm_up: Callable[..., Any] | None, warm_up_args: tuple[Any, ...],
+               chunk: Sequence[tuple[int, Any]]) -> list[tuple[int, Any]]:
+    """Run ``(index, job)`` pairs in a worker (after its warm-up); return ``(index, row)`` pairs."""
+    _warm(warm_up, warm_up_args)
+    return [(i, fn(job)) for i, job in chunk]
+
+
+def _chunks(items: list[Any], workers: int, max_chunk: int) -> list[list[Any]]:
+    size = max(1, min(max_chunk, math.ceil(len(items) / (workers * 8))))
+    return [items[k:k + size] for k in range(0, len(items), size)]
+
+
+def run_jobs(fn: Callable[[J], R], jobs_list: Sequence[J], *, jobs: int | None = None, scheduler: Any = None,
+             warm_up: Callable[..., Any] | None = None, warm_up_args: tuple[Any, ...] = (), max_chunk: int = 64,
+             progress: Callable[[int, int, R], None] | None = None) -> Executed[R]:
+    """Run ``fn(job)`` for every job; return the rows in job order.
+
+    ``jobs``: worker processes (default: the number of CPUs, at most one per
+    job; 1 runs in this process). ``scheduler``: a Dask scheduler's address or
+    a ``distributed.Client`` to run on instead (the cluster decides how many
+    workers run). ``fn``, the jobs, ``warm_up`` and its arguments must pickle
+    (module-level functions, plain data) for the worker paths.
+    """
+    if scheduler is not None and jobs is not None:
+        raise BhrError("give either jobs (local processes) or a Dask scheduler, not both")
+    if jobs is not None and (isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1):
+        raise BhrError(f"jobs must be a whole number of processes, 1 or more, got {jobs!r}")
+    total = len(jobs_list)
+    items = list(enumerate(jobs_list))
+    rows: list[Any] = [None] * total
+    got = [False] * total
+    done = 0
+
+    def finished(pairs: Sequence[tuple[int, Any]]) -> None:
+        nonlocal done
+        for i, row in pairs:
+            rows[i] = row
+            got[i] = True
+            done += 1
+            if progress is not None:
+                progress(done, total, row)
+
+    t0 = time.perf_counter()
+    if scheduler is not None:
+        workers = _run_dask(scheduler, fn, warm_up, warm_up_args, _chunks(items, 8, max_chunk), finished)
+        runner = f"dask {scheduler if isinstance(scheduler, str) else scheduler.scheduler.address}"
+    else:
+        workers = max(1, min(jobs or os.cpu_count() or 1, total))
+        if workers == 1:
+            _warm(warm_up, warm_up_args)
+            for pair in items:
+                finished(_run_chunk(fn, None, (), [pair]))
+            runner = "in-process"
+        else:
+            _run_pool(workers, fn, warm_up, warm_up_args, _chunks(items, workers, max_chunk), finished)
+            runner = f"{workers} processes"
+    wall = time.perf_counter() - t0
+    if not all(got):
+        raise BhrError("some runs came back without a result; run again")
+    return Executed(rows, wall, runner, workers)
+
+
+def _run_pool(workers: int, fn: Callable[[Any], Any], warm_up: Callable[..., Any] | None,
+              warm_up_args: tuple[Any, ...], chunks: list[list[Any]],
+              finished: Callable[[Sequence[tuple[int, Any]]], None]) -> None:
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor, as_completed
+    from concurrent.futures.process import BrokenProcessPool
+
+    ctx = multiprocessing.get_context("spawn")  # safe next to threads (a Dask client, a GUI)
+    with ProcessPoolExecutor(max_workers=workers, mp_context=ctx) as pool:
+        futures = [pool.submit(_run_chunk, fn, warm_up, warm_up_args, c) for c in chunks]
+        for fut in as_completed(futures):
+            try:
+                part = fut.result()
+            except BrokenProcessPool as exc:
+                raise BhrError(f"a worker process stopped ({reason(exc)}); run again, with fewer --jobs if "
+                               "memory is short") from None
+            finished(part)
+
+
+def _run_dask(scheduler: Any, fn: Callable[[Any], Any], warm_up: Callable[..., Any] | None,
+              warm_up_args: tuple[Any, ...], chunks: list[list[Any]],
+              finished: Callable[[Sequence[tuple[int, Any]]], None]) -> int:
+    try:
+        from distributed import as_completed as dask_completed
+    except ImportError:
+        raise BhrError(DASK_MISSING) from None
+    own = isinstance(scheduler, str)
+    client = connect_scheduler(scheduler) if own else scheduler
+    try:
+        workers = max(1, sum(client.nthreads().values()))
+        futures = client.map(functools.partial(_run_chunk, fn, warm_up, warm_up_args), chunks, pure=False)
+        for fut in dask_completed(futures, loop=client.loop):
+            try:
+                part = fut.result()
+            except Exception as exc:
+                raise BhrError(f"a Dask worker failed ({reason(exc)}); check that every worker has this bhr "
+                               "installed") from None
+            finished(part)
+    finally:
+        if own:
+            client.close()
+    return workers
+
+
+# ------------------------------------------------------------------------------------------ Dask
+
+
+def _cannot(address: str, why: str) -> BhrError:
+    return BhrError(f"cannot connect to the Dask scheduler at {address} ({why}); check the address "
+                    "(e.g. tcp://127.0.0.1:8786) and that the scheduler is running")
+
+
+def connect_scheduler(address: str, timeout: float = 15.0) -> Any:
+    """A ``distributed.Client`` on the scheduler at ``address``, or one BhrError line saying why not.
+
+    The address is checked, then a Dask handshake is tried with a deadline
+    (so a port that answers but is not a scheduler fails in ``timeout``
+    seconds instead of hanging), then the client is made.
+    """
+    import asyncio
+
+    try:
+        from distributed import Client
+        from distributed.comm import connect
+        from distributed.comm.addressing import parse_address, parse_host_port
+    except ImportError:
+        raise BhrError(DASK_MISSING) from None
+    try:
+        scheme, loc = parse_address(address.strip())
+        if scheme in ("tcp", "tls"):
+            parse_host_port(loc)
+    except (ValueError, TypeError) as exc:
+        raise _cannot(address, str(exc).splitlines()[0] if str(exc) else "malformed address") from None
+
+    if scheme == "tcp":  # a closed port fails at once, without Dask's retries
+        import socket
+
+        host, port = parse_host_port(loc)
+        try:
+            socket.create_connection((host, port), timeout=timeout).close()
+        except OSError as exc:
+            raise _cannot(address, exc.strerror or exc.__class__.__name__) from None
+
+    async def handshake() -> None:
+        comm = await connect(address.strip(), timeout=f"{timeout}s")
+        await comm.close()
+
+    async def bounded() -> None:
+        # Dask's connect() does not bound the handshake: a port that answers but never speaks Dask would hang
+        await asyncio.wait_for(handshake(), timeout)
+
+    try:
+        asyncio.run(bounded())
+    except (asyncio.TimeoutError, TimeoutError):
+        raise _cannot(address, f"no Dask handshake within {timeout:g} s; is it a Dask scheduler?") from None
+    except Exception as exc:  # OSError, ValueError
+        raise _cannot(address, str(exc).splitlines()[0] if str(exc) else exc.__class__.__name__) from None
+    try:
+        return Client(address.strip(), timeout=f"{timeout}s", set_as_default=False)
+    except Exception as exc:
+        raise _cannot(address, str(exc).splitlines()[0] if str(exc) else exc.__class__.__name__) from None

@@ -1,0 +1,148 @@
+"""What batch reports, sweeps and traversability studies share.
+
+- the keys a run table or a grid may give, derived from the option registry
+  (:mod:`bhr.settings.options`), and the check of one value;
+- the row of one finished run (:func:`summary_row`) and the robot of a design;
+- the warm-up every worker process runs once before its first run;
+- CSV text with floats in full.
+
+The names of options and result columns in words are in :mod:`bhr.settings.names`.
+"""
+from __future__ import annotations
+
+import csv
+import difflib
+import io
+import math
+from typing import Any, Iterable, Sequence
+
+from bhr.settings.errors import BhrError
+from bhr.run.body import check_body_modules
+from bhr.run.driver import follow
+from bhr.settings.options import BY_NAME, by_group
+from bhr.model.robot import Robot
+
+__all__ = ["TRAJ_KEYS", "ROBOT_KEYS", "CONSTRAINT_KEYS", "SOLVER_KEYS", "SIM_KEYS", "INT_KEYS", "NUMBER_KEYS",
+           "sim_options", "check_body", "suggest",
+           "check_value", "summary_row", "make_robot", "warm_up", "csv_text"]
+
+# The keys of a run table come from the option registry (bhr.settings.options), as the command-line options do.
+#: Trajectory options (CLI long names with underscores), as in ``bhr follow``.
+TRAJ_KEYS = tuple(o.name for o in by_group("trajectory"))
+#: Robot options: batch key -> :class:`bhr.model.robot.Robot` field (``robot_radius`` is the robot's, ``radius``
+#: the path's).
+ROBOT_KEYS = {o.name: o.key for o in by_group("robot")}
+#: Options of the constrained solvers and their allowed values (None: a whole number).
+CONSTRAINT_KEYS: dict[str, tuple[str, ...] | None] = {o.name: o.choices for o in by_group("constraint")}
+#: Options of one solver (``--solver optimal``): key -> the solvers that take it.
+SOLVER_KEYS: dict[str, tuple[str, ...]] = {o.name: o.solvers or () for o in by_group("solver")}
+#: How each run is simulated (``body_modules``): keyword arguments of :func:`bhr.run.driver.follow`.
+SIM_KEYS = tuple(o.name for o in by_group("run"))
+_GROUPS = ("robot", "trajectory", "constraint", "solver", "run")
+#: Keys whose value is a whole number.
+INT_KEYS = frozenset(o.name for o in by_group(*_GROUPS) if o.kind is int)
+#: Keys whose value is a number.
+NUMBER_KEYS = frozenset(o.name for o in by_group(*_GROUPS) if o.choices is None)
+
+
+def check_body(options: dict[str, Any], robot: Robot) -> None:
+    """Refuse a ``body_modules`` (the whole robot) shorter than the robot's head."""
+    if options.get("body_modules") is not None:
+        check_body_modules(options["body_modules"], robot.modules)
+
+
+def sim_options(values: dict[str, Any]) -> dict[str, Any]:
+    """The :data:`SIM_KEYS` among ``values``: how :func:`bhr.run.driver.follow` simulates the run."""
+    return {k: values[k] for k in SIM_KEYS if k in values and values[k] is not None}
+
+
+def suggest(key: str, allowed: Iterable[str]) -> str:
+    """The nearest allowed key to a mistyped one, as the second half of an error line."""
+    near = difflib.get_close_matches(key.replace("-", "_"), sorted(allowed), n=1, cutoff=0.6)
+    return f"did you mean {near[0]!r}?" if near else "see docs/report.md for the keys"
+
+
+def check_value(key: str, value: Any, where: str) -> Any:
+    """The value of one run key, type-checked and within its limits (bhr.settings.options); raises BhrError
+    naming ``where``."""
+    if key in BY_NAME:
+        return BY_NAME[key].check(value, where)
+    if not isinstance(value, str):
+        raise BhrError(f"{where}: {key} must be a string, got {value!r}")
+    if key in ("name", "traj", "solver", "robot") and not value.strip():
+        raise BhrError(f"{where}: {key} must not be empty")
+    return value
+
+
+def _num(value: Any) -> float | None:
+    if value is None:
+        return None
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        return None
+    return v if math.isfinite(v) else None
+
+
+def summary_row(summary: dict[str, Any]) -> dict[str, Any]:
+    """The metrics of one run's summary as a report row (``min_clearance_mm`` None when unknown)."""
+    return {
+        "steps": int(summary["steps"]),
+        "tip_max_error_mm": float(summary["tip_max_error_mm"]),
+        "tip_final_error_mm": float(summary["tip_final_error_mm"]),
+        "points_max_error_mm": float(summary["points_max_error_mm"]),
+        "orientation_max_deg": float(summary["orientation_max_deg"]),
+        "global_max": float(summary["global_max"]),
+        "tip_rmse_mm": float(summary["tip_rmse_mm"]),
+        "tip_orientation_rmse_deg": float(summary["tip_orientation_rmse_deg"]),
+        "tolerance_exceeded": bool(summary["tolerance_exceeded"]),
+        "min_clearance_mm": _num(summary.get("min_clearance_mm")),
+    }
+
+
+def make_robot(params: dict[str, Any], base: dict[str, Any] | None = None) -> Robot:
+    """The Robot of a design: ``base`` (a robot file's fields, or bhr's defaults) with ``params`` on top."""
+    return Robot(**base).replace(**params) if base else Robot(**params)
+
+
+def warm_up(solvers: Sequence[str], plots: bool = False) -> None:
+    """Load what the runs need (modules, compiled kernels, matplotlib when ``plots``) before any run is timed.
+
+    Each process pays this once (:func:`bhr.studies.executor.run_jobs` sees to it);
+    without it the first run of every worker carried the start-up in its time
+    and a trivial run read slowest.
+    """
+    import numpy as np
+
+    pts = np.array([[0.0, 0.0, 0.0], [2.0, 0.0, 0.0], [4.0, 0.0, 0.0]])
+    for name in solvers:
+        try:
+            follow(pts, solver=name)
+        except Exception:  # noqa: BLE001  (a bad solver name fails, and is reported, in its run)
+            pass
+    if plots:
+        import bhr.output.plots  # noqa: F401
+
+
+def _cell(key: str, value: Any, joined: Iterable[str]) -> str:
+    if value is None:
+        return ""
+    if key in joined:
+        return "; ".join(value)
+    if isinstance(value, float):
+        return repr(value)
+    return str(value)
+
+
+def csv_text(rows: Sequence[dict[str, Any]], fields: Sequence[str], joined: Iterable[str] = ()) -> str:
+    """CSV of ``rows`` with ``fields`` as header; unknown values are empty cells, floats in full.
+
+    The lists of the ``joined`` keys (e.g. warnings) are one cell, joined by ``"; "``.
+    """
+    joined = frozenset(joined)
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(fields)
+    for r in rows:
+        w.writerow([_cell(k, r.get(k), joined) for k in fields])
+    return buf.getvalue()

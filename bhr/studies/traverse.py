@@ -1,0 +1,547 @@
+"""Traversability studies: which robot designs get through a population of anatomical colons.
+
+A study is a grid of robot designs (any robot or solver option, as in a
+sweep: ``alpha``, ``module_length``, ``modules``, ``robot_radius``, ...) times
+a population of anatomical colons (:mod:`bhr.model.anatomy`, one per seed). Every
+design follows every colon with the chosen solver(s); a colon is *traversed*
+when the run touches the wall at no step (``wall_touch_steps`` empty). Per
+design the study reports the pass rate (share of colons traversed), the
+worst and median of the runs' ``max_penetration_mm`` and their contact
+lengths, and it names the best design whose pass rate reaches the target.
+
+It is a sweep (:mod:`bhr.studies.sweep`) whose last axis is the colon's seed: the
+same checks, chunks, worker processes and Dask path run it, so a study on a
+cluster gives the same rows as one run locally.
+
+Penetration and contact come from the run summary: ``max_penetration_mm``
+and ``contact_length_mm`` when the follow loop reports them; otherwise the
+penetration is read from ``min_clearance_mm`` (the wall clearance of each
+point against its scored trajectory point) as ``max(0, -min_clearance_mm)``
+and the contact length is not known. :attr:`StudyResult.clearance_kind`
+says which was used.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+import os
+import re
+import statistics
+import warnings
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Callable, Sequence
+
+from bhr import __version__
+from bhr.model.anatomy import SECTIONS, SEED_MAX, anatomical_colon, check_seed
+from bhr.output.atomic import write_json, write_text
+from bhr.settings.errors import BhrError
+from bhr.run.driver import BhrWarning, follow
+from bhr.output.htmlpage import PAGE_END, escape, figure, fmt, page_head, table
+from bhr.settings.names import axis_label
+from bhr.settings.names import label as _label
+from bhr.settings.options import solver_options_for
+from bhr.studies.study import ROBOT_KEYS, TRAJ_KEYS, csv_text, make_robot, sim_options
+from bhr.studies.sweep import Sweep, SweepResult, build_sweep, run_sweep
+from bhr.studies.sweep import heatmap_axes as _sweep_axes
+from bhr.model.generators import load_trajectory
+
+__all__ = ["Study", "StudyResult", "parse_colons", "build_study", "run_study", "design_rows", "answer",
+           "write_study", "format_study", "DESIGN_COLUMNS", "RUN_COLUMNS", "LUMEN_KEYS"]
+
+#: Summary keys a study keeps from every run (the ones a run does not report stay empty).
+LUMEN_KEYS = ("max_penetration_mm", "wall_touch_steps", "contact_length_mm")
+#: Columns of designs.csv after the design's own keys.
+DESIGN_COLUMNS = ("colons", "traversed", "pass_rate", "failed_runs", "worst_penetration_mm", "median_penetration_mm",
+                  "worst_clearance_mm", "median_contact_length_mm", "worst_contact_length_mm", "median_touch_steps",
+                  "worst_colon", "min_turn_radius_mm")
+#: Columns of runs.csv after the design's keys and the seed.
+RUN_COLUMNS = ("status", "steps", "traversed", "max_penetration_mm", "touch_steps", "contact_length_mm",
+               "min_clearance_mm", "points_max_error_mm", "tip_max_error_mm")
+_MAX_COLONS = 100_000
+_RANGE = re.compile(r"^\s*(\d+)\s*(?:-\s*(\d+))?\s*$")
+
+
+def parse_colons(text: str | Sequence[int]) -> tuple[int, ...]:
+    """Seeds from ``"1-100"``, ``"1-50,61,70-80"`` (ends included) or a list of whole numbers."""
+    if isinstance(text, str):
+        if not text.strip():
+            raise BhrError("--colons is empty; give seeds such as 1-100 or 1,2,5-9")
+        seeds: list[int] = []
+        for part in text.split(","):
+            m = _RANGE.match(part)
+            if m is None:
+                raise BhrError(f"--colons: {part.strip()!r} is not a seed or a range of seeds; give e.g. 1-100 or "
+                               "1,2,5-9 (whole numbers)")
+            a = int(m.group(1))
+            b = int(m.group(2)) if m.group(2) is not None else a
+            if b < a:
+                raise BhrError(f"--colons: range {a}-{b} runs backwards; give FIRST-LAST with FIRST <= LAST")
+            if a > SEED_MAX or b > SEED_MAX:
+                raise BhrError(f"--colons: seeds go from 0 to {SEED_MAX}, got {part.strip()!r}")
+            if b - a + 1 + len(seeds) > _MAX_COLONS:
+                raise BhrError(f"--colons: more than {_MAX_COLONS} colons; give fewer seeds")
+            seeds.extend(range(a, b + 1))
+    else:
+        seeds = [check_seed(s, "--colons") for s in text]
+    if not seeds:
+        raise BhrError("--colons is empty; give seeds such as 1-100 or 1,2,5-9")
+    if len(set(seeds)) != len(seeds):
+        dup = next(s for s in seeds if seeds.count(s) > 1)
+        raise BhrError(f"--colons lists seed {dup} twice; give each colon once")
+    return tuple(seeds)
+
+
+@dataclass(frozen=True)
+class Study:
+    """Designs (solvers x grid) x colons (seeds of the anatomical colon generator)."""
+
+    sweep: Sweep  # traj "anatomy", the design axes, then seed (the colons) last
+    colons: tuple[int, ...]
+    target: float = 0.95
+
+    @property
+    def design_axes(self) -> list[tuple[str, tuple[Any, ...]]]:
+        """The axes that make a design: solver and the grid keys (not the trajectory or the colon)."""
+        return [(k, v) for k, v in self.sweep.axes if k not in ("traj", "seed")]
+
+    @property
+    def design_keys(self) -> list[str]:
+        return [k for k, _ in self.design_axes]
+
+    @property
+    def designs(self) -> int:
+        return math.prod(len(v) for _, v in self.design_axes)
+
+    def __len__(self) -> int:
+        return len(self.sweep)
+
+
+def build_study(grid: Sequence[tuple[str, tuple[Any, ...]]], colons: Sequence[int] | str, *,
+                solvers: Sequence[str] = ("thesis",), target: float = 0.95, robot_file: str | None = None,
+                title: str = "bhr traverse", where: str = "traverse") -> Study:
+    """Check and assemble a study; every design and colon is checked before anything runs."""
+    seeds = parse_colons(colons) if isinstance(colons, str) else parse_colons(list(colons))
+    if isinstance(target, bool) or not isinstance(target, (int, float)) or not 0.0 < float(target) <= 1.0:
+        raise BhrError(f"--target-pass must be a share of colons above 0 and at most 1 (e.g. 0.95), got {target!r}")
+    grid = tuple(grid)
+    for key, _ in grid:
+        if key == "seed":
+            raise BhrError(f"{where}: the colons are the study's population; give their seeds with --colons, "
+                           "not --grid seed=...")
+        if key in TRAJ_KEYS:
+            raise BhrError(f"{where}: {key!r} is a trajectory option; a study varies the robot and its solver "
+                           "(e.g. alpha, module_length, modules, robot_radius)")
+    sweep = build_sweep(("anatomy",), tuple(solvers), (*grid, ("seed", seeds)), title=title, where=where,
+                        robot_file=robot_file)
+    sweep = dataclasses.replace(sweep, extra=LUMEN_KEYS)
+    return Study(sweep, seeds, float(target))
+
+
+@dataclass
+class StudyResult:
+    study: Study
+    runs: list[dict[str, Any]]  # one per design x colon, in order, with the derived columns of RUN_COLUMNS
+    designs: list[dict[str, Any]]  # one per design, in order: its keys, then DESIGN_COLUMNS
+    wall_time_s: float
+    runner: str
+    workers: int
+    clearance_kind: str  # "geometric" (the summary's max_penetration_mm) or "index-matched" (from min_clearance_mm)
+
+    @property
+    def failed(self) -> list[dict[str, Any]]:
+        return [r for r in self.runs if r["status"] != "ok"]
+
+
+def _penetration(row: dict[str, Any]) -> float | None:
+    if row.get("max_penetration_mm") is not None:
+        return float(row["max_penetration_mm"])
+    c = row.get("min_clearance_mm")
+    return None if c is None else max(0.0, -float(c))
+
+
+def _contact(row: dict[str, Any]) -> float | None:
+    v = row.get("contact_length_mm")
+    if v is None:
+        return None
+    if isinstance(v, (list, tuple)):
+        return float(sum(float(x) for x in v))
+    return float(v)
+
+
+def _run_row(row: dict[str, Any], keys: Sequence[str]) -> dict[str, Any]:
+    out = {k: row[k] for k in keys}
+    out["seed"] = row["seed"]
+    ok = row["status"] == "ok"
+    touches = row.get("wall_touch_steps")
+    out.update({
+        "status": row["status"],
+        "steps": row.get("steps"),
+        "traversed": bool(ok and touches is not None and len(touches) == 0),
+        "max_penetration_mm": _penetration(row) if ok else None,
+        "touch_steps": len(touches) if (ok and touches is not None) else None,
+        "contact_length_mm": _contact(row) if ok else None,
+        "min_clearance_mm": row.get("min_clearance_mm"),
+        "points_max_error_mm": row.get("points_max_error_mm"),
+        "tip_max_error_mm": row.get("tip_max_error_mm"),
+    })
+    return out
+
+
+def design_rows(study: Study, runs: Sequence[dict[str, Any]], min_turn: dict[tuple[Any, ...], float | None]
+                ) -> list[dict[str, Any]]:
+    """Per design: colons, how many were traversed, the pass rate and the penetration and contact figures."""
+    keys = study.design_keys
+    groups: dict[tuple[Any, ...], list[dict[str, Any]]] = {}
+    for r in runs:
+        groups.setdefault(tuple(r[k] for k in keys), []).append(r)
+    out = []
+    for n, (combo, rows) in enumerate(groups.items(), start=1):
+        # the worst colon: deepest into the wall, then (when none touches) the least clearance left
+        pen = [(r["max_penetration_mm"], r["seed"], r.get("min_clearance_mm")) for r in rows
+               if r["max_penetration_mm"] is not None]
+        contact = [r["contact_length_mm"] for r in rows if r["contact_length_mm"] is not None]
+        touch = [r["touch_steps"] for r in rows if r["touch_steps"] is not None]
+        clear = [r["min_clearance_mm"] for r in rows if r["status"] == "ok" and r.get("min_clearance_mm") is not None]
+        passed = sum(1 for r in rows if r["traversed"])
+        worst = max(pen, key=lambda p: (p[0], -(p[2] if p[2] is not None else math.inf), -p[1])) if pen else None
+        d = {"design": n, **dict(zip(keys, combo))}
+        d.update({
+            "colons": len(rows),
+            "traversed": passed,
+            "pass_rate": passed / len(rows),
+            "failed_runs": sum(1 for r in rows if r["status"] != "ok"),
+            "worst_penetration_mm": worst[0] if worst else None,
+            "median_penetration_mm": statistics.median(p[0] for p in pen) if pen else None,
+            "worst_clearance_mm": min(clear) if clear else None,
+            "median_contact_length_mm": statistics.median(contact) if contact else None,
+            "worst_contact_length_mm": max(contact) if contact else None,
+            "median_touch_steps": statistics.median(touch) if touch else None,
+            "worst_colon": worst[1] if worst else None,
+            "min_turn_radius_mm": min_turn.get(combo),
+        })
+        out.append(d)
+    return out
+
+
+def _rank(d: dict[str, Any]) -> tuple[Any, ...]:
+    inf = math.inf
+    wc = d.get("worst_clearance_mm")
+    return (-d["pass_rate"], d["worst_penetration_mm"] if d["worst_penetration_mm"] is not None else inf,
+            -wc if wc is not None else inf,
+            d["median_penetration_mm"] if d["median_penetration_mm"] is not None else inf, d["design"])
+
+
+def answer(result: StudyResult) -> tuple[dict[str, Any] | None, list[dict[str, Any]]]:
+    """The best design whose pass rate reaches the target (None if none does), and all that reach it, best first.
+
+    Best: the highest pass rate, then the smallest worst penetration, then the
+    largest worst clearance (the margin left to the wall on its worst colon),
+    then the smallest median penetration, then the design listed first.
+    """
+    meeting = sorted((d for d in result.designs if d["pass_rate"] >= result.study.target - 1e-12), key=_rank)
+    return (meeting[0] if meeting else None), meeting
+
+
+def best_design(result: StudyResult) -> dict[str, Any]:
+    """The best design by the same order, whether or not it reaches the target."""
+    return sorted(result.designs, key=_rank)[0]
+
+
+def run_study(study: Study, *, jobs: int | None = None, scheduler: Any = None,
+              progress: Callable[[int, int], None] | None = None) -> StudyResult:
+    """Run every design on every colon (local processes, this process with ``jobs=1``, or a Dask scheduler)."""
+    res: SweepResult = run_sweep(study.sweep, jobs=jobs, scheduler=scheduler, progress=progress)
+    keys = study.design_keys
+    runs = [_run_row(r, keys) for r in res.rows]
+    min_turn: dict[tuple[Any, ...], float | None] = {}
+    for r in res.rows:
+        combo = tuple(r[k] for k in keys)
+        if min_turn.get(combo) is None:
+            min_turn[combo] = r.get("min_turn_radius_mm")
+    geometric = any(r.get("max_penetration_mm") is not None for r in res.rows)
+    return StudyResult(study, runs, design_rows(study, runs, min_turn), res.wall_time_s, res.runner, res.workers,
+                       "geometric" if geometric else "index-matched")
+
+
+# ------------------------------------------------------------------------------------------ figures
+
+
+def heatmap_axes(study: Study, x: str | None = None, y: str | None = None) -> tuple[str | None, str | None]:
+    """The heat-map's axes: ``x`` and ``y`` when given, else the two design axes with the most values."""
+    design_only = Sweep(trajs=("anatomy",), solvers=study.sweep.solvers,
+                        grid=tuple((k, v) for k, v in study.sweep.grid if k != "seed"))
+    for name, val in (("x", x), ("y", y)):
+        if val in ("traj", "seed"):
+            raise BhrError(f"heat-map {name} axis {val!r} is not a design axis; choose one of "
+                           f"{', '.join(study.design_keys)}")
+    return _sweep_axes(design_only, x, y)
+
+
+def passrate_figure(result: StudyResult, x: str | None = None, y: str | None = None):
+    """Pass rate per (x, y) design, the best over the other design axes; cells reaching the target outlined."""
+    import matplotlib
+
+    if os.environ.get("DISPLAY", "") == "" and os.environ.get("MPLBACKEND") is None:
+        matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import numpy as np
+    from matplotlib.patches import Rectangle
+
+    study = result.study
+    x, y = heatmap_axes(study, x, y)
+    axes = dict(study.design_axes)
+    xs = axes[x] if x else (None,)
+    ys = axes[y] if y else (None,)
+    others = [k for k, v in study.design_axes if k not in (x, y) and len(v) > 1]
+    data = np.full((len(ys), len(xs)), np.nan)
+    best: dict[tuple[int, int], dict[str, Any]] = {}
+    for d in result.designs:
+        i = xs.index(d[x]) if x else 0
+        j = ys.index(d[y]) if y else 0
+        if (j, i) not in best or _rank(d) < _rank(best[(j, i)]):
+            best[(j, i)] = d
+            data[j, i] = d["pass_rate"]
+    w = min(max(7.0, 0.8 * len(xs) + 3.0), 14)
+    h = min(max(4.5, 0.55 * len(ys) + 2.4), 12)
+    fig, ax = plt.subplots(figsize=(w, h))
+    im = ax.imshow(data * 100, origin="lower", aspect="auto", cmap="RdYlGn", vmin=0, vmax=100,
+                   interpolation="nearest")
+    fig.colorbar(im, ax=ax, label="colons traversed without wall contact (%)")
+    ax.set_xticks(range(len(xs)), [_label(v) for v in xs] if x else [""])  # one column: no axis to name
+    ax.set_yticks(range(len(ys)), [_label(v) for v in ys] if y else [""])
+    ax.set_xlabel(axis_label(x))
+    ax.set_ylabel(axis_label(y))
+    for (j, i), v in np.ndenumerate(data):
+        cell = best.get((j, i))
+        text = "-" if not np.isfinite(v) else f"{100 * v:.0f}%"
+        if cell is not None and cell["worst_penetration_mm"] is not None and data.size <= 200:
+            text += f"\n{cell['worst_penetration_mm']:.1f} mm"
+        dark = np.isfinite(v) and (v < 0.25 or v > 0.85)  # the deep red and deep green ends of the map
+        ax.text(i, j, text, ha="center", va="center", fontsize=8, color="white" if dark else "black")
+        if np.isfinite(v) and v >= study.target - 1e-12:
+            ax.add_patch(Rectangle((i - 0.5, j - 0.5), 1, 1, fill=False, edgecolor="black", linewidth=2.2))
+    over = f"best design over {', '.join(others)}" if others else "one design per cell"
+    ax.set_title(f"Share of {len(study.colons)} colons traversed without wall contact, worst penetration (mm)\n"
+                 f"{over}; outlined: at least {100 * study.target:g}%", fontsize=9)
+    fig.tight_layout()
+    return fig
+
+
+def worst_colon_run(result: StudyResult, design: dict[str, Any]):
+    """Follow ``design``'s worst colon again (same robot, solver and options) and return the run."""
+    s = result.study.sweep
+    robot = make_robot({ROBOT_KEYS[k]: design[k] for k in result.study.design_keys if k in ROBOT_KEYS},
+                       dict(s.robot) or None)
+    tr = load_trajectory("anatomy", feed=robot.feed, seed=design["worst_colon"])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", BhrWarning)
+        keys = {k: design[k] for k in result.study.design_keys}
+        return follow(tr, solver=design["solver"], robot=robot, solver_options=solver_options_for(design["solver"],
+                      keys), **sim_options(keys))
+
+
+def penetration_figure(result: StudyResult, design: dict[str, Any], run):
+    """The worst colon followed again: the robot's smallest clearance to the wall at each step against the tip's
+    distance from the anus; below zero (shaded red) the robot is that deep in the wall."""
+    import matplotlib
+
+    if os.environ.get("DISPLAY", "") == "" and os.environ.get("MPLBACKEND") is None:
+        matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    doc = run.to_dict()
+    clearance = np.array([np.nan if st.get("clearance_mm") is None else st["clearance_mm"] for st in doc["steps"]],
+                         dtype=float)
+    s = np.arange(len(clearance)) * run.robot.feed
+    colon = anatomical_colon(design["worst_colon"])
+    ends = colon.section_ends()
+    fig, ax = plt.subplots(figsize=(11, 4.2))
+    starts = np.concatenate([[0.0], ends[:-1]])
+    finite = clearance[np.isfinite(clearance)]
+    lo = min(-1.0, float(finite.min()) if finite.size else -1.0)
+    hi = max(1.0, float(finite.max()) if finite.size else 1.0)
+    top = hi + 0.25 * (hi - lo)
+    for k, (a, b) in enumerate(zip(starts, ends)):
+        if k % 2 == 0:
+            ax.axvspan(a, b, color="#eef0f4", zorder=0)
+        ax.text((a + b) / 2, top - 0.02 * (top - lo), SECTIONS[k].replace(" flexure", "\nflexure"), ha="center",
+                va="top", fontsize=7, color="#444")
+    ax.axhline(0.0, color="black", linewidth=0.8, zorder=2)
+    ax.fill_between(s, 0, np.minimum(0.0, np.nan_to_num(clearance, nan=0.0)), color="#d62728", alpha=0.45,
+                    step="mid", zorder=3, label="into the wall")
+    ax.plot(s, clearance, color="#1f4e79", linewidth=0.9, zorder=4, label="smallest clearance")
+    ax.set_xlim(0, max(float(ends[-1]), float(s[-1]) if len(s) else 1.0))
+    ax.set_ylim(lo - 0.05 * (hi - lo), top)
+    ax.set_xlabel("tip's distance from the anus along the colon (mm)")
+    ax.set_ylabel("robot's smallest clearance\nto the wall (mm)")
+    ax.legend(loc="lower right", fontsize=8)
+    keys = ", ".join(f"{k} {_label(design[k])}" for k in result.study.design_keys)
+    pen = design["worst_penetration_mm"]
+    ax.set_title(f"Worst colon (seed {design['worst_colon']}) of design #{design['design']} ({keys}):\n"
+                 f"{pen:.2f} mm into the wall at worst, smallest clearance {np.nanmin(clearance):.2f} mm; "
+                 f"{result.clearance_kind} clearance", fontsize=9)
+    fig.tight_layout()
+    return fig
+
+
+# ------------------------------------------------------------------------------------------ outputs
+
+
+def design_columns(study: Study) -> list[str]:
+    return ["design", *study.design_keys, *DESIGN_COLUMNS]
+
+
+def run_columns(study: Study) -> list[str]:
+    return [*study.design_keys, "seed", *RUN_COLUMNS]
+
+
+def _describe(study: Study, d: dict[str, Any]) -> str:
+    return ", ".join(f"{k}={_label(d[k])}" for k in study.design_keys)
+
+
+def answer_line(result: StudyResult) -> str:
+    study = result.study
+    best, meeting = answer(result)
+    pct = f"{100 * study.target:g}%"
+    if best is not None:
+        return (f"{len(meeting)} of {len(result.designs)} designs traverse at least {pct} of the "
+                f"{len(study.colons)} colons; best: design #{best['design']} ({_describe(study, best)}): "
+                f"{best['traversed']}/{best['colons']} traversed, worst penetration "
+                f"{best['worst_penetration_mm']:.2f} mm" + (
+                    "" if best["worst_clearance_mm"] is None else
+                    f", worst clearance {best['worst_clearance_mm']:.2f} mm"))
+    top = best_design(result)
+    worst = "-" if top["worst_penetration_mm"] is None else f"{top['worst_penetration_mm']:.2f} mm"
+    return (f"No design traverses {pct} of the {len(study.colons)} colons; the best, design #{top['design']} "
+            f"({_describe(study, top)}), traverses {top['traversed']}/{top['colons']} "
+            f"({100 * top['pass_rate']:.0f}%), worst penetration {worst}")
+
+
+def format_study(result: StudyResult, count: int = 8) -> list[str]:
+    """The terminal summary: what ran, the best designs, and the answer."""
+    study = result.study
+    lines = [f"{len(result.runs)} runs ({len(result.designs)} designs x {len(study.colons)} colons) on "
+             f"{result.runner}: {len(result.runs) - len(result.failed)} ok, {len(result.failed)} failed, "
+             f"{result.wall_time_s:.1f} s; penetration from the {result.clearance_kind} clearance"]
+    keys = study.design_keys
+    head = "  ".join(f"{k:>13}" for k in keys)
+    lines.append(f"{'#':>5}  {head}  {'traversed':>10}  {'worst pen':>9}  {'median pen':>10}  {'worst clear':>11}  "
+                 f"{'median contact':>14}")
+    for d in sorted(result.designs, key=_rank)[:count]:
+        vals = "  ".join(f"{_label(d[k]):>13}" for k in keys)
+        wp = "-" if d["worst_penetration_mm"] is None else f"{d['worst_penetration_mm']:.2f}"
+        mp = "-" if d["median_penetration_mm"] is None else f"{d['median_penetration_mm']:.2f}"
+        mc = "-" if d["median_contact_length_mm"] is None else f"{d['median_contact_length_mm']:.1f}"
+        wc = "-" if d["worst_clearance_mm"] is None else f"{d['worst_clearance_mm']:.2f}"
+        lines.append(f"{d['design']:>5}  {vals}  {100 * d['pass_rate']:>9.0f}%  {wp:>9}  {mp:>10}  {wc:>11}  {mc:>14}")
+    lines.append(answer_line(result))
+    return lines
+
+
+def _html(result: StudyResult, heat: str | None, worst: str | None, worst_design: dict[str, Any] | None) -> str:
+    study = result.study
+    cols = design_columns(study)
+    best, meeting = answer(result)
+    ids = {d["design"] for d in meeting}
+    parts = [page_head(study.sweep.title), f"<h1>{escape(study.sweep.title)}</h1>\n"]
+    axes = "; ".join(f"{k}: {', '.join(_label(v) for v in vals)}" for k, vals in study.design_axes)
+    seeds = study.colons
+    span = f"{seeds[0]}-{seeds[-1]}" if list(seeds) == list(range(seeds[0], seeds[-1] + 1)) else ", ".join(
+        map(str, seeds[:20])) + (" ..." if len(seeds) > 20 else "")
+    parts.append(f"<p class=\"meta\">{len(result.designs)} designs &times; {len(seeds)} anatomical colons (seeds "
+                 f"{escape(span)}), {len(result.runs)} runs, {len(result.failed)} failed, {result.wall_time_s:.1f} s "
+                 f"on {escape(result.runner)}; penetration from the {escape(result.clearance_kind)} clearance; bhr "
+                 f"{escape(__version__)}.<br>{escape(axes)}"
+                 + (f"; robot file: {escape(study.sweep.robot_file)}" if study.sweep.robot_file else "") + "</p>\n")
+    parts.append(f"<p id=\"answer\"><strong>{escape(answer_line(result))}.</strong></p>\n")
+    if heat:
+        parts.append(figure(heat, "pass rate per design", "Share of colons traversed without touching the wall, "
+                            "per design; outlined cells reach the target", style="max-width:760px"))
+    if worst and worst_design is not None:
+        parts.append(f"<h2>Worst colon of design #{worst_design['design']}</h2>\n")
+        parts.append(figure(worst, "clearance along the worst colon", "The robot's smallest clearance to the wall "
+                            "at each step of the design's worst colon (the largest max_penetration_mm, then the least "
+                            "clearance), against the tip's distance from the anus; red: how deep it is in the wall; "
+                            "grey bands: the colon's sections"))
+
+    def cell(d: dict[str, Any], c: str) -> tuple[str, str]:
+        if c == "pass_rate":
+            return escape(f"{100 * d[c]:.1f}%"), "ok" if d["design"] in ids else ""
+        v = d.get(c)
+        return escape(("yes" if v else "no") if isinstance(v, bool) else fmt(v)), ""
+
+    parts.append("<h2>Designs, best first</h2>\n")
+    parts.append(table("designs", cols, sorted(result.designs, key=_rank), cell,
+                       row_class=lambda d: "meets" if d["design"] in ids else "below"))
+    parts.append("<p>Every run: <a href=\"runs.csv\">runs.csv</a>; per design: "
+                 "<a href=\"designs.csv\">designs.csv</a>; everything: <a href=\"study.json\">study.json</a>.</p>\n")
+    parts.append(PAGE_END)
+    return "".join(parts)
+
+
+def write_study(result: StudyResult, out_dir: str | os.PathLike[str], *, plot: bool = True,
+                x: str | None = None, y: str | None = None) -> list[Path]:
+    """Write designs.csv, runs.csv, study.json, passrate.png and worst-colon.png (``plot``), index.html.
+
+    The files are made in a staging folder beside ``out_dir`` and moved in
+    only when all of them exist, so a failure leaves no partial set.
+    """
+    import shutil
+    import tempfile
+
+    study = result.study
+    out = Path(out_dir)
+    parent = out.parent if str(out.parent) else Path(".")
+    parent.mkdir(parents=True, exist_ok=True)
+    stage = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=parent))
+    try:
+        names = ["designs.csv", "runs.csv", "study.json"]
+        write_text(stage / "designs.csv", csv_text(result.designs, design_columns(study)))
+        write_text(stage / "runs.csv", csv_text(result.runs, run_columns(study)))
+        best, meeting = answer(result)
+        focus = best if best is not None else best_design(result)
+        hx, hy = heatmap_axes(study, x, y)
+        heat = worst = None
+        if plot:
+            from bhr.output.plots import save_figure
+
+            save_figure(passrate_figure(result, hx, hy), stage / "passrate.png")
+            heat = "passrate.png"
+            names.append(heat)
+            if focus.get("worst_colon") is not None:
+                save_figure(penetration_figure(result, focus, worst_colon_run(result, focus)),
+                            stage / "worst-colon.png")
+                worst = "worst-colon.png"
+                names.append(worst)
+        write_json(stage / "study.json", {
+            "title": study.sweep.title,
+            "bhr_version": __version__,
+            "design_axes": {k: list(v) for k, v in study.design_axes},
+            "colons": list(study.colons),
+            "target_pass": study.target,
+            "robot_file": study.sweep.robot_file,
+            "robot": dict(study.sweep.robot) or None,
+            "clearance": result.clearance_kind,
+            "runs_total": len(result.runs),
+            "failed_runs": len(result.failed),
+            "wall_time_s": result.wall_time_s,
+            "runner": result.runner,
+            "workers": result.workers,
+            "heatmap": {"x": hx, "y": hy},
+            "answer": None if best is None else best["design"],
+            "meeting_target": [d["design"] for d in meeting],
+            "summary": answer_line(result),
+            "worst_colon_figure": None if worst is None else {"design": focus["design"], "seed": focus["worst_colon"]},
+            "designs": result.designs,
+            "runs": result.runs,
+        })
+        write_text(stage / "index.html", _html(result, heat, worst, focus if worst else None))
+        names.append("index.html")
+        out.mkdir(parents=True, exist_ok=True)
+        for n in names:
+            os.replace(stage / n, out / n)
+    finally:
+        shutil.rmtree(stage, ignore_errors=True)
+    return [out / n for n in names]
