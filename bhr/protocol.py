@@ -14,6 +14,7 @@ reflection, no final XOR) over ``version .. payload``;
 """
 from __future__ import annotations
 
+import binascii
 import enum
 from dataclasses import dataclass, field
 from typing import Iterable, Sequence
@@ -101,12 +102,14 @@ class ProtocolError(BhrError):
 
 
 def crc16(data: bytes | bytearray | memoryview, crc: int = 0xFFFF) -> int:
-    """CRC-16/CCITT-FALSE of ``data`` (``crc16(b"123456789") == 0x29B1``)."""
-    for byte in bytes(data):
-        crc ^= byte << 8
-        for _ in range(8):
-            crc = ((crc << 1) ^ 0x1021) & 0xFFFF if crc & 0x8000 else (crc << 1) & 0xFFFF
-    return crc
+    """CRC-16/CCITT-FALSE of ``data`` (``crc16(b"123456789") == 0x29B1``).
+
+    The standard library's ``binascii.crc_hqx`` is this CRC (polynomial
+    0x1021, MSB first, no final XOR) from the initial value given; the board
+    computes it bit by bit in C (firmware/src/proto.c), and a test holds the
+    two equal on random data.
+    """
+    return binascii.crc_hqx(bytes(data), crc)
 
 
 @dataclass(frozen=True)
