@@ -207,29 +207,46 @@ def collapse(seq):
     return out
 
 
-def driven(events: list[dict]) -> list[dict]:
-    """The events with the PWM hold's off-phases filled in: the code each module is driven with.
+STABLE = (0, 3, 6, 9, 12, 15)
 
-    While holding, a module shows its code for HOLD_MS of every PWM_MS period and 0 in between;
-    a 0 shorter than the off-phase between two showings of a code (the same one, or the next one when
-    the host changed the code during an off-phase) is the code before it.
+
+def driven(events: list[dict]) -> list[dict]:
+    """The events with the PWM hold's off-times filled in: the code each module is driven with.
+
+    Each wire is driven on its own: while holding, it is on for HOLD_MS of every PWM_MS period and off in
+    between, while a wire of the same code still contracting stays on. An off-time of a wire no longer than
+    the hold's, followed by that wire on again (or by the end of the log), is the wire on. A module pattern
+    that is not a stable code, shorter than an off-time and inside the code before it, is the code before it
+    (a wire in its off-time when the host changed the code).
     """
     out = [dict(e, codes=list(e["codes"])) for e in events]
     gap_us = (PERIOD_MS - HOLD_MS + 2) * 1000
     for m in range(MODULES):
-        i = 0
-        while i < len(out):
-            if out[i]["codes"][m] == 0 and i > 0 and out[i - 1]["codes"][m] != 0:
-                code, j = out[i - 1]["codes"][m], i
-                while j < len(out) and out[j]["codes"][m] == 0:
+        for bit in range(4):
+            i = 0
+            while i < len(out):
+                on = (out[i]["codes"][m] >> bit) & 1
+                if not on and i > 0 and (out[i - 1]["codes"][m] >> bit) & 1:
+                    j = i
+                    while j < len(out) and not (out[j]["codes"][m] >> bit) & 1:
+                        j += 1
+                    tail = j == len(out) and out[-1]["t_us"] - out[i]["t_us"] <= gap_us  # log ends mid-period
+                    if tail or j < len(out) and out[j]["t_us"] - out[i]["t_us"] <= gap_us:
+                        for k in range(i, j):
+                            out[k]["codes"][m] |= 1 << bit
+                    i = j
+                else:
+                    i += 1
+        for i in range(1, len(out)):
+            c, prev = out[i]["codes"][m], out[i - 1]["codes"][m]
+            if c not in STABLE and c & ~prev == 0:
+                j = i
+                while j < len(out) and out[j]["codes"][m] == c:
                     j += 1
-                tail = j == len(out) and out[-1]["t_us"] - out[i]["t_us"] <= gap_us  # the log ends mid-period
-                if tail or j < len(out) and out[j]["codes"][m] != 0 and out[j]["t_us"] - out[i]["t_us"] <= gap_us:
+                end_t = out[j]["t_us"] if j < len(out) else out[-1]["t_us"]
+                if end_t - out[i]["t_us"] <= gap_us:
                     for k in range(i, j):
-                        out[k]["codes"][m] = code
-                i = j
-            else:
-                i += 1
+                        out[k]["codes"][m] = prev
     return out
 
 
@@ -276,8 +293,17 @@ def check_stream_reached_the_pins(s: Sim, rows) -> None:
     # pins than one at full power): every module went through its codes in order
     for m in range(MODULES):
         assert collapse([[r[m]] for r in driven_rows]) == collapse([[0]] + [[r[m]] for r in rows]), m + 1
-    for e in evs:  # every code on an output is a stable one
-        assert all(c in (0, 3, 6, 9, 12, 15) for c in e["codes"] + e["latched"])
+    check_patterns(evs)
+
+
+def check_patterns(evs: list[dict]) -> None:
+    """Every driven code is a stable one, and the outputs only ever show wires of it (or of the code before)."""
+    dr = driven(evs)
+    for k, (e, d) in enumerate(zip(evs, dr)):
+        before = dr[k - 1]["codes"] if k else [0] * MODULES
+        for m in range(MODULES):
+            assert d["codes"][m] in STABLE, (e, d)
+            assert e["codes"][m] & ~(d["codes"][m] | before[m]) == 0, (e, d)
 
 
 # -------------------------------------------------------------- builds
@@ -754,3 +780,102 @@ def test_status_to_a_full_device_is_one_line(sim, tmp_path):
     r = run_bhr("status", "--port", s.pty, "--json", str(full))
     assert r.returncode == 1 and "No space left on device" in one_line(r.stderr)
     assert stat.S_ISCHR(full.lstat().st_mode)
+
+
+def max_window_duty(evs: list[dict], module: int, bit: int, window_us: int) -> float:
+    """The highest on-time fraction of one wire over any window of window_us inside the log (pin log)."""
+    runs = on_intervals(evs, module, bit)
+    t0, t1 = evs[0]["t_us"], evs[-1]["t_us"]
+    w = min(window_us, t1 - t0)
+    # the maximum over windows is reached with a window edge on an edge of a run
+    starts = {t0, t1 - w} | {a for a, _ in runs} | {b - w for _, b in runs}
+    best = 0.0
+    for s0 in (x for x in starts if t0 <= x <= t1 - w):
+        on = sum(max(0, min(b, s0 + w) - max(a, s0)) for a, b in runs)
+        best = max(best, on / w)
+    return best
+
+
+def streaming_part(evs: list[dict]) -> list[dict]:
+    """From the first event with the outputs on to the end of the log."""
+    i = next(i for i, e in enumerate(evs) if e["oe"] == "on")
+    return evs[i:]
+
+
+def assert_duty_within_limit(evs: list[dict]) -> float:
+    from bhr.thermal import DUTY_WINDOW_MS, duty_limit
+
+    limit = duty_limit(THERMAL)
+    worst = 0.0
+    for m in range(1, MODULES + 1):
+        for bit in range(4):
+            d = max_window_duty(evs, m, bit, DUTY_WINDOW_MS * 1000)
+            assert d <= limit, (m, bit + 1, d, limit)
+            worst = max(worst, d)
+    return worst
+
+
+def test_alternating_codes_that_share_a_wire_keep_it_at_its_hold(sim):
+    # 3 <-> 6 every 1.2 s with heartbeats: wire 2 is in both codes. Driven per wire, it contracts once and then
+    # holds at the hold duty; it is never pulsed at full power again (module 2 alternates 6 <-> 12, wire 3)
+    from bhr.link import BoardLink
+
+    s = sim()
+    with BoardLink(s.pty) as link:
+        t_end = time.monotonic() + 24
+        k = 0
+        while time.monotonic() < t_end:
+            link.set_codes([(3, 6)[k % 2], (6, 12)[k % 2], 0, 0, 15])
+            k += 1
+            for _ in range(4):
+                time.sleep(0.3)
+                link.heartbeat()
+        faults = link.status()["faults"]
+        link.stop_all()
+    evs = streaming_part(s.events())
+    check_patterns(evs)
+    worst = assert_duty_within_limit(evs)
+    # wire 2 of module 1 after its first contraction: the hold duty, no full-power run past one period
+    runs = on_intervals(evs, 1, 1)
+    later = [(a, b) for a, b in runs if a > runs[0][1]]
+    assert later and max(b - a for a, b in later) / 1000 <= 2 * PERIOD_MS, max(b - a for a, b in later)
+    span = later[-1][1] - later[0][0]
+    duty = sum(b - a for a, b in later) / span
+    assert duty <= THERMAL.duty + 0.02, duty
+    assert worst <= 0.7 and not any(f.startswith("overheat") for f in faults), (worst, faults)
+
+
+def test_all_on_held_with_heartbeats_stays_within_the_duty_limit(sim):
+    from bhr.link import BoardLink
+
+    s = sim()
+    with BoardLink(s.pty) as link:
+        link.set_codes([15] * MODULES)
+        t_end = time.monotonic() + 15
+        while time.monotonic() < t_end:
+            time.sleep(0.3)
+            link.heartbeat()
+        assert link.status()["faults"] == []
+        link.stop_all()
+    evs = streaming_part(s.events())
+    check_patterns(evs)
+    assert_duty_within_limit(evs)
+
+
+def test_a_flood_of_random_codes_stays_within_the_duty_limit(sim):
+    # rows as fast as the link takes them, random stable codes: the board holds modules off rather than
+    # re-energise a wire early, and no wire passes the limit
+    import random
+
+    from bhr.link import BoardLink
+
+    rnd = random.Random(5)
+    s = sim()
+    with BoardLink(s.pty) as link:
+        t_end = time.monotonic() + 15
+        while time.monotonic() < t_end:
+            link.set_codes([rnd.choice(STABLE) for _ in range(MODULES)])
+        link.stop_all()
+    evs = streaming_part(s.events())
+    assert sum(e["ev"] == "latch" for e in evs) > 500  # the outputs really changed, many times
+    assert_duty_within_limit(evs)
