@@ -16,6 +16,8 @@ when the CI environment variable is set.
 """
 from __future__ import annotations
 
+import contextlib
+
 import json
 import os
 import re
@@ -216,8 +218,8 @@ def driven(events: list[dict]) -> list[dict]:
     Each wire is driven on its own: while holding, it is on for HOLD_MS of every PWM_MS period and off in
     between, while a wire of the same code still contracting stays on. An off-time of a wire no longer than
     the hold's, followed by that wire on again (or by the end of the log), is the wire on. A module pattern
-    that is not a stable code, shorter than an off-time and inside the code before it, is the code before it
-    (a wire in its off-time when the host changed the code).
+    that is 0 or not a stable code, shorter than an off-time and inside the code before it, is the code
+    before it (its wires in their off-time when the host changed the code).
     """
     out = [dict(e, codes=list(e["codes"])) for e in events]
     gap_us = (PERIOD_MS - HOLD_MS + 2) * 1000
@@ -239,7 +241,14 @@ def driven(events: list[dict]) -> list[dict]:
                     i += 1
         for i in range(1, len(out)):
             c, prev = out[i]["codes"][m], out[i - 1]["codes"][m]
-            if c not in STABLE and c & ~prev == 0:
+            if c == 0 and prev != 0:  # the old code's wires in their off-time when the next code came
+                j = i
+                while j < len(out) and out[j]["codes"][m] == 0:
+                    j += 1
+                if j < len(out) and out[j]["t_us"] - out[i]["t_us"] <= gap_us:
+                    for k in range(i, j):
+                        out[k]["codes"][m] = prev
+            elif c not in STABLE and c & ~prev == 0:
                 j = i
                 while j < len(out) and out[j]["codes"][m] == c:
                     j += 1
@@ -354,7 +363,7 @@ def test_a_run_from_bhr_follow_reaches_the_outputs_in_order(sim, tmp_path):
     part.write_text(format_codes_csv(rows))
     s = sim()
     # at 50 rows/s the wires could not follow: refused before anything is sent
-    r = run_bhr("stream", "--port", s.pty, "--codes", part, "--rate", "50")
+    r = run_bhr("stream", "--port", s.pty, "--codes", part, "--rate", "50", "--schedule", "rate")
     assert r.returncode == 1
     msg = one_line(r.stderr)
     assert re.search(r"module m\d, step \d+: .* nothing was sent; use --rate [\d.]+ or --schedule auto", msg), msg
@@ -463,11 +472,12 @@ def test_a_corrupted_frame_is_naked_and_changes_nothing(sim):
 
 
 def test_a_silent_host_gets_everything_switched_off_within_the_timeout(sim, tmp_path):
+    from bhr.link import BoardLink
+
     s = sim()
-    f = tmp_path / "codes.csv"
-    f.write_text(format_codes_csv([[3, 6, 9, 12, 15]]))
-    r = run_bhr("stream", "--port", s.pty, "--codes", f)
-    assert r.returncode == 0, r.stderr
+    with BoardLink(s.pty) as link:  # one row, then nothing more from the host
+        link.set_codes([3, 6, 9, 12, 15])
+
     def switched_off(evs):
         on = [i for i, e in enumerate(evs) if e["ev"] == "oe" and e["oe"] == "on"]
         return on and any(e["ev"] == "oe" and e["oe"] == "off" for e in evs[on[0]:])
@@ -660,7 +670,7 @@ def test_follow_solves_checks_then_streams_the_run(sim, tmp_path):
     s = sim()
     out = tmp_path / "run"
     r = run_bhr("follow", "--traj", "curve", "--radius", "70", "--angle", "90", "--no-plots", "--out", out,
-                "--port", s.pty, "--rate", "100", timeout=600)
+                "--port", s.pty, "--rate", "100", "--schedule", "rate", timeout=600)
     assert r.returncode == 1 and not out.exists()
     assert "nothing was sent; use --rate" in one_line(r.stderr)
     assert not any(e["oe"] == "on" for e in s.events())
@@ -715,13 +725,18 @@ def test_robot_file_link_gives_port_and_module_order(sim, tmp_path):
     f.write_text(format_codes_csv([[3, 6, 0, 0, 15]]))
     r = run_bhr("stream", "--robot", robot, "--codes", f, "--rate", "20")
     assert r.returncode == 0, r.stderr
-    from bhr.link import BoardLink
+    # the board's chain is wired in reverse: position 1 drives module 5 (read from the pin log, which does
+    # not depend on how soon after the stream anything else runs)
+    assert any(e["codes"] == [15, 0, 0, 6, 3] for e in driven(s.events()))
+    from bhr.link import BoardLink, wait_until_ready
 
-    # (in this process: a `bhr status` started on a busy machine can take longer than the silence timeout)
+    # and status answers in module order: codes set and read back at once, in this process (a status
+    # run as a new command on a busy machine may start after the silence timeout has switched them off)
     with BoardLink(s.pty, module_order=(5, 4, 3, 2, 1)) as link:
-        assert link.status() == {"codes": [3, 6, 0, 0, 15], "faults": []}
-    # the board's chain is wired in reverse: position 1 drives module 5
-    assert any(e["codes"] == [15, 0, 0, 6, 3] for e in s.events())
+        wait_until_ready(link)
+        link.set_codes([12, 9, 0, 0, 3])
+        assert link.status() == {"codes": [12, 9, 0, 0, 3], "faults": []}
+        link.stop_all()
 
 
 def test_follow_port_ends_with_stop_all_by_default(sim, tmp_path):
@@ -871,7 +886,7 @@ def test_a_flood_of_random_codes_stays_within_the_duty_limit(sim):
 
     rnd = random.Random(5)
     s = sim()
-    with BoardLink(s.pty) as link:
+    with BoardLink(s.pty, timeout=1.0, retries=5) as link:  # patient: a busy machine slows the simulator
         t_end = time.monotonic() + 15
         while time.monotonic() < t_end:
             link.set_codes([rnd.choice(STABLE) for _ in range(MODULES)])
@@ -879,3 +894,43 @@ def test_a_flood_of_random_codes_stays_within_the_duty_limit(sim):
     evs = streaming_part(s.events())
     assert sum(e["ev"] == "latch" for e in evs) > 500  # the outputs really changed, many times
     assert_duty_within_limit(evs)
+
+
+@contextlib.contextmanager
+def machine_load(n: int = 10, seconds: float = 90.0):
+    """n busy Python loops (a load of n), each ending by itself after `seconds`, and stopped on exit."""
+    code = f"import time\nt = time.monotonic() + {seconds}\nwhile time.monotonic() < t:\n    pass\n"
+    procs = [subprocess.Popen([sys.executable, "-c", code]) for _ in range(n)]
+    try:
+        time.sleep(1.0)
+        yield procs
+    finally:
+        for p in procs:
+            p.kill()
+        for p in procs:
+            p.wait(10)
+
+
+def test_the_silence_timeout_and_the_stream_hold_under_load_10(sim, tmp_path):
+    # a load of 10 on this machine: a stream keeps the board alive (heartbeats), the last codes stay on
+    # after it, and the silence timeout still switches them off after SILENCE_MS of board time, never sooner
+    from bhr.link import BoardLink, run_stream
+
+    s = sim()
+    rows = [[3, 0, 0, 0, 0], [3, 6, 0, 0, 0], [3, 6, 12, 0, 0], [3, 6, 12, 9, 15]]
+    with machine_load(10, 90):
+        with BoardLink(s.pty) as link:
+            report = run_stream(link, rows, rate=0.5, wait_ready=True, at_end="hold")  # 2 s gaps: heartbeats
+            assert report.sent == 4 and report.fault_events == []
+            assert link.status()["codes"] == [3, 6, 12, 9, 15]
+        evs = s.wait_for(lambda evs: any(e["ev"] == "oe" and e["oe"] == "off" for e in evs[1:]),
+                         SILENCE_MS / 1000 + 30)
+    i_on = next(i for i, e in enumerate(evs) if e["ev"] == "oe" and e["oe"] == "on")
+    i_off = next(i for i, e in enumerate(evs) if i > i_on and e["ev"] == "oe" and e["oe"] == "off")
+    streaming = driven(evs[i_on:i_off])
+    # the outputs stayed on through the whole stream (no silence under load), and went off by the timeout
+    assert collapse([e["codes"] for e in streaming])[-1] == [3, 6, 12, 9, 15]
+    t_last_row = next(e["t_us"] for e in streaming if e["codes"] == [3, 6, 12, 9, 15])
+    assert evs[i_off]["t_us"] - t_last_row >= SILENCE_MS * 1000  # never sooner than the timeout (board time)
+    with BoardLink(s.pty) as link:
+        assert link.status()["faults"] == ["silence"]

@@ -511,7 +511,7 @@ def test_a_robot_file_port_cannot_name_a_url_handler_that_writes_files(tmp_path)
     victim = tmp_path / "victim"
     victim.write_text("precious\n")
     for port in (f"spy://loop://?file={victim}", f"spy://{victim}", "hwgrep://.*", "alt:///dev/null?class=Serial",
-                 f"rfc2217://localhost:1?logging=debug", f"/dev/../{victim}", str(victim), "loop://?logging=debug",
+                 "rfc2217://localhost:1?logging=debug", f"/dev/../{victim}", str(victim), "loop://?logging=debug",
                  "socket://localhost:7000/x"):
         robot = tmp_path / "r.toml"
         robot.write_text(f'[link]\nport = "{port}"\n')
