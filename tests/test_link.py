@@ -546,3 +546,44 @@ def test_host_crc_is_binascii_crc_hqx_and_agrees_with_the_firmware(tmp_path):
     assert out == [f"{P.crc16(b):04x}" for b in blobs]
     assert all(P.crc16(b) == binascii.crc_hqx(b, 0xFFFF) for b in blobs)
     assert out[1] == "29b1"
+
+
+def test_dry_run_checks_what_a_real_stream_checks(tmp_path, board):
+    # a wire released at step 2 and energised again at step 3, 50 ms later: the board would hold it off
+    rows = [[3, 0, 0, 0, 0]] * 15 + [[6, 0, 0, 0, 0], [3, 0, 0, 0, 0]]
+    f = write_codes(tmp_path / "codes.csv", rows)
+    dry = run_bhr("stream", "--codes", f, "--rate", "20", "--schedule", "rate", "--dry-run")
+    b = board()
+    real = run_bhr("stream", "--codes", f, "--rate", "20", "--schedule", "rate", "--port", b.path)
+    assert dry.returncode == real.returncode == 1 and dry.stdout == ""
+    assert "module m1, step 17" in one_line(dry.stderr) and "module m1, step 17" in one_line(real.stderr)
+    assert "use --rate" in one_line(dry.stderr) and b.received == []
+    # the default schedule is one the board accepts, with and without --dry-run
+    dry = run_bhr("stream", "--codes", f, "--rate", "20", "--dry-run")
+    assert dry.returncode == 0 and len(dry.stdout.splitlines()) == len(rows)
+    assert "the thermal model accepts them at the board's limits" in dry.stderr
+
+
+def test_the_hints_bhr_prints_run_as_printed(tmp_path):
+    import re
+    import shlex
+
+    r = run_bhr("follow", "--traj", "curve", "--angle", "90", "--no-plots", cwd=tmp_path, timeout=600)
+    assert r.returncode == 0, r.stderr
+    m = re.search(r"\((bhr plan --codes \S+) shows the schedule\)", r.stdout + r.stderr)
+    assert m, r.stdout + r.stderr
+    hint = shlex.split(m.group(1))
+    r = run_bhr(*hint[1:], "--no-plots", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    r = run_bhr(*hint[1:], cwd=tmp_path)  # as printed, figure included
+    assert r.returncode == 0, r.stderr
+    # bhr stream's own example (--help), with the simulated port replaced by --dry-run
+    help_text = run_bhr("stream", "--help").stdout
+    ex = next(ln.strip() for ln in help_text.splitlines() if ln.strip().startswith("bhr stream --port"))
+    args = shlex.split(ex)[1:]
+    i = args.index("--port")
+    args[i:i + 2] = ["--dry-run"]
+    latest = tmp_path / "bhr-out" / "latest" / "codes.csv"
+    assert latest.exists()
+    r = run_bhr(*args, cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
