@@ -220,7 +220,7 @@ def _check_link(table: Any, modules: int, where: str) -> LinkSettings:
     out: dict[str, Any] = {}
     if "port" in table:
         port = text_value(table["port"], f"{w}.port").strip()
-        out["port"] = check_file_port(port, f"{w}.port") if port else None
+        out["port"] = port or None  # what it names is checked last (check_file_port)
     if "baudrate" in table:
         baud = number(table["baudrate"], f"{w}.baudrate", integer=True, positive=True)
         if not 50 <= baud <= 4_000_000:
@@ -256,6 +256,8 @@ def _check_link(table: Any, modules: int, where: str) -> LinkSettings:
     if len(out["module_order"]) > MAX_BOARD_MODULES:
         raise BhrError(f"{w}.module_order: one board drives at most {MAX_BOARD_MODULES} modules, "
                        f"got {len(out['module_order'])}")
+    if out.get("port"):
+        check_file_port(out["port"], f"{w}.port")
     return LinkSettings(**out)
 
 
