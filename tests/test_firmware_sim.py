@@ -339,6 +339,32 @@ def test_make_sim_prints_the_pty_first_and_stops_cleanly(sim):
     assert s.events() and "ev=exit" in s.log_path.read_text()
 
 
+def test_make_sim_keeps_the_pin_log_off_the_terminal_unless_asked(built, tmp_path):
+    # `make -s -C firmware sim` prints the PTY line and nothing else on stdout during a stream: the pin
+    # log goes to build/sim/pins.log (SIM_LOG=- asks for it on stdout)
+    from bhr.link import BoardLink, run_stream
+
+    log = FIRMWARE / "build" / "sim" / "pins.log"
+    out_path, err_path = tmp_path / "out.txt", tmp_path / "err.txt"
+    with open(out_path, "wb") as out, open(err_path, "wb") as err:
+        proc = subprocess.Popen(["make", "-s", "-C", str(FIRMWARE), "sim"], stdout=out, stderr=err,
+                                start_new_session=True, preexec_fn=default_sigint)
+        try:
+            end = time.monotonic() + 60
+            while time.monotonic() < end and not out_path.read_text().strip():
+                time.sleep(0.1)
+            pty = out_path.read_text().split()[1]
+            with BoardLink(pty) as link:
+                run_stream(link, [[3, 6, 9, 12, 15], [0, 0, 0, 0, 0]], rate=2, wait_ready=True, at_end="stop")
+        finally:
+            os.killpg(proc.pid, signal.SIGTERM)
+            proc.wait(10)
+    assert out_path.read_text().splitlines() == [f"PTY {pty}"]
+    assert f"pin log in {Path('build/sim/pins.log')}" in err_path.read_text()
+    text = log.read_text()
+    assert "codes=3,6,9,12,15" in text and text.rstrip().splitlines()[-1].startswith("t_us=")
+
+
 def test_harness_stops_on_sigterm_with_status_zero(sim):
     s = sim()
     assert s.preamble == []  # the PTY line is the very first line
