@@ -490,11 +490,13 @@ def test_a_corrupted_frame_is_naked_and_changes_nothing(sim):
         port.write(b"\xa5\x5a\x01\xa5\x00\xff\x13")
         st = exchange(port, P.status_frame(5), 5)
         assert P.parse_status(st) == {"codes": [3, 0, 6, 0, 15], "faults": []}
-    time.sleep(0.2)
-    # nothing changed on the pins: the same codes, driven (full power, then the PWM hold), /OE on
-    assert all(e["codes"] == [3, 0, 6, 0, 15] and e["oe"] == "on" for e in driven(s.events())[before:])
-    r = run_bhr("status", "--port", s.pty, "--json", "-")
-    assert json.loads(r.stdout)["codes"] == [3, 0, 6, 0, 15]
+        time.sleep(0.2)
+        # nothing changed on the pins: the same codes, driven (full power, then the PWM hold), /OE on
+        assert all(e["codes"] == [3, 0, 6, 0, 15] and e["oe"] == "on" for e in driven(s.events())[before:])
+        # and the board still says so (asked at once: a new command on a busy machine can start after the
+        # silence timeout)
+        st = exchange(port, P.status_frame(6), 6)
+        assert P.parse_status(st)["codes"] == [3, 0, 6, 0, 15]
 
 
 def test_a_silent_host_gets_everything_switched_off_within_the_timeout(sim, tmp_path):
@@ -644,7 +646,7 @@ def test_killing_the_simulator_mid_stream_is_one_clear_line(sim, tmp_path):
     proc = subprocess.Popen(bhr_cmd() + ["stream", "--port", s.pty, "--codes", str(f), "--rate", "40",
                                          "--schedule", "auto"],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, preexec_fn=default_sigint)
-    s.wait_for(lambda evs: sum(e["ev"] == "latch" for e in evs) > 10, 20)
+    s.wait_for(lambda evs: sum(e["ev"] == "latch" for e in evs) > 10, 90)  # a busy machine starts bhr slowly
     os.killpg(s.proc.pid, signal.SIGKILL)
     out, err = proc.communicate(timeout=30)
     assert proc.returncode == 1
@@ -661,7 +663,7 @@ def test_ctrl_c_sends_stop_all(sim, tmp_path):
     proc = subprocess.Popen(bhr_cmd() + ["stream", "--port", s.pty, "--codes", str(f), "--rate", "40",
                                          "--schedule", "auto"],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, preexec_fn=default_sigint)
-    s.wait_for(lambda evs: sum(e["ev"] == "latch" for e in evs) > 10, 20)
+    s.wait_for(lambda evs: sum(e["ev"] == "latch" for e in evs) > 10, 90)  # a busy machine starts bhr slowly
     proc.send_signal(signal.SIGINT)
     out, err = proc.communicate(timeout=30)
     assert proc.returncode == 130
