@@ -448,10 +448,10 @@ class Pacer:
             self._seen.update(detail)
             for f in fresh:
                 self.fault_events.append((self.sent, f))
-            if fresh and self.on_fault is not None:
-                self.on_fault(self.sent, fresh)
             hot = [f for f in fresh if f.split(":")[0] == "overheat"] or \
                 [f for f in names if f == "overheat" and not any(k.startswith("overheat") for k in self._seen)]
+            if fresh and self.on_fault is not None and not hot:  # an overheat is said by the one line below
+                self.on_fault(self.sent, fresh)
             if hot:
                 # the last line of defence fired: a planned stream never gets here, so the plan is wrong
                 raise StreamStopped(f"board on {self.link.port} reports {', '.join(hot)} at step {self.sent}: a wire "
