@@ -508,6 +508,33 @@ static void test_thermal(void)
     n = proto_encode(f, MSG_STOP_ALL, 9, NULL, 0);
     CHECK(send(&b, f, n, &r) == MSG_ACK && !(board_faults(&b) & FAULT_EARLY), "stop-all clears early");
 
+    /* per wire: a wire that stays on across a code change keeps its hold (3 -> 6 keeps wire 2) */
+    ready_board(&b);
+    memset(codes, 0, sizeof(codes));
+    codes[0] = 3;
+    n = set_codes_frame(f, 11, codes, BHR_MODULES);
+    send(&b, f, n, &r);
+    run_ms(&b, 1500, 1, NULL);
+    CHECK(b.full[0] == 0, "wires 1 and 2 contracted and holding after 1.5 s (full %x)", b.full[0]);
+    unsigned long hold_on = 0, total = 0;
+    for (int k = 0; k < 50; k++) { /* 3 <-> 6 every 1.2 s for 60 s */
+        codes[0] = (k % 2) ? 3 : 6;
+        n = set_codes_frame(f, (uint8_t)(12 + k), codes, BHR_MODULES);
+        send(&b, f, n, &r);
+        CHECK(!(b.full[0] & 0x02), "code change %d re-pulsed the wire that stays on (full %x)", k, b.full[0]);
+        pins_t q = {0};
+        run_ms(&b, 1200, 1, &q);
+        hold_on += q.on_ms;
+        total += 1200;
+        CHECK(q.max_run <= 2 * BHR_PWM_PERIOD_MS, "wire 2 on %lu ms in a row while holding", q.max_run);
+    }
+    printf("thermal: 3 <-> 6 every 1.2 s for 60 s: wire 2 duty %.3f (hold %u/%u), never at full power again\n",
+           (double)hold_on / total, (unsigned)BHR_HOLD_TICKS, (unsigned)BHR_PWM_PERIOD_MS);
+    CHECK((double)hold_on / total <= (double)BHR_HOLD_TICKS / BHR_PWM_PERIOD_MS + 0.02, "wire 2 duty %.3f",
+          (double)hold_on / total);
+    n = proto_encode(f, MSG_STOP_ALL, 9, NULL, 0);
+    send(&b, f, n, &r);
+
     /* the last line of defence: a wire at the limit switches its module off */
     ready_board(&b);
     codes[0] = 3;
