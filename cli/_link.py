@@ -104,7 +104,7 @@ SCHEDULE_HELP = ("auto (the default, always one the board accepts): stretch each
 
 
 def schedule_option() -> Callable[[Any], Any]:
-    return click.option("--schedule", type=click.Choice(["rate", "auto"]), default="auto", show_default=True,
+    return click.option("--schedule", type=click.Choice(["auto", "rate"]), default="auto", show_default=True,
                         help=SCHEDULE_HELP)
 
 

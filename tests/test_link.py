@@ -585,3 +585,11 @@ def test_the_hints_bhr_prints_run_as_printed(tmp_path):
     assert latest.exists()
     r = run_bhr(*args, cwd=tmp_path)
     assert r.returncode == 0, r.stderr
+
+
+def test_status_help_names_every_fault_the_board_can_report():
+    text = " ".join(run_bhr("status", "--help").stdout.split())
+    names = P.fault_names(P.FAULT_MASK, [P.MODULE_OVERHEAT | P.MODULE_COOLING | P.MODULE_EARLY])
+    assert len(names) == len(P.Fault)
+    for name in names:
+        assert name.replace(":m1", ":mK") in text, name
