@@ -108,12 +108,12 @@ def schedule_option() -> Callable[[Any], Any]:
                         help=SCHEDULE_HELP)
 
 
-def at_end_option(default: str) -> Callable[[Any], Any]:
+def at_end_option(default: str, when: str = "After the last row") -> Callable[[Any], Any]:
     """--at-end: the explicit last message of a stream (bhr.link.run_stream's at_end)."""
     return click.option("--at-end", "at_end", type=click.Choice(["stop", "hold"]), default=default,
                         show_default=True,
-                        help="After the last row: 'stop' sends stop-all (every actuator off); 'hold' sends a heartbeat "
-                             "and leaves the last codes on until the board's silence timeout switches them off.")
+                        help=f"{when}: 'stop' sends stop-all (every actuator off); 'hold' sends a heartbeat and "
+                             "leaves the last codes on until the board's silence timeout switches them off.")
 
 
 def end_text(at_end: str) -> str:

@@ -111,7 +111,7 @@ def body_clearance_lines(s: dict) -> list[str]:
 @click.option("--rate", default=10.0, show_default=True, metavar="HZ", type=FiniteRange(min=MIN_RATE, max=1000),
               help="With --port: steps sent per second, at most.")
 @schedule_option()
-@at_end_option("stop")
+@at_end_option("stop", "With --port, after the last step")
 @guarded
 def follow(traj, solver, out_dir, json_path, no_plots, **kwargs):
     """Follow a trajectory with follow-the-leader and report the errors.
