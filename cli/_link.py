@@ -97,14 +97,31 @@ def stop_on_signals() -> Iterator[None]:
             signal.signal(sig, h)
 
 
-SCHEDULE_HELP = ("rate: send at --rate after checking the whole stream against the wires' thermal model "
-                 "(refused, before anything is sent, where the board would fault); auto: stretch each step to "
-                 "what the wires allow (contraction and relaxation), never faster than --rate.")
+SCHEDULE_HELP = ("auto (the default, always one the board accepts): stretch each step to what the wires allow "
+                 "(contraction and relaxation), never faster than --rate; rate: send at --rate after checking the "
+                 "whole stream against the wires' thermal model (refused, before anything is sent, where the board "
+                 "would fault).")
 
 
 def schedule_option() -> Callable[[Any], Any]:
-    return click.option("--schedule", type=click.Choice(["rate", "auto"]), default="rate", show_default=True,
+    return click.option("--schedule", type=click.Choice(["auto", "rate"]), default="auto", show_default=True,
                         help=SCHEDULE_HELP)
+
+
+def at_end_option(default: str, when: str = "After the last row") -> Callable[[Any], Any]:
+    """--at-end: the explicit last message of a stream (bhr.hardware.link.run_stream's at_end)."""
+    return click.option("--at-end", "at_end", type=click.Choice(["stop", "hold"]), default=default,
+                        show_default=True,
+                        help=f"{when}: 'stop' sends stop-all (every actuator off); 'hold' sends a heartbeat and "
+                             "leaves the last codes on until the board's silence timeout switches them off.")
+
+
+def end_text(at_end: str) -> str:
+    """What the stream's last message did, for the closing line."""
+    if at_end == "hold":
+        return ("holding the last codes (--at-end hold): the board switches them off after its silence timeout "
+                "unless the host sends again, and then reports 'silence'")
+    return "sent stop-all at the end (--at-end stop): every actuator is off"
 
 
 def thermal_params(robot_file):

@@ -9,8 +9,8 @@ import click
 
 from bhr.cli._common import check_parent_folder, check_writable, guarded, json_in_folder, run_folder_name
 from bhr.cli._progress import announce_compiles, status
-from bhr.cli._link import (exit_interrupted, fault_printer, link_options, link_settings, schedule_option,
-                           stop_on_signals, thermal_params)
+from bhr.cli._link import (at_end_option, end_text, exit_interrupted, fault_printer, link_options, link_settings,
+                           schedule_option, stop_on_signals, thermal_params)
 from bhr.cli.replay import STRIDE_HELP, check_view_options, render_animation, run_live_view
 from bhr.cli._options import (MIN_RATE, FiniteRange, PlainIntRange, build_robot, constraint_options, lumen_options,
                               optimal_options, pop_constraints, pop_solver_options, pop_trajectory, robot_options,
@@ -111,9 +111,7 @@ def body_clearance_lines(s: dict) -> list[str]:
 @click.option("--rate", default=10.0, show_default=True, metavar="HZ", type=FiniteRange(min=MIN_RATE, max=1000),
               help="With --port: steps sent per second, at most.")
 @schedule_option()
-@click.option("--at-end", "at_end", type=click.Choice(["stop", "hold"]), default="stop", show_default=True,
-              help="With --port, after the last step: 'stop' sends stop-all (every actuator off); 'hold' sends a "
-                   "heartbeat and leaves the last codes on until the board's silence timeout switches them off.")
+@at_end_option("stop", "With --port, after the last step")
 @guarded
 def follow(traj, solver, out_dir, json_path, no_plots, **kwargs):
     """Follow a trajectory with follow-the-leader and report the errors.
@@ -128,11 +126,12 @@ def follow(traj, solver, out_dir, json_path, no_plots, **kwargs):
 
     With --port the run is solved first, its codes are checked against the
     thermal model of the wires (docs/thermal.md), and then streamed to the
-    actuator board at --rate steps per second (--schedule rate: refused
-    before anything is sent where the board would fault) or as fast as the
-    wires allow (--schedule auto); Ctrl-C sends stop-all:
+    actuator board as fast as the wires allow, never faster than --rate
+    (--schedule auto, the default) or at --rate steps per second
+    (--schedule rate: refused before anything is sent where the board would
+    fault); Ctrl-C sends stop-all:
 
-        bhr follow --traj colon --port /dev/ttyUSB0 --schedule auto
+        bhr follow --traj colon --port /dev/ttyUSB0
     """
     from bhr.output.atomic import OutputFolder, write_json, write_text
     from bhr.run.body import check_body_modules
@@ -261,18 +260,18 @@ def follow(traj, solver, out_dir, json_path, no_plots, **kwargs):
 FOLLOW_NAMES = ("run.json", "codes.csv", "*.png", "manifest.json")
 
 
-def follow_streaming(tr, solver, robot, solver_options, body_modules, rate, link_kw, schedule="rate", at_end="stop"):
+def follow_streaming(tr, solver, robot, solver_options, body_modules, rate, link_kw, schedule="auto", at_end="stop"):
     """Solve the run, check its codes against the wires' thermal model, then stream them (the --port path).
 
-    After the last step one explicit message goes to the board (``at_end``): stop-all, or a heartbeat that
-    holds the last codes until the board's silence timeout.
+    The stream itself is bhr.hardware.link.run_stream, as in ``bhr stream``; after the last step one explicit message
+    goes to the board (``at_end``): stop-all, or a heartbeat that holds the last codes until its silence timeout.
     """
     import contextlib
     import sys
 
     from bhr.settings.errors import BhrError
     from bhr.run.driver import follow as run_follow
-    from bhr.hardware.link import BoardLink, Pacer, check_board, interrupted, wait_until_ready
+    from bhr.hardware.link import BoardLink, Pacer, StreamInterrupted, check_board, run_stream
     from bhr.hardware.thermal import format_duration, plan
 
     if body_modules is not None:
@@ -294,38 +293,21 @@ def follow_streaming(tr, solver, robot, solver_options, body_modules, rate, link
         if held:
             click.echo(f"Warning: board on {port} reports {', '.join(held)} before the run (latched faults stay "
                        "until stop-all; a cooling module is waited for)", err=True)
-        wait_until_ready(link)
         steps = len(rows)
         times = sched.times_ms / 1000.0 if schedule == "auto" else None
-        pacer = Pacer(link, rate, times=times, on_fault=fault_printer(port), known_faults=board["faults"],
-                      wait_relaxed=schedule == "auto")
         show_bar = sys.stderr.isatty()
-        import time
-
-        t_start = time.monotonic()
         try:
             with (click.progressbar(length=steps, label=f"streaming to {port}", file=sys.stderr,
                                     show_pos=True) if show_bar else contextlib.nullcontext()) as bar:
-                for i in range(steps):
-                    pacer.send([int(c) for c in rows[i]])
-                    if bar is not None:
-                        bar.update(1)
-        except KeyboardInterrupt:
-            exit_interrupted(interrupted(link, pacer.sent), steps, "steps")
-        t_sent = time.monotonic() - t_start
-        end = end_stream(link, at_end)
+                report = run_stream(link, rows, rate, times=times, on_fault=fault_printer(port),
+                                    known_faults=board["faults"], wait_ready=True, wait_relaxed=schedule == "auto",
+                                    at_end=at_end,
+                                    progress=(lambda done, total: bar.update(1)) if bar is not None else None)
+        except StreamInterrupted as exc:
+            exit_interrupted(exc, steps, "steps")
     how = f"at {rate:g} Hz" if schedule == "rate" else "at the board's limits"
     settle = sched.total_s - float(sched.times_ms[-1]) / 1000.0  # the last step's contraction
-    click.echo(f"streamed {pacer.sent} steps ({robot.modules} modules) to {port} {how}; procedure time "
-               f"{format_duration(t_sent + settle)} (planned {format_duration(sched.total_s)}); {end}", err=True)
-    return result, pacer.fault_events
-
-
-def end_stream(link, at_end: str) -> str:
-    """The explicit last message of a stream (``--at-end``): stop-all or a heartbeat that holds; what it did."""
-    if at_end == "hold":
-        link.heartbeat()
-        return ("holding the last codes (--at-end hold): the board switches them off after its silence timeout "
-                "unless the host sends again, and then reports 'silence'")
-    link.stop_all()
-    return "sent stop-all at the end (--at-end stop): every actuator is off"
+    click.echo(f"streamed {report.sent} steps ({robot.modules} modules) to {port} {how}; procedure time "
+               f"{format_duration(report.elapsed_s + settle)} (planned {format_duration(sched.total_s)}); "
+               f"{end_text(at_end)}", err=True)
+    return result, report.fault_events

@@ -19,9 +19,17 @@ _MOTION = {0: "rest", 3: "tilt +x", 6: "tilt +y", 12: "tilt -x", 9: "tilt -y", 1
 def status(json_path, **link_kw):
     """Show the codes on the board's outputs (module 1 = base first) and its faults.
 
-    Faults: silence (the host fell silent and everything was switched off),
-    overheat:mK (an actuator of module K reached its on-time limit; cleared
-    by stop-all), cooling:mK (module K is held off while it cools down).
+    Faults: silence (the host fell silent and everything was switched off;
+    new codes or stop-all clear it), overheat:mK (a wire of module K reached
+    the thermal limit; cleared by stop-all), cooling:mK (a wire of module K
+    is cooling down after the limit or power-up; the module is held off
+    while its code needs that wire), early:mK (module K was asked to
+    energise a wire that had not relaxed yet and was held off; cleared by
+    stop-all), reset (the board restarted, keeping its wires' temperatures;
+    cleared by stop-all), flood (the board dropped replies because requests
+    came faster than the line could answer; cleared by stop-all).
+    A reply the board could not have sent (an unstable code, 0 modules,
+    contradicting flags) is refused in one line, exit status 1.
     With --robot FILE the file's [link] table gives the port, baud rate and
     module order (codes are shown in module order).
 

@@ -7,8 +7,8 @@ import sys
 import click
 
 from bhr.cli._common import guarded
-from bhr.cli._link import (exit_interrupted, fault_printer, link_options, link_settings, schedule_option,
-                           stop_on_signals, thermal_params)
+from bhr.cli._link import (at_end_option, end_text, exit_interrupted, fault_printer, link_options, link_settings,
+                           schedule_option, stop_on_signals, thermal_params)
 from bhr.cli._options import MIN_RATE, FiniteRange
 
 
@@ -19,22 +19,28 @@ from bhr.cli._options import MIN_RATE, FiniteRange
 @click.option("--rate", default=10.0, show_default=True, metavar="HZ",
               type=FiniteRange(min=MIN_RATE, max=1000), help="Rows sent per second.")
 @schedule_option()
-@click.option("--dry-run", is_flag=True, help="Print the frames as hex, one per line, instead of sending them.")
+@at_end_option("hold")
+@click.option("--dry-run", is_flag=True, help="Check the stream as a real one would (thermal model, module order), "
+                                              "then print the frames as hex, one per line, instead of sending them.")
 @guarded
-def stream(codes_path, rate, schedule, dry_run, **link_kw):
+def stream(codes_path, rate, schedule, at_end, dry_run, **link_kw):
     """Send the module codes of a run to the actuator board, one row per step.
 
     Every code in FILE is checked before anything is sent: a file with an
     unstable code is refused whole, naming its line and column. Each row is
     one SET_CODES frame, acknowledged by the board (docs/protocol.md). Before
     the first frame the whole stream is checked against the thermal model of
-    the wires (docs/thermal.md; the --robot file's [thermal] table): at
-    --schedule rate a stream the board would fault on is refused, naming the
-    module, the step and the fix; --schedule auto stretches the steps to what
-    the wires allow. A fault the board raises anyway is printed with its module
-    and step, and the exit status is 1. Ctrl-C sends stop-all. After the last row the board keeps those codes until its
-    silence timeout switches everything off. With --robot FILE the file's
-    [link] table gives the port, baud rate and module order.
+    the wires (docs/thermal.md; the --robot file's [thermal] table), with or
+    without --dry-run: --schedule auto (the default) stretches the steps to
+    what the wires allow; at --schedule rate a stream the board would fault
+    on is refused, naming the module, the step and the fix. A fault the
+    board raises anyway is printed with its module and step, and the exit
+    status is 1; an overheat, a board that stops answering or answers
+    impossibly stops the stream (stop-all is sent where it can be). Ctrl-C
+    sends stop-all. After the last row, --at-end hold (the default) leaves
+    those codes on until the board's silence timeout, --at-end stop sends
+    stop-all. With --robot FILE the file's [link] table gives the port, baud
+    rate and module order.
 
     \b
         bhr stream --port /dev/ttyUSB0 --codes bhr-out/latest/codes.csv --rate 10
@@ -47,6 +53,10 @@ def stream(codes_path, rate, schedule, dry_run, **link_kw):
     robot_file = link_kw.get("robot_file")
 
     port, link_args = link_settings(link_kw, need_port=not dry_run, hint=", or use --dry-run to print the frames")
+    from bhr.hardware.thermal import format_duration, plan
+
+    # the same checks with and without --dry-run: the thermal model first
+    sched = plan(thermal_params(robot_file), table, rate, schedule, name=str(codes_path), sending=not dry_run)
     if dry_run:
         from bhr.hardware.protocol import set_codes_frame
 
@@ -60,15 +70,14 @@ def stream(codes_path, rate, schedule, dry_run, **link_kw):
             frame = set_codes_frame(i & 0xFF, codes)
             out.write(" ".join(f"{b:02x}" for b in frame) + "\n")
         out.flush()
-        click.echo(f"dry run: {n_rows} SET_CODES frames for {n_modules} modules (nothing sent)", err=True)
+        how = f"at {rate:g} Hz" if schedule == "rate" else "at the board's limits"
+        click.echo(f"dry run: {n_rows} SET_CODES frames for {n_modules} modules (nothing sent); the thermal model "
+                   f"accepts them {how}, procedure time {format_duration(sched.total_s)}", err=True)
         return
 
-    from bhr.hardware.link import BoardLink, StreamInterrupted, stream_codes, wait_until_ready
-    from bhr.hardware.thermal import format_duration, plan
+    from bhr.hardware.link import BoardLink, StreamInterrupted, run_stream
 
-    sched = plan(thermal_params(robot_file), table, rate, schedule, name=str(codes_path), sending=True)
     times = sched.times_ms / 1000.0 if schedule == "auto" else None
-    faults: list[str] = []
     events: list = []
     # The bar only on a terminal: in a pipe or a log, stderr stays empty unless something fails.
     show_bar = sys.stderr.isatty()
@@ -76,34 +85,23 @@ def stream(codes_path, rate, schedule, dry_run, **link_kw):
         try:
             with (click.progressbar(length=n_rows, label=f"streaming to {port}", file=sys.stderr, show_pos=True)
                   if show_bar else contextlib.nullcontext()) as bar:
-                def progress(done: int, total: int) -> None:
-                    if bar is not None:
-                        bar.update(1)
-                    for f in link.last_faults:
-                        if f not in faults:
-                            faults.append(f)
-
-                wait_until_ready(link)
-                known = link.status()["faults"]
                 printer = fault_printer(port)
 
                 def on_fault(step: int, names: list[str]) -> None:
                     events.extend((step, n) for n in names)
                     printer(steps[step - 1], names)
 
-                import time
-
-                t_start = time.monotonic()
-                sent = stream_codes(link, table, rate=rate, progress=progress, times=times, on_fault=on_fault,
-                                    known_faults=known, wait_relaxed=schedule == "auto")
-                t_sent = time.monotonic() - t_start
+                report = run_stream(link, table, rate=rate, times=times, on_fault=on_fault, wait_ready=True,
+                                    wait_relaxed=schedule == "auto", at_end=at_end,
+                                    progress=(lambda done, total: bar.update(1)) if bar is not None else None)
         except StreamInterrupted as exc:
             exit_interrupted(exc, n_rows, "rows")
+    sent = report.sent
     how = f"at {rate:g} Hz" if schedule == "rate" else "at the board's limits"
+    took = report.elapsed_s + sched.total_s - float(sched.times_ms[-1]) / 1000.0
     click.echo(f"sent {sent} row{'s' * (sent != 1)} ({n_modules} modules, steps {steps[0]}..{steps[-1]}) to {port} "
-               f"{how}; "
-               f"procedure time {format_duration(t_sent + sched.total_s - float(sched.times_ms[-1]) / 1000.0)} "
-               f"(planned {format_duration(sched.total_s)})")
+               f"{how}; procedure time {format_duration(took)} (planned {format_duration(sched.total_s)}); "
+               f"{end_text(at_end)}")
     if events:
         raise BhrError(f"the board raised {len(events)} fault{'s' if len(events) != 1 else ''} during the stream "
                        f"(first: {events[0][1]} at step {steps[events[0][0] - 1]}); check the [thermal] table of "

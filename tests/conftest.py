@@ -53,7 +53,8 @@ _LAYER = {
     "test_cli_basics.py": "cli", "test_bad_input.py": "cli", "test_report.py": "cli", "test_sweep.py": "cli",
     "test_compare.py": "cli", "test_replay.py": "cli", "test_animate.py": "cli", "test_startup.py": "cli",
     "test_bench.py": "cli",
-    "test_firmware_host.py": "integration", "test_firmware_sim.py": "integration", "test_link.py": "integration",
+    "test_firmware_host.py": "integration", "test_firmware_sim.py": "integration",
+    "test_firmware_thermal.py": "integration", "test_link.py": "integration",
     "test_liveview.py": "integration", "test_report_browser.py": "integration",
 }
 _INTEGRATION_FIXTURES = {"dask_cluster"}

@@ -1,15 +1,13 @@
 """The thermal model of the actuator wires (bhr/thermal.py, docs/thermal.md).
 
-The same integer model runs in the firmware (firmware/src/board.c): the C
-build on this machine replays a scenario and bhr.hardware.thermal reproduces every
-temperature bit for bit. The compiled kernel equals its numpy reference, the
+The same integer model runs in the firmware (firmware/src/board.c):
+tests/test_firmware_thermal.py holds the two equal tick for tick. The compiled kernel equals its numpy reference, the
 generated firmware header is current, and schedules are checked and
 stretched as the docs say.
 """
 from __future__ import annotations
 
 import math
-import shutil
 import subprocess
 from pathlib import Path
 
@@ -67,49 +65,46 @@ def test_re_energising_a_wire_before_it_relaxed_is_a_fault():
 
 @settings(max_examples=25, deadline=None)
 @given(st.lists(st.tuples(st.integers(0, 900), st.lists(st.sampled_from(VALID), min_size=3, max_size=3)),
-                min_size=1, max_size=12), st.booleans())
-def test_the_compiled_kernel_equals_the_numpy_reference(steps, auto):
+                min_size=1, max_size=12), st.booleans(),
+       st.none() | st.lists(st.integers(0, 28000), min_size=12, max_size=12))
+def test_the_compiled_kernel_equals_the_numpy_reference(steps, auto, theta0):
     gaps = [g for g, _ in steps]
     times = np.cumsum([0] + gaps[1:])
     rows = [c for _, c in steps]
-    a = T.simulate(P, times, rows, auto=auto, min_gap_ms=50)
-    b = T.simulate(P, times, rows, auto=auto, min_gap_ms=50, reference=True)
+    a = T.simulate(P, times, rows, auto=auto, min_gap_ms=50, theta0=theta0, on_trace=True)
+    b = T.simulate(P, times, rows, auto=auto, min_gap_ms=50, reference=True, theta0=theta0, on_trace=True)
+    assert np.array_equal(a.on_cum, b.on_cum)
     assert np.array_equal(a.theta, b.theta) and np.array_equal(a.times_ms, b.times_ms)
     assert np.array_equal(a.early, b.early) and np.array_equal(a.overheat_ms, b.overheat_ms)
     assert np.array_equal(a.max_on_ms, b.max_on_ms) and np.array_equal(a.on_ms, b.on_ms)
     assert a.done_ms == b.done_ms and a.end_ms == b.end_ms
-    if auto:
-        assert a.faults == []
+    if auto and (theta0 is None or max(theta0) < T.model_constants(P)["THETA_LIMIT"]):
+        assert a.faults == []  # a wire past the limit at the start overheats whatever is sent
 
 
-@pytest.fixture(scope="module")
-def host_exe():
-    if shutil.which("make") is None or shutil.which("cc") is None:
-        pytest.fail("the firmware's host build needs make and cc (Debian: build-essential)")
-    r = subprocess.run(["make", "-s", "-C", str(FIRMWARE), "build/host/test_host_m5"], capture_output=True,
-                       text=True, timeout=300)
-    assert r.returncode == 0, r.stderr
-    return FIRMWARE / "build" / "host" / "test_host_m5"
-
-
-def test_the_firmware_runs_the_same_model_bit_for_bit(host_exe):
-    rng = np.random.default_rng(7)
-    times = [0, 400, 1500, 1700, 2600, 4000, 5200, 5210, 7000, 9000]
-    rows = [[3, 0, 6, 0, 15], [3, 12, 6, 0, 15], [6, 12, 6, 9, 0], [3, 12, 6, 9, 0], [12, 12, 0, 9, 3],
-            [0, 0, 0, 0, 0], [12, 9, 3, 6, 15], [12, 9, 3, 6, 15], [9, 0, 15, 6, 0], [0, 0, 0, 0, 0]]
-    for _ in range(6):
-        times.append(times[-1] + int(rng.integers(30, 1500)))
-        rows.append([int(rng.choice(VALID)) for _ in range(5)])
-    end = times[-1] + 3000
-    text = f"end {end}\n" + "".join(f"{t} {' '.join(map(str, r))}\n" for t, r in zip(times, rows))
-    out = subprocess.run([str(host_exe), "trace"], input=text, capture_output=True, text=True, timeout=60, check=True)
-    c = np.array([[int(v) for v in line.split()] for line in out.stdout.splitlines()])
-    sim = T.simulate(P, times, rows, end_ms=end)
-    py = np.rint(sim.theta.reshape(sim.theta.shape[0], -1) * T.ONE).astype(np.int64)
-    assert c.shape == (end // 20 + 1, 21)
-    assert np.array_equal(c[:, 0], np.arange(0, end + 1, 20))
-    assert np.array_equal(c[:, 1:], py), np.argwhere(c[:, 1:] != py)[:5]
-    assert sim.faults  # the scenario includes early re-energising, as the C board saw it too
+def test_no_code_sequence_drives_a_wire_past_the_duty_limit():
+    # the model's bound: a wire is at full power only below theta = 1, so its on-time over any window W is at
+    # most (W + tau) * max_theta / theta_full; the documented limit (docs/thermal.md) is checked on hostile
+    # sequences: alternating neighbours, all-on held, and rows as fast as the board takes them
+    rng = np.random.default_rng(3)
+    w = T.DUTY_WINDOW_MS
+    for kind in ("alternate", "all-on", "flood", "random"):
+        if kind == "alternate":
+            times = list(range(0, 60_000, 1100))
+            rows = [[(3, 6)[k % 2], (6, 12)[k % 2], (12, 9)[k % 2], (9, 3)[k % 2], (15, 3)[k % 2]]
+                    for k in range(len(times))]
+        elif kind == "all-on":
+            times, rows = [0], [[15] * 5]
+        elif kind == "flood":
+            times = list(range(0, 60_000, 20))
+            rows = [[int(rng.choice(VALID)) for _ in range(5)] for _ in times]
+        else:
+            times = np.cumsum(rng.integers(20, 2000, size=60)).tolist()
+            rows = [[int(rng.choice(VALID)) for _ in range(5)] for _ in times]
+        sim = T.simulate(P, times, rows, end_ms=60_000, on_trace=True)
+        assert (sim.faults == []) == (kind == "all-on"), kind  # the others re-energise wires early, refused
+        assert sim.max_theta.max() <= 1.02, kind
+        assert sim.max_window_duty(w).max() <= T.duty_limit(P), (kind, sim.max_window_duty(w).max())
 
 
 def test_fixed_rate_schedules_are_checked_and_auto_schedules_fit():

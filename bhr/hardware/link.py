@@ -18,6 +18,7 @@ No click in here: the command line passes ``progress`` callbacks.
 from __future__ import annotations
 
 import time
+from dataclasses import dataclass
 from typing import Callable, Sequence
 
 import numpy as np
@@ -26,7 +27,8 @@ import bhr.hardware.protocol as P
 from bhr.model.codes import check_code, check_codes
 from bhr.settings.errors import BhrError, LinkError
 
-__all__ = ["BoardLink", "Pacer", "StreamInterrupted", "check_board", "interrupted", "stream_codes", "validate_codes",
+__all__ = ["BoardLink", "Pacer", "StreamInterrupted", "StreamStopped", "StreamReport", "run_stream", "READY_TIMEOUT",
+           "AT_END", "check_board", "interrupted", "stream_codes", "validate_codes",
            "wait_until_ready", "DEFAULT_BAUD",
            "DEFAULT_TIMEOUT", "DEFAULT_RETRIES"]
 
@@ -61,6 +63,10 @@ class StreamInterrupted(KeyboardInterrupt):
         self.stopped = stopped
         self.sent = sent
         self.detail = detail
+
+
+class StreamStopped(LinkError):
+    """The board raised a fault that ends a stream (overheat); stop-all follows."""
 
 
 class BoardLink:
@@ -109,6 +115,8 @@ class BoardLink:
         self.timeouts = 0
         self.damaged = 0
         self.last_faults: list[str] = []
+        #: Modules the board drives, from its first status reply (a later reply with another count is a lie).
+        self.modules: int | None = None
         kwargs = {"baudrate": self.baudrate, "timeout": min(0.05, self.timeout),
                   "write_timeout": max(1.0, 4 * self.timeout)}
         if "://" not in self.port:
@@ -156,7 +164,8 @@ class BoardLink:
         nothing is sent.
         """
         values = self._to_chain(check_codes(list(codes)))
-        reply = self._transact(lambda seq: P.set_codes_frame(seq, values), "SET_CODES", n_codes=len(values))
+        reply = self._transact(lambda seq: P.set_codes_frame(seq, values), "SET_CODES", P.Msg.SET_CODES,
+                               n_codes=len(values))
         _, faults = P.parse_ack(reply)
         self.last_faults = P.fault_names(faults)
         return self.last_faults
@@ -165,16 +174,16 @@ class BoardLink:
         """The board's current output codes and faults: ``{"codes": [...], "faults": [...]}``.
 
         ``detail=True`` adds ``"relaxing"``: the modules (1-based) with a
-        released wire that has not relaxed yet (docs/thermal.md).
+        released wire that has not relaxed yet (docs/thermal.md). The reply is
+        checked whole first (:func:`bhr.hardware.protocol.check_reply`): a board that
+        reports 0 modules, another count than before, an unstable code or
+        flags that contradict each other raises LinkError.
         """
-        reply = self._transact(P.status_frame, "STATUS", expect=P.Msg.STATUS_REPLY)
-        try:
-            doc = P.parse_status(reply)
-            if detail:
-                doc["relaxing"] = P.relaxing_modules(reply)
-        except P.ProtocolError as exc:
-            raise LinkError(f"board on {self.port} sent a malformed status reply ({exc}); "
-                            "check that its firmware matches this bhr") from None
+        reply = self._transact(P.status_frame, "STATUS", P.Msg.STATUS)
+        doc = P.parse_status(reply)
+        if detail:
+            doc["relaxing"] = P.relaxing_modules(reply)
+        self.modules = len(doc["codes"])
         if self.module_order is not None:
             if len(doc["codes"]) != len(self.module_order):
                 raise LinkError(f"board on {self.port} drives {len(doc['codes'])} modules but the robot file's "
@@ -191,11 +200,21 @@ class BoardLink:
 
     def stop_all(self, retries: int | None = None) -> None:
         """Switch every actuator off (and acknowledge latched overheat faults)."""
-        self._transact(P.stop_all_frame, "STOP_ALL", retries=retries)
+        self._transact(P.stop_all_frame, "STOP_ALL", P.Msg.STOP_ALL, retries=retries)
 
     def heartbeat(self) -> None:
         """Tell the board the host is alive (restarts its silence timeout)."""
-        self._transact(P.heartbeat_frame, "HEARTBEAT")
+        self._transact(P.heartbeat_frame, "HEARTBEAT", P.Msg.HEARTBEAT)
+
+    def try_stop_all(self) -> bool:
+        """Stop-all as a last resort (after a failure): one try, no exception; True when acknowledged."""
+        if not self.is_open:
+            return False
+        try:
+            self.stop_all(retries=0)
+            return True
+        except BhrError:
+            return False
 
     def stream(self, codes, rate: float = 10.0, progress: Callable[[int, int], None] | None = None,
                heartbeat: float = DEFAULT_HEARTBEAT) -> int:
@@ -248,8 +267,8 @@ class BoardLink:
                     if frame.seq == seq and frame.type >= 0x80:
                         return frame  # later frames of this chunk are stale by definition
 
-    def _transact(self, build: Callable[[int], bytes], what: str, expect: int | None = None,
-                  retries: int | None = None, n_codes: int = 0) -> P.Frame:
+    def _transact(self, build: Callable[[int], bytes], what: str, request: int, retries: int | None = None,
+                  n_codes: int = 0) -> P.Frame:
         tries = 1 + (self.retries if retries is None else retries)
         last = "no answer"
         for _ in range(tries):
@@ -264,20 +283,28 @@ class BoardLink:
             if reply.version != P.VERSION:
                 raise LinkError(f"board on {self.port} answered {what} in protocol version {reply.version}, bhr "
                                 f"speaks {P.VERSION}; update the firmware or bhr so that they match")
+            try:
+                P.check_reply(reply, request, self.modules if request == P.Msg.STATUS else None)
+            except P.ProtocolError as exc:
+                raise self._lie(what, str(exc), request) from None
             if reply.type == P.Msg.NAK:
-                _, reason, detail = P.parse_nak(reply) if len(reply.payload) == 3 else (0, 0, 0)
+                _, reason, detail = P.parse_nak(reply)
                 if reason in P.RETRYABLE:
                     last = P.nak_text(reason, detail)
                     self.damaged += 1
                     continue
                 raise LinkError(self._nak_message(what, reason, detail, n_codes))
-            if expect is not None and reply.type != expect or expect is None and reply.type != P.Msg.ACK:
-                raise LinkError(f"board on {self.port} answered {what} with {P.describe(reply)}; "
-                                "check that its firmware matches this bhr")
             return reply
         raise LinkError(f"board on {self.port} did not answer {what} after {tries} "
                         f"{'try' if tries == 1 else 'tries'} ({last}; {self.timeout:g} s each); check that it is "
                         f"powered and running bhr firmware, the port, and the baud rate ({self.baudrate})")
+
+    def _lie(self, what: str, problem: str, request: int) -> LinkError:
+        """An impossible reply: nothing it says is used; stop-all is tried once (unless that was the request)."""
+        stopped = request != P.Msg.STOP_ALL and self.try_stop_all()
+        then = "sent stop-all" if stopped else "stop-all was not acknowledged"
+        return LinkError(f"board on {self.port} answered {what} with an impossible reply ({problem}); {then}; check "
+                         "that the port is the bhr board and that its firmware matches this bhr")
 
     def _nak_message(self, what: str, reason: int, detail: int, n_codes: int) -> str:
         text = P.nak_text(reason, detail)
@@ -296,20 +323,27 @@ def _rename_module(fault: str, order: Sequence[int]) -> str:
     return f"{name}:m{order[int(pos) - 1]}" if pos.isdigit() and int(pos) <= len(order) else fault
 
 
-def wait_until_ready(link: "BoardLink", timeout: float = 30.0) -> float:
+#: The longest the host waits for a board whose wires are cooling or relaxing (docs/protocol.md).
+READY_TIMEOUT = 30.0
+
+
+def wait_until_ready(link: "BoardLink", timeout: float = READY_TIMEOUT) -> float:
     """Poll the board until no module is cooling or relaxing (wires cold enough to plan from); return the wait (s).
 
-    Raises LinkError when the board is still not ready after ``timeout`` seconds.
+    Raises LinkError when the board is still not ready after ``timeout``
+    seconds: the wait never runs past it (a board that reports "cooling"
+    forever is not waited on longer).
     """
     t0 = time.monotonic()
+    deadline = t0 + timeout
     while True:
         doc = link.status(detail=True)
         busy = [f for f in doc["faults"] if f.startswith("cooling")] + [f"relaxing:m{m}" for m in doc["relaxing"]]
         if not busy:
             return time.monotonic() - t0
-        if time.monotonic() - t0 > timeout:
-            raise LinkError(f"board on {link.port} is still {', '.join(busy)} after {timeout:g} s; wait for its "
-                            "wires to cool (bhr status) and try again")
+        if time.monotonic() + 0.1 > deadline:
+            raise LinkError(f"board on {link.port} is still {', '.join(busy)} after {timeout:g} s (the longest bhr "
+                            "waits); nothing was sent; let its wires cool (bhr status) and try again")
         time.sleep(0.1)
 
 
@@ -414,8 +448,15 @@ class Pacer:
             self._seen.update(detail)
             for f in fresh:
                 self.fault_events.append((self.sent, f))
-            if fresh and self.on_fault is not None:
+            hot = [f for f in fresh if f.split(":")[0] == "overheat"] or \
+                [f for f in names if f == "overheat" and not any(k.startswith("overheat") for k in self._seen)]
+            if fresh and self.on_fault is not None and not hot:  # an overheat is said by the one line below
                 self.on_fault(self.sent, fresh)
+            if hot:
+                # the last line of defence fired: a planned stream never gets here, so the plan is wrong
+                raise StreamStopped(f"board on {self.link.port} reports {', '.join(hot)} at step {self.sent}: a wire "
+                                    "reached the thermal limit; the stream is stopped; let the wires cool (bhr status) "
+                                    "and check the robot file's [thermal] table against the wires")
         for f in names:
             if f not in self.faults:
                 self.faults.append(f)
@@ -424,8 +465,13 @@ class Pacer:
         end = time.monotonic() + timeout
         while True:
             busy = set(self.link.status(detail=True)["relaxing"]) & set(modules)
-            if not busy or time.monotonic() > end:
+            if not busy:
                 return
+            if time.monotonic() + 0.01 > end:
+                names = ", ".join(f"m{m}" for m in sorted(busy))
+                raise LinkError(f"board on {self.link.port} still reports module {names} relaxing {timeout:g} s after "
+                                f"the wire was released (the model relaxes it in seconds); check the robot file's "
+                                "[thermal] table against the wires, and the board")
             time.sleep(0.01)
 
     def __call__(self, step: int, codes: Sequence[int] | None) -> None:
@@ -456,31 +502,88 @@ def interrupted(link: BoardLink, sent: int) -> StreamInterrupted:
     return StreamInterrupted(stopped, sent, detail)
 
 
-def stream_codes(link: BoardLink, codes, rate: float = 10.0, progress: Callable[[int, int], None] | None = None,
-                 heartbeat: float = DEFAULT_HEARTBEAT, start: int = 0, times: Sequence[float] | None = None,
-                 on_fault: Callable[[int, list[str]], None] | None = None, known_faults: Sequence[str] = (),
-                 wait_relaxed: bool = False) -> int:
-    """Send each row of ``codes`` (steps x modules) to the board at ``rate`` rows per second.
+@dataclass
+class StreamReport:
+    """What a stream did: rows acknowledged of the total, the faults the board raised, and how it ended."""
 
-    Every code is validated before the first frame. Rows are paced by
-    :class:`Pacer` (never faster than ``rate``, heartbeats while waiting).
-    ``progress(done, total)`` is called after each acknowledged row. Ctrl-C
-    sends stop-all (one retry) and raises :class:`StreamInterrupted` (a
-    KeyboardInterrupt). Returns the number of rows sent. The last row stays on
-    the outputs until the board's silence timeout.
+    sent: int
+    total: int
+    fault_events: list[tuple[int, str]]
+    elapsed_s: float
+    ended: str  # "stop": stop-all after the last row; "hold": a heartbeat left the last codes on; "": nothing
+
+
+AT_END = ("stop", "hold")
+
+
+def run_stream(link: BoardLink, codes, rate: float = 10.0, *, times: Sequence[float] | None = None,
+               start: int = 0, progress: Callable[[int, int], None] | None = None,
+               heartbeat: float = DEFAULT_HEARTBEAT, on_fault: Callable[[int, list[str]], None] | None = None,
+               known_faults: Sequence[str] | None = None, wait_relaxed: bool = False, wait_ready: bool = False,
+               at_end: str | None = None) -> StreamReport:
+    """Stream rows of codes to the board: the one streaming loop of bhr (``bhr stream``, ``bhr follow --port``).
+
+    Every code is validated before the first frame. ``wait_ready``: first
+    wait (at most READY_TIMEOUT s) until no module is cooling or relaxing,
+    and take the faults latched before the stream from a status
+    (``known_faults``, not news). Rows are paced by :class:`Pacer` (never
+    faster than ``rate`` or the planned ``times``, heartbeats while waiting).
+    ``progress(done, total)`` after each acknowledged row. After the last row,
+    ``at_end``: "stop" sends stop-all, "hold" a heartbeat (the board keeps the
+    codes until its silence timeout), None nothing.
+
+    Ctrl-C sends stop-all (one retry) and raises :class:`StreamInterrupted`.
+    A link failure, an impossible reply or an overheat ends the stream with
+    LinkError, one line saying how far it got and whether stop-all was
+    acknowledged (it is tried once wherever the port still works).
     """
+    if at_end is not None and at_end not in AT_END:
+        raise BhrError(f"at_end must be one of {', '.join(AT_END)}, got {at_end!r}")
     table = validate_codes(codes)
+    total = table.shape[0]
     planned = None if times is None else [float(t) for t in list(times)[start:]]
     if planned:
         planned = [t - planned[0] for t in planned]
-    pacer = Pacer(link, rate, heartbeat, times=planned, on_fault=on_fault, known_faults=known_faults,
-                  wait_relaxed=wait_relaxed)
-    total = table.shape[0]
+    pacer: Pacer | None = None
+    t0 = time.monotonic()
     try:
+        if wait_ready:
+            wait_until_ready(link)
+            if known_faults is None:
+                known_faults = link.status()["faults"]
+        pacer = Pacer(link, rate, heartbeat, times=planned, on_fault=on_fault, known_faults=known_faults or (),
+                      wait_relaxed=wait_relaxed)
+        t0 = time.monotonic()
         for i in range(start, total):
             pacer.send(table[i].tolist())
             if progress is not None:
                 progress(pacer.sent, total - start)
+        elapsed = time.monotonic() - t0
+        if at_end == "stop":
+            link.stop_all()
+        elif at_end == "hold":
+            link.heartbeat()
     except KeyboardInterrupt:
-        raise interrupted(link, pacer.sent) from None
-    return pacer.sent
+        raise interrupted(link, pacer.sent if pacer else 0) from None
+    except LinkError as exc:
+        sent = pacer.sent if pacer else 0
+        text = str(exc)
+        if "stop-all" not in text:
+            stopped = link.try_stop_all()
+            text += ("; sent stop-all, every actuator is off" if stopped else
+                     "; stop-all was not acknowledged: the board switches off by itself after its silence timeout")
+        raise type(exc)(f"{text} (after {sent} of {total - start} rows)") from None
+    return StreamReport(pacer.sent, total - start, list(pacer.fault_events), elapsed, at_end or "")
+
+
+def stream_codes(link: BoardLink, codes, rate: float = 10.0, progress: Callable[[int, int], None] | None = None,
+                 heartbeat: float = DEFAULT_HEARTBEAT, start: int = 0, times: Sequence[float] | None = None,
+                 on_fault: Callable[[int, list[str]], None] | None = None, known_faults: Sequence[str] = (),
+                 wait_relaxed: bool = False) -> int:
+    """Send each row of ``codes`` (steps x modules) at ``rate`` rows per second; return the rows sent.
+
+    :func:`run_stream` with nothing sent after the last row (the board keeps
+    those codes until its silence timeout).
+    """
+    return run_stream(link, codes, rate, times=times, start=start, progress=progress, heartbeat=heartbeat,
+                      on_fault=on_fault, known_faults=known_faults, wait_relaxed=wait_relaxed).sent

@@ -14,6 +14,7 @@ reflection, no final XOR) over ``version .. payload``;
 """
 from __future__ import annotations
 
+import binascii
 import enum
 from dataclasses import dataclass, field
 from typing import Iterable, Sequence
@@ -26,7 +27,7 @@ __all__ = [
     "Msg", "Nak", "Fault", "MODULE_OVERHEAT", "MODULE_COOLING", "MODULE_EARLY", "MODULE_RELAXING", "relaxing_modules",
     "ProtocolError", "Frame", "crc16", "encode_frame", "decode_frame",
     "set_codes_frame", "status_frame", "stop_all_frame", "heartbeat_frame",
-    "parse_ack", "parse_nak", "parse_status", "describe", "StreamDecoder",
+    "parse_ack", "parse_nak", "parse_status", "check_reply", "describe", "StreamDecoder",
 ]
 
 SYNC = b"\xA5\x5A"
@@ -101,12 +102,14 @@ class ProtocolError(BhrError):
 
 
 def crc16(data: bytes | bytearray | memoryview, crc: int = 0xFFFF) -> int:
-    """CRC-16/CCITT-FALSE of ``data`` (``crc16(b"123456789") == 0x29B1``)."""
-    for byte in bytes(data):
-        crc ^= byte << 8
-        for _ in range(8):
-            crc = ((crc << 1) ^ 0x1021) & 0xFFFF if crc & 0x8000 else (crc << 1) & 0xFFFF
-    return crc
+    """CRC-16/CCITT-FALSE of ``data`` (``crc16(b"123456789") == 0x29B1``).
+
+    The standard library's ``binascii.crc_hqx`` is this CRC (polynomial
+    0x1021, MSB first, no final XOR) from the initial value given; the board
+    computes it bit by bit in C (firmware/src/proto.c), and a test holds the
+    two equal on random data.
+    """
+    return binascii.crc_hqx(bytes(data), crc)
 
 
 @dataclass(frozen=True)
@@ -250,6 +253,71 @@ def parse_status(frame: Frame) -> dict:
         raise ProtocolError(f"not a status reply: {_raw(frame)}")
     modules = list(p[3:])
     return {"codes": [b & 0x0F for b in modules], "faults": fault_names(p[0], modules)}
+
+
+#: What each request is answered with.
+REPLY_TYPE = {Msg.SET_CODES: Msg.ACK, Msg.STATUS: Msg.STATUS_REPLY, Msg.STOP_ALL: Msg.ACK, Msg.HEARTBEAT: Msg.ACK}
+_STABLE = frozenset({0, 3, 6, 9, 12, 15})
+
+
+def check_reply(frame: Frame, request: int, modules: int | None = None) -> None:
+    """Raise ProtocolError unless ``frame`` is a well-formed answer to a ``request`` (a Msg).
+
+    Checked: version; type (the request's ACK or STATUS_REPLY, or a NAK);
+    length; the type an ACK or NAK names; a NAK's reason; fault bits this
+    version knows; and in a status reply the module count (at least 1,
+    ``modules`` when given), the enabled byte, a stable code on every module
+    (never 5, 7, 13 ...), nothing on the outputs while they are disabled, and
+    per-module flags that agree with the fault byte.
+    """
+    p = frame.payload
+    if frame.version != VERSION:
+        raise ProtocolError(f"protocol version {frame.version} (bhr speaks {VERSION})")
+    if frame.type == Msg.NAK:
+        if len(p) != 3:
+            raise ProtocolError(f"a NAK of {len(p)} bytes (a NAK has 3)")
+        if p[0] != request:
+            raise ProtocolError(f"a NAK for message type 0x{p[0]:02x}, not the {Msg(request).name} sent")
+        if p[1] not in Nak._value2member_map_:
+            raise ProtocolError(f"a NAK with unknown reason 0x{p[1]:02x}")
+        return
+    want = REPLY_TYPE[Msg(request)]
+    if frame.type != want:
+        raise ProtocolError(f"{frame.type_name} to {Msg(request).name} (expected {want.name})")
+    if want == Msg.ACK:
+        if len(p) != 2:
+            raise ProtocolError(f"an ACK of {len(p)} bytes (an ACK has 2)")
+        if p[0] != request:
+            raise ProtocolError(f"an ACK for message type 0x{p[0]:02x}, not the {Msg(request).name} sent")
+        if p[1] & ~FAULT_MASK:
+            raise ProtocolError(f"unknown fault bits 0x{p[1] & ~FAULT_MASK:02x} in an ACK")
+        return
+    if len(p) < 3 or len(p) != 3 + p[2]:
+        raise ProtocolError(f"a status reply of {len(p)} bytes that does not match its module count")
+    count, enabled, faults = p[2], p[1], p[0]
+    if count < 1:
+        raise ProtocolError("a status reply with 0 modules")
+    if modules is not None and count != modules:
+        raise ProtocolError(f"a status reply for {count} modules from a board that drives {modules}")
+    if enabled not in (0, 1):
+        raise ProtocolError(f"a status reply with output-enable byte {enabled} (0 or 1)")
+    if faults & ~FAULT_MASK:
+        raise ProtocolError(f"unknown fault bits 0x{faults & ~FAULT_MASK:02x} in a status reply")
+    for i, b in enumerate(p[3:], start=1):
+        code = b & 0x0F
+        if code not in _STABLE:
+            raise ProtocolError(f"module {i} reported with the unstable code {code}")
+        if code and not enabled:
+            raise ProtocolError(f"module {i} reported driving code {code} with the outputs disabled")
+        for bit, flag, name in ((MODULE_OVERHEAT, Fault.OVERHEAT, "overheat"), (MODULE_COOLING, Fault.COOLING,
+                                                                                  "cooling"),
+                                (MODULE_EARLY, Fault.EARLY, "early")):
+            if b & bit and not faults & flag:
+                raise ProtocolError(f"module {i} flagged {name} but the fault byte does not say {name}")
+    for flag, bit, name in ((Fault.OVERHEAT, MODULE_OVERHEAT, "overheat"), (Fault.COOLING, MODULE_COOLING, "cooling"),
+                            (Fault.EARLY, MODULE_EARLY, "early")):
+        if faults & flag and not any(b & bit for b in p[3:]):
+            raise ProtocolError(f"the fault byte says {name} but no module is flagged {name}")
 
 
 def _raw(frame: Frame) -> str:

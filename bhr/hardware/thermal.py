@@ -43,7 +43,8 @@ import numpy as np
 from bhr import _numba  # noqa: F401 - sets numba's cache folder before numba is imported
 from bhr.settings.errors import BhrError
 
-__all__ = ["ThermalParams", "DEFAULT_THERMAL", "THERMAL_KEYS", "ONE", "model_constants", "thermal_from_table",
+__all__ = ["ThermalParams", "DEFAULT_THERMAL", "THERMAL_KEYS", "ONE", "DUTY_WINDOW_MS", "duty_limit",
+           "model_constants", "thermal_from_table",
            "simulate", "simulate_reference", "Schedule", "check_schedule", "auto_schedule", "format_duration"]
 
 #: theta = 1 in the integer model (Q14 fixed point), as on the board.
@@ -52,6 +53,8 @@ ONE = 1 << 14
 A_SHIFT = 16
 #: The host keeps this much time (ms) in hand for the serial link's latency when planning.
 LINK_MARGIN_MS = 30
+#: The window over which a wire's duty limit is stated (docs/thermal.md, "The wire's duty limit").
+DUTY_WINDOW_MS = 10_000
 
 THERMAL_KEYS: dict[str, tuple[str, float, float]] = {
     # key: (meaning, lowest, highest)
@@ -125,6 +128,19 @@ class ThermalParams:
 DEFAULT_THERMAL = ThermalParams()
 
 
+def duty_limit(p: ThermalParams, window_ms: int = DUTY_WINDOW_MS) -> float:
+    """The most a wire may be on over any ``window_ms`` window (docs/thermal.md, "The wire's duty limit").
+
+    The datasheet's current is a contraction current (the wire contracts in
+    ``contract_ms``), not a continuous one: held, the wire takes the hold duty.
+    So over a window a wire gets at most one contraction at full power and the
+    hold duty for the rest: ``(contract_ms + hold duty x window) / window``
+    (0.70 over 10 s for the default wire). The board's drive keeps every wire
+    under it whatever the host sends.
+    """
+    return min(1.0, (p.contract_ms + p.duty * window_ms) / window_ms)
+
+
 def thermal_from_table(table: Any, where: str = "thermal") -> ThermalParams:
     """A robot file's ``[thermal]`` table as ThermalParams (keys left out keep their defaults)."""
     if not isinstance(table, Mapping):
@@ -176,7 +192,7 @@ def _const_array(p: ThermalParams) -> np.ndarray:
 # last row's code was reached (every energised wire contracted; -1: never), and where the run stopped.
 
 
-def _kernel_py(row_t, rows, end_t, k, theta0, stride, auto, min_gap, margin):
+def _kernel_py(row_t, rows, end_t, k, theta0, stride, auto, min_gap, margin, on_trace):
     period, hold, full, relax, limit, a = k[0], k[1], k[2], k[3], k[4], k[5]
     n_rows, m = rows.shape
     na = 4 * m
@@ -184,15 +200,15 @@ def _kernel_py(row_t, rows, end_t, k, theta0, stride, auto, min_gap, margin):
     on_ticks = np.zeros(na, np.int64)
     drive = np.zeros(m, np.int64)
     requested = np.zeros(m, np.int64)
-    mode_full = np.zeros(m, np.int64)
-    cooling = np.zeros(m, np.int64)
-    for j in range(m):
-        for b in range(4):
-            if theta[4 * j + b] > relax:
-                cooling[j] = 1
+    mode_full = np.zeros(na, np.int64)  # per wire: 1 full power (contracting), 0 PWM hold
+    cooling = np.zeros(na, np.int64)    # per wire: 1 after reaching the limit, until relaxed
+    for i in range(na):
+        if theta[i] > relax:
+            cooling[i] = 1
     trace = np.zeros((end_t // stride + 1, na), np.int64)
     for i in range(na):
         trace[0, i] = theta[i]
+    on_tr = np.zeros((end_t // stride + 1 if on_trace == 1 else 1, na), np.int64)
     on_ms = np.zeros(na, np.int64)
     run = np.zeros(na, np.int64)
     max_run = np.zeros(na, np.int64)
@@ -215,8 +231,11 @@ def _kernel_py(row_t, rows, end_t, k, theta0, stride, auto, min_gap, margin):
             if t < row_t[r - 1] + min_gap:
                 ok = 0
             for j in range(m):
-                if drive[j] != requested[j] or mode_full[j] == 1:
+                if drive[j] != requested[j]:
                     ok = 0
+                for b in range(4):
+                    if mode_full[4 * j + b] == 1:
+                        ok = 0
                 new_on = rows[r, j] & ~drive[j]
                 for b in range(4):
                     if (new_on >> b) & 1 and theta[4 * j + b] > relax:
@@ -236,8 +255,9 @@ def _kernel_py(row_t, rows, end_t, k, theta0, stride, auto, min_gap, margin):
                 requested[j] = rows[r, j]
             for j in range(m):
                 want = requested[j]
-                if cooling[j] == 1:
-                    want = 0
+                for b in range(4):
+                    if (want >> b) & 1 and cooling[4 * j + b] == 1:
+                        want = 0
                 new_on = want & ~drive[j]
                 for b in range(4):
                     if (new_on >> b) & 1 and theta[4 * j + b] > relax:
@@ -245,17 +265,24 @@ def _kernel_py(row_t, rows, end_t, k, theta0, stride, auto, min_gap, margin):
                 if early[r, j] == 1:
                     want = 0
                 if want != drive[j]:
-                    drive[j] = want
-                    mf = 0
+                    # a wire energised anew starts at full power when below theta = 1; one that stays on
+                    # keeps its drive (a holding wire is not pulsed again)
+                    new_on = want & ~drive[j]
                     for b in range(4):
-                        if (want >> b) & 1 and theta[4 * j + b] < ONE:
-                            mf = 1
-                    mode_full[j] = mf
+                        i = 4 * j + b
+                        if (want >> b) & 1 == 0:
+                            mode_full[i] = 0
+                        elif (new_on >> b) & 1:
+                            mode_full[i] = 1 if theta[i] < ONE else 0
+                    drive[j] = want
             r += 1
         if r == n_rows and done_t < 0:
             ok = 1
             for j in range(m):
-                if drive[j] != requested[j] or mode_full[j] == 1:
+                if drive[j] != requested[j]:
+                    ok = 0
+            for i in range(na):
+                if mode_full[i] == 1:
                     ok = 0
             if ok == 1:
                 done_t = t
@@ -265,12 +292,9 @@ def _kernel_py(row_t, rows, end_t, k, theta0, stride, auto, min_gap, margin):
         if t == end_t:
             break
         for j in range(m):
-            show = drive[j]
-            if mode_full[j] == 0 and phase >= hold:
-                show = 0
             for b in range(4):
                 i = 4 * j + b
-                if (show >> b) & 1:
+                if (drive[j] >> b) & 1 and (mode_full[i] == 1 or phase < hold):
                     on_ticks[i] += 1
                     on_ms[i] += 1
                     run[i] += 1
@@ -290,42 +314,39 @@ def _kernel_py(row_t, rows, end_t, k, theta0, stride, auto, min_gap, margin):
                     max_theta[i] = theta[i]
                 on_ticks[i] = 0
             for j in range(m):
-                hot = 0
-                warm = 0
                 for b in range(4):
-                    if theta[4 * j + b] >= limit:
-                        hot = 1
-                    if theta[4 * j + b] > relax:
-                        warm = 1
-                if hot == 1:
-                    cooling[j] = 1
-                    if overheat_t[j] < 0:
-                        overheat_t[j] = t + 1
-                elif cooling[j] == 1 and warm == 0:
-                    cooling[j] = 0
+                    i = 4 * j + b
+                    if theta[i] >= limit:
+                        cooling[i] = 1
+                        if overheat_t[j] < 0:
+                            overheat_t[j] = t + 1
+                    elif cooling[i] == 1 and theta[i] <= relax:
+                        cooling[i] = 0
                 want = requested[j]
-                if cooling[j] == 1:
-                    want = 0
+                for b in range(4):
+                    if (want >> b) & 1 and cooling[4 * j + b] == 1:
+                        want = 0
                 new_on = want & ~drive[j]
                 for b in range(4):
                     if (new_on >> b) & 1 and theta[4 * j + b] > relax:
                         want = 0
                 drive[j] = want
-                mf = 0
-                for b in range(4):
-                    if (want >> b) & 1 and theta[4 * j + b] < ONE:
-                        mf = 1
-                mode_full[j] = mf
+                for b in range(4):  # each wire on: full power until it has contracted, then hold
+                    i = 4 * j + b
+                    mode_full[i] = 1 if (want >> b) & 1 and theta[i] < ONE else 0
         if (t + 1) % stride == 0:
             s = (t + 1) // stride
             for i in range(na):
                 trace[s, i] = theta[i]
-    return trace, early, overheat_t, max_run, max_theta, on_ms, done_t, t_stop
+            if on_trace == 1:
+                for i in range(na):
+                    on_tr[s, i] = on_ms[i]
+    return trace, early, overheat_t, max_run, max_theta, on_ms, done_t, t_stop, on_tr
 
 
-def simulate_reference(row_t, rows, end_t, k, theta0, stride, auto, min_gap, margin):
+def simulate_reference(row_t, rows, end_t, k, theta0, stride, auto, min_gap, margin, on_trace=0):
     """The same drive with numpy arrays over the wires (the readable reference of the kernel)."""
-    period, hold, full, relax, limit, a = (int(x) for x in k)
+    period, hold, full_t, relax, limit, a = (int(x) for x in k)
     n_rows, m = rows.shape
     bit = np.arange(4)
 
@@ -336,10 +357,11 @@ def simulate_reference(row_t, rows, end_t, k, theta0, stride, auto, min_gap, mar
     on_ticks = np.zeros((m, 4), np.int64)
     drive = np.zeros(m, np.int64)
     requested = np.zeros(m, np.int64)
-    mode_full = np.zeros(m, bool)
-    cooling = (th > relax).any(axis=1)
+    full = np.zeros((m, 4), bool)   # per wire: full power (contracting) or PWM hold
+    cooling = th > relax            # per wire: reached the limit (or hot at the start), until relaxed
     trace = np.zeros((end_t // stride + 1, 4 * m), np.int64)
     trace[0] = th.reshape(-1)
+    on_tr = np.zeros((end_t // stride + 1 if on_trace else 1, 4 * m), np.int64)
     on_ms = np.zeros((m, 4), np.int64)
     run = np.zeros((m, 4), np.int64)
     max_run = np.zeros((m, 4), np.int64)
@@ -353,8 +375,11 @@ def simulate_reference(row_t, rows, end_t, k, theta0, stride, auto, min_gap, mar
     def blocked(codes):  # modules where `codes` would energise a wire still relaxing
         return (wires(codes & ~drive) & (th > relax)).any(axis=1)
 
+    def allowed(codes):  # nothing for a module whose code needs a cooling wire
+        return np.where((wires(codes) & cooling).any(axis=1), 0, codes)
+
     def reached():
-        return bool(np.all(drive == requested) and not mode_full.any())
+        return bool(np.all(drive == requested) and not full.any())
 
     for t in range(end_t + 1):
         if auto and 0 < r < n_rows:
@@ -369,12 +394,13 @@ def simulate_reference(row_t, rows, end_t, k, theta0, stride, auto, min_gap, mar
                 row_t[r] = t + 1 + end_t
         while r < n_rows and row_t[r] <= t:
             requested[:] = rows[r]
-            want = np.where(cooling, 0, requested)
+            want = allowed(requested)
             early[r] = blocked(want)
             want = np.where(early[r] == 1, 0, want)
-            changed = want != drive
-            drive[changed] = want[changed]
-            mode_full[changed] = (wires(drive) & (th < ONE)).any(axis=1)[changed]
+            changed = (want != drive)[:, None]
+            new_on = wires(want & ~drive)
+            full = np.where(changed, np.where(new_on, th < ONE, full & wires(want)), full)
+            drive = want
             r += 1
         if r == n_rows and done_t < 0 and reached():
             done_t = t
@@ -383,8 +409,7 @@ def simulate_reference(row_t, rows, end_t, k, theta0, stride, auto, min_gap, mar
                 break
         if t == end_t:
             break
-        show = np.where(mode_full | (phase < hold), drive, 0)
-        on = wires(show)
+        on = wires(drive) & (full | (phase < hold))
         on_ticks += on
         on_ms += on
         run = np.where(on, run + 1, 0)
@@ -392,19 +417,21 @@ def simulate_reference(row_t, rows, end_t, k, theta0, stride, auto, min_gap, mar
         phase += 1
         if phase == period:
             phase = 0
-            th = np.maximum(th + (((on_ticks * full) // period - th) * a >> 16), 0)
+            th = np.maximum(th + (((on_ticks * full_t) // period - th) * a >> 16), 0)
             max_theta = np.maximum(max_theta, th)
             on_ticks[:] = 0
-            hot = (th >= limit).any(axis=1)
-            warm = (th > relax).any(axis=1)
-            over = np.where(hot & (over < 0), t + 1, over)
-            cooling = hot | (cooling & warm)
-            want = np.where(cooling, 0, requested)
+            hot = th >= limit
+            over = np.where(hot.any(axis=1) & (over < 0), t + 1, over)
+            cooling = hot | (cooling & (th > relax))
+            want = allowed(requested)
             drive = np.where(blocked(want), 0, want)
-            mode_full = (wires(drive) & (th < ONE)).any(axis=1)
+            full = wires(drive) & (th < ONE)
         if (t + 1) % stride == 0:
             trace[(t + 1) // stride] = th.reshape(-1)
-    return (trace, early, over, max_run.reshape(-1), max_theta.reshape(-1), on_ms.reshape(-1), done_t, t_stop)
+            if on_trace:
+                on_tr[(t + 1) // stride] = on_ms.reshape(-1)
+    return (trace, early, over, max_run.reshape(-1), max_theta.reshape(-1), on_ms.reshape(-1), done_t, t_stop,
+            on_tr)
 
 
 _kernel = None
@@ -435,6 +462,22 @@ class Simulation:
     on_ms: np.ndarray         # (modules, 4) total on-time
     done_ms: int              # the last row's code reached (-1: not within the run)
     end_ms: int
+    on_cum: np.ndarray | None = None  # (samples, modules, 4) on-time so far, every `stride` ms (on_trace=True)
+
+    def max_window_duty(self, window_ms: int = 0) -> np.ndarray:
+        """(modules, 4): each wire's highest on-time fraction over any ``window_ms`` window (simulate(on_trace=True)).
+
+        Windows start and end on the samples (every ``stride`` ms); default
+        window: DUTY_WINDOW_MS. Compare with :func:`duty_limit`.
+        """
+        if self.on_cum is None:
+            raise BhrError("max_window_duty needs simulate(..., on_trace=True)")
+        w = int(window_ms or DUTY_WINDOW_MS)
+        k = max(1, w // self.stride)
+        c = self.on_cum.reshape(self.on_cum.shape[0], -1)
+        if c.shape[0] <= k:
+            return (c[-1] / max(w, 1)).reshape(self.on_cum.shape[1:])
+        return ((c[k:] - c[:-k]).max(axis=0) / (k * self.stride)).reshape(self.on_cum.shape[1:])
 
     @property
     def faults(self) -> list[tuple[str, int, int]]:
@@ -452,7 +495,7 @@ class Simulation:
 
 def simulate(params: ThermalParams, times_ms, rows, end_ms: int | None = None, theta0=None,
              stride: int | None = None, reference: bool = False, auto: bool = False, min_gap_ms: int = 0,
-             margin_ms: int = LINK_MARGIN_MS) -> Simulation:
+             margin_ms: int = LINK_MARGIN_MS, on_trace: bool = False) -> Simulation:
     """Replay the board's drive: row ``i`` of ``rows`` (codes per module) reaches it at ``times_ms[i]``.
 
     ``end_ms`` (default: long enough for every row to be reached) ends the
@@ -461,6 +504,8 @@ def simulate(params: ThermalParams, times_ms, rows, end_ms: int | None = None, t
     period). ``auto=True`` ignores ``times_ms`` after the first and sends each
     row as soon as the board is ready for it (see :func:`auto_schedule`).
     ``reference=True`` runs the numpy reference instead of the compiled kernel.
+    ``on_trace=True`` also keeps each wire's on-time so far at every sample
+    (``Simulation.on_cum``, for :meth:`Simulation.max_window_duty`).
     """
     rows = np.ascontiguousarray(np.asarray(rows, dtype=np.int64))
     if rows.ndim != 2 or rows.shape[0] == 0:
@@ -477,12 +522,13 @@ def simulate(params: ThermalParams, times_ms, rows, end_ms: int | None = None, t
     th0 = np.zeros(4 * m, np.int64) if theta0 is None else np.asarray(theta0, np.int64).reshape(4 * m).copy()
     k = _const_array(params)
     fn = simulate_reference if reference else _compiled()
-    trace, early, over, max_run, max_theta, on_ms, done_t, t_stop = fn(
-        t, rows, int(end_ms), k, th0, stride, int(auto), int(min_gap_ms), int(margin_ms))
+    trace, early, over, max_run, max_theta, on_ms, done_t, t_stop, on_tr = fn(
+        t, rows, int(end_ms), k, th0, stride, int(auto), int(min_gap_ms), int(margin_ms), int(on_trace))
     trace = trace[: t_stop // stride + 1]
+    on_cum = on_tr[: t_stop // stride + 1].reshape(-1, m, 4) if on_trace else None
     return Simulation(params, t, rows, trace.reshape(trace.shape[0], m, 4) / ONE, stride, early, over,
                       max_run.reshape(m, 4), max_theta.reshape(m, 4) / ONE, on_ms.reshape(m, 4), int(done_t),
-                      int(t_stop))
+                      int(t_stop), on_cum)
 
 
 # ---------------------------------------------------------------------------

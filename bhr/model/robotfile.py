@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import math
 import os
+import re
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
@@ -176,6 +177,42 @@ def _check_codes(table: Any, where: str) -> dict[int, str]:
     return ours
 
 
+#: The pyserial URL schemes a robot file may name: they open nothing but the link itself. Other handlers
+#: (spy://, hwgrep://, alt://, rfc2217://, cp2110://) write log files, search devices or load other
+#: backends, so a file that names them would make bhr act rather than connect.
+SAFE_PORT_SCHEMES = ("loop://", "socket://")
+_COM_PORT = re.compile(r"^(\\\\\.\\)?COM[1-9][0-9]{0,2}$", re.IGNORECASE)
+
+
+def check_file_port(port: str, where: str = "link.port") -> str:
+    """A robot file's port: a serial device (``/dev/...``, ``COM3``) or a safe URL (loop://, socket://host:port).
+
+    Anything else (pyserial's ``spy://`` logger, which writes to any file it is
+    given, and the other URL handlers) is refused in one line; the command
+    line's ``--port`` still takes any pyserial URL.
+    """
+    if any(ord(ch) < 32 or ord(ch) == 127 for ch in port):
+        raise BhrError(f"{where} contains a control character; give a serial device such as /dev/ttyUSB0")
+    if "://" in port:
+        scheme = port.split("://", 1)[0].lower() + "://"
+        rest = port.split("://", 1)[1]
+        if scheme == "loop://" and rest in ("", "/"):
+            return port
+        if scheme == "socket://" and re.fullmatch(r"[A-Za-z0-9.\-]+:[0-9]{1,5}|\[[0-9A-Fa-f:]+\]:[0-9]{1,5}", rest):
+            return port
+        shown = port if len(port) <= 40 else port[:37] + "..."
+        raise BhrError(f"{where} {shown!r} is not a serial port: a robot file may name a device (/dev/ttyUSB0, "
+                       f"COM3), loop:// or socket://host:port; give other pyserial URLs with --port")
+    if _COM_PORT.match(port):
+        return port
+    norm = os.path.normpath(port)
+    if port.startswith("/dev/") and norm.startswith("/dev/") and ".." not in port.split("/"):
+        return port
+    shown = port if len(port) <= 40 else port[:37] + "..."
+    raise BhrError(f"{where} {shown!r} is not a serial device: give a path under /dev (/dev/ttyUSB0, /dev/pts/3), "
+                   f"COM3, loop:// or socket://host:port")
+
+
 def _check_link(table: Any, modules: int, where: str) -> LinkSettings:
     w = f"{where}: link"
     if not isinstance(table, dict):
@@ -184,7 +221,7 @@ def _check_link(table: Any, modules: int, where: str) -> LinkSettings:
     out: dict[str, Any] = {}
     if "port" in table:
         port = text_value(table["port"], f"{w}.port").strip()
-        out["port"] = port or None
+        out["port"] = port or None  # what it names is checked last (check_file_port)
     if "baudrate" in table:
         baud = number(table["baudrate"], f"{w}.baudrate", integer=True, positive=True)
         if not 50 <= baud <= 4_000_000:
@@ -220,6 +257,8 @@ def _check_link(table: Any, modules: int, where: str) -> LinkSettings:
     if len(out["module_order"]) > MAX_BOARD_MODULES:
         raise BhrError(f"{w}.module_order: one board drives at most {MAX_BOARD_MODULES} modules, "
                        f"got {len(out['module_order'])}")
+    if out.get("port"):
+        check_file_port(out["port"], f"{w}.port")
     return LinkSettings(**out)
 
 

@@ -28,8 +28,10 @@ void board_init(board_t *b)
     memset(b, 0, sizeof(*b));
     for (uint8_t i = 0; i < BHR_ACTUATORS; i++)
         b->theta[i] = BHR_THETA_LIMIT; /* unknown past: assume hot wires */
-    for (uint8_t m = 0; m < BHR_MODULES; m++)
+    for (uint8_t m = 0; m < BHR_MODULES; m++) {
         b->module_flags[m] = MODULE_COOLING;
+        b->cool[m] = 0x0F;
+    }
     b->magic = BOARD_MAGIC;
     b->magic_inv = (uint32_t)~(uint32_t)BOARD_MAGIC;
     b->changed = 1; /* push the all-off state once */
@@ -41,6 +43,9 @@ uint8_t board_resume(board_t *b)
     uint8_t ok = b->magic == BOARD_MAGIC && b->magic_inv == (uint32_t)~(uint32_t)BOARD_MAGIC;
     for (uint8_t i = 0; ok && i < BHR_ACTUATORS; i++)
         if (b->theta[i] < 0 || b->theta[i] > 4L * BHR_THETA_FULL)
+            ok = 0;
+    for (uint8_t m = 0; ok && m < BHR_MODULES; m++)
+        if (b->cool[m] > 0x0F || !(b->module_flags[m] & MODULE_COOLING) != !b->cool[m])
             ok = 0;
     if (!ok) {
         board_init(b);
@@ -98,22 +103,27 @@ static uint8_t blocked(const board_t *b, uint8_t m, uint8_t want)
     return 0;
 }
 
-static uint8_t needs_full(const board_t *b, uint8_t m)
+/* The wires of `code` on module m that are below theta = 1 (they need full power). */
+static uint8_t cold_wires(const board_t *b, uint8_t m, uint8_t code)
 {
+    uint8_t mask = 0;
     for (uint8_t k = 0; k < 4; k++)
-        if (((b->drive[m] >> k) & 1u) && b->theta[m * 4u + k] < BHR_THETA_ONE)
-            return 1;
-    return 0;
+        if (((code >> k) & 1u) && b->theta[m * 4u + k] < BHR_THETA_ONE)
+            mask |= (uint8_t)(1u << k);
+    return mask;
 }
 
-/* What module m shows this millisecond. */
+/* What module m shows this millisecond: of the wires it drives, those at full
+ * power all period, those holding in the first BHR_HOLD_TICKS ms of it. */
 static void show(board_t *b)
 {
     for (uint8_t m = 0; m < BHR_MODULES; m++) {
         uint8_t s = b->drive[m];
-        if (!b->enabled || (!b->full[m] && b->phase >= BHR_HOLD_TICKS))
+        if (!b->enabled)
             s = 0;
-        if (!proto_code_valid(s)) /* cannot happen: drive[] holds validated codes */
+        else if (b->phase >= BHR_HOLD_TICKS)
+            s &= b->full[m];
+        if (!proto_code_valid(b->drive[m])) /* cannot happen: drive[] holds validated codes */
             s = 0;
         if (s != b->shown[m]) {
             b->shown[m] = s;
@@ -122,22 +132,36 @@ static void show(board_t *b)
     }
 }
 
+/* Module m drives `want` from now on: the wires it energises anew start at
+ * full power if they are below theta = 1; a wire that stays on keeps its
+ * drive (a holding wire is not pulsed again). */
+static void set_drive(board_t *b, uint8_t m, uint8_t want)
+{
+    uint8_t new_on = (uint8_t)(want & ~b->drive[m]);
+    b->full[m] = (uint8_t)((b->full[m] & want) | cold_wires(b, m, new_on));
+    b->drive[m] = want;
+}
+
+/* What module m may drive of the code the host asks for: nothing while a
+ * wire of that code is cooling. */
+static uint8_t wanted(const board_t *b, uint8_t m)
+{
+    uint8_t want = b->enabled ? b->requested[m] : 0;
+    return (want & b->cool[m]) ? 0 : want;
+}
+
 /* A frame changed requested[] or enabled: drive what can be driven now. */
 static void apply(board_t *b, uint8_t from_frame)
 {
     for (uint8_t m = 0; m < BHR_MODULES; m++) {
-        uint8_t want = b->enabled ? b->requested[m] : 0;
-        if (b->module_flags[m] & MODULE_COOLING)
-            want = 0;
+        uint8_t want = wanted(b, m);
         if (blocked(b, m, want)) {
             if (from_frame)
                 b->module_flags[m] |= MODULE_EARLY;
             want = 0;
         }
-        if (want != b->drive[m]) {
-            b->drive[m] = want;
-            b->full[m] = needs_full(b, m);
-        }
+        if (want != b->drive[m])
+            set_drive(b, m, want);
     }
     show(b);
 }
@@ -175,25 +199,26 @@ static void period_end(board_t *b)
         b->on_ticks[i] = 0;
     }
     for (uint8_t m = 0; m < BHR_MODULES; m++) {
-        uint8_t hot = 0, warm = 0;
         for (uint8_t k = 0; k < 4; k++) {
             int32_t t = b->theta[m * 4u + k];
-            if (t >= BHR_THETA_LIMIT)
-                hot = 1;
-            if (t > BHR_THETA_RELAX)
-                warm = 1;
+            uint8_t bit = (uint8_t)(1u << k);
+            if (t >= BHR_THETA_LIMIT) {
+                b->cool[m] |= bit;
+                b->module_flags[m] |= MODULE_OVERHEAT;
+            } else if ((b->cool[m] & bit) && t <= BHR_THETA_RELAX) {
+                b->cool[m] &= (uint8_t)~bit;
+            }
         }
-        if (hot)
-            b->module_flags[m] |= MODULE_OVERHEAT | MODULE_COOLING;
-        else if ((b->module_flags[m] & MODULE_COOLING) && !warm)
+        if (b->cool[m])
+            b->module_flags[m] |= MODULE_COOLING;
+        else
             b->module_flags[m] &= (uint8_t)~MODULE_COOLING;
-        uint8_t want = b->enabled ? b->requested[m] : 0;
-        if (b->module_flags[m] & MODULE_COOLING)
-            want = 0;
+        uint8_t want = wanted(b, m);
         if (blocked(b, m, want))
             want = 0;
-        b->drive[m] = want;
-        b->full[m] = needs_full(b, m);
+        set_drive(b, m, want);
+        /* each wire on: full power until it has contracted, then hold */
+        b->full[m] = cold_wires(b, m, b->drive[m]);
     }
 }
 

@@ -63,11 +63,13 @@ static void check_outputs(const board_t *b, const char *where)
     board_chain(b, chain);
     for (int m = 0; m < BHR_MODULES; m++) {
         uint8_t c = (uint8_t)((chain[m / 2] >> ((m & 1) * 4)) & 0x0F);
-        CHECK(proto_code_valid(c), "%s: module %d shows unstable code %d", where, m + 1, c);
         CHECK(proto_code_valid(b->drive[m]), "%s: drive[%d] = %d", where, m + 1, b->drive[m]);
-        CHECK(c == 0 || c == b->drive[m], "%s: module %d shows %d while driving %d", where, m + 1, c, b->drive[m]);
-        if (b->module_flags[m] & MODULE_COOLING)
-            CHECK(c == 0, "%s: module %d is cooling but shows %d", where, m + 1, c);
+        CHECK((c & ~b->drive[m]) == 0, "%s: module %d shows %d while driving %d", where, m + 1, c, b->drive[m]);
+        CHECK((b->full[m] & ~b->drive[m]) == 0, "%s: module %d: full power on a wire it does not drive", where,
+              m + 1);
+        CHECK((b->drive[m] & b->cool[m]) == 0, "%s: module %d drives %d with a wire cooling (%d)", where, m + 1,
+              b->drive[m], b->cool[m]);
+        CHECK(!(b->module_flags[m] & MODULE_COOLING) == !b->cool[m], "%s: module %d cooling flag", where, m + 1);
     }
     if (BHR_MODULES & 1)
         CHECK((chain[BHR_CHIPS - 1] >> 4) == 0, "%s: unused outputs set", where);
@@ -132,7 +134,7 @@ static void handler(void *vc, uint8_t ev, const proto_frame_t *f)
         if (f->type == MSG_SET_CODES) {
             CHECK(r->type == MSG_ACK, "SET_CODES answered with %02x", r->type);
             for (int m = 0; m < BHR_MODULES; m++) {
-                uint8_t want = (before.module_flags[m] & MODULE_COOLING) ? 0 : f->payload[1 + m];
+                uint8_t want = (f->payload[1 + m] & before.cool[m]) ? 0 : f->payload[1 + m];
                 uint8_t new_on = (uint8_t)(want & ~before.drive[m]);
                 for (int k = 0; k < 4; k++)
                     if (((new_on >> k) & 1) && before.theta[m * 4 + k] > BHR_THETA_RELAX)
@@ -506,6 +508,33 @@ static void test_thermal(void)
     n = proto_encode(f, MSG_STOP_ALL, 9, NULL, 0);
     CHECK(send(&b, f, n, &r) == MSG_ACK && !(board_faults(&b) & FAULT_EARLY), "stop-all clears early");
 
+    /* per wire: a wire that stays on across a code change keeps its hold (3 -> 6 keeps wire 2) */
+    ready_board(&b);
+    memset(codes, 0, sizeof(codes));
+    codes[0] = 3;
+    n = set_codes_frame(f, 11, codes, BHR_MODULES);
+    send(&b, f, n, &r);
+    run_ms(&b, 1500, 1, NULL);
+    CHECK(b.full[0] == 0, "wires 1 and 2 contracted and holding after 1.5 s (full %x)", b.full[0]);
+    unsigned long hold_on = 0, total = 0;
+    for (int k = 0; k < 50; k++) { /* 3 <-> 6 every 1.2 s for 60 s */
+        codes[0] = (k % 2) ? 3 : 6;
+        n = set_codes_frame(f, (uint8_t)(12 + k), codes, BHR_MODULES);
+        send(&b, f, n, &r);
+        CHECK(!(b.full[0] & 0x02), "code change %d re-pulsed the wire that stays on (full %x)", k, b.full[0]);
+        pins_t q = {0};
+        run_ms(&b, 1200, 1, &q);
+        hold_on += q.on_ms;
+        total += 1200;
+        CHECK(q.max_run <= 2 * BHR_PWM_PERIOD_MS, "wire 2 on %lu ms in a row while holding", q.max_run);
+    }
+    printf("thermal: 3 <-> 6 every 1.2 s for 60 s: wire 2 duty %.3f (hold %u/%u), never at full power again\n",
+           (double)hold_on / total, (unsigned)BHR_HOLD_TICKS, (unsigned)BHR_PWM_PERIOD_MS);
+    CHECK((double)hold_on / total <= (double)BHR_HOLD_TICKS / BHR_PWM_PERIOD_MS + 0.02, "wire 2 duty %.3f",
+          (double)hold_on / total);
+    n = proto_encode(f, MSG_STOP_ALL, 9, NULL, 0);
+    send(&b, f, n, &r);
+
     /* the last line of defence: a wire at the limit switches its module off */
     ready_board(&b);
     codes[0] = 3;
@@ -824,58 +853,133 @@ static int vectors(void)
     return 0;
 }
 
-/* `test_host trace`: the thermal model on a fixed scenario, for bhr/thermal.py to
- * reproduce bit for bit (tests/test_thermal.py). Rows: "t_ms code1 ... codeN"
- * on stdin; prints the Q14 temperature of every wire at every PWM period end. */
+/* `test_host trace`: the thermal drive on schedules read from stdin, for
+ * bhr/thermal.py to reproduce tick for tick (tests/test_thermal.py). Each
+ * schedule: "end END_MS", optionally "theta Q1 ... Q4N" (start temperatures,
+ * Q14; default cold), rows "t_ms code1 ... codeN", then a line ".". Prints,
+ * per schedule: the Q14 temperature of every wire at every PWM period end
+ * ("t q1 ... q4N"), "early ROW MODULE" for each row (1-based) that asked a
+ * module for a wire still relaxing, "overheat MODULE T" for each module's
+ * first overheat, "on MS1 ... MS4N" (each wire's total on-time on the pins)
+ * and ".". Heartbeats every 250 ms keep the host alive. */
 static int trace(void)
 {
-    board_t b;
-    board_init(&b);
-    for (int i = 0; i < BHR_ACTUATORS; i++)
-        b.theta[i] = 0; /* cold wires */
-    for (int m = 0; m < BHR_MODULES; m++)
-        b.module_flags[m] = 0;
-    unsigned long t = 0, end = 0, at;
-    uint8_t codes[BHR_MODULES];
-    uint8_t f[PROTO_MAX_FRAME];
-    const proto_frame_t *r;
-    char line[512];
-    int more = fgets(line, sizeof(line), stdin) != NULL;
-    if (!more || sscanf(line, "end %lu", &end) != 1)
-        return 2;
-    more = fgets(line, sizeof(line), stdin) != NULL;
-    while (t <= end) {
-        while (more) {
-            char *p = line;
+    char line[1024];
+    while (fgets(line, sizeof(line), stdin)) {
+        board_t b;
+        unsigned long t = 0, end = 0, at;
+        if (sscanf(line, "end %lu", &end) != 1)
+            return 2;
+        board_init(&b);
+        for (int i = 0; i < BHR_ACTUATORS; i++)
+            b.theta[i] = 0; /* cold wires */
+        for (int m = 0; m < BHR_MODULES; m++) {
+            b.module_flags[m] = 0;
+            b.cool[m] = 0;
+        }
+        unsigned long on_ms[BHR_ACTUATORS] = {0};
+        long over_t[BHR_MODULES];
+        for (int m = 0; m < BHR_MODULES; m++)
+            over_t[m] = -1;
+        uint8_t codes[BHR_MODULES];
+        uint8_t f[PROTO_MAX_FRAME];
+        const proto_frame_t *r;
+        int more = fgets(line, sizeof(line), stdin) != NULL;
+        if (more && strncmp(line, "theta", 5) == 0) {
+            char *p = line + 5;
             int used;
-            if (sscanf(p, "%lu%n", &at, &used) != 1 || at > t)
-                break;
-            p += used;
-            for (int m = 0; m < BHR_MODULES; m++) {
-                unsigned v;
-                if (sscanf(p, "%u%n", &v, &used) != 1)
+            for (int i = 0; i < BHR_ACTUATORS; i++) {
+                long q;
+                if (sscanf(p, "%ld%n", &q, &used) != 1)
                     return 2;
-                codes[m] = (uint8_t)v;
+                b.theta[i] = (int32_t)q;
                 p += used;
             }
-            uint8_t n = set_codes_frame(f, 1, codes, BHR_MODULES);
-            send(&b, f, n, &r);
+            /* the board's own rule for a wire whose past is hot: cooling until relaxed */
+            for (int m = 0; m < BHR_MODULES; m++)
+                for (int k = 0; k < 4; k++)
+                    if (b.theta[m * 4 + k] > BHR_THETA_RELAX) {
+                        b.cool[m] |= (uint8_t)(1u << k);
+                        b.module_flags[m] |= MODULE_COOLING;
+                    }
             more = fgets(line, sizeof(line), stdin) != NULL;
         }
-        if (t % BHR_PWM_PERIOD_MS == 0) {
-            printf("%lu", t);
-            for (int i = 0; i < BHR_ACTUATORS; i++)
-                printf(" %ld", (long)b.theta[i]);
-            printf("\n");
+        unsigned long row = 0;
+        while (t <= end) {
+            while (more && line[0] != '.') {
+                char *p = line;
+                int used;
+                if (sscanf(p, "%lu%n", &at, &used) != 1 || at > t)
+                    break;
+                p += used;
+                for (int m = 0; m < BHR_MODULES; m++) {
+                    unsigned v;
+                    if (sscanf(p, "%u%n", &v, &used) != 1)
+                        return 2;
+                    codes[m] = (uint8_t)v;
+                    p += used;
+                }
+                for (int m = 0; m < BHR_MODULES; m++)
+                    b.module_flags[m] &= (uint8_t)~MODULE_EARLY; /* a latch: cleared to see each row's */
+                uint8_t n = set_codes_frame(f, 1, codes, BHR_MODULES);
+                send(&b, f, n, &r);
+                row++;
+                for (int m = 0; m < BHR_MODULES; m++)
+                    if (b.module_flags[m] & MODULE_EARLY)
+                        printf("early %lu %d\n", row, m + 1);
+                more = fgets(line, sizeof(line), stdin) != NULL;
+            }
+            if (t % BHR_PWM_PERIOD_MS == 0) {
+                printf("%lu", t);
+                for (int i = 0; i < BHR_ACTUATORS; i++)
+                    printf(" %ld", (long)b.theta[i]);
+                printf("\n");
+            }
+            if (t == end)
+                break;
+            if (t % 250 == 0) {
+                uint8_t n = proto_encode(f, MSG_HEARTBEAT, 2, NULL, 0);
+                send(&b, f, n, &r);
+            }
+            for (int m = 0; m < BHR_MODULES; m++)
+                for (int k = 0; k < 4; k++)
+                    if ((b.shown[m] >> k) & 1)
+                        on_ms[m * 4 + k]++;
+            board_tick(&b, 1);
+            check_outputs(&b, "trace");
+            t++;
+            for (int m = 0; m < BHR_MODULES; m++)
+                if (over_t[m] < 0 && (b.module_flags[m] & MODULE_OVERHEAT))
+                    over_t[m] = (long)t;
         }
-        if (t == end)
-            break;
-        if (t % 250 == 0) {
-            uint8_t n = proto_encode(f, MSG_HEARTBEAT, 2, NULL, 0);
-            send(&b, f, n, &r);
+        while (more && line[0] != '.')
+            more = fgets(line, sizeof(line), stdin) != NULL;
+        for (int m = 0; m < BHR_MODULES; m++)
+            if (over_t[m] >= 0)
+                printf("overheat %d %ld\n", m + 1, over_t[m]);
+        printf("on");
+        for (int i = 0; i < BHR_ACTUATORS; i++)
+            printf(" %lu", on_ms[i]);
+        printf("\n.\n");
+    }
+    return 0;
+}
+
+/* `test_host crc`: the CRC of each line of hex on stdin (for tests/test_protocol.py). */
+static int crc_lines(void)
+{
+    char line[4096];
+    static uint8_t buf[2048];
+    while (fgets(line, sizeof(line), stdin)) {
+        uint16_t n = 0;
+        unsigned v;
+        int used;
+        char *p = line;
+        while (n < sizeof(buf) && sscanf(p, "%2x%n", &v, &used) == 1) {
+            buf[n++] = (uint8_t)v;
+            p += used;
         }
-        board_tick(&b, 1);
-        t++;
+        printf("%04x\n", proto_crc16(PROTO_CRC_INIT, buf, n));
     }
     return 0;
 }
@@ -886,6 +990,8 @@ int main(int argc, char **argv)
         return vectors();
     if (argc > 1 && strcmp(argv[1], "trace") == 0)
         return trace();
+    if (argc > 1 && strcmp(argv[1], "crc") == 0)
+        return crc_lines();
     unsigned long count = argc > 1 ? strtoul(argv[1], NULL, 10) : 120000UL;
     if (argc > 2)
         rng_state = strtoull(argv[2], NULL, 10) | 1ULL;
