@@ -27,7 +27,7 @@ from bhr.model.codes import CODE_AXIS, LIFT, REST, VALID_CODES
 from bhr.settings.errors import BhrError
 from bhr.settings.options import by_group
 from bhr.model.robot import Robot
-from bhr.hardware.thermal import DEFAULT_THERMAL, ThermalParams, thermal_from_table
+from bhr.model.wires import DEFAULT_THERMAL, ThermalParams, thermal_from_table
 
 __all__ = ["RobotFile", "LinkSettings", "load_robot_file", "default_robot_file", "code_table", "ROBOT_KEYS",
            "LINK_KEYS"]
