@@ -429,12 +429,14 @@ def follow(points: Any, solver: str = "thesis", robot: Robot | None = None, *,
         if body_modules is not None:
             raise BhrError("give either body_modules or reach cecum, not both (reach cecum sets the whole robot's "
                            "modules from the path's length)")
-        body_modules = check_body_modules(cecum_modules(path.shape[0], robot.feed_divisor, robot.modules),
-                                          robot.modules, "reach cecum")
+        if locomotion == "thesis":
+            body_modules = check_body_modules(cecum_modules(path.shape[0], robot.feed_divisor, robot.modules),
+                                              robot.modules, "reach cecum")
     dirs = path_directions(path)
-    work = path.shape[0] * (max(robot.modules, body_modules or 0) + 1)
+    whole = body_modules or (cecum_modules(path.shape[0], robot.feed_divisor, robot.modules) if reach else 0)
+    work = path.shape[0] * (max(robot.modules, whole) + 1)
     if work > MAX_STEP_POINTS:
-        raise BhrError(f"{path.shape[0]} steps x {max(robot.modules, body_modules or 0) + 1} robot points is "
+        raise BhrError(f"{path.shape[0]} steps x {max(robot.modules, whole) + 1} robot points is "
                        f"{work:,} points to keep, more than the {MAX_STEP_POINTS:,} a run may hold in memory; "
                        "shorten the path, raise the feed or use fewer modules")
     s = get_solver(solver, robot, **(solver_options or {}))
@@ -468,7 +470,7 @@ def follow(points: Any, solver: str = "thesis", robot: Robot | None = None, *,
         if s.name != "lumen":
             raise BhrError(f"locomotion trail plans the trail the whole robot follows with the wall-aware planner; "
                            f"use --solver lumen (not {solver})")
-        return _follow_trail(traj, robot, s, solver, path, dirs, body_modules, msgs, on_step)
+        return _follow_trail(traj, robot, s, solver, path, dirs, body_modules, reach is not None, msgs, on_step)
     chain = Chain.straight(robot, traj.start_direction, traj.start_point, tip_at_origin=True)
     out_points = np.zeros((N, n + 1, 3))
     out_iters = np.zeros(N, dtype=np.int64)
@@ -507,13 +509,15 @@ def follow(points: Any, solver: str = "thesis", robot: Robot | None = None, *,
 
 
 def _follow_trail(traj: Trajectory, robot: Robot, s: Any, solver: str, path: np.ndarray, dirs: np.ndarray,
-                  body_modules: int | None, msgs: list[str], on_step: Callable[[int, np.ndarray | None], None] | None
-                  ) -> FollowResult:
+                  body_modules: int | None, reach: bool, msgs: list[str],
+                  on_step: Callable[[int, np.ndarray | None], None] | None) -> FollowResult:
     """A run in the trail model (bhr.trail): plan the trail, move the whole robot along it, score every step."""
     n, f = robot.modules, robot.feed_divisor
     N = path.shape[0]
-    M = n if body_modules is None else int(body_modules)
-    tr = run_trail(traj, robot, {**s.settings, "trail_beam": s.trail_beam}, s.window, M)
+    tr = run_trail(traj, robot, {**s.settings, "trail_beam": s.trail_beam}, s.window, body_modules, reach)
+    M = tr.modules
+    if reach:
+        body_modules = M
     head = np.ascontiguousarray(tr.joints[:, n::-1])
     codes = np.ascontiguousarray(tr.joint_codes[:, n:0:-1])
     pe = np.zeros((N, n + 1))
@@ -540,6 +544,8 @@ def _follow_trail(traj: Trajectory, robot: Robot, s: Any, solver: str, path: np.
     result.extra["summary"] = {
         "locomotion": "trail",
         "trail_vertices": int(tr.codes.shape[0]),
+        "feeder_stop_step": int(tr.stop) + 1,
+        "cecum_shortfall_mm": float(tr.shortfall_mm),
         "trail_offset_bound_mm": model,
         "rigid_offset_bound_mm": rigid,
         "procedure_time_s": procedure_time_s(tr),

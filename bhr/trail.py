@@ -40,6 +40,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
+from bhr.body import check_body_modules
 from bhr.clearance import Tube, clearance_chain_kernel, make_tube, nearest_kernel, segment_scan
 from bhr.errors import BhrError
 from bhr.kinematics.codetable import SEARCH_CODES
@@ -447,12 +448,13 @@ def trail_vertices(codes: np.ndarray, start_direction, start_point, module_lengt
 
 
 @njit(cache=True)
-def poses_kernel(T, back, f, joints, out):
-    """out[i, j] = X(i / f - j) for every step i and joint j (0 = tip): the robot along the trail."""
+def poses_kernel(T, back, f, joints, stop, out):
+    """out[i, j] = X(min(i, stop) / f - j) for every step i and joint j (0 = tip): the robot along the trail, the
+    feeder stopped after step ``stop`` (the tip at the cecum)."""
     N = out.shape[0]
     for i in range(N):
         for j in range(joints):
-            q = i - j * f
+            q = min(i, stop) - j * f
             m = q // f
             k = q - m * f
             u = k / f
@@ -461,26 +463,33 @@ def poses_kernel(T, back, f, joints, out):
                 out[i, j, b] = T[r, b] + u * (T[r + 1, b] - T[r, b])
 
 
-def trail_poses(T: np.ndarray, back: int, f: int, steps: int, joints: int) -> np.ndarray:
+def trail_poses(T: np.ndarray, back: int, f: int, steps: int, joints: int, stop: int | None = None) -> np.ndarray:
     """(steps, joints, 3): every joint at every step, tip first (:func:`poses_kernel`)."""
     out = np.empty((steps, joints, 3))
-    poses_kernel(T, int(back), int(f), int(joints), out)
+    poses_kernel(T, int(back), int(f), int(joints), int(steps - 1 if stop is None else stop), out)
     return out
 
 
-def trail_poses_numpy(T: np.ndarray, back: int, f: int, steps: int, joints: int) -> np.ndarray:
+def _insertion(steps: int, stop: int | None) -> np.ndarray:
+    """Each step's insertion in feeds: the step, up to ``stop``."""
+    i = np.arange(steps)
+    return i if stop is None else np.minimum(i, stop)
+
+
+def trail_poses_numpy(T: np.ndarray, back: int, f: int, steps: int, joints: int, stop: int | None = None
+                      ) -> np.ndarray:
     """:func:`trail_poses` in numpy (the reference)."""
-    q = np.arange(steps)[:, None] - np.arange(joints)[None, :] * f
+    q = _insertion(steps, stop)[:, None] - np.arange(joints)[None, :] * f
     m = np.floor_divide(q, f)
     u = ((q - m * f) / f)[..., None]
     r = back + m
     return T[r] + u * (T[r + 1] - T[r])
 
 
-def step_codes(codes: np.ndarray, f: int, steps: int, joints: int) -> np.ndarray:
+def step_codes(codes: np.ndarray, f: int, steps: int, joints: int, stop: int | None = None) -> np.ndarray:
     """(steps, joints) the code each joint (0 = tip) is driven to: at vertex m it holds the trail's code there;
     once it has left it, the next vertex's (its wires change state on the way)."""
-    q = np.arange(steps)[:, None] - np.arange(joints)[None, :] * f
+    q = _insertion(steps, stop)[:, None] - np.arange(joints)[None, :] * f
     m = np.floor_divide(q, f)
     k = q - m * f
     v = np.where(k == 0, m, m + 1)
@@ -629,12 +638,32 @@ def tables_kernel(C, R, pre, w, radius, T, z, back, f, m_lo, m_hi, L, sample, pc
             swhere[i, k, 2] = bz
 
 
-def trail_tables(tube: Tube, radius: float, T: np.ndarray, back: int, f: int, m_lo: int, m_hi: int, L: float,
-                 sample: float = 1.0) -> dict[str, np.ndarray]:
-    """:func:`tables_kernel` over vertices m_lo .. m_hi - 1: pc, mc, mwhere, sw, swhere, and the vertex hints."""
+def vertex_hints(tube: Tube, T: np.ndarray, back: int, L: float) -> np.ndarray:
+    """Where along the centerline (tube index) each vertex row of ``T`` is (:func:`_hints_kernel`)."""
     z = np.empty(T.shape[0])
     _hints_kernel(tube.points, tube.radius, float(tube.window), float(tube.pre), float(tube.spacing), T, int(back),
                   float(L), z)
+    return z
+
+
+def stop_step(tube: Tube, z: np.ndarray, back: int, f: int, steps: int) -> int:
+    """The step (0-based) at which the tip reaches the end of the path along the centerline (the cecum): the feeder
+    stops there. A trail that cuts the bends gets further along the colon than its own length, so the robot needs
+    fewer steps than the path has points; the last step if it never gets there."""
+    end = float(tube.points.shape[0] - tube.post - 1)
+    q = np.arange(steps)
+    m = q // f
+    u = (q - m * f) / f
+    r = back + m
+    zt = z[r] + u * (z[r + 1] - z[r])
+    hit = np.nonzero(zt >= end)[0]
+    return int(hit[0]) if hit.size else steps - 1
+
+
+def trail_tables(tube: Tube, radius: float, T: np.ndarray, back: int, f: int, m_lo: int, m_hi: int, L: float,
+                 sample: float = 1.0) -> dict[str, np.ndarray]:
+    """:func:`tables_kernel` over vertices m_lo .. m_hi - 1: pc, mc, mwhere, sw, swhere, and the vertex hints."""
+    z = vertex_hints(tube, T, back, L)
     n = m_hi - m_lo
     out = {"pc": np.empty((n, f)), "mc": np.empty((n, f)), "mwhere": np.empty((n, f, 3)), "sw": np.empty((n, f)),
            "swhere": np.empty((n, f, 3)), "z": z}
@@ -677,12 +706,14 @@ class TrailRun:
     tables: dict[str, np.ndarray]
     m_lo: int
     modules: int  # M, the whole robot
+    stop: int  # the last step the feeder pushes (0-based): the tip has reached the end of the path (the cecum)
+    shortfall_mm: float = 0.0  # how far along the centerline the tip ends short of the path's end (0: reached)
 
     def module_clearance(self, f: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(N, M+1) joints' clearance; (N, M) modules' smallest clearance over their pose and their motion from
         the step before, tip module first; (N, M, 3) where."""
         N, J = self.joints.shape[0], self.joints.shape[1]
-        q = np.arange(N)[:, None] - np.arange(J)[None, :] * f
+        q = _insertion(N, self.stop)[:, None] - np.arange(J)[None, :] * f
         m = np.floor_divide(q, f)
         k = q - m * f
         tb = self.tables
@@ -696,7 +727,8 @@ class TrailRun:
         kp = qp - mp * f
         motion = tb["sw"][mp - self.m_lo, kp]
         mwh = tb["swhere"][mp - self.m_lo, kp]
-        motion[0] = np.nan  # no motion into the first step
+        motion[0] = np.nan  # no motion into the first step, nor once the feeder has stopped
+        motion[self.stop + 1:] = np.nan
         with np.errstate(invalid="ignore"):
             use = np.isfinite(motion) & ~(pose <= motion)
         mods = np.where(use, motion, pose)
@@ -709,9 +741,10 @@ def check_trail(codes: np.ndarray) -> None:
         raise BhrError("a trail needs at least one code")
 
 
-def run_trail(traj, robot, settings: dict, window_mm: float, modules: int) -> TrailRun:
-    """Plan the trail along ``traj`` (which needs a lumen) and move the whole robot of ``modules`` modules along
-    it, one feed per step; the clearance tables of every place it takes."""
+def run_trail(traj, robot, settings: dict, window_mm: float, modules: int | None, reach: bool = False) -> TrailRun:
+    """Plan the trail along ``traj`` (which needs a lumen) and move the whole robot of ``modules`` modules (or,
+    ``reach``, of as many as reach the cecum) along it, one feed per step until the tip reaches the path's end;
+    the clearance tables of every place it takes."""
     if traj.lumen is None:
         raise BhrError(f"locomotion trail plans the trail against the lumen; {traj.name} has none (give a "
                        "trajectory with a lumen, e.g. --traj anatomy)")
@@ -721,13 +754,22 @@ def run_trail(traj, robot, settings: dict, window_mm: float, modules: int) -> Tr
     tube = dense_tube(traj.points, traj.lumen, traj.start_direction, window_mm)
     V = (N - 1) // f + 1
     codes = plan_trail(tube, robot, settings, V, traj.start_direction, traj.start_point)
-    back = modules + 2
+    T = trail_vertices(codes, traj.start_direction, traj.start_point, L, robot.alpha, 2)
+    z = vertex_hints(tube, T, 2, L)
+    stop = stop_step(tube, z, 2, f, N)
+    m, k = divmod(stop, f)
+    ztip = z[2 + m] + (k / f) * (z[3 + m] - z[2 + m])
+    short = max(0.0, float(tube.points.shape[0] - tube.post - 1 - ztip) * float(tube.spacing))
+    if reach:
+        modules = check_body_modules(cecum_modules(stop + 1, f, robot.modules), robot.modules, "reach cecum")
+    M = int(robot.modules if modules is None else modules)
+    back = M + 2
     T = trail_vertices(codes, traj.start_direction, traj.start_point, L, robot.alpha, back)
-    joints = trail_poses(T, back, f, N, modules + 1)
-    jc = step_codes(codes, f, N, modules + 1)
-    m_lo = -modules - 1
+    joints = trail_poses(T, back, f, N, M + 1, stop)
+    jc = step_codes(codes, f, N, M + 1, stop)
+    m_lo = -M - 1
     tables = trail_tables(tube, float(robot.radius), T, back, f, m_lo, V, L)
-    return TrailRun(codes, T, back, joints, jc, tables, m_lo, modules)
+    return TrailRun(codes, T, back, joints, jc, tables, m_lo, M, stop, short)
 
 
 def trail_report(result):
