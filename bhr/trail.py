@@ -36,6 +36,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numba import njit
@@ -378,7 +379,7 @@ def plan_trail_numpy(tube: Tube, robot, settings: dict, vertices: int, start_dir
 
     start = base_frame(start_direction)
     T0 = np.asarray(start_point, dtype=np.float64)
-    beam = [(0.0, T0 - L * start[2], T0, start, float(tube.pre), [])]
+    beam: list[Any] = [(0.0, T0 - L * start[2], T0, start, float(tube.pre), [])]
     for _ in range(vertices):
         cands = []
         for cost, A, T, F, g, hist in beam:

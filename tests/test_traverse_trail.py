@@ -185,3 +185,16 @@ def test_trail_refusals():
         follow(tr, solver="lumen", locomotion="walk")
     with pytest.raises(BhrError, match="has none"):
         follow(load_trajectory("curve"), solver="lumen", locomotion="trail")
+
+
+def test_grid_values_of_a_whole_length_study():
+    from bhr.sweep import parse_grid_option
+    from bhr.traverse import build_study
+
+    assert parse_grid_option("locomotion=thesis,trail") == ("locomotion", ("thesis", "trail"))
+    assert parse_grid_option("reach=cecum") == ("reach", ("cecum",))
+    with pytest.raises(BhrError, match="locomotion must be one of thesis, trail"):
+        parse_grid_option("locomotion=walk")
+    study = build_study([("alpha", (25,)), ("module_length", (5,)), ("reach", ("cecum",)),
+                         ("locomotion", ("trail",))], "1-2", solvers=["lumen"])
+    assert study.design_keys == ["solver", "alpha", "module_length", "reach", "locomotion"]

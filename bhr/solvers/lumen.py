@@ -37,8 +37,12 @@ what lets the robot swing wide before a flexure and cut its inside. With
 The nearest-point search of the solver starts from the previous sample's
 nearest point and scans outwards while it improves (capped by the window),
 which is faster than the full window scan of :mod:`bhr.clearance`; runs are
-scored by the latter. The body behind the head (``--body-modules``) follows
-module 1's sweep (:mod:`bhr.body`) and is scored, not planned.
+scored by the latter. In the thesis's locomotion the body behind the head
+(``--body-modules``) follows module 1's sweep (:mod:`bhr.body`) and is
+scored, not planned. With ``locomotion="trail"`` (:mod:`bhr.trail`,
+docs/locomotion.md) this solver plans instead the trail the whole robot
+follows, clear for every module and for the motion between steps
+(``trail_beam`` trails kept).
 """
 from __future__ import annotations
 
