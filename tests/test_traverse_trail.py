@@ -128,14 +128,14 @@ def test_motion_between_steps_against_brute_force():
     T = trail_vertices(codes, tr.start_direction, tr.start_point, 5.0, 25.0, back)
     tb = trail_tables(tube, r.radius, T, back, 3, 1, len(codes), 5.0)
     checked = 0
-    for m in range(8, 20):
+    for m in range(8, 16):  # into the bend and across its tightest vertices
         for k in range(3):
-            brute = chord_sweep_numpy(tube, r.radius, T, tb["z"], back + m, k / 3, (k + 1) / 3)
+            brute = chord_sweep_numpy(tube, r.radius, T, tb["z"], back + m, k / 3, (k + 1) / 3, 31, 31)
             sw = min(tb["sw"][m - 1, k], tb["mc"][m - 1, k])
             assert sw <= brute + 1e-6
             assert brute - sw <= 0.05
             checked += 1
-    assert checked == 36
+    assert checked == 24
 
 
 @pytest.mark.parametrize("seed", [1, 2])
