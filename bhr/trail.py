@@ -737,11 +737,6 @@ class TrailRun:
         return pts, mods, where
 
 
-def check_trail(codes: np.ndarray) -> None:
-    if codes.ndim != 1 or codes.size == 0:
-        raise BhrError("a trail needs at least one code")
-
-
 def run_trail(traj, robot, settings: dict, window_mm: float, modules: int | None, reach: bool = False) -> TrailRun:
     """Plan the trail along ``traj`` (which needs a lumen) and move the whole robot of ``modules`` modules (or,
     ``reach``, of as many as reach the cecum) along it, one feed per step until the tip reaches the path's end;
