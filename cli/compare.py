@@ -73,6 +73,9 @@ def compare(traj, solvers, out_dir, json_path, no_plots, **kwargs):
     body_modules = kwargs.pop("body_modules")
     if body_modules is not None:
         check_body_modules(body_modules, robot.modules, "--body-modules")
+    if kwargs.pop("reach", None) is not None or (kwargs.pop("locomotion", None) or "thesis") != "thesis":
+        raise BhrError("bhr compare runs the thesis's locomotion; use bhr follow (or bhr traverse) for --reach and "
+                       "--locomotion")
     announce_compiles()
     tr = load_trajectory(traj, feed=robot.feed, **pop_trajectory(kwargs))
     if folder is None and not no_plots:

@@ -68,6 +68,13 @@ def body_clearance_lines(s: dict) -> list[str]:
     from bhr.run.clearance import step_ranges
 
     out = []
+    if s.get("locomotion") == "trail":
+        from bhr.hardware.thermal import format_duration
+
+        out.append(f"Trail: {s['trail_vertices']} vertices, every module along it (exact follow-the-leader, within "
+                   f"{s['trail_offset_bound_mm']:.2f} mm of the trail); the feeder pushes until step "
+                   f"{s['feeder_stop_step']}, the tip {s['cecum_shortfall_mm']:.1f} mm short of the path's end; "
+                   f"{format_duration(s['procedure_time_s'])} at the wires' pace, the whole robot.")
     if "body_modules" in s:
         out.append(f"Whole body: {s['body_modules']} modules; the body behind the head is off the path by at most "
                    f"{s['body_points_max_error_mm']:.3f} mm (step {s['body_worst_step']}).")
@@ -174,12 +181,23 @@ def follow(traj, solver, out_dir, json_path, no_plots, **kwargs):
     body_modules = kwargs.pop("body_modules")
     if body_modules is not None:
         check_body_modules(body_modules, robot.modules, "--body-modules")
+    reach, locomotion = kwargs.pop("reach"), kwargs.pop("locomotion") or "thesis"
+    if reach is not None and body_modules is not None:
+        from bhr.settings.errors import BhrError
+
+        raise BhrError("give either --body-modules or --reach cecum, not both (--reach cecum sets the whole robot's "
+                       "modules from the path's length)")
+    if streaming and (locomotion != "thesis" or reach is not None):
+        from bhr.settings.errors import BhrError
+
+        raise BhrError("--port streams the thesis's locomotion; drop --locomotion and --reach to stream")
     traj_params = pop_trajectory(kwargs)
     announce_compiles()
     tr = load_trajectory(traj, feed=robot.feed, **traj_params)
     if folder is None and use_folder:
         name = run_folder_name(f"{stem}-{solver}", tr.points, tr.lumen if tr.lumen is not None else 0,
-                               robot.to_dict(), solver, constraints, optimal, body_modules)
+                               robot.to_dict(), solver, constraints, optimal, body_modules,
+                               *((reach, locomotion) if (reach, locomotion) != (None, "thesis") else ()))
         folder = OutputFolder(Path("bhr-out") / name, "follow", names=FOLLOW_NAMES).check()
     json_inside = json_in_folder(json_path, folder, FOLLOW_NAMES) if folder is not None else None
     anim_inside = None
@@ -192,9 +210,11 @@ def follow(traj, solver, out_dir, json_path, no_plots, **kwargs):
         stream_faults: list = []
         if link_kw["port"] is None:
             body = f", body of {body_modules} modules" if body_modules is not None else ""
+            body += ", a robot reaching the cecum" if reach is not None else ""
+            body += f", locomotion {locomotion}" if locomotion != "thesis" else ""
             with status(f"following {tr.name} ({len(tr.points)} steps, solver {solver}{body})"):
                 result = run_follow(tr, solver=solver, robot=robot, solver_options={**constraints, **optimal},
-                                    body_modules=body_modules)
+                                    body_modules=body_modules, reach=reach, locomotion=locomotion)
         else:
             result, stream_faults = follow_streaming(tr, solver, robot, {**constraints, **optimal}, body_modules,
                                                      rate, link_kw, schedule, at_end)

@@ -560,6 +560,76 @@ def case_lumen(repeat: int = 3) -> BenchResult:
                                     "does without its compiled loop; median over runs"})
 
 
+def _cpu_time(fn: Callable[[], Any], repeat: int) -> float:
+    """Median CPU seconds (user + sys of this process) of ``fn()`` over ``repeat`` calls."""
+    times = []
+    for _ in range(repeat):
+        t0 = time.process_time()
+        fn()
+        times.append(time.process_time() - t0)
+    return float(np.median(times))
+
+
+def case_trail(repeat: int = 3) -> BenchResult:
+    """A 300-module whole robot with --solver lumen in the trail model (docs/locomotion.md) along anatomical colon
+    1 (alpha 25 deg, 5 mm modules, feed divisor 5): CPU time per step of the whole run (planning, the robot at
+    every step, the clearance of every module and of the motion between steps, the summary with the procedure
+    time), against the thesis's model of the same robot in the same run (the head solved by --solver lumen, the
+    body fitted behind it and scored)."""
+    import warnings
+
+    from bhr.run.driver import BhrWarning, follow
+    from bhr.model.generators import load_trajectory
+    from bhr.model.robot import Robot
+
+    r = Robot(alpha=25.0, module_length=5.0)
+    tr = load_trajectory("anatomy", feed=r.feed, seed=1)
+
+    def run(locomotion: str):
+        def go():
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", BhrWarning)
+                res = follow(tr, solver="lumen", robot=r, body_modules=300, locomotion=locomotion)
+                return res.summary.to_dict()
+        return go
+
+    trail, thesis = run("trail"), run("thesis")
+    s = trail()  # compiles
+    thesis()
+    steps = tr.points.shape[0]
+    tb = _cpu_time(trail, repeat) / steps
+    tn = _cpu_time(thesis, max(1, repeat // 2)) / steps
+    return BenchResult("trail-300-anatomy", "per step", tb, tn, "thesis's model, same robot (same run)", tn / tb,
+                       "<= 2 ms median per step", tb <= 2e-3,
+                       {"colon": 1, "steps": steps, "modules": 300, "max_penetration_mm": s["max_penetration_mm"],
+                        "procedure_time_s": s["procedure_time_s"], "measured": "CPU seconds of one whole run, "
+                        "median over repeats, divided by the steps"})
+
+
+def case_study(repeat: int = 1, colons: int = 100) -> BenchResult:
+    """A whole-length study (docs/locomotion.md): ``colons`` anatomical colons x 1 design (--solver lumen, alpha 25
+    deg, 5 mm modules, reach cecum, trail locomotion) on every CPU, wall time; against the thesis's solver on the
+    same colons, head only, in the same run."""
+    from bhr.studies.traverse import build_study, run_study
+
+    seeds = f"1-{colons}"
+    whole = build_study([("alpha", (25,)), ("module_length", (5,)), ("reach", ("cecum",)),
+                         ("locomotion", ("trail",))], seeds, solvers=["lumen"])
+    head = build_study([], seeds, solvers=["thesis"])
+    t0 = time.perf_counter()
+    res = run_study(whole)
+    tb = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    run_study(head)
+    tn = time.perf_counter() - t0
+    d = res.designs[0]
+    return BenchResult(f"study-{colons}-cecum", "per study", tb, tn, "thesis's solver, head only, same colons",
+                       tn / tb, "<= 5 min", tb <= 300.0,
+                       {"colons": colons, "workers": res.workers, "traversed": d["traversed"],
+                        "worst_penetration_mm": d["worst_penetration_mm"],
+                        "median_procedure_time_s": d["median_procedure_time_s"], "measured": "wall seconds"})
+
+
 def _wall(cmd: list[str], repeat: int, cwd: str) -> float:
     times = []
     env = dict(os.environ, MPLBACKEND="Agg")
@@ -600,6 +670,8 @@ CASES: dict[str, Callable[..., BenchResult | list[BenchResult]]] = {
     "optimal": case_optimal,
     "body-60": case_body,
     "lumen": case_lumen,
+    "trail-300": case_trail,
+    "study-100": case_study,
     "cli": case_cli,
 }
 

@@ -55,7 +55,7 @@ from bhr.settings.options import BY_NAME
 from bhr.model.path import path_directions
 from bhr.model.robot import base_frame
 
-__all__ = ["BodyRun", "simulate_body", "check_body_modules", "module1_frames", "whole_robot"]
+__all__ = ["BodyRun", "simulate_body", "check_body_modules", "module1_frames", "whole_robot", "score_body"]
 
 _CODE = SEARCH_CODES  # search index (rest, +x, +y, -x, -y) -> code
 _IDX = {int(code): k for k, code in enumerate(SEARCH_CODES)}
@@ -227,11 +227,11 @@ def simulate_body(result, body_modules: int) -> BodyRun:
         dirs = path_directions(path) if N > 1 else np.zeros((1, 3))
         _body_kernel(P0s, F1s, start, nb, int(r.feed_divisor), float(r.feed), float(r.module_length),
                      math.cos(a), math.sin(a), BODY_BEAM, pts, codes)
-        _score_body(result, pts, path, dirs, pe, oe, scored)
+        score_body(result, pts, path, dirs, pe, oe, scored)
     return BodyRun(nb, pts, codes, pe, oe, scored)
 
 
-def _score_body(result, pts: np.ndarray, path: np.ndarray, dirs: np.ndarray, pe: np.ndarray, oe: np.ndarray,
+def score_body(result, pts: np.ndarray, path: np.ndarray, dirs: np.ndarray, pe: np.ndarray, oe: np.ndarray,
                 scored: np.ndarray) -> None:
     """Body point k against the trajectory point (n + k) f steps behind; body module k against the direction there."""
     r = result.robot

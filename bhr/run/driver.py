@@ -32,10 +32,11 @@ from bhr.settings.errors import BhrError
 from bhr.settings.options import robot_limits
 from bhr.model.robot import THESIS_ROBOT, Robot, robot_with
 from bhr.solvers import Chain, FollowContext, Solver, get_solver
-from bhr.run.body import BodyRun, simulate_body
+from bhr.run.body import BodyRun, check_body_modules, score_body, simulate_body
 from bhr.run.clearance import ClearanceReport, clearance_report
 from bhr.kinematics.leader import angle_deg, score_step
 from bhr.model.path import Trajectory, path_directions, spacing
+from bhr.run.trail import TrailRun, cecum_modules, run_trail, sweep_bound_mm, trail_report
 
 __all__ = ["follow", "FollowResult", "Summary", "BhrWarning", "stats", "load_run"]
 
@@ -157,16 +158,17 @@ class FollowResult:
     warnings: list[str] = field(default_factory=list)
     extra: dict[str, Any] = field(default_factory=dict)
     body: BodyRun | None = None  # the modules behind the head (follow(..., body_modules=M))
+    trail: TrailRun | None = None  # locomotion "trail": the trail and its clearance tables (bhr.run.trail)
 
     @property
     def clearance(self) -> ClearanceReport | None:
         """The clearance report when the trajectory has a lumen (head and body points), else None."""
         if self.trajectory.lumen is None:
             return None
-        key = (self.body, self.trajectory.lumen, self.point_errors)  # held, compared by identity
+        key = (self.body, self.trajectory.lumen, self.point_errors, self.trail)  # held, compared by identity
         cached = getattr(self, "_clearance_cache", None)
         if cached is None or any(a is not b for a, b in zip(cached[0], key)):
-            cached = (key, clearance_report(self))
+            cached = (key, clearance_report(self) if self.trail is None else trail_report(self))
             self._clearance_cache = cached
         return cached[1]
 
@@ -452,7 +454,8 @@ def _as_trajectory(points: Any, robot: Robot) -> Trajectory:
 def follow(points: Any, solver: str | Solver = "thesis", robot: Robot | None = THESIS_ROBOT, *,
            solver_options: dict[str, Any] | None = None,
            on_step: Callable[[int, np.ndarray | None], None] | None = None,
-           compiled: bool = True, body_modules: int | None = None, **robot_options: Any) -> FollowResult:
+           compiled: bool = True, body_modules: int | None = None, reach: str | None = None,
+           locomotion: str = "thesis", **robot_options: Any) -> FollowResult:
     """Run follow-the-leader along ``points`` (a :class:`Trajectory` or an (N, 3) array) with ``solver``.
 
     ``robot`` defaults to the thesis's robot (5 modules of 10 mm, alpha 10
@@ -467,6 +470,10 @@ def follow(points: Any, solver: str | Solver = "thesis", robot: Robot | None = T
     forces the step-by-step driver. ``body_modules`` (M >= modules) also
     simulates the modules behind the head (:mod:`bhr.run.body`); the result's
     ``body`` holds them and they are scored and counted in the clearance too.
+    ``reach="cecum"`` makes the whole robot long enough to reach the path's
+    end from its start (instead of ``body_modules``). ``locomotion`` is the
+    thesis's model (``"thesis"``) or exact follow-the-leader along a planned
+    trail (``"trail"``, docs/locomotion.md; with ``solver="lumen"``).
 
     >>> import bhr
     >>> run = bhr.follow(bhr.trajectory("curve", radius=70, angle=90))
@@ -480,10 +487,22 @@ def follow(points: Any, solver: str | Solver = "thesis", robot: Robot | None = T
     path = np.ascontiguousarray(traj.points, dtype=np.float64)
     if path.shape[0] < 2:
         raise BhrError("a trajectory needs at least two points")
+    if locomotion not in ("thesis", "trail"):
+        raise BhrError(f"locomotion must be thesis or trail, got {locomotion!r}")
+    if reach is not None:
+        if reach != "cecum":
+            raise BhrError(f"reach must be cecum (a robot long enough to reach the path's end), got {reach!r}")
+        if body_modules is not None:
+            raise BhrError("give either body_modules or reach cecum, not both (reach cecum sets the whole robot's "
+                           "modules from the path's length)")
+        if locomotion == "thesis":
+            body_modules = check_body_modules(cecum_modules(path.shape[0], robot.feed_divisor, robot.modules),
+                                              robot.modules, "reach cecum")
     dirs = path_directions(path)
-    work = path.shape[0] * (max(robot.modules, body_modules or 0) + 1)
+    whole = body_modules or (cecum_modules(path.shape[0], robot.feed_divisor, robot.modules) if reach else 0)
+    work = path.shape[0] * (max(robot.modules, whole) + 1)
     if work > MAX_STEP_POINTS:
-        raise BhrError(f"{path.shape[0]} steps x {max(robot.modules, body_modules or 0) + 1} robot points is "
+        raise BhrError(f"{path.shape[0]} steps x {max(robot.modules, whole) + 1} robot points is "
                        f"{work:,} points to keep, more than the {MAX_STEP_POINTS:,} a run may hold in memory; "
                        "shorten the path, raise the feed or use fewer modules")
     s = get_solver(solver, robot, **(solver_options or {}))
@@ -514,6 +533,11 @@ def follow(points: Any, solver: str | Solver = "thesis", robot: Robot | None = T
             warnings.warn(msg, BhrWarning, stacklevel=2)
     n = robot.modules
     N = path.shape[0]
+    if locomotion == "trail":
+        if s.name != "lumen":
+            raise BhrError(f"locomotion trail plans the trail the whole robot follows with the wall-aware planner; "
+                           f"use --solver lumen (not {solver})")
+        return _follow_trail(traj, robot, s, solver, path, dirs, body_modules, reach is not None, msgs, on_step)
     chain = Chain.straight(robot, traj.start_direction, traj.start_point, tip_at_origin=True)
     out_points = np.zeros((N, n + 1, 3))
     out_iters = np.zeros(N, dtype=np.int64)
@@ -549,3 +573,65 @@ def follow(points: Any, solver: str | Solver = "thesis", robot: Robot | None = T
     return result
 
 
+
+
+def _follow_trail(traj: Trajectory, robot: Robot, s: Any, solver: str, path: np.ndarray, dirs: np.ndarray,
+                  body_modules: int | None, reach: bool, msgs: list[str],
+                  on_step: Callable[[int, np.ndarray | None], None] | None) -> FollowResult:
+    """A run in the trail model (bhr.run.trail): plan the trail, move the whole robot along it, score every step."""
+    n, f = robot.modules, robot.feed_divisor
+    N = path.shape[0]
+    tr = run_trail(traj, robot, {**s.settings, "trail_beam": s.trail_beam}, s.window, body_modules, reach)
+    M = tr.modules
+    if reach:
+        body_modules = M
+    head = np.ascontiguousarray(tr.joints[:, n::-1])
+    codes = np.ascontiguousarray(tr.joint_codes[:, n:0:-1])
+    pe = np.zeros((N, n + 1))
+    oe = np.zeros((N, n))
+    for i in range(N):
+        d = dirs[-1] if i == N - 1 else dirs[i]
+        P = head[i]
+        tip = float(angle_deg(P[n, 0] - P[n - 1, 0], P[n, 1] - P[n - 1, 1], P[n, 2] - P[n - 1, 2], d))
+        score_step(i, P, path, dirs, f, tip, pe[i], oe[i])
+        if on_step is not None:
+            on_step(i, codes[i])
+    iters = (np.arange(N) % f == 0).astype(np.int64)
+    result = FollowResult(traj, robot, solver, head, iters, pe, oe, codes, msgs)
+    result.trail = tr
+    if body_modules is not None:
+        nb = M - n
+        pts = np.ascontiguousarray(tr.joints[:, n + 1:])
+        bpe, boe = np.zeros((N, nb)), np.zeros((N, nb))
+        scored = np.zeros((N, nb), dtype=bool)
+        if nb:
+            score_body(result, pts, path, dirs, bpe, boe, scored)
+        result.body = BodyRun(nb, pts, np.ascontiguousarray(tr.joint_codes[:, n + 1:]), bpe, boe, scored)
+    model, rigid = sweep_bound_mm(robot.module_length, robot.alpha)
+    result.extra["summary"] = {
+        "locomotion": "trail",
+        "trail_vertices": int(tr.codes.shape[0]),
+        "feeder_stop_step": int(tr.stop) + 1,
+        "cecum_shortfall_mm": float(tr.shortfall_mm),
+        "trail_offset_bound_mm": model,
+        "rigid_offset_bound_mm": rigid,
+        "procedure_time_s": procedure_time_s(tr),
+    }
+    return result
+
+
+def procedure_time_s(tr: TrailRun) -> float:
+    """Seconds the whole procedure takes at the wires' pace (docs/locomotion.md): the thermal model's fastest
+    schedule (as :func:`bhr.hardware.thermal.auto_schedule`, the default wire, every module of the robot) of the codes
+    every joint is driven to, one row per module length of insertion (between two vertices no wire changes)."""
+    from bhr.hardware.thermal import DEFAULT_THERMAL, simulate
+
+    rows = np.ascontiguousarray(tr.joint_codes[:, 1:])
+    change = np.ones(rows.shape[0], dtype=bool)
+    change[1:] = np.any(rows[1:] != rows[:-1], axis=1)
+    rows = np.ascontiguousarray(rows[change])
+    # the temperatures are not kept (a trace of every module would be large): one sample per 1000 s
+    sim = simulate(DEFAULT_THERMAL, np.zeros(rows.shape[0], np.int64), rows, auto=True, min_gap_ms=1,
+                   stride=1_000_000)
+    done = sim.done_ms if sim.done_ms >= 0 else sim.end_ms
+    return max(float(done), float(sim.times_ms[-1])) / 1000.0

@@ -180,10 +180,17 @@ OPTIONS: tuple[Option, ...] = (
            solvers=_LUM),
     Option("window", _S, float, "lumen: arc length searched on each side for a point's nearest centerline point "
            "(mm)", 40.0, solvers=_LUM, metavar="MM"),
+    Option("trail_beam", _S, int, "lumen with --locomotion trail: trails kept by the planner's beam search", 64,
+           maximum=4096, solvers=_LUM, metavar="N"),
     # how a run is simulated (bhr.run.driver.follow)
     Option("body_modules", _RUN, int, "Also simulate the body: the whole robot has M modules (M >= --modules), "
            "those behind the head follow the leader and count in the errors and the lumen clearance", None,
            maximum=10000, positive=True, metavar="M", shown="head only"),
+    Option("reach", _RUN, str, "cecum: the whole robot is long enough to reach the cecum of the path (its modules "
+           "from the path's length; instead of --body-modules)", None, choices=("cecum",), shown="head only"),
+    Option("locomotion", _RUN, str, "How the robot moves: thesis (the thesis's model, the head solved every step) "
+           "or trail (exact follow-the-leader, every module along the trail the tip lays; docs/locomotion.md)",
+           "thesis", choices=("thesis", "trail")),
 )
 
 BY_NAME: dict[str, Option] = {o.name: o for o in OPTIONS}

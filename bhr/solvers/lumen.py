@@ -37,8 +37,12 @@ what lets the robot swing wide before a flexure and cut its inside. With
 The nearest-point search of the solver starts from the previous sample's
 nearest point and scans outwards while it improves (capped by the window),
 which is faster than the full window scan of :mod:`bhr.run.clearance`; runs are
-scored by the latter. The body behind the head (``--body-modules``) follows
-module 1's sweep (:mod:`bhr.run.body`) and is scored, not planned.
+scored by the latter. In the thesis's locomotion the body behind the head
+(``--body-modules``) follows module 1's sweep (:mod:`bhr.run.body`) and is
+scored, not planned. With ``locomotion="trail"`` (:mod:`bhr.run.trail`,
+docs/locomotion.md) this solver plans instead the trail the whole robot
+follows, clear for every module and for the motion between steps
+(``trail_beam`` trails kept).
 """
 from __future__ import annotations
 
@@ -474,11 +478,12 @@ class Lumen(Optimal):
     def __init__(self, robot, lookahead: int | None = None, beam: int | None = None,
                  wall_weight: float | None = None, margin: float | None = None, center_weight: float | None = None,
                  track_weight: float | None = None, along_weight: float | None = None,
-                 ori_weight: float | None = None, window: float | None = None) -> None:
+                 ori_weight: float | None = None, window: float | None = None,
+                 trail_beam: int | None = None) -> None:
         opt = {k: v for k, v in dict(lookahead=lookahead, beam=beam, wall_weight=wall_weight, margin=margin,
                                      center_weight=center_weight, track_weight=track_weight,
                                      along_weight=along_weight, ori_weight=ori_weight,
-                                     window=window).items() if v is not None}
+                                     window=window, trail_beam=trail_beam).items() if v is not None}
         cfg = {**DEFAULTS, **opt}
         super().__init__(robot, lookahead=cfg["lookahead"], beam=cfg["beam"], ori_weight=cfg["ori_weight"])
         self.wall_weight = _number("wall-weight", cfg["wall_weight"])
@@ -489,6 +494,10 @@ class Lumen(Optimal):
         self.window = _number("window", cfg["window"])
         if self.window <= 0 or self.window > 1e4:
             raise BhrError(f"window must be more than 0 and at most 10000 mm, got {self.window:g}")
+        tb = cfg["trail_beam"]
+        if isinstance(tb, bool) or not isinstance(tb, (int, np.integer)) or not 1 <= int(tb) <= 4096:
+            raise BhrError(f"trail-beam must be a whole number from 1 to 4096, got {tb!r}")
+        self.trail_beam = int(tb)
         self._tube: Tube | None = None
         self._tube_path: np.ndarray | None = None  # the points the tube was made from (held)
         self._checked_path: np.ndarray | None = None

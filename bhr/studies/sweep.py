@@ -37,7 +37,7 @@ from bhr.studies.executor import DASK_MISSING, capture, connect_scheduler, run_j
 from bhr.model.generators import GENERATORS, builtin_names, load_trajectory
 from bhr.run.driver import BhrWarning, follow
 from bhr.output.htmlpage import PAGE_END, escape, figure, fmt, page_head, table
-from bhr.settings.options import solver_options_for
+from bhr.settings.options import by_group, solver_options_for
 from bhr.model.robot import Robot
 from bhr.model.robotfile import load_robot_file
 from bhr.solvers import available, canonical
@@ -52,7 +52,9 @@ __all__ = ["Sweep", "SweepResult", "GRID_KEYS", "parse_grid_option", "parse_valu
            "axis_label", "axis_value", "column_title", "AXIS_NAMES", "COLUMN_TITLES"]
 
 #: Keys a grid may vary: trajectory and robot options, and the constrained solvers' options.
-GRID_KEYS = frozenset(NUMBER_KEYS | set(CONSTRAINT_KEYS))
+#: How a run is simulated, by name (``locomotion = thesis, trail``; ``reach = cecum``).
+RUN_CHOICE_KEYS = frozenset(o.name for o in by_group("run") if o.choices is not None)
+GRID_KEYS = frozenset(NUMBER_KEYS | set(CONSTRAINT_KEYS) | RUN_CHOICE_KEYS)
 #: Result columns of every design, after its design keys.
 METRICS = ("status", "steps", "tip_max_error_mm", "tip_final_error_mm", "points_max_error_mm",
            "orientation_max_deg", "global_max", "tip_rmse_mm", "tip_orientation_rmse_deg", "tolerance_exceeded",
@@ -98,7 +100,7 @@ def parse_values(key: str, value: Any, where: str) -> tuple[Any, ...]:
         text = value.strip()
         if not text:
             raise BhrError(f"{where}: {key} has no values; give e.g. {key}=4,5,6 or {key}=4:8")
-        if key in CONSTRAINT_KEYS and CONSTRAINT_KEYS[key] is not None:
+        if (key in CONSTRAINT_KEYS and CONSTRAINT_KEYS[key] is not None) or key in RUN_CHOICE_KEYS:
             raw: list[Any] = [t.strip() for t in text.split(",")]
         elif ":" in text and "," not in text:
             parts = text.split(":")

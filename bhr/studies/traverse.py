@@ -45,19 +45,20 @@ from bhr.studies.study import ROBOT_KEYS, TRAJ_KEYS, csv_text, make_robot, sim_o
 from bhr.studies.sweep import Sweep, SweepResult, build_sweep, run_sweep
 from bhr.studies.sweep import heatmap_axes as _sweep_axes
 from bhr.model.generators import load_trajectory
+from bhr.hardware.thermal import format_duration
 
 __all__ = ["Study", "StudyResult", "parse_colons", "build_study", "run_study", "design_rows", "answer",
            "write_study", "format_study", "DESIGN_COLUMNS", "RUN_COLUMNS", "LUMEN_KEYS"]
 
 #: Summary keys a study keeps from every run (the ones a run does not report stay empty).
-LUMEN_KEYS = ("max_penetration_mm", "wall_touch_steps", "contact_length_mm")
+LUMEN_KEYS = ("max_penetration_mm", "wall_touch_steps", "contact_length_mm", "procedure_time_s", "body_modules")
 #: Columns of designs.csv after the design's own keys.
 DESIGN_COLUMNS = ("colons", "traversed", "pass_rate", "failed_runs", "worst_penetration_mm", "median_penetration_mm",
                   "worst_clearance_mm", "median_contact_length_mm", "worst_contact_length_mm", "median_touch_steps",
-                  "worst_colon", "min_turn_radius_mm")
+                  "worst_colon", "min_turn_radius_mm", "median_procedure_time_s", "worst_procedure_time_s")
 #: Columns of runs.csv after the design's keys and the seed.
 RUN_COLUMNS = ("status", "steps", "traversed", "max_penetration_mm", "touch_steps", "contact_length_mm",
-               "min_clearance_mm", "points_max_error_mm", "tip_max_error_mm")
+               "min_clearance_mm", "points_max_error_mm", "tip_max_error_mm", "modules", "procedure_time_s")
 _MAX_COLONS = 100_000
 _RANGE = re.compile(r"^\s*(\d+)\s*(?:-\s*(\d+))?\s*$")
 
@@ -184,6 +185,8 @@ def _run_row(row: dict[str, Any], keys: Sequence[str]) -> dict[str, Any]:
         "min_clearance_mm": row.get("min_clearance_mm"),
         "points_max_error_mm": row.get("points_max_error_mm"),
         "tip_max_error_mm": row.get("tip_max_error_mm"),
+        "modules": row.get("body_modules"),
+        "procedure_time_s": row.get("procedure_time_s") if ok else None,
     })
     return out
 
@@ -203,6 +206,7 @@ def design_rows(study: Study, runs: Sequence[dict[str, Any]], min_turn: dict[tup
         contact = [r["contact_length_mm"] for r in rows if r["contact_length_mm"] is not None]
         touch = [r["touch_steps"] for r in rows if r["touch_steps"] is not None]
         clear = [r["min_clearance_mm"] for r in rows if r["status"] == "ok" and r.get("min_clearance_mm") is not None]
+        proc = [r["procedure_time_s"] for r in rows if r.get("procedure_time_s") is not None]
         passed = sum(1 for r in rows if r["traversed"])
         worst = max(pen, key=lambda p: (p[0], -(p[2] if p[2] is not None else math.inf), -p[1])) if pen else None
         d = {"design": n, **dict(zip(keys, combo))}
@@ -219,6 +223,8 @@ def design_rows(study: Study, runs: Sequence[dict[str, Any]], min_turn: dict[tup
             "median_touch_steps": statistics.median(touch) if touch else None,
             "worst_colon": worst[1] if worst else None,
             "min_turn_radius_mm": min_turn.get(combo),
+            "median_procedure_time_s": statistics.median(proc) if proc else None,
+            "worst_procedure_time_s": max(proc) if proc else None,
         })
         out.append(d)
     return out
@@ -427,15 +433,18 @@ def format_study(result: StudyResult, count: int = 8) -> list[str]:
              f"{result.wall_time_s:.1f} s; penetration from the {result.clearance_kind} clearance"]
     keys = study.design_keys
     head = "  ".join(f"{k:>13}" for k in keys)
+    proc = any(d.get("median_procedure_time_s") is not None for d in result.designs)
     lines.append(f"{'#':>5}  {head}  {'traversed':>10}  {'worst pen':>9}  {'median pen':>10}  {'worst clear':>11}  "
-                 f"{'median contact':>14}")
+                 f"{'median contact':>14}" + (f"  {'median time':>11}" if proc else ""))
     for d in sorted(result.designs, key=_rank)[:count]:
         vals = "  ".join(f"{_label(d[k]):>13}" for k in keys)
         wp = "-" if d["worst_penetration_mm"] is None else f"{d['worst_penetration_mm']:.2f}"
         mp = "-" if d["median_penetration_mm"] is None else f"{d['median_penetration_mm']:.2f}"
         mc = "-" if d["median_contact_length_mm"] is None else f"{d['median_contact_length_mm']:.1f}"
         wc = "-" if d["worst_clearance_mm"] is None else f"{d['worst_clearance_mm']:.2f}"
-        lines.append(f"{d['design']:>5}  {vals}  {100 * d['pass_rate']:>9.0f}%  {wp:>9}  {mp:>10}  {wc:>11}  {mc:>14}")
+        pt = "-" if d.get("median_procedure_time_s") is None else format_duration(d["median_procedure_time_s"])
+        lines.append(f"{d['design']:>5}  {vals}  {100 * d['pass_rate']:>9.0f}%  {wp:>9}  {mp:>10}  {wc:>11}  {mc:>14}"
+                     + (f"  {pt:>11}" if proc else ""))
     lines.append(answer_line(result))
     return lines
 

@@ -1,0 +1,810 @@
+"""The whole robot in exact follow-the-leader: the trail model (docs/locomotion.md).
+
+A feeder at the anus pushes the robot's tail in by one feed per step. The
+tip lays a *trail*: a chain of straight pieces one module length long, each
+tilted from the one before by one of the five codes (rest, +x, +y, -x, -y
+by alpha about the piece's own axes). Every joint of the robot slides along
+that trail, all joints one module length apart, so at insertion depth ``p``
+(in module lengths) joint ``j`` (0 = tip) sits at trail position ``p - j``:
+
+    X(q) = T[floor q] + frac(q) (T[floor q + 1] - T[floor q])
+
+``T[m]`` being the trail's vertices (``T[0]`` the trajectory's start, the
+vertices before it on the straight line the robot enters along). Each module
+is the chord between two consecutive joints. At whole module lengths the
+chords are the trail's pieces and each joint holds the code the trail has at
+its vertex -- the code the module ahead had there (exact follow-the-leader).
+Between two vertices all joints share the fraction ``u = frac(p)`` and every
+joint's tilt moves from one code to the next while its wires change state;
+the module across vertex ``m`` is then the chord from ``X(m - 1 + u)`` to
+``X(m + u)``. Every module that reaches vertex ``m`` occupies the same
+chords there: the places the whole robot ever takes are the places the tip
+took, so a trail clear for the tip is clear for every module behind it.
+
+Across one vertex the chords sweep the region between the two pieces and
+the quadratic Bezier curve ``(1-u)^2 T[m-1] + 2u(1-u) T[m] + u^2 T[m+1]``
+(each chord touches it at its own fraction ``u``): the motion between two
+steps is scored by that region's boundary -- the joints sliding along the
+pieces and the arc of the curve between the two steps' fractions -- which
+holds its smallest clearance wherever the distance to the centerline is
+convex over it (module doc of :func:`sweep_table`).
+
+Kernels here are compiled with numba; ``*_numpy`` functions are the readable
+references the tests hold them to.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numba import njit
+
+from bhr.run.body import check_body_modules
+from bhr.run.clearance import Tube, clearance_chain_kernel, make_tube, nearest_kernel, segment_scan
+from bhr.settings.errors import BhrError
+from bhr.kinematics.codetable import SEARCH_CODES
+from bhr.kinematics.frames import tilt_frame
+from bhr.model.robot import base_frame
+
+__all__ = ["TrailRun", "plan_trail", "trail_vertices", "trail_poses", "trail_tables", "dense_tube",
+           "plan_trail_numpy", "trail_poses_numpy", "chord_sweep_numpy", "sweep_bound_mm", "TRAIL_DEDUP",
+           "cecum_modules", "PLAN_SAMPLE_MM"]
+
+#: Two planned trails whose last vertex lies closer than this (mm), with frames this close, count as one.
+TRAIL_DEDUP = (0.2, 0.02)
+#: Spacing (mm) of the samples the planner scores along a trail piece and across a vertex.
+PLAN_SAMPLE_MM = 1.0
+#: Largest spacing (mm) of the centerline the trail is planned and scored against (denser paths are kept).
+TUBE_SPACING_MM = 1.0
+#: Samples per mm of the Bezier arc between two steps (refined by a golden-section search).
+_ARC_PER_MM = 2.0
+_GOLD = (math.sqrt(5.0) - 1.0) / 2.0
+
+
+def sweep_bound_mm(module_length: float, alpha_deg: float) -> tuple[float, float]:
+    """(model, rigid): how far the model's robot and a robot of rigid modules whose joints all lie on the trail
+    can be from the trail, in mm: ``(L/2) sin(alpha/2)`` and ``(L/2) tan(alpha/2)`` (docs/locomotion.md)."""
+    h = 0.5 * math.radians(alpha_deg)
+    return 0.5 * module_length * math.sin(h), 0.5 * module_length * math.tan(h)
+
+
+def cecum_modules(steps: int, feed_divisor: int, head: int) -> int:
+    """Modules of a robot that reaches the cecum from the anus: the trail's length in module lengths (at least
+    the head)."""
+    return max(int(head), int(math.ceil((steps - 1) / feed_divisor)))
+
+
+# ---------------------------------------------------------------------------
+# the centerline, dense enough that the answer does not depend on the feed
+
+
+def dense_tube(path: np.ndarray, lumen: np.ndarray, start_direction, window_mm: float) -> Tube:
+    """The lumen's :class:`~bhr.run.clearance.Tube`, its centerline refined to at most TUBE_SPACING_MM between points
+    (a Catmull-Rom spline through the path's points, the diameter interpolated linearly), so that a path sampled
+    at a coarse feed gives nearly the same tube as one sampled finely."""
+    P = np.asarray(path, dtype=np.float64)
+    lum = np.asarray(lumen, dtype=np.float64)[:P.shape[0]]
+    seg = np.linalg.norm(np.diff(P, axis=0), axis=1)
+    k = int(math.ceil(float(np.median(seg)) / TUBE_SPACING_MM - 1e-9)) if P.shape[0] > 1 else 1
+    if k <= 1 or P.shape[0] < 3:
+        return make_tube(P, lum, start_direction, window_mm)
+    ext = np.vstack([2 * P[0] - P[1], P, 2 * P[-1] - P[-2]])
+    t = np.arange(k) / k
+    t2, t3 = t * t, t * t * t
+    w0 = -0.5 * t3 + t2 - 0.5 * t
+    w1 = 1.5 * t3 - 2.5 * t2 + 1.0
+    w2 = -1.5 * t3 + 2.0 * t2 + 0.5 * t
+    w3 = 0.5 * t3 - 0.5 * t2
+    a, b, c, d = ext[:-3], ext[1:-2], ext[2:-1], ext[3:]
+    out = (w0[None, :, None] * a[:, None] + w1[None, :, None] * b[:, None] + w2[None, :, None] * c[:, None]
+           + w3[None, :, None] * d[:, None]).reshape(-1, 3)
+    out = np.vstack([out, P[-1:]])
+    lo = np.concatenate([np.repeat(lum[:-1], k) * (1 - np.tile(t, len(lum) - 1))
+                         + np.repeat(lum[1:], k) * np.tile(t, len(lum) - 1), lum[-1:]])
+    return make_tube(out, lo, start_direction, window_mm)
+
+
+# ---------------------------------------------------------------------------
+# the planner: a beam search over the trail's codes, scored on everything the robot will occupy
+
+
+@njit(cache=True)
+def _near_from(C, lo, hi, g, px, py, pz):
+    """Nearest point on segments lo..hi-1, scanning from segment ``g`` outwards while it improves: (d2, seg, t)."""
+    if g < lo:
+        g = lo
+    if g > hi - 1:
+        g = hi - 1
+    a = max(lo, g - 2)
+    b = min(hi, g + 3)
+    best, bk, bt = segment_scan(C, a, b, px, py, pz)
+    while bk == a and a > lo:
+        na = max(lo, a - 3)
+        d2, k, t = segment_scan(C, na, a, px, py, pz)
+        a = na
+        if d2 < best:
+            best, bk, bt = d2, k, t
+        else:
+            break
+    while bk == b - 1 and b < hi:
+        nb = min(hi, b + 3)
+        d2, k, t = segment_scan(C, b, nb, px, py, pz)
+        b = nb
+        if d2 < best:
+            best, bk, bt = d2, k, t
+        else:
+            break
+    return best, bk, bt
+
+
+@njit(cache=True)
+def _sample_cost(C, R, w, g, px, py, pz, radius, margin, ww):
+    """(wall cost, clearance, squared distance, nearest position) of one sample, searched around index ``g``."""
+    M = C.shape[0]
+    lo = max(0, int(g - w))
+    hi = min(M - 1, int(g + w) + 1)
+    if hi <= lo:
+        hi = lo + 1
+    d2, k, t = _near_from(C, lo, hi, int(g), px, py, pz)
+    c = R[k] + t * (R[k + 1] - R[k]) - radius - math.sqrt(d2)
+    p = margin - c
+    return (ww * p * p if p > 0.0 else 0.0), c, d2, k + t
+
+
+@njit(cache=True)
+def _extend_cost(C, R, w, A, T, Tn, g, L, sp, radius, margin, ww, wc, wa, ns, out):
+    """Cost of laying the piece T -> Tn after the piece A -> T: the piece's samples, the Bezier curve across T
+    (the inner boundary of what the chords sweep there), the new vertex's distance to the centerline and how far
+    it advances along it (``wa (advance - L)^2``). out = (nearest position of Tn, smallest clearance)."""
+    cost = 0.0
+    cmin = 1e300
+    h = g
+    for q in range(1, ns + 1):
+        t = q / ns
+        px = T[0] + t * (Tn[0] - T[0])
+        py = T[1] + t * (Tn[1] - T[1])
+        pz = T[2] + t * (Tn[2] - T[2])
+        wcost, c, d2, pos = _sample_cost(C, R, w, h, px, py, pz, radius, margin, ww)
+        cost += wcost
+        cmin = min(cmin, c)
+        h = pos
+        if q == ns:
+            cost += wc * d2
+            adv = (pos - g) * sp - L
+            cost += wa * adv * adv
+            out[0] = pos
+    # the Bezier curve across T, from A's side to Tn's (its end points are A and Tn, both scored as pieces)
+    hb = g - 0.5 * L / sp
+    nb = 2 * ns
+    for q in range(1, nb):
+        u = q / nb
+        a0 = (1 - u) * (1 - u)
+        a1 = 2 * u * (1 - u)
+        a2 = u * u
+        px = a0 * A[0] + a1 * T[0] + a2 * Tn[0]
+        py = a0 * A[1] + a1 * T[1] + a2 * Tn[1]
+        pz = a0 * A[2] + a1 * T[2] + a2 * Tn[2]
+        wcost, c, d2, pos = _sample_cost(C, R, w, hb, px, py, pz, radius, margin, ww)
+        cost += wcost
+        cmin = min(cmin, c)
+        hb = pos
+    out[1] = cmin
+    return cost
+
+
+@njit(cache=True)
+def plan_kernel(C, R, w, sp, start, T0, g0, V, L, c, s, prm, beam, dpos, ddir, codes_out, pos_out, clr_out):
+    """Codes of the trail's ``V`` vertices (search indices), planned by a beam search over all of them.
+
+    prm = (radius, margin, w_wall, w_center, w_along, samples per piece). Each
+    member of the beam is a trail so far (its last two vertices, the last
+    piece's frame, its cost, where along the centerline its last vertex is);
+    each is extended by the five codes, scored by :func:`_extend_cost`, and the
+    ``beam`` cheapest distinct trails are kept (two trails whose last vertex and
+    frame are within ``dpos`` mm and ``ddir`` are one). The cheapest trail at
+    the end is returned, with each vertex's nearest centerline position and the
+    smallest clearance of what was scored when it was laid.
+    """
+    radius, margin, ww, wc, wa = prm[0], prm[1], prm[2], prm[3], prm[4]
+    ns = int(prm[5])
+    B = beam
+    bT = np.empty((B, 3))
+    bA = np.empty((B, 3))
+    bG = np.empty((B, 3, 3))
+    bC = np.empty(B)
+    bH = np.empty(B)
+    cT = np.empty((5 * B, 3))
+    cA = np.empty((5 * B, 3))
+    cG = np.empty((5 * B, 3, 3))
+    cC = np.empty(5 * B)
+    cH = np.empty(5 * B)
+    cM = np.empty(5 * B)
+    cPar = np.zeros(5 * B, dtype=np.int64)
+    cAct = np.zeros(5 * B, dtype=np.int64)
+    par = np.zeros((V, B), dtype=np.int64)
+    act = np.zeros((V, B), dtype=np.int64)
+    hpos = np.zeros((V, B))
+    hclr = np.zeros((V, B))
+    keep = np.zeros(5 * B, dtype=np.int64)
+    G = np.empty((3, 3))
+    Tn = np.empty(3)
+    out = np.empty(2)
+    for b in range(3):
+        bT[0, b] = T0[b]
+        bA[0, b] = T0[b] - L * start[2, b]
+        for a in range(3):
+            bG[0, a, b] = start[a, b]
+    bC[0] = 0.0
+    bH[0] = g0
+    nm = 1
+    for m in range(V):
+        k = 0
+        for q in range(nm):
+            for a in range(5):
+                tilt_frame(bG[q], a, c, s, G)
+                for b in range(3):
+                    Tn[b] = bT[q, b] + L * G[2, b]
+                cost = bC[q] + _extend_cost(C, R, w, bA[q], bT[q], Tn, bH[q], L, sp, radius, margin, ww, wc, wa,
+                                            ns, out)
+                for b in range(3):
+                    cT[k, b] = Tn[b]
+                    cA[k, b] = bT[q, b]
+                    for e in range(3):
+                        cG[k, e, b] = G[e, b]
+                cC[k] = cost
+                cH[k] = out[0]
+                cM[k] = out[1]
+                cPar[k] = q
+                cAct[k] = a
+                k += 1
+        order = np.argsort(cC[:k], kind="mergesort")
+        nk = 0
+        for r in range(k):
+            i = order[r]
+            dup = False
+            for u in range(nk):
+                j = keep[u]
+                dp = 0.0
+                dd = 0.0
+                for b in range(3):
+                    dp += (cT[i, b] - cT[j, b]) ** 2
+                    for e in range(3):
+                        dd += (cG[i, e, b] - cG[j, e, b]) ** 2
+                if dp < dpos * dpos and dd < ddir * ddir:
+                    dup = True
+                    break
+            if not dup:
+                keep[nk] = i
+                nk += 1
+                if nk == B:
+                    break
+        for u in range(nk):
+            i = keep[u]
+            for b in range(3):
+                bT[u, b] = cT[i, b]
+                bA[u, b] = cA[i, b]
+                for e in range(3):
+                    bG[u, e, b] = cG[i, e, b]
+            bC[u] = cC[i]
+            bH[u] = cH[i]
+            par[m, u] = cPar[i]
+            act[m, u] = cAct[i]
+            hpos[m, u] = cH[i]
+            hclr[m, u] = cM[i]
+        nm = nk
+    q = 0
+    for m in range(V - 1, -1, -1):
+        codes_out[m] = act[m, q]
+        pos_out[m] = hpos[m, q]
+        clr_out[m] = hclr[m, q]
+        q = par[m, q]
+    return bC[0]
+
+
+def _plan_args(tube: Tube, robot, settings: dict) -> tuple:
+    L = float(robot.module_length)
+    ns = max(1, int(math.ceil(L / PLAN_SAMPLE_MM)))
+    prm = np.array([float(robot.radius), float(settings["margin"]), float(settings["wall_weight"]),
+                    float(settings["center_weight"]), float(settings["along_weight"]), float(ns)])
+    return L, prm
+
+
+def plan_trail(tube: Tube, robot, settings: dict, vertices: int, start_direction, start_point) -> np.ndarray:
+    """The trail's codes (module codes 0, 3, 6, 12, 9), one per vertex, planned by :func:`plan_kernel`.
+
+    ``settings``: ``margin``, ``wall_weight``, ``center_weight``, ``along_weight`` (as ``--solver lumen``'s) and
+    ``trail_beam``.
+    """
+    L, prm = _plan_args(tube, robot, settings)
+    a = math.radians(robot.alpha)
+    start = base_frame(start_direction)
+    idx = np.zeros(vertices, dtype=np.int64)
+    pos = np.zeros(vertices)
+    clr = np.zeros(vertices)
+    plan_kernel(tube.points, tube.radius, float(tube.window), float(tube.spacing), start,
+                np.asarray(start_point, dtype=np.float64), float(tube.pre), int(vertices), L, math.cos(a),
+                math.sin(a), prm, int(settings["trail_beam"]), TRAIL_DEDUP[0], TRAIL_DEDUP[1], idx, pos, clr)
+    return SEARCH_CODES[idx]
+
+
+def plan_trail_numpy(tube: Tube, robot, settings: dict, vertices: int, start_direction, start_point) -> np.ndarray:
+    """:func:`plan_trail` in numpy (the reference): the same beam, the same samples, the same ties."""
+    L, prm = _plan_args(tube, robot, settings)
+    radius, margin, ww, wc, wa, nsf = prm
+    ns = int(nsf)
+    a = math.radians(robot.alpha)
+    ca, sa = math.cos(a), math.sin(a)
+    C, Rr, w, sp = tube.points, tube.radius, float(tube.window), float(tube.spacing)
+    M = C.shape[0]
+
+    def near(g: float, p: np.ndarray) -> tuple[float, float, float]:
+        lo, hi = max(0, int(g - w)), min(M - 1, int(g + w) + 1)
+        hi = max(hi, lo + 1)
+        gi = min(max(int(g), lo), hi - 1)
+        A, U = C[lo:hi], C[lo + 1:hi + 1] - C[lo:hi]
+        t = np.clip(np.einsum("ij,ij->i", p - A, U) / np.einsum("ij,ij->i", U, U), 0.0, 1.0)
+        d2 = np.sum((p - (A + t[:, None] * U)) ** 2, axis=1)
+        # the kernel's outward scan from gi stops at the first local minimum on each side
+        a_, b_ = max(0, gi - lo - 2), min(hi - lo, gi - lo + 3)
+        while True:
+            k = a_ + int(np.argmin(d2[a_:b_]))
+            grown = False
+            if k == a_ and a_ > 0:
+                na = max(0, a_ - 3)
+                if np.min(d2[na:a_]) < d2[k]:
+                    a_, grown = na, True
+                else:
+                    a_ = na
+            if not grown and k == b_ - 1 and b_ < hi - lo:
+                nb = min(hi - lo, b_ + 3)
+                if np.min(d2[b_:nb]) < d2[k]:
+                    b_, grown = nb, True
+                else:
+                    b_ = nb
+            if not grown:
+                break
+        k = a_ + int(np.argmin(d2[a_:b_]))
+        c = Rr[lo + k] + t[k] * (Rr[lo + k + 1] - Rr[lo + k]) - radius - math.sqrt(d2[k])
+        return c, float(d2[k]), lo + k + float(t[k])
+
+    def wallc(c: float) -> float:
+        return ww * (margin - c) ** 2 if margin - c > 0 else 0.0
+
+    def tilt(F: np.ndarray, k: int) -> np.ndarray:
+        out = np.empty((3, 3))
+        tilt_frame(F, k, ca, sa, out)
+        return out
+
+    start = base_frame(start_direction)
+    T0 = np.asarray(start_point, dtype=np.float64)
+    beam: list[Any] = [(0.0, T0 - L * start[2], T0, start, float(tube.pre), [])]
+    for _ in range(vertices):
+        cands = []
+        for cost, A, T, F, g, hist in beam:
+            for k in range(5):
+                G = tilt(F, k)
+                Tn = T + L * G[2]
+                j, h = cost, g
+                for q in range(1, ns + 1):
+                    c, d2, h = near(h, T + q / ns * (Tn - T))
+                    j += wallc(c)
+                    if q == ns:
+                        j += wc * d2 + wa * ((h - g) * sp - L) ** 2
+                hn = h
+                hb = g - 0.5 * L / sp
+                for q in range(1, 2 * ns):
+                    u = q / (2 * ns)
+                    c, d2, hb = near(hb, (1 - u) ** 2 * A + 2 * u * (1 - u) * T + u * u * Tn)
+                    j += wallc(c)
+                cands.append((j, T, Tn, G, hn, hist + [k]))
+        order = sorted(range(len(cands)), key=lambda i: cands[i][0])
+        kept: list = []
+        for i in order:
+            cd = cands[i]
+            if any(np.sum((cd[2] - o[2]) ** 2) < TRAIL_DEDUP[0] ** 2 and np.sum((cd[3] - o[3]) ** 2)
+                   < TRAIL_DEDUP[1] ** 2 for o in kept):
+                continue
+            kept.append(cd)
+            if len(kept) == int(settings["trail_beam"]):
+                break
+        beam = [(j, T, Tn, G, h, hist) for j, T, Tn, G, h, hist in kept]
+    return SEARCH_CODES[np.array(beam[0][5], dtype=np.int64)]
+
+
+# ---------------------------------------------------------------------------
+# the trail's vertices and the robot's poses along it
+
+
+@njit(cache=True)
+def _vertices_kernel(T0, start, idx, back, L, c, s, T):
+    """T[back + m] for m = -back .. V: straight behind T0 along start's z, then the codes' pieces."""
+    V = idx.shape[0]
+    for m in range(back + 1):
+        for b in range(3):
+            T[back - m, b] = T0[b] - m * L * start[2, b]
+    F = start.copy()
+    G = np.empty((3, 3))
+    for m in range(V):
+        tilt_frame(F, idx[m], c, s, G)
+        for b in range(3):
+            T[back + m + 1, b] = T[back + m, b] + L * G[2, b]
+            for a in range(3):
+                F[a, b] = G[a, b]
+
+
+_IDX = {int(code): k for k, code in enumerate(SEARCH_CODES)}
+
+
+def trail_vertices(codes: np.ndarray, start_direction, start_point, module_length: float, alpha: float,
+                   back: int) -> np.ndarray:
+    """(back + V + 1, 3): the trail's vertices, row ``back + m`` being vertex ``m`` (m = -back .. V)."""
+    idx = np.array([_IDX[int(c)] for c in codes], dtype=np.int64)
+    a = math.radians(alpha)
+    T = np.empty((back + len(idx) + 1, 3))
+    _vertices_kernel(np.asarray(start_point, dtype=np.float64), base_frame(start_direction), idx, int(back),
+                     float(module_length), math.cos(a), math.sin(a), T)
+    return T
+
+
+@njit(cache=True)
+def poses_kernel(T, back, f, joints, stop, out):
+    """out[i, j] = X(min(i, stop) / f - j) for every step i and joint j (0 = tip): the robot along the trail, the
+    feeder stopped after step ``stop`` (the tip at the cecum)."""
+    N = out.shape[0]
+    for i in range(N):
+        for j in range(joints):
+            q = min(i, stop) - j * f
+            m = q // f
+            k = q - m * f
+            u = k / f
+            r = back + m
+            for b in range(3):
+                out[i, j, b] = T[r, b] + u * (T[r + 1, b] - T[r, b])
+
+
+def trail_poses(T: np.ndarray, back: int, f: int, steps: int, joints: int, stop: int | None = None) -> np.ndarray:
+    """(steps, joints, 3): every joint at every step, tip first (:func:`poses_kernel`)."""
+    out = np.empty((steps, joints, 3))
+    poses_kernel(T, int(back), int(f), int(joints), int(steps - 1 if stop is None else stop), out)
+    return out
+
+
+def _insertion(steps: int, stop: int | None) -> np.ndarray:
+    """Each step's insertion in feeds: the step, up to ``stop``."""
+    i = np.arange(steps)
+    return i if stop is None else np.minimum(i, stop)
+
+
+def trail_poses_numpy(T: np.ndarray, back: int, f: int, steps: int, joints: int, stop: int | None = None
+                      ) -> np.ndarray:
+    """:func:`trail_poses` in numpy (the reference)."""
+    q = _insertion(steps, stop)[:, None] - np.arange(joints)[None, :] * f
+    m = np.floor_divide(q, f)
+    u = ((q - m * f) / f)[..., None]
+    r = back + m
+    return T[r] + u * (T[r + 1] - T[r])
+
+
+def step_codes(codes: np.ndarray, f: int, steps: int, joints: int, stop: int | None = None) -> np.ndarray:
+    """(steps, joints) the code each joint (0 = tip) is driven to: at vertex m it holds the trail's code there;
+    once it has left it, the next vertex's (its wires change state on the way)."""
+    q = _insertion(steps, stop)[:, None] - np.arange(joints)[None, :] * f
+    m = np.floor_divide(q, f)
+    k = q - m * f
+    v = np.where(k == 0, m, m + 1)
+    out = np.zeros(q.shape, dtype=np.int64)
+    ok = (v >= 0) & (v < len(codes))
+    out[ok] = np.asarray(codes, dtype=np.int64)[v[ok]]
+    return out
+
+
+# ---------------------------------------------------------------------------
+# clearance of every chord and of the motion between steps, once per place along the trail
+
+
+@njit(cache=True)
+def _hints_kernel(C, R, w, pre, sp, T, back, L, out):
+    """Where along the centerline (tube index) each trail vertex is: tracked from the start, the window moved on
+    by one module length per vertex (straight behind the start)."""
+    M = C.shape[0]
+    for r in range(T.shape[0]):
+        m = r - back
+        if m <= 0:
+            out[r] = pre + m * L / sp
+        else:
+            z = out[r - 1] + L / sp
+            lo = max(0, int(math.floor(z - w)))
+            hi = min(M - 1, int(math.ceil(z + w)))
+            if hi <= lo:
+                hi = lo + 1
+            _, _, pos = nearest_kernel(C, R, lo, hi, T[r, 0], T[r, 1], T[r, 2])
+            out[r] = pos
+
+
+@njit(cache=True)
+def _arc_clear(C, R, w, radius, T, r, z, u):
+    """Clearance of the Bezier point at fraction u across vertex row r (its window around the interpolated hint)."""
+    a0 = (1 - u) * (1 - u)
+    a1 = 2 * u * (1 - u)
+    a2 = u * u
+    px = a0 * T[r - 1, 0] + a1 * T[r, 0] + a2 * T[r + 1, 0]
+    py = a0 * T[r - 1, 1] + a1 * T[r, 1] + a2 * T[r + 1, 1]
+    pz = a0 * T[r - 1, 2] + a1 * T[r, 2] + a2 * T[r + 1, 2]
+    x = 2.0 * u  # position from vertex r-1, in pieces
+    if x <= 1.0:
+        g = z[r - 1] + x * (z[r] - z[r - 1])
+    else:
+        g = z[r] + (x - 1.0) * (z[r + 1] - z[r])
+    M = C.shape[0]
+    lo = max(0, int(math.floor(g - w)))
+    hi = min(M - 1, int(math.ceil(g + w)))
+    if hi <= lo:
+        hi = lo + 1
+    d, rad, _ = nearest_kernel(C, R, lo, hi, px, py, pz)
+    return rad - radius - d, px, py, pz
+
+
+@njit(cache=True)
+def tables_kernel(C, R, pre, w, radius, T, z, back, f, m_lo, m_hi, L, sample, pc, mc, mwhere, sw, swhere):
+    """Per vertex m (m_lo <= m < m_hi, row m - m_lo) and fraction k/f (k < f):
+
+    * pc: the clearance of the point X(m + k/f) (NaN behind the start, trail position < 0);
+    * mc, mwhere: the smallest clearance along the chord X(m - 1 + k/f) -> X(m + k/f), and where;
+    * sw, swhere: the smallest clearance of the motion from fraction k/f to (k+1)/f across vertex m: the two
+      joints sliding along their pieces and the arc of the Bezier curve between (the boundary of what the chord
+      sweeps; chords at both ends are mc's).
+    """
+    Q = np.empty((2, 3))
+    E = np.empty(2)
+    Z = np.empty(2)
+    pt = np.empty(2)
+    mo = np.empty(1)
+    wh = np.empty((1, 3))
+    fd = np.empty(2)
+    for m in range(m_lo, m_hi):
+        i = m - m_lo
+        r = back + m
+        for k in range(f):
+            u = k / f
+            u1 = (k + 1) / f
+            # the chord (the module across vertex m at fraction u)
+            for b in range(3):
+                Q[0, b] = T[r - 1, b] + u * (T[r, b] - T[r - 1, b])
+                Q[1, b] = T[r, b] + u * (T[r + 1, b] - T[r, b])
+            E[0] = m - 1 + u
+            E[1] = m + u
+            Z[0] = z[r - 1] + u * (z[r] - z[r - 1])
+            Z[1] = z[r] + u * (z[r + 1] - z[r])
+            clearance_chain_kernel(C, R, pre, w, radius, Q, E, Z, sample, pt, mo, wh, fd)
+            pc[i, k] = pt[1]
+            mc[i, k] = mo[0]
+            for b in range(3):
+                mwhere[i, k, b] = wh[0, b]
+            best = 1e300
+            bx = np.nan
+            by = np.nan
+            bz = np.nan
+            # the two joints sliding from u to u1 along their pieces
+            for side in range(2):
+                rr = r - 1 + side
+                for b in range(3):
+                    Q[0, b] = T[rr, b] + u * (T[rr + 1, b] - T[rr, b])
+                    Q[1, b] = T[rr, b] + u1 * (T[rr + 1, b] - T[rr, b])
+                E[0] = m - 1 + side + u
+                E[1] = m - 1 + side + u1
+                Z[0] = z[rr] + u * (z[rr + 1] - z[rr])
+                Z[1] = z[rr] + u1 * (z[rr + 1] - z[rr])
+                clearance_chain_kernel(C, R, pre, w, radius, Q, E, Z, sample, pt, mo, wh, fd)
+                if not math.isnan(mo[0]) and mo[0] < best:
+                    best = mo[0]
+                    bx, by, bz = wh[0, 0], wh[0, 1], wh[0, 2]
+            # the arc of the envelope between u and u1 (parts behind the start not scored)
+            lo_u = u
+            if m - 1 + 2 * lo_u < 0.0:
+                lo_u = 0.5 * (1.0 - m)
+            if lo_u < u1:
+                ns = int(math.ceil(_ARC_PER_MM * 2.0 * L * (u1 - lo_u) / sample)) + 1
+                ba = 1e300
+                bu = lo_u
+                for q in range(ns + 1):
+                    uu = lo_u + (u1 - lo_u) * q / ns
+                    v, px, py, pz = _arc_clear(C, R, w, radius, T, r, z, uu)
+                    if v < ba:
+                        ba = v
+                        bu = uu
+                a = max(lo_u, bu - (u1 - lo_u) / ns)
+                b2 = min(u1, bu + (u1 - lo_u) / ns)
+                for _ in range(20):
+                    x1 = b2 - _GOLD * (b2 - a)
+                    x2 = a + _GOLD * (b2 - a)
+                    f1 = _arc_clear(C, R, w, radius, T, r, z, x1)[0]
+                    f2 = _arc_clear(C, R, w, radius, T, r, z, x2)[0]
+                    if f1 < f2:
+                        b2 = x2
+                    else:
+                        a = x1
+                v, px, py, pz = _arc_clear(C, R, w, radius, T, r, z, 0.5 * (a + b2))
+                if v < ba:
+                    ba = v
+                    bu = 0.5 * (a + b2)
+                v, px, py, pz = _arc_clear(C, R, w, radius, T, r, z, bu)
+                if ba < best:
+                    best = ba
+                    bx, by, bz = px, py, pz
+            sw[i, k] = best if best < 1e299 else np.nan
+            swhere[i, k, 0] = bx
+            swhere[i, k, 1] = by
+            swhere[i, k, 2] = bz
+
+
+def vertex_hints(tube: Tube, T: np.ndarray, back: int, L: float) -> np.ndarray:
+    """Where along the centerline (tube index) each vertex row of ``T`` is (:func:`_hints_kernel`)."""
+    z = np.empty(T.shape[0])
+    _hints_kernel(tube.points, tube.radius, float(tube.window), float(tube.pre), float(tube.spacing), T, int(back),
+                  float(L), z)
+    return z
+
+
+def stop_step(tube: Tube, z: np.ndarray, back: int, f: int, steps: int) -> int:
+    """The step (0-based) at which the tip reaches the end of the path along the centerline (the cecum): the feeder
+    stops there. A trail that cuts the bends gets further along the colon than its own length, so the robot needs
+    fewer steps than the path has points; the last step if it never gets there."""
+    end = float(tube.points.shape[0] - tube.post - 1)
+    q = np.arange(steps)
+    m = q // f
+    u = (q - m * f) / f
+    r = back + m
+    zt = z[r] + u * (z[r + 1] - z[r])
+    hit = np.nonzero(zt >= end)[0]
+    return int(hit[0]) if hit.size else steps - 1
+
+
+def trail_tables(tube: Tube, radius: float, T: np.ndarray, back: int, f: int, m_lo: int, m_hi: int, L: float,
+                 sample: float = 1.0) -> dict[str, np.ndarray]:
+    """:func:`tables_kernel` over vertices m_lo .. m_hi - 1: pc, mc, mwhere, sw, swhere, and the vertex hints."""
+    z = vertex_hints(tube, T, back, L)
+    n = m_hi - m_lo
+    out = {"pc": np.empty((n, f)), "mc": np.empty((n, f)), "mwhere": np.empty((n, f, 3)), "sw": np.empty((n, f)),
+           "swhere": np.empty((n, f, 3)), "z": z}
+    tables_kernel(tube.points, tube.radius, float(tube.pre), float(tube.window), float(radius), T, z, int(back),
+                  int(f), int(m_lo), int(m_hi), float(L), float(sample), out["pc"], out["mc"], out["mwhere"],
+                  out["sw"], out["swhere"])
+    return out
+
+
+def chord_sweep_numpy(tube: Tube, radius: float, T: np.ndarray, z: np.ndarray, r: int, u0: float, u1: float,
+                      chords: int = 41, samples: int = 41) -> float:
+    """The smallest clearance over every chord across vertex row ``r`` at fractions u0..u1, sampled on a grid
+    (``chords`` fractions x ``samples`` points along each chord): the brute-force reference of the motion."""
+    from bhr.run.clearance import point_clearance
+
+    best = math.inf
+    for u in np.linspace(u0, u1, chords):
+        A = T[r - 1] + u * (T[r] - T[r - 1])
+        B = T[r] + u * (T[r + 1] - T[r])
+        za = z[r - 1] + u * (z[r] - z[r - 1])
+        zb = z[r] + u * (z[r + 1] - z[r])
+        for t in np.linspace(0.0, 1.0, samples):
+            best = min(best, point_clearance(tube, radius, A + t * (B - A), 0.0, za + t * (zb - za)))
+    return best
+
+
+# ---------------------------------------------------------------------------
+# a run
+
+
+@dataclass
+class TrailRun:
+    """A run in the trail model: the trail, the whole robot at every step, and the clearance tables."""
+
+    codes: np.ndarray  # (V,) the trail's code at each vertex 0 .. V-1
+    vertices: np.ndarray  # (back + V + 1, 3)
+    back: int
+    joints: np.ndarray  # (N, M + 1, 3) every joint, tip first
+    joint_codes: np.ndarray  # (N, M + 1) the code each joint is driven to
+    tables: dict[str, np.ndarray]
+    m_lo: int
+    modules: int  # M, the whole robot
+    stop: int  # the last step the feeder pushes (0-based): the tip has reached the end of the path (the cecum)
+    shortfall_mm: float = 0.0  # how far along the centerline the tip ends short of the path's end (0: reached)
+
+    def module_clearance(self, f: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(N, M+1) joints' clearance; (N, M) modules' smallest clearance over their pose and their motion from
+        the step before, tip module first; (N, M, 3) where."""
+        N, J = self.joints.shape[0], self.joints.shape[1]
+        q = _insertion(N, self.stop)[:, None] - np.arange(J)[None, :] * f
+        m = np.floor_divide(q, f)
+        k = q - m * f
+        tb = self.tables
+        pts = tb["pc"][m - self.m_lo, k]
+        # module j (front joint j): the chord with its front at q
+        qm, mm, km = q[:, :-1], m[:, :-1], k[:, :-1]
+        pose = tb["mc"][mm - self.m_lo, km]
+        where = tb["mwhere"][mm - self.m_lo, km]
+        qp = qm - 1
+        mp = np.floor_divide(qp, f)
+        kp = qp - mp * f
+        motion = tb["sw"][mp - self.m_lo, kp]
+        mwh = tb["swhere"][mp - self.m_lo, kp]
+        motion[0] = np.nan  # no motion into the first step, nor once the feeder has stopped
+        motion[self.stop + 1:] = np.nan
+        with np.errstate(invalid="ignore"):
+            use = np.isfinite(motion) & ~(pose <= motion)
+        mods = np.where(use, motion, pose)
+        where = np.where(use[..., None], mwh, where)
+        return pts, mods, where
+
+
+def run_trail(traj, robot, settings: dict, window_mm: float, modules: int | None, reach: bool = False) -> TrailRun:
+    """Plan the trail along ``traj`` (which needs a lumen) and move the whole robot of ``modules`` modules (or,
+    ``reach``, of as many as reach the cecum) along it, one feed per step until the tip reaches the path's end;
+    the clearance tables of every place it takes."""
+    if traj.lumen is None:
+        raise BhrError(f"locomotion trail plans the trail against the lumen; {traj.name} has none (give a "
+                       "trajectory with a lumen, e.g. --traj anatomy)")
+    N = int(traj.points.shape[0])
+    f = int(robot.feed_divisor)
+    L = float(robot.module_length)
+    tube = dense_tube(traj.points, traj.lumen, traj.start_direction, window_mm)
+    V = (N - 1) // f + 1
+    codes = plan_trail(tube, robot, settings, V, traj.start_direction, traj.start_point)
+    T = trail_vertices(codes, traj.start_direction, traj.start_point, L, robot.alpha, 2)
+    z = vertex_hints(tube, T, 2, L)
+    stop = stop_step(tube, z, 2, f, N)
+    m, k = divmod(stop, f)
+    ztip = z[2 + m] + (k / f) * (z[3 + m] - z[2 + m])
+    short = max(0.0, float(tube.points.shape[0] - tube.post - 1 - ztip) * float(tube.spacing))
+    if reach:
+        modules = check_body_modules(cecum_modules(stop + 1, f, robot.modules), robot.modules, "reach cecum")
+    M = int(robot.modules if modules is None else modules)
+    back = M + 2
+    T = trail_vertices(codes, traj.start_direction, traj.start_point, L, robot.alpha, back)
+    joints = trail_poses(T, back, f, N, M + 1, stop)
+    jc = step_codes(codes, f, N, M + 1, stop)
+    m_lo = -M - 1
+    tables = trail_tables(tube, float(robot.radius), T, back, f, m_lo, V, L)
+    return TrailRun(codes, T, back, joints, jc, tables, m_lo, M, stop, short)
+
+
+def trail_report(result):
+    """The :class:`~bhr.run.clearance.ClearanceReport` of a trail run: every joint and module at every step, a module's
+    clearance the smaller of its pose's and its motion's from the step before."""
+    from bhr.run.clearance import ClearanceReport, clearance_table
+
+    tr = result.trail
+    r = result.robot
+    n, f = r.modules, r.feed_divisor
+    M = tr.modules
+    B = M - n
+    jp, jm, jw = tr.module_clearance(f)
+    p_idx = [n - jj for jj in range(n + 1)] + [n + k for k in range(1, B + 1)]
+    m_idx = [n - 1 - jj for jj in range(n)] + [n + k - 1 for k in range(1, B + 1)]
+    table, mtable, mwhere = jp[:, p_idx], jm[:, m_idx], jw[:, m_idx]
+    labels = [f"point {j + 1}" + (" (base)" if j == 0 else "") + (" (tip)" if j == n else "") for j in range(n + 1)]
+    labels += [f"body point {k}" for k in range(1, B + 1)]
+    mlabels = [f"module {j + 1}" + (" (base)" if j == 0 else "") + (" (tip)" if j == n - 1 else "")
+               for j in range(n)]
+    mlabels += [f"body module {k}" for k in range(1, B + 1)]
+    offsets = [(n - j) * f for j in range(n + 1)]
+    errors = result.point_errors
+    if B:
+        offsets += [(n + k) * f for k in range(1, B + 1)]
+        errors = np.concatenate([errors, result.body.point_errors], axis=1)
+    im = clearance_table(errors, np.array(offsets), result.trajectory.lumen, r.radius)
+    im_min = float(np.nanmin(im)) if not np.all(np.isnan(im)) else float("nan")
+    with np.errstate(invalid="ignore"):
+        mtouch = mtable <= 0.0
+        touch = np.nonzero(np.any(table <= 0.0, axis=1) | np.any(mtouch, axis=1))[0]
+    contact = (np.sum(mtouch, axis=0) * float(r.feed)).tolist()
+    both = np.concatenate([table, mtable], axis=1)
+    if np.all(np.isnan(both)):
+        return ClearanceReport(table, labels, float("nan"), 0, "", [], mtable, mlabels, mwhere, contact, im_min)
+    flat = int(np.nanargmin(both))
+    s, p = divmod(flat, both.shape[1])
+    row_pts = table[s]
+    if not np.all(np.isnan(row_pts)) and np.nanmin(row_pts) <= both[s, p]:
+        p = int(np.nanargmin(row_pts))
+    return ClearanceReport(table, labels, float(both[s, p]), s + 1, (labels + mlabels)[p],
+                           [int(t) + 1 for t in touch], mtable, mlabels, mwhere, contact, im_min)
