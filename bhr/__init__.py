@@ -21,17 +21,19 @@ from bhr.errors import BhrError, LinkError
 
 if TYPE_CHECKING:  # what the lazy names below are, for type checkers
     from bhr.driver import follow as follow
+    from bhr.export import joint_values as joint_values
     from bhr.generators import trajectory as trajectory
     from bhr.robot import Robot as Robot
     from bhr.solvers import solve as solve
 
 __version__ = "0.1.0"
 
-__all__ = ["BhrError", "LinkError", "Robot", "follow", "trajectory", "solve", "__version__"]
+__all__ = ["BhrError", "LinkError", "Robot", "follow", "trajectory", "solve", "joint_values", "__version__"]
 
 #: The lazy re-exports: name -> (module, attribute).
 _LAZY = {"follow": ("bhr.driver", "follow"), "trajectory": ("bhr.generators", "trajectory"),
-         "solve": ("bhr.solvers", "solve"), "Robot": ("bhr.robot", "Robot")}
+         "solve": ("bhr.solvers", "solve"), "Robot": ("bhr.robot", "Robot"),
+         "joint_values": ("bhr.export", "joint_values")}
 
 
 def __getattr__(name: str) -> Any:  # PEP 562: lazy re-exports keep `import bhr` cheap
