@@ -185,17 +185,19 @@ def to_urdf(robot: Robot, modules: int | None = None, *, mass_g: float | None = 
 def mjcf_robot_body(robot: Robot, modules: int, *, mass_g: float | None = None, density: float | None = None,
                     indent: str = "    ", base_pos: Sequence[float] = (0, 0, 0),
                     base_quat: Sequence[float] = (1, 0, 0, 0), base_joint: str = "",
-                    geom_attrs: str = "") -> list[str]:
+                    geom_attrs: str = "", lift: bool = True, mocap: bool = False) -> list[str]:
     """The ``<body name="base">`` element of the robot (lines), for :func:`to_mjcf` and the physics scene.
 
     ``base_joint`` is inserted as the base body's joint (e.g. the insertion slide); ``geom_attrs`` is added
-    to every module's collision capsule (contact classes, friction).
+    to every module's collision capsule (contact classes, friction). ``lift=False`` leaves out the lift
+    joints (a run that never lifts); ``mocap`` makes the base a MuJoCo mocap body (moved by the scene).
     """
-    a, r, l, lift = math.radians(robot.alpha), robot.radius * MM, robot.module_length * MM, robot.lift * MM
+    a, r, l, stroke = math.radians(robot.alpha), robot.radius * MM, robot.module_length * MM, robot.lift * MM
     inert = module_inertia(robot, mass_g, density)
     pos = " ".join(_f(v) for v in base_pos)
     quat = " ".join(_f(v) for v in base_quat)
-    out = [f'{indent}<body name="base" pos="{pos}" quat="{quat}">']
+    mc = ' mocap="true"' if mocap else ""
+    out = [f'{indent}<body name="base" pos="{pos}" quat="{quat}"{mc}>']
     if base_joint:
         out.append(f"{indent}  {base_joint}")
     depth = 1
@@ -205,7 +207,7 @@ def mjcf_robot_body(robot: Robot, modules: int, *, mass_g: float | None = None, 
         out += [f'{ind}<body name="m{i}" pos="0 0 {_f(z)}">',
                 f'{ind}  <joint name="m{i}_tilt_x" type="hinge" axis="1 0 0" range="{_f(-a)} {_f(a)}"/>',
                 f'{ind}  <joint name="m{i}_tilt_y" type="hinge" axis="0 1 0" range="{_f(-a)} {_f(a)}"/>',
-                f'{ind}  <joint name="m{i}_lift" type="slide" axis="0 0 1" range="0 {_f(lift)}"/>',
+                *([f'{ind}  <joint name="m{i}_lift" type="slide" axis="0 0 1" range="0 {_f(stroke)}"/>'] if lift else []),
                 f'{ind}  <inertial pos="0 0 {_f(inert.com[2])}" mass="{_f(inert.mass)}" '
                 f'diaginertia="{_f(inert.ixx)} {_f(inert.iyy)} {_f(inert.izz)}"/>',
                 f'{ind}  <geom name="m{i}" type="capsule" fromto="0 0 0 0 0 {_f(l)}" size="{_f(r)}" '

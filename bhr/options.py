@@ -184,6 +184,12 @@ OPTIONS: tuple[Option, ...] = (
     Option("body_modules", _RUN, int, "Also simulate the body: the whole robot has M modules (M >= --modules), "
            "those behind the head follow the leader and count in the errors and the lumen clearance", None,
            maximum=10000, positive=True, metavar="M", shown="head only"),
+    # the physics replay (bhr.physics, docs/physics.md)
+    Option("wall_stiffness", "physics", float, "Colon wall stiffness per module length of wall, N/mm (published "
+           "0.7-2.4)", 1.5, "N/mm", 24.0, positive=True, metavar="N/MM"),
+    Option("physics_rate", "physics", float, "Steps per second of the replay (the servos settle within a step)",
+           20.0, "Hz", 1000.0, positive=True, cli="rate", metavar="HZ"),
+    Option("substeps", "physics", int, "MuJoCo time steps per run step", 16, maximum=1000, positive=True),
 )
 
 BY_NAME: dict[str, Option] = {o.name: o for o in OPTIONS}
