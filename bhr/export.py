@@ -74,7 +74,7 @@ def module_inertia(robot: Robot, mass_g: float | None = None, density: float | N
 
     ``mass_g`` (grams) wins over ``density`` (kg/m^3); neither: :data:`DEFAULT_DENSITY`.
     """
-    r, l = robot.radius * MM, robot.module_length * MM
+    r, ln = robot.radius * MM, robot.module_length * MM
     if mass_g is not None:
         if not (isinstance(mass_g, (int, float)) and math.isfinite(mass_g) and mass_g > 0):
             raise BhrError(f"module mass must be a positive number of grams, got {mass_g!r}")
@@ -83,9 +83,9 @@ def module_inertia(robot: Robot, mass_g: float | None = None, density: float | N
         rho = DEFAULT_DENSITY if density is None else density
         if not (isinstance(rho, (int, float)) and math.isfinite(rho) and rho > 0):
             raise BhrError(f"density must be a positive number of kg/m^3, got {rho!r}")
-        m = float(rho) * math.pi * r * r * l
-    ixx = m * (3.0 * r * r + l * l) / 12.0
-    return Inertia(m, (0.0, 0.0, l / 2.0), ixx, ixx, m * r * r / 2.0)
+        m = float(rho) * math.pi * r * r * ln
+    ixx = m * (3.0 * r * r + ln * ln) / 12.0
+    return Inertia(m, (0.0, 0.0, ln / 2.0), ixx, ixx, m * r * r / 2.0)
 
 
 def joint_names(modules: int) -> list[str]:
@@ -135,16 +135,16 @@ def to_urdf(robot: Robot, modules: int | None = None, *, mass_g: float | None = 
     n = robot.modules if modules is None else int(modules)
     if n < 1:
         raise BhrError(f"a robot needs at least one module, got {n}")
-    a, r, l, lift = math.radians(robot.alpha), robot.radius * MM, robot.module_length * MM, robot.lift * MM
+    a, r, ln, lift = math.radians(robot.alpha), robot.radius * MM, robot.module_length * MM, robot.lift * MM
     inert = module_inertia(robot, mass_g, density)
-    out = [f'<?xml version="1.0"?>',
+    out = ['<?xml version="1.0"?>',
            f"<!-- bhr robot: {n} modules of {robot.module_length:g} mm, radius {robot.radius:g} mm, "
            f"alpha {robot.alpha:g} deg, lift {robot.lift:g} mm; SI units; joints per docs/export.md -->",
            f'<robot name="{name}">',
            '  <link name="base"/>']
     for i in range(1, n + 1):
         parent = "base" if i == 1 else f"m{i - 1}"
-        z = 0.0 if i == 1 else l
+        z = 0.0 if i == 1 else ln
         out += [f'  <joint name="m{i}_tilt_x" type="revolute">',
                 f'    <parent link="{parent}"/><child link="m{i}_tx"/>',
                 f'    <origin xyz="0 0 {_f(z)}" rpy="0 0 0"/><axis xyz="1 0 0"/>',
@@ -168,14 +168,14 @@ def to_urdf(robot: Robot, modules: int | None = None, *, mass_g: float | None = 
                 f'      <inertia ixx="{_f(inert.ixx)}" ixy="0" ixz="0" iyy="{_f(inert.iyy)}" iyz="0" '
                 f'izz="{_f(inert.izz)}"/>',
                 "    </inertial>",
-                f'    <visual><origin xyz="0 0 {_f(l / 2)}" rpy="0 0 0"/>'
-                f'<geometry><cylinder radius="{_f(r)}" length="{_f(l)}"/></geometry>'
+                f'    <visual><origin xyz="0 0 {_f(ln / 2)}" rpy="0 0 0"/>'
+                f'<geometry><cylinder radius="{_f(r)}" length="{_f(ln)}"/></geometry>'
                 f'<material name="module{i % 2}"><color rgba="{_rgba(i)}"/></material></visual>',
-                f'    <collision><origin xyz="0 0 {_f(l / 2)}" rpy="0 0 0"/>'
-                f'<geometry><cylinder radius="{_f(r)}" length="{_f(l)}"/></geometry></collision>',
+                f'    <collision><origin xyz="0 0 {_f(ln / 2)}" rpy="0 0 0"/>'
+                f'<geometry><cylinder radius="{_f(r)}" length="{_f(ln)}"/></geometry></collision>',
                 "  </link>"]
     out += ['  <joint name="tip_fixed" type="fixed">',
-            f'    <parent link="m{n}"/><child link="tip"/><origin xyz="0 0 {_f(l)}" rpy="0 0 0"/>',
+            f'    <parent link="m{n}"/><child link="tip"/><origin xyz="0 0 {_f(ln)}" rpy="0 0 0"/>',
             "  </joint>",
             '  <link name="tip"/>',
             "</robot>", ""]
@@ -192,7 +192,7 @@ def mjcf_robot_body(robot: Robot, modules: int, *, mass_g: float | None = None, 
     to every module's collision capsule (contact classes, friction). ``lift=False`` leaves out the lift
     joints (a run that never lifts); ``mocap`` makes the base a MuJoCo mocap body (moved by the scene).
     """
-    a, r, l, stroke = math.radians(robot.alpha), robot.radius * MM, robot.module_length * MM, robot.lift * MM
+    a, r, ln, stroke = math.radians(robot.alpha), robot.radius * MM, robot.module_length * MM, robot.lift * MM
     inert = module_inertia(robot, mass_g, density)
     pos = " ".join(_f(v) for v in base_pos)
     quat = " ".join(_f(v) for v in base_quat)
@@ -203,17 +203,18 @@ def mjcf_robot_body(robot: Robot, modules: int, *, mass_g: float | None = None, 
     depth = 1
     for i in range(1, modules + 1):
         ind = indent + "  " * depth
-        z = 0.0 if i == 1 else l
+        z = 0.0 if i == 1 else ln
         out += [f'{ind}<body name="m{i}" pos="0 0 {_f(z)}">',
                 f'{ind}  <joint name="m{i}_tilt_x" type="hinge" axis="1 0 0" range="{_f(-a)} {_f(a)}"/>',
                 f'{ind}  <joint name="m{i}_tilt_y" type="hinge" axis="0 1 0" range="{_f(-a)} {_f(a)}"/>',
-                *([f'{ind}  <joint name="m{i}_lift" type="slide" axis="0 0 1" range="0 {_f(stroke)}"/>'] if lift else []),
+                *([f'{ind}  <joint name="m{i}_lift" type="slide" axis="0 0 1" range="0 {_f(stroke)}"/>']
+                  if lift else []),
                 f'{ind}  <inertial pos="0 0 {_f(inert.com[2])}" mass="{_f(inert.mass)}" '
                 f'diaginertia="{_f(inert.ixx)} {_f(inert.iyy)} {_f(inert.izz)}"/>',
-                f'{ind}  <geom name="m{i}" type="capsule" fromto="0 0 0 0 0 {_f(l)}" size="{_f(r)}" '
+                f'{ind}  <geom name="m{i}" type="capsule" fromto="0 0 0 0 0 {_f(ln)}" size="{_f(r)}" '
                 f'rgba="{_rgba(i)}" mass="0"{(" " + geom_attrs) if geom_attrs else ""}/>']
         if i == modules:
-            out.append(f'{ind}  <site name="tip" pos="0 0 {_f(l)}" size="{_f(r / 2)}"/>')
+            out.append(f'{ind}  <site name="tip" pos="0 0 {_f(ln)}" size="{_f(r / 2)}"/>')
         depth += 1
     for d in range(depth - 1, 0, -1):
         out.append(f"{indent}{'  ' * d}</body>")

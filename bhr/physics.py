@@ -129,7 +129,7 @@ def fk_cross_check(modules: int, sets: int = 1000, seed: int = 0, robot: Robot |
     worst = np.zeros(4)
     for _ in range(sets):
         codes = rng.choice(np.array(VALID_CODES), size=modules)
-        pts, frames = forward_kinematics(robot, codes, frame=np.eye(3))
+        pts, frames = forward_kinematics(robot, codes.tolist(), frame=np.eye(3))
         values = joint_values(codes, robot)
         pp, pf = pinocchio_points(pmodel, pinocchio_q(pmodel, values), full)
         mdata.qpos[:] = values
@@ -149,6 +149,15 @@ DEFAULT_WALL_STIFFNESS = 1.5
 #: Published force levels, N: forces above 1 kg occur 5 % of the time in colonoscopy (Appleyard et al. 2000);
 #: a porcine colon perforates at 14.1 N (Johnson et al. 2019).
 FORCE_LINES_N = (9.8, 14.1)
+
+
+def check_wall_stiffness(value: float) -> float:
+    """``value`` (N/mm) if within ten times the published range 0.7-2.4 N/mm either way; BhrError otherwise."""
+    lo, hi = WALL_STIFFNESS_RANGE[0] / 10, WALL_STIFFNESS_RANGE[1] * 10
+    if not (lo <= value <= hi):
+        raise BhrError(f"--wall-stiffness {value:g} N/mm is far outside the published 0.7-2.4 N/mm; give a value "
+                       f"between {lo:g} and {hi:g}")
+    return value
 
 
 def whole_chain(result) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -280,8 +289,7 @@ def scene_xml(result, *, wall_stiffness: float = DEFAULT_WALL_STIFFNESS, ring_sp
     """
     from bhr.export import mjcf_robot_body
 
-    if not (WALL_STIFFNESS_RANGE[0] / 10 <= wall_stiffness <= WALL_STIFFNESS_RANGE[1] * 10):
-        raise BhrError(f"wall stiffness {wall_stiffness:g} N/mm is far outside the published 0.7-2.4 N/mm")
+    check_wall_stiffness(wall_stiffness)
     tr = result.trajectory
     if tr.lumen is None:
         raise BhrError("the run's trajectory has no lumen, so there is no wall to replay against; give a run of "
@@ -294,27 +302,31 @@ def scene_xml(result, *, wall_stiffness: float = DEFAULT_WALL_STIFFNESS, ring_sp
     behind = -(roots - np.asarray(tr.points[0], dtype=np.float64)) @ (d0 / np.linalg.norm(d0))
     reach = max(0.0, float(np.max(behind))) + r.module_length  # how far behind the entrance the robot reaches
     C, dia, arc = wall_centerline(result, reach)
-    # rings every ring_spacing mm of arc
-    ring_at = np.arange(arc[0], arc[-1], ring_spacing)
+    # rings every ring_spacing mm of arc; behind the entrance, where the tube is straight, five times as
+    # long (longer boxes, the same wall), the first one ending where the entrance's ring begins
+    nb = max(0, int(math.ceil((-arc[0] - ring_spacing / 2) / (5 * ring_spacing))))
+    back = (-ring_spacing / 2 - 2.5 * ring_spacing - 5 * ring_spacing * np.arange(nb))[::-1]
+    ring_at = np.concatenate([back, np.arange(0.0, arc[-1], ring_spacing)])
+    ring_len = np.where(ring_at < 0, 5 * ring_spacing, ring_spacing)
     idx = np.clip(np.searchsorted(arc, ring_at), 1, len(C) - 1)
     dt = 1.0 / rate / substeps
     w = 2 * math.pi * servo_hz
     # wall: per ring, the boxes' spring shares the stiffness of one module length of wall
-    k_piece = float(wall_stiffness) * 1e3 * ring_spacing / r.module_length  # N/m
-    m_piece = k_piece / w ** 2  # the piece moves as fast as the servos
-    b_piece = 2 * math.sqrt(k_piece * m_piece)
+    k_unit = float(wall_stiffness) * 1e3 / r.module_length  # N/m per mm of ring length
     lines = ['<mujoco model="bhr-physics">', '  <compiler angle="radian" autolimits="true"/>',
              f'  <option timestep="{dt!r}" gravity="0 0 0" integrator="implicitfast" cone="pyramidal"/>',
-             '  <size memory="200M"/>',
+             f'  <size memory="{200 + len(ring_at) * pieces // 10}M"/>',
              # contacts far stiffer than the wall's springs (timeconst 2 dt, impedance 0.99): the springs set the force
              f'  <default><geom solref="{2 * dt!r} 1" solimp="0.99 0.99 0.001"/></default>',
              "  <worldbody>"]
     lines += mjcf_robot_body(r, M, indent="    ", lift=lift, mocap=True, base_pos=roots[0] * MM,
-                             base_quat=_quat(frames[0].T), geom_attrs='contype="2" conaffinity="1"')
-    t_prev = None
+                             base_quat=_quat(frames[0].T).tolist(), geom_attrs='contype="2" conaffinity="1"')
     u_prev = None
     half = math.pi / pieces
     for k, (s, j) in enumerate(zip(ring_at, idx)):
+        k_piece = float(k_unit * ring_len[k])
+        m_piece = k_piece / w ** 2  # the piece moves as fast as the servos
+        b_piece = 2 * math.sqrt(k_piece * m_piece)
         f = (s - arc[j - 1]) / (arc[j] - arc[j - 1])
         c = C[j - 1] + f * (C[j] - C[j - 1])
         t = C[j] - C[j - 1]
@@ -325,7 +337,7 @@ def scene_xml(result, *, wall_stiffness: float = DEFAULT_WALL_STIFFNESS, ring_sp
             u_prev = np.cross(t, ref)
         u = u_prev - np.dot(u_prev, t) * t
         u /= np.linalg.norm(u)
-        u_prev, t_prev = u, t
+        u_prev = u
         v = np.cross(t, u)
         for p in range(pieces):
             ang = 2 * math.pi * p / pieces
@@ -333,7 +345,7 @@ def scene_xml(result, *, wall_stiffness: float = DEFAULT_WALL_STIFFNESS, ring_sp
             tang = np.cross(t, n_out)  # around the ring, the box's y; t is its x
             pos = (c + (R0 + thickness / 2) * n_out) * MM
             q = _quat(np.stack([t, tang, n_out]).T)
-            hx = float(ring_spacing / 2 * 1.02)
+            hx = float(ring_len[k] / 2 * 1.02)
             hy = float(R0 * math.tan(half) * 1.02)
             lines.append(f'    <body name="w{k}_{p}" pos="{" ".join(repr(float(x)) for x in pos)}" '
                          f'quat="{" ".join(repr(float(x)) for x in q)}">'
@@ -359,8 +371,8 @@ def scene_xml(result, *, wall_stiffness: float = DEFAULT_WALL_STIFFNESS, ring_sp
         m_lin = inert.mass * (M - i + 1)
         span = (M - i + 1) * L
         for nm in names:
-            I = m_lin if nm == "lift" else I_rot
-            kp = max(I * w * w, stiff_ratio * K * (1.0 if nm == "lift" else span * span))
+            load = m_lin if nm == "lift" else I_rot
+            kp = max(load * w * w, stiff_ratio * K * (1.0 if nm == "lift" else span * span))
             lines.append(f'    <position name="s{i}_{nm}" joint="m{i}_{nm}" kp="{kp!r}" kv="{2 * kp / w!r}"/>')
     lines.append("  </actuator>")
     lines.append("</mujoco>")
@@ -459,7 +471,8 @@ def force_figure(rep: PhysicsReplay, title: str = "") -> Any:
     for ax in (a1, a2):
         ax.axhline(FORCE_LINES_N[0], color="tab:orange", ls="--", lw=1,
                    label="9.8 N: exceeded 5 % of the time in colonoscopy (Appleyard 2000)")
-        ax.axhline(FORCE_LINES_N[1], color="black", ls="--", lw=1, label="14.1 N: porcine colon perforates (Johnson 2019)")
+        ax.axhline(FORCE_LINES_N[1], color="black", ls="--", lw=1,
+                   label="14.1 N: porcine colon perforates (Johnson 2019)")
         ax.set_ylabel("force on the wall (N)")
         ax.set_ylim(0, max(16.0, float(rep.max_force_n.max(initial=0.0)) * 1.1))
         ax.grid(alpha=0.3)
@@ -472,3 +485,25 @@ def force_figure(rep: PhysicsReplay, title: str = "") -> Any:
                  f"{len(s['contact_steps'])} steps; max deviation from bhr's pose {s['max_deviation_mm']:.3f} mm",
                  fontsize=9)
     return fig
+
+
+def worst_colon_extras(run, folder: Any, physics: bool = False) -> list[str]:
+    """For ``bhr traverse``: the worst colon's 3-D view and, with ``physics``, its MuJoCo replay; the file names."""
+    from pathlib import Path
+
+    from bhr.atomic import write_json
+    from bhr.plots import save_figure
+    from bhr.view import save_view
+
+    folder = Path(folder)
+    names = []
+    contacts = None
+    if physics and run.codes is not None and run.trajectory.lumen is not None:
+        rep = replay_physics(run)
+        write_json(folder / "worst-colon-physics.json", rep.to_dict())
+        save_figure(force_figure(rep, f"{run.trajectory.name}: the worst colon replayed in MuJoCo"),
+                    folder / "worst-colon-force.png")
+        names += ["worst-colon-physics.json", "worst-colon-force.png"]
+        contacts = rep.contacts
+    names.append(save_view(run, folder, contacts=contacts, name="worst-colon-view.html").name)
+    return names

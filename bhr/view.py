@@ -79,7 +79,8 @@ def _r(a: np.ndarray) -> list[float]:
 
 
 def _contacts_by_step(result) -> list[np.ndarray]:
-    """Where the robot touches the wall at each step (bhr's geometric clearance): each touching module's deepest spot."""
+    """Where the robot touches the wall at each step (bhr's geometric clearance): each touching module's
+    deepest spot."""
     cl = result.clearance
     if cl is None or cl.module_table is None or cl.module_where is None:
         return [np.zeros((0, 3))] * result.steps
@@ -89,10 +90,12 @@ def _contacts_by_step(result) -> list[np.ndarray]:
 
 
 def view_figure(result, contacts: Sequence[np.ndarray] | None = None, title: str | None = None,
-                most: int = MAX_FRAMES) -> Any:
-    """The plotly figure of :func:`view_html` (a ``plotly.graph_objects.Figure``)."""
-    import plotly.graph_objects as go
+                most: int = MAX_FRAMES) -> dict[str, Any]:
+    """The plotly figure of :func:`view_html`, as a plain dict (data, layout, frames).
 
+    Plain dicts, not ``plotly.graph_objects``: validating hundreds of frames of hundreds of points
+    took most of the time of building a long run's view.
+    """
     tr = result.trajectory
     N = result.steps
     shown = frame_steps(N, most)
@@ -111,35 +114,36 @@ def view_figure(result, contacts: Sequence[np.ndarray] | None = None, title: str
         cl_pts = np.vstack([ext, path])
         dia = np.concatenate([np.full(len(ext), tr.lumen[0]), np.asarray(tr.lumen[:len(path)], dtype=np.float64)])
         verts, tri = tube_mesh(cl_pts, dia)
-        data.append(go.Mesh3d(x=_r(verts[:, 0]), y=_r(verts[:, 1]), z=_r(verts[:, 2]), i=tri[:, 0], j=tri[:, 1],
-                              k=tri[:, 2], color="rgb(214,120,120)", opacity=0.18, name="lumen wall",
+        data.append(dict(type="mesh3d", x=_r(verts[:, 0]), y=_r(verts[:, 1]), z=_r(verts[:, 2]),
+                         i=tri[:, 0].tolist(), j=tri[:, 1].tolist(),
+                              k=tri[:, 2].tolist(), color="rgb(214,120,120)", opacity=0.18, name="lumen wall",
                               hoverinfo="skip", showlegend=True, flatshading=True))
-    data.append(go.Scatter3d(x=_r(path[:, 0]), y=_r(path[:, 1]), z=_r(path[:, 2]), mode="lines",
+    data.append(dict(type="scatter3d", x=_r(path[:, 0]), y=_r(path[:, 1]), z=_r(path[:, 2]), mode="lines",
                              line=dict(color="gray", width=2, dash="dot"), name="centerline", hoverinfo="skip"))
     allc = np.vstack([c for c in per_step if len(c)]) if any(len(c) for c in per_step) else np.zeros((0, 3))
     if len(allc) > MAX_CONTACTS:  # a sample spread over the run keeps the page light
         allc = allc[np.linspace(0, len(allc) - 1, MAX_CONTACTS).astype(np.int64)]
-    data.append(go.Scatter3d(x=_r(allc[:, 0]), y=_r(allc[:, 1]), z=_r(allc[:, 2]), mode="markers",
+    data.append(dict(type="scatter3d", x=_r(allc[:, 0]), y=_r(allc[:, 1]), z=_r(allc[:, 2]), mode="markers",
                              marker=dict(size=2, color="rgba(220,40,40,0.35)"), name="contacts (all steps)",
                              hoverinfo="skip"))
     i_robot, i_contact = len(data), len(data) + 1
 
-    def robot_trace(k: int) -> Any:
+    def robot_trace(k: int) -> dict[str, Any]:
         p = robots[k]
         n_head = result.modules + 1
         colors = ["rgb(40,90,200)"] * (len(p) - n_head) + ["rgb(230,140,20)"] * n_head
-        return go.Scatter3d(x=_r(p[:, 0]), y=_r(p[:, 1]), z=_r(p[:, 2]), mode="lines+markers",
+        return dict(type="scatter3d", x=_r(p[:, 0]), y=_r(p[:, 1]), z=_r(p[:, 2]), mode="lines+markers",
                             line=dict(color="rgb(40,90,200)", width=6), marker=dict(size=3, color=colors),
                             name="robot (head orange)")
 
-    def contact_trace(k: int) -> Any:
+    def contact_trace(k: int) -> dict[str, Any]:
         c = per_step[shown[k]]
-        return go.Scatter3d(x=_r(c[:, 0]), y=_r(c[:, 1]), z=_r(c[:, 2]), mode="markers",
+        return dict(type="scatter3d", x=_r(c[:, 0]), y=_r(c[:, 1]), z=_r(c[:, 2]), mode="markers",
                             marker=dict(size=6, color="red", symbol="diamond"), name="contact at this step")
 
     last = len(shown) - 1
     data += [robot_trace(last), contact_trace(last)]
-    frames = [go.Frame(name=str(s + 1), data=[robot_trace(k), contact_trace(k)], traces=[i_robot, i_contact])
+    frames = [dict(name=str(s + 1), data=[robot_trace(k), contact_trace(k)], traces=[i_robot, i_contact])
               for k, s in enumerate(shown)]
     slider = dict(active=last, currentvalue=dict(prefix="step "), pad=dict(t=40),
                   steps=[dict(method="animate", label=str(s + 1),
@@ -152,12 +156,11 @@ def view_figure(result, contacts: Sequence[np.ndarray] | None = None, title: str
                          dict(label="pause", method="animate",
                               args=[[None], dict(mode="immediate", frame=dict(duration=0, redraw=False))])])
     name = title or f"{tr.name}: {result.solver} solver, {len(robots[0]) - 1} modules, {N} steps"
-    fig = go.Figure(data=data, frames=frames)
-    fig.update_layout(title=name, sliders=[slider], updatemenus=[play], margin=dict(l=0, r=0, t=40, b=0),
-                      scene=dict(aspectmode="data", xaxis_title="x (mm)", yaxis_title="y (mm)",
-                                 zaxis_title="z (mm)"),
-                      legend=dict(x=0.0, y=1.0), uirevision="keep")
-    return fig
+    layout = dict(title=dict(text=name), sliders=[slider], updatemenus=[play], margin=dict(l=0, r=0, t=40, b=0),
+                  scene=dict(aspectmode="data", xaxis=dict(title=dict(text="x (mm)")),
+                             yaxis=dict(title=dict(text="y (mm)")), zaxis=dict(title=dict(text="z (mm)"))),
+                  legend=dict(x=0.0, y=1.0), uirevision="keep")
+    return dict(data=data, layout=layout, frames=frames)
 
 
 def view_html(result, contacts: Sequence[np.ndarray] | None = None, title: str | None = None) -> str:
@@ -166,9 +169,11 @@ def view_html(result, contacts: Sequence[np.ndarray] | None = None, title: str |
     ``contacts``: per step, the points (K, 3) to mark as contacts (default: where bhr's
     geometric clearance finds the robot touching the wall).
     """
+    import plotly.io as pio
+
     fig = view_figure(result, contacts, title)
-    html = fig.to_html(include_plotlyjs=True, full_html=True, auto_play=False, div_id="bhr-view",
-                       config=dict(displaylogo=False, responsive=True))
+    html = pio.to_html(fig, validate=False, include_plotlyjs=True, full_html=True, auto_play=False,
+                       div_id="bhr-view", config=dict(displaylogo=False, responsive=True))
     return str(html)
 
 
