@@ -6,23 +6,16 @@ from pathlib import Path
 import click
 
 from bhr.cli._common import guarded
-from bhr.cli._options import _click_option
-from bhr.options import by_group
+from bhr.cli._options import physics_options
 
 #: What bhr physics writes into its folder.
 PHYSICS_NAMES = ("physics.json", "force.png", "view.html", "manifest.json")
 
 
-def _physics_options(f):
-    for o in reversed(by_group("physics")):
-        f = _click_option(o)(f)
-    return f
-
-
 @click.command()
 @click.argument("run", metavar="RUN.json")
 @click.option("--out", "out_dir", required=True, metavar="DIR", help="Folder for physics.json, force.png, view.html.")
-@_physics_options
+@physics_options
 @guarded
 def physics(run, out_dir, wall_stiffness, physics_rate, substeps):
     """Replay a run (run.json of `bhr follow`, with a lumen and codes) in MuJoCo against the colon wall.
