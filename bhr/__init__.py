@@ -27,17 +27,20 @@ if TYPE_CHECKING:  # what the lazy names below are, for type checkers
     from bhr.model.generators import trajectory as trajectory
     from bhr.model.path import Trajectory as Trajectory
     from bhr.model.robot import Robot as Robot
+    from bhr.model.export import joint_values as joint_values
     from bhr.solvers import Solver as Solver
     from bhr.solvers import solve as solve
 
 __version__ = "0.1.0"
 
-__all__ = ["BhrError", "LinkError", "Robot", "Solver", "Trajectory", "follow", "trajectory", "solve", "__version__"]
+__all__ = ["BhrError", "LinkError", "Robot", "Solver", "Trajectory", "follow", "trajectory", "solve", "joint_values",
+           "__version__"]
 
 #: The lazy re-exports: name -> (module, attribute).
 _LAZY = {"follow": ("bhr.run.driver", "follow"), "trajectory": ("bhr.model.generators", "trajectory"),
          "solve": ("bhr.solvers", "solve"), "Robot": ("bhr.model.robot", "Robot"),
-         "Trajectory": ("bhr.model.path", "Trajectory"), "Solver": ("bhr.solvers", "Solver")}
+         "Trajectory": ("bhr.model.path", "Trajectory"), "Solver": ("bhr.solvers", "Solver"),
+         "joint_values": ("bhr.model.export", "joint_values")}
 
 
 def __getattr__(name: str) -> Any:  # PEP 562: lazy re-exports keep `import bhr` cheap

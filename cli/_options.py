@@ -145,6 +145,11 @@ def run_options(f: Any) -> Any:
     return stack_options(*[_click_option(o) for o in by_group("run")])(f)
 
 
+def physics_options(f: Any) -> Any:
+    """The physics replay's options (--wall-stiffness, --rate, --substeps), from :mod:`bhr.settings.options`."""
+    return stack_options(*[_click_option(o) for o in by_group("physics")])(f)
+
+
 def trajectory_options(f: Any) -> Any:
     """The generators' parameters (--length, --radius, ...)."""
     return stack_options(*[_click_option(o) for o in by_group("trajectory")])(f)

@@ -237,6 +237,10 @@ def follow(traj, solver, out_dir, json_path, no_plots, **kwargs):
 
                 with status(f"drawing the figures into {out}"):
                     written += [folder.final(p.name) for p in save_run_plots(result, folder.stage)]
+                from bhr.output.view import save_view
+
+                with status("writing the 3-D view"):
+                    written.append(folder.final(save_view(result, folder.stage).name))
             if anim_inside is not None:  # an animation inside the folder belongs to its set
                 render_animation(result, str(folder.path(anim_inside)), stride, folder.final(anim_inside))
             if json_path not in (None, "-") and json_inside is None:
@@ -277,7 +281,7 @@ def follow(traj, solver, out_dir, json_path, no_plots, **kwargs):
 
 
 #: What bhr follow writes into its folder (an existing folder holding only such files may be replaced).
-FOLLOW_NAMES = ("run.json", "codes.csv", "*.png", "manifest.json")
+FOLLOW_NAMES = ("run.json", "codes.csv", "*.png", "view.html", "manifest.json")
 
 
 def follow_streaming(tr, solver, robot, solver_options, body_modules, rate, link_kw, schedule="auto", at_end="stop"):

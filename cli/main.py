@@ -20,6 +20,8 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "report": ("bhr.cli.report:report", "Run a batch file of follow runs; write an HTML report, CSV and JSON."),
     "sweep": ("bhr.cli.sweep:sweep", "Sweep robot designs over trajectories, locally or on a Dask cluster."),
     "traverse": ("bhr.cli.traverse:traverse", "Which robot designs get through a population of anatomical colons."),
+    "export": ("bhr.cli.export:export", "Write the robot as a URDF or MJCF model (pinocchio, MuJoCo)."),
+    "physics": ("bhr.cli.physics:physics", "Replay a run in MuJoCo against the colon wall: contact forces."),
 }
 
 # commands that run compiled kernels (the first run on a machine compiles them)

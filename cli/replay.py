@@ -95,7 +95,7 @@ def replay(run, show, animate_path, stride, out_dir, step):
         if same and not (out / MANIFEST).is_file():
             check_writable(out / path_name, "output folder")  # a loose run.json: figures written beside it
         else:
-            folder = OutputFolder(out, "replay", names=("*.png", "run.json", "codes.csv", "manifest.json"),
+            folder = OutputFolder(out, "replay", names=("*.png", "view.html", "run.json", "codes.csv", "manifest.json"),
                                   keep=same).check()
     check_view_options(show, animate_path)
     result = load_run(run)
@@ -118,11 +118,17 @@ def replay(run, show, animate_path, stride, out_dir, step):
             if folder is None:  # a loose run.json: the figures are written beside it, each whole
                 for name, draw in figures:
                     written.append(save_figure(draw(), out / name))
+                from bhr.output.view import save_view
+
+                written.append(save_view(result, out))
             else:
                 with folder:
                     for name, draw in figures:
                         save_figure(draw(), folder.path(name))
                         written.append(folder.final(name))
+                    from bhr.output.view import save_view
+
+                    written.append(folder.final(save_view(result, folder.stage).name))
     if animate_path:
         render_animation(result, animate_path, stride)  # prints its own line
     if written:

@@ -31,8 +31,11 @@ OUTPUTS = ("designs.csv", "runs.csv", "study.json", "passrate.png", "worst-colon
 @click.option("--y", "hy", default=None, metavar="KEY", help="Heat-map rows [the next one].")
 @click.option("--no-plots", "no_plot", is_flag=True, help="Skip the figures (passrate.png, worst-colon.png).")
 @click.option("--title", default=None, help="Title of the heat-map and page.")
+@click.option("--physics", is_flag=True, help="Replay the answer's worst colon in MuJoCo (worst-colon-physics.json, "
+              "worst-colon-force.png; docs/physics.md).")
 @guarded
-def traverse(grid, colons, solvers, target_pass, robot_file, out_dir, jobs, scheduler, hx, hy, no_plot, title):
+def traverse(grid, colons, solvers, target_pass, robot_file, out_dir, jobs, scheduler, hx, hy, no_plot, title,
+             physics):
     """Follow a population of anatomical colons with every design of a grid.
 
     A colon is traversed when the robot touches its wall at no step. Prints,
@@ -80,7 +83,7 @@ def traverse(grid, colons, solvers, target_pass, robot_file, out_dir, jobs, sche
     finally:
         if client is not None:
             client.close()
-    files = write_study(result, out, plot=not no_plot, x=hx, y=hy)
+    files = write_study(result, out, plot=not no_plot, x=hx, y=hy, physics=physics)
     for line in format_study(result):
         click.echo(line)
     click.echo("Wrote " + ", ".join(str(p) for p in files))

@@ -56,6 +56,7 @@ _LAYER = {
     "test_firmware_host.py": "integration", "test_firmware_sim.py": "integration",
     "test_firmware_thermal.py": "integration", "test_link.py": "integration",
     "test_liveview.py": "integration", "test_report_browser.py": "integration",
+    "test_view_browser.py": "integration", "test_physics_replay.py": "integration",
 }
 _INTEGRATION_FIXTURES = {"dask_cluster"}
 

@@ -140,7 +140,8 @@ def test_replay_reads_standard_input_and_draws_a_chosen_step(tmp_path, curve_run
                          capture_output=True, text=True, timeout=300, env=dict(os.environ, MPLBACKEND="Agg"))
     assert res.returncode == 0, res.stderr
     assert sorted(p.name for p in (tmp_path / "figs").iterdir()) == [
-        "global_errors.png", "manifest.json", "orientation_errors.png", "path-step40.png", "position_errors.png"]
+        "global_errors.png", "manifest.json", "orientation_errors.png", "path-step40.png", "position_errors.png",
+        "view.html"]
     from bhr.output.plots import path_figure
 
     img = np.asarray(Image.open(tmp_path / "figs" / "path-step40.png").convert("RGB"))

@@ -46,7 +46,9 @@ LINK_KEYS = ("port", "baudrate", "module_order", "on_max_ms", "cooldown_ms", "si
 #: File key -> Robot field where they differ: ``robot_radius`` is the disc radius in robot files, batch
 #: and sweep files and on the command line (``--robot-radius``); ``radius``, its old name here, is accepted.
 KEY_ALIASES = {"robot_radius": "radius"}
-TOP_KEYS = ("name", "description", "robot_radius", *ROBOT_KEYS, "codes", "link", "thermal")
+TOP_KEYS = ("name", "description", "robot_radius", *ROBOT_KEYS, "codes", "link", "thermal", "mass")
+#: Keys of the ``[mass]`` table (docs/export.md): one module's mass in grams, or its density in kg/m^3.
+MASS_KEYS = ("module_mass", "density")
 #: Limits the firmware accepts for its timing settings (firmware/src/config.h), ms.
 TIMING_RANGE = (10, 60000)
 #: Modules one board drives at most (firmware/src/config.h).
@@ -133,6 +135,8 @@ class RobotFile:
     description: str = ""
     path: Path | None = None
     thermal: ThermalParams = DEFAULT_THERMAL
+    #: The ``[mass]`` table (docs/export.md): ``module_mass`` (g) and/or ``density`` (kg/m^3), as given.
+    mass: dict[str, float] = field(default_factory=dict)
 
 
 def default_robot_file() -> Path:
@@ -305,4 +309,10 @@ def load_robot_file(path: str | os.PathLike[str]) -> RobotFile:
     else:
         link = LinkSettings(module_order=tuple(range(1, robot.modules + 1)))
     thermal = thermal_from_table(data["thermal"], f"{where}: thermal") if "thermal" in data else DEFAULT_THERMAL
-    return RobotFile(robot, link, codes, name, description, p, thermal)
+    mass: dict[str, float] = {}
+    if "mass" in data:
+        if not isinstance(data["mass"], dict):
+            raise BhrError(f"{where}: mass must be a table ([mass]) with module_mass (g) or density (kg/m^3)")
+        check_keys(data["mass"], MASS_KEYS, f"{where}: mass")
+        mass = {k: float(number(v, f"{where}: mass.{k}", positive=True, maximum=1e6)) for k, v in data["mass"].items()}
+    return RobotFile(robot, link, codes, name, description, p, thermal, mass)

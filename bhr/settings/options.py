@@ -191,6 +191,12 @@ OPTIONS: tuple[Option, ...] = (
     Option("locomotion", _RUN, str, "How the robot moves: thesis (the thesis's model, the head solved every step) "
            "or trail (exact follow-the-leader, every module along the trail the tip lays; docs/locomotion.md)",
            "thesis", choices=("thesis", "trail")),
+    # the physics replay (bhr.studies.physics, docs/physics.md)
+    Option("wall_stiffness", "physics", float, "Colon wall stiffness per module length of wall, N/mm (published "
+           "0.7-2.4)", 1.5, "N/mm", 24.0, positive=True, metavar="N/MM"),
+    Option("physics_rate", "physics", float, "Steps per second of the replay (the servos settle within a step)",
+           20.0, "Hz", 1000.0, positive=True, cli="rate", metavar="HZ"),
+    Option("substeps", "physics", int, "MuJoCo time steps per run step", 16, maximum=1000, positive=True),
 )
 
 BY_NAME: dict[str, Option] = {o.name: o for o in OPTIONS}

@@ -266,6 +266,9 @@ def execute_run(spec: RunSpec, out_dir: str | os.PathLike[str] | None = None, pl
                 from bhr.output.plots import save_run_plots
 
                 row["figures"] = [p.name for p in save_run_plots(result, out)]
+                from bhr.output.view import save_view
+
+                row["view"] = save_view(result, out).name
     row["wall_time_s"] = time.perf_counter() - t0
     return row
 
@@ -335,7 +338,7 @@ def csv_text(rows: Sequence[dict[str, Any]], fields: Sequence[str] = ROW_FIELDS)
 
 def _json_row(row: dict[str, Any]) -> dict[str, Any]:
     keep = list(ROW_FIELDS) + ["clearance", "description", "inputs", "trajectory", "robot", "folder", "figures",
-                               "stats"]
+                               "view", "stats"]
     return {k: row.get(k) for k in keep if k in row}
 
 
@@ -476,6 +479,8 @@ def _run_section(row: dict[str, Any], anchor: str, out_dir: Path, inline: bool) 
             caption = escape(cap) + (f" (thesis {escape(ref)})" if ref else "")
             out.append(figure(rel, f"{cap} - {row['name']}", caption, folder=out_dir, inline=inline))
         out.append("</div>\n")
+    if row.get("view"):
+        out.append(f"<p><a href=\"{escape(row['folder'])}/{escape(row['view'])}\">Interactive 3-D view</a></p>\n")
     if row.get("stats"):
         out.append("<details><summary>Errors per point and module</summary>\n")
         out.append(_stats_table(row["stats"]))

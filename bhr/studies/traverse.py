@@ -474,6 +474,7 @@ def _html(result: StudyResult, heat: str | None, worst: str | None, worst_design
                             "at each step of the design's worst colon (the largest max_penetration_mm, then the least "
                             "clearance), against the tip's distance from the anus; red: how deep it is in the wall; "
                             "grey bands: the colon's sections"))
+        parts.append('<p><a href="worst-colon-view.html">The worst colon in 3-D</a> (view.html)</p>\n')
 
     def cell(d: dict[str, Any], c: str) -> tuple[str, str]:
         if c == "pass_rate":
@@ -491,7 +492,7 @@ def _html(result: StudyResult, heat: str | None, worst: str | None, worst_design
 
 
 def write_study(result: StudyResult, out_dir: str | os.PathLike[str], *, plot: bool = True,
-                x: str | None = None, y: str | None = None) -> list[Path]:
+                x: str | None = None, y: str | None = None, physics: bool = False) -> list[Path]:
     """Write designs.csv, runs.csv, study.json, passrate.png and worst-colon.png (``plot``), index.html.
 
     The files are made in a staging folder beside ``out_dir`` and moved in
@@ -520,10 +521,13 @@ def write_study(result: StudyResult, out_dir: str | os.PathLike[str], *, plot: b
             heat = "passrate.png"
             names.append(heat)
             if focus.get("worst_colon") is not None:
-                save_figure(penetration_figure(result, focus, worst_colon_run(result, focus)),
-                            stage / "worst-colon.png")
+                worst_run = worst_colon_run(result, focus)
+                save_figure(penetration_figure(result, focus, worst_run), stage / "worst-colon.png")
                 worst = "worst-colon.png"
                 names.append(worst)
+                from bhr.studies.physics import worst_colon_extras  # the 3-D view; with physics, the MuJoCo replay
+
+                names += worst_colon_extras(worst_run, stage, physics)
         write_json(stage / "study.json", {
             "title": study.sweep.title,
             "bhr_version": __version__,

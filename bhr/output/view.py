@@ -1,0 +1,187 @@
+"""view.html: an interactive 3-D view of a run (the lumen as a tube, the whole robot at every step, contacts).
+
+One self-contained HTML file built with plotly (plotly.js embedded, so it works
+offline): a step slider and a play button move the whole robot (body and head)
+along the path; the lumen wall is drawn as a translucent tube from the
+centerline and its diameter; where the robot touches the wall (bhr's geometric
+clearance, or the contacts of a physics replay) is marked in red. plotly is
+imported only here, when a view is built.
+"""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any, Sequence
+
+import numpy as np
+
+from bhr.run.body import whole_robot
+
+__all__ = ["VIEW_NAME", "MAX_FRAMES", "view_figure", "view_html", "save_view", "tube_mesh", "frame_steps"]
+
+#: File name of the view in an output folder.
+VIEW_NAME = "view.html"
+#: Slider positions at most (longer runs show every k-th step, the last always).
+MAX_FRAMES = 150
+#: Contact marks of all steps drawn at most.
+MAX_CONTACTS = 1000
+_RING = 12  # vertices around the tube
+
+
+def frame_steps(steps: int, most: int = MAX_FRAMES) -> list[int]:
+    """0-based steps shown: every k-th so that at most ``most`` are, and the last step always."""
+    k = max(1, math.ceil(steps / most))
+    out = list(range(0, steps, k))
+    if out[-1] != steps - 1:
+        out.append(steps - 1)
+    return out
+
+
+def tube_mesh(points: np.ndarray, diameter: np.ndarray, ring: int = _RING, spacing: float = 4.0
+              ) -> tuple[np.ndarray, np.ndarray]:
+    """Vertices (K, 3) and triangles (T, 3) of a tube around ``points`` with the given diameters (mm).
+
+    Rings every ``spacing`` mm of centerline (the ends always), each perpendicular to the local
+    direction, with a frame carried along the centerline by parallel transport (no twist).
+    """
+    P = np.asarray(points, dtype=np.float64)
+    D = np.asarray(diameter, dtype=np.float64)
+    seg = np.linalg.norm(np.diff(P, axis=0), axis=1)
+    s = np.concatenate([[0.0], np.cumsum(seg)])
+    keep = [0]
+    for i in range(1, len(P)):
+        if s[i] - s[keep[-1]] >= spacing or i == len(P) - 1:
+            keep.append(i)
+    P, D = P[keep], D[keep]
+    t = np.gradient(P, axis=0)
+    t /= np.linalg.norm(t, axis=1)[:, None]
+    ref = np.array([0.0, 0.0, 1.0]) if abs(t[0, 2]) < 0.9 else np.array([1.0, 0.0, 0.0])
+    u = np.cross(t[0], ref)
+    u /= np.linalg.norm(u)
+    verts = np.empty((len(P), ring, 3))
+    ang = np.linspace(0.0, 2.0 * math.pi, ring, endpoint=False)
+    for i in range(len(P)):
+        u = u - np.dot(u, t[i]) * t[i]
+        u /= np.linalg.norm(u)
+        v = np.cross(t[i], u)
+        verts[i] = P[i] + (D[i] / 2.0) * (np.cos(ang)[:, None] * u + np.sin(ang)[:, None] * v)
+    tri = []
+    for i in range(len(P) - 1):
+        for j in range(ring):
+            a, b = i * ring + j, i * ring + (j + 1) % ring
+            c, d = a + ring, b + ring
+            tri += [(a, b, c), (b, d, c)]
+    return verts.reshape(-1, 3), np.array(tri, dtype=np.int64)
+
+
+def _r(a: np.ndarray) -> list[float]:
+    return np.round(np.asarray(a, dtype=np.float64), 1).tolist()
+
+
+def _contacts_by_step(result) -> list[np.ndarray]:
+    """Where the robot touches the wall at each step (bhr's geometric clearance): each touching module's
+    deepest spot."""
+    cl = result.clearance
+    if cl is None or cl.module_table is None or cl.module_where is None:
+        return [np.zeros((0, 3))] * result.steps
+    with np.errstate(invalid="ignore"):
+        hit = cl.module_table <= 0.0
+    return [cl.module_where[i][hit[i]] for i in range(result.steps)]
+
+
+def view_figure(result, contacts: Sequence[np.ndarray] | None = None, title: str | None = None,
+                most: int = MAX_FRAMES) -> dict[str, Any]:
+    """The plotly figure of :func:`view_html`, as a plain dict (data, layout, frames).
+
+    Plain dicts, not ``plotly.graph_objects``: validating hundreds of frames of hundreds of points
+    took most of the time of building a long run's view.
+    """
+    tr = result.trajectory
+    N = result.steps
+    shown = frame_steps(N, most)
+    per_step = _contacts_by_step(result) if contacts is None else [np.asarray(c).reshape(-1, 3) for c in contacts]
+    robots = [whole_robot(result, i) for i in shown]
+    path = np.asarray(tr.points, dtype=np.float64)
+    data: list[Any] = []
+    if tr.lumen is not None:
+        # the tube as bhr's clearance sees it: the centerline, continued straight behind the entrance
+        # as far as the robot reaches back
+        reach = max(float(np.linalg.norm(rb[0] - path[0])) for rb in robots[:1]) if robots else 0.0
+        d0 = np.asarray(tr.start_direction, dtype=np.float64)
+        d0 /= np.linalg.norm(d0)
+        back = np.arange(math.ceil(reach / 4.0) + 1, 0, -1)[:, None] * 4.0
+        ext = path[0] - back * d0
+        cl_pts = np.vstack([ext, path])
+        dia = np.concatenate([np.full(len(ext), tr.lumen[0]), np.asarray(tr.lumen[:len(path)], dtype=np.float64)])
+        verts, tri = tube_mesh(cl_pts, dia)
+        data.append(dict(type="mesh3d", x=_r(verts[:, 0]), y=_r(verts[:, 1]), z=_r(verts[:, 2]),
+                         i=tri[:, 0].tolist(), j=tri[:, 1].tolist(),
+                              k=tri[:, 2].tolist(), color="rgb(214,120,120)", opacity=0.18, name="lumen wall",
+                              hoverinfo="skip", showlegend=True, flatshading=True))
+    data.append(dict(type="scatter3d", x=_r(path[:, 0]), y=_r(path[:, 1]), z=_r(path[:, 2]), mode="lines",
+                             line=dict(color="gray", width=2, dash="dot"), name="centerline", hoverinfo="skip"))
+    allc = np.vstack([c for c in per_step if len(c)]) if any(len(c) for c in per_step) else np.zeros((0, 3))
+    if len(allc) > MAX_CONTACTS:  # a sample spread over the run keeps the page light
+        allc = allc[np.linspace(0, len(allc) - 1, MAX_CONTACTS).astype(np.int64)]
+    data.append(dict(type="scatter3d", x=_r(allc[:, 0]), y=_r(allc[:, 1]), z=_r(allc[:, 2]), mode="markers",
+                             marker=dict(size=2, color="rgba(220,40,40,0.35)"), name="contacts (all steps)",
+                             hoverinfo="skip"))
+    i_robot, i_contact = len(data), len(data) + 1
+
+    def robot_trace(k: int) -> dict[str, Any]:
+        p = robots[k]
+        n_head = result.modules + 1
+        colors = ["rgb(40,90,200)"] * (len(p) - n_head) + ["rgb(230,140,20)"] * n_head
+        return dict(type="scatter3d", x=_r(p[:, 0]), y=_r(p[:, 1]), z=_r(p[:, 2]), mode="lines+markers",
+                            line=dict(color="rgb(40,90,200)", width=6), marker=dict(size=3, color=colors),
+                            name="robot (head orange)")
+
+    def contact_trace(k: int) -> dict[str, Any]:
+        c = per_step[shown[k]]
+        return dict(type="scatter3d", x=_r(c[:, 0]), y=_r(c[:, 1]), z=_r(c[:, 2]), mode="markers",
+                            marker=dict(size=6, color="red", symbol="diamond"), name="contact at this step")
+
+    last = len(shown) - 1
+    data += [robot_trace(last), contact_trace(last)]
+    frames = [dict(name=str(s + 1), data=[robot_trace(k), contact_trace(k)], traces=[i_robot, i_contact])
+              for k, s in enumerate(shown)]
+    slider = dict(active=last, currentvalue=dict(prefix="step "), pad=dict(t=40),
+                  steps=[dict(method="animate", label=str(s + 1),
+                              args=[[str(s + 1)], dict(mode="immediate", frame=dict(duration=0, redraw=True),
+                                                       transition=dict(duration=0))]) for s in shown])
+    play = dict(type="buttons", showactive=False, x=0.0, y=0.0, xanchor="right", yanchor="top", pad=dict(t=40, r=10),
+                buttons=[dict(label="play", method="animate",
+                              args=[None, dict(frame=dict(duration=60, redraw=True), fromcurrent=True,
+                                               transition=dict(duration=0))]),
+                         dict(label="pause", method="animate",
+                              args=[[None], dict(mode="immediate", frame=dict(duration=0, redraw=False))])])
+    name = title or f"{tr.name}: {result.solver} solver, {len(robots[0]) - 1} modules, {N} steps"
+    layout = dict(title=dict(text=name), sliders=[slider], updatemenus=[play], margin=dict(l=0, r=0, t=40, b=0),
+                  scene=dict(aspectmode="data", xaxis=dict(title=dict(text="x (mm)")),
+                             yaxis=dict(title=dict(text="y (mm)")), zaxis=dict(title=dict(text="z (mm)"))),
+                  legend=dict(x=0.0, y=1.0), uirevision="keep")
+    return dict(data=data, layout=layout, frames=frames)
+
+
+def view_html(result, contacts: Sequence[np.ndarray] | None = None, title: str | None = None) -> str:
+    """The view of ``result`` (a :class:`bhr.run.driver.FollowResult`) as one self-contained HTML page.
+
+    ``contacts``: per step, the points (K, 3) to mark as contacts (default: where bhr's
+    geometric clearance finds the robot touching the wall).
+    """
+    import plotly.io as pio
+
+    fig = view_figure(result, contacts, title)
+    html = pio.to_html(fig, validate=False, include_plotlyjs=True, full_html=True, auto_play=False,
+                       div_id="bhr-view", config=dict(displaylogo=False, responsive=True))
+    return str(html)
+
+
+def save_view(result, folder: str | Path, contacts: Sequence[np.ndarray] | None = None,
+              name: str = VIEW_NAME) -> Path:
+    """Write :func:`view_html` into ``folder`` as ``name``; return its path."""
+    from bhr.output.atomic import write_text
+
+    path = Path(folder) / name
+    write_text(path, view_html(result, contacts))
+    return path

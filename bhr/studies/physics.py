@@ -1,0 +1,509 @@
+"""bhr robots in pinocchio and MuJoCo: the exported models cross-checked, a run replayed against the colon wall.
+
+Needs the ``physics`` extra (``pip install 'bhr[physics]'``: pinocchio and
+MuJoCo); both are imported only inside the functions here, so ``import bhr``
+never loads them. docs/export.md and docs/physics.md describe what is computed.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from bhr.settings.errors import BhrError
+from bhr.model.export import MM, joint_names, joint_values, to_mjcf, to_urdf
+from bhr.model.robot import Robot, forward_kinematics
+
+__all__ = ["FkAgreement", "fk_cross_check", "pinocchio_model", "pinocchio_points", "mujoco_model",
+           "mujoco_points", "require", "whole_chain", "start_direction", "PhysicsReplay", "replay_physics",
+           "scene_xml", "WALL_STIFFNESS_RANGE", "DEFAULT_WALL_STIFFNESS", "FORCE_LINES_N"]
+
+
+def require(module: str) -> Any:
+    """Import ``pinocchio`` or ``mujoco``; a BhrError naming the extra to install when it is missing."""
+    import importlib
+
+    try:
+        return importlib.import_module(module)
+    except ImportError:
+        raise BhrError(f"{module} is not installed; install the physics extra: pip install 'bhr[physics]'") from None
+
+
+def pinocchio_model(robot: Robot, modules: int | None = None) -> Any:
+    """The exported URDF loaded by pinocchio (a ``pinocchio.Model``)."""
+    pin = require("pinocchio")
+    return pin.buildModelFromXML(to_urdf(robot, modules))
+
+
+def pinocchio_points(model: Any, q: np.ndarray, full: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    """Module points (n+1, 3) in mm and module frames (n, 3, 3, rows x y z) of a pinocchio model at ``q``.
+
+    The points are the frames ``m<i>_ty`` (the module's rear joint) and ``tip``. With ``full``, pinocchio's
+    own ``framesForwardKinematics`` on a ``pinocchio.Data``; otherwise the same composition
+    (``oMi = oMi[parent] * jointPlacement * joint.calc(q)``, pinocchio's joint models and SE(3)
+    algebra) without a ``Data``: pinocchio 3's ``Data`` allocates second-order derivative tensors
+    of nv^3 entries (900 joints: 5.8 GB each), too much for a long robot.
+    """
+    pin = require("pinocchio")
+    names = [n for n in model.names]
+    n = (len(names) - 1) // 3
+    if full:
+        data = model.createData()
+        pin.framesForwardKinematics(model, data, q)
+        oMf = [data.oMf[model.getFrameId(f"m{i}_ty")] for i in range(1, n + 1)] + [data.oMf[model.getFrameId("tip")]]
+    else:
+        oMi = [pin.SE3.Identity()]
+        for j in range(1, model.njoints):
+            jm = model.joints[j]
+            jd = jm.createData()
+            jm.calc(jd, q)
+            oMi.append(oMi[model.parents[j]] * model.jointPlacements[j] * jd.M)
+        oMf = []
+        for name in [f"m{i}_ty" for i in range(1, n + 1)] + ["tip"]:
+            fr = model.frames[model.getFrameId(name)]
+            oMf.append(oMi[fr.parentJoint] * fr.placement)
+    pts = np.array([m.translation for m in oMf]) / MM
+    frames = np.array([m.rotation.T for m in oMf[:-1]])
+    return pts, frames
+
+
+def pinocchio_q(model: Any, values: np.ndarray) -> np.ndarray:
+    """A pinocchio configuration from joint values in :func:`bhr.model.export.joint_names` order (by joint name)."""
+    q = np.zeros(model.nq)
+    n = len(values) // 3
+    for name, v in zip(joint_names(n), values):
+        q[model.joints[model.getJointId(name)].idx_q] = v
+    return q
+
+
+def mujoco_model(robot: Robot, modules: int | None = None) -> Any:
+    """The exported MJCF loaded by MuJoCo (a ``mujoco.MjModel``)."""
+    mujoco = require("mujoco")
+    return mujoco.MjModel.from_xml_string(to_mjcf(robot, modules))
+
+
+def mujoco_points(model: Any, data: Any, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Module points (n+1, 3) in mm (the tilt_x joints' anchors and the ``tip`` site) and module frames."""
+    import mujoco
+
+    jx = [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, f"m{i}_tilt_x") for i in range(1, n + 1)]
+    bodies = [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, f"m{i}") for i in range(1, n + 1)]
+    tip = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, "tip")
+    pts = np.vstack([data.xanchor[jx], data.site_xpos[tip][None]]) / MM
+    frames = data.xmat[bodies].reshape(n, 3, 3).transpose(0, 2, 1)
+    return pts, frames
+
+
+@dataclass(frozen=True)
+class FkAgreement:
+    """The largest differences between bhr's forward kinematics and an engine's over random code sets."""
+
+    modules: int
+    sets: int
+    pinocchio_mm: float  # largest point difference, mm
+    mujoco_mm: float
+    pinocchio_frame: float  # largest difference of a frame matrix entry
+    mujoco_frame: float
+
+
+def fk_cross_check(modules: int, sets: int = 1000, seed: int = 0, robot: Robot | None = None,
+                   full_pinocchio: bool | None = None) -> FkAgreement:
+    """Export a robot of ``modules`` modules, load it in pinocchio and MuJoCo, and compare every module
+    point and frame with bhr's forward kinematics for ``sets`` random code sets (every code equally likely).
+
+    bhr's chain is computed from the base frame (identity: the exported ``base`` link). ``full_pinocchio``:
+    use pinocchio's ``framesForwardKinematics`` (default up to 60 modules; see :func:`pinocchio_points`).
+    """
+    import mujoco
+
+    from bhr.model.codes import VALID_CODES
+
+    robot = Robot(modules=modules) if robot is None else robot.replace(modules=modules)
+    full = modules <= 60 if full_pinocchio is None else full_pinocchio
+    pmodel = pinocchio_model(robot)
+    mmodel = mujoco_model(robot)
+    mdata = mujoco.MjData(mmodel)
+    rng = np.random.default_rng(seed)
+    worst = np.zeros(4)
+    for _ in range(sets):
+        codes = rng.choice(np.array(VALID_CODES), size=modules)
+        pts, frames = forward_kinematics(robot, codes.tolist(), frame=np.eye(3))
+        values = joint_values(codes, robot)
+        pp, pf = pinocchio_points(pmodel, pinocchio_q(pmodel, values), full)
+        mdata.qpos[:] = values
+        mujoco.mj_kinematics(mmodel, mdata)
+        mp, mf = mujoco_points(mmodel, mdata, modules)
+        worst = np.maximum(worst, [np.abs(pp - pts).max(), np.abs(mp - pts).max(), np.abs(pf - frames).max(),
+                                   np.abs(mf - frames).max()])
+    return FkAgreement(modules, sets, *map(float, worst))
+
+
+# ---------------------------------------------------------------------------
+# a run replayed in MuJoCo against the colon wall
+
+#: Published wall stiffness of porcine colon, N/mm (Johnson et al. 2019): the range and the default (its middle).
+WALL_STIFFNESS_RANGE = (0.7, 2.4)
+DEFAULT_WALL_STIFFNESS = 1.5
+#: Published force levels, N: forces above 1 kg occur 5 % of the time in colonoscopy (Appleyard et al. 2000);
+#: a porcine colon perforates at 14.1 N (Johnson et al. 2019).
+FORCE_LINES_N = (9.8, 14.1)
+
+
+def check_wall_stiffness(value: float) -> float:
+    """``value`` (N/mm) if within ten times the published range 0.7-2.4 N/mm either way; BhrError otherwise."""
+    lo, hi = WALL_STIFFNESS_RANGE[0] / 10, WALL_STIFFNESS_RANGE[1] * 10
+    if not (lo <= value <= hi):
+        raise BhrError(f"--wall-stiffness {value:g} N/mm is far outside the published 0.7-2.4 N/mm; give a value "
+                       f"between {lo:g} and {hi:g}")
+    return value
+
+
+def whole_chain(result) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The whole robot of a run as a chain from its rear end: (roots (N, 3) mm, frames (N, 3, 3), codes (N, M)).
+
+    Root ``i`` is the rear end of the robot at step ``i`` (the last body module's rear end, or the head's
+    base without a body) and its frame (rows x, y, z) that of the rear module; codes are one per module of
+    the whole robot, rear first: the rear module's own 0, the body's joints (bhr.run.body: each body module's
+    tilt relative to the one behind it) and the head's codes. ``forward_kinematics`` of these from the root
+    gives :func:`bhr.run.body.whole_robot`'s points (a test holds them equal).
+    """
+    from bhr.run.body import module1_frames
+    from bhr.kinematics.codetable import SEARCH_INDEX, SEARCH_INVERSE
+    from bhr.kinematics.frames import tilt_reference
+
+    if result.codes is None:
+        raise BhrError(f"the {result.solver} run has no module codes, so no joint values to replay; "
+                       "use a run of --solver thesis, optimal or lumen")
+    r = result.robot
+    N = result.steps
+    start, F1s = module1_frames(result.codes, start_direction(result), r.alpha)
+    body = result.body
+    B = body.modules if body is not None else 0
+    a = math.radians(r.alpha)
+    roots = np.empty((N, 3))
+    frames = np.empty((N, 3, 3))
+    codes = np.zeros((N, B + r.modules), dtype=np.int64)
+    for i in range(N):
+        F = start if i == 0 else F1s[i - 1]
+        if B:
+            bc = body.codes[i]
+            for c in bc[:-1]:
+                F = tilt_reference(F, int(SEARCH_INVERSE[SEARCH_INDEX[int(c)]]), a)
+            roots[i] = body.points[i][-1]
+            codes[i, 1:B] = bc[:-1][::-1]
+        else:
+            roots[i] = result.points[i][0]
+        frames[i] = F
+        codes[i, B:] = result.codes[i]
+    return roots, frames, codes
+
+
+def start_direction(result) -> np.ndarray:
+    """The direction the robot lay along before the run: from its base to the trajectory's first point.
+
+    The robot starts straight with its tip on the first point and its base fixed during the first solve,
+    so this holds for runs read back from run.json too (which do not store the start direction).
+    """
+    r = result.robot
+    d = np.asarray(result.trajectory.points[0], dtype=np.float64) - result.points[0][0]
+    if abs(float(np.linalg.norm(d)) - r.modules * r.module_length) <= 1e-6 * r.modules * r.module_length:
+        return d / np.linalg.norm(d)
+    return np.asarray(result.trajectory.start_direction, dtype=np.float64)
+
+
+@dataclass
+class PhysicsReplay:
+    """What a physics replay measured, per step (0-based arrays) and in summary."""
+
+    max_force_n: np.ndarray  # (N,) largest contact force on the wall at the end of each step, N
+    where_mm: np.ndarray  # (N, 3) where it acts (NaN without contact)
+    arc_mm: np.ndarray  # (N,) where along the centerline, mm from the entrance (NaN without contact)
+    module: list[int]  # (N,) which module (1 = rear of the whole robot; 0 without contact)
+    deviation_mm: np.ndarray  # (N,) largest distance of a simulated module point from bhr's pose, mm
+    contacts: list[np.ndarray]  # per step, every contact point (K, 3) mm
+    settings: dict[str, Any]
+    cpu_s: float
+
+    @property
+    def contact_steps(self) -> list[int]:
+        return [int(i) + 1 for i in np.nonzero(self.max_force_n > 0)[0]]
+
+    def summary(self) -> dict[str, Any]:
+        k = int(np.argmax(self.max_force_n)) if len(self.max_force_n) else 0
+        return {"steps": int(len(self.max_force_n)), "max_force_n": float(self.max_force_n.max(initial=0.0)),
+                "max_force_step": k + 1 if self.max_force_n.size and self.max_force_n[k] > 0 else 0,
+                "contact_steps": self.contact_steps, "max_deviation_mm": float(self.deviation_mm.max(initial=0.0)),
+                "steps_over_9_8_n": int(np.count_nonzero(self.max_force_n > FORCE_LINES_N[0])),
+                "steps_over_14_1_n": int(np.count_nonzero(self.max_force_n > FORCE_LINES_N[1])),
+                "cpu_s": round(self.cpu_s, 2), **self.settings}
+
+    def to_dict(self) -> dict[str, Any]:
+        steps = []
+        for i in range(len(self.max_force_n)):
+            hit = self.max_force_n[i] > 0
+            steps.append({"step": i + 1, "max_force_n": float(self.max_force_n[i]),
+                          "where_mm": [float(v) for v in self.where_mm[i]] if hit else None,
+                          "arc_mm": float(self.arc_mm[i]) if hit else None,
+                          "module": int(self.module[i]), "contacts": int(len(self.contacts[i])),
+                          "deviation_mm": float(self.deviation_mm[i])})
+        return {"steps": steps, "summary": self.summary()}
+
+
+def _quat(R: np.ndarray) -> np.ndarray:
+    import mujoco
+
+    q = np.empty(4)
+    mujoco.mju_mat2Quat(q, np.ascontiguousarray(R, dtype=np.float64).reshape(9))
+    return q
+
+
+def wall_centerline(result, reach_mm: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The lumen's centerline (mm), its diameters and arc lengths from the entrance, continued straight
+    behind the entrance by ``reach_mm`` (as bhr's clearance continues it) and past the end by 20 mm."""
+    tr = result.trajectory
+    P = np.asarray(tr.points, dtype=np.float64)
+    D = np.asarray(tr.lumen, dtype=np.float64)[: len(P)]
+    d0 = start_direction(result)
+    d1 = (P[-1] - P[-2]) / np.linalg.norm(P[-1] - P[-2])
+    sp = float(np.median(np.linalg.norm(np.diff(P, axis=0), axis=1)))
+    nb = int(math.ceil(reach_mm / sp)) + 2
+    before = P[0] - sp * np.arange(nb, 0, -1)[:, None] * d0
+    after = P[-1] + sp * np.arange(1, int(20 / sp) + 2)[:, None] * d1
+    C = np.vstack([before, P, after])
+    dia = np.concatenate([np.full(nb, D[0]), D, np.full(len(after), D[-1])])
+    arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(C, axis=0), axis=1))]) - nb * sp
+    return C, dia, arc
+
+
+def scene_xml(result, *, wall_stiffness: float = DEFAULT_WALL_STIFFNESS, ring_spacing: float = 4.0,
+              pieces: int = 10, thickness: float = 4.0, rate: float = 20.0, substeps: int = 16,
+              servo_hz: float = 50.0, stiff_ratio: float = 100.0) -> tuple[str, dict[str, Any]]:
+    """The MuJoCo scene of a run (MJCF text) and its settings: the wall, the whole robot, its servos.
+
+    The wall is ``pieces`` boxes per ring, rings every ``ring_spacing`` mm of centerline, their inner faces
+    tangent to the lumen; each box rides a radial slide joint with a spring of ``wall_stiffness`` N/mm per
+    module length of wall (docs/physics.md). The robot's base is a mocap carriage put on the run's rear end
+    at every step; each tilt joint has a position servo of natural frequency ``servo_hz`` (critically damped).
+    """
+    from bhr.model.export import mjcf_robot_body
+
+    check_wall_stiffness(wall_stiffness)
+    tr = result.trajectory
+    if tr.lumen is None:
+        raise BhrError("the run's trajectory has no lumen, so there is no wall to replay against; give a run of "
+                       "--traj anatomy or a trajectory file with a lumen column")
+    r = result.robot
+    roots, frames, codes = whole_chain(result)
+    M = codes.shape[1]
+    lift = bool(np.any(codes == 15))
+    d0 = start_direction(result)
+    behind = -(roots - np.asarray(tr.points[0], dtype=np.float64)) @ (d0 / np.linalg.norm(d0))
+    reach = max(0.0, float(np.max(behind))) + r.module_length  # how far behind the entrance the robot reaches
+    C, dia, arc = wall_centerline(result, reach)
+    # rings every ring_spacing mm of arc; behind the entrance, where the tube is straight, five times as
+    # long (longer boxes, the same wall), the first one ending where the entrance's ring begins
+    nb = max(0, int(math.ceil((-arc[0] - ring_spacing / 2) / (5 * ring_spacing))))
+    back = (-ring_spacing / 2 - 2.5 * ring_spacing - 5 * ring_spacing * np.arange(nb))[::-1]
+    ring_at = np.concatenate([back, np.arange(0.0, arc[-1], ring_spacing)])
+    ring_len = np.where(ring_at < 0, 5 * ring_spacing, ring_spacing)
+    idx = np.clip(np.searchsorted(arc, ring_at), 1, len(C) - 1)
+    dt = 1.0 / rate / substeps
+    w = 2 * math.pi * servo_hz
+    # wall: per ring, the boxes' spring shares the stiffness of one module length of wall
+    k_unit = float(wall_stiffness) * 1e3 / r.module_length  # N/m per mm of ring length
+    lines = ['<mujoco model="bhr-physics">', '  <compiler angle="radian" autolimits="true"/>',
+             f'  <option timestep="{dt!r}" gravity="0 0 0" integrator="implicitfast" cone="pyramidal"/>',
+             f'  <size memory="{200 + len(ring_at) * pieces // 10}M"/>',
+             # contacts far stiffer than the wall's springs (timeconst 2 dt, impedance 0.99): the springs set the force
+             f'  <default><geom solref="{2 * dt!r} 1" solimp="0.99 0.99 0.001"/></default>',
+             "  <worldbody>"]
+    lines += mjcf_robot_body(r, M, indent="    ", lift=lift, mocap=True, base_pos=roots[0] * MM,
+                             base_quat=_quat(frames[0].T).tolist(), geom_attrs='contype="2" conaffinity="1"')
+    u_prev = None
+    half = math.pi / pieces
+    for k, (s, j) in enumerate(zip(ring_at, idx)):
+        k_piece = float(k_unit * ring_len[k])
+        m_piece = k_piece / w ** 2  # the piece moves as fast as the servos
+        b_piece = 2 * math.sqrt(k_piece * m_piece)
+        f = (s - arc[j - 1]) / (arc[j] - arc[j - 1])
+        c = C[j - 1] + f * (C[j] - C[j - 1])
+        t = C[j] - C[j - 1]
+        t /= np.linalg.norm(t)
+        R0 = (dia[j - 1] + f * (dia[j] - dia[j - 1])) / 2.0
+        if u_prev is None:
+            ref = np.array([0.0, 0.0, 1.0]) if abs(t[2]) < 0.9 else np.array([1.0, 0.0, 0.0])
+            u_prev = np.cross(t, ref)
+        u = u_prev - np.dot(u_prev, t) * t
+        u /= np.linalg.norm(u)
+        u_prev = u
+        v = np.cross(t, u)
+        for p in range(pieces):
+            ang = 2 * math.pi * p / pieces
+            n_out = math.cos(ang) * u + math.sin(ang) * v  # outward normal, the box's z
+            tang = np.cross(t, n_out)  # around the ring, the box's y; t is its x
+            pos = (c + (R0 + thickness / 2) * n_out) * MM
+            q = _quat(np.stack([t, tang, n_out]).T)
+            hx = float(ring_len[k] / 2 * 1.02)
+            hy = float(R0 * math.tan(half) * 1.02)
+            lines.append(f'    <body name="w{k}_{p}" pos="{" ".join(repr(float(x)) for x in pos)}" '
+                         f'quat="{" ".join(repr(float(x)) for x in q)}">'
+                         f'<joint type="slide" axis="0 0 1" stiffness="{k_piece!r}" damping="{b_piece!r}" '
+                         f'range="-0.0005 0.05"/>'
+                         f'<geom type="box" size="{hx * MM!r} {hy * MM!r} {thickness / 2 * MM!r}" contype="1" '
+                         f'conaffinity="2" rgba="0.8 0.5 0.5 0.3" mass="{m_piece!r}"/></body>')
+    lines.append("  </worldbody>")
+    # servos: a joint holds its tilt as a spring kp stiff enough that a force at the robot's far end deflects
+    # the robot 1/stiff_ratio as much as the wall (kp = ratio K L^2, L the length beyond the joint), and at
+    # least I w^2 (I the inertia beyond it); a rotor inertia (armature, set by replay_physics) brings the
+    # joint's inertia to kp / w^2 so every servo settles at w, critically damped (kv = 2 kp / w)
+    from bhr.model.export import module_inertia
+
+    inert = module_inertia(r)
+    L = r.module_length * MM
+    K = wall_stiffness * 1e3
+    lines.append("  <actuator>")
+    names = ("tilt_x", "tilt_y", "lift") if lift else ("tilt_x", "tilt_y")
+    for i in range(1, M + 1):
+        q = np.arange(M - i + 1)
+        I_rot = inert.mass * float(np.sum(((q + 0.5) * L) ** 2)) + (M - i + 1) * inert.ixx
+        m_lin = inert.mass * (M - i + 1)
+        span = (M - i + 1) * L
+        for nm in names:
+            load = m_lin if nm == "lift" else I_rot
+            kp = max(load * w * w, stiff_ratio * K * (1.0 if nm == "lift" else span * span))
+            lines.append(f'    <position name="s{i}_{nm}" joint="m{i}_{nm}" kp="{kp!r}" kv="{2 * kp / w!r}"/>')
+    lines.append("  </actuator>")
+    lines.append("</mujoco>")
+    settings = {"wall_stiffness_n_per_mm": wall_stiffness, "ring_spacing_mm": ring_spacing, "pieces_per_ring": pieces,
+                "wall_pieces": int(len(ring_at) * pieces), "rate_hz": rate, "substeps": substeps,
+                "servo_hz": servo_hz, "stiff_ratio": stiff_ratio, "modules": M, "timestep_s": dt}
+    return "\n".join(lines) + "\n", settings
+
+
+def replay_physics(result, progress: Any = None, **options: Any) -> PhysicsReplay:
+    """Replay ``result`` (a run with codes and a lumen) in MuJoCo; see :func:`scene_xml` for ``options``.
+
+    Per step: the carriage moves the robot's rear end to the run's, the servos' targets become the step's
+    joint values (:func:`bhr.model.export.joint_values` of the whole robot's codes), the scene runs for one step
+    period (``1 / rate``) and the contacts between robot and wall are read: the largest normal force, where,
+    and how far every module point is from bhr's pose.
+    """
+    import time
+
+    mujoco = require("mujoco")
+    xml, settings = scene_xml(result, **options)
+    model = mujoco.MjModel.from_xml_string(xml)
+    w = 2 * math.pi * float(settings["servo_hz"])
+    mujoco.mj_setConst(model, mujoco.MjData(model))
+    for a in range(model.nu):  # rotor inertia: the joint's inertia becomes kp / w^2, so every servo settles at w
+        dof = model.jnt_dofadr[model.actuator_trnid[a, 0]]
+        model.dof_armature[dof] = model.actuator_gainprm[a, 0] / w ** 2
+    data = mujoco.MjData(model)
+    roots, frames, codes = whole_chain(result)
+    N, M = codes.shape
+    lift = model.nu == 3 * M
+    values = joint_values(codes, result.robot)
+    if not lift:
+        values = values.reshape(N, M, 3)[:, :, :2].reshape(N, -1)
+    robot_geoms = {mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, f"m{i}"): i for i in range(1, M + 1)}
+    qadr = np.array([model.jnt_qposadr[model.actuator_trnid[a, 0]] for a in range(model.nu)])
+    tr = result.trajectory
+    C, _dia, arc = wall_centerline(result, 0.0)
+    steps = int(settings["substeps"])
+    force = np.zeros(N)
+    where = np.full((N, 3), np.nan)
+    arc_at = np.full(N, np.nan)
+    module = [0] * N
+    dev = np.zeros(N)
+    contacts: list[np.ndarray] = []
+    f6 = np.zeros(6)
+    t0 = time.process_time()
+    data.qpos[qadr] = values[0]
+    for i in range(N):
+        data.mocap_pos[0] = roots[i] * MM
+        data.mocap_quat[0] = _quat(frames[i].T)
+        data.ctrl[:] = values[i]
+        for _ in range(steps):
+            mujoco.mj_step(model, data)
+        pts = []
+        best = 0.0
+        for c in range(data.ncon):
+            con = data.contact[c]
+            g = con.geom1 if con.geom1 in robot_geoms else con.geom2 if con.geom2 in robot_geoms else -1
+            if g < 0 or con.dist > 0:
+                continue
+            mujoco.mj_contactForce(model, data, c, f6)
+            fn = abs(float(f6[0]))
+            pts.append(con.pos / MM)
+            if fn > best:
+                best, where[i], module[i] = fn, con.pos / MM, robot_geoms[g]
+        if pts and best == 0.0:
+            best = 1e-12  # touching with no force yet still counts as contact
+            where[i] = pts[0]
+        force[i] = best
+        contacts.append(np.array(pts).reshape(-1, 3))
+        if pts:
+            k = int(np.argmin(np.linalg.norm(C - where[i], axis=1)))
+            arc_at[i] = arc[k]
+        sim, _ = mujoco_points(model, data, M)
+        bhr_pts, _ = forward_kinematics(result.robot.replace(modules=M), codes[i], roots[i], frames[i])
+        dev[i] = float(np.max(np.linalg.norm(sim - bhr_pts, axis=1)))
+        if progress is not None:
+            progress(i + 1, N)
+    del tr
+    return PhysicsReplay(force, where, arc_at, module, dev, contacts, settings, time.process_time() - t0)
+
+
+def force_figure(rep: PhysicsReplay, title: str = "") -> Any:
+    """Largest contact force per step and along the colon, with the 9.8 N and 14.1 N lines (a matplotlib figure)."""
+    import matplotlib
+
+    matplotlib.use("Agg", force=False)
+    import matplotlib.pyplot as plt
+
+    fig, (a1, a2) = plt.subplots(2, 1, figsize=(9, 6.5), constrained_layout=True)
+    steps = np.arange(1, len(rep.max_force_n) + 1)
+    a1.plot(steps, rep.max_force_n, color="tab:red", lw=1.2, label="largest contact force")
+    hit = rep.max_force_n > 0
+    a2.scatter(rep.arc_mm[hit], rep.max_force_n[hit], s=8, color="tab:red", label="largest force of a step, where")
+    for ax in (a1, a2):
+        ax.axhline(FORCE_LINES_N[0], color="tab:orange", ls="--", lw=1,
+                   label="9.8 N: exceeded 5 % of the time in colonoscopy (Appleyard 2000)")
+        ax.axhline(FORCE_LINES_N[1], color="black", ls="--", lw=1,
+                   label="14.1 N: porcine colon perforates (Johnson 2019)")
+        ax.set_ylabel("force on the wall (N)")
+        ax.set_ylim(0, max(16.0, float(rep.max_force_n.max(initial=0.0)) * 1.1))
+        ax.grid(alpha=0.3)
+    a1.set_xlabel("step")
+    a2.set_xlabel("where along the colon (mm of centerline from the entrance; < 0: behind it)")
+    a1.legend(loc="upper left", fontsize=8)
+    a1.set_title(title or "MuJoCo replay: contact force on the colon wall")
+    s = rep.summary()
+    a2.set_title(f"max {s['max_force_n']:.2f} N at step {s['max_force_step']}; contact at "
+                 f"{len(s['contact_steps'])} steps; max deviation from bhr's pose {s['max_deviation_mm']:.3f} mm",
+                 fontsize=9)
+    return fig
+
+
+def worst_colon_extras(run, folder: Any, physics: bool = False) -> list[str]:
+    """For ``bhr traverse``: the worst colon's 3-D view and, with ``physics``, its MuJoCo replay; the file names."""
+    from pathlib import Path
+
+    from bhr.output.atomic import write_json
+    from bhr.output.plots import save_figure
+    from bhr.output.view import save_view
+
+    folder = Path(folder)
+    names = []
+    contacts = None
+    if physics and run.codes is not None and run.trajectory.lumen is not None:
+        rep = replay_physics(run)
+        write_json(folder / "worst-colon-physics.json", rep.to_dict())
+        save_figure(force_figure(rep, f"{run.trajectory.name}: the worst colon replayed in MuJoCo"),
+                    folder / "worst-colon-force.png")
+        names += ["worst-colon-physics.json", "worst-colon-force.png"]
+        contacts = rep.contacts
+    names.append(save_view(run, folder, contacts=contacts, name="worst-colon-view.html").name)
+    return names
