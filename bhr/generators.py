@@ -27,7 +27,8 @@ from typing import Any, Callable
 import numpy as np
 
 import bhr.pathfile as pathfile
-from bhr._input import check_keys, did_you_mean, number, read_toml, text_value
+import bhr.trajnames as trajnames
+from bhr._input import check_keys, number, read_toml, text_value
 from bhr.errors import BhrError
 from bhr.anatomy import anatomical_colon, check_seed
 from bhr.pathfile import MAX_POINTS
@@ -265,26 +266,11 @@ def _generator_length(gen_name: str, p: dict[str, float]) -> float:
 
 def builtin_names() -> list[str]:
     """Names ``load_trajectory`` knows: the generators, then the shipped point files (trajectories/NAME.csv)."""
-    return list(GENERATORS) + sorted(_builtin_csvs())
-
-
-def _trajectory_folder() -> Path | None:
-    try:
-        res = resources.files("bhr.trajectories")
-    except ModuleNotFoundError:
-        res = None
-    if res is not None and res.is_dir():
-        return Path(str(res))
-    repo = Path(__file__).resolve().parent.parent / "trajectories"
-    return repo if repo.is_dir() else None
+    return trajnames.builtin_names()
 
 
 def _builtin_csvs() -> dict[str, Path]:
-    """Shipped point files by name (``anatomy-typical`` is trajectories/anatomy-typical.csv)."""
-    folder = _trajectory_folder()
-    if folder is None:
-        return {}
-    return {p.stem: p for p in folder.glob("*.csv") if p.is_file()}
+    return trajnames.shipped_csvs()
 
 
 def _builtin_file(name: str) -> Path | None:
@@ -320,8 +306,7 @@ def load_trajectory(name_or_path: str | os.PathLike[str], feed: float = 2.0, **p
             traj = _from_file(shipped, feed, params, builtin=True)
             traj.name = key
             return traj
-        raise BhrError(f"unknown trajectory {key!r}: not a built-in ({', '.join(builtin_names())}) and no such file; "
-                       f"{did_you_mean(key, builtin_names())}give one of the built-ins or a .toml/.csv file")
+        trajnames.check_trajectory_name(key)
     return _from_file(p, feed, params, builtin=False)
 
 

@@ -104,18 +104,30 @@ def error_figure(result: "FollowResult", kind: str) -> plt.Figure:
         ax.axhline(tol, color="tab:red", linestyle="--", linewidth=0.8, label=tol_label)
         mark_worst(ax, steps, col, unit)
         mark_wall_touches(ax, result)
-        ax.set_title(_panel_title(kind, j, count), fontsize=10)
+        ax.set_title(_panel_title(kind, j, count), fontsize=10, y=1.0, pad=4)  # placed, not laid out
         ax.set_ylabel(ylabel, fontsize=9)
         ax.grid(True, alpha=0.3)
         ax.set_xlim(1, max(2, data.shape[0]))
         top = max(tol, float(np.nanmax(col)) if np.isfinite(col).any() else 0.0)
         ax.set_ylim(0, 1.45 * top if top > 0 else 1.0)  # room above for the legend
         ax.tick_params(labelbottom=True, labelsize=8)  # step numbers on every panel, not only the bottom row
+        _light_ticks(ax)
         ax.legend(loc="upper right", fontsize=7, framealpha=0.9, ncol=2)
         if j // cols == rows - 1 or j + cols >= count:
             ax.set_xlabel("trajectory step", fontsize=9)
     fig.suptitle(f"{title} - {result.trajectory.name}, solver {result.solver}", fontsize=12, y=1 - 0.12 / height)
     return fig
+
+
+def _light_ticks(ax: Any, bins: int = 5) -> None:
+    """Ticks fixed once from the axes' limits: the same kind of numbers as matplotlib's default, fewer of them,
+    and none computed again at each draw (ticks and their labels are most of an error figure's drawing time)."""
+    from matplotlib.ticker import FixedLocator, MaxNLocator
+
+    for axis, (lo, hi) in ((ax.xaxis, ax.get_xlim()), (ax.yaxis, ax.get_ylim())):
+        ticks = [t for t in MaxNLocator(nbins=bins, steps=[1, 2, 2.5, 5, 10]).tick_values(lo, hi)
+                 if lo - 1e-9 * abs(hi - lo) <= t <= hi + 1e-9 * abs(hi - lo)]
+        axis.set_major_locator(FixedLocator(ticks))
 
 
 def _margins(width: float, height: float, rows: int, cols: int, left: float = 0.7, right: float = 0.15,

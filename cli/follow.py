@@ -134,6 +134,9 @@ def follow(traj, solver, out_dir, json_path, no_plots, **kwargs):
 
         bhr follow --traj colon --port /dev/ttyUSB0 --schedule auto
     """
+    from bhr.trajnames import check_trajectory_name
+
+    check_trajectory_name(traj)  # a misspelt name costs no numba import
     from bhr.atomic import OutputFolder, write_json, write_text
     from bhr.body import check_body_modules
     from bhr.codes import format_codes_csv
