@@ -476,7 +476,7 @@ def follow(points: Any, solver: str = "thesis", robot: Robot | None = None, *,
             if on_step is not None:
                 on_step(i, None if res.codes is None else codes[i])
             chain = res.chain.advance(robot.feed, robot.module_length)
-    result = FollowResult(traj, robot, solver, out_points, out_iters, pe, oe, codes if has_codes else None, msgs)
+    result = FollowResult(traj, robot, s.name, out_points, out_iters, pe, oe, codes if has_codes else None, msgs)
     if body_modules is not None:
         result.body = simulate_body(result, body_modules)
     return result

@@ -233,6 +233,7 @@ def build_sweep(trajs: Sequence[str], solvers: Sequence[str], grid: Iterable[tup
     for s in solvers:
         if canonical(s) not in names:
             raise BhrError(f"{where}: unknown solver {s!r}; choose from {', '.join(names)}")
+    solvers = tuple(dict.fromkeys(canonical(s) for s in solvers))  # tables name a solver one way (seed: thesis)
     shipped = set(builtin_names())
     sources = {}
     base = Path(base_dir)

@@ -89,7 +89,7 @@ def body_clearance_lines(s: dict) -> list[str]:
                    ".toml (segments) or .csv (points).")
 @trajectory_options
 @click.option("--solver", default="thesis", show_default=True,
-              help="thesis (the thesis's algorithm; alias seed), constrained, fabrik, ccd, optimal, lumen (keeps "
+              help="thesis (the thesis's algorithm), constrained, fabrik, ccd, optimal, lumen (keeps "
                    "the robot off the lumen wall).")
 @robot_options(feed=True)
 @constraint_options

@@ -11,6 +11,8 @@ import importlib
 import pkgutil
 from typing import Any, Sequence
 
+import numpy as np
+
 from bhr._input import did_you_mean
 from bhr.errors import BhrError
 from bhr.robot import Robot
@@ -89,4 +91,7 @@ def solve(target: Sequence[float], *, modules: int | None = None, module_length:
     if d is not None and not s.accepts_orientation:
         raise BhrError(f"the {solver} solver cannot aim the tip; drop --orientation or use --solver fabrik or thesis")
     chain = Chain.straight(robot, direction)
-    return s.judge(s.solve(chain, t, d))
+    res = s.judge(s.solve(chain, t, d))
+    res.reach_mm = float(np.sum(np.linalg.norm(np.diff(chain.points, axis=0), axis=1)))
+    res.target = t
+    return res

@@ -99,7 +99,9 @@ class SolveResult:
     ``success`` is whether the errors are within the robot's tolerances
     (position, and orientation when a tip direction was asked for); it is set
     by :func:`bhr.solvers.solve` and by :meth:`Solver.judge`, and is ``None``
-    when nobody judged the result.
+    when nobody judged the result. ``reach_mm`` is the chain's length from its
+    base when known (:func:`bhr.solvers.solve` sets it), so that :attr:`status`
+    can tell a target no pose reaches from one the solver missed.
     """
 
     chain: Chain
@@ -109,10 +111,26 @@ class SolveResult:
     codes: list[int] | None = None
     extra: dict[str, Any] = field(default_factory=dict)
     success: bool | None = None
+    reach_mm: float | None = None
+    target: np.ndarray | None = None
 
     @property
     def points(self) -> np.ndarray:
         return self.chain.points
+
+    @property
+    def status(self) -> str | None:
+        """``reached`` (within tolerances), ``out of reach`` (the target is farther from the base than the
+        straight chain is long, and was missed), ``not reached`` (missed though within reach); None unjudged."""
+        if self.success is None:
+            return None
+        if self.success:
+            return "reached"
+        if self.reach_mm is not None and self.target is not None:
+            base = np.asarray(self.chain.points[0], dtype=np.float64)
+            if float(np.linalg.norm(np.asarray(self.target, dtype=np.float64) - base)) > self.reach_mm + 1e-9:
+                return "out of reach"
+        return "not reached"
 
     def to_json(self) -> str:
         """:meth:`to_dict` as a JSON string."""
@@ -121,15 +139,21 @@ class SolveResult:
     def to_dict(self) -> dict[str, Any]:
         """The ``bhr solve --json`` document (its keys are a documented contract, docs/commands.md).
 
-        ``success`` is not part of it: it follows from the errors and the tolerances.
+        The five keys ``iterations``, ``position_error``, ``orientation_error_deg``, ``points`` and ``codes``
+        are always there; a judged result adds ``success`` (within tolerances) and ``status`` (``reached``,
+        ``not reached``, ``out of reach``).
         """
-        return {
+        doc: dict[str, Any] = {
             "iterations": int(self.iterations),
             "position_error": float(self.position_error),
             "orientation_error_deg": None if self.orientation_error_deg is None else float(self.orientation_error_deg),
             "points": [[float(v) for v in row] for row in self.chain.points],
             "codes": None if self.codes is None else [int(c) for c in self.codes],
         }
+        if self.success is not None:
+            doc["success"] = bool(self.success)
+            doc["status"] = self.status
+        return doc
 
 
 class Solver(ABC):
