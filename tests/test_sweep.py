@@ -94,8 +94,8 @@ def test_designs_are_the_product_in_order():
     s = build_sweep(["curve", "spiral"], ["seed", "fabrik"], [("modules", (4, 5)), ("radius", (80, 90))])
     d = s.designs()
     assert len(d) == len(s) == 16
-    assert d[0] == {"traj": "curve", "solver": "seed", "modules": 4, "radius": 80}
-    assert d[1] == {"traj": "curve", "solver": "seed", "modules": 4, "radius": 90}
+    assert d[0] == {"traj": "curve", "solver": "thesis", "modules": 4, "radius": 80}
+    assert d[1] == {"traj": "curve", "solver": "thesis", "modules": 4, "radius": 90}
     assert d[-1] == {"traj": "spiral", "solver": "fabrik", "modules": 5, "radius": 90}
     assert len({tuple(x.values()) for x in d}) == 16
 
