@@ -27,6 +27,7 @@ from typing import Any, Callable
 
 import numpy as np
 
+from bhr import __version__
 from bhr._input import MAX_FILE_BYTES, MAX_MM, MAX_STEP_POINTS, read_text
 from bhr.errors import BhrError
 from bhr.options import robot_limits
@@ -242,6 +243,7 @@ class FollowResult:
         if self.trajectory.lumen is not None:
             traj_doc["lumen"] = [float(v) for v in self.trajectory.lumen]
         return {
+            "bhr_version": __version__,
             "trajectory": traj_doc,
             "robot": self.robot.to_dict(),
             "solver": self.solver,
@@ -283,6 +285,7 @@ def _run_from_json(doc: Any, where: str) -> FollowResult:
         raise bad("'trajectory' and 'robot' must be objects and 'steps' a non-empty list")
     path = array(tr.get("points"), (None, 3), "trajectory points")
     names = set(Robot.__dataclass_fields__)
+    rb = {("radius" if k == "robot_radius" else k): v for k, v in rb.items()}  # older runs wrote "radius"
     try:
         robot = Robot(**{k: v for k, v in rb.items() if k in names})
     except (BhrError, TypeError) as exc:

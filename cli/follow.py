@@ -142,6 +142,7 @@ def follow(traj, solver, out_dir, json_path, no_plots, **kwargs):
     from bhr.codes import format_codes_csv
     from bhr.driver import BhrWarning, follow as run_follow
     from bhr.generators import load_trajectory
+    from bhr.steptable import STEPS_CSV, format_steps_csv
 
     show, animate_path, stride = kwargs.pop("show"), kwargs.pop("animate_path"), kwargs.pop("stride")
     stem = Path(traj).stem if traj not in ("line", "curve", "spiral", "colon") else traj
@@ -216,6 +217,8 @@ def follow(traj, solver, out_dir, json_path, no_plots, **kwargs):
                 name = json_inside or "run.json"
                 write_json(folder.path(name), doc)
                 written.append(folder.final(name))
+            write_text(folder.path(STEPS_CSV), format_steps_csv(result))  # the errors per step, for a spreadsheet
+            written.append(folder.final(STEPS_CSV))
             if not no_plots:
                 from bhr.plots import save_run_plots
 
@@ -261,7 +264,7 @@ def follow(traj, solver, out_dir, json_path, no_plots, **kwargs):
 
 
 #: What bhr follow writes into its folder (an existing folder holding only such files may be replaced).
-FOLLOW_NAMES = ("run.json", "codes.csv", "*.png", "manifest.json")
+FOLLOW_NAMES = ("run.json", "codes.csv", "steps.csv", "*.png", "manifest.json")
 
 
 def follow_streaming(tr, solver, robot, solver_options, body_modules, rate, link_kw, schedule="rate", at_end="stop"):

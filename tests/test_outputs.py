@@ -89,7 +89,7 @@ def test_explicit_out_is_replaced_whole(tmp_path):
     r = bhr("follow", "--traj", "curve", "--no-plots", "--out", out, cwd=tmp_path)
     assert r.returncode == 0, r.stderr
     man = check_whole(out)
-    assert set(man["files"]) == {"run.json", "codes.csv"}
+    assert set(man["files"]) == {"run.json", "codes.csv", "steps.csv"}
     # --json - with --out: the folder gets the rest of the set, never the old run.json
     r = bhr("follow", "--traj", "line", "--no-plots", "--json", "-", "--out", out, cwd=tmp_path)
     assert r.returncode == 0, r.stderr
