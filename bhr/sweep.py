@@ -37,7 +37,7 @@ from bhr.executor import DASK_MISSING, capture, connect_scheduler, run_jobs
 from bhr.generators import GENERATORS, builtin_names, load_trajectory
 from bhr.driver import BhrWarning, follow
 from bhr.htmlpage import PAGE_END, escape, figure, fmt, page_head, table
-from bhr.options import solver_options_for
+from bhr.options import BY_NAME, solver_options_for
 from bhr.robot import Robot
 from bhr.robotfile import load_robot_file
 from bhr.solvers import available, canonical
@@ -100,6 +100,9 @@ def parse_values(key: str, value: Any, where: str) -> tuple[Any, ...]:
             raise BhrError(f"{where}: {key} has no values; give e.g. {key}=4,5,6 or {key}=4:8")
         if key in CONSTRAINT_KEYS and CONSTRAINT_KEYS[key] is not None:
             raw: list[Any] = [t.strip() for t in text.split(",")]
+        elif re.fullmatch(r"\d+\s*-\s*\d+", text) and BY_NAME.get(key) is not None and BY_NAME[key].kind is int:
+            a, b = (int(t) for t in text.split("-"))  # FIRST-LAST of whole numbers, as --colons takes them
+            raw = _range(a, b, 1, key, where)
         elif ":" in text and "," not in text:
             parts = text.split(":")
             if len(parts) not in (2, 3):

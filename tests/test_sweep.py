@@ -481,3 +481,12 @@ def test_heatmap_names_the_thesis_design_only_where_it_frames_it():
     assert not any(t.get_text().startswith("thesis design") for t in fig.legends[0].get_texts())
     assert not [p for ax in fig.axes for p in ax.patches if p.get_edgecolor()[:3] == (1.0, 0.0, 0.0)]
     plt.close(fig)
+
+
+def test_whole_number_grid_keys_take_first_last_as_colons_do():
+    from bhr.sweep import parse_values
+
+    assert parse_values("seed", "1-3", "x") == parse_values("seed", "1:3", "x") == (1, 2, 3)
+    assert parse_values("modules", "4-6", "x") == (4, 5, 6)
+    with pytest.raises(BhrError):
+        parse_values("alpha", "10-20", "x")  # not a whole-number key: a range is START:STOP[:STEP]
