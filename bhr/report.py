@@ -447,7 +447,8 @@ def _run_section(row: dict[str, Any], anchor: str, out_dir: Path, inline: bool) 
     dl.append(("solver", row["solver"]))
     rb = row.get("robot")
     if rb:
-        dl.append(("robot", f"{rb['modules']} modules x {rb['module_length']:g} mm, radius {rb.get('robot_radius', rb.get('radius', 0)):g} mm, "
+        disc = rb.get("robot_radius", rb.get("radius", 0.0))  # older rows said radius
+        dl.append(("robot", f"{rb['modules']} modules x {rb['module_length']:g} mm, radius {disc:g} mm, "
                             f"alpha {rb['alpha']:g} deg (min turn radius {rb['min_turn_radius']:.2f} mm), "
                             f"feed {rb['feed']:g} mm"))
         dl.append(("tolerances", f"{rb['tol_pos']:g} mm, {rb['tol_ori']:g} deg; at most {rb['max_iter']} iterations"))
