@@ -218,6 +218,20 @@ def test_heatmap_axes_and_worst_case_cells():
             want = max(r["points_max_error_mm"] for r in res.rows if r["modules"] == m and r["alpha"] == a)
             assert cells[j][i] == want
     assert heatmap_axes(build_sweep(["curve"], ["seed"], [])) == (None, None)
+    # the ranking ranks what the cells show: each robot design by its worst over the trajectory's angle
+    from bhr.sweep import best_designs, format_summary
+
+    ranked = best_designs(res, None)
+    assert len(ranked) == 6 and {(d["modules"], d["alpha"]) for d in ranked} == {(m, a) for m in (4, 5)
+                                                                                 for a in (9, 10, 11)}
+    for d in ranked:
+        i, j = (4, 5).index(d["modules"]), (9, 10, 11).index(d["alpha"])
+        assert d["points_max_error_mm"] == cells[j][i] and d["trajectories"] == 2
+    assert [d["points_max_error_mm"] for d in ranked] == sorted(d["points_max_error_mm"] for d in ranked)
+    lines = format_summary(res, count=5)
+    assert lines[1] == "Best 5 of 6 designs by worst point error over the trajectories (mm), as the heat-map shows:"
+    assert lines[2].startswith(f"  #{ranked[0]['design']}: modules={ranked[0]['modules']}, alpha={ranked[0]['alpha']}: "
+                               f"{ranked[0]['points_max_error_mm']:.3f}")
 
 
 def test_bad_command_lines_are_one_line(tmp_path):
