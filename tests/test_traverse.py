@@ -322,6 +322,9 @@ def test_page_loads_in_chromium_without_console_errors(small_study, tmp_path):
         assert len(sizes) == 2 and all(w > 300 and h > 200 for w, h in sizes)
         assert b.evaluate("document.querySelectorAll('#designs tbody tr').length") == 4
         assert b.evaluate("document.querySelectorAll('#designs tbody tr.meets').length") >= 1
+        from tests.test_report_browser import check_fits
+
+        check_fits(b)  # the page fits a 1280 px window (tables scroll inside it)
         assert b.screenshot(tmp_path / "page.png")[:8] == PNG
     finally:
         b.close()
