@@ -634,16 +634,28 @@ def chain_figure(initial: np.ndarray, final: np.ndarray, target: Sequence[float]
                  title: str = "") -> plt.Figure:
     """Initial and final chain of one solve (thesis Figs. 5.8-5.22): 2D when all lies in z = 0."""
     t = np.asarray(target, dtype=np.float64)
-    planar = bool(np.all(np.abs(np.vstack([initial, final, t[None]])[:, 2]) < 1e-12))
+    allpts = np.vstack([initial, final, t[None]])
+    planar = bool(np.all(np.abs(allpts[:, 2]) < 1e-12))
     fig = plt.figure(figsize=(7, 7))
     ax = _setup_axes(fig, planar)
-    draw_robot(ax, initial, radius or 0.0, planar, color="black", label="initial", discs=False)
+    if not planar:
+        ax.computed_zorder = False  # draw in zorder: the solution over the initial chain, whatever the depth
+    # the initial chain thin, grey and dashed behind; the solution and the target on top
+    _plot(ax, initial, planar, "--o", color="0.55", markersize=2.5, linewidth=1.0, label="initial", zorder=2)
     draw_robot(ax, final, radius or 0.0, planar, color="tab:red", label="final", discs=bool(radius))
+    _plot(ax, t[None], planar, "x", color="tab:green", markersize=11, markeredgewidth=2.0, label="target",
+          zorder=8)
+    span = float(np.ptp(allpts, axis=0).max()) or 1.0
+    pad = 0.08 * span  # room around the chain and the target so that no marker is cut at the frame
     if planar:
-        ax.plot([t[0]], [t[1]], "x", color="tab:green", markersize=10, label="target")
+        lo, hi = allpts[:, :2].min(axis=0) - pad, allpts[:, :2].max(axis=0) + pad
+        ax.set_xlim(lo[0], hi[0])
+        ax.set_ylim(lo[1], hi[1])
     else:
-        ax.plot([t[0]], [t[1]], [t[2]], "x", color="tab:green", markersize=10, label="target")
-        _equal_3d(ax, np.vstack([initial, final, t[None]]))
+        _equal_3d(ax, allpts, pad=pad)
+        # look across the plane the solution bends in, so that it does not hide behind the initial chain
+        d = final[-1] - final[0]
+        ax.view_init(elev=20, azim=float(np.degrees(np.arctan2(d[1], d[0]))) - 60)
     ax.set_title(title)
     ax.legend(loc="best", fontsize=8)
     fig.tight_layout()
