@@ -589,10 +589,10 @@ class StepView:
         r = self.result
         pe, oe = r.point_errors[i], r.orientation_errors[i]
         worst = int(np.argmax(pe))
-        over = "  OVER" if float(pe.max()) > r.robot.tol_pos else ""
+        over = " OVER" if float(pe.max()) > r.robot.tol_pos else ""
         lines = [f"step {i + 1} of {r.steps}",
                  f"tip error     {pe[-1]:7.2f} mm",
-                 f"worst point   {pe[worst]:7.2f} mm (point {worst + 1}){over}",
+                 f"worst point   {pe[worst]:7.2f} mm, pt {worst + 1}{over}",
                  f"  tolerance   {r.robot.tol_pos:7.2f} mm",
                  f"tip angle     {oe[-1]:7.2f} deg",
                  f"  tolerance   {r.robot.tol_ori:7.2f} deg",
@@ -611,10 +611,14 @@ class StepView:
         _set_window(self.ax, centre, self.half, self.planar)
         h = self.half
         if self.planar:
-            box = np.array([[centre[0] - h, centre[1] - h, 0], [centre[0] + h, centre[1] - h, 0],
-                            [centre[0] + h, centre[1] + h, 0], [centre[0] - h, centre[1] + h, 0],
-                            [centre[0] - h, centre[1] - h, 0]])
-            new += _plot(self.overview, box, True, color="0.2", linewidth=0.9)
+            # the window the left view shows: a shaded square (clipped to the overview like the path), so that
+            # at the path's ends it reads as a window and not as loose lines
+            from matplotlib.patches import Rectangle
+
+            window = Rectangle((centre[0] - h, centre[1] - h), 2 * h, 2 * h, facecolor="0.2", alpha=0.12,
+                               edgecolor="0.2", linewidth=0.9, zorder=3, label="_view window")
+            self.overview.add_patch(window)  # clipped to the overview's box
+            new.append(window)
         else:
             new += _depth_cue(self.ax, r, i, self.ax.get_zlim()[0])
         new += _plot(self.overview, r.points[i], self.planar, "-", color="tab:red", linewidth=2.5)
@@ -746,7 +750,7 @@ def draw_contacts(ax: Any, result: "FollowResult", planar: bool) -> list[Any]:
              "label": "wall contact", "zorder": 4}
     if planar:
         return ax.plot(w[:, 0], w[:, 1], **style)
-    return ax.plot(w[:, 0], w[:, 1], w[:, 2], **style)
+    return ax.plot(w[:, 0], w[:, 1], w[:, 2], axlim_clip=True, **style)  # none outside a zoomed 3-D view
 
 
 def body_figure(result: "FollowResult") -> plt.Figure:

@@ -197,6 +197,18 @@ def test_frames_follow_the_robot_with_an_overview_and_a_readout(colon, step):
     assert f"step {step + 1} of 827" in text
     assert f"tip error     {colon.point_errors[step, -1]:7.2f} mm" in text
     assert f"tip angle     {colon.orientation_errors[step, -1]:7.2f} deg" in text
+    # the overview shows the left view's window as one shaded square clipped to the overview, no loose lines
+    from matplotlib.patches import Rectangle
+
+    windows = [a for a in view.artists if isinstance(a, Rectangle)]
+    assert len(windows) == 1 and windows[0].axes is view.overview and windows[0].get_clip_on()
+    assert windows[0].get_clip_box() is not None
+    assert np.allclose(windows[0].get_xy(), [centre[0] - half, centre[1] - half])
+    assert np.isclose(windows[0].get_width(), 2 * half)
+    # the readout fits inside the frame
+    view.fig.canvas.draw()
+    box = view.readout.get_window_extent()
+    assert box.x1 <= view.fig.bbox.x1 and box.y0 >= 0
     # the window moves with the robot: another step, another window
     other = 200 if step != 200 else 600
     view.draw(other)
