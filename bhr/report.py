@@ -26,7 +26,8 @@ recorded with its reason and the other runs still run.
 :func:`run_batch` writes into the output folder ``index.html`` (the summary
 table first, then each run's figures), ``summary.csv`` and ``summary.json``
 (one row per run) and, per run, ``runs/<name>/`` with the four figures of
-``bhr follow`` and ``run.json``. Every file is written atomically.
+``bhr follow``, ``run.json``, ``steps.csv`` and (binary solvers) ``codes.csv``.
+Every file is written atomically.
 
 This module does not import matplotlib until a run draws its figures.
 """
@@ -42,6 +43,8 @@ from typing import Any, Callable, Sequence
 
 from bhr import __version__
 from bhr.atomic import write_json, write_text
+from bhr.codes import format_codes_csv
+from bhr.steptable import STEPS_CSV, format_steps_csv
 from bhr.errors import BhrError
 from bhr._input import read_toml
 from bhr.executor import capture, run_jobs
@@ -262,6 +265,9 @@ def execute_run(spec: RunSpec, out_dir: str | os.PathLike[str] | None = None, pl
         if out_dir is not None:
             out = Path(out_dir)
             write_json(out / "run.json", result.to_dict())
+            write_text(out / STEPS_CSV, format_steps_csv(result))
+            if result.codes is not None:  # what bhr plan and bhr stream take, as bhr follow writes it
+                write_text(out / "codes.csv", format_codes_csv(result.codes))
             if plots:
                 from bhr.plots import save_run_plots
 
