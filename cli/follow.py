@@ -106,8 +106,9 @@ def body_clearance_lines(s: dict) -> list[str]:
 @click.option("--animate", "animate_path", default=None, metavar="FILE",
               help="Also write an animation: FILE.gif (Pillow) or FILE.mp4 (needs ffmpeg).")
 @click.option("--stride", type=PlainIntRange(min=1, max=10**9), default=None, metavar="N", help=STRIDE_HELP)
-@link_options(port_help="Stream each step's codes to the actuator board on this serial device or pyserial URL "
-                        "while solving (the --robot file's [link] gives baud rate and module order).", robot=False)
+@link_options(port_help="After solving the whole run and checking it against the wires' thermal model, stream its "
+                        "codes to the actuator board on this serial device or pyserial URL (the --robot file's "
+                        "[link] gives baud rate and module order).", robot=False)
 @click.option("--rate", default=10.0, show_default=True, metavar="HZ", type=FiniteRange(min=MIN_RATE, max=1000),
               help="With --port: steps sent per second, at most.")
 @schedule_option()
