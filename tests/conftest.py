@@ -54,7 +54,7 @@ _LAYER = {
     "test_compare.py": "cli", "test_replay.py": "cli", "test_animate.py": "cli", "test_startup.py": "cli",
     "test_bench.py": "cli",
     "test_firmware_host.py": "integration", "test_firmware_sim.py": "integration", "test_link.py": "integration",
-    "test_liveview.py": "integration", "test_report_browser.py": "integration",
+    "test_liveview.py": "integration", "test_report_browser.py": "integration", "test_warmup.py": "integration",
 }
 _INTEGRATION_FIXTURES = {"dask_cluster"}
 
@@ -68,3 +68,7 @@ def pytest_collection_modifyitems(config, items):
         elif layer == "unit" and "run_bhr" in fixtures:
             layer = "cli"
         item.add_marker(getattr(pytest.mark, layer))
+
+# A command that had to compile starts the other commands' kernels compiling in the background
+# (bhr.warmup); tests run many fresh caches, so they turn it off (test_startup checks it).
+os.environ.setdefault("BHR_NO_BACKGROUND_COMPILE", "1")
