@@ -80,4 +80,4 @@ if __name__ == "__main__":  # pragma: no cover - run by start_in_background
     try:
         compile_all()
     except Exception:  # a background convenience: a failure here only means a later command compiles
-        raise SystemExit(1)
+        raise SystemExit(1) from None
