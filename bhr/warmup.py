@@ -37,8 +37,16 @@ def _run_all() -> None:
     import numpy as np
 
     import bhr
-    from bhr.driver import follow
+    from bhr.driver import follow as run_follow
     from bhr.generators import load_trajectory
+    from bhr.steptable import format_steps_csv
+
+    def follow(*args, **kw):  # a run as a command finishes it: summary, clearance, run.json, steps.csv
+        result = run_follow(*args, **kw)
+        result.to_dict()
+        format_steps_csv(result)
+        return result
+
     from bhr.thermal import DEFAULT_THERMAL, auto_schedule, check_schedule
 
     for solver in ("fabrik", "ccd", "thesis", "constrained", "optimal", "lumen"):
