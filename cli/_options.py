@@ -129,7 +129,8 @@ def robot_options(feed: bool = True, solving: bool = True) -> Callable[[Any], An
     ``bhr fk`` solves nothing.
     """
     opts = [click.option("--robot", "robot_file", default=None, metavar="FILE",
-                         help="Robot description (TOML); options given here override its values.")]
+                         help="Robot description (.toml or .json, docs/robot-files.md), or a run.json whose robot to "
+                              "reuse; options given here override its values.")]
     opts += [_click_option(o) for o in by_group("robot")
              if (feed or o.name != "feed_divisor") and (solving or o.name not in SOLVING_ONLY)]
     return stack_options(*opts)

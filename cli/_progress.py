@@ -168,7 +168,8 @@ def echo(message: str) -> None:
 # the first compile
 
 COMPILE_NOTICE = ("Compiling bhr's kernels for this machine; this happens once (they are cached in {cache}), "
-                  "later runs start at once.")
+                  "later runs start at once. When this command ends, the kernels of the other commands are "
+                  "compiled in the background.")
 
 _announcer = None
 _announced = False
@@ -236,3 +237,15 @@ def announce_compiles() -> None:
 
     _announcer = Announcer()
     event.register("numba:compile", _announcer)
+    import atexit
+
+    atexit.register(_compile_the_rest)
+
+
+def _compile_the_rest() -> None:
+    """After a command that had to compile: compile every other command's kernels in the background, once."""
+    if _announcer is None or not _announcer.kernels:
+        return
+    from bhr.warmup import start_in_background
+
+    start_in_background()

@@ -11,7 +11,7 @@ from bhr.cli._options import PlainIntRange
 
 @click.command()
 @click.option("--case", "cases", multiple=True, metavar="NAME",
-              help="Case to run (repeatable): fabrik, ccd, seed-colon, optimal, body-60, lumen, cli [all].")
+              help="Case to run (repeatable): fabrik, ccd, thesis-colon, optimal, body-60, lumen, cli [all].")
 @click.option("--repeat", type=PlainIntRange(1, 100), default=None, help="Repeats per timing (median taken).")
 @click.option("--json", "json_path", default=None, metavar="PATH|-",
               help="Write the results as JSON ('-': stdout, the table then goes to stderr).")
@@ -29,7 +29,7 @@ def bench(cases, repeat, json_path, check):
     from bhr.settings.errors import BhrError
 
     check_writable(json_path, "JSON")
-    names = list(cases) or list(b.CASES)
+    names = [b.CASE_ALIASES.get(c, c) for c in cases] or list(b.CASES)
     unknown = [c for c in names if c not in b.CASES]
     if unknown:
         raise BhrError(f"unknown benchmark case {unknown[0]!r}; choose from {', '.join(b.CASES)}")

@@ -40,7 +40,7 @@ def compare(traj, solvers, out_dir, json_path, no_plots, **kwargs):
 
         bhr compare --traj curve --angle 360 --solver thesis --solver optimal
     """
-    from bhr.output.atomic import write_json
+    from bhr.output.atomic import write_json, write_text
     from bhr.run.body import check_body_modules
     from bhr.cli._progress import announce_compiles, status
     from bhr.studies.compare import compare_figure, compare_json, compare_runs, format_table
@@ -93,6 +93,17 @@ def compare(traj, solvers, out_dir, json_path, no_plots, **kwargs):
     written = []
     if folder is not None:
         with folder:
+            from bhr.model.codes import format_codes_csv
+            from bhr.output.steptable import STEPS_CSV, format_steps_csv
+
+            for c in runs:  # each solver's run as bhr follow writes it: replay, plan and stream take it
+                sub = folder.path(c.result.solver)
+                sub.mkdir(parents=True, exist_ok=True)
+                write_json(sub / "run.json", c.result.to_dict())
+                write_text(sub / STEPS_CSV, format_steps_csv(c.result))
+                if c.result.codes is not None:
+                    write_text(sub / "codes.csv", format_codes_csv(c.result.codes))
+                written.append(folder.final(c.result.solver))
             if json_inside is not None:
                 write_json(folder.path(json_inside), compare_json(runs))
                 written.append(folder.final(json_inside))

@@ -96,7 +96,7 @@ def body_clearance_lines(s: dict) -> list[str]:
                    ".toml (segments) or .csv (points).")
 @trajectory_options
 @click.option("--solver", default="thesis", show_default=True,
-              help="thesis (the thesis's algorithm; alias seed), constrained, fabrik, ccd, optimal, lumen (keeps "
+              help="thesis (the thesis's algorithm), constrained, fabrik, ccd, optimal, lumen (keeps "
                    "the robot off the lumen wall).")
 @robot_options(feed=True)
 @constraint_options
@@ -113,8 +113,9 @@ def body_clearance_lines(s: dict) -> list[str]:
 @click.option("--animate", "animate_path", default=None, metavar="FILE",
               help="Also write an animation: FILE.gif (Pillow) or FILE.mp4 (needs ffmpeg).")
 @click.option("--stride", type=PlainIntRange(min=1, max=10**9), default=None, metavar="N", help=STRIDE_HELP)
-@link_options(port_help="Stream each step's codes to the actuator board on this serial device or pyserial URL "
-                        "while solving (the --robot file's [link] gives baud rate and module order).", robot=False)
+@link_options(port_help="After solving the whole run and checking it against the wires' thermal model, stream its "
+                        "codes to the actuator board on this serial device or pyserial URL (the --robot file's "
+                        "[link] gives baud rate and module order).", robot=False)
 @click.option("--rate", default=10.0, show_default=True, metavar="HZ", type=FiniteRange(min=MIN_RATE, max=1000),
               help="With --port: steps sent per second, at most.")
 @schedule_option()
@@ -140,11 +141,15 @@ def follow(traj, solver, out_dir, json_path, no_plots, **kwargs):
 
         bhr follow --traj colon --port /dev/ttyUSB0
     """
+    from bhr.model.trajnames import check_trajectory_name
+
+    check_trajectory_name(traj)  # a misspelt name costs no numba import
     from bhr.output.atomic import OutputFolder, write_json, write_text
     from bhr.run.body import check_body_modules
     from bhr.model.codes import format_codes_csv
     from bhr.run.driver import BhrWarning, follow as run_follow
     from bhr.model.generators import load_trajectory
+    from bhr.output.steptable import STEPS_CSV, format_steps_csv
 
     show, animate_path, stride = kwargs.pop("show"), kwargs.pop("animate_path"), kwargs.pop("stride")
     stem = Path(traj).stem if traj not in ("line", "curve", "spiral", "colon") else traj
@@ -232,6 +237,8 @@ def follow(traj, solver, out_dir, json_path, no_plots, **kwargs):
                 name = json_inside or "run.json"
                 write_json(folder.path(name), doc)
                 written.append(folder.final(name))
+            write_text(folder.path(STEPS_CSV), format_steps_csv(result))  # the errors per step, for a spreadsheet
+            written.append(folder.final(STEPS_CSV))
             if not no_plots:
                 from bhr.output.plots import save_run_plots
 
@@ -281,7 +288,7 @@ def follow(traj, solver, out_dir, json_path, no_plots, **kwargs):
 
 
 #: What bhr follow writes into its folder (an existing folder holding only such files may be replaced).
-FOLLOW_NAMES = ("run.json", "codes.csv", "*.png", "view.html", "manifest.json")
+FOLLOW_NAMES = ("run.json", "codes.csv", "steps.csv", "*.png", "view.html", "manifest.json")
 
 
 def follow_streaming(tr, solver, robot, solver_options, body_modules, rate, link_kw, schedule="auto", at_end="stop"):

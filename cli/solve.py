@@ -13,12 +13,24 @@ def _fmt(v: float | None, digits: int = 5) -> str:
     return "-" if v is None else f"{v:.{digits}f}"
 
 
+def _status_text(result, robot) -> str:
+    """``reached``, ``not reached (...)`` or ``out of reach (...)``, with the numbers that decide it."""
+    tol = f"tolerance {robot.tol_pos:g}" + (f" and {robot.tol_ori:g} deg" if result.orientation_error_deg is not None
+                                            else "")
+    if result.status == "reached":
+        return f"reached (within {tol})"
+    if result.status == "out of reach":
+        return f"out of reach: {result.reason} (the chain stretches toward it)"
+    return f"not reached: {result.reason}"
+
+
 @click.command()
 @click.option("--target", nargs=3, type=MM, required=True, metavar="X Y Z", help="Target point.")
 @click.option("--orientation", nargs=3, type=MM, default=None, metavar="X Y Z",
               help="Wanted direction of the last module (any length).")
 @click.option("--solver", default="fabrik", show_default=True,
-              help="fabrik, ccd, thesis (the thesis's binary solver; alias seed), constrained, optimal.")
+              help="fabrik, ccd, thesis (the thesis's binary solver), constrained, optimal, lumen (keeps off a lumen's "
+                   "wall; along a straight chain it solves as thesis).")
 @robot_options(feed=False)
 @constraint_options
 @click.option("--json", "json_path", default=None, metavar="PATH|-", help="Write the result as JSON ('-': stdout).")
@@ -33,7 +45,7 @@ def solve(target, orientation, solver, json_path, plot_path, **kwargs):
         bhr solve --modules 5 --module-length 2 --target 3 9 0 --solver ccd
     """
     from bhr.cli._progress import announce_compiles
-    from bhr.solvers import Chain, solve as run
+    from bhr.solvers import Chain, canonical, solve as run
 
     announce_compiles()
 
@@ -47,6 +59,7 @@ def solve(target, orientation, solver, json_path, plot_path, **kwargs):
     constraints = pop_constraints(kwargs)
     result = run(target, orientation=orientation, solver=solver, robot=robot, solver_options=constraints)
     doc = result.to_dict()
+    solver = canonical(solver)  # tables name a solver one way (seed: thesis)
     if json_path == "-":
         click.echo(json.dumps(doc, indent=1))
     else:
@@ -54,6 +67,7 @@ def solve(target, orientation, solver, json_path, plot_path, **kwargs):
             ("solver", solver),
             ("modules", f"{robot.modules} x {robot.module_length:g}"),
             ("target", " ".join(f"{v:g}" for v in target)),
+            ("status", _status_text(result, robot)),
             ("iterations", str(result.iterations)),
             ("position error", _fmt(result.position_error_mm)),
             ("orientation error (deg)", _fmt(result.orientation_error_deg, 4)),

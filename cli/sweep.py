@@ -14,7 +14,7 @@ from bhr.cli._options import PlainIntRange
               help="Sweep file: traj, solver and a [grid] table (see docs/sweep.md); options given here override it.")
 @click.option("--traj", "trajs", multiple=True, metavar="NAME|PATH",
               help="Trajectory to follow (repeat for several) [curve].")
-@click.option("--solver", "solvers", multiple=True, metavar="NAME", help="Solver (repeat for several) [seed].")
+@click.option("--solver", "solvers", multiple=True, metavar="NAME", help="Solver (repeat for several) [thesis].")
 @click.option("--grid", "-g", "grid", multiple=True, metavar="KEY=VALUES",
               help="Values of a robot or trajectory option: modules=4,5,6 or alpha=8:12 or module_length=8:12:0.5 "
                    "(START:STOP[:STEP], STOP included). Repeat for each key.")

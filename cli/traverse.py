@@ -16,7 +16,8 @@ OUTPUTS = ("designs.csv", "runs.csv", "study.json", "passrate.png", "worst-colon
               help="Values of a robot or solver option: alpha=10:30:5, module_length=5,6,8, modules=5:8 "
                    "(START:STOP[:STEP], STOP included). Repeat for each key.")
 @click.option("--colons", default="1-100", show_default=True, metavar="SEEDS",
-              help="The anatomical colons every design must get through: seeds such as 1-100 or 1,4,10-20.")
+              help="The anatomical colons every design must get through: seeds such as 1-100 (or 1:100, as in a "
+                   "grid) or 1,4,10-20.")
 @click.option("--solver", "solvers", multiple=True, metavar="NAME", help="Solver (repeat for several) [thesis].")
 @click.option("--target-pass", type=float, default=0.95, show_default=True, metavar="SHARE",
               help="Share of colons a design must traverse without touching the wall.")

@@ -56,7 +56,7 @@ _LAYER = {
     "test_firmware_host.py": "integration", "test_firmware_sim.py": "integration",
     "test_firmware_thermal.py": "integration", "test_link.py": "integration",
     "test_liveview.py": "integration", "test_report_browser.py": "integration",
-    "test_view_browser.py": "integration", "test_physics_replay.py": "integration",
+    "test_view_browser.py": "integration", "test_physics_replay.py": "integration", "test_warmup.py": "integration",
 }
 _INTEGRATION_FIXTURES = {"dask_cluster"}
 
@@ -70,3 +70,7 @@ def pytest_collection_modifyitems(config, items):
         elif layer == "unit" and "run_bhr" in fixtures:
             layer = "cli"
         item.add_marker(getattr(pytest.mark, layer))
+
+# A command that had to compile starts the other commands' kernels compiling in the background
+# (bhr.warmup); tests run many fresh caches, so they turn it off (test_startup checks it).
+os.environ.setdefault("BHR_NO_BACKGROUND_COMPILE", "1")

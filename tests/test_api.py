@@ -35,6 +35,18 @@ def test_solve_result_success_and_json():
                         "success", "status", "reason"}
     assert doc["position_error"] == ok.position_error_mm and doc["success"] is True and doc["status"] == "reached"
     assert json.loads(ok.to_json()) == doc
+    assert far.status == "out of reach" and far.to_dict()["success"] is False
+
+
+def test_solve_status_tells_a_missed_target_within_reach_from_one_out_of_reach():
+    # the thesis's binary solver cannot put the tip within 0.01 of (3, 9, 0), which the chain can reach
+    near = bhr.solve([3, 9, 0], modules=5, solver="thesis", tol_pos=0.01)
+    assert near.success is False and near.status == "not reached"
+    # just beyond the straight chain's length (5 modules of 2): out of reach
+    beyond = bhr.solve([0, 10.5, 0], modules=5, tol_pos=0.01)
+    assert beyond.status == "out of reach"
+    inside = bhr.solve([0, 9.99, 0], modules=5, tol_pos=0.05)
+    assert inside.status == "reached"
 
 
 def test_follow_result_summary_is_typed_and_old_call_is_deprecated():

@@ -1,4 +1,5 @@
 """The command line: help, bad input for solve/fk gets one clear line and a non-zero exit."""
+import json
 import pytest
 
 from tests.conftest import snapshot
@@ -33,3 +34,21 @@ def test_bad_input_one_line(run_bhr, tmp_path, args, message):
     assert "Traceback" not in res.stderr
     assert len(res.stderr.strip().splitlines()) <= 3
     assert snapshot(tmp_path) == before
+
+
+def test_solve_says_out_of_reach_in_text_and_json(run_bhr):
+    res = run_bhr("solve", "--target", "100", "100", "100")
+    assert res.returncode == 0, res.stderr
+    assert "out of reach: the target is 173.21 from the base, the chain is 10 long" in res.stdout
+    res = run_bhr("solve", "--target", "100", "100", "100", "--json", "-")
+    doc = json.loads(res.stdout)
+    assert doc["success"] is False and doc["status"] == "out of reach"
+
+
+def test_solve_help_lists_every_solver_by_its_one_name(run_bhr):
+    from bhr.solvers import available
+
+    text = " ".join(run_bhr("solve", "--help").stdout.split())
+    for name in available():
+        assert name in text
+    assert "seed" not in text

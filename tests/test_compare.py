@@ -24,7 +24,7 @@ def test_rows_are_the_runs_numbers():
     assert rows[1]["points_max_error_mm"] == pytest.approx(opt)
     assert rows[1]["ratio_to_first"] == pytest.approx(opt / seed)
     text = "\n".join(format_table(runs))
-    assert "x seed" in text and f"{opt / seed:.3f}" in text
+    assert "x thesis" in text and "seed" not in text and f"{opt / seed:.3f}" in text
 
 
 def test_bad_solver_lists():
@@ -41,11 +41,21 @@ def test_cli_prints_and_plots(run_bhr, tmp_path):
     out = run_bhr("compare", "--traj", "curve", "--angle", "180", "--solver", "seed", "--solver", "optimal",
                   "--out", tmp_path / "c", "--json", tmp_path / "c.json")
     assert out.returncode == 0, out.stderr
-    assert "seed" in out.stdout and "optimal" in out.stdout and "x seed" in out.stdout
+    # the thesis's solver given by its old name is shown by its one name
+    assert "thesis" in out.stdout and "optimal" in out.stdout and "x thesis" in out.stdout
+    assert "seed" not in out.stdout
     png = tmp_path / "c" / "compare.png"
     assert png.read_bytes()[:4] == b"\x89PNG"
     doc = json.loads((tmp_path / "c.json").read_text())
-    assert [r["solver"] for r in doc["rows"]] == ["seed", "optimal"]
+    assert [r["solver"] for r in doc["rows"]] == ["thesis", "optimal"]
+    # each solver's run is kept as bhr follow writes it, replayable and streamable
+    for name in ("thesis", "optimal"):
+        run = json.loads((tmp_path / "c" / name / "run.json").read_text())
+        assert run["solver"] == name and len(run["steps"]) == len(doc["runs"][0]["points_max_error_mm"])
+        codes = (tmp_path / "c" / name / "codes.csv").read_text().splitlines()
+        assert len(codes) == len(run["steps"]) + 1
+    replay = run_bhr("replay", tmp_path / "c" / "optimal" / "run.json", "--out", tmp_path / "again")
+    assert replay.returncode == 0, replay.stderr
     tr = load_trajectory("curve", angle=180.0)
     seed = follow(tr, solver="seed")
     np.testing.assert_allclose(doc["runs"][0]["points_max_error_mm"], seed.point_errors.max(axis=1))

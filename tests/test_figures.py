@@ -197,6 +197,18 @@ def test_frames_follow_the_robot_with_an_overview_and_a_readout(colon, step):
     assert f"step {step + 1} of 827" in text
     assert f"tip error     {colon.point_errors[step, -1]:7.2f} mm" in text
     assert f"tip angle     {colon.orientation_errors[step, -1]:7.2f} deg" in text
+    # the overview shows the left view's window as one shaded square clipped to the overview, no loose lines
+    from matplotlib.patches import Rectangle
+
+    windows = [a for a in view.artists if isinstance(a, Rectangle)]
+    assert len(windows) == 1 and windows[0].axes is view.overview and windows[0].get_clip_on()
+    assert windows[0].get_clip_box() is not None
+    assert np.allclose(windows[0].get_xy(), [centre[0] - half, centre[1] - half])
+    assert np.isclose(windows[0].get_width(), 2 * half)
+    # the readout fits inside the frame
+    view.fig.canvas.draw()
+    box = view.readout.get_window_extent()
+    assert box.x1 <= view.fig.bbox.x1 and box.y0 >= 0
     # the window moves with the robot: another step, another window
     other = 200 if step != 200 else 600
     view.draw(other)
@@ -230,3 +242,26 @@ def test_compare_figure_has_step_numbers_tolerance_and_each_solvers_worst_step()
             v = values(c.result)
             k = int(np.argmax(v))
             assert f"{c.solver} worst {v[k]:.2f} mm (step {k + 1})" in legend
+
+
+def test_solve_plot_keeps_the_target_inside_and_the_solution_in_front():
+    from bhr.output.plots import chain_figure, plt
+
+    initial = np.array([[0, 2.0 * k, 0] for k in range(6)])
+    final = np.array([[0, 0, 0], [0, 2, 0], [0.35, 3.97, 0], [1.03, 5.85, 0], [2.03, 7.58, 0], [3.0, 9.0, 0]])
+    fig = chain_figure(initial, final, (3, 9, 0))
+    ax = fig.axes[0]
+    x0, x1 = ax.get_xlim()
+    y0, y1 = ax.get_ylim()
+    assert x0 < 0 - 0.05 * 10 and x1 > 3 + 0.05 * 10 and y1 > 10 + 0.05 * 10  # room around the target's marker
+    plt.close(fig)
+    lifted = final.copy()
+    lifted[2:, 2] = [0.5, 1.5, 2.5, 4.0]
+    fig = chain_figure(initial, lifted, lifted[-1])
+    ax = fig.axes[0]
+    assert ax.computed_zorder is False
+    z = {ln.get_label(): ln.get_zorder() for ln in ax.get_lines()}
+    assert z["final"] > z["initial"] and z["target"] > z["final"]
+    lo, hi = np.array([ax.get_xlim(), ax.get_ylim(), ax.get_zlim()]).T
+    assert np.all(lifted[-1] > lo) and np.all(lifted[-1] < hi)
+    plt.close(fig)

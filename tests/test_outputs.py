@@ -89,11 +89,11 @@ def test_explicit_out_is_replaced_whole(tmp_path):
     r = bhr("follow", "--traj", "curve", "--no-plots", "--out", out, cwd=tmp_path)
     assert r.returncode == 0, r.stderr
     man = check_whole(out)
-    assert set(man["files"]) == {"run.json", "codes.csv"}
+    assert set(man["files"]) == {"run.json", "codes.csv", "steps.csv"}
     # --json - with --out: the folder gets the rest of the set, never the old run.json
     r = bhr("follow", "--traj", "line", "--no-plots", "--json", "-", "--out", out, cwd=tmp_path)
     assert r.returncode == 0, r.stderr
-    assert set(check_whole(out)["files"]) == {"codes.csv"}
+    assert set(check_whole(out)["files"]) == {"codes.csv", "steps.csv"}
     no_staging(tmp_path)
 
 
@@ -113,13 +113,13 @@ def test_json_may_not_name_another_output_of_the_run(tmp_path):
     out = tmp_path / "o"
     assert bhr("follow", "--traj", "line", "--no-plots", "--out", out, cwd=tmp_path).returncode == 0
     before = snapshot(tmp_path)
-    for name in ("o/codes.csv", "o/path.png", "o/manifest.json", "o"):
+    for name in ("o/codes.csv", "o/steps.csv", "o/path.png", "o/manifest.json", "o"):
         r = bhr("follow", "--traj", "curve", "--out", "o", "--json", name, cwd=tmp_path)
         assert r.returncode != 0 and "another output" in one_line(r.stderr) or "directory" in r.stderr, r.stderr
     assert snapshot(tmp_path) == before
     r = bhr("follow", "--traj", "curve", "--no-plots", "--out", "o", "--json", "o/curve.json", cwd=tmp_path)
     assert r.returncode == 0, r.stderr
-    assert set(check_whole(out)["files"]) == {"codes.csv", "curve.json"}
+    assert set(check_whole(out)["files"]) == {"codes.csv", "steps.csv", "curve.json"}
 
 
 def test_killed_runs_leave_the_old_set_and_their_staging_is_cleaned(tmp_path):

@@ -146,6 +146,14 @@ def test_a_failed_run_is_recorded_and_the_others_run(run_bhr, tmp_path):
     for f in FIGURES:
         assert (tmp_path / "out" / "runs" / "good" / f).exists()
         assert (tmp_path / "out" / "runs" / "fabrik" / f).exists()
+    # a binary solver's run has the codes bhr plan and bhr stream take; fabrik (no actuators) has none
+    good = tmp_path / "out" / "runs" / "good"
+    codes = (good / "codes.csv").read_text().splitlines()
+    run = json.loads((good / "run.json").read_text())
+    assert codes[0] == "step,m1,m2,m3,m4,m5" and len(codes) == len(run["steps"]) + 1
+    assert codes[1] == "1," + ",".join(str(c) for c in run["steps"][0]["codes"])
+    assert not (tmp_path / "out" / "runs" / "fabrik" / "codes.csv").exists()
+    assert len((good / "steps.csv").read_text().splitlines()) == len(run["steps"]) + 1
     assert not (tmp_path / "out" / "runs" / "bad-file").exists()
     assert "FAILED" in proc.stdout and "no file: failed: unknown trajectory" in proc.stdout
 

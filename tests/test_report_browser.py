@@ -215,8 +215,20 @@ def png_info(data: bytes):
     return img
 
 
+FITS = ("[document.documentElement.scrollWidth, window.innerWidth, Array.from(document.querySelectorAll('main *'))"
+        ".filter(e => !e.closest('.scroll') && e.getBoundingClientRect().right > window.innerWidth + 1)"
+        ".map(e => e.tagName)]")
+
+
+def check_fits(browser: Browser) -> None:
+    """Nothing but a scrolling table runs past the right edge of the 1280 px window."""
+    width, window, wide = browser.evaluate(FITS)
+    assert window == 1280 and width <= window and wide == [], (width, wide)
+
+
 def check_page(browser: Browser, shot: Path) -> None:
     assert browser.console_errors() == []
+    check_fits(browser)
     # the summary table is the first thing after the title and description
     first = browser.evaluate("Array.from(document.querySelector('main').children)"
                              ".filter(e => !['H1','P'].includes(e.tagName))[0].querySelector('table').id")
@@ -326,4 +338,5 @@ def test_sweep_page_loads_without_console_errors(browser, tmp_path):
                              "t.getBoundingClientRect().right)")
     assert len(right) == 2 and max(right) <= 1280, right
     assert browser.evaluate("document.images[0].closest('a').getAttribute('href')") == "heatmap.png"
+    check_fits(browser)
     assert png_info(browser.screenshot(tmp_path / "sweep.png")).size == (1280, 1600)

@@ -145,8 +145,52 @@ def test_missing_unreadable_and_wrong_kind_files(tmp_path):
     (tmp_path / "bin.toml").write_bytes(b"modules = 5\n\xff\xfe\n")
     with pytest.raises(BhrError, match=r"line 2: not UTF-8"):
         load_robot_file(tmp_path / "bin.toml")
-    with pytest.raises(BhrError, match=r"robot files are TOML"):
-        load_robot_file(write(tmp_path / "robot.json", "{}"))
+    with pytest.raises(BhrError, match=r"robot files are TOML \(.toml\) or JSON \(.json\)"):
+        load_robot_file(write(tmp_path / "robot.yaml", "modules: 5"))
+    with pytest.raises(BhrError, match=r"not valid JSON \(line 1"):
+        load_robot_file(write(tmp_path / "broken.json", "{modules = 5}"))
+    with pytest.raises(BhrError, match=r"a JSON object .* got a list"):
+        load_robot_file(write(tmp_path / "list.json", "[5]"))
+
+
+def test_json_robot_file_is_read_as_the_toml_one(tmp_path):
+    """The shipped default as JSON (same keys, same checks) gives the same robot, link and thermal model."""
+    import json
+    import tomllib
+
+    table = tomllib.loads(default_robot_file().read_text())
+    toml_rf = load_robot_file(default_robot_file())
+    json_rf = load_robot_file(write(tmp_path / "robot.json", json.dumps(table)))
+    assert json_rf.robot == toml_rf.robot and json_rf.link == toml_rf.link and json_rf.thermal == toml_rf.thermal
+    table["alpha"] = 12.5
+    table["robot_radius"] = 4.0
+    rf = load_robot_file(write(tmp_path / "r2.json", json.dumps(table)))
+    assert rf.robot.alpha == 12.5 and rf.robot.radius == 4.0
+    table["alphaa"] = 3
+    with pytest.raises(BhrError, match=r"r3.json: unknown key 'alphaa'; did you mean 'alpha'\?"):
+        load_robot_file(write(tmp_path / "r3.json", json.dumps(table)))
+
+
+def test_a_runs_robot_is_reused_from_its_run_json(tmp_path):
+    import json
+
+    import bhr
+
+    robot = bhr.Robot(modules=4, module_length=8.0, radius=3.5, stroke=1.0, lever=6.0, tol_pos=5.0)
+    run = bhr.follow(bhr.trajectory("line", length=30), robot=robot)
+    rf = load_robot_file(write(tmp_path / "run.json", json.dumps(run.to_dict())))
+    assert rf.robot == robot
+    old = run.to_dict()  # an older run.json named the disc radius "radius"
+    old["robot"]["radius"] = old["robot"].pop("robot_radius")
+    assert load_robot_file(write(tmp_path / "old.json", json.dumps(old))).robot == robot
+
+
+def test_robot_file_keys_name_the_disc_radius_robot_radius_only(tmp_path):
+    with pytest.raises(BhrError) as err:
+        load_robot_file(write(tmp_path / "r.toml", "modules = 5\nbogus = 1\n"))
+    allowed = str(err.value).split("allowed: ")[1]
+    assert "robot_radius" in allowed and " radius," not in allowed
+    assert load_robot_file(write(tmp_path / "old.toml", "radius = 4.5\n")).robot.radius == 4.5
 
 
 values = st.one_of(st.integers(-10, 2000), st.floats(allow_nan=True, allow_infinity=True), st.booleans(),

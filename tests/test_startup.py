@@ -109,3 +109,15 @@ def test_progress_is_drawn_on_a_terminal_and_not_when_piped(tmp_path):
     assert "\r\x1b[K" in text  # the status line is cleared before the summary
     piped = subprocess.run(bhr_exe() + args, cwd=tmp_path, capture_output=True, text=True, env=env, check=True)
     assert "following line" not in piped.stderr and "\r" not in piped.stderr
+
+
+def test_misspelt_trajectory_is_refused_before_numba_or_numpy_is_imported(tmp_path):
+    assert loaded(["follow", "--traj", "colonn"], tmp_path) == "[]"
+
+
+def test_trajectory_names_known_without_the_generators_are_the_generators():
+    from bhr.model.generators import GENERATORS, builtin_names
+    from bhr.model.trajnames import GENERATOR_NAMES, builtin_names as light_names
+
+    assert tuple(GENERATORS) == GENERATOR_NAMES
+    assert builtin_names() == light_names()

@@ -94,8 +94,8 @@ def test_designs_are_the_product_in_order():
     s = build_sweep(["curve", "spiral"], ["seed", "fabrik"], [("modules", (4, 5)), ("radius", (80, 90))])
     d = s.designs()
     assert len(d) == len(s) == 16
-    assert d[0] == {"traj": "curve", "solver": "seed", "modules": 4, "radius": 80}
-    assert d[1] == {"traj": "curve", "solver": "seed", "modules": 4, "radius": 90}
+    assert d[0] == {"traj": "curve", "solver": "thesis", "modules": 4, "radius": 80}
+    assert d[1] == {"traj": "curve", "solver": "thesis", "modules": 4, "radius": 90}
     assert d[-1] == {"traj": "spiral", "solver": "fabrik", "modules": 5, "radius": 90}
     assert len({tuple(x.values()) for x in d}) == 16
 
@@ -218,6 +218,20 @@ def test_heatmap_axes_and_worst_case_cells():
             want = max(r["points_max_error_mm"] for r in res.rows if r["modules"] == m and r["alpha"] == a)
             assert cells[j][i] == want
     assert heatmap_axes(build_sweep(["curve"], ["seed"], [])) == (None, None)
+    # the ranking ranks what the cells show: each robot design by its worst over the trajectory's angle
+    from bhr.studies.sweep import best_designs, format_summary
+
+    ranked = best_designs(res, None)
+    assert len(ranked) == 6 and {(d["modules"], d["alpha"]) for d in ranked} == {(m, a) for m in (4, 5)
+                                                                                 for a in (9, 10, 11)}
+    for d in ranked:
+        i, j = (4, 5).index(d["modules"]), (9, 10, 11).index(d["alpha"])
+        assert d["points_max_error_mm"] == cells[j][i] and d["trajectories"] == 2
+    assert [d["points_max_error_mm"] for d in ranked] == sorted(d["points_max_error_mm"] for d in ranked)
+    lines = format_summary(res, count=5)
+    assert lines[1] == "Best 5 of 6 designs by worst point error over the trajectories (mm), as the heat-map shows:"
+    assert lines[2].startswith(f"  #{ranked[0]['design']}: modules={ranked[0]['modules']}, alpha={ranked[0]['alpha']}: "
+                               f"{ranked[0]['points_max_error_mm']:.3f}")
 
 
 def test_bad_command_lines_are_one_line(tmp_path):
@@ -481,3 +495,12 @@ def test_heatmap_names_the_thesis_design_only_where_it_frames_it():
     assert not any(t.get_text().startswith("thesis design") for t in fig.legends[0].get_texts())
     assert not [p for ax in fig.axes for p in ax.patches if p.get_edgecolor()[:3] == (1.0, 0.0, 0.0)]
     plt.close(fig)
+
+
+def test_whole_number_grid_keys_take_first_last_as_colons_do():
+    from bhr.studies.sweep import parse_values
+
+    assert parse_values("seed", "1-3", "x") == parse_values("seed", "1:3", "x") == (1, 2, 3)
+    assert parse_values("modules", "4-6", "x") == (4, 5, 6)
+    with pytest.raises(BhrError):
+        parse_values("alpha", "10-20", "x")  # not a whole-number key: a range is START:STOP[:STEP]

@@ -130,3 +130,29 @@ def test_bad_thermal_tables_are_one_line():
         T.thermal_from_table({"max_full_ms": 1000})
     with pytest.raises(BhrError, match="must be a number"):
         T.thermal_from_table({"relax_ms": "fast"})
+
+
+def test_the_plan_figure_draws_wires_that_move_together_as_one_named_line():
+    import os
+
+    os.environ.setdefault("MPLBACKEND", "Agg")
+    from bhr.output.thermal_plot import schedule_figure, wire_groups
+
+    # module 1 tilts with code 3 (wires 1+2) then 12 (wires 3+4); module 2 with code 6 only, then rests
+    rows = np.array([[3, 6], [0, 6], [12, 0], [0, 0]])
+    sched = T.auto_schedule(T.DEFAULT_THERMAL, rows, 10.0)
+    assert wire_groups(sched.sim.theta[:, 0, :]) == [(0, 1), (2, 3)]
+    assert wire_groups(sched.sim.theta[:, 1, :]) == [(0, 3), (1, 2)]  # wires 1 and 4 never on: equal too
+    fig = schedule_figure(sched)
+    try:
+        lines = [ln for ax in fig.axes for ln in ax.get_lines() if ln.get_label().startswith("actuator")]
+        assert [ln.get_label() for ln in lines] == ["actuators 1+2", "actuators 3+4", "actuators 1+4", "actuators 2+3"]
+        for ax in fig.axes:  # no two wire lines of a panel lie on each other
+            ys = [tuple(ln.get_ydata()) for ln in ax.get_lines() if ln.get_label().startswith("actuator")]
+            assert len(set(ys)) == len(ys)
+        legend = [t.get_text() for t in fig.axes[0].get_legend().get_texts()]
+        assert legend[:4] == ["actuators 1+2", "actuators 1+4", "actuators 2+3", "actuators 3+4"]
+    finally:
+        import matplotlib.pyplot as plt
+
+        plt.close(fig)

@@ -322,6 +322,9 @@ def test_page_loads_in_chromium_without_console_errors(small_study, tmp_path):
         assert len(sizes) == 2 and all(w > 300 and h > 200 for w, h in sizes)
         assert b.evaluate("document.querySelectorAll('#designs tbody tr').length") == 4
         assert b.evaluate("document.querySelectorAll('#designs tbody tr.meets').length") >= 1
+        from tests.test_report_browser import check_fits
+
+        check_fits(b)  # the page fits a 1280 px window (tables scroll inside it)
         assert b.screenshot(tmp_path / "page.png")[:8] == PNG
     finally:
         b.close()
@@ -343,3 +346,33 @@ def test_ties_are_broken_by_the_clearance_left():
     r.study, r.designs = study, designs
     best, meeting = answer(r)
     assert best["alpha"] == 30 and [d["alpha"] for d in meeting] == [30, 25]
+
+
+def test_colons_take_the_grid_range_syntax_too():
+    from bhr.studies.traverse import parse_colons
+
+    assert parse_colons("1:3") == parse_colons("1-3") == (1, 2, 3)
+    assert parse_colons("1:9:4,20") == (1, 5, 9, 20)
+    with pytest.raises(BhrError, match="mixes - and :"):
+        parse_colons("1-9:2")
+
+
+def test_the_table_says_when_designs_are_left_out():
+    from bhr.studies.traverse import format_study
+
+    study = build_study([("alpha", tuple(range(10, 19)))], "1-2")
+    runs = [{"solver": "thesis", "alpha": a, "seed": s, "status": "ok", "steps": 5, "traversed": a > 10,
+             "max_penetration_mm": 0.0 if a > 10 else 1.0, "touch_steps": 0, "contact_length_mm": 0.0,
+             "min_clearance_mm": float(a)} for a in range(10, 19) for s in (1, 2)]
+
+    class R:
+        runner, wall_time_s, clearance_kind, failed = "in-process", 1.0, "geometric", []
+
+    r = R()
+    r.study, r.designs, r.runs = study, design_rows(study, runs, {}), runs
+    lines = format_study(r)
+    assert lines[0].startswith("18 runs (9 designs x 2 colons)")
+    shown = [ln for ln in lines[2:] if ln[:5].strip().isdigit()]
+    assert len(shown) == 8
+    assert "the best 8 of 9 designs shown; 1 more (down to design #1, 0% traversed) are in designs.csv" in lines[-2]
+    assert len([ln for ln in format_study(r, count=9)[2:] if ln[:5].strip().isdigit()]) == 9

@@ -405,6 +405,10 @@ class Simulation:
         return [f[1:] for f in out]
 
 
+#: At most this many temperature samples (times wires) are kept by default (32 MB): see ``simulate``'s stride.
+TRACE_CELLS = 4_000_000
+
+
 def simulate(params: ThermalParams, times_ms, rows, end_ms: int | None = None, theta0=None,
              stride: int | None = None, reference: bool = False, auto: bool = False, min_gap_ms: int = 0,
              margin_ms: int = LINK_MARGIN_MS, on_trace: bool = False) -> Simulation:
@@ -413,7 +417,8 @@ def simulate(params: ThermalParams, times_ms, rows, end_ms: int | None = None, t
     ``end_ms`` (default: long enough for every row to be reached) ends the
     run; ``theta0`` (modules x 4, Q14) gives the starting temperatures (default
     cold). The temperatures are sampled every ``stride`` ms (default: the PWM
-    period). ``auto=True`` ignores ``times_ms`` after the first and sends each
+    period, or a whole number of periods when the run would keep more than
+    ``TRACE_CELLS`` samples). ``auto=True`` ignores ``times_ms`` after the first and sends each
     row as soon as the board is ready for it (see :func:`auto_schedule`).
     ``reference=True`` runs the numpy reference instead of the compiled kernel.
     ``on_trace=True`` also keeps each wire's on-time so far at every sample
@@ -430,7 +435,10 @@ def simulate(params: ThermalParams, times_ms, rows, end_ms: int | None = None, t
                   + 4 * params.period_ms)
     if end_ms is None:
         end_ms = (int(t[0]) + n * per_row) if auto else int(t[-1] + per_row)
-    stride = int(stride or params.period_ms)
+    if stride is None:  # every PWM period, or coarser when a long run of many modules would fill the memory
+        periods = -(-(int(end_ms) + 1) * 4 * m // (TRACE_CELLS * int(params.period_ms)))
+        stride = int(params.period_ms) * max(1, periods)
+    stride = int(stride)
     th0 = np.zeros(4 * m, np.int64) if theta0 is None else np.asarray(theta0, np.int64).reshape(4 * m).copy()
     k = _const_array(params)
     fn = simulate_reference if reference else _compiled()

@@ -28,11 +28,12 @@ from typing import Any, Callable
 import numpy as np
 
 import bhr.model.pathfile as pathfile
-from bhr.settings.inputs import check_keys, did_you_mean, number, read_toml, text_value
+from bhr.settings.inputs import check_keys, number, read_toml, text_value
 from bhr.settings.errors import BhrError
 from bhr.model.anatomy import anatomical_colon, check_seed
 from bhr.model.pathfile import MAX_POINTS
 from bhr.model.path import Trajectory
+import bhr.model.trajnames as trajnames
 
 __all__ = ["Trajectory", "trajectory", "load_trajectory", "builtin_names", "GENERATORS",
            "line", "curve", "spiral", "colon", "anatomy", "anatomy_trajectory"]
@@ -266,26 +267,11 @@ def _generator_length(gen_name: str, p: dict[str, float]) -> float:
 
 def builtin_names() -> list[str]:
     """Names ``load_trajectory`` knows: the generators, then the shipped point files (trajectories/NAME.csv)."""
-    return list(GENERATORS) + sorted(_builtin_csvs())
-
-
-def _trajectory_folder() -> Path | None:
-    try:
-        res = resources.files("bhr.trajectories")
-    except ModuleNotFoundError:
-        res = None
-    if res is not None and res.is_dir():
-        return Path(str(res))
-    repo = Path(__file__).resolve().parents[2] / "trajectories"
-    return repo if repo.is_dir() else None
+    return trajnames.builtin_names()
 
 
 def _builtin_csvs() -> dict[str, Path]:
-    """Shipped point files by name (``anatomy-typical`` is trajectories/anatomy-typical.csv)."""
-    folder = _trajectory_folder()
-    if folder is None:
-        return {}
-    return {p.stem: p for p in folder.glob("*.csv") if p.is_file()}
+    return trajnames.shipped_csvs()
 
 
 def _builtin_file(name: str) -> Path | None:
@@ -328,8 +314,7 @@ def _load(name_or_path: str | os.PathLike[str], feed: float, params: dict[str, A
             traj = _from_file(shipped, feed, params, builtin=True)
             traj.name = key
             return traj
-        raise BhrError(f"unknown trajectory {key!r}: not a built-in ({', '.join(builtin_names())}) and no such file; "
-                       f"{did_you_mean(key, builtin_names())}give one of the built-ins or a .toml/.csv file")
+        trajnames.check_trajectory_name(key)
     return _from_file(p, feed, params, builtin=False)
 
 

@@ -145,7 +145,9 @@ class Robot:
         return forward_kinematics(self, codes, base, frame)
 
     def to_dict(self) -> dict[str, Any]:
-        d = asdict(self)
+        """The robot as run.json, the report and the sweeps write it: the option names of the registry
+        (``robot_radius``, as on the command line and in robot files), then ``feed`` and ``min_turn_radius``."""
+        d = {("robot_radius" if k == "radius" else k): v for k, v in asdict(self).items()}
         d["feed"] = self.feed
         d["min_turn_radius"] = self.min_turn_radius
         return d

@@ -1,4 +1,4 @@
-"""Robot description files (TOML): the robot, its code table and its hardware link.
+"""Robot description files (TOML or JSON, one schema): the robot, its code table and its hardware link.
 
 ``bhr ... --robot FILE`` reads one; options given on the command line
 override its values. The documented default, with the thesis's values, ships
@@ -22,7 +22,7 @@ from importlib import resources
 from pathlib import Path
 from typing import Any, Sequence
 
-from bhr.settings.inputs import check_keys, number, read_toml, text_value, type_name
+from bhr.settings.inputs import check_keys, number, read_text, read_toml, text_value, type_name
 from bhr.model.codes import CODE_AXIS, LIFT, REST, VALID_CODES
 from bhr.settings.errors import BhrError
 from bhr.settings.options import by_group
@@ -46,7 +46,8 @@ LINK_KEYS = ("port", "baudrate", "module_order", "on_max_ms", "cooldown_ms", "si
 #: File key -> Robot field where they differ: ``robot_radius`` is the disc radius in robot files, batch
 #: and sweep files and on the command line (``--robot-radius``); ``radius``, its old name here, is accepted.
 KEY_ALIASES = {"robot_radius": "radius"}
-TOP_KEYS = ("name", "description", "robot_radius", *ROBOT_KEYS, "codes", "link", "thermal", "mass")
+TOP_KEYS = ("name", "description", "robot_radius", *(k for k in ROBOT_KEYS if k != "radius"), "codes", "link",
+            "thermal", "mass")
 #: Keys of the ``[mass]`` table (docs/export.md): one module's mass in grams, or its density in kg/m^3.
 MASS_KEYS = ("module_mass", "density")
 #: Limits the firmware accepts for its timing settings (firmware/src/config.h), ms.
@@ -266,18 +267,59 @@ def _check_link(table: Any, modules: int, where: str) -> LinkSettings:
     return LinkSettings(**out)
 
 
+#: Keys of a run.json's robot that follow from the others (not robot-file keys).
+RUN_DERIVED_KEYS = ("feed", "min_turn_radius")
+
+
+def read_json_robot(path: Path) -> dict[str, Any]:
+    """The table of a JSON robot file, or the robot of a run (a ``run.json`` written by ``bhr follow``).
+
+    A JSON robot file has the keys of a TOML one (the same checks follow). A run's robot is its
+    ``robot`` object less what follows from the rest (``feed``, ``min_turn_radius``, an empty
+    ``stroke``/``lever``, and ``alpha`` when stroke and lever give it).
+    """
+    import json
+
+    hint = f"give a robot description such as {default_robot_file()} or a run.json written by 'bhr follow'"
+    text = read_text(path, "robot file", hint)
+    try:
+        data = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise BhrError(f"{path}: not valid JSON (line {exc.lineno}: {exc.msg}); {hint}") from None
+    except (RecursionError, ValueError):
+        raise BhrError(f"{path}: unreadable JSON; {hint}") from None
+    if not isinstance(data, dict):
+        raise BhrError(f"{path}: a robot file is a JSON object of keys such as modules and alpha, got "
+                       f"{type_name(data)}; {HINT}")
+    if "steps" in data and "trajectory" in data:  # a run: take its robot
+        rb = data.get("robot")
+        if not isinstance(rb, dict):
+            raise BhrError(f"{path}: the run has no robot object; {hint}")
+        rb = {k: v for k, v in rb.items() if k not in RUN_DERIVED_KEYS and v is not None}
+        if "stroke" in rb and "lever" in rb:
+            rb.pop("alpha", None)
+        return rb
+    return data
+
+
 def load_robot_file(path: str | os.PathLike[str]) -> RobotFile:
-    """Read and check a robot description file (TOML); see docs/robot-files.md."""
+    """Read and check a robot description file (TOML or JSON, one schema) or a run's robot (run.json);
+    see docs/robot-files.md."""
     p = Path(path)
     where = str(p)
-    if p.suffix.lower() != ".toml" and not p.is_dir() and p.exists():
-        raise BhrError(f"{where}: robot files are TOML (.toml); {HINT}")
-    data = read_toml(p, "robot file", f"give a robot description such as {default_robot_file()}")
-    check_keys(data, TOP_KEYS, where)
-    if "robot_radius" in data:
-        if "radius" in data:
+    suffix = p.suffix.lower()
+    if suffix not in (".toml", ".json") and not p.is_dir() and p.exists():
+        raise BhrError(f"{where}: robot files are TOML (.toml) or JSON (.json), or a run.json; {HINT}")
+    if suffix == ".json" and not p.is_dir():
+        data = read_json_robot(p)
+    else:
+        data = read_toml(p, "robot file", f"give a robot description such as {default_robot_file()}")
+    if "radius" in data:  # the old name, still read
+        if "robot_radius" in data:
             raise BhrError(f"{where}: radius is the old name of robot_radius; give robot_radius only")
-        data = {("radius" if k == "robot_radius" else k): v for k, v in data.items()}
+        data = {("robot_radius" if k == "radius" else k): v for k, v in data.items()}
+    check_keys(data, TOP_KEYS, where)
+    data = {("radius" if k == "robot_radius" else k): v for k, v in data.items()}
     name = text_value(data.get("name", p.stem), f"{where}: name")
     description = text_value(data.get("description", ""), f"{where}: description")
     fields_: dict[str, Any] = {}

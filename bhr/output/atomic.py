@@ -36,6 +36,7 @@ import uuid
 from pathlib import Path
 from typing import Any, Iterable, Iterator
 
+from bhr import __version__
 from bhr.settings.errors import BhrError
 
 __all__ = ["atomic_path", "write_text", "write_json", "check_output_file", "OutputFolder", "MANIFEST",
@@ -362,7 +363,7 @@ class OutputFolder:
         for p in sorted(self.stage.rglob("*")):
             if p.is_file() and p.name != MANIFEST:
                 files[str(p.relative_to(self.stage))] = {"bytes": p.stat().st_size, "sha256": _sha256(p)}
-        doc = {"bhr_output": 1, "command": self.command, "run_id": self.run_id,
+        doc = {"bhr_output": 1, "bhr_version": __version__, "command": self.command, "run_id": self.run_id,
                "written": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()), "files": files}
         (self.stage / MANIFEST).write_text(json.dumps(doc, indent=1) + "\n", encoding="utf-8")
         os.chmod(self.stage / MANIFEST, _mode_for(self.target / MANIFEST))

@@ -104,18 +104,30 @@ def error_figure(result: "FollowResult", kind: str) -> plt.Figure:
         ax.axhline(tol, color="tab:red", linestyle="--", linewidth=0.8, label=tol_label)
         mark_worst(ax, steps, col, unit)
         mark_wall_touches(ax, result)
-        ax.set_title(_panel_title(kind, j, count), fontsize=10)
+        ax.set_title(_panel_title(kind, j, count), fontsize=10, y=1.0, pad=4)  # placed, not laid out
         ax.set_ylabel(ylabel, fontsize=9)
         ax.grid(True, alpha=0.3)
         ax.set_xlim(1, max(2, data.shape[0]))
         top = max(tol, float(np.nanmax(col)) if np.isfinite(col).any() else 0.0)
         ax.set_ylim(0, 1.45 * top if top > 0 else 1.0)  # room above for the legend
         ax.tick_params(labelbottom=True, labelsize=8)  # step numbers on every panel, not only the bottom row
+        _light_ticks(ax)
         ax.legend(loc="upper right", fontsize=7, framealpha=0.9, ncol=2)
         if j // cols == rows - 1 or j + cols >= count:
             ax.set_xlabel("trajectory step", fontsize=9)
     fig.suptitle(f"{title} - {result.trajectory.name}, solver {result.solver}", fontsize=12, y=1 - 0.12 / height)
     return fig
+
+
+def _light_ticks(ax: Any, bins: int = 5) -> None:
+    """Ticks fixed once from the axes' limits: the same kind of numbers as matplotlib's default, fewer of them,
+    and none computed again at each draw (ticks and their labels are most of an error figure's drawing time)."""
+    from matplotlib.ticker import FixedLocator, MaxNLocator
+
+    for axis, (lo, hi) in ((ax.xaxis, ax.get_xlim()), (ax.yaxis, ax.get_ylim())):
+        ticks = [t for t in MaxNLocator(nbins=bins, steps=[1, 2, 2.5, 5, 10]).tick_values(lo, hi)
+                 if lo - 1e-9 * abs(hi - lo) <= t <= hi + 1e-9 * abs(hi - lo)]
+        axis.set_major_locator(FixedLocator(ticks))
 
 
 def _margins(width: float, height: float, rows: int, cols: int, left: float = 0.7, right: float = 0.15,
@@ -577,10 +589,10 @@ class StepView:
         r = self.result
         pe, oe = r.point_errors[i], r.orientation_errors[i]
         worst = int(np.argmax(pe))
-        over = "  OVER" if float(pe.max()) > r.robot.tol_pos else ""
+        over = " OVER" if float(pe.max()) > r.robot.tol_pos else ""
         lines = [f"step {i + 1} of {r.steps}",
                  f"tip error     {pe[-1]:7.2f} mm",
-                 f"worst point   {pe[worst]:7.2f} mm (point {worst + 1}){over}",
+                 f"worst point   {pe[worst]:7.2f} mm, pt {worst + 1}{over}",
                  f"  tolerance   {r.robot.tol_pos:7.2f} mm",
                  f"tip angle     {oe[-1]:7.2f} deg",
                  f"  tolerance   {r.robot.tol_ori:7.2f} deg",
@@ -599,10 +611,14 @@ class StepView:
         _set_window(self.ax, centre, self.half, self.planar)
         h = self.half
         if self.planar:
-            box = np.array([[centre[0] - h, centre[1] - h, 0], [centre[0] + h, centre[1] - h, 0],
-                            [centre[0] + h, centre[1] + h, 0], [centre[0] - h, centre[1] + h, 0],
-                            [centre[0] - h, centre[1] - h, 0]])
-            new += _plot(self.overview, box, True, color="0.2", linewidth=0.9)
+            # the window the left view shows: a shaded square (clipped to the overview like the path), so that
+            # at the path's ends it reads as a window and not as loose lines
+            from matplotlib.patches import Rectangle
+
+            window = Rectangle((centre[0] - h, centre[1] - h), 2 * h, 2 * h, facecolor="0.2", alpha=0.12,
+                               edgecolor="0.2", linewidth=0.9, zorder=3, label="_view window")
+            self.overview.add_patch(window)  # clipped to the overview's box
+            new.append(window)
         else:
             new += _depth_cue(self.ax, r, i, self.ax.get_zlim()[0])
         new += _plot(self.overview, r.points[i], self.planar, "-", color="tab:red", linewidth=2.5)
@@ -622,16 +638,28 @@ def chain_figure(initial: np.ndarray, final: np.ndarray, target: Sequence[float]
                  title: str = "") -> plt.Figure:
     """Initial and final chain of one solve (thesis Figs. 5.8-5.22): 2D when all lies in z = 0."""
     t = np.asarray(target, dtype=np.float64)
-    planar = bool(np.all(np.abs(np.vstack([initial, final, t[None]])[:, 2]) < 1e-12))
+    allpts = np.vstack([initial, final, t[None]])
+    planar = bool(np.all(np.abs(allpts[:, 2]) < 1e-12))
     fig = plt.figure(figsize=(7, 7))
     ax = _setup_axes(fig, planar)
-    draw_robot(ax, initial, radius or 0.0, planar, color="black", label="initial", discs=False)
+    if not planar:
+        ax.computed_zorder = False  # draw in zorder: the solution over the initial chain, whatever the depth
+    # the initial chain thin, grey and dashed behind; the solution and the target on top
+    _plot(ax, initial, planar, "--o", color="0.55", markersize=2.5, linewidth=1.0, label="initial", zorder=2)
     draw_robot(ax, final, radius or 0.0, planar, color="tab:red", label="final", discs=bool(radius))
+    _plot(ax, t[None], planar, "x", color="tab:green", markersize=11, markeredgewidth=2.0, label="target",
+          zorder=8)
+    span = float(np.ptp(allpts, axis=0).max()) or 1.0
+    pad = 0.08 * span  # room around the chain and the target so that no marker is cut at the frame
     if planar:
-        ax.plot([t[0]], [t[1]], "x", color="tab:green", markersize=10, label="target")
+        lo, hi = allpts[:, :2].min(axis=0) - pad, allpts[:, :2].max(axis=0) + pad
+        ax.set_xlim(lo[0], hi[0])
+        ax.set_ylim(lo[1], hi[1])
     else:
-        ax.plot([t[0]], [t[1]], [t[2]], "x", color="tab:green", markersize=10, label="target")
-        _equal_3d(ax, np.vstack([initial, final, t[None]]))
+        _equal_3d(ax, allpts, pad=pad)
+        # look across the plane the solution bends in, so that it does not hide behind the initial chain
+        d = final[-1] - final[0]
+        ax.view_init(elev=20, azim=float(np.degrees(np.arctan2(d[1], d[0]))) - 60)
     ax.set_title(title)
     ax.legend(loc="best", fontsize=8)
     fig.tight_layout()
@@ -722,7 +750,7 @@ def draw_contacts(ax: Any, result: "FollowResult", planar: bool) -> list[Any]:
              "label": "wall contact", "zorder": 4}
     if planar:
         return ax.plot(w[:, 0], w[:, 1], **style)
-    return ax.plot(w[:, 0], w[:, 1], w[:, 2], **style)
+    return ax.plot(w[:, 0], w[:, 1], w[:, 2], axlim_clip=True, **style)  # none outside a zoomed 3-D view
 
 
 def body_figure(result: "FollowResult") -> plt.Figure:

@@ -27,6 +27,7 @@ from typing import Any, Callable
 
 import numpy as np
 
+from bhr import __version__
 from bhr.settings.inputs import MAX_FILE_BYTES, MAX_MM, MAX_STEP_POINTS, read_text
 from bhr.settings.errors import BhrError
 from bhr.settings.options import robot_limits
@@ -289,6 +290,7 @@ class FollowResult:
         if self.trajectory.lumen is not None:
             traj_doc["lumen"] = [float(v) for v in self.trajectory.lumen]
         return {
+            "bhr_version": __version__,
             "trajectory": traj_doc,
             "robot": self.robot.to_dict(),
             "solver": self.solver,
@@ -330,6 +332,7 @@ def _run_from_json(doc: Any, where: str) -> FollowResult:
         raise bad("'trajectory' and 'robot' must be objects and 'steps' a non-empty list")
     path = array(tr.get("points"), (None, 3), "trajectory points")
     names = set(Robot.__dataclass_fields__)
+    rb = {("radius" if k == "robot_radius" else k): v for k, v in rb.items()}  # older runs wrote "radius"
     try:
         robot = Robot(**{k: v for k, v in rb.items() if k in names})
     except (BhrError, TypeError) as exc:
@@ -567,7 +570,7 @@ def follow(points: Any, solver: str | Solver = "thesis", robot: Robot | None = T
             if on_step is not None:
                 on_step(i, None if res.codes is None else codes[i])
             chain = res.chain.advance(robot.feed, robot.module_length)
-    result = FollowResult(traj, robot, solver, out_points, out_iters, pe, oe, codes if has_codes else None, msgs)
+    result = FollowResult(traj, robot, s.name, out_points, out_iters, pe, oe, codes if has_codes else None, msgs)
     if body_modules is not None:
         result.body = simulate_body(result, body_modules)
     return result

@@ -43,23 +43,23 @@ def compare_runs(traj: Trajectory, solvers: Sequence[str], robot: Robot, *,
                  solver_options: dict[str, dict[str, Any]] | None = None,
                  body_modules: int | None = None) -> list[Compared]:
     """Run ``traj`` with each solver (options per solver name); raises BhrError for fewer than two or repeats."""
-    names = list(solvers)
+    known = available()
+    for s in solvers:
+        if canonical(s) not in known:
+            raise BhrError(f"unknown solver {s!r}; choose from {', '.join(known)}")
+    names = [canonical(s) for s in solvers]  # one name per solver in the table and the figure (seed: thesis)
     if len(names) < 2:
         raise BhrError("compare needs at least two solvers, e.g. --solver thesis --solver optimal")
     dup = next((s for s in names if names.count(s) > 1), None)
     if dup is not None:
         raise BhrError(f"solver {dup} is given twice; give each solver once")
-    known = available()
-    for s in names:
-        if canonical(s) not in known:
-            raise BhrError(f"unknown solver {s!r}; choose from {', '.join(known)}")
     work = traj.points.shape[0] * (max(robot.modules, body_modules or 0) + 1) * len(names)
     if work > MAX_STEP_POINTS:  # every run is kept for the table and the figure: they share one run's budget
         raise BhrError(f"{len(names)} runs of {traj.points.shape[0]} steps x "
                        f"{max(robot.modules, body_modules or 0) + 1} robot points is {work:,} points to keep, "
                        f"more than the {MAX_STEP_POINTS:,} a command may hold in memory; shorten the path, raise "
                        "the feed, or compare fewer solvers")
-    opts = solver_options or {}
+    opts = {canonical(k): v for k, v in (solver_options or {}).items()}
     out = []
     for s in names:
         # load (or compile) the solver's kernels first, so that the time is the run's

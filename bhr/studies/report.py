@@ -26,7 +26,8 @@ recorded with its reason and the other runs still run.
 :func:`run_batch` writes into the output folder ``index.html`` (the summary
 table first, then each run's figures), ``summary.csv`` and ``summary.json``
 (one row per run) and, per run, ``runs/<name>/`` with the four figures of
-``bhr follow`` and ``run.json``. Every file is written atomically.
+``bhr follow``, ``run.json``, ``steps.csv`` and (binary solvers) ``codes.csv``.
+Every file is written atomically.
 
 This module does not import matplotlib until a run draws its figures.
 """
@@ -52,6 +53,8 @@ from bhr.output.htmlpage import table as html_table
 from bhr.settings.options import by_group, solver_options_for
 from bhr.model.robot import Robot
 from bhr.model.robotfile import load_robot_file
+from bhr.model.codes import format_codes_csv
+from bhr.output.steptable import STEPS_CSV, format_steps_csv
 from bhr.solvers import get_solver
 from bhr.studies.study import (CONSTRAINT_KEYS, INT_KEYS, NUMBER_KEYS, ROBOT_KEYS, SOLVER_KEYS, TRAJ_KEYS, check_value,
                        check_body, sim_options, suggest, summary_row, warm_up)
@@ -262,6 +265,9 @@ def execute_run(spec: RunSpec, out_dir: str | os.PathLike[str] | None = None, pl
         if out_dir is not None:
             out = Path(out_dir)
             write_json(out / "run.json", result.to_dict())
+            write_text(out / STEPS_CSV, format_steps_csv(result))
+            if result.codes is not None:  # what bhr plan and bhr stream take, as bhr follow writes it
+                write_text(out / "codes.csv", format_codes_csv(result.codes))
             if plots:
                 from bhr.output.plots import save_run_plots
 
@@ -450,7 +456,8 @@ def _run_section(row: dict[str, Any], anchor: str, out_dir: Path, inline: bool) 
     dl.append(("solver", row["solver"]))
     rb = row.get("robot")
     if rb:
-        dl.append(("robot", f"{rb['modules']} modules x {rb['module_length']:g} mm, radius {rb['radius']:g} mm, "
+        disc = rb.get("robot_radius", rb.get("radius", 0.0))  # older rows said radius
+        dl.append(("robot", f"{rb['modules']} modules x {rb['module_length']:g} mm, radius {disc:g} mm, "
                             f"alpha {rb['alpha']:g} deg (min turn radius {rb['min_turn_radius']:.2f} mm), "
                             f"feed {rb['feed']:g} mm"))
         dl.append(("tolerances", f"{rb['tol_pos']:g} mm, {rb['tol_ori']:g} deg; at most {rb['max_iter']} iterations"))

@@ -37,7 +37,7 @@ from bhr.studies.executor import DASK_MISSING, capture, connect_scheduler, run_j
 from bhr.model.generators import GENERATORS, builtin_names, load_trajectory
 from bhr.run.driver import BhrWarning, follow
 from bhr.output.htmlpage import PAGE_END, escape, figure, fmt, page_head, table
-from bhr.settings.options import by_group, solver_options_for
+from bhr.settings.options import BY_NAME, by_group, solver_options_for
 from bhr.model.robot import Robot
 from bhr.model.robotfile import load_robot_file
 from bhr.solvers import available, canonical
@@ -102,6 +102,9 @@ def parse_values(key: str, value: Any, where: str) -> tuple[Any, ...]:
             raise BhrError(f"{where}: {key} has no values; give e.g. {key}=4,5,6 or {key}=4:8")
         if (key in CONSTRAINT_KEYS and CONSTRAINT_KEYS[key] is not None) or key in RUN_CHOICE_KEYS:
             raw: list[Any] = [t.strip() for t in text.split(",")]
+        elif re.fullmatch(r"\d+\s*-\s*\d+", text) and BY_NAME.get(key) is not None and BY_NAME[key].kind is int:
+            a, b = (int(t) for t in text.split("-"))  # FIRST-LAST of whole numbers, as --colons takes them
+            raw = _range(a, b, 1, key, where)
         elif ":" in text and "," not in text:
             parts = text.split(":")
             if len(parts) not in (2, 3):
@@ -235,6 +238,7 @@ def build_sweep(trajs: Sequence[str], solvers: Sequence[str], grid: Iterable[tup
     for s in solvers:
         if canonical(s) not in names:
             raise BhrError(f"{where}: unknown solver {s!r}; choose from {', '.join(names)}")
+    solvers = tuple(dict.fromkeys(canonical(s) for s in solvers))  # tables name a solver one way (seed: thesis)
     shipped = set(builtin_names())
     sources = {}
     base = Path(base_dir)
@@ -586,9 +590,72 @@ def results_csv(result: SweepResult) -> str:
 
 
 def best_rows(result: SweepResult, count: int = 10) -> list[dict[str, Any]]:
-    """The ``count`` designs with the smallest worst point error (design order breaks ties)."""
+    """The ``count`` rows (one design on one trajectory) with the smallest worst point error (design order
+    breaks ties). The rankings bhr prints and pages show are :func:`best_designs`."""
     ok = [r for r in result.rows if r["status"] == "ok"]
     return sorted(ok, key=lambda r: (r["points_max_error_mm"], r["design"]))[:count]
+
+
+def robot_design_keys(sweep: Sweep) -> list[str]:
+    """The sweep's axes that make a robot design (solver, robot and solver settings): all but the trajectory's."""
+    return [k for k in sweep.keys if k != "traj" and k not in TRAJ_KEYS]
+
+
+def best_designs(result: SweepResult, count: int | None = 10) -> list[dict[str, Any]]:
+    """Robot designs ranked as the heat-map shows them: each by its worst over every trajectory it ran.
+
+    A design is one combination of :func:`robot_design_keys`; its ``points_max_error_mm`` is the largest
+    over its trajectories (rows), ``min_clearance_mm`` the smallest, ``worst_row`` the design number of
+    the row with the largest error, ``trajectories`` how many rows it has and ``failed`` how many of
+    them failed. A design with a failed row ranks after every design whose rows all ran. Ties: the
+    first design number. ``count=None`` returns them all.
+    """
+    keys = robot_design_keys(result.sweep)
+    groups: dict[tuple[Any, ...], list[dict[str, Any]]] = {}
+    for r in result.rows:
+        groups.setdefault(tuple(r.get(k) for k in keys), []).append(r)
+    out = []
+    for vals, rows in groups.items():
+        ok = [r for r in rows if r["status"] == "ok" and r.get("points_max_error_mm") is not None]
+        if not ok:
+            continue
+        worst = max(ok, key=lambda r: (r["points_max_error_mm"], -r["design"]))
+        clear = [r["min_clearance_mm"] for r in ok if r.get("min_clearance_mm") is not None]
+        out.append({**dict(zip(keys, vals)), "design": rows[0]["design"], "worst_row": worst["design"],
+                    "worst_traj": worst.get("traj"), "points_max_error_mm": worst["points_max_error_mm"],
+                    "min_clearance_mm": min(clear) if clear else None, "trajectories": len(rows),
+                    "failed": len(rows) - len(ok)})
+    out.sort(key=lambda d: (d["failed"] > 0, d["points_max_error_mm"], d["design"]))
+    return out if count is None else out[:count]
+
+
+def _best_html(result: SweepResult, count: int = 10) -> str:
+    """The ranking the heat-map shows: robot designs by their worst point error over the trajectories."""
+    keys = robot_design_keys(result.sweep)
+    ranked = best_designs(result, None)
+    many = len({tuple(r.get(k) for k in keys) for r in result.rows}) < len(result.rows)
+    title = ("Best designs (smallest worst point error over the trajectories, as the heat-map shows)" if many
+             else "Best designs (smallest worst point error)")
+    cols = ["rank", *keys, "points_max_error_mm", "min_clearance_mm"] + (["worst_traj", "worst_row",
+                                                                            "trajectories"] if many else [])
+    heads = {"rank": "rank", "points_max_error_mm": "worst point error (mm)", "min_clearance_mm":
+             "min clearance (mm)", "worst_traj": "worst on", "worst_row": "its row (design #)",
+             "trajectories": "rows"}
+
+    def cell(item: tuple[int, dict[str, Any]], c: str) -> tuple[str, str]:
+        n, d = item
+        if c == "rank":
+            return str(n), ""
+        v = _label(d[c]) if c in ("traj", "worst_traj") else d.get(c)
+        return escape(fmt(v)), "l" if c in ("traj", "solver", "worst_traj") else (
+            "rank" if c == "points_max_error_mm" else "")
+
+    shown = ranked[:count]
+    note = "" if len(ranked) <= count else (f"<p class=\"meta\">The best {count} of {len(ranked)} designs; every "
+                                            "row is in the table below and in results.csv.</p>\n")
+    return (f"<h2>{escape(title)}</h2>\n" + table("best", cols, list(enumerate(shown, 1)), cell, heads=heads,
+                                                 head_class=lambda c: "rank" if c == "points_max_error_mm" else "")
+            + note)
 
 
 def _html(result: SweepResult, heatmap: str | None) -> str:
@@ -625,8 +692,7 @@ def _html(result: SweepResult, heatmap: str | None) -> str:
                             "Worst point error (largest error of any point at any step) and, where the trajectory "
                             "has a lumen, minimum clearance per design; hatched: over the position tolerance; "
                             "framed in red: the thesis design; grey: every design in the cell failed"))
-    parts.append("<h2>Best designs (smallest worst point error)</h2>\n")
-    parts.append(designs(best_rows(result), "best", ranked=True))
+    parts.append(_best_html(result))
     parts.append("<h2>Every design</h2>\n")
     parts.append(designs(result.rows, "designs"))
     parts.append(PAGE_END)
@@ -671,14 +737,22 @@ def format_summary(result: SweepResult, count: int = 5) -> list[str]:
     """A few lines for the terminal: counts, time, and the best designs."""
     lines = [f"{len(result.rows)} designs on {result.runner}: {len(result.rows) - len(result.failed)} ok, "
              f"{len(result.failed)} failed, {result.wall_time_s:.2f} s"]
-    best = best_rows(result, count)
+    ranked = best_designs(result, None)
+    best = ranked[:count]
     if best:
-        keys = [k for k, v in result.sweep.axes if len(v) > 1] or ["traj"]
-        lines.append(f"Best {len(best)} by worst point error (mm):")
+        design_keys = robot_design_keys(result.sweep)
+        many = len({tuple(r.get(k) for k in design_keys) for r in result.rows}) < len(result.rows)
+        keys = [k for k, v in result.sweep.axes if len(v) > 1 and k in design_keys] or (
+            design_keys if many else [k for k, v in result.sweep.axes if len(v) > 1] or ["traj"])
+        what = "worst point error over the trajectories (mm), as the heat-map shows" if many else \
+            "worst point error (mm)"
+        shown = f"Best {len(best)} of {len(ranked)} designs" if len(ranked) > len(best) else f"Best {len(best)}"
+        lines.append(f"{shown} by {what}:")
         for r in best:
             desc = ", ".join(f"{k}={_label(r[k])}" for k in keys)
             clear = "" if r["min_clearance_mm"] is None else f", clearance {r['min_clearance_mm']:.2f} mm"
-            lines.append(f"  #{r['design']}: {desc}: {r['points_max_error_mm']:.3f}{clear}")
+            where = f" (worst: {_label(r['worst_traj'])}, row #{r['worst_row']})" if many else ""
+            lines.append(f"  #{r['design']}: {desc}: {r['points_max_error_mm']:.3f}{clear}{where}")
     reasons: dict[str, int] = {}
     for r in result.failed:
         reasons[r["status"]] = reasons.get(r["status"], 0) + 1

@@ -60,11 +60,13 @@ DESIGN_COLUMNS = ("colons", "traversed", "pass_rate", "failed_runs", "worst_pene
 RUN_COLUMNS = ("status", "steps", "traversed", "max_penetration_mm", "touch_steps", "contact_length_mm",
                "min_clearance_mm", "points_max_error_mm", "tip_max_error_mm", "modules", "procedure_time_s")
 _MAX_COLONS = 100_000
-_RANGE = re.compile(r"^\s*(\d+)\s*(?:-\s*(\d+))?\s*$")
+#: One seed, or FIRST-LAST, or FIRST:LAST[:STEP] as in a sweep's grid (ends included).
+_RANGE = re.compile(r"^\s*(\d+)\s*(?:(-|:)\s*(\d+)\s*(?::\s*(\d+)\s*)?)?$")
 
 
 def parse_colons(text: str | Sequence[int]) -> tuple[int, ...]:
-    """Seeds from ``"1-100"``, ``"1-50,61,70-80"`` (ends included) or a list of whole numbers."""
+    """Seeds from ``"1-100"`` or ``"1:100"`` (the grid's syntax, ``"1:100:2"`` with a step), ``"1-50,61,70-80"``
+    (ends included) or a list of whole numbers."""
     if isinstance(text, str):
         if not text.strip():
             raise BhrError("--colons is empty; give seeds such as 1-100 or 1,2,5-9")
@@ -72,17 +74,22 @@ def parse_colons(text: str | Sequence[int]) -> tuple[int, ...]:
         for part in text.split(","):
             m = _RANGE.match(part)
             if m is None:
-                raise BhrError(f"--colons: {part.strip()!r} is not a seed or a range of seeds; give e.g. 1-100 or "
-                               "1,2,5-9 (whole numbers)")
+                raise BhrError(f"--colons: {part.strip()!r} is not a seed or a range of seeds; give e.g. 1-100, "
+                               "1:100 or 1,2,5-9 (whole numbers)")
             a = int(m.group(1))
-            b = int(m.group(2)) if m.group(2) is not None else a
+            b = int(m.group(3)) if m.group(3) is not None else a
+            step = int(m.group(4)) if m.group(4) is not None else 1
+            if m.group(4) is not None and m.group(2) != ":":
+                raise BhrError(f"--colons: {part.strip()!r} mixes - and :; give FIRST-LAST or FIRST:LAST:STEP")
+            if step < 1:
+                raise BhrError(f"--colons: the step of {part.strip()!r} must be a whole number of at least 1")
             if b < a:
                 raise BhrError(f"--colons: range {a}-{b} runs backwards; give FIRST-LAST with FIRST <= LAST")
             if a > SEED_MAX or b > SEED_MAX:
                 raise BhrError(f"--colons: seeds go from 0 to {SEED_MAX}, got {part.strip()!r}")
             if b - a + 1 + len(seeds) > _MAX_COLONS:
                 raise BhrError(f"--colons: more than {_MAX_COLONS} colons; give fewer seeds")
-            seeds.extend(range(a, b + 1))
+            seeds.extend(range(a, b + 1, step))
     else:
         seeds = [check_seed(s, "--colons") for s in text]
     if not seeds:
@@ -436,7 +443,8 @@ def format_study(result: StudyResult, count: int = 8) -> list[str]:
     proc = any(d.get("median_procedure_time_s") is not None for d in result.designs)
     lines.append(f"{'#':>5}  {head}  {'traversed':>10}  {'worst pen':>9}  {'median pen':>10}  {'worst clear':>11}  "
                  f"{'median contact':>14}" + (f"  {'median time':>11}" if proc else ""))
-    for d in sorted(result.designs, key=_rank)[:count]:
+    ranked = sorted(result.designs, key=_rank)
+    for d in ranked[:count]:
         vals = "  ".join(f"{_label(d[k]):>13}" for k in keys)
         wp = "-" if d["worst_penetration_mm"] is None else f"{d['worst_penetration_mm']:.2f}"
         mp = "-" if d["median_penetration_mm"] is None else f"{d['median_penetration_mm']:.2f}"
@@ -445,6 +453,10 @@ def format_study(result: StudyResult, count: int = 8) -> list[str]:
         pt = "-" if d.get("median_procedure_time_s") is None else format_duration(d["median_procedure_time_s"])
         lines.append(f"{d['design']:>5}  {vals}  {100 * d['pass_rate']:>9.0f}%  {wp:>9}  {mp:>10}  {wc:>11}  {mc:>14}"
                      + (f"  {pt:>11}" if proc else ""))
+    if len(ranked) > count:
+        rest = ranked[count:]
+        lines.append(f"  ... the best {count} of {len(ranked)} designs shown; {len(rest)} more (down to design "
+                     f"#{rest[-1]['design']}, {100 * rest[-1]['pass_rate']:.0f}% traversed) are in designs.csv")
     lines.append(answer_line(result))
     return lines
 

@@ -1,0 +1,116 @@
+"""Time whole commands as docs/performance.md quotes them: CPU (user + system) and wall, with the machine's load.
+
+    python -m bhr.bench.commands                 # every command below, a Markdown table on stdout
+    python -m bhr.bench.commands --only follow   # the rows whose name contains "follow"
+    python -m bhr.bench.commands --repeat 3      # each command three times (median and range)
+
+Each command runs in a fresh temporary folder with a warm numba cache (one untimed run of
+``bhr follow --traj colon`` first), from the repository's root for the example files. The
+table states the load average before and after and the machine; on a shared machine the CPU
+times are the steady figures (waiting for a core is not a command's cost), the wall times
+are what a user waited. Sizes of written files (the animation) are measured too.
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import platform
+import resource
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[2]
+
+#: name -> (arguments of bhr, a file whose size the row reports or None)
+COMMANDS: dict[str, tuple[list[str], str | None]] = {
+    "follow colon (figures)": (["follow", "--traj", "colon", "--out", "o"], None),
+    "follow colon --no-plots": (["follow", "--traj", "colon", "--no-plots", "--out", "o"], None),
+    "follow --traj colonn (refused)": (["follow", "--traj", "colonn"], None),
+    "follow colon --animate colon.gif": (["follow", "--traj", "colon", "--no-plots", "--out", "o", "--animate",
+                                          "colon.gif"], "colon.gif"),
+    "report chapter7.toml": (["report", "--file", str(REPO / "docs/examples/chapter7.toml"), "--out", "r"], None),
+    "sweep sweep1000.toml": (["sweep", "--file", str(REPO / "docs/examples/sweep1000.toml"), "--out", "s"], None),
+    "bench (every case)": (["bench"], None),
+}
+
+
+def _bhr() -> list[str]:
+    exe = shutil.which("bhr")
+    return [exe] if exe else [sys.executable, "-m", "bhr.cli.main"]
+
+
+def run_once(args: list[str], cwd: Path) -> tuple[float, float, int]:
+    """CPU seconds (user + system of the command and its children), wall seconds, exit status."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    t0 = time.perf_counter()
+    proc = subprocess.run(_bhr() + args, cwd=cwd, capture_output=True, env=dict(os.environ, MPLBACKEND="Agg"))
+    wall = time.perf_counter() - t0
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    return cpu, wall, proc.returncode
+
+
+def measure(names: list[str], repeat: int) -> list[dict]:
+    rows = []
+    with tempfile.TemporaryDirectory() as warm:
+        run_once(COMMANDS["follow colon (figures)"][0], Path(warm))
+    for name in names:
+        args, size_of = COMMANDS[name]
+        cpus, walls, codes, sizes = [], [], [], []
+        for _ in range(repeat):
+            with tempfile.TemporaryDirectory() as tmp:
+                cpu, wall, code = run_once(args, Path(tmp))
+                cpus.append(cpu)
+                walls.append(wall)
+                codes.append(code)
+                if size_of and (Path(tmp) / size_of).exists():
+                    sizes.append((Path(tmp) / size_of).stat().st_size)
+        rows.append({"name": name, "command": "bhr " + " ".join(a.replace(str(REPO) + "/", "") for a in args),
+                     "cpu": sorted(cpus), "wall": sorted(walls), "exit": codes, "bytes": sizes})
+    return rows
+
+
+def _span(values: list[float]) -> str:
+    mid = sorted(values)[len(values) // 2]
+    return f"{mid:.2f} s" if len(values) == 1 else f"{mid:.2f} s ({min(values):.2f}–{max(values):.2f})"
+
+
+def table(rows: list[dict], load_before: tuple[float, ...], load_after: tuple[float, ...]) -> str:
+    cpu = os.cpu_count()
+    model = ""
+    try:
+        model = next(ln.split(":", 1)[1].strip() for ln in Path("/proc/cpuinfo").read_text().splitlines()
+                     if ln.startswith("model name"))
+    except (OSError, StopIteration):
+        pass
+    from bhr import __version__
+
+    lines = [f"Measured {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())} by `python -m bhr.bench.commands`: "
+             f"bhr {__version__}, Python {platform.python_version()}, {cpu} cores ({model or platform.machine()}); "
+             f"load average {load_before[0]:.1f} before, {load_after[0]:.1f} after; warm numba cache.", "",
+             "| command | CPU (user + system) | wall | exit | output size |", "| --- | --- | --- | --- | --- |"]
+    for r in rows:
+        size = f"{sorted(r['bytes'])[len(r['bytes']) // 2] / 1e6:.1f} MB" if r["bytes"] else ""
+        exits = ",".join(sorted({str(c) for c in r["exit"]}))
+        lines.append(f"| `{r['command']}` | {_span(r['cpu'])} | {_span(r['wall'])} | {exits} | {size} |")
+    return "\n".join(lines)
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--only", default="", help="only the commands whose name contains this text")
+    ap.add_argument("--repeat", type=int, default=1, help="runs of each command (median and range)")
+    a = ap.parse_args(argv)
+    names = [n for n in COMMANDS if a.only in n]
+    load_before = os.getloadavg()
+    rows = measure(names, max(1, a.repeat))
+    print(table(rows, load_before, os.getloadavg()))
+    return 0
+
+
+if __name__ == "__main__":  # pragma: no cover
+    raise SystemExit(main())

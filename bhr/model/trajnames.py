@@ -1,0 +1,55 @@
+"""The names ``--traj`` accepts, without numba or the generators: a misspelt name is refused at once.
+
+:mod:`bhr.model.generators` builds the trajectories (and imports the compiled
+kernels of :mod:`bhr.model.pathfile`); this module only knows their names, so that
+the command line can refuse ``--traj colonn`` before anything heavy is
+imported.
+"""
+from __future__ import annotations
+
+import os
+from importlib import resources
+from pathlib import Path
+
+from bhr.settings.inputs import did_you_mean
+from bhr.settings.errors import BhrError
+
+__all__ = ["GENERATOR_NAMES", "trajectory_folder", "shipped_csvs", "builtin_names", "check_trajectory_name"]
+
+#: The generators' names (the keys of ``bhr.model.generators.GENERATORS``, in that order).
+GENERATOR_NAMES = ("line", "curve", "spiral", "colon", "anatomy")
+
+
+def trajectory_folder() -> Path | None:
+    """The folder of shipped trajectories (installed as ``bhr.trajectories``, else the repository's)."""
+    try:
+        res = resources.files("bhr.trajectories")
+    except ModuleNotFoundError:
+        res = None
+    if res is not None and res.is_dir():
+        return Path(str(res))
+    repo = Path(__file__).resolve().parent.parent / "trajectories"
+    return repo if repo.is_dir() else None
+
+
+def shipped_csvs() -> dict[str, Path]:
+    """Shipped point files by name (``anatomy-typical`` is trajectories/anatomy-typical.csv)."""
+    folder = trajectory_folder()
+    if folder is None:
+        return {}
+    return {p.stem: p for p in folder.glob("*.csv") if p.is_file()}
+
+
+def builtin_names() -> list[str]:
+    """Names ``load_trajectory`` knows: the generators, then the shipped point files (trajectories/NAME.csv)."""
+    return list(GENERATOR_NAMES) + sorted(shipped_csvs())
+
+
+def check_trajectory_name(key: str | os.PathLike[str]) -> None:
+    """Refuse a ``--traj`` that is neither a built-in, a shipped colon nor an existing file (one line)."""
+    key = str(key)
+    if key in GENERATOR_NAMES or Path(key).exists() or key in shipped_csvs():
+        return
+    names = builtin_names()
+    raise BhrError(f"unknown trajectory {key!r}: not a built-in ({', '.join(names)}) and no such file; "
+                   f"{did_you_mean(key, names)}give one of the built-ins or a .toml/.csv file")

@@ -1,0 +1,61 @@
+"""``steps.csv``: one row per step of a run, its errors and clearances, for a spreadsheet.
+
+Columns: ``step``, the target ``target_x_mm`` ``target_y_mm`` ``target_z_mm``,
+``iterations``, ``tip_error_mm``, ``max_point_error_mm``, ``tip_orientation_error_deg``,
+``max_global_error`` (1 = at tolerance), each point's position error ``p1_error_mm`` (base)
+... ``pN_error_mm`` (tip), each module's orientation error ``m1_orientation_error_deg`` ...,
+and when the path has a lumen ``min_clearance_mm`` (empty where nothing is scored yet)
+and ``wall_touched`` (0/1). A whole-body run adds ``body_max_error_mm``. Numbers are
+the run's own (run.json's), written with 6 decimals.
+"""
+from __future__ import annotations
+
+import csv
+import io
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+if TYPE_CHECKING:  # pragma: no cover
+    from bhr.run.driver import FollowResult
+
+__all__ = ["STEPS_CSV", "format_steps_csv"]
+
+#: The file name bhr follow writes next to run.json.
+STEPS_CSV = "steps.csv"
+
+
+def _num(v: float) -> str:
+    return "" if not np.isfinite(v) else f"{float(v):.6f}"
+
+
+def format_steps_csv(result: "FollowResult") -> str:
+    """The text of ``steps.csv`` for ``result`` (see the module's docstring for the columns)."""
+    n = result.robot.modules
+    head = ["step", "target_x_mm", "target_y_mm", "target_z_mm", "iterations", "tip_error_mm",
+            "max_point_error_mm", "tip_orientation_error_deg", "max_global_error"]
+    head += [f"p{j}_error_mm" for j in range(1, n + 2)]
+    head += [f"m{j}_orientation_error_deg" for j in range(1, n + 1)]
+    cl = result.clearance
+    per = cl.per_step if cl is not None else None
+    touched = set(cl.touch_steps) if cl is not None else set()
+    if per is not None:
+        head += ["min_clearance_mm", "wall_touched"]
+    body = result.body if result.body is not None and result.body.modules else None
+    if body is not None:
+        head.append("body_max_error_mm")
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(head)
+    pe, oe, ge = result.point_errors, result.orientation_errors, result.global_errors
+    for i in range(result.steps):
+        t = result.trajectory.points[i]
+        row = [str(i + 1), _num(t[0]), _num(t[1]), _num(t[2]), str(int(result.iterations[i])), _num(pe[i, -1]),
+               _num(pe[i].max()), _num(oe[i, -1]), _num(ge[i].max())]
+        row += [_num(v) for v in pe[i]] + [_num(v) for v in oe[i]]
+        if per is not None:
+            row += [_num(per[i]), "1" if i + 1 in touched else "0"]
+        if body is not None:
+            row.append(_num(body.point_errors[i].max()))
+        w.writerow(row)
+    return buf.getvalue()

@@ -1,0 +1,91 @@
+"""Compile every kernel any bhr command runs, once, so that later commands start warm.
+
+numba compiles a kernel on its first call and caches it on disk (``cache=True``,
+:mod:`bhr._numba`). One command compiles only what it runs, so each new kind of
+command used to compile again. :func:`compile_all` runs tiny cases of every
+solver, the forward kinematics, whole-body following, the lumen clearance and
+the thermal model: every kernel bhr has, with the argument types the commands
+give them (the types are what numba compiles for, not the sizes).
+
+The first command on a machine that had to compile starts this in the
+background when it ends (``python -m bhr.warmup``, at low priority), so the
+user waits only for the kernels of that first command. Setting
+``BHR_NO_BACKGROUND_COMPILE=1`` turns that off.
+"""
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+
+__all__ = ["compile_all", "start_in_background", "BACKGROUND_ENV"]
+
+#: Set to 1 to keep bhr from compiling the remaining kernels in the background after a first run.
+BACKGROUND_ENV = "BHR_NO_BACKGROUND_COMPILE"
+
+
+def compile_all() -> None:
+    """Run every kernel once on a tiny case (compiles what the cache lacks; loads the rest)."""
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the tiny cases are tighter than the robot turns: no advice wanted here
+        _run_all()
+
+
+def _run_all() -> None:
+    import numpy as np
+
+    import bhr
+    from bhr.run.driver import follow as run_follow
+    from bhr.model.generators import load_trajectory
+    from bhr.output.steptable import format_steps_csv
+
+    def follow(*args, **kw):  # a run as a command finishes it: summary, clearance, run.json, steps.csv
+        result = run_follow(*args, **kw)
+        result.to_dict()
+        format_steps_csv(result)
+        return result
+
+    from bhr.hardware.thermal import DEFAULT_THERMAL, auto_schedule, check_schedule
+
+    for solver in ("fabrik", "ccd", "thesis", "constrained", "optimal", "lumen"):
+        bhr.solve([3, 9, 0], modules=5, solver=solver, tol_pos=0.01)
+    bhr.solve([3, 9, 0], modules=5, solver="thesis", orientation=[0, 1, 0])
+    bhr.Robot().fk([3, 0, 6, 0, 15])
+    line = load_trajectory("line", length=40)
+    curve = load_trajectory("curve", angle=30, entry=4, exit=4)
+    for solver in ("thesis", "constrained", "optimal", "fabrik", "ccd"):
+        follow(curve, solver=solver)
+    follow(line, solver="thesis", body_modules=8)
+    colon = load_trajectory("anatomy", seed=1)  # a lumen: the clearance and the lumen solver's kernels
+    short = type(colon)(colon.name, np.ascontiguousarray(colon.points[:60]), colon.params, colon.min_radius,
+                        None if colon.lumen is None else np.ascontiguousarray(colon.lumen[:60]), colon.source,
+                        start_direction=colon.start_direction, start_point=colon.start_point)
+    follow(colon, solver="thesis")  # the whole colon: its arrays exactly as a command gives them
+    follow(short, solver="lumen")
+    follow(short, solver="thesis", body_modules=8)
+    rows = np.array([[3, 0, 6, 0, 0], [0, 12, 0, 9, 15]], dtype=np.int64)
+    auto_schedule(DEFAULT_THERMAL, rows, 10.0)
+    check_schedule(DEFAULT_THERMAL, rows, 10.0)
+
+
+def start_in_background() -> bool:
+    """Start ``python -m bhr.warmup`` detached and quiet, at low priority; False when turned off or impossible."""
+    if os.environ.get(BACKGROUND_ENV, "") not in ("", "0"):
+        return False
+    try:
+        subprocess.Popen([sys.executable, "-m", "bhr.warmup"], stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
+                         stderr=subprocess.DEVNULL, start_new_session=True, close_fds=True,
+                         preexec_fn=(lambda: os.nice(10)) if hasattr(os, "nice") else None,
+                         env={**os.environ, BACKGROUND_ENV: "1"})
+    except OSError:
+        return False
+    return True
+
+
+if __name__ == "__main__":  # pragma: no cover - run by start_in_background
+    try:
+        compile_all()
+    except Exception:  # a background convenience: a failure here only means a later command compiles
+        raise SystemExit(1) from None
