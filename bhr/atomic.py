@@ -502,7 +502,8 @@ def verify_folder(folder: Path, given: Any = None, what: str = "output folder") 
     doc = _read_manifest(folder / MANIFEST)
     if doc is None:
         first = sorted(e.name for e in entries)[0]
-        raise BhrError(f"{what} {shown} holds {_short(first)} and no bhr manifest.json says bhr wrote it; {fix}")
+        raise BhrError(f"{what} {shown} holds {_short(first)}, which no bhr run wrote (no bhr manifest.json "
+                       f"lists it); {fix}")
     listed = doc["files"]
     for rel in sorted(found):
         if rel == MANIFEST:
@@ -510,7 +511,7 @@ def verify_folder(folder: Path, given: Any = None, what: str = "output folder") 
         p = folder / rel
         entry = listed.get(rel)
         if entry is None or not isinstance(entry, dict):
-            raise BhrError(f"{what} {shown} holds {_short(rel)}, which bhr did not write there; {fix}")
+            raise BhrError(f"{what} {shown} holds {_short(rel)}, which no bhr run wrote; {fix}")
         st = os.lstat(p)
         if not stat.S_ISREG(st.st_mode):
             raise BhrError(f"{what} {shown} holds {_short(rel)}, which is not a file bhr wrote; {fix}")

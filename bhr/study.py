@@ -11,7 +11,6 @@ The names of options and result columns in words are in :mod:`bhr.names`.
 from __future__ import annotations
 
 import csv
-import difflib
 import io
 import math
 from typing import Any, Iterable, Sequence
@@ -19,7 +18,7 @@ from typing import Any, Iterable, Sequence
 from bhr.errors import BhrError
 from bhr.body import check_body_modules
 from bhr.driver import follow
-from bhr.options import BY_NAME, by_group
+from bhr.options import BY_NAME, by_group, did_you_mean
 from bhr.robot import Robot
 
 __all__ = ["TRAJ_KEYS", "ROBOT_KEYS", "CONSTRAINT_KEYS", "SOLVER_KEYS", "SIM_KEYS", "INT_KEYS", "NUMBER_KEYS",
@@ -57,8 +56,8 @@ def sim_options(values: dict[str, Any]) -> dict[str, Any]:
 
 def suggest(key: str, allowed: Iterable[str]) -> str:
     """The nearest allowed key to a mistyped one, as the second half of an error line."""
-    near = difflib.get_close_matches(key.replace("-", "_"), sorted(allowed), n=1, cutoff=0.6)
-    return f"did you mean {near[0]!r}?" if near else "see docs/report.md for the keys"
+    tip = did_you_mean(key, sorted(allowed))
+    return tip.rstrip() if tip else "see docs/report.md for the keys"
 
 
 def check_value(key: str, value: Any, where: str) -> Any:

@@ -14,7 +14,8 @@ from bhr.cli._options import PlainIntRange
 @click.option("--file", "batch_path", default=None, metavar="FILE.toml",
               help="Batch file: [[run]] tables with name, traj, solver and options (see docs/report.md).")
 @click.option("--batch", "batch_old", default=None, metavar="FILE.toml", hidden=True)  # the old spelling
-@click.option("--out", "out_dir", default=None, metavar="DIR", help="Output folder [./bhr-out/<batch name>-<hash of the batch and its files>/].")
+@click.option("--out", "out_dir", default=None, metavar="DIR",
+              help="Output folder [./bhr-out/<batch name>-<hash of the batch and its files>/].")
 @click.option("--jobs", "-j", type=PlainIntRange(min=1, max=1024), default=None, metavar="N",
               help="Worker processes [the number of CPUs, at most one per run].")
 @click.option("--inline-images", is_flag=True,

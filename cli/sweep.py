@@ -20,7 +20,8 @@ from bhr.cli._options import PlainIntRange
                    "(START:STOP[:STEP], STOP included). Repeat for each key.")
 @click.option("--robot", "robot_file", default=None, metavar="FILE",
               help="Robot description (TOML) every design starts from; grid values replace its values.")
-@click.option("--out", "out_dir", default=None, metavar="DIR", help="Output folder [./bhr-out/<sweep file or sweep>-<hash of the settings>/].")
+@click.option("--out", "out_dir", default=None, metavar="DIR",
+              help="Output folder [./bhr-out/<sweep file or sweep>-<hash of the settings>/].")
 @click.option("--jobs", "-j", type=PlainIntRange(min=1, max=1024), default=None, metavar="N",
               help="Worker processes [the number of CPUs]; 1 runs in this process.")
 @click.option("--scheduler", default=None, metavar="ADDRESS",

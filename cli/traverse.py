@@ -2,11 +2,11 @@
 from __future__ import annotations
 
 import sys
-from pathlib import Path
 
 import click
 
 from bhr.cli._common import check_executor, guarded
+from bhr.cli._options import FiniteRange, PlainIntRange
 
 OUTPUTS = ("designs.csv", "runs.csv", "study.json", "passrate.png", "worst-colon.png", "index.html")
 
@@ -18,12 +18,13 @@ OUTPUTS = ("designs.csv", "runs.csv", "study.json", "passrate.png", "worst-colon
 @click.option("--colons", default="1-100", show_default=True, metavar="SEEDS",
               help="The anatomical colons every design must get through: seeds such as 1-100 or 1,4,10-20.")
 @click.option("--solver", "solvers", multiple=True, metavar="NAME", help="Solver (repeat for several) [thesis].")
-@click.option("--target-pass", type=float, default=0.95, show_default=True, metavar="SHARE",
+@click.option("--target-pass", type=FiniteRange(min=0, max=1e6), default=0.95, show_default=True, metavar="SHARE",
               help="Share of colons a design must traverse without touching the wall.")
 @click.option("--robot", "robot_file", default=None, metavar="FILE",
               help="Robot description (TOML) every design starts from; grid values replace its values.")
-@click.option("--out", "out_dir", default=None, metavar="DIR", help="Output folder [./bhr-out/traverse-<hash of the settings>/].")
-@click.option("--jobs", "-j", type=click.IntRange(min=1), default=None, metavar="N",
+@click.option("--out", "out_dir", default=None, metavar="DIR",
+              help="Output folder [./bhr-out/traverse-<hash of the settings>/].")
+@click.option("--jobs", "-j", type=PlainIntRange(min=1, max=1024), default=None, metavar="N",
               help="Worker processes [the number of CPUs]; 1 runs in this process.")
 @click.option("--scheduler", default=None, metavar="ADDRESS",
               help="Run on an existing Dask distributed cluster instead, e.g. tcp://127.0.0.1:8786.")

@@ -356,7 +356,7 @@ CASES += [
         expect="another output"),
     Bad("follow-json-is-figure", "follow", ["--traj", "line", "--out", "o", "--json", "o/path.png"],
         expect="another output"),
-    Bad("follow-out-is-cwd", "follow", ["--traj", "line", "--out", "."], expect="replace the folder itself"),
+    Bad("follow-out-is-cwd", "follow", ["--traj", "line", "--out", "."], expect="is the current folder or holds it"),
     Bad("follow-out-foreign-folder", "follow", ["--traj", "line", "--out", "mine"], {"mine/thesis.tex": "text"},
         "no bhr run wrote"),
     Bad("follow-out-is-file", "follow", ["--traj", "line", "--out", "afile"], expect="is a file"),
