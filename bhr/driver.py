@@ -29,7 +29,8 @@ import numpy as np
 
 from bhr._input import MAX_FILE_BYTES, MAX_MM, MAX_STEP_POINTS, read_text
 from bhr.errors import BhrError
-from bhr.options import robot_limits
+from bhr.options import OPTIONS, robot_limits
+from bhr.codes import VALID_CODES as STABLE_CODES
 from bhr.robot import Robot
 from bhr.solvers import Chain, FollowContext, get_solver
 from bhr.body import BodyRun, simulate_body
@@ -284,6 +285,9 @@ def _run_from_json(doc: Any, where: str) -> FollowResult:
     path = array(tr.get("points"), (None, 3), "trajectory points")
     names = set(Robot.__dataclass_fields__)
     try:
+        for o in OPTIONS:  # the one number checker first: a 400-digit integer is refused, not overflowed
+            if o.group == "robot" and rb.get(o.key) is not None:
+                o.check(rb[o.key], "robot")
         robot = Robot(**{k: v for k, v in rb.items() if k in names})
     except (BhrError, TypeError) as exc:
         raise bad(f"robot: {str(exc).splitlines()[0]}") from None
@@ -310,8 +314,9 @@ def _run_from_json(doc: Any, where: str) -> FollowResult:
         for k, st in enumerate(steps):
             c = st["codes"]
             if not isinstance(c, list) or len(c) != n or not all(isinstance(v, int) and not isinstance(v, bool)
-                                                                  and 0 <= v <= 15 for v in c):
-                raise bad(f"step {k + 1} codes must be {n} whole numbers from 0 to 15 (or null in every step)")
+                                                                  and v in STABLE_CODES for v in c):
+                raise bad(f"step {k + 1} codes must be {n} of the stable codes "
+                          f"{', '.join(map(str, STABLE_CODES))} (or null in every step)")
             codes[k] = c
     solver = doc["solver"]
     if not isinstance(solver, str):

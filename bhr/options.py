@@ -29,7 +29,7 @@ from bhr.errors import BhrError
 
 __all__ = ["Option", "OPTIONS", "MAX_MM", "by_group", "robot_limits", "check_option", "solver_options_for",
            "check_number", "parse_number", "did_you_mean", "MIN_MAGNITUDE", "MIN_MAGNITUDE_UNIT", "LIMITS", "excerpt",
-           "type_name"]
+           "type_name", "check_run_name", "MAX_NAME_CHARS"]
 
 #: Largest length or coordinate accepted anywhere (mm): 1 km. Larger values only overflow the arithmetic.
 MAX_MM = 1e6
@@ -352,3 +352,22 @@ def did_you_mean(word: Any, choices: Iterable[str]) -> str:
     if not close:
         close = difflib.get_close_matches(str(word)[:100], list(choices), n=1, cutoff=0.6)
     return f"did you mean {close[0]!r}? " if close else ""
+
+
+#: Longest run name accepted (batch files); the run's folder name is cut to fit any file system.
+MAX_NAME_CHARS = 100
+
+
+def check_run_name(value: Any, where: str) -> str:
+    """A run's name, checked before any work: text of 1 to :data:`MAX_NAME_CHARS` printable characters."""
+    if not isinstance(value, str):
+        raise BhrError(f"{where}: name must be text in quotes, got {type_name(value)}")
+    name = value.strip()
+    if not name:
+        raise BhrError(f"{where}: name must not be empty; give every run a short name")
+    if len(name) > MAX_NAME_CHARS:
+        raise BhrError(f"{where}: name is {len(name)} characters long; give at most {MAX_NAME_CHARS}")
+    if not name.isprintable():
+        raise BhrError(f"{where}: name {excerpt(name)} holds a control character (a tab or a line break); "
+                       "give a name on one line")
+    return name

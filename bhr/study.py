@@ -18,12 +18,12 @@ from typing import Any, Iterable, Sequence
 from bhr.errors import BhrError
 from bhr.body import check_body_modules
 from bhr.driver import follow
-from bhr.options import BY_NAME, by_group, did_you_mean
+from bhr.options import BY_NAME, by_group, did_you_mean, excerpt
 from bhr.robot import Robot
 
 __all__ = ["TRAJ_KEYS", "ROBOT_KEYS", "CONSTRAINT_KEYS", "SOLVER_KEYS", "SIM_KEYS", "INT_KEYS", "NUMBER_KEYS",
            "sim_options", "check_body", "suggest",
-           "check_value", "summary_row", "make_robot", "warm_up", "csv_text"]
+           "check_value", "summary_row", "make_robot", "warm_up", "csv_text", "csv_safe", "FORMULA_STARTS"]
 
 # The keys of a run table come from the option registry (bhr.options), as the command-line options do.
 #: Trajectory options (CLI long names with underscores), as in ``bhr follow``.
@@ -65,7 +65,7 @@ def check_value(key: str, value: Any, where: str) -> Any:
     if key in BY_NAME:
         return BY_NAME[key].check(value, where)
     if not isinstance(value, str):
-        raise BhrError(f"{where}: {key} must be a string, got {value!r}")
+        raise BhrError(f"{where}: {key} must be a string, got {excerpt(value)}")
     if key in ("name", "traj", "solver", "robot") and not value.strip():
         raise BhrError(f"{where}: {key} must not be empty")
     return value
@@ -131,15 +131,32 @@ def _cell(key: str, value: Any, joined: Iterable[str]) -> str:
     return str(value)
 
 
+#: What a spreadsheet takes as the start of a formula in a cell (OWASP "CSV injection").
+FORMULA_STARTS = ("=", "+", "-", "@", "\t", "\r", "\n")
+
+
+def csv_safe(cell: str) -> str:
+    """``cell`` as a spreadsheet shows it but never runs it: text starting like a formula gets a leading ``'``."""
+    return "'" + cell if cell.startswith(FORMULA_STARTS) else cell
+
+
 def csv_text(rows: Sequence[dict[str, Any]], fields: Sequence[str], joined: Iterable[str] = ()) -> str:
     """CSV of ``rows`` with ``fields`` as header; unknown values are empty cells, floats in full.
 
-    The lists of the ``joined`` keys (e.g. warnings) are one cell, joined by ``"; "``.
+    The lists of the ``joined`` keys (e.g. warnings) are one cell, joined by ``"; "``. Text cells that a
+    spreadsheet would run as a formula (``=``, ``+``, ``-``, ``@``, a tab or CR first) are escaped with a
+    leading ``'`` (:func:`csv_safe`); numbers are written as they are.
     """
     joined = frozenset(joined)
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
-    w.writerow(fields)
+    w.writerow([csv_safe(str(f)) for f in fields])
     for r in rows:
-        w.writerow([_cell(k, r.get(k), joined) for k in fields])
+        w.writerow([_safe(r.get(k), _cell(k, r.get(k), joined)) for k in fields])
     return buf.getvalue()
+
+
+def _safe(value: Any, cell: str) -> str:
+    if isinstance(value, (int, float)) and not isinstance(value, bool):
+        return cell  # a number: "-1.5" is a number to a spreadsheet, not a formula
+    return csv_safe(cell)

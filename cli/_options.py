@@ -37,6 +37,7 @@ def _convert(t: click.ParamType, value: Any, param: Any, ctx: Any, kind: type, *
         return check_number(v, "value", integer=kind is int, **checks)
     except BhrError as exc:
         msg = str(exc)
+        msg = msg[len("value = "):] if msg.startswith("value = ") else msg
         t.fail(msg[len("value "):] if msg.startswith("value ") else msg, param, ctx)
 
 
