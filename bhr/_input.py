@@ -18,7 +18,7 @@ from bhr.options import type_name as _type_name
 
 __all__ = ["MAX_FILE_BYTES", "MAX_MM", "MAX_POINTS", "MAX_STEP_POINTS", "read_capped", "read_text", "read_toml",
            "check_keys", "type_name", "number", "vector3", "text_value", "choice", "did_you_mean", "parse_number",
-           "check_number", "excerpt"]
+           "check_number", "excerpt", "check_regular"]
 
 #: Input files larger than this are refused: at most this many bytes are ever read, whatever the file's size
 #: reads as (a link to /dev/zero reads as 0 bytes and never ends).
@@ -65,6 +65,7 @@ def read_capped(path: str | os.PathLike[str], what: str, hint: str, limit: int |
     limit = MAX_FILE_BYTES if limit is None else limit
     import stat as _stat
 
+    check_regular(path, what, hint)  # before open(): opening a FIFO waits for a writer forever
     with open(path, "rb") as fh:
         mode = os.fstat(fh.fileno()).st_mode
         if _stat.S_ISCHR(mode) or _stat.S_ISBLK(mode):
@@ -73,6 +74,25 @@ def read_capped(path: str | os.PathLike[str], what: str, hint: str, limit: int |
     if len(raw) > limit:
         raise BhrError(f"{path} is larger than {limit // (1024 * 1024)} MiB, too large for a {what}; {hint}")
     return raw
+
+
+def check_regular(path: str | os.PathLike[str], what: str, hint: str) -> None:
+    """Refuse an input that is not a regular file (a FIFO, socket or device), before it is opened.
+
+    Opening a FIFO blocks until someone writes to it, a device may never end:
+    an input file must be a file. Missing files are left to the reader's own message.
+    """
+    import stat as _stat
+
+    try:
+        mode = os.stat(path).st_mode
+    except OSError:
+        return
+    kinds = ((_stat.S_ISFIFO, "a FIFO (named pipe)"), (_stat.S_ISSOCK, "a socket"), (_stat.S_ISCHR, "a device"),
+             (_stat.S_ISBLK, "a device"))
+    for test, kind in kinds:
+        if test(mode):
+            raise BhrError(f"{_excerpt(str(path), 80)} is {kind}, not a {what}; {hint}")
 
 
 def read_toml(path: str | os.PathLike[str], what: str, hint: str) -> dict[str, Any]:

@@ -193,13 +193,14 @@ BY_NAME: dict[str, Option] = {o.name: o for o in OPTIONS}
 #: Sizes checked before anything is allocated (docs/commands.md#limits): the one place they are set.
 LIMITS: dict[str, int] = {
     "points": 500_000,  # points of a path after sampling (generators, segment and CSV files)
-    "step_points": 3_100_000,  # steps x (modules + 1) of one run: about 1.5 kB each in memory
+    "step_points": 1_500_000,  # steps x (modules + 1) of one run: about 1.4 kB each in memory, ~2.1 GB at most
     "segments": 10_000,  # segments of a trajectory TOML
     "modules": 1000,  # modules the solver moves (--modules)
     "body_modules": 10_000,  # modules of the whole simulated robot (--body-modules)
     "code_modules": 1000,  # module columns of a codes.csv (bhr plan, bhr stream)
-    "code_steps": 1_000_000,  # rows of a codes.csv
-    "plan_cells": 20_000_000,  # steps x modules of a codes.csv
+    "code_steps": 500_000,  # rows of a codes.csv
+    "plan_cells": 5_000_000,  # steps x modules of a codes.csv (bhr plan keeps about 40 bytes per cell)
+    "figure_modules": 64,  # modules whose wires bhr plan draws in thermal.png (4 lines each)
 }
 
 

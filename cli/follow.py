@@ -246,7 +246,7 @@ def follow(traj, solver, out_dir, json_path, no_plots, **kwargs):
         from bhr.cli._link import thermal_params
         from bhr.thermal import auto_schedule, format_duration
 
-        sched = auto_schedule(thermal_params(robot_file), result.codes, rate)
+        sched = auto_schedule(thermal_params(robot_file), result.codes, rate, trace=False)  # memory: not per step
         click.echo(f"Procedure time on the board: {format_duration(sched.total_s)} at the board's limits "
                    f"(bhr plan --codes {out / 'codes.csv'} shows the schedule).", err=stream)
     if written:
@@ -296,7 +296,7 @@ def follow_streaming(tr, solver, robot, solver_options, body_modules, rate, link
         if result.codes is None:
             Pacer(link, rate)(1, None)  # the one-line refusal of code-less solvers
         rows = result.codes
-        sched = plan(params, rows, rate, schedule, name=tr.name, sending=True)
+        sched = plan(params, rows, rate, schedule, name=tr.name, sending=True, trace=False)
         held = [f for f in board["faults"] if f != "silence"]  # silence: the board was idle, which is fine
         if held:
             click.echo(f"Warning: board on {port} reports {', '.join(held)} before the run (latched faults stay "

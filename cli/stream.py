@@ -66,7 +66,8 @@ def stream(codes_path, rate, schedule, dry_run, **link_kw):
     from bhr.link import BoardLink, StreamInterrupted, stream_codes, wait_until_ready
     from bhr.thermal import format_duration, plan
 
-    sched = plan(thermal_params(robot_file), table, rate, schedule, name=str(codes_path), sending=True)
+    sched = plan(thermal_params(robot_file), table, rate, schedule, name=str(codes_path), sending=True,
+                 trace=False)
     times = sched.times_ms / 1000.0 if schedule == "auto" else None
     faults: list[str] = []
     events: list = []
