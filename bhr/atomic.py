@@ -31,13 +31,12 @@ import os
 import shutil
 import stat
 import tempfile
-import threading
 import time
 import uuid
 from pathlib import Path
 from typing import Any, Iterable, Iterator
 
-from bhr.errors import BhrError
+from bhr.errors import INTERRUPTED, BhrError
 
 __all__ = ["atomic_path", "write_text", "write_json", "check_output_file", "OutputFolder", "MANIFEST",
            "in_place_target", "point_latest", "verify_folder", "INTERRUPTED", "settings_hash"]
@@ -144,9 +143,14 @@ def atomic_path(path: str | os.PathLike[str], suffix: str | None = None) -> Iter
     os.close(fd)
     tmp_path = Path(tmp)
     try:
-        yield tmp_path
-        os.chmod(tmp_path, _mode_for(target))
-        os.replace(tmp_path, target)
+        try:
+            yield tmp_path
+            os.chmod(tmp_path, _mode_for(target))
+            os.replace(tmp_path, target)
+        except OSError as exc:
+            if exc.filename is None or str(exc.filename) == str(tmp_path):
+                exc.filename = str(path)  # the one-line message names the output, not a temporary name
+            raise
     finally:
         if tmp_path.exists():
             tmp_path.unlink()
@@ -356,6 +360,8 @@ class OutputFolder:
         assert self.stage is not None
         if exc_type is not None:
             shutil.rmtree(self.stage, ignore_errors=True)
+            if isinstance(exc, OSError):
+                self._name_output(exc)
             return
         try:
             if INTERRUPTED.is_set():  # Ctrl-C was seen (and perhaps swallowed somewhere): no folder
@@ -366,11 +372,26 @@ class OutputFolder:
             if INTERRUPTED.is_set():
                 raise KeyboardInterrupt
             old = self._commit()
-        except BaseException:
+        except BaseException as failure:
             shutil.rmtree(self.stage, ignore_errors=True)
+            if isinstance(failure, OSError):
+                self._name_output(failure)
             raise
         if old is not None:
             shutil.rmtree(old, ignore_errors=True)
+
+    def _name_output(self, exc: OSError) -> None:
+        """Make a failed write's message name the output as the user named it (not the staging folder)."""
+        assert self.stage is not None
+        name = exc.filename
+        if name is None:
+            exc.filename = str(self.given)
+            return
+        try:
+            rel = Path(os.path.abspath(name)).relative_to(self.stage)
+        except ValueError:
+            return
+        exc.filename = str(self.given / rel) if str(rel) != "." else str(self.given)
 
     def _carry_over(self, old_doc: dict[str, Any] | None) -> None:
         """Hard-link into the stage the earlier run's files this run does not write again (see the class)."""
@@ -452,8 +473,6 @@ class OutputFolder:
             return aside
 
 
-#: Set by the command line's Ctrl-C handler: a folder is never put in place once an interrupt was seen.
-INTERRUPTED = threading.Event()
 
 #: A manifest larger than this is not bhr's (a run's lists a few thousand files at most).
 _MAX_MANIFEST = 16 * 1024 * 1024

@@ -480,10 +480,10 @@ def simulate(params: ThermalParams, times_ms, rows, end_ms: int | None = None, t
     th0 = np.zeros(4 * m, np.int64) if theta0 is None else np.asarray(theta0, np.int64).reshape(4 * m).copy()
     k = _const_array(params)
     fn = simulate_reference if reference else _compiled()
-    trace, early, over, max_run, max_theta, on_ms, done_t, t_stop = fn(
+    samples, early, over, max_run, max_theta, on_ms, done_t, t_stop = fn(
         t, rows, int(end_ms), k, th0, stride, int(auto), int(min_gap_ms), int(margin_ms))
-    trace = trace[: t_stop // stride + 1]
-    return Simulation(params, t, rows, trace.reshape(trace.shape[0], m, 4) / ONE, stride, early, over,
+    samples = samples[: t_stop // stride + 1]
+    return Simulation(params, t, rows, samples.reshape(samples.shape[0], m, 4) / ONE, stride, early, over,
                       max_run.reshape(m, 4), max_theta.reshape(m, 4) / ONE, on_ms.reshape(m, 4), int(done_t),
                       int(t_stop))
 

@@ -10,7 +10,7 @@ from typing import Any, Callable
 
 import click
 
-from bhr.errors import BhrError
+from bhr.errors import INTERRUPTED, BhrError
 
 
 def os_error_line(exc: OSError) -> str:
@@ -48,6 +48,8 @@ def guarded(func: Callable[..., Any]) -> Callable[..., Any]:
         try:
             rv = func(*args, **kwargs)
             sys.stdout.flush()  # a full or closed standard output fails here, inside the guard
+            if INTERRUPTED.is_set():  # a Ctrl-C that something caught on the way: still honoured
+                raise KeyboardInterrupt
             return rv
         except BhrError as exc:
             raise click.ClickException(str(exc).splitlines()[0] if str(exc) else type(exc).__name__) from None

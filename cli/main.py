@@ -56,6 +56,11 @@ class LazyGroup(click.Group):
         except (EOFError, KeyboardInterrupt):
             click.echo("Interrupted.", err=True)
             sys.exit(130)
+        from bhr.errors import INTERRUPTED
+
+        if INTERRUPTED.is_set():  # a Ctrl-C that something caught on the way: still honoured
+            click.echo("Interrupted.", err=True)
+            sys.exit(130)
         sys.exit(rv if isinstance(rv, int) else 0)
 
     def resolve_command(self, ctx: click.Context, args: list[str]):
