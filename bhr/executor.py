@@ -40,7 +40,7 @@ from typing import Any, Callable, Generic, Sequence, TypeVar
 from bhr.errors import BhrError
 
 __all__ = ["run_jobs", "Executed", "capture", "reason", "connect_scheduler", "DASK_MISSING", "worker_init",
-           "DASK_WAIT_S"]
+           "DASK_WAIT_S", "close_client"]
 
 J = TypeVar("J")
 R = TypeVar("R")
@@ -259,7 +259,9 @@ def _quiet_dask() -> None:
     """Dask's own log lines (reconnect attempts, tracebacks of a lost scheduler) stay out of the one-line report."""
     import logging
 
-    for name in ("distributed", "tornado", "asyncio"):
+    names = ["distributed", "distributed.client", "tornado", "asyncio"]
+    names += [n for n in list(logging.root.manager.loggerDict) if n.startswith(("distributed.", "tornado."))]
+    for name in names:
         logging.getLogger(name).setLevel(logging.CRITICAL + 1)
 
 
@@ -269,26 +271,25 @@ def _run_dask(scheduler: Any, fn: Callable[[Any], Any], warm_up: Callable[..., A
     """Run the chunks on a Dask cluster. With no worker (none at the start, or every one lost) for
     ``wait_s`` seconds (:data:`DASK_WAIT_S`), or with the scheduler gone, stop with one line."""
     try:
-        from distributed import wait as dask_wait
+        import distributed  # noqa: F401
     except ImportError:
         raise BhrError(DASK_MISSING) from None
-    _quiet_dask()
     limit = DASK_WAIT_S if wait_s is None else float(wait_s)
     own = isinstance(scheduler, str)
     client = connect_scheduler(scheduler) if own else scheduler
+    _quiet_dask()  # after distributed made its loggers
     address = scheduler if own else client.scheduler.address
     try:
         workers = _wait_for_workers(client, address, limit, lost=False)
         futures = client.map(functools.partial(_run_chunk, fn, warm_up, warm_up_args), chunks, pure=False)
         pending = set(futures)
         idle_since: float | None = None
+        checked = 0.0
         while pending:
-            try:
-                done, not_done = dask_wait(list(pending), timeout=1.0, return_when="FIRST_COMPLETED")
-            except (TimeoutError, OSError) as exc:  # distributed raises TimeoutError when none finished
-                if not isinstance(exc, TimeoutError):
-                    raise _lost(address, reason(exc)) from None
-                done, not_done = set(), pending
+            done = [f for f in futures if f in pending and f.done()]  # in job order
+            if not done:
+                time.sleep(0.2)
+            not_done = pending.difference(done)
             for fut in done:
                 try:
                     part = fut.result()
@@ -306,6 +307,9 @@ def _run_dask(scheduler: Any, fn: Callable[[Any], Any], warm_up: Callable[..., A
                 if now - idle_since > limit:
                     raise _lost(address, f"no answer for {limit:g} s")
                 continue
+            if now - checked < 1.0:
+                continue
+            checked = now
             try:
                 count = len(client.scheduler_info().get("workers", {}))
             except Exception as exc:
@@ -316,11 +320,22 @@ def _run_dask(scheduler: Any, fn: Callable[[Any], Any], warm_up: Callable[..., A
                 idle_since = idle_since or now
                 if now - idle_since > limit:
                     raise _no_workers(address, limit, lost=True)
+    except (BhrError, KeyboardInterrupt):
+        raise
+    except Exception as exc:  # anything else Dask raises: the cluster, not the study, failed
+        raise _lost(address, reason(exc)) from None
     finally:
         if own:
             with contextlib.suppress(Exception):
                 client.close(timeout=2)
     return workers
+
+
+def close_client(client: Any) -> None:
+    """Close a Dask client without waiting long or printing Dask's log lines (the scheduler may be gone)."""
+    _quiet_dask()
+    with contextlib.suppress(Exception):
+        client.close(timeout=2)
 
 
 def _wait_for_workers(client: Any, address: str, limit: float, lost: bool) -> int:
@@ -346,7 +361,8 @@ def _dask_failure(address: str, exc: BaseException) -> BhrError:
                         "this bhr installed")
     if isinstance(exc, (OSError, TimeoutError)) or name in ("CancelledError", "CommClosedError", "KilledWorker",
                                                              "FutureCancelledError"):
-        return _lost(address, reason(exc)) if name != "KilledWorker" else BhrError(
+        why = "the connection was lost" if "Cancelled" in name else reason(exc)
+        return _lost(address, why) if name != "KilledWorker" else BhrError(
             f"the Dask workers at {address} died while running a job ({reason(exc)}); check their memory and rerun")
     return BhrError(f"a Dask worker failed ({reason(exc)}); rerun, or run locally with --jobs")
 
@@ -368,6 +384,7 @@ def connect_scheduler(address: str, timeout: float = 15.0) -> Any:
     """
     import asyncio
 
+    _quiet_dask()
     try:
         from distributed import Client
         from distributed.comm import connect
@@ -405,6 +422,8 @@ def connect_scheduler(address: str, timeout: float = 15.0) -> Any:
     except Exception as exc:  # OSError, ValueError
         raise _cannot(address, str(exc).splitlines()[0] if str(exc) else exc.__class__.__name__) from None
     try:
-        return Client(address.strip(), timeout=f"{timeout}s", set_as_default=False)
+        client = Client(address.strip(), timeout=f"{timeout}s", set_as_default=False)
+        _quiet_dask()
+        return client
     except Exception as exc:
         raise _cannot(address, str(exc).splitlines()[0] if str(exc) else exc.__class__.__name__) from None

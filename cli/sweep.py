@@ -93,7 +93,9 @@ def sweep(sweep_file, trajs, solvers, grid, robot_file, out_dir, jobs, scheduler
             result = run_sweep(s, jobs=jobs, scheduler=client, progress=progress)
     finally:
         if client is not None:
-            client.close()
+            from bhr.executor import close_client
+
+            close_client(client)
     with status(f"writing {out}"), folder:
         files = [folder.final(p.name) for p in write_outputs(result, folder.stage, plot=not no_plot, x=hx, y=hy)]
     point_latest_if_default(folder, out_dir)

@@ -85,7 +85,9 @@ def traverse(grid, colons, solvers, target_pass, robot_file, out_dir, jobs, sche
             result = run_study(study, jobs=jobs, scheduler=client)
     finally:
         if client is not None:
-            client.close()
+            from bhr.executor import close_client
+
+            close_client(client)
     with folder:
         files = write_study(result, folder, plot=not no_plot, x=hx, y=hy)
     point_latest_if_default(folder, out_dir)
