@@ -261,6 +261,7 @@ class OutputFolder:
         self.run_id = uuid.uuid4().hex
         self.stage: Path | None = None
         self.carried: list[str] = []
+        self.made: list[Path] = []
         self.target = self._resolve()
 
     # -- checks (also callable before any work starts) --
@@ -336,6 +337,11 @@ class OutputFolder:
 
     def __enter__(self) -> "OutputFolder":
         self.check()
+        self.made = []  # parents this run creates: removed again (when empty) if it fails or is interrupted
+        p = self.target.parent
+        while not p.exists() and p != p.parent:
+            self.made.append(p)
+            p = p.parent
         self.target.parent.mkdir(parents=True, exist_ok=True)
         self._clean_stale()
         self.stage = Path(tempfile.mkdtemp(prefix=f".{self.target.name}{_STAGE}{os.getpid()}-",
@@ -360,6 +366,7 @@ class OutputFolder:
         assert self.stage is not None
         if exc_type is not None:
             shutil.rmtree(self.stage, ignore_errors=True)
+            self._remove_made()
             if isinstance(exc, OSError):
                 self._name_output(exc)
             return
@@ -374,11 +381,17 @@ class OutputFolder:
             old = self._commit()
         except BaseException as failure:
             shutil.rmtree(self.stage, ignore_errors=True)
+            self._remove_made()
             if isinstance(failure, OSError):
                 self._name_output(failure)
             raise
         if old is not None:
             shutil.rmtree(old, ignore_errors=True)
+
+    def _remove_made(self) -> None:
+        for p in getattr(self, "made", []):  # innermost first; a folder someone else filled meanwhile stays
+            with contextlib.suppress(OSError):
+                p.rmdir()
 
     def _name_output(self, exc: OSError) -> None:
         """Make a failed write's message name the output as the user named it (not the staging folder)."""

@@ -205,16 +205,15 @@ def worker_init(parent: int) -> None:
 
 def _stop_pool(pool: Any) -> None:
     """Stop a process pool at once: queued jobs cancelled, running workers terminated (Ctrl-C, a failure)."""
-    procs = list(getattr(pool, "_processes", {}).values())
-    pool.shutdown(wait=False, cancel_futures=True)
-    for p in procs:
+    procs = list((getattr(pool, "_processes", None) or {}).values())
+    for p in procs:  # first the workers: the pool then sees them gone and winds down without writing to them
         with contextlib.suppress(Exception):
-            p.terminate()
+            p.kill()
     for p in procs:
         with contextlib.suppress(Exception):
             p.join(timeout=2.0)
-            if p.is_alive():
-                p.kill()
+    with contextlib.suppress(Exception):
+        pool.shutdown(wait=False, cancel_futures=True)
 
 
 def _run_pool(workers: int, fn: Callable[[Any], Any], warm_up: Callable[..., Any] | None,
@@ -228,7 +227,17 @@ def _run_pool(workers: int, fn: Callable[[Any], Any], warm_up: Callable[..., Any
     pool = ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=worker_init,
                                initargs=(os.getpid(),))
     try:
-        futures = [pool.submit(_run_chunk, fn, warm_up, warm_up_args, c) for c in chunks]
+        # The workers start inside submit(): with Ctrl-C blocked here they start with it blocked (the mask is
+        # inherited), so a Ctrl-C while they import is never theirs; here it is delivered when unblocked.
+        import signal
+
+        blocked = hasattr(signal, "pthread_sigmask")
+        old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT}) if blocked else None
+        try:
+            futures = [pool.submit(_run_chunk, fn, warm_up, warm_up_args, c) for c in chunks]
+        finally:
+            if blocked:
+                signal.pthread_sigmask(signal.SIG_SETMASK, old)
         for fut in as_completed(futures):
             try:
                 part = fut.result()

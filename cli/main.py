@@ -51,6 +51,11 @@ class LazyGroup(click.Group):
             exc.show()
             sys.exit(exc.exit_code)
         except click.Abort:
+            from bhr.errors import INTERRUPTED
+
+            if INTERRUPTED.is_set():  # click turns a Ctrl-C into Abort
+                click.echo("Interrupted.", err=True)
+                sys.exit(130)
             click.echo("Aborted.", err=True)
             sys.exit(1)
         except (EOFError, KeyboardInterrupt):
