@@ -237,7 +237,7 @@ def _run_pool(workers: int, fn: Callable[[Any], Any], warm_up: Callable[..., Any
             futures = [pool.submit(_run_chunk, fn, warm_up, warm_up_args, c) for c in chunks]
         finally:
             if blocked:
-                signal.pthread_sigmask(signal.SIG_SETMASK, old)
+                signal.pthread_sigmask(signal.SIG_SETMASK, old or set())
         for fut in as_completed(futures):
             try:
                 part = fut.result()
