@@ -256,7 +256,10 @@ _PLAIN_FLOAT = re.compile(r"[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)
 def excerpt(value: Any, limit: int = 40) -> str:
     """``value`` as quoted in a one-line message: repr, at most ``limit`` characters (an int: its size)."""
     if isinstance(value, int) and not isinstance(value, bool) and abs(value) >= 10 ** 30:
-        return f"a {len(str(abs(value)))}-digit whole number"
+        try:
+            return f"a {len(str(abs(value)))}-digit whole number"
+        except ValueError:  # more digits than Python converts to text
+            return f"a whole number of about {int(abs(value).bit_length() * 0.30103) + 1} digits"
     text = repr(value)
     return text if len(text) <= limit else text[:limit - 3] + "..."
 
@@ -300,7 +303,7 @@ def check_number(value: Any, where: str, *, integer: bool = False, limit: float 
         except ImportError:  # pragma: no cover - numpy is a dependency
             pass
         if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise BhrError(f"{where} must be {kind}, got {type_name(value)}")
+            raise BhrError(f"{where} must be a number{' (whole)' if integer else ''}, got {type_name(value)}")
     if isinstance(value, int):
         shown = f"{value:g}" if abs(value) < 10 ** 30 else excerpt(value)
         if maximum is not None and value > maximum and abs(value) > limit:

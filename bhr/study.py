@@ -136,8 +136,10 @@ FORMULA_STARTS = ("=", "+", "-", "@", "\t", "\r", "\n")
 
 
 def csv_safe(cell: str) -> str:
-    """``cell`` as a spreadsheet shows it but never runs it: text starting like a formula gets a leading ``'``."""
-    return "'" + cell if cell.startswith(FORMULA_STARTS) else cell
+    """``cell`` as a spreadsheet shows it but never runs it: text starting like a formula gets a leading ``'``;
+    a carriage return becomes a line break (which the CSV writer quotes, so it never ends a row)."""
+    cell = "'" + cell if cell.startswith(FORMULA_STARTS) else cell
+    return cell.replace("\r\n", "\n").replace("\r", "\n")
 
 
 def csv_text(rows: Sequence[dict[str, Any]], fields: Sequence[str], joined: Iterable[str] = ()) -> str:
