@@ -292,7 +292,6 @@ def check_number(value: Any, where: str, *, integer: bool = False, limit: float 
     under :data:`MIN_MAGNITUDE_UNIT`; ``integer``: a whole number; ``positive``/``nonneg``/``minimum``: the
     sign or lower bound. Returns an int (``integer``) or a float. BhrError naming ``where`` otherwise.
     """
-    kind = "a whole number" if integer else "a number"
     u = f" {unit}" if unit else ""
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         try:
