@@ -114,6 +114,8 @@ class Option:
         return self._number(value, where)
 
     def _number(self, value: Any, where: str) -> Any:
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise BhrError(f"{where}: {self.name} must be a number, got {type_name(value)}")
         v = check_number(value, f"{where}: {self.name}", integer=self.kind is int, limit=self.limit, unit=self.unit,
                          tiny=self.tiny)
         return v if self.kind is int or not isinstance(value, int) else value
@@ -302,7 +304,7 @@ def check_number(value: Any, where: str, *, integer: bool = False, limit: float 
         except ImportError:  # pragma: no cover - numpy is a dependency
             pass
         if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise BhrError(f"{where} must be a number{' (whole)' if integer else ''}, got {type_name(value)}")
+            raise BhrError(f"{where} must be {'a whole number' if integer else 'a number'}, got {type_name(value)}")
     if isinstance(value, int):
         shown = f"{value:g}" if abs(value) < 10 ** 30 else excerpt(value)
         if maximum is not None and value > maximum and abs(value) > limit:
