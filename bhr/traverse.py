@@ -22,6 +22,7 @@ says which was used.
 """
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import math
 import os
@@ -492,56 +493,51 @@ def write_study(result: StudyResult, out_dir: Any, *, plot: bool = True,
     """
     from bhr.atomic import OutputFolder
 
-    if isinstance(out_dir, OutputFolder):
-        return [out_dir.final(p.name) for p in _write_study_files(result, out_dir.path(""), plot, x, y)]
-    folder = OutputFolder(out_dir, "traverse", what="study output folder")
-    with folder:
-        files = _write_study_files(result, folder.path(""), plot, x, y)
-    return [folder.final(p.name) for p in files]
-
-
-def _write_study_files(result: StudyResult, stage: Path, plot: bool, x: str | None, y: str | None) -> list[Path]:
     study = result.study
-    names = ["designs.csv", "runs.csv", "study.json"]
-    write_text(stage / "designs.csv", csv_text(result.designs, design_columns(study)))
-    write_text(stage / "runs.csv", csv_text(result.runs, run_columns(study)))
-    best, meeting = answer(result)
-    focus = best if best is not None else best_design(result)
-    hx, hy = heatmap_axes(study, x, y)
-    heat = worst = None
-    if plot:
-        from bhr.plots import save_figure
+    own = None if isinstance(out_dir, OutputFolder) else OutputFolder(out_dir, "traverse", what="study output folder")
+    folder = out_dir if own is None else own
+    with own if own is not None else contextlib.nullcontext():
+        stage = folder.path("")
+        names = ["designs.csv", "runs.csv", "study.json"]
+        write_text(stage / "designs.csv", csv_text(result.designs, design_columns(study)))
+        write_text(stage / "runs.csv", csv_text(result.runs, run_columns(study)))
+        best, meeting = answer(result)
+        focus = best if best is not None else best_design(result)
+        hx, hy = heatmap_axes(study, x, y)
+        heat = worst = None
+        if plot:
+            from bhr.plots import save_figure
 
-        save_figure(passrate_figure(result, hx, hy), stage / "passrate.png")
-        heat = "passrate.png"
-        names.append(heat)
-        if focus.get("worst_colon") is not None:
-            save_figure(penetration_figure(result, focus, worst_colon_run(result, focus)),
-                        stage / "worst-colon.png")
-            worst = "worst-colon.png"
-            names.append(worst)
-    write_json(stage / "study.json", {
-        "title": study.sweep.title,
-        "bhr_version": __version__,
-        "design_axes": {k: list(v) for k, v in study.design_axes},
-        "colons": list(study.colons),
-        "target_pass": study.target,
-        "robot_file": study.sweep.robot_file,
-        "robot": dict(study.sweep.robot) or None,
-        "clearance": result.clearance_kind,
-        "runs_total": len(result.runs),
-        "failed_runs": len(result.failed),
-        "wall_time_s": result.wall_time_s,
-        "runner": result.runner,
-        "workers": result.workers,
-        "heatmap": {"x": hx, "y": hy},
-        "answer": None if best is None else best["design"],
-        "meeting_target": [d["design"] for d in meeting],
-        "summary": answer_line(result),
-        "worst_colon_figure": None if worst is None else {"design": focus["design"], "seed": focus["worst_colon"]},
-        "designs": result.designs,
-        "runs": result.runs,
-    })
-    write_text(stage / "index.html", _html(result, heat, worst, focus if worst else None))
-    names.append("index.html")
-    return [stage / n for n in names]
+            save_figure(passrate_figure(result, hx, hy), stage / "passrate.png")
+            heat = "passrate.png"
+            names.append(heat)
+            if focus.get("worst_colon") is not None:
+                save_figure(penetration_figure(result, focus, worst_colon_run(result, focus)),
+                            stage / "worst-colon.png")
+                worst = "worst-colon.png"
+                names.append(worst)
+        write_json(stage / "study.json", {
+            "title": study.sweep.title,
+            "bhr_version": __version__,
+            "design_axes": {k: list(v) for k, v in study.design_axes},
+            "colons": list(study.colons),
+            "target_pass": study.target,
+            "robot_file": study.sweep.robot_file,
+            "robot": dict(study.sweep.robot) or None,
+            "clearance": result.clearance_kind,
+            "runs_total": len(result.runs),
+            "failed_runs": len(result.failed),
+            "wall_time_s": result.wall_time_s,
+            "runner": result.runner,
+            "workers": result.workers,
+            "heatmap": {"x": hx, "y": hy},
+            "answer": None if best is None else best["design"],
+            "meeting_target": [d["design"] for d in meeting],
+            "summary": answer_line(result),
+            "worst_colon_figure": None if worst is None else {"design": focus["design"], "seed": focus["worst_colon"]},
+            "designs": result.designs,
+            "runs": result.runs,
+        })
+        write_text(stage / "index.html", _html(result, heat, worst, focus if worst else None))
+        names.append("index.html")
+    return [folder.final(n) for n in names]
