@@ -88,8 +88,8 @@ class Option:
     @property
     def tiny(self) -> float:
         """Smallest non-zero magnitude accepted: :data:`MIN_MAGNITUDE_UNIT` for lengths and angles (a robot
-        of 1e-300 mm or degrees only overflows the arithmetic), else the smallest normal float."""
-        return MIN_MAGNITUDE_UNIT if self.unit in ("mm", "deg") else MIN_MAGNITUDE
+        of 1e-300 mm or degrees only overflows the arithmetic), else the smallest normal float (denormals out)."""
+        return MIN_MAGNITUDE_UNIT if self.group == "robot" and self.unit in ("mm", "deg") else MIN_MAGNITUDE
 
     @property
     def limit(self) -> float:
@@ -372,7 +372,7 @@ def check_run_name(value: Any, where: str) -> str:
         raise BhrError(f"{where}: name must not be empty; give every run a short name")
     if len(name) > MAX_NAME_CHARS:
         raise BhrError(f"{where}: name is {len(name)} characters long; give at most {MAX_NAME_CHARS}")
-    if not name.isprintable():
+    if any(ord(c) < 32 or ord(c) == 127 or c in "\u2028\u2029\x85" for c in name):
         raise BhrError(f"{where}: name {excerpt(name)} holds a control character (a tab or a line break); "
                        "give a name on one line")
     return name

@@ -11,7 +11,7 @@ from typing import Any, Callable
 import click
 
 from bhr.errors import BhrError
-from bhr.options import MAX_MM, MIN_MAGNITUDE_UNIT, Option, by_group, check_number, excerpt, parse_number
+from bhr.options import MAX_MM, Option, by_group, check_number, excerpt, parse_number
 
 
 def plain_number(text: str) -> bool:
@@ -48,15 +48,15 @@ class Bounded(click.ParamType):
     trajectory checks), whose messages name the allowed range.
     """
 
-    def __init__(self, kind: type = float, limit: float = MAX_MM, unit: str = "") -> None:
+    def __init__(self, kind: type = float, limit: float = MAX_MM, unit: str = "", tiny: float | None = None) -> None:
         self.kind = kind
         self.limit = limit
         self.unit = unit
+        self.tiny = tiny
         self.name = "integer" if kind is int else "float"
 
     def convert(self, value: Any, param: Any, ctx: Any) -> Any:
-        v = _convert(self, value, param, ctx, self.kind, limit=self.limit, unit=self.unit,
-                     tiny=MIN_MAGNITUDE_UNIT if self.unit in ("mm", "deg") else None)
+        v = _convert(self, value, param, ctx, self.kind, limit=self.limit, unit=self.unit, tiny=self.tiny)
         if isinstance(v, float) and not math.isfinite(v):  # pragma: no cover - check_number refuses it
             self.fail(f"{value} is not a finite number", param, ctx)
         return self.kind(v)
@@ -101,9 +101,9 @@ def _click_option(o: Option) -> Callable[[Any], Any]:
     elif o.kind == "weights":
         kind = WeightList()
     elif o.group == "solver":  # ranges checked by the solver, with its own messages; the number checked here
-        kind = Bounded(o.kind, o.limit, o.unit)
+        kind = Bounded(o.kind, o.limit, o.unit, o.tiny)
     else:
-        kind = Bounded(o.kind, o.limit, o.unit)
+        kind = Bounded(o.kind, o.limit, o.unit, o.tiny)
     return click.option(o.flag, _param(o), type=kind, default=None, help=o.help_text(), metavar=o.metavar)
 
 
