@@ -298,14 +298,15 @@ def _run_dask(scheduler: Any, fn: Callable[[Any], Any], warm_up: Callable[..., A
             done = [f for f in futures if f in pending and f.done()]  # in job order
             if not done:
                 time.sleep(0.2)
-            not_done = pending.difference(done)
             for fut in done:
                 try:
-                    part = fut.result()
+                    part = fut.result(timeout=5)  # bounded: a result lost with its worker waits for a recompute
+                except TimeoutError:
+                    continue  # still pending; the worker check below bounds the wait
                 except Exception as exc:
                     raise _dask_failure(address, exc) from None
+                pending.discard(fut)
                 finished(part)
-            pending = set(not_done)
             if not pending:
                 break
             if client.status not in ("running", "connecting", "newly-created"):

@@ -54,7 +54,7 @@ _LAYER = {
     "test_compare.py": "cli", "test_replay.py": "cli", "test_animate.py": "cli", "test_startup.py": "cli",
     "test_bench.py": "cli", "test_hostile.py": "cli",
     "test_firmware_host.py": "integration", "test_firmware_sim.py": "integration", "test_link.py": "integration",
-    "test_liveview.py": "integration", "test_report_browser.py": "integration",
+    "test_liveview.py": "integration", "test_report_browser.py": "integration", "test_dask_faults.py": "integration",
 }
 _INTEGRATION_FIXTURES = {"dask_cluster"}
 
