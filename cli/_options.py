@@ -33,6 +33,8 @@ def _convert(t: click.ParamType, value: Any, param: Any, ctx: Any, kind: type, *
             v = parse_number(str(value), "value", integer=kind is int)
         except BhrError:
             t.fail(f"{excerpt(str(value))} is not a valid {name} (write plain ASCII digits)", param, ctx)
+    if isinstance(v, float) and not math.isfinite(v):
+        t.fail(f"{value} is not a finite number", param, ctx)
     try:
         return check_number(v, "value", integer=kind is int, **checks)
     except BhrError as exc:
