@@ -16,9 +16,13 @@ previous folder (Linux ``renameat2(RENAME_EXCHANGE)``), after which the
 previous folder is deleted. A folder therefore always holds the complete set
 of exactly one run, also when a run is killed (``kill -9``), the disk fills
 up, or two runs write the same folder at once (the last to finish wins
-whole). ``manifest.json`` in the folder names the run (``run_id``, the
-command) and lists every file with its size and SHA-256. Staging folders of
-runs that died are deleted by the next run into the same place.
+whole). ``manifest.json`` in the folder is bhr's signature: it names the run
+(``run_id``, the command, the settings' hash, bhr's version) and lists every
+file with its size and SHA-256. A folder is replaced only when its manifest
+proves that bhr wrote every file in it (:func:`verify_folder`); a folder
+holding one of the run's inputs, the current folder and its parents are
+refused. Staging folders of runs that died are deleted by the next run into
+the same place.
 """
 from __future__ import annotations
 
