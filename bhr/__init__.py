@@ -13,8 +13,19 @@ need are re-exported here and loaded lazily:
 """
 from __future__ import annotations
 
-import importlib
 import sys
+
+if sys.argv and sys.argv[0].rsplit("/", 1)[-1] == "bhr":  # the bhr command: Ctrl-C from the first moment
+    if "multiprocessing.spawn" in sys.modules:  # a worker process of the command: Ctrl-C is the parent's
+        import signal as _signal
+
+        _signal.signal(_signal.SIGINT, _signal.SIG_IGN)
+    else:
+        from bhr.settings.interrupts import install as _install_interrupts
+
+        _install_interrupts()
+
+import importlib
 import types
 import warnings
 from typing import TYPE_CHECKING, Any

@@ -10,7 +10,7 @@ from typing import Any, Callable
 
 import click
 
-from bhr.settings.errors import BhrError
+from bhr.settings.errors import INTERRUPTED, BhrError
 
 
 def os_error_line(exc: OSError) -> str:
@@ -48,6 +48,8 @@ def guarded(func: Callable[..., Any]) -> Callable[..., Any]:
         try:
             rv = func(*args, **kwargs)
             sys.stdout.flush()  # a full or closed standard output fails here, inside the guard
+            if INTERRUPTED.is_set():  # a Ctrl-C that something caught on the way: still honoured
+                raise KeyboardInterrupt
             return rv
         except BhrError as exc:
             raise click.ClickException(str(exc).splitlines()[0] if str(exc) else type(exc).__name__) from None
@@ -87,20 +89,57 @@ def run_folder_name(readable: str, *parts: Any) -> str:
     """A folder name for a run: ``readable`` plus 8 hex digits of a hash of what makes the run different.
 
     ``parts`` are JSON-able descriptions (trajectory points, robot, solver and
-    its options); two runs share a folder only when they agree on all of them.
+    its options; a ``Path`` stands for its file's content); two runs share a
+    folder only when they agree on all of them (:func:`bhr.output.atomic.settings_hash`).
     """
-    import hashlib
-    import json
+    from bhr.output.atomic import settings_hash
 
-    h = hashlib.sha256()
-    for part in parts:
-        if hasattr(part, "tobytes"):
-            h.update(part.tobytes())
-        else:
-            h.update(json.dumps(part, sort_keys=True, default=repr).encode())
-        h.update(b"\x00")
-    safe = "".join(c if c.isalnum() or c in "-_." else "_" for c in readable)[:60] or "run"
-    return f"{safe}-{h.hexdigest()[:8]}"
+    return folder_name(readable, settings_hash(*parts))
+
+
+def folder_name(readable: str, settings: str) -> str:
+    """``readable`` made safe for a file name (at most 60 characters) plus ``-`` and the settings hash."""
+    safe = "".join(c if c.isalnum() and c.isascii() or c in "-_." else "_" for c in readable)[:60].lstrip(".")
+    return f"{safe or 'run'}-{settings}"
+
+
+def input_files(*paths: Any) -> list[Path]:
+    """The ones of ``paths`` that name existing files (inputs a run reads), for output checks and hashes."""
+    out = []
+    for p in paths:
+        if p is None or str(p) == "-":
+            continue
+        with contextlib.suppress(OSError, ValueError):
+            if os.path.isfile(p):
+                out.append(Path(p))
+    return out
+
+
+def default_output(command: str, readable: str, settings_parts: tuple[Any, ...], inputs: list[Path],
+                   names: tuple[str, ...], out_dir: str | None, what: str = "output folder"):
+    """The checked output folder of a study command: ``--out`` or ``bhr-out/<readable>-<hash of the settings>``.
+
+    The hash covers ``settings_parts`` and the content of every input file, so two runs share the
+    default folder only when they would make the same results; the manifest records it, so a rerun keeps
+    what the earlier run made and this one does not make again (docs/commands.md#output-folders).
+    """
+    from bhr.output.atomic import OutputFolder, settings_hash
+
+    settings = settings_hash(*settings_parts, *inputs)
+    if out_dir is None:
+        check_parent_folder("bhr-out")
+        target: Path = Path("bhr-out") / folder_name(readable, settings)
+    else:
+        target = Path(out_dir)
+    return OutputFolder(target, command, names=names, what=what, inputs=inputs, settings=settings).check()
+
+
+def point_latest_if_default(folder: Any, out_dir: str | None) -> None:
+    """bhr-out/latest: the run just written, when it went to its default folder."""
+    if out_dir is None:
+        from bhr.output.atomic import point_latest
+
+        point_latest(folder.target)
 
 
 def json_in_folder(json_path: str | None, folder: Any, taken: tuple[str, ...], option: str = "--json"

@@ -10,7 +10,8 @@ from typing import Any, Callable
 
 import click
 
-from bhr.settings.options import MAX_MM, Option, by_group
+from bhr.settings.errors import BhrError
+from bhr.settings.options import MAX_MM, Option, by_group, check_number, excerpt, parse_number
 
 
 def plain_number(text: str) -> bool:
@@ -22,6 +23,27 @@ def plain_number(text: str) -> bool:
     return text.isascii() and "_" not in text
 
 
+def _convert(t: click.ParamType, value: Any, param: Any, ctx: Any, kind: type, **checks: Any) -> Any:
+    """Text -> number through the one checker (bhr.settings.options.parse_number, check_number); click's one-line
+    failure."""
+    name = "integer" if kind is int else "float"
+    if isinstance(value, (int, float)) and not isinstance(value, bool):
+        v: Any = value
+    else:
+        try:
+            v = parse_number(str(value), "value", integer=kind is int)
+        except BhrError:
+            t.fail(f"{excerpt(str(value))} is not a valid {name} (write plain ASCII digits)", param, ctx)
+    if isinstance(v, float) and not math.isfinite(v):
+        t.fail(f"{value} is not a finite number", param, ctx)
+    try:
+        return check_number(v, "value", integer=kind is int, **checks)
+    except BhrError as exc:
+        msg = str(exc)
+        msg = msg[len("value = "):] if msg.startswith("value = ") else msg
+        t.fail(msg[len("value "):] if msg.startswith("value ") else msg, param, ctx)
+
+
 class Bounded(click.ParamType):
     """A finite int or float no larger in size than ``limit``: one clear line for nan, inf or 1e300.
 
@@ -29,50 +51,34 @@ class Bounded(click.ParamType):
     trajectory checks), whose messages name the allowed range.
     """
 
-    def __init__(self, kind: type = float, limit: float = MAX_MM, unit: str = "") -> None:
+    def __init__(self, kind: type = float, limit: float = MAX_MM, unit: str = "", tiny: float | None = None) -> None:
         self.kind = kind
         self.limit = limit
         self.unit = unit
+        self.tiny = tiny
         self.name = "integer" if kind is int else "float"
 
     def convert(self, value: Any, param: Any, ctx: Any) -> Any:
-        if isinstance(value, (int, float)) and not isinstance(value, bool):
-            v = value
-        else:
-            text = str(value).strip()
-            try:
-                if not plain_number(text):
-                    raise ValueError(text)
-                v = int(text) if self.kind is int else float(text)
-            except ValueError:
-                self.fail(f"{value!r} is not a valid {self.name}", param, ctx)
-        u = f" {self.unit}" if self.unit else ""
-        if not math.isfinite(v):
+        v = _convert(self, value, param, ctx, self.kind, limit=self.limit, unit=self.unit, tiny=self.tiny)
+        if isinstance(v, float) and not math.isfinite(v):  # pragma: no cover - check_number refuses it
             self.fail(f"{value} is not a finite number", param, ctx)
-        if abs(v) > self.limit:
-            self.fail(f"{v:g} is too large; the limit is {self.limit:g}{u}", param, ctx)
         return self.kind(v)
 
 
 class FiniteRange(click.FloatRange):
-    """click.FloatRange that also refuses nan (nan passes every comparison click makes) and non-ASCII digits."""
+    """click.FloatRange through the one checker: nan, inf, denormals and non-ASCII digits refused."""
 
     def convert(self, value: Any, param: Any, ctx: Any) -> Any:
-        if isinstance(value, str) and not plain_number(value.strip()):
-            self.fail(f"{value!r} is not a valid float (write plain ASCII digits)", param, ctx)
-        v = super().convert(value, param, ctx)
-        if not math.isfinite(v):
-            self.fail(f"{value} is not a finite number", param, ctx)
-        return v
+        v = _convert(self, value, param, ctx, float, limit=1e300)
+        return super().convert(v, param, ctx)
 
 
 class PlainIntRange(click.IntRange):
-    """click.IntRange that refuses "1_5" and non-ASCII digits."""
+    """click.IntRange through the one checker: "1_5", non-ASCII digits and integers of any length refused."""
 
     def convert(self, value: Any, param: Any, ctx: Any) -> Any:
-        if isinstance(value, str) and not plain_number(value.strip()):
-            self.fail(f"{value!r} is not a valid integer (write plain ASCII digits)", param, ctx)
-        return super().convert(value, param, ctx)
+        v = _convert(self, value, param, ctx, int, limit=1e18)
+        return super().convert(v, param, ctx)
 
 
 #: Slowest streaming rate accepted (Hz): one step every 100 s.
@@ -97,10 +103,10 @@ def _click_option(o: Option) -> Callable[[Any], Any]:
         kind: Any = click.Choice(list(o.choices))
     elif o.kind == "weights":
         kind = WeightList()
-    elif o.group == "solver":  # ranges checked by the solver, with its own messages
-        kind = o.kind
+    elif o.group == "solver":  # ranges checked by the solver, with its own messages; the number checked here
+        kind = Bounded(o.kind, o.limit, o.unit, o.tiny)
     else:
-        kind = Bounded(o.kind, o.limit, o.unit)
+        kind = Bounded(o.kind, o.limit, o.unit, o.tiny)
     return click.option(o.flag, _param(o), type=kind, default=None, help=o.help_text(), metavar=o.metavar)
 
 
@@ -214,12 +220,13 @@ class WeightList(click.ParamType):
     def convert(self, value: Any, param: Any, ctx: Any) -> Any:
         if isinstance(value, (float, tuple)):
             return value
-        try:
-            vals = [float(p) for p in str(value).split(",")]
-        except ValueError:
-            self.fail(f"{value!r} is not a number or a comma-separated list of numbers (base to tip)", param, ctx)
-        if not all(math.isfinite(v) for v in vals):
-            self.fail(f"{value!r} has a value that is not a finite number", param, ctx)
+        vals = []
+        for part in str(value).split(","):
+            try:
+                vals.append(check_number(parse_number(part, "weight"), "weight", limit=1e300))
+            except BhrError:
+                self.fail(f"{excerpt(str(value))} is not a number or a comma-separated list of finite numbers "
+                          "(base to tip)", param, ctx)
         return vals[0] if len(vals) == 1 else tuple(vals)
 
 

@@ -7,7 +7,8 @@ from pathlib import Path
 
 import click
 
-from bhr.cli._common import check_parent_folder, check_writable, guarded, json_in_folder, run_folder_name
+from bhr.cli._common import (check_parent_folder, check_writable, guarded, input_files, json_in_folder,
+                             run_folder_name)
 from bhr.cli._options import (build_robot, lumen_options, optimal_options, pop_solver_options, pop_trajectory,
                               robot_options, run_options, trajectory_options)
 
@@ -57,6 +58,7 @@ def compare(traj, solvers, out_dir, json_path, no_plots, **kwargs):
             from bhr.settings.inputs import did_you_mean
 
             raise BhrError(f"unknown solver {name!r}; {did_you_mean(name, known)}choose from {', '.join(known)}")
+    robot_file = kwargs.get("robot_file")
     robot = build_robot(kwargs)
     if traj is None:
         raise BhrError("give the trajectory to compare on: --traj line|curve|spiral|colon|FILE")
@@ -65,7 +67,8 @@ def compare(traj, solvers, out_dir, json_path, no_plots, **kwargs):
 
     folder = None
     if out_dir is not None:
-        folder = OutputFolder(out_dir, "compare", names=COMPARE_NAMES).check()  # before any work
+        folder = OutputFolder(out_dir, "compare", names=COMPARE_NAMES,  # checked before any work
+                              inputs=input_files(traj, kwargs.get("robot_file"))).check()
     elif not no_plots:
         check_parent_folder("bhr-out")
     check_writable(json_path, "JSON")
@@ -81,7 +84,11 @@ def compare(traj, solvers, out_dir, json_path, no_plots, **kwargs):
     if folder is None and not no_plots:
         name = run_folder_name(f"compare-{stem}", tr.points, tr.lumen if tr.lumen is not None else 0,
                                robot.to_dict(), names, per_solver, body_modules)
-        folder = OutputFolder(Path("bhr-out") / name, "compare", names=COMPARE_NAMES).check()
+        folder = OutputFolder(Path("bhr-out") / name, "compare", names=COMPARE_NAMES,
+                              inputs=input_files(traj, robot_file)).check()
+    if folder is not None:  # what makes the results (docs/commands.md#output-folders)
+        folder.settings = run_folder_name("", tr.points, tr.lumen if tr.lumen is not None else 0, robot.to_dict(),
+                                          names, per_solver, body_modules).rsplit("-", 1)[1]
     json_inside = json_in_folder(json_path, folder, COMPARE_NAMES) if folder is not None else None
     with warnings.catch_warnings(record=True) as caught, \
             status(f"following {tr.name} ({len(tr.points)} steps) with {', '.join(names)}"):
@@ -116,6 +123,10 @@ def compare(traj, solvers, out_dir, json_path, no_plots, **kwargs):
             if json_path and json_path != "-" and json_inside is None:
                 write_json(Path(json_path), compare_json(runs))  # before the folder goes in place
                 written.append(Path(json_path))
+        if out_dir is None:
+            from bhr.output.atomic import point_latest
+
+            point_latest(folder.target)  # bhr-out/latest: the run just written
     if json_path == "-":
         click.echo(json.dumps(compare_json(runs), allow_nan=False))
     elif json_path and json_inside is None and folder is None:

@@ -7,7 +7,8 @@ from pathlib import Path
 
 import click
 
-from bhr.cli._common import check_parent_folder, check_writable, guarded, json_in_folder, run_folder_name
+from bhr.cli._common import (check_parent_folder, check_writable, guarded, input_files, json_in_folder,
+                             run_folder_name)
 from bhr.cli._progress import announce_compiles, status
 from bhr.cli._link import (at_end_option, end_text, exit_interrupted, fault_printer, link_options, link_settings,
                            schedule_option, stop_on_signals, thermal_params)
@@ -160,7 +161,8 @@ def follow(traj, solver, out_dir, json_path, no_plots, **kwargs):
     to_stdout = json_path == "-"
     use_folder = out_dir is not None or not (to_stdout and no_plots)
     if out_dir is not None:
-        folder = OutputFolder(out_dir, "follow", names=FOLLOW_NAMES).check()  # before any work
+        folder = OutputFolder(out_dir, "follow", names=FOLLOW_NAMES,  # checked before any work
+                              inputs=input_files(traj, kwargs.get("robot_file"))).check()
     else:
         check_parent_folder("bhr-out")
         folder = None
@@ -203,7 +205,12 @@ def follow(traj, solver, out_dir, json_path, no_plots, **kwargs):
         name = run_folder_name(f"{stem}-{solver}", tr.points, tr.lumen if tr.lumen is not None else 0,
                                robot.to_dict(), solver, constraints, optimal, body_modules,
                                *((reach, locomotion) if (reach, locomotion) != (None, "thesis") else ()))
-        folder = OutputFolder(Path("bhr-out") / name, "follow", names=FOLLOW_NAMES).check()
+        folder = OutputFolder(Path("bhr-out") / name, "follow", names=FOLLOW_NAMES,
+                              inputs=input_files(traj, robot_file)).check()
+    if folder is not None:  # what makes the results: a rerun with the same keeps what it does not redraw
+        folder.settings = name.rsplit("-", 1)[1] if out_dir is None else run_folder_name(
+            "", tr.points, tr.lumen if tr.lumen is not None else 0, robot.to_dict(), solver, constraints, optimal,
+            body_modules, *((reach, locomotion) if (reach, locomotion) != (None, "thesis") else ())).rsplit("-", 1)[1]
     json_inside = json_in_folder(json_path, folder, FOLLOW_NAMES) if folder is not None else None
     anim_inside = None
     if folder is not None and animate_path is not None:
@@ -269,7 +276,7 @@ def follow(traj, solver, out_dir, json_path, no_plots, **kwargs):
         from bhr.cli._link import thermal_params
         from bhr.hardware.thermal import auto_schedule, format_duration
 
-        sched = auto_schedule(thermal_params(robot_file), result.codes, rate)
+        sched = auto_schedule(thermal_params(robot_file), result.codes, rate, trace=False)  # memory: not per step
         click.echo(f"Procedure time on the board: {format_duration(sched.total_s)} at the board's limits "
                    f"(bhr plan --codes {out / 'codes.csv'} shows the schedule).", err=stream)
     if written:
@@ -319,7 +326,7 @@ def follow_streaming(tr, solver, robot, solver_options, body_modules, rate, link
         if result.codes is None:
             Pacer(link, rate)(1, None)  # the one-line refusal of code-less solvers
         rows = result.codes
-        sched = plan(params, rows, rate, schedule, name=tr.name, sending=True)
+        sched = plan(params, rows, rate, schedule, name=tr.name, sending=True, trace=False)
         held = [f for f in board["faults"] if f != "silence"]  # silence: the board was idle, which is fine
         if held:
             click.echo(f"Warning: board on {port} reports {', '.join(held)} before the run (latched faults stay "

@@ -53,9 +53,19 @@ class LazyGroup(click.Group):
             exc.show()
             sys.exit(exc.exit_code)
         except click.Abort:
+            from bhr.settings.errors import INTERRUPTED
+
+            if INTERRUPTED.is_set():  # click turns a Ctrl-C into Abort
+                click.echo("Interrupted.", err=True)
+                sys.exit(130)
             click.echo("Aborted.", err=True)
             sys.exit(1)
         except (EOFError, KeyboardInterrupt):
+            click.echo("Interrupted.", err=True)
+            sys.exit(130)
+        from bhr.settings.errors import INTERRUPTED
+
+        if INTERRUPTED.is_set():  # a Ctrl-C that something caught on the way: still honoured
             click.echo("Interrupted.", err=True)
             sys.exit(130)
         sys.exit(rv if isinstance(rv, int) else 0)

@@ -44,13 +44,24 @@ def plan(codes_path, rate, schedule, robot_file, plot_path, no_plot, csv_path):
     from bhr.hardware.thermal import format_duration, plan as make_plan, summarize
 
     steps, table = read_codes_csv(codes_path)
+    from bhr.settings.options import LIMITS
+
+    if not no_plot and table.shape[1] > LIMITS["figure_modules"]:
+        if plot_path is not None:
+            from bhr.settings.errors import BhrError
+
+            raise BhrError(f"--plot draws the wires of at most {LIMITS['figure_modules']} modules and "
+                           f"{codes_path} has {table.shape[1]}; drop --plot (the schedule is printed) or use --csv")
+        click.echo(f"Note: no thermal.png for {table.shape[1]} modules (the figure shows at most "
+                   f"{LIMITS['figure_modules']}); the schedule follows.", err=True)
+        no_plot = True
     if not no_plot:
         plot_path = plot_path or str(Path(codes_path).resolve().parent / "thermal.png")
         check_writable(plot_path, "figure")
     check_writable(csv_path, "CSV")
     params = thermal_params(robot_file)
     name = Path(codes_path).resolve().parent.name or Path(codes_path).stem
-    sched = make_plan(params, table, rate, schedule, name=str(codes_path))
+    sched = make_plan(params, table, rate, schedule, name=str(codes_path), trace=not no_plot)
     out = sys.stdout
     out.write(f"wires: {params.describe()}\n")
     out.write(f"{'step':>6} {'sent at':>10}  codes\n")

@@ -96,6 +96,7 @@ def replay(run, show, animate_path, stride, out_dir, step):
             check_writable(out / path_name, "output folder")  # a loose run.json: figures written beside it
         else:
             folder = OutputFolder(out, "replay", names=("*.png", "view.html", "run.json", "codes.csv", "manifest.json"),
+                                  inputs=[run],
                                   keep=same).check()
     check_view_options(show, animate_path)
     result = load_run(run)

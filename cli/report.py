@@ -14,7 +14,8 @@ from bhr.cli._options import PlainIntRange
 @click.option("--file", "batch_path", default=None, metavar="FILE.toml",
               help="Batch file: [[run]] tables with name, traj, solver and options (see docs/report.md).")
 @click.option("--batch", "batch_old", default=None, metavar="FILE.toml", hidden=True)  # the old spelling
-@click.option("--out", "out_dir", default=None, metavar="DIR", help="Output folder [./bhr-out/<batch name>/].")
+@click.option("--out", "out_dir", default=None, metavar="DIR",
+              help="Output folder [./bhr-out/<batch name>-<hash of the batch and its files>/].")
 @click.option("--jobs", "-j", type=PlainIntRange(min=1, max=1024), default=None, metavar="N",
               help="Worker processes [the number of CPUs, at most one per run].")
 @click.option("--inline-images", is_flag=True,
@@ -40,11 +41,15 @@ def report(batch_path, batch_old, out_dir, jobs, inline_images, no_plots):
     batch_path = batch_path or batch_old
     if batch_path is None:
         raise BhrError("give the batch file: bhr report --file FILE.toml (see docs/report.md)")
-    from bhr.output.atomic import OutputFolder
+    import dataclasses
+
+    from bhr.cli._common import default_output, input_files, point_latest_if_default
 
     batch = load_batch(batch_path)
-    out = Path(out_dir) if out_dir else Path("bhr-out") / Path(batch_path).stem
-    folder = OutputFolder(out, "report", names=REPORT_NAMES, what="report folder").check()  # before any work
+    inputs = input_files(batch_path, *(r.traj for r in batch.runs), *(r.robot_file for r in batch.runs))
+    folder = default_output("report", Path(batch_path).stem, (dataclasses.asdict(batch), no_plots, inline_images),
+                            inputs, REPORT_NAMES, out_dir, what="report folder")  # before any work
+    out = folder.final("")
     total = len(batch.runs)
     workers = min(jobs or os.cpu_count() or 1, total)
     announce_compiles()
@@ -58,6 +63,7 @@ def report(batch_path, batch_old, out_dir, jobs, inline_images, no_plots):
         with folder:  # runs/<name>/ of an earlier report never survive beside this one
             rep = run_batch(batch, folder.stage, jobs=workers, plots=not no_plots, inline_images=inline_images,
                             progress=progress)
+    point_latest_if_default(folder, out_dir)
     for line in format_table(rep.rows):
         click.echo(line)
     names = ", ".join(str(out / p.name) for p in rep.files())

@@ -56,7 +56,8 @@ def stream(codes_path, rate, schedule, at_end, dry_run, **link_kw):
     from bhr.hardware.thermal import format_duration, plan
 
     # the same checks with and without --dry-run: the thermal model first
-    sched = plan(thermal_params(robot_file), table, rate, schedule, name=str(codes_path), sending=not dry_run)
+    sched = plan(thermal_params(robot_file), table, rate, schedule, name=str(codes_path), sending=not dry_run,
+                 trace=False)
     if dry_run:
         from bhr.hardware.protocol import set_codes_frame
 

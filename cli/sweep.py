@@ -20,7 +20,8 @@ from bhr.cli._options import PlainIntRange
                    "(START:STOP[:STEP], STOP included). Repeat for each key.")
 @click.option("--robot", "robot_file", default=None, metavar="FILE",
               help="Robot description (TOML) every design starts from; grid values replace its values.")
-@click.option("--out", "out_dir", default=None, metavar="DIR", help="Output folder [./bhr-out/sweep/].")
+@click.option("--out", "out_dir", default=None, metavar="DIR",
+              help="Output folder [./bhr-out/<sweep file or sweep>-<hash of the settings>/].")
 @click.option("--jobs", "-j", type=PlainIntRange(min=1, max=1024), default=None, metavar="N",
               help="Worker processes [the number of CPUs]; 1 runs in this process.")
 @click.option("--scheduler", default=None, metavar="ADDRESS",
@@ -67,10 +68,15 @@ def sweep(sweep_file, trajs, solvers, grid, robot_file, out_dir, jobs, scheduler
         s = build_sweep(trajs or ("curve",), solvers or ("thesis",), cli_grid, title=title or "bhr sweep",
                         robot_file=robot_file)
     heatmap_axes(s, hx, hy)  # refuse unknown heat-map axes before running
-    from bhr.output.atomic import OutputFolder
+    import dataclasses
 
-    out = Path(out_dir) if out_dir else Path("bhr-out") / (Path(sweep_file).stem if sweep_file else "sweep")
-    folder = OutputFolder(out, "sweep", names=SWEEP_NAMES, what="sweep output folder").check()  # before any work
+    from bhr.cli._common import default_output, input_files, point_latest_if_default
+
+    inputs = input_files(sweep_file, robot_file, s.robot_file, *s.traj_sources.values())
+    folder = default_output("sweep", Path(sweep_file).stem if sweep_file else "sweep",
+                            (dataclasses.asdict(s), no_plot, hx, hy), inputs, SWEEP_NAMES, out_dir,
+                            what="sweep output folder")  # before any work
+    out = folder.final("")
     total = len(s)
     client = None
     if scheduler is not None:
@@ -87,9 +93,12 @@ def sweep(sweep_file, trajs, solvers, grid, robot_file, out_dir, jobs, scheduler
             result = run_sweep(s, jobs=jobs, scheduler=client, progress=progress)
     finally:
         if client is not None:
-            client.close()
+            from bhr.studies.executor import close_client
+
+            close_client(client)
     with status(f"writing {out}"), folder:
         files = [folder.final(p.name) for p in write_outputs(result, folder.stage, plot=not no_plot, x=hx, y=hy)]
+    point_latest_if_default(folder, out_dir)
     for line in format_summary(result):
         click.echo(line)
     click.echo("Wrote " + ", ".join(str(p) for p in files))

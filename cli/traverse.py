@@ -2,11 +2,11 @@
 from __future__ import annotations
 
 import sys
-from pathlib import Path
 
 import click
 
-from bhr.cli._common import check_executor, check_writable, guarded
+from bhr.cli._common import check_executor, guarded
+from bhr.cli._options import FiniteRange, PlainIntRange
 
 OUTPUTS = ("designs.csv", "runs.csv", "study.json", "passrate.png", "worst-colon.png", "index.html")
 
@@ -19,12 +19,13 @@ OUTPUTS = ("designs.csv", "runs.csv", "study.json", "passrate.png", "worst-colon
               help="The anatomical colons every design must get through: seeds such as 1-100 (or 1:100, as in a "
                    "grid) or 1,4,10-20.")
 @click.option("--solver", "solvers", multiple=True, metavar="NAME", help="Solver (repeat for several) [thesis].")
-@click.option("--target-pass", type=float, default=0.95, show_default=True, metavar="SHARE",
+@click.option("--target-pass", type=FiniteRange(min=0, max=1e6), default=0.95, show_default=True, metavar="SHARE",
               help="Share of colons a design must traverse without touching the wall.")
 @click.option("--robot", "robot_file", default=None, metavar="FILE",
               help="Robot description (TOML) every design starts from; grid values replace its values.")
-@click.option("--out", "out_dir", default=None, metavar="DIR", help="Output folder [./bhr-out/traverse/].")
-@click.option("--jobs", "-j", type=click.IntRange(min=1), default=None, metavar="N",
+@click.option("--out", "out_dir", default=None, metavar="DIR",
+              help="Output folder [./bhr-out/traverse-<hash of the settings>/].")
+@click.option("--jobs", "-j", type=PlainIntRange(min=1, max=1024), default=None, metavar="N",
               help="Worker processes [the number of CPUs]; 1 runs in this process.")
 @click.option("--scheduler", default=None, metavar="ADDRESS",
               help="Run on an existing Dask distributed cluster instead, e.g. tcp://127.0.0.1:8786.")
@@ -57,9 +58,14 @@ def traverse(grid, colons, solvers, target_pass, robot_file, out_dir, jobs, sche
     study = build_study([parse_grid_option(g) for g in grid], colons, solvers=solvers or ("thesis",),
                         target=target_pass, robot_file=robot_file, title=title or "bhr traverse")
     heatmap_axes(study, hx, hy)  # refuse unknown heat-map axes before running
-    out = Path(out_dir) if out_dir else Path("bhr-out") / "traverse"
-    for name in OUTPUTS:
-        check_writable(out / name, "study output")
+    import dataclasses
+
+    from bhr.cli._common import default_output, input_files, point_latest_if_default
+
+    folder = default_output("traverse", "traverse", (dataclasses.asdict(study), no_plot, hx, hy),
+                            input_files(robot_file), OUTPUTS + ("manifest.json",), out_dir,
+                            what="study output folder")  # before any work
+    out = folder.final("")
     client = None
     if scheduler is not None:
         from bhr.studies.executor import connect_scheduler
@@ -83,8 +89,12 @@ def traverse(grid, colons, solvers, target_pass, robot_file, out_dir, jobs, sche
             result = run_study(study, jobs=jobs, scheduler=client)
     finally:
         if client is not None:
-            client.close()
-    files = write_study(result, out, plot=not no_plot, x=hx, y=hy, physics=physics)
+            from bhr.studies.executor import close_client
+
+            close_client(client)
+    with folder:
+        files = write_study(result, folder, plot=not no_plot, x=hx, y=hy, physics=physics)
+    point_latest_if_default(folder, out_dir)
     for line in format_study(result):
         click.echo(line)
     click.echo("Wrote " + ", ".join(str(p) for p in files))

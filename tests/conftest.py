@@ -52,11 +52,12 @@ _LAYER = {
     "test_solve_chapter5.py": "thesis", "test_constrained_chapter6.py": "thesis", "test_follow_chapter7.py": "thesis",
     "test_cli_basics.py": "cli", "test_bad_input.py": "cli", "test_report.py": "cli", "test_sweep.py": "cli",
     "test_compare.py": "cli", "test_replay.py": "cli", "test_animate.py": "cli", "test_startup.py": "cli",
-    "test_bench.py": "cli",
+    "test_bench.py": "cli", "test_hostile.py": "cli",
     "test_firmware_host.py": "integration", "test_firmware_sim.py": "integration",
     "test_firmware_thermal.py": "integration", "test_link.py": "integration",
     "test_liveview.py": "integration", "test_report_browser.py": "integration",
     "test_view_browser.py": "integration", "test_physics_replay.py": "integration", "test_warmup.py": "integration",
+    "test_dask_faults.py": "integration",
 }
 _INTEGRATION_FIXTURES = {"dask_cluster"}
 

@@ -41,6 +41,15 @@ T = ["--target", "3", "9", "0"]
 SEG = '[[segment]]\ntype = "straight"\nlength = 40.0\n'
 
 
+def _manifest(files: dict[str, str]) -> str:
+    """A bhr manifest.json proving that bhr wrote ``files`` (name -> text)."""
+    import hashlib
+    import json
+
+    listed = {n: {"bytes": len(t.encode()), "sha256": hashlib.sha256(t.encode()).hexdigest()} for n, t in files.items()}
+    return json.dumps({"bhr_output": 2, "command": "follow", "run_id": "0" * 32, "files": listed})
+
+
 def seg(text: str) -> dict[str, str]:
     return {"p.toml": text}
 
@@ -139,7 +148,9 @@ CASES += [
     Bad("follow-bad-keeps-good-json", "follow", ["--traj", "p.csv", "--json", "good.json", "--out", "o"],
         {"p.csv": "x,y,z\n0,0,0\n"}, expect="two distinct points"),
     Bad("follow-bad-keeps-previous-run", "follow", ["--traj", "curve", "--radius", "0", "--out", "prev"],
-        {"prev/run.json": GOOD_JSON, "prev/codes.csv": CODES_OK}, expect="radius must be positive"),
+        {"prev/run.json": GOOD_JSON, "prev/codes.csv": CODES_OK,
+         "prev/manifest.json": _manifest({"run.json": GOOD_JSON, "codes.csv": CODES_OK})},
+        expect="radius must be positive"),
     # follow: trajectory files (TOML)
     Bad("traj-toml-garbled", "follow", ["--traj", "p.toml"], seg("[[segment]\ntype = 'straight'\n"), "not valid TOML"),
     Bad("traj-toml-binary", "follow", ["--traj", "p.toml"], {"p.toml": b"\xff\xfe\x00\x01"}, "p.toml"),
@@ -357,7 +368,7 @@ CASES += [
         expect="another output"),
     Bad("follow-json-is-figure", "follow", ["--traj", "line", "--out", "o", "--json", "o/path.png"],
         expect="another output"),
-    Bad("follow-out-is-cwd", "follow", ["--traj", "line", "--out", "."], expect="replace the folder itself"),
+    Bad("follow-out-is-cwd", "follow", ["--traj", "line", "--out", "."], expect="is the current folder or holds it"),
     Bad("follow-out-foreign-folder", "follow", ["--traj", "line", "--out", "mine"], {"mine/thesis.tex": "text"},
         "no bhr run wrote"),
     Bad("follow-out-is-file", "follow", ["--traj", "line", "--out", "afile"], expect="is a file"),
@@ -466,7 +477,7 @@ CASES += [
     Bad("replay-robot-huge-int", "replay", ["r.json"],
         {"r.json": RUN_OK.replace('"modules": 1', '"modules": 10000000000000000000000')}, "too large"),
     # misleading messages made plain
-    Bad("traj-toml-heading-tiny", "follow", ["--traj", "p.toml"], seg("heading = [1e-320, 0, 0]\n" + SEG), "nearly"),
+    Bad("traj-toml-heading-tiny", "follow", ["--traj", "p.toml"], seg("heading = [1e-320, 0, 0]\n" + SEG), "too small"),
     Bad("traj-toml-deep-nesting", "follow", ["--traj", "p.toml"], seg("a = " + "[" * 5000 + "]" * 5000 + "\n"),
         "p.toml"),
 ]

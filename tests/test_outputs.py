@@ -90,10 +90,18 @@ def test_explicit_out_is_replaced_whole(tmp_path):
     assert r.returncode == 0, r.stderr
     man = check_whole(out)
     assert set(man["files"]) == {"run.json", "codes.csv", "steps.csv"}
-    # --json - with --out: the folder gets the rest of the set, never the old run.json
+    # --json - with --out: the folder gets the rest of the set; other settings: never the old run.json
     r = bhr("follow", "--traj", "line", "--no-plots", "--json", "-", "--out", out, cwd=tmp_path)
     assert r.returncode == 0, r.stderr
     assert set(check_whole(out)["files"]) == {"codes.csv", "steps.csv"}
+    # the same settings again: what this run does not write into the folder is kept (docs/commands.md)
+    r = bhr("follow", "--traj", "line", "--no-plots", "--out", out, cwd=tmp_path)
+    first = (out / "run.json").read_bytes()
+    r = bhr("follow", "--traj", "line", "--no-plots", "--json", "-", "--out", out, cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    man = check_whole(out)
+    assert set(man["files"]) == {"codes.csv", "run.json", "steps.csv"} and man["carried_over"] == ["run.json"]
+    assert (out / "run.json").read_bytes() == first
     no_staging(tmp_path)
 
 
@@ -105,7 +113,7 @@ def test_out_folder_of_other_files_is_refused(tmp_path):
     r = bhr("follow", "--traj", "line", "--out", mine, cwd=tmp_path)
     assert r.returncode == 1 and "no bhr run wrote" in one_line(r.stderr)
     r = bhr("follow", "--traj", "line", "--out", ".", cwd=tmp_path)
-    assert r.returncode == 1 and "replace the folder itself" in one_line(r.stderr)
+    assert r.returncode == 1 and "is the current folder or holds it" in one_line(r.stderr)
     assert snapshot(tmp_path) == before
 
 

@@ -225,7 +225,7 @@ def test_trajectory_options_are_refused_for_files(tmp_path):
 straight = st.fixed_dictionaries({"type": st.just("straight"), "length": st.floats(0.5, 80.0)})
 arc = st.fixed_dictionaries({"type": st.just("arc"), "radius": st.floats(5.0, 200.0), "angle": st.floats(1.0, 270.0),
                              "turn": st.sampled_from(["left", "right", "up", "down"])},
-                            optional={"roll": st.floats(-180.0, 180.0)})
+                            optional={"roll": st.floats(-180.0, 180.0, allow_subnormal=False)})
 helix = st.fixed_dictionaries({"type": st.just("helix"), "radius": st.floats(5.0, 150.0), "pitch": st.floats(1.0, 100.0),
                                "turns": st.floats(0.05, 2.0), "turn": st.sampled_from(["left", "right"])})
 
@@ -241,7 +241,7 @@ def analytic(seg):
 
 @FAST
 @given(segs=st.lists(st.one_of(straight, arc, helix), min_size=1, max_size=5), feed=st.sampled_from([0.5, 2.0, 3.0]),
-       start=st.tuples(*[st.floats(-100, 100)] * 3))
+       start=st.tuples(*[st.floats(-100, 100, allow_subnormal=False)] * 3))
 def test_segment_paths_hold_their_invariants(tmp_path, segs, feed, start):
     total = sum(analytic(s)[0] for s in segs)
     assume(total >= feed and total / feed < 20000)
@@ -328,7 +328,7 @@ def test_unreadable_files(tmp_path):
         load_trajectory(tmp_path / "broken.toml")
 
 
-points3 = st.tuples(*[st.floats(-200, 200, allow_nan=False)] * 3)
+points3 = st.tuples(*[st.floats(-200, 200, allow_nan=False, allow_subnormal=False)] * 3)
 
 
 @FAST

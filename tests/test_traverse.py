@@ -213,8 +213,10 @@ def test_command_answers_the_question(small_study):
         assert (out / name).read_bytes()[:8] == PNG
     assert doc["worst_colon_figure"] == {"design": best["design"], "seed": best["worst_colon"]}
     assert sorted(p.name for p in out.iterdir()) == sorted(
-        ["designs.csv", "runs.csv", "study.json", "passrate.png", "worst-colon.png", "index.html"])
-    assert not [p for p in cwd.iterdir() if p.name.startswith(".study.")]  # no staging folder left behind
+        ["designs.csv", "runs.csv", "study.json", "passrate.png", "worst-colon.png", "index.html", "manifest.json"])
+    assert not [p for p in cwd.iterdir() if ".bhr-stage-" in p.name]  # no staging folder left behind
+    man = json.loads((out / "manifest.json").read_text())  # written through the one output-folder mechanism
+    assert man["command"] == "traverse" and set(man["files"]) == {p.name for p in out.iterdir()} - {"manifest.json"}
 
 
 def test_no_design_meets_a_target_nothing_reaches(tmp_path):
@@ -225,8 +227,8 @@ def test_no_design_meets_a_target_nothing_reaches(tmp_path):
     assert "No design traverses 95% of the 1 colons; the best, design #1 (solver=thesis, alpha=10), " \
            "traverses 0/1 (0%)" in proc.stdout
     assert json.loads((tmp_path / "o" / "study.json").read_text())["answer"] is None
-    assert sorted(p.name for p in (tmp_path / "o").iterdir()) == ["designs.csv", "index.html", "runs.csv",
-                                                                  "study.json"]
+    assert sorted(p.name for p in (tmp_path / "o").iterdir()) == ["designs.csv", "index.html", "manifest.json",
+                                                                  "runs.csv", "study.json"]
 
 
 def test_progress_bar_on_a_terminal(tmp_path):

@@ -411,7 +411,7 @@ TRACE_CELLS = 4_000_000
 
 def simulate(params: ThermalParams, times_ms, rows, end_ms: int | None = None, theta0=None,
              stride: int | None = None, reference: bool = False, auto: bool = False, min_gap_ms: int = 0,
-             margin_ms: int = LINK_MARGIN_MS, on_trace: bool = False) -> Simulation:
+             margin_ms: int = LINK_MARGIN_MS, on_trace: bool = False, trace: bool = True) -> Simulation:
     """Replay the board's drive: row ``i`` of ``rows`` (codes per module) reaches it at ``times_ms[i]``.
 
     ``end_ms`` (default: long enough for every row to be reached) ends the
@@ -423,6 +423,9 @@ def simulate(params: ThermalParams, times_ms, rows, end_ms: int | None = None, t
     ``reference=True`` runs the numpy reference instead of the compiled kernel.
     ``on_trace=True`` also keeps each wire's on-time so far at every sample
     (``Simulation.on_cum``, for :meth:`Simulation.max_window_duty`).
+    ``trace=False`` keeps no temperature samples but the starting ones (``theta``
+    has one sample): the faults, on-times and times are the same, and the
+    memory no longer grows with the number of rows (a procedure-time estimate).
     """
     rows = np.ascontiguousarray(np.asarray(rows, dtype=np.int64))
     if rows.ndim != 2 or rows.shape[0] == 0:
@@ -435,18 +438,20 @@ def simulate(params: ThermalParams, times_ms, rows, end_ms: int | None = None, t
                   + 4 * params.period_ms)
     if end_ms is None:
         end_ms = (int(t[0]) + n * per_row) if auto else int(t[-1] + per_row)
-    if stride is None:  # every PWM period, or coarser when a long run of many modules would fill the memory
+    if not trace:  # no sample but the first
+        stride = int(end_ms) + 2
+    elif stride is None:  # every PWM period, or coarser when a long run of many modules would fill the memory
         periods = -(-(int(end_ms) + 1) * 4 * m // (TRACE_CELLS * int(params.period_ms)))
         stride = int(params.period_ms) * max(1, periods)
     stride = int(stride)
     th0 = np.zeros(4 * m, np.int64) if theta0 is None else np.asarray(theta0, np.int64).reshape(4 * m).copy()
     k = _const_array(params)
     fn = simulate_reference if reference else _compiled()
-    trace, early, over, max_run, max_theta, on_ms, done_t, t_stop, on_tr = fn(
+    samples, early, over, max_run, max_theta, on_ms, done_t, t_stop, on_tr = fn(
         t, rows, int(end_ms), k, th0, stride, int(auto), int(min_gap_ms), int(margin_ms), int(on_trace))
-    trace = trace[: t_stop // stride + 1]
+    samples = samples[: t_stop // stride + 1]
     on_cum = on_tr[: t_stop // stride + 1].reshape(-1, m, 4) if on_trace else None
-    return Simulation(params, t, rows, trace.reshape(trace.shape[0], m, 4) / ONE, stride, early, over,
+    return Simulation(params, t, rows, samples.reshape(samples.shape[0], m, 4) / ONE, stride, early, over,
                       max_run.reshape(m, 4), max_theta.reshape(m, 4) / ONE, on_ms.reshape(m, 4), int(done_t),
                       int(t_stop), on_cum)
 
@@ -486,7 +491,7 @@ class Schedule:
         return self.sim.faults
 
 
-def check_schedule(params: ThermalParams, rows, rate: float, theta0=None) -> Schedule:
+def check_schedule(params: ThermalParams, rows, rate: float, theta0=None, trace: bool = True) -> Schedule:
     """Rows sent at a fixed ``rate`` (rows/s): the model's verdict (``Schedule.faults``; empty = safe).
 
     The link's latency is allowed for: every row but the first is checked as
@@ -497,12 +502,12 @@ def check_schedule(params: ThermalParams, rows, rate: float, theta0=None) -> Sch
     early = times.copy()
     early[1:] = np.maximum(times[1:] - LINK_MARGIN_MS, 0)
     early = np.maximum.accumulate(early)
-    sim = simulate(params, early, rows, theta0=theta0)
+    sim = simulate(params, early, rows, theta0=theta0, trace=trace)
     sim.times_ms = times
     return Schedule(times, sim, "rate", float(rate))
 
 
-def auto_schedule(params: ThermalParams, rows, rate: float, theta0=None) -> Schedule:
+def auto_schedule(params: ThermalParams, rows, rate: float, theta0=None, trace: bool = True) -> Schedule:
     """The fastest schedule, never faster than ``rate``, that the board's model accepts.
 
     Row ``i+1`` is sent LINK_MARGIN_MS after the board is ready for it: row
@@ -512,7 +517,8 @@ def auto_schedule(params: ThermalParams, rows, rate: float, theta0=None) -> Sche
     """
     rows = np.asarray(rows, dtype=np.int64)
     gap = int(math.ceil(1000.0 / float(rate)))
-    sim = simulate(params, np.zeros(rows.shape[0], np.int64), rows, auto=True, min_gap_ms=gap, theta0=theta0)
+    sim = simulate(params, np.zeros(rows.shape[0], np.int64), rows, auto=True, min_gap_ms=gap, theta0=theta0,
+                   trace=trace)
     return Schedule(sim.times_ms, sim, "auto", float(rate))
 
 
@@ -526,11 +532,11 @@ def summarize(schedule: Schedule, name: str = "") -> str:
 def max_safe_rate(params: ThermalParams, rows, rate: float) -> float | None:
     """The highest fixed rate (<= rate, to 0.1 Hz, at least 0.1 Hz) the model accepts, or None."""
     lo, hi = 0.1, float(rate)
-    if check_schedule(params, rows, lo).faults:
+    if check_schedule(params, rows, lo, trace=False).faults:
         return None
     for _ in range(14):
         mid = (lo + hi) / 2
-        if check_schedule(params, rows, mid).faults:
+        if check_schedule(params, rows, mid, trace=False).faults:
             hi = mid
         else:
             lo = mid
@@ -552,22 +558,23 @@ SCHEDULES = ("rate", "auto")
 
 
 def plan(params: ThermalParams, rows, rate: float, schedule: str = "rate", name: str = "",
-         sending: bool = False) -> Schedule:
+         sending: bool = False, trace: bool = True) -> Schedule:
     """Check (``schedule="rate"``) or stretch (``"auto"``) a stream of codes before anything is sent.
 
     A fixed-rate stream that the board's model would fault on raises
-    BhrError, one line naming the module, the step and the fix.
+    BhrError, one line naming the module, the step and the fix. ``trace=False``:
+    no temperature samples kept (see :func:`simulate`), for a schedule without its figure.
     """
     rows = np.asarray(rows, dtype=np.int64)
     if schedule not in SCHEDULES:
         raise BhrError(f"schedule {schedule!r} is not one of {', '.join(SCHEDULES)}")
     if schedule == "auto":
-        return auto_schedule(params, rows, rate)
-    sched = check_schedule(params, rows, rate)
+        return auto_schedule(params, rows, rate, trace=trace)
+    sched = check_schedule(params, rows, rate, trace=trace)
     if not sched.faults:
         return sched
     kind, module, step = sched.faults[0]
-    auto = auto_schedule(params, rows, rate)
+    auto = auto_schedule(params, rows, rate, trace=False)
     safe = max_safe_rate(params, rows, rate)
     fix = (f"use --rate {safe:g}" if safe else "no fixed rate fits") + \
         f" or --schedule auto ({format_duration(auto.total_s)} at the board's limits)"

@@ -18,6 +18,7 @@ import numpy as np
 
 from bhr.settings.errors import BhrError
 from bhr.settings.inputs import MAX_POINTS, read_capped
+from bhr.settings.options import LIMITS, excerpt
 from bhr.kinematics.codetable import CODE_AXIS, LIFT, REST, TILT_CODES, VALID_CODES
 
 __all__ = ["REST", "LIFT", "VALID_CODES", "TILT_CODES", "CODE_AXIS", "is_valid_code", "check_code", "check_codes",
@@ -115,8 +116,15 @@ def read_codes_csv(path: str | os.PathLike[str]) -> tuple[list[int], np.ndarray]
         raise BhrError(f"{p} is empty; expected a header 'step,m1,...,mN' and one row per step")
     header = [h.strip() for h in rows[0]]
     n = len(header) - 1
+    if n > LIMITS["code_modules"]:
+        raise BhrError(f"{p}:1: {n} module columns, more than the {LIMITS['code_modules']} a robot may have; "
+                       f"{hint}")
     if n < 1 or header[0] != "step" or header[1:] != [f"m{j}" for j in range(1, n + 1)]:
-        raise BhrError(f"{p}:1: header must be 'step,m1,...,mN' (as 'bhr follow' writes), got {','.join(header)!r}")
+        raise BhrError(f"{p}:1: header must be 'step,m1,...,mN' (as 'bhr follow' writes), got "
+                       f"{excerpt(','.join(header))}")
+    if (len(rows) - 1) * n > LIMITS["plan_cells"]:
+        raise BhrError(f"{p}: {len(rows) - 1} steps x {n} modules is more than the {LIMITS['plan_cells']:,} codes "
+                       f"a table may hold; split the file ({hint})")
     if len(rows) < 2:
         raise BhrError(f"{p} has a header but no steps; add at least one row")
     steps: list[int] = []

@@ -28,8 +28,8 @@ from typing import Any, Callable
 
 import numpy as np
 
-from bhr.settings.inputs import (MAX_MM, MAX_POINTS, check_keys, choice, number, read_text, text_value, type_name,
-                                 vector3)
+from bhr.settings.inputs import (MAX_MM, MAX_POINTS, check_keys, choice, excerpt, number, read_text, text_value,
+                                 type_name, vector3)
 from bhr.settings.errors import BhrError
 from bhr.model.path import Trajectory, resample_polyline
 
@@ -244,7 +244,7 @@ def read_points_csv(path: Path) -> tuple[np.ndarray, np.ndarray | None, np.ndarr
             for i, h in enumerate(header):
                 if h not in CSV_COLUMNS:
                     hint = " (the first line must be the header)" if _is_number(h) else ""
-                    raise BhrError(f"{where}, line {no}: unknown column {fields[i]!r}{hint}; "
+                    raise BhrError(f"{where}, line {no}: unknown column {excerpt(fields[i], 20)}{hint}; "
                                    f"allowed columns: x, y, z, lumen")
                 if h in cols:
                     raise BhrError(f"{where}, line {no}: column {h!r} appears twice; give each column once")

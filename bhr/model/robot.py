@@ -15,7 +15,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from bhr.settings.inputs import did_you_mean
-from bhr.settings.options import by_group, robot_limits
+from bhr.settings.options import by_group, check_number, excerpt, robot_limits
 from bhr.model.codes import check_codes
 from bhr.kinematics.frames import fk_kernel
 from bhr.settings.errors import BhrError
@@ -44,7 +44,9 @@ def min_turn_radius(module_length: float, alpha_deg: float) -> float:
 
 def _positive(name: str, value: Any, *, integer: bool = False) -> None:
     if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
-        raise BhrError(f"{name} must be a number, got {value!r}")
+        raise BhrError(f"{name} must be a number, got {excerpt(value)}")
+    if isinstance(value, int) and abs(value) > 1e300:  # an integer of any length: refused, never converted
+        check_number(value, name, limit=1e300)
     if not math.isfinite(float(value)):
         raise BhrError(f"{name} must be finite, got {value}")
     if integer and int(value) != value:

@@ -25,7 +25,7 @@ from typing import Any, Sequence
 from bhr.settings.inputs import check_keys, number, read_text, read_toml, text_value, type_name
 from bhr.model.codes import CODE_AXIS, LIFT, REST, VALID_CODES
 from bhr.settings.errors import BhrError
-from bhr.settings.options import by_group
+from bhr.settings.options import by_group, excerpt, parse_number
 from bhr.model.robot import Robot
 from bhr.model.wires import DEFAULT_THERMAL, ThermalParams, thermal_from_table
 
@@ -163,11 +163,11 @@ def _check_codes(table: Any, where: str) -> dict[int, str]:
     seen: dict[int, str] = {}
     for key, motion in table.items():
         try:
-            code = int(str(key).strip())
-        except ValueError:
-            raise BhrError(f"{w}: key {key!r} is not a code number; bhr's table is {_table_text()}") from None
+            code = int(parse_number(str(key), "code", integer=True))
+        except BhrError:
+            raise BhrError(f"{w}: key {excerpt(key)} is not a code number; bhr's table is {_table_text()}") from None
         if code not in ours:
-            raise BhrError(f"{w}: {code} is not a stable code (only {', '.join(map(str, VALID_CODES))}); "
+            raise BhrError(f"{w}: {excerpt(code)} is not a stable code (only {', '.join(map(str, VALID_CODES))}); "
                            f"bhr's table is {_table_text()}")
         if not isinstance(motion, str):
             raise BhrError(f"{w}.{key} must be text such as {ours[code]!r}, got {type_name(motion)}")

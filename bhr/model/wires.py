@@ -11,6 +11,7 @@ from dataclasses import dataclass
 from typing import Any, Mapping
 
 from bhr.settings.errors import BhrError
+from bhr.settings.options import check_number, excerpt
 
 __all__ = ["ThermalParams", "DEFAULT_THERMAL", "THERMAL_KEYS", "thermal_from_table"]
 
@@ -37,6 +38,8 @@ class ThermalParams:
     def __post_init__(self) -> None:
         for key, (what, lo, hi) in THERMAL_KEYS.items():
             v = getattr(self, key)
+            if isinstance(v, int) and not isinstance(v, bool) and abs(v) > 1e300:  # any length: never converted
+                raise BhrError(f"thermal.{key} ({what}) must be between {lo:g} and {hi:g}, got {excerpt(v)}")
             if not isinstance(v, (int, float)) or not math.isfinite(v) or not lo <= v <= hi:
                 raise BhrError(f"thermal.{key} ({what}) must be between {lo:g} and {hi:g}, got {v!r}")
         if self.max_full_ms <= 1.5 * self.contract_ms:
@@ -97,7 +100,8 @@ def thermal_from_table(table: Any, where: str = "thermal") -> ThermalParams:
     for k, v in table.items():
         if isinstance(v, bool) or not isinstance(v, (int, float)):
             raise BhrError(f"{where}.{k} must be a number, got {type(v).__name__}")
-        vals[k] = float(v) if k != "period_ms" else v
+        v = check_number(v, f"{where}.{k}", limit=1e300)  # the one checker: any length, denormals
+        vals[k] = float(v) if k != "period_ms" else (int(v) if float(v).is_integer() else v)
     try:
         return ThermalParams(**vals)
     except BhrError as exc:

@@ -16,9 +16,13 @@ previous folder (Linux ``renameat2(RENAME_EXCHANGE)``), after which the
 previous folder is deleted. A folder therefore always holds the complete set
 of exactly one run, also when a run is killed (``kill -9``), the disk fills
 up, or two runs write the same folder at once (the last to finish wins
-whole). ``manifest.json`` in the folder names the run (``run_id``, the
-command) and lists every file with its size and SHA-256. Staging folders of
-runs that died are deleted by the next run into the same place.
+whole). ``manifest.json`` in the folder is bhr's signature: it names the run
+(``run_id``, the command, the settings' hash, bhr's version) and lists every
+file with its size and SHA-256. A folder is replaced only when its manifest
+proves that bhr wrote every file in it (:func:`verify_folder`); a folder
+holding one of the run's inputs, the current folder and its parents are
+refused. Staging folders of runs that died are deleted by the next run into
+the same place.
 """
 from __future__ import annotations
 
@@ -37,10 +41,10 @@ from pathlib import Path
 from typing import Any, Iterable, Iterator
 
 from bhr import __version__
-from bhr.settings.errors import BhrError
+from bhr.settings.errors import INTERRUPTED, BhrError
 
 __all__ = ["atomic_path", "write_text", "write_json", "check_output_file", "OutputFolder", "MANIFEST",
-           "in_place_target", "point_latest"]
+           "in_place_target", "point_latest", "verify_folder", "INTERRUPTED", "settings_hash"]
 
 #: The file in every output folder that ties its files to one run.
 MANIFEST = "manifest.json"
@@ -144,9 +148,14 @@ def atomic_path(path: str | os.PathLike[str], suffix: str | None = None) -> Iter
     os.close(fd)
     tmp_path = Path(tmp)
     try:
-        yield tmp_path
-        os.chmod(tmp_path, _mode_for(target))
-        os.replace(tmp_path, target)
+        try:
+            yield tmp_path
+            os.chmod(tmp_path, _mode_for(target))
+            os.replace(tmp_path, target)
+        except OSError as exc:
+            if exc.filename is None or str(exc.filename) == str(tmp_path):
+                exc.filename = str(path)  # the one-line message names the output, not a temporary name
+            raise
     finally:
         if tmp_path.exists():
             tmp_path.unlink()
@@ -221,27 +230,43 @@ def _sha256(path: Path) -> str:
 class OutputFolder:
     """Stage an output folder beside ``target`` and put it in place whole when the ``with`` block succeeds.
 
-    ``names`` are the files a run may write at the top of the folder
-    (patterns like ``*.png`` allowed); an existing folder is replaced only
-    when it is empty, holds a bhr ``manifest.json``, or holds nothing but
-    such files, so that ``--out`` naming a folder of other work is refused
-    instead of swept away. With ``keep`` the files of the existing folder
-    are carried over (hard links) unless the run writes them again (used by
-    ``bhr replay`` to redraw figures beside a run's data).
+    An existing folder is replaced only when bhr provably wrote it: it is
+    empty, or its ``manifest.json`` is a bhr manifest (``bhr_output``) that
+    lists every file in the folder with the size and SHA-256 it still has.
+    A folder holding anything else (a user's notes, a file changed since, a
+    web project's own manifest.json) is refused with one line naming the
+    file, and so are the current folder, its parents, the home and root
+    folders, and a folder holding one of the run's ``inputs``.
+
+    ``settings`` is a short text (a hash) of what determines the run's
+    results. When the folder being replaced was written by the same command
+    with the same settings, the files this run does not write again are
+    carried over (hard links): a rerun never deletes what the earlier run
+    made unless it makes it again (``bhr follow --no-plots`` keeps the
+    figures of the earlier run with the same settings). With ``keep`` every
+    file of the existing folder is carried over unless the run writes it
+    again, whatever its settings (``bhr replay`` and ``bhr plan`` add files
+    beside a run's data). ``names`` are the files a run may write at the
+    top of the folder (for messages; patterns like ``*.png`` allowed).
 
         with OutputFolder("bhr-out/curve", command="follow") as of:
             write_json(of.path("run.json"), doc)
     """
 
     def __init__(self, target: str | os.PathLike[str], command: str, names: Iterable[str] = (),
-                 keep: bool = False, what: str = "output folder") -> None:
+                 keep: bool = False, what: str = "output folder", inputs: Iterable[Any] = (),
+                 settings: str | None = None) -> None:
         self.given = Path(target)
         self.command = command
         self.names = tuple(names)
         self.keep = keep
         self.what = what
+        self.inputs = tuple(str(i) for i in inputs if i is not None and str(i) != "-")
+        self.settings = settings
         self.run_id = uuid.uuid4().hex
         self.stage: Path | None = None
+        self.carried: list[str] = []
+        self.made: list[Path] = []
         self.target = self._resolve()
 
     # -- checks (also callable before any work starts) --
@@ -250,45 +275,46 @@ class OutputFolder:
         p = self.given
         if p.is_symlink():
             if not p.exists():
-                raise BhrError(f"{self.what} {p} is a symbolic link to a missing {os.readlink(p)}; "
+                raise BhrError(f"{self.what} {_short(p)} is a symbolic link to a missing {_short(os.readlink(p))}; "
                                "create its target or choose another folder")
-            p = Path(os.path.realpath(p))
-        return Path(os.path.abspath(p))
+        return Path(os.path.realpath(os.path.abspath(p)))
+
+    def add_inputs(self, *paths: Any) -> "OutputFolder":
+        """Name more input files of the run (a folder holding one is refused); checks again."""
+        self.inputs += tuple(str(i) for i in paths if i is not None and str(i) != "-")
+        return self.check()
 
     def check(self) -> "OutputFolder":
-        """Refuse, before any work, a target that is a file, a folder of other files, or not writable."""
+        """Refuse, before any work, a target that is a file, a folder bhr did not write, or not writable."""
         t = self.target
         if t.exists() and not t.is_dir():
-            raise BhrError(f"{self.what} {self.given} is a file, not a folder; choose a folder name")
-        if t == Path(os.path.abspath(os.sep)) or t == Path.home().resolve() or t == Path.cwd().resolve():
-            raise BhrError(f"{self.what} {self.given} would replace the folder itself; give a new folder for "
-                           "the output, such as out/run1")
-        if t.is_dir() and not self._replaceable(t):
-            raise BhrError(f"{self.what} {self.given} already holds files that no bhr run wrote; give a new or "
-                           "empty folder (bhr replaces the whole folder with the new run)")
+            raise BhrError(f"{self.what} {_short(self.given)} is a file, not a folder; choose a folder name")
+        cwd = Path(os.path.realpath(os.getcwd()))
+        home = Path(os.path.realpath(Path.home()))
+        if t == Path(os.path.abspath(os.sep)) or t == home or _within(cwd, t):
+            raise BhrError(f"{self.what} {_short(self.given)} is the current folder or holds it; give a new "
+                           "folder for the output, such as bhr-out/run1")
+        for name in self.inputs:
+            real = Path(os.path.realpath(os.path.abspath(name)))
+            if _within(real, t) and not (self.keep and real.parent == t):
+                raise BhrError(f"{self.what} {_short(self.given)} holds {_short(name)}, an input of this run; "
+                               "give another folder for the output (bhr replaces the whole folder)")
+        if t.is_dir():
+            self.previous()
         probe = t.parent
         while not probe.exists() and probe != probe.parent:
             probe = probe.parent
         if not probe.is_dir() or not os.access(probe, os.W_OK | os.X_OK):
-            raise BhrError(f"cannot write {self.what} {self.given}: {probe} is not a writable folder; "
-                           "choose another path")
+            raise BhrError(f"cannot write {self.what} {_short(self.given)}: {_short(probe)} is not a writable "
+                           "folder; choose another path")
         return self
 
-    def _replaceable(self, folder: Path) -> bool:
-        try:
-            entries = list(folder.iterdir())
-        except OSError as exc:
-            raise BhrError(f"cannot read {self.what} {self.given} ({exc.strerror}); choose another folder") from None
-        if not entries or (folder / MANIFEST).is_file():
-            return True
-        import fnmatch
+    def previous(self) -> dict[str, Any] | None:
+        """The manifest of the existing folder once every file in it is proven bhr's (None: empty or missing).
 
-        for e in entries:
-            if not e.is_file() or e.is_symlink():
-                return False
-            if not any(fnmatch.fnmatch(e.name, pat) for pat in self.names):
-                return False
-        return True
+        Raises a BhrError naming the first file bhr did not write.
+        """
+        return verify_folder(self.target, self.given, self.what)
 
     # -- staging --
 
@@ -316,18 +342,16 @@ class OutputFolder:
 
     def __enter__(self) -> "OutputFolder":
         self.check()
+        self.made = []  # parents this run creates: removed again (when empty) if it fails or is interrupted
+        p = self.target.parent
+        while not p.exists() and p != p.parent:
+            self.made.append(p)
+            p = p.parent
         self.target.parent.mkdir(parents=True, exist_ok=True)
         self._clean_stale()
         self.stage = Path(tempfile.mkdtemp(prefix=f".{self.target.name}{_STAGE}{os.getpid()}-",
                                            dir=self.target.parent))
         os.chmod(self.stage, _mode_for_dir(self.target))
-        if self.keep and self.target.is_dir():
-            for e in self.target.iterdir():
-                if e.is_file() and not e.is_symlink() and e.name != MANIFEST:
-                    try:
-                        os.link(e, self.stage / e.name)
-                    except OSError:
-                        shutil.copy2(e, self.stage / e.name)
         return self
 
     def path(self, name: str | os.PathLike[str]) -> Path:
@@ -347,24 +371,78 @@ class OutputFolder:
         assert self.stage is not None
         if exc_type is not None:
             shutil.rmtree(self.stage, ignore_errors=True)
+            self._remove_made()
+            if isinstance(exc, OSError):
+                self._name_output(exc)
             return
         try:
+            if INTERRUPTED.is_set():  # Ctrl-C was seen (and perhaps swallowed somewhere): no folder
+                raise KeyboardInterrupt
+            old_doc = self.previous() if self.target.is_dir() else None  # again: the user may have added a file
+            self._carry_over(old_doc)
             self._write_manifest()
+            if INTERRUPTED.is_set():
+                raise KeyboardInterrupt
             old = self._commit()
-        except BaseException:
+        except BaseException as failure:
             shutil.rmtree(self.stage, ignore_errors=True)
+            self._remove_made()
+            if isinstance(failure, OSError):
+                self._name_output(failure)
             raise
         if old is not None:
             shutil.rmtree(old, ignore_errors=True)
+
+    def _remove_made(self) -> None:
+        for p in getattr(self, "made", []):  # innermost first; a folder someone else filled meanwhile stays
+            with contextlib.suppress(OSError):
+                p.rmdir()
+
+    def _name_output(self, exc: OSError) -> None:
+        """Make a failed write's message name the output as the user named it (not the staging folder)."""
+        assert self.stage is not None
+        name = exc.filename
+        if name is None:
+            exc.filename = str(self.given)
+            return
+        try:
+            rel = Path(os.path.abspath(name)).relative_to(self.stage)
+        except ValueError:
+            return
+        exc.filename = str(self.given / rel) if str(rel) != "." else str(self.given)
+
+    def _carry_over(self, old_doc: dict[str, Any] | None) -> None:
+        """Hard-link into the stage the earlier run's files this run does not write again (see the class)."""
+        assert self.stage is not None
+        if old_doc is None:
+            return
+        same = (self.settings is not None and old_doc.get("settings") == self.settings
+                and old_doc.get("command") == self.command)
+        if not (self.keep or same):
+            return
+        for rel in old_doc.get("files", {}):
+            dst = self.stage / rel
+            if dst.exists() or dst.is_symlink():
+                continue
+            src = self.target / rel
+            dst.parent.mkdir(parents=True, exist_ok=True)
+            try:
+                os.link(src, dst)
+            except OSError:
+                shutil.copy2(src, dst)
+            self.carried.append(rel)
 
     def _write_manifest(self) -> None:
         assert self.stage is not None
         files = {}
         for p in sorted(self.stage.rglob("*")):
-            if p.is_file() and p.name != MANIFEST:
-                files[str(p.relative_to(self.stage))] = {"bytes": p.stat().st_size, "sha256": _sha256(p)}
-        doc = {"bhr_output": 1, "bhr_version": __version__, "command": self.command, "run_id": self.run_id,
-               "written": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()), "files": files}
+            rel = p.relative_to(self.stage).as_posix()
+            if p.is_file() and rel != MANIFEST:
+                files[rel] = {"bytes": p.stat().st_size, "sha256": _sha256(p)}
+        doc = {"bhr_output": 2, "written_by": f"bhr {__version__}", "bhr_version": __version__,
+               "command": self.command, "run_id": self.run_id, "settings": self.settings,
+               "written": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()), "files": files,
+               "carried_over": sorted(self.carried)}
         (self.stage / MANIFEST).write_text(json.dumps(doc, indent=1) + "\n", encoding="utf-8")
         os.chmod(self.stage / MANIFEST, _mode_for(self.target / MANIFEST))
 
@@ -411,6 +489,91 @@ class OutputFolder:
             return aside
 
 
+
+#: A manifest larger than this is not bhr's (a run's lists a few thousand files at most).
+_MAX_MANIFEST = 16 * 1024 * 1024
+
+
+def _short(p: Any, limit: int = 80) -> str:
+    """A path as quoted in a one-line message: control characters escaped, at most ``limit`` characters."""
+    text = str(p)
+    text = text.encode("unicode_escape").decode("ascii") if not text.isprintable() else text
+    return text if len(text) <= limit else text[:limit - 3] + "..."
+
+
+def _within(path: Path, folder: Path) -> bool:
+    """True when ``path`` is ``folder`` or inside it (both absolute, resolved)."""
+    return path == folder or folder in path.parents
+
+
+def verify_folder(folder: Path, given: Any = None, what: str = "output folder") -> dict[str, Any] | None:
+    """The bhr manifest of ``folder`` when it proves bhr wrote every file there; None when the folder is empty.
+
+    Proof: ``manifest.json`` is a bhr manifest (``bhr_output``, ``files``)
+    and every file under the folder is listed with the size and SHA-256 it
+    has now; no symbolic link, device, or folder the manifest does not
+    account for. Anything else raises a BhrError naming the file and the
+    fix (bhr replaces the whole folder, so it would be deleted).
+    """
+    shown = _short(given if given is not None else folder)
+    fix = f"move it out of {shown} or give another folder for the output"
+    try:
+        entries = list(folder.iterdir())
+    except OSError as exc:
+        raise BhrError(f"cannot read {what} {shown} ({exc.strerror}); choose another folder") from None
+    if not entries:
+        return None
+    found: list[str] = []
+    dirs: list[str] = []
+    for root, dnames, fnames in os.walk(folder):
+        rel_root = Path(root).relative_to(folder)
+        for d in dnames:
+            rel = (rel_root / d).as_posix()
+            if os.path.islink(os.path.join(root, d)):
+                raise BhrError(f"{what} {shown} holds {_short(rel)}, a link bhr did not make; {fix}")
+            dirs.append(rel)
+        for f in fnames:
+            found.append((rel_root / f).as_posix())
+    doc = _read_manifest(folder / MANIFEST)
+    if doc is None:
+        first = sorted(e.name for e in entries)[0]
+        raise BhrError(f"{what} {shown} holds {_short(first)}, which no bhr run wrote (no bhr manifest.json "
+                       f"lists it); {fix}")
+    listed = doc["files"]
+    for rel in sorted(found):
+        if rel == MANIFEST:
+            continue
+        p = folder / rel
+        entry = listed.get(rel)
+        if entry is None or not isinstance(entry, dict):
+            raise BhrError(f"{what} {shown} holds {_short(rel)}, which no bhr run wrote; {fix}")
+        st = os.lstat(p)
+        if not stat.S_ISREG(st.st_mode):
+            raise BhrError(f"{what} {shown} holds {_short(rel)}, which is not a file bhr wrote; {fix}")
+        if st.st_size != entry.get("bytes") or _sha256(p) != entry.get("sha256"):
+            raise BhrError(f"{what} {shown} holds {_short(rel)}, changed since bhr wrote it; {fix}")
+    holding = {Path(r).parent.as_posix() for r in found}
+    for d in dirs:
+        if not any(h == d or h.startswith(d + "/") for h in holding):
+            raise BhrError(f"{what} {shown} holds the folder {_short(d)}, which bhr did not write; {fix}")
+    return doc
+
+
+def _read_manifest(path: Path) -> dict[str, Any] | None:
+    """A bhr manifest's content, or None when ``path`` is missing or not a bhr manifest."""
+    try:
+        if path.is_symlink() or not path.is_file() or path.stat().st_size > _MAX_MANIFEST:
+            return None
+        doc = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError, RecursionError):
+        return None
+    if not isinstance(doc, dict) or doc.get("bhr_output") not in (1, 2) or not isinstance(doc.get("files"), dict):
+        return None
+    if not isinstance(doc.get("run_id"), str) or not isinstance(doc.get("command"), str):
+        return None
+    return doc
+
+
 def _mode_for_dir(target: Path) -> int:
     try:
         return target.stat().st_mode & 0o7777
@@ -418,6 +581,24 @@ def _mode_for_dir(target: Path) -> int:
         mask = os.umask(0)
         os.umask(mask)
         return 0o777 & ~mask
+
+
+def settings_hash(*parts: Any) -> str:
+    """8 hex digits of a SHA-256 over ``parts``: arrays (their bytes), files named by ``Path`` (their content),
+    anything else as sorted JSON. Two runs agree on it only when they agree on all parts."""
+    h = hashlib.sha256()
+    for part in parts:
+        if hasattr(part, "tobytes"):
+            h.update(part.tobytes())
+        elif isinstance(part, Path):
+            try:
+                h.update(_sha256(part).encode())
+            except OSError:
+                h.update(str(part).encode())
+        else:
+            h.update(json.dumps(part, sort_keys=True, default=repr).encode())
+        h.update(b"\x00")
+    return h.hexdigest()[:8]
 
 
 def point_latest(folder: str | os.PathLike[str], link_name: str = "latest") -> Path | None:

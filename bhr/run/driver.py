@@ -30,7 +30,8 @@ import numpy as np
 from bhr import __version__
 from bhr.settings.inputs import MAX_FILE_BYTES, MAX_MM, MAX_STEP_POINTS, read_text
 from bhr.settings.errors import BhrError
-from bhr.settings.options import robot_limits
+from bhr.settings.options import OPTIONS, robot_limits
+from bhr.model.codes import VALID_CODES as STABLE_CODES
 from bhr.model.robot import THESIS_ROBOT, Robot, robot_with
 from bhr.solvers import Chain, FollowContext, Solver, get_solver
 from bhr.run.body import BodyRun, check_body_modules, score_body, simulate_body
@@ -334,6 +335,9 @@ def _run_from_json(doc: Any, where: str) -> FollowResult:
     names = set(Robot.__dataclass_fields__)
     rb = {("radius" if k == "robot_radius" else k): v for k, v in rb.items()}  # older runs wrote "radius"
     try:
+        for o in OPTIONS:  # the one number checker first: a 400-digit integer is refused, not overflowed
+            if o.group == "robot" and rb.get(o.key) is not None:
+                o.check(rb[o.key], "robot")
         robot = Robot(**{k: v for k, v in rb.items() if k in names})
     except (BhrError, TypeError) as exc:
         raise bad(f"robot: {str(exc).splitlines()[0]}") from None
@@ -360,8 +364,9 @@ def _run_from_json(doc: Any, where: str) -> FollowResult:
         for k, st in enumerate(steps):
             c = st["codes"]
             if not isinstance(c, list) or len(c) != n or not all(isinstance(v, int) and not isinstance(v, bool)
-                                                                  and 0 <= v <= 15 for v in c):
-                raise bad(f"step {k + 1} codes must be {n} whole numbers from 0 to 15 (or null in every step)")
+                                                                  and v in STABLE_CODES for v in c):
+                raise bad(f"step {k + 1} codes must be {n} of the stable codes "
+                          f"{', '.join(map(str, STABLE_CODES))} (or null in every step)")
             codes[k] = c
     solver = doc["solver"]
     if not isinstance(solver, str):

@@ -5,7 +5,6 @@ names the file, the key (or line), what is wrong and what is allowed.
 """
 from __future__ import annotations
 
-import difflib
 import math
 import os
 import tomllib
@@ -13,21 +12,24 @@ from pathlib import Path
 from typing import Any, Iterable
 
 from bhr.settings.errors import BhrError
-from bhr.settings.options import MAX_MM
+from bhr.settings.options import MAX_MM, LIMITS, check_number, did_you_mean, parse_number
+from bhr.settings.options import excerpt as _excerpt
+from bhr.settings.options import type_name as _type_name
 
 __all__ = ["MAX_FILE_BYTES", "MAX_MM", "MAX_POINTS", "MAX_STEP_POINTS", "read_capped", "read_text", "read_toml",
-           "check_keys", "type_name", "number", "vector3", "text_value", "choice"]
+           "check_keys", "type_name", "number", "vector3", "text_value", "choice", "did_you_mean", "parse_number",
+           "check_number", "excerpt", "check_regular"]
 
 #: Input files larger than this are refused: at most this many bytes are ever read, whatever the file's size
 #: reads as (a link to /dev/zero reads as 0 bytes and never ends).
 MAX_FILE_BYTES = 64 * 1024 * 1024
 #: A path may have at most this many points after sampling (trajectory generators, segment and CSV files).
-MAX_POINTS = 500_000
+MAX_POINTS = LIMITS["points"]
 #: A run may hold at most this many robot points in all: steps x (modules + 1), the body's modules when
 #: simulated. Memory grows by about 1.5 kB per step and point (run.json included; measured in
 #: docs/commands.md), so a run at the limit stays within about 5 GB (a 5-module robot on a path of
 #: MAX_POINTS fits).
-MAX_STEP_POINTS = 3_100_000
+MAX_STEP_POINTS = LIMITS["step_points"]
 
 
 def read_text(path: str | os.PathLike[str], what: str, hint: str) -> str:
@@ -63,6 +65,7 @@ def read_capped(path: str | os.PathLike[str], what: str, hint: str, limit: int |
     limit = MAX_FILE_BYTES if limit is None else limit
     import stat as _stat
 
+    check_regular(path, what, hint)  # before open(): opening a FIFO waits for a writer forever
     with open(path, "rb") as fh:
         mode = os.fstat(fh.fileno()).st_mode
         if _stat.S_ISCHR(mode) or _stat.S_ISBLK(mode):
@@ -71,6 +74,25 @@ def read_capped(path: str | os.PathLike[str], what: str, hint: str, limit: int |
     if len(raw) > limit:
         raise BhrError(f"{path} is larger than {limit // (1024 * 1024)} MiB, too large for a {what}; {hint}")
     return raw
+
+
+def check_regular(path: str | os.PathLike[str], what: str, hint: str) -> None:
+    """Refuse an input that is not a regular file (a FIFO, socket or device), before it is opened.
+
+    Opening a FIFO blocks until someone writes to it, a device may never end:
+    an input file must be a file. Missing files are left to the reader's own message.
+    """
+    import stat as _stat
+
+    try:
+        mode = os.stat(path).st_mode
+    except OSError:
+        return
+    kinds = ((_stat.S_ISFIFO, "a FIFO (named pipe)"), (_stat.S_ISSOCK, "a socket"), (_stat.S_ISCHR, "a device"),
+             (_stat.S_ISBLK, "a device"))
+    for test, kind in kinds:
+        if test(mode):
+            raise BhrError(f"{_excerpt(str(path), 80)} is {kind}, not a {what}; {hint}")
 
 
 def read_toml(path: str | os.PathLike[str], what: str, hint: str) -> dict[str, Any]:
@@ -85,55 +107,27 @@ def read_toml(path: str | os.PathLike[str], what: str, hint: str) -> dict[str, A
         raise BhrError(f"{path}: not valid TOML ({msg}); {hint}") from None
 
 
-def did_you_mean(word: str, choices: Iterable[str]) -> str:
-    """``"did you mean 'x'? "`` for the choice nearest ``word`` (difflib), or ``""`` when none is close."""
-    close = difflib.get_close_matches(str(word), list(choices), n=1, cutoff=0.6)
-    return f"did you mean {close[0]!r}? " if close else ""
-
-
 def check_keys(table: dict[str, Any], allowed: Iterable[str], where: str) -> None:
     """Refuse keys of ``table`` outside ``allowed``, suggesting the nearest allowed name."""
     allowed = list(allowed)
     for key in table:
         if key not in allowed:
-            close = difflib.get_close_matches(str(key), allowed, n=1, cutoff=0.6)
-            tip = f"did you mean {close[0]!r}? " if close else ""
-            raise BhrError(f"{where}: unknown key {key!r}; {tip}allowed: {', '.join(allowed)}")
+            raise BhrError(f"{where}: unknown key {_excerpt(key)}; {did_you_mean(key, allowed)}allowed: "
+                           f"{', '.join(allowed)}")
 
 
 def type_name(value: Any) -> str:
-    if isinstance(value, bool):
-        return "a boolean"
-    if isinstance(value, str):
-        return f"the text {value!r}"
-    if isinstance(value, dict):
-        return "a table"
-    if isinstance(value, list):
-        return "a list"
-    return type(value).__name__
+    return _type_name(value)
 
 
 def number(value: Any, where: str, *, positive: bool = False, nonneg: bool = False, integer: bool = False,
            unit: str = "", maximum: float | None = None) -> float:
-    """A finite number (int or float, not bool) with the given sign and at most ``maximum``; BhrError otherwise."""
-    kind = "a whole number" if integer else "a number"
-    u = f" {unit}" if unit else ""
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise BhrError(f"{where} must be {kind}, got {type_name(value)}")
-    if isinstance(value, float) and not math.isfinite(value):
-        raise BhrError(f"{where} must be a finite number, got {value}")
-    if integer and not isinstance(value, int):
-        if float(value).is_integer():
-            value = int(value)
-        else:
-            raise BhrError(f"{where} must be a whole number, got {value}")
-    if positive and value <= 0:
-        raise BhrError(f"{where} must be greater than 0{u}, got {value}")
-    if nonneg and value < 0:
-        raise BhrError(f"{where} must be 0 or more{u}, got {value}")
-    if maximum is not None and value > maximum:
-        raise BhrError(f"{where} must be at most {maximum:g}{u}, got {value:g}")
-    return int(value) if integer else float(value)
+    """A finite number (int or float, not bool) with the given sign and at most ``maximum``; BhrError otherwise.
+
+    The one checker of :func:`bhr.settings.options.check_number` (integers of any length, denormals, the sign).
+    """
+    return check_number(value, where, integer=integer, limit=1e300, unit=unit, positive=positive, nonneg=nonneg,
+                        maximum=maximum)
 
 
 def vector3(value: Any, where: str, *, nonzero: bool = False) -> tuple[float, float, float]:
@@ -148,6 +142,11 @@ def vector3(value: Any, where: str, *, nonzero: bool = False) -> tuple[float, fl
         raise BhrError(f"{where} must not be [0, 0, 0] or nearly so (length under 1e-9); give a direction "
                        "such as [1, 0, 0]")
     return out  # type: ignore[return-value]
+
+
+def excerpt(value: Any, limit: int = 40) -> str:
+    """``value`` as a message may quote it: its repr, escaped, cut to ``limit`` characters."""
+    return _excerpt(value, limit)
 
 
 def text_value(value: Any, where: str) -> str:

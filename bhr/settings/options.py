@@ -20,12 +20,16 @@ the solvers that take it) plus the keyword argument of the solver's
 from __future__ import annotations
 
 import math
+import re
+import sys
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Iterable
 
 from bhr.settings.errors import BhrError
 
-__all__ = ["Option", "OPTIONS", "MAX_MM", "by_group", "robot_limits", "check_option", "solver_options_for"]
+__all__ = ["Option", "OPTIONS", "MAX_MM", "by_group", "robot_limits", "check_option", "solver_options_for",
+           "check_number", "parse_number", "did_you_mean", "MIN_MAGNITUDE", "MIN_MAGNITUDE_UNIT", "LIMITS", "excerpt",
+           "type_name", "check_run_name", "MAX_NAME_CHARS"]
 
 #: Largest length or coordinate accepted anywhere (mm): 1 km. Larger values only overflow the arithmetic.
 MAX_MM = 1e6
@@ -82,6 +86,12 @@ class Option:
         return "--" + (self.cli or self.name.replace("_", "-"))
 
     @property
+    def tiny(self) -> float:
+        """Smallest non-zero magnitude accepted: :data:`MIN_MAGNITUDE_UNIT` for lengths and angles (a robot
+        of 1e-300 mm or degrees only overflows the arithmetic), else the smallest normal float (denormals out)."""
+        return MIN_MAGNITUDE_UNIT if self.group == "robot" and self.unit in ("mm", "deg") else MIN_MAGNITUDE
+
+    @property
     def limit(self) -> float:
         """Largest magnitude accepted on the command line and in files."""
         return self.maximum if self.maximum is not None else (MAX_MM if self.unit == "mm" else self.cap)
@@ -104,17 +114,11 @@ class Option:
         return self._number(value, where)
 
     def _number(self, value: Any, where: str) -> Any:
-        key = self.name
         if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise BhrError(f"{where}: {key} must be a number, got {value!r}")
-        if not math.isfinite(float(value)):
-            raise BhrError(f"{where}: {key} must be a finite number, got {value!r}")
-        if self.kind is int and float(value) != int(value):
-            raise BhrError(f"{where}: {key} must be a whole number, got {value!r}")
-        u = f" {self.unit}" if self.unit else ""
-        if abs(value) > self.limit:
-            raise BhrError(f"{where}: {key} = {value:g} is too large; the limit is {self.limit:g}{u}")
-        return int(value) if self.kind is int else value
+            raise BhrError(f"{where}: {self.name} must be a number, got {type_name(value)}")
+        v = check_number(value, f"{where}: {self.name}", integer=self.kind is int, limit=self.limit, unit=self.unit,
+                         tiny=self.tiny)
+        return v if self.kind is int or not isinstance(value, int) else value
 
 
 _R, _T, _C, _S, _RUN = "robot", "trajectory", "constraint", "solver", "run"
@@ -201,6 +205,19 @@ OPTIONS: tuple[Option, ...] = (
 
 BY_NAME: dict[str, Option] = {o.name: o for o in OPTIONS}
 
+#: Sizes checked before anything is allocated (docs/commands.md#limits): the one place they are set.
+LIMITS: dict[str, int] = {
+    "points": 500_000,  # points of a path after sampling (generators, segment and CSV files)
+    "step_points": 1_500_000,  # steps x (modules + 1) of one run: about 1.4 kB each in memory, ~2.1 GB at most
+    "segments": 10_000,  # segments of a trajectory TOML
+    "modules": 1000,  # modules the solver moves (--modules)
+    "body_modules": 10_000,  # modules of the whole simulated robot (--body-modules)
+    "code_modules": 1000,  # module columns of a codes.csv (bhr plan, bhr stream)
+    "code_steps": 500_000,  # rows of a codes.csv
+    "plan_cells": 5_000_000,  # steps x modules of a codes.csv (bhr plan keeps about 40 bytes per cell)
+    "figure_modules": 64,  # modules whose wires bhr plan draws in thermal.png (4 lines each)
+}
+
 
 def solver_defaults(solver: str) -> dict[str, Any]:
     """Every option ``solver`` takes, with its default for that solver."""
@@ -234,3 +251,141 @@ def solver_options_for(solver: str, values: dict[str, Any]) -> dict[str, Any]:
         if o.name in values and (o.solvers is None or solver in o.solvers):
             out[o.name] = values[o.name]
     return out
+
+
+# --- the one number checker -------------------------------------------------------------------------------------
+
+#: Smallest non-zero magnitude accepted for a robot's length (mm) or angle (deg) option: below it a value means
+#: nothing physical and only overflows the arithmetic (--alpha 1e-320 gives an infinite turn radius).
+MIN_MAGNITUDE_UNIT = 1e-9
+#: Smallest non-zero magnitude accepted for any other number (the smallest normal float64; denormals out).
+MIN_MAGNITUDE = sys.float_info.min
+#: Longest number accepted as text (digits, sign, point, exponent).
+MAX_NUMBER_CHARS = 40
+
+_PLAIN_INT = re.compile(r"[+-]?[0-9]+", re.ASCII)
+_PLAIN_FLOAT = re.compile(r"[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?|[+-]?(?:nan|inf|infinity)",
+                          re.ASCII | re.IGNORECASE)
+
+
+def excerpt(value: Any, limit: int = 40) -> str:
+    """``value`` as quoted in a one-line message: repr, at most ``limit`` characters (an int: its size)."""
+    if isinstance(value, int) and not isinstance(value, bool) and abs(value) >= 10 ** 30:
+        try:
+            return f"a {len(str(abs(value)))}-digit whole number"
+        except ValueError:  # more digits than Python converts to text
+            return f"a whole number of about {int(abs(value).bit_length() * 0.30103) + 1} digits"
+    text = repr(value)
+    return text if len(text) <= limit else text[:limit - 3] + "..."
+
+
+def parse_number(text: str, where: str, *, integer: bool = False) -> int | float:
+    """A number written as plain text: ASCII digits only (no ``1_5``, full-width or Arabic-Indic digits), at
+    most :data:`MAX_NUMBER_CHARS` long; a BhrError naming ``where`` otherwise. Not range-checked: pass the
+    result to :func:`check_number`."""
+    t = str(text).strip()
+    kind = "a whole number" if integer else "a number"
+    if len(t) > MAX_NUMBER_CHARS:
+        raise BhrError(f"{where} must be {kind} of at most {MAX_NUMBER_CHARS} characters, got {len(t)} characters")
+    if _PLAIN_INT.fullmatch(t):
+        return int(t) if integer else float(t) if abs(int(t)) < 10 ** 300 else float("inf")
+    if not integer and _PLAIN_FLOAT.fullmatch(t):
+        return float(t)
+    if integer and _PLAIN_FLOAT.fullmatch(t):
+        v = float(t)
+        if math.isfinite(v) and v.is_integer():
+            return int(v)
+    raise BhrError(f"{where} must be {kind} written with plain digits (0-9), got {excerpt(t)}")
+
+
+def check_number(value: Any, where: str, *, integer: bool = False, limit: float = MAX_ANY, unit: str = "",
+                 positive: bool = False, nonneg: bool = False, minimum: float | None = None,
+                 maximum: float | None = None, tiny: float | None = None) -> Any:
+    """The one check of a number from anywhere (command line, robot, batch, sweep and trajectory files,
+    run.json): a real int or float (not a bool, not text), finite, at most ``limit`` in size (an integer of
+    any length is compared exactly, never converted), not a denormal nor, for mm and degrees, a magnitude
+    under :data:`MIN_MAGNITUDE_UNIT`; ``integer``: a whole number; ``positive``/``nonneg``/``minimum``: the
+    sign or lower bound. Returns an int (``integer``) or a float. BhrError naming ``where`` otherwise.
+    """
+    u = f" {unit}" if unit else ""
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        try:
+            import numpy as np
+
+            if isinstance(value, (np.integer, np.floating)) and not isinstance(value, np.bool_):
+                value = value.item()
+        except ImportError:  # pragma: no cover - numpy is a dependency
+            pass
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise BhrError(f"{where} must be {'a whole number' if integer else 'a number'}, got {type_name(value)}")
+    if isinstance(value, int):
+        shown = f"{value:g}" if abs(value) < 10 ** 30 else excerpt(value)
+        if maximum is not None and value > maximum and abs(value) > limit:
+            raise BhrError(f"{where} must be at most {maximum:g}{u}, got {shown}")
+        if abs(value) > limit:
+            raise BhrError(f"{where} = {shown} is too large; the limit is {limit:g}{u}")
+    else:
+        if not math.isfinite(value):
+            raise BhrError(f"{where} must be a finite number, got {value}")
+        if abs(value) > limit:
+            raise BhrError(f"{where} = {value:g} is too large; the limit is {limit:g}{u}")
+        small = tiny if tiny is not None else MIN_MAGNITUDE
+        if value != 0.0 and abs(value) < small:
+            raise BhrError(f"{where} = {value:g} is too small to mean anything; give 0 or at least {small:g}{u}")
+        if integer:
+            if not value.is_integer():
+                raise BhrError(f"{where} must be a whole number, got {value:g}")
+            value = int(value)
+    if positive and value <= 0:
+        raise BhrError(f"{where} must be greater than 0{u}, got {value:g}")
+    if nonneg and value < 0:
+        raise BhrError(f"{where} must be 0 or more{u}, got {value:g}")
+    if minimum is not None and value < minimum:
+        raise BhrError(f"{where} must be at least {minimum:g}{u}, got {value:g}")
+    if maximum is not None and value > maximum:
+        raise BhrError(f"{where} must be at most {maximum:g}{u}, got {value:g}")
+    return int(value) if integer else float(value)
+
+
+def type_name(value: Any) -> str:
+    if isinstance(value, bool):
+        return "a boolean"
+    if isinstance(value, str):
+        return f"the text {excerpt(value)}"
+    if isinstance(value, dict):
+        return "a table"
+    if isinstance(value, list):
+        return "a list"
+    return type(value).__name__
+
+
+def did_you_mean(word: Any, choices: Iterable[str]) -> str:
+    """``"did you mean 'x'? "`` for the choice nearest ``word`` (difflib), or ``""`` when none is close.
+
+    The one suggestion function of every "unknown name" message (options, keys, solvers, trajectories).
+    """
+    import difflib
+
+    close = difflib.get_close_matches(str(word)[:100].replace("-", "_"), list(choices), n=1, cutoff=0.6)
+    if not close:
+        close = difflib.get_close_matches(str(word)[:100], list(choices), n=1, cutoff=0.6)
+    return f"did you mean {close[0]!r}? " if close else ""
+
+
+#: Longest run name accepted (batch files); the run's folder name is cut to fit any file system.
+MAX_NAME_CHARS = 100
+
+
+def check_run_name(value: Any, where: str) -> str:
+    """A run's name, checked before any work: text of 1 to :data:`MAX_NAME_CHARS` printable characters."""
+    if not isinstance(value, str):
+        raise BhrError(f"{where}: name must be text in quotes, got {type_name(value)}")
+    name = value.strip()
+    if not name:
+        raise BhrError(f"{where}: name must not be empty; give every run a short name")
+    if len(name) > MAX_NAME_CHARS:
+        raise BhrError(f"{where}: name is {len(name)} characters long; give at most {MAX_NAME_CHARS}")
+    if any(ord(c) < 32 or ord(c) == 127 or c in "\u2028\u2029\x85" for c in name):
+        raise BhrError(f"{where}: name {excerpt(name)} holds a control character (a tab or a line break); "
+                       "give a name on one line")
+    return name

@@ -28,6 +28,7 @@ Dask is imported only when a scheduler is given.
 """
 from __future__ import annotations
 
+import contextlib
 import functools
 import math
 import os
@@ -38,7 +39,8 @@ from typing import Any, Callable, Generic, Sequence, TypeVar
 
 from bhr.settings.errors import BhrError
 
-__all__ = ["run_jobs", "Executed", "capture", "reason", "connect_scheduler", "DASK_MISSING"]
+__all__ = ["run_jobs", "Executed", "capture", "reason", "connect_scheduler", "DASK_MISSING", "worker_init",
+           "DASK_WAIT_S", "close_client"]
 
 J = TypeVar("J")
 R = TypeVar("R")
@@ -169,6 +171,51 @@ def run_jobs(fn: Callable[[J], R], jobs_list: Sequence[J], *, jobs: int | None =
     return Executed(rows, wall, runner, workers)
 
 
+def worker_init(parent: int) -> None:
+    """Set up a local worker process: Ctrl-C is the parent's to handle, and the worker dies with its parent.
+
+    A Ctrl-C in a terminal reaches every process of the group; the workers
+    ignore it (no traceback from each) and the parent stops them. A parent
+    that is killed (``kill -9``) takes its workers along: on Linux the kernel
+    sends them SIGKILL (``PR_SET_PDEATHSIG``), elsewhere a watchdog thread
+    sees the parent gone within a second.
+    """
+    import signal
+    import threading
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        import ctypes
+
+        libc = ctypes.CDLL(None, use_errno=True)
+        libc.prctl(1, signal.SIGKILL, 0, 0, 0)  # PR_SET_PDEATHSIG
+    except (OSError, AttributeError):
+        pass
+    if os.getppid() != parent:  # the parent died before the death signal was armed
+        os._exit(1)
+
+    def watch() -> None:
+        while True:
+            time.sleep(1.0)
+            if os.getppid() != parent:
+                os._exit(1)
+
+    threading.Thread(target=watch, name="bhr-parent-watchdog", daemon=True).start()
+
+
+def _stop_pool(pool: Any) -> None:
+    """Stop a process pool at once: queued jobs cancelled, running workers terminated (Ctrl-C, a failure)."""
+    procs = list((getattr(pool, "_processes", None) or {}).values())
+    for p in procs:  # first the workers: the pool then sees them gone and winds down without writing to them
+        with contextlib.suppress(Exception):
+            p.kill()
+    for p in procs:
+        with contextlib.suppress(Exception):
+            p.join(timeout=2.0)
+    with contextlib.suppress(Exception):
+        pool.shutdown(wait=False, cancel_futures=True)
+
+
 def _run_pool(workers: int, fn: Callable[[Any], Any], warm_up: Callable[..., Any] | None,
               warm_up_args: tuple[Any, ...], chunks: list[list[Any]],
               finished: Callable[[Sequence[tuple[int, Any]]], None]) -> None:
@@ -177,8 +224,20 @@ def _run_pool(workers: int, fn: Callable[[Any], Any], warm_up: Callable[..., Any
     from concurrent.futures.process import BrokenProcessPool
 
     ctx = multiprocessing.get_context("spawn")  # safe next to threads (a Dask client, a GUI)
-    with ProcessPoolExecutor(max_workers=workers, mp_context=ctx) as pool:
-        futures = [pool.submit(_run_chunk, fn, warm_up, warm_up_args, c) for c in chunks]
+    pool = ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=worker_init,
+                               initargs=(os.getpid(),))
+    try:
+        # The workers start inside submit(): with Ctrl-C blocked here they start with it blocked (the mask is
+        # inherited), so a Ctrl-C while they import is never theirs; here it is delivered when unblocked.
+        import signal
+
+        blocked = hasattr(signal, "pthread_sigmask")
+        old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT}) if blocked else None
+        try:
+            futures = [pool.submit(_run_chunk, fn, warm_up, warm_up_args, c) for c in chunks]
+        finally:
+            if blocked:
+                signal.pthread_sigmask(signal.SIG_SETMASK, old or set())
         for fut in as_completed(futures):
             try:
                 part = fut.result()
@@ -186,31 +245,136 @@ def _run_pool(workers: int, fn: Callable[[Any], Any], warm_up: Callable[..., Any
                 raise BhrError(f"a worker process stopped ({reason(exc)}); run again, with fewer --jobs if "
                                "memory is short") from None
             finished(part)
+    except BaseException:  # Ctrl-C, a failure: no worker goes on working (nor outlives this process)
+        _stop_pool(pool)
+        raise
+    pool.shutdown(wait=True)
+
+
+#: How long a study waits for a Dask cluster that has no worker (none yet, or all lost) before it stops (s).
+DASK_WAIT_S = 20.0
+
+
+def _lost(address: str, why: str) -> BhrError:
+    return BhrError(f"lost the Dask scheduler at {address} ({why}); start it again (dask scheduler) and rerun")
+
+
+def _no_workers(address: str, waited: float, lost: bool) -> BhrError:
+    what = "every worker of the Dask scheduler at {a} is gone" if lost else "the Dask scheduler at {a} has no workers"
+    return BhrError(f"{what.format(a=address)} (waited {waited:g} s); start one with: dask worker {address}")
+
+
+def _quiet_dask() -> None:
+    """Dask's own log lines (reconnect attempts, tracebacks of a lost scheduler) stay out of the one-line report."""
+    import logging
+
+    names = ["distributed", "distributed.client", "tornado", "asyncio"]
+    names += [n for n in list(logging.root.manager.loggerDict) if n.startswith(("distributed.", "tornado."))]
+    for name in names:
+        logging.getLogger(name).setLevel(logging.CRITICAL + 1)
 
 
 def _run_dask(scheduler: Any, fn: Callable[[Any], Any], warm_up: Callable[..., Any] | None,
               warm_up_args: tuple[Any, ...], chunks: list[list[Any]],
-              finished: Callable[[Sequence[tuple[int, Any]]], None]) -> int:
+              finished: Callable[[Sequence[tuple[int, Any]]], None], wait_s: float | None = None) -> int:
+    """Run the chunks on a Dask cluster. With no worker (none at the start, or every one lost) for
+    ``wait_s`` seconds (:data:`DASK_WAIT_S`), or with the scheduler gone, stop with one line."""
     try:
-        from distributed import as_completed as dask_completed
+        import distributed  # noqa: F401
     except ImportError:
         raise BhrError(DASK_MISSING) from None
+    limit = DASK_WAIT_S if wait_s is None else float(wait_s)
     own = isinstance(scheduler, str)
     client = connect_scheduler(scheduler) if own else scheduler
+    _quiet_dask()  # after distributed made its loggers
+    address = scheduler if own else client.scheduler.address
     try:
-        workers = max(1, sum(client.nthreads().values()))
+        workers = _wait_for_workers(client, address, limit, lost=False)
         futures = client.map(functools.partial(_run_chunk, fn, warm_up, warm_up_args), chunks, pure=False)
-        for fut in dask_completed(futures, loop=client.loop):
+        pending = set(futures)
+        idle_since: float | None = None
+        checked = 0.0
+        while pending:
+            done = [f for f in futures if f in pending and f.done()]  # in job order
+            if not done:
+                time.sleep(0.2)
+            for fut in done:
+                try:
+                    part = fut.result(timeout=5)  # bounded: a result lost with its worker waits for a recompute
+                except TimeoutError:
+                    continue  # still pending; the worker check below bounds the wait
+                except Exception as exc:
+                    raise _dask_failure(address, exc) from None
+                pending.discard(fut)
+                finished(part)
+            if not pending:
+                break
+            if client.status not in ("running", "connecting", "newly-created"):
+                raise _lost(address, f"the client is {client.status}")
+            now = time.monotonic()
+            if client.status == "connecting":  # the scheduler went away; Dask tries to reconnect
+                idle_since = idle_since or now
+                if now - idle_since > limit:
+                    raise _lost(address, f"no answer for {limit:g} s")
+                continue
+            if now - checked < 1.0:
+                continue
+            checked = now
             try:
-                part = fut.result()
+                count = len(client.scheduler_info().get("workers", {}))
             except Exception as exc:
-                raise BhrError(f"a Dask worker failed ({reason(exc)}); check that every worker has this bhr "
-                               "installed") from None
-            finished(part)
+                raise _lost(address, reason(exc)) from None
+            if count:
+                idle_since = None
+            else:
+                idle_since = idle_since or now
+                if now - idle_since > limit:
+                    raise _no_workers(address, limit, lost=True)
+    except (BhrError, KeyboardInterrupt):
+        raise
+    except Exception as exc:  # anything else Dask raises: the cluster, not the study, failed
+        raise _lost(address, reason(exc)) from None
     finally:
         if own:
-            client.close()
+            with contextlib.suppress(Exception):
+                client.close(timeout=2)
     return workers
+
+
+def close_client(client: Any) -> None:
+    """Close a Dask client without waiting long or printing Dask's log lines (the scheduler may be gone)."""
+    _quiet_dask()
+    with contextlib.suppress(Exception):
+        client.close(timeout=2)
+
+
+def _wait_for_workers(client: Any, address: str, limit: float, lost: bool) -> int:
+    """The cluster's worker threads once it has a worker; one line after ``limit`` seconds without one."""
+    t0 = time.monotonic()
+    while True:
+        try:
+            threads = sum(client.nthreads().values())
+        except Exception as exc:
+            raise _lost(address, reason(exc)) from None
+        if threads:
+            return max(1, threads)
+        if time.monotonic() - t0 > limit:
+            raise _no_workers(address, limit, lost)
+        time.sleep(0.25)
+
+
+def _dask_failure(address: str, exc: BaseException) -> BhrError:
+    """One line for a chunk that failed on the cluster: a lost scheduler or worker, or a worker without bhr."""
+    name = type(exc).__name__
+    if isinstance(exc, (ImportError, ModuleNotFoundError, AttributeError)) or "pickle" in name.lower():
+        return BhrError(f"a Dask worker could not run bhr's jobs ({reason(exc)}); check that every worker has "
+                        "this bhr installed")
+    if isinstance(exc, (OSError, TimeoutError)) or name in ("CancelledError", "CommClosedError", "KilledWorker",
+                                                             "FutureCancelledError"):
+        why = "the connection was lost" if "Cancelled" in name else reason(exc)
+        return _lost(address, why) if name != "KilledWorker" else BhrError(
+            f"the Dask workers at {address} died while running a job ({reason(exc)}); check their memory and rerun")
+    return BhrError(f"a Dask worker failed ({reason(exc)}); rerun, or run locally with --jobs")
 
 
 # ------------------------------------------------------------------------------------------ Dask
@@ -230,6 +394,7 @@ def connect_scheduler(address: str, timeout: float = 15.0) -> Any:
     """
     import asyncio
 
+    _quiet_dask()
     try:
         from distributed import Client
         from distributed.comm import connect
@@ -267,6 +432,8 @@ def connect_scheduler(address: str, timeout: float = 15.0) -> Any:
     except Exception as exc:  # OSError, ValueError
         raise _cannot(address, str(exc).splitlines()[0] if str(exc) else exc.__class__.__name__) from None
     try:
-        return Client(address.strip(), timeout=f"{timeout}s", set_as_default=False)
+        client = Client(address.strip(), timeout=f"{timeout}s", set_as_default=False)
+        _quiet_dask()
+        return client
     except Exception as exc:
         raise _cannot(address, str(exc).splitlines()[0] if str(exc) else exc.__class__.__name__) from None

@@ -50,7 +50,7 @@ from bhr.model.generators import GENERATORS, builtin_names, load_trajectory
 from bhr.run.driver import BhrWarning, follow
 from bhr.output.htmlpage import PAGE_END, escape, figure, fmt, page_head
 from bhr.output.htmlpage import table as html_table
-from bhr.settings.options import by_group, solver_options_for
+from bhr.settings.options import by_group, check_run_name, excerpt, solver_options_for
 from bhr.model.robot import Robot
 from bhr.model.robotfile import load_robot_file
 from bhr.model.codes import format_codes_csv
@@ -126,7 +126,7 @@ def _check_table(table: Any, where: str, allowed: frozenset[str]) -> dict[str, A
     out = {}
     for key, value in table.items():
         if key not in allowed:
-            raise BhrError(f"{where}: unknown key {key!r}; {suggest(key, allowed)}")
+            raise BhrError(f"{where}: unknown key {excerpt(key)}; {suggest(key, allowed)}")
         out[key] = check_value(key, value, where)
     return out
 
@@ -156,14 +156,14 @@ def parse_batch(data: dict[str, Any], source: str = "batch", base_dir: str | os.
     seen: dict[str, int] = {}
     for k, table in enumerate(runs, start=1):
         label = table.get("name") if isinstance(table.get("name"), str) else None
-        where = f"{source}: run {k}" + (f" ({label!r})" if label else "")
+        where = f"{source}: run {k}" + (f" ({excerpt(label)})" if label else "")
         values = {**defaults, **_check_table(table, where, RUN_KEYS)}
         for need in ("name", "traj"):
             if need not in values:
                 raise BhrError(f"{where}: missing key {need!r}; every [[run]] needs name and traj")
-        name = values["name"].strip()
+        name = check_run_name(values["name"], where)
         if name in seen:
-            raise BhrError(f"{where}: name {name!r} is also run {seen[name]}'s; give every run its own name")
+            raise BhrError(f"{where}: name {excerpt(name)} is also run {seen[name]}'s; give every run its own name")
         seen[name] = k
         traj = values["traj"]
         tp = {key: float(values[key]) for key in TRAJ_KEYS if key in values}
@@ -225,7 +225,7 @@ def robot_from_options(robot_params: dict[str, Any], robot_file: str | None = No
 
 
 def _slug(name: str) -> str:
-    s = re.sub(r"[^a-z0-9._-]+", "-", name.lower()).strip("-.")
+    s = re.sub(r"[^a-z0-9._-]+", "-", name.lower(), flags=re.ASCII).strip("-.")[:80].strip("-.")
     return s or "run"
 
 

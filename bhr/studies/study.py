@@ -11,7 +11,6 @@ The names of options and result columns in words are in :mod:`bhr.settings.names
 from __future__ import annotations
 
 import csv
-import difflib
 import io
 import math
 from typing import Any, Iterable, Sequence
@@ -19,12 +18,12 @@ from typing import Any, Iterable, Sequence
 from bhr.settings.errors import BhrError
 from bhr.run.body import check_body_modules
 from bhr.run.driver import follow
-from bhr.settings.options import BY_NAME, by_group
+from bhr.settings.options import BY_NAME, by_group, did_you_mean, excerpt
 from bhr.model.robot import Robot
 
 __all__ = ["TRAJ_KEYS", "ROBOT_KEYS", "CONSTRAINT_KEYS", "SOLVER_KEYS", "SIM_KEYS", "INT_KEYS", "NUMBER_KEYS",
            "sim_options", "check_body", "suggest",
-           "check_value", "summary_row", "make_robot", "warm_up", "csv_text"]
+           "check_value", "summary_row", "make_robot", "warm_up", "csv_text", "csv_safe", "FORMULA_STARTS"]
 
 # The keys of a run table come from the option registry (bhr.settings.options), as the command-line options do.
 #: Trajectory options (CLI long names with underscores), as in ``bhr follow``.
@@ -58,8 +57,8 @@ def sim_options(values: dict[str, Any]) -> dict[str, Any]:
 
 def suggest(key: str, allowed: Iterable[str]) -> str:
     """The nearest allowed key to a mistyped one, as the second half of an error line."""
-    near = difflib.get_close_matches(key.replace("-", "_"), sorted(allowed), n=1, cutoff=0.6)
-    return f"did you mean {near[0]!r}?" if near else "see docs/report.md for the keys"
+    tip = did_you_mean(key, sorted(allowed))
+    return tip.rstrip() if tip else "see docs/report.md for the keys"
 
 
 def check_value(key: str, value: Any, where: str) -> Any:
@@ -68,7 +67,7 @@ def check_value(key: str, value: Any, where: str) -> Any:
     if key in BY_NAME:
         return BY_NAME[key].check(value, where)
     if not isinstance(value, str):
-        raise BhrError(f"{where}: {key} must be a string, got {value!r}")
+        raise BhrError(f"{where}: {key} must be a string, got {excerpt(value)}")
     if key in ("name", "traj", "solver", "robot") and not value.strip():
         raise BhrError(f"{where}: {key} must not be empty")
     return value
@@ -134,15 +133,34 @@ def _cell(key: str, value: Any, joined: Iterable[str]) -> str:
     return str(value)
 
 
+#: What a spreadsheet takes as the start of a formula in a cell (OWASP "CSV injection").
+FORMULA_STARTS = ("=", "+", "-", "@", "\t", "\r", "\n")
+
+
+def csv_safe(cell: str) -> str:
+    """``cell`` as a spreadsheet shows it but never runs it: text starting like a formula gets a leading ``'``;
+    a carriage return becomes a line break (which the CSV writer quotes, so it never ends a row)."""
+    cell = "'" + cell if cell.startswith(FORMULA_STARTS) else cell
+    return cell.replace("\r\n", "\n").replace("\r", "\n")
+
+
 def csv_text(rows: Sequence[dict[str, Any]], fields: Sequence[str], joined: Iterable[str] = ()) -> str:
     """CSV of ``rows`` with ``fields`` as header; unknown values are empty cells, floats in full.
 
-    The lists of the ``joined`` keys (e.g. warnings) are one cell, joined by ``"; "``.
+    The lists of the ``joined`` keys (e.g. warnings) are one cell, joined by ``"; "``. Text cells that a
+    spreadsheet would run as a formula (``=``, ``+``, ``-``, ``@``, a tab or CR first) are escaped with a
+    leading ``'`` (:func:`csv_safe`); numbers are written as they are.
     """
     joined = frozenset(joined)
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
-    w.writerow(fields)
+    w.writerow([csv_safe(str(f)) for f in fields])
     for r in rows:
-        w.writerow([_cell(k, r.get(k), joined) for k in fields])
+        w.writerow([_safe(r.get(k), _cell(k, r.get(k), joined)) for k in fields])
     return buf.getvalue()
+
+
+def _safe(value: Any, cell: str) -> str:
+    if isinstance(value, (int, float)) and not isinstance(value, bool):
+        return cell  # a number: "-1.5" is a number to a spreadsheet, not a formula
+    return csv_safe(cell)

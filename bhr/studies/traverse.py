@@ -22,6 +22,7 @@ says which was used.
 """
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import math
 import os
@@ -60,8 +61,8 @@ DESIGN_COLUMNS = ("colons", "traversed", "pass_rate", "failed_runs", "worst_pene
 RUN_COLUMNS = ("status", "steps", "traversed", "max_penetration_mm", "touch_steps", "contact_length_mm",
                "min_clearance_mm", "points_max_error_mm", "tip_max_error_mm", "modules", "procedure_time_s")
 _MAX_COLONS = 100_000
-#: One seed, or FIRST-LAST, or FIRST:LAST[:STEP] as in a sweep's grid (ends included).
-_RANGE = re.compile(r"^\s*(\d+)\s*(?:(-|:)\s*(\d+)\s*(?::\s*(\d+)\s*)?)?$")
+#: One seed, or FIRST-LAST, or FIRST:LAST[:STEP] as in a sweep's grid (ends included); plain ASCII digits.
+_RANGE = re.compile(r"^\s*([0-9]+)\s*(?:(-|:)\s*([0-9]+)\s*(?::\s*([0-9]+)\s*)?)?$", re.ASCII)
 
 
 def parse_colons(text: str | Sequence[int]) -> tuple[int, ...]:
@@ -503,22 +504,22 @@ def _html(result: StudyResult, heat: str | None, worst: str | None, worst_design
     return "".join(parts)
 
 
-def write_study(result: StudyResult, out_dir: str | os.PathLike[str], *, plot: bool = True,
+def write_study(result: StudyResult, out_dir: Any, *, plot: bool = True,
                 x: str | None = None, y: str | None = None, physics: bool = False) -> list[Path]:
     """Write designs.csv, runs.csv, study.json, passrate.png and worst-colon.png (``plot``), index.html.
 
-    The files are made in a staging folder beside ``out_dir`` and moved in
-    only when all of them exist, so a failure leaves no partial set.
+    ``out_dir`` is an :class:`bhr.output.atomic.OutputFolder` (the files go into its
+    staging folder and the set is put in place whole when its ``with`` block
+    ends) or a folder path, which is then written through an OutputFolder of
+    its own: the one mechanism every command's output goes through.
     """
-    import shutil
-    import tempfile
+    from bhr.output.atomic import OutputFolder
 
     study = result.study
-    out = Path(out_dir)
-    parent = out.parent if str(out.parent) else Path(".")
-    parent.mkdir(parents=True, exist_ok=True)
-    stage = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=parent))
-    try:
+    own = None if isinstance(out_dir, OutputFolder) else OutputFolder(out_dir, "traverse", what="study output folder")
+    folder = out_dir if own is None else own
+    with own if own is not None else contextlib.nullcontext():
+        stage = folder.path("")
         names = ["designs.csv", "runs.csv", "study.json"]
         write_text(stage / "designs.csv", csv_text(result.designs, design_columns(study)))
         write_text(stage / "runs.csv", csv_text(result.runs, run_columns(study)))
@@ -564,9 +565,4 @@ def write_study(result: StudyResult, out_dir: str | os.PathLike[str], *, plot: b
         })
         write_text(stage / "index.html", _html(result, heat, worst, focus if worst else None))
         names.append("index.html")
-        out.mkdir(parents=True, exist_ok=True)
-        for n in names:
-            os.replace(stage / n, out / n)
-    finally:
-        shutil.rmtree(stage, ignore_errors=True)
-    return [out / n for n in names]
+    return [folder.final(n) for n in names]
