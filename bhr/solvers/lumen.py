@@ -58,8 +58,8 @@ from bhr.settings.options import solver_defaults
 from bhr.kinematics.frames import tilt_frame as _rot
 from bhr.kinematics.leader import advance_kernel, finish_step
 from bhr.solvers.base import Chain, FollowContext, SolveResult, register
-from bhr.solvers.optimal import (CODE_OF, DEG, Optimal, _beam_candidate, _beam_commit, _beam_keep, _beam_reset,
-                                 _dist2, _frame_of_chain, _number, _step_targets, _tip_angle, _write_pose)
+from bhr.solvers.optimal import (CODE_OF, DEG, Optimal, beam_candidate, beam_commit, beam_keep, beam_reset,
+                                 dist2, frame_of_chain, setting_number, step_targets, tip_angle, write_pose)
 
 __all__ = ["Lumen", "DEFAULTS", "head_cost", "lumen_config_cost"]
 
@@ -193,12 +193,12 @@ def _head_search(C, R, pre, w, step, n, f, L, c, s, T, prm, best_codes, frames, 
     _near(C, pre, w, -1, e0, pts[0, 0], pts[0, 1], pts[0, 2], res, tmp)
     clr[0], part[0] = _wall(R, radius, margin, ww, res)
     a0 = _along(res, pre0, e0, sp)
-    part[0] += wc * res[0] + wa * a0 * a0 + wt * _dist2(pts[0], T[0])
+    part[0] += wc * res[0] + wa * a0 * a0 + wt * dist2(pts[0], T[0])
     guess[0] = int(res[1])
     for b in range(3):
         pts[1, b] = pts[0, b] + L * frames[0, 2, b]
     part[1] = part[0] + _module_cost(C, R, pre, w, guess[0], e0, float(f), pts[0], pts[1], clr[0], radius, margin,
-                                     ww, wc, wa, sp, pre0, dR, res, tmp, cout) + wt * _dist2(pts[1], T[1])
+                                     ww, wc, wa, sp, pre0, dR, res, tmp, cout) + wt * dist2(pts[1], T[1])
     clr[1] = cout[0]
     guess[1] = int(res[1])
     best_codes[0] = 0
@@ -213,7 +213,7 @@ def _head_search(C, R, pre, w, step, n, f, L, c, s, T, prm, best_codes, frames, 
             _rot(frames[lv - 1], q, c, s, frames[lv])
             for b in range(3):
                 pts[lv + 1, b] = pts[lv, b] + L * frames[lv, 2, b]
-            v = part[lv] + wt * _dist2(pts[lv + 1], T[lv + 1])
+            v = part[lv] + wt * dist2(pts[lv + 1], T[lv + 1])
             if v >= bv:
                 continue
             v += _module_cost(C, R, pre, w, guess[lv], float(step - (n - lv) * f), float(f), pts[lv], pts[lv + 1],
@@ -244,7 +244,7 @@ def _head_search(C, R, pre, w, step, n, f, L, c, s, T, prm, best_codes, frames, 
         _rot(frames[lvl - 1], choice[lvl], c, s, frames[lvl])
         for b in range(3):
             pts[lvl + 1, b] = pts[lvl, b] + L * frames[lvl, 2, b]
-        v = part[lvl] + wt * _dist2(pts[lvl + 1], T[lvl + 1])
+        v = part[lvl] + wt * dist2(pts[lvl + 1], T[lvl + 1])
         if v >= best:
             continue
         v += _module_cost(C, R, pre, w, guess[lvl], float(step - (n - lvl) * f), float(f), pts[lvl], pts[lvl + 1],
@@ -287,16 +287,16 @@ def _beam_expand(bP, bF, bC, bH, state, cP, cF, cC, cPar, cA, order_buf, C, R, p
                  c, s, prm, T, d, best_codes, frames, pts, part, guess, choice, res, tmp, F1):
     nb = state[0]
     k = state[1]
-    _step_targets(path, dirs, k, n, f, feed, T, d)
+    step_targets(path, dirs, k, n, f, feed, T, d)
     m = 0
     for q in range(nb):
         for a in range(5):
             _rot(bF[q], a, c, s, F1)
             cost = _head_cost(C, R, pre, w, bP[q], F1, k, n, f, L, c, s, T, prm, best_codes, frames, pts, part,
                               guess, choice, res, tmp)
-            _beam_candidate(bP, bF, bC, q, a, F1, cost, feed, m, cP, cF, cC, cPar, cA)
+            beam_candidate(bP, bF, bC, q, a, F1, cost, feed, m, cP, cF, cC, cPar, cA)
             m += 1
-    _beam_keep(cP, cF, cC, cPar, cA, m, order_buf, bP, bF, bC, bH, state, k)
+    beam_keep(cP, cF, cC, cPar, cA, m, order_buf, bP, bF, bC, bH, state, k)
 
 
 @njit(cache=True)
@@ -318,10 +318,10 @@ def _lumen_step(P, E1, E2, i, bP, bF, bC, bH, state, cP, cF, cC, cPar, cA, order
     choice = np.zeros(n, dtype=np.int64)
     res = np.empty(3)
     tmp = np.empty(3)
-    _frame_of_chain(P, E1, E2, F)
+    frame_of_chain(P, E1, E2, F)
     P0 = P[0].copy()
     if state[0] == 0 or state[2] != i:
-        _beam_reset(bP, bF, bC, bH, state, P0, F, i)
+        beam_reset(bP, bF, bC, bH, state, P0, F, i)
         lagv[0] = 0.0
     # the robot's lead along the centerline: where the base is now, searched around where it was
     e0 = float(i - n * f)
@@ -333,13 +333,13 @@ def _lumen_step(P, E1, E2, i, bP, bF, bC, bH, state, cP, cF, cC, cPar, cA, order
         _beam_expand(bP, bF, bC, bH, state, cP, cF, cC, cPar, cA, order_buf, C, R, pre, w, path, dirs, n, f, feed,
                      L, c, s, prm, T, d, best_codes, frames, pts, part, guess, choice, res, tmp, F1)
         layers += 1
-    a0 = _beam_commit(bP, bF, bC, bH, state, i)
-    _step_targets(path, dirs, i, n, f, feed, T, d)
+    a0 = beam_commit(bP, bF, bC, bH, state, i)
+    step_targets(path, dirs, i, n, f, feed, T, d)
     _rot(F, a0, c, s, F1)
     cost = _head_cost(C, R, pre, w, P0, F1, i, n, f, L, c, s, T, prm, best_codes, frames, pts, part, guess, choice,
                       res, tmp)
     best_codes[0] = a0
-    _write_pose(F, best_codes, c, s, L, alpha, frames, P, E1, E2, out_codes, tilts)
+    write_pose(F, best_codes, c, s, L, alpha, frames, P, E1, E2, out_codes, tilts)
     return layers, cost
 
 
@@ -355,7 +355,7 @@ def follow_lumen_kernel(path, dirs, P, E1, E2, bP, bF, bC, bH, state, cP, cF, cC
         layers, _ = _lumen_step(P, E1, E2, i, bP, bF, bC, bH, state, cP, cF, cC, cPar, cA, order_buf, C, R, pre, w,
                                 path, dirs, n, f, feed, L, alpha, prm, lookahead, lagv, step_codes, tilts)
         dd = dirs[N - 2] if i == N - 1 else dirs[i]
-        finish_step(i, P, E1, E2, path, dirs, f, feed, L, _tip_angle(P, dd), layers, step_codes, out_points, out_iters,
+        finish_step(i, P, E1, E2, path, dirs, f, feed, L, tip_angle(P, dd), layers, step_codes, out_points, out_iters,
                     pe, oe, codes)
 
 
@@ -373,7 +373,7 @@ def head_cost(tube, robot, settings: dict[str, float], path: np.ndarray, step: i
     dirs /= np.linalg.norm(dirs, axis=1)[:, None]
     T = np.empty((n + 1, 3))
     d = np.empty(3)
-    _step_targets(path, dirs, step, n, robot.feed_divisor, float(robot.feed), T, d)
+    step_targets(path, dirs, step, n, robot.feed_divisor, float(robot.feed), T, d)
     prm = _prm(robot, settings, tube)
     best = np.zeros(n, dtype=np.int64)
     cost = _head_cost(tube.points, tube.radius, float(tube.pre), float(tube.window), np.asarray(base, dtype=float),
@@ -398,7 +398,7 @@ def lumen_config_cost(tube, robot, settings: dict[str, float], path: np.ndarray,
     dirs /= np.linalg.norm(dirs, axis=1)[:, None]
     T = np.empty((n + 1, 3))
     d = np.empty(3)
-    _step_targets(path, dirs, step, n, f, float(robot.feed), T, d)
+    step_targets(path, dirs, step, n, f, float(robot.feed), T, d)
 
     def wall(c: float) -> float:
         return ww * max(0.0, margin - c) ** 2
@@ -486,12 +486,12 @@ class Lumen(Optimal):
                                      window=window, trail_beam=trail_beam).items() if v is not None}
         cfg = {**DEFAULTS, **opt}
         super().__init__(robot, lookahead=cfg["lookahead"], beam=cfg["beam"], ori_weight=cfg["ori_weight"])
-        self.wall_weight = _number("wall-weight", cfg["wall_weight"])
-        self.margin = _number("margin", cfg["margin"], minimum=-1e6)
-        self.center_weight = _number("center-weight", cfg["center_weight"])
-        self.track_weight = _number("track-weight", cfg["track_weight"])
-        self.along_weight = _number("along-weight", cfg["along_weight"])
-        self.window = _number("window", cfg["window"])
+        self.wall_weight = setting_number("wall-weight", cfg["wall_weight"])
+        self.margin = setting_number("margin", cfg["margin"], minimum=-1e6)
+        self.center_weight = setting_number("center-weight", cfg["center_weight"])
+        self.track_weight = setting_number("track-weight", cfg["track_weight"])
+        self.along_weight = setting_number("along-weight", cfg["along_weight"])
+        self.window = setting_number("window", cfg["window"])
         if self.window <= 0 or self.window > 1e4:
             raise BhrError(f"window must be more than 0 and at most 10000 mm, got {self.window:g}")
         tb = cfg["trail_beam"]
@@ -570,7 +570,7 @@ class Lumen(Optimal):
         self._expect = (self._tube_path, i + 1, nxt.points, np.ascontiguousarray(nxt.axes[0]),
                         np.ascontiguousarray(nxt.axes[1]))
         err = float(np.linalg.norm(P[-1] - np.asarray(target, dtype=np.float64)))
-        ang = None if orientation is None else float(_tip_angle(P, np.asarray(orientation, dtype=np.float64)))
+        ang = None if orientation is None else float(tip_angle(P, np.asarray(orientation, dtype=np.float64)))
         return SolveResult(out, int(layers), err, ang, [int(c) for c in codes],
                            {"cost": float(cost), "tilts_deg": [float(v) for v in tilts]})
 

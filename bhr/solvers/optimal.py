@@ -55,7 +55,7 @@ import numpy as np
 from numba import njit
 
 from bhr.settings.errors import BhrError
-from bhr.settings.options import solver_defaults
+from bhr.settings.options import check_number, solver_defaults
 from bhr.kinematics.frames import tilt_frame as _rot
 from bhr.kinematics.codetable import SEARCH_CODES
 from bhr.kinematics.leader import advance_kernel, finish_step
@@ -82,7 +82,7 @@ MAX_CURVE_STEPS = 40
 
 
 @njit(cache=True)
-def _frame_of_chain(P, E1, E2, out):
+def frame_of_chain(P, E1, E2, out):
     """Module 1's frame from a chain: axis points of joint 0 and the base module's direction (as Chain.base_frame)."""
     for b in range(3):
         out[0, b] = E1[0, b] - P[0, b]
@@ -95,7 +95,7 @@ def _frame_of_chain(P, E1, E2, out):
 
 
 @njit(cache=True)
-def _dist2(a, b):
+def dist2(a, b):
     return (a[0] - b[0]) ** 2 + (a[1] - b[1]) ** 2 + (a[2] - b[2]) ** 2
 
 
@@ -111,7 +111,7 @@ def _search(P0, F, first, n, T, w, d, wo, L, c, s, reach, codes, best_codes, fra
     """
     best = 1e300
     if first >= n:
-        return part[n] + wo * _dist2(frames[n - 1, 2], d) if n > 0 else part[0]
+        return part[n] + wo * dist2(frames[n - 1, 2], d) if n > 0 else part[0]
     lvl = first
     choice[lvl] = -1
     while lvl >= first:
@@ -134,14 +134,14 @@ def _search(P0, F, first, n, T, w, d, wo, L, c, s, reach, codes, best_codes, fra
             lb = v
             for k in range(lvl + 2, n + 1):
                 if w[k] > 0.0:
-                    gap = math.sqrt(_dist2(pts[lvl + 1], T[k])) - (k - lvl - 1) * L
+                    gap = math.sqrt(dist2(pts[lvl + 1], T[k])) - (k - lvl - 1) * L
                     if gap > 0.0:
                         lb += w[k] * gap * gap
             if lb >= best:
                 continue
         part[lvl + 1] = v
         if lvl == n - 1:
-            tot = v + wo * _dist2(frames[n - 1, 2], d)
+            tot = v + wo * dist2(frames[n - 1, 2], d)
             if tot < best:
                 best = tot
                 for q in range(first, n):
@@ -177,7 +177,7 @@ def _target_index(path, i):
 
 
 @njit(cache=True)
-def _step_targets(path, dirs, i, n, f, feed, T, d):
+def step_targets(path, dirs, i, n, f, feed, T, d):
     """Targets of points 0..n at step ``i`` and the wanted tip direction (see module doc)."""
     N = path.shape[0]
     for j in range(n + 1):
@@ -230,7 +230,7 @@ def _steer_cost(P0, F1, i, n, f, feed, path, dirs, T, kvec, spacing, kcurve, kbe
 
 
 @njit(cache=True)
-def _beam_reset(bP, bF, bC, bH, state, P0, F, step):
+def beam_reset(bP, bF, bC, bH, state, P0, F, step):
     """Start a beam of one state (P0, F) whose next step to expand is ``step``."""
     for b in range(3):
         bP[0, b] = P0[b]
@@ -243,7 +243,7 @@ def _beam_reset(bP, bF, bC, bH, state, P0, F, step):
 
 
 @njit(cache=True)
-def _beam_keep(cP, cF, cC, cPar, cA, m, order_buf, bP, bF, bC, bH, state, k):
+def beam_keep(cP, cF, cC, cPar, cA, m, order_buf, bP, bF, bC, bH, state, k):
     """Keep the ``B`` cheapest of the ``m`` candidates of step ``k`` as the new beam (near-duplicates skipped)."""
     B = bP.shape[0]
     R = bH.shape[1]
@@ -257,8 +257,8 @@ def _beam_keep(cP, cF, cC, cPar, cA, m, order_buf, bP, bF, bC, bH, state, k):
         dup = False
         for u in range(kept):
             o = order_buf[u]
-            if _dist2(cP[o], cP[r]) < DEDUP_POS * DEDUP_POS:
-                dz = _dist2(cF[o, 1], cF[r, 1]) + _dist2(cF[o, 2], cF[r, 2])
+            if dist2(cP[o], cP[r]) < DEDUP_POS * DEDUP_POS:
+                dz = dist2(cF[o, 1], cF[r, 1]) + dist2(cF[o, 2], cF[r, 2])
                 if dz < DEDUP_DIR * DEDUP_DIR:
                     dup = True
                     break
@@ -293,7 +293,7 @@ def _beam_expand(bP, bF, bC, bH, state, cP, cF, cC, cPar, cA, order_buf, path, d
     """Expand every member by the five base tilts at step ``state[1]``; keep the best distinct ones."""
     nb = state[0]
     k = state[1]
-    _step_targets(path, dirs, k, n, f, feed, T, d)
+    step_targets(path, dirs, k, n, f, feed, T, d)
     m = 0
     for q in range(nb):
         for a in range(5):
@@ -301,13 +301,13 @@ def _beam_expand(bP, bF, bC, bH, state, cP, cF, cC, cPar, cA, order_buf, path, d
             cost = _head_cost(bP[q], F1, n, T, w, d, wo, L, c, s, codes, best_codes, frames, pts, part, choice)
             cost += _steer_cost(bP[q], F1, k, n, f, feed, path, dirs, T, kvec, spacing, kcurve, kbend, wdrift, wroll,
                                 inv_sin2)
-            _beam_candidate(bP, bF, bC, q, a, F1, cost, feed, m, cP, cF, cC, cPar, cA)
+            beam_candidate(bP, bF, bC, q, a, F1, cost, feed, m, cP, cF, cC, cPar, cA)
             m += 1
-    _beam_keep(cP, cF, cC, cPar, cA, m, order_buf, bP, bF, bC, bH, state, k)
+    beam_keep(cP, cF, cC, cPar, cA, m, order_buf, bP, bF, bC, bH, state, k)
 
 
 @njit(cache=True)
-def _beam_candidate(bP, bF, bC, q, a, F1, cost, feed, m, cP, cF, cC, cPar, cA):
+def beam_candidate(bP, bF, bC, q, a, F1, cost, feed, m, cP, cF, cC, cPar, cA):
     """Candidate ``m``: beam member ``q`` with base tilt ``a`` (frame ``F1``), one feed on, its cost plus ``cost``."""
     cC[m] = bC[q] + cost
     for b in range(3):
@@ -319,7 +319,7 @@ def _beam_candidate(bP, bF, bC, q, a, F1, cost, feed, m, cP, cF, cC, cPar, cA):
 
 
 @njit(cache=True)
-def _beam_commit(bP, bF, bC, bH, state, step):
+def beam_commit(bP, bF, bC, bH, state, step):
     """The best member's base tilt at ``step``; drop the members that chose otherwise."""
     R = bH.shape[1]
     a0 = bH[0, step % R]
@@ -341,7 +341,7 @@ def _beam_commit(bP, bF, bC, bH, state, step):
 
 
 @njit(cache=True)
-def _write_pose(F, best_codes, c, s, L, alpha, frames, P, E1, E2, out_codes, tilts):
+def write_pose(F, best_codes, c, s, L, alpha, frames, P, E1, E2, out_codes, tilts):
     """Put the chain in the pose of ``best_codes`` (search indices, module 1 first) from the base frame ``F``.
 
     Writes the module frames, the points ``P[1:]`` and the axis points ``E1``,
@@ -384,28 +384,28 @@ def _optimal_step(P, E1, E2, i, bP, bF, bC, bH, state, cP, cF, cC, cPar, cA, ord
     pts = np.empty((n + 1, 3))
     part = np.empty(n + 1)
     choice = np.zeros(n, dtype=np.int64)
-    _frame_of_chain(P, E1, E2, F)
+    frame_of_chain(P, E1, E2, F)
     P0 = P[0].copy()
     if state[0] == 0 or state[2] != i:
-        _beam_reset(bP, bF, bC, bH, state, P0, F, i)
+        beam_reset(bP, bF, bC, bH, state, P0, F, i)
     layers = 0
     while state[1] < N and state[1] <= i + lookahead:
         _beam_expand(bP, bF, bC, bH, state, cP, cF, cC, cPar, cA, order_buf, path, dirs, n, f, feed, L, c, s, w, wo,
                      kvec, spacing, kcurve, kbend, wdrift, wroll, inv_sin2, T, d, codes, best_codes, frames, pts, part,
                      choice, F1)
         layers += 1
-    a0 = _beam_commit(bP, bF, bC, bH, state, i)
+    a0 = beam_commit(bP, bF, bC, bH, state, i)
     # the pose: base tilt a0, the other modules searched exactly for this step's cost
-    _step_targets(path, dirs, i, n, f, feed, T, d)
+    step_targets(path, dirs, i, n, f, feed, T, d)
     _rot(F, a0, c, s, F1)
     cost = _head_cost(P0, F1, n, T, w, d, wo, L, c, s, codes, best_codes, frames, pts, part, choice)
     best_codes[0] = a0
-    _write_pose(F, best_codes, c, s, L, alpha, frames, P, E1, E2, out_codes, tilts)
+    write_pose(F, best_codes, c, s, L, alpha, frames, P, E1, E2, out_codes, tilts)
     return layers, cost
 
 
 @njit(cache=True)
-def _tip_angle(P, d):
+def tip_angle(P, d):
     n = P.shape[0] - 1
     ux = P[n, 0] - P[n - 1, 0]
     uy = P[n, 1] - P[n - 1, 1]
@@ -430,7 +430,7 @@ def follow_optimal_kernel(path, dirs, P, E1, E2, bP, bF, bC, bH, state, cP, cF, 
                                   n, f, feed, L, alpha, w, wo, lookahead, kvec, spacing, kcurve, kbend, wdrift, wroll,
                                   step_codes, tilts)
         d = dirs[N - 2] if i == N - 1 else dirs[i]
-        finish_step(i, P, E1, E2, path, dirs, f, feed, L, _tip_angle(P, d), layers, step_codes, out_points, out_iters,
+        finish_step(i, P, E1, E2, path, dirs, f, feed, L, tip_angle(P, d), layers, step_codes, out_points, out_iters,
                     pe, oe, codes)
 
 
@@ -538,15 +538,9 @@ def search_head(base: Sequence[float], frame1: np.ndarray, targets: np.ndarray, 
 # the solver
 
 
-def _number(name: str, value: Any, *, minimum: float = 0.0, integer: bool = False) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
-        raise BhrError(f"{name} must be a number, got {value!r}")
-    v = float(value)
-    if not math.isfinite(v) or v < minimum:
-        raise BhrError(f"{name} must be a finite number >= {minimum:g}, got {value!r}")
-    if integer and v != int(v):
-        raise BhrError(f"{name} must be a whole number, got {value!r}")
-    return v
+def setting_number(name: str, value: Any, *, minimum: float = 0.0, integer: bool = False) -> float:
+    """A solver setting through the one number checker (:func:`bhr.settings.options.check_number`), as a float."""
+    return float(check_number(value, name, integer=integer, minimum=minimum, limit=1e300))
 
 
 @register
@@ -565,26 +559,26 @@ class Optimal(Solver):
                                      ori_weight=ori_weight, drift_weight=drift_weight,
                                      roll_weight=roll_weight).items() if v is not None}
         cfg = {**DEFAULTS, **opt}
-        self.lookahead = int(_number("lookahead", cfg["lookahead"], integer=True))
-        self.beam = int(_number("beam", cfg["beam"], minimum=1, integer=True))
+        self.lookahead = int(setting_number("lookahead", cfg["lookahead"], integer=True))
+        self.beam = int(setting_number("beam", cfg["beam"], minimum=1, integer=True))
         if self.lookahead > 200:
             raise BhrError(f"lookahead {self.lookahead} is more than 200 steps; use a smaller --lookahead")
         if self.beam > 500:
             raise BhrError(f"beam {self.beam} is more than 500 states; use a smaller --beam")
         pw = cfg["point_weights"]
         if isinstance(pw, (list, tuple, np.ndarray)):
-            vals = [_number("point weight", v) for v in pw]
+            vals = [setting_number("point weight", v) for v in pw]
             if len(vals) != n + 1:
                 raise BhrError(f"give {n + 1} point weights (base to tip) for {n} modules, or one for all; "
                                f"got {len(vals)}")
         else:
-            vals = [_number("point weight", pw)] * (n + 1)
+            vals = [setting_number("point weight", pw)] * (n + 1)
         if not any(v > 0 for v in vals):
             raise BhrError("at least one point weight must be positive")
         self.point_weights = np.array(vals, dtype=np.float64)
-        self.ori_weight = _number("ori-weight", cfg["ori_weight"])
-        self.drift_weight = _number("drift-weight", cfg["drift_weight"])
-        self.roll_weight = _number("roll-weight", cfg["roll_weight"])
+        self.ori_weight = setting_number("ori-weight", cfg["ori_weight"])
+        self.drift_weight = setting_number("drift-weight", cfg["drift_weight"])
+        self.roll_weight = setting_number("roll-weight", cfg["roll_weight"])
         if n > 12:
             raise BhrError(f"the optimal solver searches 5^n codes; {n} modules is too many (at most 12), "
                            "use --solver thesis for long heads")
@@ -666,7 +660,7 @@ class Optimal(Solver):
                         np.ascontiguousarray(nxt.axes[1]))
         t = np.asarray(target, dtype=np.float64)
         err = float(np.linalg.norm(P[-1] - t))
-        ang = None if orientation is None else float(_tip_angle(P, np.asarray(orientation, dtype=np.float64)))
+        ang = None if orientation is None else float(tip_angle(P, np.asarray(orientation, dtype=np.float64)))
         return SolveResult(out, int(layers), err, ang, [int(c) for c in codes],
                            {"cost": float(cost), "tilts_deg": [float(v) for v in tilts]})
 
@@ -685,7 +679,7 @@ class Optimal(Solver):
         pts, frames = forward_kinematics(r.replace(modules=n), codes, chain.points[0], frame)
         axes = np.stack([pts[:-1] + frames[:, 0], pts[:-1] + frames[:, 1]])
         err = float(np.linalg.norm(pts[-1] - t))
-        ang = None if orientation is None else float(_tip_angle(pts, np.asarray(orientation, dtype=np.float64)))
+        ang = None if orientation is None else float(tip_angle(pts, np.asarray(orientation, dtype=np.float64)))
         return SolveResult(Chain(pts, axes), 1, err, ang, codes,
                            {"cost": cost, "tilts_deg": [0.0 if c == 0 else float(r.alpha) for c in codes]})
 
