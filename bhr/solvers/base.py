@@ -226,15 +226,14 @@ class Solver(ABC):
             result.reason = (f"within tolerance: {result.position_error_mm:.4g} mm (tolerance {r.tol_pos:g} mm)"
                              f"{aimed} after {result.iterations} iterations")
             return result
-        reach = r.modules * (r.module_length + max(r.lift, 0.0))
-        far = None
-        if start is not None and target is not None:
+        if start is not None and target is not None and not pos_ok:
+            reach = float(np.linalg.norm(np.diff(start.points, axis=0), axis=1).sum())  # the chain, straight
             far = float(np.linalg.norm(np.asarray(target, dtype=np.float64) - start.points[0]))
-        if far is not None and far > reach and not pos_ok:
-            result.status = "out of reach"
-            result.reason = (f"the target is {far:.4g} mm from the base but the robot is at most {reach:.4g} mm long; "
-                             f"the tip stops {result.position_error_mm:.4g} mm short")
-            return result
+            if far > reach + 1e-9:
+                result.status = "out of reach"
+                result.reason = (f"the target is {far:.4g} mm from the base but the chain is {reach:.4g} mm long; "
+                                 f"the tip stops {result.position_error_mm:.4g} mm short")
+                return result
         result.status = "not reached"
         parts = []
         if not pos_ok:
