@@ -307,7 +307,16 @@ def load_trajectory(name_or_path: str | os.PathLike[str], feed: float = 2.0, **p
     """
     if not (isinstance(feed, (int, float)) and math.isfinite(feed) and feed > 0):
         raise BhrError(f"feed must be a positive number of mm, got {feed!r}")
-    key = str(name_or_path)
+    end = params.pop("lumen_end", None)
+    if end is not None and end not in ("closed", "open"):
+        raise BhrError(f"lumen_end must be closed or open, got {end!r}")
+    traj = _load(str(name_or_path), feed, params)
+    if end is not None:
+        traj.lumen_end = str(end)
+    return traj
+
+
+def _load(key: str, feed: float, params: dict[str, Any]) -> Trajectory:
     if key in GENERATORS:
         path = _builtin_file(key)
         if path is None:  # the data file is missing: fall back to the generator's defaults

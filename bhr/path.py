@@ -30,6 +30,9 @@ class Trajectory:
     source: str = ""
     start_direction: tuple[float, ...] = (1.0, 0.0, 0.0)  # x, y, z
     start_point: tuple[float, ...] = (0.0, 0.0, 0.0)
+    #: How the lumen ends past the last point: "closed" (a blind end, as the cecum: past it is wall) or "open"
+    #: (it goes on straight). The entrance (the first point) is always open: the robot comes in there.
+    lumen_end: str = "closed"
 
     @property
     def planar(self) -> bool:

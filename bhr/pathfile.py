@@ -22,6 +22,7 @@ every step of the robot (which advances exactly one feed) has a target.
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable
@@ -39,7 +40,10 @@ __all__ = ["segments_trajectory", "csv_trajectory", "resample_polyline", "estima
 #: Half-width (mm of arc length) of the window over which CSV curvature is fitted.
 CURVATURE_WINDOW_MM = 15.0
 
-TOP_KEYS = ("name", "description", "start", "heading", "up", "lumen", "segment")
+TOP_KEYS = ("name", "description", "start", "heading", "up", "lumen", "lumen_end", "segment")
+#: How a lumen may end past its last point (docs/trajectories.md): a blind end (the default) or open.
+LUMEN_ENDS = ("closed", "open")
+_END_LINE = re.compile(r"^#\s*lumen_end\s*[=:]\s*\"?([A-Za-z]+)\"?\s*$")
 SEGMENT_KEYS = {
     "straight": ("type", "length", "roll", "lumen"),
     "arc": ("type", "radius", "angle", "turn", "roll", "lumen"),
@@ -207,8 +211,9 @@ def segments_trajectory(data: dict[str, Any], path: Path, feed: float):
     pieces, _ = _build_pieces(segs, start, heading, up, default_lumen, where)
     pts, lumen = _sample(pieces, feed, where)
     params = {"segments": len(pieces), "length": float(sum(pc.length for pc in pieces))}
+    end = choice(data.get("lumen_end", "closed"), f"{where}: lumen_end", LUMEN_ENDS)
     return Trajectory(name, pts, params, min(pc.radius for pc in pieces), lumen, where,
-                      tuple(float(v) for v in heading), tuple(float(v) for v in start))
+                      tuple(float(v) for v in heading), tuple(float(v) for v in start), lumen_end=end)
 
 
 # --- CSV point lists ---------------------------------------------------------------------------------------------
@@ -473,5 +478,19 @@ def csv_trajectory(path: Path, feed: float):
     heading = tuple(float(v) for v in d0 / np.linalg.norm(d0))
     params = {"points_in_file": int(raw.shape[0]), "length": length}
     return Trajectory(path.stem, pts, params, estimate_min_radius(pts, feed), lumen, where, heading,
-                      tuple(float(v) for v in pts[0]))
+                      tuple(float(v) for v in pts[0]), lumen_end=csv_lumen_end(path))
+
+
+def csv_lumen_end(path: Path) -> str:
+    """How a CSV centerline's lumen ends: ``closed`` unless a comment line says ``# lumen_end: open``."""
+    end = "closed"
+    for no, raw in enumerate(read_text(path, "trajectory CSV", HINT_CSV).splitlines(), start=1):
+        line = raw.strip()
+        if line.startswith("#") and "lumen_end" in line:
+            m = _END_LINE.match(line)
+            if m is None or m.group(1).lower() not in LUMEN_ENDS:
+                raise BhrError(f"{path}, line {no}: write the lumen's end as '# lumen_end: closed' or "
+                               "'# lumen_end: open'")
+            end = m.group(1).lower()
+    return end
 
