@@ -66,6 +66,8 @@ SAMPLE_MM = 1.0
 #: Golden-section iterations refining the worst sample of a module.
 REFINE_ITERS = 20
 _GOLD = (math.sqrt(5.0) - 1.0) / 2.0
+#: The whole centerline is searched for a nearer stretch when a point's local clearance is at most this (mm).
+GLOBAL_BELOW = 0.0
 #: Segments of centerline per block of the global search (each block is bounded by a sphere).
 BLOCK = 16
 #: Two stretches of centerline are different passes of a loop when the centerline between their nearest points
@@ -330,7 +332,9 @@ def locate_kernel(C, R, S, BC, BR, radius, lo, hi, ze, px, py, pz, out):
     r = R[bk] + bt * (R[bk + 1] - R[bk])
     pos = bk + bt
     flag = 0.0
-    gb, gk, gt = global_scan(C, BC, BR, px, py, pz, best)
+    gk = -1
+    if r - radius - d <= GLOBAL_BELOW:
+        gb, gk, gt = global_scan(C, BC, BR, px, py, pz, best)
     if gk >= 0:
         dg = math.sqrt(gb)
         rg = R[gk] + gt * (R[gk + 1] - R[gk])
@@ -595,7 +599,7 @@ def locate_numpy(tube: Tube, radius: float, p: np.ndarray, centre: float, expect
                                                      + np.linalg.norm(p - b[2]))
 
     gb, gk, gt = _scan_numpy(C, 0, M - 1, p)  # is some other stretch nearer?
-    if gb < best:
+    if r - radius - d <= GLOBAL_BELOW and gb < best:
         dg = math.sqrt(gb)
         rg, sg, cg = at(gk, gt)
         e = min(max(centre if expected is None else expected, 0.0), M - 1.0)
