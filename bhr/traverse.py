@@ -50,14 +50,14 @@ __all__ = ["Study", "StudyResult", "parse_colons", "build_study", "run_study", "
            "write_study", "format_study", "DESIGN_COLUMNS", "RUN_COLUMNS", "LUMEN_KEYS"]
 
 #: Summary keys a study keeps from every run (the ones a run does not report stay empty).
-LUMEN_KEYS = ("max_penetration_mm", "wall_touch_steps", "contact_length_mm")
+LUMEN_KEYS = ("max_penetration_mm", "wall_touch_steps", "contact_length_mm", "left_lumen_step", "left_lumen_reason")
 #: Columns of designs.csv after the design's own keys.
 DESIGN_COLUMNS = ("colons", "traversed", "pass_rate", "failed_runs", "worst_penetration_mm", "median_penetration_mm",
                   "worst_clearance_mm", "median_contact_length_mm", "worst_contact_length_mm", "median_touch_steps",
-                  "worst_colon", "min_turn_radius_mm")
+                  "worst_colon", "min_turn_radius_mm", "left_lumen")
 #: Columns of runs.csv after the design's keys and the seed.
 RUN_COLUMNS = ("status", "steps", "traversed", "max_penetration_mm", "touch_steps", "contact_length_mm",
-               "min_clearance_mm", "points_max_error_mm", "tip_max_error_mm")
+               "min_clearance_mm", "points_max_error_mm", "tip_max_error_mm", "left_lumen_step", "failure")
 _MAX_COLONS = 100_000
 _RANGE = re.compile(r"^\s*(\d+)\s*(?:-\s*(\d+))?\s*$")
 
@@ -177,13 +177,16 @@ def _run_row(row: dict[str, Any], keys: Sequence[str]) -> dict[str, Any]:
     out.update({
         "status": row["status"],
         "steps": row.get("steps"),
-        "traversed": bool(ok and touches is not None and len(touches) == 0),
+        "traversed": bool(ok and touches is not None and len(touches) == 0 and row.get("left_lumen_step") is None),
         "max_penetration_mm": _penetration(row) if ok else None,
         "touch_steps": len(touches) if (ok and touches is not None) else None,
         "contact_length_mm": _contact(row) if ok else None,
         "min_clearance_mm": row.get("min_clearance_mm"),
         "points_max_error_mm": row.get("points_max_error_mm"),
         "tip_max_error_mm": row.get("tip_max_error_mm"),
+        # a colon fails when the run fails or the robot left the lumen (bhr.clearance.left_lumen): the reason
+        "left_lumen_step": row.get("left_lumen_step") if ok else None,
+        "failure": (row.get("left_lumen_reason") or "") if ok else str(row["status"]),
     })
     return out
 
@@ -219,6 +222,7 @@ def design_rows(study: Study, runs: Sequence[dict[str, Any]], min_turn: dict[tup
             "median_touch_steps": statistics.median(touch) if touch else None,
             "worst_colon": worst[1] if worst else None,
             "min_turn_radius_mm": min_turn.get(combo),
+            "left_lumen": sum(1 for r in rows if r.get("left_lumen_step") is not None),
         })
         out.append(d)
     return out
@@ -428,14 +432,15 @@ def format_study(result: StudyResult, count: int = 8) -> list[str]:
     keys = study.design_keys
     head = "  ".join(f"{k:>13}" for k in keys)
     lines.append(f"{'#':>5}  {head}  {'traversed':>10}  {'worst pen':>9}  {'median pen':>10}  {'worst clear':>11}  "
-                 f"{'median contact':>14}")
+                 f"{'median contact':>14}  {'left lumen':>10}")
     for d in sorted(result.designs, key=_rank)[:count]:
         vals = "  ".join(f"{_label(d[k]):>13}" for k in keys)
         wp = "-" if d["worst_penetration_mm"] is None else f"{d['worst_penetration_mm']:.2f}"
         mp = "-" if d["median_penetration_mm"] is None else f"{d['median_penetration_mm']:.2f}"
         mc = "-" if d["median_contact_length_mm"] is None else f"{d['median_contact_length_mm']:.1f}"
         wc = "-" if d["worst_clearance_mm"] is None else f"{d['worst_clearance_mm']:.2f}"
-        lines.append(f"{d['design']:>5}  {vals}  {100 * d['pass_rate']:>9.0f}%  {wp:>9}  {mp:>10}  {wc:>11}  {mc:>14}")
+        lines.append(f"{d['design']:>5}  {vals}  {100 * d['pass_rate']:>9.0f}%  {wp:>9}  {mp:>10}  {wc:>11}  {mc:>14}  "
+                     f"{d['left_lumen']:>10}")
     lines.append(answer_line(result))
     return lines
 
