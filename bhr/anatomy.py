@@ -34,8 +34,8 @@ import numpy as np
 from bhr.errors import BhrError
 from bhr.pathfile import _rotate, _unit
 
-__all__ = ["SECTIONS", "RANGES", "SEED_MAX", "SHIPPED", "Colon", "anatomical_colon", "check_seed",
-           "anatomy_csv_text"]
+__all__ = ["SECTIONS", "RANGES", "SEED_MAX", "SHIPPED", "POPULATION", "SHARES", "LENGTH_LIMITS", "Colon",
+           "anatomical_colon", "check_seed", "anatomy_csv_text", "acute_flexures", "bend_radii"]
 
 #: Sections of an anatomical colon, from the anus to the cecum.
 SECTIONS = ("rectum", "sigmoid", "descending", "splenic flexure", "transverse", "hepatic flexure", "ascending",
@@ -47,13 +47,6 @@ SEED_MAX = 2**32 - 1
 #: Ranges every colon is drawn from (uniformly), low and high. Lengths and radii in mm, angles in degrees.
 #: docs/anatomy.md gives the source of each figure.
 RANGES: dict[str, tuple[float, float]] = {
-    # centerline length of each section (for the flexures: arc length = radius x angle, not drawn directly)
-    "length.rectum": (120.0, 160.0),
-    "length.sigmoid": (230.0, 420.0),
-    "length.descending": (150.0, 250.0),
-    "length.transverse": (400.0, 520.0),
-    "length.ascending": (150.0, 250.0),
-    "length.cecum": (60.0, 80.0),
     # inner (lumen) diameter of each section
     "lumen.rectum": (30.0, 45.0),
     "lumen.sigmoid": (24.0, 32.0),
