@@ -390,3 +390,16 @@ def test_an_open_end_from_the_option_or_the_file(tmp_path):
     bad.write_text("# lumen_end: ajar\n" + body)
     with pytest.raises(BhrError, match="lumen_end: closed"):
         load_trajectory(str(bad))
+
+
+def test_a_colon_the_robot_left_is_failed_by_traverse_with_its_reason():
+    from bhr.traverse import build_study, run_study
+
+    res = run_study(build_study([("alpha", (10,))], "3-4", solvers=("seed",)), jobs=1)
+    for r in res.runs:
+        s = follow(load_trajectory("anatomy", seed=r["seed"], feed=2.0), solver="seed").summary.to_dict()
+        assert r["left_lumen_step"] == s["left_lumen_step"]
+        assert r["failure"] == (s["left_lumen_reason"] or "")
+        if r["left_lumen_step"] is not None:
+            assert not r["traversed"] and r["failure"].startswith("left the lumen at step")
+    assert res.designs[0]["left_lumen"] == sum(r["left_lumen_step"] is not None for r in res.runs) >= 1
