@@ -88,6 +88,8 @@ def body_clearance_lines(s: dict) -> list[str]:
         touch = s["wall_touch_steps"]
         out.append(f"Wall touched at {len(touch)} step{'s' if len(touch) != 1 else ''}"
                    + (f": {step_ranges(touch)}." if touch else "."))
+        if s.get("left_lumen_reason"):
+            out.append(f"The robot {s['left_lumen_reason']}.")
     return out
 
 

@@ -2,11 +2,13 @@
 from __future__ import annotations
 
 import json
+import math
 
 import numpy as np
 import pytest
 
 from bhr.run.clearance import clearance_table, step_ranges
+from bhr.settings.errors import BhrError
 from bhr.run.driver import follow
 from bhr.model.generators import COLON_SECTIONS, colon, load_trajectory
 
@@ -258,3 +260,146 @@ def test_a_lumen_narrower_than_the_robot_is_warned_about(tmp_path):
         if warned:
             assert "narrowest 8.00 mm" in said[0] and "(10 mm across)" in said[0]
             assert run.summary.to_dict()["min_clearance_mm"] < 0  # and the clearance shows the contact
+
+
+# --- a blind end, a search that recovers, leaving the lumen ---------------------------------------------------
+
+from bhr.run.clearance import brute_force_clearance, clearance_run_all  # noqa: E402
+
+
+@settings(max_examples=30, deadline=None)
+@given(direction=unit3, past=st.floats(0.0, 300.0), side=st.floats(0.0, 10.0))
+def test_the_lumen_ends_in_a_cap_where_the_centerline_ends(direction, past, side):
+    """A robot running up to 300 mm ahead of the end of a closed lumen is in the wall; open, it is not."""
+    path, lumen, d = _straight_tube(direction, 30.0, count=100)
+    a = np.cross(d, [0.0, 0.0, 1.0]) if abs(d[2]) < 0.9 else np.cross(d, [1.0, 0.0, 0.0])
+    a /= np.linalg.norm(a)
+    N = 40
+    E = np.linspace(60.0, 99.0, N)[:, None]  # expected along the path, the last at its end
+    lead = np.linspace(0.0, past, N)[:, None]  # ahead of schedule, up to `past` mm beyond the end at the last step
+    Q = (path[0] + (2.0 * E + lead)[..., None] * d + side * a)
+    closed = make_tube(path, lumen, d, closed_end=True)
+    pt, _, _ = clearance_run(closed, 5.0, Q, E)
+    assert np.allclose(pt[:, 0], brute_force_clearance(path, lumen, 5.0, Q[:, 0]), atol=1e-9)
+    beyond = 2.0 * E[-1, 0] + past - 2.0 * 99
+    assert pt[-1, 0] == pytest.approx(15.0 - 5.0 - math.hypot(beyond, side), abs=1e-6)
+    opened, _, _ = clearance_run(make_tube(path, lumen, d), 5.0, Q, E)
+    near = (2.0 * E + lead)[:, 0] - 2.0 * 99 <= 40.0  # an open end goes on straight for the search window (40 mm)
+    assert np.allclose(opened[near], 15.0 - 5.0 - side, atol=1e-9)
+
+
+def _helix(turns=3.0, radius=60.0, pitch=80.0, spacing=1.0):
+    L = turns * math.hypot(2 * math.pi * radius, pitch)
+    s = np.arange(0.0, L, spacing)
+    t = s / L * turns * 2 * math.pi
+    return np.stack([radius * np.cos(t), radius * np.sin(t), pitch * t / (2 * math.pi)], axis=1)
+
+
+@settings(max_examples=25, deadline=None)
+@given(stray=st.floats(-50.0, 50.0), off=st.tuples(*[st.floats(-12.0, 12.0)] * 3), at=st.integers(100, 900))
+def test_a_point_strayed_50_mm_from_where_it_is_expected_is_found(stray, off, at):
+    """Expected `stray` mm of arc from where it is (and off the centerline): the same as the brute-force check."""
+    path = _helix()
+    lumen = np.full(len(path), 30.0)
+    tube = make_tube(path, lumen, closed_end=True)
+    N = 30
+    E = (at + np.arange(N, dtype=float))[:, None]
+    Q = path[(E[:, 0] + np.round(stray * np.linspace(0, 1, N))).astype(int)] + np.asarray(off)
+    pt, _, _ = clearance_run(tube, 5.0, Q[:, None, :], E)
+    assert np.allclose(pt[:, 0], brute_force_clearance(path, lumen, 5.0, Q), atol=1e-9)
+
+
+@settings(max_examples=25, deadline=None)
+@given(toward=st.floats(0.0, 14.9), along=st.floats(20.0, 280.0))
+def test_two_loops_5_mm_apart_are_kept_apart(toward, along):
+    """A U-turn whose limbs' walls are 5 mm apart (centerlines 35 mm): a point in the outgoing limb's lumen, however
+    close to the other limb, is scored on its own limb, and touching it does not make it jump."""
+    out = np.stack([np.arange(0, 300, 1.0), np.zeros(300), np.zeros(300)], axis=1)
+    t = np.linspace(0, np.pi, 57)[1:-1]
+    turn = np.stack([299 + 17.5 * np.sin(t), 17.5 - 17.5 * np.cos(t), np.zeros_like(t)], axis=1)
+    back = np.stack([np.arange(299, -1, -1.0), np.full(300, 35.0), np.zeros(300)], axis=1)
+    path = np.vstack([out, turn, back])
+    tube = make_tube(path, np.full(len(path), 30.0), closed_end=True)
+    p = np.array([[[along, toward, 0.0]]])
+    pt, _, _, lost = clearance_run_all(tube, 5.0, p, np.array([[along]]))
+    assert pt[0, 0] == pytest.approx(15 - 5 - toward, abs=1e-9)
+    assert not lost[0]
+
+
+def test_a_body_that_strays_agrees_with_the_brute_force_check_and_the_reference():
+    """A 40-module body behind the thesis robot on a tight colon, its end closed: bhr's minimum is the brute-force
+    minimum (within 0.5 mm), and the kernel is its numpy reference."""
+    from bhr.bench.lumen import tight_colon
+
+    tr = tight_colon(4)
+    r = follow(tr, solver="seed", body_modules=40)
+    tube = make_tube(tr.points, tr.lumen, tr.start_direction, closed_end=True)
+    Q, E, B = run_chain(r)
+    sl = slice(0, 60)
+    fast = clearance_run_all(tube, 5.0, Q[sl], E[sl])
+    lost = np.zeros(60, dtype=bool)
+    ref = clearance_run_numpy(tube, 5.0, Q[sl], E[sl], lost=lost)
+    for a, b, tol in zip(fast[:3], ref, (1e-12, 1e-7, 1e-4)):
+        assert np.array_equal(np.isnan(a), np.isnan(b))
+        assert np.nanmax(np.abs(a - b)) <= tol
+    assert np.array_equal(fast[3], lost)
+    rep = r.clearance
+    i = rep.min_step - 1
+    ok = E[i] >= 0
+    pts = [Q[i][ok]] + [Q[i, m] + np.linspace(0, 1, 41)[:, None] * (Q[i, m + 1] - Q[i, m])
+                        for m in range(Q.shape[1] - 1) if E[i, m] >= 0 and E[i, m + 1] >= 0]
+    brute = brute_force_clearance(tr.points, tr.lumen, 5.0, np.vstack(pts)).min()
+    assert abs(brute - rep.min_mm) <= 0.5
+
+
+def test_leaving_the_lumen_is_a_verdict(tmp_path, run_bhr):
+    """A lumen narrower than the robot: the summary says in words that it left the lumen, and at which step."""
+    x = np.arange(0.0, 120.0, 1.0)
+    lumen = np.full(len(x), 30.0)
+    lumen[40:] = 4.0
+    p = tmp_path / "narrow.csv"
+    p.write_text("x,y,z,lumen\n" + "".join(f"{v},{0.002 * v * v},0,{d}\n" for v, d in zip(x, lumen)))
+    from bhr.model.generators import load_trajectory
+
+    run = follow(load_trajectory(str(p)), solver="thesis")
+    s = run.summary.to_dict()
+    assert s["left_lumen_step"] is not None and s["left_lumen_step"] >= 1
+    assert s["left_lumen_reason"].startswith(f"left the lumen at step {s['left_lumen_step']}")
+    assert s["max_penetration_mm"] > 5.0
+    wide = tmp_path / "wide.csv"
+    wide.write_text("x,y,z,lumen\n" + "".join(f"{v},0,0,30\n" for v in x))
+    assert follow(load_trajectory(str(wide)), solver="thesis").summary.to_dict()["left_lumen_step"] is None
+    out = run_bhr("follow", "--traj", str(p), "--no-plots", "--json", str(tmp_path / "run.json"))
+    assert out.returncode == 0, out.stderr
+    assert f"The robot left the lumen at step {s['left_lumen_step']}" in out.stdout
+
+
+def test_an_open_end_from_the_option_or_the_file(tmp_path):
+    from bhr.model.generators import load_trajectory
+
+    x = np.arange(0.0, 60.0, 1.0)
+    body = "x,y,z,lumen\n" + "".join(f"{v},0,0,30\n" for v in x)
+    p = tmp_path / "c.csv"
+    p.write_text(body)
+    assert load_trajectory(str(p)).lumen_end == "closed"
+    assert load_trajectory(str(p), lumen_end="open").lumen_end == "open"
+    q = tmp_path / "o.csv"
+    q.write_text("# lumen_end: open\n" + body)
+    assert load_trajectory(str(q)).lumen_end == "open"
+    bad = tmp_path / "b.csv"
+    bad.write_text("# lumen_end: ajar\n" + body)
+    with pytest.raises(BhrError, match="lumen_end: closed"):
+        load_trajectory(str(bad))
+
+
+def test_a_colon_the_robot_left_is_failed_by_traverse_with_its_reason():
+    from bhr.studies.traverse import build_study, run_study
+
+    res = run_study(build_study([("alpha", (10,))], "3-4", solvers=("seed",)), jobs=1)
+    for r in res.runs:
+        s = follow(load_trajectory("anatomy", seed=r["seed"], feed=2.0), solver="seed").summary.to_dict()
+        assert r["left_lumen_step"] == s["left_lumen_step"]
+        assert r["failure"] == (s["left_lumen_reason"] or "")
+        if r["left_lumen_step"] is not None:
+            assert not r["traversed"] and r["failure"].startswith("left the lumen at step")
+    assert res.designs[0]["left_lumen"] == sum(r["left_lumen_step"] is not None for r in res.runs) >= 1

@@ -32,10 +32,10 @@ from typing import Any
 import numpy as np
 
 from bhr.settings.errors import BhrError
-from bhr.model.pathfile import _rotate, _unit
+from bhr.model.pathfile import rotate_about, unit_vector
 
-__all__ = ["SECTIONS", "RANGES", "SEED_MAX", "SHIPPED", "Colon", "anatomical_colon", "check_seed",
-           "anatomy_csv_text"]
+__all__ = ["SECTIONS", "RANGES", "SEED_MAX", "SHIPPED", "POPULATION", "SHARES", "LENGTH_LIMITS", "Colon",
+           "anatomical_colon", "check_seed", "anatomy_csv_text", "acute_flexures", "bend_radii"]
 
 #: Sections of an anatomical colon, from the anus to the cecum.
 SECTIONS = ("rectum", "sigmoid", "descending", "splenic flexure", "transverse", "hepatic flexure", "ascending",
@@ -47,13 +47,6 @@ SEED_MAX = 2**32 - 1
 #: Ranges every colon is drawn from (uniformly), low and high. Lengths and radii in mm, angles in degrees.
 #: docs/anatomy.md gives the source of each figure.
 RANGES: dict[str, tuple[float, float]] = {
-    # centerline length of each section (for the flexures: arc length = radius x angle, not drawn directly)
-    "length.rectum": (120.0, 160.0),
-    "length.sigmoid": (230.0, 420.0),
-    "length.descending": (150.0, 250.0),
-    "length.transverse": (400.0, 520.0),
-    "length.ascending": (150.0, 250.0),
-    "length.cecum": (60.0, 80.0),
     # inner (lumen) diameter of each section
     "lumen.rectum": (30.0, 45.0),
     "lumen.sigmoid": (24.0, 32.0),
@@ -83,8 +76,25 @@ RANGES: dict[str, tuple[float, float]] = {
     "angle.fold": (90.0, 140.0),
     "radius.fold": (10.0, 25.0),
 }
-#: Fold pairs per section (sigmoid, transverse): a whole number drawn from this range, ends included.
-FOLD_PAIRS = (1, 3)
+#: Fold pairs per section: a whole number drawn from this range, ends included.
+FOLD_PAIRS = {"sigmoid": (1, 3), "transverse": (1, 4)}
+#: The CT population the whole length is drawn from: mean and standard deviation (mm), Khashab et al. 2009
+#: (505 adults; women 193.3 cm, men 185.4 cm; the study's pooled SD is used for both).
+POPULATION = {"any": (1895.0, 263.0), "female": (1933.0, 263.0), "male": (1854.0, 263.0)}
+#: The drawn length is clipped to this (mm): about 3 standard deviations either side.
+LENGTH_LIMITS = (1100.0, 2700.0)
+#: Each section's share of the whole length (the flexures' arcs aside) and its spread (sigma of a log-normal
+#: factor): the sigmoid carries most of the variability of colon length (docs/anatomy.md).
+SHARES = {"rectum": (0.095, 0.12), "sigmoid": (0.25, 0.30), "descending": (0.13, 0.15), "transverse": (0.33, 0.18),
+          "ascending": (0.13, 0.15), "cecum": (0.045, 0.12)}
+#: Control points of the spline: one every CONTROL_MM of the course, each moved by a normal offset of
+#: JITTER_MM (standard deviation, per axis).
+CONTROL_MM = 25.0
+JITTER_MM = 1.4
+#: Spacing (mm) of the dense samples used for arc length and curvature.
+DENSE_MM = 0.25
+#: How far (mm) either side of a point the headings are compared when acute flexures are counted.
+FLEXURE_REACH_MM = 25.0
 #: Straight between the two bends of a fold (mm).
 FOLD_GAP = (15.0, 40.0)
 
@@ -111,30 +121,126 @@ def check_seed(seed: Any, where: str = "anatomy") -> int:
     return int(v)
 
 
+class _Smooth:
+    """The centerline: a cubic spline through jittered control points along a course of straights and arcs."""
+
+    def __init__(self, pieces: list, jitter_seed: int) -> None:
+        from scipy.interpolate import make_interp_spline
+
+        lengths = np.array([p[1] for p in pieces])
+        course_len = float(lengths.sum())
+        n = max(int(math.ceil(course_len / CONTROL_MM)), 4)
+        sc = np.linspace(0.0, course_len, n + 1)  # course arc length of each control point
+        ctrl = _course_points(pieces, sc)
+        off = np.random.default_rng(jitter_seed).normal(0.0, JITTER_MM, size=ctrl.shape)
+        off[0] = 0.0  # the anus stays at the origin
+        ctrl = ctrl + off
+        u = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(ctrl, axis=0), axis=1))])
+        t0 = pieces[0][4]
+        spline = make_interp_spline(u, ctrl, k=3, bc_type=([(1, t0)], [(2, np.zeros(3))]))
+        # dense samples, for arc length
+        m = int(math.ceil(u[-1] / DENSE_MM)) + 1
+        uu = np.linspace(0.0, u[-1], m)
+        dense = spline(uu)
+        arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(dense, axis=0), axis=1))])
+        self.spline, self.u, self.uu, self.arc, self.sc = spline, u, uu, arc, sc
+        self.length = float(arc[-1])
+
+    def arc_of(self, course_s: np.ndarray) -> np.ndarray:
+        """Arc length along the centerline of the points at ``course_s`` of the course (by control point)."""
+        return np.interp(np.interp(course_s, self.sc, self.u), self.uu, self.arc)
+
+    def at(self, s: np.ndarray) -> np.ndarray:
+        """Points at arc lengths ``s`` (mm from the anus)."""
+        return self.spline(np.interp(s, self.arc, self.uu))
+
+    def curvature(self, s: np.ndarray) -> np.ndarray:
+        """Curvature (1/mm) at arc lengths ``s``."""
+        u = np.interp(s, self.arc, self.uu)
+        d1, d2 = self.spline(u, 1), self.spline(u, 2)
+        sp = np.linalg.norm(d1, axis=1)
+        return np.linalg.norm(np.cross(d1, d2), axis=1) / sp ** 3
+
+
+def _course_points(pieces: list, s: np.ndarray) -> np.ndarray:
+    lengths = np.array([p[1] for p in pieces])
+    ends = np.cumsum(lengths)
+    idx = np.minimum(np.searchsorted(ends, s, side="right"), len(pieces) - 1)
+    local = s - (ends - lengths)[idx]
+    pts = np.empty((len(s), 3))
+    for k, (kind, length, r, p0, t0, d, _) in enumerate(pieces):
+        sel = idx == k
+        if not np.any(sel):
+            continue
+        u = np.minimum(local[sel], length)
+        if kind == "straight":
+            pts[sel] = p0 + u[:, None] * t0
+        else:
+            pts[sel] = p0 + (r * np.sin(u / r))[:, None] * t0 + (r * (1.0 - np.cos(u / r)))[:, None] * d
+    return pts
+
+
+def bend_radii(pts: np.ndarray, spacing: float, chord: float = 5.0) -> np.ndarray:
+    """Radius (mm) of the circle through each point and the points ``chord`` mm of arc before and after it.
+
+    ``pts`` are spaced ``spacing`` mm along the path; inf where the three are in line.
+    """
+    k = max(int(round(chord / spacing)), 1)
+    a, b, c = pts[:-2 * k], pts[k:-k], pts[2 * k:]
+    ab, bc, ca = (np.linalg.norm(b - a, axis=1), np.linalg.norm(c - b, axis=1), np.linalg.norm(a - c, axis=1))
+    area2 = np.linalg.norm(np.cross(b - a, c - a), axis=1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(area2 > 1e-12, ab * bc * ca / (2.0 * area2), np.inf)
+
+
+def acute_flexures(pts: np.ndarray, spacing: float, reach: float = FLEXURE_REACH_MM) -> int:
+    """Acute flexures of a path: the places where it turns by more than 90 deg within ``reach`` mm either side.
+
+    The heading ``reach`` mm before a point against the heading ``reach`` mm
+    after it: each stretch where they differ by more than 90 deg (the limbs
+    meet at an acute angle) is one flexure.
+    """
+    k = max(int(round(reach / spacing)), 1)
+    if len(pts) < 2 * k + 3:
+        return 0
+    v = np.diff(pts, axis=0)
+    v /= np.linalg.norm(v, axis=1)[:, None]
+    before, after = v[:-2 * k], v[2 * k:]
+    acute = np.sum(before * after, axis=1) < 0.0
+    return int(np.count_nonzero(acute[1:] & ~acute[:-1]) + int(acute[0]))
+
+
 @dataclass
 class Colon:
-    """One drawn colon: its pieces (straights and arcs) and what was drawn."""
+    """One drawn colon: its course (straights and arcs), its smooth centerline, and what was drawn."""
 
     seed: int
-    #: (kind, length mm, radius mm or inf, start point, start heading, bend direction or None, section)
+    #: the course: (kind, length mm, radius mm or inf, start point, start heading, bend direction or None, section)
     pieces: list[tuple[str, float, float, np.ndarray, np.ndarray, np.ndarray | None, str]]
-    section_lengths: dict[str, float]
+    section_lengths: dict[str, float]  # along the smooth centerline
     lumen_knots: tuple[np.ndarray, np.ndarray]  # (arc length mm, diameter mm)
-    bends: dict[str, tuple[float, float]]  # name -> (angle deg, radius mm)
+    bends: dict[str, tuple[float, float]]  # the course's bends: name -> (angle deg, radius mm)
     draws: dict[str, float] = field(default_factory=dict)
+    smooth: _Smooth | None = None
+    sex: str = "any"
 
     @property
     def length(self) -> float:
-        return float(sum(p[1] for p in self.pieces))
+        """Length of the centerline, anus to cecum (mm)."""
+        assert self.smooth is not None
+        return self.smooth.length
 
     @property
     def min_radius(self) -> float:
-        return min(r for _, r in self.bends.values())
+        """Smallest radius of curvature of the centerline (mm), from the spline's derivatives every 0.25 mm."""
+        assert self.smooth is not None
+        s = np.arange(0.0, self.length, DENSE_MM)
+        return float(1.0 / self.smooth.curvature(s).max())
 
     @property
     def acute_flexures(self) -> int:
-        """Bends that turn the heading by more than 90 deg (limbs meeting at an acute angle)."""
-        return sum(1 for kind, length, r, *_ in self.pieces if kind == "arc" and length / r > math.pi / 2 + 1e-12)
+        """Acute flexures of the centerline (:func:`acute_flexures`, points 1 mm apart)."""
+        return acute_flexures(self.sample(1.0)[0], 1.0)
 
     @property
     def start_heading(self) -> np.ndarray:
@@ -146,31 +252,33 @@ class Colon:
 
     def sample(self, feed: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Points every ``feed`` mm of arc length, the lumen diameter at each, and each one's section index."""
+        assert self.smooth is not None
         total = self.length
         count = int(math.floor(total / feed + 1e-9)) + 1
         s = np.arange(count, dtype=np.float64) * feed
-        lengths = np.array([p[1] for p in self.pieces])
-        ends = np.cumsum(lengths)
-        idx = np.minimum(np.searchsorted(ends, s, side="right"), len(self.pieces) - 1)
-        local = s - (ends - lengths)[idx]
-        pts = np.empty((count, 3))
-        for k, (kind, length, r, p0, t0, d, _) in enumerate(self.pieces):
-            sel = idx == k
-            if not np.any(sel):
-                continue
-            u = np.minimum(local[sel], length)
-            if kind == "straight":
-                pts[sel] = p0 + u[:, None] * t0
-            else:
-                pts[sel] = p0 + (r * np.sin(u / r))[:, None] * t0 + (r * (1.0 - np.cos(u / r)))[:, None] * d
+        pts = self.smooth.at(s)
+        pts[0] = 0.0
         lumen = np.interp(s, *self.lumen_knots)
         section = np.minimum(np.searchsorted(self.section_ends(), s, side="right"), len(SECTIONS) - 1)
         return pts, lumen, section
 
 
-def anatomical_colon(seed: int) -> Colon:
-    """Draw the colon of ``seed`` (a whole number 0 ... :data:`SEED_MAX`)."""
+def anatomical_colon(seed: int, sex: str = "any") -> Colon:
+    """Draw the colon of ``seed`` (a whole number 0 ... :data:`SEED_MAX`); ``sex``: any, female or male.
+
+    The total length is drawn from the CT population of :data:`POPULATION`
+    (normal, clipped to :data:`LENGTH_LIMITS`), shared out between the
+    sections by drawn shares (:data:`SHARES`); the course (straights and
+    arcs through the anatomical bends and redundant folds, :data:`RANGES`)
+    is built from it, and the centerline is the cubic spline through control
+    points every :data:`CONTROL_MM` along the course, each moved by a random
+    offset (:data:`JITTER_MM`): a smooth curve whose curvature varies
+    continuously. The course is rebuilt once so that the spline's length is
+    the drawn total.
+    """
     seed = check_seed(seed)
+    if sex not in POPULATION:
+        raise BhrError(f"anatomy: sex must be one of {', '.join(POPULATION)}, got {sex!r}")
     rng = np.random.default_rng(seed)
     draws: dict[str, float] = {}
 
@@ -181,160 +289,187 @@ def anatomical_colon(seed: int) -> Colon:
         return v
 
     # Everything is drawn up front, in a fixed order, so one seed always gives the same numbers.
-    seg_len = {s: draw(f"length.{s}") for s in ("rectum", "sigmoid", "descending", "transverse", "ascending", "cecum")}
-    lumen = {s: draw(f"lumen.{s}") for s in SECTIONS}
+    mean, sd = POPULATION[sex]
+    total = float(np.clip(mean + sd * rng.standard_normal(), *LENGTH_LIMITS))
+    draws["length"] = total
+    share = {s_: SHARES[s_][0] * math.exp(SHARES[s_][1] * float(rng.standard_normal())) for s_ in SHARES}
+    norm = sum(share.values())
+    share = {k: v / norm for k, v in share.items()}
+    lumen = {s_: draw(f"lumen.{s_}") for s_ in SECTIONS}
     bend_names = ("sacral", "rectosigmoid", "sigmoid apex", "sigmoid-descending", "splenic flexure",
                   "transverse sag", "hepatic flexure")
     # Bends that set the course turn exactly onto their (tilted) aim: their angle is what that takes; the
     # angle booked here is an upper bound, and what it does not use goes to the straight after the bend.
     booked = {"sigmoid-descending": 180.0, "transverse sag": 120.0, "hepatic flexure": 180.0}
-    bends: dict[str, tuple[float, float]] = {
+    bends0: dict[str, tuple[float, float]] = {
         b: (booked[b] if b in booked else draw(f"angle.{b}"), draw(f"radius.{b}")) for b in bend_names}
     rolls = {b: math.radians(draw("roll")) for b in bend_names}
     aims = {}
     for b in ("sigmoid-descending", "hepatic flexure"):
-        a = _unit(np.array(_AIM[b]))
-        axis = _rotate(_unit(np.cross(a, np.array([1.0, 0.0, 0.0]))), a, float(rng.uniform(0, 2 * math.pi)))
-        aims[b] = _rotate(a, axis, math.radians(draw("tilt")))
+        a = unit_vector(np.array(_AIM[b]))
+        axis = rotate_about(unit_vector(np.cross(a, np.array([1.0, 0.0, 0.0]))), a, float(rng.uniform(0, 2 * math.pi)))
+        aims[b] = rotate_about(a, axis, math.radians(draw("tilt")))
     rise = math.radians(draw("rise.transverse"))
     # Redundant folds (pairs of acute bends, the second undoing the first) in the sigmoid and transverse colon.
     folds: dict[str, list[str]] = {}
     for sec in ("sigmoid", "transverse"):
-        count = int(rng.integers(FOLD_PAIRS[0], FOLD_PAIRS[1] + 1))
+        count = int(rng.integers(FOLD_PAIRS[sec][0], FOLD_PAIRS[sec][1] + 1))
         draws[f"folds.{sec}"] = float(count)
         folds[sec] = []
         for k in range(count):
             name = f"{sec} fold {k + 1}"
-            bends[name] = (draw("angle.fold"), draw("radius.fold"))
+            bends0[name] = (draw("angle.fold"), draw("radius.fold"))
             rolls[name] = float(rng.uniform(0.0, 2.0 * math.pi))  # a fold may turn any way
             draws[f"gap.{name}"] = float(rng.uniform(*FOLD_GAP))
             folds[sec].append(name)
     # Where the anatomical bends and the folds sit inside each section: its straight length is shared out
     # between the gaps by weights drawn here.
-    layout = {"rectum": ["sacral"],
-              "sigmoid": ["rectosigmoid", "sigmoid apex", "sigmoid-descending"],
-              "transverse": ["transverse sag"]}
-    for sec, items in layout.items():
+    layout0 = {"rectum": ["sacral"],
+               "sigmoid": ["rectosigmoid", "sigmoid apex", "sigmoid-descending"],
+               "transverse": ["transverse sag"]}
+    for sec, items in layout0.items():
         for name in folds.get(sec, []):
             # sigmoid folds sit before its last bend, transverse folds before or after its sag
             items.insert(int(rng.integers(1, len(items))) if sec == "sigmoid" else int(rng.integers(0, 2)), name)
-    gaps = {sec: rng.uniform(0.5, 1.5, size=len(items) + 1) for sec, items in layout.items()}
+    gaps = {sec: rng.uniform(0.5, 1.5, size=len(items) + 1) for sec, items in layout0.items()}
+    jitter_seed = int(rng.integers(0, 2**63 - 1))
 
-    def arc_len(name: str) -> float:
-        return math.radians(bends[name][0]) * bends[name][1]
+    def build(seg_len: dict[str, float]):
+        bends = dict(bends0)
+        layout = {k: list(v) for k, v in layout0.items()}
+        fold_count = {sec: draws[f"folds.{sec}"] for sec in folds}
+        def arc_len(name: str) -> float:
+            return math.radians(bends[name][0]) * bends[name][1]
 
-    def fixed_len(sec: str) -> float:
-        """Length of a section taken by its bends and the straights inside its folds."""
-        total = 0.0
-        for b in layout[sec]:
-            total += 2 * arc_len(b) + draws[f"gap.{b}"] if "fold" in b else arc_len(b)
-        return total
-
-    # Bends and folds may take at most 85 % of a section's length: when a short section was drawn with
-    # many folds, tighten its bends (never below the smallest radius of their range), then drop folds.
-    for sec in layout:
-        budget = 0.85 * seg_len[sec]
-        used = fixed_len(sec)
-        if used > budget:
-            scale = budget / used
+        def fixed_len(sec: str) -> float:
+            """Length of a section taken by its bends and the straights inside its folds."""
+            total = 0.0
             for b in layout[sec]:
-                key = "radius.fold" if "fold" in b else f"radius.{b}"
-                bends[b] = (bends[b][0], max(RANGES[key][0], bends[b][1] * scale))
-        while fixed_len(sec) > budget and any("fold" in b for b in layout[sec]):
-            last = [b for b in layout[sec] if "fold" in b][-1]
-            layout[sec].remove(last)
-            del bends[last]
-            draws[f"folds.{sec}"] -= 1
-        if fixed_len(sec) > seg_len[sec]:  # pragma: no cover - the ranges make this impossible
-            raise BhrError(f"anatomy seed {seed}: the {sec}'s bends are longer than the section")
+                total += 2 * arc_len(b) + draws[f"gap.{b}"] if "fold" in b else arc_len(b)
+            return total
 
-    pieces: list[tuple[str, float, float, np.ndarray, np.ndarray, np.ndarray | None, str]] = []
-    state: dict[str, Any] = {"p": np.zeros(3), "t": _unit(np.array(_START_HEADING)), "d": None, "slack": 0.0}
+        # Bends and folds may take at most 85 % of a section's length: when a short section was drawn with
+        # many folds, tighten its bends (never below the smallest radius of their range), then drop folds.
+        for sec in layout:
+            budget = 0.85 * seg_len[sec]
+            used = fixed_len(sec)
+            if used > budget:
+                scale = budget / used
+                for b in layout[sec]:
+                    key = "radius.fold" if "fold" in b else f"radius.{b}"
+                    bends[b] = (bends[b][0], max(RANGES[key][0], bends[b][1] * scale))
+            while fixed_len(sec) > budget and any("fold" in b for b in layout[sec]):
+                last = [b for b in layout[sec] if "fold" in b][-1]
+                layout[sec].remove(last)
+                del bends[last]
+                fold_count[sec] -= 1
+            if fixed_len(sec) > seg_len[sec]:  # pragma: no cover - the ranges make this impossible
+                raise BhrError(f"anatomy seed {seed}: the {sec}'s bends are longer than the section")
 
-    def straight(length: float, section: str) -> None:
-        length += state["slack"]
-        state["slack"] = 0.0
-        if length <= 0:
-            return
-        p, t = state["p"], state["t"]
-        pieces.append(("straight", length, math.inf, p.copy(), t.copy(), None, section))
-        state["p"] = p + length * t
+        pieces: list[tuple[str, float, float, np.ndarray, np.ndarray, np.ndarray | None, str]] = []
+        state: dict[str, Any] = {"p": np.zeros(3), "t": unit_vector(np.array(_START_HEADING)), "d": None, "slack": 0.0}
 
-    def bend(name: str, section: str, d: np.ndarray | None = None) -> None:
-        ang_deg, r = bends[name]
-        theta = math.radians(ang_deg)
-        p, t = state["p"], state["t"]
-        if name in booked:
-            if name == "transverse sag":  # level out and climb at the drawn angle, same horizontal course
-                h = np.array([t[0], t[1], 0.0])
-                aim = _unit(_unit(h) * math.cos(rise) + np.array([0.0, 0.0, math.sin(rise)]))
-            else:
-                aim = aims[name]
-            actual = math.acos(max(-1.0, min(1.0, float(np.dot(aim, t)))))
-            d = aim - float(np.dot(aim, t)) * t
-            if name != "hepatic flexure":  # a section of its own: nothing to hand on
-                state["slack"] += r * (theta - actual)
-            theta = actual
-            bends[name] = (math.degrees(actual), r)
-        elif d is None:
-            if "fold" in name:
-                n = np.cross(t, np.array([0.0, 0.0, 1.0]))
-                if np.linalg.norm(n) < 1e-6:
-                    n = np.cross(t, np.array([1.0, 0.0, 0.0]))
-            else:
-                aim = _unit(np.array(_AIM[name]))
-                n = aim - float(np.dot(aim, t)) * t
-                if np.linalg.norm(n) < 1e-6:  # pragma: no cover - aims are never along the heading
-                    n = np.cross(t, np.array([1.0, 0.0, 0.0]))
-            d = _rotate(_unit(n), t, rolls[name])  # the bend's plane, turned about the heading
-        d = _unit(d - float(np.dot(d, t)) * t)
-        length = r * theta
-        pieces.append(("arc", length, r, p.copy(), t.copy(), d.copy(), section))
-        state["p"] = p + r * math.sin(theta) * t + r * (1.0 - math.cos(theta)) * d
-        new_t = _unit(math.cos(theta) * t + math.sin(theta) * d)
-        state["d"] = _unit(math.cos(theta) * d - math.sin(theta) * t)  # where the bend was pulling, at its end
-        state["t"] = new_t
+        def straight(length: float, section: str) -> None:
+            length += state["slack"]
+            state["slack"] = 0.0
+            if length <= 0:
+                return
+            p, t = state["p"], state["t"]
+            pieces.append(("straight", length, math.inf, p.copy(), t.copy(), None, section))
+            state["p"] = p + length * t
 
-    def section(sec: str) -> None:
-        items = layout[sec]
-        free = seg_len[sec] - fixed_len(sec)
-        g = gaps[sec][:len(items) + 1]
-        w = g / g.sum()
-        for k, name in enumerate(items):
-            straight(w[k] * free, sec)
-            if "fold" in name:
-                bend(name, sec)
-                straight(draws[f"gap.{name}"], sec)
-                bend(name, sec, d=-state["d"])  # the same bend back: the heading is restored
-            else:
-                bend(name, sec)
-        straight(w[-1] * free, sec)
+        def bend(name: str, section: str, d: np.ndarray | None = None) -> None:
+            ang_deg, r = bends[name]
+            theta = math.radians(ang_deg)
+            p, t = state["p"], state["t"]
+            if name in booked:
+                if name == "transverse sag":  # level out and climb at the drawn angle, same horizontal course
+                    h = np.array([t[0], t[1], 0.0])
+                    aim = unit_vector(unit_vector(h) * math.cos(rise) + np.array([0.0, 0.0, math.sin(rise)]))
+                else:
+                    aim = aims[name]
+                actual = math.acos(max(-1.0, min(1.0, float(np.dot(aim, t)))))
+                d = aim - float(np.dot(aim, t)) * t
+                if name != "hepatic flexure":  # a section of its own: nothing to hand on
+                    state["slack"] += r * (theta - actual)
+                theta = actual
+                bends[name] = (math.degrees(actual), r)
+            elif d is None:
+                if "fold" in name:
+                    n = np.cross(t, np.array([0.0, 0.0, 1.0]))
+                    if np.linalg.norm(n) < 1e-6:
+                        n = np.cross(t, np.array([1.0, 0.0, 0.0]))
+                else:
+                    aim = unit_vector(np.array(_AIM[name]))
+                    n = aim - float(np.dot(aim, t)) * t
+                    if np.linalg.norm(n) < 1e-6:  # pragma: no cover - aims are never along the heading
+                        n = np.cross(t, np.array([1.0, 0.0, 0.0]))
+                d = rotate_about(unit_vector(n), t, rolls[name])  # the bend's plane, turned about the heading
+            d = unit_vector(d - float(np.dot(d, t)) * t)
+            length = r * theta
+            pieces.append(("arc", length, r, p.copy(), t.copy(), d.copy(), section))
+            state["p"] = p + r * math.sin(theta) * t + r * (1.0 - math.cos(theta)) * d
+            new_t = unit_vector(math.cos(theta) * t + math.sin(theta) * d)
+            # where the bend was pulling, at its end
+            state["d"] = unit_vector(math.cos(theta) * d - math.sin(theta) * t)
+            state["t"] = new_t
 
-    section("rectum")
-    section("sigmoid")
-    straight(seg_len["descending"], "descending")
-    bend("splenic flexure", "splenic flexure")
-    section("transverse")
-    bend("hepatic flexure", "hepatic flexure")
-    straight(seg_len["ascending"], "ascending")
-    straight(seg_len["cecum"], "cecum")
+        def section(sec: str) -> None:
+            items = layout[sec]
+            free = seg_len[sec] - fixed_len(sec)
+            g = gaps[sec][:len(items) + 1]
+            w = g / g.sum()
+            for k, name in enumerate(items):
+                straight(w[k] * free, sec)
+                if "fold" in name:
+                    bend(name, sec)
+                    straight(draws[f"gap.{name}"], sec)
+                    bend(name, sec, d=-state["d"])  # the same bend back: the heading is restored
+                else:
+                    bend(name, sec)
+            straight(w[-1] * free, sec)
 
-    section_lengths = {s: 0.0 for s in SECTIONS}
+        section("rectum")
+        section("sigmoid")
+        straight(seg_len["descending"], "descending")
+        bend("splenic flexure", "splenic flexure")
+        section("transverse")
+        bend("hepatic flexure", "hepatic flexure")
+        straight(seg_len["ascending"], "ascending")
+        straight(seg_len["cecum"], "cecum")
+
+        return pieces, bends, fold_count
+
+    def seg_lengths(scale: float) -> dict[str, float]:
+        return {k: v * total * scale for k, v in share.items()}
+
+    pieces, bends, fold_count = build(seg_lengths(1.0))
+    course_len = sum(p[1] for p in pieces)
+    smooth = _Smooth(pieces, jitter_seed)
+    # the spline is longer than its course by the factor rho; the flexures' arcs are not in the shares
+    rho = smooth.length / course_len
+    pieces, bends, fold_count = build(seg_lengths((total / rho - (course_len - total)) / total))
+    smooth = _Smooth(pieces, jitter_seed)
+    for sec, n in fold_count.items():
+        draws[f"folds.{sec}"] = float(n)
+    course_lengths = {s_: 0.0 for s_ in SECTIONS}
     for pc in pieces:
-        section_lengths[pc[6]] += pc[1]
-    ends = np.cumsum([section_lengths[s] for s in SECTIONS])
-    mids = ends - 0.5 * np.array([section_lengths[s] for s in SECTIONS])
+        course_lengths[pc[6]] += pc[1]
+    course_ends = np.cumsum([course_lengths[s_] for s_ in SECTIONS])
+    ends = smooth.arc_of(course_ends)
+    section_lengths = dict(zip(SECTIONS, np.diff(np.concatenate([[0.0], ends])).tolist()))
+    mids = ends - 0.5 * np.array([section_lengths[s_] for s_ in SECTIONS])
     knots_s = np.concatenate([[0.0], mids, [ends[-1]]])
-    diam = [lumen[s] for s in SECTIONS]
+    diam = [lumen[s_] for s_ in SECTIONS]
     knots_d = np.array([diam[0], *diam, diam[-1]])
-    return Colon(seed, pieces, section_lengths, (knots_s, knots_d), bends, draws)
+    return Colon(seed, pieces, section_lengths, (knots_s, knots_d), bends, draws, smooth, sex)
 
 
 #: The colons shipped as editable point files (trajectories/NAME.csv): name -> (seed, what it shows).
 SHIPPED: dict[str, tuple[int, str]] = {
-    "anatomy-short": (25, "the shortest colon of seeds 1-100"),
-    "anatomy-typical": (37, "the median length of seeds 1-100"),
-    "anatomy-tortuous": (8, "the most acute flexures of seeds 1-100"),
+    "anatomy-short": (92, "the shortest colon of seeds 1-100"),
+    "anatomy-typical": (95, "the median length of seeds 1-100"),
+    "anatomy-tortuous": (30, "the most acute flexures of seeds 1-100"),
 }
 
 

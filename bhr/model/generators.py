@@ -294,9 +294,15 @@ def load_trajectory(name_or_path: str | os.PathLike[str], feed: float = 2.0, **p
     """
     if isinstance(feed, bool) or not (isinstance(feed, (int, float)) and math.isfinite(feed) and feed > 0):
         raise BhrError(f"feed must be a positive number of mm, got {feed!r}")
+    end = params.pop("lumen_end", None)
+    if end is not None and end not in ("closed", "open"):
+        raise BhrError(f"lumen_end must be closed or open, got {end!r}")
     traj = _load(name_or_path, float(feed), params)
+    if end is not None:
+        traj.lumen_end = str(end)
     traj.feed = float(feed)
-    traj.redraw = functools.partial(load_trajectory, name_or_path, **params)
+    traj.redraw = functools.partial(load_trajectory, name_or_path, **params,
+                                    **({} if end is None else {"lumen_end": end}))
     return traj
 
 

@@ -52,6 +52,9 @@ class Trajectory:
     feed: float | None = None
     #: draws the same trajectory at another feed (set by bhr.model.generators.load_trajectory); picklable
     redraw: Callable[[float], "Trajectory"] | None = field(default=None, repr=False, compare=False)
+    #: How the lumen ends past the last point: "closed" (a blind end, as the cecum: past it is wall) or "open"
+    #: (it goes on straight). The entrance (the first point) is always open: the robot comes in there.
+    lumen_end: str = "closed"
 
     @property
     def planar(self) -> bool:
@@ -102,7 +105,7 @@ class Trajectory:
                            "give a longer path or a smaller feed")
         pts, lumen = resample_polyline(self.points, float(feed), self.lumen)
         return Trajectory(self.name, pts, dict(self.params), self.min_radius, lumen, self.source,
-                          self.start_direction, self.start_point, float(feed))
+                          self.start_direction, self.start_point, float(feed), lumen_end=self.lumen_end)
 
 
 def spacing(points: np.ndarray) -> float:

@@ -22,6 +22,7 @@ every step of the robot (which advances exactly one feed) has a target.
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable
@@ -39,7 +40,10 @@ __all__ = ["segments_trajectory", "csv_trajectory", "resample_polyline", "estima
 #: Half-width (mm of arc length) of the window over which CSV curvature is fitted.
 CURVATURE_WINDOW_MM = 15.0
 
-TOP_KEYS = ("name", "description", "start", "heading", "up", "lumen", "segment")
+TOP_KEYS = ("name", "description", "start", "heading", "up", "lumen", "lumen_end", "segment")
+#: How a lumen may end past its last point (docs/trajectories.md): a blind end (the default) or open.
+LUMEN_ENDS = ("closed", "open")
+_END_LINE = re.compile(r"^#\s*lumen_end\s*[=:]\s*\"?([A-Za-z]+)\"?\s*$")
 SEGMENT_KEYS = {
     "straight": ("type", "length", "roll", "lumen"),
     "arc": ("type", "radius", "angle", "turn", "roll", "lumen"),
@@ -51,11 +55,11 @@ HINT_TOML = "see docs/trajectories.md"
 HINT_CSV = "give a CSV with a header x,y,z (optional lumen) and one point per line; see docs/trajectories.md"
 
 
-def _unit(v: np.ndarray) -> np.ndarray:
+def unit_vector(v: np.ndarray) -> np.ndarray:
     return v / np.linalg.norm(v)
 
 
-def _rotate(v: np.ndarray, axis: np.ndarray, angle: float) -> np.ndarray:
+def rotate_about(v: np.ndarray, axis: np.ndarray, angle: float) -> np.ndarray:
     """Rotate ``v`` by ``angle`` rad right-handedly about the unit ``axis`` (Rodrigues)."""
     c, s = math.cos(angle), math.sin(angle)
     return v * c + np.cross(axis, v) * s + axis * float(np.dot(axis, v)) * (1.0 - c)
@@ -93,7 +97,7 @@ def _build_pieces(segs: list[Any], start: np.ndarray, heading: np.ndarray, up: n
             lumen = number(seg["lumen"], f"{w}: lumen", positive=True, unit="mm", maximum=MAX_MM)
         if "roll" in seg:
             roll = number(seg["roll"], f"{w}: roll", unit="deg", maximum=36000.0)
-            u = _rotate(u, t, math.radians(roll))
+            u = rotate_about(u, t, math.radians(roll))
         p0, t0, u0 = p.copy(), t.copy(), u.copy()
         if kind == "straight":
             length = number(seg["length"], f"{w}: length", positive=True, unit="mm", maximum=MAX_MM)
@@ -110,9 +114,9 @@ def _build_pieces(segs: list[Any], start: np.ndarray, heading: np.ndarray, up: n
             pieces.append(_Piece(length, lambda s, p0=p0, t0=t0, d=d, r=r:  # type: ignore[misc]
                                  p0 + (r * np.sin(s / r))[:, None] * t0 + (r * (1.0 - np.cos(s / r)))[:, None] * d,
                                  r, lumen))
-            axis = _unit(np.cross(t0, d))
+            axis = unit_vector(np.cross(t0, d))
             p = p0 + r * math.sin(theta) * t0 + r * (1.0 - math.cos(theta)) * d
-            t, u = _unit(_rotate(t0, axis, theta)), _unit(_rotate(u0, axis, theta))
+            t, u = unit_vector(rotate_about(t0, axis, theta)), unit_vector(rotate_about(u0, axis, theta))
         else:  # helix, tangent to the current heading, winding about an axis tilted forward from `up`
             r = number(seg["radius"], f"{w}: radius", positive=True, unit="mm", maximum=MAX_MM)
             pitch = number(seg["pitch"], f"{w}: pitch", positive=True, unit="mm per turn", maximum=MAX_MM)
@@ -136,8 +140,9 @@ def _build_pieces(segs: list[Any], start: np.ndarray, heading: np.ndarray, up: n
 
             pieces.append(_Piece(length, at, r + rise * rise / r, lumen))
             p = at(np.array([length]))[0]
-            t, u = _unit(_rotate(t0, axis, sigma * phi_end)), _unit(_rotate(u0, axis, sigma * phi_end))
-        u = _unit(u - np.dot(u, t) * t)  # keep the frame orthonormal against rounding
+            t = unit_vector(rotate_about(t0, axis, sigma * phi_end))
+            u = unit_vector(rotate_about(u0, axis, sigma * phi_end))
+        u = unit_vector(u - np.dot(u, t) * t)  # keep the frame orthonormal against rounding
         if not (np.all(np.isfinite(p)) and math.isfinite(pieces[-1].length)):
             raise BhrError(f"{w}: its numbers are too large to compute; use lengths and radii in mm")
     return pieces, p
@@ -184,7 +189,7 @@ def segments_trajectory(data: dict[str, Any], path: Path, feed: float):
     if "description" in data:
         text_value(data["description"], f"{where}: description")
     start = np.array(vector3(data.get("start", [0.0, 0.0, 0.0]), f"{where}: start"))
-    heading = _unit(np.array(vector3(data.get("heading", [1.0, 0.0, 0.0]), f"{where}: heading", nonzero=True)))
+    heading = unit_vector(np.array(vector3(data.get("heading", [1.0, 0.0, 0.0]), f"{where}: heading", nonzero=True)))
     if "up" in data:
         up = np.array(vector3(data["up"], f"{where}: up", nonzero=True))
     else:
@@ -195,7 +200,7 @@ def segments_trajectory(data: dict[str, Any], path: Path, feed: float):
     up = up / np.linalg.norm(up)
     if abs(float(np.dot(up, heading))) > 0.999:
         raise BhrError(f"{where}: up must not point along the heading; give a direction across it")
-    up = _unit(up - np.dot(up, heading) * heading)
+    up = unit_vector(up - np.dot(up, heading) * heading)
     default_lumen = None
     if "lumen" in data:
         default_lumen = number(data["lumen"], f"{where}: lumen", positive=True, unit="mm", maximum=MAX_MM)
@@ -207,8 +212,9 @@ def segments_trajectory(data: dict[str, Any], path: Path, feed: float):
     pieces, _ = _build_pieces(segs, start, heading, up, default_lumen, where)
     pts, lumen = _sample(pieces, feed, where)
     params = {"segments": len(pieces), "length": float(sum(pc.length for pc in pieces))}
+    end = choice(data.get("lumen_end", "closed"), f"{where}: lumen_end", LUMEN_ENDS)
     return Trajectory(name, pts, params, min(pc.radius for pc in pieces), lumen, where,
-                      tuple(float(v) for v in heading), tuple(float(v) for v in start))
+                      tuple(float(v) for v in heading), tuple(float(v) for v in start), lumen_end=end)
 
 
 # --- CSV point lists ---------------------------------------------------------------------------------------------
@@ -410,5 +416,19 @@ def csv_trajectory(path: Path, feed: float):
     heading = tuple(float(v) for v in d0 / np.linalg.norm(d0))
     params = {"points_in_file": int(raw.shape[0]), "length": length}
     return Trajectory(path.stem, pts, params, estimate_min_radius(pts, feed), lumen, where, heading,
-                      tuple(float(v) for v in pts[0]))
+                      tuple(float(v) for v in pts[0]), lumen_end=csv_lumen_end(path))
+
+
+def csv_lumen_end(path: Path) -> str:
+    """How a CSV centerline's lumen ends: ``closed`` unless a comment line says ``# lumen_end: open``."""
+    end = "closed"
+    for no, raw in enumerate(read_text(path, "trajectory CSV", HINT_CSV).splitlines(), start=1):
+        line = raw.strip()
+        if line.startswith("#") and "lumen_end" in line:
+            m = _END_LINE.match(line)
+            if m is None or m.group(1).lower() not in LUMEN_ENDS:
+                raise BhrError(f"{path}, line {no}: write the lumen's end as '# lumen_end: closed' or "
+                               "'# lumen_end: open'")
+            end = m.group(1).lower()
+    return end
 

@@ -290,6 +290,7 @@ class FollowResult:
                     "points": self.trajectory.points.tolist()}
         if self.trajectory.lumen is not None:
             traj_doc["lumen"] = [float(v) for v in self.trajectory.lumen]
+            traj_doc["lumen_end"] = self.trajectory.lumen_end
         return {
             "bhr_version": __version__,
             "trajectory": traj_doc,
@@ -380,7 +381,8 @@ def _run_from_json(doc: Any, where: str) -> FollowResult:
     summary = doc.get("summary")
     msgs = summary.get("warnings", []) if isinstance(summary, dict) else []
     params: dict[str, Any] = tr["params"] if isinstance(tr.get("params"), dict) else {}
-    traj = Trajectory(str(tr.get("name", "run")), path, dict(params), source=where, lumen=lumen)
+    traj = Trajectory(str(tr.get("name", "run")), path, dict(params), source=where, lumen=lumen,
+                      lumen_end="open" if tr.get("lumen_end") == "open" else "closed")
     result = FollowResult(traj, robot, solver, pts, np.asarray(iters, dtype=np.int64), pe, oe, codes,
                           [str(m) for m in msgs] if isinstance(msgs, list) else [])
     result.body = body

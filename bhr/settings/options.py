@@ -153,6 +153,9 @@ OPTIONS: tuple[Option, ...] = (
     Option("turns", _T, float, "spiral: number of turns", 2.0),
     Option("seed", _T, int, "anatomy: which anatomical colon, a whole number 0 ... 4294967295", 1,
            maximum=2**32 - 1),
+    Option("lumen_end", _T, str, "How the lumen ends past the trajectory's last point: closed (a blind end, as the "
+           "cecum: past it is wall) or open (it goes on straight); the entrance is always open", "closed",
+           choices=("closed", "open")),
     # the constrained solvers (thesis ch. 6; bhr.solvers.thesis)
     Option("limit", _C, str, "Rotation limit of the constrained solvers", "binary",
            choices=("binary", "continuous", "none")),

@@ -52,7 +52,7 @@ from typing import Any
 import numpy as np
 from numba import njit
 
-from bhr.run.clearance import Tube, _nearest_numpy, _window, make_tube, point_clearance, segment_scan
+from bhr.run.clearance import Tube, nearest_numpy, search_window, make_tube, point_clearance, segment_scan
 from bhr.settings.errors import BhrError
 from bhr.settings.options import solver_defaults
 from bhr.kinematics.frames import tilt_frame as _rot
@@ -118,7 +118,7 @@ def _near_local(C, lo, hi, g, px, py, pz, res, tmp):
 def _near(C, pre, w, g, e, px, py, pz, res, tmp):
     """Nearest centerline point of a sample expected at trajectory index ``e``: res = (d2, segment, t)."""
     M = C.shape[0]
-    lo, hi = _window(M, e + pre, w)
+    lo, hi = search_window(M, e + pre, w)
     if g < 0:
         _scan(C, lo, hi, px, py, pz, res)
     else:
@@ -407,7 +407,7 @@ def lumen_config_cost(tube, robot, settings: dict[str, float], path: np.ndarray,
     clr = []
     for j in range(n + 1):
         e = float(step - (n - j) * f)
-        c, pos = _nearest_numpy(tube, radius, points[j], e + tube.pre)
+        c, pos = nearest_numpy(tube, radius, points[j], e + tube.pre)
         dist = _radius_near(tube, points[j], e) - radius - c
         along = (pos - tube.pre - e) * sp
         clr.append(c)

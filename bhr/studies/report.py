@@ -166,7 +166,8 @@ def parse_batch(data: dict[str, Any], source: str = "batch", base_dir: str | os.
             raise BhrError(f"{where}: name {excerpt(name)} is also run {seen[name]}'s; give every run its own name")
         seen[name] = k
         traj = values["traj"]
-        tp = {key: float(values[key]) for key in TRAJ_KEYS if key in values}
+        tp = {key: values[key] if isinstance(values[key], str) else float(values[key]) for key in TRAJ_KEYS
+              if key in values}
         if traj in GENERATORS:
             allowed = GENERATORS[traj].params
             for key in tp:

@@ -52,14 +52,17 @@ __all__ = ["Study", "StudyResult", "parse_colons", "build_study", "run_study", "
            "write_study", "format_study", "DESIGN_COLUMNS", "RUN_COLUMNS", "LUMEN_KEYS"]
 
 #: Summary keys a study keeps from every run (the ones a run does not report stay empty).
-LUMEN_KEYS = ("max_penetration_mm", "wall_touch_steps", "contact_length_mm", "procedure_time_s", "body_modules")
+LUMEN_KEYS = ("max_penetration_mm", "wall_touch_steps", "contact_length_mm", "procedure_time_s", "body_modules",
+              "left_lumen_step", "left_lumen_reason")
 #: Columns of designs.csv after the design's own keys.
 DESIGN_COLUMNS = ("colons", "traversed", "pass_rate", "failed_runs", "worst_penetration_mm", "median_penetration_mm",
                   "worst_clearance_mm", "median_contact_length_mm", "worst_contact_length_mm", "median_touch_steps",
-                  "worst_colon", "min_turn_radius_mm", "median_procedure_time_s", "worst_procedure_time_s")
+                  "worst_colon", "min_turn_radius_mm", "median_procedure_time_s", "worst_procedure_time_s",
+                  "left_lumen")
 #: Columns of runs.csv after the design's keys and the seed.
 RUN_COLUMNS = ("status", "steps", "traversed", "max_penetration_mm", "touch_steps", "contact_length_mm",
-               "min_clearance_mm", "points_max_error_mm", "tip_max_error_mm", "modules", "procedure_time_s")
+               "min_clearance_mm", "points_max_error_mm", "tip_max_error_mm", "modules", "procedure_time_s",
+               "left_lumen_step", "failure")
 _MAX_COLONS = 100_000
 #: One seed, or FIRST-LAST, or FIRST:LAST[:STEP] as in a sweep's grid (ends included); plain ASCII digits.
 _RANGE = re.compile(r"^\s*([0-9]+)\s*(?:(-|:)\s*([0-9]+)\s*(?::\s*([0-9]+)\s*)?)?$", re.ASCII)
@@ -186,7 +189,7 @@ def _run_row(row: dict[str, Any], keys: Sequence[str]) -> dict[str, Any]:
     out.update({
         "status": row["status"],
         "steps": row.get("steps"),
-        "traversed": bool(ok and touches is not None and len(touches) == 0),
+        "traversed": bool(ok and touches is not None and len(touches) == 0 and row.get("left_lumen_step") is None),
         "max_penetration_mm": _penetration(row) if ok else None,
         "touch_steps": len(touches) if (ok and touches is not None) else None,
         "contact_length_mm": _contact(row) if ok else None,
@@ -195,6 +198,9 @@ def _run_row(row: dict[str, Any], keys: Sequence[str]) -> dict[str, Any]:
         "tip_max_error_mm": row.get("tip_max_error_mm"),
         "modules": row.get("body_modules"),
         "procedure_time_s": row.get("procedure_time_s") if ok else None,
+        # a colon fails when the run fails or the robot left the lumen (bhr.run.clearance.left_lumen): the reason
+        "left_lumen_step": row.get("left_lumen_step") if ok else None,
+        "failure": (row.get("left_lumen_reason") or "") if ok else str(row["status"]),
     })
     return out
 
@@ -233,6 +239,7 @@ def design_rows(study: Study, runs: Sequence[dict[str, Any]], min_turn: dict[tup
             "min_turn_radius_mm": min_turn.get(combo),
             "median_procedure_time_s": statistics.median(proc) if proc else None,
             "worst_procedure_time_s": max(proc) if proc else None,
+            "left_lumen": sum(1 for r in rows if r.get("left_lumen_step") is not None),
         })
         out.append(d)
     return out
@@ -443,7 +450,7 @@ def format_study(result: StudyResult, count: int = 8) -> list[str]:
     head = "  ".join(f"{k:>13}" for k in keys)
     proc = any(d.get("median_procedure_time_s") is not None for d in result.designs)
     lines.append(f"{'#':>5}  {head}  {'traversed':>10}  {'worst pen':>9}  {'median pen':>10}  {'worst clear':>11}  "
-                 f"{'median contact':>14}" + (f"  {'median time':>11}" if proc else ""))
+                 f"{'median contact':>14}  {'left lumen':>10}" + (f"  {'median time':>11}" if proc else ""))
     ranked = sorted(result.designs, key=_rank)
     for d in ranked[:count]:
         vals = "  ".join(f"{_label(d[k]):>13}" for k in keys)
@@ -453,7 +460,7 @@ def format_study(result: StudyResult, count: int = 8) -> list[str]:
         wc = "-" if d["worst_clearance_mm"] is None else f"{d['worst_clearance_mm']:.2f}"
         pt = "-" if d.get("median_procedure_time_s") is None else format_duration(d["median_procedure_time_s"])
         lines.append(f"{d['design']:>5}  {vals}  {100 * d['pass_rate']:>9.0f}%  {wp:>9}  {mp:>10}  {wc:>11}  {mc:>14}"
-                     + (f"  {pt:>11}" if proc else ""))
+                     f"  {d['left_lumen']:>10}" + (f"  {pt:>11}" if proc else ""))
     if len(ranked) > count:
         rest = ranked[count:]
         lines.append(f"  ... the best {count} of {len(ranked)} designs shown; {len(rest)} more (down to design "
