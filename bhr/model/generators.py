@@ -28,6 +28,7 @@ from typing import Any, Callable
 import numpy as np
 
 import bhr.model.pathfile as pathfile
+from bhr.settings.options import check_number
 from bhr.settings.inputs import check_keys, number, read_toml, text_value
 from bhr.settings.errors import BhrError
 from bhr.model.anatomy import anatomical_colon, check_seed
@@ -239,9 +240,7 @@ def _check_params(gen_name: str, params: dict[str, Any], where: str) -> dict[str
             raise BhrError(f"{where}: the {gen_name} trajectory has no parameter {key!r} (allowed: {allowed})")
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             raise BhrError(f"{where}: {key} must be a number, got {value!r}")
-        v = float(value)
-        if not math.isfinite(v):
-            raise BhrError(f"{where}: {key} must be finite, got {value}")
+        v = float(check_number(value, f"{where}: {key}", limit=1e6))  # the one checker: any length, denormals
         if key in _POSITIVE and v <= 0:
             raise BhrError(f"{where}: {key} must be positive, got {value}")
         if key in _NONNEG and v < 0:
