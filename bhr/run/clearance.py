@@ -850,6 +850,17 @@ def left_lumen(per_step: np.ndarray, lost: np.ndarray, radius: float, where: Cal
     return i + 1, f"left the lumen at step {i + 1}: a point crossed the wall into another loop of the lumen{who}"
 
 
+def robot_labels(n: int, body: int) -> tuple[list[str], list[str]]:
+    """Names of a robot's points and modules in the clearance's tables: the head's n+1 points and n modules (base
+    and tip named), then the ``body`` modules behind it."""
+    labels = [f"point {j + 1}" + (" (base)" if j == 0 else "") + (" (tip)" if j == n else "") for j in range(n + 1)]
+    labels += [f"body point {k}" for k in range(1, body + 1)]
+    mlabels = [f"module {j + 1}" + (" (base)" if j == 0 else "") + (" (tip)" if j == n - 1 else "")
+               for j in range(n)]
+    mlabels += [f"body module {k}" for k in range(1, body + 1)]
+    return labels, mlabels
+
+
 def clearance_report(result, window_mm: float = WINDOW_MM, sample_mm: float = SAMPLE_MM,
                      lumen_end: str | None = None) -> ClearanceReport | None:
     """The geometric clearance of a run (:class:`bhr.run.driver.FollowResult`) whose trajectory has a lumen, else None.
@@ -871,11 +882,7 @@ def clearance_report(result, window_mm: float = WINDOW_MM, sample_mm: float = SA
     p_order = list(range(B, B + n + 1)) + list(range(B - 1, -1, -1))
     m_order = list(range(B, B + n)) + list(range(B - 1, -1, -1))
     table, mtable, mwhere = pt[:, p_order], mod[:, m_order], where[:, m_order]
-    labels = [f"point {j + 1}" + (" (base)" if j == 0 else "") + (" (tip)" if j == n else "") for j in range(n + 1)]
-    labels += [f"body point {k}" for k in range(1, B + 1)]
-    mlabels = [f"module {j + 1}" + (" (base)" if j == 0 else "") + (" (tip)" if j == n - 1 else "")
-               for j in range(n)]
-    mlabels += [f"body module {k}" for k in range(1, B + 1)]
+    labels, mlabels = robot_labels(n, B)
     # the old, index-matched figure
     offsets = [(n - j) * f for j in range(n + 1)]
     errors = result.point_errors

@@ -80,16 +80,18 @@ def cecum_modules(steps: int, feed_divisor: int, head: int) -> int:
 # the centerline, dense enough that the answer does not depend on the feed
 
 
-def dense_tube(path: np.ndarray, lumen: np.ndarray, start_direction, window_mm: float) -> Tube:
+def dense_tube(path: np.ndarray, lumen: np.ndarray, start_direction, window_mm: float, closed_end: bool = True
+               ) -> Tube:
     """The lumen's :class:`~bhr.run.clearance.Tube`, its centerline refined to at most TUBE_SPACING_MM between points
     (a Catmull-Rom spline through the path's points, the diameter interpolated linearly), so that a path sampled
-    at a coarse feed gives nearly the same tube as one sampled finely."""
+    at a coarse feed gives nearly the same tube as one sampled finely. ``closed_end``: the lumen ends in a cap at
+    the last point (the cecum, :func:`bhr.run.clearance.make_tube`)."""
     P = np.asarray(path, dtype=np.float64)
     lum = np.asarray(lumen, dtype=np.float64)[:P.shape[0]]
     seg = np.linalg.norm(np.diff(P, axis=0), axis=1)
     k = int(math.ceil(float(np.median(seg)) / TUBE_SPACING_MM - 1e-9)) if P.shape[0] > 1 else 1
     if k <= 1 or P.shape[0] < 3:
-        return make_tube(P, lum, start_direction, window_mm)
+        return make_tube(P, lum, start_direction, window_mm, closed_end=closed_end)
     ext = np.vstack([2 * P[0] - P[1], P, 2 * P[-1] - P[-2]])
     t = np.arange(k) / k
     t2, t3 = t * t, t * t * t
@@ -103,7 +105,7 @@ def dense_tube(path: np.ndarray, lumen: np.ndarray, start_direction, window_mm: 
     out = np.vstack([out, P[-1:]])
     lo = np.concatenate([np.repeat(lum[:-1], k) * (1 - np.tile(t, len(lum) - 1))
                          + np.repeat(lum[1:], k) * np.tile(t, len(lum) - 1), lum[-1:]])
-    return make_tube(out, lo, start_direction, window_mm)
+    return make_tube(out, lo, start_direction, window_mm, closed_end=closed_end)
 
 
 # ---------------------------------------------------------------------------
@@ -547,7 +549,8 @@ def _arc_clear(C, R, w, radius, T, r, z, u):
 
 
 @njit(cache=True)
-def tables_kernel(C, R, pre, w, radius, T, z, back, f, m_lo, m_hi, L, sample, pc, mc, mwhere, sw, swhere):
+def tables_kernel(C, R, S, BC, BR, pre, w, radius, T, z, back, f, m_lo, m_hi, L, sample, pc, mc, mwhere, sw,
+                  swhere):
     """Per vertex m (m_lo <= m < m_hi, row m - m_lo) and fraction k/f (k < f):
 
     * pc: the clearance of the point X(m + k/f) (NaN behind the start, trail position < 0);
@@ -577,7 +580,7 @@ def tables_kernel(C, R, pre, w, radius, T, z, back, f, m_lo, m_hi, L, sample, pc
             E[1] = m + u
             Z[0] = z[r - 1] + u * (z[r] - z[r - 1])
             Z[1] = z[r] + u * (z[r + 1] - z[r])
-            clearance_chain_kernel(C, R, pre, w, radius, Q, E, Z, sample, pt, mo, wh, fd)
+            clearance_chain_kernel(C, R, S, BC, BR, pre, w, radius, Q, E, Z, sample, pt, mo, wh, fd)
             pc[i, k] = pt[1]
             mc[i, k] = mo[0]
             for b in range(3):
@@ -596,7 +599,7 @@ def tables_kernel(C, R, pre, w, radius, T, z, back, f, m_lo, m_hi, L, sample, pc
                 E[1] = m - 1 + side + u1
                 Z[0] = z[rr] + u * (z[rr + 1] - z[rr])
                 Z[1] = z[rr] + u1 * (z[rr + 1] - z[rr])
-                clearance_chain_kernel(C, R, pre, w, radius, Q, E, Z, sample, pt, mo, wh, fd)
+                clearance_chain_kernel(C, R, S, BC, BR, pre, w, radius, Q, E, Z, sample, pt, mo, wh, fd)
                 if not math.isnan(mo[0]) and mo[0] < best:
                     best = mo[0]
                     bx, by, bz = wh[0, 0], wh[0, 1], wh[0, 2]
@@ -668,7 +671,9 @@ def trail_tables(tube: Tube, radius: float, T: np.ndarray, back: int, f: int, m_
     n = m_hi - m_lo
     out = {"pc": np.empty((n, f)), "mc": np.empty((n, f)), "mwhere": np.empty((n, f, 3)), "sw": np.empty((n, f)),
            "swhere": np.empty((n, f, 3)), "z": z}
-    tables_kernel(tube.points, tube.radius, float(tube.pre), float(tube.window), float(radius), T, z, int(back),
+    S, BC, BR = tube.search_arrays()
+    tables_kernel(tube.points, tube.radius, S, BC, BR, float(tube.pre), float(tube.window), float(radius), T, z,
+                  int(back),
                   int(f), int(m_lo), int(m_hi), float(L), float(sample), out["pc"], out["mc"], out["mwhere"],
                   out["sw"], out["swhere"])
     return out
@@ -747,7 +752,8 @@ def run_trail(traj, robot, settings: dict, window_mm: float, modules: int | None
     N = int(traj.points.shape[0])
     f = int(robot.feed_divisor)
     L = float(robot.module_length)
-    tube = dense_tube(traj.points, traj.lumen, traj.start_direction, window_mm)
+    tube = dense_tube(traj.points, traj.lumen, traj.start_direction, window_mm,
+                      closed_end=getattr(traj, "lumen_end", "closed") == "closed")
     V = (N - 1) // f + 1
     codes = plan_trail(tube, robot, settings, V, traj.start_direction, traj.start_point)
     T = trail_vertices(codes, traj.start_direction, traj.start_point, L, robot.alpha, 2)
@@ -771,7 +777,7 @@ def run_trail(traj, robot, settings: dict, window_mm: float, modules: int | None
 def trail_report(result):
     """The :class:`~bhr.run.clearance.ClearanceReport` of a trail run: every joint and module at every step, a module's
     clearance the smaller of its pose's and its motion's from the step before."""
-    from bhr.run.clearance import ClearanceReport, clearance_table
+    from bhr.run.clearance import ClearanceReport, clearance_table, robot_labels
 
     tr = result.trail
     r = result.robot
@@ -782,11 +788,7 @@ def trail_report(result):
     p_idx = [n - jj for jj in range(n + 1)] + [n + k for k in range(1, B + 1)]
     m_idx = [n - 1 - jj for jj in range(n)] + [n + k - 1 for k in range(1, B + 1)]
     table, mtable, mwhere = jp[:, p_idx], jm[:, m_idx], jw[:, m_idx]
-    labels = [f"point {j + 1}" + (" (base)" if j == 0 else "") + (" (tip)" if j == n else "") for j in range(n + 1)]
-    labels += [f"body point {k}" for k in range(1, B + 1)]
-    mlabels = [f"module {j + 1}" + (" (base)" if j == 0 else "") + (" (tip)" if j == n - 1 else "")
-               for j in range(n)]
-    mlabels += [f"body module {k}" for k in range(1, B + 1)]
+    labels, mlabels = robot_labels(n, B)
     offsets = [(n - j) * f for j in range(n + 1)]
     errors = result.point_errors
     if B:
