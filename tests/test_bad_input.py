@@ -343,6 +343,17 @@ RUN_OK = ('{"trajectory": {"points": [[0,0,0],[2,0,0]]}, "robot": {"modules": 1}
           '"codes": [0], "iterations": 1}]}')
 ONE = ["--codes", "c.csv", "--dry-run"]
 CASES += [
+    Bad("export-format-unknown", "export", ["--format", "sdf", "--out", "r.urdf"], expect="not a format bhr writes"),
+    Bad("export-no-out", "export", ["--format", "urdf"], expect="--out"),
+    Bad("export-modules-zero", "export", ["--format", "urdf", "--out", "r.urdf", "--modules", "0"],
+        expect="modules must be positive"),
+    Bad("physics-run-missing", "physics", ["missing.json", "--out", "p"], expect="no such run file"),
+    Bad("physics-not-a-run", "physics", ["bad.json", "--out", "p"], {"bad.json": '{"x": 1}'}, "not a bhr run"),
+    Bad("physics-stiffness-negative", "physics", ["bad.json", "--out", "p", "--wall-stiffness", "-1"],
+        {"bad.json": '{"x": 1}'}, "wall-stiffness"),
+]
+
+CASES += [
     # zig-zag path files (IndexError before): every command that follows a trajectory
     Bad("traj-csv-zigzag", "follow", ["--traj", "z.csv", "--out", "o"], ZIGZAG, "zig-zags"),
     Bad("compare-csv-zigzag", "compare", ["--traj", "z.csv", "--solver", "seed", "--solver", "ccd"], ZIGZAG,

@@ -39,7 +39,7 @@ def test_bad_input_one_line(run_bhr, tmp_path, args, message):
 def test_solve_says_out_of_reach_in_text_and_json(run_bhr):
     res = run_bhr("solve", "--target", "100", "100", "100")
     assert res.returncode == 0, res.stderr
-    assert "out of reach: the target is 173.21 from the base, the chain is 10 long" in res.stdout
+    assert "out of reach: the target is 173.2 mm from the base but the chain is 10 mm long" in res.stdout
     res = run_bhr("solve", "--target", "100", "100", "100", "--json", "-")
     doc = json.loads(res.stdout)
     assert doc["success"] is False and doc["status"] == "out of reach"

@@ -240,15 +240,13 @@ def _check_params(gen_name: str, params: dict[str, Any], where: str) -> dict[str
             raise BhrError(f"{where}: the {gen_name} trajectory has no parameter {key!r} (allowed: {allowed})")
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             raise BhrError(f"{where}: {key} must be a number, got {value!r}")
-        v = float(check_number(value, f"{where}: {key}", limit=1e6))  # the one checker: any length, denormals
+        if key in _WHOLE:
+            check_seed(value, where)
+        v = float(check_number(value, f"{where}: {key}", limit=2.0**32 if key in _WHOLE else 1e6))  # the one checker
         if key in _POSITIVE and v <= 0:
             raise BhrError(f"{where}: {key} must be positive, got {value}")
         if key in _NONNEG and v < 0:
             raise BhrError(f"{where}: {key} must not be negative, got {value}")
-        if key in _WHOLE:
-            check_seed(value, where)
-        if abs(v) > 1e6:
-            raise BhrError(f"{where}: {key} must be at most 1e6 in size, got {value:g}")
         out[key] = v
     return out
 
