@@ -19,6 +19,9 @@ from tests.conftest import bhr_exe
 
 ENV = dict(os.environ, MPLBACKEND="Agg", PYTHONFAULTHANDLER="1")
 SWEEP = ["sweep", "--traj", "colon", "--grid", "modules=3:12", "--grid", "alpha=8:12", "--no-plots"]
+#: Long enough (500 designs, over a minute on one worker even with warm kernels) to be still running when its
+#: worker or scheduler is taken away, on a fast machine too.
+LONG_SWEEP = SWEEP + ["--grid", "module_length=6:15"]
 
 
 def _free_port() -> int:
@@ -77,7 +80,7 @@ def test_a_cluster_without_workers_gives_one_line(tmp_path, scheduler):
 
 
 def _run_then(tmp_path, address, take_away) -> tuple[int, str]:
-    p = subprocess.Popen(bhr_exe() + [*SWEEP, "--scheduler", address, "--out", "o"], cwd=tmp_path,
+    p = subprocess.Popen(bhr_exe() + [*LONG_SWEEP, "--scheduler", address, "--out", "o"], cwd=tmp_path,
                          stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=ENV)
     time.sleep(12)  # connected and running
     assert p.poll() is None, p.communicate()
