@@ -202,7 +202,7 @@ def _corrupt(kind: str, doc: dict) -> str:
     ("text point", "run.json: step 5 points must be numbers"),
     ("robot", "run.json: robot: modules must be positive"),
     ("iterations", "iterations must be a whole number"),
-    ("codes", "run.json: step 8 codes must be 5 whole numbers"),
+    ("codes", "run.json: step 8 codes must be 5 of the stable codes"),
     ("too many steps", "run.json: 140 steps but only 10 trajectory points"),
 ])
 def test_wrong_run_file_gets_one_line(run_bhr, tmp_path, curve_run, kind, message):

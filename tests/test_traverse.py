@@ -213,7 +213,8 @@ def test_command_answers_the_question(small_study):
         assert (out / name).read_bytes()[:8] == PNG
     assert doc["worst_colon_figure"] == {"design": best["design"], "seed": best["worst_colon"]}
     assert sorted(p.name for p in out.iterdir()) == sorted(
-        ["designs.csv", "runs.csv", "study.json", "passrate.png", "worst-colon.png", "index.html", "manifest.json"])
+        ["designs.csv", "runs.csv", "study.json", "passrate.png", "worst-colon.png", "worst-colon-view.html", "index.html",
+         "manifest.json"])
     assert not [p for p in cwd.iterdir() if ".bhr-stage-" in p.name]  # no staging folder left behind
     man = json.loads((out / "manifest.json").read_text())  # written through the one output-folder mechanism
     assert man["command"] == "traverse" and set(man["files"]) == {p.name for p in out.iterdir()} - {"manifest.json"}

