@@ -2,17 +2,25 @@
 
 numba writes its cache next to the sources by default, which fails or
 pollutes site-packages for installed copies. Unless the user chose a folder
-with NUMBA_CACHE_DIR, bhr uses ``$XDG_CACHE_HOME/bhr/numba`` (``~/.cache``).
-When that folder cannot be written (a read-only or missing home), bhr falls
-back to a per-user folder in the system's temporary directory, so a run never
-fails for want of a cache (numba refuses to load cached kernels at all when
-no cache folder is writable).
+with NUMBA_CACHE_DIR, bhr uses ``$XDG_CACHE_HOME/bhr/numba/<key>``
+(``~/.cache``), where the key names this copy of bhr's sources (their names,
+sizes and modification times). numba checks only a kernel's own file before
+loading it from the cache, so a kernel that calls a kernel of another module
+would otherwise keep the old callee after that module changed (an upgrade,
+or an edit in a checkout): a new copy of bhr starts a cache of its own
+instead. When that folder cannot be written (a read-only or missing home),
+bhr falls back to a per-user folder in the system's temporary directory, so
+a run never fails for want of a cache (numba refuses to load cached kernels
+at all when no cache folder is writable).
 """
 from __future__ import annotations
 
+import hashlib
 import os
 import tempfile
 from pathlib import Path
+
+_SOURCES = Path(__file__).resolve().parent
 
 
 def _usable(folder: Path) -> bool:
@@ -21,6 +29,18 @@ def _usable(folder: Path) -> bool:
     except OSError:
         return False
     return folder.is_dir() and os.access(folder, os.W_OK | os.X_OK)
+
+
+def source_key(root: Path = _SOURCES) -> str:
+    """12 hex digits naming the Python sources under ``root`` as they are now (names, sizes, mtimes)."""
+    h = hashlib.sha256()
+    for path in sorted(root.rglob("*.py")):
+        try:
+            st = path.stat()
+        except OSError:
+            continue
+        h.update(f"{path.relative_to(root)}\0{st.st_size}\0{st.st_mtime_ns}\n".encode())
+    return h.hexdigest()[:12]
 
 
 def configure_cache() -> None:
@@ -32,11 +52,12 @@ def configure_cache() -> None:
             base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
         except RuntimeError:  # no home directory at all
             base = ""
-        if base and _usable(Path(base) / "bhr" / "numba"):
-            os.environ["NUMBA_CACHE_DIR"] = str(Path(base) / "bhr" / "numba")
+        folder = Path(base) / "bhr" / "numba" / source_key() if base else None
+        if folder is not None and _usable(folder):
+            os.environ["NUMBA_CACHE_DIR"] = str(folder)
             return
     uid = os.getuid() if hasattr(os, "getuid") else 0
-    fallback = Path(tempfile.gettempdir()) / f"bhr-numba-{uid}"
+    fallback = Path(tempfile.gettempdir()) / f"bhr-numba-{uid}" / source_key()
     if not _usable(fallback):
         fallback = Path(tempfile.mkdtemp(prefix="bhr-numba-"))
     os.environ["NUMBA_CACHE_DIR"] = str(fallback)

@@ -185,3 +185,17 @@ def check_executor(jobs: int | None, scheduler: str | None) -> None:
             from bhr.studies.executor import DASK_MISSING
 
             raise BhrError(DASK_MISSING) from None
+
+
+def print_study(folder: Any, out_dir: str | None, lines: Any, files: Any, failed: int, total: int, what: str,
+                table: str) -> int:
+    """A study's ending: ``latest`` pointed at its folder, its summary lines, what it wrote, and the exit
+    status (1 with one line naming ``table`` when ``failed`` of ``total`` ``what`` failed)."""
+    point_latest_if_default(folder, out_dir)
+    for line in lines:
+        click.echo(line)
+    click.echo("Wrote " + ", ".join(str(p) for p in files))
+    if failed:
+        click.echo(f"Error: {failed} of {total} {what} failed; see {folder.final(table)}", err=True)
+        return 1
+    return 0

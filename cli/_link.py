@@ -27,8 +27,8 @@ def link_options(port_help: str = PORT_HELP, robot: bool = True) -> Callable[[An
     ]
     if robot:
         opts.insert(0, click.option("--robot", "robot_file", default=None, metavar="FILE",
-                                    help="Robot description (TOML) whose [link] table gives the port, baud rate "
-                                         "and module order; options given here override it."))
+                                    help="Robot description (.toml or .json) whose [link] table gives the port, "
+                                         "baud rate and module order; options given here override it."))
     return stack_options(*opts)
 
 

@@ -124,6 +124,19 @@ def stack_options(*decorators: Callable[[Any], Any]) -> Callable[[Any], Any]:
     return apply
 
 
+def study_options(out_default: str) -> Callable[[Any], Any]:
+    """--robot, --out, --jobs and --scheduler, as every study (sweep, traverse) takes them."""
+    return stack_options(
+        click.option("--robot", "robot_file", default=None, metavar="FILE",
+                     help="Robot description (.toml or .json, docs/robot-files.md) every design starts from; grid "
+                          "values replace its values."),
+        click.option("--out", "out_dir", default=None, metavar="DIR", help=f"Output folder [{out_default}]."),
+        click.option("--jobs", "-j", type=PlainIntRange(min=1, max=1024), default=None, metavar="N",
+                     help="Worker processes [the number of CPUs]; 1 runs in this process."),
+        click.option("--scheduler", default=None, metavar="ADDRESS",
+                     help="Run on an existing Dask distributed cluster instead, e.g. tcp://127.0.0.1:8786."))
+
+
 #: Robot options only a solver uses (tolerances, iteration limit, error weights).
 SOLVING_ONLY = ("tol_pos", "tol_ori", "max_iter", "weight_pos", "weight_ori")
 

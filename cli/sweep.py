@@ -6,7 +6,7 @@ from pathlib import Path
 import click
 
 from bhr.cli._common import check_executor, guarded
-from bhr.cli._options import PlainIntRange
+from bhr.cli._options import study_options
 
 
 @click.command()
@@ -18,14 +18,7 @@ from bhr.cli._options import PlainIntRange
 @click.option("--grid", "-g", "grid", multiple=True, metavar="KEY=VALUES",
               help="Values of a robot or trajectory option: modules=4,5,6 or alpha=8:12 or module_length=8:12:0.5 "
                    "(START:STOP[:STEP], STOP included). Repeat for each key.")
-@click.option("--robot", "robot_file", default=None, metavar="FILE",
-              help="Robot description (TOML) every design starts from; grid values replace its values.")
-@click.option("--out", "out_dir", default=None, metavar="DIR",
-              help="Output folder [./bhr-out/<sweep file or sweep>-<hash of the settings>/].")
-@click.option("--jobs", "-j", type=PlainIntRange(min=1, max=1024), default=None, metavar="N",
-              help="Worker processes [the number of CPUs]; 1 runs in this process.")
-@click.option("--scheduler", default=None, metavar="ADDRESS",
-              help="Run on an existing Dask distributed cluster instead, e.g. tcp://127.0.0.1:8786.")
+@study_options("./bhr-out/<sweep file or sweep>-<hash of the settings>/")
 @click.option("--x", "hx", default=None, metavar="KEY", help="Heat-map columns [the axis with the most values].")
 @click.option("--y", "hy", default=None, metavar="KEY", help="Heat-map rows [the axis with the next most values].")
 @click.option("--no-plots", "no_plot", is_flag=True, help="Skip heatmap.png.")
@@ -70,7 +63,7 @@ def sweep(sweep_file, trajs, solvers, grid, robot_file, out_dir, jobs, scheduler
     heatmap_axes(s, hx, hy)  # refuse unknown heat-map axes before running
     import dataclasses
 
-    from bhr.cli._common import default_output, input_files, point_latest_if_default
+    from bhr.cli._common import default_output, input_files, print_study
 
     inputs = input_files(sweep_file, robot_file, s.robot_file, *s.traj_sources.values())
     folder = default_output("sweep", Path(sweep_file).stem if sweep_file else "sweep",
@@ -78,34 +71,20 @@ def sweep(sweep_file, trajs, solvers, grid, robot_file, out_dir, jobs, scheduler
                             what="sweep output folder")  # before any work
     out = folder.final("")
     total = len(s)
-    client = None
-    if scheduler is not None:
-        from bhr.studies.executor import connect_scheduler
+    from bhr.studies.executor import scheduler_client
 
-        client = connect_scheduler(scheduler)  # fails in one line before anything starts
     where = f"on {scheduler}" if scheduler else ""
-    announce_compiles()
-    try:
+    with scheduler_client(scheduler) as client:  # fails in one line before anything starts
+        announce_compiles()
         with status(f"Running {total} designs {where}".rstrip(), total=total) as bar:
             def progress(done: int, _total: int) -> None:
                 bar.update(done - bar.done)
 
             result = run_sweep(s, jobs=jobs, scheduler=client, progress=progress)
-    finally:
-        if client is not None:
-            from bhr.studies.executor import close_client
-
-            close_client(client)
     with status(f"writing {out}"), folder:
         files = [folder.final(p.name) for p in write_outputs(result, folder.stage, plot=not no_plot, x=hx, y=hy)]
-    point_latest_if_default(folder, out_dir)
-    for line in format_summary(result):
-        click.echo(line)
-    click.echo("Wrote " + ", ".join(str(p) for p in files))
-    if result.failed:
-        click.echo(f"Error: {len(result.failed)} of {total} designs failed; see {out / 'results.csv'}", err=True)
-        return 1
-    return 0
+    return print_study(folder, out_dir, format_summary(result), files, len(result.failed), total, "designs",
+                       "results.csv")
 
 
 #: What bhr sweep writes into its folder (an existing folder holding only such files may be replaced).

@@ -6,7 +6,7 @@ import sys
 import click
 
 from bhr.cli._common import check_executor, guarded
-from bhr.cli._options import FiniteRange, PlainIntRange
+from bhr.cli._options import FiniteRange, study_options
 
 OUTPUTS = ("designs.csv", "runs.csv", "study.json", "passrate.png", "worst-colon.png", "index.html")
 
@@ -21,14 +21,7 @@ OUTPUTS = ("designs.csv", "runs.csv", "study.json", "passrate.png", "worst-colon
 @click.option("--solver", "solvers", multiple=True, metavar="NAME", help="Solver (repeat for several) [thesis].")
 @click.option("--target-pass", type=FiniteRange(min=0, max=1e6), default=0.95, show_default=True, metavar="SHARE",
               help="Share of colons a design must traverse without touching the wall.")
-@click.option("--robot", "robot_file", default=None, metavar="FILE",
-              help="Robot description (TOML) every design starts from; grid values replace its values.")
-@click.option("--out", "out_dir", default=None, metavar="DIR",
-              help="Output folder [./bhr-out/traverse-<hash of the settings>/].")
-@click.option("--jobs", "-j", type=PlainIntRange(min=1, max=1024), default=None, metavar="N",
-              help="Worker processes [the number of CPUs]; 1 runs in this process.")
-@click.option("--scheduler", default=None, metavar="ADDRESS",
-              help="Run on an existing Dask distributed cluster instead, e.g. tcp://127.0.0.1:8786.")
+@study_options("./bhr-out/traverse-<hash of the settings>/")
 @click.option("--x", "hx", default=None, metavar="KEY", help="Heat-map columns [the design axis with the most values].")
 @click.option("--y", "hy", default=None, metavar="KEY", help="Heat-map rows [the next one].")
 @click.option("--no-plots", "no_plot", is_flag=True, help="Skip the figures (passrate.png, worst-colon.png).")
@@ -60,22 +53,18 @@ def traverse(grid, colons, solvers, target_pass, robot_file, out_dir, jobs, sche
     heatmap_axes(study, hx, hy)  # refuse unknown heat-map axes before running
     import dataclasses
 
-    from bhr.cli._common import default_output, input_files, point_latest_if_default
+    from bhr.cli._common import default_output, input_files, print_study
 
     folder = default_output("traverse", "traverse", (dataclasses.asdict(study), no_plot, hx, hy),
                             input_files(robot_file), OUTPUTS + ("manifest.json",), out_dir,
                             what="study output folder")  # before any work
-    out = folder.final("")
-    client = None
-    if scheduler is not None:
-        from bhr.studies.executor import connect_scheduler
+    from bhr.studies.executor import scheduler_client
 
-        client = connect_scheduler(scheduler)  # fails in one line before anything starts
     err = sys.stderr
     total = len(study)
     label = f"{total} runs ({study.designs} designs x {len(study.colons)} colons)" + (
         f" on {scheduler}" if scheduler else "")
-    try:
+    with scheduler_client(scheduler) as client:  # fails in one line before anything starts
         if err.isatty():
             with click.progressbar(length=total, label=label, file=err, show_pos=True, show_eta=True) as bar:
                 last = [0]
@@ -87,18 +76,6 @@ def traverse(grid, colons, solvers, target_pass, robot_file, out_dir, jobs, sche
                 result = run_study(study, jobs=jobs, scheduler=client, progress=progress)
         else:  # piped or logged: no bar
             result = run_study(study, jobs=jobs, scheduler=client)
-    finally:
-        if client is not None:
-            from bhr.studies.executor import close_client
-
-            close_client(client)
     with folder:
         files = write_study(result, folder, plot=not no_plot, x=hx, y=hy, physics=physics)
-    point_latest_if_default(folder, out_dir)
-    for line in format_study(result):
-        click.echo(line)
-    click.echo("Wrote " + ", ".join(str(p) for p in files))
-    if result.failed:
-        click.echo(f"Error: {len(result.failed)} of {total} runs failed; see {out / 'runs.csv'}", err=True)
-        return 1
-    return 0
+    return print_study(folder, out_dir, format_study(result), files, len(result.failed), total, "runs", "runs.csv")

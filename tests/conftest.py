@@ -43,33 +43,28 @@ def snapshot(folder: Path) -> dict[str, tuple[int, int]]:
 
 
 # ------------------------------------------------------------------ layers
-# Every test belongs to one layer, so that a fast subset can run alone (README, "Tests"):
-#   unit         the library in-process: kernels against their numpy references, models, readers, API
-#   thesis       the thesis's published figures (chapters 5-7), pinned bit for bit
-#   cli          the `bhr` commands, run as a user runs them
-#   integration  real outside parts: firmware built with avr-gcc and run in simavr, serial ptys, Chromium, Dask
-_LAYER = {
-    "test_solve_chapter5.py": "thesis", "test_constrained_chapter6.py": "thesis", "test_follow_chapter7.py": "thesis",
-    "test_cli_basics.py": "cli", "test_bad_input.py": "cli", "test_report.py": "cli", "test_sweep.py": "cli",
-    "test_compare.py": "cli", "test_replay.py": "cli", "test_animate.py": "cli", "test_startup.py": "cli",
-    "test_bench.py": "cli", "test_hostile.py": "cli",
-    "test_firmware_host.py": "integration", "test_firmware_sim.py": "integration",
-    "test_firmware_thermal.py": "integration", "test_link.py": "integration",
-    "test_liveview.py": "integration", "test_report_browser.py": "integration",
-    "test_view_browser.py": "integration", "test_physics_replay.py": "integration", "test_warmup.py": "integration",
-    "test_dask_faults.py": "integration",
-}
-_INTEGRATION_FIXTURES = {"dask_cluster"}
+# Every test belongs to one layer, its folder, so that a fast subset can run alone (README, "Tests"):
+#   tests/unit         the library in-process: kernels against their numpy references, models, readers, API
+#   tests/thesis       the thesis's published figures (chapters 5-7), pinned bit for bit
+#   tests/cli          the `bhr` commands, run as a user runs them
+#   tests/integration  real outside parts: firmware built with avr-gcc and run in simavr, serial ptys, Chromium,
+#                      Dask, pinocchio and MuJoCo, the import-contract tool
+# The marker is the folder's name. A test outside these folders, or an in-process test that asks for a command
+# or a cluster, stops the collection with a line that says where it belongs.
+LAYERS = ("unit", "thesis", "cli", "integration")
+_NEEDS = {"run_bhr": "cli", "dask_cluster": "integration"}
 
 
 def pytest_collection_modifyitems(config, items):
     for item in items:
-        layer = _LAYER.get(item.path.name, "unit")
+        folder = Path(str(item.path)).resolve().parent
+        layer = folder.name if folder.parent == REPO / "tests" else None
+        if layer not in LAYERS:
+            raise pytest.UsageError(f"{item.nodeid}: a test lives in one of tests/{{{','.join(LAYERS)}}}/ (its layer)")
         fixtures = set(getattr(item, "fixturenames", ()))
-        if fixtures & _INTEGRATION_FIXTURES:
-            layer = "integration"
-        elif layer == "unit" and "run_bhr" in fixtures:
-            layer = "cli"
+        for fixture, home in _NEEDS.items():
+            if fixture in fixtures and layer == "unit":
+                raise pytest.UsageError(f"{item.nodeid} uses {fixture}: move it to tests/{home}/")
         item.add_marker(getattr(pytest.mark, layer))
 
 # A command that had to compile starts the other commands' kernels compiling in the background

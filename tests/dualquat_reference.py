@@ -1,7 +1,7 @@
 """A readable reference of bhr's dual-quaternion kernels (thesis ch. 3, Ec. 3.31-3.44), on numpy-quaternion.
 
 A dual quaternion ``q = a + b*eps`` is eight numbers ``[a_w, a_x, a_y, a_z,
-b_w, b_x, b_y, b_z]``. tests/test_dualquat.py holds the kernels of
+b_w, b_x, b_y, b_z]``. tests/unit/test_dualquat.py holds the kernels of
 :mod:`bhr.kinematics.dualquat` equal to these functions, and these functions
 equal to pytransform3d's.
 """

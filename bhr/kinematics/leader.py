@@ -20,15 +20,29 @@ import math
 import numpy as np
 from numba import njit
 
-__all__ = ["score_step", "advance_kernel", "finish_step", "angle_deg", "score_reference", "advance_reference"]
+__all__ = ["score_step", "advance_kernel", "finish_step", "acos_deg", "angle_deg", "tip_angle",
+           "score_reference", "advance_reference"]
+
+
+@njit(cache=True)
+def acos_deg(c: float) -> float:
+    """The angle in degrees whose cosine is ``c``, clamped to [-1, 1] (rounding can leave a cosine just outside)."""
+    return math.degrees(math.acos(max(-1.0, min(1.0, c))))
 
 
 @njit(cache=True)
 def angle_deg(ax: float, ay: float, az: float, d: np.ndarray) -> float:
+    """The angle in degrees between the vector ``(ax, ay, az)`` and ``d`` (neither need be a unit vector)."""
     na = math.sqrt(ax * ax + ay * ay + az * az)
     nd = math.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
-    c = (ax * d[0] + ay * d[1] + az * d[2]) / (na * nd)
-    return math.degrees(math.acos(max(-1.0, min(1.0, c))))
+    return acos_deg((ax * d[0] + ay * d[1] + az * d[2]) / (na * nd))
+
+
+@njit(cache=True)
+def tip_angle(P: np.ndarray, d: np.ndarray) -> float:
+    """The tip's orientation error: the angle in degrees between the last module of chain ``P`` and ``d``."""
+    n = P.shape[0] - 1
+    return angle_deg(P[n, 0] - P[n - 1, 0], P[n, 1] - P[n - 1, 1], P[n, 2] - P[n - 1, 2], d)
 
 
 @njit(cache=True)

@@ -28,7 +28,7 @@ from typing import Any, Callable
 import numpy as np
 
 import bhr.model.pathfile as pathfile
-from bhr.settings.options import check_number
+from bhr.settings.options import check_number, did_you_mean, excerpt
 from bhr.settings.inputs import check_keys, number, read_toml, text_value
 from bhr.settings.errors import BhrError
 from bhr.model.anatomy import anatomical_colon, check_seed
@@ -237,17 +237,12 @@ def _check_params(gen_name: str, params: dict[str, Any], where: str) -> dict[str
             continue
         if key not in gen.params:
             allowed = ", ".join(gen.params) or "none"
-            raise BhrError(f"{where}: the {gen_name} trajectory has no parameter {key!r} (allowed: {allowed})")
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise BhrError(f"{where}: {key} must be a number, got {value!r}")
+            raise BhrError(f"{where}: the {gen_name} trajectory has no parameter {excerpt(key)}; "
+                           f"{did_you_mean(key, gen.params)}allowed: {allowed}")
         if key in _WHOLE:
             check_seed(value, where)
-        v = float(check_number(value, f"{where}: {key}", limit=2.0**32 if key in _WHOLE else 1e6))  # the one checker
-        if key in _POSITIVE and v <= 0:
-            raise BhrError(f"{where}: {key} must be positive, got {value}")
-        if key in _NONNEG and v < 0:
-            raise BhrError(f"{where}: {key} must not be negative, got {value}")
-        out[key] = v
+        out[key] = float(check_number(value, f"{where}: {key}", limit=2.0**32 if key in _WHOLE else 1e6,
+                                      positive=key in _POSITIVE, nonneg=key in _NONNEG))  # the one checker
     return out
 
 

@@ -15,7 +15,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from bhr.settings.inputs import did_you_mean
-from bhr.settings.options import by_group, check_number, excerpt, robot_limits
+from bhr.settings.options import by_group, check_number, robot_limits
 from bhr.model.codes import check_codes
 from bhr.kinematics.frames import fk_kernel
 from bhr.settings.errors import BhrError
@@ -43,16 +43,8 @@ def min_turn_radius(module_length: float, alpha_deg: float) -> float:
 
 
 def _positive(name: str, value: Any, *, integer: bool = False) -> None:
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
-        raise BhrError(f"{name} must be a number, got {excerpt(value)}")
-    if isinstance(value, int) and abs(value) > 1e300:  # an integer of any length: refused, never converted
-        check_number(value, name, limit=1e300)
-    if not math.isfinite(float(value)):
-        raise BhrError(f"{name} must be finite, got {value}")
-    if integer and int(value) != value:
-        raise BhrError(f"{name} must be a whole number, got {value}")
-    if value <= 0:
-        raise BhrError(f"{name} must be positive, got {value}")
+    """The registry's one number check (:func:`bhr.settings.options.check_number`), greater than 0."""
+    check_number(value, name, integer=integer, limit=1e300, positive=True)
 
 
 @dataclass(frozen=True)
@@ -95,9 +87,7 @@ class Robot:
         if not 0.0 < self.alpha < 90.0:
             raise BhrError(f"alpha must be between 0 and 90 degrees (exclusive), got {self.alpha}")
         for name in ("weight_pos", "weight_ori"):
-            w = getattr(self, name)
-            if not isinstance(w, (int, float)) or not math.isfinite(w) or w < 0:
-                raise BhrError(f"{name.replace('_', '-')} must be a non-negative number, got {w!r}")
+            check_number(getattr(self, name), name.replace("_", "-"), limit=1e300, nonneg=True)
         for key, (top, unit) in robot_limits().items():  # the registry's upper limits, wherever a robot comes from
             value = getattr(self, key, None)
             if value is not None and top is not None and value > top:

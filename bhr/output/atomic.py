@@ -161,10 +161,11 @@ def atomic_path(path: str | os.PathLike[str], suffix: str | None = None) -> Iter
             tmp_path.unlink()
 
 
-def _mode_for(target: Path) -> int:
-    """The permissions a plain ``open(target, "w")`` would give: the old file's, else 0o666 less the umask.
+def _mode_for(target: Path, new: int = 0o666) -> int:
+    """The permissions a plain ``open(target, "w")`` (``new`` = 0o666) or ``mkdir`` (0o777) would give: the old
+    file's or folder's, else ``new`` less the umask.
 
-    (mkstemp creates its file 0o600, which would hide outputs from the
+    (mkstemp creates its file 0o600, and mkdtemp its folder 0o700, which would hide outputs from the
     user's group.)
     """
     try:
@@ -172,7 +173,7 @@ def _mode_for(target: Path) -> int:
     except OSError:
         mask = os.umask(0)
         os.umask(mask)
-        return 0o666 & ~mask
+        return new & ~mask
 
 
 def write_text(path: str | os.PathLike[str], text: str) -> None:
@@ -351,7 +352,7 @@ class OutputFolder:
         self._clean_stale()
         self.stage = Path(tempfile.mkdtemp(prefix=f".{self.target.name}{_STAGE}{os.getpid()}-",
                                            dir=self.target.parent))
-        os.chmod(self.stage, _mode_for_dir(self.target))
+        os.chmod(self.stage, _mode_for(self.target, 0o777))
         return self
 
     def path(self, name: str | os.PathLike[str]) -> Path:
@@ -572,15 +573,6 @@ def _read_manifest(path: Path) -> dict[str, Any] | None:
     if not isinstance(doc.get("run_id"), str) or not isinstance(doc.get("command"), str):
         return None
     return doc
-
-
-def _mode_for_dir(target: Path) -> int:
-    try:
-        return target.stat().st_mode & 0o7777
-    except OSError:
-        mask = os.umask(0)
-        os.umask(mask)
-        return 0o777 & ~mask
 
 
 def settings_hash(*parts: Any) -> str:

@@ -116,6 +116,19 @@ def check_keys(table: dict[str, Any], allowed: Iterable[str], where: str) -> Non
                            f"{', '.join(allowed)}")
 
 
+def check_document(data: dict[str, Any], allowed: Iterable[str], source: str, what: str, hint: str) -> None:
+    """A batch or sweep file's top level: only ``allowed`` keys (with did-you-mean), ``title`` and
+    ``description`` as text. ``what`` names a key ("top-level key"), ``hint`` says where other values go."""
+    allowed = list(allowed)
+    for key in data:
+        if key not in allowed:
+            raise BhrError(f"{source}: unknown {what} {_excerpt(key)}; {did_you_mean(key, allowed)}allowed: "
+                           f"{', '.join(allowed)} ({hint})")
+    for key in ("title", "description"):
+        if key in data and not isinstance(data[key], str):
+            raise BhrError(f"{source}: {key} must be a string, got {_excerpt(data[key])}")
+
+
 def type_name(value: Any) -> str:
     return _type_name(value)
 

@@ -16,6 +16,7 @@ import math
 import numpy as np
 from numba import njit
 
+from bhr.kinematics.leader import acos_deg
 from bhr.solvers.base import Chain, FollowContext, SolveResult, Solver, register
 
 
@@ -78,9 +79,7 @@ def tip_angle_deg(P: np.ndarray, d: np.ndarray) -> float:
     vy = P[n, 1] - P[n - 1, 1]
     vz = P[n, 2] - P[n - 1, 2]
     nv = math.sqrt(vx * vx + vy * vy + vz * vz)
-    c = (vx * d[0] + vy * d[1] + vz * d[2]) / nv
-    c = max(-1.0, min(1.0, c))
-    return math.degrees(math.acos(c))
+    return acos_deg((vx * d[0] + vy * d[1] + vz * d[2]) / nv)  # d is a unit vector here
 
 
 @njit(cache=True)

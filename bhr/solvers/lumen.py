@@ -56,10 +56,10 @@ from bhr.run.clearance import Tube, nearest_numpy, search_window, make_tube, poi
 from bhr.settings.errors import BhrError
 from bhr.settings.options import solver_defaults
 from bhr.kinematics.frames import tilt_frame as _rot
-from bhr.kinematics.leader import advance_kernel, finish_step
+from bhr.kinematics.leader import advance_kernel, finish_step, tip_angle
 from bhr.solvers.base import Chain, FollowContext, SolveResult, register
 from bhr.solvers.optimal import (CODE_OF, DEG, Optimal, beam_candidate, beam_commit, beam_keep, beam_reset,
-                                 dist2, frame_of_chain, setting_number, step_targets, tip_angle, write_pose)
+                                 dist2, frame_of_chain, setting_number, step_targets, write_pose)
 
 __all__ = ["Lumen", "DEFAULTS", "head_cost", "lumen_config_cost"]
 

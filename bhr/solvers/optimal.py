@@ -58,7 +58,7 @@ from bhr.settings.errors import BhrError
 from bhr.settings.options import check_number, solver_defaults
 from bhr.kinematics.frames import tilt_frame as _rot
 from bhr.kinematics.codetable import SEARCH_CODES
-from bhr.kinematics.leader import advance_kernel, finish_step
+from bhr.kinematics.leader import advance_kernel, finish_step, tip_angle
 from bhr.solvers.base import Chain, FollowContext, SolveResult, Solver, register
 from bhr.model.robot import forward_kinematics
 
@@ -402,18 +402,6 @@ def _optimal_step(P, E1, E2, i, bP, bF, bC, bH, state, cP, cF, cC, cPar, cA, ord
     best_codes[0] = a0
     write_pose(F, best_codes, c, s, L, alpha, frames, P, E1, E2, out_codes, tilts)
     return layers, cost
-
-
-@njit(cache=True)
-def tip_angle(P, d):
-    n = P.shape[0] - 1
-    ux = P[n, 0] - P[n - 1, 0]
-    uy = P[n, 1] - P[n - 1, 1]
-    uz = P[n, 2] - P[n - 1, 2]
-    nu = math.sqrt(ux * ux + uy * uy + uz * uz)
-    nd = math.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
-    cth = (ux * d[0] + uy * d[1] + uz * d[2]) / (nu * nd)
-    return math.degrees(math.acos(max(-1.0, min(1.0, cth))))
 
 
 @njit(cache=True)

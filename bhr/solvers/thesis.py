@@ -29,7 +29,7 @@ from bhr.model.codes import TILT_CODES
 from bhr.kinematics.dualquat import k_rotate
 from bhr.settings.errors import BhrError
 from bhr.settings.options import BY_NAME
-from bhr.kinematics.leader import finish_step
+from bhr.kinematics.leader import acos_deg, finish_step
 from bhr.solvers.base import Chain, FollowContext, SolveResult, Solver, register
 from bhr.solvers.fabrik import point_distance, pull_point, tip_angle_deg
 
@@ -37,11 +37,6 @@ LIMIT_NONE, LIMIT_CONTINUOUS, LIMIT_BINARY = 0, 1, 2
 LIMITS = {"none": LIMIT_NONE, "continuous": LIMIT_CONTINUOUS, "binary": LIMIT_BINARY}
 AXES = BY_NAME["axes"].choices or ()
 _TILT = np.array(TILT_CODES, dtype=np.int64)
-
-
-@njit(cache=True)
-def _acosd(c: float) -> float:
-    return math.degrees(math.acos(max(-1.0, min(1.0, c))))
 
 
 @njit(cache=True)
@@ -138,7 +133,7 @@ def constrained_kernel(P: np.ndarray, E1: np.ndarray, E2: np.ndarray, target: np
             nr = math.sqrt(rx * rx + ry * ry + rz * rz)
             n1 = math.sqrt(v1[0] ** 2 + v1[1] ** 2 + v1[2] ** 2)
             n2 = math.sqrt(v2x * v2x + v2y * v2y + v2z * v2z)
-            theta = 180.0 - _acosd((v2x * v1[0] + v2y * v1[1] + v2z * v1[2]) / (n2 * n1))
+            theta = 180.0 - acos_deg((v2x * v1[0] + v2y * v1[1] + v2z * v1[2]) / (n2 * n1))
             idx = 0
             if nr == 0.0:
                 ax, ay, az = g[0, 0], g[0, 1], g[0, 2]
@@ -147,7 +142,7 @@ def constrained_kernel(P: np.ndarray, E1: np.ndarray, E2: np.ndarray, target: np
                 if local_axes:
                     best = 1e300
                     for q in range(4):
-                        aq = _acosd(ax * g[q, 0] + ay * g[q, 1] + az * g[q, 2])
+                        aq = acos_deg(ax * g[q, 0] + ay * g[q, 1] + az * g[q, 2])
                         if aq < best:
                             best = aq
                             idx = q

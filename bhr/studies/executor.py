@@ -35,7 +35,7 @@ import os
 import time
 import traceback
 from dataclasses import dataclass
-from typing import Any, Callable, Generic, Sequence, TypeVar
+from typing import Any, Callable, Generic, Iterator, Sequence, TypeVar
 
 from bhr.settings.errors import BhrError
 
@@ -383,6 +383,18 @@ def _dask_failure(address: str, exc: BaseException) -> BhrError:
 def _cannot(address: str, why: str) -> BhrError:
     return BhrError(f"cannot connect to the Dask scheduler at {address} ({why}); check the address "
                     "(e.g. tcp://127.0.0.1:8786) and that the scheduler is running")
+
+
+@contextlib.contextmanager
+def scheduler_client(address: str | None) -> Iterator[Any]:
+    """``None`` without an address (local processes), else a client on the scheduler at ``address``
+    (:func:`connect_scheduler`, one line when it cannot connect), closed on leaving."""
+    client = None if address is None else connect_scheduler(address)
+    try:
+        yield client
+    finally:
+        if client is not None:
+            close_client(client)
 
 
 def connect_scheduler(address: str, timeout: float = 15.0) -> Any:

@@ -44,7 +44,7 @@ from typing import Any, Callable, Sequence
 from bhr import __version__
 from bhr.output.atomic import write_json, write_text
 from bhr.settings.errors import BhrError
-from bhr.settings.inputs import read_toml
+from bhr.settings.inputs import check_document, read_toml
 from bhr.studies.executor import capture, run_jobs
 from bhr.model.generators import GENERATORS, builtin_names, load_trajectory
 from bhr.run.driver import BhrWarning, follow
@@ -139,13 +139,7 @@ def _resolve(path: str, base: Path) -> str:
 def parse_batch(data: dict[str, Any], source: str = "batch", base_dir: str | os.PathLike[str] = ".") -> Batch:
     """A :class:`Batch` from the parsed TOML ``data``; relative paths are taken from ``base_dir``."""
     base = Path(base_dir)
-    for key in data:
-        if key not in _TOP_KEYS:
-            raise BhrError(f"{source}: unknown top-level key {key!r}; allowed: {', '.join(_TOP_KEYS)} "
-                           "(runs are [[run]] tables)")
-    for key in ("title", "description"):
-        if key in data and not isinstance(data[key], str):
-            raise BhrError(f"{source}: {key} must be a string, got {data[key]!r}")
+    check_document(data, _TOP_KEYS, source, "top-level key", "runs are [[run]] tables")
     defaults = _check_table(data.get("defaults", {}), f"{source}: [defaults]", RUN_KEYS - {"name"})
     runs = data.get("run")
     if runs is None:

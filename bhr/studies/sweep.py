@@ -32,7 +32,7 @@ from typing import Any, Callable, Iterable, Sequence
 from bhr import __version__
 from bhr.output.atomic import write_json, write_text
 from bhr.settings.errors import BhrError
-from bhr.settings.inputs import read_toml
+from bhr.settings.inputs import check_document, read_toml
 from bhr.studies.executor import DASK_MISSING, capture, connect_scheduler, run_jobs
 from bhr.model.generators import GENERATORS, builtin_names, load_trajectory
 from bhr.run.driver import BhrWarning, follow
@@ -182,13 +182,7 @@ def _as_list(value: Any, key: str, where: str) -> tuple[str, ...]:
 
 def sweep_from_toml(data: dict[str, Any], source: str = "sweep", base_dir: str | os.PathLike[str] = ".") -> Sweep:
     """A :class:`Sweep` from a parsed TOML document (``traj``, ``solver``, ``[grid]``, ``title``)."""
-    for key in data:
-        if key not in _TOP_KEYS:
-            raise BhrError(f"{source}: unknown key {key!r}; allowed: {', '.join(_TOP_KEYS)} "
-                           "(parameters go in the [grid] table)")
-    for key in ("title", "description"):
-        if key in data and not isinstance(data[key], str):
-            raise BhrError(f"{source}: {key} must be a string, got {data[key]!r}")
+    check_document(data, _TOP_KEYS, source, "key", "parameters go in the [grid] table")
     grid_table = data.get("grid", {})
     if not isinstance(grid_table, dict):
         raise BhrError(f"{source}: [grid] must be a table of KEY = values")

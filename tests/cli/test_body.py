@@ -1,0 +1,19 @@
+"""Whole-body follow-the-leader (bhr/body.py): the modules behind the head: the tests that run the bhr command."""
+from __future__ import annotations
+
+import json
+
+
+def test_follow_cli_body(run_bhr, tmp_path):
+    out = run_bhr("follow", "--traj", "curve", "--solver", "optimal", "--body-modules", "12", "--out", tmp_path / "o",
+                  "--json", tmp_path / "run.json")
+    assert out.returncode == 0, out.stderr
+    assert "Whole body: 12 modules" in out.stdout
+    doc = json.loads((tmp_path / "run.json").read_text())
+    assert doc["summary"]["body_modules"] == 12
+    st = doc["steps"][-1]
+    assert len(st["body_points"]) == 7 and len(st["body_codes"]) == 7 and len(st["body_point_errors_mm"]) == 7
+    assert (tmp_path / "o" / "body_errors.png").read_bytes()[:4] == b"\x89PNG"
+    bad = run_bhr("follow", "--traj", "curve", "--body-modules", "3", "--no-plots", "--out", tmp_path / "b")
+    assert bad.returncode != 0 and len(bad.stderr.strip().splitlines()) == 1 and "--body-modules" in bad.stderr
+    assert not (tmp_path / "b" / "run.json").exists()

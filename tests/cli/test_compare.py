@@ -1,0 +1,92 @@
+"""bhr compare: several solvers on one trajectory, printed and plotted together."""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from bhr.model.generators import load_trajectory
+from bhr.model.robot import Robot
+from bhr.run.driver import follow
+from bhr.settings.errors import BhrError
+from bhr.studies.compare import compare_rows, compare_runs, format_table
+
+
+def test_rows_are_the_runs_numbers():
+    tr = load_trajectory("curve")
+    runs = compare_runs(tr, ["seed", "optimal"], Robot(), solver_options={"optimal": {"lookahead": 3}})
+    rows = compare_rows(runs)
+    seed = follow(tr, solver="seed").point_errors.max()
+    opt = follow(tr, solver="optimal", solver_options={"lookahead": 3}).point_errors.max()
+    assert rows[0]["ratio_to_first"] == 1.0
+    assert rows[0]["points_max_error_mm"] == pytest.approx(seed)
+    assert rows[1]["points_max_error_mm"] == pytest.approx(opt)
+    assert rows[1]["ratio_to_first"] == pytest.approx(opt / seed)
+    text = "\n".join(format_table(runs))
+    assert "x thesis" in text and "seed" not in text and f"{opt / seed:.3f}" in text
+
+
+def test_bad_solver_lists():
+    tr = load_trajectory("curve")
+    with pytest.raises(BhrError, match="at least two"):
+        compare_runs(tr, ["seed"], Robot())
+    with pytest.raises(BhrError, match="twice"):
+        compare_runs(tr, ["seed", "seed"], Robot())
+    with pytest.raises(BhrError, match="unknown solver"):
+        compare_runs(tr, ["seed", "nope"], Robot())
+
+
+def test_cli_prints_and_plots(run_bhr, tmp_path):
+    out = run_bhr("compare", "--traj", "curve", "--angle", "180", "--solver", "seed", "--solver", "optimal",
+                  "--out", tmp_path / "c", "--json", tmp_path / "c.json")
+    assert out.returncode == 0, out.stderr
+    # the thesis's solver given by its old name is shown by its one name
+    assert "thesis" in out.stdout and "optimal" in out.stdout and "x thesis" in out.stdout
+    assert "seed" not in out.stdout
+    png = tmp_path / "c" / "compare.png"
+    assert png.read_bytes()[:4] == b"\x89PNG"
+    doc = json.loads((tmp_path / "c.json").read_text())
+    assert [r["solver"] for r in doc["rows"]] == ["thesis", "optimal"]
+    # each solver's run is kept as bhr follow writes it, replayable and streamable
+    for name in ("thesis", "optimal"):
+        run = json.loads((tmp_path / "c" / name / "run.json").read_text())
+        assert run["solver"] == name and len(run["steps"]) == len(doc["runs"][0]["points_max_error_mm"])
+        codes = (tmp_path / "c" / name / "codes.csv").read_text().splitlines()
+        assert len(codes) == len(run["steps"]) + 1
+    replay = run_bhr("replay", tmp_path / "c" / "optimal" / "run.json", "--out", tmp_path / "again")
+    assert replay.returncode == 0, replay.stderr
+    tr = load_trajectory("curve", angle=180.0)
+    seed = follow(tr, solver="seed")
+    np.testing.assert_allclose(doc["runs"][0]["points_max_error_mm"], seed.point_errors.max(axis=1))
+    assert doc["rows"][1]["ratio_to_first"] == pytest.approx(
+        max(doc["runs"][1]["points_max_error_mm"]) / max(doc["runs"][0]["points_max_error_mm"]))
+
+
+def test_cli_with_lumen_and_body(run_bhr, tmp_path):
+    out = run_bhr("compare", "--traj", "colon", "--body-modules", "20", "--no-plots", "--json", "-")
+    assert out.returncode == 0, out.stderr
+    doc = json.loads(out.stdout)
+    assert all("min_clearance_mm" in r and "body_points_max_error_mm" in r for r in doc["rows"])
+    assert "clear mm" in out.stderr  # the table goes to stderr when the JSON is on stdout
+
+
+@pytest.mark.parametrize("args,word", [
+    (["--solver", "seed"], "at least two"),
+    (["--solver", "seed", "--solver", "seed"], "twice"),
+    (["--solver", "seed", "--solver", "bogus"], "unknown solver"),
+    (["--solver", "seed", "--solver", "fabrik", "--lookahead", "3"], "optimal"),
+])
+def test_cli_bad_input_is_one_line(run_bhr, tmp_path, args, word):
+    out = run_bhr("compare", "--traj", "curve", *args, "--out", tmp_path / "c")
+    assert out.returncode != 0
+    assert len(out.stderr.strip().splitlines()) == 1 and word in out.stderr
+    assert not (tmp_path / "c").exists()
+
+
+def test_cli_checks_the_output_folder_first(run_bhr, tmp_path):
+    blocker = tmp_path / "file"
+    blocker.write_text("keep")
+    out = run_bhr("compare", "--traj", "colon", "--out", blocker / "sub")
+    assert out.returncode != 0 and len(out.stderr.strip().splitlines()) == 1
+    assert blocker.read_text() == "keep"

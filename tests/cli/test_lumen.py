@@ -1,0 +1,20 @@
+"""--solver lumen (bhr/solvers/lumen.py): exact head search, planning, options, and that it keeps off the wall: the tests that run the bhr command."""
+from __future__ import annotations
+
+from bhr.bench.lumen import tight_colon
+
+
+def test_cli_options_go_to_the_solver_they_belong_to(run_bhr, tmp_path):
+    csv = tmp_path / "tight.csv"
+    tr = tight_colon(2)
+    csv.write_text("x,y,z,lumen\n" + "".join(f"{p[0]:.6f},{p[1]:.6f},{p[2]:.6f},{d:.4f}\n"
+                                             for p, d in zip(tr.points[:90], tr.lumen[:90])))
+    out = run_bhr("follow", "--traj", csv, "--solver", "lumen", "--lookahead", "4", "--wall-weight", "500",
+                  "--no-plots", "--out", tmp_path / "o")
+    assert out.returncode == 0, out.stderr
+    assert "Lumen clearance: minimum" in out.stdout
+    bad = run_bhr("follow", "--traj", csv, "--solver", "seed", "--wall-weight", "500", "--no-plots")
+    assert bad.returncode != 0 and bad.stderr.strip().splitlines() == [
+        "Error: --wall-weight is an option of --solver lumen; drop it or use --solver lumen"]
+    bad = run_bhr("follow", "--traj", csv, "--solver", "lumen", "--drift-weight", "3", "--no-plots")
+    assert bad.returncode != 0 and "is an option of --solver optimal" in bad.stderr

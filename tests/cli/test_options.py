@@ -1,0 +1,33 @@
+"""One option registry (bhr.settings.options): CLI options, robot files, batch files and sweep grids agree: the tests that run the bhr command."""
+import re
+
+import pytest
+
+from bhr.settings.errors import BhrError
+from bhr.settings.options import OPTIONS
+from bhr.studies.report import parse_batch
+from bhr.studies.sweep import parse_values
+
+
+# the physics replay's options belong to bhr physics, not to batch runs
+@pytest.mark.parametrize("o", [o for o in OPTIONS if o.maximum is not None and o.group != "physics"], ids=lambda o: o.name)
+def test_batch_refuses_what_the_command_line_refuses(o, run_bhr, tmp_path):
+    too_big = int(o.maximum) + 1 if o.kind is int else o.maximum * 2
+    with pytest.raises(BhrError, match=re.escape(f"{o.name} = {too_big:g} is too large; the limit is {o.limit:g}")):
+        parse_batch({"run": [{"name": "a", "traj": "curve", o.name: too_big}]}, "b")
+    with pytest.raises(BhrError, match="is too large"):
+        parse_values(o.name, [too_big], "sweep")
+    if o.group == "robot" and o.name != "feed_divisor":  # bhr fk has no feed, and solves nothing
+        from bhr.cli._options import SOLVING_ONLY
+
+        args = ("solve", "--target", "1", "1", "1") if o.name in SOLVING_ONLY else ("fk", "--codes", "0")
+        r = run_bhr(*args, o.flag, str(too_big))
+        assert r.returncode == 2 and f"the limit is {o.limit:g}" in r.stderr
+
+
+def test_fk_lists_no_solver_options_and_old_spellings_stay_hidden(run_bhr):
+    fk = run_bhr("fk", "--help").stdout
+    assert "--module-length" in fk and not any(f in fk for f in ("--tol-pos", "--tol-ori", "--max-iter", "--weight"))
+    sweep, report = run_bhr("sweep", "--help").stdout, run_bhr("report", "--help").stdout
+    assert "--no-plots" in sweep and "--no-plot " not in sweep
+    assert "--file" in report and "--no-plots" in report and "--batch" not in report

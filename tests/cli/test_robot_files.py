@@ -1,0 +1,45 @@
+"""Robot description files: the shipped default, keys, overrides, the code table and the link: the tests that run the bhr command."""
+from __future__ import annotations
+
+import json
+import math
+
+import pytest
+
+from bhr.model.robotfile import (
+    default_robot_file,
+)
+from tests.unit.test_robot_files import write  # noqa: F401
+
+
+def test_follow_with_the_default_file_reproduces_the_thesis(run_bhr, tmp_path):
+    res = run_bhr("follow", "--traj", "curve", "--robot", default_robot_file(), "--no-plots", "--json", "-")
+    assert res.returncode == 0, res.stderr
+    assert round(json.loads(res.stdout)["summary"]["tip_final_error_mm"], 4) == 0.9099
+
+
+def test_file_values_apply_and_options_override_them(run_bhr, tmp_path):
+    write(tmp_path / "r.toml", "modules = 3\nmodule_length = 4.0\nalpha = 20\n")
+    res = run_bhr("fk", "--codes", "0,0,3", "--robot", "r.toml", "--json", "-")
+    assert res.returncode == 0, res.stderr
+    pts = json.loads(res.stdout)["points"]
+    assert len(pts) == 4 and pts[3][0] == pytest.approx(8 + 4 * math.cos(math.radians(20)))
+    res = run_bhr("fk", "--codes", "0,0,3", "--robot", "r.toml", "--module-length", "5", "--alpha", "10",
+                  "--json", "-")
+    pts = json.loads(res.stdout)["points"]
+    assert pts[3][0] == pytest.approx(10 + 5 * math.cos(math.radians(10)))
+    res = run_bhr("solve", "--target", "3", "4", "0", "--robot", "r.toml", "--modules", "2", "--json", "-")
+    assert res.returncode == 0, res.stderr
+    assert len(json.loads(res.stdout)["points"]) == 3
+    # the file's module count is kept when the codes disagree with it: one clear line
+    res = run_bhr("fk", "--codes", "0,3", "--robot", "r.toml")
+    assert res.returncode != 0 and "expected 3 codes" in res.stderr and len(res.stderr.splitlines()) == 1
+
+
+def test_stroke_and_lever_in_the_file_and_alpha_on_the_command_line(run_bhr, tmp_path):
+    write(tmp_path / "r.toml", "stroke = 1.0\nlever = 4.0\n")
+    res = run_bhr("fk", "--codes", "3,0,0,0,0", "--robot", "r.toml", "--json", "-")
+    a = math.asin(0.25)
+    assert json.loads(res.stdout)["points"][2][0] == pytest.approx(20 * math.cos(a))  # module 1 tilts by alpha
+    res = run_bhr("fk", "--codes", "3,0,0,0,0", "--robot", "r.toml", "--alpha", "30", "--json", "-")
+    assert json.loads(res.stdout)["points"][2][0] == pytest.approx(20 * math.cos(math.radians(30)))

@@ -1,0 +1,123 @@
+"""The command line loads heavy modules only when a command needs them, and numba compiles once."""
+import os
+import subprocess
+import sys
+
+CHECK = """
+import sys
+from bhr.cli.main import main
+try:
+    main({args!r}, standalone_mode=False)
+except (SystemExit, Exception):  # a failing command still shows what it loaded
+    pass
+print(sorted(m for m in ("numba", "matplotlib", "serial", "quaternion", "numpy") if m in sys.modules))
+"""
+
+
+def loaded(args, cwd):
+    out = subprocess.run([sys.executable, "-c", CHECK.format(args=args)], capture_output=True, text=True, cwd=cwd,
+                         env=dict(os.environ, MPLBACKEND="Agg"), check=True)
+    return out.stdout.strip().splitlines()[-1]
+
+
+def test_help_imports_nothing_heavy(tmp_path):
+    assert loaded(["--help"], tmp_path) == "[]"
+
+
+def test_follow_without_plots_skips_matplotlib(tmp_path):
+    assert loaded(["follow", "--traj", "line", "--no-plots", "--out", "o"], tmp_path) == "['numba', 'numpy']"
+
+
+def test_follow_with_plots_loads_matplotlib(tmp_path):
+    assert loaded(["follow", "--traj", "line", "--out", "o"], tmp_path) == "['matplotlib', 'numba', 'numpy']"
+
+
+def test_board_commands_load_the_serial_stack_and_no_numba(tmp_path):
+    # no board answers on loop:// (the command fails after its one try): only what it loaded matters here
+    args = ["status", "--port", "loop://", "--timeout", "0.01", "--retries", "0"]
+    assert loaded(args, tmp_path) == "['numpy', 'serial']"
+
+
+def test_second_run_loads_compiled_code_from_cache(tmp_path, run_bhr):
+    env_cache = tmp_path / "cache"
+    cmd = [sys.executable, "-m", "bhr.cli.main", "follow", "--traj", "curve", "--no-plots", "--out", "o"]
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(env_cache), NUMBA_DEBUG_CACHE="1")
+    first = subprocess.run(cmd, cwd=tmp_path, capture_output=True, text=True, env=env, check=True)
+    assert "index saved" in first.stdout + first.stderr
+    second = subprocess.run(cmd, cwd=tmp_path, capture_output=True, text=True, env=env, check=True)
+    log = second.stdout + second.stderr
+    assert "data loaded" in log
+    assert "index saved" not in log and "data saved" not in log
+
+
+NOTICE = "Compiling bhr's kernels for this machine; this happens once"
+
+
+def test_first_run_says_it_compiles_the_kernels_and_later_runs_do_not(tmp_path):
+    from tests.conftest import bhr_exe
+
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "empty-cache"), MPLBACKEND="Agg")
+    cmd = bhr_exe() + ["fk", "--codes", "3,0,6"]
+    first = subprocess.run(cmd, cwd=tmp_path, capture_output=True, text=True, env=env, check=True)
+    lines = first.stderr.splitlines()
+    assert len(lines) == 1 and lines[0].startswith(NOTICE) and str(tmp_path / "empty-cache") in lines[0]
+    second = subprocess.run(cmd, cwd=tmp_path, capture_output=True, text=True, env=env, check=True)
+    assert second.stderr == "" and second.stdout == first.stdout
+    # help and commands that compile nothing never say it
+    env["NUMBA_CACHE_DIR"] = str(tmp_path / "other-empty-cache")
+    helped = subprocess.run(bhr_exe() + ["follow", "--help"], capture_output=True, text=True, env=env, check=True)
+    assert NOTICE not in helped.stderr + helped.stdout
+
+
+def run_on_a_terminal(args, cwd, env):
+    """Run bhr with stderr on a pseudo-terminal; return everything written there."""
+    import pty
+    import select
+
+    from tests.conftest import bhr_exe
+
+    master, slave = pty.openpty()
+    proc = subprocess.Popen(bhr_exe() + args, cwd=cwd, env=env, stdout=subprocess.DEVNULL, stderr=slave)
+    os.close(slave)
+    out = b""
+    while True:
+        r, _, _ = select.select([master], [], [], 0.5)
+        if r:
+            try:
+                chunk = os.read(master, 4096)
+            except OSError:  # the child closed the terminal
+                break
+            if not chunk:
+                break
+            out += chunk
+        elif proc.poll() is not None:
+            break
+    proc.wait(600)
+    os.close(master)
+    return proc.returncode, out.decode(errors="replace")
+
+
+def test_progress_is_drawn_on_a_terminal_and_not_when_piped(tmp_path):
+    from tests.conftest import bhr_exe
+
+    env = dict(os.environ, MPLBACKEND="Agg", TERM="xterm")
+    args = ["follow", "--traj", "line", "--out", "o"]
+    code, text = run_on_a_terminal(args, tmp_path, env)
+    assert code == 0
+    assert "following line (36 steps, solver thesis)" in text and "drawing the figures into o" in text
+    assert "\r\x1b[K" in text  # the status line is cleared before the summary
+    piped = subprocess.run(bhr_exe() + args, cwd=tmp_path, capture_output=True, text=True, env=env, check=True)
+    assert "following line" not in piped.stderr and "\r" not in piped.stderr
+
+
+def test_misspelt_trajectory_is_refused_before_numba_or_numpy_is_imported(tmp_path):
+    assert loaded(["follow", "--traj", "colonn"], tmp_path) == "[]"
+
+
+def test_trajectory_names_known_without_the_generators_are_the_generators():
+    from bhr.model.generators import GENERATORS, builtin_names
+    from bhr.model.trajnames import GENERATOR_NAMES
+    from bhr.model.trajnames import builtin_names as light_names
+
+    assert tuple(GENERATORS) == GENERATOR_NAMES
+    assert builtin_names() == light_names()

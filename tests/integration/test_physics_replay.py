@@ -1,0 +1,112 @@
+"""Runs replayed in MuJoCo against the colon wall (bhr.studies.physics, bhr physics): real MuJoCo scenes.
+
+A run whose geometric clearance stays >= 1 mm never touches the simulated wall and the simulated robot
+stays within 0.5 mm of bhr's poses; the thesis solver's run into the wall of an anatomical colon touches
+it in MuJoCo at the steps bhr reports (within one step).
+"""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+import bhr
+from bhr.model.generators import load_trajectory
+from bhr.model.path import Trajectory
+from bhr.model.robot import forward_kinematics
+from bhr.run.body import whole_robot
+from bhr.run.driver import BhrWarning
+from bhr.studies.physics import replay_physics, scene_xml, whole_chain
+
+
+def _head(steps: int, solver: str, body_modules=None, seed: int = 7):
+    tr = load_trajectory("anatomy", seed=seed)
+    cut = Trajectory(tr.name, tr.points[: steps + 10], dict(tr.params), tr.min_radius, tr.lumen[: steps + 10],
+                     tr.source, tr.start_direction, tr.start_point)
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", BhrWarning)  # the colon turns tighter than the robot can
+        run = bhr.follow(cut, solver=solver, body_modules=body_modules)
+    run.points, run.codes = run.points[:steps], run.codes[:steps]
+    run.iterations, run.point_errors, run.orientation_errors = (run.iterations[:steps], run.point_errors[:steps],
+                                                                run.orientation_errors[:steps])
+    if run.body is not None:
+        b = run.body
+        b.points, b.codes, b.point_errors, b.orientation_errors, b.scored = (
+            b.points[:steps], b.codes[:steps], b.point_errors[:steps], b.orientation_errors[:steps], b.scored[:steps])
+    return run
+
+
+def test_whole_chain_reproduces_the_whole_robot():
+    run = _head(60, "thesis", body_modules=25)
+    roots, frames, codes = whole_chain(run)
+    assert codes.shape == (60, 25)
+    robot = run.robot.replace(modules=25)
+    for i in range(60):
+        pts, _ = forward_kinematics(robot, codes[i], roots[i], frames[i])
+        assert np.abs(pts - whole_robot(run, i)).max() < 1e-9
+
+
+def test_clear_run_never_touches_and_tracks_bhr():
+    run = _head(90, "lumen")
+    assert run.clearance.min_mm >= 1.0
+    rep = replay_physics(run)
+    assert rep.contact_steps == []
+    assert rep.max_force_n.max() == 0.0
+    assert rep.deviation_mm.max() <= 0.5
+
+
+def test_run_into_the_wall_touches_at_bhrs_steps():
+    run = _head(130, "thesis", seed=4)  # the thesis solver goes into this colon's wall from step 112
+    touched = run.clearance.touch_steps
+    assert touched, "the thesis solver's run should go into this colon's wall"
+    rep = replay_physics(run)
+    sim = rep.contact_steps
+    assert sim
+    assert abs(sim[0] - touched[0]) <= 1
+    assert all(any(abs(a - b) <= 1 for b in sim) for a in touched)
+    assert all(any(abs(a - b) <= 1 for b in touched) for a in sim)
+    assert rep.max_force_n.max() > 1.0  # several mm into a 0.7-2.4 N/mm wall
+
+
+def test_wall_pieces_are_outside_the_lumen():
+    """Every box's inner face is at the lumen radius or farther from its ring's centerline point."""
+    run = _head(20, "thesis")
+    xml, st = scene_xml(run, pieces=8)
+    assert st["pieces_per_ring"] == 8 and st["wall_pieces"] % 8 == 0
+    assert xml.count("<joint type=\"slide\"") == st["wall_pieces"]
+
+
+def test_physics_command_writes_its_set(run_bhr, tmp_path):
+    run = _head(40, "thesis")
+    (tmp_path / "run.json").write_text(run.to_json())
+    r = run_bhr("physics", "run.json", "--out", "phys")
+    assert r.returncode == 0, r.stderr
+    doc = json.loads((tmp_path / "phys" / "physics.json").read_text())
+    assert len(doc["steps"]) == 40
+    assert {"max_force_n", "deviation_mm"} <= set(doc["steps"][0])
+    assert {"max_force_n", "contact_steps", "max_deviation_mm"} <= set(doc["summary"])
+    assert (tmp_path / "phys" / "force.png").stat().st_size > 10000
+    assert (tmp_path / "phys" / "view.html").stat().st_size > 1e6
+
+
+@pytest.mark.parametrize("args,word", [
+    (("missing.json", "--out", "p"), "missing.json"),
+    (("run.json", "--out", "p", "--wall-stiffness", "0"), "wall"),
+    (("run.json", "--out", "p", "--substeps", "x"), "substeps"),
+])
+def test_physics_bad_input_one_line(run_bhr, tmp_path, args, word):
+    (tmp_path / "run.json").write_text("{}")
+    r = run_bhr("physics", *args)
+    assert r.returncode != 0
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and word in lines[0] and "Traceback" not in r.stderr
+
+
+def test_run_without_lumen_is_refused(run_bhr, tmp_path):
+    run = bhr.follow(bhr.trajectory("line", length=20), solver="thesis")
+    (tmp_path / "run.json").write_text(run.to_json())
+    r = run_bhr("physics", "run.json", "--out", "p")
+    assert r.returncode != 0 and "lumen" in r.stderr and len(r.stderr.strip().splitlines()) == 1

@@ -1,0 +1,374 @@
+"""Lumen clearance (bhr/clearance.py): lumen radius - robot radius - deviation, and wall touches."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from bhr.model.generators import COLON_SECTIONS, colon, load_trajectory
+from bhr.run.clearance import clearance_table, step_ranges
+from bhr.run.driver import follow
+from bhr.settings.errors import BhrError
+
+
+def with_lumen(tr, diameter):
+    tr.lumen = np.full(tr.points.shape[0], float(diameter)) if np.isscalar(diameter) else np.asarray(diameter, float)
+    return tr
+
+
+def test_table_arithmetic():
+    pe = np.array([[1.0, 2.0], [0.5, 3.0], [0.0, 1.0]])
+    lumen = np.array([30.0, 20.0, 40.0])
+    t = clearance_table(pe, np.array([1, 0]), lumen, 5.0)
+    assert np.isnan(t[0, 0])  # scored one step behind: nothing at step 1
+    assert t[0, 1] == pytest.approx(15 - 5 - 2)
+    assert t[1, 0] == pytest.approx(15 - 5 - 0.5) and t[1, 1] == pytest.approx(10 - 5 - 3)
+    assert t[2, 0] == pytest.approx(10 - 5 - 0) and t[2, 1] == pytest.approx(20 - 5 - 1)
+
+
+def test_no_lumen_no_clearance():
+    r = follow(load_trajectory("curve"), solver="optimal")
+    assert r.clearance is None
+    s = r.summary.to_dict()
+    assert "min_clearance_mm" not in s and "wall_touch_steps" not in s
+    assert "clearance_mm" not in r.to_dict()["steps"][0]
+
+
+def test_touches_are_the_steps_where_some_point_or_module_reaches_the_wall():
+    tr = load_trajectory("curve", angle=180.0)
+    r = follow(with_lumen(tr, 2 * (5.0 + 3.0)), solver="seed")  # the wall 3 mm from the robot's surface
+    cl = r.clearance
+    both = np.concatenate([cl.table, cl.module_table], axis=1)
+    with np.errstate(invalid="ignore"):
+        want = [i + 1 for i in range(r.steps) if np.any(both[i] <= 0.0)]
+    assert want  # the seed solver strays 3 mm on this curve
+    s = r.summary.to_dict()
+    assert s["wall_touch_steps"] == want
+    assert s["min_clearance_mm"] == pytest.approx(np.nanmin(both))
+    assert s["max_penetration_mm"] == pytest.approx(max(0.0, -np.nanmin(both)))
+    # each module's contact length: one feed per step it touches
+    with np.errstate(invalid="ignore"):
+        per_module = (cl.module_table <= 0).sum(axis=0) * r.robot.feed
+    assert s["contact_length_mm"] == pytest.approx(per_module.tolist())
+    assert len(s["contact_length_mm"]) == len(s["contact_modules"]) == r.robot.modules
+    i = s["min_clearance_step"] - 1
+    assert cl.per_step[i] == pytest.approx(s["min_clearance_mm"])
+    doc = r.to_dict()
+    assert doc["steps"][i]["clearance_mm"] == pytest.approx(s["min_clearance_mm"])
+    assert doc["trajectory"]["lumen"][0] == pytest.approx(16.0)
+    # geometric: never below the index-matched figure's point for point on a single curve (nearest <= matched)
+    assert s["index_matched_min_clearance_mm"] <= np.nanmin(cl.table) + 1e-9
+    # the same robot in a lumen wider by its worst miss touches nothing
+    wide = follow(with_lumen(load_trajectory("curve", angle=180.0), 2 * (5.0 + 3.0 - s["min_clearance_mm"] + 0.01)),
+                  solver="seed")
+    assert wide.summary.to_dict()["wall_touch_steps"] == [] and wide.summary.to_dict()["max_penetration_mm"] == 0.0
+
+
+def test_exactly_at_the_wall_counts_as_touching():
+    tr = with_lumen(load_trajectory("line", length=40.0), 10.0)  # lumen radius = robot radius
+    r = follow(tr, solver="optimal")
+    assert r.point_errors.max() < 1e-9
+    assert r.summary.to_dict()["min_clearance_mm"] == pytest.approx(0.0, abs=1e-9)
+    assert r.summary.to_dict()["wall_touch_steps"] == list(range(1, r.steps + 1))
+
+
+def test_colon_lumen_comes_from_the_trajectory_file():
+    tr = load_trajectory("colon")
+    sec: list[int] = []
+    colon(tr.points[1, 0] - tr.points[0, 0], sec)
+    sec = np.array(sec[:tr.points.shape[0]])
+    rectum = sec == COLON_SECTIONS.index("rectum")
+    assert np.all(tr.lumen[rectum] == 30.0) and np.all(tr.lumen[~rectum] == 45.0)
+    r = follow(tr, solver="optimal")
+    t = r.clearance.table
+    n = r.robot.modules
+    i = 15  # the tip is in the rectum's 30 mm, on the straight: its nearest centerline point is beside it
+    assert rectum[i] and t[i, n] == pytest.approx(15.0 - 5.0 - abs(r.points[i, n, 1]), abs=1e-9)
+    im = clearance_table(r.point_errors, np.array([(n - j) * 5 for j in range(n + 1)]), tr.lumen, 5.0)
+    assert r.summary.to_dict()["index_matched_min_clearance_mm"] == pytest.approx(np.nanmin(im))
+
+
+def test_step_ranges():
+    assert step_ranges([]) == "none"
+    assert step_ranges([4]) == "4"
+    assert step_ranges([1, 2, 3, 7, 9, 10]) == "1-3, 7, 9-10"
+
+
+def test_plots_mark_the_touches(tmp_path):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from bhr.output.plots import clearance_figure, error_figure, path_figure, save_run_plots
+
+    r = follow(with_lumen(load_trajectory("curve", angle=180.0), 16.0), solver="seed", body_modules=8)
+    assert r.summary.to_dict()["wall_touch_steps"]
+    fig = error_figure(r, "position")
+    labels = [p.get_label() for ax in fig.axes for p in ax.patches]
+    assert "wall touched" in labels
+    fig = path_figure(r)
+    assert "wall contact" in [ln.get_label() for ax in fig.axes for ln in ax.lines]
+    fig = clearance_figure(r)
+    assert any(ln.get_label().startswith("minimum") for ln in fig.axes[0].lines)
+    files = save_run_plots(r, tmp_path)
+    assert {p.name for p in files} >= {"clearance.png", "body_errors.png", "position_errors.png", "path.png"}
+    clean = follow(load_trajectory("curve"), solver="seed")
+    fig = error_figure(clean, "position")
+    assert "wall touched" not in [p.get_label() for ax in fig.axes for p in ax.patches]
+
+
+# --- the geometry: kernels against the numpy reference, properties ---------------------------------------------
+
+from hypothesis import given, settings  # noqa: E402
+from hypothesis import strategies as st  # noqa: E402
+
+from bhr.run.clearance import clearance_run, clearance_run_numpy, make_tube, run_chain  # noqa: E402
+
+
+def test_kernel_equals_numpy_reference_on_a_run_with_a_body():
+    from bhr.bench.lumen import tight_colon
+
+    tr = tight_colon(4)
+    r = follow(tr, solver="seed", body_modules=9)
+    tube = make_tube(tr.points, tr.lumen, tr.start_direction)
+    Q, E, B = run_chain(r)
+    assert B == 4
+    sl = slice(0, 120)  # the numpy reference is slow: the first 120 steps (robot entering, bends, contacts)
+    fast = clearance_run(tube, 5.0, Q[sl], E[sl])
+    ref = clearance_run_numpy(tube, 5.0, Q[sl], E[sl])
+    for a, b, tol in zip(fast, ref, (1e-12, 1e-7, 1e-4)):  # golden-section ties may pick another flat spot
+        assert np.array_equal(np.isnan(a), np.isnan(b))
+        assert np.nanmax(np.abs(a - b)) <= tol
+    assert np.nanmin(fast[1]) < 0  # the case has contacts
+
+
+def _straight_tube(direction, diameter, count=80, spacing=2.0, origin=(0.0, 0.0, 0.0)):
+    d = np.asarray(direction, float)
+    d /= np.linalg.norm(d)
+    path = np.asarray(origin, float) + spacing * np.arange(count)[:, None] * d
+    return path, np.full(count, float(diameter)), d
+
+
+unit3 = st.tuples(*[st.floats(-1, 1)] * 3).filter(lambda v: np.linalg.norm(v) > 0.1)
+
+
+@settings(max_examples=40, deadline=None)
+@given(direction=unit3, diameter=st.floats(12.0, 60.0), radius=st.floats(0.0, 5.0),
+       first=st.integers(0, 30), modules=st.integers(1, 6))
+def test_robot_on_the_centerline_of_a_straight_tube_clears_radius_minus_robot_radius(direction, diameter, radius,
+                                                                                      first, modules):
+    path, lumen, d = _straight_tube(direction, diameter)
+    tube = make_tube(path, lumen, d)
+    E = (first + 5.0 * np.arange(modules + 1))[None, :]
+    Q = path[0] + 2.0 * E[..., None] * d
+    pt, mod, where = clearance_run(tube, radius, Q, E)
+    assert np.allclose(pt, diameter / 2 - radius, atol=1e-9)
+    assert np.allclose(mod, diameter / 2 - radius, atol=1e-9)
+
+
+@settings(max_examples=30, deadline=None)
+@given(direction=unit3, offset=st.floats(0.0, 20.0), shift=st.tuples(*[st.floats(-1e3, 1e3)] * 3),
+       angle=st.floats(0.0, 6.283))
+def test_clearance_falls_with_the_distance_from_the_axis_and_ignores_where_the_tube_is(direction, offset, shift,
+                                                                                        angle):
+    path, lumen, d = _straight_tube(direction, 30.0)
+    # a sideways unit vector, turned by angle about the axis
+    a = np.cross(d, [0.0, 0.0, 1.0]) if abs(d[2]) < 0.9 else np.cross(d, [1.0, 0.0, 0.0])
+    a /= np.linalg.norm(a)
+    b = np.cross(d, a)
+    side = np.cos(angle) * a + np.sin(angle) * b
+    E = np.array([[20.0, 25.0, 30.0]])
+    Q = path[0] + 2.0 * E[..., None] * d + offset * side
+    pt, mod, _ = clearance_run(make_tube(path, lumen, d), 5.0, Q, E)
+    assert np.allclose(pt, 15.0 - 5.0 - offset, atol=1e-9) and np.allclose(mod, 15.0 - 5.0 - offset, atol=1e-9)
+    # translation invariance: the same tube and robot elsewhere
+    s = np.asarray(shift)
+    pt2, mod2, _ = clearance_run(make_tube(path + s, lumen, d), 5.0, Q + s, E)
+    assert np.allclose(pt2, pt, atol=1e-6) and np.allclose(mod2, mod, atol=1e-6)
+
+
+def test_a_module_cutting_the_inside_of_a_bend_is_scored_along_its_body():
+    """Both ends on the centerline of a 30 mm bend, the chord's middle 8.79 mm inside: into a 6 mm lumen radius."""
+    R, lumen_r, robot_r = 30.0, 6.0, 0.5
+    t = np.linspace(0.0, np.pi, int(np.pi * R / 0.5) + 1)
+    path = np.stack([R * np.sin(t), R - R * np.cos(t), np.zeros_like(t)], axis=1)
+    tube = make_tube(path, np.full(len(t), 2 * lumen_r))
+    k = int(np.argmin(np.abs(t - np.pi / 2)))
+    E = np.array([[0.0, float(k)]])
+    Q = path[[0, k]][None]
+    pt, mod, where = clearance_run(tube, robot_r, Q, E)
+    assert np.allclose(pt, lumen_r - robot_r, atol=1e-9)
+    sag = R * (1 - np.cos(t[k] / 2))  # the chord's middle, inside the bend
+    assert mod[0, 0] == pytest.approx(lumen_r - robot_r - sag, abs=0.01)
+    assert np.allclose(where[0, 0], (path[0] + path[k]) / 2, atol=0.05)
+
+
+def test_two_loops_passing_close_are_not_mistaken_for_each_other():
+    """A U-turn: the return limb runs 40 mm from the outgoing one; a point by the outgoing limb is scored on it."""
+    out = np.stack([np.arange(0, 300, 2.0), np.zeros(150), np.zeros(150)], axis=1)
+    t = np.linspace(0, np.pi, 32)[1:-1]
+    turn = np.stack([298 + 20 * np.sin(t), 20 - 20 * np.cos(t), np.zeros_like(t)], axis=1)
+    back = np.stack([np.arange(298, -2, -2.0), np.full(150, 40.0), np.zeros(150)], axis=1)
+    path = np.vstack([out, turn, back])
+    tube = make_tube(path, np.full(len(path), 30.0))
+    p = np.array([[[100.0, 25.0, 0.0]]])  # 25 mm from the outgoing limb, 15 from the return limb
+    pt, _, _ = clearance_run(tube, 5.0, p, np.array([[50.0]]))
+    assert pt[0, 0] == pytest.approx(15 - 5 - 25)
+    pt_back, _, _ = clearance_run(tube, 5.0, p, np.array([[float(150 + 30 + 100)]]))  # expected on the return limb
+    assert pt_back[0, 0] == pytest.approx(15 - 5 - 15)
+
+
+def test_a_point_is_followed_along_the_centerline_from_step_to_step():
+    """A robot running far ahead of its schedule is still scored on the stretch of lumen it is in."""
+    path, lumen, d = _straight_tube((1, 0, 0), 30.0, count=400)
+    tube = make_tube(path, lumen, d)
+    N = 100
+    E = np.arange(N, dtype=float)[:, None]
+    lead = 1.3 * np.arange(N)[:, None]  # gains 2.6 mm on its target every step: 257 mm ahead at the end
+    Q = path[0] + 2.0 * (E + lead)[..., None] * d + np.array([0.0, 3.0, 0.0])
+    pt, _, _ = clearance_run(tube, 5.0, Q, E)
+    assert np.allclose(pt, 15 - 5 - 3, atol=1e-9)
+
+
+def test_a_lumen_narrower_than_the_robot_is_warned_about(tmp_path):
+    import warnings
+
+    from bhr.model.generators import load_trajectory
+    from bhr.run.driver import BhrWarning
+
+    x = np.arange(0.0, 60.0, 1.0)
+    for width, warned in ((8.0, True), (10.0, False), (30.0, False)):
+        lumen = np.full(len(x), 30.0)
+        lumen[20:25] = width  # a stricture
+        p = tmp_path / f"w{width:g}.csv"
+        p.write_text("x,y,z,lumen\n" + "".join(f"{v},0,0,{d}\n" for v, d in zip(x, lumen)))
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            run = follow(load_trajectory(str(p)), solver="thesis")
+        said = [w for w in run.summary.warnings if "narrower than the robot" in w]
+        assert bool(said) == warned, run.summary.warnings
+        assert any(issubclass(c.category, BhrWarning) and "narrower" in str(c.message) for c in caught) == warned
+        if warned:
+            assert "narrowest 8.00 mm" in said[0] and "(10 mm across)" in said[0]
+            assert run.summary.to_dict()["min_clearance_mm"] < 0  # and the clearance shows the contact
+
+
+# --- a blind end, a search that recovers, leaving the lumen ---------------------------------------------------
+
+from bhr.run.clearance import brute_force_clearance, clearance_run_all  # noqa: E402
+
+
+@settings(max_examples=30, deadline=None)
+@given(direction=unit3, past=st.floats(0.0, 300.0), side=st.floats(0.0, 10.0))
+def test_the_lumen_ends_in_a_cap_where_the_centerline_ends(direction, past, side):
+    """A robot running up to 300 mm ahead of the end of a closed lumen is in the wall; open, it is not."""
+    path, lumen, d = _straight_tube(direction, 30.0, count=100)
+    a = np.cross(d, [0.0, 0.0, 1.0]) if abs(d[2]) < 0.9 else np.cross(d, [1.0, 0.0, 0.0])
+    a /= np.linalg.norm(a)
+    N = 40
+    E = np.linspace(60.0, 99.0, N)[:, None]  # expected along the path, the last at its end
+    lead = np.linspace(0.0, past, N)[:, None]  # ahead of schedule, up to `past` mm beyond the end at the last step
+    Q = (path[0] + (2.0 * E + lead)[..., None] * d + side * a)
+    closed = make_tube(path, lumen, d, closed_end=True)
+    pt, _, _ = clearance_run(closed, 5.0, Q, E)
+    assert np.allclose(pt[:, 0], brute_force_clearance(path, lumen, 5.0, Q[:, 0]), atol=1e-9)
+    beyond = 2.0 * E[-1, 0] + past - 2.0 * 99
+    assert pt[-1, 0] == pytest.approx(15.0 - 5.0 - math.hypot(beyond, side), abs=1e-6)
+    opened, _, _ = clearance_run(make_tube(path, lumen, d), 5.0, Q, E)
+    near = (2.0 * E + lead)[:, 0] - 2.0 * 99 <= 40.0  # an open end goes on straight for the search window (40 mm)
+    assert np.allclose(opened[near], 15.0 - 5.0 - side, atol=1e-9)
+
+
+def _helix(turns=3.0, radius=60.0, pitch=80.0, spacing=1.0):
+    L = turns * math.hypot(2 * math.pi * radius, pitch)
+    s = np.arange(0.0, L, spacing)
+    t = s / L * turns * 2 * math.pi
+    return np.stack([radius * np.cos(t), radius * np.sin(t), pitch * t / (2 * math.pi)], axis=1)
+
+
+@settings(max_examples=25, deadline=None)
+@given(stray=st.floats(-50.0, 50.0), off=st.tuples(*[st.floats(-12.0, 12.0)] * 3), at=st.integers(100, 900))
+def test_a_point_strayed_50_mm_from_where_it_is_expected_is_found(stray, off, at):
+    """Expected `stray` mm of arc from where it is (and off the centerline): the same as the brute-force check."""
+    path = _helix()
+    lumen = np.full(len(path), 30.0)
+    tube = make_tube(path, lumen, closed_end=True)
+    N = 30
+    E = (at + np.arange(N, dtype=float))[:, None]
+    Q = path[(E[:, 0] + np.round(stray * np.linspace(0, 1, N))).astype(int)] + np.asarray(off)
+    pt, _, _ = clearance_run(tube, 5.0, Q[:, None, :], E)
+    assert np.allclose(pt[:, 0], brute_force_clearance(path, lumen, 5.0, Q), atol=1e-9)
+
+
+@settings(max_examples=25, deadline=None)
+@given(toward=st.floats(0.0, 14.9), along=st.floats(20.0, 280.0))
+def test_two_loops_5_mm_apart_are_kept_apart(toward, along):
+    """A U-turn whose limbs' walls are 5 mm apart (centerlines 35 mm): a point in the outgoing limb's lumen, however
+    close to the other limb, is scored on its own limb, and touching it does not make it jump."""
+    out = np.stack([np.arange(0, 300, 1.0), np.zeros(300), np.zeros(300)], axis=1)
+    t = np.linspace(0, np.pi, 57)[1:-1]
+    turn = np.stack([299 + 17.5 * np.sin(t), 17.5 - 17.5 * np.cos(t), np.zeros_like(t)], axis=1)
+    back = np.stack([np.arange(299, -1, -1.0), np.full(300, 35.0), np.zeros(300)], axis=1)
+    path = np.vstack([out, turn, back])
+    tube = make_tube(path, np.full(len(path), 30.0), closed_end=True)
+    p = np.array([[[along, toward, 0.0]]])
+    pt, _, _, lost = clearance_run_all(tube, 5.0, p, np.array([[along]]))
+    assert pt[0, 0] == pytest.approx(15 - 5 - toward, abs=1e-9)
+    assert not lost[0]
+
+
+def test_a_body_that_strays_agrees_with_the_brute_force_check_and_the_reference():
+    """A 40-module body behind the thesis robot on a tight colon, its end closed: bhr's minimum is the brute-force
+    minimum (within 0.5 mm), and the kernel is its numpy reference."""
+    from bhr.bench.lumen import tight_colon
+
+    tr = tight_colon(4)
+    r = follow(tr, solver="seed", body_modules=40)
+    tube = make_tube(tr.points, tr.lumen, tr.start_direction, closed_end=True)
+    Q, E, B = run_chain(r)
+    sl = slice(0, 60)
+    fast = clearance_run_all(tube, 5.0, Q[sl], E[sl])
+    lost = np.zeros(60, dtype=bool)
+    ref = clearance_run_numpy(tube, 5.0, Q[sl], E[sl], lost=lost)
+    for a, b, tol in zip(fast[:3], ref, (1e-12, 1e-7, 1e-4)):
+        assert np.array_equal(np.isnan(a), np.isnan(b))
+        assert np.nanmax(np.abs(a - b)) <= tol
+    assert np.array_equal(fast[3], lost)
+    rep = r.clearance
+    i = rep.min_step - 1
+    ok = E[i] >= 0
+    pts = [Q[i][ok]] + [Q[i, m] + np.linspace(0, 1, 41)[:, None] * (Q[i, m + 1] - Q[i, m])
+                        for m in range(Q.shape[1] - 1) if E[i, m] >= 0 and E[i, m + 1] >= 0]
+    brute = brute_force_clearance(tr.points, tr.lumen, 5.0, np.vstack(pts)).min()
+    assert abs(brute - rep.min_mm) <= 0.5
+
+
+def test_an_open_end_from_the_option_or_the_file(tmp_path):
+    from bhr.model.generators import load_trajectory
+
+    x = np.arange(0.0, 60.0, 1.0)
+    body = "x,y,z,lumen\n" + "".join(f"{v},0,0,30\n" for v in x)
+    p = tmp_path / "c.csv"
+    p.write_text(body)
+    assert load_trajectory(str(p)).lumen_end == "closed"
+    assert load_trajectory(str(p), lumen_end="open").lumen_end == "open"
+    q = tmp_path / "o.csv"
+    q.write_text("# lumen_end: open\n" + body)
+    assert load_trajectory(str(q)).lumen_end == "open"
+    bad = tmp_path / "b.csv"
+    bad.write_text("# lumen_end: ajar\n" + body)
+    with pytest.raises(BhrError, match="lumen_end: closed"):
+        load_trajectory(str(bad))
+
+
+def test_a_colon_the_robot_left_is_failed_by_traverse_with_its_reason():
+    from bhr.studies.traverse import build_study, run_study
+
+    res = run_study(build_study([("alpha", (10,))], "3-4", solvers=("seed",)), jobs=1)
+    for r in res.runs:
+        s = follow(load_trajectory("anatomy", seed=r["seed"], feed=2.0), solver="seed").summary.to_dict()
+        assert r["left_lumen_step"] == s["left_lumen_step"]
+        assert r["failure"] == (s["left_lumen_reason"] or "")
+        if r["left_lumen_step"] is not None:
+            assert not r["traversed"] and r["failure"].startswith("left the lumen at step")
+    assert res.designs[0]["left_lumen"] == sum(r["left_lumen_step"] is not None for r in res.runs) >= 1

@@ -1,0 +1,57 @@
+"""The tests' own layout: one folder per layer, and a fast layer that stays in-process (README, "Tests")."""
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import pytest
+
+from tests.conftest import LAYERS, pytest_collection_modifyitems
+
+TESTS = Path(__file__).resolve().parents[1]
+# what only a command, a browser, a cluster or a physics engine needs: never inside tests/unit
+OUTSIDE = {"run_bhr", "bhr_exe", "dask_cluster", "Browser", "need_chromium", "LocalCluster", "mujoco", "pinocchio",
+           "fk_cross_check", "subprocess"}
+
+
+def test_every_test_file_lives_in_a_layer_folder():
+    assert not sorted(p.name for p in TESTS.glob("test_*.py"))
+    folders = {p.parent.name for p in TESTS.rglob("test_*.py") if "benchmarks" not in p.parts and "data" not in p.parts}
+    assert folders == set(LAYERS)
+
+
+@pytest.mark.parametrize("path", sorted((TESTS / "unit").glob("test_*.py")), ids=lambda p: p.name)
+def test_unit_tests_stay_in_process(path):
+    tree = ast.parse(path.read_text())
+    for node in tree.body:
+        if isinstance(node, ast.FunctionDef) and node.name.startswith("test"):
+            used = {n.id for n in ast.walk(node) if isinstance(n, ast.Name)} | {a.arg for a in node.args.args}
+            used |= {a.name.split(".")[0] for n in ast.walk(node) if isinstance(n, (ast.Import, ast.ImportFrom))
+                     for a in n.names}
+            assert not used & OUTSIDE, f"{path.name}::{node.name} uses {sorted(used & OUTSIDE)}: not a unit test"
+
+
+class _Item:
+    def __init__(self, path: Path, fixtures=()):
+        self.path, self.fixturenames, self.nodeid, self.markers = path, list(fixtures), path.name + "::t", []
+
+    def add_marker(self, mark):
+        self.markers.append(mark.name)
+
+
+@pytest.mark.parametrize("layer", LAYERS)
+def test_the_marker_is_the_folder(layer):
+    item = _Item(TESTS / layer / "test_x.py")
+    pytest_collection_modifyitems(None, [item])
+    assert item.markers == [layer]
+
+
+@pytest.mark.parametrize("where, fixtures, says", [
+    (TESTS / "test_x.py", (), "a test lives in one of tests/{unit,thesis,cli,integration}/"),
+    (TESTS / "data" / "test_x.py", (), "a test lives in one of"),
+    (TESTS / "unit" / "test_x.py", ("run_bhr",), "uses run_bhr: move it to tests/cli/"),
+    (TESTS / "unit" / "test_x.py", ("dask_cluster",), "uses dask_cluster: move it to tests/integration/"),
+])
+def test_a_test_in_the_wrong_place_stops_the_collection(where, fixtures, says):
+    with pytest.raises(pytest.UsageError, match=says.replace("{", r"\{").replace("}", r"\}")):
+        pytest_collection_modifyitems(None, [_Item(where, fixtures)])

@@ -1,0 +1,192 @@
+"""The library as a user calls it: trajectories that carry their feed and lumen, settings checked by the option
+registry wherever they enter, solver objects and plug-in solvers, results that say whether they succeeded and why,
+and the docstrings' examples, run as doctests."""
+from __future__ import annotations
+
+import doctest
+import importlib
+import pkgutil
+import sys
+import textwrap
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import bhr
+import bhr.solvers as solvers
+from bhr.model.path import Trajectory, resample_polyline, spacing
+from bhr.settings.errors import BhrError
+
+
+def _library_modules():
+    for info in pkgutil.walk_packages(bhr.__path__, "bhr."):
+        if info.name.startswith(("bhr.bench", "bhr.cli")):
+            continue
+        yield info.name
+
+
+@pytest.mark.parametrize("name", sorted(_library_modules()))
+def test_docstring_examples_run(name):
+    module = importlib.import_module(name)
+    result = doctest.testmod(module, optionflags=doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE, verbose=False)
+    assert result.failed == 0
+
+
+def test_the_library_doctests_are_many():
+    """The examples are really collected (a typo in a docstring's prompt would make them silently vanish)."""
+    total = sum(len(t.examples) for name in _library_modules()
+                for t in doctest.DocTestFinder().find(importlib.import_module(name)))
+    assert total >= 15
+
+
+# ------------------------------------------------------------------ trajectories carry their feed
+def test_trajectory_carries_points_feed_and_lumen():
+    t = bhr.trajectory("curve")
+    assert isinstance(t, Trajectory) and t.feed == 2.0 and t.lumen is None
+    assert np.asarray(t).shape == t.shape == (len(t), 3) and np.array_equal(t[0], t.points[0])
+    a = bhr.trajectory("anatomy", seed=7)
+    assert a.lumen is not None and a.lumen.shape == (len(a),) and a.feed == 2.0
+    assert repr(a).startswith("Trajectory('anatomy-7', ") and "with lumen" in repr(a)
+
+
+def test_follow_draws_a_trajectory_again_at_the_robots_feed():
+    """The library gives the command line's answer: the curve at module length 5 mm is drawn at a 1 mm feed."""
+    lib = bhr.follow(bhr.trajectory("curve"), module_length=5)
+    cli_like = bhr.follow(bhr.model.generators.load_trajectory("curve", feed=1.0), module_length=5)
+    assert lib.trajectory.feed == 1.0 and lib.steps == cli_like.steps
+    assert lib.summary.tip_max_error_mm == cli_like.summary.tip_max_error_mm
+    assert lib.summary.tip_max_error_mm < 1.0  # not the 63 mm of a 2 mm path driven at a 1 mm feed
+
+
+def test_follow_keeps_the_lumen_for_the_lumen_solver():
+    run = bhr.follow(bhr.trajectory("anatomy", seed=7), solver="lumen", modules=5)
+    assert run.trajectory.lumen is not None and "min_clearance_mm" in run.summary.to_dict()
+
+
+def test_points_spaced_otherwise_than_the_feed_are_refused_naming_the_fix():
+    pts = bhr.trajectory("curve").points
+    with pytest.raises(BhrError, match=r"points are 1\.999 mm apart but the robot advances 1 mm a step.*feed=1"):
+        bhr.follow(pts, module_length=5)
+    run = bhr.follow(Trajectory("mine", pts).at_feed(1.0), module_length=5)
+    assert run.steps > len(pts)
+
+
+def test_at_feed_draws_builtins_again_exactly():
+    t = bhr.trajectory("spiral").at_feed(1.0)
+    assert np.array_equal(t.points, bhr.model.generators.load_trajectory("spiral", feed=1.0).points)
+    assert t.at_feed(1.0) is t
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.floats(0.3, 5.0), st.floats(20.0, 200.0), st.floats(30.0, 300.0))
+def test_resampled_points_are_one_feed_apart(feed, radius, angle):
+    """Resampling a polyline keeps its first point and spaces every point exactly one feed from the last."""
+    th = np.radians(np.linspace(0.0, angle, 400))  # at least 10 mm of arc: more than one feed
+    pts = np.stack([radius * np.sin(th), radius * (1 - np.cos(th)), np.zeros_like(th)], axis=1)
+    out, _ = resample_polyline(pts, feed)
+    assert np.array_equal(out[0], pts[0])
+    gaps = np.linalg.norm(np.diff(out, axis=0), axis=1)
+    assert len(out) >= 2 and np.allclose(gaps, feed, rtol=1e-9) and spacing(out) == pytest.approx(feed)
+
+
+# ------------------------------------------------------------------ settings through the registry
+@pytest.mark.parametrize("call", [
+    lambda: bhr.follow(bhr.trajectory("line"), modles=5),
+    lambda: bhr.solve([3, 9, 0], modles=5),
+])
+def test_a_misspelt_robot_setting_gets_a_did_you_mean(call):
+    with pytest.raises(BhrError, match="'modles' is not a robot setting; did you mean 'modules'"):
+        call()
+
+
+def test_robot_settings_are_checked_by_the_registry():
+    with pytest.raises(BhrError, match="modules = 5000 is too large; the limit is 1000"):
+        bhr.follow(bhr.trajectory("line"), modules=5000)
+    with pytest.raises(BhrError, match="alpha must be a number"):
+        bhr.solve([3, 9, 0], alpha="ten")
+    assert bhr.follow(bhr.trajectory("line", feed=1.6), robot_radius=4, module_length=8).robot.radius == 4
+
+
+def test_a_misspelt_solver_option_gets_a_did_you_mean():
+    with pytest.raises(BhrError, match="does not take the option 'windw'; did you mean 'window'"):
+        bhr.follow(bhr.trajectory("line"), solver="lumen", solver_options={"windw": 3})
+    with pytest.raises(BhrError, match="unknown solver 'thesus'; did you mean 'thesis'"):
+        bhr.follow(bhr.trajectory("line"), solver="thesus")
+
+
+def test_the_defaults_are_in_the_signatures():
+    import inspect
+    assert inspect.signature(bhr.follow).parameters["robot"].default == bhr.Robot()
+    assert inspect.signature(bhr.solve).parameters["robot"].default == bhr.Robot(modules=5, module_length=2.0)
+
+
+# ------------------------------------------------------------------ solver objects and plug-ins
+def test_a_configured_solver_object_is_accepted():
+    robot = bhr.Robot(module_length=5)
+    s = solvers.get_solver("lumen", robot, window=30.0)
+    run = bhr.follow(bhr.trajectory("anatomy", seed=3), solver=s)
+    assert run.robot == robot and run.solver == "lumen" and run.trajectory.feed == robot.feed
+    with pytest.raises(BhrError, match="was built for Robot\\(module_length=5\\), not for Robot\\(module_length=6"):
+        bhr.follow(bhr.trajectory("line"), solver=s, module_length=6)
+    res = bhr.solve([3, 9, 0], solver=solvers.get_solver("ccd", bhr.Robot(modules=5, module_length=2.0, tol_pos=0.01)))
+    assert res.iterations == 16  # Table 5.1
+
+
+def test_a_solver_from_another_package_is_found_by_its_entry_point(tmp_path, monkeypatch):
+    pkg = tmp_path / "bhrplug"
+    pkg.mkdir()
+    (pkg / "__init__.py").write_text(textwrap.dedent('''
+        from bhr.solvers import Solver, SolveResult
+
+        class Stay(Solver):
+            name = "stay"
+            summary = "keeps the chain where it is"
+            accepts_orientation = False
+
+            def __init__(self, robot, patience=1):
+                super().__init__(robot)
+                self.patience = patience
+
+            def solve(self, chain, target, orientation=None, context=None):
+                import numpy as np
+                return SolveResult(chain.copy(), 0, float(np.linalg.norm(chain.points[-1] - target)), None)
+    '''))
+    dist = tmp_path / "bhrplug-1.0.dist-info"
+    dist.mkdir()
+    (dist / "METADATA").write_text("Metadata-Version: 2.1\nName: bhrplug\nVersion: 1.0\n")
+    (dist / "entry_points.txt").write_text("[bhr.solvers]\nstay = bhrplug:Stay\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    monkeypatch.setattr(solvers, "_loaded", False)
+    monkeypatch.setattr(solvers, "REGISTRY", dict(solvers.REGISTRY))
+    assert "stay" in solvers.available()
+    res = bhr.solve([0, 9, 0], solver="stay", modules=5)
+    assert res.status == "reached" and res.iterations == 0
+    with pytest.raises(BhrError, match="does not take the option 'patiense'; did you mean 'patience'"):
+        solvers.get_solver("stay", bhr.Robot(), patiense=2)
+    sys.modules.pop("bhrplug", None)
+
+
+# ------------------------------------------------------------------ results say whether and why
+def test_a_solver_called_directly_says_whether_it_succeeded():
+    robot = bhr.Robot(modules=5, module_length=2.0, tol_pos=0.01)
+    s = solvers.get_solver("fabrik", robot)
+    res = s.solve(solvers.Chain.straight(robot, (0, 1, 0)), np.array([3.0, 9.0, 0.0]))
+    assert res.success is True and res.status == "reached"
+    far = s.solve(solvers.Chain.straight(robot, (0, 1, 0)), np.array([0.0, 90.0, 0.0]))
+    assert far.success is False and far.status == "out of reach" and "90 mm from the base" in far.reason
+
+
+def test_results_print_short():
+    run = bhr.follow(bhr.trajectory("curve"))
+    for obj in (run, run.summary, run.trajectory, run.robot, bhr.solve([3, 9, 0])):
+        text = repr(obj)
+        assert len(text) < 200 and "\n" not in text and "array(" not in text
+    assert repr(run) == "FollowResult(thesis on curve, 5 modules, 85 steps: followed; tip worst 4.905 mm at step 69)"
+
+
+def test_a_run_says_when_it_touched_the_wall():
+    run = bhr.follow(bhr.trajectory("anatomy", seed=3))
+    assert run.success is False and run.status == "touched the wall" and "touches the wall at" in run.reason
+    assert bhr.follow(bhr.trajectory("curve")).success is True

@@ -1,0 +1,127 @@
+"""Output folders replace only bhr's own output (bhr.output.atomic.OutputFolder): the manifest must prove it.
+
+Library-level tests of the rules every command's output goes through; tests/cli/test_outputs.py runs
+the commands themselves.
+"""
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+import pytest
+
+from bhr.output.atomic import MANIFEST, OutputFolder, settings_hash, verify_folder
+from bhr.settings.errors import BhrError
+
+
+def write_run(target: Path, files: dict[str, str], settings: str | None = None, command: str = "follow",
+              **kw) -> OutputFolder:
+    with OutputFolder(target, command, settings=settings, **kw) as of:
+        for name, text in files.items():
+            of.path(name).write_text(text)
+    return of
+
+
+def test_a_bhr_folder_is_replaced_whole(tmp_path):
+    out = tmp_path / "o"
+    write_run(out, {"run.json": "1", "a.png": "x"})
+    write_run(out, {"run.json": "2"})
+    assert sorted(p.name for p in out.iterdir()) == [MANIFEST, "run.json"]
+    doc = json.loads((out / MANIFEST).read_text())
+    assert doc["bhr_output"] == 2 and set(doc["files"]) == {"run.json"} and doc["bhr_version"]
+
+
+@pytest.mark.parametrize("extra", ["notes.txt", "sub/notes.md"])
+def test_a_users_file_in_a_run_folder_is_never_deleted(tmp_path, extra):
+    out = tmp_path / "o"
+    write_run(out, {"run.json": "1"})
+    (out / extra).parent.mkdir(exist_ok=True)
+    (out / extra).write_text("my notes")
+    with pytest.raises(BhrError) as e:
+        write_run(out, {"run.json": "2"})
+    msg = str(e.value)
+    assert Path(extra).as_posix() in msg and "move it out" in msg and "\n" not in msg
+    assert (out / extra).read_text() == "my notes" and (out / "run.json").read_text() == "1"
+
+
+def test_a_changed_file_is_the_users(tmp_path):
+    out = tmp_path / "o"
+    write_run(out, {"run.json": "1"})
+    (out / "run.json").write_text("edited by hand")
+    with pytest.raises(BhrError, match="run.json, changed since bhr wrote it"):
+        write_run(out, {"run.json": "2"})
+    assert (out / "run.json").read_text() == "edited by hand"
+
+
+def test_a_foreign_manifest_proves_nothing(tmp_path):
+    """A web project's folder (manifest.json, index.html, src/app.js) is refused, untouched."""
+    proj = tmp_path / "proj"
+    (proj / "src").mkdir(parents=True)
+    (proj / MANIFEST).write_text(json.dumps({"name": "app", "files": {}}))
+    (proj / "index.html").write_text("<html>")
+    (proj / "src" / "app.js").write_text("x")
+    with pytest.raises(BhrError, match="no bhr run wrote"):
+        write_run(proj, {"index.html": "bhr"})
+    assert (proj / "src" / "app.js").read_text() == "x" and (proj / "index.html").read_text() == "<html>"
+
+
+def test_a_manifest_that_does_not_list_a_file_is_refused(tmp_path):
+    """Only the files the manifest lists may be there: a copied-in bhr manifest does not license others."""
+    out = tmp_path / "o"
+    write_run(out, {"run.json": "1"})
+    (out / "index.html").write_text("mine")
+    with pytest.raises(BhrError, match="index.html"):
+        write_run(out, {"run.json": "2"})
+
+
+def test_a_folder_holding_an_input_is_refused(tmp_path):
+    out = tmp_path / "o"
+    write_run(out, {"run.json": "1"})
+    with pytest.raises(BhrError, match="an input of this run"):
+        OutputFolder(out, "follow", inputs=[out / "run.json"]).check()
+    with pytest.raises(BhrError, match="an input of this run"):
+        OutputFolder(tmp_path, "follow", inputs=[out / "run.json"]).check()  # a parent of the input too
+    # with keep (bhr replay redrawing a run's figures) the input is carried over, so allowed
+    OutputFolder(out, "replay", inputs=[out / "run.json"], keep=True).check()
+
+
+def test_the_current_folder_and_its_parents_are_refused(tmp_path, monkeypatch):
+    write_run(tmp_path / "a", {"run.json": "1"})  # even a bhr folder: it holds the current folder
+    here = tmp_path / "a" / "b"
+    here.mkdir(parents=True)
+    monkeypatch.chdir(here)
+    for target in (".", "..", str(tmp_path), "/"):
+        with pytest.raises(BhrError, match="current folder"):
+            OutputFolder(target, "follow").check()
+
+
+def test_same_settings_keep_what_the_rerun_does_not_make(tmp_path):
+    out = tmp_path / "o"
+    write_run(out, {"run.json": "1", "path.png": "fig"}, settings="abc")
+    write_run(out, {"run.json": "2"}, settings="abc")  # --no-plots: the figure of the same settings stays
+    assert (out / "path.png").read_text() == "fig" and (out / "run.json").read_text() == "2"
+    doc = json.loads((out / MANIFEST).read_text())
+    assert set(doc["files"]) == {"run.json", "path.png"} and doc["carried_over"] == ["path.png"]
+    verify_folder(out)
+    write_run(out, {"run.json": "3"}, settings="other")  # other settings: the old figure is not this run's
+    assert not (out / "path.png").exists()
+
+
+def test_a_symbolic_link_inside_is_not_bhrs(tmp_path):
+    out = tmp_path / "o"
+    write_run(out, {"run.json": "1"})
+    victim = tmp_path / "victim"
+    victim.mkdir()
+    os.symlink(victim, out / "link")
+    with pytest.raises(BhrError, match="link"):
+        write_run(out, {"run.json": "2"})
+    assert victim.is_dir()
+
+
+def test_settings_hash_follows_file_content(tmp_path):
+    f = tmp_path / "t.csv"
+    f.write_text("1")
+    a = settings_hash({"x": 1}, f)
+    f.write_text("2")
+    assert settings_hash({"x": 1}, f) != a and settings_hash({"x": 1}, f) == settings_hash({"x": 1}, f)

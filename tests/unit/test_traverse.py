@@ -1,0 +1,239 @@
+"""bhr traverse: designs x anatomical colons, locally and on a real Dask LocalCluster, its outputs and page."""
+from __future__ import annotations
+
+import csv
+import io
+import json
+import os
+import pty
+import statistics
+import subprocess
+import warnings
+from pathlib import Path
+
+import pytest
+from hypothesis import given, settings, strategies as st
+
+import bhr
+from bhr.settings.errors import BhrError
+from bhr.run.driver import BhrWarning
+from bhr.model.robot import Robot
+from bhr.model.generators import load_trajectory
+from bhr.studies.traverse import answer, build_study, design_rows, parse_colons, run_study
+from tests.conftest import bhr_exe
+
+PNG = b"\x89PNG\r\n\x1a\n"
+# one design that gets through these colons and one that does not (checked against bhr.follow below)
+SMALL = ["--solver", "seed", "--solver", "optimal", "--grid", "alpha=10,30", "--grid", "module_length=5",
+         "--colons", "3,7"]
+
+
+def run_cli(*args, cwd: Path, timeout: float = 900, **kw):
+    env = dict(os.environ, MPLBACKEND="Agg")
+    return subprocess.run(bhr_exe() + [str(a) for a in args], cwd=cwd, capture_output=True, text=True,
+                          timeout=timeout, env=env, **kw)
+
+
+def rows_of(path: Path) -> list[dict[str, str]]:
+    return list(csv.DictReader(io.StringIO(path.read_text())))
+
+
+def follow_summary(seed: int, solver: str, **robot) -> dict:
+    rb = Robot(**robot)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", BhrWarning)
+        return bhr.follow(load_trajectory("anatomy", feed=rb.feed, seed=seed), solver=solver, robot=rb).summary.to_dict()
+
+
+def penetration(summary: dict) -> float:
+    if summary.get("max_penetration_mm") is not None:
+        return summary["max_penetration_mm"]
+    return max(0.0, -summary["min_clearance_mm"])
+
+
+# ---------------------------------------------------------------------------------------------- population
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.tuples(st.integers(0, 5000), st.integers(0, 40)), min_size=1, max_size=5))
+def test_colons_ranges_and_lists(parts):
+    seeds: list[int] = []
+    text = []
+    for a, n in parts:
+        if any(s in seeds for s in range(a, a + n + 1)):
+            continue
+        seeds.extend(range(a, a + n + 1))
+        text.append(f"{a}-{a + n}" if n else f"{a}")
+    assert parse_colons(",".join(text)) == tuple(seeds)
+
+
+@pytest.mark.parametrize("text, msg", [
+    ("", "--colons is empty"),
+    ("5-1", "runs backwards"),
+    ("1-3,2", "lists seed 2 twice"),
+    ("a-b", "is not a seed or a range"),
+    ("-4", "is not a seed or a range"),
+    ("1.5", "is not a seed or a range"),
+    ("4294967296", "seeds go from 0 to 4294967295"),
+    ("0-200000", "more than 100000 colons"),
+])
+def test_bad_colons(text, msg):
+    with pytest.raises(BhrError, match=msg):
+        parse_colons(text)
+
+
+@pytest.mark.parametrize("grid, kw, msg", [
+    ([("seed", (1, 2))], {}, "give their seeds with --colons"),
+    ([("radius", (50.0,))], {}, "is a trajectory option"),
+    ([], {"target": 0.0}, "--target-pass must be a share"),
+    ([], {"target": 1.5}, "--target-pass must be a share"),
+    ([], {"solvers": ("nope",)}, "unknown solver 'nope'"),
+    ([("alpha", (-5,))], {}, "alpha"),
+])
+def test_studies_are_checked_before_running(grid, kw, msg):
+    with pytest.raises(BhrError, match=msg):
+        build_study(grid, "1-3", **kw)
+
+
+# ---------------------------------------------------------------------------------------------- results
+
+
+def test_every_run_is_what_follow_gives_and_designs_aggregate_them():
+    study = build_study([("alpha", (10, 30)), ("module_length", (5, 10))], "3-5", solvers=("seed",))
+    assert study.designs == 4 and len(study) == 12 and study.design_keys == ["solver", "alpha", "module_length"]
+    res = run_study(study, jobs=1)
+    assert res.clearance_kind in ("geometric", "index-matched") and not res.failed
+    for r in res.runs:
+        s = follow_summary(r["seed"], "seed", alpha=r["alpha"], module_length=r["module_length"])
+        assert r["traversed"] == (len(s["wall_touch_steps"]) == 0)
+        assert r["touch_steps"] == len(s["wall_touch_steps"])
+        assert r["max_penetration_mm"] == pytest.approx(penetration(s), abs=1e-12)
+        assert r["min_clearance_mm"] == s["min_clearance_mm"] and r["steps"] == s["steps"]
+    for d in res.designs:
+        mine = [r for r in res.runs if (r["alpha"], r["module_length"]) == (d["alpha"], d["module_length"])]
+        assert [r["seed"] for r in mine] == [3, 4, 5] and d["colons"] == 3
+        assert d["pass_rate"] == sum(r["traversed"] for r in mine) / 3
+        pens = [r["max_penetration_mm"] for r in mine]
+        assert d["worst_penetration_mm"] == max(pens) and d["median_penetration_mm"] == statistics.median(pens)
+        worst = max(mine, key=lambda r: (r["max_penetration_mm"], -r["min_clearance_mm"], -r["seed"]))
+        assert d["worst_colon"] == worst["seed"]
+        assert d["worst_clearance_mm"] == min(r["min_clearance_mm"] for r in mine)
+        assert d["min_turn_radius_mm"] == Robot(alpha=d["alpha"], module_length=d["module_length"]).min_turn_radius
+    assert [d["design"] for d in res.designs] == [1, 2, 3, 4]
+
+
+def test_the_whole_robot_counts_when_the_study_gives_its_length():
+    """--grid body_modules=M: every run is bhr.follow with that body, and its contacts decide the pass."""
+    study = build_study([("alpha", (25,)), ("module_length", (5,)), ("body_modules", (5, 30))], "2,7",
+                        solvers=("lumen",))
+    assert study.design_keys == ["solver", "alpha", "module_length", "body_modules"]
+    res = run_study(study, jobs=1)
+    assert not res.failed
+    for r in res.runs:
+        rb = Robot(alpha=25, module_length=5)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", BhrWarning)
+            s = bhr.follow(load_trajectory("anatomy", feed=rb.feed, seed=r["seed"]), solver="lumen", robot=rb,
+                           body_modules=r["body_modules"]).summary.to_dict()
+        assert r["traversed"] == (len(s["wall_touch_steps"]) == 0)
+        assert r["max_penetration_mm"] == pytest.approx(penetration(s), abs=1e-12)
+        assert r["min_clearance_mm"] == s["min_clearance_mm"]
+    head = {r["seed"]: r for r in res.runs if r["body_modules"] == 5}
+    whole = {r["seed"]: r for r in res.runs if r["body_modules"] == 30}
+    for seed in (2, 7):  # a longer robot can only touch the wall more
+        assert whole[seed]["min_clearance_mm"] <= head[seed]["min_clearance_mm"] + 1e-9
+        assert whole[seed]["touch_steps"] >= head[seed]["touch_steps"]
+    with pytest.raises(BhrError, match="body_modules 4 is fewer than the 6 head modules"):
+        build_study([("modules", (5, 6)), ("body_modules", (4, 60))], "1")
+
+
+def test_pass_rates_contact_and_answer_from_lumen_keys():
+    """Rows carrying the lumen keys (geometric penetration, contact per module) are read as given."""
+    study = build_study([("alpha", (10, 20))], "1-4")
+    runs = []
+    for alpha, touches in ((10, [[], [3], [], []]), (20, [[], [], [], []])):
+        for seed, t in zip(range(1, 5), touches):
+            runs.append({"solver": "seed", "alpha": alpha, "seed": seed, "status": "ok", "steps": 10,
+                         "traversed": not t, "max_penetration_mm": 0.5 * len(t) + seed / 10,
+                         "touch_steps": len(t), "contact_length_mm": 2.0 * seed})
+    designs = design_rows(study, runs, {})
+    assert [d["pass_rate"] for d in designs] == [0.75, 1.0]
+    assert designs[0]["worst_penetration_mm"] == 0.7 and designs[0]["worst_colon"] == 2
+    assert designs[0]["worst_clearance_mm"] is None  # these rows carry no clearance
+    assert designs[1]["median_contact_length_mm"] == 5.0 and designs[1]["worst_contact_length_mm"] == 8.0
+
+    class R:  # a StudyResult's fields, as plain data
+        pass
+
+    r = R()
+    r.study, r.designs = study, designs
+    best, meeting = answer(r)
+    assert best["alpha"] == 20 and [d["alpha"] for d in meeting] == [20]
+    r.study = build_study([("alpha", (10, 20))], "1-4", target=0.75)
+    best, meeting = answer(r)
+    assert best["alpha"] == 20 and [d["alpha"] for d in meeting] == [20, 10]
+
+
+# ---------------------------------------------------------------------------------------------- command
+
+
+@pytest.fixture(scope="module")
+def small_study(tmp_path_factory):
+    cwd = tmp_path_factory.mktemp("traverse")
+    proc = run_cli("traverse", *SMALL, "--out", "study", cwd=cwd)
+    assert proc.returncode == 0, proc.stderr
+    return cwd, proc
+
+
+# ---------------------------------------------------------------------------------------------- Dask
+
+
+# ---------------------------------------------------------------------------------------------- page
+
+
+def test_ties_are_broken_by_the_clearance_left():
+    study = build_study([("alpha", (25, 30))], "1-2")
+    runs = [{"solver": "seed", "alpha": a, "seed": s, "status": "ok", "steps": 5, "traversed": True,
+             "max_penetration_mm": 0.0, "touch_steps": 0, "contact_length_mm": 0.0, "min_clearance_mm": c}
+            for a, s, c in ((25, 1, 0.4), (25, 2, 1.0), (30, 1, 2.0), (30, 2, 0.9))]
+    designs = design_rows(study, runs, {})
+    assert [d["worst_clearance_mm"] for d in designs] == [0.4, 0.9]
+    assert [d["worst_colon"] for d in designs] == [1, 2]  # no penetration: the colon with the least clearance
+
+    class R:
+        pass
+
+    r = R()
+    r.study, r.designs = study, designs
+    best, meeting = answer(r)
+    assert best["alpha"] == 30 and [d["alpha"] for d in meeting] == [30, 25]
+
+
+def test_colons_take_the_grid_range_syntax_too():
+    from bhr.studies.traverse import parse_colons
+
+    assert parse_colons("1:3") == parse_colons("1-3") == (1, 2, 3)
+    assert parse_colons("1:9:4,20") == (1, 5, 9, 20)
+    with pytest.raises(BhrError, match="mixes - and :"):
+        parse_colons("1-9:2")
+
+
+def test_the_table_says_when_designs_are_left_out():
+    from bhr.studies.traverse import format_study
+
+    study = build_study([("alpha", tuple(range(10, 19)))], "1-2")
+    runs = [{"solver": "thesis", "alpha": a, "seed": s, "status": "ok", "steps": 5, "traversed": a > 10,
+             "max_penetration_mm": 0.0 if a > 10 else 1.0, "touch_steps": 0, "contact_length_mm": 0.0,
+             "min_clearance_mm": float(a)} for a in range(10, 19) for s in (1, 2)]
+
+    class R:
+        runner, wall_time_s, clearance_kind, failed = "in-process", 1.0, "geometric", []
+
+    r = R()
+    r.study, r.designs, r.runs = study, design_rows(study, runs, {}), runs
+    lines = format_study(r)
+    assert lines[0].startswith("18 runs (9 designs x 2 colons)")
+    shown = [ln for ln in lines[2:] if ln[:5].strip().isdigit()]
+    assert len(shown) == 8
+    assert "the best 8 of 9 designs shown; 1 more (down to design #1, 0% traversed) are in designs.csv" in lines[-2]
+    assert len([ln for ln in format_study(r, count=9)[2:] if ln[:5].strip().isdigit()]) == 9
