@@ -41,23 +41,19 @@ def compare(traj, solvers, out_dir, json_path, no_plots, **kwargs):
 
         bhr compare --traj curve --angle 360 --solver thesis --solver optimal
     """
-    from bhr.output.atomic import write_json, write_text
+    from bhr.output.atomic import write_json
     from bhr.run.body import check_body_modules
     from bhr.cli._progress import announce_compiles, status
-    from bhr.studies.compare import compare_figure, compare_json, compare_runs, format_table
+    from bhr.studies.compare import compare_json, compare_runs, format_table, write_compare
     from bhr.settings.errors import BhrError
     from bhr.run.driver import BhrWarning
     from bhr.model.generators import load_trajectory
 
-    from bhr.solvers import available, canonical
+    from bhr.solvers import check_solver_name
 
     names = list(solvers) or ["thesis", "optimal"]
-    known = available()
     for name in names:
-        if canonical(name) not in known:
-            from bhr.settings.inputs import did_you_mean
-
-            raise BhrError(f"unknown solver {name!r}; {did_you_mean(name, known)}choose from {', '.join(known)}")
+        check_solver_name(name)
     robot_file = kwargs.get("robot_file")
     robot = build_robot(kwargs)
     if traj is None:
@@ -100,26 +96,7 @@ def compare(traj, solvers, out_dir, json_path, no_plots, **kwargs):
     written = []
     if folder is not None:
         with folder:
-            from bhr.model.codes import format_codes_csv
-            from bhr.output.steptable import STEPS_CSV, format_steps_csv
-
-            for c in runs:  # each solver's run as bhr follow writes it: replay, plan and stream take it
-                sub = folder.path(c.result.solver)
-                sub.mkdir(parents=True, exist_ok=True)
-                write_json(sub / "run.json", c.result.to_dict())
-                write_text(sub / STEPS_CSV, format_steps_csv(c.result))
-                if c.result.codes is not None:
-                    write_text(sub / "codes.csv", format_codes_csv(c.result.codes))
-                written.append(folder.final(c.result.solver))
-            if json_inside is not None:
-                write_json(folder.path(json_inside), compare_json(runs))
-                written.append(folder.final(json_inside))
-            if not no_plots:
-                from bhr.output.plots import save_figure
-
-                with status(f"drawing {folder.final('compare.png')}"):
-                    save_figure(compare_figure(runs), folder.path("compare.png"))
-                written.append(folder.final("compare.png"))
+            written += write_compare(runs, folder, json_name=json_inside, plot=not no_plots, progress=status)
             if json_path and json_path != "-" and json_inside is None:
                 write_json(Path(json_path), compare_json(runs))  # before the folder goes in place
                 written.append(Path(json_path))

@@ -16,12 +16,12 @@ from typing import Any, Sequence
 
 from bhr.settings.inputs import did_you_mean
 from bhr.settings.errors import BhrError
-from bhr.settings.options import BY_NAME
+from bhr.settings.options import BY_NAME, excerpt, type_name
 from bhr.model.robot import CHAPTER5_ROBOT, Robot, robot_with
 from bhr.solvers.base import REGISTRY, Chain, FollowContext, SolveResult, Solver, check_direction, check_target
 
-__all__ = ["Chain", "FollowContext", "SolveResult", "Solver", "available", "canonical", "get_solver", "solve",
-           "ENTRY_POINTS"]
+__all__ = ["Chain", "FollowContext", "SolveResult", "Solver", "available", "canonical", "check_solver_name",
+           "get_solver", "solve", "ENTRY_POINTS"]
 
 #: The entry-point group through which other packages add solvers: ``name = "package.module:SolverClass"``.
 ENTRY_POINTS = "bhr.solvers"
@@ -65,6 +65,18 @@ def canonical(name: str) -> str:
     return cls.name if cls is not None else name
 
 
+def check_solver_name(name: Any, where: str = "") -> str:
+    """The registered name of solver ``name`` (aliases such as ``seed`` give ``thesis``), or one BhrError line
+    with did-you-mean and the names to choose from (``where`` prefixed)."""
+    _load_all()
+    cls = REGISTRY.get(name) if isinstance(name, str) else None
+    if cls is None:
+        shown = excerpt(name) if isinstance(name, str) else type_name(name)
+        raise BhrError(f"{where + ': ' if where else ''}unknown solver {shown}; "
+                       f"{did_you_mean(str(name), available())}choose from {', '.join(available())}")
+    return cls.name
+
+
 def _check_solver_options(cls: type[Solver], options: dict[str, Any]) -> dict[str, Any]:
     """``options`` checked against what ``cls`` takes (did-you-mean) and, where it knows them, the registry."""
     params = inspect.signature(cls.__init__).parameters
@@ -103,10 +115,11 @@ def get_solver(name: str | Solver | type[Solver], robot: Robot, **options: Any) 
         cls = name
     elif isinstance(name, str) and name in REGISTRY:
         cls = REGISTRY[name]
+    elif isinstance(name, str):
+        cls = REGISTRY[check_solver_name(name)]
     else:
-        shown = name if isinstance(name, str) else type(name).__name__
-        raise BhrError(f"unknown solver {shown!r}; {did_you_mean(str(shown), available())}choose one of "
-                       f"{', '.join(available())}, or give a bhr.solvers.Solver object")
+        raise BhrError(f"unknown solver {type_name(name)}; give a solver's name ({', '.join(available())}) or a "
+                       "bhr.solvers.Solver object")
     return cls(robot, **_check_solver_options(cls, options))
 
 

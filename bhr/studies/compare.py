@@ -21,7 +21,7 @@ from bhr.settings.inputs import MAX_STEP_POINTS
 from bhr.model.robot import Robot
 from bhr.model.generators import Trajectory
 from bhr.run.driver import follow
-from bhr.solvers import available, canonical
+from bhr.solvers import canonical, check_solver_name
 
 __all__ = ["Compared", "compare_runs", "compare_rows", "format_table", "compare_figure", "compare_json"]
 
@@ -43,11 +43,7 @@ def compare_runs(traj: Trajectory, solvers: Sequence[str], robot: Robot, *,
                  solver_options: dict[str, dict[str, Any]] | None = None,
                  body_modules: int | None = None) -> list[Compared]:
     """Run ``traj`` with each solver (options per solver name); raises BhrError for fewer than two or repeats."""
-    known = available()
-    for s in solvers:
-        if canonical(s) not in known:
-            raise BhrError(f"unknown solver {s!r}; choose from {', '.join(known)}")
-    names = [canonical(s) for s in solvers]  # one name per solver in the table and the figure (seed: thesis)
+    names = [check_solver_name(s) for s in solvers]  # one name per solver in the table and the figure (seed: thesis)
     if len(names) < 2:
         raise BhrError("compare needs at least two solvers, e.g. --solver thesis --solver optimal")
     dup = next((s for s in names if names.count(s) > 1), None)
@@ -184,3 +180,37 @@ def compare_figure(runs: Sequence[Compared]):
     fig.suptitle(f"{r0.trajectory.name}: " + " vs ".join(c.solver for c in runs), fontsize=12)
     fig.tight_layout()
     return fig
+
+
+def write_compare(runs: Sequence[Compared], folder: Any, *, json_name: str | None = None, plot: bool = True,
+                  progress: Any = None) -> list[Any]:
+    """Write a comparison's whole set into the staged ``folder`` (an :class:`bhr.output.atomic.OutputFolder`
+    being written): each solver's run as ``bhr follow`` writes it (``SOLVER/run.json``, the per-step table
+    and ``codes.csv``, so replay, plan and stream take it), the comparison's JSON as ``json_name`` and
+    ``compare.png``. Returns where each will be once the folder is in place. ``progress(text)`` (a
+    context manager) wraps the drawing."""
+    import contextlib
+
+    from bhr.model.codes import format_codes_csv
+    from bhr.output.atomic import write_json, write_text
+    from bhr.output.steptable import STEPS_CSV, format_steps_csv
+
+    written = []
+    for c in runs:
+        sub = folder.path(c.result.solver)
+        sub.mkdir(parents=True, exist_ok=True)
+        write_json(sub / "run.json", c.result.to_dict())
+        write_text(sub / STEPS_CSV, format_steps_csv(c.result))
+        if c.result.codes is not None:
+            write_text(sub / "codes.csv", format_codes_csv(c.result.codes))
+        written.append(folder.final(c.result.solver))
+    if json_name is not None:
+        write_json(folder.path(json_name), compare_json(runs))
+        written.append(folder.final(json_name))
+    if plot:
+        from bhr.output.plots import save_figure
+
+        with progress(f"drawing {folder.final('compare.png')}") if progress else contextlib.nullcontext():
+            save_figure(compare_figure(runs), folder.path("compare.png"))
+        written.append(folder.final("compare.png"))
+    return written

@@ -40,7 +40,7 @@ from bhr.output.htmlpage import PAGE_END, escape, figure, fmt, page_head, table
 from bhr.settings.options import BY_NAME, by_group, solver_options_for
 from bhr.model.robot import Robot
 from bhr.model.robotfile import load_robot_file
-from bhr.solvers import available, canonical
+from bhr.solvers import check_solver_name
 from bhr.settings.names import AXIS_NAMES, COLUMN_TITLES, axis_label, axis_value, column_title
 from bhr.settings.names import label as _label
 from bhr.studies.study import (CONSTRAINT_KEYS, NUMBER_KEYS, ROBOT_KEYS, TRAJ_KEYS, check_body, check_value, csv_text,
@@ -228,11 +228,8 @@ def build_sweep(trajs: Sequence[str], solvers: Sequence[str], grid: Iterable[tup
         raise BhrError(f"{where}: grid key {sorted(dup)[0]!r} is given twice; give each key once")
     if not trajs or not solvers:
         raise BhrError(f"{where}: a sweep needs at least one trajectory and one solver")
-    names = available()
-    for s in solvers:
-        if canonical(s) not in names:
-            raise BhrError(f"{where}: unknown solver {s!r}; choose from {', '.join(names)}")
-    solvers = tuple(dict.fromkeys(canonical(s) for s in solvers))  # tables name a solver one way (seed: thesis)
+    # tables name a solver one way (seed: thesis)
+    solvers = tuple(dict.fromkeys(check_solver_name(s, where) for s in solvers))
     shipped = set(builtin_names())
     sources = {}
     base = Path(base_dir)
