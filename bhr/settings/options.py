@@ -211,7 +211,9 @@ BY_NAME: dict[str, Option] = {o.name: o for o in OPTIONS}
 #: Sizes checked before anything is allocated (docs/commands.md#limits): the one place they are set.
 LIMITS: dict[str, int] = {
     "points": 500_000,  # points of a path after sampling (generators, segment and CSV files)
-    "step_points": 1_500_000,  # steps x (modules + 1) of one run: about 1.4 kB each in memory, ~2.1 GB at most
+    # steps x (modules + 1) of one run: about 1.2-1.4 kB each in memory with run.json and the figures, ~3.1 GB at
+    # most (docs/commands.md#limits: anatomy colon 3 at feed divisor 10, the whole robot, 2.37 M points, 2.8 GB)
+    "step_points": 2_500_000,
     "segments": 10_000,  # segments of a trajectory TOML
     "modules": 1000,  # modules the solver moves (--modules)
     "body_modules": 10_000,  # modules of the whole simulated robot (--body-modules)

@@ -52,20 +52,21 @@ from typing import Any
 import numpy as np
 from numba import njit
 
-from bhr.run.clearance import Tube, nearest_numpy, search_window, make_tube, point_clearance, segment_scan
+from bhr.model.tube import (Tube, make_tube, nearest_numpy, point_clearance, scan_from, search_window,
+                            segment_scan)
 from bhr.settings.errors import BhrError
 from bhr.settings.options import solver_defaults
 from bhr.kinematics.frames import tilt_frame as _rot
 from bhr.kinematics.leader import advance_kernel, finish_step
 from bhr.solvers.base import Chain, FollowContext, SolveResult, register
-from bhr.solvers.optimal import (CODE_OF, DEG, Optimal, beam_candidate, beam_commit, beam_keep, beam_reset,
-                                 dist2, frame_of_chain, setting_number, step_targets, tip_angle, write_pose)
+from bhr.solvers.optimal import (CODE_OF, DEG, Optimal, beam_candidate, beam_commit, beam_keep, beam_reset, dist2,
+                                 frame_of_chain, keep_best, setting_number, step_targets, tip_angle, write_pose)
 
 __all__ = ["Lumen", "DEFAULTS", "head_cost", "lumen_config_cost"]
 
 #: Default settings of ``--solver lumen`` (docs/lumen.md explains each).
 DEFAULTS: dict[str, Any] = solver_defaults("lumen")
-#: Segments scanned on each side of the guessed nearest segment, and the step outwards while it improves.
+#: Segments scanned at a time outwards from the guessed nearest segment while it improves.
 _SCAN = 2
 
 
@@ -74,55 +75,17 @@ _SCAN = 2
 
 
 @njit(cache=True)
-def _scan(C, a, b, px, py, pz, res):
-    """Nearest point on segments a..b-1: res = (d2, segment, t)."""
-    best, bk, bt = segment_scan(C, a, b, px, py, pz)
-    res[0] = best
-    res[1] = bk
-    res[2] = bt
-
-
-@njit(cache=True)
-def _near_local(C, lo, hi, g, px, py, pz, res, tmp):
-    """Nearest point within segments lo..hi-1, scanning from segment ``g`` outwards while it improves."""
-    if g < lo:
-        g = lo
-    if g > hi - 1:
-        g = hi - 1
-    a = max(lo, g - _SCAN)
-    b = min(hi, g + _SCAN + 1)
-    _scan(C, a, b, px, py, pz, res)
-    while int(res[1]) == a and a > lo:
-        na = max(lo, a - _SCAN)
-        _scan(C, na, a, px, py, pz, tmp)
-        a = na
-        if tmp[0] < res[0]:
-            res[0] = tmp[0]
-            res[1] = tmp[1]
-            res[2] = tmp[2]
-        else:
-            break
-    while int(res[1]) == b - 1 and b < hi:
-        nb = min(hi, b + _SCAN)
-        _scan(C, b, nb, px, py, pz, tmp)
-        b = nb
-        if tmp[0] < res[0]:
-            res[0] = tmp[0]
-            res[1] = tmp[1]
-            res[2] = tmp[2]
-        else:
-            break
-
-
-@njit(cache=True)
 def _near(C, pre, w, g, e, px, py, pz, res, tmp):
     """Nearest centerline point of a sample expected at trajectory index ``e``: res = (d2, segment, t)."""
     M = C.shape[0]
     lo, hi = search_window(M, e + pre, w)
     if g < 0:
-        _scan(C, lo, hi, px, py, pz, res)
+        best, bk, bt = segment_scan(C, lo, hi, px, py, pz)
     else:
-        _near_local(C, lo, hi, g, px, py, pz, res, tmp)
+        best, bk, bt = scan_from(C, lo, hi, g, px, py, pz, _SCAN)
+    res[0] = best
+    res[1] = bk
+    res[2] = bt
 
 
 @njit(cache=True)
@@ -255,11 +218,7 @@ def _head_search(C, R, pre, w, step, n, f, L, c, s, T, prm, best_codes, frames, 
         guess[lvl + 1] = int(res[1])
         part[lvl + 1] = v
         if lvl == n - 1:
-            tot = v + _tip_term(C, guess[n], frames[n - 1], wo)
-            if tot < best:
-                best = tot
-                for q in range(1, n):
-                    best_codes[q] = choice[q]
+            best = keep_best(v + _tip_term(C, guess[n], frames[n - 1], wo), best, choice, best_codes, 1, n)
         else:
             lvl += 1
             choice[lvl] = -1
