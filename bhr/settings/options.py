@@ -185,6 +185,10 @@ OPTIONS: tuple[Option, ...] = (
            solvers=_LUM),
     Option("along_weight", _S, float, "lumen: weight of each point's squared lead along the centerline", 0.05,
            solvers=_LUM),
+    Option("lead_weight", _S, float, "lumen: weight of the squared lead the robot could no longer lose before the "
+           "path's end (it would push the blind cecum by it), per mm^2", 10.0, solvers=_LUM),
+    Option("lead_slack", _S, float, "lumen: share of the path still ahead of a point that its lead may be before "
+           "--lead-weight counts", 0.1, maximum=1.0, solvers=_LUM, metavar="SHARE"),
     Option("window", _S, float, "lumen: arc length searched on each side for a point's nearest centerline point "
            "(mm)", 40.0, solvers=_LUM, metavar="MM"),
     Option("trail_beam", _S, int, "lumen with --locomotion trail: trails kept by the planner's beam search", 64,
