@@ -280,11 +280,9 @@ def global_scan(C, BC, BR, px, py, pz, best):
         hi = lo + BLOCK
         if hi > nseg:
             hi = nseg
-        b2, k2, t2 = segment_scan(C, lo, hi, px, py, pz)
-        if b2 < best:
-            best = b2
-            bk = k2
-            bt = t2
+        cand = segment_scan(C, lo, hi, px, py, pz)
+        if cand[0] < best:
+            best, bk, bt = cand
     return best, bk, bt
 
 

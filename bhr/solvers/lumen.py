@@ -156,6 +156,15 @@ def _tip_term(C, k, frames_last, wo):
 
 
 @njit(cache=True)
+def _place(frames, pts, lv, q, c, s, L):
+    """Module ``lv`` (0-based, after module 1) tilted by search code ``q`` from the module behind it: its frame
+    and its far end."""
+    _rot(frames[lv - 1], q, c, s, frames[lv])
+    for b in range(3):
+        pts[lv + 1, b] = pts[lv, b] + L * frames[lv, 2, b]
+
+
+@njit(cache=True)
 def _head_search(C, R, pre, w, step, n, f, L, c, s, T, prm, best_codes, frames, pts, part, guess, choice, res, tmp):
     """Exact branch and bound over modules 2..n with module 1's frame in ``frames[0]`` and ``pts[0]`` the base.
 
@@ -186,9 +195,7 @@ def _head_search(C, R, pre, w, step, n, f, L, c, s, T, prm, best_codes, frames, 
         bv = 1e300
         bq = 0
         for q in range(5):
-            _rot(frames[lv - 1], q, c, s, frames[lv])
-            for b in range(3):
-                pts[lv + 1, b] = pts[lv, b] + L * frames[lv, 2, b]
+            _place(frames, pts, lv, q, c, s, L)
             v = part[lv] + wt * dist2(pts[lv + 1], T[lv + 1])
             if v >= bv:
                 continue
@@ -202,9 +209,7 @@ def _head_search(C, R, pre, w, step, n, f, L, c, s, T, prm, best_codes, frames, 
                 clr[lv + 1] = cout[0]
                 guess[lv + 1] = int(res[1])
         choice[lv] = bq
-        _rot(frames[lv - 1], bq, c, s, frames[lv])
-        for b in range(3):
-            pts[lv + 1, b] = pts[lv, b] + L * frames[lv, 2, b]
+        _place(frames, pts, lv, bq, c, s, L)
         part[lv + 1] = bv
     best = part[n]
     for q in range(1, n):
@@ -217,9 +222,7 @@ def _head_search(C, R, pre, w, step, n, f, L, c, s, T, prm, best_codes, frames, 
         if choice[lvl] >= 5:
             lvl -= 1
             continue
-        _rot(frames[lvl - 1], choice[lvl], c, s, frames[lvl])
-        for b in range(3):
-            pts[lvl + 1, b] = pts[lvl, b] + L * frames[lvl, 2, b]
+        _place(frames, pts, lvl, choice[lvl], c, s, L)
         v = part[lvl] + wt * dist2(pts[lvl + 1], T[lvl + 1])
         if v >= best:
             continue
