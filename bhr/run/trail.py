@@ -42,7 +42,8 @@ import numpy as np
 from numba import njit
 
 from bhr.run.body import check_body_modules
-from bhr.run.clearance import Tube, clearance_chain_kernel, make_tube, nearest_kernel, segment_scan
+from bhr.model.tube import Tube, lumen_end_of, make_tube, nearest_kernel, point_clearance, scan_from
+from bhr.run.clearance import clearance_chain_kernel, index_matched_min, robot_labels, tables_report
 from bhr.settings.errors import BhrError
 from bhr.kinematics.codetable import SEARCH_CODES
 from bhr.kinematics.frames import tilt_frame
@@ -113,35 +114,6 @@ def dense_tube(path: np.ndarray, lumen: np.ndarray, start_direction, window_mm: 
 
 
 @njit(cache=True)
-def _near_from(C, lo, hi, g, px, py, pz):
-    """Nearest point on segments lo..hi-1, scanning from segment ``g`` outwards while it improves: (d2, seg, t)."""
-    if g < lo:
-        g = lo
-    if g > hi - 1:
-        g = hi - 1
-    a = max(lo, g - 2)
-    b = min(hi, g + 3)
-    best, bk, bt = segment_scan(C, a, b, px, py, pz)
-    while bk == a and a > lo:
-        na = max(lo, a - 3)
-        d2, k, t = segment_scan(C, na, a, px, py, pz)
-        a = na
-        if d2 < best:
-            best, bk, bt = d2, k, t
-        else:
-            break
-    while bk == b - 1 and b < hi:
-        nb = min(hi, b + 3)
-        d2, k, t = segment_scan(C, b, nb, px, py, pz)
-        b = nb
-        if d2 < best:
-            best, bk, bt = d2, k, t
-        else:
-            break
-    return best, bk, bt
-
-
-@njit(cache=True)
 def _sample_cost(C, R, w, g, px, py, pz, radius, margin, ww):
     """(wall cost, clearance, squared distance, nearest position) of one sample, searched around index ``g``."""
     M = C.shape[0]
@@ -149,7 +121,7 @@ def _sample_cost(C, R, w, g, px, py, pz, radius, margin, ww):
     hi = min(M - 1, int(g + w) + 1)
     if hi <= lo:
         hi = lo + 1
-    d2, k, t = _near_from(C, lo, hi, int(g), px, py, pz)
+    d2, k, t = scan_from(C, lo, hi, int(g), px, py, pz, 3)
     c = R[k] + t * (R[k + 1] - R[k]) - radius - math.sqrt(d2)
     p = margin - c
     return (ww * p * p if p > 0.0 else 0.0), c, d2, k + t
@@ -683,8 +655,6 @@ def chord_sweep_numpy(tube: Tube, radius: float, T: np.ndarray, z: np.ndarray, r
                       chords: int = 41, samples: int = 41) -> float:
     """The smallest clearance over every chord across vertex row ``r`` at fractions u0..u1, sampled on a grid
     (``chords`` fractions x ``samples`` points along each chord): the brute-force reference of the motion."""
-    from bhr.run.clearance import point_clearance
-
     best = math.inf
     for u in np.linspace(u0, u1, chords):
         A = T[r - 1] + u * (T[r] - T[r - 1])
@@ -777,8 +747,6 @@ def run_trail(traj, robot, settings: dict, window_mm: float, modules: int | None
 def trail_report(result):
     """The :class:`~bhr.run.clearance.ClearanceReport` of a trail run: every joint and module at every step, a module's
     clearance the smaller of its pose's and its motion's from the step before."""
-    from bhr.run.clearance import ClearanceReport, clearance_table, robot_labels
-
     tr = result.trail
     r = result.robot
     n, f = r.modules, r.feed_divisor
@@ -789,24 +757,5 @@ def trail_report(result):
     m_idx = [n - 1 - jj for jj in range(n)] + [n + k - 1 for k in range(1, B + 1)]
     table, mtable, mwhere = jp[:, p_idx], jm[:, m_idx], jw[:, m_idx]
     labels, mlabels = robot_labels(n, B)
-    offsets = [(n - j) * f for j in range(n + 1)]
-    errors = result.point_errors
-    if B:
-        offsets += [(n + k) * f for k in range(1, B + 1)]
-        errors = np.concatenate([errors, result.body.point_errors], axis=1)
-    im = clearance_table(errors, np.array(offsets), result.trajectory.lumen, r.radius)
-    im_min = float(np.nanmin(im)) if not np.all(np.isnan(im)) else float("nan")
-    with np.errstate(invalid="ignore"):
-        mtouch = mtable <= 0.0
-        touch = np.nonzero(np.any(table <= 0.0, axis=1) | np.any(mtouch, axis=1))[0]
-    contact = (np.sum(mtouch, axis=0) * float(r.feed)).tolist()
-    both = np.concatenate([table, mtable], axis=1)
-    if np.all(np.isnan(both)):
-        return ClearanceReport(table, labels, float("nan"), 0, "", [], mtable, mlabels, mwhere, contact, im_min)
-    flat = int(np.nanargmin(both))
-    s, p = divmod(flat, both.shape[1])
-    row_pts = table[s]
-    if not np.all(np.isnan(row_pts)) and np.nanmin(row_pts) <= both[s, p]:
-        p = int(np.nanargmin(row_pts))
-    return ClearanceReport(table, labels, float(both[s, p]), s + 1, (labels + mlabels)[p],
-                           [int(t) + 1 for t in touch], mtable, mlabels, mwhere, contact, im_min)
+    return tables_report(table, labels, mtable, mlabels, mwhere, float(r.feed), index_matched_min(result, B),
+                         lumen_end_of(result.trajectory))[0]

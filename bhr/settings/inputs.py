@@ -26,9 +26,9 @@ MAX_FILE_BYTES = 64 * 1024 * 1024
 #: A path may have at most this many points after sampling (trajectory generators, segment and CSV files).
 MAX_POINTS = LIMITS["points"]
 #: A run may hold at most this many robot points in all: steps x (modules + 1), the body's modules when
-#: simulated. Memory grows by about 1.5 kB per step and point (run.json included; measured in
-#: docs/commands.md), so a run at the limit stays within about 5 GB (a 5-module robot on a path of
-#: MAX_POINTS fits).
+#: simulated. Memory grows by about 1.2-1.4 kB per step and point (run.json and figures included; measured
+#: in docs/commands.md), so a run at the limit stays within about 3.5 GB (a 5-module robot on a path of
+#: MAX_POINTS fits, and the whole robot on every anatomical colon 1-100 at feed divisor 10).
 MAX_STEP_POINTS = LIMITS["step_points"]
 
 

@@ -185,6 +185,10 @@ OPTIONS: tuple[Option, ...] = (
            solvers=_LUM),
     Option("along_weight", _S, float, "lumen: weight of each point's squared lead along the centerline", 0.05,
            solvers=_LUM),
+    Option("lead_weight", _S, float, "lumen: weight of the squared lead the robot could no longer lose before the "
+           "path's end (it would push the blind cecum by it), per mm^2", 10.0, solvers=_LUM),
+    Option("lead_slack", _S, float, "lumen: share of the path still ahead of a point that its lead may be before "
+           "--lead-weight counts", 0.1, maximum=1.0, solvers=_LUM, metavar="SHARE"),
     Option("window", _S, float, "lumen: arc length searched on each side for a point's nearest centerline point "
            "(mm)", 40.0, solvers=_LUM, metavar="MM"),
     Option("trail_beam", _S, int, "lumen with --locomotion trail: trails kept by the planner's beam search", 64,
@@ -211,7 +215,9 @@ BY_NAME: dict[str, Option] = {o.name: o for o in OPTIONS}
 #: Sizes checked before anything is allocated (docs/commands.md#limits): the one place they are set.
 LIMITS: dict[str, int] = {
     "points": 500_000,  # points of a path after sampling (generators, segment and CSV files)
-    "step_points": 1_500_000,  # steps x (modules + 1) of one run: about 1.4 kB each in memory, ~2.1 GB at most
+    # steps x (modules + 1) of one run: about 1.2-1.4 kB each in memory with run.json and the figures, ~3.1 GB at
+    # most (docs/commands.md#limits: anatomy colon 3 at feed divisor 10, the whole robot, 2.37 M points, 2.8 GB)
+    "step_points": 2_500_000,
     "segments": 10_000,  # segments of a trajectory TOML
     "modules": 1000,  # modules the solver moves (--modules)
     "body_modules": 10_000,  # modules of the whole simulated robot (--body-modules)

@@ -52,20 +52,21 @@ from typing import Any
 import numpy as np
 from numba import njit
 
-from bhr.run.clearance import Tube, nearest_numpy, search_window, make_tube, point_clearance, segment_scan
+from bhr.model.tube import (Tube, lumen_end_of, make_tube, nearest_numpy, point_clearance, scan_from, search_window,
+                            segment_scan)
 from bhr.settings.errors import BhrError
 from bhr.settings.options import solver_defaults
 from bhr.kinematics.frames import tilt_frame as _rot
 from bhr.kinematics.leader import advance_kernel, finish_step, tip_angle
 from bhr.solvers.base import Chain, FollowContext, SolveResult, register
-from bhr.solvers.optimal import (CODE_OF, DEG, Optimal, beam_candidate, beam_commit, beam_keep, beam_reset,
-                                 dist2, frame_of_chain, setting_number, step_targets, write_pose)
+from bhr.solvers.optimal import (CODE_OF, DEG, Optimal, beam_candidate, beam_commit, beam_keep, beam_reset, dist2,
+                                 frame_of_chain, keep_best, setting_number, step_targets, write_pose)
 
 __all__ = ["Lumen", "DEFAULTS", "head_cost", "lumen_config_cost"]
 
 #: Default settings of ``--solver lumen`` (docs/lumen.md explains each).
 DEFAULTS: dict[str, Any] = solver_defaults("lumen")
-#: Segments scanned on each side of the guessed nearest segment, and the step outwards while it improves.
+#: Segments scanned at a time outwards from the guessed nearest segment while it improves.
 _SCAN = 2
 
 
@@ -74,55 +75,17 @@ _SCAN = 2
 
 
 @njit(cache=True)
-def _scan(C, a, b, px, py, pz, res):
-    """Nearest point on segments a..b-1: res = (d2, segment, t)."""
-    best, bk, bt = segment_scan(C, a, b, px, py, pz)
-    res[0] = best
-    res[1] = bk
-    res[2] = bt
-
-
-@njit(cache=True)
-def _near_local(C, lo, hi, g, px, py, pz, res, tmp):
-    """Nearest point within segments lo..hi-1, scanning from segment ``g`` outwards while it improves."""
-    if g < lo:
-        g = lo
-    if g > hi - 1:
-        g = hi - 1
-    a = max(lo, g - _SCAN)
-    b = min(hi, g + _SCAN + 1)
-    _scan(C, a, b, px, py, pz, res)
-    while int(res[1]) == a and a > lo:
-        na = max(lo, a - _SCAN)
-        _scan(C, na, a, px, py, pz, tmp)
-        a = na
-        if tmp[0] < res[0]:
-            res[0] = tmp[0]
-            res[1] = tmp[1]
-            res[2] = tmp[2]
-        else:
-            break
-    while int(res[1]) == b - 1 and b < hi:
-        nb = min(hi, b + _SCAN)
-        _scan(C, b, nb, px, py, pz, tmp)
-        b = nb
-        if tmp[0] < res[0]:
-            res[0] = tmp[0]
-            res[1] = tmp[1]
-            res[2] = tmp[2]
-        else:
-            break
-
-
-@njit(cache=True)
 def _near(C, pre, w, g, e, px, py, pz, res, tmp):
     """Nearest centerline point of a sample expected at trajectory index ``e``: res = (d2, segment, t)."""
     M = C.shape[0]
     lo, hi = search_window(M, e + pre, w)
     if g < 0:
-        _scan(C, lo, hi, px, py, pz, res)
+        best, bk, bt = segment_scan(C, lo, hi, px, py, pz)
     else:
-        _near_local(C, lo, hi, g, px, py, pz, res, tmp)
+        best, bk, bt = scan_from(C, lo, hi, g, px, py, pz, _SCAN)
+    res[0] = best
+    res[1] = bk
+    res[2] = bt
 
 
 @njit(cache=True)
@@ -142,7 +105,20 @@ def _along(res, pre, e, sp):
 
 
 @njit(cache=True)
-def _module_cost(C, R, pre, w, g, e0, ef, A, B, cA, radius, margin, ww, wc, wa, sp, pre0, dR, res, tmp, out):
+def _schedule(a, e, sp, prm):
+    """The schedule terms of a sample ``a`` mm ahead of where it is expected (trajectory index ``e``): the weak
+    pull back to the schedule, ``w_along a^2``, and the lead the robot can no longer lose before the path's end,
+    ``w_lead max(0, a - slack (end - e) sp)^2`` (the feeder pushes every step; a robot ahead of its schedule at
+    the end pushes into the blind cecum by its lead)."""
+    v = prm[7] * a * a
+    x = a - prm[11] * (prm[12] - e) * sp
+    if x > 0.0:
+        v += prm[10] * x * x
+    return v
+
+
+@njit(cache=True)
+def _module_cost(C, R, pre, w, g, e0, ef, A, B, cA, radius, margin, ww, wc, prm, sp, pre0, dR, res, tmp, out):
     """Cost of the module A->B: its far end (wall and centerline) and, where the wall may be near, its middle
     (wall only). ``cA`` is A's clearance; out[0] gets B's. res[1]: the far end's segment.
 
@@ -154,7 +130,7 @@ def _module_cost(C, R, pre, w, g, e0, ef, A, B, cA, radius, margin, ww, wc, wa, 
     _near(C, pre, w, g + int(ef), e0 + ef, B[0], B[1], B[2], res, tmp)
     cB, cost = _wall(R, radius, margin, ww, res)
     a = _along(res, pre0, e0 + ef, sp)
-    cost += wc * res[0] + wa * a * a
+    cost += wc * res[0] + _schedule(a, e0 + ef, sp, prm)
     out[0] = cB
     gB = res[1]
     tB = res[2]
@@ -180,6 +156,15 @@ def _tip_term(C, k, frames_last, wo):
 
 
 @njit(cache=True)
+def _place(frames, pts, lv, q, c, s, L):
+    """Module ``lv`` (0-based, after module 1) tilted by search code ``q`` from the module behind it: its frame
+    and its far end."""
+    _rot(frames[lv - 1], q, c, s, frames[lv])
+    for b in range(3):
+        pts[lv + 1, b] = pts[lv, b] + L * frames[lv, 2, b]
+
+
+@njit(cache=True)
 def _head_search(C, R, pre, w, step, n, f, L, c, s, T, prm, best_codes, frames, pts, part, guess, choice, res, tmp):
     """Exact branch and bound over modules 2..n with module 1's frame in ``frames[0]`` and ``pts[0]`` the base.
 
@@ -189,16 +174,16 @@ def _head_search(C, R, pre, w, step, n, f, L, c, s, T, prm, best_codes, frames, 
     e0 = float(step - n * f)
     clr = np.empty(n + 1)
     cout = np.empty(1)
-    dR, wa, sp, pre0 = prm[6], prm[7], prm[8], prm[9]
+    dR, sp, pre0 = prm[6], prm[8], prm[9]
     _near(C, pre, w, -1, e0, pts[0, 0], pts[0, 1], pts[0, 2], res, tmp)
     clr[0], part[0] = _wall(R, radius, margin, ww, res)
     a0 = _along(res, pre0, e0, sp)
-    part[0] += wc * res[0] + wa * a0 * a0 + wt * dist2(pts[0], T[0])
+    part[0] += wc * res[0] + _schedule(a0, e0, sp, prm) + wt * dist2(pts[0], T[0])
     guess[0] = int(res[1])
     for b in range(3):
         pts[1, b] = pts[0, b] + L * frames[0, 2, b]
     part[1] = part[0] + _module_cost(C, R, pre, w, guess[0], e0, float(f), pts[0], pts[1], clr[0], radius, margin,
-                                     ww, wc, wa, sp, pre0, dR, res, tmp, cout) + wt * dist2(pts[1], T[1])
+                                     ww, wc, prm, sp, pre0, dR, res, tmp, cout) + wt * dist2(pts[1], T[1])
     clr[1] = cout[0]
     guess[1] = int(res[1])
     best_codes[0] = 0
@@ -210,14 +195,12 @@ def _head_search(C, R, pre, w, step, n, f, L, c, s, T, prm, best_codes, frames, 
         bv = 1e300
         bq = 0
         for q in range(5):
-            _rot(frames[lv - 1], q, c, s, frames[lv])
-            for b in range(3):
-                pts[lv + 1, b] = pts[lv, b] + L * frames[lv, 2, b]
+            _place(frames, pts, lv, q, c, s, L)
             v = part[lv] + wt * dist2(pts[lv + 1], T[lv + 1])
             if v >= bv:
                 continue
             v += _module_cost(C, R, pre, w, guess[lv], float(step - (n - lv) * f), float(f), pts[lv], pts[lv + 1],
-                              clr[lv], radius, margin, ww, wc, wa, sp, pre0, dR, res, tmp, cout)
+                              clr[lv], radius, margin, ww, wc, prm, sp, pre0, dR, res, tmp, cout)
             if lv == n - 1:
                 v += _tip_term(C, int(res[1]), frames[lv], wo)
             if v < bv:
@@ -226,9 +209,7 @@ def _head_search(C, R, pre, w, step, n, f, L, c, s, T, prm, best_codes, frames, 
                 clr[lv + 1] = cout[0]
                 guess[lv + 1] = int(res[1])
         choice[lv] = bq
-        _rot(frames[lv - 1], bq, c, s, frames[lv])
-        for b in range(3):
-            pts[lv + 1, b] = pts[lv, b] + L * frames[lv, 2, b]
+        _place(frames, pts, lv, bq, c, s, L)
         part[lv + 1] = bv
     best = part[n]
     for q in range(1, n):
@@ -241,25 +222,19 @@ def _head_search(C, R, pre, w, step, n, f, L, c, s, T, prm, best_codes, frames, 
         if choice[lvl] >= 5:
             lvl -= 1
             continue
-        _rot(frames[lvl - 1], choice[lvl], c, s, frames[lvl])
-        for b in range(3):
-            pts[lvl + 1, b] = pts[lvl, b] + L * frames[lvl, 2, b]
+        _place(frames, pts, lvl, choice[lvl], c, s, L)
         v = part[lvl] + wt * dist2(pts[lvl + 1], T[lvl + 1])
         if v >= best:
             continue
         v += _module_cost(C, R, pre, w, guess[lvl], float(step - (n - lvl) * f), float(f), pts[lvl], pts[lvl + 1],
-                          clr[lvl], radius, margin, ww, wc, wa, sp, pre0, dR, res, tmp, cout)
+                          clr[lvl], radius, margin, ww, wc, prm, sp, pre0, dR, res, tmp, cout)
         if v >= best:
             continue
         clr[lvl + 1] = cout[0]
         guess[lvl + 1] = int(res[1])
         part[lvl + 1] = v
         if lvl == n - 1:
-            tot = v + _tip_term(C, guess[n], frames[n - 1], wo)
-            if tot < best:
-                best = tot
-                for q in range(1, n):
-                    best_codes[q] = choice[q]
+            best = keep_best(v + _tip_term(C, guess[n], frames[n - 1], wo), best, choice, best_codes, 1, n)
         else:
             lvl += 1
             choice[lvl] = -1
@@ -392,7 +367,7 @@ def lumen_config_cost(tube, robot, settings: dict[str, float], path: np.ndarray,
     """
     n, f = robot.modules, robot.feed_divisor
     prm = _prm(robot, settings, tube)
-    radius, margin, ww, wc, wt, wo, dR, wa, sp, _ = prm
+    radius, margin, ww, wc, wt, wo, dR, wa, sp, _, wl, slack, end = prm
     path = np.asarray(path, dtype=float)
     dirs = np.diff(path, axis=0)
     dirs /= np.linalg.norm(dirs, axis=1)[:, None]
@@ -411,7 +386,8 @@ def lumen_config_cost(tube, robot, settings: dict[str, float], path: np.ndarray,
         dist = _radius_near(tube, points[j], e) - radius - c
         along = (pos - tube.pre - e) * sp
         clr.append(c)
-        J += wall(c) + wc * dist * dist + wa * along * along
+        lead = along - slack * (end - e) * sp
+        J += wall(c) + wc * dist * dist + wa * along * along + (wl * lead * lead if lead > 0.0 else 0.0)
     for j in range(n):
         half = 0.5 * float(np.linalg.norm(points[j + 1] - points[j]))
         if min(clr[j], clr[j + 1]) - half - dR <= margin:
@@ -452,15 +428,18 @@ def _prm(robot, settings: dict[str, float], tube=None) -> np.ndarray:
     dR = 0.0
     sp = float(robot.feed)
     pre = 0.0
+    end = 1e300  # no path's end known: no lead term
     if tube is not None:
         pre = float(tube.pre)
+        end = float(tube.points.shape[0] - tube.post - 1 - tube.pre)
         f = int(robot.feed_divisor)
         R = tube.radius
         dR = float(np.max(np.abs(R[f:] - R[:-f]))) if R.shape[0] > f else 0.0
         sp = tube.spacing
     return np.array([float(robot.radius), settings["margin"], settings["wall_weight"], settings["center_weight"],
                      settings["track_weight"], (settings["ori_weight"] * DEG) ** 2, dR, settings["along_weight"], sp,
-                     pre], dtype=np.float64)
+                     pre, settings.get("lead_weight", DEFAULTS["lead_weight"]),
+                     settings.get("lead_slack", DEFAULTS["lead_slack"]), end], dtype=np.float64)
 
 
 # ---------------------------------------------------------------------------
@@ -479,11 +458,13 @@ class Lumen(Optimal):
                  wall_weight: float | None = None, margin: float | None = None, center_weight: float | None = None,
                  track_weight: float | None = None, along_weight: float | None = None,
                  ori_weight: float | None = None, window: float | None = None,
-                 trail_beam: int | None = None) -> None:
+                 trail_beam: int | None = None, lead_weight: float | None = None,
+                 lead_slack: float | None = None) -> None:
         opt = {k: v for k, v in dict(lookahead=lookahead, beam=beam, wall_weight=wall_weight, margin=margin,
                                      center_weight=center_weight, track_weight=track_weight,
                                      along_weight=along_weight, ori_weight=ori_weight,
-                                     window=window, trail_beam=trail_beam).items() if v is not None}
+                                     window=window, trail_beam=trail_beam, lead_weight=lead_weight,
+                                     lead_slack=lead_slack).items() if v is not None}
         cfg = {**DEFAULTS, **opt}
         super().__init__(robot, lookahead=cfg["lookahead"], beam=cfg["beam"], ori_weight=cfg["ori_weight"])
         self.wall_weight = setting_number("wall-weight", cfg["wall_weight"])
@@ -491,6 +472,8 @@ class Lumen(Optimal):
         self.center_weight = setting_number("center-weight", cfg["center_weight"])
         self.track_weight = setting_number("track-weight", cfg["track_weight"])
         self.along_weight = setting_number("along-weight", cfg["along_weight"])
+        self.lead_weight = setting_number("lead-weight", cfg["lead_weight"])
+        self.lead_slack = setting_number("lead-slack", cfg["lead_slack"])
         self.window = setting_number("window", cfg["window"])
         if self.window <= 0 or self.window > 1e4:
             raise BhrError(f"window must be more than 0 and at most 10000 mm, got {self.window:g}")
@@ -501,14 +484,14 @@ class Lumen(Optimal):
         self._tube: Tube | None = None
         self._tube_path: np.ndarray | None = None  # the points the tube was made from (held)
         self._checked_path: np.ndarray | None = None
-        self._prm_cache = np.zeros(10)
+        self._prm_cache = np.zeros(13)
         self._lag = np.zeros(1)
 
     @property
     def settings(self) -> dict[str, Any]:
         return {"lookahead": self.lookahead, "beam": self.beam, "wall_weight": self.wall_weight,
                 "margin": self.margin, "center_weight": self.center_weight, "track_weight": self.track_weight,
-                "along_weight": self.along_weight,
+                "along_weight": self.along_weight, "lead_weight": self.lead_weight, "lead_slack": self.lead_slack,
                 "ori_weight": self.ori_weight, "window": self.window}
 
     def prepare(self, trajectory) -> None:
@@ -516,7 +499,9 @@ class Lumen(Optimal):
         if trajectory.lumen is None:
             raise BhrError(f"--solver lumen needs a trajectory with a lumen; {trajectory.name} has none "
                            "(give a CSV with a lumen column, or lumen = ... in a trajectory file)")
-        self._tube = make_tube(trajectory.points, trajectory.lumen, trajectory.start_direction, self.window)
+        # the lumen ends as the trajectory says (a blind cecum by default), as the run is scored
+        self._tube = make_tube(trajectory.points, trajectory.lumen, trajectory.start_direction, self.window,
+                               closed_end=lumen_end_of(trajectory) == "closed")
         self._tube_path = trajectory.points
         self._checked_path = None
 

@@ -100,6 +100,27 @@ def dist2(a, b):
 
 
 @njit(cache=True)
+def keep_best(tot, best, choice, best_codes, first, n):
+    """The branch and bound's leaf: a complete configuration of cost ``tot`` becomes the best one (its codes
+    ``choice[first:n]`` copied into ``best_codes``) when it is cheaper than ``best``. Returns the best cost."""
+    if tot < best:
+        for q in range(first, n):
+            best_codes[q] = choice[q]
+        return tot
+    return best
+
+
+@njit(cache=True)
+def copy_member(sP, sF, sC, i, dP, dF, dC, j):
+    """Beam member ``j`` of (dP, dF, dC) becomes member ``i`` of (sP, sF, sC): base point, frame and cost."""
+    for b in range(3):
+        dP[j, b] = sP[i, b]
+        for e in range(3):
+            dF[j, e, b] = sF[i, e, b]
+    dC[j] = sC[i]
+
+
+@njit(cache=True)
 def _search(P0, F, first, n, T, w, d, wo, L, c, s, reach, codes, best_codes, frames, pts, part, choice):
     """Exact branch and bound over the codes of modules ``first..n-1`` (0-based).
 
@@ -141,11 +162,7 @@ def _search(P0, F, first, n, T, w, d, wo, L, c, s, reach, codes, best_codes, fra
                 continue
         part[lvl + 1] = v
         if lvl == n - 1:
-            tot = v + wo * dist2(frames[n - 1, 2], d)
-            if tot < best:
-                best = tot
-                for q in range(first, n):
-                    best_codes[q] = choice[q]
+            best = keep_best(v + wo * dist2(frames[n - 1, 2], d), best, choice, best_codes, first, n)
         else:
             lvl += 1
             choice[lvl] = -1
@@ -274,12 +291,7 @@ def beam_keep(cP, cF, cC, cPar, cA, m, order_buf, bP, bF, bC, bH, state, k):
             hist[u, t] = bH[cPar[r], t]
         hist[u, k % R] = cA[r]
     for u in range(kept):
-        r = order_buf[u]
-        for b in range(3):
-            bP[u, b] = cP[r, b]
-            for e in range(3):
-                bF[u, e, b] = cF[r, e, b]
-        bC[u] = cC[r]
+        copy_member(cP, cF, cC, order_buf[u], bP, bF, bC, u)
         for t in range(R):
             bH[u, t] = hist[u, t]
     state[0] = kept
@@ -327,11 +339,7 @@ def beam_commit(bP, bF, bC, bH, state, step):
     for q in range(state[0]):
         if bH[q, step % R] == a0:
             if kept != q:
-                for b in range(3):
-                    bP[kept, b] = bP[q, b]
-                    for e in range(3):
-                        bF[kept, e, b] = bF[q, e, b]
-                bC[kept] = bC[q]
+                copy_member(bP, bF, bC, q, bP, bF, bC, kept)
                 for t in range(R):
                     bH[kept, t] = bH[q, t]
             kept += 1
@@ -481,6 +489,16 @@ def _search_arrays(n: int):
             np.empty(n + 1), np.zeros(n, dtype=np.int64))
 
 
+def _search_inputs(targets, weights, tip_dir, ori_weight: float) -> tuple:
+    """(targets, n, weights, tip direction, orientation weight, work arrays) of a search called from Python."""
+    T = np.ascontiguousarray(targets, dtype=np.float64)
+    n = T.shape[0] - 1
+    w = np.ascontiguousarray(weights, dtype=np.float64)
+    d = np.zeros(3) if tip_dir is None else np.asarray(tip_dir, dtype=np.float64)
+    wo = 0.0 if tip_dir is None else (ori_weight * DEG) ** 2
+    return T, n, w, d, wo, _search_arrays(n)
+
+
 def search_all(base: Sequence[float] | np.ndarray, frame: np.ndarray, targets: np.ndarray,
                weights: Sequence[float] | np.ndarray, length: float, alpha: float,
                tip_dir: Sequence[float] | np.ndarray | None = None, ori_weight: float = 0.0,
@@ -491,12 +509,7 @@ def search_all(base: Sequence[float] | np.ndarray, frame: np.ndarray, targets: n
     (codes, cost). ``reach`` adds a reachability bound that helps when most
     weights are zero (only the tip scored).
     """
-    T = np.ascontiguousarray(targets, dtype=np.float64)
-    n = T.shape[0] - 1
-    w = np.ascontiguousarray(weights, dtype=np.float64)
-    d = np.zeros(3) if tip_dir is None else np.asarray(tip_dir, dtype=np.float64)
-    wo = 0.0 if tip_dir is None else (ori_weight * DEG) ** 2
-    codes, best, frames, pts, part, choice = _search_arrays(n)
+    T, n, w, d, wo, (codes, best, frames, pts, part, choice) = _search_inputs(targets, weights, tip_dir, ori_weight)
     P0 = np.asarray(base, dtype=np.float64)
     pts[0] = P0
     part[0] = w[0] * float(np.sum((P0 - T[0]) ** 2))
@@ -510,12 +523,7 @@ def search_head(base: Sequence[float], frame1: np.ndarray, targets: np.ndarray, 
                 length: float, alpha: float, tip_dir: Sequence[float] | None = None,
                 ori_weight: float = 0.0) -> tuple[list[int], float]:
     """Exact best codes of modules 2..n when module 1's frame is ``frame1``; returns (codes 2..n, cost)."""
-    T = np.ascontiguousarray(targets, dtype=np.float64)
-    n = T.shape[0] - 1
-    w = np.ascontiguousarray(weights, dtype=np.float64)
-    d = np.zeros(3) if tip_dir is None else np.asarray(tip_dir, dtype=np.float64)
-    wo = 0.0 if tip_dir is None else (ori_weight * DEG) ** 2
-    codes, best, frames, pts, part, choice = _search_arrays(n)
+    T, n, w, d, wo, (codes, best, frames, pts, part, choice) = _search_inputs(targets, weights, tip_dir, ori_weight)
     a = math.radians(alpha)
     cost = _head_cost(np.asarray(base, dtype=np.float64), np.ascontiguousarray(frame1, dtype=np.float64), n, T, w, d,
                       wo, float(length), math.cos(a), math.sin(a), codes, best, frames, pts, part, choice)
