@@ -204,9 +204,7 @@ def _check_values(spec: RunSpec, where: str) -> None:
 
 def load_batch(path: str | os.PathLike[str]) -> Batch:
     """Read and check a batch file (TOML); raises BhrError with one line naming the problem."""
-    p = Path(path)
-    if p.is_dir():
-        raise BhrError(f"{p} is a folder; give a batch file (.toml)")
+    p = Path(path)  # a folder, a FIFO or a missing file: read_toml says so in one line
     data = read_toml(p, "batch file", "give a TOML file of [[run]] tables (see docs/report.md)")
     return parse_batch(data, str(p), p.parent)
 

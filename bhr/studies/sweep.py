@@ -202,9 +202,7 @@ def sweep_from_toml(data: dict[str, Any], source: str = "sweep", base_dir: str |
 
 def load_sweep(path: str | os.PathLike[str]) -> Sweep:
     """Read a sweep file (TOML); relative trajectory paths are taken from its folder."""
-    p = Path(path)
-    if p.is_dir():
-        raise BhrError(f"{p} is a folder; give a sweep file (.toml)")
+    p = Path(path)  # a folder, a FIFO or a missing file: read_toml says so in one line
     data = read_toml(p, "sweep file", "give a TOML file with traj, solver and a [grid] table")
     return sweep_from_toml(data, str(p), p.parent)
 
