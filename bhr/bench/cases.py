@@ -440,7 +440,7 @@ def case_seed_colon(repeat: int = 5) -> BenchResult:
     steps = len(tr.points)
     res = follow(tr)
     ref_tip = numpy_seed_follow(tr.points)
-    diff = float(np.abs(ref_tip - res.point_errors[:, -1]).max())
+    diff = float(np.abs(ref_tip - res.point_errors_mm[:, -1]).max())
     assert diff < 1e-6, f"bhr and numpy seed disagree by {diff} mm"
     tb = _median_time(lambda: follow(tr), repeat) / steps
     tn = _median_time(lambda: numpy_seed_follow(tr.points), max(1, repeat // 2)) / steps
@@ -479,7 +479,7 @@ def check_optimal_reference(res, path: np.ndarray, ref_codes: np.ndarray, ref_pe
                                  f"{res.codes[k].tolist()} (cost {jb:.12g}) against {ref_codes[k].tolist()} "
                                  f"(cost {ref_costs[k]:.12g})")
         out["tie_at_step"] = k + 1
-    gap = float(np.abs(ref_pe[:upto] - res.point_errors[:upto]).max()) if upto else 0.0
+    gap = float(np.abs(ref_pe[:upto] - res.point_errors_mm[:upto]).max()) if upto else 0.0
     assert gap <= tol_pe, f"bhr and numpy optimal point errors differ by {gap} mm"
     out["max_point_error_difference_mm"] = gap
     return out

@@ -8,7 +8,7 @@ commands can reuse them:
 
 * :func:`worst_error_ratios`: on each built-in trajectory (curve 90, curve 360,
   spiral, colon) the worst position error over all scored points of the
-  whole run (max of ``FollowResult.point_errors``) with the optimal solver,
+  whole run (max of ``FollowResult.point_errors_mm``) with the optimal solver,
   divided by the seed solver's, with the thesis's robot (5 modules of 10 mm,
   alpha 10 deg). The targets set for the optimal solver: at most 0.8, and 0.6 on the colon.
 * :func:`solve_times`: median time of one ``Solver.solve`` call per step,
@@ -66,11 +66,11 @@ def worst_error_ratios(robot=None, solver_options: dict[str, Any] | None = None)
         tr = load_trajectory(name, feed=robot.feed, **params)
         seed = follow(tr, solver="seed", robot=robot)
         opt = follow(tr, solver="optimal", robot=robot, solver_options=solver_options)
-        s, o = float(seed.point_errors.max()), float(opt.point_errors.max())
+        s, o = float(seed.point_errors_mm.max()), float(opt.point_errors_mm.max())
         rows.append({"case": label, "steps": int(tr.points.shape[0]), "seed_worst_mm": s, "optimal_worst_mm": o,
                      "ratio": o / s, "target": TARGETS[label], "ok": o / s <= TARGETS[label],
-                     "seed_worst_step": int(np.argmax(seed.point_errors.max(axis=1))) + 1,
-                     "optimal_worst_step": int(np.argmax(opt.point_errors.max(axis=1))) + 1})
+                     "seed_worst_step": int(np.argmax(seed.point_errors_mm.max(axis=1))) + 1,
+                     "optimal_worst_step": int(np.argmax(opt.point_errors_mm.max(axis=1))) + 1})
     return rows
 
 
@@ -170,10 +170,10 @@ def sensitivity(robot=None) -> list[dict[str, Any]]:
 
     robot = _robot(robot)
     trajs = [(label, load_trajectory(name, feed=robot.feed, **params)) for label, name, params in CASES]
-    seed = {label: float(follow(tr, solver="seed", robot=robot).point_errors.max()) for label, tr in trajs}
+    seed = {label: float(follow(tr, solver="seed", robot=robot).point_errors_mm.max()) for label, tr in trajs}
     rows = []
     for label, opts in VARIANTS:
-        ratios = {case: float(follow(tr, solver="optimal", robot=robot, solver_options=opts).point_errors.max())
+        ratios = {case: float(follow(tr, solver="optimal", robot=robot, solver_options=opts).point_errors_mm.max())
                   / seed[case] for case, tr in trajs}
         rows.append({"variant": label, "options": opts, "ratios": ratios,
                      "ok": all(ratios[c] <= TARGETS[c] for c in ratios)})

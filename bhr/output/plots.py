@@ -81,7 +81,7 @@ def error_figure(result: "FollowResult", kind: str) -> plt.Figure:
     """
     if kind not in ERROR_KINDS:
         raise ValueError(f"kind must be one of {', '.join(ERROR_KINDS)}")
-    data = {"position": result.point_errors, "orientation": result.orientation_errors,
+    data = {"position": result.point_errors_mm, "orientation": result.orientation_errors_deg,
             "global": result.global_errors}[kind]
     tol = {"position": result.robot.tol_pos, "orientation": result.robot.tol_ori, "global": 1.0}[kind]
     unit = _unit(kind)
@@ -587,7 +587,7 @@ class StepView:
     def readout_text(self, i: int) -> str:
         """The step's numbers: tip error, worst point, tip orientation, global error, each against its tolerance."""
         r = self.result
-        pe, oe = r.point_errors[i], r.orientation_errors[i]
+        pe, oe = r.point_errors_mm[i], r.orientation_errors_deg[i]
         worst = int(np.argmax(pe))
         over = " OVER" if float(pe.max()) > r.robot.tol_pos else ""
         lines = [f"step {i + 1} of {r.steps}",
@@ -759,18 +759,18 @@ def body_figure(result: "FollowResult") -> plt.Figure:
     assert b is not None, "body_figure needs a run with a body (follow(..., body_modules=M))"
     steps = np.arange(1, result.steps + 1)
     fig, ax = plt.subplots(figsize=(10, 4))
-    ax.plot(steps, result.point_errors.max(axis=1), color="tab:blue", linewidth=1.0, label="head (largest point)")
-    ax.plot(steps, b.point_errors.max(axis=1), color="tab:orange", linewidth=1.0, label="body (largest point)")
-    ax.plot(steps, b.point_errors[:, -1], color="tab:brown", linewidth=0.8, linestyle=":", label="tail point")
+    ax.plot(steps, result.point_errors_mm.max(axis=1), color="tab:blue", linewidth=1.0, label="head (largest point)")
+    ax.plot(steps, b.point_errors_mm.max(axis=1), color="tab:orange", linewidth=1.0, label="body (largest point)")
+    ax.plot(steps, b.point_errors_mm[:, -1], color="tab:brown", linewidth=0.8, linestyle=":", label="tail point")
     ax.axhline(result.robot.tol_pos, color="tab:red", linestyle="--", linewidth=0.8,
                label=f"tolerance {result.robot.tol_pos:g} mm")
-    mark_worst(ax, steps, result.point_errors.max(axis=1), "mm", color="tab:blue", what="head worst")
-    mark_worst(ax, steps, b.point_errors.max(axis=1), "mm", color="tab:orange", what="body worst")
+    mark_worst(ax, steps, result.point_errors_mm.max(axis=1), "mm", color="tab:blue", what="head worst")
+    mark_worst(ax, steps, b.point_errors_mm.max(axis=1), "mm", color="tab:orange", what="body worst")
     mark_wall_touches(ax, result)
     ax.set_xlabel("trajectory step")
     ax.set_ylabel("position error (mm)")
     ax.set_xlim(1, max(2, result.steps))
-    top = max(result.robot.tol_pos, float(np.nanmax(b.point_errors)), float(np.nanmax(result.point_errors)))
+    top = max(result.robot.tol_pos, float(np.nanmax(b.point_errors_mm)), float(np.nanmax(result.point_errors_mm)))
     ax.set_ylim(0, 1.45 * top)
     ax.grid(True, alpha=0.3)
     ax.legend(loc="upper right", fontsize=8, ncol=3)

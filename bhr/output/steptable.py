@@ -47,7 +47,7 @@ def format_steps_csv(result: "FollowResult") -> str:
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
     w.writerow(head)
-    pe, oe, ge = result.point_errors, result.orientation_errors, result.global_errors
+    pe, oe, ge = result.point_errors_mm, result.orientation_errors_deg, result.global_errors
     for i in range(result.steps):
         t = result.trajectory.points[i]
         row = [str(i + 1), _num(t[0]), _num(t[1]), _num(t[2]), str(int(result.iterations[i])), _num(pe[i, -1]),
@@ -56,6 +56,6 @@ def format_steps_csv(result: "FollowResult") -> str:
         if per is not None:
             row += [_num(per[i]), "1" if i + 1 in touched else "0"]
         if body is not None:
-            row.append(_num(body.point_errors[i].max()))
+            row.append(_num(body.point_errors_mm[i].max()))
         w.writerow(row)
     return buf.getvalue()

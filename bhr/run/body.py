@@ -48,7 +48,7 @@ from typing import Any
 import numpy as np
 from numba import njit
 
-from bhr.settings.errors import BhrError
+from bhr.settings.errors import BhrError, renamed
 from bhr.kinematics.codetable import SEARCH_CODES, SEARCH_INVERSE
 from bhr.kinematics.frames import tilt_frame as _rot
 from bhr.settings.options import BY_NAME
@@ -71,9 +71,11 @@ class BodyRun:
     modules: int  # body modules (M - n)
     points: np.ndarray  # (N, B, 3) rear end of each body module
     codes: np.ndarray  # (N, B) each body module's tilt relative to the one behind it (0 for the last)
-    point_errors: np.ndarray  # (N, B) mm, 0 where not scored yet
-    orientation_errors: np.ndarray  # (N, B) degrees, 0 where not scored yet
+    point_errors_mm: np.ndarray  # (N, B) mm, 0 where not scored yet
+    orientation_errors_deg: np.ndarray  # (N, B) degrees, 0 where not scored yet
     scored: np.ndarray  # (N, B) bool: the trajectory point this body point is scored against exists
+    point_errors = renamed("BodyRun", "point_errors_mm")
+    orientation_errors = renamed("BodyRun", "orientation_errors_deg")
 
 
 @njit(cache=True)

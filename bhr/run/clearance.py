@@ -50,7 +50,7 @@ from typing import Callable
 import numpy as np
 from numba import njit
 
-from bhr.settings.errors import BhrError
+from bhr.settings.errors import BhrError, renamed
 # the tube and its nearest-point kernels live in the model layer; their names stay importable from here
 from bhr.model.tube import (BLOCK, GLOBAL_BELOW, LOOP_RATIO, LUMEN_ENDS, WINDOW_MM, Tube, global_scan,  # noqa: F401
                             local_scan, locate_kernel, locate_numpy, lumen_end_of, make_tube, nearest_kernel,
@@ -352,11 +352,12 @@ class ClearanceReport:
     module_table: np.ndarray | None = None  # (N, Mo) mm per module: smallest along it
     module_labels: list[str] = field(default_factory=list)
     module_where: np.ndarray | None = None  # (N, Mo, 3) where along each module its clearance is smallest
-    contact_length: list[float] = field(default_factory=list)  # mm of path travelled in contact, per module
+    contact_length_mm: list[float] = field(default_factory=list)  # mm of path travelled in contact, per module
     index_matched_min_mm: float = float("nan")  # the clearance from each point's own trajectory point
     left_lumen_step: int | None = None  # 1-based first step where the robot left the lumen (None: it never did)
     left_lumen_reason: str = ""  # why, in words
     lumen_end: str = "closed"  # how the lumen ends past the last centerline point: "closed" (a cap) or "open"
+    contact_length = renamed("ClearanceReport", "contact_length_mm")
 
     @property
     def per_step(self) -> np.ndarray:
@@ -391,7 +392,7 @@ class ClearanceReport:
                 "min_clearance_step": int(self.min_step), "min_clearance_point": self.min_point,
                 "max_penetration_mm": float(self.max_penetration_mm),
                 "wall_touch_steps": list(self.touch_steps),
-                "contact_length_mm": [float(v) for v in self.contact_length],
+                "contact_length_mm": [float(v) for v in self.contact_length_mm],
                 "contact_modules": list(self.module_labels),
                 "index_matched_min_clearance_mm": None if np.isnan(self.index_matched_min_mm)
                 else float(self.index_matched_min_mm),
@@ -484,7 +485,7 @@ def index_matched_min(result, body: int) -> float:
     r = result.robot
     n, f = r.modules, r.feed_divisor
     offsets = [(n - j) * f for j in range(n + 1)]
-    errors = result.point_errors
+    errors = result.point_errors_mm
     if body:
         offsets += [(n + k) * f for k in range(1, body + 1)]
         errors = np.concatenate([errors, body_errors(result)], axis=1)
@@ -552,7 +553,7 @@ def clearance_report(result, window_mm: float = WINDOW_MM, sample_mm: float = SA
 
 def body_errors(result) -> np.ndarray:
     """(N, B) the body points' errors as scored (distance to their own trajectory point)."""
-    return result.body.point_errors
+    return result.body.point_errors_mm
 
 
 def step_ranges(steps: list[int]) -> str:

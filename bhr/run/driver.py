@@ -29,7 +29,7 @@ import numpy as np
 
 from bhr import __version__
 from bhr.settings.inputs import MAX_FILE_BYTES, MAX_MM, MAX_STEP_POINTS, read_text
-from bhr.settings.errors import BhrError
+from bhr.settings.errors import BhrError, renamed
 from bhr.settings.options import OPTIONS, robot_limits
 from bhr.model.codes import VALID_CODES as STABLE_CODES
 from bhr.model.robot import THESIS_ROBOT, Robot, robot_with
@@ -154,20 +154,22 @@ class FollowResult:
     solver: str
     points: np.ndarray  # (N, n+1, 3) solved pose at each step
     iterations: np.ndarray  # (N,)
-    point_errors: np.ndarray  # (N, n+1) mm, base first
-    orientation_errors: np.ndarray  # (N, n) degrees
+    point_errors_mm: np.ndarray  # (N, n+1) mm, base first
+    orientation_errors_deg: np.ndarray  # (N, n) degrees
     codes: np.ndarray | None = None  # (N, n)
     warnings: list[str] = field(default_factory=list)
     extra: dict[str, Any] = field(default_factory=dict)
     body: BodyRun | None = None  # the modules behind the head (follow(..., body_modules=M))
     trail: TrailRun | None = None  # locomotion "trail": the trail and its clearance tables (bhr.run.trail)
+    point_errors = renamed("FollowResult", "point_errors_mm")
+    orientation_errors = renamed("FollowResult", "orientation_errors_deg")
 
     @property
     def clearance(self) -> ClearanceReport | None:
         """The clearance report when the trajectory has a lumen (head and body points), else None."""
         if self.trajectory.lumen is None:
             return None
-        key = (self.body, self.trajectory.lumen, self.point_errors, self.trail)  # held, compared by identity
+        key = (self.body, self.trajectory.lumen, self.point_errors_mm, self.trail)  # held, compared by identity
         cached = getattr(self, "_clearance_cache", None)
         if cached is None or any(a is not b for a, b in zip(cached[0], key)):
             cached = (key, clearance_report(self) if self.trail is None else trail_report(self))
@@ -221,8 +223,8 @@ class FollowResult:
     def global_errors(self) -> np.ndarray:
         """(N, n): module j pairs point j+1 with module j, weighted and normalised by the tolerances."""
         r = self.robot
-        return (r.weight_pos * self.point_errors[:, 1:] / r.tol_pos
-                + r.weight_ori * self.orientation_errors / r.tol_ori)
+        return (r.weight_pos * self.point_errors_mm[:, 1:] / r.tol_pos
+                + r.weight_ori * self.orientation_errors_deg / r.tol_ori)
 
     @property
     def summary(self) -> Summary:
@@ -230,26 +232,26 @@ class FollowResult:
         median and RMSE), and the run's headline figures (see :class:`Summary`)."""
         n = self.modules
         f = self.robot.feed_divisor
-        pts = [stats(self.point_errors[:, j], (n - j) * f) for j in range(n + 1)]
-        mods = [stats(self.orientation_errors[:, j], (n - j - 1) * f) for j in range(n)]
+        pts = [stats(self.point_errors_mm[:, j], (n - j) * f) for j in range(n + 1)]
+        mods = [stats(self.orientation_errors_deg[:, j], (n - j - 1) * f) for j in range(n)]
         glob = [stats(self.global_errors[:, j], (n - j - 1) * f) for j in range(n)]
-        worst_flat = int(np.argmax(self.point_errors.max(axis=1))) + 1
+        worst_flat = int(np.argmax(self.point_errors_mm.max(axis=1))) + 1
         out: dict[str, Any] = {}
-        over_pos = int(np.count_nonzero(self.point_errors.max(axis=1) > self.robot.tol_pos))
-        over_ori = int(np.count_nonzero(self.orientation_errors[:, -1] > self.robot.tol_ori))
+        over_pos = int(np.count_nonzero(self.point_errors_mm.max(axis=1) > self.robot.tol_pos))
+        over_ori = int(np.count_nonzero(self.orientation_errors_deg[:, -1] > self.robot.tol_ori))
         if self.body is not None:
             b = self.body
             out["body_modules"] = self.modules + b.modules
-            out["body_points_max_error_mm"] = float(b.point_errors.max()) if b.modules else 0.0
-            out["body_worst_step"] = int(np.argmax(b.point_errors.max(axis=1))) + 1 if b.modules else 0
-            out["body_orientation_max_deg"] = float(b.orientation_errors.max()) if b.modules else 0.0
+            out["body_points_max_error_mm"] = float(b.point_errors_mm.max()) if b.modules else 0.0
+            out["body_worst_step"] = int(np.argmax(b.point_errors_mm.max(axis=1))) + 1 if b.modules else 0
+            out["body_orientation_max_deg"] = float(b.orientation_errors_deg.max()) if b.modules else 0.0
         cl = self.clearance
         if cl is not None:
             out.update(cl.summary())
         out.update(self.extra.get("summary", {}))
         return Summary(self.steps, self.solver, self.trajectory.name, pts[-1]["max"], pts[-1]["final"],
-                       int(pts[-1]["worst_step"]), float(self.point_errors.max()), worst_flat,
-                       float(self.orientation_errors.max()), mods[-1]["max"], mods[-1]["final"],
+                       int(pts[-1]["worst_step"]), float(self.point_errors_mm.max()), worst_flat,
+                       float(self.orientation_errors_deg.max()), mods[-1]["max"], mods[-1]["final"],
                        float(self.global_errors.max()), float(np.mean(self.iterations)), pts, mods, glob,
                        list(self.warnings), tip_rmse_mm=float(pts[-1]["rmse"]),
                        tip_orientation_rmse_deg=float(mods[-1]["rmse"]),
@@ -269,8 +271,8 @@ class FollowResult:
                 "step": i + 1,
                 "target": [float(v) for v in self.trajectory.points[i]],
                 "points": [[float(v) for v in row] for row in self.points[i]],
-                "point_errors_mm": [float(v) for v in self.point_errors[i]],
-                "module_orientation_errors_deg": [float(v) for v in self.orientation_errors[i]],
+                "point_errors_mm": [float(v) for v in self.point_errors_mm[i]],
+                "module_orientation_errors_deg": [float(v) for v in self.orientation_errors_deg[i]],
                 "codes": None if self.codes is None else [int(c) for c in self.codes[i]],
                 "iterations": int(self.iterations[i]),
             })
@@ -283,8 +285,8 @@ class FollowResult:
             b = self.body
             for i, st in enumerate(steps):
                 st["body_points"] = [[float(v) for v in row] for row in b.points[i]]
-                st["body_point_errors_mm"] = [float(v) for v in b.point_errors[i]]
-                st["body_module_orientation_errors_deg"] = [float(v) for v in b.orientation_errors[i]]
+                st["body_point_errors_mm"] = [float(v) for v in b.point_errors_mm[i]]
+                st["body_module_orientation_errors_deg"] = [float(v) for v in b.orientation_errors_deg[i]]
                 st["body_codes"] = [int(c) for c in b.codes[i]]
         traj_doc = {"name": self.trajectory.name, "params": self.trajectory.params,
                     "points": self.trajectory.points.tolist()}

@@ -12,14 +12,13 @@ from __future__ import annotations
 import functools
 import json
 import math
-import warnings
 from abc import ABC, abstractmethod
 from dataclasses import dataclass, field
 from typing import Any, ClassVar, Sequence
 
 import numpy as np
 
-from bhr.settings.errors import BhrError
+from bhr.settings.errors import BhrError, renamed
 from bhr.kinematics.leader import advance_kernel
 from bhr.model.robot import Robot, base_frame, straight_chain
 
@@ -121,12 +120,7 @@ class SolveResult:
     def points(self) -> np.ndarray:
         return self.chain.points
 
-    @property
-    def position_error(self) -> float:
-        """Deprecated name of :attr:`position_error_mm`."""
-        warnings.warn("SolveResult.position_error is deprecated; use position_error_mm", DeprecationWarning,
-                      stacklevel=2)
-        return self.position_error_mm
+    position_error = renamed("SolveResult", "position_error_mm")
 
     def __repr__(self) -> str:
         ori = "" if self.orientation_error_deg is None else f", tip {self.orientation_error_deg:.4g} deg off"

@@ -71,11 +71,11 @@ def compare_runs(traj: Trajectory, solvers: Sequence[str], robot: Robot, *,
 
 def compare_rows(runs: Sequence[Compared]) -> list[dict[str, Any]]:
     """Per solver: worst point error and its step, tip max and final, tip orientation max, clearance, time."""
-    ref = runs[0].result.point_errors.max()
+    ref = runs[0].result.point_errors_mm.max()
     rows = []
     for c in runs:
         s = c.result.summary.to_dict()
-        worst = float(c.result.point_errors.max())
+        worst = float(c.result.point_errors_mm.max())
         row = {
             "solver": c.solver,
             "points_max_error_mm": worst,
@@ -136,8 +136,8 @@ def compare_json(runs: Sequence[Compared]) -> dict[str, Any]:
         "rows": [{k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in row.items()}
                  for row in compare_rows(runs)],  # JSON has no NaN: an undefined ratio is null
         "runs": [{"solver": c.solver,
-                  "points_max_error_mm": [float(v) for v in c.result.point_errors.max(axis=1)],
-                  "tip_error_mm": [float(v) for v in c.result.point_errors[:, -1]],
+                  "points_max_error_mm": [float(v) for v in c.result.point_errors_mm.max(axis=1)],
+                  "tip_error_mm": [float(v) for v in c.result.point_errors_mm[:, -1]],
                   "summary": c.result.summary.to_dict()} for c in runs],
     }
 
@@ -155,7 +155,7 @@ def compare_figure(runs: Sequence[Compared]):
         res = c.result
         col = colors[k % len(colors)]
         steps = np.arange(1, res.steps + 1)
-        worst, tip = res.point_errors.max(axis=1), res.point_errors[:, -1]
+        worst, tip = res.point_errors_mm.max(axis=1), res.point_errors_mm[:, -1]
         axes[0].plot(steps, worst, color=col, linewidth=1.0, label=c.solver)
         axes[1].plot(steps, tip, color=col, linewidth=1.0, label=c.solver)
         plots.mark_worst(axes[0], steps, worst, "mm", color=col, what=f"{c.solver} worst")
@@ -171,7 +171,7 @@ def compare_figure(runs: Sequence[Compared]):
         ax.set_ylabel("error (mm)")
         ax.set_title(title, fontsize=10)
         ax.grid(True, alpha=0.3)
-        top = max([r0.robot.tol_pos] + [float(c.result.point_errors.max()) for c in runs])
+        top = max([r0.robot.tol_pos] + [float(c.result.point_errors_mm.max()) for c in runs])
         ax.set_ylim(0, 1.4 * top)  # room above for the legend
         ax.tick_params(labelbottom=True)  # step numbers under both panels
         ax.set_xlim(1, max(2, r0.steps))

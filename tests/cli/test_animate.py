@@ -215,7 +215,7 @@ def test_colon_gif_frames_show_the_robot_at_the_right_steps(colon_gif):
             tip_px, tgt_px = to_image(result.points[s][-1]), to_image(result.trajectory.points[s])
             scale = np.linalg.norm(to_image(result.trajectory.points[s] + [10.0, 0, 0]) - tgt_px) / 10.0
             assert scale > 3.0  # zoomed: more than 3 pixels a millimetre (the whole colon would give ~1)
-            assert abs(np.linalg.norm(tip_px - tgt_px) - scale * result.point_errors[s, -1]) <= 3.0
+            assert abs(np.linalg.norm(tip_px - tgt_px) - scale * result.point_errors_mm[s, -1]) <= 3.0
         # The readout beside the view names the step and its errors; it changes from frame to frame.
         view.draw(steps[3])
         view.fig.canvas.draw()

@@ -47,7 +47,7 @@ def test_optimal_reference_chooses_the_same_codes(name, params):
     path = np.ascontiguousarray(tr.points)
     codes, pe, costs = numpy_optimal_follow(path, tr.start_point, tr.start_direction, return_costs=True)
     assert np.array_equal(codes, res.codes)
-    np.testing.assert_allclose(pe, res.point_errors, atol=1e-9)
+    np.testing.assert_allclose(pe, res.point_errors_mm, atol=1e-9)
     assert len({tuple(c) for c in codes}) > 3  # the robot really turned
     agree = check_optimal_reference(res, path, codes, pe, costs)
     assert agree["steps_compared"] == len(path) and agree["tie_at_step"] is None
@@ -95,7 +95,7 @@ def test_optimal_check_rejects_a_different_choice():
 def test_seed_reference():
     tr = load_trajectory("curve")
     tip = numpy_seed_follow(tr.points)
-    np.testing.assert_allclose(tip, follow(tr).point_errors[:, -1], atol=1e-9)
+    np.testing.assert_allclose(tip, follow(tr).point_errors_mm[:, -1], atol=1e-9)
 
 
 def test_body_reference_matches_on_a_curve_and_the_colon():

@@ -17,8 +17,8 @@ def test_rows_are_the_runs_numbers():
     tr = load_trajectory("curve")
     runs = compare_runs(tr, ["seed", "optimal"], Robot(), solver_options={"optimal": {"lookahead": 3}})
     rows = compare_rows(runs)
-    seed = follow(tr, solver="seed").point_errors.max()
-    opt = follow(tr, solver="optimal", solver_options={"lookahead": 3}).point_errors.max()
+    seed = follow(tr, solver="seed").point_errors_mm.max()
+    opt = follow(tr, solver="optimal", solver_options={"lookahead": 3}).point_errors_mm.max()
     assert rows[0]["ratio_to_first"] == 1.0
     assert rows[0]["points_max_error_mm"] == pytest.approx(seed)
     assert rows[1]["points_max_error_mm"] == pytest.approx(opt)
@@ -58,7 +58,7 @@ def test_cli_prints_and_plots(run_bhr, tmp_path):
     assert replay.returncode == 0, replay.stderr
     tr = load_trajectory("curve", angle=180.0)
     seed = follow(tr, solver="seed")
-    np.testing.assert_allclose(doc["runs"][0]["points_max_error_mm"], seed.point_errors.max(axis=1))
+    np.testing.assert_allclose(doc["runs"][0]["points_max_error_mm"], seed.point_errors_mm.max(axis=1))
     assert doc["rows"][1]["ratio_to_first"] == pytest.approx(
         max(doc["runs"][1]["points_max_error_mm"]) / max(doc["runs"][0]["points_max_error_mm"]))
 

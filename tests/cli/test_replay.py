@@ -29,8 +29,8 @@ def assert_same_run(a: FollowResult, b: FollowResult) -> None:
     assert a.trajectory.name == b.trajectory.name and a.trajectory.params == b.trajectory.params
     np.testing.assert_array_equal(a.trajectory.points, b.trajectory.points)
     np.testing.assert_array_equal(a.points, b.points)
-    np.testing.assert_array_equal(a.point_errors, b.point_errors)
-    np.testing.assert_array_equal(a.orientation_errors, b.orientation_errors)
+    np.testing.assert_array_equal(a.point_errors_mm, b.point_errors_mm)
+    np.testing.assert_array_equal(a.orientation_errors_deg, b.orientation_errors_deg)
     np.testing.assert_array_equal(a.iterations, b.iterations)
     if a.codes is None:
         assert b.codes is None

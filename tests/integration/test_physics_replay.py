@@ -30,12 +30,12 @@ def _head(steps: int, solver: str, body_modules=None, seed: int = 7):
         warnings.simplefilter("ignore", BhrWarning)  # the colon turns tighter than the robot can
         run = bhr.follow(cut, solver=solver, body_modules=body_modules)
     run.points, run.codes = run.points[:steps], run.codes[:steps]
-    run.iterations, run.point_errors, run.orientation_errors = (run.iterations[:steps], run.point_errors[:steps],
-                                                                run.orientation_errors[:steps])
+    run.iterations, run.point_errors_mm, run.orientation_errors_deg = (run.iterations[:steps], run.point_errors_mm[:steps],
+                                                                run.orientation_errors_deg[:steps])
     if run.body is not None:
         b = run.body
-        b.points, b.codes, b.point_errors, b.orientation_errors, b.scored = (
-            b.points[:steps], b.codes[:steps], b.point_errors[:steps], b.orientation_errors[:steps], b.scored[:steps])
+        b.points, b.codes, b.point_errors_mm, b.orientation_errors_deg, b.scored = (
+            b.points[:steps], b.codes[:steps], b.point_errors_mm[:steps], b.orientation_errors_deg[:steps], b.scored[:steps])
     return run
 
 

@@ -16,13 +16,13 @@ DATA = Path(__file__).resolve().parents[1] / "data"
 
 
 def tip(result):
-    return result.point_errors[:, -1], result.orientation_errors[:, -1]
+    return result.point_errors_mm[:, -1], result.orientation_errors_deg[:, -1]
 
 
 def test_straight_line_has_zero_error():
     r = follow(bhr.trajectory("line", length=70))
     assert r.steps == 36
-    assert np.all(r.point_errors == 0) and np.all(r.orientation_errors == 0)
+    assert np.all(r.point_errors_mm == 0) and np.all(r.orientation_errors_deg == 0)
     assert np.all(r.codes == 0)
 
 
@@ -41,7 +41,7 @@ def test_curve_360_section_7_1_2():
     assert int(np.argmax(pos)) + 1 == 124
     assert round(pos[-1], 4) == 0.9813
     assert round(ori[-1], 4) == 0.0
-    assert r.point_errors.max() == pos.max()  # the peak is at the last point
+    assert r.point_errors_mm.max() == pos.max()  # the peak is at the last point
 
 
 def test_spiral_section_7_1_3():
@@ -61,8 +61,8 @@ def test_pinned_per_step_values(key):
     assert r.steps == pinned["steps"]
     for row in pinned["rows"]:
         i = row["step"] - 1
-        np.testing.assert_allclose(r.point_errors[i], row["point_errors_mm"], rtol=1e-9, atol=1e-9)
-        np.testing.assert_allclose(r.orientation_errors[i], row["module_orientation_errors_deg"], rtol=1e-9,
+        np.testing.assert_allclose(r.point_errors_mm[i], row["point_errors_mm"], rtol=1e-9, atol=1e-9)
+        np.testing.assert_allclose(r.orientation_errors_deg[i], row["module_orientation_errors_deg"], rtol=1e-9,
                                    atol=1e-7)
         assert r.codes[i].tolist() == row["codes"]
         assert int(r.iterations[i]) == row["iterations"]
@@ -74,8 +74,8 @@ def test_compiled_loop_equals_step_by_step_driver(name, params):
     a = follow(tr)
     b = follow(tr, compiled=False)
     assert np.array_equal(a.points, b.points)
-    assert np.array_equal(a.point_errors, b.point_errors)
-    assert np.array_equal(a.orientation_errors, b.orientation_errors)
+    assert np.array_equal(a.point_errors_mm, b.point_errors_mm)
+    assert np.array_equal(a.orientation_errors_deg, b.orientation_errors_deg)
     assert np.array_equal(a.codes, b.codes) and np.array_equal(a.iterations, b.iterations)
 
 

@@ -31,7 +31,7 @@ def test_body_shape_and_summary(curve_body):
     assert r.body.points.shape == (r.steps, 15, 3) and r.body.codes.shape == (r.steps, 15)
     s = r.summary.to_dict()
     assert s["body_modules"] == 20
-    assert s["body_points_max_error_mm"] == pytest.approx(r.body.point_errors.max())
+    assert s["body_points_max_error_mm"] == pytest.approx(r.body.point_errors_mm.max())
     assert whole_robot(r, 10).shape == (21, 3)
     np.testing.assert_array_equal(whole_robot(r, 10)[-6:], r.points[10])
 
@@ -67,14 +67,14 @@ def test_body_follows_where_module_one_has_been(curve_body):
         i = np.arange(k * f, r.steps)
         d = np.linalg.norm(r.body.points[i, k - 1] - r.points[i - k * f, 0], axis=1)
         assert np.median(d) < 1.0 and d.max() < r.robot.tol_pos
-    assert r.body.point_errors.max() < r.robot.tol_pos
+    assert r.body.point_errors_mm.max() < r.robot.tol_pos
 
 
 def test_straight_line_body_is_exact():
     r = follow(load_trajectory("line", length=120.0), solver="optimal", body_modules=12)
     assert np.all(r.body.codes == 0)
-    assert r.body.point_errors.max() < 1e-9
-    assert r.point_errors.max() < 1e-9
+    assert r.body.point_errors_mm.max() < 1e-9
+    assert r.point_errors_mm.max() < 1e-9
 
 
 def test_scoring_matches_the_head_convention(curve_body):
@@ -85,7 +85,7 @@ def test_scoring_matches_the_head_convention(curve_body):
         for k in (1, 7, 15):
             idx = i - (n + k) * f
             want = 0.0 if idx < 0 else np.linalg.norm(r.body.points[i, k - 1] - path[idx])
-            assert r.body.point_errors[i, k - 1] == pytest.approx(want)
+            assert r.body.point_errors_mm[i, k - 1] == pytest.approx(want)
             assert r.body.scored[i, k - 1] == (idx >= 0)
 
 
@@ -103,7 +103,7 @@ def test_bad_body_requests():
 
 def test_seed_runs_carry_a_body_too():
     r = follow(load_trajectory("curve"), solver="seed", body_modules=15)
-    assert r.body.point_errors.max() < r.robot.tol_pos
+    assert r.body.point_errors_mm.max() < r.robot.tol_pos
 
 
 def test_sixty_module_robot_through_the_colon():

@@ -68,7 +68,7 @@ def test_touches_are_the_steps_where_some_point_or_module_reaches_the_wall():
 def test_exactly_at_the_wall_counts_as_touching():
     tr = with_lumen(load_trajectory("line", length=40.0), 10.0)  # lumen radius = robot radius
     r = follow(tr, solver="optimal")
-    assert r.point_errors.max() < 1e-9
+    assert r.point_errors_mm.max() < 1e-9
     assert r.summary.to_dict()["min_clearance_mm"] == pytest.approx(0.0, abs=1e-9)
     assert r.summary.to_dict()["wall_touch_steps"] == list(range(1, r.steps + 1))
 
@@ -85,7 +85,7 @@ def test_colon_lumen_comes_from_the_trajectory_file():
     n = r.robot.modules
     i = 15  # the tip is in the rectum's 30 mm, on the straight: its nearest centerline point is beside it
     assert rectum[i] and t[i, n] == pytest.approx(15.0 - 5.0 - abs(r.points[i, n, 1]), abs=1e-9)
-    im = clearance_table(r.point_errors, np.array([(n - j) * 5 for j in range(n + 1)]), tr.lumen, 5.0)
+    im = clearance_table(r.point_errors_mm, np.array([(n - j) * 5 for j in range(n + 1)]), tr.lumen, 5.0)
     assert r.summary.to_dict()["index_matched_min_clearance_mm"] == pytest.approx(np.nanmin(im))
 
 

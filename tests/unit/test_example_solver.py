@@ -31,4 +31,4 @@ def test_example_solver_solves_and_follows(example_solver):
     assert res.success is False and np.isclose(res.position_error_mm, 10.0 - np.linalg.norm([3, 9, 0]))
     assert bhr.solve([3, 9, 0], modules=5, module_length=2.0, tol_pos=1.0, solver="pointer").success is True
     run = bhr.follow(bhr.trajectory("line", length=30), solver="pointer")
-    assert run.steps == 16 and run.codes is None and run.point_errors.shape == (16, 6)
+    assert run.steps == 16 and run.codes is None and run.point_errors_mm.shape == (16, 6)

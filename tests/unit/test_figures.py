@@ -53,7 +53,7 @@ def _visible_ticks(ax) -> list[str]:
 def test_every_error_panel_has_step_numbers_tolerance_and_worst_step(colon, kind):
     fig = error_figure(colon, kind)
     fig.canvas.draw()
-    data = {"position": colon.point_errors, "orientation": colon.orientation_errors,
+    data = {"position": colon.point_errors_mm, "orientation": colon.orientation_errors_deg,
             "global": colon.global_errors}[kind]
     tol = {"position": "tolerance 8 mm", "orientation": "tolerance 20 deg", "global": "tolerance (1)"}[kind]
     unit = {"position": " mm", "orientation": " deg", "global": ""}[kind]
@@ -82,8 +82,8 @@ def test_body_figure_marks_both_worst_steps_and_the_tolerance():
     r = follow(load_trajectory("curve", angle=180.0), solver="seed", body_modules=8)
     ax = body_figure(r).axes[0]
     legend = [t.get_text() for t in ax.get_legend().get_texts()]
-    head = r.point_errors.max(axis=1)
-    body = r.body.point_errors.max(axis=1)
+    head = r.point_errors_mm.max(axis=1)
+    body = r.body.point_errors_mm.max(axis=1)
     assert "tolerance 8 mm" in legend
     assert f"head worst {head.max():.2f} mm (step {int(np.argmax(head)) + 1})" in legend
     assert f"body worst {body.max():.2f} mm (step {int(np.argmax(body)) + 1})" in legend
@@ -205,8 +205,8 @@ def test_frames_follow_the_robot_with_an_overview_and_a_readout(colon, step):
     assert ox0 < p[:, 0].min() and p[:, 0].max() < ox1 and oy0 < p[:, 1].min() and p[:, 1].max() < oy1
     text = view.readout.get_text()
     assert f"step {step + 1} of 827" in text
-    assert f"tip error     {colon.point_errors[step, -1]:7.2f} mm" in text
-    assert f"tip angle     {colon.orientation_errors[step, -1]:7.2f} deg" in text
+    assert f"tip error     {colon.point_errors_mm[step, -1]:7.2f} mm" in text
+    assert f"tip angle     {colon.orientation_errors_deg[step, -1]:7.2f} deg" in text
     # the overview shows the left view's window as one shaded square clipped to the overview, no loose lines
     from matplotlib.patches import Rectangle
 
@@ -244,7 +244,7 @@ def test_compare_figure_has_step_numbers_tolerance_and_each_solvers_worst_step()
     runs = compare_runs(load_trajectory("curve", angle=180.0), ["seed", "fabrik"], Robot())
     fig = compare_figure(runs)
     fig.canvas.draw()
-    for ax, values in zip(fig.axes, (lambda r: r.point_errors.max(axis=1), lambda r: r.point_errors[:, -1])):
+    for ax, values in zip(fig.axes, (lambda r: r.point_errors_mm.max(axis=1), lambda r: r.point_errors_mm[:, -1])):
         assert len(_visible_ticks(ax)) >= 4
         legend = [t.get_text() for t in ax.get_legend().get_texts()]
         assert "tolerance 8 mm" in legend

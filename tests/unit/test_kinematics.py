@@ -72,9 +72,9 @@ def test_score_step_equals_reference_along_a_run():
     f = res.robot.feed_divisor
     for i in range(res.steps):
         pe, oe = np.empty(res.modules + 1), np.empty(res.modules)
-        tip = float(res.orientation_errors[i, -1])
+        tip = float(res.orientation_errors_deg[i, -1])
         score_step(i, res.points[i], path, dirs, f, tip, pe, oe)
         rpe, roe = score_reference(i, res.points[i], path, dirs, f, tip)
         np.testing.assert_allclose(pe, rpe, atol=1e-9)
         np.testing.assert_allclose(oe, roe, atol=1e-9)
-        np.testing.assert_allclose(pe, res.point_errors[i], atol=1e-12)
+        np.testing.assert_allclose(pe, res.point_errors_mm[i], atol=1e-12)

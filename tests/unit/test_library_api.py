@@ -190,3 +190,17 @@ def test_a_run_says_when_it_touched_the_wall():
     run = bhr.follow(bhr.trajectory("anatomy", seed=3))
     assert run.success is False and run.status == "touched the wall" and "touches the wall at" in run.reason
     assert bhr.follow(bhr.trajectory("curve")).success is True
+
+
+def test_every_quantity_has_its_unit_in_its_name_and_the_old_names_warn():
+    run = bhr.follow(bhr.trajectory("anatomy", seed=2), body_modules=7)
+    assert run.point_errors_mm.shape == (run.steps, run.modules + 1)
+    assert run.orientation_errors_deg.shape == (run.steps, run.modules)
+    assert run.body is not None and run.clearance is not None
+    for obj, old, new in ((run, "point_errors", "point_errors_mm"), (run, "orientation_errors", "orientation_errors_deg"),
+                          (run.body, "point_errors", "point_errors_mm"),
+                          (run.body, "orientation_errors", "orientation_errors_deg"),
+                          (run.clearance, "contact_length", "contact_length_mm"),
+                          (bhr.solve([3, 9, 0]), "position_error", "position_error_mm")):
+        with pytest.warns(DeprecationWarning, match=f"{type(obj).__name__}.{old} is deprecated; use {new}"):
+            assert getattr(obj, old) is getattr(obj, new)

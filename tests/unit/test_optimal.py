@@ -158,8 +158,8 @@ def test_compiled_loop_equals_step_by_step(curve90):
     b = follow(curve90, solver="optimal", compiled=False)
     np.testing.assert_array_equal(a.codes, b.codes)
     np.testing.assert_allclose(a.points, b.points, atol=1e-12)
-    np.testing.assert_allclose(a.point_errors, b.point_errors, atol=1e-12)
-    np.testing.assert_allclose(a.orientation_errors, b.orientation_errors, atol=1e-9)
+    np.testing.assert_allclose(a.point_errors_mm, b.point_errors_mm, atol=1e-12)
+    np.testing.assert_allclose(a.orientation_errors_deg, b.orientation_errors_deg, atol=1e-9)
 
 
 def test_without_lookahead_every_step_is_the_exact_optimum():
@@ -186,7 +186,7 @@ def test_planning_ahead_beats_the_per_step_optimum_on_a_long_curve():
     tr = load_trajectory("curve", angle=360)
     greedy = follow(tr, solver="optimal", solver_options={"lookahead": 0, "drift_weight": 0.0, "roll_weight": 0.0})
     planned = follow(tr, solver="optimal")
-    assert planned.point_errors.max() < 0.85 * greedy.point_errors.max()
+    assert planned.point_errors_mm.max() < 0.85 * greedy.point_errors_mm.max()
 
 
 @pytest.mark.parametrize("name,params,limit", [
@@ -194,8 +194,8 @@ def test_planning_ahead_beats_the_per_step_optimum_on_a_long_curve():
 def test_worst_error_against_the_thesis_solver(name, params, limit):
     """The issue's targets (docs/optimal.md): worst position error over all scored points vs --solver seed."""
     tr = load_trajectory(name, **params)
-    seed = follow(tr, solver="seed").point_errors.max()
-    opt = follow(tr, solver="optimal").point_errors.max()
+    seed = follow(tr, solver="seed").point_errors_mm.max()
+    opt = follow(tr, solver="optimal").point_errors_mm.max()
     assert opt <= limit * seed
 
 

@@ -18,8 +18,8 @@ def test_rmse_of_every_point_and_module_over_its_scored_steps():
     run = follow(load_trajectory("curve", angle=360))
     s = run.summary.to_dict()
     n, f = run.modules, run.robot.feed_divisor
-    want_pts = [scored_rmse(run.point_errors[:, j], (n - j) * f) for j in range(n + 1)]
-    want_mods = [scored_rmse(run.orientation_errors[:, j], (n - j - 1) * f) for j in range(n)]
+    want_pts = [scored_rmse(run.point_errors_mm[:, j], (n - j) * f) for j in range(n + 1)]
+    want_mods = [scored_rmse(run.orientation_errors_deg[:, j], (n - j - 1) * f) for j in range(n)]
     np.testing.assert_allclose(s["rmse_point_mm"], want_pts, rtol=1e-12)
     np.testing.assert_allclose(s["rmse_module_deg"], want_mods, rtol=1e-12)
     assert s["tip_rmse_mm"] == s["rmse_point_mm"][-1] and s["tip_orientation_rmse_deg"] == s["rmse_module_deg"][-1]
@@ -37,7 +37,7 @@ def test_a_run_over_its_tolerance_is_flagged_and_counted():
     s = tight.summary.to_dict()
     assert s["tolerance_exceeded"]
     # the solve's tolerance changes the solution too: count against this run's own errors
-    assert s["over_tol_pos_steps"] == int(np.count_nonzero(tight.point_errors.max(axis=1) > 4.0)) > 0
+    assert s["over_tol_pos_steps"] == int(np.count_nonzero(tight.point_errors_mm.max(axis=1) > 4.0)) > 0
     row = summary_row(s)
     assert row["tolerance_exceeded"] is True and row["tip_rmse_mm"] == s["tip_rmse_mm"]
     assert {"tip_rmse_mm", "tip_orientation_rmse_deg", "tolerance_exceeded"} <= set(METRICS)

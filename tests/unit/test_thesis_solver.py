@@ -18,7 +18,7 @@ def test_seed_is_an_alias_of_thesis():
 def test_follow_thesis_equals_seed_bit_for_bit(traj):
     pts = bhr.trajectory(traj)
     a, b = bhr.follow(pts, solver="thesis"), bhr.follow(pts, solver="seed")
-    assert np.array_equal(a.points, b.points) and np.array_equal(a.point_errors, b.point_errors)
-    assert np.array_equal(a.orientation_errors, b.orientation_errors) and np.array_equal(a.codes, b.codes)
+    assert np.array_equal(a.points, b.points) and np.array_equal(a.point_errors_mm, b.point_errors_mm)
+    assert np.array_equal(a.orientation_errors_deg, b.orientation_errors_deg) and np.array_equal(a.codes, b.codes)
 
 
