@@ -23,6 +23,8 @@ __all__ = ["VIEW_NAME", "MAX_FRAMES", "view_figure", "view_html", "save_view", "
 VIEW_NAME = "view.html"
 #: Slider positions at most (longer runs show every k-th step, the last always).
 MAX_FRAMES = 150
+#: How far (mm) the view's box reaches beyond the path's wall (the robot behind the entrance is clipped beyond).
+VIEW_MARGIN_MM = 40.0
 #: Contact marks of all steps drawn at most.
 MAX_CONTACTS = 1000
 _RING = 10  # vertices around the tube
@@ -159,9 +161,16 @@ def view_figure(result, contacts: Sequence[np.ndarray] | None = None, title: str
                          dict(label="pause", method="animate",
                               args=[[None], dict(mode="immediate", frame=dict(duration=0, redraw=False))])])
     name = title or f"{tr.name}: {result.solver} solver, {len(robots[0]) - 1} modules, {N} steps"
+    # the box shown is the path's (and its wall's) with a margin: a long robot reaches metres back behind the
+    # entrance, and a box around all of it would leave the colon a speck; what lies outside is clipped
+    pad = (float(np.max(tr.lumen)) / 2 if tr.lumen is not None else 0.0) + VIEW_MARGIN_MM
+    lo, hi = path.min(axis=0) - pad, path.max(axis=0) + pad
+    span = hi - lo
+    axes = {f"{a}axis": dict(title=dict(text=f"{a} (mm)"), range=[round(float(lo[k]), 1), round(float(hi[k]), 1)],
+                             autorange=False) for k, a in enumerate("xyz")}
     layout = dict(title=dict(text=name), sliders=[slider], updatemenus=[play], margin=dict(l=0, r=0, t=40, b=0),
-                  scene=dict(aspectmode="data", xaxis=dict(title=dict(text="x (mm)")),
-                             yaxis=dict(title=dict(text="y (mm)")), zaxis=dict(title=dict(text="z (mm)"))),
+                  scene=dict(aspectmode="manual", aspectratio={a: float(span[k] / span.max())
+                                                               for k, a in enumerate("xyz")}, **axes),
                   legend=dict(x=0.0, y=1.0), uirevision="keep")
     return dict(data=data, layout=layout, frames=frames)
 

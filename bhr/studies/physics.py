@@ -215,20 +215,20 @@ class ReplayChain:
 
 
 def _tilts_from_points(points: np.ndarray, frames: np.ndarray, length: float) -> np.ndarray:
-    """Joint values (N, 3 M) that aim every module of a chain of modules ``length`` long at the next point of
-    ``points`` (N, M + 1, 3), from rear frames ``frames``: module j's frame is module j-1's turned about its x
-    then its y (the exported joints' order), so its axis d (in module j-1's frame) gives tilt_y = asin(d_x),
-    tilt_x = atan2(-d_y, d_z). Each module is aimed from where the modules before it put its rear end, so a
-    chord shorter than a module (the trail model's modules across a vertex) costs its own shortfall only."""
+    """Joint values (N, 3 M) that turn every module of a chain along bhr's chord of ``points`` (N, M + 1, 3),
+    from rear frames ``frames``: module j's frame is module j-1's turned about its x then its y (the exported
+    joints' order), so its chord d (in module j-1's frame) gives tilt_y = asin(d_x), tilt_x = atan2(-d_y, d_z).
+    Each module turns from the one behind by its chord's turn (at most the robot's tilt), so a chord shorter
+    than ``length`` (the trail model's modules across a vertex) moves the modules beyond it along the chain by
+    its shortfall. (Aiming each module at bhr's next joint from where the modules behind put it instead asks
+    for turns beyond the joints' limits and jumps from step to step.)"""
     N, J = points.shape[0], points.shape[1]
     M = J - 1
     out = np.zeros((N, M, 3))
     R = np.ascontiguousarray(frames.transpose(0, 2, 1))  # columns x, y, z
-    x = points[:, 0].copy()
     for j in range(M):
-        d = points[:, j + 1] - x
+        d = points[:, j + 1] - points[:, j]
         d /= np.linalg.norm(d, axis=1)[:, None]
-        x += length * d
         dl = np.einsum("nki,nk->ni", R, d)  # in the frame of the module behind
         ty = np.arcsin(np.clip(dl[:, 0], -1.0, 1.0))
         tx = np.arctan2(-dl[:, 1], dl[:, 2])
@@ -395,7 +395,7 @@ def insertion(result, roots: np.ndarray, frames: np.ndarray) -> tuple[np.ndarray
 
 
 def scene_xml(result, *, wall_stiffness: float = DEFAULT_WALL_STIFFNESS, ring_spacing: float = 4.0,
-              pieces: int = 10, thickness: float = 4.0, rate: float = 20.0, substeps: int = 16,
+              pieces: int = 10, thickness: float = 4.0, rate: float = 20.0, substeps: int = 8,
               servo_hz: float = 50.0, stiff_ratio: float = 100.0, chain: "ReplayChain | None" = None
               ) -> tuple[str, dict[str, Any]]:
     """The MuJoCo scene of a run (MJCF text) and its settings: the wall, the whole robot, its servos.
