@@ -655,6 +655,11 @@ def case_physics(repeat: int = 1, steps: int = 1000) -> BenchResult:
     from bhr.model.robot import Robot
     from bhr.studies.physics import replay_physics
 
+    import importlib.util
+
+    if importlib.util.find_spec("mujoco") is None:
+        return BenchResult("physics-300", "per replay (CPU)", float("nan"), float("nan"), "the run itself",
+                           float("nan"), "<= 5 min (needs the physics extra: pip install 'bhr[physics]')", None)
     r = Robot(alpha=25.0, module_length=5.0)
     tr = load_trajectory("anatomy", feed=r.feed, seed=1)
     t0 = time.process_time()
