@@ -631,6 +631,61 @@ def case_study(repeat: int = 1, colons: int = 100) -> BenchResult:
                         "median_procedure_time_s": d["median_procedure_time_s"], "measured": "wall seconds"})
 
 
+def first_steps(run, steps: int):
+    """``run`` (a FollowResult) cut to its first ``steps`` steps, head and body (in place; returned)."""
+    run.points, run.codes = run.points[:steps], None if run.codes is None else run.codes[:steps]
+    run.iterations = run.iterations[:steps]
+    run.point_errors_mm, run.orientation_errors_deg = run.point_errors_mm[:steps], run.orientation_errors_deg[:steps]
+    if run.body is not None:
+        b = run.body
+        b.points, b.codes, b.scored = b.points[:steps], b.codes[:steps], b.scored[:steps]
+        b.point_errors_mm, b.orientation_errors_deg = b.point_errors_mm[:steps], b.orientation_errors_deg[:steps]
+    return run
+
+
+def case_physics(repeat: int = 1, steps: int = 1000) -> BenchResult:
+    """The MuJoCo replay (docs/physics.md) of a 300-module, ``steps``-step run: the trail model's whole robot
+    (--solver lumen --locomotion trail, alpha 25 deg, 5 mm modules) along anatomical colon 1, its first
+    ``steps`` steps; CPU seconds of bhr.studies.physics.replay_physics (scene, model, every step), against the
+    CPU seconds of the run itself (bhr.follow) in the same process."""
+    import warnings
+
+    from bhr.run.driver import BhrWarning, follow
+    from bhr.model.generators import load_trajectory
+    from bhr.model.robot import Robot
+    from bhr.studies.physics import replay_physics
+
+    import importlib.util
+
+    if importlib.util.find_spec("mujoco") is None:
+        return BenchResult("physics-300", "per replay (CPU)", float("nan"), float("nan"), "the run itself",
+                           float("nan"), "<= 5 min (needs the physics extra: pip install 'bhr[physics]')", None)
+    r = Robot(alpha=25.0, module_length=5.0)
+    tr = load_trajectory("anatomy", feed=r.feed, seed=1)
+    t0 = time.process_time()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", BhrWarning)
+        run = follow(tr, solver="lumen", robot=r, body_modules=300, locomotion="trail")
+    tf = time.process_time() - t0
+    first_steps(run, min(steps, run.steps))
+    reps = []
+    times = []
+    for _ in range(repeat):
+        t0 = time.process_time()
+        reps.append(replay_physics(run))
+        times.append(time.process_time() - t0)
+    tb = float(np.median(times))
+    s = reps[0].summary()
+    return BenchResult("physics-300", "per replay (CPU)", tb, tf, "the run itself (bhr.follow, CPU)", tf / tb,
+                       "<= 5 min", tb <= 300.0,
+                       {"colon": 1, "modules": 300, "steps": run.steps, "substeps": s["substeps"],
+                        "wall_pieces": s["wall_pieces"], "contact_steps": len(s["contact_steps"]),
+                        "max_force_n": s["max_force_n"], "max_deviation_mm": s["max_deviation_mm"],
+                        "carriage_moved_steps": s["carriage_moved_steps"],
+                        "min_clearance_mm": float(run.clearance.min_mm) if run.clearance else None,
+                        "measured": "CPU seconds (user + sys of this process) of one whole replay, median"})
+
+
 def _cpu(cmd: list[str], repeat: int, cwd: str, check: bool = True) -> float:
     """Median CPU time (user + system, seconds) of a command run ``repeat`` times: steadier than wall time on
     a shared machine, where waiting for a core is not the command's cost."""
@@ -703,6 +758,7 @@ CASES: dict[str, Callable[..., BenchResult | list[BenchResult]]] = {
     "lumen": case_lumen,
     "trail-300": case_trail,
     "study-100": case_study,
+    "physics-300": case_physics,
     "cli": case_cli,
 }
 

@@ -23,9 +23,12 @@ __all__ = ["VIEW_NAME", "MAX_FRAMES", "view_figure", "view_html", "save_view", "
 VIEW_NAME = "view.html"
 #: Slider positions at most (longer runs show every k-th step, the last always).
 MAX_FRAMES = 150
+#: How far (mm) the view's box reaches beyond the path's wall (the robot behind the entrance is clipped beyond).
+VIEW_MARGIN_MM = 40.0
 #: Contact marks of all steps drawn at most.
 MAX_CONTACTS = 1000
-_RING = 12  # vertices around the tube
+_RING = 10  # vertices around the tube
+_TUBE_SPACING = 8.0  # mm of centerline between the view's tube rings
 
 
 def frame_steps(steps: int, most: int = MAX_FRAMES) -> list[int]:
@@ -113,7 +116,7 @@ def view_figure(result, contacts: Sequence[np.ndarray] | None = None, title: str
         ext = path[0] - back * d0
         cl_pts = np.vstack([ext, path])
         dia = np.concatenate([np.full(len(ext), tr.lumen[0]), np.asarray(tr.lumen[:len(path)], dtype=np.float64)])
-        verts, tri = tube_mesh(cl_pts, dia)
+        verts, tri = tube_mesh(cl_pts, dia, spacing=_TUBE_SPACING)
         data.append(dict(type="mesh3d", x=_r(verts[:, 0]), y=_r(verts[:, 1]), z=_r(verts[:, 2]),
                          i=tri[:, 0].tolist(), j=tri[:, 1].tolist(),
                               k=tri[:, 2].tolist(), color="rgb(214,120,120)", opacity=0.18, name="lumen wall",
@@ -128,22 +131,24 @@ def view_figure(result, contacts: Sequence[np.ndarray] | None = None, title: str
                              hoverinfo="skip"))
     i_robot, i_contact = len(data), len(data) + 1
 
-    def robot_trace(k: int) -> dict[str, Any]:
-        p = robots[k]
-        n_head = result.modules + 1
-        colors = ["rgb(40,90,200)"] * (len(p) - n_head) + ["rgb(230,140,20)"] * n_head
-        return dict(type="scatter3d", x=_r(p[:, 0]), y=_r(p[:, 1]), z=_r(p[:, 2]), mode="lines+markers",
-                            line=dict(color="rgb(40,90,200)", width=6), marker=dict(size=3, color=colors),
-                            name="robot (head orange)")
+    def xyz(p: np.ndarray) -> dict[str, Any]:
+        return dict(x=_r(p[:, 0]), y=_r(p[:, 1]), z=_r(p[:, 2]))
 
-    def contact_trace(k: int) -> dict[str, Any]:
-        c = per_step[shown[k]]
-        return dict(type="scatter3d", x=_r(c[:, 0]), y=_r(c[:, 1]), z=_r(c[:, 2]), mode="markers",
-                            marker=dict(size=6, color="red", symbol="diamond"), name="contact at this step")
-
+    # the whole robot is one line (its body blue, its head orange: a two-colour scale over its points); a
+    # frame carries only the coordinates of the robot and of the step's contacts (plotly merges a frame's
+    # traces into the figure's), so a long robot's frames stay small
     last = len(shown) - 1
-    data += [robot_trace(last), contact_trace(last)]
-    frames = [dict(name=str(s + 1), data=[robot_trace(k), contact_trace(k)], traces=[i_robot, i_contact])
+    p_last = robots[last]
+    n_head = result.modules + 1
+    shade = [0] * (len(p_last) - n_head) + [1] * n_head
+    data.append(dict(type="scatter3d", mode="lines", name="robot (head orange)", hoverinfo="skip",
+                     line=dict(width=7, color=shade, cmin=0, cmax=1,
+                               colorscale=[[0, "rgb(40,90,200)"], [0.5, "rgb(40,90,200)"],
+                                           [0.5, "rgb(230,140,20)"], [1, "rgb(230,140,20)"]]),
+                     **xyz(p_last)))
+    data.append(dict(type="scatter3d", mode="markers", name="contact at this step", hoverinfo="skip",
+                     marker=dict(size=6, color="red", symbol="diamond"), **xyz(per_step[shown[last]])))
+    frames = [dict(name=str(s + 1), data=[xyz(robots[k]), xyz(per_step[s])], traces=[i_robot, i_contact])
               for k, s in enumerate(shown)]
     slider = dict(active=last, currentvalue=dict(prefix="step "), pad=dict(t=40),
                   steps=[dict(method="animate", label=str(s + 1),
@@ -156,9 +161,16 @@ def view_figure(result, contacts: Sequence[np.ndarray] | None = None, title: str
                          dict(label="pause", method="animate",
                               args=[[None], dict(mode="immediate", frame=dict(duration=0, redraw=False))])])
     name = title or f"{tr.name}: {result.solver} solver, {len(robots[0]) - 1} modules, {N} steps"
+    # the box shown is the path's (and its wall's) with a margin: a long robot reaches metres back behind the
+    # entrance, and a box around all of it would leave the colon a speck; what lies outside is clipped
+    pad = (float(np.max(tr.lumen)) / 2 if tr.lumen is not None else 0.0) + VIEW_MARGIN_MM
+    lo, hi = path.min(axis=0) - pad, path.max(axis=0) + pad
+    span = hi - lo
+    axes = {f"{a}axis": dict(title=dict(text=f"{a} (mm)"), range=[round(float(lo[k]), 1), round(float(hi[k]), 1)],
+                             autorange=False) for k, a in enumerate("xyz")}
     layout = dict(title=dict(text=name), sliders=[slider], updatemenus=[play], margin=dict(l=0, r=0, t=40, b=0),
-                  scene=dict(aspectmode="data", xaxis=dict(title=dict(text="x (mm)")),
-                             yaxis=dict(title=dict(text="y (mm)")), zaxis=dict(title=dict(text="z (mm)"))),
+                  scene=dict(aspectmode="manual", aspectratio={a: float(span[k] / span.max())
+                                                               for k, a in enumerate("xyz")}, **axes),
                   legend=dict(x=0.0, y=1.0), uirevision="keep")
     return dict(data=data, layout=layout, frames=frames)
 

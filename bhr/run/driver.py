@@ -289,7 +289,11 @@ class FollowResult:
                 st["body_module_orientation_errors_deg"] = [float(v) for v in b.orientation_errors_deg[i]]
                 st["body_codes"] = [int(c) for c in b.codes[i]]
         traj_doc = {"name": self.trajectory.name, "params": self.trajectory.params,
-                    "points": self.trajectory.points.tolist()}
+                    "points": self.trajectory.points.tolist(),
+                    # where the robot starts (straight, its tip at start_point): the tube behind the entrance,
+                    # the body's frames and the physics replay's insertion need it when the run is read back
+                    "start_direction": [float(v) for v in self.trajectory.start_direction],
+                    "start_point": [float(v) for v in self.trajectory.start_point]}
         if self.trajectory.lumen is not None:
             traj_doc["lumen"] = [float(v) for v in self.trajectory.lumen]
             traj_doc["lumen_end"] = self.trajectory.lumen_end
@@ -383,12 +387,35 @@ def _run_from_json(doc: Any, where: str) -> FollowResult:
     summary = doc.get("summary")
     msgs = summary.get("warnings", []) if isinstance(summary, dict) else []
     params: dict[str, Any] = tr["params"] if isinstance(tr.get("params"), dict) else {}
+    start_dir, start_pt = _start_from_json(tr, path, pts, robot, bad, array)
     traj = Trajectory(str(tr.get("name", "run")), path, dict(params), source=where, lumen=lumen,
-                      lumen_end="open" if tr.get("lumen_end") == "open" else "closed")
+                      lumen_end="open" if tr.get("lumen_end") == "open" else "closed", start_direction=start_dir,
+                      start_point=start_pt)
     result = FollowResult(traj, robot, solver, pts, np.asarray(iters, dtype=np.int64), pe, oe, codes,
                           [str(m) for m in msgs] if isinstance(msgs, list) else [])
     result.body = body
     return result
+
+
+def _start_from_json(tr: dict, path: np.ndarray, pts: np.ndarray, robot: Robot, bad: Callable[[str], BhrError],
+                     array: Callable[..., np.ndarray]) -> tuple[tuple[float, ...], tuple[float, ...]]:
+    """The trajectory's start direction and start point from ``run.json`` (``start_direction``, ``start_point``).
+
+    Runs written before bhr kept them: the robot started straight with its base fixed during the first solve,
+    so when step 1's base lies one robot length behind the first point, that line is the start direction (and
+    the first point the start); otherwise the Trajectory defaults, +x from the origin.
+    """
+    if tr.get("start_direction") is not None:
+        d = array(tr["start_direction"], (3,), "trajectory start_direction")
+        if not np.linalg.norm(d) > 0:
+            raise bad("trajectory start_direction must not be zero")
+        p = array(tr.get("start_point", [0.0, 0.0, 0.0]), (3,), "trajectory start_point")
+        return tuple(float(v) for v in d), tuple(float(v) for v in p)
+    d = path[0] - pts[0][0]
+    length = robot.modules * robot.module_length
+    if abs(float(np.linalg.norm(d)) - length) <= 1e-6 * length:
+        return tuple(float(v) for v in d / np.linalg.norm(d)), tuple(float(v) for v in path[0])
+    return (1.0, 0.0, 0.0), (0.0, 0.0, 0.0)
 
 
 def _body_from_json(steps: list, robot: Robot, bad: Callable[[str], BhrError],

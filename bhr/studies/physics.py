@@ -18,7 +18,8 @@ from bhr.model.robot import Robot, forward_kinematics
 
 __all__ = ["FkAgreement", "fk_cross_check", "pinocchio_model", "pinocchio_points", "mujoco_model",
            "mujoco_points", "require", "whole_chain", "start_direction", "PhysicsReplay", "replay_physics",
-           "scene_xml", "WALL_STIFFNESS_RANGE", "DEFAULT_WALL_STIFFNESS", "FORCE_LINES_N"]
+           "scene_xml", "replay_chain", "ReplayChain", "insertion", "WALL_STIFFNESS_RANGE", "DEFAULT_WALL_STIFFNESS",
+           "FORCE_LINES_N"]
 
 
 def require(module: str) -> Any:
@@ -149,6 +150,7 @@ DEFAULT_WALL_STIFFNESS = 1.5
 #: Published force levels, N: forces above 1 kg occur 5 % of the time in colonoscopy (Appleyard et al. 2000);
 #: a porcine colon perforates at 14.1 N (Johnson et al. 2019).
 FORCE_LINES_N = (9.8, 14.1)
+SOLIMP = 0.99
 
 
 def check_wall_stiffness(value: float) -> float:
@@ -200,17 +202,102 @@ def whole_chain(result) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return roots, frames, codes
 
 
-def start_direction(result) -> np.ndarray:
-    """The direction the robot lay along before the run: from its base to the trajectory's first point.
+@dataclass
+class ReplayChain:
+    """What the replay drives, per step: the whole robot's rear pose, its joint values and bhr's points."""
 
-    The robot starts straight with its tip on the first point and its base fixed during the first solve,
-    so this holds for runs read back from run.json too (which do not store the start direction).
+    roots: np.ndarray  # (N, 3) mm, the rear end
+    frames: np.ndarray  # (N, 3, 3) the rear module's frame (rows x, y, z)
+    values: np.ndarray  # (N, 3 M) joint values in bhr.model.export.joint_names order (radians, m)
+    points: np.ndarray  # (N, M + 1, 3) mm, bhr's whole robot (bhr.run.body.whole_robot), rear first
+    lift: bool  # some module lifts at some step
+    from_codes: bool  # values are the codes' (bhr.joint_values); else the tilts that put each module on bhr's
+
+
+def _tilts_from_points(points: np.ndarray, frames: np.ndarray, length: float) -> np.ndarray:
+    """Joint values (N, 3 M) that turn every module of a chain along bhr's chord of ``points`` (N, M + 1, 3),
+    from rear frames ``frames``: module j's frame is module j-1's turned about its x then its y (the exported
+    joints' order), so its chord d (in module j-1's frame) gives tilt_y = asin(d_x), tilt_x = atan2(-d_y, d_z).
+    Each module turns from the one behind by its chord's turn (at most the robot's tilt), so a chord shorter
+    than ``length`` (the trail model's modules across a vertex) moves the modules beyond it along the chain by
+    its shortfall. (Aiming each module at bhr's next joint from where the modules behind put it instead asks
+    for turns beyond the joints' limits and jumps from step to step.)"""
+    N, J = points.shape[0], points.shape[1]
+    M = J - 1
+    out = np.zeros((N, M, 3))
+    R = np.ascontiguousarray(frames.transpose(0, 2, 1))  # columns x, y, z
+    for j in range(M):
+        d = points[:, j + 1] - points[:, j]
+        d /= np.linalg.norm(d, axis=1)[:, None]
+        dl = np.einsum("nki,nk->ni", R, d)  # in the frame of the module behind
+        ty = np.arcsin(np.clip(dl[:, 0], -1.0, 1.0))
+        tx = np.arctan2(-dl[:, 1], dl[:, 2])
+        out[:, j, 0], out[:, j, 1] = tx, ty
+        cx, sx, cy, sy = np.cos(tx), np.sin(tx), np.cos(ty), np.sin(ty)
+        T = np.zeros((N, 3, 3))
+        T[:, 0, 0], T[:, 0, 2] = cy, sy
+        T[:, 1, 0], T[:, 1, 1], T[:, 1, 2] = sx * sy, cx, -sx * cy
+        T[:, 2, 0], T[:, 2, 1], T[:, 2, 2] = -cx * sy, sx, cx * cy
+        R = R @ T
+    return out.reshape(N, -1)
+
+
+def replay_chain(result) -> ReplayChain:
+    """The whole robot of a run as the physics replay drives it (:class:`ReplayChain`).
+
+    For the thesis's locomotion the joint values are the codes' (:func:`whole_chain`, ``bhr.joint_values``).
+    The trail model (docs/locomotion.md) moves modules between vertices through intermediate tilts that no
+    code gives: there (and wherever the codes do not reproduce bhr's whole robot) the values are the tilts that
+    put each module on bhr's chord (:func:`_tilts_from_points`), from a rear frame along the rear module that
+    turns as little as it can from step to step.
     """
-    r = result.robot
-    d = np.asarray(result.trajectory.points[0], dtype=np.float64) - result.points[0][0]
-    if abs(float(np.linalg.norm(d)) - r.modules * r.module_length) <= 1e-6 * r.modules * r.module_length:
-        return d / np.linalg.norm(d)
-    return np.asarray(result.trajectory.start_direction, dtype=np.float64)
+    from bhr.run.body import whole_robot
+
+    roots, frames, codes = whole_chain(result)
+    N, M = codes.shape
+    points = np.stack([whole_robot(result, i) for i in range(N)])
+    r = result.robot.replace(modules=M)
+    sample = sorted({0, N - 1, *range(0, N, max(1, N // 20))})
+    if all(np.abs(forward_kinematics(r, codes[i], roots[i], frames[i])[0] - points[i]).max() <= 1e-6
+           for i in sample):
+        return ReplayChain(roots, frames, joint_values(codes, r), points, bool(np.any(codes == 15)), True)
+    if np.any(codes == 15):
+        raise BhrError("the run's whole robot does not follow its codes and lifts; bhr physics replays lifting "
+                       "runs of the thesis's locomotion only")
+    from bhr.model.robot import base_frame
+
+    roots = points[:, 0].copy()
+    frames = np.empty((N, 3, 3))
+    for i in range(N):
+        z = points[i, 1] - points[i, 0]
+        z /= np.linalg.norm(z)
+        if i == 0:
+            F = base_frame(z)
+        else:  # the previous frame turned about z_prev x z, by the angle between them
+            F = frames[i - 1]
+            zp = F[2]
+            ax = np.cross(zp, z)
+            sn, cs = float(np.linalg.norm(ax)), float(np.dot(zp, z))
+            if sn > 1e-12:
+                k = ax / sn
+                K = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
+                Rm = np.eye(3) + sn * K + (1 - cs) * K @ K
+                F = (Rm @ F.T).T
+            F = F.copy()
+            F[2] = z
+        frames[i] = F
+    return ReplayChain(roots, frames, _tilts_from_points(points, frames, r.module_length), points, False,
+                       False)
+
+
+def start_direction(result) -> np.ndarray:
+    """The direction the robot lay along before the run (the trajectory's start direction, a unit vector).
+
+    ``run.json`` carries it (``trajectory.start_direction``); :func:`bhr.run.driver.load_run` recovers it from
+    step 1's base for runs written before it did.
+    """
+    d = np.asarray(result.trajectory.start_direction, dtype=np.float64)
+    return d / np.linalg.norm(d)
 
 
 @dataclass
@@ -261,13 +348,21 @@ def _quat(R: np.ndarray) -> np.ndarray:
 
 def wall_centerline(result, reach_mm: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The lumen's centerline (mm), its diameters and arc lengths from the entrance, continued straight
-    behind the entrance by ``reach_mm`` (as bhr's clearance continues it) and past the end by 20 mm."""
+    behind the entrance by ``reach_mm`` (as bhr's clearance continues it) and past the end by 20 mm.
+
+    A run that stops short of the trajectory's end (fewer steps than points) gets the lumen only as far as
+    its last target and two modules and a lumen diameter more: the robot's tip never gets farther, and the
+    wall beyond (thousands of pieces on a long colon) would only cost time.
+    """
     tr = result.trajectory
     P = np.asarray(tr.points, dtype=np.float64)
     D = np.asarray(tr.lumen, dtype=np.float64)[: len(P)]
+    sp = float(np.median(np.linalg.norm(np.diff(P, axis=0), axis=1)))
+    margin = 2 * result.robot.module_length + float(np.max(D))
+    keep = min(len(P), result.steps + 2 + int(math.ceil(margin / sp)))
+    P, D = P[:keep], D[:keep]
     d0 = start_direction(result)
     d1 = (P[-1] - P[-2]) / np.linalg.norm(P[-1] - P[-2])
-    sp = float(np.median(np.linalg.norm(np.diff(P, axis=0), axis=1)))
     nb = int(math.ceil(reach_mm / sp)) + 2
     before = P[0] - sp * np.arange(nb, 0, -1)[:, None] * d0
     after = P[-1] + sp * np.arange(1, int(20 / sp) + 2)[:, None] * d1
@@ -277,15 +372,40 @@ def wall_centerline(result, reach_mm: float) -> tuple[np.ndarray, np.ndarray, np
     return C, dia, arc
 
 
+def insertion(result, roots: np.ndarray, frames: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray,
+                                                                      np.ndarray]:
+    """How the scene inserts the robot: per step the slide joint's travel (mm), the carriage's position (mm)
+    and orientation (MuJoCo quaternion), and whether the carriage had to move.
+
+    The slide runs along the rear module's axis; its travel is how far bhr's rear end is past the entrance
+    along the start direction (negative: behind it). The carriage sits at the entrance and stays there while
+    bhr's rear end is on the entrance line with the start frame (a straight insertion); where bhr's rear end
+    leaves that line (its body model lets it drift, or a short robot's rear goes into the colon) the carriage
+    is put where the slide's travel brings the rear end onto bhr's (``moved``).
+    """
+    E = np.asarray(result.trajectory.points[0], dtype=np.float64)
+    d0 = start_direction(result)
+    depth = (roots - E) @ d0
+    cpos = roots - depth[:, None] * frames[:, 2, :]
+    moved = (np.linalg.norm(cpos - E, axis=1) > 1e-6) | (np.abs(frames - frames[:1]).reshape(len(frames), -1)
+                                                         .max(axis=1) > 1e-9)
+    cpos[~moved] = E
+    cquat = np.array([_quat(F.T) for F in frames])
+    return depth, cpos, cquat, moved
+
+
 def scene_xml(result, *, wall_stiffness: float = DEFAULT_WALL_STIFFNESS, ring_spacing: float = 4.0,
-              pieces: int = 10, thickness: float = 4.0, rate: float = 20.0, substeps: int = 16,
-              servo_hz: float = 50.0, stiff_ratio: float = 100.0) -> tuple[str, dict[str, Any]]:
+              pieces: int = 10, thickness: float = 4.0, rate: float = 20.0, substeps: int = 8,
+              servo_hz: float = 50.0, stiff_ratio: float = 100.0, chain: "ReplayChain | None" = None
+              ) -> tuple[str, dict[str, Any]]:
     """The MuJoCo scene of a run (MJCF text) and its settings: the wall, the whole robot, its servos.
 
     The wall is ``pieces`` boxes per ring, rings every ``ring_spacing`` mm of centerline, their inner faces
     tangent to the lumen; each box rides a radial slide joint with a spring of ``wall_stiffness`` N/mm per
-    module length of wall (docs/physics.md). The robot's base is a mocap carriage put on the run's rear end
-    at every step; each tilt joint has a position servo of natural frequency ``servo_hz`` (critically damped).
+    module length of wall (docs/physics.md). The robot is inserted by a servoed slide joint (``insert``)
+    along its rear module's axis, on a carriage at the entrance (a mocap body, moved only at steps where
+    bhr's rear end leaves the entrance line: :func:`insertion`); each joint has a position servo of natural
+    frequency ``servo_hz`` (critically damped).
     """
     from bhr.model.export import mjcf_robot_body
 
@@ -295,9 +415,9 @@ def scene_xml(result, *, wall_stiffness: float = DEFAULT_WALL_STIFFNESS, ring_sp
         raise BhrError("the run's trajectory has no lumen, so there is no wall to replay against; give a run of "
                        "--traj anatomy or a trajectory file with a lumen column")
     r = result.robot
-    roots, frames, codes = whole_chain(result)
-    M = codes.shape[1]
-    lift = bool(np.any(codes == 15))
+    chain = replay_chain(result) if chain is None else chain
+    roots, frames, lift = chain.roots, chain.frames, chain.lift
+    M = chain.points.shape[1] - 1
     d0 = start_direction(result)
     behind = -(roots - np.asarray(tr.points[0], dtype=np.float64)) @ (d0 / np.linalg.norm(d0))
     reach = max(0.0, float(np.max(behind))) + r.module_length  # how far behind the entrance the robot reaches
@@ -317,10 +437,20 @@ def scene_xml(result, *, wall_stiffness: float = DEFAULT_WALL_STIFFNESS, ring_sp
              f'  <option timestep="{dt!r}" gravity="0 0 0" integrator="implicitfast" cone="pyramidal"/>',
              f'  <size memory="{200 + len(ring_at) * pieces // 10}M"/>',
              # contacts far stiffer than the wall's springs (timeconst 2 dt, impedance 0.99): the springs set the force
-             f'  <default><geom solref="{2 * dt!r} 1" solimp="0.99 0.99 0.001"/></default>',
+             f'  <default><geom solref="{2 * dt!r} 1" solimp="{SOLIMP} {SOLIMP} 0.001"/></default>',
              "  <worldbody>"]
-    lines += mjcf_robot_body(r, M, indent="    ", lift=lift, mocap=True, base_pos=roots[0] * MM,
-                             base_quat=_quat(frames[0].T).tolist(), geom_attrs='contype="2" conaffinity="1"')
+    depth, cpos, cquat, _moved = insertion(result, roots, frames)
+    lines.append(f'    <body name="carriage" mocap="true" pos="{" ".join(repr(float(x)) for x in cpos[0] * MM)}" '
+                 f'quat="{" ".join(repr(float(x)) for x in cquat[0])}">')
+    from bhr.model.export import module_inertia
+
+    inert = module_inertia(r)
+    # the slide's own body (a sled of one module's mass) carries the robot's base
+    lines += ['      <body name="sled"><joint name="insert" type="slide" axis="0 0 1"/>',
+              f'        <inertial pos="0 0 0" mass="{inert.mass!r}" diaginertia="{inert.ixx!r} {inert.iyy!r} '
+              f'{inert.izz!r}"/>']
+    lines += mjcf_robot_body(r, M, indent="        ", lift=lift, geom_attrs='contype="2" conaffinity="1"')
+    lines += ["      </body>", "    </body>"]
     u_prev = None
     half = math.pi / pieces
     for k, (s, j) in enumerate(zip(ring_at, idx)):
@@ -358,12 +488,12 @@ def scene_xml(result, *, wall_stiffness: float = DEFAULT_WALL_STIFFNESS, ring_sp
     # the robot 1/stiff_ratio as much as the wall (kp = ratio K L^2, L the length beyond the joint), and at
     # least I w^2 (I the inertia beyond it); a rotor inertia (armature, set by replay_physics) brings the
     # joint's inertia to kp / w^2 so every servo settles at w, critically damped (kv = 2 kp / w)
-    from bhr.model.export import module_inertia
-
-    inert = module_inertia(r)
     L = r.module_length * MM
     K = wall_stiffness * 1e3
     lines.append("  <actuator>")
+    # the insertion: the whole robot's mass on the slide, as stiff as a lift servo
+    kp_in = max(inert.mass * (M + 1) * w * w, stiff_ratio * K)
+    lines.append(f'    <position name="s_insert" joint="insert" kp="{kp_in!r}" kv="{2 * kp_in / w!r}"/>')
     names = ("tilt_x", "tilt_y", "lift") if lift else ("tilt_x", "tilt_y")
     for i in range(1, M + 1):
         q = np.arange(M - i + 1)
@@ -378,22 +508,26 @@ def scene_xml(result, *, wall_stiffness: float = DEFAULT_WALL_STIFFNESS, ring_sp
     lines.append("</mujoco>")
     settings = {"wall_stiffness_n_per_mm": wall_stiffness, "ring_spacing_mm": ring_spacing, "pieces_per_ring": pieces,
                 "wall_pieces": int(len(ring_at) * pieces), "rate_hz": rate, "substeps": substeps,
-                "servo_hz": servo_hz, "stiff_ratio": stiff_ratio, "modules": M, "timestep_s": dt}
+                "servo_hz": servo_hz, "stiff_ratio": stiff_ratio, "modules": M, "timestep_s": dt,
+                "carriage_moved_steps": int(np.count_nonzero(_moved)),
+                "joint_values": "codes" if chain.from_codes else "tilts onto bhr's modules"}
     return "\n".join(lines) + "\n", settings
 
 
 def replay_physics(result, progress: Any = None, **options: Any) -> PhysicsReplay:
     """Replay ``result`` (a run with codes and a lumen) in MuJoCo; see :func:`scene_xml` for ``options``.
 
-    Per step: the carriage moves the robot's rear end to the run's, the servos' targets become the step's
-    joint values (:func:`bhr.model.export.joint_values` of the whole robot's codes), the scene runs for one step
-    period (``1 / rate``) and the contacts between robot and wall are read: the largest normal force, where,
-    and how far every module point is from bhr's pose.
+    Per step: the insertion slide's target becomes the run's insertion depth (:func:`insertion`; the
+    carriage moves only where bhr's rear end leaves the entrance line), the servos' targets become the step's
+    joint values (:func:`bhr.model.export.joint_values` of the whole robot's codes), the scene runs for one
+    step period (``1 / rate``) and the contacts between robot and wall are read: the largest normal force,
+    where, and how far every module point is from bhr's pose.
     """
     import time
 
     mujoco = require("mujoco")
-    xml, settings = scene_xml(result, **options)
+    chain = replay_chain(result)
+    xml, settings = scene_xml(result, chain=chain, **options)
     model = mujoco.MjModel.from_xml_string(xml)
     w = 2 * math.pi * float(settings["servo_hz"])
     mujoco.mj_setConst(model, mujoco.MjData(model))
@@ -401,15 +535,19 @@ def replay_physics(result, progress: Any = None, **options: Any) -> PhysicsRepla
         dof = model.jnt_dofadr[model.actuator_trnid[a, 0]]
         model.dof_armature[dof] = model.actuator_gainprm[a, 0] / w ** 2
     data = mujoco.MjData(model)
-    roots, frames, codes = whole_chain(result)
-    N, M = codes.shape
-    lift = model.nu == 3 * M
-    values = joint_values(codes, result.robot)
+    roots, frames, values = chain.roots, chain.frames, chain.values
+    depth, cpos, cquat, moved = insertion(result, roots, frames)
+    N, M = chain.points.shape[0], chain.points.shape[1] - 1
+    lift = model.nu == 3 * M + 1
     if not lift:
         values = values.reshape(N, M, 3)[:, :, :2].reshape(N, -1)
-    robot_geoms = {mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, f"m{i}"): i for i in range(1, M + 1)}
-    qadr = np.array([model.jnt_qposadr[model.actuator_trnid[a, 0]] for a in range(model.nu)])
-    tr = result.trajectory
+    ctrl = np.hstack([depth[:, None] * MM, values])  # the actuators' order: the insertion, then the joints
+    geom_module = np.zeros(model.ngeom, dtype=np.int64)  # module of a robot geom (1 = rear), 0 for the wall
+    for i in range(1, M + 1):
+        geom_module[mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, f"m{i}")] = i
+    qadr = model.jnt_qposadr[model.actuator_trnid[:, 0]]
+    jx = np.array([mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, f"m{i}_tilt_x") for i in range(1, M + 1)])
+    tip = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, "tip")
     C, _dia, arc = wall_centerline(result, 0.0)
     steps = int(settings["substeps"])
     force = np.zeros(N)
@@ -420,25 +558,26 @@ def replay_physics(result, progress: Any = None, **options: Any) -> PhysicsRepla
     contacts: list[np.ndarray] = []
     f6 = np.zeros(6)
     t0 = time.process_time()
-    data.qpos[qadr] = values[0]
+    data.qpos[qadr] = ctrl[0]
     for i in range(N):
-        data.mocap_pos[0] = roots[i] * MM
-        data.mocap_quat[0] = _quat(frames[i].T)
-        data.ctrl[:] = values[i]
-        for _ in range(steps):
-            mujoco.mj_step(model, data)
+        if moved[i]:
+            data.mocap_pos[0] = cpos[i] * MM
+            data.mocap_quat[0] = cquat[i]
+        data.ctrl[:] = ctrl[i]
+        mujoco.mj_step(model, data, nstep=steps)
         pts = []
         best = 0.0
-        for c in range(data.ncon):
-            con = data.contact[c]
-            g = con.geom1 if con.geom1 in robot_geoms else con.geom2 if con.geom2 in robot_geoms else -1
-            if g < 0 or con.dist > 0:
-                continue
-            mujoco.mj_contactForce(model, data, c, f6)
-            fn = abs(float(f6[0]))
-            pts.append(con.pos / MM)
-            if fn > best:
-                best, where[i], module[i] = fn, con.pos / MM, robot_geoms[g]
+        nc = data.ncon
+        if nc:
+            g1, g2 = data.contact.geom1[:nc], data.contact.geom2[:nc]
+            mod = np.maximum(geom_module[g1], geom_module[g2])
+            for c in np.nonzero((mod > 0) & (data.contact.dist[:nc] <= 0))[0]:
+                mujoco.mj_contactForce(model, data, int(c), f6)
+                fn = abs(float(f6[0]))
+                pos = data.contact.pos[c] / MM
+                pts.append(pos)
+                if fn > best:
+                    best, where[i], module[i] = fn, pos, int(mod[c])
         if pts and best == 0.0:
             best = 1e-12  # touching with no force yet still counts as contact
             where[i] = pts[0]
@@ -447,12 +586,10 @@ def replay_physics(result, progress: Any = None, **options: Any) -> PhysicsRepla
         if pts:
             k = int(np.argmin(np.linalg.norm(C - where[i], axis=1)))
             arc_at[i] = arc[k]
-        sim, _ = mujoco_points(model, data, M)
-        bhr_pts, _ = forward_kinematics(result.robot.replace(modules=M), codes[i], roots[i], frames[i])
-        dev[i] = float(np.max(np.linalg.norm(sim - bhr_pts, axis=1)))
+        sim = np.vstack([data.xanchor[jx], data.site_xpos[tip][None]]) / MM
+        dev[i] = float(np.max(np.linalg.norm(sim - chain.points[i], axis=1)))
         if progress is not None:
             progress(i + 1, N)
-    del tr
     return PhysicsReplay(force, where, arc_at, module, dev, contacts, settings, time.process_time() - t0)
 
 

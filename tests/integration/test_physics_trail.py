@@ -1,0 +1,63 @@
+"""The physics replay of a trail-model run (docs/locomotion.md, docs/physics.md): the trail's intermediate tilts
+become joint targets within the joints' limits, a rigid chain on them stays within the trail's chord shortfalls
+of bhr's whole robot, and the robot is inserted by the slide joint with the carriage at rest."""
+from __future__ import annotations
+
+import math
+import warnings
+
+import numpy as np
+import pytest
+
+import bhr
+from bhr.model.generators import load_trajectory
+from bhr.model.robot import Robot
+from bhr.run.driver import BhrWarning
+from bhr.studies.physics import insertion, mujoco_model, mujoco_points, replay_chain, replay_physics
+
+mujoco = pytest.importorskip("mujoco")
+
+
+@pytest.fixture(scope="module")
+def trail_run():
+    r = Robot(alpha=25.0, module_length=5.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", BhrWarning)
+        run = bhr.follow(load_trajectory("anatomy", feed=r.feed, seed=1), solver="lumen", robot=r, body_modules=40,
+                         locomotion="trail")
+    from bhr.bench.cases import first_steps
+
+    return first_steps(run, 160)
+
+
+def test_trail_tilts_stay_within_the_joints_and_put_the_chain_on_bhrs(trail_run):
+    ch = replay_chain(trail_run)
+    assert not ch.from_codes  # the trail's codes alone do not give its intermediate tilts
+    N, J = ch.points.shape[:2]
+    tilts = ch.values.reshape(N, J - 1, 3)[:, :, :2]
+    a = math.radians(trail_run.robot.alpha)
+    assert np.abs(tilts).max() <= a + 1e-9
+    model = mujoco_model(trail_run.robot, J - 1)
+    data = mujoco.MjData(model)
+    L = trail_run.robot.module_length
+    for i in range(0, N, 7):
+        data.qpos[:] = ch.values[i]
+        mujoco.mj_kinematics(model, data)
+        p, _ = mujoco_points(model, data, J - 1)
+        world = ch.roots[i] + p @ ch.frames[i]
+        shortfall = float(np.sum(L - np.linalg.norm(np.diff(ch.points[i], axis=0), axis=1)))
+        assert np.linalg.norm(world - ch.points[i], axis=1).max() <= shortfall + 1e-6
+
+
+def test_trail_run_is_inserted_by_the_slide_alone_and_stays_clear(trail_run):
+    ch = replay_chain(trail_run)
+    depth, _, _, moved = insertion(trail_run, ch.roots, ch.frames)
+    assert not moved.any()  # the rear end stays on the entrance line: the slide joint alone inserts the robot
+    assert np.allclose(np.diff(depth), trail_run.robot.feed)  # one feed a step
+    assert trail_run.clearance.min_mm >= 1.0
+    rep = replay_physics(trail_run)
+    assert rep.contact_steps == []
+    assert rep.summary()["carriage_moved_steps"] == 0
+    L = trail_run.robot.module_length
+    bound = max(float(np.sum(L - np.linalg.norm(np.diff(p, axis=0), axis=1))) for p in ch.points)
+    assert rep.deviation_mm.max() <= bound + 0.5
