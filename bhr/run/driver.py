@@ -28,7 +28,7 @@ from typing import Any, Callable
 import numpy as np
 
 from bhr import __version__
-from bhr.settings.inputs import MAX_FILE_BYTES, MAX_MM, MAX_STEP_POINTS, read_text
+from bhr.settings.inputs import MAX_MM, MAX_RUN_BYTES, MAX_STEP_POINTS, read_text
 from bhr.settings.errors import BhrError, renamed
 from bhr.settings.options import OPTIONS, robot_limits
 from bhr.model.codes import VALID_CODES as STABLE_CODES
@@ -444,9 +444,9 @@ def load_run(path: Any) -> FollowResult:
     name = "standard input" if str(path) == "-" else str(path)
     hint = "give a run.json written by 'bhr follow'"
     if str(path) == "-":
-        raw = sys.stdin.buffer.read(MAX_FILE_BYTES + 1)
-        if len(raw) > MAX_FILE_BYTES:
-            raise BhrError(f"standard input is larger than {MAX_FILE_BYTES // (1024 * 1024)} MiB; {hint}")
+        raw = sys.stdin.buffer.read(MAX_RUN_BYTES + 1)
+        if len(raw) > MAX_RUN_BYTES:
+            raise BhrError(f"standard input is larger than {MAX_RUN_BYTES // (1024 * 1024)} MiB; {hint}")
         try:
             text = raw.decode("utf-8-sig")
         except UnicodeDecodeError:
@@ -454,7 +454,7 @@ def load_run(path: Any) -> FollowResult:
     elif Path(path).is_dir():
         raise BhrError(f"{name} is a folder; give the run.json inside it")
     else:
-        text = read_text(path, "run file", hint)
+        text = read_text(path, "run file", hint, MAX_RUN_BYTES)
     try:
         doc = json.loads(text)
     except json.JSONDecodeError as exc:

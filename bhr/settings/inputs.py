@@ -16,9 +16,9 @@ from bhr.settings.options import MAX_MM, LIMITS, check_number, did_you_mean, par
 from bhr.settings.options import excerpt as _excerpt
 from bhr.settings.options import type_name as _type_name
 
-__all__ = ["MAX_FILE_BYTES", "MAX_MM", "MAX_POINTS", "MAX_STEP_POINTS", "read_capped", "read_text", "read_toml",
-           "check_keys", "type_name", "number", "vector3", "text_value", "choice", "did_you_mean", "parse_number",
-           "check_number", "excerpt", "check_regular"]
+__all__ = ["MAX_FILE_BYTES", "MAX_RUN_BYTES", "MAX_MM", "MAX_POINTS", "MAX_STEP_POINTS", "read_capped", "read_text",
+           "read_toml", "check_keys", "type_name", "number", "vector3", "text_value", "choice", "did_you_mean",
+           "parse_number", "check_number", "excerpt", "check_regular"]
 
 #: Input files larger than this are refused: at most this many bytes are ever read, whatever the file's size
 #: reads as (a link to /dev/zero reads as 0 bytes and never ends).
@@ -30,15 +30,20 @@ MAX_POINTS = LIMITS["points"]
 #: in docs/commands.md), so a run at the limit stays within about 3.5 GB (a 5-module robot on a path of
 #: MAX_POINTS fits, and the whole robot on every anatomical colon 1-100 at feed divisor 10).
 MAX_STEP_POINTS = LIMITS["step_points"]
+#: A run.json may be this large: a run bhr may write is one bhr reads back. run.json takes about 145 bytes
+#: per step and robot point (a 61-module trail run on anatomical colon 2: 17.1 MB for 1,931 steps), so
+#: 256 bytes per point leaves room for the longest numbers.
+MAX_RUN_BYTES = 256 * MAX_STEP_POINTS
 
 
-def read_text(path: str | os.PathLike[str], what: str, hint: str) -> str:
-    """The UTF-8 text of ``path``; a BhrError naming ``what`` and ``hint`` otherwise."""
+def read_text(path: str | os.PathLike[str], what: str, hint: str, limit: int | None = None) -> str:
+    """The UTF-8 text of ``path`` (at most ``limit`` bytes, :data:`MAX_FILE_BYTES` by default); a BhrError
+    naming ``what`` and ``hint`` otherwise."""
     p = Path(path)
     try:
         if p.is_dir():
             raise BhrError(f"{p} is a folder, not a {what}; {hint}")
-        raw = read_capped(p, what, hint)
+        raw = read_capped(p, what, hint, limit)
     except FileNotFoundError:
         raise BhrError(f"no such {what} {p}; {hint}") from None
     except PermissionError:
