@@ -678,7 +678,7 @@ def check_figure_path(path: str | os.PathLike[str]) -> None:
 
 
 #: zlib level of a run's PNG figures (save_run_plots): 1 instead of Pillow's 6 makes the files about 10 % larger
-#: and costs a third of the compression time (bhr follow draws five figures every run).
+#: and saves some 0.04 s of CPU over the three error figures (bhr follow draws five figures every run).
 RUN_PNG_COMPRESS = 1
 
 
