@@ -75,6 +75,9 @@ def follow(traj, solver, out_dir, json_path, no_plots, **kwargs):
     check_trajectory_name(traj)  # a misspelt name costs no numba import
     from bhr.settings.errors import BhrError
 
+    from bhr.studies.follow_run import StreamSettings, check_outputs, follow_run
+
+    check_outputs(traj, kwargs.get("robot_file"), out_dir, json_path)  # before any work
     show, animate_path, stride = kwargs.pop("show"), kwargs.pop("animate_path"), kwargs.pop("stride")
     check_view_options(show, animate_path)
     if not show and animate_path is None:
@@ -102,8 +105,6 @@ def follow(traj, solver, out_dir, json_path, no_plots, **kwargs):
     if reach is not None and body_modules is not None:
         raise BhrError("give either --body-modules or --reach cecum, not both (--reach cecum sets the whole robot's "
                        "modules from the path's length)")
-    from bhr.studies.follow_run import StreamSettings, follow_run
-
     stream = None
     bars: list = []  # the stream's and the animation's progress bars, made at their first step
     if link_kw["port"] is not None:

@@ -21,7 +21,7 @@ from bhr.output.atomic import (OutputFolder, check_parent_folder, input_files, j
                                write_json, write_text)
 from bhr.settings.errors import BhrError
 
-__all__ = ["FOLLOW_NAMES", "FollowRun", "StreamSettings", "follow_run", "summary_lines", "folder_stem"]
+__all__ = ["FOLLOW_NAMES", "FollowRun", "StreamSettings", "check_outputs", "follow_run", "summary_lines", "folder_stem"]
 
 #: What bhr follow writes into its folder (an existing folder holding only such files may be replaced).
 FOLLOW_NAMES = ("run.json", "codes.csv", "steps.csv", "*.png", "view.html", "manifest.json")
@@ -110,6 +110,24 @@ def _describe(body_modules, reach, locomotion) -> str:
     return body
 
 
+def check_outputs(traj: str, robot_file: str | None, out_dir: str | None, json_path: str | None
+                  ) -> OutputFolder | None:
+    """Refuse, before any work, outputs that cannot be written; the checked ``--out`` folder (None: the default).
+
+    Cheap (no numba): the command line calls it before it builds the robot, :func:`follow_run` again.
+    """
+    from bhr.output.atomic import check_output_file
+
+    folder = None
+    if out_dir is not None:
+        folder = OutputFolder(out_dir, "follow", names=FOLLOW_NAMES, inputs=input_files(traj, robot_file)).check()
+    else:
+        check_parent_folder("bhr-out")
+    if json_path not in (None, "-"):
+        check_output_file(json_path, "JSON")
+    return folder
+
+
 def follow_run(traj: str, *, robot: Any, solver: str = "thesis", solver_options: dict | None = None,
                traj_params: dict | None = None, body_modules: int | None = None, reach: str | None = None,
                locomotion: str = "thesis", out_dir: str | None = None, json_path: str | None = None,
@@ -139,13 +157,7 @@ def follow_run(traj: str, *, robot: Any, solver: str = "thesis", solver_options:
     to_stdout = json_path == "-"
     use_folder = out_dir is not None or not (to_stdout and not plots)
     inputs = input_files(traj, robot_file)
-    folder: OutputFolder | None = None
-    if out_dir is not None:  # checked before any work
-        folder = OutputFolder(out_dir, "follow", names=FOLLOW_NAMES, inputs=inputs).check()
-    else:
-        check_parent_folder("bhr-out")
-    if json_path not in (None, "-"):
-        check_output_file(json_path, "JSON")
+    folder = check_outputs(traj, robot_file, out_dir, json_path)
     if animate_path is not None:
         from bhr.output.animate import check_target
 
