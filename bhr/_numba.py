@@ -79,4 +79,87 @@ def cache_has_kernels() -> bool:
         return False
 
 
+class _LightBlas:
+    """Lets numba find scipy's BLAS without importing all of scipy.linalg (about 0.2 s of CPU per command).
+
+    When numba loads its array functions (``numba.np.arraymath``, on the first
+    kernel a command calls) it checks for BLAS by importing
+    ``scipy.linalg.cython_blas``, which runs ``scipy.linalg``'s whole
+    ``__init__`` (scipy's array API layer, numpy.testing, f2py...). The check
+    needs only the extension module itself, so this import hook loads it
+    straight from its file just before numba's check runs: numba sees the same
+    BLAS (``_HAVE_BLAS`` unchanged), and ``scipy.linalg`` imported later is the
+    whole package as usual. Without scipy, or when anything here fails, numba
+    does what it always does.
+    """
+
+    def find_spec(self, name, path=None, target=None):  # a meta path finder
+        import sys
+
+        if name == "numba.np.arraymath":  # numba's check is about to run: the extension alone, from its file
+            _preload_cython_blas()
+        elif name == "scipy.linalg" and "scipy.linalg.cython_blas" in sys.modules:
+            # the whole package after all: find it as usual, then give it its preloaded submodule as an attribute
+            sys.meta_path[:] = [f for f in sys.meta_path if f is not self]
+            import importlib.util
+
+            spec = importlib.util.find_spec(name)
+            if spec is not None and spec.loader is not None and hasattr(spec.loader, "exec_module"):
+                loader = spec.loader
+                run = loader.exec_module
+
+                def exec_module(module, run=run):
+                    run(module)
+                    module.cython_blas = sys.modules["scipy.linalg.cython_blas"]
+
+                loader.exec_module = exec_module  # type: ignore[method-assign]
+            return spec
+        return None
+
+
+def _preload_cython_blas() -> None:
+    import importlib.machinery
+    import importlib.util
+    import sys
+
+    if "scipy.linalg" in sys.modules or "scipy.linalg.cython_blas" in sys.modules:
+        sys.meta_path[:] = [f for f in sys.meta_path if not isinstance(f, _LightBlas)]
+        return
+    name = "scipy.linalg.cython_blas"
+    try:
+        top = importlib.util.find_spec("scipy")
+        if top is None or not top.submodule_search_locations:
+            return
+        for base in top.submodule_search_locations:
+            for suffix in importlib.machinery.EXTENSION_SUFFIXES:
+                file = Path(base) / "linalg" / f"cython_blas{suffix}"
+                if file.is_file():
+                    break
+            else:
+                continue
+            break
+        else:
+            return
+        import scipy  # noqa: F401  (the package itself is light)
+
+        spec = importlib.util.spec_from_file_location(name, file)
+        if spec is None or spec.loader is None:
+            return
+        module = importlib.util.module_from_spec(spec)
+        sys.modules[name] = module
+        spec.loader.exec_module(module)
+    except Exception:  # anything unexpected: numba's own import decides, as without this hook
+        sys.modules.pop(name, None)
+
+
+def install_light_blas() -> None:
+    """Put the :class:`_LightBlas` hook first on ``sys.meta_path`` (once; no effect once numba's arrays loaded)."""
+    import sys
+
+    if "numba.np.arraymath" in sys.modules or any(isinstance(f, _LightBlas) for f in sys.meta_path):
+        return
+    sys.meta_path.insert(0, _LightBlas())
+
+
 configure_cache()
+install_light_blas()

@@ -18,7 +18,7 @@ import os
 import subprocess
 import sys
 
-__all__ = ["compile_all", "start_in_background", "BACKGROUND_ENV"]
+__all__ = ["compile_all", "start_in_background", "background_enabled", "BACKGROUND_ENV"]
 
 #: Set to 1 to keep bhr from compiling the remaining kernels in the background after a first run.
 BACKGROUND_ENV = "BHR_NO_BACKGROUND_COMPILE"
@@ -70,9 +70,14 @@ def _run_all() -> None:
     check_schedule(DEFAULT_THERMAL, rows, 10.0)
 
 
+def background_enabled() -> bool:
+    """Whether a command that had to compile starts the background compile when it ends (BACKGROUND_ENV unset or 0)."""
+    return os.environ.get(BACKGROUND_ENV, "") in ("", "0")
+
+
 def start_in_background() -> bool:
     """Start ``python -m bhr.warmup`` detached and quiet, at low priority; False when turned off or impossible."""
-    if os.environ.get(BACKGROUND_ENV, "") not in ("", "0"):
+    if not background_enabled():
         return False
     try:
         subprocess.Popen([sys.executable, "-m", "bhr.warmup"], stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,

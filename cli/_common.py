@@ -10,6 +10,8 @@ from typing import Any, Callable
 
 import click
 
+from bhr.output.atomic import (check_parent_folder, folder_name, input_files, json_in_folder,  # noqa: F401
+                               run_folder_name)
 from bhr.settings.errors import INTERRUPTED, BhrError
 
 
@@ -85,36 +87,6 @@ def check_writable(path: str | os.PathLike[str] | None, what: str = "output") ->
     check_output_file(path, what)
 
 
-def run_folder_name(readable: str, *parts: Any) -> str:
-    """A folder name for a run: ``readable`` plus 8 hex digits of a hash of what makes the run different.
-
-    ``parts`` are JSON-able descriptions (trajectory points, robot, solver and
-    its options; a ``Path`` stands for its file's content); two runs share a
-    folder only when they agree on all of them (:func:`bhr.output.atomic.settings_hash`).
-    """
-    from bhr.output.atomic import settings_hash
-
-    return folder_name(readable, settings_hash(*parts))
-
-
-def folder_name(readable: str, settings: str) -> str:
-    """``readable`` made safe for a file name (at most 60 characters) plus ``-`` and the settings hash."""
-    safe = "".join(c if c.isalnum() and c.isascii() or c in "-_." else "_" for c in readable)[:60].lstrip(".")
-    return f"{safe or 'run'}-{settings}"
-
-
-def input_files(*paths: Any) -> list[Path]:
-    """The ones of ``paths`` that name existing files (inputs a run reads), for output checks and hashes."""
-    out = []
-    for p in paths:
-        if p is None or str(p) == "-":
-            continue
-        with contextlib.suppress(OSError, ValueError):
-            if os.path.isfile(p):
-                out.append(Path(p))
-    return out
-
-
 def default_output(command: str, readable: str, settings_parts: tuple[Any, ...], inputs: list[Path],
                    names: tuple[str, ...], out_dir: str | None, what: str = "output folder"):
     """The checked output folder of a study command: ``--out`` or ``bhr-out/<readable>-<hash of the settings>``.
@@ -140,38 +112,6 @@ def point_latest_if_default(folder: Any, out_dir: str | None) -> None:
         from bhr.output.atomic import point_latest
 
         point_latest(folder.target)
-
-
-def json_in_folder(json_path: str | None, folder: Any, taken: tuple[str, ...], option: str = "--json"
-                   ) -> str | None:
-    """The name inside the output folder that ``--json`` (or ``option``) names, if it names a file in it.
-
-    None when it names a file elsewhere. Refuses a name that another output of the same run writes
-    (codes.csv, a figure, the manifest).
-    """
-    import fnmatch
-
-    if json_path is None or json_path == "-":
-        return None
-    real = Path(os.path.abspath(os.path.realpath(json_path)))
-    try:
-        rel = real.relative_to(folder.target)
-    except ValueError:
-        return None
-    name = str(rel)
-    if name == "." or any(fnmatch.fnmatch(name, pat) for pat in taken) or name == "manifest.json":
-        raise BhrError(f"{option} {json_path} names another output of this run; choose another file name")
-    return name
-
-
-def check_parent_folder(folder: str | os.PathLike[str], what: str = "output folder") -> None:
-    """Fail before any work when run folders cannot be made inside ``folder`` (the default ``bhr-out``)."""
-    p = Path(folder)
-    probe = p
-    while not probe.exists() and probe != probe.parent:
-        probe = probe.parent
-    if not probe.is_dir() or not os.access(probe, os.W_OK | os.X_OK):
-        raise BhrError(f"cannot make the {what} in {p}: {probe} is not a writable folder; give --out DIR")
 
 
 def check_executor(jobs: int | None, scheduler: str | None) -> None:

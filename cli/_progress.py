@@ -169,7 +169,23 @@ def echo(message: str) -> None:
 
 COMPILE_NOTICE = ("Compiling bhr's kernels for this machine; this happens once (they are cached in {cache}), "
                   "later runs start at once. When this command ends, the kernels of the other commands are "
-                  "compiled in the background.")
+                  "compiled in the background ({env}=1 turns that off).")
+#: The notice when the background compile is turned off: other commands then compile their own kernels.
+COMPILE_NOTICE_ALONE = ("Compiling bhr's kernels for this machine; this happens once for each kernel (they are cached "
+                        "in {cache}): this command starts at once next time, and another command compiles the "
+                        "kernels it adds the first time it runs ({env} is set, so nothing is compiled in the "
+                        "background; 'python -m bhr.warmup' compiles them all now).")
+
+
+def compile_notice() -> str:
+    """The first-compile line, true to what happens next: the other commands' kernels compiled in the background
+    (:func:`bhr.warmup.start_in_background`) or not (BHR_NO_BACKGROUND_COMPILE set)."""
+    from bhr import _numba
+    from bhr.warmup import BACKGROUND_ENV, background_enabled
+
+    text = COMPILE_NOTICE if background_enabled() else COMPILE_NOTICE_ALONE
+    return text.format(cache=_numba.cache_dir(), env=BACKGROUND_ENV)
+
 
 _announcer = None
 _announced = False
@@ -182,7 +198,7 @@ def announce_if_cache_empty() -> None:
 
     if not _announced and not _numba.cache_has_kernels():
         _announced = True
-        echo(COMPILE_NOTICE.format(cache=_numba.cache_dir()))
+        echo(compile_notice())
 
 
 def announce_compiles() -> None:
@@ -194,7 +210,6 @@ def announce_compiles() -> None:
     global _announcer
     if _announcer is not None:
         return
-    from bhr import _numba
 
     # an empty cache means a first run: say so now, before the imports and
     # the first compile (a stale cache is caught by numba's compile event)
@@ -217,7 +232,7 @@ def announce_compiles() -> None:
             if self.depth == 0 and ours:
                 if not self.announced:
                     self.announced = True
-                    echo(COMPILE_NOTICE.format(cache=_numba.cache_dir()))
+                    echo(compile_notice())
                 self.cm = status("compiling kernels:")
                 self.progress = self.cm.__enter__()
             if self.progress is not None and func is not None and ours:

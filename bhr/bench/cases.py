@@ -731,6 +731,8 @@ def case_cli(repeat: int = 5) -> list[BenchResult]:
         subprocess.run(_bhr_cmd() + ["follow", "--traj", "colon", "--out", "w"], cwd=tmp, capture_output=True)
         help_t = _cpu(_bhr_cmd() + ["--help"], repeat, tmp)
         bad = _cpu(_bhr_cmd() + ["follow", "--traj", "colonn"], repeat, tmp, check=False)
+        bad_solver = _cpu(_bhr_cmd() + ["follow", "--traj", "colon", "--solver", "thesiss"], repeat, tmp, check=False)
+        bad_modules = _cpu(_bhr_cmd() + ["follow", "--traj", "colon", "--modules", "-3"], repeat, tmp, check=False)
         nop = _cpu(_bhr_cmd() + ["follow", "--traj", "colon", "--no-plots", "--out", "a"], repeat, tmp)
         plots = _cpu(_bhr_cmd() + ["follow", "--traj", "colon", "--out", "b"], max(3, repeat // 2), tmp)
         plan_codes_csv(os.path.join(tmp, "long.csv"))
@@ -740,6 +742,10 @@ def case_cli(repeat: int = 5) -> list[BenchResult]:
                            "<= 0.3 s", help_t <= 0.3))
     out.append(BenchResult("cli-bad-traj", "per command (CPU)", bad, base, "python -c pass", bad / base,
                            "<= 0.3 s", bad <= 0.3))
+    out.append(BenchResult("cli-bad-solver", "per command (CPU)", bad_solver, base, "python -c pass",
+                           bad_solver / base, "<= 0.3 s", bad_solver <= 0.3))
+    out.append(BenchResult("cli-bad-modules", "per command (CPU)", bad_modules, base, "python -c pass",
+                           bad_modules / base, "<= 0.3 s", bad_modules <= 0.3))
     out.append(BenchResult("cli-follow-colon-noplots", "per command (CPU)", nop, base, "python -c pass", nop / base,
                            "<= 1 s", nop <= 1.0))
     out.append(BenchResult("cli-follow-colon-plots", "per command (CPU)", plots, base, "python -c pass",

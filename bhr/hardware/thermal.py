@@ -104,6 +104,73 @@ def _const_array(p: ThermalParams) -> np.ndarray:
 # last row's code was reached (every energised wire contracted; -1: never), and where the run stopped.
 
 
+def _drive_code(want, dj, cool, warm):
+    """(code, blocked): what a module drives for the code ``want`` while it drives ``dj``.
+
+    ``cool``: the module's wires cooling after reaching the limit (4 bits);
+    ``warm``: its wires above theta_relax. Nothing for a code that needs a
+    cooling wire; nothing, and ``blocked`` = 1, for one that would energise
+    anew a wire still relaxing (the board's "early" rule). Used on a row's
+    arrival and after every PWM period's temperature update.
+    """
+    if want & cool:
+        want = 0
+    if want & ~dj & warm:
+        return 0, 1
+    return want, 0
+
+
+def _wire_on(n, p0, full_power, hold):
+    """Ticks a driven wire is on among ``n`` ticks from phase ``p0`` (within one PWM period).
+
+    At full power every tick; held, the ticks whose phase is below ``hold``,
+    which come first in a period.
+    """
+    if full_power == 1:
+        return n
+    on = min(p0 + n, hold) - p0
+    return on if on > 0 else 0
+
+
+def _wire_masks(j, cooling, theta, relax):
+    """Module ``j``'s wires as two 4-bit masks: cooling, and above theta_relax."""
+    cool = 0
+    warm = 0
+    for b in range(4):
+        if cooling[4 * j + b] == 1:
+            cool |= 1 << b
+        if theta[4 * j + b] > relax:
+            warm |= 1 << b
+    return cool, warm
+
+
+def _account(j, upto, last, drive, mode_full, hold, period, on_ticks, on_ms, run, max_run):
+    """Count module ``j``'s wires' on-ticks from ``last[j]`` up to (not including) tick ``upto``.
+
+    The drive and the power modes stay the same over such a stretch, which
+    lies within one PWM period: the kernel counts every module at each
+    period's end (inline there, the hot path), and a module before its drive
+    changes (here).
+    """
+    n = upto - last[j]
+    if n <= 0:
+        return
+    p0 = last[j] % period
+    d = drive[j]
+    for b in range(4):
+        i = 4 * j + b
+        on = _wire_on(n, p0, mode_full[i], hold) if (d >> b) & 1 else 0
+        if on > 0:
+            on_ticks[i] += on
+            on_ms[i] += on
+            run[i] += on
+            if run[i] > max_run[i]:
+                max_run[i] = run[i]
+        if on < n:  # a tick off after them
+            run[i] = 0
+    last[j] = upto
+
+
 def _kernel_py(row_t, rows, end_t, k, theta0, stride, auto, min_gap, margin, on_trace):
     period, hold, full, relax, limit, a = k[0], k[1], k[2], k[3], k[4], k[5]
     n_rows, m = rows.shape
@@ -114,6 +181,10 @@ def _kernel_py(row_t, rows, end_t, k, theta0, stride, auto, min_gap, margin, on_
     requested = np.zeros(m, np.int64)
     mode_full = np.zeros(na, np.int64)  # per wire: 1 full power (contracting), 0 PWM hold
     cooling = np.zeros(na, np.int64)    # per wire: 1 after reaching the limit, until relaxed
+    last = np.zeros(m, np.int64)        # per module: the first tick whose on-time is not counted yet
+    target = np.zeros(period + 1, np.int64)  # the temperature a period with so many ticks on heads for
+    for n_on in range(period + 1):
+        target[n_on] = (n_on * full) // period
     for i in range(na):
         if theta[i] > relax:
             cooling[i] = 1
@@ -132,26 +203,36 @@ def _kernel_py(row_t, rows, end_t, k, theta0, stride, auto, min_gap, margin, on_
     ready_t = -1  # auto mode: when the next row became sendable
     done_t = -1
     t_stop = end_t
+    state_ok = 0  # auto mode: the board's state lets row r go (valid while changed == 0)
+    changed = 1   # the drive, the temperatures or r changed since state_ok was found
     if auto == 1:
         for i in range(1, n_rows):
             row_t[i] = end_t + 1
     for t in range(end_t + 1):
         if auto == 1 and r < n_rows and r > 0:
-            # is the board ready for row r?  previous row reached (no module held, every wire contracted),
-            # no wire of row r still relaxing, and the minimum gap kept
+            # is the board ready for row r?  the minimum gap kept, previous row reached (no module held, every
+            # wire contracted) and no wire of row r still relaxing
             ok = 1
             if t < row_t[r - 1] + min_gap:
                 ok = 0
-            for j in range(m):
-                if drive[j] != requested[j]:
-                    ok = 0
-                for b in range(4):
-                    if mode_full[4 * j + b] == 1:
-                        ok = 0
-                new_on = rows[r, j] & ~drive[j]
-                for b in range(4):
-                    if (new_on >> b) & 1 and theta[4 * j + b] > relax:
-                        ok = 0
+            else:
+                if changed == 1:
+                    state_ok = 1
+                    for j in range(m):
+                        if drive[j] != requested[j]:
+                            state_ok = 0
+                            break
+                        for b in range(4):
+                            if mode_full[4 * j + b] == 1:
+                                state_ok = 0
+                        new_on = rows[r, j] & ~drive[j]
+                        for b in range(4):
+                            if (new_on >> b) & 1 and theta[4 * j + b] > relax:
+                                state_ok = 0
+                        if state_ok == 0:
+                            break
+                    changed = 0
+                ok = state_ok
             if ok == 1:
                 if ready_t < 0:
                     ready_t = t
@@ -163,20 +244,15 @@ def _kernel_py(row_t, rows, end_t, k, theta0, stride, auto, min_gap, margin, on_
             if row_t[r] != t:
                 row_t[r] = t + 1 + end_t  # not yet: keep it in the future
         while r < n_rows and row_t[r] <= t:
+            changed = 1
             for j in range(m):
                 requested[j] = rows[r, j]
             for j in range(m):
-                want = requested[j]
-                for b in range(4):
-                    if (want >> b) & 1 and cooling[4 * j + b] == 1:
-                        want = 0
-                new_on = want & ~drive[j]
-                for b in range(4):
-                    if (new_on >> b) & 1 and theta[4 * j + b] > relax:
-                        early[r, j] = 1
-                if early[r, j] == 1:
-                    want = 0
+                cool, warm = _wire_masks(j, cooling, theta, relax)
+                want, blocked = _drive_code(requested[j], drive[j], cool, warm)
+                early[r, j] = blocked
                 if want != drive[j]:
+                    _account(j, t, last, drive, mode_full, hold, period, on_ticks, on_ms, run, max_run)
                     # a wire energised anew starts at full power when below theta = 1; one that stays on
                     # keeps its drive (a holding wire is not pulsed again)
                     new_on = want & ~drive[j]
@@ -203,45 +279,50 @@ def _kernel_py(row_t, rows, end_t, k, theta0, stride, auto, min_gap, margin, on_
                     break
         if t == end_t:
             break
-        for j in range(m):
-            for b in range(4):
-                i = 4 * j + b
-                if (drive[j] >> b) & 1 and (mode_full[i] == 1 or phase < hold):
-                    on_ticks[i] += 1
-                    on_ms[i] += 1
-                    run[i] += 1
-                    if run[i] > max_run[i]:
-                        max_run[i] = run[i]
-                else:
-                    run[i] = 0
+        # tick t: the wires' on-time is counted lazily (_account), at the period's end or before a drive changes
         phase += 1
         if phase == period:
             phase = 0
-            for i in range(na):
-                target = (on_ticks[i] * full) // period
-                theta[i] += ((target - theta[i]) * a) >> 16
-                if theta[i] < 0:
-                    theta[i] = 0
-                if theta[i] > max_theta[i]:
-                    max_theta[i] = theta[i]
-                on_ticks[i] = 0
+            changed = 1
+            p0 = t + 1 - period  # the period's first tick
             for j in range(m):
+                # the module's on-ticks since it was last counted (inline: this runs every period for every wire)
+                n = t + 1 - last[j]
+                d = drive[j]
+                cool = 0
+                warm = 0
                 for b in range(4):
                     i = 4 * j + b
-                    if theta[i] >= limit:
+                    on = _wire_on(n, last[j] - p0, mode_full[i], hold) if (d >> b) & 1 else 0
+                    if on > 0:
+                        on_ticks[i] += on
+                        on_ms[i] += on
+                        run[i] += on
+                        if run[i] > max_run[i]:
+                            max_run[i] = run[i]
+                    if on < n:
+                        run[i] = 0
+                    th = theta[i]
+                    if th != 0 or on_ticks[i] != 0:  # a cold wire left off stays cold
+                        th += ((target[on_ticks[i]] - th) * a) >> 16
+                        if th < 0:
+                            th = 0
+                        theta[i] = th
+                        if th > max_theta[i]:
+                            max_theta[i] = th
+                        on_ticks[i] = 0
+                    if th >= limit:
                         cooling[i] = 1
                         if overheat_t[j] < 0:
                             overheat_t[j] = t + 1
-                    elif cooling[i] == 1 and theta[i] <= relax:
+                    elif cooling[i] == 1 and th <= relax:
                         cooling[i] = 0
-                want = requested[j]
-                for b in range(4):
-                    if (want >> b) & 1 and cooling[4 * j + b] == 1:
-                        want = 0
-                new_on = want & ~drive[j]
-                for b in range(4):
-                    if (new_on >> b) & 1 and theta[4 * j + b] > relax:
-                        want = 0
+                    if cooling[i] == 1:
+                        cool |= 1 << b
+                    if th > relax:
+                        warm |= 1 << b
+                last[j] = t + 1
+                want, blocked = _drive_code(requested[j], drive[j], cool, warm)
                 drive[j] = want
                 for b in range(4):  # each wire on: full power until it has contracted, then hold
                     i = 4 * j + b
@@ -251,8 +332,14 @@ def _kernel_py(row_t, rows, end_t, k, theta0, stride, auto, min_gap, margin, on_
             for i in range(na):
                 trace[s, i] = theta[i]
             if on_trace == 1:
+                for j in range(m):  # counted already when the sample ends a PWM period
+                    if last[j] != t + 1:
+                        _account(j, t + 1, last, drive, mode_full, hold, period, on_ticks, on_ms, run, max_run)
                 for i in range(na):
                     on_tr[s, i] = on_ms[i]
+    for j in range(m):  # every tick before the stop counted
+        _account(j, t_stop if t_stop < end_t else end_t, last, drive, mode_full, hold, period, on_ticks, on_ms,
+                 run, max_run)
     return trace, early, overheat_t, max_run, max_theta, on_ms, done_t, t_stop, on_tr
 
 
@@ -354,6 +441,9 @@ def _compiled():
     if _kernel is None:
         from numba import njit
 
+        # the kernel calls its helpers compiled: numba reads them from the module's globals when it compiles
+        for helper in ("_drive_code", "_wire_on", "_wire_masks", "_account"):
+            globals()[helper] = njit(cache=True, inline="always")(globals()[helper])
         _kernel = njit(cache=True)(_kernel_py)
     return _kernel
 

@@ -677,21 +677,29 @@ def check_figure_path(path: str | os.PathLike[str]) -> None:
         raise BhrError(f"cannot draw a figure as {path}: give a file ending in .png, .svg or .pdf")
 
 
-def save_figure(fig: plt.Figure, path: str | os.PathLike[str], dpi: int = 110) -> Path:
-    """Save ``fig`` atomically as PNG and close it."""
+#: zlib level of a run's PNG figures (save_run_plots): 1 instead of Pillow's 6 makes the files about 10 % larger
+#: and saves some 0.04 s of CPU over the three error figures (bhr follow draws five figures every run).
+RUN_PNG_COMPRESS = 1
+
+
+def save_figure(fig: plt.Figure, path: str | os.PathLike[str], dpi: int = 110, compress: int | None = None) -> Path:
+    """Save ``fig`` atomically as PNG (or SVG/PDF by extension) and close it; ``compress``: a PNG's zlib level."""
     p = Path(path)
     try:
         fmt = p.suffix.lower().lstrip(".") if p.suffix.lower() in FIGURE_FORMATS else "png"
+        kw: dict[str, Any] = {}
+        if compress is not None and fmt == "png":
+            kw["pil_kwargs"] = {"compress_level": int(compress)}
         with atomic_path(p) as tmp:
             if tmp == p:  # a device, FIFO or /dev/stdout: render in memory, then one plain write (no seeking)
                 import io
 
                 buf = io.BytesIO()
-                fig.savefig(buf, dpi=dpi, format=fmt)
+                fig.savefig(buf, dpi=dpi, format=fmt, **kw)
                 with open(p, "ab" if p.is_file() else "wb") as fh:
                     fh.write(buf.getvalue())
             else:
-                fig.savefig(tmp, dpi=dpi, format=fmt)
+                fig.savefig(tmp, dpi=dpi, format=fmt, **kw)
     finally:
         plt.close(fig)
     return p
@@ -702,12 +710,13 @@ def save_run_plots(result: "FollowResult", out_dir: str | os.PathLike[str]) -> l
     out = Path(out_dir)
     files = []
     for kind, (name, _, _) in ERROR_KINDS.items():
-        files.append(save_figure(error_figure(result, kind), out / name))
-    files.append(save_figure(path_figure(result), out / "path.png"))
+        files.append(save_figure(error_figure(result, kind), out / name, compress=RUN_PNG_COMPRESS))
+    files.append(save_figure(path_figure(result), out / "path.png", compress=RUN_PNG_COMPRESS))
     if result.body is not None and result.body.modules:
-        files.append(save_figure(body_figure(result), out / "body_errors.png"))
+        files.append(save_figure(body_figure(result), out / "body_errors.png", compress=RUN_PNG_COMPRESS))
     if result.clearance is not None:
-        files.append(save_figure(clearance_figure(result), out / "clearance.png"))
+        files.append(save_figure(clearance_figure(result), out / "clearance.png",
+                                 compress=RUN_PNG_COMPRESS))
     return files
 
 
