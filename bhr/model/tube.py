@@ -233,30 +233,25 @@ def local_scan(C, lo, hi, px, py, pz):
     step = hi - lo
     if step < 1:
         step = 1
-    while bk == lo and bt == 0.0 and lo > 0:
-        nlo = lo - step
-        if nlo < 0:
-            nlo = 0
-        b2, k2, t2 = segment_scan(C, nlo, lo, px, py, pz)
-        lo = nlo
-        if b2 < best:
-            best = b2
-            bk = k2
-            bt = t2
-        else:
-            break
-    while bk == hi - 1 and bt == 1.0 and hi < M - 1:
-        nhi = hi + step
-        if nhi > M - 1:
-            nhi = M - 1
-        b2, k2, t2 = segment_scan(C, hi, nhi, px, py, pz)
-        hi = nhi
-        if b2 < best:
-            best = b2
-            bk = k2
-            bt = t2
-        else:
-            break
+    for back in (True, False):  # behind the window's start, then past its end
+        while True:
+            if back:
+                if not (bk == lo and bt == 0.0 and lo > 0):
+                    break
+                a, b = max(lo - step, 0), lo
+                lo = a
+            else:
+                if not (bk == hi - 1 and bt == 1.0 and hi < M - 1):
+                    break
+                a, b = hi, min(hi + step, M - 1)
+                hi = b
+            b2, k2, t2 = segment_scan(C, a, b, px, py, pz)
+            if b2 < best:
+                best = b2
+                bk = k2
+                bt = t2
+            else:
+                break
     return best, bk, bt
 
 
