@@ -72,3 +72,78 @@ def test_ctrl_c_at_a_spread_of_moments(tmp_path, name, delay):
     while _living(p.pid) and time.monotonic() < deadline:  # workers go with their parent
         time.sleep(0.2)
     assert _living(p.pid) == []
+
+
+# --- an output that is also an input, a named pipe as an output ----------------------------------------------
+
+ROBOT = "modules = 5\n"
+TRAJ = "x,y,z\n0,0,0\n10,0,0\n20,0,0\n"
+CODES = "step,m1\n1,3\n"
+
+
+@pytest.mark.parametrize("args, files, flags", [
+    (["export", "--format", "urdf", "--robot", "r.toml", "--out", "r.toml"], {"r.toml": ROBOT}, "--robot and --out"),
+    (["export", "--format", "urdf", "--robot", "r.toml", "--out", "./r.toml"], {"r.toml": ROBOT}, "--robot and --out"),
+    (["plan", "--codes", "c.csv", "--csv", "c.csv", "--no-plots"], {"c.csv": CODES}, "--codes and --csv"),
+    (["plan", "--codes", "c.csv", "--plot", "c.csv"], {"c.csv": CODES}, "--codes and --plot"),
+    (["follow", "--traj", "t.csv", "--no-plots", "--json", "t.csv"], {"t.csv": TRAJ}, "--traj and --json"),
+    (["follow", "--traj", "line", "--robot", "r.toml", "--no-plots", "--json", "r.toml"], {"r.toml": ROBOT},
+     "--robot and --json"),
+    (["solve", "--target", "0", "0", "10", "--robot", "r.toml", "--json", "r.toml"], {"r.toml": ROBOT},
+     "--robot and --json"),
+    (["status", "--robot", "r.toml", "--json", "r.toml", "--timeout", "0.1", "--retries", "0"],
+     {"r.toml": '[link]\nport = "loop://"\n'}, "--robot and --json"),
+], ids=["export-robot", "export-robot-dot", "plan-csv", "plan-plot", "follow-traj", "follow-robot", "solve-robot",
+        "status-robot"])
+def test_an_output_file_that_is_an_input_is_refused(tmp_path, args, files, flags):
+    for name, text in files.items():
+        (tmp_path / name).write_text(text)
+    before = snapshot(tmp_path)
+    line = one_line(bhr(*args, cwd=tmp_path, timeout=120))
+    assert flags in line and "replace what this command reads" in line
+    assert snapshot(tmp_path) == before
+
+
+@pytest.mark.parametrize("args", [["export", "--format", "urdf", "--out", "o"], ["fk", "--codes", "0,3", "--json", "o"]],
+                         ids=["export", "fk"])
+def test_a_named_pipe_nobody_reads_is_waited_on_for_a_bounded_time(tmp_path, args):
+    os.mkfifo(tmp_path / "o")  # nobody reads it: opening it to write would wait for ever
+    assert "nobody reads the named pipe o" in one_line(bhr(*args, cwd=tmp_path, timeout=60))
+
+
+def test_fk_codes_with_a_module_left_out(tmp_path):
+    assert "code 2 is empty" in one_line(bhr("fk", "--codes", "0,,3", cwd=tmp_path))
+    r = bhr("fk", "--codes", "0, 3", cwd=tmp_path)  # a space after the comma is still one code
+    assert r.returncode == 0 and len(r.stdout.strip().splitlines()) == 1 + 3, r.stderr
+
+
+@pytest.mark.parametrize("args", [["follow", "--traj", "line"], ["report", "--file", "b.toml"]], ids=["follow", "report"])
+def test_an_unknown_matplotlib_backend_in_the_environment(tmp_path, args):
+    (tmp_path / "b.toml").write_text("[[run]]\nname = 'a'\ntraj = 'line'\n")
+    before = snapshot(tmp_path)
+    line = one_line(bhr(*args, cwd=tmp_path, env=dict(ENV, MPLBACKEND="nonexistent"), timeout=120))
+    assert "MPLBACKEND='nonexistent' is not a matplotlib backend" in line
+    assert snapshot(tmp_path) == before
+
+
+# --- disk full: a command's single files are one set -----------------------------------------------------------
+
+def _small_files(limit: int):
+    import resource
+
+    def pre():
+        resource.setrlimit(resource.RLIMIT_FSIZE, (limit, limit))  # Python ignores SIGXFSZ: writes fail EFBIG
+    return pre
+
+
+@pytest.mark.parametrize("args, failed", [
+    (["plan", "--codes", "c.csv", "--csv", "p.csv", "--plot", "p.png"], "p.png"),
+    (["solve", "--target", "0", "0", "10", "--json", "s.json", "--plot", "s.png"], "s.png"),
+], ids=["plan-csv-and-figure", "solve-json-and-figure"])
+def test_a_file_too_large_leaves_none_of_the_commands_files(tmp_path, args, failed):
+    # the small CSV/JSON fits under the limit, the figure does not: the CSV/JSON must not be left alone
+    (tmp_path / "c.csv").write_text("step,m1,m2\n" + "".join(f"{k + 1},{3 * (k % 2)},0\n" for k in range(40)))
+    before = snapshot(tmp_path)
+    line = one_line(bhr(*args, cwd=tmp_path, timeout=300, preexec_fn=_small_files(5000)))
+    assert line.startswith(f"Error: {failed}: File too large"), line
+    assert snapshot(tmp_path) == before
