@@ -34,15 +34,20 @@ def is_bhr_command() -> bool:
 
 
 def _in_extension_init(frame: object) -> bool:
-    """True while a compiled extension module initialises (its init calls Python code): a KeyboardInterrupt
-    raised there leaves the extension half made (matplotlib's ft2font: "initialization failed", then a fatal
-    error and SIGABRT while the interpreter shuts down)."""
+    """True while a compiled extension module initialises (its init calls Python code), or inside a ``__del__``:
+    a KeyboardInterrupt raised in an init leaves the extension half made (matplotlib's ft2font: "initialization
+    failed", then a fatal error and SIGABRT while the interpreter shuts down); one raised in a finalizer is
+    printed as "Exception ignored" with a traceback and lost. Either way the Ctrl-C waits a few ms."""
     from importlib.machinery import ExtensionFileLoader
 
     f = frame
     while f is not None:
         code = getattr(f, "f_code", None)
-        if code is not None and code.co_name in ("create_module", "exec_module") and isinstance(
+        if code is None:
+            break
+        if code.co_name == "__del__":  # a finalizer (llvmlite's ObjectRef): Python would print the
+            return True                # KeyboardInterrupt as "Exception ignored in ..." and a traceback
+        if code.co_name in ("create_module", "exec_module") and isinstance(
                 getattr(f, "f_locals", {}).get("self"), ExtensionFileLoader):
             return True
         f = getattr(f, "f_back", None)

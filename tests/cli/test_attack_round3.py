@@ -147,3 +147,10 @@ def test_a_file_too_large_leaves_none_of_the_commands_files(tmp_path, args, fail
     line = one_line(bhr(*args, cwd=tmp_path, timeout=300, preexec_fn=_small_files(5000)))
     assert line.startswith(f"Error: {failed}: File too large"), line
     assert snapshot(tmp_path) == before
+
+
+def test_a_very_long_scheduler_address_is_quoted_short(tmp_path):
+    line = one_line(bhr("sweep", "--traj", "line", "--grid", "modules=3", "--no-plots", "--scheduler", "x" * 1000,
+                        cwd=tmp_path, timeout=120))
+    assert "cannot connect to the Dask scheduler" in line and len(line) < 400
+    assert list(tmp_path.iterdir()) == []

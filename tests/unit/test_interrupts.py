@@ -73,3 +73,12 @@ def test_a_ctrl_c_during_an_extensions_init_is_held_then_raised():
         signal.setitimer(signal.ITIMER_REAL, 0)
         signal.signal(signal.SIGALRM, old_alarm)
         INTERRUPTED.clear()
+
+
+def test_a_ctrl_c_inside_a_finalizer_is_held():
+    class Ref:
+        def __del__(self):
+            Ref.frame = sys._getframe()
+
+    Ref().__del__()
+    assert interrupts._in_extension_init(Ref.frame)
