@@ -154,3 +154,10 @@ def test_a_very_long_scheduler_address_is_quoted_short(tmp_path):
                         cwd=tmp_path, timeout=120))
     assert "cannot connect to the Dask scheduler" in line and len(line) < 400
     assert list(tmp_path.iterdir()) == []
+
+
+def test_a_bhr_folder_in_the_current_folder_does_not_replace_the_installed_bhr(tmp_path):
+    (tmp_path / "bhr").mkdir()  # a checkout, or anything named bhr/
+    (tmp_path / "bhr" / "__init__.py").write_text('raise SystemExit("the wrong bhr")\n')
+    r = bhr("fk", "--codes", "0,3", cwd=tmp_path, timeout=120)
+    assert r.returncode == 0 and "wrong bhr" not in r.stderr, r.stderr
