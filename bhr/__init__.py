@@ -22,8 +22,10 @@ if sys.argv and sys.argv[0].rsplit("/", 1)[-1] == "bhr":  # the bhr command: Ctr
         _signal.signal(_signal.SIGINT, _signal.SIG_IGN)
     else:
         from bhr.settings.interrupts import install as _install_interrupts
+        from bhr.settings.interrupts import release as _release_interrupts
 
         _install_interrupts()
+        _release_interrupts()  # a Ctrl-C held since start-up (SIGINT blocked) ends the command here
 
 import importlib
 import types

@@ -55,6 +55,12 @@ def guarded(func: Callable[..., Any]) -> Callable[..., Any]:
             return rv
         except BhrError as exc:
             raise click.ClickException(str(exc).splitlines()[0] if str(exc) else type(exc).__name__) from None
+        except ValueError as exc:
+            if not str(exc).startswith("Key backend:"):
+                raise
+            shown = repr(os.environ.get("MPLBACKEND", ""))[:40]  # matplotlib refused the environment's backend
+            raise click.ClickException(f"MPLBACKEND={shown} is not a matplotlib backend; unset it or set "
+                                       "MPLBACKEND=Agg") from None
         except KeyboardInterrupt:
             click.echo("Interrupted.", err=True)
             sys.exit(130)
@@ -85,6 +91,33 @@ def check_writable(path: str | os.PathLike[str] | None, what: str = "output") ->
     from bhr.output.atomic import check_output_file
 
     check_output_file(path, what)
+    _refuse_an_input(path, what)
+
+
+def _same_file(a: Any, b: Any) -> bool:
+    with contextlib.suppress(OSError, ValueError, TypeError):
+        return os.path.isfile(a) and os.path.samefile(a, b)
+    return False
+
+
+def _refuse_an_input(path: str | os.PathLike[str], what: str) -> None:
+    """An output file that another option of the command names too (an input: --traj, --codes, --robot, or
+    a second output) is refused before any work: writing it would replace what the command reads."""
+    if not os.path.isfile(path):
+        return
+    ctx = click.get_current_context(silent=True)
+    if ctx is None:
+        return
+    naming = []
+    for name, value in ctx.params.items():
+        values = value if isinstance(value, (tuple, list)) else (value,)
+        if any(isinstance(v, (str, os.PathLike)) and str(v) != "-" and _same_file(v, path) for v in values):
+            naming.append(name)
+    if len(naming) >= 2:
+        flags = {p.name: (p.opts[0] if getattr(p, "opts", None) else p.name) for p in ctx.command.params}
+        named = " and ".join(str(flags.get(n, n)) for n in naming[:3])
+        raise click.ClickException(f"{what} {str(path)[:80]!r} is named by both {named}; writing it would replace "
+                                   "what this command reads: choose another path")
 
 
 def default_output(command: str, readable: str, settings_parts: tuple[Any, ...], inputs: list[Path],

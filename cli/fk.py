@@ -27,9 +27,11 @@ def fk(codes, json_path, **kwargs):
     from bhr.model.robot import forward_kinematics
 
     check_writable(json_path, "JSON")
-    values = [c for c in codes.replace(" ", ",").split(",") if c != ""]
-    if not values:
+    values = [c.strip() for c in codes.split(",")] if "," in codes else codes.split()
+    if not any(values):
         raise BhrError("--codes needs at least one code, e.g. --codes 3,0,6")
+    if "" in values:  # 0,,3: a module left out, not two modules
+        raise BhrError(f"--codes: code {values.index('') + 1} is empty; give one code per module, e.g. --codes 3,0,6")
     checked = check_codes(values)
     if kwargs.get("modules") is None and kwargs.get("robot_file") is None:
         kwargs["modules"] = len(checked)

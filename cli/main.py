@@ -39,6 +39,14 @@ class LazyGroup(click.Group):
         if not standalone_mode:
             return super().main(args, prog_name, complete_var, standalone_mode, **extra)
         try:
+            self._run(args, prog_name, complete_var, **extra)
+        finally:  # the command has ended (outputs written or not): a Ctrl-C from now on changes nothing
+            from bhr.settings.interrupts import settle
+
+            settle()
+
+    def _run(self, args, prog_name, complete_var, **extra):
+        try:
             rv = super().main(args, prog_name, complete_var, standalone_mode=False, **extra)
         except click.UsageError as exc:
             where = exc.ctx.command_path if exc.ctx is not None else "bhr"

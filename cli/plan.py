@@ -39,7 +39,6 @@ def plan(codes_path, rate, schedule, robot_file, plot_path, no_plot, csv_path):
     \b
         bhr plan --codes bhr-out/latest/codes.csv --schedule auto
     """
-    from bhr.output.atomic import write_text
     from bhr.model.codes import read_codes_csv
     from bhr.hardware.thermal import format_duration, plan as make_plan, summarize
 
@@ -73,6 +72,17 @@ def plan(codes_path, rate, schedule, robot_file, plot_path, no_plot, csv_path):
         prev = row
     out.write(summarize(sched, name) + "\n")
     out.flush()
+    from bhr.output.atomic import together
+
+    with together():  # the CSV and the figure: both or neither
+        written = _write_outputs(sched, table, steps, name, csv_path, plot_path, no_plot)
+    if written:
+        click.echo("Wrote " + ", ".join(str(p) for p in written), err=True)
+
+
+def _write_outputs(sched, table, steps, name, csv_path, plot_path, no_plot) -> list:
+    from bhr.output.atomic import write_text
+
     written = []
     if csv_path:
         lines = ["step,time_s," + ",".join(f"m{j + 1}" for j in range(table.shape[1]))]
@@ -92,5 +102,4 @@ def plan(codes_path, rate, schedule, robot_file, plot_path, no_plot, csv_path):
         else:
             save_schedule_figure(sched, plot_path, title=name)
         written.append(plot_path)
-    if written:
-        click.echo("Wrote " + ", ".join(str(p) for p in written), err=True)
+    return written

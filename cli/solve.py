@@ -45,7 +45,7 @@ def solve(target, orientation, solver, json_path, plot_path, **kwargs):
         bhr solve --modules 5 --module-length 2 --target 3 9 0 --solver ccd
     """
     from bhr.cli._progress import announce_compiles
-    from bhr.solvers import Chain, canonical, solve as run
+    from bhr.solvers import canonical, solve as run
 
     announce_compiles()
 
@@ -79,12 +79,20 @@ def solve(target, orientation, solver, json_path, plot_path, **kwargs):
         click.echo(f"{'point':>5} {'x':>10} {'y':>10} {'z':>10}")
         for j, p in enumerate(result.points, start=1):
             click.echo(f"{j:>5} {p[0]:>10.5f} {p[1]:>10.5f} {p[2]:>10.5f}")
+    from bhr.output.atomic import together
+
+    with together():  # the JSON and the figure: both or neither
+        _write_outputs(json_path, plot_path, doc, robot, solver, target, result)
+
+
+def _write_outputs(json_path, plot_path, doc, robot, solver, target, result) -> None:
     if json_path not in (None, "-"):
         from bhr.output.atomic import write_json
 
         write_json(json_path, doc)
     if plot_path:
         from bhr.output.plots import chain_figure, save_figure
+        from bhr.solvers import Chain
 
         initial = Chain.straight(robot, (0, 1, 0)).points
         title = f"{solver}: target ({', '.join(f'{v:g}' for v in target)}), {result.iterations} iterations"

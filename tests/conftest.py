@@ -13,7 +13,8 @@ REPO = Path(__file__).resolve().parent.parent
 
 
 def bhr_exe() -> list[str]:
-    exe = shutil.which("bhr")
+    beside = Path(sys.executable).parent / "bhr"  # the venv's own command, PATH or not
+    exe = str(beside) if os.access(beside, os.X_OK) else shutil.which("bhr")
     if exe is None:  # installed without the scripts folder on PATH: run the entry point module
         return [sys.executable, "-c", "from bhr.cli.main import main; main()"]
     return [exe]

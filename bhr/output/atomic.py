@@ -43,7 +43,7 @@ from typing import Any, Iterable, Iterator
 from bhr import __version__
 from bhr.settings.errors import INTERRUPTED, BhrError
 
-__all__ = ["atomic_path", "write_text", "write_json", "check_output_file", "OutputFolder", "MANIFEST",
+__all__ = ["atomic_path", "write_text", "write_json", "check_output_file", "together", "OutputFolder", "MANIFEST",
            "in_place_target", "point_latest", "verify_folder", "INTERRUPTED", "settings_hash"]
 
 #: The file in every output folder that ties its files to one run.
@@ -105,6 +105,9 @@ def check_output_file(path: str | os.PathLike[str], what: str = "output") -> Non
     if p.is_dir():
         raise BhrError(f"{what} path {p} is a directory; give a file name")
     if in_place_target(p):
+        with contextlib.suppress(OSError):
+            if stat.S_ISSOCK(os.stat(p).st_mode):
+                raise BhrError(f"{what} {_short(p)} is a socket, not a file; give a file name")
         if not os.access(p, os.W_OK):
             raise BhrError(f"cannot write {what} {p}: permission denied; choose another path")
         return
@@ -132,12 +135,16 @@ def atomic_path(path: str | os.PathLike[str], suffix: str | None = None) -> Iter
     """
     target = Path(path)
     if in_place_target(target):
+        held = _wait_for_reader(target)
         try:
             yield target
         except OSError as exc:
             if exc.filename is None:
                 exc.filename = str(target)  # so that the one-line message names the device
             raise
+        finally:
+            if held is not None:
+                os.close(held)
         return
     target = _real_target(target)
     if target.exists() and not (target.stat().st_mode & 0o222 and os.access(target, os.W_OK)):
@@ -151,7 +158,14 @@ def atomic_path(path: str | os.PathLike[str], suffix: str | None = None) -> Iter
         try:
             yield tmp_path
             os.chmod(tmp_path, _mode_for(target))
-            os.replace(tmp_path, target)
+            if _together is not None and not any(_within(target.resolve(), st.resolve()) for st in _staging):
+                # one set with the command's other files: put in place at the end (a file inside an output
+                # folder's stage goes in with its folder)
+                kept = tmp_path.with_name(tmp_path.name + ".set")
+                os.replace(tmp_path, kept)
+                _together.append((kept, target, str(path)))
+            else:
+                os.replace(tmp_path, target)
         except OSError as exc:
             if exc.filename is None or str(exc.filename) == str(tmp_path):
                 exc.filename = str(path)  # the one-line message names the output, not a temporary name
@@ -159,6 +173,74 @@ def atomic_path(path: str | os.PathLike[str], suffix: str | None = None) -> Iter
     finally:
         if tmp_path.exists():
             tmp_path.unlink()
+
+
+#: How long a named pipe given as an output may wait for its reader (seconds).
+FIFO_READER_WAIT_S = 10.0
+
+
+def _wait_for_reader(target: Path) -> int | None:
+    """A named pipe as an output: wait (bounded) for a reader instead of for ever; return a write end kept open
+    while the file is written, so that the reader sees one stream. Anything else: None."""
+    try:
+        if not stat.S_ISFIFO(os.stat(target).st_mode):
+            return None
+    except OSError:
+        return None
+    import time
+
+    deadline = time.monotonic() + FIFO_READER_WAIT_S
+    while True:
+        try:
+            return os.open(target, os.O_WRONLY | os.O_NONBLOCK)
+        except OSError as exc:
+            if exc.errno != errno.ENXIO:  # ENXIO: nobody has it open for reading yet
+                raise
+        if time.monotonic() > deadline:
+            raise BhrError(f"nobody reads the named pipe {_short(target)} (waited {FIFO_READER_WAIT_S:g} s); "
+                           "start its reader first, or give a file name")
+        time.sleep(0.05)
+
+
+_together: list[tuple[Path, Path, str]] | None = None
+_staging: set[Path] = set()  # the stage folders of the OutputFolders being written
+
+
+@contextlib.contextmanager
+def together() -> Iterator[None]:
+    """The single files written inside (:func:`atomic_path`, :func:`write_text`, :func:`write_json`) are one set:
+    each is put in place only when the block ends without an error, so a failure writing the last one (disk
+    full) leaves none of them, not the first ones alone."""
+    global _together
+    if _together is not None:  # already inside one
+        yield
+        return
+    staged: list[tuple[Path, Path, str]] = []
+    _together = staged
+    try:
+        yield
+    except BaseException:
+        for kept, _, _ in staged:
+            with contextlib.suppress(OSError):
+                kept.unlink()
+        raise
+    finally:
+        _together = None
+    if INTERRUPTED.is_set():  # a Ctrl-C caught on the way: none of them
+        for kept, _, _ in staged:
+            with contextlib.suppress(OSError):
+                kept.unlink()
+        raise KeyboardInterrupt
+    for k, (kept, target, given) in enumerate(staged):
+        try:
+            os.replace(kept, target)
+        except OSError as exc:
+            for later, _, _ in staged[k:]:
+                with contextlib.suppress(OSError):
+                    later.unlink()
+            if exc.filename is None or str(exc.filename) == str(kept):
+                exc.filename = given
+            raise
 
 
 def _mode_for(target: Path, new: int = 0o666) -> int:
@@ -353,6 +435,7 @@ class OutputFolder:
         self.stage = Path(tempfile.mkdtemp(prefix=f".{self.target.name}{_STAGE}{os.getpid()}-",
                                            dir=self.target.parent))
         os.chmod(self.stage, _mode_for(self.target, 0o777))
+        _staging.add(self.stage)
         return self
 
     def path(self, name: str | os.PathLike[str]) -> Path:
@@ -370,6 +453,7 @@ class OutputFolder:
 
     def __exit__(self, exc_type: Any, exc: Any, tb: Any) -> None:
         assert self.stage is not None
+        _staging.discard(self.stage)
         if exc_type is not None:
             shutil.rmtree(self.stage, ignore_errors=True)
             self._remove_made()

@@ -8,6 +8,12 @@ top before any command's guard runs (while modules are still importing). It
 is installed by the command line only: ``bhr/__init__`` calls it first thing
 when the running program is the ``bhr`` console script, ``bhr.cli`` otherwise;
 a program that imports the library keeps Python's own handling.
+
+A command started with SIGINT *blocked* (``env --block-signal=INT bhr ...``) holds a Ctrl-C during Python's
+own start-up and imports, not lost and not a traceback; :func:`install` lets it through once the handler is
+in place (a held Ctrl-C then ends the command at once). :func:`settle` is called when the command
+has ended: a Ctrl-C from then on, while the interpreter shuts down, changes nothing (the exit status is the
+command's), instead of killing the process by the signal after its outputs are written.
 """
 from __future__ import annotations
 
@@ -17,7 +23,7 @@ import sys
 
 from bhr.settings.errors import INTERRUPTED
 
-__all__ = ["install", "is_bhr_command"]
+__all__ = ["install", "is_bhr_command", "release", "settle"]
 
 _installed = False
 
@@ -27,8 +33,42 @@ def is_bhr_command() -> bool:
     return bool(sys.argv) and os.path.basename(sys.argv[0] or "") in ("bhr", "bhr.exe")
 
 
+def _in_extension_init(frame: object) -> bool:
+    """True while a compiled extension module initialises (its init calls Python code), or inside a ``__del__``:
+    a KeyboardInterrupt raised in an init leaves the extension half made (matplotlib's ft2font: "initialization
+    failed", then a fatal error and SIGABRT while the interpreter shuts down); one raised in a finalizer is
+    printed as "Exception ignored" with a traceback and lost. Either way the Ctrl-C waits a few ms."""
+    from importlib.machinery import ExtensionFileLoader
+
+    f = frame
+    while f is not None:
+        code = getattr(f, "f_code", None)
+        if code is None:
+            break
+        if code.co_name == "__del__":  # a finalizer (llvmlite's ObjectRef): Python would print the
+            return True                # KeyboardInterrupt as "Exception ignored in ..." and a traceback
+        if code.co_name in ("create_module", "exec_module") and isinstance(
+                getattr(f, "f_locals", {}).get("self"), ExtensionFileLoader):
+            return True
+        f = getattr(f, "f_back", None)
+    return False
+
+
+def _raise_when_clear(signum: int, frame: object) -> None:
+    """SIGALRM after a deferred Ctrl-C: raise it once no extension module is initialising."""
+    if _in_extension_init(frame):
+        signal.setitimer(signal.ITIMER_REAL, 0.01)
+        return
+    signal.signal(signal.SIGALRM, signal.SIG_DFL)
+    raise KeyboardInterrupt
+
+
 def _on_interrupt(signum: int, frame: object) -> None:
     INTERRUPTED.set()
+    if hasattr(signal, "setitimer") and _in_extension_init(frame):  # Ctrl-C held a few ms, not lost
+        signal.signal(signal.SIGALRM, _raise_when_clear)
+        signal.setitimer(signal.ITIMER_REAL, 0.01)
+        return
     raise KeyboardInterrupt
 
 
@@ -46,16 +86,40 @@ def _excepthook(kind: type[BaseException], exc: BaseException, tb: object) -> No
 _previous = sys.excepthook
 
 
+def release() -> None:
+    """Let through a SIGINT blocked since start-up (a Ctrl-C held until now is delivered now)."""
+    if hasattr(signal, "pthread_sigmask"):
+        try:
+            if signal.SIGINT in signal.pthread_sigmask(signal.SIG_BLOCK, set()):
+                signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+        except (OSError, ValueError):
+            pass
+
+
 def install() -> None:
     """Install the handler and the hook (once; in the main thread; not where Ctrl-C is ignored or under pytest)."""
     global _installed
     if _installed or "pytest" in sys.modules:
         return
     try:
-        if signal.getsignal(signal.SIGINT) is not signal.default_int_handler:  # a background job: SIG_IGN
+        # SIG_IGN: a background job, where Ctrl-C is not the command's (SIG_DFL: Python's own not yet put)
+        if signal.getsignal(signal.SIGINT) not in (signal.default_int_handler, signal.SIG_DFL):
             return
+        sys.excepthook = _excepthook
         signal.signal(signal.SIGINT, _on_interrupt)
     except ValueError:  # not the main thread
         return
-    sys.excepthook = _excepthook
     _installed = True
+
+
+def settle() -> None:
+    """The command has ended: from now on a Ctrl-C changes nothing (no traceback, no death by signal at exit)."""
+    if not _installed:
+        return
+    try:
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+        if hasattr(signal, "setitimer") and signal.getsignal(signal.SIGALRM) is _raise_when_clear:
+            signal.setitimer(signal.ITIMER_REAL, 0)  # a deferred Ctrl-C (the flag is already set)
+            signal.signal(signal.SIGALRM, signal.SIG_DFL)
+    except (ValueError, OSError):
+        pass

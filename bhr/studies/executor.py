@@ -381,7 +381,11 @@ def _dask_failure(address: str, exc: BaseException) -> BhrError:
 
 
 def _cannot(address: str, why: str) -> BhrError:
-    return BhrError(f"cannot connect to the Dask scheduler at {address} ({why}); check the address "
+    from bhr.settings.options import excerpt
+
+    shown = address if len(address) <= 60 and address.isprintable() else excerpt(address, 60)
+    why = why if len(why) <= 120 and why.isprintable() else excerpt(why, 120)  # may quote the address again
+    return BhrError(f"cannot connect to the Dask scheduler at {shown} ({why}); check the address "
                     "(e.g. tcp://127.0.0.1:8786) and that the scheduler is running")
 
 

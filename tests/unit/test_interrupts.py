@@ -1,0 +1,84 @@
+"""Ctrl-C in the bhr command, the pieces that make it hold at any moment (bhr.settings.interrupts): a Ctrl-C
+held since start-up (the command started with SIGINT blocked) is delivered once the handler is in place, one during a compiled
+extension's initialisation waits until it is done, one after the command has ended changes nothing."""
+from __future__ import annotations
+
+import shutil
+import signal
+import subprocess
+import sys
+from importlib.machinery import ExtensionFileLoader
+
+import pytest
+
+from bhr.settings import interrupts
+from bhr.settings.errors import INTERRUPTED
+
+
+def _python(code: str, *, blocked: bool = False) -> subprocess.CompletedProcess:
+    cmd = [sys.executable, "-c", code]
+    if blocked:
+        env_exe = shutil.which("env")
+        assert env_exe is not None
+        cmd = [env_exe, "--block-signal=INT"] + cmd
+    return subprocess.run(cmd, capture_output=True, text=True, timeout=120)
+
+
+def test_a_ctrl_c_held_since_start_up_ends_the_command_once_bhr_is_imported():
+    # Python started with SIGINT blocked (env --block-signal=INT); the Ctrl-C comes before bhr is imported
+    r = _python("import os, signal, sys; os.kill(os.getpid(), signal.SIGINT); "
+                "assert signal.SIGINT in signal.sigpending(); sys.argv[0] = 'bhr'; import bhr; print('went on')",
+                blocked=True)
+    assert (r.returncode, r.stderr, r.stdout) == (130, "Interrupted.\n", "")
+
+
+def test_the_command_unblocks_ctrl_c_for_what_it_starts():
+    r = _python("import signal, sys; sys.argv[0] = 'bhr'; import bhr; "
+                "print(signal.SIGINT in signal.pthread_sigmask(signal.SIG_BLOCK, set()))", blocked=True)
+    assert (r.returncode, r.stdout.strip()) == (0, "False"), r.stderr
+
+
+@pytest.mark.parametrize("settled, rc, err", [(False, 130, "Interrupted.\n"), (True, 0, "")])
+def test_a_ctrl_c_after_the_command_ended_changes_nothing(settled, rc, err):
+    r = _python("import os, signal, sys; sys.argv[0] = 'bhr'; import bhr; from bhr.settings import interrupts; "
+                + ("interrupts.settle(); " if settled else "")
+                + "os.kill(os.getpid(), signal.SIGINT); import time; time.sleep(0.05); sys.exit(0)")
+    assert (r.returncode, r.stderr) == (rc, err)
+
+
+def _inside_extension_init():
+    """A frame as the one an extension module's init runs Python code from (ExtensionFileLoader.exec_module)."""
+    def exec_module(self):  # noqa: ARG001 - its local 'self' is what the check looks at
+        return sys._getframe()
+    return exec_module(ExtensionFileLoader("fake", "/nowhere/fake.so"))
+
+
+def test_a_ctrl_c_during_an_extensions_init_is_held_then_raised():
+    frame = _inside_extension_init()
+    assert interrupts._in_extension_init(frame) and not interrupts._in_extension_init(sys._getframe())
+    old_alarm = signal.getsignal(signal.SIGALRM)
+    try:
+        interrupts._on_interrupt(signal.SIGINT, frame)  # held: no KeyboardInterrupt inside the init
+        assert INTERRUPTED.is_set() and signal.getsignal(signal.SIGALRM) is interrupts._raise_when_clear
+        assert signal.getitimer(signal.ITIMER_REAL)[0] > 0
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        interrupts._raise_when_clear(signal.SIGALRM, frame)  # still initialising: held again
+        assert signal.getitimer(signal.ITIMER_REAL)[0] > 0
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        with pytest.raises(KeyboardInterrupt):
+            interrupts._raise_when_clear(signal.SIGALRM, sys._getframe())
+        with pytest.raises(KeyboardInterrupt):  # outside any extension's init: at once, as before
+            interrupts._on_interrupt(signal.SIGINT, sys._getframe())
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, old_alarm)
+        INTERRUPTED.clear()
+
+
+def test_a_ctrl_c_inside_a_finalizer_is_held():
+    class Ref:
+        def __del__(self):
+            Ref.frame = sys._getframe()
+
+    Ref().__del__()
+    assert interrupts._in_extension_init(Ref.frame)
