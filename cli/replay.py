@@ -106,29 +106,16 @@ def replay(run, show, animate_path, stride, out_dir, step):
     written: list[Path] = []
     if write_plots:
         from bhr.cli._progress import status
-        from bhr.output.plots import ERROR_KINDS, body_figure, clearance_figure, error_figure, path_figure, save_figure
+        from bhr.output.plots import save_run_plots
+        from bhr.output.view import save_view
 
-        figures = [(name, lambda kind=kind: error_figure(result, kind)) for kind, (name, _, _) in ERROR_KINDS.items()]
-        figures.append((path_name, lambda: path_figure(result, None if step is None else step - 1)))
-        # everything `bhr follow` drew: the body's errors and the lumen clearance too
-        if result.body is not None and result.body.modules:
-            figures.append(("body_errors.png", lambda: body_figure(result)))
-        if result.clearance is not None:
-            figures.append(("clearance.png", lambda: clearance_figure(result)))
-        with status(f"drawing the figures into {out}"):
+        with status(f"drawing the figures into {out}"):  # everything `bhr follow` drew
             if folder is None:  # a loose run.json: the figures are written beside it, each whole
-                for name, draw in figures:
-                    written.append(save_figure(draw(), out / name))
-                from bhr.output.view import save_view
-
+                written += save_run_plots(result, out, step)
                 written.append(save_view(result, out))
             else:
                 with folder:
-                    for name, draw in figures:
-                        save_figure(draw(), folder.path(name))
-                        written.append(folder.final(name))
-                    from bhr.output.view import save_view
-
+                    written += [folder.final(p.name) for p in save_run_plots(result, folder.stage, step)]
                     written.append(folder.final(save_view(result, folder.stage).name))
     if animate_path:
         render_animation(result, animate_path, stride)  # prints its own line

@@ -705,13 +705,17 @@ def save_figure(fig: plt.Figure, path: str | os.PathLike[str], dpi: int = 110, c
     return p
 
 
-def save_run_plots(result: "FollowResult", out_dir: str | os.PathLike[str]) -> list[Path]:
-    """Write the three error figures and the path view of a run into ``out_dir``."""
+def save_run_plots(result: "FollowResult", out_dir: str | os.PathLike[str], step: int | None = None) -> list[Path]:
+    """Write a run's figures into ``out_dir``: the three error figures, the path view (``path.png``, or with the
+    robot at 1-based ``step``, ``path-stepK.png``) and, where the run has them, the body's errors and the
+    lumen clearance."""
     out = Path(out_dir)
     files = []
     for kind, (name, _, _) in ERROR_KINDS.items():
         files.append(save_figure(error_figure(result, kind), out / name, compress=RUN_PNG_COMPRESS))
-    files.append(save_figure(path_figure(result), out / "path.png", compress=RUN_PNG_COMPRESS))
+    path_name = "path.png" if step is None else f"path-step{step}.png"
+    files.append(save_figure(path_figure(result, None if step is None else step - 1), out / path_name,
+                             compress=RUN_PNG_COMPRESS))
     if result.body is not None and result.body.modules:
         files.append(save_figure(body_figure(result), out / "body_errors.png", compress=RUN_PNG_COMPRESS))
     if result.clearance is not None:
