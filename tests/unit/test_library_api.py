@@ -124,11 +124,11 @@ def test_the_defaults_are_in_the_signatures():
 
 # ------------------------------------------------------------------ solver objects and plug-ins
 def test_a_configured_solver_object_is_accepted():
-    robot = bhr.Robot(module_length=5)
+    robot = bhr.Robot(alpha=12)
     s = solvers.get_solver("lumen", robot, window=30.0)
     run = bhr.follow(bhr.trajectory("anatomy", seed=3), solver=s)
     assert run.robot == robot and run.solver == "lumen" and run.trajectory.feed == robot.feed
-    with pytest.raises(BhrError, match="was built for Robot\\(module_length=5\\), not for Robot\\(module_length=6"):
+    with pytest.raises(BhrError, match="was built for Robot\\(alpha=12\\), not for Robot\\(module_length=6"):
         bhr.follow(bhr.trajectory("line"), solver=s, module_length=6)
     res = bhr.solve([3, 9, 0], solver=solvers.get_solver("ccd", bhr.Robot(modules=5, module_length=2.0, tol_pos=0.01)))
     assert res.iterations == 16  # Table 5.1
