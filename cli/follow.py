@@ -10,7 +10,7 @@ import sys
 
 import click
 
-from bhr.cli._common import guarded
+from bhr.cli._common import check_writable, guarded
 from bhr.cli._progress import announce_compiles, status
 from bhr.cli._link import (at_end_option, end_text, exit_interrupted, fault_printer, link_options, link_settings,
                            schedule_option, stop_on_signals, thermal_params)
@@ -78,6 +78,7 @@ def follow(traj, solver, out_dir, json_path, no_plots, **kwargs):
     from bhr.studies.follow_run import StreamSettings, check_outputs, follow_run
 
     check_outputs(traj, kwargs.get("robot_file"), out_dir, json_path)  # before any work
+    check_writable(json_path, "JSON")  # and never onto an input (--traj, --robot)
     show, animate_path, stride = kwargs.pop("show"), kwargs.pop("animate_path"), kwargs.pop("stride")
     check_view_options(show, animate_path)
     if not show and animate_path is None:

@@ -181,7 +181,7 @@ def test_a_long_run_name_is_refused_before_any_work(tmp_path):
 # --- bounds before work ---------------------------------------------------------------------------------------
 
 def test_a_tiny_module_length_is_refused_before_work(tmp_path):
-    r = bhr("follow", "--traj", "line", "--module-length", "0.001", "--no-plots", "--out", "o", cwd=tmp_path,
+    r = bhr("follow", "--traj", "line", "--module-length", "0.0008", "--no-plots", "--out", "o", cwd=tmp_path,
             timeout=60)
     assert "in memory" in one_line(r) and not (tmp_path / "o").exists()
 
