@@ -20,14 +20,30 @@ def test_every_test_file_lives_in_a_layer_folder():
     assert folders == set(LAYERS)
 
 
+def _names(node: ast.AST) -> set[str]:
+    """The names a function uses: variables, arguments (fixtures) and what it imports."""
+    used = {n.id for n in ast.walk(node) if isinstance(n, ast.Name)}
+    used |= {a.arg for n in ast.walk(node) if isinstance(n, ast.arguments) for a in n.args + n.kwonlyargs}
+    used |= {a.name.split(".")[0] for n in ast.walk(node) if isinstance(n, (ast.Import, ast.ImportFrom))
+             for a in n.names}
+    return used
+
+
 @pytest.mark.parametrize("path", sorted((TESTS / "unit").glob("test_*.py")), ids=lambda p: p.name)
 def test_unit_tests_stay_in_process(path):
     tree = ast.parse(path.read_text())
+    helpers = {n.name: n for n in tree.body if isinstance(n, ast.FunctionDef) and not n.name.startswith("test")}
+
+    def reach(node: ast.AST, seen: set[str]) -> set[str]:  # through the file's own helpers and fixtures
+        used = _names(node)
+        for name in used & set(helpers) - seen:
+            seen.add(name)
+            used |= reach(helpers[name], seen)
+        return used
+
     for node in tree.body:
         if isinstance(node, ast.FunctionDef) and node.name.startswith("test"):
-            used = {n.id for n in ast.walk(node) if isinstance(n, ast.Name)} | {a.arg for a in node.args.args}
-            used |= {a.name.split(".")[0] for n in ast.walk(node) if isinstance(n, (ast.Import, ast.ImportFrom))
-                     for a in n.names}
+            used = reach(node, set())
             assert not used & OUTSIDE, f"{path.name}::{node.name} uses {sorted(used & OUTSIDE)}: not a unit test"
 
 

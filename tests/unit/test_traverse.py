@@ -125,7 +125,7 @@ def test_every_run_is_what_follow_gives_and_designs_aggregate_them():
 def test_the_whole_robot_counts_when_the_study_gives_its_length():
     """--grid body_modules=M: every run is bhr.follow with that body, and its contacts decide the pass."""
     study = build_study([("alpha", (25,)), ("module_length", (5,)), ("body_modules", (5, 30))], "7",
-                        solvers=("lumen",))
+                        solvers=("thesis",))
     assert study.design_keys == ["solver", "alpha", "module_length", "body_modules"]
     res = run_study(study, jobs=1)
     assert not res.failed
@@ -133,7 +133,7 @@ def test_the_whole_robot_counts_when_the_study_gives_its_length():
         rb = Robot(alpha=25, module_length=5)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", BhrWarning)
-            s = bhr.follow(load_trajectory("anatomy", feed=rb.feed, seed=r["seed"]), solver="lumen", robot=rb,
+            s = bhr.follow(load_trajectory("anatomy", feed=rb.feed, seed=r["seed"]), solver="thesis", robot=rb,
                            body_modules=r["body_modules"]).summary.to_dict()
         assert r["traversed"] == (len(s["wall_touch_steps"]) == 0)
         assert r["max_penetration_mm"] == pytest.approx(penetration(s), abs=1e-12)
