@@ -30,6 +30,16 @@ def tight():
     return tight_colon(1)
 
 
+def pose_before(run, robot, step):
+    """Module 1's base and frame at 1-based ``step`` of ``run`` before its solve: after a rest tilt, one feed on."""
+    P = run.points[step - 1]
+    base = P[0] + robot.feed * (P[1] - P[0]) / np.linalg.norm(P[1] - P[0])
+    z = (P[1] - P[0]) / np.linalg.norm(P[1] - P[0])
+    x = np.cross([0.0, 0.0, 1.0], z) if abs(z[2]) < 0.9 else np.cross([1.0, 0.0, 0.0], z)
+    x /= np.linalg.norm(x)
+    return base, np.stack([x, np.cross(z, x), z])
+
+
 @pytest.mark.parametrize("modules,step", [(3, 40), (4, 95), (4, 150), (4, 210)])
 def test_the_head_search_is_the_exact_minimum_of_the_cost(tight, modules, step):
     """Modules 2..n found by branch and bound = the cheapest of all 5^(n-1) codes, each costed in numpy."""
@@ -38,12 +48,7 @@ def test_the_head_search_is_the_exact_minimum_of_the_cost(tight, modules, step):
     run = quiet_follow(tight, solver="lumen", robot=robot)
     tube = make_tube(tight.points, tight.lumen, tight.start_direction, settings["window"])
     # the pose the run had at this step, before the solve: module 1's frame after a rest tilt
-    P = run.points[step - 1]
-    base = P[0] + robot.feed * (P[1] - P[0]) / np.linalg.norm(P[1] - P[0])
-    z = (P[1] - P[0]) / np.linalg.norm(P[1] - P[0])
-    x = np.cross([0.0, 0.0, 1.0], z) if abs(z[2]) < 0.9 else np.cross([1.0, 0.0, 0.0], z)
-    x /= np.linalg.norm(x)
-    frame = np.stack([x, np.cross(z, x), z])
+    base, frame = pose_before(run, robot, step)
     codes, cost = head_cost(tube, robot, settings, tight.points, step, base, frame)
     costs = {}
     for rest in itertools.product(CODES, repeat=modules - 1):

@@ -6,13 +6,13 @@ import copy
 import itertools
 import warnings
 
-import numpy as np
 import pytest
 
 from bhr.bench.lumen import tight_colon
 from bhr.model.robot import Robot, forward_kinematics
 from bhr.model.tube import make_tube
 from bhr.run.driver import follow
+from tests.unit.test_lumen import pose_before
 from bhr.settings.errors import BhrError
 from bhr.solvers import get_solver
 from bhr.solvers.lumen import DEFAULTS, head_cost, lumen_config_cost
@@ -49,12 +49,7 @@ def test_the_head_search_with_the_lead_term_is_the_exact_minimum(tight, step_bac
         run = follow(tight, solver="lumen", robot=robot)
     tube = make_tube(tight.points, tight.lumen, tight.start_direction, settings["window"], closed_end=True)
     step = run.steps - step_back
-    P = run.points[step - 1]
-    base = P[0] + robot.feed * (P[1] - P[0]) / np.linalg.norm(P[1] - P[0])
-    z = (P[1] - P[0]) / np.linalg.norm(P[1] - P[0])
-    x = np.cross([0.0, 0.0, 1.0], z) if abs(z[2]) < 0.9 else np.cross([1.0, 0.0, 0.0], z)
-    x /= np.linalg.norm(x)
-    frame = np.stack([x, np.cross(z, x), z])
+    base, frame = pose_before(run, robot, step)
     codes, cost = head_cost(tube, robot, settings, tight.points, step, base, frame)
     costs = {}
     without = {}
