@@ -45,7 +45,8 @@ def _codes(n_rows: int, modules: int) -> str:
 
 COMMANDS = {
     "follow": (["follow", "--traj", "colon"], [0.005, 0.05, 0.2, 0.6]),
-    "sweep": (["sweep", "--traj", "colon", "--grid", "modules=3:8", "--jobs", "2"], [0.005, 0.1, 0.5, 1.0]),
+    "sweep": (["sweep", "--traj", "colon", "--grid", "modules=3:12", "--grid", "alpha=6:15", "--jobs", "2"],
+              [0.005, 0.1, 0.5, 1.0]),
     "traverse": (["traverse", "--colons", "1-4", "--jobs", "2"], [0.005, 0.3, 1.0]),
     "report": (["report", "--file", "b.toml", "--jobs", "2"], [0.005, 0.3, 1.0]),
     "plan": (["plan", "--codes", "codes.csv"], [0.005, 0.05, 0.15]),

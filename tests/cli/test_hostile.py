@@ -247,10 +247,11 @@ def _interrupt(args, delay, cwd):
 
 @pytest.mark.parametrize("args, delay", [
     (["follow", "--traj", "colon"], 0.2), (["follow", "--traj", "colon"], 1.3),
-    (["sweep", "--traj", "colon", "--grid", "modules=3:8", "--jobs", "2"], 3.0),
-    (["report", "--file", "b.toml", "--jobs", "2"], 3.0),
-    (["traverse", "--colons", "1-4", "--jobs", "2"], 3.0),
-], ids=["follow-0.2s", "follow-1.3s", "sweep-3s", "report-3s", "traverse-3s"])
+    # workers busy: each study runs 4-6 s here, so the Ctrl-C comes while they work
+    (["sweep", "--traj", "colon", "--grid", "modules=3:12", "--grid", "alpha=6:15", "--jobs", "2"], 1.5),
+    (["report", "--file", "b.toml", "--jobs", "2"], 1.5),
+    (["traverse", "--colons", "1-8", "--jobs", "2"], 1.5),
+], ids=["follow-0.2s", "follow-1.3s", "sweep-1.5s", "report-1.5s", "traverse-1.5s"])
 def test_ctrl_c_at_any_moment(tmp_path, args, delay):
     (tmp_path / "b.toml").write_text("".join(f'[[run]]\nname = "r{k}"\ntraj = "colon"\nmodules = {3 + k}\n'
                                              for k in range(4)))
