@@ -47,17 +47,18 @@ def configure_cache() -> None:
     chosen = os.environ.get("NUMBA_CACHE_DIR")
     if chosen and _usable(Path(chosen)):
         return
+    key = source_key()
     if not chosen:
         try:
             base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
         except RuntimeError:  # no home directory at all
             base = ""
-        folder = Path(base) / "bhr" / "numba" / source_key() if base else None
+        folder = Path(base) / "bhr" / "numba" / key if base else None
         if folder is not None and _usable(folder):
             os.environ["NUMBA_CACHE_DIR"] = str(folder)
             return
     uid = os.getuid() if hasattr(os, "getuid") else 0
-    fallback = Path(tempfile.gettempdir()) / f"bhr-numba-{uid}" / source_key()
+    fallback = Path(tempfile.gettempdir()) / f"bhr-numba-{uid}" / key
     if not _usable(fallback):
         fallback = Path(tempfile.mkdtemp(prefix="bhr-numba-"))
     os.environ["NUMBA_CACHE_DIR"] = str(fallback)

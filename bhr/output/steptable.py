@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import csv
 import io
+import os
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -19,7 +20,7 @@ import numpy as np
 if TYPE_CHECKING:  # pragma: no cover
     from bhr.run.driver import FollowResult
 
-__all__ = ["STEPS_CSV", "format_steps_csv"]
+__all__ = ["STEPS_CSV", "format_steps_csv", "write_run_files"]
 
 #: The file name bhr follow writes next to run.json.
 STEPS_CSV = "steps.csv"
@@ -59,3 +60,18 @@ def format_steps_csv(result: "FollowResult") -> str:
             row.append(_num(body.point_errors_mm[i].max()))
         w.writerow(row)
     return buf.getvalue()
+
+
+def write_run_files(result: "FollowResult", out_dir: "str | os.PathLike[str]") -> None:
+    """A run's files as ``bhr follow`` writes them, into ``out_dir``: ``run.json`` (``bhr replay``), the per-step
+    table and, for binary solvers, ``codes.csv`` (``bhr plan``, ``bhr stream``)."""
+    from pathlib import Path
+
+    from bhr.model.codes import format_codes_csv
+    from bhr.output.atomic import write_json, write_text
+
+    out = Path(out_dir)
+    write_json(out / "run.json", result.to_dict())
+    write_text(out / STEPS_CSV, format_steps_csv(result))
+    if result.codes is not None:
+        write_text(out / "codes.csv", format_codes_csv(result.codes))

@@ -191,18 +191,14 @@ def write_compare(runs: Sequence[Compared], folder: Any, *, json_name: str | Non
     context manager) wraps the drawing."""
     import contextlib
 
-    from bhr.model.codes import format_codes_csv
-    from bhr.output.atomic import write_json, write_text
-    from bhr.output.steptable import STEPS_CSV, format_steps_csv
+    from bhr.output.atomic import write_json
+    from bhr.output.steptable import write_run_files
 
     written = []
     for c in runs:
         sub = folder.path(c.result.solver)
         sub.mkdir(parents=True, exist_ok=True)
-        write_json(sub / "run.json", c.result.to_dict())
-        write_text(sub / STEPS_CSV, format_steps_csv(c.result))
-        if c.result.codes is not None:
-            write_text(sub / "codes.csv", format_codes_csv(c.result.codes))
+        write_run_files(c.result, sub)
         written.append(folder.final(c.result.solver))
     if json_name is not None:
         write_json(folder.path(json_name), compare_json(runs))

@@ -53,8 +53,7 @@ from bhr.output.htmlpage import table as html_table
 from bhr.settings.options import by_group, check_run_name, excerpt, solver_options_for
 from bhr.model.robot import Robot
 from bhr.model.robotfile import load_robot_file
-from bhr.model.codes import format_codes_csv
-from bhr.output.steptable import STEPS_CSV, format_steps_csv
+from bhr.output.steptable import write_run_files
 from bhr.solvers import get_solver
 from bhr.studies.study import (CONSTRAINT_KEYS, INT_KEYS, NUMBER_KEYS, ROBOT_KEYS, SOLVER_KEYS, TRAJ_KEYS, check_value,
                        check_body, sim_options, suggest, summary_row, warm_up)
@@ -257,10 +256,7 @@ def execute_run(spec: RunSpec, out_dir: str | os.PathLike[str] | None = None, pl
         row["stats"] = {"points": summary["points"], "modules": summary["modules"], "global": summary["global"]}
         if out_dir is not None:
             out = Path(out_dir)
-            write_json(out / "run.json", result.to_dict())
-            write_text(out / STEPS_CSV, format_steps_csv(result))
-            if result.codes is not None:  # what bhr plan and bhr stream take, as bhr follow writes it
-                write_text(out / "codes.csv", format_codes_csv(result.codes))
+            write_run_files(result, out)  # as bhr follow writes them: replay, plan and stream take them
             if plots:
                 from bhr.output.plots import save_run_plots
 
