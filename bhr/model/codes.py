@@ -86,6 +86,18 @@ def format_codes_csv(codes: np.ndarray | Sequence[Sequence[int]], steps: Sequenc
     return buf.getvalue()
 
 
+def _link_note(p: Path) -> str:
+    """Where a symbolic link on the way to ``p`` (``bhr-out/latest``, say) points, when one does: its target may be
+    another command's folder."""
+    for parent in p.parents:
+        if parent.is_symlink():
+            try:
+                return f" ({parent} is {os.readlink(parent)}, the last folder bhr wrote, which has none)"
+            except OSError:
+                return ""
+    return ""
+
+
 def read_codes_csv(path: str | os.PathLike[str]) -> tuple[list[int], np.ndarray]:
     """Read and validate a ``codes.csv``; return (steps, codes array of shape (steps, N)).
 
@@ -100,7 +112,7 @@ def read_codes_csv(path: str | os.PathLike[str]) -> tuple[list[int], np.ndarray]
             raise IsADirectoryError(str(p))
         text = read_capped(p, "codes file", hint).decode("utf-8-sig")
     except FileNotFoundError:
-        raise BhrError(f"codes file {p} does not exist; {hint}") from None
+        raise BhrError(f"codes file {p} does not exist{_link_note(p)}; {hint}") from None
     except (OSError, UnicodeDecodeError) as exc:
         raise BhrError(f"cannot read codes file {p}: {exc.__class__.__name__}; give a readable CSV file") from None
     if "\x00" in text:

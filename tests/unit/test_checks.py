@@ -134,3 +134,18 @@ def test_non_regular_inputs_are_refused_before_opening(tmp_path, kind):
         s.bind(str(p))
     with pytest.raises(BhrError, match="FIFO|socket"):
         read_text(p, "robot file", "give a file")  # would block forever on a FIFO if it were opened
+
+
+def test_a_missing_codes_file_under_latest_says_where_latest_points(tmp_path):
+    """After `bhr traverse`, bhr-out/latest is the study's folder, which has no codes.csv: the line says so."""
+    from bhr.model.codes import read_codes_csv
+
+    (tmp_path / "traverse-1234").mkdir()
+    (tmp_path / "latest").symlink_to("traverse-1234")
+    with pytest.raises(BhrError) as e:
+        read_codes_csv(tmp_path / "latest" / "codes.csv")
+    msg = str(e.value)
+    assert "\n" not in msg and "latest is traverse-1234" in msg and "give the codes.csv" in msg
+    with pytest.raises(BhrError) as e:
+        read_codes_csv(tmp_path / "traverse-1234" / "codes.csv")
+    assert " is traverse-1234" not in str(e.value)
