@@ -32,7 +32,7 @@ from bhr.model.pathfile import segments_trajectory
 from bhr.model.robot import Robot
 from bhr.model.generators import Trajectory
 
-__all__ = ["tight_colon", "colon_for", "population", "solve_times", "main"]
+__all__ = ["tight_colon", "colon_for", "cecum_step", "population", "solve_times", "main"]
 
 
 def tight_colon(seed: int, feed: float = 2.0) -> Trajectory:
@@ -86,11 +86,34 @@ def colon_for(seed: int, feed: float = 2.0) -> Trajectory:
     return tight_colon(seed, feed)
 
 
+def cecum_step(res) -> int:
+    """0-based first step at which the tip has reached the cecum: its nearest centerline point (tracked from step
+    to step) is the path's last point and it is at or past that point's cross-section. The last step if it never
+    is."""
+    C = res.trajectory.points
+    M = C.shape[0]
+    d = C[-1] - C[-2]
+    d = d / np.linalg.norm(d)
+    k = 0
+    for i in range(res.points.shape[0]):
+        tip = res.points[i, -1]
+        lo, hi = max(0, k - 20), min(M, k + 40)
+        k = lo + int(np.argmin(np.linalg.norm(C[lo:hi] - tip, axis=1)))
+        if k == M - 1 and float(np.dot(tip - C[-1], d)) >= 0.0:
+            return i
+    return res.points.shape[0] - 1
+
+
 def _metrics(res) -> dict[str, Any]:
     s = res.summary.to_dict()
+    per = res.clearance.per_step
+    stop = cecum_step(res)
+    until = per[:stop + 1]
     return {"max_penetration_mm": s["max_penetration_mm"], "wall_touch_steps": len(s["wall_touch_steps"]),
             "min_clearance_mm": s["min_clearance_mm"], "points_max_error_mm": s["points_max_error_mm"],
-            "steps": s["steps"]}
+            "steps": s["steps"], "cecum_step": stop + 1,
+            # what a feeder that stops when the tip reaches the cecum would leave (docs/lumen.md)
+            "max_penetration_to_cecum_mm": float(max(0.0, -np.nanmin(until))) if np.any(~np.isnan(until)) else 0.0}
 
 
 def population(seeds: list[int], solvers: tuple[str, ...] = ("seed", "lumen"), robot: Robot | None = None,
@@ -116,6 +139,8 @@ def population(seeds: list[int], solvers: tuple[str, ...] = ("seed", "lumen"), r
                   file=sys.stderr)
     med = {s: {m: statistics.median(r[s][m] for r in rows) for m in ("max_penetration_mm", "wall_touch_steps")}
            for s in solvers}
+    for s in solvers:
+        med[s]["max_penetration_to_cecum_mm"] = statistics.median(r[s]["max_penetration_to_cecum_mm"] for r in rows)
     ref = solvers[0]
     ratio = {s: {m: (med[s][m] / med[ref][m] if med[ref][m] else math.nan) for m in med[s]} for s in solvers[1:]}
     return {"seeds": seeds, "robot": robot.to_dict(), "rows": rows, "median": med, "ratio_to_" + ref: ratio}
@@ -181,6 +206,9 @@ def main(argv: list[str] | None = None) -> int:
     print(f"{len(seeds)} colons ({pop['rows'][0]['colon']} ...), thesis robot, geometric clearance:")
     print(f"  median max_penetration_mm  seed {med['seed']['max_penetration_mm']:.3f}  "
           f"lumen {med['lumen']['max_penetration_mm']:.3f}  ratio {ratio['max_penetration_mm']:.3f}")
+    print(f"  median max_penetration_mm until the tip reaches the cecum  seed "
+          f"{med['seed']['max_penetration_to_cecum_mm']:.3f}  lumen {med['lumen']['max_penetration_to_cecum_mm']:.3f}"
+          f"  ratio {ratio['max_penetration_to_cecum_mm']:.3f}")
     print(f"  median wall-touch steps    seed {med['seed']['wall_touch_steps']:.1f}  "
           f"lumen {med['lumen']['wall_touch_steps']:.1f}  ratio {ratio['wall_touch_steps']:.3f}")
     if not a.no_timing:

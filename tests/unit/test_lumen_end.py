@@ -72,3 +72,23 @@ def test_lead_options_are_checked():
         get_solver("lumen", Robot(), lead_slack=1.5)
     with pytest.raises(BhrError, match="lead-weight"):
         get_solver("lumen", Robot(), lead_weight=-1.0)
+
+
+def test_cecum_step_is_the_first_step_the_tip_is_at_the_end():
+    """The step a feeder that stops at the cecum would stop at: the tip's tracked nearest point is the last one and
+    it is past the last point's cross-section (a path that loops back past its end plane does not count early)."""
+    from types import SimpleNamespace
+
+    import numpy as np
+
+    from bhr.bench.lumen import cecum_step
+
+    t = np.linspace(0.0, 1.5 * np.pi, 200)
+    C = np.stack([30.0 * np.cos(t), 30.0 * np.sin(t), np.zeros_like(t)], axis=1)  # 3/4 of a circle
+    tips = np.concatenate([C[10:], np.repeat(C[-1:] + [[1.0, 0.0, 0.0]], 15, axis=0)])  # ahead by 10 points
+    pts = np.zeros((tips.shape[0], 2, 3))
+    pts[:, -1] = tips
+    res = SimpleNamespace(trajectory=SimpleNamespace(points=C), points=pts)
+    assert cecum_step(res) == 189  # tips[189] is C[199], the end: the start, behind the end's plane, never counts
+    res.points = pts[:150]
+    assert cecum_step(res) == 149  # never reached: the last step
