@@ -153,6 +153,10 @@ FORCE_LINES_N = (9.8, 14.1)
 SOLIMP = 0.99
 WALL_ALL_DIRECTIONS = True
 INTEGRATOR = "Euler"
+#: A wall piece whose inner face lies this much (mm) inside the lumen of another centerline point is left out.
+FOLD_TOLERANCE_MM = 0.5
+#: The targets move over the first 1 / RAMP_FRACTION of a step.
+RAMP_FRACTION = 4
 
 
 def check_wall_stiffness(value: float) -> float:
@@ -468,6 +472,14 @@ def scene_xml(result, *, wall_stiffness: float = DEFAULT_WALL_STIFFNESS, ring_sp
     # around the ring (a robot pressing a piece's side, where the tube folds on the inside of a tight bend,
     # meets the wall's stiffness too, not only the contact's softness, which depends on the time step)
     axes = ("1 0 0", "0 1 0", "0 0 1") if WALL_ALL_DIRECTIONS else ("0 0 1",)
+    # where the colon turns tighter than its own radius, the inner side of the bend folds: a ring's piece
+    # there stands inside the lumen of the centerline beside it (bhr's lumen is every point nearer a
+    # centerline point than its radius); such pieces are left out, so the wall is where bhr's lumen ends
+    from scipy.spatial import cKDTree
+
+    tree = cKDTree(C)
+    rad = dia / 2.0
+    dropped = 0
     for k, (s, j) in enumerate(zip(ring_at, idx)):
         k_piece = float(k_unit * ring_len[k])
         m_piece = k_piece / w ** 2  # the piece moves as fast as the servos
@@ -488,6 +500,11 @@ def scene_xml(result, *, wall_stiffness: float = DEFAULT_WALL_STIFFNESS, ring_sp
             ang = 2 * math.pi * p / pieces
             n_out = math.cos(ang) * u + math.sin(ang) * v  # outward normal, the box's z
             tang = np.cross(t, n_out)  # around the ring, the box's y; t is its x
+            face = c + R0 * n_out  # the middle of the piece's inner face
+            near = tree.query_ball_point(face, float(rad.max()))
+            if near and np.any(np.linalg.norm(C[near] - face, axis=1) < rad[near] - FOLD_TOLERANCE_MM):
+                dropped += 1
+                continue
             pos = (c + (R0 + thickness / 2) * n_out) * MM
             q = _quat(np.stack([t, tang, n_out]).T)
             hx = float(ring_len[k] / 2 * 1.02)
@@ -522,7 +539,7 @@ def scene_xml(result, *, wall_stiffness: float = DEFAULT_WALL_STIFFNESS, ring_sp
     lines.append("  </actuator>")
     lines.append("</mujoco>")
     settings = {"wall_stiffness_n_per_mm": wall_stiffness, "ring_spacing_mm": ring_spacing, "pieces_per_ring": pieces,
-                "wall_pieces": int(len(ring_at) * pieces), "rate_hz": rate, "substeps": substeps,
+                "wall_pieces": int(len(ring_at) * pieces - dropped), "folded_pieces_left_out": dropped, "rate_hz": rate, "substeps": substeps,
                 "servo_hz": servo_hz, "stiff_ratio": stiff_ratio, "modules": M, "timestep_s": dt,
                 "carriage_moved_steps": int(np.count_nonzero(_moved)),
                 "joint_values": "codes" if chain.from_codes else "tilts and chords onto bhr's modules",
@@ -586,15 +603,29 @@ def replay_physics(result, progress: Any = None, **options: Any) -> PhysicsRepla
     f6 = np.zeros(6)
     t0 = time.process_time()
     data.qpos[qadr] = ctrl[0]
+    # the step's targets (the servos', the carriage's, the chords') move from the last step's to this step's
+    # over the first half of the step, one time step at a time, and hold for the rest: the robot moves as
+    # bhr's does, by a feed, instead of jumping (a carriage that jumps turns the whole robot about its rear
+    # at once, and a long robot's far end then swings across the colon)
+    ramp = max(1, steps // RAMP_FRACTION)
     for i in range(N):
-        if moved[i]:
-            data.mocap_pos[0] = cpos[i] * MM
-            data.mocap_quat[0] = cquat[i]
-        data.ctrl[:] = ctrl[i]
-        if chord_at is not None:
-            model.body_pos[chord_at, 2] = lengths[i, :-1]
-            model.site_pos[tip, 2] = lengths[i, -1]
-        mujoco.mj_step(model, data, nstep=steps)
+        j = max(i - 1, 0)
+        p0, q0 = data.mocap_pos[0].copy(), data.mocap_quat[0].copy()
+        p1, q1 = (cpos[i] * MM, cquat[i] * (1.0 if np.dot(cquat[i], q0) >= 0 else -1.0)) if moved[i] else (p0, q0)
+        for r in range(1, ramp + 1):
+            a = r / ramp
+            data.ctrl[:] = ctrl[j] + a * (ctrl[i] - ctrl[j])
+            if moved[i]:
+                data.mocap_pos[0] = p0 + a * (p1 - p0)
+                q = q0 + a * (q1 - q0)
+                data.mocap_quat[0] = q / np.linalg.norm(q)
+            if chord_at is not None:
+                ln = lengths[j] + a * (lengths[i] - lengths[j])
+                model.body_pos[chord_at, 2] = ln[:-1]
+                model.site_pos[tip, 2] = ln[-1]
+            mujoco.mj_step(model, data)
+        if steps > ramp:
+            mujoco.mj_step(model, data, nstep=steps - ramp)
         pts = []
         best = 0.0
         nc = data.ncon

@@ -138,6 +138,6 @@ def test_view_legend_shows_the_robots_colours(anatomy_view):
                          " (t.querySelector('.js-line') || {style: {}}).style.stroke])")
     finally:
         b.close()
-    swatch = {name: colour.replace(" ", "") for name, colour in got}
-    assert swatch["robot: body"] == BODY_RGB.replace(" ", "")
-    assert swatch["robot: head"] == HEAD_RGB.replace(" ", "")
+    swatch = {name: (colour or "").replace(" ", "") for name, colour in got}
+    assert swatch.get("robot: body") == BODY_RGB.replace(" ", ""), got
+    assert swatch.get("robot: head") == HEAD_RGB.replace(" ", ""), got
