@@ -539,7 +539,8 @@ def scene_xml(result, *, wall_stiffness: float = DEFAULT_WALL_STIFFNESS, ring_sp
     lines.append("  </actuator>")
     lines.append("</mujoco>")
     settings = {"wall_stiffness_n_per_mm": wall_stiffness, "ring_spacing_mm": ring_spacing, "pieces_per_ring": pieces,
-                "wall_pieces": int(len(ring_at) * pieces - dropped), "folded_pieces_left_out": dropped, "rate_hz": rate, "substeps": substeps,
+                "wall_pieces": int(len(ring_at) * pieces - dropped), "folded_pieces_left_out": dropped,
+                "rate_hz": rate, "substeps": substeps,
                 "servo_hz": servo_hz, "stiff_ratio": stiff_ratio, "modules": M, "timestep_s": dt,
                 "carriage_moved_steps": int(np.count_nonzero(_moved)),
                 "joint_values": "codes" if chain.from_codes else "tilts and chords onto bhr's modules",
@@ -613,14 +614,14 @@ def replay_physics(result, progress: Any = None, **options: Any) -> PhysicsRepla
         p0, q0 = data.mocap_pos[0].copy(), data.mocap_quat[0].copy()
         p1, q1 = (cpos[i] * MM, cquat[i] * (1.0 if np.dot(cquat[i], q0) >= 0 else -1.0)) if moved[i] else (p0, q0)
         for r in range(1, ramp + 1):
-            a = r / ramp
-            data.ctrl[:] = ctrl[j] + a * (ctrl[i] - ctrl[j])
+            frac = r / ramp
+            data.ctrl[:] = ctrl[j] + frac * (ctrl[i] - ctrl[j])
             if moved[i]:
-                data.mocap_pos[0] = p0 + a * (p1 - p0)
-                q = q0 + a * (q1 - q0)
+                data.mocap_pos[0] = p0 + frac * (p1 - p0)
+                q = q0 + frac * (q1 - q0)
                 data.mocap_quat[0] = q / np.linalg.norm(q)
             if chord_at is not None:
-                ln = lengths[j] + a * (lengths[i] - lengths[j])
+                ln = lengths[j] + frac * (lengths[i] - lengths[j])
                 model.body_pos[chord_at, 2] = ln[:-1]
                 model.site_pos[tip, 2] = ln[-1]
             mujoco.mj_step(model, data)
