@@ -151,7 +151,10 @@ DEFAULT_WALL_STIFFNESS = 1.5
 #: a porcine colon perforates at 14.1 N (Johnson et al. 2019).
 FORCE_LINES_N = (9.8, 14.1)
 SOLIMP = 0.99
+#: Each wall piece rides three springs (normal, along the centerline, around the ring); False: the normal only.
 WALL_ALL_DIRECTIONS = True
+#: MuJoCo's integrator: semi-implicit Euler, with the servos' damping moved onto their joints (integrated
+#: implicitly), factorises the mass matrix once a time step ("implicitfast" did so twice, for the same figures).
 INTEGRATOR = "Euler"
 #: A wall piece whose inner face lies this much (mm) inside the lumen of another centerline point is left out.
 FOLD_TOLERANCE_MM = 0.5
