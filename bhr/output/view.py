@@ -23,6 +23,8 @@ __all__ = ["VIEW_NAME", "MAX_FRAMES", "view_figure", "view_html", "save_view", "
 VIEW_NAME = "view.html"
 #: Slider positions at most (longer runs show every k-th step, the last always).
 MAX_FRAMES = 150
+#: The robot's colours in the view: its body and its head.
+BODY_RGB, HEAD_RGB = "rgb(40,90,200)", "rgb(230,140,20)"
 #: How far (mm) the view's box reaches beyond the path's wall (the robot behind the entrance is clipped beyond).
 VIEW_MARGIN_MM = 40.0
 #: Contact marks of all steps drawn at most.
@@ -143,11 +145,15 @@ def view_figure(result, contacts: Sequence[np.ndarray] | None = None, title: str
     shade = [0] * (len(p_last) - n_head) + [1] * n_head
     data.append(dict(type="scatter3d", mode="lines", name="robot (head orange)", hoverinfo="skip",
                      line=dict(width=7, color=shade, cmin=0, cmax=1,
-                               colorscale=[[0, "rgb(40,90,200)"], [0.5, "rgb(40,90,200)"],
-                                           [0.5, "rgb(230,140,20)"], [1, "rgb(230,140,20)"]]),
-                     **xyz(p_last)))
+                               colorscale=[[0, BODY_RGB], [0.5, BODY_RGB], [0.5, HEAD_RGB], [1, HEAD_RGB]]),
+                     legendgroup="robot", showlegend=False, **xyz(p_last)))
     data.append(dict(type="scatter3d", mode="markers", name="contact at this step", hoverinfo="skip",
                      marker=dict(size=6, color="red", symbol="diamond"), **xyz(per_step[shown[last]])))
+    # plotly draws a line coloured by a scale black in the legend: the robot's legend is two empty lines of
+    # its two colours, in its legend group (clicking either hides or shows the robot)
+    for label, rgb in (("robot: body", BODY_RGB), ("robot: head", HEAD_RGB)):
+        data.append(dict(type="scatter3d", mode="lines", name=label, hoverinfo="skip", legendgroup="robot",
+                         line=dict(width=7, color=rgb), x=[None], y=[None], z=[None]))
     frames = [dict(name=str(s + 1), data=[xyz(robots[k]), xyz(per_step[s])], traces=[i_robot, i_contact])
               for k, s in enumerate(shown)]
     slider = dict(active=last, currentvalue=dict(prefix="step "), pad=dict(t=40),

@@ -207,7 +207,8 @@ OPTIONS: tuple[Option, ...] = (
            "0.7-2.4)", 1.5, "N/mm", 24.0, positive=True, metavar="N/MM"),
     Option("physics_rate", "physics", float, "Steps per second of the replay (the servos settle within a step)",
            20.0, "Hz", 1000.0, positive=True, cli="rate", metavar="HZ"),
-    Option("substeps", "physics", int, "MuJoCo time steps per run step", 8, maximum=1000, positive=True),
+    Option("substeps", "physics", int, "MuJoCo time steps per run step (16: 3.125 ms at 20 Hz, where the largest "
+           "force has converged)", 16, maximum=1000, positive=True),
 )
 
 BY_NAME: dict[str, Option] = {o.name: o for o in OPTIONS}

@@ -151,6 +151,15 @@ DEFAULT_WALL_STIFFNESS = 1.5
 #: a porcine colon perforates at 14.1 N (Johnson et al. 2019).
 FORCE_LINES_N = (9.8, 14.1)
 SOLIMP = 0.99
+#: Each wall piece rides three springs (normal, along the centerline, around the ring); False: the normal only.
+WALL_ALL_DIRECTIONS = True
+#: MuJoCo's integrator: semi-implicit Euler, with the servos' damping moved onto their joints (integrated
+#: implicitly), factorises the mass matrix once a time step ("implicitfast" did so twice, for the same figures).
+INTEGRATOR = "Euler"
+#: A wall piece whose inner face lies this much (mm) inside the lumen of another centerline point is left out.
+FOLD_TOLERANCE_MM = 0.5
+#: The targets move over the first 1 / RAMP_FRACTION of a step.
+RAMP_FRACTION = 4
 
 
 def check_wall_stiffness(value: float) -> float:
@@ -212,16 +221,20 @@ class ReplayChain:
     points: np.ndarray  # (N, M + 1, 3) mm, bhr's whole robot (bhr.run.body.whole_robot), rear first
     lift: bool  # some module lifts at some step
     from_codes: bool  # values are the codes' (bhr.joint_values); else the tilts that put each module on bhr's
+    chords: np.ndarray | None = None  # (N, M) mm, each module's chord minus a module length (<= 0: the trail
+    # model's modules across a vertex), driven by the scene's chord joints; None: every module is full length
 
 
 def _tilts_from_points(points: np.ndarray, frames: np.ndarray, length: float) -> np.ndarray:
     """Joint values (N, 3 M) that turn every module of a chain along bhr's chord of ``points`` (N, M + 1, 3),
     from rear frames ``frames``: module j's frame is module j-1's turned about its x then its y (the exported
     joints' order), so its chord d (in module j-1's frame) gives tilt_y = asin(d_x), tilt_x = atan2(-d_y, d_z).
-    Each module turns from the one behind by its chord's turn (at most the robot's tilt), so a chord shorter
-    than ``length`` (the trail model's modules across a vertex) moves the modules beyond it along the chain by
-    its shortfall. (Aiming each module at bhr's next joint from where the modules behind put it instead asks
-    for turns beyond the joints' limits and jumps from step to step.)"""
+    Each module turns from the one behind by its chord's turn (at most the robot's tilt); a chord shorter
+    than ``length`` (the trail model's modules across a vertex) is given its length by the replay
+    (:func:`replay_physics` sets each module's length to its chord at every step; a chain of full-length
+    modules would move the modules beyond it along the chain by its shortfall). (Aiming each module at bhr's
+    next joint from where the modules behind put it instead asks for turns beyond the joints' limits and
+    jumps from step to step.)"""
     N, J = points.shape[0], points.shape[1]
     M = J - 1
     out = np.zeros((N, M, 3))
@@ -286,8 +299,9 @@ def replay_chain(result) -> ReplayChain:
             F = F.copy()
             F[2] = z
         frames[i] = F
+    chords = np.linalg.norm(np.diff(points, axis=1), axis=2) - r.module_length
     return ReplayChain(roots, frames, _tilts_from_points(points, frames, r.module_length), points, False,
-                       False)
+                       False, np.minimum(chords, 0.0))
 
 
 def start_direction(result) -> np.ndarray:
@@ -395,7 +409,7 @@ def insertion(result, roots: np.ndarray, frames: np.ndarray) -> tuple[np.ndarray
 
 
 def scene_xml(result, *, wall_stiffness: float = DEFAULT_WALL_STIFFNESS, ring_spacing: float = 4.0,
-              pieces: int = 10, thickness: float = 4.0, rate: float = 20.0, substeps: int = 8,
+              pieces: int = 10, thickness: float = 4.0, rate: float | None = None, substeps: int | None = None,
               servo_hz: float = 50.0, stiff_ratio: float = 100.0, chain: "ReplayChain | None" = None
               ) -> tuple[str, dict[str, Any]]:
     """The MuJoCo scene of a run (MJCF text) and its settings: the wall, the whole robot, its servos.
@@ -410,6 +424,10 @@ def scene_xml(result, *, wall_stiffness: float = DEFAULT_WALL_STIFFNESS, ring_sp
     from bhr.model.export import mjcf_robot_body
 
     check_wall_stiffness(wall_stiffness)
+    from bhr.settings.options import BY_NAME
+
+    rate = float(BY_NAME["physics_rate"].default if rate is None else rate)
+    substeps = int(BY_NAME["substeps"].default if substeps is None else substeps)
     tr = result.trajectory
     if tr.lumen is None:
         raise BhrError("the run's trajectory has no lumen, so there is no wall to replay against; give a run of "
@@ -434,7 +452,7 @@ def scene_xml(result, *, wall_stiffness: float = DEFAULT_WALL_STIFFNESS, ring_sp
     # wall: per ring, the boxes' spring shares the stiffness of one module length of wall
     k_unit = float(wall_stiffness) * 1e3 / r.module_length  # N/m per mm of ring length
     lines = ['<mujoco model="bhr-physics">', '  <compiler angle="radian" autolimits="true"/>',
-             f'  <option timestep="{dt!r}" gravity="0 0 0" integrator="implicitfast" cone="pyramidal"/>',
+             f'  <option timestep="{dt!r}" gravity="0 0 0" integrator="{INTEGRATOR}" cone="pyramidal"/>',
              f'  <size memory="{200 + len(ring_at) * pieces // 10}M"/>',
              # contacts far stiffer than the wall's springs (timeconst 2 dt, impedance 0.99): the springs set the force
              f'  <default><geom solref="{2 * dt!r} 1" solimp="{SOLIMP} {SOLIMP} 0.001"/></default>',
@@ -453,6 +471,18 @@ def scene_xml(result, *, wall_stiffness: float = DEFAULT_WALL_STIFFNESS, ring_sp
     lines += ["      </body>", "    </body>"]
     u_prev = None
     half = math.pi / pieces
+    # each piece yields to a push from any side: springs along its outward normal, along the centerline and
+    # around the ring (a robot pressing a piece's side, where the tube folds on the inside of a tight bend,
+    # meets the wall's stiffness too, not only the contact's softness, which depends on the time step)
+    axes = ("1 0 0", "0 1 0", "0 0 1") if WALL_ALL_DIRECTIONS else ("0 0 1",)
+    # where the colon turns tighter than its own radius, the inner side of the bend folds: a ring's piece
+    # there stands inside the lumen of the centerline beside it (bhr's lumen is every point nearer a
+    # centerline point than its radius); such pieces are left out, so the wall is where bhr's lumen ends
+    from scipy.spatial import cKDTree
+
+    tree = cKDTree(C)
+    rad = dia / 2.0
+    dropped = 0
     for k, (s, j) in enumerate(zip(ring_at, idx)):
         k_piece = float(k_unit * ring_len[k])
         m_piece = k_piece / w ** 2  # the piece moves as fast as the servos
@@ -473,14 +503,19 @@ def scene_xml(result, *, wall_stiffness: float = DEFAULT_WALL_STIFFNESS, ring_sp
             ang = 2 * math.pi * p / pieces
             n_out = math.cos(ang) * u + math.sin(ang) * v  # outward normal, the box's z
             tang = np.cross(t, n_out)  # around the ring, the box's y; t is its x
+            face = c + R0 * n_out  # the middle of the piece's inner face
+            near = tree.query_ball_point(face, float(rad.max()))
+            if near and np.any(np.linalg.norm(C[near] - face, axis=1) < rad[near] - FOLD_TOLERANCE_MM):
+                dropped += 1
+                continue
             pos = (c + (R0 + thickness / 2) * n_out) * MM
             q = _quat(np.stack([t, tang, n_out]).T)
             hx = float(ring_len[k] / 2 * 1.02)
             hy = float(R0 * math.tan(half) * 1.02)
             lines.append(f'    <body name="w{k}_{p}" pos="{" ".join(repr(float(x)) for x in pos)}" '
                          f'quat="{" ".join(repr(float(x)) for x in q)}">'
-                         f'<joint type="slide" axis="0 0 1" stiffness="{k_piece!r}" damping="{b_piece!r}" '
-                         f'range="-0.0005 0.05"/>'
+                         + "".join(f'<joint type="slide" axis="{ax}" stiffness="{k_piece!r}" damping="{b_piece!r}"/>'
+                                   for ax in axes) +
                          f'<geom type="box" size="{hx * MM!r} {hy * MM!r} {thickness / 2 * MM!r}" contype="1" '
                          f'conaffinity="2" rgba="0.8 0.5 0.5 0.3" mass="{m_piece!r}"/></body>')
     lines.append("  </worldbody>")
@@ -507,10 +542,12 @@ def scene_xml(result, *, wall_stiffness: float = DEFAULT_WALL_STIFFNESS, ring_sp
     lines.append("  </actuator>")
     lines.append("</mujoco>")
     settings = {"wall_stiffness_n_per_mm": wall_stiffness, "ring_spacing_mm": ring_spacing, "pieces_per_ring": pieces,
-                "wall_pieces": int(len(ring_at) * pieces), "rate_hz": rate, "substeps": substeps,
+                "wall_pieces": int(len(ring_at) * pieces - dropped), "folded_pieces_left_out": dropped,
+                "rate_hz": rate, "substeps": substeps,
                 "servo_hz": servo_hz, "stiff_ratio": stiff_ratio, "modules": M, "timestep_s": dt,
                 "carriage_moved_steps": int(np.count_nonzero(_moved)),
-                "joint_values": "codes" if chain.from_codes else "tilts onto bhr's modules"}
+                "joint_values": "codes" if chain.from_codes else "tilts and chords onto bhr's modules",
+                "shortest_chord_mm": float(r.module_length + (chain.chords.min() if chain.chords is not None else 0.0))}
     return "\n".join(lines) + "\n", settings
 
 
@@ -519,7 +556,8 @@ def replay_physics(result, progress: Any = None, **options: Any) -> PhysicsRepla
 
     Per step: the insertion slide's target becomes the run's insertion depth (:func:`insertion`; the
     carriage moves only where bhr's rear end leaves the entrance line), the servos' targets become the step's
-    joint values (:func:`bhr.model.export.joint_values` of the whole robot's codes), the scene runs for one
+    joint values (:func:`bhr.model.export.joint_values` of the whole robot's codes, or :func:`replay_chain`'s
+    tilts for the trail model, whose modules are also given their chords' lengths), the scene runs for one
     step period (``1 / rate``) and the contacts between robot and wall are read: the largest normal force,
     where, and how far every module point is from bhr's pose.
     """
@@ -534,20 +572,30 @@ def replay_physics(result, progress: Any = None, **options: Any) -> PhysicsRepla
     for a in range(model.nu):  # rotor inertia: the joint's inertia becomes kp / w^2, so every servo settles at w
         dof = model.jnt_dofadr[model.actuator_trnid[a, 0]]
         model.dof_armature[dof] = model.actuator_gainprm[a, 0] / w ** 2
+        if INTEGRATOR == "Euler":  # the servo's damping as the joint's, which Euler integrates implicitly
+            model.dof_damping[dof] = -model.actuator_biasprm[a, 2]
+            model.actuator_biasprm[a, 2] = 0.0
     data = mujoco.MjData(model)
     roots, frames, values = chain.roots, chain.frames, chain.values
     depth, cpos, cquat, moved = insertion(result, roots, frames)
     N, M = chain.points.shape[0], chain.points.shape[1] - 1
-    lift = model.nu == 3 * M + 1
+    lift = chain.lift
     if not lift:
         values = values.reshape(N, M, 3)[:, :, :2].reshape(N, -1)
     ctrl = np.hstack([depth[:, None] * MM, values])  # the actuators' order: the insertion, then the joints
+    # the trail model's modules are chords, shorter than a module across a vertex: at every step each module's
+    # length (where the next module's body, or the tip, sits on its axis) is set to its chord
+    tip = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, "tip")
+    chord_at = None
+    if chain.chords is not None:
+        chord_at = np.array([mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, f"m{i}") for i in range(2, M + 1)],
+                            dtype=np.int64)
+        lengths = float(model.site_pos[tip, 2]) + chain.chords * MM
     geom_module = np.zeros(model.ngeom, dtype=np.int64)  # module of a robot geom (1 = rear), 0 for the wall
     for i in range(1, M + 1):
         geom_module[mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, f"m{i}")] = i
     qadr = model.jnt_qposadr[model.actuator_trnid[:, 0]]
     jx = np.array([mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, f"m{i}_tilt_x") for i in range(1, M + 1)])
-    tip = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, "tip")
     C, _dia, arc = wall_centerline(result, 0.0)
     steps = int(settings["substeps"])
     force = np.zeros(N)
@@ -559,12 +607,29 @@ def replay_physics(result, progress: Any = None, **options: Any) -> PhysicsRepla
     f6 = np.zeros(6)
     t0 = time.process_time()
     data.qpos[qadr] = ctrl[0]
+    # the step's targets (the servos', the carriage's, the chords') move from the last step's to this step's
+    # over the first half of the step, one time step at a time, and hold for the rest: the robot moves as
+    # bhr's does, by a feed, instead of jumping (a carriage that jumps turns the whole robot about its rear
+    # at once, and a long robot's far end then swings across the colon)
+    ramp = max(1, steps // RAMP_FRACTION)
     for i in range(N):
-        if moved[i]:
-            data.mocap_pos[0] = cpos[i] * MM
-            data.mocap_quat[0] = cquat[i]
-        data.ctrl[:] = ctrl[i]
-        mujoco.mj_step(model, data, nstep=steps)
+        j = max(i - 1, 0)
+        p0, q0 = data.mocap_pos[0].copy(), data.mocap_quat[0].copy()
+        p1, q1 = (cpos[i] * MM, cquat[i] * (1.0 if np.dot(cquat[i], q0) >= 0 else -1.0)) if moved[i] else (p0, q0)
+        for r in range(1, ramp + 1):
+            frac = r / ramp
+            data.ctrl[:] = ctrl[j] + frac * (ctrl[i] - ctrl[j])
+            if moved[i]:
+                data.mocap_pos[0] = p0 + frac * (p1 - p0)
+                q = q0 + frac * (q1 - q0)
+                data.mocap_quat[0] = q / np.linalg.norm(q)
+            if chord_at is not None:
+                ln = lengths[j] + frac * (lengths[i] - lengths[j])
+                model.body_pos[chord_at, 2] = ln[:-1]
+                model.site_pos[tip, 2] = ln[-1]
+            mujoco.mj_step(model, data)
+        if steps > ramp:
+            mujoco.mj_step(model, data, nstep=steps - ramp)
         pts = []
         best = 0.0
         nc = data.ncon

@@ -71,12 +71,26 @@ def test_run_into_the_wall_touches_at_bhrs_steps():
     assert rep.max_force_n.max() > 1.0  # several mm into a 0.7-2.4 N/mm wall
 
 
+def test_largest_force_converges_in_the_time_step():
+    """The run into the wall at the default 16 substeps and at 32: the largest force within 10 % (the wall's
+    springs set it, not the contact's softness, which stiffens with the time step), the same contact steps."""
+    run = _head(130, "thesis", seed=4)
+    fine, finer = replay_physics(run, substeps=16), replay_physics(run, substeps=32)
+    a, b = float(fine.max_force_n.max()), float(finer.max_force_n.max())
+    assert a > 1.0
+    assert abs(a - b) <= 0.1 * b
+    assert fine.contact_steps == finer.contact_steps
+
+
 def test_wall_pieces_are_outside_the_lumen():
     """Every box's inner face is at the lumen radius or farther from its ring's centerline point."""
     run = _head(20, "thesis")
     xml, st = scene_xml(run, pieces=8)
-    assert st["pieces_per_ring"] == 8 and st["wall_pieces"] % 8 == 0
-    assert xml.count("<joint type=\"slide\"") == st["wall_pieces"]
+    assert st["pieces_per_ring"] == 8 and (st["wall_pieces"] + st["folded_pieces_left_out"]) % 8 == 0
+    # each piece on three springs (its normal, along the centerline, around the ring), of the same stiffness
+    assert xml.count("<joint type=\"slide\"") == 3 * st["wall_pieces"]
+    for axis in ("1 0 0", "0 1 0", "0 0 1"):
+        assert xml.count(f"<joint type=\"slide\" axis=\"{axis}\" stiffness=") == st["wall_pieces"]
 
 
 def test_physics_command_writes_its_set(run_bhr, tmp_path):

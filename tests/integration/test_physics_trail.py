@@ -1,6 +1,7 @@
 """The physics replay of a trail-model run (docs/locomotion.md, docs/physics.md): the trail's intermediate tilts
-become joint targets within the joints' limits, a rigid chain on them stays within the trail's chord shortfalls
-of bhr's whole robot, and the robot is inserted by the slide joint with the carriage at rest."""
+become joint targets within the joints' limits, a chain on them with each module as long as its chord is bhr's
+whole robot, and the robot is inserted by the slide joint with the carriage at rest and stays within 0.5 mm of
+bhr's poses."""
 from __future__ import annotations
 
 import math
@@ -59,5 +60,30 @@ def test_trail_run_is_inserted_by_the_slide_alone_and_stays_clear(trail_run):
     assert rep.contact_steps == []
     assert rep.summary()["carriage_moved_steps"] == 0
     L = trail_run.robot.module_length
-    bound = max(float(np.sum(L - np.linalg.norm(np.diff(p, axis=0), axis=1))) for p in ch.points)
-    assert rep.deviation_mm.max() <= bound + 0.5
+    shortfall = max(float(np.sum(L - np.linalg.norm(np.diff(p, axis=0), axis=1))) for p in ch.points)
+    assert shortfall > 1.0  # a rigid chain of full modules would be this far off: the chords are what keep it on
+    assert rep.deviation_mm.max() <= 0.5
+
+
+def test_trail_chords_put_the_chain_exactly_on_bhrs(trail_run):
+    """With each module's length set to its chord (the next module's body on its axis), the tilts give bhr's
+    whole robot exactly: what is left of the replay's deviation is the servos', not the model's."""
+    ch = replay_chain(trail_run)
+    N, J = ch.points.shape[:2]
+    L = trail_run.robot.module_length
+    a = math.radians(trail_run.robot.alpha)
+    assert ch.chords is not None
+    assert ch.chords.max() <= 0.0
+    assert ch.chords.min() >= -L * (1 - math.cos(a / 2)) - 1e-9  # the model's shortest chord, L cos(alpha/2)
+    model = mujoco_model(trail_run.robot, J - 1)
+    data = mujoco.MjData(model)
+    bodies = [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, f"m{i}") for i in range(2, J)]
+    tip = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, "tip")
+    for i in range(0, N, 3):
+        model.body_pos[bodies, 2] = (L + ch.chords[i, :-1]) * 1e-3
+        model.site_pos[tip, 2] = (L + ch.chords[i, -1]) * 1e-3
+        data.qpos[:] = ch.values[i]
+        mujoco.mj_kinematics(model, data)
+        p, _ = mujoco_points(model, data, J - 1)
+        world = ch.roots[i] + p @ ch.frames[i]
+        assert np.linalg.norm(world - ch.points[i], axis=1).max() <= 1e-6

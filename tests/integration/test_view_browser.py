@@ -9,6 +9,7 @@ what is held to 3 s.
 from __future__ import annotations
 
 import time
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -18,6 +19,45 @@ from bhr.model.generators import load_trajectory
 from bhr.output.view import frame_steps, save_view
 from bhr.run.body import whole_robot
 from tests.integration.test_report_browser import Browser, need_chromium
+
+
+#: Run in every page before its own scripts: when plotly.js defines ``window.Plotly``, its ``newPlot`` is
+#: wrapped so that the page records, on its own clock (``performance.now()``: milliseconds since the
+#: navigation started), when the first plot finished (newPlot's promise: after the first ``plotly_afterplot``)
+#: and when the next frame after it was painted.
+RECORD_DRAWN = """
+(() => {
+  let real;
+  window.__bhrPlotted = null; window.__bhrPainted = null;
+  Object.defineProperty(window, 'Plotly', {configurable: true, get: () => real, set: v => {
+    real = v;
+    const newPlot = v.newPlot;
+    v.newPlot = function (...args) {
+      return newPlot.apply(this, args).then(gd => {
+        if (window.__bhrPlotted === null) {
+          window.__bhrPlotted = performance.now();
+          requestAnimationFrame(() => requestAnimationFrame(() => { window.__bhrPainted = performance.now(); }));
+        }
+        return gd;
+      });
+    };
+  }});
+})();
+"""
+PAINTED = ("new Promise(done => { const wait = () => window.__bhrPainted !== null ? done(window.__bhrPainted)"
+           " : setTimeout(wait, 10); wait(); })")
+
+
+def time_to_drawn(browser, page: Path) -> float:
+    """Seconds from navigation to ``page``'s first plot painted (the page's own clock, :data:`RECORD_DRAWN`)."""
+    browser.call("Page.enable")
+    script = browser.call("Page.addScriptToEvaluateOnNewDocument", source=RECORD_DRAWN)["identifier"]
+    try:
+        browser.load(page.as_uri(), settle=0.0)
+        return float(browser.evaluate(PAINTED)) / 1e3
+    finally:
+        browser.call("Page.removeScriptToEvaluateOnNewDocument", identifier=script)
+
 
 
 @pytest.fixture(scope="module")
@@ -68,3 +108,21 @@ def test_view_of_300_module_run_loads_and_slider_moves_robot(anatomy_view, tmp_p
         assert b.console_errors() == []
     finally:
         b.close()
+
+
+def test_view_legend_shows_the_robots_colours(anatomy_view):
+    """The robot's legend swatches are its body's and its head's colours, not black."""
+    from bhr.output.view import BODY_RGB, HEAD_RGB
+
+    _run, path = anatomy_view
+    b = Browser(need_chromium(), 1200, 900)
+    try:
+        b.load(path.as_uri(), settle=0.5)
+        b.evaluate(PAINTED.replace("window.__bhrPainted !== null", "document.querySelector('.legend')"))
+        got = b.evaluate("[...document.querySelectorAll('.legend .traces')].map(t => [t.textContent,"
+                         " (t.querySelector('.js-line') || {style: {}}).style.stroke])")
+    finally:
+        b.close()
+    swatch = {name: (colour or "").replace(" ", "") for name, colour in got}
+    assert swatch.get("robot: body") == BODY_RGB.replace(" ", ""), got
+    assert swatch.get("robot: head") == HEAD_RGB.replace(" ", ""), got
