@@ -198,6 +198,10 @@ class LazyKernel:
         """numba's dispatcher of this kernel (numba imported, every pending kernel made, on the first use)."""
         if self._dispatcher is None:
             make_kernels()
+        if self._dispatcher is None:  # declared outside the pending list (a test's own): made alone
+            with _lazy_lock:
+                if self._dispatcher is None:
+                    self._dispatcher = _dispatcher_of(self.py_func, self._options)
         return self._dispatcher
 
     def __call__(self, *args: Any, **kwargs: Any) -> Any:
@@ -230,9 +234,7 @@ def njit(*args: Any, **options: Any) -> Any:
     def declare(func: Any) -> Any:
         with _lazy_lock:
             if _made:
-                import numba
-
-                return numba.njit(**options)(func)
+                return _dispatcher_of(func, options)
             kernel = LazyKernel(func, options)
             _pending.append(kernel)
             return kernel
@@ -244,20 +246,45 @@ def njit(*args: Any, **options: Any) -> Any:
     return declare
 
 
+def _dispatcher_of(func: Any, options: dict[str, Any]) -> Any:
+    """``numba.njit(**options)(func)``, typed by its arguments' types and never by their values.
+
+    numba compiles a kernel called from another kernel for the types of the
+    arguments at that call, and a constant argument (``f(x, 0)``, ``f(x, True)``)
+    has a literal type: each such call site compiled the kernel once more
+    (``constrained_kernel`` twice, 2 s each: once with ``has_dir`` a bool from
+    Python, once with ``True`` from the follow loop), and the cache held each.
+    The call is typed with the plain types instead (``int64``, ``bool``), as a
+    call from Python is: one compile per kernel and argument types. Literal
+    values can only fold constants of integer and boolean logic, so the
+    float64 arithmetic and its results are the same.
+    """
+    import numba
+    from numba.core import types
+
+    dispatcher = numba.njit(**options)(func)
+    typed_by_value = dispatcher.get_call_template
+
+    def get_call_template(args: Any, kws: Any) -> Any:
+        return typed_by_value(tuple(types.unliteral(a) for a in args),
+                              {k: types.unliteral(v) for k, v in kws.items()})
+
+    dispatcher.get_call_template = get_call_template
+    return dispatcher
+
+
 def make_kernels() -> None:
     """Import numba and make every declared kernel its dispatcher, bhr's module globals pointing at them."""
     global _made
     with _lazy_lock:
         if _made and not _pending:
             return
-        import numba
+        import numba  # noqa: F401  (the callbacks run with numba imported, before any kernel is made)
 
         while _on_load:
             _on_load.pop(0)()
-        made = {}
         for kernel in _pending:
-            kernel._dispatcher = numba.njit(**kernel._options)(kernel.py_func)
-            made[id(kernel)] = kernel._dispatcher
+            kernel._dispatcher = _dispatcher_of(kernel.py_func, kernel._options)
         _pending.clear()
         _made = True
         for name, module in list(sys.modules.items()):
@@ -267,9 +294,8 @@ def make_kernels() -> None:
             if not isinstance(space, dict):
                 continue
             for key, value in list(space.items()):
-                if isinstance(value, LazyKernel):
-                    made_now = made.get(id(value))
-                    space[key] = made_now if made_now is not None else value.dispatcher()
+                if isinstance(value, LazyKernel) and value._dispatcher is not None:
+                    space[key] = value._dispatcher
 
 
 def when_numba_loads(callback: Any) -> None:

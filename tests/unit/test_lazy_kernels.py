@@ -88,3 +88,19 @@ def test_a_kernel_is_made_on_first_use_and_its_module_then_names_numbas_dispatch
     after = _numba.njit(cache=False)(lambda x: x)  # numba loaded: a dispatcher at once
     assert isinstance(after, numba.core.registry.CPUDispatcher)
 
+
+
+def test_the_stable_argsort_kernel_is_numpys_mergesort():
+    import numpy as np
+
+    from bhr.kinematics.leader import stable_argsort
+
+    rng = np.random.default_rng(5)
+    for m in (0, 1, 2, 3, 7, 16, 80, 81, 200):
+        keys = rng.integers(0, 6, size=m + 3).astype(np.float64)  # many ties: the order among equals matters
+        if m > 4:
+            keys[[1, 4]] = np.nan
+            keys[2] = np.inf
+        assert stable_argsort(keys, m).tolist() == np.argsort(keys[:m], kind="mergesort").tolist()
+        smooth = rng.normal(size=m)
+        assert stable_argsort(smooth, m).tolist() == np.argsort(smooth, kind="mergesort").tolist()
