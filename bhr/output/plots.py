@@ -684,7 +684,7 @@ RUN_PNG_COMPRESS = 1
 #: How the saved figures render their text: glyphs at the pixel grid's own resolution, without FreeType's hinting.
 #: matplotlib's defaults (autohinting, laid out at 8x the horizontal resolution) look the same at 110 dpi but make
 #: text most of a figure's drawing: these take about 0.2 s of CPU off the five figures of ``bhr follow``.
-TEXT_RENDERING = {"text.hinting": "none", "text.hinting_factor": 1}
+TEXT_RENDERING: dict[Any, Any] = {"text.hinting": "none", "text.hinting_factor": 1}
 
 
 def save_figure(fig: plt.Figure, path: str | os.PathLike[str], dpi: int = 110, compress: int | None = None) -> Path:
