@@ -15,10 +15,14 @@ at all when no cache folder is writable).
 """
 from __future__ import annotations
 
+import functools
 import hashlib
 import os
+import sys
 import tempfile
+import threading
 from pathlib import Path
+from typing import Any
 
 _SOURCES = Path(__file__).resolve().parent
 
@@ -160,6 +164,152 @@ def install_light_blas() -> None:
     if "numba.np.arraymath" in sys.modules or any(isinstance(f, _LightBlas) for f in sys.meta_path):
         return
     sys.meta_path.insert(0, _LightBlas())
+
+
+
+# --- kernels made when first used ------------------------------------------------------------------------------
+
+_lazy_lock = threading.RLock()
+_pending: list["LazyKernel"] = []
+_made = False  # numba imported and every kernel defined so far made a dispatcher
+_on_load: list[Any] = []  # what to do when numba is imported for the first kernel (when_numba_loads)
+
+
+class LazyKernel:
+    """A kernel declared with :func:`njit` before numba is imported: numba's dispatcher is made at its first use.
+
+    Importing numba costs about 0.4 s of CPU, which a command that refuses
+    its input (a misspelt solver, a negative module count) should not pay.
+    On the first call (or attribute such as ``.stats``) of any bhr kernel,
+    numba is imported, every kernel declared so far becomes its
+    ``numba.njit(...)`` dispatcher, and the module globals of bhr that name
+    a kernel are given the dispatcher itself: compiled callers see numba's
+    dispatchers as they always did, and Python callers call them with no
+    indirection. Kernels declared after that are dispatchers at once.
+    """
+
+    def __init__(self, func: Any, options: dict[str, Any]) -> None:
+        self.py_func = func
+        self._options = options
+        self._dispatcher: Any = None
+        functools.update_wrapper(self, func)
+
+    def dispatcher(self) -> Any:
+        """numba's dispatcher of this kernel (numba imported, every pending kernel made, on the first use)."""
+        if self._dispatcher is None:
+            make_kernels()
+        if self._dispatcher is None:  # declared outside the pending list (a test's own): made alone
+            with _lazy_lock:
+                if self._dispatcher is None:
+                    self._dispatcher = _dispatcher_of(self.py_func, self._options)
+        return self._dispatcher
+
+    def __call__(self, *args: Any, **kwargs: Any) -> Any:
+        return self.dispatcher()(*args, **kwargs)
+
+    def __getattr__(self, name: str) -> Any:
+        if name.startswith("__") or name in ("py_func", "_options", "_dispatcher"):
+            raise AttributeError(name)
+        return getattr(self.dispatcher(), name)
+
+    def __reduce__(self) -> Any:  # pickled by name, as numba's dispatchers are
+        return (_kernel_by_name, (self.py_func.__module__, self.py_func.__qualname__))
+
+    def __repr__(self) -> str:
+        return f"<bhr kernel {self.py_func.__module__}.{self.py_func.__qualname__}>"
+
+
+def _kernel_by_name(module: str, qualname: str) -> Any:
+    import importlib
+
+    obj: Any = importlib.import_module(module)
+    for part in qualname.split("."):
+        obj = getattr(obj, part)
+    return obj
+
+
+def njit(*args: Any, **options: Any) -> Any:
+    """``numba.njit`` with the same options, numba imported only when a kernel is first used (:class:`LazyKernel`)."""
+
+    def declare(func: Any) -> Any:
+        with _lazy_lock:
+            if _made:
+                return _dispatcher_of(func, options)
+            kernel = LazyKernel(func, options)
+            _pending.append(kernel)
+            return kernel
+
+    if args and callable(args[0]) and len(args) == 1:
+        return declare(args[0])
+    if args:
+        raise TypeError("bhr._numba.njit takes keyword options only (no signatures)")
+    return declare
+
+
+def _dispatcher_of(func: Any, options: dict[str, Any]) -> Any:
+    """``numba.njit(**options)(func)``, typed by its arguments' types and never by their values.
+
+    numba compiles a kernel called from another kernel for the types of the
+    arguments at that call, and a constant argument (``f(x, 0)``, ``f(x, True)``)
+    has a literal type: each such call site compiled the kernel once more
+    (``constrained_kernel`` twice, 2 s each: once with ``has_dir`` a bool from
+    Python, once with ``True`` from the follow loop), and the cache held each.
+    The call is typed with the plain types instead (``int64``, ``bool``), as a
+    call from Python is: one compile per kernel and argument types. Literal
+    values can only fold constants of integer and boolean logic, so the
+    float64 arithmetic and its results are the same.
+    """
+    import numba
+    from numba.core import types
+
+    dispatcher = numba.njit(**options)(func)
+    typed_by_value = dispatcher.get_call_template
+
+    def get_call_template(args: Any, kws: Any) -> Any:
+        return typed_by_value(tuple(types.unliteral(a) for a in args),
+                              {k: types.unliteral(v) for k, v in kws.items()})
+
+    dispatcher.get_call_template = get_call_template
+    return dispatcher
+
+
+def make_kernels() -> None:
+    """Import numba and make every declared kernel its dispatcher, bhr's module globals pointing at them."""
+    global _made
+    with _lazy_lock:
+        if _made and not _pending:
+            return
+        import numba  # noqa: F401  (the callbacks run with numba imported, before any kernel is made)
+
+        while _on_load:
+            _on_load.pop(0)()
+        for kernel in _pending:
+            kernel._dispatcher = _dispatcher_of(kernel.py_func, kernel._options)
+        _pending.clear()
+        _made = True
+        for name, module in list(sys.modules.items()):
+            if module is None or not (name == "bhr" or name.startswith("bhr.") or name == "__main__"):
+                continue
+            space = getattr(module, "__dict__", None)
+            if not isinstance(space, dict):
+                continue
+            for key, value in list(space.items()):
+                if isinstance(value, LazyKernel) and value._dispatcher is not None:
+                    space[key] = value._dispatcher
+
+
+def when_numba_loads(callback: Any) -> None:
+    """Call ``callback()`` when the first kernel is used (numba imported, nothing compiled yet), or now if it was."""
+    with _lazy_lock:
+        if _made:
+            callback()
+        else:
+            _on_load.append(callback)
+
+
+def numba_loaded() -> bool:
+    """Whether numba has been imported in this process."""
+    return "numba" in sys.modules
 
 
 configure_cache()

@@ -189,6 +189,7 @@ def compile_notice() -> str:
 
 _announcer = None
 _announced = False
+_registered = False
 
 
 def announce_if_cache_empty() -> None:
@@ -207,13 +208,25 @@ def announce_compiles() -> None:
     Nothing is printed when every kernel comes from numba's on-disk cache
     (numba only fires its compile event on a cache miss).
     """
-    global _announcer
-    if _announcer is not None:
+    global _registered
+    if _registered:
         return
+    _registered = True
 
     # an empty cache means a first run: say so now, before the imports and
     # the first compile (a stale cache is caught by numba's compile event)
     announce_if_cache_empty()
+    from bhr import _numba
+
+    _numba.when_numba_loads(_listen)  # numba's compile event, once the first kernel imports numba
+    import atexit
+
+    atexit.register(_compile_the_rest)
+
+
+def _listen() -> None:
+    """Register the compile listener (numba's compile event), once numba is imported for the first kernel."""
+    global _announcer
     announced = _announced
     from numba.core import event
 
@@ -252,9 +265,6 @@ def announce_compiles() -> None:
 
     _announcer = Announcer()
     event.register("numba:compile", _announcer)
-    import atexit
-
-    atexit.register(_compile_the_rest)
 
 
 def _compile_the_rest() -> None:

@@ -40,9 +40,10 @@ def plan(codes_path, rate, schedule, robot_file, plot_path, no_plot, csv_path):
         bhr plan --codes bhr-out/latest/codes.csv --schedule auto
     """
     from bhr.model.codes import read_codes_csv
+
+    steps, table = read_codes_csv(codes_path)  # a missing or bad file is refused before the thermal model loads
     from bhr.hardware.thermal import format_duration, plan as make_plan, summarize
 
-    steps, table = read_codes_csv(codes_path)
     from bhr.settings.options import LIMITS
 
     if not no_plot and table.shape[1] > LIMITS["figure_modules"]:

@@ -45,8 +45,9 @@ def solve(target, orientation, solver, json_path, plot_path, **kwargs):
         bhr solve --modules 5 --module-length 2 --target 3 9 0 --solver ccd
     """
     from bhr.cli._progress import announce_compiles
-    from bhr.solvers import canonical, solve as run
+    from bhr.solvers import canonical, check_solver_name, solve as run
 
+    check_solver_name(solver)  # before numba or a solver module loads (bhr.solvers.names)
     announce_compiles()
 
     check_writable(json_path, "JSON")

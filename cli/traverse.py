@@ -44,6 +44,10 @@ def traverse(grid, colons, solvers, target_pass, robot_file, out_dir, jobs, sche
 
         bhr traverse --grid alpha=10:30:5 --grid module_length=5,6,8,10 --colons 1-100
     """
+    from bhr.solvers import check_solver_name
+
+    for name in solvers:  # a misspelt solver is refused before the studies' modules (numpy, numba) load
+        check_solver_name(name, "traverse")
     from bhr.studies.sweep import parse_grid_option
     from bhr.studies.traverse import build_study, format_study, heatmap_axes, run_study, write_study
 

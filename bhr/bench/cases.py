@@ -733,6 +733,8 @@ def case_cli(repeat: int = 5) -> list[BenchResult]:
         bad = _cpu(_bhr_cmd() + ["follow", "--traj", "colonn"], repeat, tmp, check=False)
         bad_solver = _cpu(_bhr_cmd() + ["follow", "--traj", "colon", "--solver", "thesiss"], repeat, tmp, check=False)
         bad_modules = _cpu(_bhr_cmd() + ["follow", "--traj", "colon", "--modules", "-3"], repeat, tmp, check=False)
+        bad_codes = _cpu(_bhr_cmd() + ["fk", "--codes", "3,0,7"], repeat, tmp, check=False)
+        bad_file = _cpu(_bhr_cmd() + ["plan", "--codes", "missing.csv"], repeat, tmp, check=False)
         nop = _cpu(_bhr_cmd() + ["follow", "--traj", "colon", "--no-plots", "--out", "a"], repeat, tmp)
         plots = _cpu(_bhr_cmd() + ["follow", "--traj", "colon", "--out", "b"], max(3, repeat // 2), tmp)
         plan_codes_csv(os.path.join(tmp, "long.csv"))
@@ -746,6 +748,10 @@ def case_cli(repeat: int = 5) -> list[BenchResult]:
                            bad_solver / base, "<= 0.3 s", bad_solver <= 0.3))
     out.append(BenchResult("cli-bad-modules", "per command (CPU)", bad_modules, base, "python -c pass",
                            bad_modules / base, "<= 0.3 s", bad_modules <= 0.3))
+    out.append(BenchResult("cli-bad-codes", "per command (CPU)", bad_codes, base, "python -c pass",
+                           bad_codes / base, "<= 0.3 s", bad_codes <= 0.3))
+    out.append(BenchResult("cli-bad-plan-file", "per command (CPU)", bad_file, base, "python -c pass",
+                           bad_file / base, "<= 0.3 s", bad_file <= 0.3))
     out.append(BenchResult("cli-follow-colon-noplots", "per command (CPU)", nop, base, "python -c pass", nop / base,
                            "<= 1 s", nop <= 1.0))
     out.append(BenchResult("cli-follow-colon-plots", "per command (CPU)", plots, base, "python -c pass",

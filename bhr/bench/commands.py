@@ -38,6 +38,13 @@ COMMANDS: dict[str, tuple[list[str], str | None]] = {
     "bench (every case)": (["bench"], None),
     "plan 300 modules x 1,500 steps": (["plan", "--codes", "long.csv", "--schedule", "auto", "--no-plots"], None),
     "follow --solver thesiss (refused)": (["follow", "--traj", "colon", "--solver", "thesiss"], None),
+    "follow --modules -3 (refused)": (["follow", "--traj", "colon", "--modules", "-3"], None),
+    "follow --alpha 95 (refused)": (["follow", "--traj", "colon", "--alpha", "95"], None),
+    "solve --solver x (refused)": (["solve", "--target", "1", "2", "3", "--solver", "x"], None),
+    "sweep --solver x (refused)": (["sweep", "--solver", "x"], None),
+    "traverse --colons x (refused)": (["traverse", "--colons", "x"], None),
+    "fk --codes 3,0,7 (refused)": (["fk", "--codes", "3,0,7"], None),
+    "plan --codes missing.csv (refused)": (["plan", "--codes", "missing.csv"], None),
     "first run: follow colon, empty cache": (["follow", "--traj", "colon", "--out", "o"], None),
     "first run: python -m bhr.warmup, empty cache": (["-m", "bhr.warmup"], None),
 }

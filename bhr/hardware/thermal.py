@@ -438,7 +438,7 @@ _kernel = None
 def _compiled():
     global _kernel
     if _kernel is None:
-        from numba import njit
+        from bhr._numba import njit
 
         # the kernel calls its helpers compiled: numba reads them from the module's globals when it compiles
         for helper in ("_drive_code", "_count_on", "_wire_on", "_wire_masks", "_account"):

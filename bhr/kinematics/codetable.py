@@ -21,8 +21,10 @@ index to the code and :data:`SEARCH_INDEX` back.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
-import numpy as np
+if TYPE_CHECKING:
+    import numpy as np
 
 __all__ = ["CodeRow", "TABLE", "REST", "LIFT", "VALID_CODES", "TILT_CODES", "CODE_AXIS", "SEARCH_CODES",
            "SEARCH_INDEX", "SEARCH_AXIS", "SEARCH_SIGN", "SEARCH_INVERSE", "LIFT_OF", "markdown_table"]
@@ -62,24 +64,52 @@ TILT_CODES: tuple[int, ...] = tuple(r.code for r in TABLE if r.motion == "tilt")
 CODE_AXIS: dict[int, tuple[int, int]] = {r.code: (r.axis, r.sign) for r in TABLE if r.motion == "tilt"}
 
 _SHAPES = tuple(r for r in TABLE if r.motion != "lift")  # what a joint can do, in search order
-#: Search index (0 rest, 1..4 tilt about +x, +y, -x, -y) -> code.
-SEARCH_CODES = np.array([r.code for r in _SHAPES], dtype=np.int64)
-#: Code (0..15) -> search index; the lift bends nothing (0); unstable codes -1.
-SEARCH_INDEX = np.full(16, -1, dtype=np.int64)
-for _k, _row in enumerate(_SHAPES):
-    SEARCH_INDEX[_row.code] = _k
-SEARCH_INDEX[LIFT] = 0
-#: Search index -> tilt axis (0 x, 1 y; -1 for rest) and sign (+1.0, -1.0; 0.0 for rest).
-SEARCH_AXIS = np.array([r.axis for r in _SHAPES], dtype=np.int64)
-SEARCH_SIGN = np.array([float(r.sign) for r in _SHAPES], dtype=np.float64)
-#: Search index -> the index of the opposite tilt (same axis, other sign); rest stays rest.
-SEARCH_INVERSE = np.array([next((j for j, o in enumerate(_SHAPES) if o.motion == "tilt" and o.axis == r.axis
-                                 and o.sign == -r.sign), k) for k, r in enumerate(_SHAPES)], dtype=np.int64)
-#: Code (0..15) -> 1.0 when it lifts the next module by the stroke, else 0.0.
-LIFT_OF = np.zeros(16, dtype=np.float64)
-LIFT_OF[LIFT] = 1.0
-for _a in (SEARCH_CODES, SEARCH_INDEX, SEARCH_AXIS, SEARCH_SIGN, SEARCH_INVERSE, LIFT_OF):
-    _a.setflags(write=False)
+
+if TYPE_CHECKING:
+    #: Search index (0 rest, 1..4 tilt about +x, +y, -x, -y) -> code.
+    SEARCH_CODES: np.ndarray
+    #: Code (0..15) -> search index; the lift bends nothing (0); unstable codes -1.
+    SEARCH_INDEX: np.ndarray
+    #: Search index -> tilt axis (0 x, 1 y; -1 for rest) and sign (+1.0, -1.0; 0.0 for rest).
+    SEARCH_AXIS: np.ndarray
+    SEARCH_SIGN: np.ndarray
+    #: Search index -> the index of the opposite tilt (same axis, other sign); rest stays rest.
+    SEARCH_INVERSE: np.ndarray
+    #: Code (0..15) -> 1.0 when it lifts the next module by the stroke, else 0.0.
+    LIFT_OF: np.ndarray
+
+_ARRAYS = ("SEARCH_CODES", "SEARCH_INDEX", "SEARCH_AXIS", "SEARCH_SIGN", "SEARCH_INVERSE", "LIFT_OF")
+
+
+def _arrays() -> dict[str, Any]:
+    """The kernels' read-only arrays of the table (numpy imported for them on first use: a code check needs none)."""
+    import numpy as np
+
+    search_index = np.full(16, -1, dtype=np.int64)
+    for k, row in enumerate(_SHAPES):
+        search_index[row.code] = k
+    search_index[LIFT] = 0
+    lift_of = np.zeros(16, dtype=np.float64)
+    lift_of[LIFT] = 1.0
+    out = {
+        "SEARCH_CODES": np.array([r.code for r in _SHAPES], dtype=np.int64),
+        "SEARCH_INDEX": search_index,
+        "SEARCH_AXIS": np.array([r.axis for r in _SHAPES], dtype=np.int64),
+        "SEARCH_SIGN": np.array([float(r.sign) for r in _SHAPES], dtype=np.float64),
+        "SEARCH_INVERSE": np.array([next((j for j, o in enumerate(_SHAPES) if o.motion == "tilt" and o.axis == r.axis
+                                          and o.sign == -r.sign), k) for k, r in enumerate(_SHAPES)], dtype=np.int64),
+        "LIFT_OF": lift_of,
+    }
+    for a in out.values():
+        a.setflags(write=False)
+    return out
+
+
+def __getattr__(name: str) -> Any:  # PEP 562: the arrays are made on first use
+    if name in _ARRAYS:
+        globals().update(_arrays())
+        return globals()[name]
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 _AXIS_NAMES = ("x", "y")
 

@@ -11,10 +11,12 @@ from __future__ import annotations
 import csv
 import io
 import os
+import sys
 from pathlib import Path
-from typing import Iterable, Sequence
+from typing import TYPE_CHECKING, Iterable, Sequence, TypeGuard
 
-import numpy as np
+if TYPE_CHECKING:  # numpy loads when a table is read or written: a code is checked without it
+    import numpy as np
 
 from bhr.settings.errors import BhrError
 from bhr.settings.inputs import MAX_POINTS, read_capped
@@ -28,16 +30,24 @@ _VALID = frozenset(VALID_CODES)
 _ALLOWED = ", ".join(map(str, sorted(VALID_CODES)))
 
 
+def _whole(code: object) -> TypeGuard[int]:
+    """An int, or a numpy integer (numpy is not imported for this: without it there are none)."""
+    if isinstance(code, int):
+        return True
+    numpy = sys.modules.get("numpy")
+    return numpy is not None and isinstance(code, numpy.integer)
+
+
 def is_valid_code(code: int) -> bool:
     """True when ``code`` is one of the six stable codes (0, 3, 6, 9, 12, 15)."""
-    return isinstance(code, (int, np.integer)) and int(code) in _VALID
+    return _whole(code) and int(code) in _VALID
 
 
 def check_code(code: object, where: str = "") -> int:
     """Return ``code`` as an int, or raise BhrError naming it and the allowed codes."""
     place = f" {where}" if where else ""
     try:
-        if isinstance(code, (int, np.integer)):
+        if _whole(code):
             value = int(code)
         else:
             text = str(code).strip()
@@ -73,6 +83,8 @@ def actuators(code: int) -> tuple[int, ...]:
 
 def format_codes_csv(codes: np.ndarray | Sequence[Sequence[int]], steps: Sequence[int] | None = None) -> str:
     """Render a (steps, modules) array of codes as the text of ``codes.csv``."""
+    import numpy as np
+
     arr = np.asarray(codes, dtype=np.int64)
     if arr.ndim != 2:
         raise BhrError("codes must be a table of steps by modules")
@@ -139,6 +151,8 @@ def read_codes_csv(path: str | os.PathLike[str]) -> tuple[list[int], np.ndarray]
                        f"a table may hold; split the file ({hint})")
     if len(rows) < 2:
         raise BhrError(f"{p} has a header but no steps; add at least one row")
+    import numpy as np  # the file is a table: only now
+
     steps: list[int] = []
     table = np.zeros((len(rows) - 1, n), dtype=np.int64)
     for i, row in enumerate(rows[1:]):

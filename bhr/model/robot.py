@@ -10,15 +10,14 @@ from __future__ import annotations
 
 import math
 from dataclasses import asdict, dataclass, fields
-from typing import Any, Sequence
-
-import numpy as np
+from typing import TYPE_CHECKING, Any, Sequence
 
 from bhr.settings.inputs import did_you_mean
 from bhr.settings.options import by_group, check_number, robot_limits
-from bhr.model.codes import check_codes
-from bhr.kinematics.frames import fk_kernel
 from bhr.settings.errors import BhrError
+
+if TYPE_CHECKING:  # numpy and the kernels load when a pose is computed: a robot's settings are checked without them
+    import numpy as np
 
 __all__ = ["Robot", "THESIS_ROBOT", "CHAPTER5_ROBOT", "robot_with", "alpha_from_stroke", "min_turn_radius",
            "base_frame", "forward_kinematics", "straight_chain"]
@@ -199,6 +198,8 @@ def straight_chain(n: int, length: float, direction: Sequence[float] | np.ndarra
     With ``tip_at_origin`` the tip sits at ``origin`` (the trajectory-following
     start); otherwise the base does (the chapter 5 experiments).
     """
+    import numpy as np
+
     d = np.asarray(direction, dtype=np.float64)
     d = d / np.linalg.norm(d)
     o = np.asarray(origin, dtype=np.float64)
@@ -216,6 +217,8 @@ def base_frame(direction: Sequence[float] | np.ndarray) -> np.ndarray:
     z = +Y gives x = +Z, y = +X). In general x is the next world axis after the
     dominant one, made orthogonal to z.
     """
+    import numpy as np
+
     z = np.asarray(direction, dtype=np.float64)
     nz = np.linalg.norm(z)
     if nz == 0 or not np.isfinite(nz):
@@ -241,6 +244,11 @@ def forward_kinematics(robot: Robot, codes: Sequence[int], base: Sequence[float]
     it, code 15 keeps it and lengthens the module by :attr:`Robot.lift`.
     Module ``i`` runs from point ``i`` along its frame's z.
     """
+    import numpy as np
+
+    from bhr.kinematics.frames import fk_kernel
+    from bhr.model.codes import check_codes
+
     codes_arr = np.asarray(check_codes(codes), dtype=np.int64)
     if codes_arr.shape[0] != robot.modules:
         raise BhrError(f"expected {robot.modules} codes (one per module), got {codes_arr.shape[0]}")

@@ -19,7 +19,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from numba import njit
+from bhr._numba import njit
 
 from bhr.settings.errors import BhrError
 

@@ -681,6 +681,11 @@ def check_figure_path(path: str | os.PathLike[str]) -> None:
 #: and saves some 0.04 s of CPU over the three error figures (bhr follow draws five figures every run).
 RUN_PNG_COMPRESS = 1
 
+#: How the saved figures render their text: glyphs at the pixel grid's own resolution, without FreeType's hinting.
+#: matplotlib's defaults (autohinting, laid out at 8x the horizontal resolution) look the same at 110 dpi but make
+#: text most of a figure's drawing: these take about 0.2 s of CPU off the five figures of ``bhr follow``.
+TEXT_RENDERING: dict[Any, Any] = {"text.hinting": "none", "text.hinting_factor": 1}
+
 
 def save_figure(fig: plt.Figure, path: str | os.PathLike[str], dpi: int = 110, compress: int | None = None) -> Path:
     """Save ``fig`` atomically as PNG (or SVG/PDF by extension) and close it; ``compress``: a PNG's zlib level."""
@@ -690,7 +695,7 @@ def save_figure(fig: plt.Figure, path: str | os.PathLike[str], dpi: int = 110, c
         kw: dict[str, Any] = {}
         if compress is not None and fmt == "png":
             kw["pil_kwargs"] = {"compress_level": int(compress)}
-        with atomic_path(p) as tmp:
+        with atomic_path(p) as tmp, matplotlib.rc_context(TEXT_RENDERING):
             if tmp == p:  # a device, FIFO or /dev/stdout: render in memory, then one plain write (no seeking)
                 import io
 

@@ -46,11 +46,12 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from numba import njit
+from bhr._numba import njit
 
 from bhr.settings.errors import BhrError, renamed
 from bhr.kinematics.codetable import SEARCH_CODES, SEARCH_INVERSE
 from bhr.kinematics.frames import tilt_frame as _rot
+from bhr.kinematics.leader import stable_argsort
 from bhr.settings.options import BY_NAME
 from bhr.model.path import path_directions
 from bhr.model.robot import base_frame
@@ -145,7 +146,7 @@ def _body_kernel(P0s, F1s, start, nb, f, feed, L, c, s, beam, pts, codes):
                     cPar[m] = q
                     cA[m] = a
                     m += 1
-            order = np.argsort(cC[:m], kind="mergesort")
+            order = stable_argsort(cC, m)
             nm = min(B, m)
             for u in range(nm):
                 r = order[u]

@@ -48,7 +48,7 @@ from dataclasses import dataclass, field
 from typing import Callable
 
 import numpy as np
-from numba import njit
+from bhr._numba import njit
 
 from bhr.settings.errors import BhrError, renamed
 # the tube and its nearest-point kernels live in the model layer; their names stay importable from here

@@ -39,7 +39,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from numba import njit
+from bhr._numba import njit
 
 from bhr.run.body import check_body_modules
 from bhr.model.tube import Tube, lumen_end_of, make_tube, nearest_kernel, point_clearance, scan_from
@@ -47,6 +47,7 @@ from bhr.run.clearance import clearance_chain_kernel, index_matched_min, robot_l
 from bhr.settings.errors import BhrError
 from bhr.kinematics.codetable import SEARCH_CODES
 from bhr.kinematics.frames import tilt_frame
+from bhr.kinematics.leader import stable_argsort
 from bhr.model.robot import base_frame
 
 __all__ = ["TrailRun", "plan_trail", "trail_vertices", "trail_poses", "trail_tables", "dense_tube",
@@ -233,7 +234,7 @@ def plan_kernel(C, R, w, sp, start, T0, g0, V, L, c, s, prm, beam, dpos, ddir, c
                 cPar[k] = q
                 cAct[k] = a
                 k += 1
-        order = np.argsort(cC[:k], kind="mergesort")
+        order = stable_argsort(cC, k)
         nk = 0
         for r in range(k):
             i = order[r]

@@ -5,6 +5,10 @@ solver is one new file; a solver in another package registers itself through
 the ``bhr.solvers`` entry point group (docs/model.md, "Adding a solver").
 ``get_solver(name, robot, **options)`` builds one; ``solve(...)`` runs one
 target from the chapter 5 start (a straight chain along +Y from the origin).
+
+Importing this package loads neither numpy nor a solver: :func:`check_solver_name`
+knows bhr's own solvers from :mod:`bhr.solvers.names`, so a misspelt name is
+refused at once; the solver modules load when a solver is built or listed.
 """
 from __future__ import annotations
 
@@ -12,13 +16,27 @@ import importlib
 import importlib.metadata
 import inspect
 import pkgutil
-from typing import Any, Sequence
+from typing import TYPE_CHECKING, Any, Sequence
 
 from bhr.settings.inputs import did_you_mean
 from bhr.settings.errors import BhrError
 from bhr.settings.options import BY_NAME, excerpt, type_name
 from bhr.model.robot import CHAPTER5_ROBOT, Robot, robot_with
-from bhr.solvers.base import REGISTRY, Chain, FollowContext, SolveResult, Solver, check_direction, check_target
+from bhr.solvers.names import BUILTIN, REGISTRY, builtin_name
+
+if TYPE_CHECKING:  # loaded lazily (numpy): what these names are, for type checkers
+    from bhr.solvers.base import Chain, FollowContext, SolveResult, Solver
+
+#: Names this package gives from bhr.solvers.base, loaded on first use (PEP 562).
+_FROM_BASE = ("Chain", "FollowContext", "SolveResult", "Solver")
+
+
+def __getattr__(name: str) -> Any:
+    if name in _FROM_BASE:
+        from bhr.solvers import base
+
+        return getattr(base, name)
+    raise AttributeError(f"module 'bhr.solvers' has no attribute {name!r}")
 
 __all__ = ["Chain", "FollowContext", "SolveResult", "Solver", "available", "canonical", "check_solver_name",
            "get_solver", "solve", "ENTRY_POINTS"]
@@ -34,8 +52,10 @@ def _load_all() -> None:
     if _loaded:
         return
     _loaded = True
+    from bhr.solvers.base import Solver
+
     for info in pkgutil.iter_modules(__path__):
-        if not info.name.startswith("_") and info.name != "base":
+        if not info.name.startswith("_") and info.name not in ("base", "names"):
             importlib.import_module(f"{__name__}.{info.name}")
     for ep in importlib.metadata.entry_points(group=ENTRY_POINTS):
         try:
@@ -52,6 +72,11 @@ def _load_all() -> None:
                 REGISTRY.setdefault(alias, cls)
 
 
+def _plugins() -> bool:
+    """Whether another package adds solvers (entry points named, not loaded)."""
+    return bool(importlib.metadata.entry_points(group=ENTRY_POINTS))
+
+
 def available() -> dict[str, str]:
     """Solver names and one-line summaries."""
     _load_all()
@@ -60,6 +85,9 @@ def available() -> dict[str, str]:
 
 def canonical(name: str) -> str:
     """The solver's registered name for ``name`` (``seed`` -> ``thesis``); unknown names come back unchanged."""
+    known = builtin_name(name) if isinstance(name, str) else None
+    if known is not None:
+        return known
     _load_all()
     cls = REGISTRY.get(name)
     return cls.name if cls is not None else name
@@ -67,14 +95,25 @@ def canonical(name: str) -> str:
 
 def check_solver_name(name: Any, where: str = "") -> str:
     """The registered name of solver ``name`` (aliases such as ``seed`` give ``thesis``), or one BhrError line
-    with did-you-mean and the names to choose from (``where`` prefixed)."""
-    _load_all()
-    cls = REGISTRY.get(name) if isinstance(name, str) else None
-    if cls is None:
-        shown = excerpt(name) if isinstance(name, str) else type_name(name)
-        raise BhrError(f"{where + ': ' if where else ''}unknown solver {shown}; "
-                       f"{did_you_mean(str(name), available())}choose from {', '.join(available())}")
-    return cls.name
+    with did-you-mean and the names to choose from (``where`` prefixed).
+
+    bhr's own solvers are known without loading them (:mod:`bhr.solvers.names`);
+    the solver modules load only when another package adds solvers and the
+    name is none of bhr's."""
+    known = builtin_name(name) if isinstance(name, str) else None
+    if known is not None:
+        return known
+    if _loaded or _plugins():
+        _load_all()
+        cls = REGISTRY.get(name) if isinstance(name, str) else None
+        if cls is not None:
+            return cls.name
+        names = list(available())
+    else:
+        names = sorted(BUILTIN)
+    shown = excerpt(name) if isinstance(name, str) else type_name(name)
+    raise BhrError(f"{where + ': ' if where else ''}unknown solver {shown}; "
+                   f"{did_you_mean(str(name), names)}choose from {', '.join(names)}")
 
 
 def _check_solver_options(cls: type[Solver], options: dict[str, Any]) -> dict[str, Any]:
@@ -102,6 +141,8 @@ def get_solver(name: str | Solver | type[Solver], robot: Robot, **options: Any) 
     ``robot`` and given no further options.
     """
     _load_all()
+    from bhr.solvers.base import Solver
+
     options = {k: v for k, v in options.items() if v is not None}
     if isinstance(name, Solver):
         if options:
@@ -140,6 +181,8 @@ def solve(target: Sequence[float], *, robot: Robot | None = CHAPTER5_ROBOT, solv
     >>> res.success, res.iterations
     (True, 1)
     """
+    from bhr.solvers.base import Chain, Solver, check_direction, check_target
+
     t = check_target(target)
     d = check_direction(orientation)
     if isinstance(solver, Solver) and robot is CHAPTER5_ROBOT and not robot_options:

@@ -21,16 +21,22 @@ import numpy as np
 from bhr.settings.errors import BhrError, renamed
 from bhr.kinematics.leader import advance_kernel
 from bhr.model.robot import Robot, base_frame, straight_chain
+from bhr.solvers.names import REGISTRY  # kept in the light index module, filled by register()
 
 __all__ = ["Chain", "SolveResult", "Solver", "FollowContext", "register", "REGISTRY"]
-
-REGISTRY: dict[str, type["Solver"]] = {}
 
 
 def register(cls: type["Solver"]) -> type["Solver"]:
     """Class decorator: make a solver available by its ``name`` (and its older ``aliases``)."""
     if not getattr(cls, "name", None):
         raise TypeError(f"{cls.__name__} has no name")
+    if cls.__module__.startswith("bhr.solvers."):  # bhr's own: listed in the light index of names, as it is here
+        from bhr.solvers.names import BUILTIN
+
+        listed = BUILTIN.get(cls.name)
+        if listed != (cls.__module__.rsplit(".", 1)[1], tuple(cls.aliases)):
+            raise TypeError(f"solver {cls.name!r} ({cls.__module__}, aliases {tuple(cls.aliases)}) is listed as "
+                            f"{listed} in bhr/solvers/names.py; list it there as it is")
     REGISTRY[cls.name] = cls
     for alias in cls.aliases:
         REGISTRY[alias] = cls

@@ -50,7 +50,7 @@ import math
 from typing import Any
 
 import numpy as np
-from numba import njit
+from bhr._numba import njit
 
 from bhr.model.tube import (Tube, lumen_end_of, make_tube, nearest_numpy, point_clearance, scan_from, search_window,
                             segment_scan)

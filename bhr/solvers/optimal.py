@@ -52,13 +52,13 @@ import math
 from typing import Any, Sequence
 
 import numpy as np
-from numba import njit
+from bhr._numba import njit
 
 from bhr.settings.errors import BhrError
 from bhr.settings.options import check_number, solver_defaults
 from bhr.kinematics.frames import tilt_frame as _rot
 from bhr.kinematics.codetable import SEARCH_CODES
-from bhr.kinematics.leader import advance_kernel, finish_step, tip_angle
+from bhr.kinematics.leader import advance_kernel, finish_step, stable_argsort, tip_angle
 from bhr.solvers.base import Chain, FollowContext, SolveResult, Solver, register
 from bhr.model.robot import forward_kinematics
 
@@ -264,7 +264,7 @@ def beam_keep(cP, cF, cC, cPar, cA, m, order_buf, bP, bF, bC, bH, state, k):
     """Keep the ``B`` cheapest of the ``m`` candidates of step ``k`` as the new beam (near-duplicates skipped)."""
     B = bP.shape[0]
     R = bH.shape[1]
-    order = np.argsort(cC[:m], kind="mergesort")
+    order = stable_argsort(cC, m)
     # keep the cheapest candidates, skipping near-duplicates of those already kept (their indices in order_buf)
     kept = 0
     for qq in range(m):

@@ -23,7 +23,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+from bhr._numba import njit
 
 from bhr.model.codes import TILT_CODES
 from bhr.kinematics.dualquat import k_rotate

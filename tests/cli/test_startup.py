@@ -3,13 +3,16 @@ import os
 import subprocess
 import sys
 
+import pytest
+
 CHECK = """
 import sys
 from bhr.cli.main import main
+_err = None
 try:
     main({args!r}, standalone_mode=False)
-except (SystemExit, Exception):  # a failing command still shows what it loaded
-    pass
+except (SystemExit, Exception) as exc:  # a failing command still shows what it loaded
+    _err = type(exc).__name__
 print(sorted(m for m in ("numba", "matplotlib", "serial", "quaternion", "numpy") if m in sys.modules))
 """
 
@@ -112,6 +115,25 @@ def test_progress_is_drawn_on_a_terminal_and_not_when_piped(tmp_path):
 
 def test_misspelt_trajectory_is_refused_before_numba_or_numpy_is_imported(tmp_path):
     assert loaded(["follow", "--traj", "colonn"], tmp_path) == "[]"
+
+
+@pytest.mark.parametrize("args", [
+    ["follow", "--traj", "colon", "--solver", "thesus"],
+    ["follow", "--traj", "colon", "--modules", "-3"],
+    ["follow", "--traj", "colon", "--alpha", "95"],
+    ["solve", "--target", "1", "2", "3", "--solver", "x"],
+    ["solve", "--target", "1", "2", "3", "--alpha", "0"],
+    ["sweep", "--solver", "x"],
+    ["traverse", "--solver", "x", "--colons", "1-3", "--grid", "alpha=10"],
+    ["fk", "--codes", "3,0,7"],
+    ["plan", "--codes", "missing.csv"],
+])
+def test_bad_input_is_refused_before_numba_or_numpy_is_imported(tmp_path, args):
+    out = subprocess.run([sys.executable, "-c", CHECK.format(args=args) + "print(_err)"], capture_output=True,
+                         text=True, cwd=tmp_path, env=dict(os.environ, MPLBACKEND="Agg"), check=True)
+    *_, modules, error = out.stdout.strip().splitlines()
+    assert error.startswith("ClickException")  # refused, in one line (what the check would print)
+    assert modules == "[]", (args, error)
 
 
 def test_trajectory_names_known_without_the_generators_are_the_generators():

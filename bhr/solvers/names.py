@@ -1,0 +1,42 @@
+"""bhr's own solvers by name, without numpy, numba or the solver modules: a misspelt ``--solver`` is refused at once.
+
+Each solver class registers itself under its name and aliases
+(:func:`bhr.solvers.base.register`), and that registry is what builds
+solvers. This index names bhr's own solvers, the module each lives in and
+their aliases, so that :func:`bhr.solvers.check_solver_name` can check a name
+before any solver module (and numpy and numba with it) is imported.
+``register`` refuses a solver of this package that is missing here or listed
+differently, so the index cannot drift from the classes.
+"""
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from bhr.solvers.base import Solver
+
+__all__ = ["BUILTIN", "REGISTRY", "builtin_name"]
+
+#: Every solver class by name and alias, as :func:`bhr.solvers.base.register` records them (filled when the solver
+#: modules load).
+REGISTRY: dict[str, type[Solver]] = {}
+
+#: name -> (its module in bhr.solvers, its aliases): every solver class of this package.
+BUILTIN: dict[str, tuple[str, tuple[str, ...]]] = {
+    "ccd": ("ccd", ()),
+    "constrained": ("thesis", ()),
+    "fabrik": ("fabrik", ()),
+    "lumen": ("lumen", ()),
+    "optimal": ("optimal", ()),
+    "thesis": ("thesis", ("seed",)),
+}
+
+
+def builtin_name(name: str) -> str | None:
+    """The registered name of bhr's own solver ``name`` or alias (``seed`` -> ``thesis``); None if not one of them."""
+    if name in BUILTIN:
+        return name
+    for key, (_, aliases) in BUILTIN.items():
+        if name in aliases:
+            return key
+    return None
