@@ -73,17 +73,6 @@ def cache_dir() -> str:
     return os.environ.get("NUMBA_CACHE_DIR", "")
 
 
-def cache_has_kernels() -> bool:
-    """Whether numba's cache holds any compiled bhr kernel yet (False on a machine's first run)."""
-    root = Path(cache_dir())
-    # numba keeps each source folder's kernels in "<folder name>_<hash>": bhr's package folders
-    folders = {p.parent.name for p in Path(__file__).parent.rglob("__init__.py")}
-    try:
-        return any(any(root.glob(f"{name}_*/*.nbi")) for name in folders)
-    except OSError:
-        return False
-
-
 class _LightBlas:
     """Lets numba find scipy's BLAS without importing all of scipy.linalg (about 0.2 s of CPU per command).
 

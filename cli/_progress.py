@@ -188,18 +188,7 @@ def compile_notice() -> str:
 
 
 _announcer = None
-_announced = False
 _registered = False
-
-
-def announce_if_cache_empty() -> None:
-    """Say that the kernels are being compiled when numba's cache holds none yet (cheap: no numba import)."""
-    global _announced
-    from bhr import _numba
-
-    if not _announced and not _numba.cache_has_kernels():
-        _announced = True
-        echo(compile_notice())
 
 
 def announce_compiles() -> None:
@@ -213,9 +202,8 @@ def announce_compiles() -> None:
         return
     _registered = True
 
-    # an empty cache means a first run: say so now, before the imports and
-    # the first compile (a stale cache is caught by numba's compile event)
-    announce_if_cache_empty()
+    # numba is imported by the first kernel a command calls, after its input is checked, and its compile event
+    # says so at the first compile: a refused input never prints the notice
     from bhr import _numba
 
     _numba.when_numba_loads(_listen)  # numba's compile event, once the first kernel imports numba
@@ -227,13 +215,12 @@ def announce_compiles() -> None:
 def _listen() -> None:
     """Register the compile listener (numba's compile event), once numba is imported for the first kernel."""
     global _announcer
-    announced = _announced
     from numba.core import event
 
     class Announcer(event.Listener):
         def __init__(self) -> None:
             self.depth = 0
-            self.announced = announced
+            self.announced = False
             self.kernels = 0
             self.progress: Progress | None = None
             self.cm: contextlib.AbstractContextManager[Progress] | None = None

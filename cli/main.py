@@ -24,8 +24,6 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "physics": ("bhr.cli.physics:physics", "Replay a run in MuJoCo against the colon wall: contact forces."),
 }
 
-# commands that run compiled kernels (the first run on a machine compiles them)
-COMPILING = {"solve", "follow", "fk", "bench", "compare", "report", "sweep"}
 
 
 class LazyGroup(click.Group):
@@ -77,15 +75,6 @@ class LazyGroup(click.Group):
             click.echo("Interrupted.", err=True)
             sys.exit(130)
         sys.exit(rv if isinstance(rv, int) else 0)
-
-    def resolve_command(self, ctx: click.Context, args: list[str]):
-        # The first run on a machine compiles the kernels (several seconds): say so at
-        # once, before the command's imports, from a cheap look at numba's cache.
-        if args and args[0] in COMPILING and not {"--help", "-h"} & set(args[1:]):
-            from bhr.cli._progress import announce_if_cache_empty
-
-            announce_if_cache_empty()
-        return super().resolve_command(ctx, args)
 
     def list_commands(self, ctx: click.Context) -> list[str]:
         return sorted(COMMANDS)

@@ -72,6 +72,19 @@ def test_first_run_says_it_compiles_the_kernels_and_later_runs_do_not(tmp_path):
     assert NOTICE not in helped.stderr + helped.stdout
 
 
+@pytest.mark.parametrize("args", [["follow", "--traj", "colon", "--solver", "thesus"], ["bench", "--case", "nope"],
+                                  ["fk", "--codes", "3,0,7"]])
+def test_a_refused_input_on_a_first_run_prints_its_error_only(tmp_path, args):
+    """Nothing is compiled for an input that is refused, so the first run's compile notice is not printed."""
+    from tests.conftest import bhr_exe
+
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "empty-cache"), MPLBACKEND="Agg")
+    out = subprocess.run(bhr_exe() + args, cwd=tmp_path, capture_output=True, text=True, env=env)
+    assert out.returncode != 0
+    lines = out.stderr.splitlines()
+    assert len(lines) == 1 and lines[0].startswith("Error:") and NOTICE not in out.stderr, out.stderr
+
+
 def run_on_a_terminal(args, cwd, env):
     """Run bhr with stderr on a pseudo-terminal; return everything written there."""
     import pty
