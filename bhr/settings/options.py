@@ -225,6 +225,10 @@ LIMITS: dict[str, int] = {
     "code_steps": 500_000,  # rows of a codes.csv
     "plan_cells": 5_000_000,  # steps x modules of a codes.csv (bhr plan keeps about 40 bytes per cell)
     "figure_modules": 64,  # modules whose wires bhr plan draws in thermal.png (4 lines each)
+    # anatomical colons of a traversability study (--colons): each is drawn (about 7 ms) and checked before the
+    # first run, and each design follows every one of them (about 0.3 s a run)
+    "colons": 10_000,
+    "study_runs": 1_000_000,  # runs of a sweep or a traversability study (designs x trajectories or colons)
 }
 
 
