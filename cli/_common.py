@@ -15,11 +15,13 @@ from bhr.output.atomic import (check_parent_folder, folder_name, input_files, js
 from bhr.settings.errors import INTERRUPTED, BhrError
 
 
-def os_error_line(exc: OSError) -> str:
-    """One line for a failed read or write: what, why, and what to do."""
+def os_error_line(exc: OSError, on_stdout: bool = True) -> str:
+    """One line for a failed read or write: what, why, and what to do. An error that names no file is standard
+    output's when ``on_stdout`` (:func:`_stdout_failed`), else a file some library was writing."""
     import errno
 
-    what = f"{exc.filename}" if exc.filename is not None else "standard output"
+    what = f"{exc.filename}" if exc.filename is not None else (
+        "standard output" if on_stdout else "writing a file")
     why = exc.strerror or type(exc).__name__
     fixes = {
         errno.ENOSPC: "free some disk space or write to another device",
@@ -32,6 +34,17 @@ def os_error_line(exc: OSError) -> str:
     }
     fix = fixes.get(exc.errno or 0, "check the path and the device, then run again")
     return f"{what}: {why}; {fix}"
+
+
+def _stdout_failed() -> bool:
+    """Whether standard output is what failed: what it holds cannot be written either (a failed write keeps its
+    data buffered). An OSError that names no file came from standard output, or from a library writing a file of
+    its own through an open file (numba's cache, matplotlib's font list): the line must not blame the wrong one."""
+    try:
+        sys.stdout.flush()
+        return False
+    except (OSError, ValueError):  # ValueError: standard output closed
+        return True
 
 
 def _quiet_stdout() -> None:
@@ -68,9 +81,10 @@ def guarded(func: Callable[..., Any]) -> Callable[..., Any]:
             _quiet_stdout()  # the reader went away (bhr ... | head): stop quietly
             sys.exit(141)
         except OSError as exc:
-            if exc.filename is None:
+            on_stdout = exc.filename is None and _stdout_failed()
+            if on_stdout:
                 _quiet_stdout()
-            raise click.ClickException(os_error_line(exc)) from None
+            raise click.ClickException(os_error_line(exc, on_stdout)) from None
         except MemoryError:
             raise click.ClickException("out of memory; use a shorter trajectory, fewer modules or a larger feed "
                                        "(the limits are in docs/commands.md)") from None

@@ -168,3 +168,39 @@ def test_a_bhr_folder_in_the_current_folder_does_not_replace_the_installed_bhr(t
     (tmp_path / "bhr" / "__init__.py").write_text('raise SystemExit("the wrong bhr")\n')
     r = bhr("fk", "--codes", "0,3", cwd=tmp_path, timeout=120)
     assert r.returncode == 0 and "wrong bhr" not in r.stderr, r.stderr
+
+
+def test_a_ctrl_c_while_the_launcher_script_runs_is_interrupted(tmp_path):
+    # the launcher's shell runs env (its check for --block-signal, then exec) before Python starts; a slow env
+    # (a loaded machine) holds it there: a Ctrl-C then still ends in "Interrupted." and 130, not the signal
+    launcher = Path(bhr_exe()[0])
+    if launcher.suffix == ".py" or not launcher.read_bytes().startswith(b"#!/bin/sh"):
+        pytest.fail(f"{launcher} is not bhr's launcher script (cli/bhr)")
+    real_env = shutil.which("env")
+    slow = tmp_path / "bin"
+    slow.mkdir()
+    (slow / "env").write_text(f'#!/bin/sh\n[ "$2" = true ] && sleep 2\nexec {real_env} "$@"\n')
+    (slow / "env").chmod(0o755)
+    p = subprocess.Popen([str(launcher), "fk", "--codes", "0,3"], cwd=tmp_path, stdout=subprocess.PIPE,
+                         stderr=subprocess.PIPE, text=True, start_new_session=True,
+                         env=dict(ENV, PATH=f"{slow}{os.pathsep}{ENV.get('PATH', '')}"))
+    time.sleep(0.5)
+    os.killpg(p.pid, signal.SIGINT)
+    out, err = p.communicate(timeout=60)
+    assert (p.returncode, err, out) == (130, "Interrupted.\n", "")
+
+
+def test_a_file_too_large_with_a_cold_kernel_cache_names_the_output(tmp_path):
+    # numba's cache write fails under the limit too: the kernel runs uncached, the line names the figure
+    mpl = tmp_path / "mpl"  # matplotlib's font list made first: its own cache is not what this checks
+    env = dict(ENV, NUMBA_CACHE_DIR=str(tmp_path / "kernels"), MPLCONFIGDIR=str(mpl))
+    subprocess.run([str(Path(bhr_exe()[0]).parent / "python"), "-c", "import matplotlib.font_manager"], env=env,
+                   check=True, timeout=120)
+    work = tmp_path / "work"
+    work.mkdir()
+    line = one_line(bhr("solve", "--target", "0", "0", "10", "--json", "s.json", "--plot", "s.png", cwd=work,
+                        env=env, timeout=300, preexec_fn=_small_files(5000)))
+    assert line.startswith("Error: s.png: File too large"), line
+    assert list(work.iterdir()) == []
+    kernels = list((tmp_path / "kernels").rglob("*"))
+    assert not [k for k in kernels if ".tmp." in k.name]  # numba's half-written cache files went with the error
