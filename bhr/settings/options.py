@@ -401,4 +401,8 @@ def check_run_name(value: Any, where: str) -> str:
     if any(ord(c) < 32 or ord(c) == 127 or c in "\u2028\u2029\x85" for c in name):
         raise BhrError(f"{where}: name {excerpt(name)} holds a control character (a tab or a line break); "
                        "give a name on one line")
+    hidden = next((c for c in name if not c.isprintable()), None)
+    if hidden is not None:  # a format or invisible character: a right-to-left override shows the name reversed
+        raise BhrError(f"{where}: name {excerpt(name)} holds U+{ord(hidden):04X}, an invisible or formatting "
+                       "character; give a name of printable characters")
     return name

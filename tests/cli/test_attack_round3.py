@@ -204,3 +204,18 @@ def test_a_file_too_large_with_a_cold_kernel_cache_names_the_output(tmp_path):
     assert list(work.iterdir()) == []
     kernels = list((tmp_path / "kernels").rglob("*"))
     assert not [k for k in kernels if ".tmp." in k.name]  # numba's half-written cache files went with the error
+
+
+@pytest.mark.parametrize("args", [["plan", "--codes", "c.csv", "--no-plots"], ["stream", "--codes", "c.csv", "--dry-run"],
+                                  ["follow", "--traj", "line", "--no-plots", "--port", "loop://"]],
+                         ids=["plan", "stream", "follow"])
+def test_every_rate_has_the_same_range(tmp_path, args):
+    # docs/commands.md#limits: --rate 0.01 ... 1000 Hz, for plan as for stream and follow --port
+    (tmp_path / "c.csv").write_text(CODES)
+    for rate in ("0.009", "1000.5"):
+        line = one_line(bhr(*args, "--rate", rate, cwd=tmp_path, timeout=120))
+        assert f"{rate} is not in the range 0.01<=x<=1000.0" in line, line
+    assert list(tmp_path.iterdir()) == [tmp_path / "c.csv"]
+    if args[0] == "plan":
+        r = bhr(*args, "--rate", "0.01", cwd=tmp_path, timeout=120)
+        assert r.returncode == 0, r.stderr
