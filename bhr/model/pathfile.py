@@ -32,6 +32,7 @@ import numpy as np
 from bhr.settings.inputs import (MAX_MM, MAX_POINTS, check_keys, choice, excerpt, number, read_text, text_value,
                                  type_name, vector3)
 from bhr.settings.errors import BhrError
+from bhr.settings.options import LIMITS
 from bhr.model.path import Trajectory, resample_polyline
 
 __all__ = ["segments_trajectory", "csv_trajectory", "resample_polyline", "estimate_min_radius",
@@ -209,6 +210,9 @@ def segments_trajectory(data: dict[str, Any], path: Path, feed: float):
         raise BhrError(f"{where}: no segments; add [[segment]] tables (type = \"straight\", \"arc\" or \"helix\")")
     if not isinstance(segs, list):
         raise BhrError(f"{where}: segment must be a list of [[segment]] tables, got {type_name(segs)}")
+    if len(segs) > LIMITS["segments"]:  # before any segment is walked
+        raise BhrError(f"{where}: {len(segs)} segments, more than the {LIMITS['segments']:,} a trajectory file may "
+                       "have; join straight runs into longer segments or give the points as a CSV")
     pieces, _ = _build_pieces(segs, start, heading, up, default_lumen, where)
     pts, lumen = _sample(pieces, feed, where)
     params = {"segments": len(pieces), "length": float(sum(pc.length for pc in pieces))}

@@ -418,3 +418,15 @@ def _distance_to(curve, pts, chunk=200):
 # --- the shipped examples ---------------------------------------------------------------------------------------
 
 
+
+
+def test_the_segment_limit_of_the_registry_holds(tmp_path):
+    from bhr.settings.options import LIMITS
+
+    at = tmp_path / "at.toml"
+    at.write_text(segment_file([{"type": "straight", "length": 0.5}] * LIMITS["segments"]))
+    assert load_trajectory(str(at), feed=2.0).params["segments"] == LIMITS["segments"]
+    past = tmp_path / "past.toml"
+    past.write_text(segment_file([{"type": "straight", "length": 0.5}] * (LIMITS["segments"] + 1)))
+    with pytest.raises(BhrError, match=f"{LIMITS['segments'] + 1} segments, more than the {LIMITS['segments']:,}"):
+        load_trajectory(str(past), feed=2.0)
