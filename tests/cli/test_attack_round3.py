@@ -219,3 +219,15 @@ def test_every_rate_has_the_same_range(tmp_path, args):
     if args[0] == "plan":
         r = bhr(*args, "--rate", "0.01", cwd=tmp_path, timeout=120)
         assert r.returncode == 0, r.stderr
+
+
+@pytest.mark.parametrize("option, flag", [("--substeps", "--substeps"), ("--rate", "--rate"),
+                                          ("--wall-stiffness", "--wall-stiffness")])
+def test_a_physics_option_of_zero_is_refused_before_the_replay(tmp_path, option, flag):
+    # a run with a lumen reaches the replay's time step, 1 / rate / substeps: a zero divided by zero there
+    (tmp_path / "lum.csv").write_text("x,y,z,lumen\n" + "".join(f"{2 * k},0,0,30\n" for k in range(41)))
+    assert bhr("follow", "--traj", "lum.csv", "--no-plots", "--out", "run", cwd=tmp_path, timeout=300).returncode == 0
+    before = snapshot(tmp_path)
+    line = one_line(bhr("physics", "run/run.json", "--out", "ph", option, "0", cwd=tmp_path, timeout=300))
+    assert line == f"Error: {flag} must be greater than 0, got 0", line
+    assert snapshot(tmp_path) == before
