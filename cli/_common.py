@@ -67,6 +67,12 @@ def guarded(func: Callable[..., Any]) -> Callable[..., Any]:
                 raise KeyboardInterrupt
             return rv
         except BhrError as exc:
+            if INTERRUPTED.is_set():  # a worker that went with the same Ctrl-C or SIGTERM: the interrupt is the news
+                from bhr.settings.interrupts import ending
+
+                line, status = ending()
+                click.echo(line, err=True)
+                sys.exit(status)
             raise click.ClickException(str(exc).splitlines()[0] if str(exc) else type(exc).__name__) from None
         except ValueError as exc:
             if not str(exc).startswith("Key backend:"):
@@ -75,8 +81,11 @@ def guarded(func: Callable[..., Any]) -> Callable[..., Any]:
             raise click.ClickException(f"MPLBACKEND={shown} is not a matplotlib backend; unset it or set "
                                        "MPLBACKEND=Agg") from None
         except KeyboardInterrupt:
-            click.echo("Interrupted.", err=True)
-            sys.exit(130)
+            from bhr.settings.interrupts import ending
+
+            line, status = ending()
+            click.echo(line, err=True)
+            sys.exit(status)
         except BrokenPipeError:
             _quiet_stdout()  # the reader went away (bhr ... | head): stop quietly
             sys.exit(141)

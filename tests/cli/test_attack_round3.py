@@ -170,6 +170,53 @@ def test_a_bhr_folder_in_the_current_folder_does_not_replace_the_installed_bhr(t
     assert r.returncode == 0 and "wrong bhr" not in r.stderr, r.stderr
 
 
+def _default_signals():
+    for sig in (signal.SIGTERM, signal.SIGHUP):  # as a terminal's session has them (not nohup's ignored SIGHUP)
+        signal.signal(sig, signal.SIG_DFL)
+
+
+@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGHUP], ids=["SIGTERM", "SIGHUP"])
+@pytest.mark.parametrize("name, to_group", [("follow", False), ("sweep", False), ("sweep", True), ("report", True)],
+                         ids=["follow", "sweep", "sweep-group", "report-group"])
+def test_sigterm_and_sighup_end_a_command_as_a_ctrl_c_does(tmp_path, sig, name, to_group):
+    # kill PID, or a closed terminal (the whole group): one line, 128 + the signal, no folder, no staging folder left
+    (tmp_path / "b.toml").write_text("".join(f'[[run]]\nname = "r{k}"\ntraj = "colon"\nmodules = {3 + k}\n'
+                                             for k in range(4)))
+    before = snapshot(tmp_path)
+    p = subprocess.Popen(bhr_exe() + COMMANDS[name][0], cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                         text=True, env=ENV, start_new_session=True, preexec_fn=_default_signals)
+    time.sleep(1.0)
+    (os.killpg if to_group else os.kill)(p.pid, sig)
+    out, err = p.communicate(timeout=120)
+    lines = [ln for ln in err.strip().splitlines() if not ln.startswith("Compiling bhr's")]
+    assert p.returncode == 128 + sig and lines == [f"Interrupted by {sig.name}."], (p.returncode, err[-2000:])
+    assert snapshot(tmp_path) == before and sorted(os.listdir(tmp_path)) == ["b.toml"]
+    deadline = time.monotonic() + 20
+    while _living(p.pid) and time.monotonic() < deadline:
+        time.sleep(0.2)
+    assert _living(p.pid) == []
+
+
+@pytest.mark.parametrize("sig, line", [(signal.SIGINT, "Interrupted."), (signal.SIGTERM, "Interrupted by SIGTERM."),
+                                       (signal.SIGHUP, "Interrupted by SIGHUP.")], ids=["SIGINT", "SIGTERM", "SIGHUP"])
+def test_a_signal_while_the_launcher_script_runs_is_one_line(tmp_path, sig, line):
+    launcher = Path(bhr_exe()[0])
+    if not launcher.read_bytes().startswith(b"#!/bin/sh"):
+        pytest.fail(f"{launcher} is not bhr's launcher script (cli/bhr)")
+    real_env = shutil.which("env")
+    slow = tmp_path / "bin"
+    slow.mkdir()
+    (slow / "env").write_text(f'#!/bin/sh\n[ "$2" = true ] && sleep 2\nexec {real_env} "$@"\n')
+    (slow / "env").chmod(0o755)
+    p = subprocess.Popen([str(launcher), "fk", "--codes", "0,3"], cwd=tmp_path, stdout=subprocess.PIPE,
+                         stderr=subprocess.PIPE, text=True, start_new_session=True, preexec_fn=_default_signals,
+                         env=dict(ENV, PATH=f"{slow}{os.pathsep}{ENV.get('PATH', '')}"))
+    time.sleep(0.5)
+    os.kill(p.pid, sig)
+    out, err = p.communicate(timeout=60)
+    assert (p.returncode, err, out) == (128 + sig, line + "\n", "")
+
+
 def test_a_ctrl_c_while_the_launcher_script_runs_is_interrupted(tmp_path):
     # the launcher's shell runs env (its check for --block-signal, then exec) before Python starts; a slow env
     # (a loaded machine) holds it there: a Ctrl-C then still ends in "Interrupted." and 130, not the signal
