@@ -115,6 +115,21 @@ def check_writable(path: str | os.PathLike[str] | None, what: str = "output") ->
 
     check_output_file(path, what)
     _refuse_an_input(path, what)
+    _refuse_a_second_output(path, what)
+
+
+def _refuse_a_second_output(path: str | os.PathLike[str], what: str) -> None:
+    """Two outputs of one command on one path (``--csv p.png --plot p.png``, ``--json s --plot s``), existing or
+    not, are refused before any work: the second would replace the first."""
+    ctx = click.get_current_context(silent=True)
+    if ctx is None:
+        return
+    real = os.path.realpath(os.path.abspath(path))
+    seen = ctx.meta.setdefault("bhr.outputs", {})
+    if real in seen and seen[real] != what:
+        raise click.ClickException(f"the {seen[real]} and the {what} are both {str(path)[:80]!r}: one would replace "
+                                   "the other; give each output its own path")
+    seen.setdefault(real, what)
 
 
 def _same_file(a: Any, b: Any) -> bool:

@@ -278,3 +278,18 @@ def test_a_physics_option_of_zero_is_refused_before_the_replay(tmp_path, option,
     line = one_line(bhr("physics", "run/run.json", "--out", "ph", option, "0", cwd=tmp_path, timeout=300))
     assert line == f"Error: {flag} must be greater than 0, got 0", line
     assert snapshot(tmp_path) == before
+
+
+@pytest.mark.parametrize("args, words", [
+    (["plan", "--codes", "c.csv", "--csv", "p.png", "--plot", "p.png"], "the figure and the CSV are both 'p.png'"),
+    (["solve", "--target", "0", "0", "10", "--json", "s", "--plot", "s"], "the JSON and the plot are both 's'"),
+    (["solve", "--target", "0", "0", "10", "--json", "s.out", "--plot", "./d/../s.out"], "are both './d/../s.out'"),
+], ids=["plan", "solve", "solve-same-place"])
+def test_two_outputs_on_one_path_are_refused_before_any_work(tmp_path, args, words):
+    # neither file exists yet: the second would have replaced the first ("Wrote p.png, p.png")
+    (tmp_path / "c.csv").write_text(CODES)
+    (tmp_path / "d").mkdir()
+    before = snapshot(tmp_path)
+    line = one_line(bhr(*args, cwd=tmp_path, timeout=120))
+    assert words in line and "give each output its own path" in line, line
+    assert snapshot(tmp_path) == before and sorted(os.listdir(tmp_path)) == ["c.csv", "d"]
