@@ -119,12 +119,14 @@ def check_writable(path: str | os.PathLike[str] | None, what: str = "output") ->
 
 
 def _refuse_a_second_output(path: str | os.PathLike[str], what: str) -> None:
-    """Two outputs of one command on one path (``--csv p.png --plot p.png``, ``--json s --plot s``), existing or
-    not, are refused before any work: the second would replace the first."""
+    """Two outputs of one command on one file (``--csv p.png --plot p.png``, ``--json s --plot s``), existing or
+    not, are refused before any work: the second would replace the first. A device takes both."""
     ctx = click.get_current_context(silent=True)
     if ctx is None:
         return
     real = os.path.realpath(os.path.abspath(path))
+    if os.path.exists(real) and not os.path.isfile(real):  # a device (/dev/null for both) is written in place
+        return
     seen = ctx.meta.setdefault("bhr.outputs", {})
     if real in seen and seen[real] != what:
         raise click.ClickException(f"the {seen[real]} and the {what} are both {str(path)[:80]!r}: one would replace "
