@@ -293,3 +293,61 @@ def test_two_outputs_on_one_path_are_refused_before_any_work(tmp_path, args, wor
     line = one_line(bhr(*args, cwd=tmp_path, timeout=120))
     assert words in line and "give each output its own path" in line, line
     assert snapshot(tmp_path) == before and sorted(os.listdir(tmp_path)) == ["c.csv", "d"]
+
+
+@pytest.fixture
+def read_only_folder(tmp_path):
+    """tmp_path/ro holding a user's file, read-only for this process: a read-only bind mount when running as root
+    (root writes through any mode), else mode 555."""
+    ro = tmp_path / "ro"
+    ro.mkdir()
+    (ro / "mine.txt").write_text("mine")
+    undo = None
+    if os.geteuid() == 0:
+        mounted = subprocess.run(["mount", "--bind", str(ro), str(ro)], capture_output=True).returncode == 0 and \
+            subprocess.run(["mount", "-o", "remount,bind,ro", str(ro)], capture_output=True).returncode == 0
+        if mounted:
+            def undo():
+                subprocess.run(["umount", str(ro)], check=True)
+        elif subprocess.run(["chattr", "+i", str(ro)], capture_output=True).returncode == 0:
+            def undo():
+                subprocess.run(["chattr", "-i", str(ro)], check=True)
+        else:
+            pytest.fail("running as root, but neither a read-only bind mount nor chattr +i can make a folder "
+                        "read-only here")
+    else:
+        ro.chmod(0o555)
+
+        def undo():
+            ro.chmod(0o755)
+    assert not os.access(ro, os.W_OK) or os.geteuid() == 0
+    yield ro
+    undo()
+
+
+@pytest.mark.parametrize("args", [
+    ["follow", "--traj", "line", "--no-plots", "--out", "ro/run"],
+    ["follow", "--traj", "line", "--no-plots", "--out", "o", "--json", "ro/r.json"],
+    ["solve", "--target", "0", "0", "10", "--plot", "ro/s.png"],
+    ["fk", "--codes", "0,3", "--json", "ro/f.json"],
+    ["export", "--format", "urdf", "--out", "ro/r.urdf"],
+    ["plan", "--codes", "c.csv", "--csv", "ro/p.csv", "--no-plots"],
+    ["report", "--file", "b.toml", "--out", "ro/rep", "--jobs", "1"],
+    ["sweep", "--traj", "line", "--grid", "alpha=5", "--out", "ro/sw", "--jobs", "1"],
+    ["traverse", "--colons", "1", "--out", "ro/tv", "--jobs", "1", "--no-plots"],
+    ["compare", "--traj", "line", "--solver", "thesis", "--solver", "fabrik", "--out", "ro/c", "--no-plots"],
+], ids=["follow-out", "follow-json", "solve-plot", "fk-json", "export", "plan-csv", "report", "sweep", "traverse",
+        "compare"])
+def test_a_read_only_folder_is_refused_before_any_work_even_as_root(tmp_path, read_only_folder, args):
+    (tmp_path / "c.csv").write_text(CODES)
+    (tmp_path / "b.toml").write_text('[[run]]\nname = "a"\ntraj = "line"\n')
+    before = snapshot(tmp_path)
+    line = one_line(bhr(*args, cwd=tmp_path, timeout=300))
+    assert "ro is not a writable folder" in line, line
+    assert snapshot(tmp_path) == before and sorted(os.listdir(read_only_folder)) == ["mine.txt"]
+
+
+def test_the_default_output_folder_in_a_read_only_current_folder(read_only_folder):
+    line = one_line(bhr("follow", "--traj", "line", "--no-plots", cwd=read_only_folder, timeout=300))
+    assert "cannot make the output folder in bhr-out: . is not a writable folder; give --out DIR" in line, line
+    assert sorted(os.listdir(read_only_folder)) == ["mine.txt"]
