@@ -224,6 +224,8 @@ def segments_trajectory(data: dict[str, Any], path: Path, feed: float):
 # --- CSV point lists ---------------------------------------------------------------------------------------------
 
 CSV_COLUMNS = ("x", "y", "z", "lumen")
+#: A header cell quoted back in a message: a short name (letters, digits, underscore), as a column's is.
+_COLUMN_LIKE = re.compile(r"[A-Za-z_][A-Za-z0-9_]{0,7}", re.ASCII)
 
 
 def _split(line: str) -> list[str]:
@@ -254,7 +256,10 @@ def read_points_csv(path: Path) -> tuple[np.ndarray, np.ndarray | None, np.ndarr
             for i, h in enumerate(header):
                 if h not in CSV_COLUMNS:
                     hint = " (the first line must be the header)" if _is_number(h) else ""
-                    raise BhrError(f"{where}, line {no}: unknown column {excerpt(fields[i], 20)}{hint}; "
+                    # a column's name is quoted only when it looks like one: the first line of any .csv a batch
+                    # names ("password=hunter2") would otherwise reach the report's shareable files
+                    shown = repr(fields[i]) if _COLUMN_LIKE.fullmatch(fields[i]) else f"{i + 1} of the header"
+                    raise BhrError(f"{where}, line {no}: unknown column {shown}{hint}; "
                                    f"allowed columns: x, y, z, lumen")
                 if h in cols:
                     raise BhrError(f"{where}, line {no}: column {h!r} appears twice; give each column once")

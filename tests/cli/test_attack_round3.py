@@ -351,3 +351,12 @@ def test_the_default_output_folder_in_a_read_only_current_folder(read_only_folde
     line = one_line(bhr("follow", "--traj", "line", "--no-plots", cwd=read_only_folder, timeout=300))
     assert "cannot make the output folder in bhr-out: . is not a writable folder; give --out DIR" in line, line
     assert sorted(os.listdir(read_only_folder)) == ["mine.txt"]
+
+
+def test_a_batch_naming_a_secret_csv_keeps_its_first_line_out_of_the_report(tmp_path):
+    (tmp_path / "secret.csv").write_text("password=hunter2\nx\n")
+    (tmp_path / "b.toml").write_text('[[run]]\nname = "a"\ntraj = "secret.csv"\n')
+    r = bhr("report", "--file", "b.toml", "--out", "rep", "--jobs", "1", "--no-plots", cwd=tmp_path, timeout=300)
+    assert r.returncode == 1 and "hunter2" not in r.stderr + r.stdout
+    written = [p for p in (tmp_path / "rep").rglob("*") if p.is_file()]
+    assert written and not [p.name for p in written if "hunter2" in p.read_text(errors="replace")]
