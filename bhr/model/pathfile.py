@@ -29,7 +29,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from bhr.settings.inputs import (MAX_MM, MAX_POINTS, check_keys, choice, excerpt, number, read_text, text_value,
+from bhr.settings.inputs import (MAX_MM, MAX_POINTS, check_keys, choice, number, read_text, text_value,
                                  type_name, vector3)
 from bhr.settings.errors import BhrError
 from bhr.settings.options import LIMITS

@@ -45,7 +45,8 @@ def read_text(path: str | os.PathLike[str], what: str, hint: str, limit: int | N
             raise BhrError(f"{p} is a folder, not a {what}; {hint}")
         raw = read_capped(p, what, hint, limit)
     except FileNotFoundError:
-        raise BhrError(broken_link(p) + f"; {hint}" if broken_link(p) else f"no such {what} {p}; {hint}") from None
+        link = broken_link(p)
+        raise BhrError(f"{link}; {hint}" if link else f"no such {what} {p}; {hint}") from None
     except PermissionError:
         raise BhrError(f"cannot read {what} {p}: permission denied; {hint}") from None
     except OSError as exc:
