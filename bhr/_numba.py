@@ -300,6 +300,64 @@ def numba_loaded() -> bool:
     """Whether numba has been imported in this process."""
     return "numba" in sys.modules
 
+class _CacheWriteGuard:
+    """Makes a failed write to numba's cache cost a compile next time instead of the command.
+
+    numba saves each kernel it compiled to its cache (a temporary file, then renamed into place) and lets an
+    OSError of that write end the program: a file-size limit (``ulimit -f``), a full disk or a folder made
+    read-only under it stopped a command whose kernel had compiled and would have run, with a line about
+    "standard output". This import hook wraps numba's ``Cache.save_overload`` when numba loads its caching
+    module, so such a kernel is used uncached (numba removes its temporary file) and compiled again next
+    time; the command's own outputs still fail by name if they cannot be written.
+    """
+
+    def find_spec(self, name, path=None, target=None):  # a meta path finder
+        import sys
+
+        if name != "numba.core.caching":
+            return None
+        sys.meta_path[:] = [f for f in sys.meta_path if f is not self]
+        import importlib.util
+
+        spec = importlib.util.find_spec(name)
+        if spec is not None and spec.loader is not None and hasattr(spec.loader, "exec_module"):
+            run = spec.loader.exec_module
+
+            def exec_module(module, run=run):
+                run(module)
+                guard_cache_writes(module)
+
+            spec.loader.exec_module = exec_module  # type: ignore[method-assign]
+        return spec
+
+
+def guard_cache_writes(caching) -> None:
+    """Wrap ``caching.Cache.save_overload`` (numba's cache module) so that an OSError while saving is ignored."""
+    cls = getattr(caching, "Cache", None)
+    save = getattr(cls, "save_overload", None)
+    if cls is None or save is None or getattr(save, "_bhr_guarded", False):
+        return
+
+    def save_overload(self, sig, data, _save=save):
+        try:
+            _save(self, sig, data)
+        except OSError:  # not cached: the compiled kernel runs all the same, and compiles again next time
+            pass
+
+    save_overload._bhr_guarded = True  # type: ignore[attr-defined]
+    cls.save_overload = save_overload
+
+
+def install_cache_write_guard() -> None:
+    """Guard numba's cache writes (:class:`_CacheWriteGuard`): now if numba is loaded, else when it loads."""
+    import sys
+
+    if "numba.core.caching" in sys.modules:
+        guard_cache_writes(sys.modules["numba.core.caching"])
+    elif not any(isinstance(f, _CacheWriteGuard) for f in sys.meta_path):
+        sys.meta_path.insert(0, _CacheWriteGuard())
+
 
 configure_cache()
 install_light_blas()
+install_cache_write_guard()

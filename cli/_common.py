@@ -15,11 +15,13 @@ from bhr.output.atomic import (check_parent_folder, folder_name, input_files, js
 from bhr.settings.errors import INTERRUPTED, BhrError
 
 
-def os_error_line(exc: OSError) -> str:
-    """One line for a failed read or write: what, why, and what to do."""
+def os_error_line(exc: OSError, on_stdout: bool = True) -> str:
+    """One line for a failed read or write: what, why, and what to do. An error that names no file is standard
+    output's when ``on_stdout`` (:func:`_stdout_failed`), else a file some library was writing."""
     import errno
 
-    what = f"{exc.filename}" if exc.filename is not None else "standard output"
+    what = f"{exc.filename}" if exc.filename is not None else (
+        "standard output" if on_stdout else "writing a file")
     why = exc.strerror or type(exc).__name__
     fixes = {
         errno.ENOSPC: "free some disk space or write to another device",
@@ -32,6 +34,17 @@ def os_error_line(exc: OSError) -> str:
     }
     fix = fixes.get(exc.errno or 0, "check the path and the device, then run again")
     return f"{what}: {why}; {fix}"
+
+
+def _stdout_failed() -> bool:
+    """Whether standard output is what failed: what it holds cannot be written either (a failed write keeps its
+    data buffered). An OSError that names no file came from standard output, or from a library writing a file of
+    its own through an open file (numba's cache, matplotlib's font list): the line must not blame the wrong one."""
+    try:
+        sys.stdout.flush()
+        return False
+    except (OSError, ValueError):  # ValueError: standard output closed
+        return True
 
 
 def _quiet_stdout() -> None:
@@ -54,6 +67,12 @@ def guarded(func: Callable[..., Any]) -> Callable[..., Any]:
                 raise KeyboardInterrupt
             return rv
         except BhrError as exc:
+            if INTERRUPTED.is_set():  # a worker that went with the same Ctrl-C or SIGTERM: the interrupt is the news
+                from bhr.settings.interrupts import ending
+
+                line, status = ending()
+                click.echo(line, err=True)
+                sys.exit(status)
             raise click.ClickException(str(exc).splitlines()[0] if str(exc) else type(exc).__name__) from None
         except ValueError as exc:
             if not str(exc).startswith("Key backend:"):
@@ -62,15 +81,19 @@ def guarded(func: Callable[..., Any]) -> Callable[..., Any]:
             raise click.ClickException(f"MPLBACKEND={shown} is not a matplotlib backend; unset it or set "
                                        "MPLBACKEND=Agg") from None
         except KeyboardInterrupt:
-            click.echo("Interrupted.", err=True)
-            sys.exit(130)
+            from bhr.settings.interrupts import ending
+
+            line, status = ending()
+            click.echo(line, err=True)
+            sys.exit(status)
         except BrokenPipeError:
             _quiet_stdout()  # the reader went away (bhr ... | head): stop quietly
             sys.exit(141)
         except OSError as exc:
-            if exc.filename is None:
+            on_stdout = exc.filename is None and _stdout_failed()
+            if on_stdout:
                 _quiet_stdout()
-            raise click.ClickException(os_error_line(exc)) from None
+            raise click.ClickException(os_error_line(exc, on_stdout)) from None
         except MemoryError:
             raise click.ClickException("out of memory; use a shorter trajectory, fewer modules or a larger feed "
                                        "(the limits are in docs/commands.md)") from None
@@ -92,6 +115,23 @@ def check_writable(path: str | os.PathLike[str] | None, what: str = "output") ->
 
     check_output_file(path, what)
     _refuse_an_input(path, what)
+    _refuse_a_second_output(path, what)
+
+
+def _refuse_a_second_output(path: str | os.PathLike[str], what: str) -> None:
+    """Two outputs of one command on one file (``--csv p.png --plot p.png``, ``--json s --plot s``), existing or
+    not, are refused before any work: the second would replace the first. A device takes both."""
+    ctx = click.get_current_context(silent=True)
+    if ctx is None:
+        return
+    real = os.path.realpath(os.path.abspath(path))
+    if os.path.exists(real) and not os.path.isfile(real):  # a device (/dev/null for both) is written in place
+        return
+    seen = ctx.meta.setdefault("bhr.outputs", {})
+    if real in seen and seen[real] != what:
+        raise click.ClickException(f"the {seen[real]} and the {what} are both {str(path)[:80]!r}: one would replace "
+                                   "the other; give each output its own path")
+    seen.setdefault(real, what)
 
 
 def _same_file(a: Any, b: Any) -> bool:

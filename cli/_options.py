@@ -83,6 +83,13 @@ class PlainIntRange(click.IntRange):
 
 #: Slowest streaming rate accepted (Hz): one step every 100 s.
 MIN_RATE = 0.01
+#: Fastest rate (Hz) a stream, a plan or a follow --port may ask for.
+MAX_RATE = 1000.0
+
+
+def rate_type() -> "FiniteRange":
+    """The one type of every --rate of a stream (follow --port, stream, plan): MIN_RATE to MAX_RATE Hz."""
+    return FiniteRange(min=MIN_RATE, max=MAX_RATE)
 
 #: Lengths and coordinates in mm (trajectory options, targets), and angles (ranges checked by the library).
 MM = Bounded(float, MAX_MM, "mm")

@@ -15,7 +15,7 @@ from bhr.cli._progress import announce_compiles, status
 from bhr.cli._link import (at_end_option, end_text, exit_interrupted, fault_printer, link_options, link_settings,
                            schedule_option, stop_on_signals, thermal_params)
 from bhr.cli.replay import STRIDE_HELP, check_view_options, run_live_view
-from bhr.cli._options import (MIN_RATE, FiniteRange, PlainIntRange, build_robot, constraint_options, lumen_options,
+from bhr.cli._options import (rate_type, PlainIntRange, build_robot, constraint_options, lumen_options,
                               optimal_options, pop_constraints, pop_solver_options, pop_trajectory, robot_options,
                               run_options, trajectory_options)
 
@@ -45,7 +45,7 @@ from bhr.cli._options import (MIN_RATE, FiniteRange, PlainIntRange, build_robot,
 @link_options(port_help="After solving the whole run and checking it against the wires' thermal model, stream its "
                         "codes to the actuator board on this serial device or pyserial URL (the --robot file's "
                         "[link] gives baud rate and module order).", robot=False)
-@click.option("--rate", default=10.0, show_default=True, metavar="HZ", type=FiniteRange(min=MIN_RATE, max=1000),
+@click.option("--rate", default=10.0, show_default=True, metavar="HZ", type=rate_type(),
               help="With --port: steps sent per second, at most.")
 @schedule_option()
 @at_end_option("stop", "With --port, after the last step")

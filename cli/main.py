@@ -26,6 +26,15 @@ COMMANDS: dict[str, tuple[str, str]] = {
 
 
 
+
+def _interrupted() -> None:
+    """End an interrupted command: its one line ("Interrupted.", or the signal's name) and exit status."""
+    from bhr.settings.interrupts import ending
+
+    line, status = ending()
+    click.echo(line, err=True)
+    sys.exit(status)
+
 class LazyGroup(click.Group):
     """A group that imports a command's module only when it is needed.
 
@@ -62,18 +71,15 @@ class LazyGroup(click.Group):
             from bhr.settings.errors import INTERRUPTED
 
             if INTERRUPTED.is_set():  # click turns a Ctrl-C into Abort
-                click.echo("Interrupted.", err=True)
-                sys.exit(130)
+                _interrupted()
             click.echo("Aborted.", err=True)
             sys.exit(1)
         except (EOFError, KeyboardInterrupt):
-            click.echo("Interrupted.", err=True)
-            sys.exit(130)
+            _interrupted()
         from bhr.settings.errors import INTERRUPTED
 
         if INTERRUPTED.is_set():  # a Ctrl-C that something caught on the way: still honoured
-            click.echo("Interrupted.", err=True)
-            sys.exit(130)
+            _interrupted()
         sys.exit(rv if isinstance(rv, int) else 0)
 
     def list_commands(self, ctx: click.Context) -> list[str]:

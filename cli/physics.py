@@ -37,9 +37,9 @@ def physics(run, out_dir, wall_stiffness, physics_rate, substeps):
     opts = {"wall_stiffness": BY_NAME["wall_stiffness"].default if wall_stiffness is None else wall_stiffness,
             "rate": BY_NAME["physics_rate"].default if physics_rate is None else physics_rate,
             "substeps": BY_NAME["substeps"].default if substeps is None else substeps}
-    from bhr.studies.physics import check_wall_stiffness, force_figure, replay_physics, require
+    from bhr.studies.physics import check_replay_options, force_figure, replay_physics, require
 
-    check_wall_stiffness(opts["wall_stiffness"])
+    check_replay_options(**opts)
     result = load_run(run)
 
     require("mujoco")

@@ -8,14 +8,14 @@ import click
 
 from bhr.cli._common import check_writable, guarded
 from bhr.cli._link import schedule_option, thermal_params
-from bhr.cli._options import FiniteRange
+from bhr.cli._options import rate_type
 
 
 @click.command()
 @click.option("--codes", "codes_path", required=True, metavar="FILE",
               help="codes.csv as written by 'bhr follow' (header step,m1,...,mN).")
 @click.option("--rate", default=10.0, show_default=True, metavar="HZ",
-              type=FiniteRange(min=0, min_open=True, max=1000),
+              type=rate_type(),
               help="Rows per second: the fixed rate to check, or the fastest an auto schedule may go.")
 @schedule_option()
 @click.option("--robot", "robot_file", default=None, metavar="FILE",

@@ -9,7 +9,7 @@ import click
 from bhr.cli._common import guarded
 from bhr.cli._link import (at_end_option, end_text, exit_interrupted, fault_printer, link_options, link_settings,
                            schedule_option, stop_on_signals, thermal_params)
-from bhr.cli._options import MIN_RATE, FiniteRange
+from bhr.cli._options import rate_type
 
 
 @click.command()
@@ -17,7 +17,7 @@ from bhr.cli._options import MIN_RATE, FiniteRange
 @click.option("--codes", "codes_path", required=True, metavar="FILE",
               help="codes.csv as written by 'bhr follow' (header step,m1,...,mN).")
 @click.option("--rate", default=10.0, show_default=True, metavar="HZ",
-              type=FiniteRange(min=MIN_RATE, max=1000), help="Rows sent per second.")
+              type=rate_type(), help="Rows sent per second.")
 @schedule_option()
 @at_end_option("hold")
 @click.option("--dry-run", is_flag=True, help="Check the stream as a real one would (thermal model, module order), "

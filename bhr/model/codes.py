@@ -19,7 +19,7 @@ if TYPE_CHECKING:  # numpy loads when a table is read or written: a code is chec
     import numpy as np
 
 from bhr.settings.errors import BhrError
-from bhr.settings.inputs import MAX_POINTS, read_capped
+from bhr.settings.inputs import MAX_POINTS, broken_link, read_capped
 from bhr.settings.options import LIMITS, excerpt
 from bhr.kinematics.codetable import CODE_AXIS, LIFT, REST, TILT_CODES, VALID_CODES
 
@@ -110,6 +110,12 @@ def _link_note(p: Path) -> str:
     return ""
 
 
+def raw_line(path: Path, offset: int) -> int:
+    """The line (from 1) that byte ``offset`` of ``path`` is on."""
+    with open(path, "rb") as fh:
+        return fh.read(offset).count(b"\n") + 1
+
+
 def read_codes_csv(path: str | os.PathLike[str]) -> tuple[list[int], np.ndarray]:
     """Read and validate a ``codes.csv``; return (steps, codes array of shape (steps, N)).
 
@@ -121,12 +127,18 @@ def read_codes_csv(path: str | os.PathLike[str]) -> tuple[list[int], np.ndarray]
     hint = "give the codes.csv written by 'bhr follow'"
     try:
         if p.is_dir():
-            raise IsADirectoryError(str(p))
+            raise BhrError(f"{p} is a folder, not a codes file; {hint}")
         text = read_capped(p, "codes file", hint).decode("utf-8-sig")
-    except FileNotFoundError:
-        raise BhrError(f"codes file {p} does not exist{_link_note(p)}; {hint}") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise BhrError(f"cannot read codes file {p}: {exc.__class__.__name__}; give a readable CSV file") from None
+    except OSError as exc:
+        link = broken_link(p)
+        if link:
+            raise BhrError(f"{link}; {hint}") from None
+        if isinstance(exc, FileNotFoundError):
+            raise BhrError(f"codes file {p} does not exist{_link_note(p)}; {hint}") from None
+        raise BhrError(f"cannot read codes file {p} ({exc.strerror or exc.__class__.__name__}); {hint}") from None
+    except UnicodeDecodeError as exc:
+        raise BhrError(f"{p}, line {raw_line(p, exc.start)}: not UTF-8 text; save the codes file as UTF-8 "
+                       f"({hint})") from None
     if "\x00" in text:
         raise BhrError(f"{p}: binary data (a NUL byte); {hint}")
     try:

@@ -29,9 +29,10 @@ from typing import Any, Callable
 
 import numpy as np
 
-from bhr.settings.inputs import (MAX_MM, MAX_POINTS, check_keys, choice, excerpt, number, read_text, text_value,
+from bhr.settings.inputs import (MAX_MM, MAX_POINTS, check_keys, choice, number, read_text, text_value,
                                  type_name, vector3)
 from bhr.settings.errors import BhrError
+from bhr.settings.options import LIMITS
 from bhr.model.path import Trajectory, resample_polyline
 
 __all__ = ["segments_trajectory", "csv_trajectory", "resample_polyline", "estimate_min_radius",
@@ -209,6 +210,9 @@ def segments_trajectory(data: dict[str, Any], path: Path, feed: float):
         raise BhrError(f"{where}: no segments; add [[segment]] tables (type = \"straight\", \"arc\" or \"helix\")")
     if not isinstance(segs, list):
         raise BhrError(f"{where}: segment must be a list of [[segment]] tables, got {type_name(segs)}")
+    if len(segs) > LIMITS["segments"]:  # before any segment is walked
+        raise BhrError(f"{where}: {len(segs)} segments, more than the {LIMITS['segments']:,} a trajectory file may "
+                       "have; join straight runs into longer segments or give the points as a CSV")
     pieces, _ = _build_pieces(segs, start, heading, up, default_lumen, where)
     pts, lumen = _sample(pieces, feed, where)
     params = {"segments": len(pieces), "length": float(sum(pc.length for pc in pieces))}
@@ -220,6 +224,8 @@ def segments_trajectory(data: dict[str, Any], path: Path, feed: float):
 # --- CSV point lists ---------------------------------------------------------------------------------------------
 
 CSV_COLUMNS = ("x", "y", "z", "lumen")
+#: A header cell quoted back in a message: a short name (letters, digits, underscore), as a column's is.
+_COLUMN_LIKE = re.compile(r"[A-Za-z_][A-Za-z0-9_]{0,7}", re.ASCII)
 
 
 def _split(line: str) -> list[str]:
@@ -250,7 +256,10 @@ def read_points_csv(path: Path) -> tuple[np.ndarray, np.ndarray | None, np.ndarr
             for i, h in enumerate(header):
                 if h not in CSV_COLUMNS:
                     hint = " (the first line must be the header)" if _is_number(h) else ""
-                    raise BhrError(f"{where}, line {no}: unknown column {excerpt(fields[i], 20)}{hint}; "
+                    # a column's name is quoted only when it looks like one: the first line of any .csv a batch
+                    # names ("password=hunter2") would otherwise reach the report's shareable files
+                    shown = repr(fields[i]) if _COLUMN_LIKE.fullmatch(fields[i]) else f"{i + 1} of the header"
+                    raise BhrError(f"{where}, line {no}: unknown column {shown}{hint}; "
                                    f"allowed columns: x, y, z, lumen")
                 if h in cols:
                     raise BhrError(f"{where}, line {no}: column {h!r} appears twice; give each column once")

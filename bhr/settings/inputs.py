@@ -18,7 +18,7 @@ from bhr.settings.options import type_name as _type_name
 
 __all__ = ["MAX_FILE_BYTES", "MAX_RUN_BYTES", "MAX_MM", "MAX_POINTS", "MAX_STEP_POINTS", "read_capped", "read_text",
            "read_toml", "check_keys", "type_name", "number", "vector3", "text_value", "choice", "did_you_mean",
-           "parse_number", "check_number", "excerpt", "check_regular"]
+           "parse_number", "check_number", "excerpt", "check_regular", "broken_link"]
 
 #: Input files larger than this are refused: at most this many bytes are ever read, whatever the file's size
 #: reads as (a link to /dev/zero reads as 0 bytes and never ends).
@@ -45,10 +45,13 @@ def read_text(path: str | os.PathLike[str], what: str, hint: str, limit: int | N
             raise BhrError(f"{p} is a folder, not a {what}; {hint}")
         raw = read_capped(p, what, hint, limit)
     except FileNotFoundError:
-        raise BhrError(f"no such {what} {p}; {hint}") from None
+        link = broken_link(p)
+        raise BhrError(f"{link}; {hint}" if link else f"no such {what} {p}; {hint}") from None
     except PermissionError:
         raise BhrError(f"cannot read {what} {p}: permission denied; {hint}") from None
     except OSError as exc:
+        if broken_link(p):
+            raise BhrError(f"{broken_link(p)}; {hint}") from None
         raise BhrError(f"cannot read {what} {p} ({exc.strerror or exc.__class__.__name__}); {hint}") from None
     try:
         text = raw.decode("utf-8-sig")
@@ -79,6 +82,27 @@ def read_capped(path: str | os.PathLike[str], what: str, hint: str, limit: int |
     if len(raw) > limit:
         raise BhrError(f"{path} is larger than {limit // (1024 * 1024)} MiB, too large for a {what}; {hint}")
     return raw
+
+
+def broken_link(path: str | os.PathLike[str]) -> str | None:
+    """How ``path`` fails to resolve when it is a symbolic link that leads nowhere (a missing target or a loop),
+    as words for a one-line message; None when it is not one (a plain missing file keeps its reader's words)."""
+    import errno
+
+    p = Path(path)
+    try:
+        if not p.is_symlink():
+            return None
+        target = os.readlink(p)
+    except OSError:
+        return None
+    try:
+        os.stat(p)
+    except OSError as exc:
+        if exc.errno == errno.ELOOP:
+            return f"{_excerpt(str(p), 80)} is a symbolic link that loops (it leads back to itself)"
+        return f"{_excerpt(str(p), 80)} is a symbolic link to {_excerpt(target, 80)}, which does not exist"
+    return None
 
 
 def check_regular(path: str | os.PathLike[str], what: str, hint: str) -> None:

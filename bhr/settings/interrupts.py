@@ -23,7 +23,7 @@ import sys
 
 from bhr.settings.errors import INTERRUPTED
 
-__all__ = ["install", "is_bhr_command", "release", "settle"]
+__all__ = ["install", "is_bhr_command", "release", "settle", "ending"]
 
 _installed = False
 
@@ -63,7 +63,23 @@ def _raise_when_clear(signum: int, frame: object) -> None:
     raise KeyboardInterrupt
 
 
+#: The signal that interrupted the command (SIGINT unless SIGTERM or SIGHUP came first).
+_received: list[int] = []
+
+
+def ending() -> tuple[str, int]:
+    """The line and exit status of an interrupted command: "Interrupted." and 130 for a Ctrl-C; for SIGTERM
+    (``kill``) and SIGHUP (a closed terminal), which end the command the same way, the signal's name and
+    128 + its number, as a shell reports a command it ended."""
+    sig = _received[0] if _received else signal.SIGINT
+    if sig == signal.SIGINT:
+        return "Interrupted.", 130
+    return f"Interrupted by {signal.Signals(sig).name}.", 128 + int(sig)
+
+
 def _on_interrupt(signum: int, frame: object) -> None:
+    if not _received:
+        _received.append(signum)
     INTERRUPTED.set()
     if hasattr(signal, "setitimer") and _in_extension_init(frame):  # Ctrl-C held a few ms, not lost
         signal.signal(signal.SIGALRM, _raise_when_clear)
@@ -74,12 +90,13 @@ def _on_interrupt(signum: int, frame: object) -> None:
 
 def _excepthook(kind: type[BaseException], exc: BaseException, tb: object) -> None:
     if issubclass(kind, KeyboardInterrupt):
+        line, status = ending()
         try:
-            sys.stderr.write("Interrupted.\n")
+            sys.stderr.write(line + "\n")
             sys.stderr.flush()
         except Exception:
             pass
-        os._exit(130)
+        os._exit(status)
     _previous(kind, exc, tb)  # type: ignore[arg-type]
 
 
@@ -87,11 +104,13 @@ _previous = sys.excepthook
 
 
 def release() -> None:
-    """Let through a SIGINT blocked since start-up (a Ctrl-C held until now is delivered now)."""
+    """Let through a SIGINT, SIGTERM or SIGHUP blocked since start-up (the launcher blocks them: one held until now
+    is delivered now)."""
     if hasattr(signal, "pthread_sigmask"):
         try:
-            if signal.SIGINT in signal.pthread_sigmask(signal.SIG_BLOCK, set()):
-                signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+            held = signal.pthread_sigmask(signal.SIG_BLOCK, set()) & {signal.SIGINT, signal.SIGTERM, signal.SIGHUP}
+            if held:
+                signal.pthread_sigmask(signal.SIG_UNBLOCK, held)
         except (OSError, ValueError):
             pass
 
@@ -107,6 +126,11 @@ def install() -> None:
             return
         sys.excepthook = _excepthook
         signal.signal(signal.SIGINT, _on_interrupt)
+        # SIGTERM and SIGHUP end the command as a Ctrl-C does (its outputs are not put in place, its staging
+        # folders and workers go), unless they were ignored when it started (nohup)
+        for other in (getattr(signal, "SIGTERM", None), getattr(signal, "SIGHUP", None)):
+            if other is not None and signal.getsignal(other) == signal.SIG_DFL:
+                signal.signal(other, _on_interrupt)
     except ValueError:  # not the main thread
         return
     _installed = True
@@ -118,6 +142,9 @@ def settle() -> None:
         return
     try:
         signal.signal(signal.SIGINT, signal.SIG_IGN)
+        for other in (getattr(signal, "SIGTERM", None), getattr(signal, "SIGHUP", None)):
+            if other is not None and signal.getsignal(other) is _on_interrupt:
+                signal.signal(other, signal.SIG_IGN)
         if hasattr(signal, "setitimer") and signal.getsignal(signal.SIGALRM) is _raise_when_clear:
             signal.setitimer(signal.ITIMER_REAL, 0)  # a deferred Ctrl-C (the flag is already set)
             signal.signal(signal.SIGALRM, signal.SIG_DFL)

@@ -226,6 +226,10 @@ LIMITS: dict[str, int] = {
     "code_steps": 500_000,  # rows of a codes.csv
     "plan_cells": 5_000_000,  # steps x modules of a codes.csv (bhr plan keeps about 40 bytes per cell)
     "figure_modules": 64,  # modules whose wires bhr plan draws in thermal.png (4 lines each)
+    # anatomical colons of a traversability study (--colons): each is drawn (about 7 ms) and checked before the
+    # first run, and each design follows every one of them (about 0.3 s a run)
+    "colons": 10_000,
+    "study_runs": 1_000_000,  # runs of a sweep or a traversability study (designs x trajectories or colons)
 }
 
 
@@ -398,4 +402,8 @@ def check_run_name(value: Any, where: str) -> str:
     if any(ord(c) < 32 or ord(c) == 127 or c in "\u2028\u2029\x85" for c in name):
         raise BhrError(f"{where}: name {excerpt(name)} holds a control character (a tab or a line break); "
                        "give a name on one line")
+    hidden = next((c for c in name if not c.isprintable()), None)
+    if hidden is not None:  # a format or invisible character: a right-to-left override shows the name reversed
+        raise BhrError(f"{where}: name {excerpt(name)} holds U+{ord(hidden):04X}, an invisible or formatting "
+                       "character; give a name of printable characters")
     return name

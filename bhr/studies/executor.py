@@ -224,15 +224,29 @@ def _run_pool(workers: int, fn: Callable[[Any], Any], warm_up: Callable[..., Any
     from concurrent.futures.process import BrokenProcessPool
 
     ctx = multiprocessing.get_context("spawn")  # safe next to threads (a Dask client, a GUI)
+    import signal
+
+    if hasattr(signal, "pthread_sigmask"):  # multiprocessing's resource tracker, started with the pool's first
+        # lock, ignores SIGINT and SIGTERM but not SIGHUP: a closed terminal killed it, and the one started in its
+        # place printed a KeyError traceback. Started here with SIGHUP blocked, it keeps it blocked.
+        from multiprocessing import resource_tracker
+
+        mask = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGHUP})
+        try:
+            resource_tracker.ensure_running()
+        finally:
+            signal.pthread_sigmask(signal.SIG_SETMASK, mask)
     pool = ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=worker_init,
                                initargs=(os.getpid(),))
     try:
         # The workers start inside submit(): with Ctrl-C blocked here they start with it blocked (the mask is
         # inherited), so a Ctrl-C while they import is never theirs; here it is delivered when unblocked.
-        import signal
-
+        # SIGTERM and SIGHUP too: they end the command as a Ctrl-C does (bhr.settings.interrupts), and one that
+        # came while a worker was being started left that worker reading its start-up data from a closed pipe
+        # (a traceback of EOFError)
         blocked = hasattr(signal, "pthread_sigmask")
-        old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT}) if blocked else None
+        held = {signal.SIGINT, signal.SIGTERM, signal.SIGHUP}
+        old = signal.pthread_sigmask(signal.SIG_BLOCK, held) if blocked else None
         try:
             futures = [pool.submit(_run_chunk, fn, warm_up, warm_up_args, c) for c in chunks]
         finally:

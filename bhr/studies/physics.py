@@ -171,6 +171,20 @@ def check_wall_stiffness(value: float) -> float:
     return value
 
 
+def check_replay_options(wall_stiffness: Any, rate: Any, substeps: Any) -> None:
+    """The replay's own options through the option registry (finite, within their limits, above 0) and the wall's
+    stiffness within ten times its published range; a one-line BhrError naming the option otherwise. Before any
+    work: a rate or substeps of 0 divided the time step by zero."""
+    from bhr.settings.options import BY_NAME
+
+    for name, flag, value in (("physics_rate", "--rate", rate), ("substeps", "--substeps", substeps),
+                              ("wall_stiffness", "--wall-stiffness", wall_stiffness)):
+        v = BY_NAME[name].check(value, "physics")
+        if v <= 0:
+            raise BhrError(f"{flag} must be greater than 0, got {v:g}")
+    check_wall_stiffness(wall_stiffness)
+
+
 def whole_chain(result) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The whole robot of a run as a chain from its rear end: (roots (N, 3) mm, frames (N, 3, 3), codes (N, M)).
 
@@ -423,11 +437,12 @@ def scene_xml(result, *, wall_stiffness: float = DEFAULT_WALL_STIFFNESS, ring_sp
     """
     from bhr.model.export import mjcf_robot_body
 
-    check_wall_stiffness(wall_stiffness)
     from bhr.settings.options import BY_NAME
 
-    rate = float(BY_NAME["physics_rate"].default if rate is None else rate)
-    substeps = int(BY_NAME["substeps"].default if substeps is None else substeps)
+    rate = BY_NAME["physics_rate"].default if rate is None else rate
+    substeps = BY_NAME["substeps"].default if substeps is None else substeps
+    check_replay_options(wall_stiffness, rate, substeps)
+    rate, substeps = float(rate), int(substeps)
     tr = result.trajectory
     if tr.lumen is None:
         raise BhrError("the run's trajectory has no lumen, so there is no wall to replay against; give a run of "

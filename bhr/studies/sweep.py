@@ -37,7 +37,7 @@ from bhr.studies.executor import DASK_MISSING, capture, connect_scheduler, run_j
 from bhr.model.generators import GENERATORS, builtin_names, load_trajectory
 from bhr.run.driver import BhrWarning, follow
 from bhr.output.htmlpage import PAGE_END, escape, figure, fmt, page_head, table
-from bhr.settings.options import BY_NAME, by_group, solver_options_for
+from bhr.settings.options import BY_NAME, LIMITS, by_group, solver_options_for
 from bhr.model.robot import Robot
 from bhr.model.robotfile import load_robot_file
 from bhr.solvers import check_solver_name
@@ -61,7 +61,7 @@ METRICS = ("status", "steps", "tip_max_error_mm", "tip_final_error_mm", "points_
            "min_clearance_mm", "min_turn_radius_mm")
 _TOP_KEYS = ("title", "description", "traj", "solver", "robot", "grid")
 _NUM = re.compile(r"^[+-]?(\d+(\.\d*)?|\.\d+)([eE][+-]?\d+)?$", re.ASCII)
-_MAX_DESIGNS = 1_000_000
+_MAX_DESIGNS = LIMITS["study_runs"]
 
 
 def _number(text: str, key: str, where: str) -> int | float:
@@ -228,6 +228,9 @@ def build_sweep(trajs: Sequence[str], solvers: Sequence[str], grid: Iterable[tup
         raise BhrError(f"{where}: a sweep needs at least one trajectory and one solver")
     # tables name a solver one way (seed: thesis)
     solvers = tuple(dict.fromkeys(check_solver_name(s, where) for s in solvers))
+    count = len(trajs) * len(solvers) * math.prod(len(v) for _, v in grid)
+    if count > _MAX_DESIGNS:  # before a trajectory is loaded or a colon drawn for any of them
+        raise BhrError(f"{where}: {count} designs is more than {_MAX_DESIGNS}; use fewer values")
     shipped = set(builtin_names())
     sources = {}
     base = Path(base_dir)

@@ -41,7 +41,7 @@ from bhr.run.driver import BhrWarning, follow
 from bhr.output.htmlpage import PAGE_END, escape, figure, fmt, page_head, table
 from bhr.settings.names import axis_label
 from bhr.settings.names import label as _label
-from bhr.settings.options import solver_options_for
+from bhr.settings.options import LIMITS, solver_options_for
 from bhr.studies.study import ROBOT_KEYS, TRAJ_KEYS, csv_text, make_robot, sim_options
 from bhr.studies.sweep import Sweep, SweepResult, build_sweep, run_sweep
 from bhr.studies.sweep import heatmap_axes as _sweep_axes
@@ -63,7 +63,7 @@ DESIGN_COLUMNS = ("colons", "traversed", "pass_rate", "failed_runs", "worst_pene
 RUN_COLUMNS = ("status", "steps", "traversed", "max_penetration_mm", "touch_steps", "contact_length_mm",
                "min_clearance_mm", "points_max_error_mm", "tip_max_error_mm", "modules", "procedure_time_s",
                "left_lumen_step", "failure")
-_MAX_COLONS = 100_000
+_MAX_COLONS = LIMITS["colons"]
 #: One seed, or FIRST-LAST, or FIRST:LAST[:STEP] as in a sweep's grid (ends included); plain ASCII digits.
 _RANGE = re.compile(r"^\s*([0-9]+)\s*(?:(-|:)\s*([0-9]+)\s*(?::\s*([0-9]+)\s*)?)?$", re.ASCII)
 
@@ -91,10 +91,12 @@ def parse_colons(text: str | Sequence[int]) -> tuple[int, ...]:
                 raise BhrError(f"--colons: range {a}-{b} runs backwards; give FIRST-LAST with FIRST <= LAST")
             if a > SEED_MAX or b > SEED_MAX:
                 raise BhrError(f"--colons: seeds go from 0 to {SEED_MAX}, got {part.strip()!r}")
-            if b - a + 1 + len(seeds) > _MAX_COLONS:
+            if len(range(a, b + 1, step)) + len(seeds) > _MAX_COLONS:
                 raise BhrError(f"--colons: more than {_MAX_COLONS} colons; give fewer seeds")
             seeds.extend(range(a, b + 1, step))
     else:
+        if len(text) > _MAX_COLONS:
+            raise BhrError(f"--colons: more than {_MAX_COLONS} colons; give fewer seeds")
         seeds = [check_seed(s, "--colons") for s in text]
     if not seeds:
         raise BhrError("--colons is empty; give seeds such as 1-100 or 1,2,5-9")

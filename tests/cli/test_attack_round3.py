@@ -168,3 +168,195 @@ def test_a_bhr_folder_in_the_current_folder_does_not_replace_the_installed_bhr(t
     (tmp_path / "bhr" / "__init__.py").write_text('raise SystemExit("the wrong bhr")\n')
     r = bhr("fk", "--codes", "0,3", cwd=tmp_path, timeout=120)
     assert r.returncode == 0 and "wrong bhr" not in r.stderr, r.stderr
+
+
+def _default_signals():
+    for sig in (signal.SIGTERM, signal.SIGHUP):  # as a terminal's session has them (not nohup's ignored SIGHUP)
+        signal.signal(sig, signal.SIG_DFL)
+
+
+@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGHUP], ids=["SIGTERM", "SIGHUP"])
+@pytest.mark.parametrize("name, to_group", [("follow", False), ("sweep", False), ("sweep", True), ("report", True)],
+                         ids=["follow", "sweep", "sweep-group", "report-group"])
+def test_sigterm_and_sighup_end_a_command_as_a_ctrl_c_does(tmp_path, sig, name, to_group):
+    # kill PID, or a closed terminal (the whole group): one line, 128 + the signal, no folder, no staging folder left
+    (tmp_path / "b.toml").write_text("".join(f'[[run]]\nname = "r{k}"\ntraj = "colon"\nmodules = {3 + k}\n'
+                                             for k in range(4)))
+    before = snapshot(tmp_path)
+    p = subprocess.Popen(bhr_exe() + COMMANDS[name][0], cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                         text=True, env=ENV, start_new_session=True, preexec_fn=_default_signals)
+    time.sleep(1.0)
+    (os.killpg if to_group else os.kill)(p.pid, sig)
+    out, err = p.communicate(timeout=120)
+    lines = [ln for ln in err.strip().splitlines() if not ln.startswith("Compiling bhr's")]
+    assert p.returncode == 128 + sig and lines == [f"Interrupted by {sig.name}."], (p.returncode, err[-2000:])
+    assert snapshot(tmp_path) == before and sorted(os.listdir(tmp_path)) == ["b.toml"]
+    deadline = time.monotonic() + 20
+    while _living(p.pid) and time.monotonic() < deadline:
+        time.sleep(0.2)
+    assert _living(p.pid) == []
+
+
+@pytest.mark.parametrize("sig, line", [(signal.SIGINT, "Interrupted."), (signal.SIGTERM, "Interrupted by SIGTERM."),
+                                       (signal.SIGHUP, "Interrupted by SIGHUP.")], ids=["SIGINT", "SIGTERM", "SIGHUP"])
+def test_a_signal_while_the_launcher_script_runs_is_one_line(tmp_path, sig, line):
+    launcher = Path(bhr_exe()[0])
+    if not launcher.read_bytes().startswith(b"#!/bin/sh"):
+        pytest.fail(f"{launcher} is not bhr's launcher script (cli/bhr)")
+    real_env = shutil.which("env")
+    slow = tmp_path / "bin"
+    slow.mkdir()
+    (slow / "env").write_text(f'#!/bin/sh\n[ "$2" = true ] && sleep 2\nexec {real_env} "$@"\n')
+    (slow / "env").chmod(0o755)
+    p = subprocess.Popen([str(launcher), "fk", "--codes", "0,3"], cwd=tmp_path, stdout=subprocess.PIPE,
+                         stderr=subprocess.PIPE, text=True, start_new_session=True, preexec_fn=_default_signals,
+                         env=dict(ENV, PATH=f"{slow}{os.pathsep}{ENV.get('PATH', '')}"))
+    time.sleep(0.5)
+    os.kill(p.pid, sig)
+    out, err = p.communicate(timeout=60)
+    assert (p.returncode, err, out) == (128 + sig, line + "\n", "")
+
+
+def test_a_ctrl_c_while_the_launcher_script_runs_is_interrupted(tmp_path):
+    # the launcher's shell runs env (its check for --block-signal, then exec) before Python starts; a slow env
+    # (a loaded machine) holds it there: a Ctrl-C then still ends in "Interrupted." and 130, not the signal
+    launcher = Path(bhr_exe()[0])
+    if launcher.suffix == ".py" or not launcher.read_bytes().startswith(b"#!/bin/sh"):
+        pytest.fail(f"{launcher} is not bhr's launcher script (cli/bhr)")
+    real_env = shutil.which("env")
+    slow = tmp_path / "bin"
+    slow.mkdir()
+    (slow / "env").write_text(f'#!/bin/sh\n[ "$2" = true ] && sleep 2\nexec {real_env} "$@"\n')
+    (slow / "env").chmod(0o755)
+    p = subprocess.Popen([str(launcher), "fk", "--codes", "0,3"], cwd=tmp_path, stdout=subprocess.PIPE,
+                         stderr=subprocess.PIPE, text=True, start_new_session=True,
+                         env=dict(ENV, PATH=f"{slow}{os.pathsep}{ENV.get('PATH', '')}"))
+    time.sleep(0.5)
+    os.killpg(p.pid, signal.SIGINT)
+    out, err = p.communicate(timeout=60)
+    assert (p.returncode, err, out) == (130, "Interrupted.\n", "")
+
+
+def test_a_file_too_large_with_a_cold_kernel_cache_names_the_output(tmp_path):
+    # numba's cache write fails under the limit too: the kernel runs uncached, the line names the figure
+    mpl = tmp_path / "mpl"  # matplotlib's font list made first: its own cache is not what this checks
+    env = dict(ENV, NUMBA_CACHE_DIR=str(tmp_path / "kernels"), MPLCONFIGDIR=str(mpl))
+    subprocess.run([str(Path(bhr_exe()[0]).parent / "python"), "-c", "import matplotlib.font_manager"], env=env,
+                   check=True, timeout=120)
+    work = tmp_path / "work"
+    work.mkdir()
+    line = one_line(bhr("solve", "--target", "0", "0", "10", "--json", "s.json", "--plot", "s.png", cwd=work,
+                        env=env, timeout=300, preexec_fn=_small_files(5000)))
+    assert line.startswith("Error: s.png: File too large"), line
+    assert list(work.iterdir()) == []
+    kernels = list((tmp_path / "kernels").rglob("*"))
+    assert not [k for k in kernels if ".tmp." in k.name]  # numba's half-written cache files went with the error
+
+
+@pytest.mark.parametrize("args", [["plan", "--codes", "c.csv", "--no-plots"], ["stream", "--codes", "c.csv", "--dry-run"],
+                                  ["follow", "--traj", "line", "--no-plots", "--port", "loop://"]],
+                         ids=["plan", "stream", "follow"])
+def test_every_rate_has_the_same_range(tmp_path, args):
+    # docs/commands.md#limits: --rate 0.01 ... 1000 Hz, for plan as for stream and follow --port
+    (tmp_path / "c.csv").write_text(CODES)
+    for rate in ("0.009", "1000.5"):
+        line = one_line(bhr(*args, "--rate", rate, cwd=tmp_path, timeout=120))
+        assert f"{rate} is not in the range 0.01<=x<=1000.0" in line, line
+    assert list(tmp_path.iterdir()) == [tmp_path / "c.csv"]
+    if args[0] == "plan":
+        r = bhr(*args, "--rate", "0.01", cwd=tmp_path, timeout=120)
+        assert r.returncode == 0, r.stderr
+
+
+@pytest.mark.parametrize("option, flag", [("--substeps", "--substeps"), ("--rate", "--rate"),
+                                          ("--wall-stiffness", "--wall-stiffness")])
+def test_a_physics_option_of_zero_is_refused_before_the_replay(tmp_path, option, flag):
+    # a run with a lumen reaches the replay's time step, 1 / rate / substeps: a zero divided by zero there
+    (tmp_path / "lum.csv").write_text("x,y,z,lumen\n" + "".join(f"{2 * k},0,0,30\n" for k in range(41)))
+    assert bhr("follow", "--traj", "lum.csv", "--no-plots", "--out", "run", cwd=tmp_path, timeout=300).returncode == 0
+    before = snapshot(tmp_path)
+    line = one_line(bhr("physics", "run/run.json", "--out", "ph", option, "0", cwd=tmp_path, timeout=300))
+    assert line == f"Error: {flag} must be greater than 0, got 0", line
+    assert snapshot(tmp_path) == before
+
+
+@pytest.mark.parametrize("args, words", [
+    (["plan", "--codes", "c.csv", "--csv", "p.png", "--plot", "p.png"], "the figure and the CSV are both 'p.png'"),
+    (["solve", "--target", "0", "0", "10", "--json", "s", "--plot", "s"], "the JSON and the plot are both 's'"),
+    (["solve", "--target", "0", "0", "10", "--json", "s.out", "--plot", "./d/../s.out"], "are both './d/../s.out'"),
+], ids=["plan", "solve", "solve-same-place"])
+def test_two_outputs_on_one_path_are_refused_before_any_work(tmp_path, args, words):
+    # neither file exists yet: the second would have replaced the first ("Wrote p.png, p.png")
+    (tmp_path / "c.csv").write_text(CODES)
+    (tmp_path / "d").mkdir()
+    before = snapshot(tmp_path)
+    line = one_line(bhr(*args, cwd=tmp_path, timeout=120))
+    assert words in line and "give each output its own path" in line, line
+    assert snapshot(tmp_path) == before and sorted(os.listdir(tmp_path)) == ["c.csv", "d"]
+
+
+@pytest.fixture
+def read_only_folder(tmp_path):
+    """tmp_path/ro holding a user's file, read-only for this process: a read-only bind mount when running as root
+    (root writes through any mode), else mode 555."""
+    ro = tmp_path / "ro"
+    ro.mkdir()
+    (ro / "mine.txt").write_text("mine")
+    undo = None
+    if os.geteuid() == 0:
+        mounted = subprocess.run(["mount", "--bind", str(ro), str(ro)], capture_output=True).returncode == 0 and \
+            subprocess.run(["mount", "-o", "remount,bind,ro", str(ro)], capture_output=True).returncode == 0
+        if mounted:
+            def undo():
+                subprocess.run(["umount", str(ro)], check=True)
+        elif subprocess.run(["chattr", "+i", str(ro)], capture_output=True).returncode == 0:
+            def undo():
+                subprocess.run(["chattr", "-i", str(ro)], check=True)
+        else:
+            pytest.fail("running as root, but neither a read-only bind mount nor chattr +i can make a folder "
+                        "read-only here")
+    else:
+        ro.chmod(0o555)
+
+        def undo():
+            ro.chmod(0o755)
+    assert not os.access(ro, os.W_OK) or os.geteuid() == 0
+    yield ro
+    undo()
+
+
+@pytest.mark.parametrize("args", [
+    ["follow", "--traj", "line", "--no-plots", "--out", "ro/run"],
+    ["follow", "--traj", "line", "--no-plots", "--out", "o", "--json", "ro/r.json"],
+    ["solve", "--target", "0", "0", "10", "--plot", "ro/s.png"],
+    ["fk", "--codes", "0,3", "--json", "ro/f.json"],
+    ["export", "--format", "urdf", "--out", "ro/r.urdf"],
+    ["plan", "--codes", "c.csv", "--csv", "ro/p.csv", "--no-plots"],
+    ["report", "--file", "b.toml", "--out", "ro/rep", "--jobs", "1"],
+    ["sweep", "--traj", "line", "--grid", "alpha=5", "--out", "ro/sw", "--jobs", "1"],
+    ["traverse", "--colons", "1", "--out", "ro/tv", "--jobs", "1", "--no-plots"],
+    ["compare", "--traj", "line", "--solver", "thesis", "--solver", "fabrik", "--out", "ro/c", "--no-plots"],
+], ids=["follow-out", "follow-json", "solve-plot", "fk-json", "export", "plan-csv", "report", "sweep", "traverse",
+        "compare"])
+def test_a_read_only_folder_is_refused_before_any_work_even_as_root(tmp_path, read_only_folder, args):
+    (tmp_path / "c.csv").write_text(CODES)
+    (tmp_path / "b.toml").write_text('[[run]]\nname = "a"\ntraj = "line"\n')
+    before = snapshot(tmp_path)
+    line = one_line(bhr(*args, cwd=tmp_path, timeout=300))
+    assert "ro is not a writable folder" in line, line
+    assert snapshot(tmp_path) == before and sorted(os.listdir(read_only_folder)) == ["mine.txt"]
+
+
+def test_the_default_output_folder_in_a_read_only_current_folder(read_only_folder):
+    line = one_line(bhr("follow", "--traj", "line", "--no-plots", cwd=read_only_folder, timeout=300))
+    assert "cannot make the output folder in bhr-out: . is not a writable folder; give --out DIR" in line, line
+    assert sorted(os.listdir(read_only_folder)) == ["mine.txt"]
+
+
+def test_a_batch_naming_a_secret_csv_keeps_its_first_line_out_of_the_report(tmp_path):
+    (tmp_path / "secret.csv").write_text("password=hunter2\nx\n")
+    (tmp_path / "b.toml").write_text('[[run]]\nname = "a"\ntraj = "secret.csv"\n')
+    r = bhr("report", "--file", "b.toml", "--out", "rep", "--jobs", "1", "--no-plots", cwd=tmp_path, timeout=300)
+    assert r.returncode == 1 and "hunter2" not in r.stderr + r.stdout
+    written = [p for p in (tmp_path / "rep").rglob("*") if p.is_file()]
+    assert written and not [p.name for p in written if "hunter2" in p.read_text(errors="replace")]

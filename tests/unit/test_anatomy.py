@@ -5,7 +5,7 @@ import math
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 import bhr
@@ -44,6 +44,7 @@ def test_one_seed_one_colon(seed, feed):
 
 @SETTINGS
 @given(seeds, feeds)
+@example(5987, 2.0)
 def test_points_are_one_feed_apart_along_the_path(seed, feed):
     c = anatomical_colon(seed)
     pts, lumen, section = c.sample(feed)
@@ -74,6 +75,7 @@ def test_lumen_within_the_published_ranges(seed):
 
 @SETTINGS
 @given(seeds)
+@example(5987)  # a short rectum whose sacral bend did not fit even at its smallest radius: it turns less
 def test_sections_add_up_and_bends_within_their_ranges(seed):
     c = anatomical_colon(seed)
     assert sum(c.section_lengths.values()) == pytest.approx(c.length, rel=1e-9)

@@ -69,6 +69,14 @@ def test_run_names():
             check_run_name(bad, "b")
 
 
+@pytest.mark.parametrize("char", ["\u202e", "\u200b", "\ufeff", "\u2066", "\ue000", "\u00a0"])
+def test_run_names_with_an_invisible_or_formatting_character_are_refused(char):
+    # a right-to-left override (U+202E) shows 'a<RLO>fdp.exe' as 'aexe.pdf' in the page and the table
+    with pytest.raises(BhrError, match=f"holds U\\+{ord(char):04X}, an invisible or formatting character"):
+        check_run_name(f"a{char}b", "b")
+    assert check_run_name("Ré Ω 左 run-1 (α=10°)", "b") == "Ré Ω 左 run-1 (α=10°)"
+
+
 def test_one_did_you_mean():
     assert did_you_mean("modlues", ["modules", "alpha"]) == "did you mean 'modules'? "
     assert did_you_mean("module-length", ["module_length"]) == "did you mean 'module_length'? "
@@ -149,3 +157,28 @@ def test_a_missing_codes_file_under_latest_says_where_latest_points(tmp_path):
     with pytest.raises(BhrError) as e:
         read_codes_csv(tmp_path / "traverse-1234" / "codes.csv")
     assert " is traverse-1234" not in str(e.value)
+
+
+@pytest.mark.parametrize("target, words", [("self", "is a symbolic link that loops"),
+                                            ("nowhere.csv", "is a symbolic link to 'nowhere.csv', which does not exist")])
+def test_an_input_that_is_a_broken_symbolic_link_is_named_as_one(tmp_path, target, words):
+    from bhr.model.codes import read_codes_csv
+    from bhr.model.trajnames import check_trajectory_name
+    from bhr.settings.inputs import read_text
+
+    link = tmp_path / "in.csv"
+    link.symlink_to(link if target == "self" else target)
+    for call in (lambda: read_codes_csv(link), lambda: check_trajectory_name(str(link)),
+                 lambda: read_text(link, "robot file", "give a robot file")):
+        with pytest.raises(BhrError, match=words):
+            call()
+
+
+def test_a_codes_file_that_is_not_utf8_or_a_folder_says_so(tmp_path):
+    from bhr.model.codes import read_codes_csv
+
+    (tmp_path / "c.csv").write_bytes(b"step,m1\n1,3\n2,\xe9\n")
+    with pytest.raises(BhrError, match=r"c.csv, line 3: not UTF-8 text"):
+        read_codes_csv(tmp_path / "c.csv")
+    with pytest.raises(BhrError, match="is a folder, not a codes file"):
+        read_codes_csv(tmp_path)

@@ -36,3 +36,34 @@ def test_a_folder_the_user_chose_is_kept(tmp_path, monkeypatch):
     monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path / "mine"))
     _numba.configure_cache()
     assert os.environ["NUMBA_CACHE_DIR"] == str(tmp_path / "mine")
+
+
+def test_a_failed_cache_write_costs_a_compile_not_the_command(tmp_path, monkeypatch):
+    import errno
+
+    import numba
+    from numba.core import caching
+
+    assert getattr(caching.Cache.save_overload, "_bhr_guarded", False)  # bhr imported: numba's cache is guarded
+
+    @numba.njit(cache=True)
+    def twice(x):
+        return 2.0 * x
+
+    def too_large(*_args):
+        raise OSError(errno.EFBIG, "File too large")  # as a write under ulimit -f
+
+    monkeypatch.setattr(caching.IndexDataCacheFile, "save", too_large)
+    assert twice(3.0) == 6.0  # compiled, not cached, and runs
+
+    class Cache:  # a module whose Cache is not guarded yet: guarded once, its other errors untouched
+        def save_overload(self, sig, data):
+            raise OSError(errno.ENOSPC, "No space left on device")
+
+    module = type(os)("caching")
+    module.Cache = Cache
+    _numba.guard_cache_writes(module)
+    guarded = Cache.save_overload
+    _numba.guard_cache_writes(module)
+    assert Cache.save_overload is guarded
+    Cache().save_overload(None, None)

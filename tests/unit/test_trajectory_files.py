@@ -418,3 +418,27 @@ def _distance_to(curve, pts, chunk=200):
 # --- the shipped examples ---------------------------------------------------------------------------------------
 
 
+
+
+def test_the_segment_limit_of_the_registry_holds(tmp_path):
+    from bhr.settings.options import LIMITS
+
+    at = tmp_path / "at.toml"
+    at.write_text(segment_file([{"type": "straight", "length": 0.5}] * LIMITS["segments"]))
+    assert load_trajectory(str(at), feed=2.0).params["segments"] == LIMITS["segments"]
+    past = tmp_path / "past.toml"
+    past.write_text(segment_file([{"type": "straight", "length": 0.5}] * (LIMITS["segments"] + 1)))
+    with pytest.raises(BhrError, match=f"{LIMITS['segments'] + 1} segments, more than the {LIMITS['segments']:,}"):
+        load_trajectory(str(past), feed=2.0)
+
+
+@pytest.mark.parametrize("first, shown", [("password=hunter2,x", "unknown column 1 of the header"),
+                                          ("x,y,z,AKIAIOSFODNN7", "unknown column 4 of the header"),
+                                          ("x,y,z,w", "unknown column 'w'")])
+def test_a_header_cell_is_quoted_only_when_it_looks_like_a_column_name(tmp_path, first, shown):
+    # the first line of any .csv a batch names must not reach the report's shareable files through this message
+    f = tmp_path / "secret.csv"
+    f.write_text(first + "\n0,0,0,0\n")
+    with pytest.raises(BhrError) as err:
+        load_trajectory(str(f), feed=2.0)
+    assert shown in str(err.value) and "hunter2" not in str(err.value) and "AKIA" not in str(err.value)

@@ -16,6 +16,7 @@ from hypothesis import given, settings, strategies as st
 
 import bhr
 from bhr.settings.errors import BhrError
+from bhr.settings.options import LIMITS
 from bhr.run.driver import BhrWarning
 from bhr.model.robot import Robot
 from bhr.model.generators import load_trajectory
@@ -75,11 +76,20 @@ def test_colons_ranges_and_lists(parts):
     ("-4", "is not a seed or a range"),
     ("1.5", "is not a seed or a range"),
     ("4294967296", "seeds go from 0 to 4294967295"),
-    ("0-200000", "more than 100000 colons"),
+    ("0-200000", f"more than {LIMITS['colons']} colons"),
+    ("1-5,1-10000", f"more than {LIMITS['colons']} colons"),
 ])
 def test_bad_colons(text, msg):
     with pytest.raises(BhrError, match=msg):
         parse_colons(text)
+
+
+def test_the_colon_limit_counts_the_seeds_a_step_gives_and_holds_for_a_list():
+    assert len(parse_colons(f"1:{2 * LIMITS['colons']}:2")) == LIMITS["colons"]  # every other seed: at the limit
+    with pytest.raises(BhrError, match=f"more than {LIMITS['colons']} colons"):
+        parse_colons(list(range(LIMITS["colons"] + 1)))
+    with pytest.raises(BhrError, match=f"4925000 designs is more than {LIMITS['study_runs']}"):  # before any colon is drawn
+        build_study([("alpha", tuple(range(5, 30))), ("modules", tuple(range(3, 200)))], "1-1000")
 
 
 @pytest.mark.parametrize("grid, kw, msg", [
