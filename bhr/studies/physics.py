@@ -171,6 +171,13 @@ def check_wall_stiffness(value: float) -> float:
     return value
 
 
+#: The servos' and the wall's natural frequency (Hz): both settle within a step, critically damped (docs/physics.md).
+SERVO_HZ = 50.0
+#: The longest MuJoCo time step the replay takes: 6.25 ms (8 substeps at 20 Hz), where 50 Hz is still resolved
+#: (omega dt = 1.96, below the explicit part's stability bound of 2); a longer one blows up.
+MAX_TIMESTEP_MS = 6.25
+
+
 def check_replay_options(wall_stiffness: Any, rate: Any, substeps: Any) -> None:
     """The replay's own options through the option registry (finite, within their limits, above 0) and the wall's
     stiffness within ten times its published range; a one-line BhrError naming the option otherwise. Before any
@@ -183,6 +190,12 @@ def check_replay_options(wall_stiffness: Any, rate: Any, substeps: Any) -> None:
         if v <= 0:
             raise BhrError(f"{flag} must be greater than 0, got {v:g}")
     check_wall_stiffness(wall_stiffness)
+    dt_ms = 1000.0 / (float(rate) * int(substeps))
+    if dt_ms > MAX_TIMESTEP_MS:
+        need = math.ceil(1000.0 / (float(rate) * MAX_TIMESTEP_MS) - 1e-9)
+        raise BhrError(f"a time step of {dt_ms:.3g} ms (1 / --rate / --substeps) is too long for the servos' and the "
+                       f"wall's {SERVO_HZ:g} Hz, and the replay would blow up; give --substeps {need} or more at "
+                       f"--rate {float(rate):g} (a time step of at most {MAX_TIMESTEP_MS:g} ms)")
 
 
 def whole_chain(result) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -424,7 +437,7 @@ def insertion(result, roots: np.ndarray, frames: np.ndarray) -> tuple[np.ndarray
 
 def scene_xml(result, *, wall_stiffness: float = DEFAULT_WALL_STIFFNESS, ring_spacing: float = 4.0,
               pieces: int = 10, thickness: float = 4.0, rate: float | None = None, substeps: int | None = None,
-              servo_hz: float = 50.0, stiff_ratio: float = 100.0, chain: "ReplayChain | None" = None
+              servo_hz: float = SERVO_HZ, stiff_ratio: float = 100.0, chain: "ReplayChain | None" = None
               ) -> tuple[str, dict[str, Any]]:
     """The MuJoCo scene of a run (MJCF text) and its settings: the wall, the whole robot, its servos.
 
