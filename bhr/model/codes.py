@@ -28,6 +28,9 @@ __all__ = ["REST", "LIFT", "VALID_CODES", "TILT_CODES", "CODE_AXIS", "is_valid_c
 
 _VALID = frozenset(VALID_CODES)
 _ALLOWED = ", ".join(map(str, sorted(VALID_CODES)))
+#: Each stable code as 'bhr follow' writes it in a codes.csv cell, and its value (anything else goes through
+#: check_code, which accepts it or names it).
+_CELLS = {str(c): c for c in VALID_CODES}
 
 
 def _whole(code: object) -> TypeGuard[int]:
@@ -175,6 +178,10 @@ def read_codes_csv(path: str | os.PathLike[str]) -> tuple[list[int], np.ndarray]
         if not (cell.isascii() and cell.lstrip("+-").isdigit() and len(cell) <= 12):
             raise BhrError(f"{p}:{line}: step {cell[:40]!r} is not a whole number of at most 12 digits")
         steps.append(int(cell))
-        for j, cell in enumerate(row[1:]):
+        cells = row[1:]
+        if all(c in _CELLS for c in cells):  # the written form of the stable codes: no need to look closer
+            table[i] = [_CELLS[c] for c in cells]
+            continue
+        for j, cell in enumerate(cells):
             table[i, j] = check_code(cell, f"at {p}:{line} column m{j + 1}")
     return steps, table

@@ -182,3 +182,30 @@ def test_a_codes_file_that_is_not_utf8_or_a_folder_says_so(tmp_path):
         read_codes_csv(tmp_path / "c.csv")
     with pytest.raises(BhrError, match="is a folder, not a codes file"):
         read_codes_csv(tmp_path)
+
+
+@given(st.lists(st.lists(st.sampled_from(["0", "3", "6", "9", "12", "15", " 3", "+6", "03", "7", "5", "x", "", "1_5",
+                                          "１２", "-0", "9 "]), min_size=2, max_size=2), min_size=1, max_size=4))
+def test_codes_csv_cells_are_read_as_check_code_reads_them(rows):
+    """The fast path for cells written as bhr writes them agrees with check_code on every cell (value or refusal)."""
+    import tempfile
+    from pathlib import Path
+
+    from bhr.model.codes import check_code, read_codes_csv
+
+    expected: list[list[int]] | None = []
+    for r in rows:
+        try:
+            expected.append([check_code(c) for c in r])  # type: ignore[union-attr]
+        except BhrError:
+            expected = None
+            break
+    with tempfile.TemporaryDirectory() as d:
+        f = Path(d) / "c.csv"
+        f.write_text("step,m1,m2\n" + "".join(f"{i + 1},{r[0]},{r[1]}\n" for i, r in enumerate(rows)),
+                     encoding="utf-8")
+        if expected is None:
+            with pytest.raises(BhrError):
+                read_codes_csv(f)
+        else:
+            assert read_codes_csv(f)[1].tolist() == expected
