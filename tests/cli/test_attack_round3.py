@@ -197,9 +197,9 @@ def test_sigterm_and_sighup_end_a_command_as_a_ctrl_c_does(tmp_path, sig, name, 
     assert _living(p.pid) == []
 
 
-@pytest.mark.parametrize("sig, line", [(signal.SIGINT, "Interrupted."), (signal.SIGTERM, "Interrupted by SIGTERM."),
-                                       (signal.SIGHUP, "Interrupted by SIGHUP.")], ids=["SIGINT", "SIGTERM", "SIGHUP"])
-def test_a_signal_while_the_launcher_script_runs_is_one_line(tmp_path, sig, line):
+def _launcher_held_before_python(tmp_path, **popen):
+    """bhr's launcher script running ``fk`` with a slow ``env`` on the PATH (a loaded machine): its shell is held
+    for 2 s before Python starts. Returns the process, 0.5 s in."""
     launcher = Path(bhr_exe()[0])
     if not launcher.read_bytes().startswith(b"#!/bin/sh"):
         pytest.fail(f"{launcher} is not bhr's launcher script (cli/bhr)")
@@ -209,9 +209,16 @@ def test_a_signal_while_the_launcher_script_runs_is_one_line(tmp_path, sig, line
     (slow / "env").write_text(f'#!/bin/sh\n[ "$2" = true ] && sleep 2\nexec {real_env} "$@"\n')
     (slow / "env").chmod(0o755)
     p = subprocess.Popen([str(launcher), "fk", "--codes", "0,3"], cwd=tmp_path, stdout=subprocess.PIPE,
-                         stderr=subprocess.PIPE, text=True, start_new_session=True, preexec_fn=_default_signals,
-                         env=dict(ENV, PATH=f"{slow}{os.pathsep}{ENV.get('PATH', '')}"))
+                         stderr=subprocess.PIPE, text=True, start_new_session=True,
+                         env=dict(ENV, PATH=f"{slow}{os.pathsep}{ENV.get('PATH', '')}"), **popen)
     time.sleep(0.5)
+    return p
+
+
+@pytest.mark.parametrize("sig, line", [(signal.SIGINT, "Interrupted."), (signal.SIGTERM, "Interrupted by SIGTERM."),
+                                       (signal.SIGHUP, "Interrupted by SIGHUP.")], ids=["SIGINT", "SIGTERM", "SIGHUP"])
+def test_a_signal_while_the_launcher_script_runs_is_one_line(tmp_path, sig, line):
+    p = _launcher_held_before_python(tmp_path, preexec_fn=_default_signals)
     os.kill(p.pid, sig)
     out, err = p.communicate(timeout=60)
     assert (p.returncode, err, out) == (128 + sig, line + "\n", "")
@@ -220,18 +227,7 @@ def test_a_signal_while_the_launcher_script_runs_is_one_line(tmp_path, sig, line
 def test_a_ctrl_c_while_the_launcher_script_runs_is_interrupted(tmp_path):
     # the launcher's shell runs env (its check for --block-signal, then exec) before Python starts; a slow env
     # (a loaded machine) holds it there: a Ctrl-C then still ends in "Interrupted." and 130, not the signal
-    launcher = Path(bhr_exe()[0])
-    if launcher.suffix == ".py" or not launcher.read_bytes().startswith(b"#!/bin/sh"):
-        pytest.fail(f"{launcher} is not bhr's launcher script (cli/bhr)")
-    real_env = shutil.which("env")
-    slow = tmp_path / "bin"
-    slow.mkdir()
-    (slow / "env").write_text(f'#!/bin/sh\n[ "$2" = true ] && sleep 2\nexec {real_env} "$@"\n')
-    (slow / "env").chmod(0o755)
-    p = subprocess.Popen([str(launcher), "fk", "--codes", "0,3"], cwd=tmp_path, stdout=subprocess.PIPE,
-                         stderr=subprocess.PIPE, text=True, start_new_session=True,
-                         env=dict(ENV, PATH=f"{slow}{os.pathsep}{ENV.get('PATH', '')}"))
-    time.sleep(0.5)
+    p = _launcher_held_before_python(tmp_path)
     os.killpg(p.pid, signal.SIGINT)
     out, err = p.communicate(timeout=60)
     assert (p.returncode, err, out) == (130, "Interrupted.\n", "")
