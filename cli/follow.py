@@ -118,8 +118,11 @@ def follow(traj, solver, out_dir, json_path, no_plots, **kwargs):
                                 guard=stop_on_signals)
     traj_params = pop_trajectory(kwargs)
     announce_compiles()
-    from bhr.hardware.link import StreamInterrupted
+    interrupted: tuple[type[BaseException], ...] = ()  # the board's link is loaded only for a stream (0.14 s)
+    if stream is not None:
+        from bhr.hardware.link import StreamInterrupted
 
+        interrupted = (StreamInterrupted,)
     try:
         run = follow_run(traj, robot=robot, solver=solver, solver_options={**constraints, **optimal},
                          traj_params=traj_params, body_modules=body_modules, reach=reach, locomotion=locomotion,
@@ -127,7 +130,7 @@ def follow(traj, solver, out_dir, json_path, no_plots, **kwargs):
                          stride=stride, rate=rate, robot_file=robot_file, thermal=thermal_params(robot_file),
                          stream=stream, status=status, frames_progress=_bar(bars, f"Rendering {animate_path}"),
                          notice=lambda line: click.echo(line, err=True))
-    except StreamInterrupted as exc:
+    except interrupted as exc:
         _close(bars)
         exit_interrupted(exc, getattr(exc, "total", 0), "steps")
     finally:
