@@ -13,7 +13,8 @@ try:
     main({args!r}, standalone_mode=False)
 except (SystemExit, Exception) as exc:  # a failing command still shows what it loaded
     _err = type(exc).__name__
-print(sorted(m for m in ("numba", "matplotlib", "serial", "quaternion", "numpy") if m in sys.modules))
+print(sorted(m for m in ("numba", "matplotlib", "serial", "quaternion", "numpy", "bhr.hardware.link")
+             if m in sys.modules))
 """
 
 
@@ -38,7 +39,7 @@ def test_follow_with_plots_loads_matplotlib(tmp_path):
 def test_board_commands_load_the_serial_stack_and_no_numba(tmp_path):
     # no board answers on loop:// (the command fails after its one try): only what it loaded matters here
     args = ["status", "--port", "loop://", "--timeout", "0.01", "--retries", "0"]
-    assert loaded(args, tmp_path) == "['numpy', 'serial']"
+    assert loaded(args, tmp_path) == "['bhr.hardware.link', 'numpy', 'serial']"
 
 
 def test_second_run_loads_compiled_code_from_cache(tmp_path, run_bhr):
