@@ -102,10 +102,10 @@ def format_codes_csv(codes: np.ndarray | Sequence[Sequence[int]], steps: Sequenc
 
 
 def _link_note(p: Path) -> str:
-    """Where a symbolic link on the way to ``p`` (``bhr-out/latest``, say) points, when one does: its target may be
-    another command's folder."""
+    """Where ``bhr-out/latest`` on the way to ``p`` points, when it is there: after another command it is that
+    command's folder."""
     for parent in p.parents:
-        if parent.is_symlink():
+        if parent.name == "latest" and parent.is_symlink():  # bhr-out/latest: the link bhr keeps to its last folder
             try:
                 return f" ({parent} is {os.readlink(parent)}, the last folder bhr wrote, which has none)"
             except OSError:
