@@ -681,10 +681,10 @@ def check_figure_path(path: str | os.PathLike[str]) -> None:
 #: and saves some 0.04 s of CPU over the three error figures (bhr follow draws five figures every run).
 RUN_PNG_COMPRESS = 1
 
-#: How the saved figures render their text: glyphs at the pixel grid's own resolution, without FreeType's hinting.
-#: matplotlib's defaults (autohinting, laid out at 8x the horizontal resolution) look the same at 110 dpi but make
-#: text most of a figure's drawing: these take about 0.2 s of CPU off the five figures of ``bhr follow``.
-TEXT_RENDERING: dict[Any, Any] = {"text.hinting": "none", "text.hinting_factor": 1}
+#: How the saved figures render their text: without FreeType's hinting. matplotlib's default (autohinting) looks
+#: the same at 110 dpi but makes text most of a figure's drawing. (``text.hinting_factor``, the other setting of
+#: this kind, does nothing in this matplotlib and warns that it is deprecated.)
+TEXT_RENDERING: dict[Any, Any] = {"text.hinting": "none"}
 
 
 def save_figure(fig: plt.Figure, path: str | os.PathLike[str], dpi: int = 110, compress: int | None = None) -> Path:
