@@ -155,7 +155,6 @@ def install_light_blas() -> None:
     sys.meta_path.insert(0, _LightBlas())
 
 
-
 # --- kernels made when first used ------------------------------------------------------------------------------
 
 _lazy_lock = threading.RLock()
@@ -295,10 +294,6 @@ def when_numba_loads(callback: Any) -> None:
         else:
             _on_load.append(callback)
 
-
-def numba_loaded() -> bool:
-    """Whether numba has been imported in this process."""
-    return "numba" in sys.modules
 
 class _CacheWriteGuard:
     """Makes a failed write to numba's cache cost a compile next time instead of the command.

@@ -12,6 +12,7 @@ import click
 
 from bhr.output.atomic import (check_parent_folder, folder_name, input_files, json_in_folder,  # noqa: F401
                                run_folder_name)
+from bhr.cli._interrupt import end_interrupted
 from bhr.settings.errors import INTERRUPTED, BhrError
 
 
@@ -68,11 +69,7 @@ def guarded(func: Callable[..., Any]) -> Callable[..., Any]:
             return rv
         except BhrError as exc:
             if INTERRUPTED.is_set():  # a worker that went with the same Ctrl-C or SIGTERM: the interrupt is the news
-                from bhr.settings.interrupts import ending
-
-                line, status = ending()
-                click.echo(line, err=True)
-                sys.exit(status)
+                end_interrupted()
             raise click.ClickException(str(exc).splitlines()[0] if str(exc) else type(exc).__name__) from None
         except ValueError as exc:
             if not str(exc).startswith("Key backend:"):
@@ -81,11 +78,7 @@ def guarded(func: Callable[..., Any]) -> Callable[..., Any]:
             raise click.ClickException(f"MPLBACKEND={shown} is not a matplotlib backend; unset it or set "
                                        "MPLBACKEND=Agg") from None
         except KeyboardInterrupt:
-            from bhr.settings.interrupts import ending
-
-            line, status = ending()
-            click.echo(line, err=True)
-            sys.exit(status)
+            end_interrupted()
         except BrokenPipeError:
             _quiet_stdout()  # the reader went away (bhr ... | head): stop quietly
             sys.exit(141)

@@ -6,6 +6,8 @@ import sys
 
 import click
 
+from bhr.cli._interrupt import end_interrupted
+
 # command name -> "module:attribute", imported only when the command runs.
 COMMANDS: dict[str, tuple[str, str]] = {
     "solve": ("bhr.cli.solve:solve", "Solve one target with FABRIK, CCD or the thesis's solver."),
@@ -24,16 +26,6 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "physics": ("bhr.cli.physics:physics", "Replay a run in MuJoCo against the colon wall: contact forces."),
 }
 
-
-
-
-def _interrupted() -> None:
-    """End an interrupted command: its one line ("Interrupted.", or the signal's name) and exit status."""
-    from bhr.settings.interrupts import ending
-
-    line, status = ending()
-    click.echo(line, err=True)
-    sys.exit(status)
 
 class LazyGroup(click.Group):
     """A group that imports a command's module only when it is needed.
@@ -71,15 +63,15 @@ class LazyGroup(click.Group):
             from bhr.settings.errors import INTERRUPTED
 
             if INTERRUPTED.is_set():  # click turns a Ctrl-C into Abort
-                _interrupted()
+                end_interrupted()
             click.echo("Aborted.", err=True)
             sys.exit(1)
         except (EOFError, KeyboardInterrupt):
-            _interrupted()
+            end_interrupted()
         from bhr.settings.errors import INTERRUPTED
 
         if INTERRUPTED.is_set():  # a Ctrl-C that something caught on the way: still honoured
-            _interrupted()
+            end_interrupted()
         sys.exit(rv if isinstance(rv, int) else 0)
 
     def list_commands(self, ctx: click.Context) -> list[str]:

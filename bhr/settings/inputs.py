@@ -50,8 +50,9 @@ def read_text(path: str | os.PathLike[str], what: str, hint: str, limit: int | N
     except PermissionError:
         raise BhrError(f"cannot read {what} {p}: permission denied; {hint}") from None
     except OSError as exc:
-        if broken_link(p):
-            raise BhrError(f"{broken_link(p)}; {hint}") from None
+        link = broken_link(p)
+        if link:
+            raise BhrError(f"{link}; {hint}") from None
         raise BhrError(f"cannot read {what} {p} ({exc.strerror or exc.__class__.__name__}); {hint}") from None
     try:
         text = raw.decode("utf-8-sig")

@@ -21,7 +21,7 @@ import numpy as np
 from bhr.settings.errors import BhrError, renamed
 from bhr.kinematics.leader import advance_kernel
 from bhr.model.robot import Robot, base_frame, straight_chain
-from bhr.solvers.names import REGISTRY  # kept in the light index module, filled by register()
+from bhr.solvers.names import BUILTIN, REGISTRY  # the light index of names, and the registry register() fills
 
 __all__ = ["Chain", "SolveResult", "Solver", "FollowContext", "register", "REGISTRY"]
 
@@ -31,8 +31,6 @@ def register(cls: type["Solver"]) -> type["Solver"]:
     if not getattr(cls, "name", None):
         raise TypeError(f"{cls.__name__} has no name")
     if cls.__module__.startswith("bhr.solvers."):  # bhr's own: listed in the light index of names, as it is here
-        from bhr.solvers.names import BUILTIN
-
         listed = BUILTIN.get(cls.name)
         if listed != (cls.__module__.rsplit(".", 1)[1], tuple(cls.aliases)):
             raise TypeError(f"solver {cls.name!r} ({cls.__module__}, aliases {tuple(cls.aliases)}) is listed as "

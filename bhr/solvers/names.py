@@ -10,16 +10,14 @@ differently, so the index cannot drift from the classes.
 """
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
-if TYPE_CHECKING:
-    from bhr.solvers.base import Solver
+from typing import Any
 
 __all__ = ["BUILTIN", "REGISTRY", "builtin_name"]
 
-#: Every solver class by name and alias, as :func:`bhr.solvers.base.register` records them (filled when the solver
-#: modules load).
-REGISTRY: dict[str, type[Solver]] = {}
+#: Every solver class (a :class:`bhr.solvers.base.Solver` subclass) by name and alias, as
+#: :func:`bhr.solvers.base.register` records them, filled when the solver modules load. Typed loosely so that this
+#: index imports nothing of the package (the classes' module imports it).
+REGISTRY: dict[str, Any] = {}
 
 #: name -> (its module in bhr.solvers, its aliases): every solver class of this package.
 BUILTIN: dict[str, tuple[str, tuple[str, ...]]] = {
