@@ -183,23 +183,23 @@ def solve_times(seed: int = 1, repeats: int = 3, robot: Robot | None = None) -> 
 
 
 def _seeds(text: str) -> list[int]:
-    out: list[int] = []
-    for part in text.split(","):
-        if "-" in part:
-            a, b = part.split("-")
-            out += list(range(int(a), int(b) + 1))
-        else:
-            out.append(int(part))
-    return out
+    """The colons' seeds, in ``bhr traverse --colons``'s syntax (one line naming the problem otherwise)."""
+    from bhr.settings.errors import BhrError
+    from bhr.studies.traverse import parse_colons
+
+    try:
+        return list(parse_colons(text))
+    except BhrError as exc:
+        raise argparse.ArgumentTypeError(str(exc).replace("--colons", "--seeds")) from None
 
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="python3 -m bhr.bench.lumen", description=__doc__.splitlines()[0])
-    ap.add_argument("--seeds", default="1-100", help="colon seeds, e.g. 1-100 or 1,5,9 [1-100]")
+    ap.add_argument("--seeds", default="1-100", type=_seeds, help="colon seeds, e.g. 1-100 or 1,5,9 [1-100]")
     ap.add_argument("--json", default=None, help="also write the figures as JSON here")
     ap.add_argument("--no-timing", action="store_true", help="skip the time per step")
     a = ap.parse_args(argv)
-    seeds = _seeds(a.seeds)
+    seeds = a.seeds
     pop = population(seeds, progress=True)
     doc: dict[str, Any] = {"population": pop}
     med, ratio = pop["median"], pop["ratio_to_seed"]["lumen"]

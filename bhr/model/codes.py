@@ -105,9 +105,9 @@ def _link_note(p: Path) -> str:
     """Where ``bhr-out/latest`` on the way to ``p`` points, when it is there: after another command it is that
     command's folder."""
     for parent in p.parents:
-        if parent.name == "latest" and parent.is_symlink():  # bhr-out/latest: the link bhr keeps to its last folder
+        if parent.name == "latest" and parent.is_symlink():  # bhr-out/latest, the link bhr keeps to a folder it wrote
             try:
-                return f" ({parent} is {os.readlink(parent)}, the last folder bhr wrote, which has none)"
+                return f" ({parent} points to {os.readlink(parent)}, which has none)"
             except OSError:
                 return ""
     return ""

@@ -153,14 +153,14 @@ def test_a_missing_codes_file_under_latest_says_where_latest_points(tmp_path):
     with pytest.raises(BhrError) as e:
         read_codes_csv(tmp_path / "latest" / "codes.csv")
     msg = str(e.value)
-    assert "\n" not in msg and "latest is traverse-1234" in msg and "give the codes.csv" in msg
+    assert "\n" not in msg and "latest points to traverse-1234" in msg and "give the codes.csv" in msg
     with pytest.raises(BhrError) as e:
         read_codes_csv(tmp_path / "traverse-1234" / "codes.csv")
-    assert " is traverse-1234" not in str(e.value)
-    (tmp_path / "data").symlink_to("traverse-1234")  # a user's own link is not bhr's last folder
+    assert "points to" not in str(e.value)
+    (tmp_path / "data").symlink_to("traverse-1234")  # a user's own link is not bhr-out/latest
     with pytest.raises(BhrError) as e:
         read_codes_csv(tmp_path / "data" / "codes.csv")
-    assert "last folder" not in str(e.value)
+    assert "points to" not in str(e.value)
 
 
 @pytest.mark.parametrize("target, words", [("self", "is a symbolic link that loops"),
