@@ -1,0 +1,93 @@
+"""Every `bhr ...` example in README.md and docs/*.md is a command line bhr accepts as printed.
+
+Each example (a line of a fenced code block starting with ``bhr ``, with its ``\\`` continuations joined, a
+trailing ``# comment`` dropped, and cut at ``;``, ``&&`` or ``|`` where a shell line goes on with another
+program) is parsed by the real click commands: every option must exist, every value must convert and be in the
+registry's limits. The examples are not run here (some stream to a board or take minutes); parsing is what goes
+stale when an option is renamed, removed or narrowed.
+"""
+from __future__ import annotations
+
+import re
+import shlex
+from pathlib import Path
+
+import click
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+DOCS = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
+BLOCK = re.compile(r"```[a-z]*\n(.*?)```", re.S)
+
+
+def examples(path: Path) -> list[str]:
+    out = []
+    for block in BLOCK.findall(path.read_text(encoding="utf-8")):
+        lines = block.splitlines()
+        i = 0
+        while i < len(lines):
+            line = lines[i]
+            while line.rstrip().endswith("\\") and i + 1 < len(lines):
+                i += 1
+                line = line.rstrip()[:-1] + " " + lines[i].strip()
+            i += 1
+            if re.match(r"\s*bhr [a-z]", line):
+                out.append(line)
+    return out
+
+
+def command_of(line: str) -> list[str]:
+    """The argv of the bhr command on a shell line: comment dropped, cut where another command starts."""
+    argv = []
+    for word in shlex.split(line, comments=True):
+        if word in (";", "&&", "||", "|") or word.startswith(("|", ";")):
+            break
+        if word.endswith(";"):
+            argv.append(word[:-1])
+            break
+        argv.append(word)
+    assert argv[0] == "bhr"
+    return argv[1:]
+
+
+CASES = [(p.relative_to(ROOT).as_posix(), line.strip()) for p in DOCS for line in examples(p)]
+
+
+def test_the_docs_have_examples():
+    # the collection itself can fail: a change of the docs' layout must not leave this test checking nothing
+    assert len(CASES) >= 40
+    assert sum(f == "README.md" for f, _ in CASES) >= 10
+
+
+@pytest.mark.parametrize("where,line", CASES, ids=[f"{f}:{i}" for i, (f, _) in enumerate(CASES)])
+def test_example_parses(where, line):
+    from bhr.cli.main import main
+
+    argv = command_of(line)
+    ctx = main.make_context("bhr", list(argv))
+    sub = main.get_command(ctx, argv[0])
+    assert sub is not None, f"{where}: unknown command in {line!r}"
+    try:
+        sub.make_context(argv[0], argv[1:], parent=ctx)
+    except click.exceptions.Exit:
+        pass
+    except click.ClickException as exc:
+        pytest.fail(f"{where}: {line!r} is refused: {exc.format_message()}")
+
+
+@pytest.mark.parametrize("line,argv", [
+    ("bhr fk --codes 3,0,6  # forward kinematics", ["fk", "--codes", "3,0,6"]),
+    ("bhr stream --port $PTY --codes /tmp/one.csv; sleep 3", ["stream", "--port", "$PTY", "--codes", "/tmp/one.csv"]),
+    ("bhr follow --traj colon --json - | python -c 'x'", ["follow", "--traj", "colon", "--json", "-"]),
+])
+def test_command_of_cuts_the_shell_line(line, argv):
+    assert command_of(line) == argv
+
+
+def test_a_stale_example_is_caught():
+    from bhr.cli.main import main
+
+    argv = command_of("bhr traverse --colons 1-20 --no-such-option")
+    ctx = main.make_context("bhr", list(argv))
+    with pytest.raises(click.ClickException):
+        main.get_command(ctx, argv[0]).make_context(argv[0], argv[1:], parent=ctx)
