@@ -172,6 +172,16 @@ def run_options(f: Any) -> Any:
     return stack_options(*[_click_option(o) for o in by_group("run")])(f)
 
 
+def model_modules_option(f: Any) -> Any:
+    """--body-modules for a command that builds a model, not a run (bhr export): the registry's entry and limits,
+    with help that speaks of the model (--reach and --locomotion, which need a path, are not offered)."""
+    from dataclasses import replace
+
+    o = next(o for o in by_group("run") if o.name == "body_modules")
+    return _click_option(replace(o, help="The whole robot has M modules (M >= --modules): the model's links",
+                                 shown="--modules"))(f)
+
+
 def physics_options(f: Any) -> Any:
     """The physics replay's options (--wall-stiffness, --rate, --substeps), from :mod:`bhr.settings.options`."""
     return stack_options(*[_click_option(o) for o in by_group("physics")])(f)

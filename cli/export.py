@@ -4,7 +4,7 @@ from __future__ import annotations
 import click
 
 from bhr.cli._common import check_writable, guarded
-from bhr.cli._options import build_robot, robot_options, run_options
+from bhr.cli._options import build_robot, model_modules_option, robot_options
 
 
 @click.command()
@@ -12,7 +12,7 @@ from bhr.cli._options import build_robot, robot_options, run_options
               help="urdf (pinocchio, RViz, ROS) or mjcf (MuJoCo).")
 @click.option("--out", "out", required=True, metavar="FILE", help="File to write (- for standard output).")
 @robot_options(feed=False, solving=False)
-@run_options
+@model_modules_option
 @guarded
 def export(fmt, out, **kwargs):
     """Write the robot as a URDF or MJCF model: per module two revolute tilts (+-alpha) and a prismatic lift.

@@ -8,6 +8,9 @@ import pytest
     (("--format", "sdf", "--out", "x"), "--format"),
     (("--format", "urdf", "--out", "x", "--robot", "missing.toml"), "missing.toml"),
     (("--format", "urdf", "--out", "x", "--modules", "5", "--body-modules", "3"), "body-modules"),
+    # a model has no path: the run's --reach and --locomotion are not options of export (never silently ignored)
+    (("--format", "urdf", "--out", "x", "--reach", "cecum"), "--reach"),
+    (("--format", "mjcf", "--out", "x", "--locomotion", "trail"), "--locomotion"),
 ])
 def test_export_bad_input_one_line(run_bhr, args, word):
     r = run_bhr("export", *args)
