@@ -21,7 +21,7 @@ from bhr.settings.inputs import MAX_STEP_POINTS
 from bhr.model.robot import Robot
 from bhr.model.generators import Trajectory
 from bhr.run.driver import follow
-from bhr.solvers import canonical, check_solver_name
+from bhr.solvers import canonical, check_solver_name, get_solver
 
 __all__ = ["Compared", "compare_runs", "compare_rows", "format_table", "compare_figure", "compare_json"]
 
@@ -56,6 +56,8 @@ def compare_runs(traj: Trajectory, solvers: Sequence[str], robot: Robot, *,
                        f"more than the {MAX_STEP_POINTS:,} a command may hold in memory; shorten the path, raise "
                        "the feed, or compare fewer solvers")
     opts = {canonical(k): v for k, v in (solver_options or {}).items()}
+    for s in names:  # every solver's options and needs (a lumen, say) checked before the first run, not after it
+        get_solver(s, robot, **(opts.get(s) or {})).prepare(traj)
     out = []
     for s in names:
         # load (or compile) the solver's kernels first, so that the time is the run's

@@ -37,6 +37,20 @@ def test_bad_solver_lists():
         compare_runs(tr, ["seed", "nope"], Robot())
 
 
+def test_every_solver_is_checked_before_the_first_run(monkeypatch):
+    # a solver that cannot run this trajectory (lumen on a path without one) is refused before the others run
+    import bhr.studies.compare as cmp
+
+    ran = []
+    monkeypatch.setattr(cmp, "follow", lambda *a, **k: ran.append(k.get("solver")))
+    with pytest.raises(BhrError, match="lumen needs a trajectory with a lumen"):
+        cmp.compare_runs(load_trajectory("curve"), ["seed", "lumen"], Robot())
+    with pytest.raises(BhrError, match="lookahead"):
+        cmp.compare_runs(load_trajectory("curve"), ["seed", "optimal"], Robot(),
+                         solver_options={"optimal": {"lookahead": -1}})
+    assert ran == []
+
+
 def test_cli_prints_and_plots(run_bhr, tmp_path):
     out = run_bhr("compare", "--traj", "curve", "--angle", "180", "--solver", "seed", "--solver", "optimal",
                   "--out", tmp_path / "c", "--json", tmp_path / "c.json")
