@@ -73,5 +73,6 @@ def write_run_files(result: "FollowResult", out_dir: "str | os.PathLike[str]") -
     out = Path(out_dir)
     write_json(out / "run.json", result.to_dict())
     write_text(out / STEPS_CSV, format_steps_csv(result))
-    if result.codes is not None:
-        write_text(out / "codes.csv", format_codes_csv(result.codes))
+    codes = result.board_codes
+    if codes is not None:
+        write_text(out / "codes.csv", format_codes_csv(codes))

@@ -56,7 +56,8 @@ from bhr.settings.options import BY_NAME
 from bhr.model.path import path_directions
 from bhr.model.robot import base_frame
 
-__all__ = ["BodyRun", "simulate_body", "check_body_modules", "module1_frames", "whole_robot", "score_body"]
+__all__ = ["BodyRun", "simulate_body", "check_body_modules", "module1_frames", "whole_robot", "whole_robot_codes",
+           "score_body"]
 
 _CODE = SEARCH_CODES  # search index (rest, +x, +y, -x, -y) -> code
 _IDX = {int(code): k for k, code in enumerate(SEARCH_CODES)}
@@ -255,6 +256,23 @@ def score_body(result, pts: np.ndarray, path: np.ndarray, dirs: np.ndarray, pe: 
     dd = dirs[np.minimum(safe, max(len(dirs) - 1, 0))] if len(dirs) else np.zeros_like(u)
     cosang = np.clip(np.sum(u * dd, axis=2), -1.0, 1.0)
     oe[:] = np.where(ok, np.degrees(np.arccos(cosang)), 0.0)
+
+
+def whole_robot_codes(head_codes: np.ndarray, body: BodyRun | None) -> np.ndarray:
+    """The codes of every module of the whole robot at every step, rear module first: ``(N, B + n)``.
+
+    Each module's code tilts it relative to the module behind it, as on the board that drives every module's
+    wires: the rear module's own 0 (nothing behind it but the feeder), the body's joints from the rear forwards
+    (``body.codes`` holds them front to back), then the head's codes (module 1 = the head's base). Without a body
+    these are the head's codes.
+    """
+    head = np.asarray(head_codes, dtype=np.int64)
+    if body is None or body.modules == 0:
+        return head
+    out = np.zeros((head.shape[0], body.modules + head.shape[1]), dtype=np.int64)
+    out[:, 1:body.modules] = np.asarray(body.codes)[:, :-1][:, ::-1]
+    out[:, body.modules:] = head
+    return out
 
 
 def whole_robot(result, step: int) -> np.ndarray:

@@ -34,7 +34,7 @@ from bhr.settings.options import OPTIONS, robot_limits
 from bhr.model.codes import VALID_CODES as STABLE_CODES
 from bhr.model.robot import THESIS_ROBOT, Robot, robot_with
 from bhr.solvers import Chain, FollowContext, Solver, get_solver
-from bhr.run.body import BodyRun, check_body_modules, score_body, simulate_body
+from bhr.run.body import BodyRun, check_body_modules, score_body, simulate_body, whole_robot_codes
 from bhr.run.clearance import ClearanceReport, clearance_report
 from bhr.kinematics.leader import angle_deg, score_step
 from bhr.model.path import Trajectory, path_directions, spacing
@@ -179,6 +179,15 @@ class FollowResult:
     @property
     def steps(self) -> int:
         return int(self.points.shape[0])
+
+    @property
+    def board_codes(self) -> np.ndarray | None:
+        """The codes a board driving this run's robot is sent, one row per step (``codes.csv``): with a body
+        (``body_modules``, ``reach``) every module of the whole robot, rear first
+        (:func:`bhr.run.body.whole_robot_codes`); else the head's, base first. None for a continuous solver."""
+        if self.codes is None:
+            return None
+        return whole_robot_codes(self.codes, self.body)
 
     @property
     def success(self) -> bool:

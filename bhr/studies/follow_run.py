@@ -164,7 +164,9 @@ def follow_run(traj: str, *, robot: Any, solver: str = "thesis", solver_options:
         check_target(animate_path)
         check_output_file(animate_path, "animation")
     if stream is not None and body_modules is not None:
-        raise BhrError("--port streams the head's codes and cannot stream a --body-modules run; drop one of the two")
+        raise BhrError("--port streams the head's run as it is solved; for the whole robot drop --port, then stream "
+                       "the run's codes.csv (every module, rear first): bhr stream --port PORT --codes "
+                       "bhr-out/latest/codes.csv")
     if stream is not None and (locomotion != "thesis" or reach is not None):
         raise BhrError("--port streams the thesis's locomotion; drop --locomotion and --reach to stream")
     if thermal is None:
@@ -216,8 +218,9 @@ def follow_run(traj: str, *, robot: Any, solver: str = "thesis", solver_options:
         with folder:
             stage = folder.stage
             assert stage is not None  # inside the with block
-            if result.codes is not None:
-                write_text(folder.path("codes.csv"), format_codes_csv(result.codes))
+            codes = result.board_codes  # every module the board drives: the whole robot when it has a body
+            if codes is not None:
+                write_text(folder.path("codes.csv"), format_codes_csv(codes))
                 written.append(folder.final("codes.csv"))
             if json_path is None or json_inside is not None:
                 name = json_inside or "run.json"
@@ -250,7 +253,7 @@ def follow_run(traj: str, *, robot: Any, solver: str = "thesis", solver_options:
     if result.codes is not None and stream is None and folder is not None:
         from bhr.hardware.thermal import auto_schedule
 
-        run.procedure_s = auto_schedule(thermal, result.codes, rate, trace=False).total_s  # memory: not per step
+        run.procedure_s = auto_schedule(thermal, result.board_codes, rate, trace=False).total_s  # memory: not per step
     if animate_path is not None and anim_inside is None:
         run.animations.append(_animate(result, animate_path, stride, frames_progress, None))
     return run

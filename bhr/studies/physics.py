@@ -207,7 +207,7 @@ def whole_chain(result) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     tilt relative to the one behind it) and the head's codes. ``forward_kinematics`` of these from the root
     gives :func:`bhr.run.body.whole_robot`'s points (a test holds them equal).
     """
-    from bhr.run.body import module1_frames
+    from bhr.run.body import module1_frames, whole_robot_codes
     from bhr.kinematics.codetable import SEARCH_INDEX, SEARCH_INVERSE
     from bhr.kinematics.frames import tilt_reference
 
@@ -222,7 +222,7 @@ def whole_chain(result) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     a = math.radians(r.alpha)
     roots = np.empty((N, 3))
     frames = np.empty((N, 3, 3))
-    codes = np.zeros((N, B + r.modules), dtype=np.int64)
+    codes = whole_robot_codes(result.codes, body)
     for i in range(N):
         F = start if i == 0 else F1s[i - 1]
         if B:
@@ -230,11 +230,9 @@ def whole_chain(result) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
             for c in bc[:-1]:
                 F = tilt_reference(F, int(SEARCH_INVERSE[SEARCH_INDEX[int(c)]]), a)
             roots[i] = body.points[i][-1]
-            codes[i, 1:B] = bc[:-1][::-1]
         else:
             roots[i] = result.points[i][0]
         frames[i] = F
-        codes[i, B:] = result.codes[i]
     return roots, frames, codes
 
 

@@ -47,6 +47,8 @@ def test_whole_chain_reproduces_the_whole_robot():
     for i in range(60):
         pts, _ = forward_kinematics(robot, codes[i], roots[i], frames[i])
         assert np.abs(pts - whole_robot(run, i)).max() < 1e-9
+    # what codes.csv holds for a run with a body: these codes, every module of the whole robot, rear first
+    assert np.array_equal(run.board_codes, codes)
 
 
 def test_clear_run_never_touches_and_tracks_bhr():

@@ -125,3 +125,15 @@ def test_module_one_frames_follow_the_codes(curve_body):
     np.testing.assert_allclose(F1[:, 2], unit(r.points[:, 1] - r.points[:, 0]), atol=1e-9)
     assert np.allclose(np.einsum("nij,nkj->nik", F1, F1), np.eye(3), atol=1e-9)
     assert math.isclose(np.linalg.det(F1[-1]), 1.0, rel_tol=1e-9)
+
+
+def test_board_codes_are_the_whole_robots_rear_first(curve_body):
+    from bhr.run.body import whole_robot_codes
+
+    codes = curve_body.board_codes
+    assert codes.shape == (curve_body.steps, 20)
+    assert np.array_equal(codes[:, 15:], curve_body.codes)  # the head last, base first
+    assert np.array_equal(codes[:, 0], np.zeros(curve_body.steps))  # the rear module: nothing behind it to tilt from
+    assert np.array_equal(codes[:, 1:15], curve_body.body.codes[:, :-1][:, ::-1])  # the body from the rear forwards
+    head = follow(load_trajectory("curve", angle=30.0), solver="thesis")
+    assert np.array_equal(head.board_codes, head.codes) and whole_robot_codes(head.codes, None) is not None
