@@ -269,9 +269,44 @@ def write_text(path: str | os.PathLike[str], text: str) -> None:
             tmp.write_text(text, encoding="utf-8")
 
 
+#: Levels of a JSON document written indented (one item a line); deeper values are written on one line each.
+JSON_DEPTH = 2
+
+
+def json_text(doc: Any, depth: int = JSON_DEPTH) -> str:
+    """``doc`` as JSON indented by one space for ``depth`` levels, each deeper value on one line.
+
+    A run's step (its points, errors and codes) is one line, not one line per number: the colon's run.json
+    is 0.59 MB instead of 0.84 MB and written mostly by json's C encoder, which no ``indent`` uses (0.016 s
+    of CPU instead of 0.038 s).
+    """
+    out: list[str] = []
+
+    def put(value: Any, level: int) -> None:
+        if level >= depth or not isinstance(value, (dict, list)) or not value:
+            out.append(json.dumps(value, allow_nan=False))
+            return
+        pad = "\n" + " " * (level + 1)
+        if isinstance(value, dict):
+            out.append("{")
+            for k, (key, item) in enumerate(value.items()):
+                out.append(("," if k else "") + pad + json.dumps(str(key)) + ": ")
+                put(item, level + 1)
+            out.append("\n" + " " * level + "}")
+        else:
+            out.append("[")
+            for k, item in enumerate(value):
+                out.append(("," if k else "") + pad)
+                put(item, level + 1)
+            out.append("\n" + " " * level + "]")
+
+    put(doc, 0)
+    return "".join(out)
+
+
 def write_json(path: str | os.PathLike[str], doc: Any) -> None:
-    """Write ``doc`` as indented JSON to ``path`` atomically."""
-    write_text(path, json.dumps(doc, indent=1, allow_nan=False) + "\n")
+    """Write ``doc`` as JSON (:func:`json_text`) to ``path`` atomically."""
+    write_text(path, json_text(doc) + "\n")
 
 
 # --- whole folders -----------------------------------------------------------------------------------------------

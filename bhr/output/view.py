@@ -4,11 +4,12 @@ One self-contained HTML file built with plotly (plotly.js embedded, so it works
 offline): a step slider and a play button move the whole robot (body and head)
 along the path; the lumen wall is drawn as a translucent tube from the
 centerline and its diameter; where the robot touches the wall (bhr's geometric
-clearance, or the contacts of a physics replay) is marked in red. plotly is
-imported only here, when a view is built.
+clearance, or the contacts of a physics replay) is marked in red. The page is
+written from plotly's plotly.js and the figure's JSON, without importing plotly.
 """
 from __future__ import annotations
 
+import json
 import math
 from pathlib import Path
 from typing import Any, Sequence
@@ -181,18 +182,55 @@ def view_figure(result, contacts: Sequence[np.ndarray] | None = None, title: str
     return dict(data=data, layout=layout, frames=frames)
 
 
+def _plotly_js() -> str:
+    """plotly.js as plotly ships it (plotly/package_data/plotly.min.js), read without importing plotly."""
+    import importlib.util
+
+    spec = importlib.util.find_spec("plotly")
+    if spec is None or not spec.submodule_search_locations:
+        raise ModuleNotFoundError("No module named 'plotly'")
+    return (Path(list(spec.submodule_search_locations)[0]) / "package_data" / "plotly.min.js").read_text("utf-8")
+
+
+def _script_json(obj: Any) -> str:
+    """``obj`` as JSON safe inside a <script> element (as plotly.io writes it: <, > and / escaped)."""
+    try:
+        text = json.dumps(obj, separators=(",", ":"), allow_nan=False)
+    except ValueError:  # a NaN: plotly's encoder writes it as null
+        from plotly.io.json import to_json_plotly
+
+        return str(to_json_plotly(obj))
+    return text.replace("<", "\\u003c").replace(">", "\\u003e").replace("/", "\\u002f")
+
+
+#: The page around the plot: the same as ``plotly.io.to_html(fig, include_plotlyjs=True, full_html=True,
+#: auto_play=False, div_id=DIV_ID)`` writes (plotly.js inline, the plot filling the window, frames added after).
+DIV_ID = "bhr-view"
+_PAGE_HEAD = ('<!doctype html>\n<html>\n<head>\n    <meta charset="utf-8" />\n'
+              '    <style>html, body {height: 100%;}</style>\n</head>\n<body>\n'
+              '    <div style="height:100%; width:100%;">'
+              "        <script>window.PlotlyConfig = {MathJaxConfig: 'local'};</script>\n        <script>")
+_PAGE_PLOT = ('</script>        <div id="{id}" class="plotly-graph-div" style="height:100%; width:100%;"></div>'
+              '        <script>            window.PLOTLYENV=window.PLOTLYENV || {{}};'
+              '            if (document.getElementById("{id}")) {{'
+              '                Plotly.newPlot("{id}", {data}, {layout}, {config}).then(function(){{\n'
+              "                    Plotly.addFrames('{id}', {frames});\n"
+              '                }})            }};        </script>    </div>\n</body>\n</html>')
+
+
 def view_html(result, contacts: Sequence[np.ndarray] | None = None, title: str | None = None) -> str:
     """The view of ``result`` (a :class:`bhr.run.driver.FollowResult`) as one self-contained HTML page.
 
     ``contacts``: per step, the points (K, 3) to mark as contacts (default: where bhr's
-    geometric clearance finds the robot touching the wall).
+    geometric clearance finds the robot touching the wall). The page is written here from the
+    figure's plain JSON and plotly's own plotly.js, as ``plotly.io.to_html`` writes it, without
+    importing plotly.io (most of the time the page took; tests/unit/test_view.py compares the two).
     """
-    import plotly.io as pio
-
     fig = view_figure(result, contacts, title)
-    html = pio.to_html(fig, validate=False, include_plotlyjs=True, full_html=True, auto_play=False,
-                       div_id="bhr-view", config=dict(displaylogo=False, responsive=True))
-    return str(html)
+    plot = _PAGE_PLOT.format(id=DIV_ID, data=_script_json(fig["data"]), layout=_script_json(fig["layout"]),
+                             config=_script_json(dict(displaylogo=False, responsive=True)),
+                             frames=_script_json(fig["frames"]))
+    return _PAGE_HEAD + _plotly_js() + plot
 
 
 def save_view(result, folder: str | Path, contacts: Sequence[np.ndarray] | None = None,
