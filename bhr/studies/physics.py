@@ -160,6 +160,10 @@ INTEGRATOR = "Euler"
 FOLD_TOLERANCE_MM = 0.5
 #: The targets move over the first 1 / RAMP_FRACTION of a step.
 RAMP_FRACTION = 4
+#: The trail model's targets (its own robot between two steps, with the servos' feedforward) move over the first
+#: 1 / TRAIL_RAMP_FRACTION of a step: over a quarter, the rear module turning into the colon swung the robot
+#: beyond it into the wall within the step (docs/physics.md).
+TRAIL_RAMP_FRACTION = 2
 
 
 def check_wall_stiffness(value: float) -> float:
@@ -280,6 +284,51 @@ def _tilts_from_points(points: np.ndarray, frames: np.ndarray, length: float) ->
     return out.reshape(N, -1)
 
 
+def _turned(F: np.ndarray, z: np.ndarray) -> np.ndarray:
+    """Frames ``F`` (K, 3, 3, rows x y z) turned about z_F x z by the angle between them (the least turn that
+    brings their z onto the directions ``z`` (K, 3), which need not be unit)."""
+    z = z / np.linalg.norm(z, axis=1)[:, None]
+    zp = F[:, 2]
+    ax = np.cross(zp, z)
+    sn = np.linalg.norm(ax, axis=1)
+    cs = np.einsum("ki,ki->k", zp, z)
+    k = np.where(sn[:, None] > 1e-12, ax / np.maximum(sn, 1e-300)[:, None], 0.0)
+    K = np.zeros((len(F), 3, 3))
+    K[:, 0, 1], K[:, 0, 2], K[:, 1, 2] = -k[:, 2], k[:, 1], -k[:, 0]
+    K[:, 1, 0], K[:, 2, 0], K[:, 2, 1] = k[:, 2], -k[:, 1], k[:, 0]
+    Rm = np.eye(3) + sn[:, None, None] * K + (1 - cs)[:, None, None] * K @ K
+    out = np.einsum("kab,kcb->kca", Rm, F)  # each row (axis) of F turned by Rm
+    out[:, 2] = z
+    return out
+
+
+def trail_substeps(chain: "ReplayChain", fracs: np.ndarray, length: float) -> tuple[np.ndarray, np.ndarray,
+                                                                                     np.ndarray, np.ndarray]:
+    """The trail model's whole robot between two steps, as the replay drives it: for every step i (N) and
+    fraction s of ``fracs`` (R) of the way from step i - 1 to step i, the rear end (N, R, 3), the rear
+    module's frame (N, R, 3, 3), the joint values (N, R, 3 M) and each module's chord minus ``length``
+    (N, R, M; <= 0).
+
+    In the trail model every joint slides along one straight piece of the trail from one step to the next
+    (a step is one feed, and the joints reach a vertex only at whole module lengths: docs/locomotion.md), so
+    at fraction s each joint is exactly s of the way from its place at step i - 1 to its place at step i; the
+    modules are the chords between those joints. Step 0's "previous" step is itself. The rear frame turns
+    from step i - 1's as little as it can (as :func:`replay_chain`'s from step to step, so s = 1 gives step i's
+    frame); the joint values are :func:`_tilts_from_points` of that chain.
+    """
+    P = chain.points
+    N, J = P.shape[0], P.shape[1]
+    prev = np.concatenate([[0], np.arange(N - 1)])
+    s = np.asarray(fracs, dtype=np.float64)[None, :, None, None]
+    Q = P[prev][:, None] + s * (P[:, None] - P[prev][:, None])  # (N, R, J, 3)
+    R = Q.shape[1]
+    Qf = Q.reshape(N * R, J, 3)
+    F = _turned(np.repeat(chain.frames[prev], R, axis=0), Qf[:, 1] - Qf[:, 0])
+    values = _tilts_from_points(Qf, F, length)
+    chords = np.minimum(np.linalg.norm(np.diff(Qf, axis=1), axis=2) - length, 0.0)
+    return (Q[:, :, 0], F.reshape(N, R, 3, 3), values.reshape(N, R, -1), chords.reshape(N, R, J - 1))
+
+
 def replay_chain(result) -> ReplayChain:
     """The whole robot of a run as the physics replay drives it (:class:`ReplayChain`).
 
@@ -308,22 +357,10 @@ def replay_chain(result) -> ReplayChain:
     frames = np.empty((N, 3, 3))
     for i in range(N):
         z = points[i, 1] - points[i, 0]
-        z /= np.linalg.norm(z)
         if i == 0:
-            F = base_frame(z)
+            frames[0] = base_frame(z / np.linalg.norm(z))
         else:  # the previous frame turned about z_prev x z, by the angle between them
-            F = frames[i - 1]
-            zp = F[2]
-            ax = np.cross(zp, z)
-            sn, cs = float(np.linalg.norm(ax)), float(np.dot(zp, z))
-            if sn > 1e-12:
-                k = ax / sn
-                K = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
-                Rm = np.eye(3) + sn * K + (1 - cs) * K @ K
-                F = (Rm @ F.T).T
-            F = F.copy()
-            F[2] = z
-        frames[i] = F
+            frames[i] = _turned(frames[i - 1][None], z[None])[0]
     chords = np.linalg.norm(np.diff(points, axis=1), axis=2) - r.module_length
     return ReplayChain(roots, frames, _tilts_from_points(points, frames, r.module_length), points, False,
                        False, np.minimum(chords, 0.0))
@@ -634,16 +671,45 @@ def replay_physics(result, progress: Any = None, **options: Any) -> PhysicsRepla
     t0 = time.process_time()
     data.qpos[qadr] = ctrl[0]
     # the step's targets (the servos', the carriage's, the chords') move from the last step's to this step's
-    # over the first half of the step, one time step at a time, and hold for the rest: the robot moves as
-    # bhr's does, by a feed, instead of jumping (a carriage that jumps turns the whole robot about its rear
-    # at once, and a long robot's far end then swings across the colon)
-    ramp = max(1, steps // RAMP_FRACTION)
+    # over the first quarter of the step (the trail model's: half), one time step at a time, and hold for the
+    # rest: the robot moves as bhr's does, by a feed, instead of jumping (a carriage that jumps turns the whole
+    # robot about its rear at once, and a long robot's far end then swings across the colon)
+    ramp = max(1, steps // (RAMP_FRACTION if chain.chords is None else TRAIL_RAMP_FRACTION))
+    sub = None
+    if chain.chords is not None:
+        # the trail model: every target at every time step of the ramp is the model's own robot at that
+        # fraction of the feed (trail_substeps), not a straight line in joint space between two steps' poses;
+        # the carriage, whose pose is then the model's too, turns with the rear module as the model turns it
+        s_roots, s_frames, s_values, s_chords = trail_substeps(chain, np.arange(1, ramp + 1) / ramp,
+                                                               result.robot.module_length)
+        s_depth, s_cpos, s_cquat, _ = insertion(result, s_roots.reshape(-1, 3), s_frames.reshape(-1, 3, 3))
+        if not lift:
+            s_values = s_values.reshape(N, ramp, M, 3)[..., :2].reshape(N, ramp, -1)
+        sub = (np.concatenate([s_depth.reshape(N, ramp, 1) * MM, s_values], axis=2), s_cpos.reshape(N, ramp, 3) * MM,
+               s_cquat.reshape(N, ramp, 4), float(model.site_pos[tip, 2]) + s_chords * MM)
+    dt = float(model.opt.timestep)
     for i in range(N):
         j = max(i - 1, 0)
         p0, q0 = data.mocap_pos[0].copy(), data.mocap_quat[0].copy()
         p1, q1 = (cpos[i] * MM, cquat[i] * (1.0 if np.dot(cquat[i], q0) >= 0 else -1.0)) if moved[i] else (p0, q0)
+        if sub is not None:
+            # servos with feedforward along the model's motion: each one's target leads by its damping's lag
+            # (2 / w times the target's speed) and its rotor's inertia (the target's acceleration / w^2), so the
+            # joints turn with the carriage instead of lagging it (a lagging joint behind a turning carriage
+            # swings the whole robot beyond it about the rear)
+            y = np.vstack([ctrl[j][None], sub[0][i], sub[0][i, -1:]])
+            v = np.diff(y, axis=0) / dt
+            v[-1] = 0.0
+            ff = y[1:] + (2.0 / w) * v + np.diff(np.vstack([np.zeros((1, v.shape[1])), v]), axis=0) / (w * w * dt)
         for r in range(1, ramp + 1):
             frac = r / ramp
+            if sub is not None:
+                data.ctrl[:] = ff[r - 1]
+                data.mocap_pos[0], data.mocap_quat[0] = sub[1][i, r - 1], sub[2][i, r - 1]
+                model.body_pos[chord_at, 2] = sub[3][i, r - 1, :-1]
+                model.site_pos[tip, 2] = sub[3][i, r - 1, -1]
+                mujoco.mj_step(model, data)
+                continue
             data.ctrl[:] = ctrl[j] + frac * (ctrl[i] - ctrl[j])
             if moved[i]:
                 data.mocap_pos[0] = p0 + frac * (p1 - p0)
@@ -654,7 +720,13 @@ def replay_physics(result, progress: Any = None, **options: Any) -> PhysicsRepla
                 model.body_pos[chord_at, 2] = ln[:-1]
                 model.site_pos[tip, 2] = ln[-1]
             mujoco.mj_step(model, data)
-        if steps > ramp:
+        if sub is not None and steps > ramp:
+            data.ctrl[:] = ff[ramp]  # the ramp's end: the target held, its speed taken off
+            mujoco.mj_step(model, data)
+            data.ctrl[:] = sub[0][i, -1]
+            if steps > ramp + 1:
+                mujoco.mj_step(model, data, nstep=steps - ramp - 1)
+        elif steps > ramp:
             mujoco.mj_step(model, data, nstep=steps - ramp)
         pts = []
         best = 0.0
