@@ -7,7 +7,7 @@ never loads them. docs/export.md and docs/physics.md describe what is computed.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -675,29 +675,35 @@ def replay_physics(result, progress: Any = None, **options: Any) -> PhysicsRepla
     # rest: the robot moves as bhr's does, by a feed, instead of jumping (a carriage that jumps turns the whole
     # robot about its rear at once, and a long robot's far end then swings across the colon)
     ramp = max(1, steps // (RAMP_FRACTION if chain.chords is None else TRAIL_RAMP_FRACTION))
-    sub = None
-    if chain.chords is not None:
-        # the trail model: every target at every time step of the ramp is the model's own robot at that
-        # fraction of the feed (trail_substeps), not a straight line in joint space between two steps' poses;
-        # the carriage, whose pose is then the model's too, turns with the rear module as the model turns it
-        s_roots, s_frames, s_values, s_chords = trail_substeps(chain, np.arange(1, ramp + 1) / ramp,
-                                                               result.robot.module_length)
-        s_depth, s_cpos, s_cquat, _ = insertion(result, s_roots.reshape(-1, 3), s_frames.reshape(-1, 3, 3))
-        if not lift:
-            s_values = s_values.reshape(N, ramp, M, 3)[..., :2].reshape(N, ramp, -1)
-        sub = (np.concatenate([s_depth.reshape(N, ramp, 1) * MM, s_values], axis=2), s_cpos.reshape(N, ramp, 3) * MM,
-               s_cquat.reshape(N, ramp, 4), float(model.site_pos[tip, 2]) + s_chords * MM)
+    trail = chain.chords is not None
+    fracs = np.arange(1, ramp + 1) / ramp
+    tip_len = float(model.site_pos[tip, 2])
+
+    def trail_targets(i: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The trail model's targets at every time step of step i's ramp: the model's own robot at that
+        fraction of the feed (trail_substeps), not a straight line in joint space between two steps' poses;
+        the carriage, whose pose is then the model's too, turns with the rear module as the model turns it.
+        Made one step at a time: the whole run's would take steps x ramp x joints of memory."""
+        two = np.array([max(i - 1, 0), i])
+        s_roots, s_frames, s_values, s_chords = trail_substeps(
+            replace(chain, points=chain.points[two], frames=chain.frames[two]), fracs, result.robot.module_length)
+        s_depth, s_cpos, s_cquat, _ = insertion(result, s_roots[1], s_frames[1])
+        vals = s_values[1] if lift else s_values[1].reshape(ramp, M, 3)[..., :2].reshape(ramp, -1)
+        return (np.concatenate([s_depth[:, None] * MM, vals], axis=1), s_cpos * MM, s_cquat,
+                tip_len + s_chords[1] * MM)
+
     dt = float(model.opt.timestep)
     for i in range(N):
         j = max(i - 1, 0)
         p0, q0 = data.mocap_pos[0].copy(), data.mocap_quat[0].copy()
         p1, q1 = (cpos[i] * MM, cquat[i] * (1.0 if np.dot(cquat[i], q0) >= 0 else -1.0)) if moved[i] else (p0, q0)
+        sub = trail_targets(i) if trail else None
         if sub is not None:
             # servos with feedforward along the model's motion: each one's target leads by its damping's lag
             # (2 / w times the target's speed) and its rotor's inertia (the target's acceleration / w^2), so the
             # joints turn with the carriage instead of lagging it (a lagging joint behind a turning carriage
             # swings the whole robot beyond it about the rear)
-            y = np.vstack([ctrl[j][None], sub[0][i], sub[0][i, -1:]])
+            y = np.vstack([ctrl[j][None], sub[0], sub[0][-1:]])
             v = np.diff(y, axis=0) / dt
             v[-1] = 0.0
             ff = y[1:] + (2.0 / w) * v + np.diff(np.vstack([np.zeros((1, v.shape[1])), v]), axis=0) / (w * w * dt)
@@ -705,9 +711,9 @@ def replay_physics(result, progress: Any = None, **options: Any) -> PhysicsRepla
             frac = r / ramp
             if sub is not None:
                 data.ctrl[:] = ff[r - 1]
-                data.mocap_pos[0], data.mocap_quat[0] = sub[1][i, r - 1], sub[2][i, r - 1]
-                model.body_pos[chord_at, 2] = sub[3][i, r - 1, :-1]
-                model.site_pos[tip, 2] = sub[3][i, r - 1, -1]
+                data.mocap_pos[0], data.mocap_quat[0] = sub[1][r - 1], sub[2][r - 1]
+                model.body_pos[chord_at, 2] = sub[3][r - 1, :-1]
+                model.site_pos[tip, 2] = sub[3][r - 1, -1]
                 mujoco.mj_step(model, data)
                 continue
             data.ctrl[:] = ctrl[j] + frac * (ctrl[i] - ctrl[j])
@@ -723,7 +729,7 @@ def replay_physics(result, progress: Any = None, **options: Any) -> PhysicsRepla
         if sub is not None and steps > ramp:
             data.ctrl[:] = ff[ramp]  # the ramp's end: the target held, its speed taken off
             mujoco.mj_step(model, data)
-            data.ctrl[:] = sub[0][i, -1]
+            data.ctrl[:] = sub[0][-1]
             if steps > ramp + 1:
                 mujoco.mj_step(model, data, nstep=steps - ramp - 1)
         elif steps > ramp:
