@@ -17,6 +17,8 @@ import threading
 import time
 from pathlib import Path
 
+import pytest
+
 from tests.conftest import bhr_exe, snapshot
 
 ENV = dict(os.environ, MPLBACKEND="Agg")
@@ -388,3 +390,15 @@ def test_plan_adds_its_figure_to_the_run_folder_whole(tmp_path):
     assert p.returncode == 0, p.stderr
     assert sorted(q.name for q in loose.iterdir()) == ["codes.csv", "thermal.png"]
     no_staging(tmp_path / "bhr-out")
+
+
+@pytest.mark.parametrize("args", [
+    ["follow", "--traj", "line", "--no-plots", "--out", "a\nb"],
+    ["follow", "--traj", "line", "--no-plots", "--out", "o", "--json", "r\tun.json"],
+    ["fk", "--codes", "3,0,0", "--json", "x\ny.json"],
+])
+def test_output_paths_with_control_characters_are_refused(tmp_path, args):
+    r = bhr(*args, cwd=tmp_path)
+    assert r.returncode == 1 and r.stdout == ""
+    assert "contains a control character" in one_line(r.stderr)
+    assert list(tmp_path.iterdir()) == []
