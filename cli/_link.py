@@ -11,7 +11,7 @@ from bhr.cli._options import FiniteRange, PlainIntRange, stack_options
 #: Fastest baud rate accepted (USB serial adapters top out at a few Mbaud).
 MAX_BAUD = 4_000_000
 
-PORT_HELP = "Serial device or pyserial URL (/dev/ttyUSB0, COM3, /dev/pts/N, socket://host:port, loop://)."
+PORT_HELP = "Serial device (/dev/ttyUSB0, COM3, /dev/pts/N), socket://host:port or loop://."
 
 
 def link_options(port_help: str = PORT_HELP, robot: bool = True) -> Callable[[Any], Any]:
@@ -53,6 +53,10 @@ def link_settings(kwargs: dict[str, Any], need_port: bool = True, use_file_port:
             port = link.port
         baud = link.baudrate if baud is None else baud
         order = link.module_order
+    if port:
+        from bhr.model.robotfile import check_file_port
+
+        port = check_file_port(str(port), "--port")  # the same allow-list as a robot file's [link] port
     if need_port and not port:
         raise BhrError("--port is required: pass --port (e.g. --port /dev/ttyUSB0), or set port in the [link] "
                        "table of a --robot file" + hint)

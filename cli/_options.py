@@ -26,14 +26,13 @@ def plain_number(text: str) -> bool:
 def _convert(t: click.ParamType, value: Any, param: Any, ctx: Any, kind: type, **checks: Any) -> Any:
     """Text -> number through the one checker (bhr.settings.options.parse_number, check_number); click's one-line
     failure."""
-    name = "integer" if kind is int else "float"
     if isinstance(value, (int, float)) and not isinstance(value, bool):
         v: Any = value
     else:
         try:
             v = parse_number(str(value), "value", integer=kind is int)
-        except BhrError:
-            t.fail(f"{excerpt(str(value))} is not a valid {name} (write plain ASCII digits)", param, ctx)
+        except BhrError as exc:
+            t.fail(str(exc)[len("value "):], param, ctx)  # the checker's line names the value and the form
     if isinstance(v, float) and not math.isfinite(v):
         t.fail(f"{value} is not a finite number", param, ctx)
     try:

@@ -29,7 +29,7 @@ from bhr.settings.errors import BhrError, LinkError
 
 __all__ = ["BoardLink", "Pacer", "StreamInterrupted", "StreamStopped", "StreamReport", "run_stream", "READY_TIMEOUT",
            "AT_END", "check_board", "interrupted", "stream_codes", "validate_codes",
-           "wait_until_ready", "DEFAULT_BAUD",
+           "wait_until_ready", "refuse_overheat", "DEFAULT_BAUD",
            "DEFAULT_TIMEOUT", "DEFAULT_RETRIES"]
 
 try:  # a pty that vanishes between write and drain raises termios.error, which is not an OSError
@@ -327,17 +327,27 @@ def _rename_module(fault: str, order: Sequence[int]) -> str:
 READY_TIMEOUT = 30.0
 
 
+def refuse_overheat(link: "BoardLink", faults: Sequence[str]) -> None:
+    """Raise LinkError when ``faults`` (a status before a stream) hold a latched overheat: the wire needs
+    looking at, not a wait, so nothing is streamed (the caller's LinkError handling sends stop-all)."""
+    hot = [f for f in faults if f.startswith("overheat")]
+    if hot:
+        raise LinkError(f"board on {link.port} reports {', '.join(hot)} (latched) before the stream; nothing "
+                        "was sent; let the wires cool and check them (bhr status) before streaming again")
+
+
 def wait_until_ready(link: "BoardLink", timeout: float = READY_TIMEOUT) -> float:
     """Poll the board until no module is cooling or relaxing (wires cold enough to plan from); return the wait (s).
 
-    Raises LinkError when the board is still not ready after ``timeout``
-    seconds: the wait never runs past it (a board that reports "cooling"
+    Raises LinkError at once when the board reports a latched overheat, and when it is still not ready after
+    ``timeout`` seconds: the wait never runs past it (a board that reports "cooling"
     forever is not waited on longer).
     """
     t0 = time.monotonic()
     deadline = t0 + timeout
     while True:
         doc = link.status(detail=True)
+        refuse_overheat(link, doc["faults"])
         busy = [f for f in doc["faults"] if f.startswith("cooling")] + [f"relaxing:m{m}" for m in doc["relaxing"]]
         if not busy:
             return time.monotonic() - t0

@@ -193,8 +193,8 @@ def check_file_port(port: str, where: str = "link.port") -> str:
     """A robot file's port: a serial device (``/dev/...``, ``COM3``) or a safe URL (loop://, socket://host:port).
 
     Anything else (pyserial's ``spy://`` logger, which writes to any file it is
-    given, and the other URL handlers) is refused in one line; the command
-    line's ``--port`` still takes any pyserial URL.
+    given, and the other URL handlers) is refused in one line. The command
+    line's ``--port`` goes through the same check: a port names a wire, not an action.
     """
     if any(ord(ch) < 32 or ord(ch) == 127 for ch in port):
         raise BhrError(f"{where} contains a control character; give a serial device such as /dev/ttyUSB0")
@@ -206,8 +206,8 @@ def check_file_port(port: str, where: str = "link.port") -> str:
         if scheme == "socket://" and re.fullmatch(r"[A-Za-z0-9.\-]+:[0-9]{1,5}|\[[0-9A-Fa-f:]+\]:[0-9]{1,5}", rest):
             return port
         shown = port if len(port) <= 40 else port[:37] + "..."
-        raise BhrError(f"{where} {shown!r} is not a serial port: a robot file may name a device (/dev/ttyUSB0, "
-                       f"COM3), loop:// or socket://host:port; give other pyserial URLs with --port")
+        raise BhrError(f"{where} {shown!r} is not a serial port: give a device (/dev/ttyUSB0, COM3), loop:// or "
+                       f"socket://host:port (URL handlers that log to files, scan or load backends are refused)")
     if _COM_PORT.match(port):
         return port
     norm = os.path.normpath(port)

@@ -42,6 +42,7 @@ from typing import Any, Iterable, Iterator
 
 from bhr import __version__
 from bhr.settings.errors import INTERRUPTED, BhrError
+from bhr.settings.options import excerpt
 
 __all__ = ["atomic_path", "write_text", "write_json", "check_output_file", "together", "OutputFolder", "MANIFEST",
            "in_place_target", "point_latest", "verify_folder", "INTERRUPTED", "settings_hash"]
@@ -82,10 +83,21 @@ def _via_special(path: str | os.PathLike[str]) -> bool:
     return False
 
 
-def _real_target(path: Path) -> Path:
-    """Where a write to ``path`` should land: the file a symbolic link points to (the link is kept)."""
+def _refuse_control(path: Any, what: str) -> None:
+    """A path with a newline, tab or other control character is refused: every message that names it would
+    break across lines, and no user means one."""
+    if any(ord(ch) < 32 or ord(ch) == 127 for ch in str(path)):
+        raise BhrError(f"{what} path {excerpt(str(path))} contains a control character (a newline or tab); "
+                       "give a plain name")
+
+
+def _real_target(path: Path, what: str = "output") -> Path:
+    """Where a write to ``path`` lands: ``path`` itself. A symbolic link to a file is refused, never written
+    through (the file behind it may be anyone's); links to devices (/dev/stdout) are written in place before
+    this is reached."""
     if path.is_symlink():
-        return Path(os.path.realpath(path))
+        raise BhrError(f"{what} {_short(path)} is a symbolic link to {_short(os.readlink(path))}; bhr does not "
+                       "write through links: remove the link or choose another path")
     return path
 
 
@@ -98,6 +110,7 @@ def check_output_file(path: str | os.PathLike[str], what: str = "output") -> Non
     """
     if str(path) == "-":
         return
+    _refuse_control(path, what)
     p = Path(path)
     if p.is_symlink() and not p.exists():
         raise BhrError(f"{what} {p} is a symbolic link to a missing {os.readlink(p)}; "
@@ -111,7 +124,7 @@ def check_output_file(path: str | os.PathLike[str], what: str = "output") -> Non
         if not os.access(p, os.W_OK):
             raise BhrError(f"cannot write {what} {p}: permission denied; choose another path")
         return
-    real = _real_target(p)
+    real = _real_target(p, what)
     if real.exists():
         mode = real.stat().st_mode
         if not (mode & 0o222) or not os.access(real, os.W_OK):
@@ -131,7 +144,7 @@ def atomic_path(path: str | os.PathLike[str], suffix: str | None = None) -> Iter
     The temporary name keeps the target's extension (``suffix``) so writers
     that look at it (matplotlib, Pillow) pick the right format. A target
     that is not a regular file is yielded itself (written in place); a
-    symbolic link is followed, so the file it points to is replaced.
+    symbolic link to a file is refused (nothing is written through it).
     """
     target = Path(path)
     if in_place_target(target):
@@ -391,6 +404,7 @@ class OutputFolder:
 
     def _resolve(self) -> Path:
         p = self.given
+        _refuse_control(p, self.what)
         if p.is_symlink():
             if not p.exists():
                 raise BhrError(f"{self.what} {_short(p)} is a symbolic link to a missing {_short(os.readlink(p))}; "

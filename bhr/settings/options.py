@@ -295,7 +295,8 @@ def excerpt(value: Any, limit: int = 40) -> str:
 
 def parse_number(text: str, where: str, *, integer: bool = False) -> int | float:
     """A number written as plain text: ASCII digits only (no ``1_5``, full-width or Arabic-Indic digits), at
-    most :data:`MAX_NUMBER_CHARS` long; a BhrError naming ``where`` otherwise. Not range-checked: pass the
+    most :data:`MAX_NUMBER_CHARS` long, and for ``integer`` digits with an optional sign only (no ``3.0``,
+    ``1e3``); a BhrError naming ``where`` otherwise. Not range-checked: pass the
     result to :func:`check_number`."""
     t = str(text).strip()
     kind = "a whole number" if integer else "a number"
@@ -305,10 +306,9 @@ def parse_number(text: str, where: str, *, integer: bool = False) -> int | float
         return int(t) if integer else float(t) if abs(int(t)) < 10 ** 300 else float("inf")
     if not integer and _PLAIN_FLOAT.fullmatch(t):
         return float(t)
-    if integer and _PLAIN_FLOAT.fullmatch(t):
-        v = float(t)
-        if math.isfinite(v) and v.is_integer():
-            return int(v)
+    if integer and _PLAIN_FLOAT.fullmatch(t):  # "3.0", "1e3": a count or a seed is written as digits only
+        raise BhrError(f"{where} must be a whole number written with digits only (no point or exponent), "
+                       f"got {excerpt(t)}")
     raise BhrError(f"{where} must be {kind} written with plain digits (0-9), got {excerpt(t)}")
 
 

@@ -273,7 +273,8 @@ def _follow_streaming(tr, solver, robot, solver_options, thermal, rate, s: Strea
     message goes to the board (``at_end``): stop-all, or a heartbeat that holds the last codes until its silence
     timeout.
     """
-    from bhr.hardware.link import BoardLink, Pacer, check_board, run_stream
+    from bhr.hardware.link import BoardLink, Pacer, check_board, refuse_overheat, run_stream
+    from bhr.settings.errors import LinkError
     from bhr.hardware.thermal import plan
     from bhr.run.driver import follow
 
@@ -283,6 +284,13 @@ def _follow_streaming(tr, solver, robot, solver_options, thermal, rate, s: Strea
                        f"{robot.modules}; make them agree")
     with BoardLink(s.port, **s.link_args) as link, s.guard():
         board = check_board(link, robot.modules)  # a wrong board is refused before the solve
+        try:
+            refuse_overheat(link, board["faults"])  # so is a board with a latched overheat
+        except LinkError as exc:
+            stopped = link.try_stop_all()
+            raise LinkError(f"{exc}; " + ("sent stop-all, every actuator is off" if stopped else
+                            "stop-all was not acknowledged: the board switches off by itself after its silence "
+                            "timeout")) from None
         result = follow(tr, solver=solver, robot=robot, solver_options=solver_options)
         if result.codes is None:
             Pacer(link, rate)(1, None)  # the one-line refusal of code-less solvers

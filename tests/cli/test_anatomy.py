@@ -25,8 +25,15 @@ def test_follow_an_anatomical_colon_from_the_command_line(run_bhr, tmp_path):
 
 @pytest.mark.parametrize("args, msg", [
     (["--seed", "-3"], "seed must be a whole number from 0 to 4294967295, got -3"),
-    (["--seed", "2.5"], "'2.5' is not a valid integer"),
+    (["--seed", "2.5"], "must be a whole number written with digits only (no point or exponent), got '2.5'"),
     (["--seed", "5000000000"], "too large"),
+    # a seed is written as digits: 1e3 and 3.0 are not guessed at, nor are "_" separators or full-width digits
+    (["--seed", "1e3"], "must be a whole number written with digits only (no point or exponent), got '1e3'"),
+    (["--seed", "3.0"], "must be a whole number written with digits only (no point or exponent), got '3.0'"),
+    (["--seed", "1_000"], "written with plain digits (0-9), got '1_000'"),
+    (["--seed", "\uff13"], "written with plain digits (0-9), got '\uff13'"),
+    (["--seed", "9" * 400], "must be a whole number of at most 40 characters, got 400 characters"),
+    (["--seed", ""], "written with plain digits (0-9), got ''"),
 ])
 def test_bad_seed_on_the_command_line_is_one_line(run_bhr, args, msg):
     r = run_bhr("follow", "--traj", "anatomy", *args, "--no-plots")

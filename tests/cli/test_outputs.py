@@ -17,6 +17,8 @@ import threading
 import time
 from pathlib import Path
 
+import pytest
+
 from tests.conftest import bhr_exe, snapshot
 
 ENV = dict(os.environ, MPLBACKEND="Agg")
@@ -223,14 +225,21 @@ def test_fifo_target_is_written_in_place(tmp_path):
     assert stat.S_ISFIFO(fifo.lstat().st_mode)
 
 
-def test_symlinks_are_followed_and_kept(tmp_path):
+def test_symlinks_to_files_are_refused_and_folder_links_kept(tmp_path):
+    # a link planted at an output file's path: refused in one line, the file behind it untouched
     real = tmp_path / "real.json"
     real.write_text("{}")
     link = tmp_path / "link.json"
     link.symlink_to(real.name)
     r = bhr("fk", "--codes", "3,0,0", "--json", link, cwd=tmp_path)
-    assert r.returncode == 0, r.stderr
-    assert link.is_symlink() and json.loads(real.read_text())["codes"] == [3, 0, 0]
+    assert r.returncode == 1 and "symbolic link" in one_line(r.stderr) and "write through" in r.stderr
+    assert link.is_symlink() and real.read_text() == "{}"
+    victim = tmp_path / "victim.gif"
+    victim.write_bytes(b"precious")
+    (tmp_path / "x.gif").symlink_to(victim.name)
+    r = bhr("follow", "--traj", "line", "--no-plots", "--out", "a", "--animate", "x.gif", cwd=tmp_path)
+    assert r.returncode == 1 and "symbolic link" in one_line(r.stderr), r.stderr
+    assert victim.read_bytes() == b"precious" and not (tmp_path / "a").exists()
     # a link to a folder as --out: the folder it points to gets the run, the link stays
     (tmp_path / "runs").mkdir()
     (tmp_path / "o").symlink_to("runs")
@@ -381,3 +390,15 @@ def test_plan_adds_its_figure_to_the_run_folder_whole(tmp_path):
     assert p.returncode == 0, p.stderr
     assert sorted(q.name for q in loose.iterdir()) == ["codes.csv", "thermal.png"]
     no_staging(tmp_path / "bhr-out")
+
+
+@pytest.mark.parametrize("args", [
+    ["follow", "--traj", "line", "--no-plots", "--out", "a\nb"],
+    ["follow", "--traj", "line", "--no-plots", "--out", "o", "--json", "r\tun.json"],
+    ["fk", "--codes", "3,0,0", "--json", "x\ny.json"],
+])
+def test_output_paths_with_control_characters_are_refused(tmp_path, args):
+    r = bhr(*args, cwd=tmp_path)
+    assert r.returncode == 1 and r.stdout == ""
+    assert "contains a control character" in one_line(r.stderr)
+    assert list(tmp_path.iterdir()) == []

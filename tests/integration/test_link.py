@@ -471,6 +471,28 @@ def test_an_overheat_mid_stream_stops_the_stream_with_stop_all(board, tmp_path):
     assert b.types()[-1] == "STOP_ALL"
 
 
+@pytest.mark.parametrize("command", ["stream", "follow"])
+def test_a_board_with_a_latched_overheat_is_not_streamed_to(board, tmp_path, command):
+    # the board says before the first row that m2 overheated and latched: no row is sent, stop-all is
+    def lie(b, f):
+        if f.type == P.Msg.STATUS and not any(x.type == P.Msg.STOP_ALL for x in b.received):
+            return status_reply(f.seq, P.Fault.OVERHEAT, 1, 5, [0, P.MODULE_OVERHEAT, 0, 0, 0])
+        return None
+
+    b = board(lie=lie)
+    if command == "stream":
+        f = write_codes(tmp_path / "codes.csv", [[3, 0, 0, 0, 0], [3, 3, 0, 0, 0]])
+        r = run_bhr("stream", "--port", b.path, "--codes", f, "--rate", "20")
+    else:
+        r = run_bhr("follow", "--traj", "line", "--length", "20", "--no-plots", "--out", tmp_path / "o",
+                    "--port", b.path, "--rate", "20")
+    assert r.returncode == 1
+    msg = one_line(r.stderr)
+    assert msg.startswith("Error: board on") and "overheat:m2" in msg and "stop-all" in msg, msg
+    assert not any(x.type == P.Msg.SET_CODES for x in b.received), b.types()
+    assert "STOP_ALL" in b.types() and not (tmp_path / "o").exists()
+
+
 def test_a_board_cooling_forever_is_not_waited_on_past_the_timeout(board):
     from bhr.hardware.link import READY_TIMEOUT, wait_until_ready
 
@@ -518,6 +540,23 @@ def test_a_robot_file_port_cannot_name_a_url_handler_that_writes_files(tmp_path)
         msg = one_line(r.stderr)
         assert "link.port" in msg and ("is not a serial" in msg), (port, msg)
         assert victim.read_text() == "precious\n"
+
+
+def test_the_command_line_port_takes_the_same_allow_list(tmp_path):
+    # --port names a wire too: spy:// would write the traffic into the victim, rfc2217/hwgrep open sockets or scan
+    victim = tmp_path / "victim"
+    victim.write_text("precious\n")
+    codes = tmp_path / "c.csv"
+    codes.write_text("step,m1\n0,3\n")
+    for port in (f"spy://loop://?file={victim}", "hwgrep://.*", "rfc2217://localhost:1", f"/dev/../{victim}",
+                 "loop://?logging=debug"):
+        for args in (["status", "--port", port], ["stream", "--codes", codes, "--port", port],
+                     ["follow", "--traj", "line", "--no-plots", "--out", tmp_path / "o", "--port", port]):
+            r = run_bhr(*args, cwd=tmp_path)
+            assert r.returncode == 1 and r.stdout == "", (args, r.stdout)
+            msg = one_line(r.stderr)
+            assert "--port" in msg and "is not a serial" in msg and "loop:// or socket://host:port" in msg, msg
+            assert victim.read_text() == "precious\n" and not (tmp_path / "o").exists()
 
 
 def test_robot_file_ports_that_are_serial_devices_or_safe_urls_are_kept():

@@ -44,9 +44,10 @@ def test_plain_numbers_parse(text, value):
 
 
 def test_whole_numbers():
-    assert parse_number("5", "k", integer=True) == 5 and parse_number("5.0", "k", integer=True) == 5
-    with pytest.raises(BhrError):
-        parse_number("2.5", "k", integer=True)
+    assert parse_number("5", "k", integer=True) == 5 and parse_number("-7", "k", integer=True) == -7
+    for text in ("2.5", "5.0", "1e3", "1E3", "5.", "nan", "inf"):  # whole numbers as text are digits only
+        with pytest.raises(BhrError, match="whole number"):
+            parse_number(text, "k", integer=True)
     with pytest.raises(BhrError, match="whole number"):
         check_number(2.5, "k", integer=True)
 
