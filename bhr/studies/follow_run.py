@@ -164,8 +164,8 @@ def follow_run(traj: str, *, robot: Any, solver: str = "thesis", solver_options:
         check_target(animate_path)
         check_output_file(animate_path, "animation")
     if stream is not None and body_modules is not None:
-        raise BhrError("--port streams the head's run as it is solved; for the whole robot drop --port, then stream "
-                       "the run's codes.csv (every module, rear first): bhr stream --port PORT --codes "
+        raise BhrError("--port streams the head's run as it is solved, not a --body-modules run; drop --port, then "
+                       "stream the whole robot's codes.csv (every module, rear first): bhr stream --port PORT --codes "
                        "bhr-out/latest/codes.csv")
     if stream is not None and (locomotion != "thesis" or reach is not None):
         raise BhrError("--port streams the thesis's locomotion; drop --locomotion and --reach to stream")
