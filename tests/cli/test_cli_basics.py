@@ -16,7 +16,7 @@ def test_help_lists_commands(run_bhr):
 @pytest.mark.parametrize("args, message", [
     (["solve", "--modules", "0", "--target", "1", "2", "3"], "modules must be greater than 0"),
     (["solve", "--module-length", "-2", "--target", "1", "2", "3"], "module length must be greater than 0"),
-    (["solve", "--target", "1", "x", "3"], "not a valid float"),
+    (["solve", "--target", "1", "x", "3"], "must be a number written with plain digits"),
     (["solve", "--target", "1", "2", "3", "--solver", "nope"], "unknown solver 'nope'"),
     (["solve", "--target", "1", "2", "3", "--solver", "ccd", "--orientation", "1", "0", "0"], "cannot aim the tip"),
     (["solve", "--target", "1", "2", "3", "--orientation", "0", "0", "0"], "non-zero vector"),
