@@ -19,16 +19,21 @@ from bhr.studies.physics import insertion, mujoco_model, mujoco_points, replay_c
 mujoco = pytest.importorskip("mujoco")
 
 
-@pytest.fixture(scope="module")
-def trail_run():
+def colon1_trail(body_modules: int, steps: int):
+    """The trail model's whole robot (alpha 25 deg, 5 mm modules) on anatomical colon 1, cut to its first steps."""
+    from bhr.bench.cases import first_steps
+
     r = Robot(alpha=25.0, module_length=5.0)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", BhrWarning)
-        run = bhr.follow(load_trajectory("anatomy", feed=r.feed, seed=1), solver="lumen", robot=r, body_modules=40,
-                         locomotion="trail")
-    from bhr.bench.cases import first_steps
+        run = bhr.follow(load_trajectory("anatomy", feed=r.feed, seed=1), solver="lumen", robot=r,
+                         body_modules=body_modules, locomotion="trail")
+    return first_steps(run, steps)
 
-    return first_steps(run, 160)
+
+@pytest.fixture(scope="module")
+def trail_run():
+    return colon1_trail(40, 160)
 
 
 def test_trail_tilts_stay_within_the_joints_and_put_the_chain_on_bhrs(trail_run):
@@ -93,14 +98,7 @@ def test_trail_chords_put_the_chain_exactly_on_bhrs(trail_run):
 def rear_in_run():
     """A whole robot of 30 modules on colon 1, its first 230 steps: its rear end passes the entrance after step 151
     and turns into the colon from step 162 on, so the carriage moves and turns with it (bhr's clearance >= 5.9 mm)."""
-    r = Robot(alpha=25.0, module_length=5.0)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", BhrWarning)
-        run = bhr.follow(load_trajectory("anatomy", feed=r.feed, seed=1), solver="lumen", robot=r, body_modules=30,
-                         locomotion="trail")
-    from bhr.bench.cases import first_steps
-
-    return first_steps(run, 230)
+    return colon1_trail(30, 230)
 
 
 def test_trail_run_whose_rear_enters_the_colon_stays_clear_and_on_bhrs_poses(rear_in_run):
