@@ -356,7 +356,8 @@ def _run_from_json(doc: Any, where: str) -> FollowResult:
                 o.check(rb[o.key], "robot")
         robot = Robot(**{k: v for k, v in rb.items() if k in names})
     except (BhrError, TypeError) as exc:
-        raise bad(f"robot: {str(exc).splitlines()[0]}") from None
+        why = str(exc).splitlines()[0]
+        raise bad(why if why.startswith("robot: ") else f"robot: {why}") from None  # "robot: " said once
     n, count = robot.modules, len(steps)
     if count > path.shape[0]:
         raise bad(f"{count} steps but only {path.shape[0]} trajectory points")
