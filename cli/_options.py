@@ -32,7 +32,7 @@ def _convert(t: click.ParamType, value: Any, param: Any, ctx: Any, kind: type, *
         try:
             v = parse_number(str(value), "value", integer=kind is int)
         except BhrError as exc:
-            t.fail(str(exc)[len("value "):], param, ctx)  # the checker's line names the value and the form
+            t.fail(str(exc).removeprefix("value "), param, ctx)  # the checker's line names the value and the form
     if isinstance(v, float) and not math.isfinite(v):
         t.fail(f"{value} is not a finite number", param, ctx)
     try:

@@ -29,7 +29,7 @@ from bhr.settings.errors import BhrError, LinkError
 
 __all__ = ["BoardLink", "Pacer", "StreamInterrupted", "StreamStopped", "StreamReport", "run_stream", "READY_TIMEOUT",
            "AT_END", "check_board", "interrupted", "stream_codes", "validate_codes",
-           "wait_until_ready", "refuse_overheat", "DEFAULT_BAUD",
+           "wait_until_ready", "refuse_overheat", "with_stop_all", "DEFAULT_BAUD",
            "DEFAULT_TIMEOUT", "DEFAULT_RETRIES"]
 
 try:  # a pty that vanishes between write and drain raises termios.error, which is not an OSError
@@ -327,6 +327,16 @@ def _rename_module(fault: str, order: Sequence[int]) -> str:
 READY_TIMEOUT = 30.0
 
 
+def with_stop_all(link: "BoardLink", text: str) -> str:
+    """``text`` (a LinkError's line) with stop-all tried once where it has not been, and whether the board
+    acknowledged it."""
+    if "stop-all" in text:
+        return text
+    stopped = link.try_stop_all()
+    return text + ("; sent stop-all, every actuator is off" if stopped else
+                   "; stop-all was not acknowledged: the board switches off by itself after its silence timeout")
+
+
 def refuse_overheat(link: "BoardLink", faults: Sequence[str]) -> None:
     """Raise LinkError when ``faults`` (a status before a stream) hold a latched overheat: the wire needs
     looking at, not a wait, so nothing is streamed (the caller's LinkError handling sends stop-all)."""
@@ -577,12 +587,7 @@ def run_stream(link: BoardLink, codes, rate: float = 10.0, *, times: Sequence[fl
         raise interrupted(link, pacer.sent if pacer else 0) from None
     except LinkError as exc:
         sent = pacer.sent if pacer else 0
-        text = str(exc)
-        if "stop-all" not in text:
-            stopped = link.try_stop_all()
-            text += ("; sent stop-all, every actuator is off" if stopped else
-                     "; stop-all was not acknowledged: the board switches off by itself after its silence timeout")
-        raise type(exc)(f"{text} (after {sent} of {total - start} rows)") from None
+        raise type(exc)(f"{with_stop_all(link, str(exc))} (after {sent} of {total - start} rows)") from None
     return StreamReport(pacer.sent, total - start, list(pacer.fault_events), elapsed, at_end or "")
 
 

@@ -25,7 +25,7 @@ from typing import Any, Sequence
 from bhr.settings.inputs import check_keys, number, read_text, read_toml, text_value, type_name
 from bhr.model.codes import CODE_AXIS, LIFT, REST, VALID_CODES
 from bhr.settings.errors import BhrError
-from bhr.settings.options import by_group, excerpt, parse_number
+from bhr.settings.options import by_group, excerpt, has_control_char, parse_number
 from bhr.model.robot import Robot
 from bhr.model.wires import DEFAULT_THERMAL, ThermalParams, thermal_from_table
 
@@ -196,7 +196,7 @@ def check_file_port(port: str, where: str = "link.port") -> str:
     given, and the other URL handlers) is refused in one line. The command
     line's ``--port`` goes through the same check: a port names a wire, not an action.
     """
-    if any(ord(ch) < 32 or ord(ch) == 127 for ch in port):
+    if has_control_char(port):
         raise BhrError(f"{where} contains a control character; give a serial device such as /dev/ttyUSB0")
     if "://" in port:
         scheme = port.split("://", 1)[0].lower() + "://"

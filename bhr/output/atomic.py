@@ -42,7 +42,7 @@ from typing import Any, Iterable, Iterator
 
 from bhr import __version__
 from bhr.settings.errors import INTERRUPTED, BhrError
-from bhr.settings.options import excerpt
+from bhr.settings.options import excerpt, has_control_char
 
 __all__ = ["atomic_path", "write_text", "write_json", "check_output_file", "together", "OutputFolder", "MANIFEST",
            "in_place_target", "point_latest", "verify_folder", "INTERRUPTED", "settings_hash"]
@@ -86,7 +86,7 @@ def _via_special(path: str | os.PathLike[str]) -> bool:
 def _refuse_control(path: Any, what: str) -> None:
     """A path with a newline, tab or other control character is refused: every message that names it would
     break across lines, and no user means one."""
-    if any(ord(ch) < 32 or ord(ch) == 127 for ch in str(path)):
+    if has_control_char(str(path)):
         raise BhrError(f"{what} path {excerpt(str(path))} contains a control character (a newline or tab); "
                        "give a plain name")
 

@@ -20,7 +20,6 @@ if os.environ.get("DISPLAY", "") == "" and os.environ.get("MPLBACKEND") is None:
     matplotlib.use("Agg")
 
 
-
 def _import_pyplot() -> Any:
     """``matplotlib.pyplot``, imported without the property tables of the artists' ``set()`` docstrings.
 

@@ -29,7 +29,7 @@ from bhr.settings.errors import BhrError
 
 __all__ = ["Option", "OPTIONS", "MAX_MM", "by_group", "robot_limits", "check_option", "solver_options_for",
            "check_number", "parse_number", "did_you_mean", "MIN_MAGNITUDE", "MIN_MAGNITUDE_UNIT", "LIMITS", "excerpt",
-           "type_name", "check_run_name", "MAX_NAME_CHARS"]
+           "type_name", "check_run_name", "MAX_NAME_CHARS", "has_control_char"]
 
 #: Largest length or coordinate accepted anywhere (mm): 1 km. Larger values only overflow the arithmetic.
 MAX_MM = 1e6
@@ -293,6 +293,12 @@ def excerpt(value: Any, limit: int = 40) -> str:
     return text if len(text) <= limit else text[:limit - 3] + "..."
 
 
+def has_control_char(text: str) -> bool:
+    """``text`` holds a control character or a line break (a tab, a newline, an escape, U+2028 ...): a name, a path
+    or a port that has one would break or garble every one-line message that quotes it."""
+    return any(ord(c) < 32 or ord(c) == 127 or c in "\u2028\u2029\x85" for c in text)
+
+
 def parse_number(text: str, where: str, *, integer: bool = False) -> int | float:
     """A number written as plain text: ASCII digits only (no ``1_5``, full-width or Arabic-Indic digits), at
     most :data:`MAX_NUMBER_CHARS` long, and for ``integer`` digits with an optional sign only (no ``3.0``,
@@ -399,7 +405,7 @@ def check_run_name(value: Any, where: str) -> str:
         raise BhrError(f"{where}: name must not be empty; give every run a short name")
     if len(name) > MAX_NAME_CHARS:
         raise BhrError(f"{where}: name is {len(name)} characters long; give at most {MAX_NAME_CHARS}")
-    if any(ord(c) < 32 or ord(c) == 127 or c in "\u2028\u2029\x85" for c in name):
+    if has_control_char(name):
         raise BhrError(f"{where}: name {excerpt(name)} holds a control character (a tab or a line break); "
                        "give a name on one line")
     hidden = next((c for c in name if not c.isprintable()), None)

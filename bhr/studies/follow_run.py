@@ -211,6 +211,7 @@ def follow_run(traj: str, *, robot: Any, solver: str = "thesis", solver_options:
     run = FollowRun(result, doc, [], folder.final("") if folder is not None else None, stream=outcome,
                     warnings=messages)
     written = run.written
+    codes = result.board_codes  # every module the board drives: the whole robot when it has a body
     if folder is not None:
         from bhr.model.codes import format_codes_csv
         from bhr.output.steptable import STEPS_CSV, format_steps_csv
@@ -218,7 +219,6 @@ def follow_run(traj: str, *, robot: Any, solver: str = "thesis", solver_options:
         with folder:
             stage = folder.stage
             assert stage is not None  # inside the with block
-            codes = result.board_codes  # every module the board drives: the whole robot when it has a body
             if codes is not None:
                 write_text(folder.path("codes.csv"), format_codes_csv(codes))
                 written.append(folder.final("codes.csv"))
@@ -250,10 +250,10 @@ def follow_run(traj: str, *, robot: Any, solver: str = "thesis", solver_options:
     elif json_path not in (None, "-"):
         write_json(json_path, doc)
         written.append(Path(json_path))
-    if result.codes is not None and stream is None and folder is not None:
+    if codes is not None and stream is None and folder is not None:
         from bhr.hardware.thermal import auto_schedule
 
-        run.procedure_s = auto_schedule(thermal, result.board_codes, rate, trace=False).total_s  # memory: not per step
+        run.procedure_s = auto_schedule(thermal, codes, rate, trace=False).total_s  # memory: not per step
     if animate_path is not None and anim_inside is None:
         run.animations.append(_animate(result, animate_path, stride, frames_progress, None))
     return run
@@ -273,7 +273,7 @@ def _follow_streaming(tr, solver, robot, solver_options, thermal, rate, s: Strea
     message goes to the board (``at_end``): stop-all, or a heartbeat that holds the last codes until its silence
     timeout.
     """
-    from bhr.hardware.link import BoardLink, Pacer, check_board, refuse_overheat, run_stream
+    from bhr.hardware.link import BoardLink, Pacer, check_board, refuse_overheat, run_stream, with_stop_all
     from bhr.settings.errors import LinkError
     from bhr.hardware.thermal import plan
     from bhr.run.driver import follow
@@ -287,10 +287,7 @@ def _follow_streaming(tr, solver, robot, solver_options, thermal, rate, s: Strea
         try:
             refuse_overheat(link, board["faults"])  # so is a board with a latched overheat
         except LinkError as exc:
-            stopped = link.try_stop_all()
-            raise LinkError(f"{exc}; " + ("sent stop-all, every actuator is off" if stopped else
-                            "stop-all was not acknowledged: the board switches off by itself after its silence "
-                            "timeout")) from None
+            raise LinkError(with_stop_all(link, str(exc))) from None
         result = follow(tr, solver=solver, robot=robot, solver_options=solver_options)
         if result.codes is None:
             Pacer(link, rate)(1, None)  # the one-line refusal of code-less solvers

@@ -674,8 +674,8 @@ def replay_physics(result, progress: Any = None, **options: Any) -> PhysicsRepla
     # over the first quarter of the step (the trail model's: half), one time step at a time, and hold for the
     # rest: the robot moves as bhr's does, by a feed, instead of jumping (a carriage that jumps turns the whole
     # robot about its rear at once, and a long robot's far end then swings across the colon)
-    ramp = max(1, steps // (RAMP_FRACTION if chain.chords is None else TRAIL_RAMP_FRACTION))
     trail = chain.chords is not None
+    ramp = max(1, steps // (TRAIL_RAMP_FRACTION if trail else RAMP_FRACTION))
     fracs = np.arange(1, ramp + 1) / ramp
     tip_len = float(model.site_pos[tip, 2])
 
