@@ -25,6 +25,7 @@ import numpy as np
 
 import bhr.hardware.protocol as P
 from bhr.model.codes import check_code, check_codes
+from bhr.model.robotfile import check_file_port
 from bhr.settings.errors import BhrError, LinkError
 
 __all__ = ["BoardLink", "Pacer", "StreamInterrupted", "StreamStopped", "StreamReport", "run_stream", "READY_TIMEOUT",
@@ -73,7 +74,11 @@ class BoardLink:
     """A connection to the actuator board.
 
     ``BoardLink(port, baudrate=115200, timeout=0.25, retries=3,
-    module_order=None)``; ``port`` is a device path or any pyserial URL;
+    module_order=None, any_url=False)``; ``port`` is a serial device
+    (``/dev/...``, ``COM3``), ``loop://`` or ``socket://host:port``: pyserial's
+    other URL handlers (``spy://``, which writes the traffic into any file it
+    names, and those that scan or load backends) are refused unless
+    ``any_url=True``, the same check a robot file's and ``--port``'s port get;
     ``module_order`` (a robot file's ``link.module_order``) says which module
     is wired to each position of the shift-register chain, and the codes are
     rearranged on the way out and back so callers always speak in module
@@ -85,13 +90,19 @@ class BoardLink:
     """
 
     def __init__(self, port: str, baudrate: int = DEFAULT_BAUD, timeout: float = DEFAULT_TIMEOUT,
-                 retries: int = DEFAULT_RETRIES, module_order: Sequence[int] | None = None) -> None:
+                 retries: int = DEFAULT_RETRIES, module_order: Sequence[int] | None = None,
+                 any_url: bool = False) -> None:
         try:
             import serial
         except ImportError:  # pragma: no cover - pyserial is a dependency
             raise LinkError("pyserial is not installed; run 'pip install pyserial'") from None
         if not port or not str(port).strip():
             raise LinkError("no serial port given; pass --port with a device such as /dev/ttyUSB0 or a pyserial URL")
+        if not any_url:
+            try:
+                check_file_port(str(port), "port")
+            except BhrError as exc:
+                raise LinkError(f"{exc}; or pass any_url=True to open another pyserial URL") from None
         if not timeout or timeout <= 0:
             raise LinkError(f"timeout must be positive, got {timeout}; give seconds such as 0.25")
         if retries < 0:

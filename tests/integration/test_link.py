@@ -156,6 +156,26 @@ def test_opening_a_missing_port_is_one_clear_line():
     assert one_line(str(err.value)).startswith("cannot open serial port /dev/bhr-no-such-port")
 
 
+@pytest.mark.parametrize("url", ["spy://loop://?file={victim}", "alt://loop://?class=Serial", "hwgrep://.*",
+                                 "file://{victim}", "/tmp/../dev/null/../../{victim}", "{victim}"])
+def test_the_library_refuses_ports_that_are_not_serial_ports(tmp_path, url):
+    victim = tmp_path / "victim.txt"
+    victim.write_text("the user's notes\n")
+    with pytest.raises(LinkError) as err:
+        BoardLink(url.format(victim=victim))
+    line = one_line(str(err.value))
+    assert "not a serial" in line and "any_url=True" in line
+    assert victim.read_text() == "the user's notes\n"  # nothing opened, nothing written
+
+
+def test_the_library_opens_another_url_when_asked(tmp_path, board):
+    b = board()
+    log = tmp_path / "traffic.txt"
+    with BoardLink(f"spy://{b.path}?file={log}", any_url=True) as link:
+        link.stop_all()
+    assert log.stat().st_size > 0  # pyserial's logger wrote the traffic, as asked
+
+
 def test_set_codes_status_stop_all_over_a_pty(board):
     b = board()
     with BoardLink(b.path) as link:
