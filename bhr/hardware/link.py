@@ -97,7 +97,7 @@ class BoardLink:
         except ImportError:  # pragma: no cover - pyserial is a dependency
             raise LinkError("pyserial is not installed; run 'pip install pyserial'") from None
         if not port or not str(port).strip():
-            raise LinkError("no serial port given; pass --port with a device such as /dev/ttyUSB0 or a pyserial URL")
+            raise LinkError("no serial port given; pass --port with a device such as /dev/ttyUSB0, loop:// or socket://host:port")
         if not any_url:
             try:
                 check_file_port(str(port), "port")
