@@ -101,58 +101,111 @@ def mark_worst(ax: Any, steps: np.ndarray, values: np.ndarray, unit: str, color:
     return k
 
 
+def _error_data(result: "FollowResult", kind: str) -> np.ndarray:
+    if kind not in ERROR_KINDS:
+        raise ValueError(f"kind must be one of {', '.join(ERROR_KINDS)}")
+    return {"position": result.point_errors_mm, "orientation": result.orientation_errors_deg,
+            "global": result.global_errors}[kind]
+
+
+def _error_grid_shape(count: int) -> tuple[int, int]:
+    cols = 2 if count > 1 else 1
+    return int(np.ceil(count / cols)), cols
+
+
+class _ErrorGrid:
+    """The panels of the error figures, made once and filled with one kind of error after another.
+
+    The three error figures of a run share their grid, their step axis and the steps where the wall is touched;
+    what differs is each panel's curve, tolerance, worst step, title, y axis and legend. Filling the same
+    figure again draws what a new one would (tests/unit/test_figures.py compares the pixels), without making
+    the axes, their ticks and the step numbers' text again: most of an error figure's drawing time.
+    """
+
+    def __init__(self, result: "FollowResult", rows: int, cols: int) -> None:
+        self.result, self.rows, self.cols = result, rows, cols
+        self.n = result.steps
+        width, height = 10.0, 2.6 * rows + 0.9
+        self.height = height
+        self.fig, axes = plt.subplots(rows, cols, figsize=(width, height), squeeze=False, sharex=True,
+                                      gridspec_kw=_margins(width, height, rows, cols))
+        self.axes = [axes[j // cols][j % cols] for j in range(rows * cols)]
+        self.steps = np.arange(1, self.n + 1)
+        self.curves, self.tols, self.marks = [], [], []
+        for ax in self.axes:
+            (curve,) = ax.plot(self.steps, np.zeros(self.n), color="tab:blue", linewidth=1.0)
+            self.curves.append(curve)
+            self.tols.append(ax.axhline(0.0, color="tab:red", linestyle="--", linewidth=0.8))
+            (mark,) = ax.plot([], [], "o", markersize=7, markerfacecolor="none", markeredgecolor="black",
+                              markeredgewidth=1.3)
+            self.marks.append(mark)
+            mark_wall_touches(ax, result)
+            ax.grid(True, alpha=0.3)
+            ax.set_xlim(1, max(2, self.n))
+            ax.tick_params(labelbottom=True, labelsize=8)  # step numbers on every panel, not only the bottom row
+            _light_ticks(ax)
+        self.title = self.fig.suptitle("", fontsize=12, y=1 - 0.12 / height)
+
+    def fill(self, kind: str) -> plt.Figure:
+        """The figure with ``kind``'s errors: one panel per point (position) or module (orientation, global)."""
+        result, cols = self.result, self.cols
+        data = _error_data(result, kind)
+        if data.shape[0] != self.n or _error_grid_shape(data.shape[1]) != (self.rows, cols):
+            raise ValueError(f"{kind} errors do not fit this grid")
+        tol = {"position": result.robot.tol_pos, "orientation": result.robot.tol_ori, "global": 1.0}[kind]
+        unit = _unit(kind)
+        _, title, ylabel = ERROR_KINDS[kind]
+        count = data.shape[1]
+        tol_label = f"tolerance {tol:g} {unit}".rstrip() if kind != "global" else "tolerance (1)"
+        for j, ax in enumerate(self.axes):
+            if j >= count:
+                ax.set_visible(False)
+                continue
+            ax.set_visible(True)
+            col = data[:, j]
+            self.curves[j].set_ydata(col)
+            self.tols[j].set_ydata([tol, tol])
+            self.tols[j].set_label(tol_label)
+            mark = self.marks[j]
+            if col.size and np.isfinite(col).any():
+                k = int(np.nanargmax(col))
+                mark.set_data([self.steps[k]], [col[k]])
+                mark.set_label(f"worst {_amount(float(col[k]), unit)} (step {int(self.steps[k])})")
+                mark.set_visible(True)
+            else:
+                mark.set_data([], [])
+                mark.set_label("_worst")  # no legend entry
+                mark.set_visible(False)
+            ax.set_title(_panel_title(kind, j, count), fontsize=10, y=1.0, pad=4)  # placed, not laid out
+            ax.set_ylabel(ylabel, fontsize=9)
+            top = max(tol, float(np.nanmax(col)) if np.isfinite(col).any() else 0.0)
+            ax.set_ylim(0, 1.45 * top if top > 0 else 1.0)  # room above for the legend
+            _light_ticks(ax, which="y")
+            ax.legend(loc="upper right", fontsize=7, framealpha=0.9, ncol=2)
+            bottom = j // cols == self.rows - 1 or j + cols >= count
+            ax.set_xlabel("trajectory step" if bottom else "", fontsize=9)
+        self.title.set_text(f"{title} - {result.trajectory.name}, solver {result.solver}")
+        return self.fig
+
+
 def error_figure(result: "FollowResult", kind: str) -> plt.Figure:
     """One panel per point (position) or module (orientation, global) against trajectory step.
 
     Every panel has its step numbers, the tolerance line and its worst step
     circled, both named in the panel's legend.
     """
-    if kind not in ERROR_KINDS:
-        raise ValueError(f"kind must be one of {', '.join(ERROR_KINDS)}")
-    data = {"position": result.point_errors_mm, "orientation": result.orientation_errors_deg,
-            "global": result.global_errors}[kind]
-    tol = {"position": result.robot.tol_pos, "orientation": result.robot.tol_ori, "global": 1.0}[kind]
-    unit = _unit(kind)
-    _, title, ylabel = ERROR_KINDS[kind]
-    count = data.shape[1]
-    cols = 2 if count > 1 else 1
-    rows = int(np.ceil(count / cols))
-    width, height = 10.0, 2.6 * rows + 0.9
-    fig, axes = plt.subplots(rows, cols, figsize=(width, height), squeeze=False, sharex=True,
-                             gridspec_kw=_margins(width, height, rows, cols))
-    steps = np.arange(1, data.shape[0] + 1)
-    tol_label = f"tolerance {tol:g} {unit}".rstrip() if kind != "global" else "tolerance (1)"
-    for j in range(rows * cols):
-        ax = axes[j // cols][j % cols]
-        if j >= count:
-            ax.set_visible(False)
-            continue
-        col = data[:, j]
-        ax.plot(steps, col, color="tab:blue", linewidth=1.0)
-        ax.axhline(tol, color="tab:red", linestyle="--", linewidth=0.8, label=tol_label)
-        mark_worst(ax, steps, col, unit)
-        mark_wall_touches(ax, result)
-        ax.set_title(_panel_title(kind, j, count), fontsize=10, y=1.0, pad=4)  # placed, not laid out
-        ax.set_ylabel(ylabel, fontsize=9)
-        ax.grid(True, alpha=0.3)
-        ax.set_xlim(1, max(2, data.shape[0]))
-        top = max(tol, float(np.nanmax(col)) if np.isfinite(col).any() else 0.0)
-        ax.set_ylim(0, 1.45 * top if top > 0 else 1.0)  # room above for the legend
-        ax.tick_params(labelbottom=True, labelsize=8)  # step numbers on every panel, not only the bottom row
-        _light_ticks(ax)
-        ax.legend(loc="upper right", fontsize=7, framealpha=0.9, ncol=2)
-        if j // cols == rows - 1 or j + cols >= count:
-            ax.set_xlabel("trajectory step", fontsize=9)
-    fig.suptitle(f"{title} - {result.trajectory.name}, solver {result.solver}", fontsize=12, y=1 - 0.12 / height)
-    return fig
+    data = _error_data(result, kind)
+    return _ErrorGrid(result, *_error_grid_shape(data.shape[1])).fill(kind)
 
 
-def _light_ticks(ax: Any, bins: int = 5) -> None:
+def _light_ticks(ax: Any, bins: int = 5, which: str = "xy") -> None:
     """Ticks fixed once from the axes' limits: the same kind of numbers as matplotlib's default, fewer of them,
-    and none computed again at each draw (ticks and their labels are most of an error figure's drawing time)."""
+    and none computed again at each draw (ticks and their labels are most of an error figure's drawing time).
+    ``which``: the axes whose ticks are fixed ("x", "y" or "xy")."""
     from matplotlib.ticker import FixedLocator, MaxNLocator
 
-    for axis, (lo, hi) in ((ax.xaxis, ax.get_xlim()), (ax.yaxis, ax.get_ylim())):
+    for axis, (lo, hi) in [(a, lim) for name, a, lim in (("x", ax.xaxis, ax.get_xlim()), ("y", ax.yaxis, ax.get_ylim()))
+                           if name in which]:
         ticks = [t for t in MaxNLocator(nbins=bins, steps=[1, 2, 2.5, 5, 10]).tick_values(lo, hi)
                  if lo - 1e-9 * abs(hi - lo) <= t <= hi + 1e-9 * abs(hi - lo)]
         axis.set_major_locator(FixedLocator(ticks))
@@ -715,8 +768,10 @@ RUN_PNG_COMPRESS = 1
 TEXT_RENDERING: dict[Any, Any] = {"text.hinting": "none"}
 
 
-def save_figure(fig: plt.Figure, path: str | os.PathLike[str], dpi: int = 110, compress: int | None = None) -> Path:
-    """Save ``fig`` atomically as PNG (or SVG/PDF by extension) and close it; ``compress``: a PNG's zlib level."""
+def save_figure(fig: plt.Figure, path: str | os.PathLike[str], dpi: int = 110, compress: int | None = None,
+                close: bool = True) -> Path:
+    """Save ``fig`` atomically as PNG (or SVG/PDF by extension) and close it (unless ``close`` is false: the
+    figure is filled and saved again); ``compress``: a PNG's zlib level."""
     p = Path(path)
     try:
         fmt = p.suffix.lower().lstrip(".") if p.suffix.lower() in FIGURE_FORMATS else "png"
@@ -734,7 +789,8 @@ def save_figure(fig: plt.Figure, path: str | os.PathLike[str], dpi: int = 110, c
             else:
                 fig.savefig(tmp, dpi=dpi, format=fmt, **kw)
     finally:
-        plt.close(fig)
+        if close:
+            plt.close(fig)
     return p
 
 
@@ -744,8 +800,15 @@ def save_run_plots(result: "FollowResult", out_dir: str | os.PathLike[str], step
     lumen clearance."""
     out = Path(out_dir)
     files = []
-    for kind, (name, _, _) in ERROR_KINDS.items():
-        files.append(save_figure(error_figure(result, kind), out / name, compress=RUN_PNG_COMPRESS))
+    grids: dict[tuple[int, int], _ErrorGrid] = {}  # the three error figures share one grid where their panels fit
+    try:
+        for kind, (name, _, _) in ERROR_KINDS.items():
+            shape = _error_grid_shape(_error_data(result, kind).shape[1])
+            grid = grids.get(shape) or grids.setdefault(shape, _ErrorGrid(result, *shape))
+            files.append(save_figure(grid.fill(kind), out / name, compress=RUN_PNG_COMPRESS, close=False))
+    finally:
+        for grid in grids.values():
+            plt.close(grid.fig)
     path_name = "path.png" if step is None else f"path-step{step}.png"
     files.append(save_figure(path_figure(result, None if step is None else step - 1), out / path_name,
                              compress=RUN_PNG_COMPRESS))

@@ -70,6 +70,25 @@ def test_every_error_panel_has_step_numbers_tolerance_and_worst_step(colon, kind
         assert ax.get_ylim()[1] > max(data[k, j], 1.0 if kind == "global" else 0.0)
 
 
+@pytest.mark.parametrize("modules", [5, 4])
+def test_a_runs_error_figures_drawn_on_one_grid_are_the_figures_drawn_alone(tmp_path, modules):
+    """save_run_plots fills one figure with the three kinds of error in turn; each PNG is, pixel for pixel, the
+    figure error_figure draws on its own. With 4 modules the points need 3 rows and the modules 2: two grids."""
+    from PIL import Image
+
+    from bhr.output.plots import save_figure, save_run_plots
+
+    run = follow(load_trajectory("curve", angle=180.0), solver="seed", modules=modules)
+    save_run_plots(run, tmp_path)
+    sizes = set()
+    for kind, (name, _, _) in ERROR_KINDS.items():
+        alone = save_figure(error_figure(run, kind), tmp_path / f"alone-{name}", compress=1)
+        a, b = (np.asarray(Image.open(f)) for f in (tmp_path / name, alone))
+        assert a.shape == b.shape and (a == b).all(), kind
+        sizes.add(a.shape)
+    assert len(sizes) == (1 if modules == 5 else 2)
+
+
 def test_the_worst_step_check_can_fail(colon):
     """The legend names the largest error of its own panel, not of a neighbour's."""
     fig = error_figure(colon, "position")
