@@ -84,6 +84,29 @@ def test_largest_force_converges_in_the_time_step():
     assert fine.contact_steps == finer.contact_steps
 
 
+def test_folded_damping_replays_the_run_into_the_wall_as_mujocos_euler(monkeypatch):
+    """The replay with the implicit damping folded into the mass matrix where no contact acts (the default) and with
+    MuJoCo's own at every time step: the same contact steps, forces and deviations (to rounding where any
+    constraint unfolds it; within 1e-6 N and 1e-4 mm where a joint limit alone is solved with M + h D: 1e-8 N and
+    4e-6 mm measured), folded at most time steps and unfolded where a contact starts."""
+    from bhr.studies import physics
+
+    run = _head(130, "thesis", seed=4)
+    folded = replay_physics(run)
+    monkeypatch.setattr(physics, "FOLD_AT_JOINT_LIMITS", False)
+    exact = replay_physics(run)
+    monkeypatch.setattr(physics, "DAMPING_IN_ARMATURE", False)
+    old = replay_physics(run)
+    total = 130 * folded.settings["substeps"]
+    assert old.settings["time_steps_unfolded"] == total and old.settings["time_steps_redone"] == 0
+    assert folded.settings["time_steps_unfolded"] < total / 2 and folded.settings["time_steps_redone"] >= 1
+    assert exact.settings["time_steps_unfolded"] < total
+    for rep, tol_n, tol_mm in ((exact, 1e-9, 1e-9), (folded, 1e-6, 1e-4)):
+        assert rep.contact_steps == old.contact_steps
+        assert np.abs(rep.max_force_n - old.max_force_n).max() <= tol_n
+        assert np.abs(rep.deviation_mm - old.deviation_mm).max() <= tol_mm
+
+
 def test_wall_pieces_are_outside_the_lumen():
     """Every box's inner face is at the lumen radius or farther from its ring's centerline point."""
     run = _head(20, "thesis")
