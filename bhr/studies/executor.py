@@ -435,6 +435,9 @@ def connect_scheduler(address: str, timeout: float = 15.0) -> Any:
         scheme, loc = parse_address(address.strip())
         if scheme in ("tcp", "tls"):
             parse_host_port(loc)
+            port = loc.rpartition(":")[2]
+            if not (port.isascii() and port.isdigit()):  # int() takes full-width digits: '８７８６' is 8786
+                raise ValueError(f"the port {port!r} is not plain digits 0-9")
     except (ValueError, TypeError) as exc:
         raise _cannot(address, str(exc).splitlines()[0] if str(exc) else "malformed address") from None
 
@@ -459,6 +462,8 @@ def connect_scheduler(address: str, timeout: float = 15.0) -> Any:
         asyncio.run(bounded())
     except (asyncio.TimeoutError, TimeoutError):
         raise _cannot(address, f"no Dask handshake within {timeout:g} s; is it a Dask scheduler?") from None
+    except MemoryError:  # its first bytes, read as Dask's message length, ask for exabytes: not a Dask answer
+        raise _cannot(address, "it answered, but not as Dask does; is it a Dask scheduler?") from None
     except Exception as exc:  # OSError, ValueError
         raise _cannot(address, str(exc).splitlines()[0] if str(exc) else exc.__class__.__name__) from None
     try:

@@ -53,3 +53,42 @@ def test_physics_names_a_run_file_that_is_not_a_file(tmp_path, kind, words):
     line = one_line(bhr("physics", run, "--out", "ph", cwd=tmp_path, timeout=60))
     assert words in line and "no such" not in line, line
     assert snapshot(tmp_path) == before and sorted(os.listdir(tmp_path)) == ["r.json"]
+
+
+# --- a Dask address that is not one ----------------------------------------------------------------------------
+
+def test_a_port_that_answers_junk_is_not_blamed_on_memory(tmp_path):
+    # its first bytes, read as Dask's message length, asked numpy for exabytes: "Unable to allocate 3.07 EiB"
+    import threading
+
+    srv = socket.socket()
+    srv.bind(("127.0.0.1", 0))
+    srv.listen(8)
+    port = srv.getsockname()[1]
+
+    def talk():
+        while True:
+            try:
+                conn, _ = srv.accept()
+            except OSError:
+                return
+            with conn:
+                conn.sendall(b"HTTP/1.1 200 OK\r\nContent-Length: 0\r\n\r\n" + b"\xff" * 4096)
+
+    threading.Thread(target=talk, daemon=True).start()
+    try:
+        line = one_line(bhr("sweep", "--traj", "line", "--grid", "modules=3", "--no-plots", "--out", "o",
+                            "--scheduler", f"tcp://127.0.0.1:{port}", cwd=tmp_path, timeout=120))
+    finally:
+        srv.close()
+    assert "it answered, but not as Dask does; is it a Dask scheduler?" in line, line
+    assert "allocate" not in line and list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("port", ["８７８６", "８7８6", "٨٧٨٦"])
+def test_a_scheduler_port_in_other_digits_is_refused(tmp_path, port):
+    # int() reads full-width and Arabic-Indic digits as 8786: the address was tried as tcp://127.0.0.1:8786
+    line = one_line(bhr("sweep", "--traj", "line", "--grid", "modules=3", "--no-plots", "--out", "o",
+                        "--scheduler", f"tcp://127.0.0.1:{port}", cwd=tmp_path, timeout=120))
+    assert "is not plain digits 0-9" in line and "cannot connect to the Dask scheduler" in line, line
+    assert list(tmp_path.iterdir()) == []
