@@ -4,6 +4,7 @@ Also home of the helpers that ``bhr follow --show/--animate`` share with it.
 """
 from __future__ import annotations
 
+import contextlib
 import sys
 from pathlib import Path
 from typing import Any
@@ -35,13 +36,15 @@ def render_animation(result, animate_path: str, stride: int | None, shown: Path 
     from bhr.output.animate import animate, default_stride, frame_steps
 
     total = len(frame_steps(result.steps, stride or default_stride(result.steps)))
-    progressbar: Any = click.progressbar(length=total, label=f"Rendering {animate_path}",
-                                         file=sys.stderr, show_pos=True)
+    # the bar only on a terminal: piped or logged, stderr stays empty unless something fails (then one line)
+    progressbar: Any = click.progressbar(length=total, label=f"Rendering {animate_path}", file=sys.stderr,
+                                         show_pos=True) if sys.stderr.isatty() else contextlib.nullcontext()
     with progressbar as bar:
         done = [0]
 
         def progress(k: int, _total: int) -> None:
-            bar.update(k - done[0])
+            if bar is not None:
+                bar.update(k - done[0])
             done[0] = k
 
         anim = animate(result, animate_path, stride=stride, progress=progress)

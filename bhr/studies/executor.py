@@ -29,6 +29,7 @@ Dask is imported only when a scheduler is given.
 from __future__ import annotations
 
 import contextlib
+import errno
 import functools
 import math
 import os
@@ -60,12 +61,18 @@ def reason(exc: BaseException) -> str:
     return f"{type(exc).__name__}: {lines[0]}" if lines else type(exc).__name__
 
 
+#: A write that failed for want of room (a full disk, a quota, a file-size limit): the study's output failed, not
+#: one run, and the next run's files would not fit either.
+_OUTPUT_FULL = (errno.ENOSPC, errno.EDQUOT, errno.EFBIG)
+
+
 class capture:
     """``with capture(row):`` -- an exception inside (not Ctrl-C) becomes ``row["status"] = "failed: <reason>"``.
 
     With ``keep_traceback`` the traceback of an unexpected error (anything
     but a BhrError, which explains itself) is kept in ``row["traceback"]``.
-    One failed run must not stop a study: the others still run.
+    One failed run must not stop a study: the others still run. A disk that is
+    full (:data:`_OUTPUT_FULL`) stops it: the output folder cannot be written.
     """
 
     def __init__(self, row: dict[str, Any], *, keep_traceback: bool = False) -> None:
@@ -77,6 +84,8 @@ class capture:
 
     def __exit__(self, kind: Any, exc: BaseException | None, tb: Any) -> bool:
         if exc is None or not isinstance(exc, Exception):  # KeyboardInterrupt, SystemExit go on
+            return False
+        if isinstance(exc, OSError) and exc.errno in _OUTPUT_FULL:
             return False
         self.row["status"] = f"failed: {reason(exc)}"
         if self.keep_traceback and not isinstance(exc, BhrError):

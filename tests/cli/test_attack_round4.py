@@ -4,6 +4,7 @@ bounded time, nothing of the user's changed."""
 from __future__ import annotations
 
 import os
+import shutil
 import socket
 import subprocess
 from pathlib import Path
@@ -92,3 +93,75 @@ def test_a_scheduler_port_in_other_digits_is_refused(tmp_path, port):
                         "--scheduler", f"tcp://127.0.0.1:{port}", cwd=tmp_path, timeout=120))
     assert "is not plain digits 0-9" in line and "cannot connect to the Dask scheduler" in line, line
     assert list(tmp_path.iterdir()) == []
+
+
+# --- a full disk ----------------------------------------------------------------------------------------------
+
+@pytest.fixture
+def full_disk(tmp_path):
+    """tmp_path/full: a 64 kB tmpfs filled to the last byte (root only, as CI runs; elsewhere the test fails)."""
+    full = tmp_path / "full"
+    full.mkdir()
+    if os.geteuid() != 0:
+        pytest.fail("a full disk is a tmpfs mount: run this test as root (CI does)")
+    r = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=64k", "tmpfs", str(full)], capture_output=True, text=True)
+    if r.returncode != 0:
+        pytest.fail(f"cannot mount a tmpfs here: {r.stderr.strip()}")
+    try:
+        fd = os.open(full / "fill", os.O_WRONLY | os.O_CREAT)
+        try:
+            while True:
+                os.write(fd, b"x" * 512)
+        except OSError:
+            pass
+        finally:
+            os.close(fd)
+        yield full
+    finally:
+        subprocess.run(["umount", "-l", str(full)], check=True)
+
+
+BATCH = '[[run]]\nname = "a"\ntraj = "colon"\n[[run]]\nname = "b"\ntraj = "curve"\n'
+
+
+@pytest.mark.parametrize("jobs", ["1", "2"])
+def test_a_report_on_a_full_disk_names_the_file_and_leaves_no_folder(tmp_path, full_disk, jobs):
+    # each run's failed write was "a: failed: OSError: ... .o.bhr-stage-.../runs/a/run.json", the report then
+    # written beside them: "2 of 2 runs failed" and a folder of failed runs on the full disk
+    (tmp_path / "b.toml").write_text(BATCH)
+    r = bhr("report", "--file", "b.toml", "--out", full_disk / "rep", "--jobs", jobs, cwd=tmp_path, timeout=300)
+    line = one_line(r)
+    assert line.startswith(f"Error: {full_disk}/rep/runs/") and "No space left on device" in line, line
+    assert "bhr-stage" not in line and "runs failed" not in line and "FAILED" not in r.stdout
+    assert sorted(os.listdir(full_disk)) == ["fill"]
+
+
+def test_a_report_over_the_file_size_limit_stops_at_the_first_file(tmp_path):
+    # the same without a mount: a file-size limit (EFBIG) is the output's failure, not the run's
+    import resource
+
+    (tmp_path / "b.toml").write_text(BATCH)
+    warm = bhr("report", "--file", "b.toml", "--out", "warm", "--jobs", "1", cwd=tmp_path, timeout=300)
+    assert warm.returncode == 0, warm.stderr  # kernels cached first: the limit is for the report's files
+    shutil.rmtree(tmp_path / "warm")
+    before = snapshot(tmp_path)
+
+    def small():
+        resource.setrlimit(resource.RLIMIT_FSIZE, (5000, 5000))
+    line = one_line(bhr("report", "--file", "b.toml", "--out", "rep", "--jobs", "1", "--no-plots", cwd=tmp_path,
+                        timeout=300, preexec_fn=small))
+    assert line.startswith("Error: rep/runs/a/") and "File too large" in line, line
+    assert snapshot(tmp_path) == before and sorted(os.listdir(tmp_path)) == ["b.toml"]
+
+
+@pytest.mark.parametrize("cmd", ["follow", "replay"])
+def test_an_animation_on_a_full_disk_is_one_line(tmp_path, full_disk, cmd):
+    # the progress bar's label ("Rendering full/a.gif") was written to a piped stderr before the error line
+    if cmd == "replay":
+        assert bhr("follow", "--traj", "line", "--no-plots", "--out", "run", cwd=tmp_path).returncode == 0
+        args = ["replay", "run/run.json", "--animate", full_disk / "a.gif"]
+    else:
+        args = ["follow", "--traj", "line", "--no-plots", "--out", "run", "--animate", full_disk / "a.gif"]
+    line = one_line(bhr(*args, cwd=tmp_path, timeout=300))
+    assert line.startswith(f"Error: {full_disk}/a.gif: No space left on device"), line
+    assert sorted(os.listdir(full_disk)) == ["fill"]
