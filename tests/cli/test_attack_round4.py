@@ -165,3 +165,32 @@ def test_an_animation_on_a_full_disk_is_one_line(tmp_path, full_disk, cmd):
     line = one_line(bhr(*args, cwd=tmp_path, timeout=300))
     assert line.startswith(f"Error: {full_disk}/a.gif: No space left on device"), line
     assert sorted(os.listdir(full_disk)) == ["fill"]
+
+
+# --- numbers in a trajectory CSV -------------------------------------------------------------------------------
+
+BIG = "1" + "0" * 399
+
+
+@pytest.mark.parametrize("column", ["x", "lumen"])
+@pytest.mark.parametrize("value, words", [
+    ("1e-320", "= 1e-320 is too small to mean anything (a denormal"),
+    ("4.9e-324", "= 4.9e-324 is too small to mean anything (a denormal"),
+    (BIG, "is 400 characters, longer than any number (40)"),
+], ids=["denormal", "smallest-denormal", "400-digits"])
+def test_a_trajectory_csv_number_goes_through_the_one_checkers_rules(tmp_path, column, value, words):
+    # a denormal x or lumen diameter was accepted (exit 0), a 400-digit integer quoted whole ("not finite")
+    rows = [["0", "0", "0", "30"], ["2", "0", "0", "30"], ["4", "0", "0", "30"], ["6", "0", "0", "30"]]
+    rows[2][0 if column == "x" else 3] = value
+    (tmp_path / "t.csv").write_text("x,y,z,lumen\n" + "".join(",".join(r) + "\n" for r in rows))
+    before = snapshot(tmp_path)
+    line = one_line(bhr("follow", "--traj", "t.csv", "--no-plots", "--out", "o", cwd=tmp_path, timeout=120))
+    assert line.startswith(f"Error: t.csv, line 4: {column} = ") and words in line and len(line) < 300, line
+    assert snapshot(tmp_path) == before
+
+
+def test_a_trajectory_csv_keeps_tiny_normal_numbers(tmp_path):
+    # rounding noise of an exported centerline (1e-15) is a number, not a denormal
+    (tmp_path / "t.csv").write_text("x,y,z\n0,0,0\n2,1e-15,0\n4,-0,0\n6,0,0\n")
+    r = bhr("follow", "--traj", "t.csv", "--no-plots", "--out", "o", cwd=tmp_path, timeout=120)
+    assert r.returncode == 0, r.stderr
