@@ -194,3 +194,37 @@ def test_a_trajectory_csv_keeps_tiny_normal_numbers(tmp_path):
     (tmp_path / "t.csv").write_text("x,y,z\n0,0,0\n2,1e-15,0\n4,-0,0\n6,0,0\n")
     r = bhr("follow", "--traj", "t.csv", "--no-plots", "--out", "o", cwd=tmp_path, timeout=120)
     assert r.returncode == 0, r.stderr
+
+
+# --- numbers in a sweep's grid and in --colons -------------------------------------------------------------------
+
+@pytest.mark.parametrize("alpha, words", [
+    (f'"5:{BIG}"', "is 400 characters, longer than any number (40)"),
+    ('"5:1e400"', "alpha value 1e400 is not a finite number"),
+    ('"5:1e308"', "alpha range end 1e+308 is too large"),
+    ('"5:6:1e-300"', "has more than 1000000 values; use a larger step"),
+], ids=["400-digit-end", "infinite-end", "huge-end", "tiny-step"])
+def test_a_sweep_file_range_with_impossible_ends_is_one_short_line(tmp_path, alpha, words):
+    # OverflowError with a traceback (400 digits, 1e400), or a 309-digit count quoted whole (1e308)
+    (tmp_path / "s.toml").write_text(f'traj = "line"\n[grid]\nalpha = {alpha}\n')
+    before = snapshot(tmp_path)
+    line = one_line(bhr("sweep", "--file", "s.toml", "--out", "o", "--jobs", "1", "--no-plots", cwd=tmp_path,
+                        timeout=120))
+    assert line.startswith("Error: s.toml: [grid]: alpha ") and words in line and len(line) < 300, line
+    assert snapshot(tmp_path) == before
+
+
+@pytest.mark.parametrize("grid, words", [(f"modules=3-{BIG}", "modules range end a 400-digit whole number"),
+                                         ("modules=１-３", "modules value '１-３' is not a number")],
+                         ids=["400-digit-last", "full-width"])
+def test_a_grid_first_last_range_takes_plain_digits_of_a_sane_size(tmp_path, grid, words):
+    line = one_line(bhr("sweep", "--traj", "line", "--grid", grid, "--out", "o", "--jobs", "1", "--no-plots",
+                        cwd=tmp_path, timeout=120))
+    assert words in line and len(line) < 300, line
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_colons_beyond_the_last_seed_are_quoted_short(tmp_path):
+    line = one_line(bhr("traverse", "--colons", f"1-{BIG}", "--out", "o", cwd=tmp_path, timeout=120))
+    assert "--colons: seeds go from 0 to 4294967295" in line and len(line) < 200, line
+    assert list(tmp_path.iterdir()) == []
