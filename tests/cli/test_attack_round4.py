@@ -228,3 +228,42 @@ def test_colons_beyond_the_last_seed_are_quoted_short(tmp_path):
     line = one_line(bhr("traverse", "--colons", f"1-{BIG}", "--out", "o", cwd=tmp_path, timeout=120))
     assert "--colons: seeds go from 0 to 4294967295" in line and len(line) < 200, line
     assert list(tmp_path.iterdir()) == []
+
+
+# --- numbers in a run.json and a codes.csv ---------------------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def a_run(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("run")
+    r = bhr("follow", "--traj", "line", "--no-plots", "--out", "run", cwd=folder, timeout=300)
+    assert r.returncode == 0, r.stderr
+    return (folder / "run" / "run.json").read_text()
+
+
+@pytest.mark.parametrize("value, words", [('"１０"', "trajectory points must be numbers, not text"),
+                                          ('"12.5"', "trajectory points must be numbers, not text"),
+                                          ("1e-320", "trajectory points must not be denormals")],
+                         ids=["full-width-text", "text", "denormal"])
+def test_a_run_json_point_is_a_number_as_written(tmp_path, a_run, value, words):
+    # numpy's float() read the text "１０" as 10 and "12.5" as 12.5; a denormal passed: the replay went on
+    import json
+
+    doc = json.loads(a_run)
+    first = doc["trajectory"]["points"][0]
+    text = a_run.replace(json.dumps(first), json.dumps(first).replace(repr(first[0]), value, 1), 1)
+    assert text != a_run
+    (tmp_path / "r.json").write_text(text)
+    before = snapshot(tmp_path)
+    line = one_line(bhr("replay", "r.json", "--out", "o", cwd=tmp_path, timeout=120))
+    assert line.startswith("Error: r.json: ") and words in line, line
+    assert snapshot(tmp_path) == before
+
+
+@pytest.mark.parametrize("args", [["fk", "--codes", f"0,{BIG}"], ["plan", "--codes", "c.csv", "--no-plots"],
+                                  ["stream", "--codes", "c.csv", "--dry-run"]], ids=["fk", "plan", "stream"])
+def test_a_400_digit_code_is_named_by_its_size(tmp_path, args):
+    # the message quoted all 400 digits
+    (tmp_path / "c.csv").write_text(f"step,m1,m2\n1,{BIG},0\n")
+    line = one_line(bhr(*args, cwd=tmp_path, timeout=120))
+    assert "code of 400 digits" in line and "is not a stable actuator code" in line and len(line) < 200, line
+    assert sorted(os.listdir(tmp_path)) == ["c.csv"]
