@@ -112,15 +112,19 @@ def replay(run, show, animate_path, stride, out_dir, step):
         from bhr.output.plots import save_run_plots
         from bhr.output.view import save_view
 
-        with status(f"drawing the figures into {out}"):  # everything `bhr follow` drew
-            if folder is None:  # a loose run.json: the figures are written beside it, each whole
+        drawing = f"drawing the figures into {out}"  # everything `bhr follow` drew
+        if folder is None:  # a loose run.json: the figures are written beside it, each whole
+            with status(drawing):
                 written += save_run_plots(result, out, step)
                 written.append(save_view(result, out))
-            else:
-                with folder:
+        else:
+            with folder:
+                with status(drawing):
                     written += [folder.final(p.name) for p in save_run_plots(result, folder.stage, step)]
                     written.append(folder.final(save_view(result, folder.stage).name))
-    if animate_path:
+                if animate_path:  # before the folder goes in place: a Ctrl-C while it renders leaves none
+                    render_animation(result, animate_path, stride)
+    if animate_path and folder is None:
         render_animation(result, animate_path, stride)  # prints its own line
     if written:
         click.echo("Wrote " + ", ".join(str(p) for p in written))

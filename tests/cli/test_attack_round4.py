@@ -267,3 +267,49 @@ def test_a_400_digit_code_is_named_by_its_size(tmp_path, args):
     line = one_line(bhr(*args, cwd=tmp_path, timeout=120))
     assert "code of 400 digits" in line and "is not a stable actuator code" in line and len(line) < 200, line
     assert sorted(os.listdir(tmp_path)) == ["c.csv"]
+
+
+@pytest.mark.parametrize("args", [["fk", "--codes", "0,3"], ["fk", "--codes", "0,3", "--json", "-"],
+                                  ["solve", "--target", "0", "0", "10"]], ids=["fk", "fk-json", "solve"])
+def test_a_full_standard_output_is_named_as_such(tmp_path, args):
+    # a failed flush drops what it held, so the check's second flush passed: "writing a file: No space left"
+    with open("/dev/full", "w") as full:
+        r = subprocess.run(bhr_exe() + args, cwd=tmp_path, stdout=full, stderr=subprocess.PIPE, text=True,
+                           timeout=120, env=ENV)
+    line = one_line(r)
+    assert line == ("Error: standard output: No space left on device; free some disk space or write to another "
+                    "device"), line
+    assert list(tmp_path.iterdir()) == []
+
+
+# --- Ctrl-C while an animation renders ---------------------------------------------------------------------------
+
+def _living(session: int) -> list[str]:
+    out = subprocess.run(["ps", "-s", str(session), "-o", "pid=,stat=,args="], capture_output=True, text=True).stdout
+    return [ln for ln in out.splitlines() if ln.split() and "Z" not in ln.split()[1]]
+
+
+@pytest.mark.parametrize("cmd", ["follow", "replay"])
+def test_a_ctrl_c_while_the_animation_renders_leaves_no_folder(tmp_path, cmd):
+    # the run's folder was put in place before the animation was rendered: "Interrupted." and 130, its folder left
+    import signal
+    import time
+
+    if cmd == "replay":
+        assert bhr("follow", "--traj", "curve", "--no-plots", "--out", "run", cwd=tmp_path).returncode == 0
+        args = ["replay", "run/run.json", "--out", "figs", "--animate", "a.gif"]
+    else:
+        args = ["follow", "--traj", "curve", "--no-plots", "--out", "figs", "--animate", "a.gif"]
+    before = snapshot(tmp_path)
+    p = subprocess.Popen(bhr_exe() + args, cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                         env=ENV, start_new_session=True)
+    deadline = time.monotonic() + 240
+    while not [n for n in os.listdir(tmp_path) if n.startswith(".a.gif.")]:  # the animation's file being written
+        assert p.poll() is None and time.monotonic() < deadline, p.communicate()
+        time.sleep(0.01)
+    os.killpg(p.pid, signal.SIGINT)
+    out, err = p.communicate(timeout=120)
+    lines = [ln for ln in err.strip().splitlines() if not ln.startswith("Compiling bhr's")]
+    assert p.returncode == 130 and lines == ["Interrupted."], (p.returncode, err[-2000:])
+    assert snapshot(tmp_path) == before and "figs" not in os.listdir(tmp_path)
+    assert _living(p.pid) == []
