@@ -4,6 +4,7 @@ from __future__ import annotations
 import contextlib
 import functools
 import os
+import stat
 import sys
 from pathlib import Path
 from typing import Any, Callable
@@ -37,15 +38,28 @@ def os_error_line(exc: OSError, on_stdout: bool = True) -> str:
     return f"{what}: {why}; {fix}"
 
 
-def _stdout_failed() -> bool:
+def _stdout_failed(exc: OSError | None = None) -> bool:
     """Whether standard output is what failed: what it holds cannot be written either (a failed write keeps its
     data buffered). An OSError that names no file came from standard output, or from a library writing a file of
-    its own through an open file (numba's cache, matplotlib's font list): the line must not blame the wrong one."""
+    its own through an open file (numba's cache, matplotlib's font list): the line must not blame the wrong one.
+    A failed flush drops what it held, so a second flush succeeds: a "no room" error is also standard output's
+    when standard output itself has no room (``> /dev/full``, a file on a full disk)."""
     try:
         sys.stdout.flush()
-        return False
     except (OSError, ValueError):  # ValueError: standard output closed
         return True
+    import errno
+
+    if exc is None or exc.errno not in (errno.ENOSPC, errno.EDQUOT):
+        return False
+    try:
+        fd = sys.stdout.fileno()
+        st = os.fstat(fd)
+        if stat.S_ISCHR(st.st_mode):
+            return st.st_rdev == os.makedev(1, 7)  # /dev/full
+        return stat.S_ISREG(st.st_mode) and os.fstatvfs(fd).f_bavail == 0
+    except (OSError, ValueError, AttributeError):
+        return False
 
 
 def _quiet_stdout() -> None:
@@ -83,7 +97,7 @@ def guarded(func: Callable[..., Any]) -> Callable[..., Any]:
             _quiet_stdout()  # the reader went away (bhr ... | head): stop quietly
             sys.exit(141)
         except OSError as exc:
-            on_stdout = exc.filename is None and _stdout_failed()
+            on_stdout = exc.filename is None and _stdout_failed(exc)
             if on_stdout:
                 _quiet_stdout()
             raise click.ClickException(os_error_line(exc, on_stdout)) from None

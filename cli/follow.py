@@ -162,6 +162,8 @@ def _bar(bars: list, label: str):
     state: dict = {}
 
     def progress(done: int, total: int) -> None:
+        if not sys.stderr.isatty():  # the bar only on a terminal: piped, stderr stays empty unless something fails
+            return
         if "bar" not in state:
             bar = click.progressbar(length=total, label=label, file=sys.stderr, show_pos=True)
             state["bar"], state["done"] = bar.__enter__(), 0

@@ -31,7 +31,7 @@ def physics(run, out_dir, wall_stiffness, physics_rate, substeps):
     from bhr.settings.errors import BhrError
     from bhr.settings.options import BY_NAME
 
-    if run != "-" and not Path(run).is_file():
+    if run != "-" and not Path(run).exists():  # a folder, FIFO or device is load_run's to name
         raise BhrError(f"{run}: no such run file; give the run.json that 'bhr follow --out DIR' wrote")
     folder = OutputFolder(out_dir, "physics", names=PHYSICS_NAMES).check()
     opts = {"wall_stiffness": BY_NAME["wall_stiffness"].default if wall_stiffness is None else wall_stiffness,

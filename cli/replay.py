@@ -4,6 +4,7 @@ Also home of the helpers that ``bhr follow --show/--animate`` share with it.
 """
 from __future__ import annotations
 
+import contextlib
 import sys
 from pathlib import Path
 from typing import Any
@@ -35,13 +36,15 @@ def render_animation(result, animate_path: str, stride: int | None, shown: Path 
     from bhr.output.animate import animate, default_stride, frame_steps
 
     total = len(frame_steps(result.steps, stride or default_stride(result.steps)))
-    progressbar: Any = click.progressbar(length=total, label=f"Rendering {animate_path}",
-                                         file=sys.stderr, show_pos=True)
+    # the bar only on a terminal: piped or logged, stderr stays empty unless something fails (then one line)
+    progressbar: Any = click.progressbar(length=total, label=f"Rendering {animate_path}", file=sys.stderr,
+                                         show_pos=True) if sys.stderr.isatty() else contextlib.nullcontext()
     with progressbar as bar:
         done = [0]
 
         def progress(k: int, _total: int) -> None:
-            bar.update(k - done[0])
+            if bar is not None:
+                bar.update(k - done[0])
             done[0] = k
 
         anim = animate(result, animate_path, stride=stride, progress=progress)
@@ -109,15 +112,19 @@ def replay(run, show, animate_path, stride, out_dir, step):
         from bhr.output.plots import save_run_plots
         from bhr.output.view import save_view
 
-        with status(f"drawing the figures into {out}"):  # everything `bhr follow` drew
-            if folder is None:  # a loose run.json: the figures are written beside it, each whole
+        drawing = f"drawing the figures into {out}"  # everything `bhr follow` drew
+        if folder is None:  # a loose run.json: the figures are written beside it, each whole
+            with status(drawing):
                 written += save_run_plots(result, out, step)
                 written.append(save_view(result, out))
-            else:
-                with folder:
+        else:
+            with folder:
+                with status(drawing):
                     written += [folder.final(p.name) for p in save_run_plots(result, folder.stage, step)]
                     written.append(folder.final(save_view(result, folder.stage).name))
-    if animate_path:
+                if animate_path:  # before the folder goes in place: a Ctrl-C while it renders leaves none
+                    render_animation(result, animate_path, stride)
+    if animate_path and folder is None:
         render_animation(result, animate_path, stride)  # prints its own line
     if written:
         click.echo("Wrote " + ", ".join(str(p) for p in written))

@@ -61,8 +61,9 @@ def check_code(code: object, where: str = "") -> int:
         shown = repr(code) if len(str(code)) <= 40 else repr(str(code)[:40]) + "..."
         raise BhrError(f"code {shown}{place} is not a whole number; use one of {_ALLOWED}") from None
     if value not in _VALID:
+        shown = str(value) if abs(value) < 10 ** 30 else f"of {len(str(abs(value)))} digits"  # not 400 of them
         raise BhrError(
-            f"code {value}{place} is not a stable actuator code; use one of {_ALLOWED}"
+            f"code {shown}{place} is not a stable actuator code; use one of {_ALLOWED}"
         )
     return value
 

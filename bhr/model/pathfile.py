@@ -32,7 +32,7 @@ import numpy as np
 from bhr.settings.inputs import (MAX_MM, MAX_POINTS, check_keys, choice, number, read_text, text_value,
                                  type_name, vector3)
 from bhr.settings.errors import BhrError
-from bhr.settings.options import LIMITS
+from bhr.settings.options import LIMITS, MAX_NUMBER_CHARS, MIN_MAGNITUDE, excerpt
 from bhr.model.path import Trajectory, resample_polyline
 
 __all__ = ["segments_trajectory", "csv_trajectory", "resample_polyline", "estimate_min_radius",
@@ -277,6 +277,9 @@ def read_points_csv(path: Path) -> tuple[np.ndarray, np.ndarray | None, np.ndarr
             if name not in cols:
                 continue
             f = fields[cols[name]]
+            if len(f) > MAX_NUMBER_CHARS:  # a 400-digit integer was quoted whole, and read as "not finite"
+                raise BhrError(f"{where}, line {no}: {name} = {excerpt(f)} is {len(f)} characters, longer than "
+                               f"any number ({MAX_NUMBER_CHARS}); give mm as plain numbers such as 12.5")
             try:
                 if not (f.isascii() and "_" not in f):  # no "1_5", full-width or Arabic-Indic digits
                     raise ValueError(f)
@@ -288,6 +291,9 @@ def read_points_csv(path: Path) -> tuple[np.ndarray, np.ndarray | None, np.ndarr
                 raise BhrError(f"{where}, line {no}: {name} = {f} is not a finite number; give mm as plain numbers")
             if abs(v) > MAX_MM:
                 raise BhrError(f"{where}, line {no}: {name} = {f} is beyond +-{MAX_MM:g} mm; give mm as plain numbers")
+            if v != 0.0 and abs(v) < MIN_MAGNITUDE:  # 1e-320, a denormal: out, as the one checker has it
+                raise BhrError(f"{where}, line {no}: {name} = {f} is too small to mean anything (a denormal, under "
+                               f"{MIN_MAGNITUDE:g}); give mm as plain numbers such as 12.5")
             if name == "lumen" and v <= 0:
                 raise BhrError(f"{where}, line {no}: lumen = {f} must be a diameter greater than 0 mm")
             vals.append(v)

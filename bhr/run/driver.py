@@ -30,7 +30,7 @@ import numpy as np
 from bhr import __version__
 from bhr.settings.inputs import MAX_MM, MAX_RUN_BYTES, MAX_STEP_POINTS, read_text
 from bhr.settings.errors import BhrError, renamed
-from bhr.settings.options import OPTIONS, robot_limits
+from bhr.settings.options import MIN_MAGNITUDE, OPTIONS, robot_limits
 from bhr.model.codes import VALID_CODES as STABLE_CODES
 from bhr.model.robot import THESIS_ROBOT, Robot, robot_with
 from bhr.solvers import Chain, FollowContext, Solver, get_solver
@@ -330,14 +330,19 @@ def _run_from_json(doc: Any, where: str) -> FollowResult:
 
     def array(value: Any, shape: tuple[int | None, ...], what: str) -> np.ndarray:
         try:
-            arr = np.asarray(value, dtype=np.float64)
+            raw = np.asarray(value)  # as written: numpy's float() would read the text "１０" as 10
+            arr = None if raw.dtype.kind in "USb" else np.asarray(raw, dtype=np.float64)
         except (TypeError, ValueError, OverflowError):
             raise bad(f"{what} must be numbers of a sensible size") from None
+        if arr is None:
+            raise bad(f"{what} must be numbers, not {'true/false' if raw.dtype.kind == 'b' else 'text'}")
         if arr.ndim != len(shape) or any(w is not None and w != h for w, h in zip(shape, arr.shape)):
             want = " x ".join("N" if w is None else str(w) for w in shape)
             raise bad(f"{what} must be {want} numbers, got shape {' x '.join(map(str, arr.shape)) or 'scalar'}")
         if not np.all(np.isfinite(arr)):
             raise bad(f"{what} must be finite numbers")
+        if np.any((arr != 0.0) & (np.abs(arr) < MIN_MAGNITUDE)):  # 1e-320: the one checker refuses denormals
+            raise bad(f"{what} must not be denormals (non-zero numbers under {MIN_MAGNITUDE:g})")
         if arr.size and float(np.abs(arr).max()) > MAX_MM:
             raise bad(f"{what} must lie within +-{MAX_MM:g} mm (or deg)")
         return arr

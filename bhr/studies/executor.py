@@ -29,6 +29,7 @@ Dask is imported only when a scheduler is given.
 from __future__ import annotations
 
 import contextlib
+import errno
 import functools
 import math
 import os
@@ -60,12 +61,18 @@ def reason(exc: BaseException) -> str:
     return f"{type(exc).__name__}: {lines[0]}" if lines else type(exc).__name__
 
 
+#: A write that failed for want of room (a full disk, a quota, a file-size limit): the study's output failed, not
+#: one run, and the next run's files would not fit either.
+_OUTPUT_FULL = (errno.ENOSPC, errno.EDQUOT, errno.EFBIG)
+
+
 class capture:
     """``with capture(row):`` -- an exception inside (not Ctrl-C) becomes ``row["status"] = "failed: <reason>"``.
 
     With ``keep_traceback`` the traceback of an unexpected error (anything
     but a BhrError, which explains itself) is kept in ``row["traceback"]``.
-    One failed run must not stop a study: the others still run.
+    One failed run must not stop a study: the others still run. A disk that is
+    full (:data:`_OUTPUT_FULL`) stops it: the output folder cannot be written.
     """
 
     def __init__(self, row: dict[str, Any], *, keep_traceback: bool = False) -> None:
@@ -77,6 +84,8 @@ class capture:
 
     def __exit__(self, kind: Any, exc: BaseException | None, tb: Any) -> bool:
         if exc is None or not isinstance(exc, Exception):  # KeyboardInterrupt, SystemExit go on
+            return False
+        if isinstance(exc, OSError) and exc.errno in _OUTPUT_FULL:
             return False
         self.row["status"] = f"failed: {reason(exc)}"
         if self.keep_traceback and not isinstance(exc, BhrError):
@@ -273,9 +282,40 @@ def _lost(address: str, why: str) -> BhrError:
     return BhrError(f"lost the Dask scheduler at {address} ({why}); start it again (dask scheduler) and rerun")
 
 
-def _no_workers(address: str, waited: float, lost: bool) -> BhrError:
-    what = "every worker of the Dask scheduler at {a} is gone" if lost else "the Dask scheduler at {a} has no workers"
-    return BhrError(f"{what.format(a=address)} (waited {waited:g} s); start one with: dask worker {address}")
+def _no_workers(address: str, waited: float, lost: bool, silent: bool = False) -> BhrError:
+    what = ("every worker of the Dask scheduler at {a} has stopped answering (no heartbeat for" if silent else
+            "every worker of the Dask scheduler at {a} is gone (waited" if lost else
+            "the Dask scheduler at {a} has no workers (waited")
+    return BhrError(f"{what.format(a=address)} {waited:g} s); start one with: dask worker {address}")
+
+
+def _ask(client: Any, address: str, limit: float, call: Any, **kwargs: Any) -> Any:
+    """A call to the scheduler answered within ``limit`` seconds, else one line: a scheduler that is stopped
+    (SIGSTOP, a frozen machine) keeps its connection open and never answers."""
+    try:
+        return client.sync(call, callback_timeout=limit, **kwargs)
+    except TimeoutError:  # asyncio's too (Python 3.11)
+        raise _lost(address, f"no answer for {limit:g} s") from None
+    except Exception as exc:
+        raise _lost(address, reason(exc)) from None
+
+
+def _answering_workers(client: Any, address: str, limit: float,
+                       heard: dict[str, tuple[Any, float]]) -> tuple[int, int]:
+    """How many of the scheduler's workers answer, and how many it knows. A worker whose heartbeat (its
+    ``last_seen`` on the scheduler) has not changed for ``limit`` seconds of this clock is stopped: the
+    scheduler keeps it for minutes (its worker-ttl) and its jobs would wait as long."""
+    info = _ask(client, address, limit, client.scheduler.identity)
+    workers = (info or {}).get("workers", {}) or {}
+    now = time.monotonic()
+    count = 0
+    for name, w in workers.items():
+        seen = w.get("last_seen", w.get("last-seen")) if isinstance(w, dict) else None
+        if name not in heard or heard[name][0] != seen:
+            heard[name] = (seen, now)
+        if seen is None or now - heard[name][1] <= limit:
+            count += 1
+    return count, len(workers)
 
 
 def _quiet_dask() -> None:
@@ -306,6 +346,7 @@ def _run_dask(scheduler: Any, fn: Callable[[Any], Any], warm_up: Callable[..., A
         workers = _wait_for_workers(client, address, limit, lost=False)
         futures = client.map(functools.partial(_run_chunk, fn, warm_up, warm_up_args), chunks, pure=False)
         pending = set(futures)
+        heard: dict[str, tuple[Any, float]] = {}  # worker -> (its last heartbeat as the scheduler saw it, when)
         idle_since: float | None = None
         checked = 0.0
         while pending:
@@ -334,16 +375,13 @@ def _run_dask(scheduler: Any, fn: Callable[[Any], Any], warm_up: Callable[..., A
             if now - checked < 1.0:
                 continue
             checked = now
-            try:
-                count = len(client.scheduler_info().get("workers", {}))
-            except Exception as exc:
-                raise _lost(address, reason(exc)) from None
+            count, known = _answering_workers(client, address, limit, heard)
             if count:
                 idle_since = None
             else:
                 idle_since = idle_since or now
                 if now - idle_since > limit:
-                    raise _no_workers(address, limit, lost=True)
+                    raise _no_workers(address, limit, lost=True, silent=known > 0)
     except (BhrError, KeyboardInterrupt):
         raise
     except Exception as exc:  # anything else Dask raises: the cluster, not the study, failed
@@ -366,10 +404,7 @@ def _wait_for_workers(client: Any, address: str, limit: float, lost: bool) -> in
     """The cluster's worker threads once it has a worker; one line after ``limit`` seconds without one."""
     t0 = time.monotonic()
     while True:
-        try:
-            threads = sum(client.nthreads().values())
-        except Exception as exc:
-            raise _lost(address, reason(exc)) from None
+        threads = sum((_ask(client, address, limit, client.scheduler.ncores) or {}).values())
         if threads:
             return max(1, threads)
         if time.monotonic() - t0 > limit:
@@ -435,6 +470,9 @@ def connect_scheduler(address: str, timeout: float = 15.0) -> Any:
         scheme, loc = parse_address(address.strip())
         if scheme in ("tcp", "tls"):
             parse_host_port(loc)
+            port = loc.rpartition(":")[2]
+            if not (port.isascii() and port.isdigit()):  # int() takes full-width digits: '８７８６' is 8786
+                raise ValueError(f"the port {port!r} is not plain digits 0-9")
     except (ValueError, TypeError) as exc:
         raise _cannot(address, str(exc).splitlines()[0] if str(exc) else "malformed address") from None
 
@@ -459,6 +497,8 @@ def connect_scheduler(address: str, timeout: float = 15.0) -> Any:
         asyncio.run(bounded())
     except (asyncio.TimeoutError, TimeoutError):
         raise _cannot(address, f"no Dask handshake within {timeout:g} s; is it a Dask scheduler?") from None
+    except MemoryError:  # its first bytes, read as Dask's message length, ask for exabytes: not a Dask answer
+        raise _cannot(address, "it answered, but not as Dask does; is it a Dask scheduler?") from None
     except Exception as exc:  # OSError, ValueError
         raise _cannot(address, str(exc).splitlines()[0] if str(exc) else exc.__class__.__name__) from None
     try:

@@ -240,6 +240,8 @@ def follow_run(traj: str, *, robot: Any, solver: str = "thesis", solver_options:
             if anim_inside is not None:  # an animation inside the folder belongs to its set
                 run.animations.append(_animate(result, folder.path(anim_inside), stride, frames_progress,
                                                folder.final(anim_inside)))
+            elif animate_path is not None:  # rendered before the folder goes in place: a Ctrl-C while it renders
+                run.animations.append(_animate(result, animate_path, stride, frames_progress, None))  # leaves none
             if json_path not in (None, "-") and json_inside is None:
                 write_json(json_path, doc)  # before the folder goes in place: a failure here keeps the old set
                 written.append(Path(json_path))
@@ -254,7 +256,7 @@ def follow_run(traj: str, *, robot: Any, solver: str = "thesis", solver_options:
         from bhr.hardware.thermal import auto_schedule
 
         run.procedure_s = auto_schedule(thermal, codes, rate, trace=False).total_s  # memory: not per step
-    if animate_path is not None and anim_inside is None:
+    if animate_path is not None and anim_inside is None and folder is None:
         run.animations.append(_animate(result, animate_path, stride, frames_progress, None))
     return run
 

@@ -37,7 +37,7 @@ from bhr.studies.executor import DASK_MISSING, capture, connect_scheduler, run_j
 from bhr.model.generators import GENERATORS, builtin_names, load_trajectory
 from bhr.run.driver import BhrWarning, follow
 from bhr.output.htmlpage import PAGE_END, escape, figure, fmt, page_head, table
-from bhr.settings.options import BY_NAME, LIMITS, by_group, solver_options_for
+from bhr.settings.options import BY_NAME, LIMITS, MAX_NUMBER_CHARS, by_group, excerpt, solver_options_for
 from bhr.model.robot import Robot
 from bhr.model.robotfile import load_robot_file
 from bhr.solvers import check_solver_name
@@ -66,18 +66,34 @@ _MAX_DESIGNS = LIMITS["study_runs"]
 
 def _number(text: str, key: str, where: str) -> int | float:
     t = text.strip()
+    if len(t) > MAX_NUMBER_CHARS:  # a 400-digit range end overflowed the count (OverflowError, a traceback)
+        raise BhrError(f"{where}: {key} value {excerpt(t)} is {len(t)} characters, longer than any number "
+                       f"({MAX_NUMBER_CHARS})")
     if not _NUM.match(t):
-        raise BhrError(f"{where}: {key} value {text!r} is not a number")
-    return int(t) if re.fullmatch(r"[+-]?\d+", t, re.ASCII) else float(t)
+        raise BhrError(f"{where}: {key} value {excerpt(t)} is not a number")
+    v = int(t) if re.fullmatch(r"[+-]?\d+", t, re.ASCII) else float(t)
+    if isinstance(v, float) and not math.isfinite(v):  # 1e400
+        raise BhrError(f"{where}: {key} value {t} is not a finite number")
+    return v
 
 
 def _range(start: float, stop: float, step: float, key: str, where: str) -> list[int | float]:
+    for end in (start, stop):
+        if abs(end) > 1e300:  # FIRST-LAST of whole numbers of any length: :g of one would overflow
+            raise BhrError(f"{where}: {key} range end {excerpt(end)} is too large to be a value of {key}")
     if step <= 0:
         raise BhrError(f"{where}: {key} range step must be positive, got {step:g}")
     if stop < start:
         raise BhrError(f"{where}: {key} range {start:g}:{stop:g} runs backwards; give START:STOP[:STEP] with "
                        "START <= STOP")
-    count = int(math.floor((stop - start) / step + 1e-9)) + 1
+    try:
+        span = (stop - start) / step
+    except OverflowError:  # whole numbers too far apart for a float
+        span = math.inf
+    if not span < _MAX_DESIGNS:  # counted before any int() of it: 5:1e308 has a 309-digit count
+        raise BhrError(f"{where}: {key} range {start:g}:{stop:g}:{step:g} has more than {_MAX_DESIGNS} values; "
+                       "use a larger step")
+    count = int(math.floor(span + 1e-9)) + 1
     if count > _MAX_DESIGNS:
         raise BhrError(f"{where}: {key} range {start:g}:{stop:g}:{step:g} has {count} values; use a larger step")
     integral = all(float(v).is_integer() for v in (start, stop, step))
@@ -102,13 +118,14 @@ def parse_values(key: str, value: Any, where: str) -> tuple[Any, ...]:
             raise BhrError(f"{where}: {key} has no values; give e.g. {key}=4,5,6 or {key}=4:8")
         if (key in CONSTRAINT_KEYS and CONSTRAINT_KEYS[key] is not None) or key in RUN_CHOICE_KEYS:
             raw: list[Any] = [t.strip() for t in text.split(",")]
-        elif re.fullmatch(r"\d+\s*-\s*\d+", text) and BY_NAME.get(key) is not None and BY_NAME[key].kind is int:
+        elif (re.fullmatch(r"\d+\s*-\s*\d+", text, re.ASCII) and BY_NAME.get(key) is not None
+              and BY_NAME[key].kind is int):
             a, b = (int(t) for t in text.split("-"))  # FIRST-LAST of whole numbers, as --colons takes them
             raw = _range(a, b, 1, key, where)
         elif ":" in text and "," not in text:
             parts = text.split(":")
             if len(parts) not in (2, 3):
-                raise BhrError(f"{where}: {key} range {text!r} must be START:STOP or START:STOP:STEP")
+                raise BhrError(f"{where}: {key} range {excerpt(text)} must be START:STOP or START:STOP:STEP")
             nums = [_number(p, key, where) for p in parts]
             raw = _range(nums[0], nums[1], nums[2] if len(nums) == 3 else 1, key, where)
         else:
@@ -131,7 +148,7 @@ def parse_values(key: str, value: Any, where: str) -> tuple[Any, ...]:
 def parse_grid_option(text: str) -> tuple[str, tuple[Any, ...]]:
     """``KEY=VALUES`` from the command line (``--grid modules=4:8``)."""
     if "=" not in text:
-        raise BhrError(f"--grid {text!r} must be KEY=VALUES, e.g. --grid modules=4,5,6 or --grid alpha=8:12:0.5")
+        raise BhrError(f"--grid {excerpt(text)} must be KEY=VALUES, e.g. --grid modules=4,5,6 or --grid alpha=8:12:0.5")
     key, _, values = text.partition("=")
     key = key.strip().replace("-", "_")
     return key, parse_values(key, values, "--grid")

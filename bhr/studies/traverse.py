@@ -41,7 +41,7 @@ from bhr.run.driver import BhrWarning, follow
 from bhr.output.htmlpage import PAGE_END, escape, figure, fmt, page_head, table
 from bhr.settings.names import axis_label
 from bhr.settings.names import label as _label
-from bhr.settings.options import LIMITS, solver_options_for
+from bhr.settings.options import LIMITS, excerpt, solver_options_for
 from bhr.studies.study import ROBOT_KEYS, TRAJ_KEYS, csv_text, make_robot, sim_options
 from bhr.studies.sweep import Sweep, SweepResult, build_sweep, run_sweep
 from bhr.studies.sweep import heatmap_axes as _sweep_axes
@@ -78,19 +78,19 @@ def parse_colons(text: str | Sequence[int]) -> tuple[int, ...]:
         for part in text.split(","):
             m = _RANGE.match(part)
             if m is None:
-                raise BhrError(f"--colons: {part.strip()!r} is not a seed or a range of seeds; give e.g. 1-100, "
+                raise BhrError(f"--colons: {excerpt(part.strip())} is not a seed or a range of seeds; give e.g. 1-100, "
                                "1:100 or 1,2,5-9 (whole numbers)")
             a = int(m.group(1))
             b = int(m.group(3)) if m.group(3) is not None else a
             step = int(m.group(4)) if m.group(4) is not None else 1
             if m.group(4) is not None and m.group(2) != ":":
-                raise BhrError(f"--colons: {part.strip()!r} mixes - and :; give FIRST-LAST or FIRST:LAST:STEP")
+                raise BhrError(f"--colons: {excerpt(part.strip())} mixes - and :; give FIRST-LAST or FIRST:LAST:STEP")
             if step < 1:
-                raise BhrError(f"--colons: the step of {part.strip()!r} must be a whole number of at least 1")
+                raise BhrError(f"--colons: the step of {excerpt(part.strip())} must be a whole number of at least 1")
             if b < a:
                 raise BhrError(f"--colons: range {a}-{b} runs backwards; give FIRST-LAST with FIRST <= LAST")
             if a > SEED_MAX or b > SEED_MAX:
-                raise BhrError(f"--colons: seeds go from 0 to {SEED_MAX}, got {part.strip()!r}")
+                raise BhrError(f"--colons: seeds go from 0 to {SEED_MAX}, got {excerpt(part.strip())}")
             if len(range(a, b + 1, step)) + len(seeds) > _MAX_COLONS:
                 raise BhrError(f"--colons: more than {_MAX_COLONS} colons; give fewer seeds")
             seeds.extend(range(a, b + 1, step))

@@ -97,7 +97,7 @@ def test_replay_names_the_animation_once(run_bhr, tmp_path):
     assert res.returncode == 0, res.stderr
     res = run_bhr("replay", "run/run.json", "--animate", "a.gif")
     assert res.returncode == 0, res.stderr
-    assert (res.stdout + res.stderr).count("a.gif") == 2  # the progress label and the one Animation line
+    assert (res.stdout + res.stderr).count("a.gif") == 1  # the one Animation line (piped: no progress label)
     assert "Wrote" not in res.stdout
 
 
