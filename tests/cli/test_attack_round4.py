@@ -295,11 +295,13 @@ def test_a_ctrl_c_while_the_animation_renders_leaves_no_folder(tmp_path, cmd):
     import signal
     import time
 
+    # the colon: 827 frames, many seconds of rendering after the animation's file appears, so that the Ctrl-C
+    # lands while it renders even on a busy machine (with the curve's few frames a late Ctrl-C came after the end)
     if cmd == "replay":
-        assert bhr("follow", "--traj", "curve", "--no-plots", "--out", "run", cwd=tmp_path).returncode == 0
+        assert bhr("follow", "--traj", "colon", "--no-plots", "--out", "run", cwd=tmp_path).returncode == 0
         args = ["replay", "run/run.json", "--out", "figs", "--animate", "a.gif"]
     else:
-        args = ["follow", "--traj", "curve", "--no-plots", "--out", "figs", "--animate", "a.gif"]
+        args = ["follow", "--traj", "colon", "--no-plots", "--out", "figs", "--animate", "a.gif"]
     before = snapshot(tmp_path)
     p = subprocess.Popen(bhr_exe() + args, cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                          env=ENV, start_new_session=True)
