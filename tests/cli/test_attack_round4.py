@@ -13,18 +13,7 @@ import pytest
 
 from tests.conftest import bhr_exe, snapshot
 
-ENV = dict(os.environ, MPLBACKEND="Agg")
-
-
-def bhr(*args, cwd: Path, timeout: float = 300, env: dict | None = None, **kw) -> subprocess.CompletedProcess:
-    return subprocess.run(bhr_exe() + [str(a) for a in args], cwd=cwd, capture_output=True, text=True,
-                          timeout=timeout, env=env or ENV, **kw)
-
-
-def one_line(r: subprocess.CompletedProcess) -> str:
-    lines = [ln for ln in r.stderr.strip().splitlines() if ln.strip() and not ln.startswith("Compiling bhr's")]
-    assert r.returncode != 0 and len(lines) == 1 and "Traceback" not in r.stderr, (r.returncode, r.stderr)
-    return lines[0]
+from tests.cli.test_attack_round3 import ENV, bhr, one_line  # the same checks as round three
 
 
 # --- a run file that is not a regular file -------------------------------------------------------------------

@@ -10,17 +10,24 @@ from bhr.studies.executor import DASK_WAIT_S
 from tests.integration.test_dask_faults import _dask, _one_line, _run_then, _stop, scheduler  # noqa: F401
 
 
-def test_a_stopped_scheduler_mid_run_gives_one_line(tmp_path, scheduler):  # noqa: F811
-    # the sweep asked a stopped scheduler for its workers and waited for ever (scheduler_info has no deadline)
-    sched, address = scheduler
+def _stopped_mid_run(tmp_path, address, which):
+    """A sweep on the cluster, then SIGSTOP to ``which(scheduler, worker)``'s process group: its exit status, its
+    stderr and how long it waited after the stop."""
     worker = _dask("worker", address, "--nworkers", "1", "--nthreads", "1", "--no-dashboard", log=tmp_path / "w.log")
     try:
         time.sleep(6)
         t = []
-        rc, err = _run_then(tmp_path, address, lambda: (t.append(time.monotonic()), os.killpg(sched.pid, signal.SIGSTOP)))
-        waited = time.monotonic() - t[0]
+        rc, err = _run_then(tmp_path, address, lambda: (t.append(time.monotonic()),
+                                                        os.killpg(which(worker).pid, signal.SIGSTOP)))
+        return rc, err, time.monotonic() - t[0]
     finally:
         _stop(worker)
+
+
+def test_a_stopped_scheduler_mid_run_gives_one_line(tmp_path, scheduler):  # noqa: F811
+    # the sweep asked a stopped scheduler for its workers and waited for ever (scheduler_info has no deadline)
+    sched, address = scheduler
+    rc, err, waited = _stopped_mid_run(tmp_path, address, lambda worker: sched)
     line = _one_line(rc, err)
     assert f"lost the Dask scheduler at {address} (no answer for {DASK_WAIT_S:g} s)" in line, line
     assert waited < DASK_WAIT_S + 30 and not (tmp_path / "o").exists()
@@ -29,14 +36,7 @@ def test_a_stopped_scheduler_mid_run_gives_one_line(tmp_path, scheduler):  # noq
 def test_every_worker_stopped_mid_run_gives_one_line(tmp_path, scheduler):  # noqa: F811
     # a stopped worker stays on the scheduler's list for its worker-ttl (5 minutes): its jobs waited as long
     _, address = scheduler
-    worker = _dask("worker", address, "--nworkers", "1", "--nthreads", "1", "--no-dashboard", log=tmp_path / "w.log")
-    try:
-        time.sleep(6)
-        t = []
-        rc, err = _run_then(tmp_path, address, lambda: (t.append(time.monotonic()), os.killpg(worker.pid, signal.SIGSTOP)))
-        waited = time.monotonic() - t[0]
-    finally:
-        _stop(worker)
+    rc, err, waited = _stopped_mid_run(tmp_path, address, lambda worker: worker)
     line = _one_line(rc, err)
     assert f"every worker of the Dask scheduler at {address} has stopped answering" in line, line
     assert waited < 2 * DASK_WAIT_S + 30 and not (tmp_path / "o").exists()
