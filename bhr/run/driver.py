@@ -328,14 +328,24 @@ def _run_from_json(doc: Any, where: str) -> FollowResult:
     def bad(what: str) -> BhrError:
         return BhrError(f"{where}: {what}; give a run.json written by 'bhr follow'")
 
+    def has_bool(value: Any) -> bool:  # a true among numbers: numpy would make it 1.0
+        stack = [value]
+        while stack:
+            v = stack.pop()
+            if type(v) is bool:
+                return True
+            if type(v) is list:
+                stack.extend(v)
+        return False
+
     def array(value: Any, shape: tuple[int | None, ...], what: str) -> np.ndarray:
         try:
             raw = np.asarray(value)  # as written: numpy's float() would read the text "１０" as 10
             arr = None if raw.dtype.kind in "USb" else np.asarray(raw, dtype=np.float64)
         except (TypeError, ValueError, OverflowError):
             raise bad(f"{what} must be numbers of a sensible size") from None
-        if arr is None:
-            raise bad(f"{what} must be numbers, not {'true/false' if raw.dtype.kind == 'b' else 'text'}")
+        if arr is None or has_bool(value):
+            raise bad(f"{what} must be numbers, not {'text' if raw.dtype.kind in 'US' else 'true/false'}")
         if arr.ndim != len(shape) or any(w is not None and w != h for w, h in zip(shape, arr.shape)):
             want = " x ".join("N" if w is None else str(w) for w in shape)
             raise bad(f"{what} must be {want} numbers, got shape {' x '.join(map(str, arr.shape)) or 'scalar'}")

@@ -231,10 +231,12 @@ def a_run(tmp_path_factory):
 
 @pytest.mark.parametrize("value, words", [('"１０"', "trajectory points must be numbers, not text"),
                                           ('"12.5"', "trajectory points must be numbers, not text"),
-                                          ("1e-320", "trajectory points must not be denormals")],
-                         ids=["full-width-text", "text", "denormal"])
+                                          ("1e-320", "trajectory points must not be denormals"),
+                                          ("true", "trajectory points must be numbers, not true/false")],
+                         ids=["full-width-text", "text", "denormal", "true-among-numbers"])
 def test_a_run_json_point_is_a_number_as_written(tmp_path, a_run, value, words):
-    # numpy's float() read the text "１０" as 10 and "12.5" as 12.5; a denormal passed: the replay went on
+    # numpy's float() read the text "１０" as 10 and "12.5" as 12.5, and a true among numbers as 1; a
+    # denormal passed: the replay went on
     import json
 
     doc = json.loads(a_run)
