@@ -33,8 +33,14 @@ def is_bhr_command() -> bool:
     return bool(sys.argv) and os.path.basename(sys.argv[0] or "") in ("bhr", "bhr.exe")
 
 
+#: llvmlite's ctypes callbacks, which run Python code inside a numba compile (its object cache): ctypes prints a
+#: KeyboardInterrupt raised there with a traceback and goes on, so a Ctrl-C waits until it has returned.
+_C_CALLBACKS = ("_raw_object_cache_notify", "_raw_object_cache_getbuffer")
+
+
 def _in_extension_init(frame: object) -> bool:
-    """True while a compiled extension module initialises (its init calls Python code), or inside a ``__del__``:
+    """True while a compiled extension module initialises (its init calls Python code), inside a ``__del__``, or
+    inside one of llvmlite's ctypes callbacks (:data:`_C_CALLBACKS`):
     a KeyboardInterrupt raised in an init leaves the extension half made (matplotlib's ft2font: "initialization
     failed", then a fatal error and SIGABRT while the interpreter shuts down); one raised in a finalizer is
     printed as "Exception ignored" with a traceback and lost. Either way the Ctrl-C waits a few ms."""
@@ -47,6 +53,8 @@ def _in_extension_init(frame: object) -> bool:
             break
         if code.co_name == "__del__":  # a finalizer (llvmlite's ObjectRef): Python would print the
             return True                # KeyboardInterrupt as "Exception ignored in ..." and a traceback
+        if code.co_name in _C_CALLBACKS and "llvmlite" in code.co_filename:  # a ctypes callback of numba's
+            return True  # compile (the object cache): "Exception ignored on calling ctypes callback function"
         if code.co_name in ("create_module", "exec_module") and isinstance(
                 getattr(f, "f_locals", {}).get("self"), ExtensionFileLoader):
             return True

@@ -232,7 +232,8 @@ def _launcher_held_before_python(tmp_path, **popen):
     real_env = shutil.which("env")
     slow = tmp_path / "bin"
     slow.mkdir()
-    (slow / "env").write_text(f'#!/bin/sh\n[ "$2" = true ] && sleep 2\nexec {real_env} "$@"\n')
+    # the launcher's check (env --block-signal=... --version) is slow, not the exec that starts Python
+    (slow / "env").write_text(f'#!/bin/sh\ncase "$2" in --version|true) sleep 2;; esac\nexec {real_env} "$@"\n')
     (slow / "env").chmod(0o755)
     p = subprocess.Popen([str(launcher), "fk", "--codes", "0,3"], cwd=tmp_path, stdout=subprocess.PIPE,
                          stderr=subprocess.PIPE, text=True, start_new_session=True,

@@ -75,6 +75,20 @@ def test_a_ctrl_c_during_an_extensions_init_is_held_then_raised():
         INTERRUPTED.clear()
 
 
+def test_a_ctrl_c_inside_llvmlites_ctypes_callback_is_held():
+    """numba's compile calls back into Python through ctypes (llvmlite's object cache): a KeyboardInterrupt raised
+    there was printed as "Exception ignored on calling ctypes callback function" with a traceback."""
+    from llvmlite.binding import executionengine
+
+    assert all(hasattr(executionengine.ExecutionEngine, name) for name in interrupts._C_CALLBACKS)
+    scope: dict = {"sys": sys}
+    for name in interrupts._C_CALLBACKS:
+        exec(compile(f"def {name}(self, data):\n    return sys._getframe()\n", executionengine.__file__, "exec"), scope)
+        assert interrupts._in_extension_init(scope[name](None, None))
+    exec(compile("def other(self, data):\n    return sys._getframe()\n", executionengine.__file__, "exec"), scope)
+    assert not interrupts._in_extension_init(scope["other"](None, None))
+
+
 def test_a_ctrl_c_inside_a_finalizer_is_held():
     class Ref:
         def __del__(self):
