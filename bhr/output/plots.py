@@ -126,7 +126,6 @@ class _ErrorGrid:
         self.result, self.rows, self.cols = result, rows, cols
         self.n = result.steps
         width, height = 10.0, 2.6 * rows + 0.9
-        self.height = height
         self.fig, axes = plt.subplots(rows, cols, figsize=(width, height), squeeze=False, sharex=True,
                                       gridspec_kw=_margins(width, height, rows, cols))
         self.axes = [axes[j // cols][j % cols] for j in range(rows * cols)]
@@ -810,8 +809,9 @@ def save_run_plots(result: "FollowResult", out_dir: str | os.PathLike[str], step
     try:
         for kind, (name, _, _) in ERROR_KINDS.items():
             shape = _error_grid_shape(_error_data(result, kind).shape[1])
-            grid = grids.get(shape) or grids.setdefault(shape, _ErrorGrid(result, *shape))
-            files.append(save_figure(grid.fill(kind), out / name, compress=RUN_PNG_COMPRESS, close=False))
+            if shape not in grids:
+                grids[shape] = _ErrorGrid(result, *shape)
+            files.append(save_figure(grids[shape].fill(kind), out / name, compress=RUN_PNG_COMPRESS, close=False))
     finally:
         for grid in grids.values():
             plt.close(grid.fig)
