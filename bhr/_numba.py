@@ -353,6 +353,89 @@ def install_cache_write_guard() -> None:
         sys.meta_path.insert(0, _CacheWriteGuard())
 
 
+
+# --- the first run: a kernel whose cache is cold runs interpreted when that costs less than compiling -----------
+
+_interpreting = False  # turned on by a command whose end compiles every kernel in the background (cli)
+_interpreted: dict[Any, Any] = {}  # a kernel's Python function -> its interpreted copy
+_spent: dict[Any, float] = {}  # a kernel's Python function -> the interpreted seconds estimated so far
+
+
+def allow_interpreting(allowed: bool = True) -> None:
+    """Let :func:`call_cold` run cold kernels interpreted (for a process that then compiles them all).
+
+    The command line turns this on when the background compile (:mod:`bhr.warmup`) will run as the
+    command ends, so that each kernel is interpreted in at most one first command: a program that
+    calls bhr in a loop, or a command with the background compile turned off, compiles as always.
+    """
+    global _interpreting
+    _interpreting = bool(allowed)
+
+
+def interpreted_any() -> bool:
+    """Whether a kernel ran interpreted in this process (its compiled code is still to be made)."""
+    return bool(_spent)
+
+
+def _is_kernel(value: Any) -> bool:
+    return isinstance(value, LazyKernel) or (hasattr(value, "py_func") and hasattr(value, "overloads"))
+
+
+def interpreted(kernel: Any) -> Any:
+    """The kernel's own Python code run by the interpreter, every kernel it calls interpreted as well.
+
+    A copy of the kernel's function whose module globals name, instead of each compiled kernel, that
+    kernel's interpreted copy: the same statements on the same float64 and int64 values, so the
+    results are those of the compiled kernel (IEEE arithmetic both ways; bhr's kernels use no
+    fastmath), only slower.
+    """
+    import types as pytypes
+
+    func = kernel.py_func if _is_kernel(kernel) else kernel
+    done = _interpreted.get(func)
+    if done is not None:
+        return done
+    space = dict(func.__globals__)
+    copy = pytypes.FunctionType(func.__code__, space, func.__name__, func.__defaults__, func.__closure__)
+    copy.__kwdefaults__ = func.__kwdefaults__
+    _interpreted[func] = copy
+    for key, value in list(space.items()):
+        if _is_kernel(value):
+            space[key] = interpreted(value)
+    return copy
+
+
+def is_ready(kernel: Any) -> bool:
+    """Whether calling the kernel needs no compile: made in this process, or in numba's on-disk cache."""
+    dispatcher = kernel.dispatcher() if isinstance(kernel, LazyKernel) else kernel
+    if getattr(dispatcher, "overloads", None):
+        return True
+    try:
+        return bool(dispatcher._cache._cache_file._load_index())  # numba's index: empty when stale or absent
+    except Exception:  # no cache, or numba's layout changed: numba decides, as for any call
+        return True
+
+
+def call_cold(kernel: Any, interpreted_s: float, compile_s: float, *args: Any, shallow: bool = False) -> Any:
+    """``kernel(*args)``; on a cold cache, interpreted instead when that is estimated to cost less.
+
+    ``interpreted_s`` is a bound on what this call costs interpreted (CPU seconds, from the call's
+    size), ``compile_s`` what compiling the kernel costs. While interpreting is allowed
+    (:func:`allow_interpreting`) and the kernel is neither compiled nor cached, the call runs
+    interpreted as long as the interpreted seconds this process spent on the kernel stay within
+    ``compile_s``; past that, or for a large call, it compiles as always. ``shallow=True``
+    interprets the kernel's own statements only: the kernels it calls run compiled (for a loop
+    whose body is a kernel worth compiling on its own).
+    """
+    if _interpreting and interpreted_s <= compile_s:
+        func = kernel.py_func if _is_kernel(kernel) else kernel
+        spent = _spent.get(func, 0.0) + interpreted_s
+        if spent <= compile_s and not is_ready(kernel):
+            _spent[func] = spent
+            return (func if shallow else interpreted(kernel))(*args)
+    return kernel(*args)
+
+
 configure_cache()
 install_light_blas()
 install_cache_write_guard()

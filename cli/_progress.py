@@ -207,6 +207,12 @@ def announce_compiles() -> None:
     from bhr import _numba
 
     _numba.when_numba_loads(_listen)  # numba's compile event, once the first kernel imports numba
+    from bhr.warmup import background_enabled
+
+    # every kernel is compiled in the background when this command ends: a kernel whose cache is cold may run
+    # interpreted now where that costs less than compiling it (bhr._numba.call_cold)
+    if background_enabled():
+        _numba.allow_interpreting()
     import atexit
 
     atexit.register(_compile_the_rest)
@@ -256,7 +262,9 @@ def _listen() -> None:
 
 def _compile_the_rest() -> None:
     """After a command that had to compile: compile every other command's kernels in the background, once."""
-    if _announcer is None or not _announcer.kernels:
+    from bhr import _numba
+
+    if (_announcer is None or not _announcer.kernels) and not _numba.interpreted_any():
         return
     from bhr.warmup import start_in_background
 

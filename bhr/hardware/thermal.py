@@ -40,6 +40,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from bhr import _numba  # noqa: F401 - sets numba's cache folder before numba is imported
+from bhr._numba import call_cold
 from bhr.model.wires import DEFAULT_THERMAL, THERMAL_KEYS, ThermalParams, thermal_from_table
 from bhr.settings.errors import BhrError
 
@@ -500,6 +501,12 @@ class Simulation:
 #: At most this many temperature samples (times wires) are kept by default (32 MB): see ``simulate``'s stride.
 TRACE_CELLS = 4_000_000
 
+#: A bound on the drive model's CPU seconds run interpreted, per row of codes and per module: 0.28–0.45 ms measured
+#: at most, over the colon, the curve and a 400 mm line with 5 and 10 modules (tests/benchmarks/bench_first_run.py).
+INTERPRETED_S_PER_ROW_MODULE = 0.46e-3
+#: What compiling the drive model costs (CPU seconds, numba's compile of its kernel).
+COMPILE_S = 2.1
+
 
 def simulate(params: ThermalParams, times_ms, rows, end_ms: int | None = None, theta0=None,
              stride: int | None = None, reference: bool = False, auto: bool = False, min_gap_ms: int = 0,
@@ -538,9 +545,12 @@ def simulate(params: ThermalParams, times_ms, rows, end_ms: int | None = None, t
     stride = int(stride)
     th0 = np.zeros(4 * m, np.int64) if theta0 is None else np.asarray(theta0, np.int64).reshape(4 * m).copy()
     k = _const_array(params)
-    fn = simulate_reference if reference else _compiled()
-    samples, early, over, max_run, max_theta, on_ms, done_t, t_stop, on_tr = fn(
-        t, rows, int(end_ms), k, th0, stride, int(auto), int(min_gap_ms), int(margin_ms), int(on_trace))
+    args = (t, rows, int(end_ms), k, th0, stride, int(auto), int(min_gap_ms), int(margin_ms), int(on_trace))
+    if reference:
+        out = simulate_reference(*args)
+    else:  # on a first run (cold cache) the model may run interpreted: INTERPRETED_S_PER_ROW_MODULE bounds its cost
+        out = call_cold(_compiled(), INTERPRETED_S_PER_ROW_MODULE * n * m, COMPILE_S, *args)
+    samples, early, over, max_run, max_theta, on_ms, done_t, t_stop, on_tr = out
     samples = samples[: t_stop // stride + 1]
     on_cum = on_tr[: t_stop // stride + 1].reshape(-1, m, 4) if on_trace else None
     return Simulation(params, t, rows, samples.reshape(samples.shape[0], m, 4) / ONE, stride, early, over,

@@ -48,7 +48,7 @@ from dataclasses import dataclass, field
 from typing import Callable
 
 import numpy as np
-from bhr._numba import njit
+from bhr._numba import call_cold, njit
 
 from bhr.settings.errors import BhrError, renamed
 # the tube and its nearest-point kernels live in the model layer; their names stay importable from here
@@ -184,6 +184,13 @@ def clearance_chain_kernel(C, R, S, BC, BR, pre, w, radius, Q, E, Z, sample, pt_
     return crossed
 
 
+#: A bound on the CPU seconds per step and per robot point that :func:`_run_kernel`'s loop adds when it runs in
+#: Python around the compiled step kernel, and what compiling the loop itself costs (its step kernel compiled):
+#: tests/benchmarks/bench_first_run.py.
+INTERPRETED_S_PER_STEP_POINT = 3e-6
+COMPILE_S = 0.5
+
+
 @njit(cache=True)
 def _run_kernel(C, R, S, BC, BR, pre, w, radius, Q, E, adv, sample, pt_out, mod_out, where, lost):
     K = Q.shape[1]
@@ -213,8 +220,10 @@ def clearance_run_all(tube: Tube, radius: float, Q: np.ndarray, E: np.ndarray, s
     where = np.empty((N, max(K - 1, 0), 3))
     lost = np.zeros(N)
     S, BC, BR = tube.search_arrays()
-    _run_kernel(tube.points, tube.radius, S, BC, BR, float(tube.pre), float(tube.window), float(radius), Q, E,
-                float(advance), float(sample), pt, mod, where, lost)
+    # on a first run (cold cache) the loop over the steps may run in Python around the compiled step kernel
+    call_cold(_run_kernel, INTERPRETED_S_PER_STEP_POINT * N * K, COMPILE_S, tube.points, tube.radius, S, BC, BR,
+              float(tube.pre), float(tube.window), float(radius), Q, E, float(advance), float(sample), pt, mod,
+              where, lost, shallow=True)
     return pt, mod, where, lost > 0.0
 
 

@@ -5,6 +5,7 @@ import os
 import subprocess
 import sys
 
+from bhr.bench.commands import background_compiles
 from tests.conftest import bhr_exe
 
 NOTICE = "Compiling bhr's kernels"
@@ -38,23 +39,6 @@ def test_after_the_warmup_no_command_compiles(tmp_path):
         assert NOTICE not in res.stderr, args
 
 
-def _warmups_for(cache: str) -> list[int]:
-    from pathlib import Path
-
-    found = []
-    for proc in Path("/proc").iterdir():
-        if not proc.name.isdigit():
-            continue
-        try:
-            cmdline = (proc / "cmdline").read_bytes().split(b"\0")
-            environ = (proc / "environ").read_bytes().split(b"\0")
-        except OSError:
-            continue
-        if b"bhr.warmup" in cmdline and f"NUMBA_CACHE_DIR={cache}".encode() in environ:
-            found.append(int(proc.name))
-    return found
-
-
 def test_a_first_command_starts_the_background_compile_as_it_ends(tmp_path):
     """The compile of the other commands' kernels starts from the command's exit handlers (bhr.cli.main.run
     runs them before the process ends)."""
@@ -68,10 +52,45 @@ def test_a_first_command_starts_the_background_compile_as_it_ends(tmp_path):
                          timeout=600)
     assert res.returncode == 0 and NOTICE in res.stderr, res.stderr
     deadline = time.monotonic() + 10
-    pids = _warmups_for(cache)
+    pids = background_compiles(cache)
     while not pids and time.monotonic() < deadline:
         time.sleep(0.1)
-        pids = _warmups_for(cache)
+        pids = background_compiles(cache)
     for pid in pids:  # seen: stop it (it would compile every kernel into this test's cache)
         os.kill(pid, signal.SIGKILL)
     assert pids, "no python -m bhr.warmup started after the first command"
+
+
+def test_a_first_run_interprets_the_small_loops_and_writes_what_a_warm_run_writes(tmp_path):
+    """On an empty cache, with the background compile on, `bhr follow --traj colon` runs the thesis loop and the
+    drive model interpreted (cheaper than compiling them) and compiles only the clearance's step kernel; its
+    files are byte for byte those of a warm run."""
+    import signal
+    import time
+
+    cache = tmp_path / "cache"
+    env = {k: v for k, v in os.environ.items() if k != "BHR_NO_BACKGROUND_COMPILE"}
+    env.update(NUMBA_CACHE_DIR=str(cache), MPLBACKEND="Agg")
+    cold = subprocess.run(bhr_exe() + ["follow", "--traj", "colon", "--no-plots", "--out", "cold"], cwd=tmp_path,
+                          env=env, capture_output=True, text=True, timeout=600)
+    names = sorted(p.name for p in cache.rglob("*.nbi"))  # what the command itself compiled, before the warmup
+    deadline = time.monotonic() + 10
+    pids = background_compiles(str(cache))
+    while not pids and time.monotonic() < deadline:
+        time.sleep(0.1)
+        pids = background_compiles(str(cache))
+    for pid in pids:
+        os.kill(pid, signal.SIGKILL)
+    assert cold.returncode == 0 and NOTICE in cold.stderr, cold.stderr
+    assert pids, "no background compile after a first run that interpreted kernels"
+    assert any(n.startswith("clearance.clearance_chain_kernel-") for n in names), names
+    for kernel in ("thesis.follow_constrained_kernel-", "thermal._kernel_py-", "clearance._run_kernel-"):
+        assert not any(n.startswith(kernel) for n in names), (kernel, names)
+    warm_env = dict(os.environ, MPLBACKEND="Agg", BHR_NO_BACKGROUND_COMPILE="1")  # the session's warm cache
+    warm = subprocess.run(bhr_exe() + ["follow", "--traj", "colon", "--no-plots", "--out", "warm"], cwd=tmp_path,
+                          env=warm_env, capture_output=True, text=True, timeout=600)
+    assert warm.returncode == 0, warm.stderr
+    assert cold.stdout.replace("cold", "warm") == warm.stdout
+    for name in ("codes.csv", "steps.csv", "run.json"):
+        assert (tmp_path / "cold" / name).read_bytes() == (tmp_path / "warm" / name).read_bytes(), name
+    assert sorted(p.name for p in (tmp_path / "cold").iterdir()) == sorted(p.name for p in (tmp_path / "warm").iterdir())
