@@ -17,6 +17,7 @@ from __future__ import annotations
 import os
 import subprocess
 import sys
+from pathlib import Path
 
 __all__ = ["compile_all", "start_in_background", "background_enabled", "BACKGROUND_ENV"]
 
@@ -76,14 +77,23 @@ def background_enabled() -> bool:
 
 
 def start_in_background() -> bool:
-    """Start ``python -m bhr.warmup`` detached and quiet, at low priority; False when turned off or impossible."""
+    """Start ``python -m bhr.warmup`` detached and quiet, at low priority; False when turned off or impossible.
+
+    It compiles this very copy of bhr: numba caches a kernel under the path of its source file, so a
+    background compile that imported another copy (``python -m`` puts the current folder first on the
+    path, and a user running ``bhr`` in a checkout after ``pip install .`` has the checkout's ``bhr/``
+    there) would fill the cache for kernels no command of this installation loads. So it starts in
+    the folder that holds this ``bhr`` package, that folder first on its ``PYTHONPATH``.
+    """
     if not background_enabled():
         return False
+    home = str(Path(__file__).resolve().parent.parent)
+    path = os.environ.get("PYTHONPATH", "")
+    env = {**os.environ, BACKGROUND_ENV: "1", "PYTHONPATH": home + (os.pathsep + path if path else "")}
     try:
         subprocess.Popen([sys.executable, "-m", "bhr.warmup"], stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
-                         stderr=subprocess.DEVNULL, start_new_session=True, close_fds=True,
-                         preexec_fn=(lambda: os.nice(10)) if hasattr(os, "nice") else None,
-                         env={**os.environ, BACKGROUND_ENV: "1"})
+                         stderr=subprocess.DEVNULL, start_new_session=True, close_fds=True, cwd=home,
+                         preexec_fn=(lambda: os.nice(10)) if hasattr(os, "nice") else None, env=env)
     except OSError:
         return False
     return True

@@ -94,3 +94,41 @@ def test_a_first_run_interprets_the_small_loops_and_writes_what_a_warm_run_write
     for name in ("codes.csv", "steps.csv", "run.json"):
         assert (tmp_path / "cold" / name).read_bytes() == (tmp_path / "warm" / name).read_bytes(), name
     assert sorted(p.name for p in (tmp_path / "cold").iterdir()) == sorted(p.name for p in (tmp_path / "warm").iterdir())
+
+
+def test_the_background_compile_compiles_the_bhr_that_started_it_not_one_in_the_current_folder(tmp_path):
+    """numba caches a kernel under its source file's path: a background compile that imported a bhr/ of the
+    current folder (a checkout the user installed from and runs bhr in) would never warm this installation."""
+    import signal
+    import time
+    from pathlib import Path
+
+    import bhr
+
+    marker = tmp_path / "the-folder's-bhr-was-imported"
+    (tmp_path / "bhr").mkdir()
+    (tmp_path / "bhr" / "__init__.py").write_text(f"open({str(marker)!r}, 'w').close()\n")
+    cache = str(tmp_path / "cache")
+    env = {k: v for k, v in os.environ.items() if k != "BHR_NO_BACKGROUND_COMPILE"}
+    env.update(NUMBA_CACHE_DIR=cache, MPLBACKEND="Agg")
+    res = subprocess.run(bhr_exe() + ["fk", "--codes", "0,3"], cwd=tmp_path, env=env, capture_output=True, text=True,
+                         timeout=600)
+    assert res.returncode == 0 and NOTICE in res.stderr, res.stderr
+    deadline = time.monotonic() + 10
+    pids = background_compiles(cache)
+    while not pids and time.monotonic() < deadline:
+        time.sleep(0.1)
+        pids = background_compiles(cache)
+    assert pids, "no python -m bhr.warmup started after the first command"
+    try:
+        folder = Path(os.readlink(f"/proc/{pids[0]}/cwd"))
+        time.sleep(3)  # long enough to have imported bhr (the folder's would write the marker at once)
+        alive = bool(background_compiles(cache))
+    finally:
+        for pid in pids:
+            try:
+                os.kill(pid, signal.SIGKILL)
+            except ProcessLookupError:  # it had ended (on importing the folder's bhr)
+                pass
+    assert folder == Path(bhr.__file__).resolve().parent.parent
+    assert alive and not marker.exists()
