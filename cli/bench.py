@@ -12,7 +12,7 @@ from bhr.cli._options import PlainIntRange
 @click.command()
 @click.option("--case", "cases", multiple=True, metavar="NAME",
               help="Case to run (repeatable): fabrik, ccd, thesis-colon, optimal, body-60, lumen, trail-300, "
-                   "study-100, physics-300, cli [all].")
+                   "study-100, physics-300, cli, first-run [all].")
 @click.option("--repeat", type=PlainIntRange(1, 100), default=None, help="Repeats per timing (median taken).")
 @click.option("--json", "json_path", default=None, metavar="PATH|-",
               help="Write the results as JSON ('-': stdout, the table then goes to stderr).")

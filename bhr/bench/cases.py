@@ -761,6 +761,26 @@ def case_cli(repeat: int = 5) -> list[BenchResult]:
     return out
 
 
+def case_first_run(repeat: int = 3) -> BenchResult:
+    """`bhr follow --traj colon` on an empty cache as a user's first command runs it (loops cheaper interpreted
+    than compiled run interpreted, bhr._numba.call_cold) against the same command compiling every kernel it runs
+    (BHR_NO_BACKGROUND_COMPILE=1), alternating in one run: CPU seconds, medians."""
+    from bhr.bench.commands import run_once
+
+    args = ["follow", "--traj", "colon", "--out", "o"]
+    first, compiling = [], []
+    for _ in range(max(1, repeat)):
+        for interpret, into in ((True, first), (False, compiling)):
+            with tempfile.TemporaryDirectory() as tmp:
+                cpu, _, code = run_once(args, Path(tmp), cold=True, interpret=interpret)
+                if code != 0:
+                    raise RuntimeError(f"bhr {' '.join(args)} failed on an empty cache (exit {code})")
+                into.append(cpu)
+    a, b = float(np.median(first)), float(np.median(compiling))
+    return BenchResult("first-run", "per command (CPU)", a, b, "the same compiling all it runs", a / b,
+                       details={"first_run_s": sorted(first), "compiling_s": sorted(compiling)})
+
+
 CASES: dict[str, Callable[..., BenchResult | list[BenchResult]]] = {
     "fabrik": case_fabrik,
     "ccd": case_ccd,
@@ -772,6 +792,7 @@ CASES: dict[str, Callable[..., BenchResult | list[BenchResult]]] = {
     "study-100": case_study,
     "physics-300": case_physics,
     "cli": case_cli,
+    "first-run": case_first_run,
 }
 
 

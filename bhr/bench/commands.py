@@ -76,16 +76,18 @@ def background_compiles(cache: str) -> list[int]:
     return found
 
 
-def run_once(args: list[str], cwd: Path, cold: bool = False) -> tuple[float, float, int]:
+def run_once(args: list[str], cwd: Path, cold: bool = False, interpret: bool = True) -> tuple[float, float, int]:
     """CPU seconds (user + system of the command and its children), wall seconds, exit status.
 
     ``args`` starting with ``-m`` run a module of this Python instead of bhr. ``cold``: an empty numba
     cache in ``cwd`` (a first run). A bhr command then runs as a user's first command does, the background
     compile on (so its small loops run interpreted, bhr._numba.call_cold); the background compile it starts
     as it ends is stopped at once (it is not the command's own time: the warmup row measures it).
+    ``interpret=False`` runs a cold bhr command with the background compile off instead: it compiles every
+    kernel it runs (the first run before call_cold, the reference of the benchmarks).
     """
     env = dict(os.environ, MPLBACKEND="Agg", BHR_NO_BACKGROUND_COMPILE="1")
-    bhr_cold = cold and args[:1] != ["-m"]
+    bhr_cold = cold and interpret and args[:1] != ["-m"]
     if cold:
         env["NUMBA_CACHE_DIR"] = str(cwd / "numba-cache")
     if bhr_cold:

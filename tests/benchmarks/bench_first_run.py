@@ -19,7 +19,6 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import resource
 import statistics
 import subprocess
 import sys
@@ -27,7 +26,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from bhr.bench.commands import _bhr, _stop_background
+from bhr.bench.commands import run_once
 
 CALIBRATE = r'''
 import json, sys, time
@@ -99,19 +98,11 @@ print(json.dumps(out))
 def first_run(interpret: bool) -> float:
     """CPU seconds of one `bhr follow --traj colon` on an empty cache."""
     with tempfile.TemporaryDirectory() as tmp:
-        cache = str(Path(tmp) / "numba-cache")
-        env = dict(os.environ, MPLBACKEND="Agg", NUMBA_CACHE_DIR=cache, BHR_NO_BACKGROUND_COMPILE="1")
-        if interpret:
-            del env["BHR_NO_BACKGROUND_COMPILE"]
-        before = resource.getrusage(resource.RUSAGE_CHILDREN)
-        proc = subprocess.run(_bhr() + ["follow", "--traj", "colon", "--out", "o"], cwd=tmp, env=env,
-                              capture_output=True)
-        after = resource.getrusage(resource.RUSAGE_CHILDREN)
-        if interpret:
-            _stop_background(cache)
-        if proc.returncode != 0:
-            raise SystemExit(proc.stderr.decode(errors="replace"))
-        return (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+        cpu, _, code = run_once(["follow", "--traj", "colon", "--out", "o"], Path(tmp), cold=True,
+                                interpret=interpret)
+        if code != 0:
+            raise SystemExit(f"bhr follow --traj colon failed on an empty cache (exit {code})")
+        return cpu
 
 
 def calibrate(what: str) -> dict:
