@@ -4,6 +4,7 @@ from __future__ import annotations
 import os
 import subprocess
 import sys
+from pathlib import Path
 
 from bhr.bench.commands import background_compiles
 from tests.conftest import bhr_exe
@@ -39,25 +40,40 @@ def test_after_the_warmup_no_command_compiles(tmp_path):
         assert NOTICE not in res.stderr, args
 
 
-def test_a_first_command_starts_the_background_compile_as_it_ends(tmp_path):
-    """The compile of the other commands' kernels starts from the command's exit handlers (bhr.cli.main.run
-    runs them before the process ends)."""
-    import signal
+def _first_command(tmp_path, args: list[str]):
+    """``bhr ARGS`` in ``tmp_path`` on an empty cache of its own with the background compile on: the result, the
+    cache folder and the background compiles seen within 10 s (still running: the caller stops them)."""
     import time
 
     cache = str(tmp_path / "cache")
     env = {k: v for k, v in os.environ.items() if k != "BHR_NO_BACKGROUND_COMPILE"}
     env.update(NUMBA_CACHE_DIR=cache, MPLBACKEND="Agg")
-    res = subprocess.run(bhr_exe() + ["fk", "--codes", "0,3"], cwd=tmp_path, env=env, capture_output=True, text=True,
-                         timeout=600)
-    assert res.returncode == 0 and NOTICE in res.stderr, res.stderr
+    res = subprocess.run(bhr_exe() + args, cwd=tmp_path, env=env, capture_output=True, text=True, timeout=600)
+    names = sorted(p.name for p in Path(cache).rglob("*.nbi"))  # what the command compiled, before the warmup
     deadline = time.monotonic() + 10
     pids = background_compiles(cache)
     while not pids and time.monotonic() < deadline:
         time.sleep(0.1)
         pids = background_compiles(cache)
-    for pid in pids:  # seen: stop it (it would compile every kernel into this test's cache)
-        os.kill(pid, signal.SIGKILL)
+    return res, cache, names, pids
+
+
+def _stop(pids: list[int]) -> None:
+    import signal
+
+    for pid in pids:  # it would compile every kernel into the test's cache
+        try:
+            os.kill(pid, signal.SIGKILL)
+        except ProcessLookupError:  # it had ended already
+            pass
+
+
+def test_a_first_command_starts_the_background_compile_as_it_ends(tmp_path):
+    """The compile of the other commands' kernels starts from the command's exit handlers (bhr.cli.main.run
+    runs them before the process ends)."""
+    res, _, _, pids = _first_command(tmp_path, ["fk", "--codes", "0,3"])
+    _stop(pids)
+    assert res.returncode == 0 and NOTICE in res.stderr, res.stderr
     assert pids, "no python -m bhr.warmup started after the first command"
 
 
@@ -65,22 +81,8 @@ def test_a_first_run_interprets_the_small_loops_and_writes_what_a_warm_run_write
     """On an empty cache, with the background compile on, `bhr follow --traj colon` runs the thesis loop and the
     drive model interpreted (cheaper than compiling them) and compiles only the clearance's step kernel; its
     files are byte for byte those of a warm run."""
-    import signal
-    import time
-
-    cache = tmp_path / "cache"
-    env = {k: v for k, v in os.environ.items() if k != "BHR_NO_BACKGROUND_COMPILE"}
-    env.update(NUMBA_CACHE_DIR=str(cache), MPLBACKEND="Agg")
-    cold = subprocess.run(bhr_exe() + ["follow", "--traj", "colon", "--no-plots", "--out", "cold"], cwd=tmp_path,
-                          env=env, capture_output=True, text=True, timeout=600)
-    names = sorted(p.name for p in cache.rglob("*.nbi"))  # what the command itself compiled, before the warmup
-    deadline = time.monotonic() + 10
-    pids = background_compiles(str(cache))
-    while not pids and time.monotonic() < deadline:
-        time.sleep(0.1)
-        pids = background_compiles(str(cache))
-    for pid in pids:
-        os.kill(pid, signal.SIGKILL)
+    cold, _, names, pids = _first_command(tmp_path, ["follow", "--traj", "colon", "--no-plots", "--out", "cold"])
+    _stop(pids)
     assert cold.returncode == 0 and NOTICE in cold.stderr, cold.stderr
     assert pids, "no background compile after a first run that interpreted kernels"
     assert any(n.startswith("clearance.clearance_chain_kernel-") for n in names), names
@@ -99,36 +101,21 @@ def test_a_first_run_interprets_the_small_loops_and_writes_what_a_warm_run_write
 def test_the_background_compile_compiles_the_bhr_that_started_it_not_one_in_the_current_folder(tmp_path):
     """numba caches a kernel under its source file's path: a background compile that imported a bhr/ of the
     current folder (a checkout the user installed from and runs bhr in) would never warm this installation."""
-    import signal
     import time
-    from pathlib import Path
 
     import bhr
 
     marker = tmp_path / "the-folder's-bhr-was-imported"
     (tmp_path / "bhr").mkdir()
     (tmp_path / "bhr" / "__init__.py").write_text(f"open({str(marker)!r}, 'w').close()\n")
-    cache = str(tmp_path / "cache")
-    env = {k: v for k, v in os.environ.items() if k != "BHR_NO_BACKGROUND_COMPILE"}
-    env.update(NUMBA_CACHE_DIR=cache, MPLBACKEND="Agg")
-    res = subprocess.run(bhr_exe() + ["fk", "--codes", "0,3"], cwd=tmp_path, env=env, capture_output=True, text=True,
-                         timeout=600)
-    assert res.returncode == 0 and NOTICE in res.stderr, res.stderr
-    deadline = time.monotonic() + 10
-    pids = background_compiles(cache)
-    while not pids and time.monotonic() < deadline:
-        time.sleep(0.1)
-        pids = background_compiles(cache)
-    assert pids, "no python -m bhr.warmup started after the first command"
+    res, cache, _, pids = _first_command(tmp_path, ["fk", "--codes", "0,3"])
     try:
+        assert res.returncode == 0 and NOTICE in res.stderr, res.stderr
+        assert pids, "no python -m bhr.warmup started after the first command"
         folder = Path(os.readlink(f"/proc/{pids[0]}/cwd"))
         time.sleep(3)  # long enough to have imported bhr (the folder's would write the marker at once)
         alive = bool(background_compiles(cache))
     finally:
-        for pid in pids:
-            try:
-                os.kill(pid, signal.SIGKILL)
-            except ProcessLookupError:  # it had ended (on importing the folder's bhr)
-                pass
+        _stop(pids)
     assert folder == Path(bhr.__file__).resolve().parent.parent
     assert alive and not marker.exists()
