@@ -4,6 +4,7 @@ from __future__ import annotations
 import os
 import subprocess
 import sys
+import textwrap
 from pathlib import Path
 
 from bhr.bench.commands import background_compiles
@@ -119,3 +120,25 @@ def test_the_background_compile_compiles_the_bhr_that_started_it_not_one_in_the_
         _stop(pids)
     assert folder == Path(bhr.__file__).resolve().parent.parent
     assert alive and not marker.exists()
+
+
+def test_a_kernel_in_the_cache_on_disk_is_ready_in_a_new_process(tmp_path):
+    from tests.unit.test_first_run import KERNEL
+
+    (tmp_path / "cached_k.py").write_text(KERNEL)
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "cache"), PYTHONPATH=os.pathsep.join(
+        [str(tmp_path)] + [p for p in sys.path if p]))
+    code = textwrap.dedent("""
+        import sys, numpy as np
+        from bhr import _numba
+        import cached_k
+        print(_numba.is_ready(cached_k.twice))
+        cached_k.twice(np.arange(3.0))
+    """)
+    first = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=300)
+    second = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=300)
+    assert (first.returncode, second.returncode) == (0, 0), first.stderr + second.stderr
+    assert (first.stdout.strip(), second.stdout.strip()) == ("False", "True")
+    (tmp_path / "cached_k.py").write_text(KERNEL + "\n# edited\n")  # the source changed: the cache is stale
+    third = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=300)
+    assert third.stdout.strip() == "False", third.stderr

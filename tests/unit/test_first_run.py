@@ -9,10 +9,6 @@ from __future__ import annotations
 
 import contextlib
 import importlib.util
-import os
-import subprocess
-import sys
-import textwrap
 
 import numpy as np
 import pytest
@@ -163,26 +159,6 @@ def test_a_call_that_would_cost_more_than_compiling_compiles(tmp_path, choice):
     k2 = _fresh_kernel(tmp_path, "cold_d")
     choice.call_cold(k2, 2.0, 1.0, x)
     assert k2.overloads  # one large call: compiled at once
-
-
-def test_a_kernel_in_the_cache_on_disk_is_ready_in_a_new_process(tmp_path):
-    (tmp_path / "cached_k.py").write_text(KERNEL)
-    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "cache"), PYTHONPATH=os.pathsep.join(
-        [str(tmp_path)] + [p for p in sys.path if p]))
-    code = textwrap.dedent("""
-        import sys, numpy as np
-        from bhr import _numba
-        import cached_k
-        print(_numba.is_ready(cached_k.twice))
-        cached_k.twice(np.arange(3.0))
-    """)
-    first = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=300)
-    second = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=300)
-    assert (first.returncode, second.returncode) == (0, 0), first.stderr + second.stderr
-    assert (first.stdout.strip(), second.stdout.strip()) == ("False", "True")
-    (tmp_path / "cached_k.py").write_text(KERNEL + "\n# edited\n")  # the source changed: the cache is stale
-    third = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=300)
-    assert third.stdout.strip() == "False", third.stderr
 
 
 def test_interpreted_code_calls_no_compiled_kernel():
