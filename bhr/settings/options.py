@@ -189,6 +189,9 @@ OPTIONS: tuple[Option, ...] = (
            "path's end (it would push the blind cecum by it), per mm^2", 10.0, solvers=_LUM),
     Option("lead_slack", _S, float, "lumen: share of the path still ahead of a point that its lead may be before "
            "--lead-weight counts", 0.1, maximum=1.0, solvers=_LUM, metavar="SHARE"),
+    Option("racing_weight", _S, float, "lumen: weight of each point's squared distance to a racing line planned "
+           "before the run (a smooth line of bounded curvature inside the lumen, docs/lumen.md), per mm^2; 0: none",
+           0.0, solvers=_LUM),
     Option("window", _S, float, "lumen: arc length searched on each side for a point's nearest centerline point "
            "(mm)", 40.0, solvers=_LUM, metavar="MM"),
     Option("trail_beam", _S, int, "lumen with --locomotion trail: trails kept by the planner's beam search", 64,

@@ -12,6 +12,7 @@ Cost of one configuration at step ``k`` (lengths in mm)::
       + w_center * sum_s d_s^2                     centerline: weak
       + w_track * sum_j |P_j - T_j|^2              keep pace with the path: weak
       + (w_ori * 180/pi)^2 |u - t|^2               tip along the lumen
+      + w_race * sum_s |p_s - Q(s*)|^2              racing line: off unless racing_weight > 0
 
 The samples ``s`` are the base point and, on every module, its middle and its
 far end; ``d_s`` is the distance from the sample to the nearest point of the
@@ -21,6 +22,10 @@ centerline and ``c_s = R - robot radius - d_s`` its clearance
 between loops). ``T_j`` is the trajectory point that point ``j`` is scored
 against (bhr.follow), ``u`` the tip module's direction and ``t`` the
 centerline's direction nearest the tip.
+``Q(s*)`` is the point of the racing line (:mod:`bhr.model.racing`, planned
+in :meth:`Lumen.prepare` when ``racing_weight`` is above 0) at the sample's
+nearest centerline point: a smooth line of bounded curvature through the
+lumen, which the head is pulled to instead of (or as well as) the centerline.
 
 Exact where exhaustive: for the base module's tilt fixed, the codes of
 modules 2..n are found by a depth-first branch and bound over all ``5**(n-1)``
@@ -52,6 +57,7 @@ from typing import Any
 import numpy as np
 from bhr._numba import njit
 
+from bhr.model.racing import head_radius_mm, racing_line
 from bhr.model.tube import (Tube, lumen_end_of, make_tube, nearest_numpy, point_clearance, scan_from, search_window,
                             segment_scan)
 from bhr.settings.errors import BhrError
@@ -62,7 +68,7 @@ from bhr.solvers.base import Chain, FollowContext, SolveResult, register
 from bhr.solvers.optimal import (CODE_OF, DEG, Optimal, beam_candidate, beam_commit, beam_keep, beam_reset, dist2,
                                  frame_of_chain, keep_best, setting_number, step_targets, write_pose)
 
-__all__ = ["Lumen", "DEFAULTS", "head_cost", "lumen_config_cost"]
+__all__ = ["Lumen", "DEFAULTS", "head_cost", "lumen_config_cost", "planned_line"]
 
 #: Default settings of ``--solver lumen`` (docs/lumen.md explains each).
 DEFAULTS: dict[str, Any] = solver_defaults("lumen")
@@ -99,6 +105,20 @@ def _wall(R, radius, margin, ww, res):
 
 
 @njit(cache=True)
+def _race(Q, res, wr, px, py, pz):
+    """The pull to the racing line: ``wr`` times the squared distance from the sample to the racing line's
+    point at the sample's nearest centerline point (``res``: its segment and position)."""
+    if wr <= 0.0:
+        return 0.0
+    k = int(res[1])
+    t = res[2]
+    qx = Q[k, 0] + t * (Q[k + 1, 0] - Q[k, 0])
+    qy = Q[k, 1] + t * (Q[k + 1, 1] - Q[k, 1])
+    qz = Q[k, 2] + t * (Q[k + 1, 2] - Q[k, 2])
+    return wr * ((px - qx) ** 2 + (py - qy) ** 2 + (pz - qz) ** 2)
+
+
+@njit(cache=True)
 def _along(res, pre, e, sp):
     """How far (mm, along the centerline) the nearest point in ``res`` is from where the sample is expected."""
     return (res[1] + res[2] - pre - e) * sp
@@ -118,7 +138,7 @@ def _schedule(a, e, sp, prm):
 
 
 @njit(cache=True)
-def _module_cost(C, R, pre, w, g, e0, ef, A, B, cA, radius, margin, ww, wc, prm, sp, pre0, dR, res, tmp, out):
+def _module_cost(C, Q, R, pre, w, g, e0, ef, A, B, cA, radius, margin, ww, wc, prm, sp, pre0, dR, res, tmp, out):
     """Cost of the module A->B: its far end (wall and centerline) and, where the wall may be near, its middle
     (wall only). ``cA`` is A's clearance; out[0] gets B's. res[1]: the far end's segment.
 
@@ -130,7 +150,7 @@ def _module_cost(C, R, pre, w, g, e0, ef, A, B, cA, radius, margin, ww, wc, prm,
     _near(C, pre, w, g + int(ef), e0 + ef, B[0], B[1], B[2], res, tmp)
     cB, cost = _wall(R, radius, margin, ww, res)
     a = _along(res, pre0, e0 + ef, sp)
-    cost += wc * res[0] + _schedule(a, e0 + ef, sp, prm)
+    cost += wc * res[0] + _schedule(a, e0 + ef, sp, prm) + _race(Q, res, prm[13], B[0], B[1], B[2])
     out[0] = cB
     gB = res[1]
     tB = res[2]
@@ -165,7 +185,7 @@ def _place(frames, pts, lv, q, c, s, L):
 
 
 @njit(cache=True)
-def _head_search(C, R, pre, w, step, n, f, L, c, s, T, prm, best_codes, frames, pts, part, guess, choice, res, tmp):
+def _head_search(C, Q, R, pre, w, step, n, f, L, c, s, T, prm, best_codes, frames, pts, part, guess, choice, res, tmp):
     """Exact branch and bound over modules 2..n with module 1's frame in ``frames[0]`` and ``pts[0]`` the base.
 
     prm = (radius, margin, w_wall, w_center, w_track, w_ori). Returns the best cost; codes in best_codes[1:].
@@ -178,11 +198,12 @@ def _head_search(C, R, pre, w, step, n, f, L, c, s, T, prm, best_codes, frames, 
     _near(C, pre, w, -1, e0, pts[0, 0], pts[0, 1], pts[0, 2], res, tmp)
     clr[0], part[0] = _wall(R, radius, margin, ww, res)
     a0 = _along(res, pre0, e0, sp)
-    part[0] += wc * res[0] + _schedule(a0, e0, sp, prm) + wt * dist2(pts[0], T[0])
+    part[0] += wc * res[0] + _schedule(a0, e0, sp, prm) + wt * dist2(pts[0], T[0]) \
+        + _race(Q, res, prm[13], pts[0, 0], pts[0, 1], pts[0, 2])
     guess[0] = int(res[1])
     for b in range(3):
         pts[1, b] = pts[0, b] + L * frames[0, 2, b]
-    part[1] = part[0] + _module_cost(C, R, pre, w, guess[0], e0, float(f), pts[0], pts[1], clr[0], radius, margin,
+    part[1] = part[0] + _module_cost(C, Q, R, pre, w, guess[0], e0, float(f), pts[0], pts[1], clr[0], radius, margin,
                                      ww, wc, prm, sp, pre0, dR, res, tmp, cout) + wt * dist2(pts[1], T[1])
     clr[1] = cout[0]
     guess[1] = int(res[1])
@@ -199,7 +220,7 @@ def _head_search(C, R, pre, w, step, n, f, L, c, s, T, prm, best_codes, frames, 
             v = part[lv] + wt * dist2(pts[lv + 1], T[lv + 1])
             if v >= bv:
                 continue
-            v += _module_cost(C, R, pre, w, guess[lv], float(step - (n - lv) * f), float(f), pts[lv], pts[lv + 1],
+            v += _module_cost(C, Q, R, pre, w, guess[lv], float(step - (n - lv) * f), float(f), pts[lv], pts[lv + 1],
                               clr[lv], radius, margin, ww, wc, prm, sp, pre0, dR, res, tmp, cout)
             if lv == n - 1:
                 v += _tip_term(C, int(res[1]), frames[lv], wo)
@@ -226,7 +247,7 @@ def _head_search(C, R, pre, w, step, n, f, L, c, s, T, prm, best_codes, frames, 
         v = part[lvl] + wt * dist2(pts[lvl + 1], T[lvl + 1])
         if v >= best:
             continue
-        v += _module_cost(C, R, pre, w, guess[lvl], float(step - (n - lvl) * f), float(f), pts[lvl], pts[lvl + 1],
+        v += _module_cost(C, Q, R, pre, w, guess[lvl], float(step - (n - lvl) * f), float(f), pts[lvl], pts[lvl + 1],
                           clr[lvl], radius, margin, ww, wc, prm, sp, pre0, dR, res, tmp, cout)
         if v >= best:
             continue
@@ -242,14 +263,14 @@ def _head_search(C, R, pre, w, step, n, f, L, c, s, T, prm, best_codes, frames, 
 
 
 @njit(cache=True)
-def _head_cost(C, R, pre, w, P0, F1, step, n, f, L, c, s, T, prm, best_codes, frames, pts, part, guess, choice,
+def _head_cost(C, Q, R, pre, w, P0, F1, step, n, f, L, c, s, T, prm, best_codes, frames, pts, part, guess, choice,
                res, tmp):
     for a in range(3):
         for b in range(3):
             frames[0, a, b] = F1[a, b]
     for b in range(3):
         pts[0, b] = P0[b]
-    return _head_search(C, R, pre, w, step, n, f, L, c, s, T, prm, best_codes, frames, pts, part, guess, choice,
+    return _head_search(C, Q, R, pre, w, step, n, f, L, c, s, T, prm, best_codes, frames, pts, part, guess, choice,
                         res, tmp)
 
 
@@ -258,7 +279,7 @@ def _head_cost(C, R, pre, w, P0, F1, step, n, f, L, c, s, T, prm, best_codes, fr
 
 
 @njit(cache=True)
-def _beam_expand(bP, bF, bC, bH, state, cP, cF, cC, cPar, cA, order_buf, C, R, pre, w, path, dirs, n, f, feed, L,
+def _beam_expand(bP, bF, bC, bH, state, cP, cF, cC, cPar, cA, order_buf, C, Q, R, pre, w, path, dirs, n, f, feed, L,
                  c, s, prm, T, d, best_codes, frames, pts, part, guess, choice, res, tmp, F1):
     nb = state[0]
     k = state[1]
@@ -267,7 +288,7 @@ def _beam_expand(bP, bF, bC, bH, state, cP, cF, cC, cPar, cA, order_buf, C, R, p
     for q in range(nb):
         for a in range(5):
             _rot(bF[q], a, c, s, F1)
-            cost = _head_cost(C, R, pre, w, bP[q], F1, k, n, f, L, c, s, T, prm, best_codes, frames, pts, part,
+            cost = _head_cost(C, Q, R, pre, w, bP[q], F1, k, n, f, L, c, s, T, prm, best_codes, frames, pts, part,
                               guess, choice, res, tmp)
             beam_candidate(bP, bF, bC, q, a, F1, cost, feed, m, cP, cF, cC, cPar, cA)
             m += 1
@@ -275,7 +296,7 @@ def _beam_expand(bP, bF, bC, bH, state, cP, cF, cC, cPar, cA, order_buf, C, R, p
 
 
 @njit(cache=True)
-def _lumen_step(P, E1, E2, i, bP, bF, bC, bH, state, cP, cF, cC, cPar, cA, order_buf, C, R, pre, w, path, dirs, n, f,
+def _lumen_step(P, E1, E2, i, bP, bF, bC, bH, state, cP, cF, cC, cPar, cA, order_buf, C, Q, R, pre, w, path, dirs, n, f,
                 feed, L, alpha, prm, lookahead, lagv, out_codes, tilts):
     """Solve step ``i`` in place: plan the base tilt, search the rest exactly. Returns (layers, cost)."""
     N = path.shape[0]
@@ -305,13 +326,13 @@ def _lumen_step(P, E1, E2, i, bP, bF, bC, bH, state, cP, cF, cC, cPar, cA, order
     pre = pre + lagv[0]
     layers = 0
     while state[1] < N and state[1] <= i + lookahead:
-        _beam_expand(bP, bF, bC, bH, state, cP, cF, cC, cPar, cA, order_buf, C, R, pre, w, path, dirs, n, f, feed,
+        _beam_expand(bP, bF, bC, bH, state, cP, cF, cC, cPar, cA, order_buf, C, Q, R, pre, w, path, dirs, n, f, feed,
                      L, c, s, prm, T, d, best_codes, frames, pts, part, guess, choice, res, tmp, F1)
         layers += 1
     a0 = beam_commit(bP, bF, bC, bH, state, i)
     step_targets(path, dirs, i, n, f, feed, T, d)
     _rot(F, a0, c, s, F1)
-    cost = _head_cost(C, R, pre, w, P0, F1, i, n, f, L, c, s, T, prm, best_codes, frames, pts, part, guess, choice,
+    cost = _head_cost(C, Q, R, pre, w, P0, F1, i, n, f, L, c, s, T, prm, best_codes, frames, pts, part, guess, choice,
                       res, tmp)
     best_codes[0] = a0
     write_pose(F, best_codes, c, s, L, alpha, frames, P, E1, E2, out_codes, tilts)
@@ -319,7 +340,7 @@ def _lumen_step(P, E1, E2, i, bP, bF, bC, bH, state, cP, cF, cC, cPar, cA, order
 
 
 @njit(cache=True)
-def follow_lumen_kernel(path, dirs, P, E1, E2, bP, bF, bC, bH, state, cP, cF, cC, cPar, cA, order_buf, C, R, pre, w,
+def follow_lumen_kernel(path, dirs, P, E1, E2, bP, bF, bC, bH, state, cP, cF, cC, cPar, cA, order_buf, C, Q, R, pre, w,
                         f, feed, L, alpha, prm, lookahead, lagv, out_points, out_iters, pe, oe, codes):
     """The whole follow-the-leader loop with the lumen solver, compiled (same arithmetic as step by step)."""
     N = path.shape[0]
@@ -327,7 +348,7 @@ def follow_lumen_kernel(path, dirs, P, E1, E2, bP, bF, bC, bH, state, cP, cF, cC
     step_codes = np.zeros(n, dtype=np.int64)
     tilts = np.zeros(n)
     for i in range(N):
-        layers, _ = _lumen_step(P, E1, E2, i, bP, bF, bC, bH, state, cP, cF, cC, cPar, cA, order_buf, C, R, pre, w,
+        layers, _ = _lumen_step(P, E1, E2, i, bP, bF, bC, bH, state, cP, cF, cC, cPar, cA, order_buf, C, Q, R, pre, w,
                                 path, dirs, n, f, feed, L, alpha, prm, lookahead, lagv, step_codes, tilts)
         dd = dirs[N - 2] if i == N - 1 else dirs[i]
         finish_step(i, P, E1, E2, path, dirs, f, feed, L, tip_angle(P, dd), layers, step_codes, out_points, out_iters,
@@ -339,8 +360,11 @@ def follow_lumen_kernel(path, dirs, P, E1, E2, bP, bF, bC, bH, state, cP, cF, cC
 
 
 def head_cost(tube, robot, settings: dict[str, float], path: np.ndarray, step: int, base,
-              frame1) -> tuple[list[int], float]:
-    """Exact best codes of modules 2..n (and the cost) at ``step`` with module 1's frame ``frame1`` (rows x, y, z)."""
+              frame1, line: np.ndarray | None = None) -> tuple[list[int], float]:
+    """Exact best codes of modules 2..n (and the cost) at ``step`` with module 1's frame ``frame1`` (rows x, y, z).
+
+    ``line``: the racing line (one point per tube point) the ``racing_weight`` term pulls to (default: the
+    centerline)."""
     n = robot.modules
     a = math.radians(robot.alpha)
     path = np.ascontiguousarray(path, dtype=np.float64)
@@ -351,7 +375,8 @@ def head_cost(tube, robot, settings: dict[str, float], path: np.ndarray, step: i
     step_targets(path, dirs, step, n, robot.feed_divisor, float(robot.feed), T, d)
     prm = _prm(robot, settings, tube)
     best = np.zeros(n, dtype=np.int64)
-    cost = _head_cost(tube.points, tube.radius, float(tube.pre), float(tube.window), np.asarray(base, dtype=float),
+    Q = tube.points if line is None else np.ascontiguousarray(line, dtype=np.float64)
+    cost = _head_cost(tube.points, Q, tube.radius, float(tube.pre), float(tube.window), np.asarray(base, dtype=float),
                       np.ascontiguousarray(frame1, dtype=float), step, n, robot.feed_divisor,
                       float(robot.module_length), math.cos(a), math.sin(a), T, prm, best, np.empty((n, 3, 3)),
                       np.empty((n + 1, 3)), np.empty(n + 1), np.zeros(n + 1, dtype=np.int64),
@@ -360,14 +385,15 @@ def head_cost(tube, robot, settings: dict[str, float], path: np.ndarray, step: i
 
 
 def lumen_config_cost(tube, robot, settings: dict[str, float], path: np.ndarray, step: int,
-                      points: np.ndarray) -> float:
+                      points: np.ndarray, line: np.ndarray | None = None) -> float:
     """The cost of a configuration (points (n+1, 3)) as the module doc defines it, in numpy, for the tests.
 
     Uses the full-window nearest search of :func:`bhr.run.clearance.point_clearance`.
     """
     n, f = robot.modules, robot.feed_divisor
     prm = _prm(robot, settings, tube)
-    radius, margin, ww, wc, wt, wo, dR, wa, sp, _, wl, slack, end = prm
+    radius, margin, ww, wc, wt, wo, dR, wa, sp, _, wl, slack, end, wr = prm
+    Q = tube.points if line is None else np.asarray(line, dtype=float)
     path = np.asarray(path, dtype=float)
     dirs = np.diff(path, axis=0)
     dirs /= np.linalg.norm(dirs, axis=1)[:, None]
@@ -388,6 +414,10 @@ def lumen_config_cost(tube, robot, settings: dict[str, float], path: np.ndarray,
         clr.append(c)
         lead = along - slack * (end - e) * sp
         J += wall(c) + wc * dist * dist + wa * along * along + (wl * lead * lead if lead > 0.0 else 0.0)
+        if wr > 0.0:
+            k = min(int(math.floor(pos)), Q.shape[0] - 2)
+            q = Q[k] + (pos - k) * (Q[k + 1] - Q[k])
+            J += wr * float(np.sum((points[j] - q) ** 2))
     for j in range(n):
         half = 0.5 * float(np.linalg.norm(points[j + 1] - points[j]))
         if min(clr[j], clr[j + 1]) - half - dR <= margin:
@@ -439,7 +469,15 @@ def _prm(robot, settings: dict[str, float], tube=None) -> np.ndarray:
     return np.array([float(robot.radius), settings["margin"], settings["wall_weight"], settings["center_weight"],
                      settings["track_weight"], (settings["ori_weight"] * DEG) ** 2, dR, settings["along_weight"], sp,
                      pre, settings.get("lead_weight", DEFAULTS["lead_weight"]),
-                     settings.get("lead_slack", DEFAULTS["lead_slack"]), end], dtype=np.float64)
+                     settings.get("lead_slack", DEFAULTS["lead_slack"]), end,
+                     settings.get("racing_weight", DEFAULTS["racing_weight"])], dtype=np.float64)
+
+
+def planned_line(tube: Tube, robot, margin: float) -> np.ndarray:
+    """The racing line through the tube's corridor (R - robot radius - margin), curvature bounded by the head's
+    tightest bend where the corridor allows it (:func:`bhr.model.racing.racing_line`)."""
+    kmax = 1.0 / head_radius_mm(float(robot.module_length), float(robot.alpha))
+    return np.ascontiguousarray(racing_line(tube.points, tube.radius - float(robot.radius) - margin, kmax))
 
 
 # ---------------------------------------------------------------------------
@@ -459,12 +497,12 @@ class Lumen(Optimal):
                  track_weight: float | None = None, along_weight: float | None = None,
                  ori_weight: float | None = None, window: float | None = None,
                  trail_beam: int | None = None, lead_weight: float | None = None,
-                 lead_slack: float | None = None) -> None:
+                 lead_slack: float | None = None, racing_weight: float | None = None) -> None:
         opt = {k: v for k, v in dict(lookahead=lookahead, beam=beam, wall_weight=wall_weight, margin=margin,
                                      center_weight=center_weight, track_weight=track_weight,
                                      along_weight=along_weight, ori_weight=ori_weight,
                                      window=window, trail_beam=trail_beam, lead_weight=lead_weight,
-                                     lead_slack=lead_slack).items() if v is not None}
+                                     lead_slack=lead_slack, racing_weight=racing_weight).items() if v is not None}
         cfg = {**DEFAULTS, **opt}
         super().__init__(robot, lookahead=cfg["lookahead"], beam=cfg["beam"], ori_weight=cfg["ori_weight"])
         self.wall_weight = setting_number("wall-weight", cfg["wall_weight"])
@@ -474,6 +512,7 @@ class Lumen(Optimal):
         self.along_weight = setting_number("along-weight", cfg["along_weight"])
         self.lead_weight = setting_number("lead-weight", cfg["lead_weight"])
         self.lead_slack = setting_number("lead-slack", cfg["lead_slack"])
+        self.racing_weight = setting_number("racing-weight", cfg["racing_weight"])
         self.window = setting_number("window", cfg["window"])
         if self.window <= 0 or self.window > 1e4:
             raise BhrError(f"window must be more than 0 and at most 10000 mm, got {self.window:g}")
@@ -484,7 +523,8 @@ class Lumen(Optimal):
         self._tube: Tube | None = None
         self._tube_path: np.ndarray | None = None  # the points the tube was made from (held)
         self._checked_path: np.ndarray | None = None
-        self._prm_cache = np.zeros(13)
+        self._prm_cache = np.zeros(14)
+        self._line: np.ndarray | None = None  # the racing line, one point per tube point (None: the centerline)
         self._lag = np.zeros(1)
 
     @property
@@ -492,7 +532,7 @@ class Lumen(Optimal):
         return {"lookahead": self.lookahead, "beam": self.beam, "wall_weight": self.wall_weight,
                 "margin": self.margin, "center_weight": self.center_weight, "track_weight": self.track_weight,
                 "along_weight": self.along_weight, "lead_weight": self.lead_weight, "lead_slack": self.lead_slack,
-                "ori_weight": self.ori_weight, "window": self.window}
+                "ori_weight": self.ori_weight, "window": self.window, "racing_weight": self.racing_weight}
 
     def prepare(self, trajectory) -> None:
         """Take the lumen of the trajectory about to be followed (called by bhr.follow)."""
@@ -504,8 +544,12 @@ class Lumen(Optimal):
                                closed_end=lumen_end_of(trajectory) == "closed")
         self._tube_path = trajectory.points
         self._checked_path = None
+        self._line = None
+        if self.racing_weight > 0.0:
+            self._line = planned_line(self._tube, self.robot, self.margin)
 
     def _tube_args(self, path: np.ndarray) -> tuple:
+        """(centerline, racing line, radius, pre, window) of the tube, checked against ``path``."""
         t = self._tube
         if t is None:
             raise BhrError("--solver lumen was not given the path's lumen; run it through bhr.follow with a "
@@ -517,7 +561,7 @@ class Lumen(Optimal):
                                "trajectory that has a lumen")
             self._checked_path = path
             self._prm_cache = _prm(self.robot, self.settings, t)
-        return t.points, t.radius, float(t.pre), float(t.window)
+        return t.points, (t.points if self._line is None else self._line), t.radius, float(t.pre), float(t.window)
 
     def reset(self) -> None:
         super().reset()
@@ -534,7 +578,7 @@ class Lumen(Optimal):
         n = chain.modules
         path = np.ascontiguousarray(context.path, dtype=np.float64)
         dirs = np.ascontiguousarray(context.directions, dtype=np.float64)
-        C, R, pre, w = self._tube_args(path)
+        C, Q, R, pre, w = self._tube_args(path)
         P = np.ascontiguousarray(chain.points.copy())
         E1 = np.ascontiguousarray(chain.axes[0].copy())
         E2 = np.ascontiguousarray(chain.axes[1].copy())
@@ -546,7 +590,7 @@ class Lumen(Optimal):
                 self._state[:] = 0
         codes = np.zeros(n, dtype=np.int64)
         tilts = np.zeros(n)
-        layers, cost = _lumen_step(P, E1, E2, i, *self._beam_args(), C, R, pre, w, path, dirs, n,
+        layers, cost = _lumen_step(P, E1, E2, i, *self._beam_args(), C, Q, R, pre, w, path, dirs, n,
                                    int(r.feed_divisor), float(r.feed), float(r.module_length), float(r.alpha),
                                    self._prm(), int(self.lookahead), self._lag, codes, tilts)
         out = Chain(P, np.stack([E1, E2]))
@@ -564,11 +608,11 @@ class Lumen(Optimal):
         self.reset()
         path = np.ascontiguousarray(path, dtype=np.float64)
         dirs = np.ascontiguousarray(dirs, dtype=np.float64)
-        C, R, pre, w = self._tube_args(path)
+        C, Q, R, pre, w = self._tube_args(path)
         c = chain.copy()
         r = self.robot
         follow_lumen_kernel(path, dirs, np.ascontiguousarray(c.points), np.ascontiguousarray(c.axes[0]),
-                            np.ascontiguousarray(c.axes[1]), *self._beam_args(), C, R, pre, w, int(r.feed_divisor),
+                            np.ascontiguousarray(c.axes[1]), *self._beam_args(), C, Q, R, pre, w, int(r.feed_divisor),
                             float(r.feed), float(r.module_length), float(r.alpha), self._prm(),
                             int(self.lookahead), self._lag, out_points, out_iters, pe, oe, codes)
         self.reset()

@@ -18,3 +18,18 @@ def test_cli_options_go_to_the_solver_they_belong_to(run_bhr, tmp_path):
         "Error: --wall-weight is an option of --solver lumen; drop it or use --solver lumen"]
     bad = run_bhr("follow", "--traj", csv, "--solver", "lumen", "--drift-weight", "3", "--no-plots")
     assert bad.returncode != 0 and "is an option of --solver optimal" in bad.stderr
+
+
+def test_racing_weight_reaches_the_cli_and_bad_values_are_refused(run_bhr, tmp_path):
+    out = run_bhr("follow", "--traj", "anatomy", "--seed", "3", "--solver", "lumen", "--racing-weight", "0.05",
+                  "--center-weight", "0", "--no-plots", "--out", tmp_path / "o")
+    assert out.returncode == 0, out.stderr
+    assert "Lumen clearance: minimum" in out.stdout
+    for bad in ("-1", "abc"):
+        r = run_bhr("follow", "--traj", "anatomy", "--seed", "3", "--solver", "lumen", "--racing-weight", bad,
+                    "--no-plots")
+        lines = r.stderr.strip().splitlines()
+        assert r.returncode != 0 and len(lines) == 1 and "racing-weight" in lines[0], r.stderr
+    r = run_bhr("follow", "--traj", "anatomy", "--seed", "3", "--solver", "seed", "--racing-weight", "1", "--no-plots")
+    assert r.returncode != 0 and r.stderr.strip().splitlines() == [
+        "Error: --racing-weight is an option of --solver lumen; drop it or use --solver lumen"]
