@@ -768,7 +768,8 @@ def case_first_run(repeat: int = 3) -> BenchResult:
     from bhr.bench.commands import run_once
 
     args = ["follow", "--traj", "colon", "--out", "o"]
-    first, compiling = [], []
+    first: list[float] = []
+    compiling: list[float] = []
     for _ in range(max(1, repeat)):
         for interpret, into in ((True, first), (False, compiling)):
             with tempfile.TemporaryDirectory() as tmp:
