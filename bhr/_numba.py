@@ -353,7 +353,6 @@ def install_cache_write_guard() -> None:
         sys.meta_path.insert(0, _CacheWriteGuard())
 
 
-
 # --- the first run: a kernel whose cache is cold runs interpreted when that costs less than compiling -----------
 
 _interpreting = False  # turned on by a command whose end compiles every kernel in the background (cli)

@@ -7,9 +7,10 @@ solver, the forward kinematics, whole-body following, the lumen clearance and
 the thermal model: every kernel bhr has, with the argument types the commands
 give them (the types are what numba compiles for, not the sizes).
 
-The first command on a machine that had to compile starts this in the
-background when it ends (``python -m bhr.warmup``, at low priority), so the
-user waits only for the kernels of that first command. Setting
+The first command on a machine that had to compile (or ran a cold kernel
+interpreted, :func:`bhr._numba.call_cold`) starts this in the background when
+it ends (``python -m bhr.warmup``, at low priority), so the user waits only for
+the kernels of that first command. Setting
 ``BHR_NO_BACKGROUND_COMPILE=1`` turns that off.
 """
 from __future__ import annotations
