@@ -85,3 +85,26 @@ def test_a_too_long_output_path_is_quoted_short(tmp_path, args):
     line = one_line(bhr(*args, long, cwd=tmp_path, timeout=120))
     assert "File name too long" in line and "..." in line and len(line) < 300, line
     assert list(tmp_path.iterdir()) == []
+
+
+# --- a file's name is one line of printable text ------------------------------------------------------------------
+
+@pytest.mark.parametrize("file, text, args, words", [
+    ("t.toml", 'name = "evil\\nError: forged"\n[[segment]]\ntype = "straight"\nlength = 20.0\n',
+     ["follow", "--traj", "t.toml"], "name 'evil\\nError: forged' holds a control character"),
+    ("t.toml", 'name = "a\\u001b[31mb"\ngenerator = "line"\n', ["follow", "--traj", "t.toml"],
+     "holds a control character"),
+    ("t.toml", 'name = "a\\u202eb"\ngenerator = "line"\n', ["follow", "--traj", "t.toml"], "holds U+202E"),
+    ("r.toml", 'name = "robot\\nline two"\n', ["follow", "--traj", "line", "--robot", "r.toml"],
+     "holds a control character"),
+    ("r.json", '{"name": "robot\\u0000"}', ["fk", "--codes", "0,3,0,0,0", "--robot", "r.json"],
+     "holds a control character"),
+], ids=["segment-newline", "generator-escape", "generator-rtl-override", "robot-toml-newline", "robot-json-nul"])
+def test_a_name_with_a_line_break_or_escape_is_refused(tmp_path, file, text, args, words):
+    # the summary printed the name as it was: a newline in it forged a line of bhr's own ("Error: forged: 11 steps")
+    (tmp_path / file).write_text(text)
+    before = snapshot(tmp_path)
+    line = one_line(bhr(*args, "--no-plots", "--out", "o", cwd=tmp_path, timeout=120) if args[0] == "follow" else
+                    bhr(*args, cwd=tmp_path, timeout=120))
+    assert line.startswith(f"Error: {file}: name ") and words in line and "give a name" in line, line
+    assert snapshot(tmp_path) == before and os.listdir(tmp_path) == [file]
