@@ -108,3 +108,20 @@ def test_a_name_with_a_line_break_or_escape_is_refused(tmp_path, file, text, arg
                     bhr(*args, cwd=tmp_path, timeout=120))
     assert line.startswith(f"Error: {file}: name ") and words in line and "give a name" in line, line
     assert snapshot(tmp_path) == before and os.listdir(tmp_path) == [file]
+
+
+# --- a run.json's lumen end is open or closed ---------------------------------------------------------------------
+
+@pytest.mark.parametrize("value", ['"Open"', '"opn"', "5", "true", '""', "[]"])
+def test_a_run_json_lumen_end_that_is_neither_open_nor_closed_is_refused(tmp_path, loose_run, value):
+    # anything but "open" was read as closed: a replay (or physics) of another lumen than the run's, exit 0
+    import json
+
+    doc = json.loads(loose_run[0])
+    assert doc["trajectory"]["lumen_end"] == "closed"
+    doc["trajectory"]["lumen_end"] = json.loads(value)
+    (tmp_path / "r.json").write_text(json.dumps(doc))
+    before = snapshot(tmp_path)
+    line = one_line(bhr("replay", "r.json", "--out", "o", cwd=tmp_path, timeout=120))
+    assert line.startswith('Error: r.json: trajectory lumen_end must be "open" or "closed", got '), line
+    assert snapshot(tmp_path) == before
