@@ -30,7 +30,7 @@ import numpy as np
 from bhr import __version__
 from bhr.settings.inputs import MAX_MM, MAX_RUN_BYTES, MAX_STEP_POINTS, read_text
 from bhr.settings.errors import BhrError, renamed
-from bhr.settings.options import MIN_MAGNITUDE, OPTIONS, excerpt, robot_limits
+from bhr.settings.options import MIN_MAGNITUDE, OPTIONS, excerpt, has_control_char, robot_limits
 from bhr.model.codes import VALID_CODES as STABLE_CODES
 from bhr.model.robot import THESIS_ROBOT, Robot, robot_with
 from bhr.solvers import Chain, FollowContext, Solver, get_solver
@@ -401,8 +401,8 @@ def _run_from_json(doc: Any, where: str) -> FollowResult:
                           f"{', '.join(map(str, STABLE_CODES))} (or null in every step)")
             codes[k] = c
     solver = doc["solver"]
-    if not isinstance(solver, str):
-        raise bad("'solver' must be a name")
+    if not isinstance(solver, str) or not solver.strip() or has_control_char(solver) or not solver.isprintable():
+        raise bad(f"'solver' must be a solver's name, one line of printable text, got {excerpt(solver)}")
     lumen = None
     if tr.get("lumen") is not None:
         lumen = array(tr["lumen"], (path.shape[0],), "trajectory lumen")

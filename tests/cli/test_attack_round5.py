@@ -125,3 +125,17 @@ def test_a_run_json_lumen_end_that_is_neither_open_nor_closed_is_refused(tmp_pat
     line = one_line(bhr("replay", "r.json", "--out", "o", cwd=tmp_path, timeout=120))
     assert line.startswith('Error: r.json: trajectory lumen_end must be "open" or "closed", got '), line
     assert snapshot(tmp_path) == before
+
+
+@pytest.mark.parametrize("value", ['""', '"thesis\\nError: forged"', '"a\\u0000"', '"a\\u202e"', "5"])
+def test_a_run_json_solver_is_a_name_on_one_line(tmp_path, loose_run, value):
+    # an empty solver, or one with a line break or NUL, was taken as it was (the figures and view print it)
+    import json
+
+    doc = json.loads(loose_run[0])
+    doc["solver"] = json.loads(value)
+    (tmp_path / "r.json").write_text(json.dumps(doc))
+    before = snapshot(tmp_path)
+    line = one_line(bhr("replay", "r.json", "--out", "o", cwd=tmp_path, timeout=120))
+    assert line.startswith("Error: r.json: 'solver' must be a solver's name, one line of printable text"), line
+    assert snapshot(tmp_path) == before
