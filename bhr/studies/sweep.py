@@ -73,8 +73,8 @@ def _number(text: str, key: str, where: str) -> int | float:
         raise BhrError(f"{where}: {key} value {excerpt(t)} is not a number")
     whole = re.fullmatch(r"[+-]?\d+", t, re.ASCII)
     if not whole and BY_NAME.get(key) is not None and BY_NAME[key].kind is int:  # as --modules takes it
-        raise BhrError(f"{where}: {key} value {excerpt(t)} must be a whole number written with digits only (no "
-                       "point or exponent)")
+        raise BhrError(f"{where}: {key} must be a whole number written with digits only (no point or exponent), "
+                       f"got {excerpt(t)}")
     v = int(t) if whole else float(t)
     if isinstance(v, float) and not math.isfinite(v):  # 1e400
         raise BhrError(f"{where}: {key} value {t} is not a finite number")
