@@ -17,12 +17,31 @@ from bhr.cli._interrupt import end_interrupted
 from bhr.settings.errors import INTERRUPTED, BhrError
 
 
+def short_path(name: str, limit: int = 160) -> str:
+    """A path as quoted in a one-line message: whole up to ``limit`` characters, else its start and its end
+    (a 6000-character path that the system refused as too long is not printed whole)."""
+    if len(name) <= limit:
+        return name
+    half = (limit - 3) // 2
+    return f"{name[:half]}...{name[-half:]}"
+
+
+def refuse_replacing_beside(folder: Path, names: Any, beside: str, fix: str) -> None:
+    """Files written beside a loose input (its folder has no bhr manifest: nothing proves what bhr wrote there)
+    never replace a file already there: a user's path.png or thermal.png beside their run.json or codes.csv."""
+    for name in names:
+        target = folder / name
+        if os.path.lexists(target):
+            raise BhrError(f"{short_path(str(target))} already exists beside {short_path(beside)}, and no bhr "
+                           f"manifest.json there says bhr wrote it; {fix}")
+
+
 def os_error_line(exc: OSError, on_stdout: bool = True) -> str:
     """One line for a failed read or write: what, why, and what to do. An error that names no file is standard
     output's when ``on_stdout`` (:func:`_stdout_failed`), else a file some library was writing."""
     import errno
 
-    what = f"{exc.filename}" if exc.filename is not None else (
+    what = short_path(str(exc.filename)) if exc.filename is not None else (
         "standard output" if on_stdout else "writing a file")
     why = exc.strerror or type(exc).__name__
     fixes = {

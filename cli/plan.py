@@ -6,7 +6,7 @@ from pathlib import Path
 
 import click
 
-from bhr.cli._common import check_writable, guarded
+from bhr.cli._common import check_writable, guarded, refuse_replacing_beside
 from bhr.cli._link import schedule_option, thermal_params
 from bhr.cli._options import rate_type
 
@@ -56,7 +56,13 @@ def plan(codes_path, rate, schedule, robot_file, plot_path, no_plot, csv_path):
                    f"{LIMITS['figure_modules']}); the schedule follows.", err=True)
         no_plot = True
     if not no_plot:
-        plot_path = plot_path or str(Path(codes_path).resolve().parent / "thermal.png")
+        if plot_path is None:
+            from bhr.output.atomic import MANIFEST
+
+            plot_path = str(Path(codes_path).resolve().parent / "thermal.png")
+            if not (Path(plot_path).parent / MANIFEST).is_file():  # a loose codes.csv: the figure goes beside it
+                refuse_replacing_beside(Path(plot_path).parent, ["thermal.png"], codes_path,
+                                        "move it away, or give --plot FILE.png or --no-plots")
         check_writable(plot_path, "figure")
     check_writable(csv_path, "CSV")
     params = thermal_params(robot_file)

@@ -11,7 +11,7 @@ from typing import Any
 
 import click
 
-from bhr.cli._common import check_writable, guarded
+from bhr.cli._common import check_writable, guarded, refuse_replacing_beside
 from bhr.cli._options import PlainIntRange
 
 STRIDE_HELP = ("Draw every Nth step (the last step always): frames of --animate [default: N keeping it at "
@@ -109,8 +109,12 @@ def replay(run, show, animate_path, stride, out_dir, step):
     written: list[Path] = []
     if write_plots:
         from bhr.cli._progress import status
-        from bhr.output.plots import save_run_plots
-        from bhr.output.view import save_view
+        from bhr.output.plots import run_plot_names, save_run_plots
+        from bhr.output.view import VIEW_NAME, save_view
+
+        if folder is None:
+            refuse_replacing_beside(out, [*run_plot_names(result, step), VIEW_NAME], run,
+                                    "move it away, or give --out DIR for the figures")
 
         drawing = f"drawing the figures into {out}"  # everything `bhr follow` drew
         if folder is None:  # a loose run.json: the figures are written beside it, each whole

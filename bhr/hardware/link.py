@@ -582,6 +582,11 @@ def run_stream(link: BoardLink, codes, rate: float = 10.0, *, times: Sequence[fl
             wait_until_ready(link)
             if known_faults is None:
                 known_faults = link.status()["faults"]
+        if link.modules is not None and table.shape[1] != link.modules:
+            # the board said how many modules it drives: a row of another length would only be refused row by row
+            raise LinkError(f"board on {link.port} drives {link.modules} modules but the codes have {table.shape[1]} "
+                            f"per row; use codes for {link.modules} modules or build the firmware with "
+                            f"'make MODULES={table.shape[1]}'")
         pacer = Pacer(link, rate, heartbeat, times=planned, on_fault=on_fault, known_faults=known_faults or (),
                       wait_relaxed=wait_relaxed)
         t0 = time.monotonic()

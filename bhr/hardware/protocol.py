@@ -21,6 +21,7 @@ from typing import Iterable, Sequence
 
 from bhr.settings.errors import BhrError
 from bhr.model.codes import check_codes
+from bhr.model.robotfile import MAX_BOARD_MODULES
 
 __all__ = [
     "SYNC", "VERSION", "HEADER_LEN", "CRC_LEN", "MAX_PAYLOAD", "MAX_FRAME",
@@ -266,7 +267,7 @@ def check_reply(frame: Frame, request: int, modules: int | None = None) -> None:
     Checked: version; type (the request's ACK or STATUS_REPLY, or a NAK);
     length; the type an ACK or NAK names; a NAK's reason; fault bits this
     version knows; and in a status reply the module count (at least 1,
-    ``modules`` when given), the enabled byte, a stable code on every module
+    at most MAX_BOARD_MODULES, ``modules`` when given), the enabled byte, a stable code on every module
     (never 5, 7, 13 ...), nothing on the outputs while they are disabled, and
     per-module flags that agree with the fault byte.
     """
@@ -297,6 +298,8 @@ def check_reply(frame: Frame, request: int, modules: int | None = None) -> None:
     count, enabled, faults = p[2], p[1], p[0]
     if count < 1:
         raise ProtocolError("a status reply with 0 modules")
+    if count > MAX_BOARD_MODULES:  # the firmware's BHR_MODULES is 1 ... 32 (firmware/src/config.h)
+        raise ProtocolError(f"a status reply for {count} modules (a board drives at most {MAX_BOARD_MODULES})")
     if modules is not None and count != modules:
         raise ProtocolError(f"a status reply for {count} modules from a board that drives {modules}")
     if enabled not in (0, 1):

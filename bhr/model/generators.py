@@ -29,7 +29,7 @@ import numpy as np
 
 import bhr.model.pathfile as pathfile
 from bhr.settings.options import check_number, did_you_mean, excerpt
-from bhr.settings.inputs import check_keys, number, read_toml, text_value
+from bhr.settings.inputs import check_keys, number, name_value, read_toml, text_value
 from bhr.settings.errors import BhrError
 from bhr.model.anatomy import anatomical_colon, check_seed
 from bhr.model.pathfile import MAX_POINTS
@@ -393,7 +393,7 @@ def _from_file(path: Path, feed: float, params: dict[str, Any], builtin: bool) -
     if not isinstance(file_params, dict):
         raise BhrError(f"{path}: params must be a table ([params]) of numbers")
     traj = _from_generator(gen_name, file_params, params, feed, f"trajectory {path.stem}" if builtin else str(path))
-    traj.name = text_value(data.get("name", path.stem), f"{path}: name")
+    traj.name = name_value(data.get("name", path.stem), f"{path}: name")
     if gen_name == "anatomy":  # one file, many colons: the name says which
         traj.name = f"{traj.name}-{traj.params['seed']}"
     if "description" in data:

@@ -29,7 +29,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from bhr.settings.inputs import (MAX_MM, MAX_POINTS, check_keys, choice, number, read_text, text_value,
+from bhr.settings.inputs import (MAX_MM, MAX_POINTS, check_keys, choice, name_value, number, read_text, text_value,
                                  type_name, vector3)
 from bhr.settings.errors import BhrError
 from bhr.settings.options import LIMITS, MAX_NUMBER_CHARS, MIN_MAGNITUDE, excerpt
@@ -186,7 +186,7 @@ def segments_trajectory(data: dict[str, Any], path: Path, feed: float):
 
     where = str(path)
     check_keys(data, TOP_KEYS, where)
-    name = text_value(data.get("name", path.stem), f"{where}: name")
+    name = name_value(data.get("name", path.stem), f"{where}: name")
     if "description" in data:
         text_value(data["description"], f"{where}: description")
     start = np.array(vector3(data.get("start", [0.0, 0.0, 0.0]), f"{where}: start"))

@@ -22,7 +22,7 @@ from importlib import resources
 from pathlib import Path
 from typing import Any, Sequence
 
-from bhr.settings.inputs import check_keys, number, read_text, read_toml, text_value, type_name
+from bhr.settings.inputs import check_keys, name_value, number, read_text, read_toml, text_value, type_name
 from bhr.model.codes import CODE_AXIS, LIFT, REST, VALID_CODES
 from bhr.settings.errors import BhrError
 from bhr.settings.options import by_group, excerpt, has_control_char, parse_number
@@ -320,7 +320,7 @@ def load_robot_file(path: str | os.PathLike[str]) -> RobotFile:
         data = {("robot_radius" if k == "radius" else k): v for k, v in data.items()}
     check_keys(data, TOP_KEYS, where)
     data = {("radius" if k == "robot_radius" else k): v for k, v in data.items()}
-    name = text_value(data.get("name", p.stem), f"{where}: name")
+    name = name_value(data.get("name", p.stem), f"{where}: name")
     description = text_value(data.get("description", ""), f"{where}: description")
     fields_: dict[str, Any] = {}
     for key, rules in ROBOT_KEYS.items():

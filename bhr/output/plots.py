@@ -799,6 +799,17 @@ def save_figure(fig: plt.Figure, path: str | os.PathLike[str], dpi: int = 110, c
     return p
 
 
+def run_plot_names(result: "FollowResult", step: int | None = None) -> list[str]:
+    """The names of the files :func:`save_run_plots` writes for ``result``, in its order."""
+    names = [name for name, _, _ in ERROR_KINDS.values()]
+    names.append("path.png" if step is None else f"path-step{step}.png")
+    if result.body is not None and result.body.modules:
+        names.append("body_errors.png")
+    if result.clearance is not None:
+        names.append("clearance.png")
+    return names
+
+
 def save_run_plots(result: "FollowResult", out_dir: str | os.PathLike[str], step: int | None = None) -> list[Path]:
     """Write a run's figures into ``out_dir``: the three error figures, the path view (``path.png``, or with the
     robot at 1-based ``step``, ``path-stepK.png``) and, where the run has them, the body's errors and the

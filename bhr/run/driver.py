@@ -30,7 +30,7 @@ import numpy as np
 from bhr import __version__
 from bhr.settings.inputs import MAX_MM, MAX_RUN_BYTES, MAX_STEP_POINTS, read_text
 from bhr.settings.errors import BhrError, renamed
-from bhr.settings.options import MIN_MAGNITUDE, OPTIONS, robot_limits
+from bhr.settings.options import MIN_MAGNITUDE, OPTIONS, excerpt, has_control_char, robot_limits
 from bhr.model.codes import VALID_CODES as STABLE_CODES
 from bhr.model.robot import THESIS_ROBOT, Robot, robot_with
 from bhr.solvers import Chain, FollowContext, Solver, get_solver
@@ -401,8 +401,8 @@ def _run_from_json(doc: Any, where: str) -> FollowResult:
                           f"{', '.join(map(str, STABLE_CODES))} (or null in every step)")
             codes[k] = c
     solver = doc["solver"]
-    if not isinstance(solver, str):
-        raise bad("'solver' must be a name")
+    if not isinstance(solver, str) or not solver.strip() or has_control_char(solver) or not solver.isprintable():
+        raise bad(f"'solver' must be a solver's name, one line of printable text, got {excerpt(solver)}")
     lumen = None
     if tr.get("lumen") is not None:
         lumen = array(tr["lumen"], (path.shape[0],), "trajectory lumen")
@@ -413,9 +413,13 @@ def _run_from_json(doc: Any, where: str) -> FollowResult:
     msgs = summary.get("warnings", []) if isinstance(summary, dict) else []
     params: dict[str, Any] = tr["params"] if isinstance(tr.get("params"), dict) else {}
     start_dir, start_pt = _start_from_json(tr, path, pts, robot, bad, array)
+    lumen_end = tr.get("lumen_end")
+    if lumen_end is None:  # absent in runs written before lumen ends existed: closed
+        lumen_end = "closed"
+    if lumen_end not in ("open", "closed"):  # "Open" or 5 was read as closed: the clearance of another lumen
+        raise bad(f"trajectory lumen_end must be \"open\" or \"closed\", got {excerpt(lumen_end)}")
     traj = Trajectory(str(tr.get("name", "run")), path, dict(params), source=where, lumen=lumen,
-                      lumen_end="open" if tr.get("lumen_end") == "open" else "closed", start_direction=start_dir,
-                      start_point=start_pt)
+                      lumen_end=lumen_end, start_direction=start_dir, start_point=start_pt)
     result = FollowResult(traj, robot, solver, pts, np.asarray(iters, dtype=np.int64), pe, oe, codes,
                           [str(m) for m in msgs] if isinstance(msgs, list) else [])
     result.body = body

@@ -12,7 +12,7 @@ from pathlib import Path
 from typing import Any, Iterable
 
 from bhr.settings.errors import BhrError
-from bhr.settings.options import MAX_MM, LIMITS, check_number, did_you_mean, parse_number
+from bhr.settings.options import MAX_MM, LIMITS, check_number, did_you_mean, has_control_char, parse_number
 from bhr.settings.options import excerpt as _excerpt
 from bhr.settings.options import type_name as _type_name
 
@@ -196,6 +196,20 @@ def text_value(value: Any, where: str) -> str:
     if not isinstance(value, str):
         raise BhrError(f"{where} must be text in quotes, got {type_name(value)}")
     return value
+
+
+def name_value(value: Any, where: str) -> str:
+    """A file's ``name`` (a trajectory's, a robot's): text on one line of printable characters, since the summary,
+    the warnings and the figures print it (a newline in it would forge a line such as "Error: ...")."""
+    name = text_value(value, where)
+    if has_control_char(name):
+        raise BhrError(f"{where} {_excerpt(name)} holds a control character (a tab, a line break or an escape); "
+                       "give a name on one line")
+    hidden = next((c for c in name if not c.isprintable()), None)
+    if hidden is not None:  # a right-to-left override shows the name reversed
+        raise BhrError(f"{where} {_excerpt(name)} holds U+{ord(hidden):04X}, an invisible or formatting character; "
+                       "give a name of printable characters")
+    return name
 
 
 def choice(value: Any, where: str, allowed: Iterable[str]) -> str:

@@ -234,6 +234,7 @@ def _run_pool(workers: int, fn: Callable[[Any], Any], warm_up: Callable[..., Any
 
     ctx = multiprocessing.get_context("spawn")  # safe next to threads (a Dask client, a GUI)
     import signal
+    import threading
 
     if hasattr(signal, "pthread_sigmask"):  # multiprocessing's resource tracker, started with the pool's first
         # lock, ignores SIGINT and SIGTERM but not SIGHUP: a closed terminal killed it, and the one started in its
@@ -253,14 +254,26 @@ def _run_pool(workers: int, fn: Callable[[Any], Any], warm_up: Callable[..., Any
         # SIGTERM and SIGHUP too: they end the command as a Ctrl-C does (bhr.settings.interrupts), and one that
         # came while a worker was being started left that worker reading its start-up data from a closed pipe
         # (a traceback of EOFError)
+        # The mask is this thread's only: a signal sent to the process can land on another thread (one that
+        # does not block it), and Python then runs the handler here, between a worker's start and the write of
+        # its start-up data (the same EOFError). So the handlers only note a signal until every worker has
+        # started, and it is raised again after.
         blocked = hasattr(signal, "pthread_sigmask")
         held = {signal.SIGINT, signal.SIGTERM, signal.SIGHUP}
+        noted: list[int] = []
+        handlers = {}
+        if threading.current_thread() is threading.main_thread():
+            handlers = {sig: signal.signal(sig, lambda sig, frame: noted.append(sig)) for sig in held}
         old = signal.pthread_sigmask(signal.SIG_BLOCK, held) if blocked else None
         try:
             futures = [pool.submit(_run_chunk, fn, warm_up, warm_up_args, c) for c in chunks]
         finally:
             if blocked:
                 signal.pthread_sigmask(signal.SIG_SETMASK, old or set())
+            for sig, handler in handlers.items():
+                signal.signal(sig, signal.SIG_DFL if handler is None else handler)
+            if noted:
+                signal.raise_signal(noted[0])  # now the command's own handler: it ends as that signal ends it
         for fut in as_completed(futures):
             try:
                 part = fut.result()

@@ -71,7 +71,11 @@ def _number(text: str, key: str, where: str) -> int | float:
                        f"({MAX_NUMBER_CHARS})")
     if not _NUM.match(t):
         raise BhrError(f"{where}: {key} value {excerpt(t)} is not a number")
-    v = int(t) if re.fullmatch(r"[+-]?\d+", t, re.ASCII) else float(t)
+    whole = re.fullmatch(r"[+-]?\d+", t, re.ASCII)
+    if not whole and BY_NAME.get(key) is not None and BY_NAME[key].kind is int:  # as --modules takes it
+        raise BhrError(f"{where}: {key} must be a whole number written with digits only (no point or exponent), "
+                       f"got {excerpt(t)}")
+    v = int(t) if whole else float(t)
     if isinstance(v, float) and not math.isfinite(v):  # 1e400
         raise BhrError(f"{where}: {key} value {t} is not a finite number")
     return v

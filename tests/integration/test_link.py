@@ -392,6 +392,8 @@ LIES = {
     "unknown fault bit": lambda b, f: status_reply(f.seq, 0x80, 1, 5, [0] * 5) if f.type == P.Msg.STATUS else None,
     "ACK to STATUS": lambda b, f: P.encode_frame(P.Msg.ACK, f.seq, bytes([f.type, 0])) if f.type == P.Msg.STATUS
     else None,
+    # the firmware drives 1 ... 32 modules (BHR_MODULES); 33 fits in a frame but no board sends it
+    "33 modules": lambda b, f: status_reply(f.seq, 0, 1, 33, [0] * 33) if f.type == P.Msg.STATUS else None,
 }
 
 
@@ -439,6 +441,23 @@ def test_status_command_on_a_lying_board_is_one_line_and_exit_1(board, lie):
     assert r.returncode == 1 and r.stdout == ""
     msg = one_line(r.stderr)
     assert msg.startswith("Error: board on") and "impossible reply" in msg
+
+
+@pytest.mark.parametrize("count", [1, 6])
+def test_stream_refuses_codes_for_another_count_than_the_board_reports(board, tmp_path, count):
+    # the board says it drives COUNT modules and acknowledges anything: every 5-code row was sent (exit 0)
+    def lie(b, f):
+        if f.type == P.Msg.STATUS:
+            return status_reply(f.seq, 0, 1, count, [0] * count)
+        return P.encode_frame(P.Msg.ACK, f.seq, bytes([f.type, 0]))
+
+    b = board(lie=lie)
+    f = write_codes(tmp_path / "codes.csv", [[0, 3, 0, 0, 0], [0, 3, 6, 0, 0]])
+    r = run_bhr("stream", "--port", b.path, "--codes", f, "--rate", "20", "--timeout", "0.2")
+    assert r.returncode == 1 and r.stdout == ""
+    msg = one_line(r.stderr)
+    assert f"drives {count} modules but the codes have 5 per row" in msg and "sent stop-all" in msg, msg
+    assert "SET_CODES" not in b.types() and b.types()[-1] == "STOP_ALL"
 
 
 @pytest.mark.parametrize("how", ["mute", "closes"])

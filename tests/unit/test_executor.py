@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import os
+import time
 from pathlib import Path
 
 import pytest
@@ -93,3 +94,44 @@ def test_a_worker_that_dies_stops_the_study_with_one_line():
 def test_bad_executor_settings(kwargs, msg):
     with pytest.raises(BhrError, match=msg):
         run_jobs(square, [(1, "")], **kwargs)
+
+
+def test_a_signal_taken_by_another_thread_while_a_worker_starts_leaves_it_its_start_up_data(capfd, monkeypatch):
+    # A Ctrl-C sent to the process can land on a thread that does not block it; Python then runs the handler in
+    # the main thread, which had raised KeyboardInterrupt between a worker's spawn and the write of its start-up
+    # data: the worker, never registered in the pool and so never stopped, printed "EOFError: Ran out of input"
+    import multiprocessing
+    import queue
+    import signal
+    import threading
+    from multiprocessing import util
+
+    asks: queue.Queue = queue.Queue()
+    answered: queue.Queue = queue.Queue()
+
+    def other_thread():  # started before the workers, so it does not block the signal
+        while asks.get():
+            signal.raise_signal(signal.SIGINT)  # delivered to this thread: the handler runs in the main thread
+            answered.put(True)
+
+    real = util.spawnv_passfds
+
+    def spawn(*args, **kwargs):
+        pid = real(*args, **kwargs)
+        if "spawn_main" in str(args):  # a worker, not the resource tracker
+            asks.put(True)
+            answered.get()
+        return pid
+
+    threading.Thread(target=other_thread, daemon=True).start()
+    monkeypatch.setattr(util, "spawnv_passfds", spawn)
+    with pytest.raises(KeyboardInterrupt):
+        run_jobs(abs, [-1, -2, -3, -4], jobs=2, max_chunk=1)
+    asks.put(False)
+    deadline = time.monotonic() + 10
+    while multiprocessing.active_children() and time.monotonic() < deadline:
+        time.sleep(0.1)
+    time.sleep(1.0)  # a worker left reading a closed pipe prints its traceback at once
+    assert multiprocessing.active_children() == []
+    err = capfd.readouterr().err
+    assert "EOFError" not in err and "Traceback" not in err, err
