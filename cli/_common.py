@@ -105,6 +105,8 @@ def guarded(func: Callable[..., Any]) -> Callable[..., Any]:
                 end_interrupted()
             raise click.ClickException(str(exc).splitlines()[0] if str(exc) else type(exc).__name__) from None
         except ValueError as exc:
+            if INTERRUPTED.is_set():  # a library turned the Ctrl-C raised inside it into its own error
+                end_interrupted()
             if not str(exc).startswith("Key backend:"):
                 raise
             shown = repr(os.environ.get("MPLBACKEND", ""))[:40]  # matplotlib refused the environment's backend
@@ -125,6 +127,12 @@ def guarded(func: Callable[..., Any]) -> Callable[..., Any]:
                                        "(the limits are in docs/commands.md)") from None
         except RecursionError:
             raise click.ClickException("input nested too deeply to read; give a file as bhr writes it") from None
+        except Exception:
+            # a signal's KeyboardInterrupt raised inside a library's callback comes back as that library's error
+            # (matplotlib's renderer: "ValueError: Invalid bounding box"): the interrupt is what happened
+            if INTERRUPTED.is_set():
+                end_interrupted()
+            raise
 
     return wrapper
 

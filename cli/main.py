@@ -70,6 +70,12 @@ class LazyGroup(click.Group):
             sys.exit(1)
         except (EOFError, KeyboardInterrupt):
             end_interrupted()
+        except Exception:
+            from bhr.settings.errors import INTERRUPTED
+
+            if INTERRUPTED.is_set():  # a Ctrl-C raised inside a library that came back as another error
+                end_interrupted()
+            raise
         from bhr.settings.errors import INTERRUPTED
 
         if INTERRUPTED.is_set():  # a Ctrl-C that something caught on the way: still honoured

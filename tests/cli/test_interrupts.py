@@ -96,3 +96,40 @@ def test_a_ctrl_c_inside_a_finalizer_is_held():
 
     Ref().__del__()
     assert interrupts._in_extension_init(Ref.frame)
+
+
+LIBRARY_SWALLOWS = r'''
+import os, signal, sys, time
+import bhr.output.plots as plots
+
+SIG = getattr(signal, sys.argv[1])
+
+
+def save_run_plots(*args, **kwargs):  # a library whose callback took the signal's KeyboardInterrupt
+    try:
+        os.kill(os.getpid(), SIG)
+        time.sleep(0.5)  # the handler runs as soon as os.kill returns
+    except KeyboardInterrupt:
+        raise ValueError("Invalid bounding box") from None  # as matplotlib's renderer reports it
+    raise AssertionError("the signal did not arrive")
+
+plots.save_run_plots = save_run_plots
+sys.argv = ["bhr", "follow", "--traj", "curve", "--out", "o"]
+from bhr.cli.main import run
+run()
+'''
+
+
+@pytest.mark.parametrize("sig, status", [("SIGINT", 130), ("SIGHUP", 129), ("SIGTERM", 143)])
+def test_a_signal_a_library_turned_into_its_own_error_still_ends_the_command_as_the_signal(tmp_path, sig, status):
+    """A signal's KeyboardInterrupt raised inside a library's callback can come back as that library's error
+    (seen: SIGHUP while matplotlib drew, "ValueError: Invalid bounding box" and a traceback): still one line."""
+    import os
+
+    env = dict(os.environ, MPLBACKEND="Agg")
+    res = subprocess.run([sys.executable, "-c", LIBRARY_SWALLOWS, sig], cwd=tmp_path, env=env, capture_output=True,
+                         text=True, timeout=300)
+    expected = "Interrupted." if sig == "SIGINT" else f"Interrupted by {sig}."
+    lines = [ln for ln in res.stderr.splitlines() if not ln.startswith("Compiling bhr's")]
+    assert (res.returncode, lines) == (status, [expected]), res.stderr[-1500:]
+    assert not (tmp_path / "o").exists()

@@ -687,7 +687,7 @@ def test_bad_files_never_reach_the_board(sim, tmp_path):
     wrong.write_text(format_codes_csv([[3, 0, 0, 0, 0, 0]]))
     r = run_bhr("stream", "--port", s.pty, "--codes", wrong)
     assert r.returncode == 1
-    assert "drives 5 modules but 6 codes were sent" in one_line(r.stderr)
+    assert "drives 5 modules but the codes have 6 per row" in one_line(r.stderr)
     time.sleep(0.2)
     assert not any(e["oe"] == "on" for e in s.events())
     assert all(e["latched"] == [0] * MODULES for e in s.events())
