@@ -12,18 +12,9 @@ from typing import Any, Callable
 import click
 
 from bhr.output.atomic import (check_parent_folder, folder_name, input_files, json_in_folder,  # noqa: F401
-                               run_folder_name)
+                               run_folder_name, short_path)
 from bhr.cli._interrupt import end_interrupted
 from bhr.settings.errors import INTERRUPTED, BhrError
-
-
-def short_path(name: str, limit: int = 160) -> str:
-    """A path as quoted in a one-line message: whole up to ``limit`` characters, else its start and its end
-    (a 6000-character path that the system refused as too long is not printed whole)."""
-    if len(name) <= limit:
-        return name
-    half = (limit - 3) // 2
-    return f"{name[:half]}...{name[-half:]}"
 
 
 def refuse_replacing_beside(folder: Path, names: Any, beside: str, fix: str) -> None:
@@ -105,8 +96,6 @@ def guarded(func: Callable[..., Any]) -> Callable[..., Any]:
                 end_interrupted()
             raise click.ClickException(str(exc).splitlines()[0] if str(exc) else type(exc).__name__) from None
         except ValueError as exc:
-            if INTERRUPTED.is_set():  # a library turned the Ctrl-C raised inside it into its own error
-                end_interrupted()
             if not str(exc).startswith("Key backend:"):
                 raise
             shown = repr(os.environ.get("MPLBACKEND", ""))[:40]  # matplotlib refused the environment's backend
@@ -127,12 +116,6 @@ def guarded(func: Callable[..., Any]) -> Callable[..., Any]:
                                        "(the limits are in docs/commands.md)") from None
         except RecursionError:
             raise click.ClickException("input nested too deeply to read; give a file as bhr writes it") from None
-        except Exception:
-            # a signal's KeyboardInterrupt raised inside a library's callback comes back as that library's error
-            # (matplotlib's renderer: "ValueError: Invalid bounding box"): the interrupt is what happened
-            if INTERRUPTED.is_set():
-                end_interrupted()
-            raise
 
     return wrapper
 

@@ -73,7 +73,9 @@ class LazyGroup(click.Group):
         except Exception:
             from bhr.settings.errors import INTERRUPTED
 
-            if INTERRUPTED.is_set():  # a Ctrl-C raised inside a library that came back as another error
+            # a signal's KeyboardInterrupt raised inside a library's callback can come back as that library's
+            # error (matplotlib's renderer: "ValueError: Invalid bounding box"): the interrupt is what happened
+            if INTERRUPTED.is_set():
                 end_interrupted()
             raise
         from bhr.settings.errors import INTERRUPTED

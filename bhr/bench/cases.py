@@ -26,7 +26,6 @@ from __future__ import annotations
 
 import math
 import os
-import shutil
 import subprocess
 import sys
 import tempfile
@@ -37,6 +36,8 @@ from typing import Any, Callable
 
 import numpy as np
 
+from bhr.bench.commands import _bhr as _bhr_cmd
+from bhr.bench.commands import plan_codes_csv, run_once
 from bhr.kinematics.codetable import SEARCH_CODES, SEARCH_INVERSE
 
 __all__ = ["CASES", "BenchResult", "run_case", "run_all", "numpy_fabrik", "numpy_ccd", "numpy_seed_follow",
@@ -703,26 +704,6 @@ def _cpu(cmd: list[str], repeat: int, cwd: str, check: bool = True) -> float:
     return float(np.median(times))
 
 
-def _bhr_cmd() -> list[str]:
-    exe = shutil.which("bhr")
-    return [exe] if exe else [sys.executable, "-m", "bhr.cli.main"]
-
-
-def plan_codes_csv(path: str, steps: int = 1500, modules: int = 300, seed: int = 0) -> None:
-    """A codes.csv of ``steps`` rows of ``modules`` valid codes, each module changing now and then (a long robot)."""
-    rng = np.random.default_rng(seed)
-    valid = np.array([0, 3, 6, 12, 9, 15])
-    rows = np.zeros((steps, modules), np.int64)
-    cur = rng.choice(valid, modules)
-    for i in range(steps):
-        change = rng.random(modules) < 0.02
-        cur = np.where(change, rng.choice(valid, modules), cur)
-        rows[i] = cur
-    head = "step," + ",".join(f"m{j + 1}" for j in range(modules))
-    body = "\n".join(f"{i + 1}," + ",".join(str(int(c)) for c in r) for i, r in enumerate(rows))
-    Path(path).write_text(head + "\n" + body + "\n", encoding="utf-8")
-
-
 def case_cli(repeat: int = 5) -> list[BenchResult]:
     """CPU time (user + system) of whole commands as a user runs them, warm cache, against a bare interpreter."""
     out = []
@@ -765,8 +746,6 @@ def case_first_run(repeat: int = 3) -> BenchResult:
     """`bhr follow --traj colon` on an empty cache as a user's first command runs it (loops cheaper interpreted
     than compiled run interpreted, bhr._numba.call_cold) against the same command compiling every kernel it runs
     (BHR_NO_BACKGROUND_COMPILE=1), alternating in one run: CPU seconds, medians."""
-    from bhr.bench.commands import run_once
-
     args = ["follow", "--traj", "colon", "--out", "o"]
     first: list[float] = []
     compiling: list[float] = []

@@ -26,6 +26,8 @@ import tempfile
 import time
 from pathlib import Path
 
+import numpy as np
+
 REPO = Path(__file__).resolve().parents[2]
 
 #: name -> (arguments of bhr, a file whose size the row reports or None)
@@ -58,6 +60,21 @@ COLD = ("first run: follow colon, empty cache", "first run: python -m bhr.warmup
 def _bhr() -> list[str]:
     exe = shutil.which("bhr")
     return [exe] if exe else [sys.executable, "-m", "bhr.cli.main"]
+
+
+def plan_codes_csv(path: str, steps: int = 1500, modules: int = 300, seed: int = 0) -> None:
+    """A codes.csv of ``steps`` rows of ``modules`` valid codes, each module changing now and then (a long robot)."""
+    rng = np.random.default_rng(seed)
+    valid = np.array([0, 3, 6, 12, 9, 15])
+    rows = np.zeros((steps, modules), np.int64)
+    cur = rng.choice(valid, modules)
+    for i in range(steps):
+        change = rng.random(modules) < 0.02
+        cur = np.where(change, rng.choice(valid, modules), cur)
+        rows[i] = cur
+    head = "step," + ",".join(f"m{j + 1}" for j in range(modules))
+    body = "\n".join(f"{i + 1}," + ",".join(str(int(c)) for c in r) for i, r in enumerate(rows))
+    Path(path).write_text(head + "\n" + body + "\n", encoding="utf-8")
 
 
 def background_compiles(cache: str) -> list[int]:
@@ -133,8 +150,6 @@ def measure(names: list[str], repeat: int) -> list[dict]:
         for _ in range(repeat):
             with tempfile.TemporaryDirectory() as tmp:
                 if "long.csv" in args:
-                    from bhr.bench.cases import plan_codes_csv
-
                     plan_codes_csv(os.path.join(tmp, "long.csv"))
                 cpu, wall, code = run_once(args, Path(tmp), cold=name in COLD)
                 cpus.append(cpu)

@@ -96,7 +96,7 @@ def _real_target(path: Path, what: str = "output") -> Path:
     through (the file behind it may be anyone's); links to devices (/dev/stdout) are written in place before
     this is reached."""
     if path.is_symlink():
-        raise BhrError(f"{what} {_short(path)} is a symbolic link to {_short(os.readlink(path))}; bhr does not "
+        raise BhrError(f"{what} {short_path(path)} is a symbolic link to {short_path(os.readlink(path))}; bhr does not "
                        "write through links: remove the link or choose another path")
     return path
 
@@ -120,7 +120,7 @@ def check_output_file(path: str | os.PathLike[str], what: str = "output") -> Non
     if in_place_target(p):
         with contextlib.suppress(OSError):
             if stat.S_ISSOCK(os.stat(p).st_mode):
-                raise BhrError(f"{what} {_short(p)} is a socket, not a file; give a file name")
+                raise BhrError(f"{what} {short_path(p)} is a socket, not a file; give a file name")
         if not os.access(p, os.W_OK):
             raise BhrError(f"cannot write {what} {p}: permission denied; choose another path")
         return
@@ -210,7 +210,7 @@ def _wait_for_reader(target: Path) -> int | None:
             if exc.errno != errno.ENXIO:  # ENXIO: nobody has it open for reading yet
                 raise
         if time.monotonic() > deadline:
-            raise BhrError(f"nobody reads the named pipe {_short(target)} (waited {FIFO_READER_WAIT_S:g} s); "
+            raise BhrError(f"nobody reads the named pipe {short_path(target)} (waited {FIFO_READER_WAIT_S:g} s); "
                            "start its reader first, or give a file name")
         time.sleep(0.05)
 
@@ -407,8 +407,8 @@ class OutputFolder:
         _refuse_control(p, self.what)
         if p.is_symlink():
             if not p.exists():
-                raise BhrError(f"{self.what} {_short(p)} is a symbolic link to a missing {_short(os.readlink(p))}; "
-                               "create its target or choose another folder")
+                raise BhrError(f"{self.what} {short_path(p)} is a symbolic link to a missing "
+                               f"{short_path(os.readlink(p))}; create its target or choose another folder")
         return Path(os.path.realpath(os.path.abspath(p)))
 
     def add_inputs(self, *paths: Any) -> "OutputFolder":
@@ -420,16 +420,16 @@ class OutputFolder:
         """Refuse, before any work, a target that is a file, a folder bhr did not write, or not writable."""
         t = self.target
         if t.exists() and not t.is_dir():
-            raise BhrError(f"{self.what} {_short(self.given)} is a file, not a folder; choose a folder name")
+            raise BhrError(f"{self.what} {short_path(self.given)} is a file, not a folder; choose a folder name")
         cwd = Path(os.path.realpath(os.getcwd()))
         home = Path(os.path.realpath(Path.home()))
         if t == Path(os.path.abspath(os.sep)) or t == home or _within(cwd, t):
-            raise BhrError(f"{self.what} {_short(self.given)} is the current folder or holds it; give a new "
+            raise BhrError(f"{self.what} {short_path(self.given)} is the current folder or holds it; give a new "
                            "folder for the output, such as bhr-out/run1")
         for name in self.inputs:
             real = Path(os.path.realpath(os.path.abspath(name)))
             if _within(real, t) and not (self.keep and real.parent == t):
-                raise BhrError(f"{self.what} {_short(self.given)} holds {_short(name)}, an input of this run; "
+                raise BhrError(f"{self.what} {short_path(self.given)} holds {short_path(name)}, an input of this run; "
                                "give another folder for the output (bhr replaces the whole folder)")
         if t.is_dir():
             self.previous()
@@ -437,7 +437,7 @@ class OutputFolder:
         while not probe.exists() and probe != probe.parent:
             probe = probe.parent
         if not probe.is_dir() or not os.access(probe, os.W_OK | os.X_OK):
-            raise BhrError(f"cannot write {self.what} {_short(self.given)}: {_short(probe)} is not a writable "
+            raise BhrError(f"cannot write {self.what} {short_path(self.given)}: {short_path(probe)} is not a writable "
                            "folder; choose another path")
         return self
 
@@ -628,7 +628,7 @@ class OutputFolder:
 _MAX_MANIFEST = 16 * 1024 * 1024
 
 
-def _short(p: Any, limit: int = 80) -> str:
+def short_path(p: Any, limit: int = 80) -> str:
     """A path as quoted in a one-line message: control characters escaped, at most ``limit`` characters."""
     text = str(p)
     text = text.encode("unicode_escape").decode("ascii") if not text.isprintable() else text
@@ -649,7 +649,7 @@ def verify_folder(folder: Path, given: Any = None, what: str = "output folder") 
     account for. Anything else raises a BhrError naming the file and the
     fix (bhr replaces the whole folder, so it would be deleted).
     """
-    shown = _short(given if given is not None else folder)
+    shown = short_path(given if given is not None else folder)
     fix = f"move it out of {shown} or give another folder for the output"
     try:
         entries = list(folder.iterdir())
@@ -664,14 +664,14 @@ def verify_folder(folder: Path, given: Any = None, what: str = "output folder") 
         for d in dnames:
             rel = (rel_root / d).as_posix()
             if os.path.islink(os.path.join(root, d)):
-                raise BhrError(f"{what} {shown} holds {_short(rel)}, a link bhr did not make; {fix}")
+                raise BhrError(f"{what} {shown} holds {short_path(rel)}, a link bhr did not make; {fix}")
             dirs.append(rel)
         for f in fnames:
             found.append((rel_root / f).as_posix())
     doc = _read_manifest(folder / MANIFEST)
     if doc is None:
         first = sorted(e.name for e in entries)[0]
-        raise BhrError(f"{what} {shown} holds {_short(first)}, which no bhr run wrote (no bhr manifest.json "
+        raise BhrError(f"{what} {shown} holds {short_path(first)}, which no bhr run wrote (no bhr manifest.json "
                        f"lists it); {fix}")
     listed = doc["files"]
     for rel in sorted(found):
@@ -680,16 +680,16 @@ def verify_folder(folder: Path, given: Any = None, what: str = "output folder") 
         p = folder / rel
         entry = listed.get(rel)
         if entry is None or not isinstance(entry, dict):
-            raise BhrError(f"{what} {shown} holds {_short(rel)}, which no bhr run wrote; {fix}")
+            raise BhrError(f"{what} {shown} holds {short_path(rel)}, which no bhr run wrote; {fix}")
         st = os.lstat(p)
         if not stat.S_ISREG(st.st_mode):
-            raise BhrError(f"{what} {shown} holds {_short(rel)}, which is not a file bhr wrote; {fix}")
+            raise BhrError(f"{what} {shown} holds {short_path(rel)}, which is not a file bhr wrote; {fix}")
         if st.st_size != entry.get("bytes") or _sha256(p) != entry.get("sha256"):
-            raise BhrError(f"{what} {shown} holds {_short(rel)}, changed since bhr wrote it; {fix}")
+            raise BhrError(f"{what} {shown} holds {short_path(rel)}, changed since bhr wrote it; {fix}")
     holding = {Path(r).parent.as_posix() for r in found}
     for d in dirs:
         if not any(h == d or h.startswith(d + "/") for h in holding):
-            raise BhrError(f"{what} {shown} holds the folder {_short(d)}, which bhr did not write; {fix}")
+            raise BhrError(f"{what} {shown} holds the folder {short_path(d)}, which bhr did not write; {fix}")
     return doc
 
 
