@@ -36,7 +36,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from bhr.bench.commands import _bhr as _bhr_cmd
+from bhr.bench.commands import bhr_command
 from bhr.bench.commands import plan_codes_csv, run_once
 from bhr.kinematics.codetable import SEARCH_CODES, SEARCH_INVERSE
 
@@ -707,19 +707,20 @@ def _cpu(cmd: list[str], repeat: int, cwd: str, check: bool = True) -> float:
 def case_cli(repeat: int = 5) -> list[BenchResult]:
     """CPU time (user + system) of whole commands as a user runs them, warm cache, against a bare interpreter."""
     out = []
+    bhr = bhr_command()
     with tempfile.TemporaryDirectory() as tmp:
         base = _cpu([sys.executable, "-c", "pass"], repeat, tmp)
-        subprocess.run(_bhr_cmd() + ["follow", "--traj", "colon", "--out", "w"], cwd=tmp, capture_output=True)
-        help_t = _cpu(_bhr_cmd() + ["--help"], repeat, tmp)
-        bad = _cpu(_bhr_cmd() + ["follow", "--traj", "colonn"], repeat, tmp, check=False)
-        bad_solver = _cpu(_bhr_cmd() + ["follow", "--traj", "colon", "--solver", "thesiss"], repeat, tmp, check=False)
-        bad_modules = _cpu(_bhr_cmd() + ["follow", "--traj", "colon", "--modules", "-3"], repeat, tmp, check=False)
-        bad_codes = _cpu(_bhr_cmd() + ["fk", "--codes", "3,0,7"], repeat, tmp, check=False)
-        bad_file = _cpu(_bhr_cmd() + ["plan", "--codes", "missing.csv"], repeat, tmp, check=False)
-        nop = _cpu(_bhr_cmd() + ["follow", "--traj", "colon", "--no-plots", "--out", "a"], repeat, tmp)
-        plots = _cpu(_bhr_cmd() + ["follow", "--traj", "colon", "--out", "b"], max(3, repeat // 2), tmp)
+        subprocess.run(bhr + ["follow", "--traj", "colon", "--out", "w"], cwd=tmp, capture_output=True)
+        help_t = _cpu(bhr + ["--help"], repeat, tmp)
+        bad = _cpu(bhr + ["follow", "--traj", "colonn"], repeat, tmp, check=False)
+        bad_solver = _cpu(bhr + ["follow", "--traj", "colon", "--solver", "thesiss"], repeat, tmp, check=False)
+        bad_modules = _cpu(bhr + ["follow", "--traj", "colon", "--modules", "-3"], repeat, tmp, check=False)
+        bad_codes = _cpu(bhr + ["fk", "--codes", "3,0,7"], repeat, tmp, check=False)
+        bad_file = _cpu(bhr + ["plan", "--codes", "missing.csv"], repeat, tmp, check=False)
+        nop = _cpu(bhr + ["follow", "--traj", "colon", "--no-plots", "--out", "a"], repeat, tmp)
+        plots = _cpu(bhr + ["follow", "--traj", "colon", "--out", "b"], max(3, repeat // 2), tmp)
         plan_codes_csv(os.path.join(tmp, "long.csv"))
-        plan = _cpu(_bhr_cmd() + ["plan", "--codes", "long.csv", "--schedule", "auto", "--no-plots"], 1, tmp,
+        plan = _cpu(bhr + ["plan", "--codes", "long.csv", "--schedule", "auto", "--no-plots"], 1, tmp,
                     check=False)
     out.append(BenchResult("cli-help", "per command (CPU)", help_t, base, "python -c pass", help_t / base,
                            "<= 0.3 s", help_t <= 0.3))

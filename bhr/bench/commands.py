@@ -57,7 +57,8 @@ COMMANDS: dict[str, tuple[list[str], str | None]] = {
 COLD = ("first run: follow colon, empty cache", "first run: python -m bhr.warmup, empty cache")
 
 
-def _bhr() -> list[str]:
+def bhr_command() -> list[str]:
+    """How to start the installed bhr: its console script, or `python -m bhr.cli.main` when none is on PATH."""
     exe = shutil.which("bhr")
     return [exe] if exe else [sys.executable, "-m", "bhr.cli.main"]
 
@@ -109,7 +110,7 @@ def run_once(args: list[str], cwd: Path, cold: bool = False, interpret: bool = T
         env["NUMBA_CACHE_DIR"] = str(cwd / "numba-cache")
     if bhr_cold:
         del env["BHR_NO_BACKGROUND_COMPILE"]
-    cmd = [sys.executable] + args if args[:1] == ["-m"] else _bhr() + args
+    cmd = [sys.executable] + args if args[:1] == ["-m"] else bhr_command() + args
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()
     proc = subprocess.run(cmd, cwd=cwd, capture_output=True, env=env)
