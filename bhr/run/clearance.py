@@ -56,10 +56,10 @@ from bhr.model.tube import (BLOCK, GLOBAL_BELOW, LOOP_RATIO, LUMEN_ENDS, WINDOW_
                             local_scan, locate_kernel, locate_numpy, lumen_end_of, make_tube, nearest_kernel,
                             nearest_numpy, point_clearance, search_window, segment_scan)
 
-__all__ = ["ClearanceReport", "Tube", "make_tube", "clearance_table", "clearance_report", "clearance_run",
-           "clearance_run_all", "clearance_run_numpy", "point_clearance", "locate_numpy", "brute_force_clearance",
-           "left_lumen", "lumen_end_of", "run_chain", "step_ranges", "WINDOW_MM", "SAMPLE_MM", "LUMEN_ENDS",
-           "LOOP_RATIO", "BLOCK", "tables_report", "index_matched_min", "robot_labels"]
+__all__ = ["ClearanceReport", "CecumWatch", "cecum_step", "Tube", "make_tube", "clearance_table", "clearance_report",
+           "clearance_run", "clearance_run_all", "clearance_run_numpy", "point_clearance", "locate_numpy",
+           "brute_force_clearance", "left_lumen", "lumen_end_of", "run_chain", "step_ranges", "WINDOW_MM", "SAMPLE_MM",
+           "LUMEN_ENDS", "LOOP_RATIO", "BLOCK", "tables_report", "index_matched_min", "robot_labels"]
 
 #: Largest spacing (mm) of the samples along a module.
 SAMPLE_MM = 1.0
@@ -452,6 +452,44 @@ def run_chain(result) -> tuple[np.ndarray, np.ndarray, int]:
     else:
         Q, E = head, e_head
     return np.ascontiguousarray(Q, dtype=np.float64), np.ascontiguousarray(E, dtype=np.float64), B
+
+
+class CecumWatch:
+    """Watches a tip move along a lumen with a blind end and says when it has reached the cecum.
+
+    The tip has reached it when its nearest centerline point, tracked from step to step from the path's start
+    (:func:`bhr.model.tube.locate_numpy`: never across a loop), is the path's last point and the tip is at or past
+    that point's cross-section. In the thesis's model the feeder stops there (docs/locomotion.md): a robot ahead of
+    its schedule is not pushed on into the wall at the blind end.
+    """
+
+    def __init__(self, tube: Tube) -> None:
+        self.tube = tube
+        C = tube.points
+        d = C[-1] - C[-2]
+        self._end = C[-1]
+        self._dir = d / float(np.linalg.norm(d))
+        self._pos = float(tube.pre)  # the tip starts at the path's start
+
+    def reached(self, tip: np.ndarray) -> bool:
+        """Track the tip to its next position; True once it is at or past the blind end."""
+        t = self.tube
+        _, pos, _ = locate_numpy(t, 0.0, np.asarray(tip, dtype=np.float64), self._pos)
+        self._pos = pos
+        return bool(t.closed and pos >= t.points.shape[0] - 1 - 1e-9
+                    and float(np.dot(np.asarray(tip, dtype=np.float64) - self._end, self._dir)) >= -1e-9)
+
+
+def cecum_step(tube: Tube, tips: np.ndarray) -> int | None:
+    """0-based first step at which ``tips[i]`` has reached the blind end of ``tube`` (:class:`CecumWatch`); None
+    when it never does or the lumen's end is open."""
+    if not tube.closed:
+        return None
+    watch = CecumWatch(tube)
+    for i in range(tips.shape[0]):
+        if watch.reached(tips[i]):
+            return i
+    return None
 
 
 def left_lumen(per_step: np.ndarray, lost: np.ndarray, radius: float, where: Callable[[int], str] | None = None

@@ -35,9 +35,10 @@ from bhr.model.codes import VALID_CODES as STABLE_CODES
 from bhr.model.robot import THESIS_ROBOT, Robot, robot_with
 from bhr.solvers import Chain, FollowContext, Solver, get_solver
 from bhr.run.body import BodyRun, check_body_modules, score_body, simulate_body, whole_robot_codes
-from bhr.run.clearance import ClearanceReport, clearance_report
+from bhr.run.clearance import CecumWatch, ClearanceReport, cecum_step, clearance_report
 from bhr.kinematics.leader import angle_deg, score_step
 from bhr.model.path import Trajectory, path_directions, spacing
+from bhr.model.tube import lumen_end_of, make_tube
 from bhr.run.trail import TrailRun, cecum_modules, run_trail, sweep_bound_mm, trail_report
 
 __all__ = ["follow", "FollowResult", "Summary", "BhrWarning", "stats", "load_run"]
@@ -615,9 +616,18 @@ def follow(points: Any, solver: str | Solver = "thesis", robot: Robot | None = T
     filled = s.follow_kernel(path, dirs, chain, out_points, out_iters, pe, oe, codes) \
         if compiled and on_step is None else None
     has_codes = True if filled is None else filled
+    # the feeder stops when the tip reaches a blind cecum (docs/locomotion.md): from then on the robot holds its pose
+    tube = _blind_tube(traj)
+    stop: int | None = None
+    f = robot.feed_divisor
     if filled is None:
-        f = robot.feed_divisor
+        watch = None if tube is None else CecumWatch(tube)
         for i in range(N):
+            if stop is not None:
+                _hold(i, stop, out_points, out_iters, codes, path, dirs, f, pe, oe)
+                if on_step is not None:
+                    on_step(i, codes[i] if has_codes else None)
+                continue
             d = dirs[-1] if i == N - 1 else dirs[i]
             res = s.solve(chain, path[i], d if s.accepts_orientation else None,
                           FollowContext(path, dirs, i))
@@ -634,11 +644,64 @@ def follow(points: Any, solver: str | Solver = "thesis", robot: Robot | None = T
                 codes[i] = res.codes
             if on_step is not None:
                 on_step(i, None if res.codes is None else codes[i])
+            if watch is not None and watch.reached(P[n]):
+                stop = i
             chain = res.chain.advance(robot.feed, robot.module_length)
+    elif tube is not None:
+        stop = cecum_step(tube, out_points[:, n])
+        if stop is not None:
+            for i in range(stop + 1, N):
+                _hold(i, stop, out_points, out_iters, codes, path, dirs, f, pe, oe)
+    if stop is not None and stop == N - 1:
+        stop = None  # the tip reached the cecum at the last step: the feeder stopped where the path ends anyway
     result = FollowResult(traj, robot, s.name, out_points, out_iters, pe, oe, codes if has_codes else None, msgs)
+    if stop is not None:
+        result.extra["summary"] = {"feeder_stop_step": stop + 1}
     if body_modules is not None:
-        result.body = simulate_body(result, body_modules)
+        result.body = _held_body(result, body_modules, stop)
     return result
+
+
+def _blind_tube(traj: Trajectory):
+    """The tube of a trajectory whose lumen ends blind (the cecum), else None (no lumen, or an open end)."""
+    lumen = getattr(traj, "lumen", None)
+    if lumen is None or not len(lumen) or lumen_end_of(traj) != "closed":
+        return None
+    return make_tube(traj.points, lumen, traj.start_direction, closed_end=True)
+
+
+def _hold(i: int, stop: int, out_points: np.ndarray, out_iters: np.ndarray, codes: np.ndarray, path: np.ndarray,
+          dirs: np.ndarray, f: int, pe: np.ndarray, oe: np.ndarray) -> None:
+    """Step ``i`` after the feeder stopped at step ``stop``: the robot holds that step's pose and codes, and is scored
+    against step ``i``'s trajectory points as every step is."""
+    P = out_points[stop]
+    n = P.shape[0] - 1
+    d = dirs[-1] if i == path.shape[0] - 1 else dirs[i]
+    out_points[i] = P
+    out_iters[i] = 0
+    codes[i] = codes[stop]
+    tip = float(angle_deg(P[n, 0] - P[n - 1, 0], P[n, 1] - P[n - 1, 1], P[n, 2] - P[n - 1, 2], d))
+    score_step(i, P, path, dirs, f, tip, pe[i], oe[i])
+
+
+def _held_body(result: "FollowResult", body_modules: int, stop: int | None) -> BodyRun:
+    """The body behind the head (:func:`simulate_body`), holding its pose after the feeder stopped at ``stop``."""
+    if stop is None:
+        return simulate_body(result, body_modules)
+    k = stop + 1
+    codes = None if result.codes is None else result.codes[:k]
+    part = FollowResult(result.trajectory, result.robot, result.solver, result.points[:k], result.iterations[:k],
+                        result.point_errors_mm[:k], result.orientation_errors_deg[:k], codes)
+    b = simulate_body(part, body_modules)
+    N = result.steps
+    rows = np.minimum(np.arange(N), stop)
+    pts = np.ascontiguousarray(b.points[rows])
+    pe, oe = np.zeros((N, b.modules)), np.zeros((N, b.modules))
+    scored = np.zeros((N, b.modules), dtype=bool)
+    if b.modules:
+        score_body(result, pts, np.ascontiguousarray(result.trajectory.points[:N], dtype=np.float64),
+                   path_directions(result.trajectory.points[:N]), pe, oe, scored)
+    return BodyRun(b.modules, pts, np.ascontiguousarray(b.codes[rows]), pe, oe, scored)
 
 
 
@@ -649,7 +712,9 @@ def _follow_trail(traj: Trajectory, robot: Robot, s: Any, solver: str, path: np.
     """A run in the trail model (bhr.run.trail): plan the trail, move the whole robot along it, score every step."""
     n, f = robot.modules, robot.feed_divisor
     N = path.shape[0]
-    tr = run_trail(traj, robot, {**s.settings, "trail_beam": s.trail_beam}, s.window, body_modules, reach)
+    # the trail planner's own pull to the centerline (the head's center_weight is the thesis model's)
+    tr = run_trail(traj, robot, {**s.settings, "trail_beam": s.trail_beam, "center_weight": s.trail_center_weight},
+                   s.window, body_modules, reach)
     M = tr.modules
     if reach:
         body_modules = M

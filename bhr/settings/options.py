@@ -163,10 +163,10 @@ OPTIONS: tuple[Option, ...] = (
     Option("warmup", _C, int, "Unconstrained warm-up iterations of the constrained solvers", 10),
     # --solver optimal (bhr.solvers.optimal, docs/optimal.md) and --solver lumen (bhr.solvers.lumen, docs/lumen.md);
     # ranges checked by the solver
-    Option("lookahead", _S, int, "optimal, lumen: steps the base module's tilt is planned ahead (lumen [8])", 10,
-           solvers=_OPT + _LUM, metavar="STEPS", solver_defaults=(("lumen", 8),)),
-    Option("beam", _S, int, "optimal, lumen: base-tilt sequences kept while planning (lumen [3])", 10,
-           solvers=_OPT + _LUM, metavar="N", solver_defaults=(("lumen", 3),)),
+    Option("lookahead", _S, int, "optimal, lumen: steps the base module's tilt is planned ahead (lumen [12])", 10,
+           solvers=_OPT + _LUM, metavar="STEPS", solver_defaults=(("lumen", 12),)),
+    Option("beam", _S, int, "optimal, lumen: base-tilt sequences kept while planning (lumen [5])", 10,
+           solvers=_OPT + _LUM, metavar="N", solver_defaults=(("lumen", 5),)),
     Option("point_weights", _S, "weights", "optimal: weight of each point's squared error, base to tip", 1.0,
            solvers=_OPT, metavar="W|W0,..,Wn"),
     Option("ori_weight", _S, float, "optimal, lumen: tip orientation weight, mm of error per degree (lumen [0.1])",
@@ -179,23 +179,26 @@ OPTIONS: tuple[Option, ...] = (
            solvers=_LUM),
     Option("margin", _S, float, "lumen: clearance below which the wall cost starts (mm)", 1.0, solvers=_LUM,
            metavar="MM"),
-    Option("center_weight", _S, float, "lumen: weight of the squared distance of each point to the centerline",
-           0.05, solvers=_LUM),
+    Option("center_weight", _S, float, "lumen: weight of the squared distance of each point of the head to the "
+           "centerline", 0.0, solvers=_LUM),
     Option("track_weight", _S, float, "lumen: weight of each point's squared error to its trajectory point", 0.0,
            solvers=_LUM),
     Option("along_weight", _S, float, "lumen: weight of each point's squared lead along the centerline", 0.05,
            solvers=_LUM),
     Option("lead_weight", _S, float, "lumen: weight of the squared lead the robot could no longer lose before the "
-           "path's end (it would push the blind cecum by it), per mm^2", 10.0, solvers=_LUM),
+           "path's end, per mm^2 (for a lumen with an open end; at a blind cecum the feeder stops)", 0.0,
+           solvers=_LUM),
     Option("lead_slack", _S, float, "lumen: share of the path still ahead of a point that its lead may be before "
            "--lead-weight counts", 0.1, maximum=1.0, solvers=_LUM, metavar="SHARE"),
     Option("racing_weight", _S, float, "lumen: weight of each point's squared distance to a racing line planned "
            "before the run (a smooth line of bounded curvature inside the lumen, docs/lumen.md), per mm^2; 0: none",
-           0.0, solvers=_LUM),
+           0.05, solvers=_LUM),
     Option("window", _S, float, "lumen: arc length searched on each side for a point's nearest centerline point "
            "(mm)", 40.0, solvers=_LUM, metavar="MM"),
     Option("trail_beam", _S, int, "lumen with --locomotion trail: trails kept by the planner's beam search", 64,
            maximum=4096, solvers=_LUM, metavar="N"),
+    Option("trail_center_weight", _S, float, "lumen with --locomotion trail: weight of the squared distance of each "
+           "new trail vertex to the centerline", 0.05, solvers=_LUM),
     # how a run is simulated (bhr.run.driver.follow)
     Option("body_modules", _RUN, int, "Also simulate the body: the whole robot has M modules (M >= --modules), "
            "those behind the head follow the leader and count in the errors and the lumen clearance", None,

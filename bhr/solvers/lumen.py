@@ -36,8 +36,11 @@ complete one loses nothing). The base module's tilt is a steering command
 a fixed-lag beam search keeping the ``beam`` best sequences of base tilts,
 each step of a sequence scored by the exact search of the other modules at
 that step: that part is a heuristic (a beam, not the whole tree), which is
-what lets the robot swing wide before a flexure and cut its inside. With
-``lookahead = 0`` the solver is the exact per-step optimum over all modules.
+what lets the robot swing wide before a flexure and cut its inside. The beam
+ranks its sequences first by the deepest penetration of their history (the
+run is judged by it; the summed cost can prefer one deep contact to a long
+shallow one), in steps of :data:`DEPTH_STEP` mm, then by their summed cost.
+With ``lookahead = 0`` the solver is the exact per-step optimum over all modules.
 
 The nearest-point search of the solver starts from the previous sample's
 nearest point and scans outwards while it improves (capped by the window),
@@ -68,12 +71,19 @@ from bhr.solvers.base import Chain, FollowContext, SolveResult, register
 from bhr.solvers.optimal import (CODE_OF, DEG, Optimal, beam_candidate, beam_commit, beam_keep, beam_reset, dist2,
                                  frame_of_chain, keep_best, setting_number, step_targets, write_pose)
 
-__all__ = ["Lumen", "DEFAULTS", "head_cost", "lumen_config_cost", "planned_line"]
+__all__ = ["Lumen", "DEFAULTS", "head_cost", "head_search", "lumen_config_cost", "planned_line"]
 
 #: Default settings of ``--solver lumen`` (docs/lumen.md explains each).
 DEFAULTS: dict[str, Any] = solver_defaults("lumen")
 #: Segments scanned at a time outwards from the guessed nearest segment while it improves.
 _SCAN = 2
+#: The beam ranks its members by the deepest penetration of their history in steps of this many mm, then by cost.
+DEPTH_STEP = 0.5
+#: The span of summed cost within one depth step of the ranking key (costs differing by more rank as this).
+RANK_SPAN = 1e12
+#: Two beam members closer than this (mm, and unit-vector difference of their frames) count as one.
+DEDUP_MM = 1.0
+DEDUP_DIR = 0.06
 
 
 # ---------------------------------------------------------------------------
@@ -140,7 +150,8 @@ def _schedule(a, e, sp, prm):
 @njit(cache=True)
 def _module_cost(C, Q, R, pre, w, g, e0, ef, A, B, cA, radius, margin, ww, wc, prm, sp, pre0, dR, res, tmp, out):
     """Cost of the module A->B: its far end (wall and centerline) and, where the wall may be near, its middle
-    (wall only). ``cA`` is A's clearance; out[0] gets B's. res[1]: the far end's segment.
+    (wall only). ``cA`` is A's clearance; out[0] gets B's, out[1] the smaller of B's and the middle's (when the
+    middle is looked at). res[1]: the far end's segment.
 
     The clearance changes by at most 1 mm per mm moved plus the change of the lumen radius (at most ``dR``
     over half a module), so the middle is skipped when both ends clear the margin by more than half a
@@ -152,6 +163,7 @@ def _module_cost(C, Q, R, pre, w, g, e0, ef, A, B, cA, radius, margin, ww, wc, p
     a = _along(res, pre0, e0 + ef, sp)
     cost += wc * res[0] + _schedule(a, e0 + ef, sp, prm) + _race(Q, res, prm[13], B[0], B[1], B[2])
     out[0] = cB
+    out[1] = cB
     gB = res[1]
     tB = res[2]
     dB = res[0]
@@ -161,6 +173,7 @@ def _module_cost(C, Q, R, pre, w, g, e0, ef, A, B, cA, radius, margin, ww, wc, p
               res, tmp)
         cM, cm = _wall(R, radius, margin, ww, res)
         cost += cm
+        out[1] = min(cB, cM)
     res[0] = dB
     res[1] = gB
     res[2] = tB
@@ -185,15 +198,19 @@ def _place(frames, pts, lv, q, c, s, L):
 
 
 @njit(cache=True)
-def _head_search(C, Q, R, pre, w, step, n, f, L, c, s, T, prm, best_codes, frames, pts, part, guess, choice, res, tmp):
+def _head_search(C, Q, R, pre, w, step, n, f, L, c, s, T, prm, best_codes, frames, pts, part, guess, choice, res, tmp,
+                 dep):
     """Exact branch and bound over modules 2..n with module 1's frame in ``frames[0]`` and ``pts[0]`` the base.
 
-    prm = (radius, margin, w_wall, w_center, w_track, w_ori). Returns the best cost; codes in best_codes[1:].
+    prm = (radius, margin, w_wall, w_center, w_track, w_ori). Returns the best cost; codes in best_codes[1:]; dep[0]
+    gets how deep the best configuration's samples go into the wall (the negative of their smallest clearance, the
+    module middles that cannot be within the margin left out).
     """
     radius, margin, ww, wc, wt, wo = prm[0], prm[1], prm[2], prm[3], prm[4], prm[5]
     e0 = float(step - n * f)
     clr = np.empty(n + 1)
-    cout = np.empty(1)
+    low = np.empty(n + 1)  # the smallest clearance of the samples so far, along the configuration being searched
+    cout = np.empty(2)
     dR, sp, pre0 = prm[6], prm[8], prm[9]
     _near(C, pre, w, -1, e0, pts[0, 0], pts[0, 1], pts[0, 2], res, tmp)
     clr[0], part[0] = _wall(R, radius, margin, ww, res)
@@ -206,15 +223,19 @@ def _head_search(C, Q, R, pre, w, step, n, f, L, c, s, T, prm, best_codes, frame
     part[1] = part[0] + _module_cost(C, Q, R, pre, w, guess[0], e0, float(f), pts[0], pts[1], clr[0], radius, margin,
                                      ww, wc, prm, sp, pre0, dR, res, tmp, cout) + wt * dist2(pts[1], T[1])
     clr[1] = cout[0]
+    low[0] = clr[0]
+    low[1] = min(low[0], cout[1])
     guess[1] = int(res[1])
     best_codes[0] = 0
     if n == 1:
+        dep[0] = -low[1]
         return part[1] + _tip_term(C, guess[1], frames[0], wo)
     # a greedy dive first (each module the cheapest for the points so far): a good first bound to cut with
     best = 1e300
     for lv in range(1, n):
         bv = 1e300
         bq = 0
+        bl = 0.0
         for q in range(5):
             _place(frames, pts, lv, q, c, s, L)
             v = part[lv] + wt * dist2(pts[lv + 1], T[lv + 1])
@@ -227,12 +248,15 @@ def _head_search(C, Q, R, pre, w, step, n, f, L, c, s, T, prm, best_codes, frame
             if v < bv:
                 bv = v
                 bq = q
+                bl = cout[1]
                 clr[lv + 1] = cout[0]
                 guess[lv + 1] = int(res[1])
         choice[lv] = bq
         _place(frames, pts, lv, bq, c, s, L)
         part[lv + 1] = bv
+        low[lv + 1] = min(low[lv], bl)
     best = part[n]
+    dep[0] = -low[n]
     for q in range(1, n):
         best_codes[q] = choice[q]
     best *= 1.0 + 1e-12  # the exact search below may find the same configuration again: let it
@@ -252,10 +276,14 @@ def _head_search(C, Q, R, pre, w, step, n, f, L, c, s, T, prm, best_codes, frame
         if v >= best:
             continue
         clr[lvl + 1] = cout[0]
+        low[lvl + 1] = min(low[lvl], cout[1])
         guess[lvl + 1] = int(res[1])
         part[lvl + 1] = v
         if lvl == n - 1:
-            best = keep_best(v + _tip_term(C, guess[n], frames[n - 1], wo), best, choice, best_codes, 1, n)
+            tot = v + _tip_term(C, guess[n], frames[n - 1], wo)
+            if tot < best:
+                dep[0] = -low[n]
+            best = keep_best(tot, best, choice, best_codes, 1, n)
         else:
             lvl += 1
             choice[lvl] = -1
@@ -264,14 +292,14 @@ def _head_search(C, Q, R, pre, w, step, n, f, L, c, s, T, prm, best_codes, frame
 
 @njit(cache=True)
 def _head_cost(C, Q, R, pre, w, P0, F1, step, n, f, L, c, s, T, prm, best_codes, frames, pts, part, guess, choice,
-               res, tmp):
+               res, tmp, dep):
     for a in range(3):
         for b in range(3):
             frames[0, a, b] = F1[a, b]
     for b in range(3):
         pts[0, b] = P0[b]
     return _head_search(C, Q, R, pre, w, step, n, f, L, c, s, T, prm, best_codes, frames, pts, part, guess, choice,
-                        res, tmp)
+                        res, tmp, dep)
 
 
 # ---------------------------------------------------------------------------
@@ -279,25 +307,42 @@ def _head_cost(C, Q, R, pre, w, P0, F1, step, n, f, L, c, s, T, prm, best_codes,
 
 
 @njit(cache=True)
-def _beam_expand(bP, bF, bC, bH, state, cP, cF, cC, cPar, cA, order_buf, C, Q, R, pre, w, path, dirs, n, f, feed, L,
-                 c, s, prm, T, d, best_codes, frames, pts, part, guess, choice, res, tmp, F1):
+def _beam_expand(bP, bF, bC, bH, state, cP, cF, cC, cPar, cA, order_buf, bM, cM, cS, C, Q, R, pre, w, path, dirs, n,
+                 f, feed, L, c, s, prm, T, d, best_codes, frames, pts, part, guess, choice, res, tmp, F1):
+    """Expand every member by the five base tilts at step ``state[1]`` and keep the best distinct ones: ranked first
+    by the deepest penetration of their whole history (``bM``, in steps of :data:`DEPTH_STEP` mm), then by their
+    summed cost (``bC``)."""
     nb = state[0]
     k = state[1]
     step_targets(path, dirs, k, n, f, feed, T, d)
+    dep = np.zeros(1)
     m = 0
     for q in range(nb):
         for a in range(5):
             _rot(bF[q], a, c, s, F1)
             cost = _head_cost(C, Q, R, pre, w, bP[q], F1, k, n, f, L, c, s, T, prm, best_codes, frames, pts, part,
-                              guess, choice, res, tmp)
+                              guess, choice, res, tmp, dep)
+            deep = dep[0]
             beam_candidate(bP, bF, bC, q, a, F1, cost, feed, m, cP, cF, cC, cPar, cA)
+            cM[m] = max(bM[q], math.floor(deep / DEPTH_STEP)) if deep > 0.0 else bM[q]
             m += 1
-    beam_keep(cP, cF, cC, cPar, cA, m, order_buf, bP, bF, bC, bH, state, k)
+    # the ranking key: the depth's step first, the summed cost (relative to the cheapest candidate) within a step
+    low = 1e300
+    for j in range(m):
+        cS[j] = cC[j]
+        low = min(low, cC[j])
+    for j in range(m):
+        cC[j] = cM[j] * RANK_SPAN + min(cS[j] - low, 0.5 * RANK_SPAN)
+    beam_keep(cP, cF, cC, cPar, cA, m, order_buf, bP, bF, bC, bH, state, k, DEDUP_MM, DEDUP_DIR)
+    for u in range(state[0]):
+        r = order_buf[u]
+        bC[u] = cS[r]
+        bM[u] = cM[r]
 
 
 @njit(cache=True)
-def _lumen_step(P, E1, E2, i, bP, bF, bC, bH, state, cP, cF, cC, cPar, cA, order_buf, C, Q, R, pre, w, path, dirs, n, f,
-                feed, L, alpha, prm, lookahead, lagv, out_codes, tilts):
+def _lumen_step(P, E1, E2, i, bP, bF, bC, bH, state, cP, cF, cC, cPar, cA, order_buf, bM, cM, cS, C, Q, R, pre, w, path,
+                dirs, n, f, feed, L, alpha, prm, lookahead, lagv, out_codes, tilts):
     """Solve step ``i`` in place: plan the base tilt, search the rest exactly. Returns (layers, cost)."""
     N = path.shape[0]
     c = math.cos(math.radians(alpha))
@@ -318,6 +363,7 @@ def _lumen_step(P, E1, E2, i, bP, bF, bC, bH, state, cP, cF, cC, cPar, cA, order
     P0 = P[0].copy()
     if state[0] == 0 or state[2] != i:
         beam_reset(bP, bF, bC, bH, state, P0, F, i)
+        bM[0] = 0.0
         lagv[0] = 0.0
     # the robot's lead along the centerline: where the base is now, searched around where it was
     e0 = float(i - n * f)
@@ -326,30 +372,37 @@ def _lumen_step(P, E1, E2, i, bP, bF, bC, bH, state, cP, cF, cC, cPar, cA, order
     pre = pre + lagv[0]
     layers = 0
     while state[1] < N and state[1] <= i + lookahead:
-        _beam_expand(bP, bF, bC, bH, state, cP, cF, cC, cPar, cA, order_buf, C, Q, R, pre, w, path, dirs, n, f, feed,
-                     L, c, s, prm, T, d, best_codes, frames, pts, part, guess, choice, res, tmp, F1)
+        _beam_expand(bP, bF, bC, bH, state, cP, cF, cC, cPar, cA, order_buf, bM, cM, cS, C, Q, R, pre, w, path, dirs,
+                     n, f, feed, L, c, s, prm, T, d, best_codes, frames, pts, part, guess, choice, res, tmp, F1)
         layers += 1
+    # the members that keep the best one's tilt at step i stay, in order (as beam_commit keeps them)
+    hb = bH.shape[1]
+    j = 0
+    for q in range(state[0]):
+        if bH[q, i % hb] == bH[0, i % hb]:
+            bM[j] = bM[q]
+            j += 1
     a0 = beam_commit(bP, bF, bC, bH, state, i)
     step_targets(path, dirs, i, n, f, feed, T, d)
     _rot(F, a0, c, s, F1)
     cost = _head_cost(C, Q, R, pre, w, P0, F1, i, n, f, L, c, s, T, prm, best_codes, frames, pts, part, guess, choice,
-                      res, tmp)
+                      res, tmp, np.zeros(1))
     best_codes[0] = a0
     write_pose(F, best_codes, c, s, L, alpha, frames, P, E1, E2, out_codes, tilts)
     return layers, cost
 
 
 @njit(cache=True)
-def follow_lumen_kernel(path, dirs, P, E1, E2, bP, bF, bC, bH, state, cP, cF, cC, cPar, cA, order_buf, C, Q, R, pre, w,
-                        f, feed, L, alpha, prm, lookahead, lagv, out_points, out_iters, pe, oe, codes):
+def follow_lumen_kernel(path, dirs, P, E1, E2, bP, bF, bC, bH, state, cP, cF, cC, cPar, cA, order_buf, bM, cM, cS, C, Q,
+                        R, pre, w, f, feed, L, alpha, prm, lookahead, lagv, out_points, out_iters, pe, oe, codes):
     """The whole follow-the-leader loop with the lumen solver, compiled (same arithmetic as step by step)."""
     N = path.shape[0]
     n = P.shape[0] - 1
     step_codes = np.zeros(n, dtype=np.int64)
     tilts = np.zeros(n)
     for i in range(N):
-        layers, _ = _lumen_step(P, E1, E2, i, bP, bF, bC, bH, state, cP, cF, cC, cPar, cA, order_buf, C, Q, R, pre, w,
-                                path, dirs, n, f, feed, L, alpha, prm, lookahead, lagv, step_codes, tilts)
+        layers, _ = _lumen_step(P, E1, E2, i, bP, bF, bC, bH, state, cP, cF, cC, cPar, cA, order_buf, bM, cM, cS, C,
+                                Q, R, pre, w, path, dirs, n, f, feed, L, alpha, prm, lookahead, lagv, step_codes, tilts)
         dd = dirs[N - 2] if i == N - 1 else dirs[i]
         finish_step(i, P, E1, E2, path, dirs, f, feed, L, tip_angle(P, dd), layers, step_codes, out_points, out_iters,
                     pe, oe, codes)
@@ -365,6 +418,14 @@ def head_cost(tube, robot, settings: dict[str, float], path: np.ndarray, step: i
 
     ``line``: the racing line (one point per tube point) the ``racing_weight`` term pulls to (default: the
     centerline)."""
+    codes, cost, _ = head_search(tube, robot, settings, path, step, base, frame1, line)
+    return codes, cost
+
+
+def head_search(tube, robot, settings: dict[str, float], path: np.ndarray, step: int, base,
+                frame1, line: np.ndarray | None = None) -> tuple[list[int], float, float]:
+    """:func:`head_cost`, and how deep the best configuration goes into the wall (mm; the negative of its samples'
+    smallest clearance): what the beam ranks its sequences by."""
     n = robot.modules
     a = math.radians(robot.alpha)
     path = np.ascontiguousarray(path, dtype=np.float64)
@@ -375,13 +436,14 @@ def head_cost(tube, robot, settings: dict[str, float], path: np.ndarray, step: i
     step_targets(path, dirs, step, n, robot.feed_divisor, float(robot.feed), T, d)
     prm = _prm(robot, settings, tube)
     best = np.zeros(n, dtype=np.int64)
+    dep = np.zeros(1)
     Q = tube.points if line is None else np.ascontiguousarray(line, dtype=np.float64)
     cost = _head_cost(tube.points, Q, tube.radius, float(tube.pre), float(tube.window), np.asarray(base, dtype=float),
                       np.ascontiguousarray(frame1, dtype=float), step, n, robot.feed_divisor,
                       float(robot.module_length), math.cos(a), math.sin(a), T, prm, best, np.empty((n, 3, 3)),
                       np.empty((n + 1, 3)), np.empty(n + 1), np.zeros(n + 1, dtype=np.int64),
-                      np.zeros(n, dtype=np.int64), np.empty(3), np.empty(3))
-    return [int(CODE_OF[k]) for k in best[1:]], float(cost)
+                      np.zeros(n, dtype=np.int64), np.empty(3), np.empty(3), dep)
+    return [int(CODE_OF[k]) for k in best[1:]], float(cost), float(dep[0])
 
 
 def lumen_config_cost(tube, robot, settings: dict[str, float], path: np.ndarray, step: int,
@@ -497,17 +559,20 @@ class Lumen(Optimal):
                  track_weight: float | None = None, along_weight: float | None = None,
                  ori_weight: float | None = None, window: float | None = None,
                  trail_beam: int | None = None, lead_weight: float | None = None,
-                 lead_slack: float | None = None, racing_weight: float | None = None) -> None:
+                 lead_slack: float | None = None, racing_weight: float | None = None,
+                 trail_center_weight: float | None = None) -> None:
         opt = {k: v for k, v in dict(lookahead=lookahead, beam=beam, wall_weight=wall_weight, margin=margin,
                                      center_weight=center_weight, track_weight=track_weight,
                                      along_weight=along_weight, ori_weight=ori_weight,
                                      window=window, trail_beam=trail_beam, lead_weight=lead_weight,
-                                     lead_slack=lead_slack, racing_weight=racing_weight).items() if v is not None}
+                                     lead_slack=lead_slack, racing_weight=racing_weight,
+                                     trail_center_weight=trail_center_weight).items() if v is not None}
         cfg = {**DEFAULTS, **opt}
         super().__init__(robot, lookahead=cfg["lookahead"], beam=cfg["beam"], ori_weight=cfg["ori_weight"])
         self.wall_weight = setting_number("wall-weight", cfg["wall_weight"])
         self.margin = setting_number("margin", cfg["margin"], minimum=-1e6)
         self.center_weight = setting_number("center-weight", cfg["center_weight"])
+        self.trail_center_weight = setting_number("trail-center-weight", cfg["trail_center_weight"])
         self.track_weight = setting_number("track-weight", cfg["track_weight"])
         self.along_weight = setting_number("along-weight", cfg["along_weight"])
         self.lead_weight = setting_number("lead-weight", cfg["lead_weight"])
@@ -532,7 +597,8 @@ class Lumen(Optimal):
         return {"lookahead": self.lookahead, "beam": self.beam, "wall_weight": self.wall_weight,
                 "margin": self.margin, "center_weight": self.center_weight, "track_weight": self.track_weight,
                 "along_weight": self.along_weight, "lead_weight": self.lead_weight, "lead_slack": self.lead_slack,
-                "ori_weight": self.ori_weight, "window": self.window, "racing_weight": self.racing_weight}
+                "ori_weight": self.ori_weight, "window": self.window, "racing_weight": self.racing_weight,
+                "trail_center_weight": self.trail_center_weight}
 
     def prepare(self, trajectory) -> None:
         """Take the lumen of the trajectory about to be followed (called by bhr.follow)."""
@@ -544,9 +610,7 @@ class Lumen(Optimal):
                                closed_end=lumen_end_of(trajectory) == "closed")
         self._tube_path = trajectory.points
         self._checked_path = None
-        self._line = None
-        if self.racing_weight > 0.0:
-            self._line = planned_line(self._tube, self.robot, self.margin)
+        self._line = None  # planned when the head solver first needs it (a trail run never does)
 
     def _tube_args(self, path: np.ndarray) -> tuple:
         """(centerline, racing line, radius, pre, window) of the tube, checked against ``path``."""
@@ -561,11 +625,20 @@ class Lumen(Optimal):
                                "trajectory that has a lumen")
             self._checked_path = path
             self._prm_cache = _prm(self.robot, self.settings, t)
+            if self.racing_weight > 0.0 and self._line is None:
+                self._line = planned_line(t, self.robot, self.margin)
         return t.points, (t.points if self._line is None else self._line), t.radius, float(t.pre), float(t.window)
 
     def reset(self) -> None:
         super().reset()
         self._lag = np.zeros(1)
+        B = self.beam
+        self._bM = np.zeros(B)  # each member's deepest penetration so far, in DEPTH_STEP steps
+        self._cM = np.zeros(5 * B)
+        self._cS = np.zeros(5 * B)
+
+    def _beam_args(self) -> tuple:
+        return super()._beam_args() + (self._bM, self._cM, self._cS)
 
     def _prm(self) -> np.ndarray:
         return self._prm_cache

@@ -260,8 +260,9 @@ def beam_reset(bP, bF, bC, bH, state, P0, F, step):
 
 
 @njit(cache=True)
-def beam_keep(cP, cF, cC, cPar, cA, m, order_buf, bP, bF, bC, bH, state, k):
-    """Keep the ``B`` cheapest of the ``m`` candidates of step ``k`` as the new beam (near-duplicates skipped)."""
+def beam_keep(cP, cF, cC, cPar, cA, m, order_buf, bP, bF, bC, bH, state, k, dpos, ddir):
+    """Keep the ``B`` cheapest of the ``m`` candidates of step ``k`` as the new beam, skipping near-duplicates: a
+    candidate within ``dpos`` mm and ``ddir`` (unit-vector difference of its frame's y and z axes) of one kept."""
     B = bP.shape[0]
     R = bH.shape[1]
     order = stable_argsort(cC, m)
@@ -274,9 +275,9 @@ def beam_keep(cP, cF, cC, cPar, cA, m, order_buf, bP, bF, bC, bH, state, k):
         dup = False
         for u in range(kept):
             o = order_buf[u]
-            if dist2(cP[o], cP[r]) < DEDUP_POS * DEDUP_POS:
+            if dist2(cP[o], cP[r]) < dpos * dpos:
                 dz = dist2(cF[o, 1], cF[r, 1]) + dist2(cF[o, 2], cF[r, 2])
-                if dz < DEDUP_DIR * DEDUP_DIR:
+                if dz < ddir * ddir:
                     dup = True
                     break
         if dup:
@@ -315,7 +316,7 @@ def _beam_expand(bP, bF, bC, bH, state, cP, cF, cC, cPar, cA, order_buf, path, d
                                 inv_sin2)
             beam_candidate(bP, bF, bC, q, a, F1, cost, feed, m, cP, cF, cC, cPar, cA)
             m += 1
-    beam_keep(cP, cF, cC, cPar, cA, m, order_buf, bP, bF, bC, bH, state, k)
+    beam_keep(cP, cF, cC, cPar, cA, m, order_buf, bP, bF, bC, bH, state, k, DEDUP_POS, DEDUP_DIR)
 
 
 @njit(cache=True)

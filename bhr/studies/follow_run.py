@@ -373,6 +373,9 @@ def body_clearance_lines(s: dict) -> list[str]:
                    f"{s['trail_offset_bound_mm']:.2f} mm of the trail); the feeder pushes until step "
                    f"{s['feeder_stop_step']}, the tip {s['cecum_shortfall_mm']:.1f} mm short of the path's end; "
                    f"{format_duration(s['procedure_time_s'])} at the wires' pace, the whole robot.")
+    if s.get("locomotion") != "trail" and s.get("feeder_stop_step"):
+        out.append(f"The tip reached the cecum at step {s['feeder_stop_step']} of {s['steps']}: the feeder stopped "
+                   "there and the robot holds its pose.")
     if "body_modules" in s:
         out.append(f"Whole body: {s['body_modules']} modules; the body behind the head is off the path by at most "
                    f"{s['body_points_max_error_mm']:.3f} mm (step {s['body_worst_step']}).")

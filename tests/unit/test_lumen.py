@@ -6,15 +6,17 @@ import warnings
 
 import numpy as np
 import pytest
+from hypothesis import given, settings, strategies as st
 
 from bhr.bench.lumen import tight_colon
 from bhr.model.generators import Trajectory, load_trajectory
 from bhr.model.robot import Robot, forward_kinematics
+from bhr.model.tube import nearest_numpy
 from bhr.run.clearance import make_tube
 from bhr.run.driver import follow
 from bhr.settings.errors import BhrError
 from bhr.solvers import get_solver
-from bhr.solvers.lumen import DEFAULTS, head_cost, lumen_config_cost
+from bhr.solvers.lumen import DEFAULTS, head_cost, head_search, lumen_config_cost
 
 CODES = (0, 3, 6, 12, 9)
 
@@ -118,3 +120,33 @@ def test_cli_help_states_the_lumen_defaults():
         assert f"[{DEFAULTS[key]:g}]" in helps[key], (key, helps[key])
     for key in ("lookahead", "beam", "ori_weight"):
         assert f"(lumen [{DEFAULTS[key]:g}])" in helps[key], (key, helps[key])
+
+
+@settings(max_examples=25, deadline=None)
+@given(step=st.integers(20, 250), yaw=st.floats(-0.3, 0.3), pitch=st.floats(-0.3, 0.3), shift=st.floats(-8.0, 8.0))
+def test_the_depth_the_beam_ranks_by_is_the_best_heads_deepest_sample_in_numpy(tight, step, yaw, pitch, shift):
+    """head_search's depth (the beam's ranking) = the largest -clearance over the best head's base, far ends and
+    module middles, each searched in numpy in the window around where it is expected (depths below -margin, where
+    the search skips middles that cannot be within the margin, compared as -margin)."""
+    robot = Robot()
+    tube = make_tube(tight.points, tight.lumen, tight.start_direction, DEFAULTS["window"], closed_end=True)
+    n, f = robot.modules, robot.feed_divisor
+    k = step - n * f
+    base = tight.points[max(k, 0)] + np.array([0.0, 0.0, shift])
+    d = tight.points[max(k, 0) + 5] - tight.points[max(k, 0)]
+    z = d / np.linalg.norm(d) + np.array([yaw, pitch, 0.0])
+    z /= np.linalg.norm(z)
+    x = np.cross([0.0, 0.0, 1.0], z)
+    x /= np.linalg.norm(x)
+    frame = np.stack([x, np.cross(z, x), z])
+    codes, cost, got = head_search(tube, robot, dict(DEFAULTS), tight.points, step, base, frame)
+    assert head_cost(tube, robot, dict(DEFAULTS), tight.points, step, base, frame) == (codes, cost)
+    pts, _ = forward_kinematics(robot, [0, *codes], base, frame)
+    want = -np.inf
+    for j in range(n + 1):
+        want = max(want, -nearest_numpy(tube, robot.radius, pts[j], k + j * f + tube.pre)[0])
+        if j:
+            mid = 0.5 * (pts[j] + pts[j - 1])
+            want = max(want, -nearest_numpy(tube, robot.radius, mid, k + (j - 0.5) * f + tube.pre)[0])
+    floor = -DEFAULTS["margin"]
+    assert max(got, floor) == pytest.approx(max(want, floor), abs=1e-9)

@@ -14,6 +14,7 @@ from bhr.model.racing import head_radius_mm, line_curvature, racing_line, transp
 from bhr.model.robot import Robot, forward_kinematics
 from bhr.run.clearance import make_tube
 from bhr.run.driver import follow
+from bhr.settings.options import BY_NAME
 from bhr.solvers.lumen import DEFAULTS, head_cost, lumen_config_cost, planned_line
 
 CODES = (0, 3, 6, 12, 9)
@@ -127,12 +128,13 @@ def test_the_head_search_with_the_racing_term_is_the_exact_minimum(step):
                              forward_kinematics(robot, [0, *codes], base, frame)[0]) < best
 
 
-def test_racing_weight_changes_the_run_and_zero_is_the_old_solver():
+def test_racing_weight_changes_the_run_and_the_default_is_its_registry_value():
     tr = tight_colon(2)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         a = follow(tr, solver="lumen", solver_options={"racing_weight": 0.0})
         b = follow(tr, solver="lumen")
-        c = follow(tr, solver="lumen", solver_options={"racing_weight": 1.0})
-    assert np.array_equal(a.points, b.points)
-    assert not np.array_equal(a.points, c.points)
+        c = follow(tr, solver="lumen", solver_options={"racing_weight": BY_NAME["racing_weight"].default})
+    assert BY_NAME["racing_weight"].default > 0.0  # the head is pulled to the racing line by default (docs/lumen.md)
+    assert np.array_equal(b.points, c.points)
+    assert not np.array_equal(a.points, b.points)

@@ -1,0 +1,110 @@
+"""The thesis's model's feeder stops when the tip reaches a blind cecum (docs/locomotion.md): the robot holds its
+pose from then on, step by step as compiled, head and body; an open end or a path without a lumen never stops it;
+and the watch that says when the tip has reached the end agrees with the geometry."""
+from __future__ import annotations
+
+import dataclasses
+import warnings
+
+import numpy as np
+from hypothesis import given, settings, strategies as st
+
+from bhr.bench.lumen import tight_colon
+from bhr.model.tube import make_tube
+from bhr.run.clearance import CecumWatch, cecum_step
+from bhr.run.driver import follow
+
+
+def _quiet(*args, **kwargs):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return follow(*args, **kwargs)
+
+
+def test_a_robot_ahead_of_its_schedule_stops_at_the_cecum_and_holds_its_pose():
+    tr = tight_colon(2)  # the lumen solver cuts the bends and reaches the blind end before the path's last point
+    run = _quiet(tr, solver="lumen")
+    stop = run.summary.to_dict()["feeder_stop_step"]
+    assert 1 <= stop < run.steps
+    k = stop - 1
+    tube = make_tube(tr.points, tr.lumen, tr.start_direction, closed_end=True)
+    assert cecum_step(tube, run.points[:, -1]) == k  # the first step at the cecum
+    assert np.all(run.points[k + 1:] == run.points[k]) and np.all(run.codes[k + 1:] == run.codes[k])
+    assert np.all(run.iterations[k + 1:] == 0)
+    assert not np.all(run.points[k] == run.points[k - 1])  # it moved until then
+    # held steps are scored against their own trajectory points, as every step
+    assert not np.array_equal(run.point_errors_mm[k + 1], run.point_errors_mm[k])
+    # step by step, with a callback as a stream uses it: the same run, every step reported
+    seen: list[np.ndarray] = []
+    again = _quiet(tr, solver="lumen", on_step=lambda i, c: seen.append(np.array(c)))
+    assert again.summary.to_dict()["feeder_stop_step"] == stop
+    assert np.array_equal(again.points, run.points) and np.array_equal(again.codes, run.codes)
+    assert np.array_equal(again.point_errors_mm, run.point_errors_mm)
+    assert len(seen) == run.steps and all(np.array_equal(c, run.codes[k]) for c in seen[k:])
+
+
+def test_the_body_holds_its_pose_behind_a_stopped_head():
+    tr = tight_colon(2)
+    run = _quiet(tr, solver="lumen", body_modules=12)
+    k = run.summary.to_dict()["feeder_stop_step"] - 1
+    b = run.body
+    assert b is not None and b.modules == 7
+    assert np.all(b.points[k + 1:] == b.points[k]) and np.all(b.codes[k + 1:] == b.codes[k])
+    head = _quiet(tr, solver="lumen")
+    assert np.array_equal(head.points, run.points)  # the body does not change the head
+
+
+def test_an_open_end_or_no_lumen_never_stops_the_feeder():
+    tr = tight_colon(2)
+    open_end = _quiet(dataclasses.replace(tr, lumen_end="open"), solver="lumen")
+    assert "feeder_stop_step" not in open_end.summary.to_dict()
+    assert not np.all(open_end.points[-1] == open_end.points[-2])
+    bare = _quiet(dataclasses.replace(tr, lumen=None), solver="thesis")
+    assert "feeder_stop_step" not in bare.summary.to_dict()
+
+
+def test_the_thesis_colon_runs_every_step():
+    # the printed colon has a blind end; the thesis's solver keeps its tip within its tolerance of the schedule and
+    # reaches the end at the last step, so the thesis's run is the thesis's, every step solved
+    import bhr
+
+    run = _quiet(bhr.trajectory("colon"), solver="thesis")
+    assert "feeder_stop_step" not in run.summary.to_dict()
+    assert np.all(run.iterations > 0)
+
+
+@settings(max_examples=60, deadline=None)
+@given(length=st.floats(20.0, 200.0), radius=st.floats(8.0, 25.0), step=st.floats(0.5, 4.0),
+       lateral=st.floats(-0.9, 0.9), yaw=st.floats(0.0, 6.283))
+def test_the_watch_says_reached_exactly_at_the_end_cross_section(length, radius, step, lateral, yaw):
+    # a straight lumen along a direction in the plane, blind at its end: a tip moving along it, off its axis by
+    # up to 0.9 of the radius, has reached the cecum from the first position at or past the end's cross-section
+    d = np.array([np.cos(yaw), np.sin(yaw), 0.0])
+    side = np.array([-np.sin(yaw), np.cos(yaw), 0.0])
+    pts = np.arange(0.0, length + 1e-9, 2.0)[:, None] * d
+    tube = make_tube(pts, np.full(len(pts), 2 * radius), d, closed_end=True)
+    end = float(np.dot(pts[-1], d))
+    s = np.arange(0.0, end + 3 * step, step)
+    tips = s[:, None] * d + lateral * radius * side
+    got = cecum_step(tube, tips)
+    want = int(np.argmax(s >= end - 1e-9))
+    assert got == want
+    # an open end has no cecum
+    assert cecum_step(make_tube(pts, np.full(len(pts), 2 * radius), d, closed_end=False), tips) is None
+
+
+def test_the_watch_follows_a_u_turn_and_is_not_fooled_by_the_other_limb():
+    # a U-turn whose blind end lies beside its first limb: a tip in the first limb, level with the end, has not
+    # reached it; the same tip position at the end of the second limb has
+    a = np.arange(0.0, 100.0, 2.0)
+    first = np.stack([a, np.zeros_like(a), np.zeros_like(a)], axis=1)
+    th = np.linspace(0.0, np.pi, 40)[1:-1]
+    turn = np.stack([100.0 + 30.0 * np.sin(th), 30.0 - 30.0 * np.cos(th), np.zeros_like(th)], axis=1)
+    second = np.stack([a[::-1], np.full_like(a, 60.0), np.zeros_like(a)], axis=1)[:-10]  # ends at x = 20
+    pts = np.concatenate([first, turn, second])
+    tube = make_tube(pts, np.full(len(pts), 40.0), [1.0, 0.0, 0.0], closed_end=True)
+    watch = CecumWatch(tube)
+    assert not any(watch.reached(p) for p in first[:12])  # passes x = 20 in the first limb: not the cecum
+    along = np.concatenate([first[12:], turn, second])
+    hits = [i for i, p in enumerate(along) if watch.reached(p)]
+    assert hits and hits[0] == len(along) - 1
