@@ -541,14 +541,16 @@ def index_matched_min(result, body: int) -> float:
 
 
 def tables_report(table: np.ndarray, labels: list[str], mtable: np.ndarray, mlabels: list[str], mwhere: np.ndarray,
-                  feed: float, im_min: float, lumen_end: str) -> tuple[ClearanceReport, np.ndarray]:
+                  feed: float, im_min: float, lumen_end: str, moved: int | None = None
+                  ) -> tuple[ClearanceReport, np.ndarray]:
     """The :class:`ClearanceReport` of a run's tables (points (N, P), modules (N, Mo) and where (N, Mo, 3), in
-    report order), with the steps in contact, the contact length per module (``feed`` per step) and the smallest
-    clearance named; and the tables side by side (N, P + Mo). ``min_step`` is 0 when nothing is scored."""
+    report order), with the steps in contact, the contact length per module (``feed`` per step the robot moved:
+    the first ``moved`` steps, every step by default) and the smallest clearance named; and the tables side by
+    side (N, P + Mo). ``min_step`` is 0 when nothing is scored."""
     with np.errstate(invalid="ignore"):
         mtouch = mtable <= 0.0
         touch = np.nonzero(np.any(table <= 0.0, axis=1) | np.any(mtouch, axis=1))[0]
-    contact = (np.sum(mtouch, axis=0) * feed).tolist()
+    contact = (np.sum(mtouch[:moved], axis=0) * feed).tolist()
     both = np.concatenate([table, mtable], axis=1)
     if np.all(np.isnan(both)):
         return ClearanceReport(table, labels, float("nan"), 0, "", [], mtable, mlabels, mwhere, contact, im_min,
@@ -586,8 +588,10 @@ def clearance_report(result, window_mm: float = WINDOW_MM, sample_mm: float = SA
     m_order = list(range(B, B + n)) + list(range(B - 1, -1, -1))
     table, mtable, mwhere = pt[:, p_order], mod[:, m_order], where[:, m_order]
     labels, mlabels = robot_labels(n, B)
+    # once the feeder has stopped at the cecum (bhr.run.driver) the robot travels no further: no contact length
+    moved = result.extra.get("summary", {}).get("feeder_stop_step")
     rep, both = tables_report(table, labels, mtable, mlabels, mwhere, float(r.feed), index_matched_min(result, B),
-                              end)
+                              end, moved)
     if rep.min_step == 0:
         return rep
 

@@ -759,4 +759,4 @@ def trail_report(result):
     table, mtable, mwhere = jp[:, p_idx], jm[:, m_idx], jw[:, m_idx]
     labels, mlabels = robot_labels(n, B)
     return tables_report(table, labels, mtable, mlabels, mwhere, float(r.feed), index_matched_min(result, B),
-                         lumen_end_of(result.trajectory))[0]
+                         lumen_end_of(result.trajectory), tr.stop + 1)[0]

@@ -150,8 +150,7 @@ def _schedule(a, e, sp, prm):
 @njit(cache=True)
 def _module_cost(C, Q, R, pre, w, g, e0, ef, A, B, cA, radius, margin, ww, wc, prm, sp, pre0, dR, res, tmp, out):
     """Cost of the module A->B: its far end (wall and centerline) and, where the wall may be near, its middle
-    (wall only). ``cA`` is A's clearance; out[0] gets B's, out[1] the smaller of B's and the middle's (when the
-    middle is looked at). res[1]: the far end's segment.
+    (wall only). ``cA`` is A's clearance; out[0] gets B's. res[1]: the far end's segment.
 
     The clearance changes by at most 1 mm per mm moved plus the change of the lumen radius (at most ``dR``
     over half a module), so the middle is skipped when both ends clear the margin by more than half a
@@ -163,7 +162,6 @@ def _module_cost(C, Q, R, pre, w, g, e0, ef, A, B, cA, radius, margin, ww, wc, p
     a = _along(res, pre0, e0 + ef, sp)
     cost += wc * res[0] + _schedule(a, e0 + ef, sp, prm) + _race(Q, res, prm[13], B[0], B[1], B[2])
     out[0] = cB
-    out[1] = cB
     gB = res[1]
     tB = res[2]
     dB = res[0]
@@ -173,7 +171,6 @@ def _module_cost(C, Q, R, pre, w, g, e0, ef, A, B, cA, radius, margin, ww, wc, p
               res, tmp)
         cM, cm = _wall(R, radius, margin, ww, res)
         cost += cm
-        out[1] = min(cB, cM)
     res[0] = dB
     res[1] = gB
     res[2] = tB
@@ -198,19 +195,15 @@ def _place(frames, pts, lv, q, c, s, L):
 
 
 @njit(cache=True)
-def _head_search(C, Q, R, pre, w, step, n, f, L, c, s, T, prm, best_codes, frames, pts, part, guess, choice, res, tmp,
-                 dep):
+def _head_search(C, Q, R, pre, w, step, n, f, L, c, s, T, prm, best_codes, frames, pts, part, guess, choice, res, tmp):
     """Exact branch and bound over modules 2..n with module 1's frame in ``frames[0]`` and ``pts[0]`` the base.
 
-    prm = (radius, margin, w_wall, w_center, w_track, w_ori). Returns the best cost; codes in best_codes[1:]; dep[0]
-    gets how deep the best configuration's samples go into the wall (the negative of their smallest clearance, the
-    module middles that cannot be within the margin left out).
+    prm = (radius, margin, w_wall, w_center, w_track, w_ori). Returns the best cost; codes in best_codes[1:].
     """
     radius, margin, ww, wc, wt, wo = prm[0], prm[1], prm[2], prm[3], prm[4], prm[5]
     e0 = float(step - n * f)
     clr = np.empty(n + 1)
-    low = np.empty(n + 1)  # the smallest clearance of the samples so far, along the configuration being searched
-    cout = np.empty(2)
+    cout = np.empty(1)
     dR, sp, pre0 = prm[6], prm[8], prm[9]
     _near(C, pre, w, -1, e0, pts[0, 0], pts[0, 1], pts[0, 2], res, tmp)
     clr[0], part[0] = _wall(R, radius, margin, ww, res)
@@ -223,19 +216,15 @@ def _head_search(C, Q, R, pre, w, step, n, f, L, c, s, T, prm, best_codes, frame
     part[1] = part[0] + _module_cost(C, Q, R, pre, w, guess[0], e0, float(f), pts[0], pts[1], clr[0], radius, margin,
                                      ww, wc, prm, sp, pre0, dR, res, tmp, cout) + wt * dist2(pts[1], T[1])
     clr[1] = cout[0]
-    low[0] = clr[0]
-    low[1] = min(low[0], cout[1])
     guess[1] = int(res[1])
     best_codes[0] = 0
     if n == 1:
-        dep[0] = -low[1]
         return part[1] + _tip_term(C, guess[1], frames[0], wo)
     # a greedy dive first (each module the cheapest for the points so far): a good first bound to cut with
     best = 1e300
     for lv in range(1, n):
         bv = 1e300
         bq = 0
-        bl = 0.0
         for q in range(5):
             _place(frames, pts, lv, q, c, s, L)
             v = part[lv] + wt * dist2(pts[lv + 1], T[lv + 1])
@@ -248,15 +237,12 @@ def _head_search(C, Q, R, pre, w, step, n, f, L, c, s, T, prm, best_codes, frame
             if v < bv:
                 bv = v
                 bq = q
-                bl = cout[1]
                 clr[lv + 1] = cout[0]
                 guess[lv + 1] = int(res[1])
         choice[lv] = bq
         _place(frames, pts, lv, bq, c, s, L)
         part[lv + 1] = bv
-        low[lv + 1] = min(low[lv], bl)
     best = part[n]
-    dep[0] = -low[n]
     for q in range(1, n):
         best_codes[q] = choice[q]
     best *= 1.0 + 1e-12  # the exact search below may find the same configuration again: let it
@@ -276,14 +262,10 @@ def _head_search(C, Q, R, pre, w, step, n, f, L, c, s, T, prm, best_codes, frame
         if v >= best:
             continue
         clr[lvl + 1] = cout[0]
-        low[lvl + 1] = min(low[lvl], cout[1])
         guess[lvl + 1] = int(res[1])
         part[lvl + 1] = v
         if lvl == n - 1:
-            tot = v + _tip_term(C, guess[n], frames[n - 1], wo)
-            if tot < best:
-                dep[0] = -low[n]
-            best = keep_best(tot, best, choice, best_codes, 1, n)
+            best = keep_best(v + _tip_term(C, guess[n], frames[n - 1], wo), best, choice, best_codes, 1, n)
         else:
             lvl += 1
             choice[lvl] = -1
@@ -292,18 +274,46 @@ def _head_search(C, Q, R, pre, w, step, n, f, L, c, s, T, prm, best_codes, frame
 
 @njit(cache=True)
 def _head_cost(C, Q, R, pre, w, P0, F1, step, n, f, L, c, s, T, prm, best_codes, frames, pts, part, guess, choice,
-               res, tmp, dep):
+               res, tmp):
     for a in range(3):
         for b in range(3):
             frames[0, a, b] = F1[a, b]
     for b in range(3):
         pts[0, b] = P0[b]
     return _head_search(C, Q, R, pre, w, step, n, f, L, c, s, T, prm, best_codes, frames, pts, part, guess, choice,
-                        res, tmp, dep)
+                        res, tmp)
 
 
 # ---------------------------------------------------------------------------
 # the fixed-lag beam over the base tilt (as bhr.solvers.optimal, with this cost)
+
+
+@njit(cache=True)
+def _head_depth(C, R, pre, w, k, n, f, L, c, s, radius, F1, P0, best_codes, frames, pts, res, tmp):
+    """How deep (mm, the negative of the smallest clearance; negative when clear) the head of ``best_codes`` at step
+    ``k`` goes into the wall: its base, every module's far end and middle, module 1 along ``F1`` from ``P0``, each
+    sample's nearest centerline point searched over its whole window (the search's own guided scans can stop at a
+    nearer local minimum in a tight bend)."""
+    for a in range(3):
+        for b in range(3):
+            frames[0, a, b] = F1[a, b]
+    for b in range(3):
+        pts[0, b] = P0[b]
+        pts[1, b] = P0[b] + L * F1[2, b]
+    for lv in range(1, n):
+        _place(frames, pts, lv, best_codes[lv], c, s, L)
+    e0 = float(k - n * f)
+    worst = -1e300
+    for j in range(n + 1):
+        _near(C, pre, w, -1, e0 + j * f, pts[j, 0], pts[j, 1], pts[j, 2], res, tmp)
+        cj, _ = _wall(R, radius, 0.0, 0.0, res)
+        worst = max(worst, -cj)
+        if j > 0:
+            _near(C, pre, w, -1, e0 + (j - 0.5) * f, 0.5 * (pts[j, 0] + pts[j - 1, 0]),
+                  0.5 * (pts[j, 1] + pts[j - 1, 1]), 0.5 * (pts[j, 2] + pts[j - 1, 2]), res, tmp)
+            cj, _ = _wall(R, radius, 0.0, 0.0, res)
+            worst = max(worst, -cj)
+    return worst
 
 
 @njit(cache=True)
@@ -315,14 +325,13 @@ def _beam_expand(bP, bF, bC, bH, state, cP, cF, cC, cPar, cA, order_buf, bM, cM,
     nb = state[0]
     k = state[1]
     step_targets(path, dirs, k, n, f, feed, T, d)
-    dep = np.zeros(1)
     m = 0
     for q in range(nb):
         for a in range(5):
             _rot(bF[q], a, c, s, F1)
             cost = _head_cost(C, Q, R, pre, w, bP[q], F1, k, n, f, L, c, s, T, prm, best_codes, frames, pts, part,
-                              guess, choice, res, tmp, dep)
-            deep = dep[0]
+                              guess, choice, res, tmp)
+            deep = _head_depth(C, R, pre, w, k, n, f, L, c, s, prm[0], F1, bP[q], best_codes, frames, pts, res, tmp)
             beam_candidate(bP, bF, bC, q, a, F1, cost, feed, m, cP, cF, cC, cPar, cA)
             cM[m] = max(bM[q], math.floor(deep / DEPTH_STEP)) if deep > 0.0 else bM[q]
             m += 1
@@ -386,7 +395,7 @@ def _lumen_step(P, E1, E2, i, bP, bF, bC, bH, state, cP, cF, cC, cPar, cA, order
     step_targets(path, dirs, i, n, f, feed, T, d)
     _rot(F, a0, c, s, F1)
     cost = _head_cost(C, Q, R, pre, w, P0, F1, i, n, f, L, c, s, T, prm, best_codes, frames, pts, part, guess, choice,
-                      res, tmp, np.zeros(1))
+                      res, tmp)
     best_codes[0] = a0
     write_pose(F, best_codes, c, s, L, alpha, frames, P, E1, E2, out_codes, tilts)
     return layers, cost
@@ -436,14 +445,17 @@ def head_search(tube, robot, settings: dict[str, float], path: np.ndarray, step:
     step_targets(path, dirs, step, n, robot.feed_divisor, float(robot.feed), T, d)
     prm = _prm(robot, settings, tube)
     best = np.zeros(n, dtype=np.int64)
-    dep = np.zeros(1)
     Q = tube.points if line is None else np.ascontiguousarray(line, dtype=np.float64)
-    cost = _head_cost(tube.points, Q, tube.radius, float(tube.pre), float(tube.window), np.asarray(base, dtype=float),
-                      np.ascontiguousarray(frame1, dtype=float), step, n, robot.feed_divisor,
-                      float(robot.module_length), math.cos(a), math.sin(a), T, prm, best, np.empty((n, 3, 3)),
-                      np.empty((n + 1, 3)), np.empty(n + 1), np.zeros(n + 1, dtype=np.int64),
-                      np.zeros(n, dtype=np.int64), np.empty(3), np.empty(3), dep)
-    return [int(CODE_OF[k]) for k in best[1:]], float(cost), float(dep[0])
+    P0 = np.asarray(base, dtype=float)
+    F1 = np.ascontiguousarray(frame1, dtype=float)
+    frames, pts, res, tmp = np.empty((n, 3, 3)), np.empty((n + 1, 3)), np.empty(3), np.empty(3)
+    cost = _head_cost(tube.points, Q, tube.radius, float(tube.pre), float(tube.window), P0, F1, step, n,
+                      robot.feed_divisor, float(robot.module_length), math.cos(a), math.sin(a), T, prm, best, frames,
+                      pts, np.empty(n + 1), np.zeros(n + 1, dtype=np.int64), np.zeros(n, dtype=np.int64), res, tmp)
+    deep = _head_depth(tube.points, tube.radius, float(tube.pre), float(tube.window), step, n, robot.feed_divisor,
+                       float(robot.module_length), math.cos(a), math.sin(a), float(robot.radius), F1, P0, best,
+                       frames, pts, res, tmp)
+    return [int(CODE_OF[k]) for k in best[1:]], float(cost), float(deep)
 
 
 def lumen_config_cost(tube, robot, settings: dict[str, float], path: np.ndarray, step: int,

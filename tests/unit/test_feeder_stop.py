@@ -27,7 +27,8 @@ def test_a_robot_ahead_of_its_schedule_stops_at_the_cecum_and_holds_its_pose():
     stop = run.summary.to_dict()["feeder_stop_step"]
     assert 1 <= stop < run.steps
     k = stop - 1
-    tube = make_tube(tr.points, tr.lumen, tr.start_direction, closed_end=True)
+    t = run.trajectory  # the path as the run drew it at the robot's feed
+    tube = make_tube(t.points, t.lumen, t.start_direction, closed_end=True)
     assert cecum_step(tube, run.points[:, -1]) == k  # the first step at the cecum
     assert np.all(run.points[k + 1:] == run.points[k]) and np.all(run.codes[k + 1:] == run.codes[k])
     assert np.all(run.iterations[k + 1:] == 0)
@@ -108,3 +109,18 @@ def test_the_watch_follows_a_u_turn_and_is_not_fooled_by_the_other_limb():
     along = np.concatenate([first[12:], turn, second])
     hits = [i for i, p in enumerate(along) if watch.reached(p)]
     assert hits and hits[0] == len(along) - 1
+
+
+def test_a_held_robot_travels_no_contact_length():
+    # contact_length_mm is the path travelled while a module touched: one feed per step until the feeder stopped,
+    # none while the robot is held at the cecum, though it touches there (the last 40 mm narrower than the robot)
+    tr = tight_colon(2)
+    lumen = tr.lumen.copy()
+    lumen[-20:] = 9.0
+    run = _quiet(dataclasses.replace(tr, lumen=lumen), solver="lumen")
+    s = run.summary.to_dict()
+    k = s["feeder_stop_step"]
+    with np.errstate(invalid="ignore"):
+        touching = run.clearance.module_table <= 0.0
+    assert touching[k:].any() and k < run.steps  # held in contact
+    assert s["contact_length_mm"] == (touching[:k].sum(axis=0) * run.robot.feed).tolist()

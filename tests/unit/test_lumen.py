@@ -126,8 +126,7 @@ def test_cli_help_states_the_lumen_defaults():
 @given(step=st.integers(20, 250), yaw=st.floats(-0.3, 0.3), pitch=st.floats(-0.3, 0.3), shift=st.floats(-8.0, 8.0))
 def test_the_depth_the_beam_ranks_by_is_the_best_heads_deepest_sample_in_numpy(tight, step, yaw, pitch, shift):
     """head_search's depth (the beam's ranking) = the largest -clearance over the best head's base, far ends and
-    module middles, each searched in numpy in the window around where it is expected (depths below -margin, where
-    the search skips middles that cannot be within the margin, compared as -margin)."""
+    module middles, each searched in numpy over the window around where it is expected."""
     robot = Robot()
     tube = make_tube(tight.points, tight.lumen, tight.start_direction, DEFAULTS["window"], closed_end=True)
     n, f = robot.modules, robot.feed_divisor
@@ -148,5 +147,4 @@ def test_the_depth_the_beam_ranks_by_is_the_best_heads_deepest_sample_in_numpy(t
         if j:
             mid = 0.5 * (pts[j] + pts[j - 1])
             want = max(want, -nearest_numpy(tube, robot.radius, mid, k + (j - 0.5) * f + tube.pre)[0])
-    floor = -DEFAULTS["margin"]
-    assert max(got, floor) == pytest.approx(max(want, floor), abs=1e-9)
+    assert got == pytest.approx(want, abs=1e-9)
