@@ -85,9 +85,14 @@ def guarded(func: Callable[..., Any]) -> Callable[..., Any]:
 
     @functools.wraps(func)
     def wrapper(*args: Any, **kwargs: Any) -> Any:
+        from bhr.output.atomic import together
+
         try:
-            rv = func(*args, **kwargs)
-            sys.stdout.flush()  # a full or closed standard output fails here, inside the guard
+            # the command's files and folders, and what it prints, are one set: they are put in place only once
+            # standard output took the summary (a full or closed standard output fails at this flush, and then
+            # leaves no folder, as a full disk does)
+            with together(check=sys.stdout.flush):
+                rv = func(*args, **kwargs)
             if INTERRUPTED.is_set():  # a Ctrl-C that something caught on the way: still honoured
                 raise KeyboardInterrupt
             return rv

@@ -176,7 +176,7 @@ def atomic_path(path: str | os.PathLike[str], suffix: str | None = None) -> Iter
                 # folder's stage goes in with its folder)
                 kept = tmp_path.with_name(tmp_path.name + ".set")
                 os.replace(tmp_path, kept)
-                _together.append((kept, target, str(path)))
+                _together.files.append((kept, target, str(path)))
             else:
                 os.replace(tmp_path, target)
         except OSError as exc:
@@ -215,45 +215,82 @@ def _wait_for_reader(target: Path) -> int | None:
         time.sleep(0.05)
 
 
-_together: list[tuple[Path, Path, str]] | None = None
+class _Set:
+    """The outputs of one :func:`together` block: single files staged beside their targets (``.NAME.XXXX.set``),
+    output folders staged whole (their manifest written), and what follows their placing (``bhr-out/latest``)."""
+
+    def __init__(self) -> None:
+        self.files: list[tuple[Path, Path, str]] = []   # (staged file, target, the name the user gave)
+        self.folders: list["OutputFolder"] = []
+        self.after: list[Any] = []                       # callables run once everything is in place
+
+    def discard(self) -> None:
+        for kept, _, _ in self.files:
+            with contextlib.suppress(OSError):
+                kept.unlink()
+        for folder in self.folders:
+            folder._discard()
+        self.files, self.folders, self.after = [], [], []
+
+    def place(self) -> None:
+        """Put every staged folder, then every staged file, in place; on a failure the rest are discarded."""
+        folders, files, after = self.folders, self.files, self.after
+        self.folders, self.files, self.after = [], [], []
+        for k, folder in enumerate(folders):
+            try:
+                folder._place()
+            except BaseException:
+                for rest in folders[k + 1:]:
+                    rest._discard()
+                self.files = files
+                self.discard()
+                raise
+        for k, (kept, target, given) in enumerate(files):
+            try:
+                os.replace(kept, target)
+            except OSError as exc:
+                for later, _, _ in files[k:]:
+                    with contextlib.suppress(OSError):
+                        later.unlink()
+                if exc.filename is None or str(exc.filename) == str(kept):
+                    exc.filename = given
+                raise
+        for action in after:
+            action()
+
+
+_together: _Set | None = None
 _staging: set[Path] = set()  # the stage folders of the OutputFolders being written
 
 
 @contextlib.contextmanager
-def together() -> Iterator[None]:
-    """The single files written inside (:func:`atomic_path`, :func:`write_text`, :func:`write_json`) are one set:
-    each is put in place only when the block ends without an error, so a failure writing the last one (disk
-    full) leaves none of them, not the first ones alone."""
+def together(check: Any = None) -> Iterator[None]:
+    """The outputs written inside are one set: single files (:func:`atomic_path`, :func:`write_text`,
+    :func:`write_json`) and output folders (:class:`OutputFolder`, staged whole) are put in place only when the
+    block ends without an error, so a failure writing the last one (disk full) leaves none of them, not the first
+    ones alone. ``check()``, when given, runs after the block and before anything is put in place; an exception
+    from it leaves nothing either (the command line flushes its standard output there, so that a summary that
+    cannot be printed, ``> /dev/full``, leaves no folder behind it). Nested blocks join the outermost one."""
     global _together
     if _together is not None:  # already inside one
         yield
         return
-    staged: list[tuple[Path, Path, str]] = []
+    staged = _Set()
     _together = staged
     try:
         yield
+        if INTERRUPTED.is_set():  # a Ctrl-C caught on the way: none of them
+            raise KeyboardInterrupt
+        if check is not None:
+            check()
+        if INTERRUPTED.is_set():
+            raise KeyboardInterrupt
     except BaseException:
-        for kept, _, _ in staged:
-            with contextlib.suppress(OSError):
-                kept.unlink()
-        raise
-    finally:
         _together = None
-    if INTERRUPTED.is_set():  # a Ctrl-C caught on the way: none of them
-        for kept, _, _ in staged:
-            with contextlib.suppress(OSError):
-                kept.unlink()
-        raise KeyboardInterrupt
-    for k, (kept, target, given) in enumerate(staged):
-        try:
-            os.replace(kept, target)
-        except OSError as exc:
-            for later, _, _ in staged[k:]:
-                with contextlib.suppress(OSError):
-                    later.unlink()
-            if exc.filename is None or str(exc.filename) == str(kept):
-                exc.filename = given
-            raise
+        staged.discard()
+        raise
+    _together = None
+    staged.place()
 
 
 def _mode_for(target: Path, new: int = 0o666) -> int:
@@ -504,8 +541,7 @@ class OutputFolder:
         assert self.stage is not None
         _staging.discard(self.stage)
         if exc_type is not None:
-            shutil.rmtree(self.stage, ignore_errors=True)
-            self._remove_made()
+            self._discard()
             if isinstance(exc, OSError):
                 self._name_output(exc)
             return
@@ -517,10 +553,33 @@ class OutputFolder:
             self._write_manifest()
             if INTERRUPTED.is_set():
                 raise KeyboardInterrupt
+        except BaseException as failure:
+            self._discard()
+            if isinstance(failure, OSError):
+                self._name_output(failure)
+            raise
+        if _together is not None:  # one set with the command's other outputs: put in place at its end
+            _together.folders.append(self)
+            return
+        self._place(verify=False)
+
+    def _discard(self) -> None:
+        """Delete the staged folder and the parents this run made (a failure, an interrupt, a set not placed)."""
+        if self.stage is not None:
+            shutil.rmtree(self.stage, ignore_errors=True)
+        self._remove_made()
+
+    def _place(self, verify: bool = True) -> None:
+        """Put the staged folder (manifest written) in place, and delete the folder it replaced. ``verify``: prove
+        the folder being replaced is still only bhr's (a set placed at its end: a file added meanwhile is kept)."""
+        try:
+            if INTERRUPTED.is_set():
+                raise KeyboardInterrupt
+            if verify and self.target.is_dir():
+                self.previous()
             old = self._commit()
         except BaseException as failure:
-            shutil.rmtree(self.stage, ignore_errors=True)
-            self._remove_made()
+            self._discard()
             if isinstance(failure, OSError):
                 self._name_output(failure)
             raise
@@ -734,6 +793,9 @@ def point_latest(folder: str | os.PathLike[str], link_name: str = "latest") -> P
     user's own file or folder), or when the file system has no links.
     """
     target = Path(folder)
+    if _together is not None:  # the folder goes in place at the end of the set: the link after it
+        _together.after.append(lambda: point_latest(target, link_name))
+        return target.parent / link_name
     link = target.parent / link_name
     if link.exists() and not link.is_symlink():
         return None

