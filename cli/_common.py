@@ -43,6 +43,7 @@ def os_error_line(exc: OSError, on_stdout: bool = True) -> str:
         errno.EPERM: "check the permissions or choose another path",
         errno.EFBIG: "the file is too large for this file system; write elsewhere",
         errno.EIO: "the device reported an input/output error; check it and run again",
+        errno.EBADF: "give it an open file or /dev/null",
     }
     fix = fixes.get(exc.errno or 0, "check the path and the device, then run again")
     return f"{what}: {why}; {fix}"

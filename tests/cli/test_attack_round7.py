@@ -64,6 +64,39 @@ def test_a_full_standard_output_leaves_no_folder(tmp_path, loose_run, name):
     assert snapshot(tmp_path) == before and sorted(os.listdir(tmp_path)) == ["b.toml", "c.csv", "r.json"]
 
 
+@pytest.mark.parametrize("name", ["follow", "follow-json-out", "report", "export", "plan"])
+def test_a_closed_standard_output_is_one_line_and_leaves_no_folder(tmp_path, loose_run, name):
+    # bhr ... >&- : Python leaves sys.stdout None: "AttributeError: 'NoneType' object has no attribute 'flush'" with
+    # a traceback, after the folder was put in place
+    _inputs(tmp_path, loose_run)
+    before = snapshot(tmp_path)
+    r = subprocess.run(bhr_exe() + COMMANDS[name], cwd=tmp_path, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                       text=True, timeout=300, env=ENV, preexec_fn=lambda: os.close(1))
+    assert one_line(r) == "Error: standard output: closed by the caller; give it an open file or /dev/null", r.stderr
+    assert snapshot(tmp_path) == before and sorted(os.listdir(tmp_path)) == ["b.toml", "c.csv", "r.json"]
+
+
+def test_a_closed_standard_input_is_one_line(tmp_path):
+    # bhr replay - <&- : "AttributeError: 'NoneType' object has no attribute 'buffer'" with a traceback
+    r = subprocess.run(bhr_exe() + ["replay", "-", "--out", "o"], cwd=tmp_path, stdout=subprocess.PIPE,
+                       stderr=subprocess.PIPE, text=True, timeout=120, env=ENV, preexec_fn=lambda: os.close(0))
+    assert one_line(r) == "Error: standard input: closed by the caller; give it an open file or /dev/null", r.stderr
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_closed_standard_error_keeps_the_exit_status_and_no_file_takes_its_place(tmp_path):
+    # with descriptor 2 closed, the first file bhr opened took number 2: whatever a library wrote to "stderr"
+    # went into that file
+    r = subprocess.run(bhr_exe() + ["follow", "--traj", "nosuch", "--out", "o"], cwd=tmp_path, stdout=subprocess.PIPE,
+                       stderr=subprocess.DEVNULL, text=True, timeout=120, env=ENV, preexec_fn=lambda: os.close(2))
+    assert r.returncode == 1 and r.stdout == "" and list(tmp_path.iterdir()) == []
+    r = subprocess.run(bhr_exe() + ["follow", "--traj", "line", "--length", "20", "--no-plots", "--out", "o"],
+                       cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True, timeout=300,
+                       env=ENV, preexec_fn=lambda: os.close(2))
+    assert r.returncode == 0 and "Wrote o/codes.csv" in r.stdout
+    assert sorted(os.listdir(tmp_path / "o")) == ["codes.csv", "manifest.json", "run.json", "steps.csv"]
+
+
 def test_an_animation_outside_the_folder_is_one_set_with_it(tmp_path):
     # the animation's file goes in place with the folder, at the end: its size is measured before (it was read
     # back from its target, which is not there yet: "Error: a.gif: No such file or directory")
