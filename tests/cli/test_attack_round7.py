@@ -104,3 +104,29 @@ def test_an_animation_outside_the_folder_is_one_set_with_it(tmp_path):
             cwd=tmp_path, timeout=300)
     assert r.returncode == 0 and "Animation: " in r.stderr, r.stderr
     assert (tmp_path / "a.gif").read_bytes()[:3] == b"GIF" and (tmp_path / "o" / "run.json").is_file()
+
+
+# --- SIGTERM of a background job ----------------------------------------------------------------------------------
+
+def _background_job():
+    """As `bhr ... &` in a script: Ctrl-C ignored (not the job's), SIGTERM and SIGHUP as they come."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    for sig in (signal.SIGTERM, signal.SIGHUP):
+        signal.signal(sig, signal.SIG_DFL)
+
+
+@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGHUP], ids=["SIGTERM", "SIGHUP"])
+@pytest.mark.parametrize("args", [["follow", "--traj", "colon"],
+                                  ["sweep", "--traj", "colon", "--grid", "modules=3:12", "--grid", "alpha=6:15",
+                                   "--jobs", "2"]], ids=["follow", "sweep"])
+def test_kill_of_a_background_job_ends_it_as_in_the_foreground(tmp_path, sig, args):
+    # with Ctrl-C ignored (a background job), bhr installed no handler at all: kill PID ended it by the signal, with
+    # no line, its staging folder and bhr-out/ left behind
+    p = subprocess.Popen(bhr_exe() + args, cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                         env=ENV, start_new_session=True, preexec_fn=_background_job)
+    time.sleep(1.5)
+    os.kill(p.pid, sig)
+    out, err = p.communicate(timeout=120)
+    lines = [ln for ln in err.strip().splitlines() if not ln.startswith("Compiling bhr's")]
+    assert p.returncode == 128 + sig and lines == [f"Interrupted by {sig.name}."], (p.returncode, err[-2000:])
+    assert list(tmp_path.iterdir()) == []
