@@ -130,3 +130,31 @@ def test_kill_of_a_background_job_ends_it_as_in_the_foreground(tmp_path, sig, ar
     lines = [ln for ln in err.strip().splitlines() if not ln.startswith("Compiling bhr's")]
     assert p.returncode == 128 + sig and lines == [f"Interrupted by {sig.name}."], (p.returncode, err[-2000:])
     assert list(tmp_path.iterdir()) == []
+
+
+# --- run.json ---------------------------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("command", ["replay", "physics"])
+@pytest.mark.parametrize("value", [-30.0, 0.0])
+def test_a_run_json_lumen_is_a_positive_diameter(tmp_path, loose_run, command, value):
+    # a negative lumen: replay drew it (exit 0), physics ended in "ValueError: Error: size 1 must be positive in
+    # geom" with a traceback
+    doc = json.loads(loose_run)
+    doc["trajectory"]["lumen"] = [value] * len(doc["trajectory"]["points"])
+    (tmp_path / "r.json").write_text(json.dumps(doc))
+    before = snapshot(tmp_path)
+    line = one_line(bhr(command, "r.json", "--out", "o", cwd=tmp_path, timeout=300))
+    assert line.startswith(f"Error: r.json: trajectory lumen diameters must be greater than 0 mm, got {value:g}"), line
+    assert snapshot(tmp_path) == before
+
+
+@pytest.mark.parametrize("name", ["a\nError: forged", "a\x1b[2Jb", "a\u202eb", 5])
+def test_a_run_json_trajectory_name_is_one_line_of_printable_text(tmp_path, loose_run, name):
+    # it reached the figures' titles and view.html as it was (a trajectory file's name is refused the same way)
+    doc = json.loads(loose_run)
+    doc["trajectory"]["name"] = name
+    (tmp_path / "r.json").write_text(json.dumps(doc))
+    before = snapshot(tmp_path)
+    line = one_line(bhr("replay", "r.json", "--out", "o", cwd=tmp_path, timeout=300))
+    assert line.startswith("Error: r.json: trajectory name must be one line of printable text"), line
+    assert snapshot(tmp_path) == before
