@@ -86,9 +86,10 @@ def guarded(func: Callable[..., Any]) -> Callable[..., Any]:
 
     @functools.wraps(func)
     def wrapper(*args: Any, **kwargs: Any) -> Any:
-        from bhr.output.atomic import together
+        from bhr.output.atomic import current_folder, together
 
         try:
+            current_folder()  # deleted under the command: one line before any work, not a failed write after it
             # the command's files and folders, and what it prints, are one set: they are put in place only once
             # standard output took the summary (a full or closed standard output fails at this flush, and then
             # leaves no folder, as a full disk does)

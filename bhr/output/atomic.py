@@ -51,6 +51,10 @@ __all__ = ["atomic_path", "write_text", "write_json", "check_output_file", "toge
 MANIFEST = "manifest.json"
 _STAGE = ".bhr-stage-"
 _ASIDE = ".bhr-old-"
+#: A file in every staging folder while it is written (removed just before the folder goes in place): a leftover
+#: folder of a dead run is deleted by the next run only when it has it, or a bhr manifest, so that a folder of the
+#: user's that only looks like one (``.o.bhr-stage-99999-x``) is never deleted.
+_STAGE_MARK = ".bhr-staging"
 
 
 # --- single files ------------------------------------------------------------------------------------------------
@@ -91,6 +95,16 @@ def _refuse_control(path: Any, what: str) -> None:
                        "give a plain name")
 
 
+def current_folder() -> Path:
+    """The current folder; a BhrError when it no longer exists (deleted or moved away under the command): every
+    output named relative to it would fail, after the work, with a message naming no file."""
+    try:
+        return Path(os.getcwd())
+    except FileNotFoundError:
+        raise BhrError("the current folder no longer exists (it was deleted or moved away); cd into an existing "
+                       "folder and run again") from None
+
+
 def _real_target(path: Path, what: str = "output") -> Path:
     """Where a write to ``path`` lands: ``path`` itself. A symbolic link to a file is refused, never written
     through (the file behind it may be anyone's); links to devices (/dev/stdout) are written in place before
@@ -112,6 +126,8 @@ def check_output_file(path: str | os.PathLike[str], what: str = "output") -> Non
         return
     _refuse_control(path, what)
     p = Path(path)
+    if not p.is_absolute():
+        current_folder()
     if p.is_symlink() and not p.exists():
         raise BhrError(f"{what} {p} is a symbolic link to a missing {os.readlink(p)}; "
                        "create its target or choose another path")
@@ -424,6 +440,9 @@ class OutputFolder:
     def __init__(self, target: str | os.PathLike[str], command: str, names: Iterable[str] = (),
                  keep: bool = False, what: str = "output folder", inputs: Iterable[Any] = (),
                  settings: str | None = None) -> None:
+        if str(target) == "-":  # standard output everywhere else (--json -, export --out -): no folder
+            raise BhrError(f"{what} '-' is standard output, which cannot hold a folder; give a folder name (./- for "
+                           "a folder named '-')")
         self.given = Path(target)
         self.command = command
         self.names = tuple(names)
@@ -442,6 +461,7 @@ class OutputFolder:
     def _resolve(self) -> Path:
         p = self.given
         _refuse_control(p, self.what)
+        current_folder()  # checks below compare with it
         if p.is_symlink():
             if not p.exists():
                 raise BhrError(f"{self.what} {short_path(p)} is a symbolic link to a missing "
@@ -458,7 +478,7 @@ class OutputFolder:
         t = self.target
         if t.exists() and not t.is_dir():
             raise BhrError(f"{self.what} {short_path(self.given)} is a file, not a folder; choose a folder name")
-        cwd = Path(os.path.realpath(os.getcwd()))
+        cwd = Path(os.path.realpath(current_folder()))
         home = Path(os.path.realpath(Path.home()))
         if t == Path(os.path.abspath(os.sep)) or t == home or _within(cwd, t):
             raise BhrError(f"{self.what} {short_path(self.given)} is the current folder or holds it; give a new "
@@ -503,6 +523,12 @@ class OutputFolder:
                     continue
                 if _pid_alive(pid) and pid != os.getpid():
                     continue
+                if e.is_symlink() or not e.is_dir():
+                    continue
+                if not ((mark == _STAGE and (e / _STAGE_MARK).is_file()) or _read_manifest(e / MANIFEST) is not None):
+                    with contextlib.suppress(OSError):
+                        e.rmdir()  # killed before its mark was written: empty; a folder with anything in it ...
+                    continue  # ... and neither mark nor manifest is not one bhr staged or set aside, whatever its name
                 if mark == _ASIDE and not self.target.exists():
                     with contextlib.suppress(OSError):
                         os.rename(e, self.target)  # the fallback swap died half-way: restore the old set
@@ -516,11 +542,21 @@ class OutputFolder:
         while not p.exists() and p != p.parent:
             self.made.append(p)
             p = p.parent
-        self.target.parent.mkdir(parents=True, exist_ok=True)
-        self._clean_stale()
-        self.stage = Path(tempfile.mkdtemp(prefix=f".{self.target.name}{_STAGE}{os.getpid()}-",
-                                           dir=self.target.parent))
-        os.chmod(self.stage, _mode_for(self.target, 0o777))
+        try:
+            self.target.parent.mkdir(parents=True, exist_ok=True)
+            self._clean_stale()
+            self.stage = Path(tempfile.mkdtemp(prefix=f".{self.target.name}{_STAGE}{os.getpid()}-",
+                                               dir=self.target.parent))
+            os.chmod(self.stage, _mode_for(self.target, 0o777))
+            (self.stage / _STAGE_MARK).write_text(self.run_id + "\n", encoding="utf-8")
+        except BaseException:  # a Ctrl-C (or a full disk) in here: no with block to clean up after
+            mine = f".{self.target.name}{_STAGE}{os.getpid()}-"
+            with contextlib.suppress(OSError):
+                for e in self.target.parent.iterdir():  # this process's stage, made or half made
+                    if e.name.startswith(mine):
+                        shutil.rmtree(e, ignore_errors=True)
+            self._remove_made()
+            raise
         _staging.add(self.stage)
         return self
 
@@ -577,6 +613,9 @@ class OutputFolder:
                 raise KeyboardInterrupt
             if verify and self.target.is_dir():
                 self.previous()
+            assert self.stage is not None
+            with contextlib.suppress(FileNotFoundError):
+                (self.stage / _STAGE_MARK).unlink()  # the manifest marks it bhr's from now on
             old = self._commit()
         except BaseException as failure:
             self._discard()
@@ -618,6 +657,8 @@ class OutputFolder:
             if dst.exists() or dst.is_symlink():
                 continue
             src = self.target / rel
+            if not src.is_file() or src.is_symlink():  # a figure the user deleted since: not there to keep
+                continue
             dst.parent.mkdir(parents=True, exist_ok=True)
             try:
                 os.link(src, dst)
@@ -630,7 +671,7 @@ class OutputFolder:
         files = {}
         for p in sorted(self.stage.rglob("*")):
             rel = p.relative_to(self.stage).as_posix()
-            if p.is_file() and rel != MANIFEST:
+            if p.is_file() and rel not in (MANIFEST, _STAGE_MARK):
                 files[rel] = {"bytes": p.stat().st_size, "sha256": _sha256(p)}
         doc = {"bhr_output": 2, "written_by": f"bhr {__version__}", "bhr_version": __version__,
                "command": self.command, "run_id": self.run_id, "settings": self.settings,
@@ -764,7 +805,16 @@ def _read_manifest(path: Path) -> dict[str, Any] | None:
         return None
     if not isinstance(doc.get("run_id"), str) or not isinstance(doc.get("command"), str):
         return None
+    if not all(isinstance(rel, str) and _inside_name(rel) for rel in doc["files"]):
+        return None  # bhr lists only the files inside its folder: "../x" or "/etc/x" is no manifest of bhr's
     return doc
+
+
+def _inside_name(rel: str) -> bool:
+    """``rel`` names a file inside a folder: relative, without ``..``, ``.`` or empty parts, one line."""
+    parts = rel.split("/")
+    return bool(rel) and not rel.startswith("/") and "\\" not in rel and not has_control_char(rel) and \
+        all(p not in ("", ".", "..") for p in parts)
 
 
 def settings_hash(*parts: Any) -> str:
@@ -866,6 +916,8 @@ def json_in_folder(json_path: str | None, folder: Any, taken: tuple[str, ...], o
 def check_parent_folder(folder: str | os.PathLike[str], what: str = "output folder") -> None:
     """Fail before any work when run folders cannot be made inside ``folder`` (the default ``bhr-out``)."""
     p = Path(folder)
+    if not p.is_absolute():
+        current_folder()
     probe = p
     while not probe.exists() and probe != probe.parent:
         probe = probe.parent

@@ -124,7 +124,13 @@ def test_kill_of_a_background_job_ends_it_as_in_the_foreground(tmp_path, sig, ar
     # no line, its staging folder and bhr-out/ left behind
     p = subprocess.Popen(bhr_exe() + args, cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                          env=ENV, start_new_session=True, preexec_fn=_background_job)
-    time.sleep(1.5)
+    if args[0] == "follow":  # solved in about a second here: the signal comes while its figures are drawn
+        deadline = time.monotonic() + 120
+        while not (tmp_path / "bhr-out").exists():
+            assert p.poll() is None and time.monotonic() < deadline, p.communicate()
+            time.sleep(0.01)
+    else:
+        time.sleep(1.5)
     os.kill(p.pid, sig)
     out, err = p.communicate(timeout=120)
     lines = [ln for ln in err.strip().splitlines() if not ln.startswith("Compiling bhr's")]
@@ -158,3 +164,86 @@ def test_a_run_json_trajectory_name_is_one_line_of_printable_text(tmp_path, loos
     line = one_line(bhr("replay", "r.json", "--out", "o", cwd=tmp_path, timeout=300))
     assert line.startswith("Error: r.json: trajectory name must be one line of printable text"), line
     assert snapshot(tmp_path) == before
+
+
+# --- output folders: the manifest, a rerun, staging names -----------------------------------------------------------
+
+def test_a_rerun_after_a_figure_was_deleted_keeps_the_rest(tmp_path):
+    # the carry-over linked every file the old manifest listed: a figure the user deleted failed the rerun with
+    # "Error: .../o/path.png: No such file or directory"
+    assert bhr("follow", "--traj", "line", "--length", "20", "--out", "o", cwd=tmp_path, timeout=300).returncode == 0
+    (tmp_path / "o" / "path.png").unlink()
+    r = bhr("follow", "--traj", "line", "--length", "20", "--no-plots", "--out", "o", cwd=tmp_path, timeout=300)
+    assert r.returncode == 0, r.stderr
+    man = json.loads((tmp_path / "o" / "manifest.json").read_text())
+    assert "path.png" not in man["files"] and "position_errors.png" in man["carried_over"]
+    assert sorted(os.listdir(tmp_path / "o")) == sorted([*man["files"], "manifest.json"])
+
+
+@pytest.mark.parametrize("name", ["../mine.txt", "/etc/hostname", "a/../../mine.txt", ""])
+def test_a_manifest_naming_files_outside_its_folder_is_not_bhrs(tmp_path, name):
+    # such a manifest was taken as bhr's: the folder was replaced and the carry-over followed the name outside
+    assert bhr("follow", "--traj", "line", "--length", "20", "--no-plots", "--out", "o", cwd=tmp_path,
+               timeout=300).returncode == 0
+    (tmp_path / "mine.txt").write_text("mine")
+    man = json.loads((tmp_path / "o" / "manifest.json").read_text())
+    man["files"][name] = {"bytes": 4, "sha256": "0" * 64}
+    (tmp_path / "o" / "manifest.json").write_text(json.dumps(man))
+    before = snapshot(tmp_path)
+    line = one_line(bhr("follow", "--traj", "line", "--length", "20", "--no-plots", "--out", "o", cwd=tmp_path,
+                        timeout=300))
+    assert "output folder o holds " in line and "which no bhr run wrote" in line, line
+    assert snapshot(tmp_path) == before
+
+
+def test_a_users_folder_named_like_a_staging_folder_is_kept(tmp_path):
+    # .o.bhr-stage-<a dead pid>-x was deleted as the staging folder of a dead run, whatever it held
+    mine = tmp_path / ".o.bhr-stage-999999-abc"
+    mine.mkdir()
+    (mine / "notes.txt").write_text("mine")
+    r = bhr("follow", "--traj", "line", "--length", "20", "--no-plots", "--out", "o", cwd=tmp_path, timeout=300)
+    assert r.returncode == 0, r.stderr
+    assert (mine / "notes.txt").read_text() == "mine"
+    assert sorted(os.listdir(tmp_path)) == [".o.bhr-stage-999999-abc", "o"]
+    assert ".bhr-staging" not in os.listdir(tmp_path / "o")
+
+
+def test_a_dead_runs_staging_folder_is_still_cleaned(tmp_path):
+    dead = tmp_path / ".o.bhr-stage-999999-abc"
+    dead.mkdir()
+    (dead / ".bhr-staging").write_text("x\n")
+    (dead / "run.json").write_text("{")
+    empty = tmp_path / ".o.bhr-stage-999998-def"  # killed before its mark was written
+    empty.mkdir()
+    r = bhr("follow", "--traj", "line", "--length", "20", "--no-plots", "--out", "o", cwd=tmp_path, timeout=300)
+    assert r.returncode == 0, r.stderr
+    assert sorted(os.listdir(tmp_path)) == ["o"]
+
+
+@pytest.mark.parametrize("args", [["follow", "--traj", "line", "--no-plots", "--out", "-"],
+                                  ["sweep", "--traj", "line", "--grid", "modules=3", "--out", "-", "--jobs", "1"],
+                                  ["report", "--file", "b.toml", "--out", "-"]], ids=["follow", "sweep", "report"])
+def test_out_dash_is_not_a_folder_named_dash(tmp_path, args):
+    # '-' is standard output everywhere else; --out - made a folder named '-'
+    (tmp_path / "b.toml").write_text(BATCH)
+    line = one_line(bhr(*args, cwd=tmp_path, timeout=300))
+    assert "'-' is standard output, which cannot hold a folder" in line, line
+    assert os.listdir(tmp_path) == ["b.toml"]
+
+
+@pytest.mark.parametrize("args", [["follow", "--traj", "line", "--no-plots"], ["fk", "--codes", "0,3"],
+                                  ["sweep", "--traj", "line", "--grid", "modules=3", "--jobs", "1", "--out", "o"]],
+                         ids=["follow", "fk", "sweep"])
+def test_a_deleted_current_folder_is_one_line_before_any_work(tmp_path, args):
+    # the run was solved, then "Error: writing a file: No such file or directory" (getcwd failed), which names
+    # no file
+    here = tmp_path / "here"
+    here.mkdir()
+    python = str(Path(bhr_exe()[0]).parent / "python")
+    code = ("import os, sys; os.chdir(sys.argv[1]); os.rmdir(sys.argv[1]); "
+            "sys.argv = ['bhr'] + sys.argv[2:]; from bhr.cli.main import run; run()")
+    r = subprocess.run([python, "-c", code, str(here), *args], capture_output=True, text=True, timeout=300,
+                       env=ENV)
+    assert one_line(r) == ("Error: the current folder no longer exists (it was deleted or moved away); cd into an "
+                           "existing folder and run again"), r.stderr
+    assert list(tmp_path.iterdir()) == []
