@@ -247,3 +247,38 @@ def test_a_deleted_current_folder_is_one_line_before_any_work(tmp_path, args):
     assert one_line(r) == ("Error: the current folder no longer exists (it was deleted or moved away); cd into an "
                            "existing folder and run again"), r.stderr
     assert list(tmp_path.iterdir()) == []
+
+
+# --- a file's text quoted short -------------------------------------------------------------------------------------
+
+LONG = "k" * 5000
+
+
+@pytest.mark.parametrize("file, text, args", [
+    ("t.toml", f'[[segment]]\ntype = "{LONG}"\n', ["follow", "--traj", "t.toml", "--out", "o"]),
+    ("t.toml", f'[[segment]]\ntype = "arc"\nradius = 70\nangle = 90\nturn = "{LONG}"\n',
+     ["follow", "--traj", "t.toml", "--out", "o"]),
+    ("t.toml", f'generator = "{LONG}"\n', ["follow", "--traj", "t.toml", "--out", "o"]),
+    ("s.toml", f'traj = "line"\n[grid]\n{LONG} = [1]\n', ["sweep", "--file", "s.toml", "--out", "o"]),
+    ("r.toml", f'[codes]\n0 = "rest"\n3 = "{LONG}"\n', ["fk", "--codes", "0", "--robot", "r.toml"]),
+    ("r.toml", f'[thermal]\n{LONG} = 1\n', ["fk", "--codes", "0", "--robot", "r.toml"]),
+], ids=["segment-type", "arc-turn", "generator", "sweep-grid-key", "robot-codes", "robot-thermal-key"])
+def test_a_long_text_from_a_file_is_quoted_short(tmp_path, file, text, args):
+    # the message quoted all 5,000 characters of the file's text
+    (tmp_path / file).write_text(text)
+    before = snapshot(tmp_path)
+    line = one_line(bhr(*args, cwd=tmp_path, timeout=300))
+    assert line.startswith("Error: ") and "k" * 60 not in line and len(line) < 600, line
+    assert snapshot(tmp_path) == before
+
+
+def test_a_run_that_failed_on_a_long_file_name_is_reported_short(tmp_path):
+    # a batch's traj of 5,000 characters: the run's row said "failed: OSError: [Errno 36] File name too long: 'kkk..."
+    # with all 5,000 characters, on standard output and in summary.csv, summary.json and the page
+    (tmp_path / "b.toml").write_text(f'[[run]]\nname = "a"\ntraj = "{LONG}"\n[[run]]\nname = "b"\ntraj = "line"\n'
+                                     'length = 20\n')
+    r = bhr("report", "--file", "b.toml", "--out", "o", "--no-plots", "--jobs", "1", cwd=tmp_path, timeout=300)
+    assert one_line(r) == "Error: 1 of 2 runs failed; see o/summary.csv"
+    assert "a: failed: File name too long: 'kkk" in r.stdout and "k" * 100 not in r.stdout, r.stdout[-500:]
+    rows = json.loads((tmp_path / "o" / "summary.json").read_text())["runs"]
+    assert rows[0]["status"].startswith("failed: File name too long: 'kkk") and len(rows[0]["status"]) < 200, rows[0]
