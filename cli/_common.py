@@ -103,6 +103,11 @@ def guarded(func: Callable[..., Any]) -> Callable[..., Any]:
                 end_interrupted()
             raise click.ClickException(str(exc).splitlines()[0] if str(exc) else type(exc).__name__) from None
         except ValueError as exc:
+            if _raised_in_numba(exc):  # NUMBA_NUM_THREADS=0 and the like: numba's own settings, not bhr's
+                names = ", ".join(sorted(k for k in os.environ
+                                         if k.startswith("NUMBA_") and k != "NUMBA_CACHE_DIR")[:4]) or "NUMBA_*"
+                raise click.ClickException(f"numba refused its settings ({str(exc).splitlines()[0][:120]}); check "
+                                           f"the environment's {names}") from None
             if not str(exc).startswith("Key backend:"):
                 raise
             shown = repr(os.environ.get("MPLBACKEND", ""))[:40]  # matplotlib refused the environment's backend
@@ -125,6 +130,14 @@ def guarded(func: Callable[..., Any]) -> Callable[..., Any]:
             raise click.ClickException("input nested too deeply to read; give a file as bhr writes it") from None
 
     return wrapper
+
+
+def _raised_in_numba(exc: BaseException) -> bool:
+    """Whether ``exc`` was raised inside numba itself (its innermost frame is in numba's package)."""
+    tb = exc.__traceback__
+    while tb is not None and tb.tb_next is not None:
+        tb = tb.tb_next
+    return tb is not None and f"{os.sep}numba{os.sep}" in tb.tb_frame.f_code.co_filename
 
 
 def check_writable(path: str | os.PathLike[str] | None, what: str = "output") -> None:

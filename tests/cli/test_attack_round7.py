@@ -282,3 +282,24 @@ def test_a_run_that_failed_on_a_long_file_name_is_reported_short(tmp_path):
     assert "a: failed: File name too long: 'kkk" in r.stdout and "k" * 100 not in r.stdout, r.stdout[-500:]
     rows = json.loads((tmp_path / "o" / "summary.json").read_text())["runs"]
     assert rows[0]["status"].startswith("failed: File name too long: 'kkk") and len(rows[0]["status"]) < 200, rows[0]
+
+
+# --- numba's own environment variables ---------------------------------------------------------------------------
+
+def test_numba_disable_jit_runs_the_kernels_interpreted(tmp_path):
+    # NUMBA_DISABLE_JIT=1 (numba's debugging switch): "AttributeError: 'function' object has no attribute
+    # 'get_call_template'" with a traceback, in every command that runs a kernel
+    for args in (["follow", "--traj", "line", "--length", "20", "--no-plots", "--out", "o"], ["fk", "--codes", "0,3"],
+                 ["solve", "--target", "3", "9", "0", "--solver", "ccd"]):
+        r = bhr(*args, cwd=tmp_path, timeout=300, env=dict(ENV, NUMBA_DISABLE_JIT="1"))
+        assert r.returncode == 0 and "Traceback" not in r.stderr, (args, r.stderr[-1500:])
+    assert sorted(os.listdir(tmp_path / "o")) == ["codes.csv", "manifest.json", "run.json", "steps.csv"]
+
+
+def test_a_numba_setting_numba_refuses_is_one_line(tmp_path):
+    # NUMBA_NUM_THREADS=0: "ValueError: Number of threads specified must be > 0." with a traceback, after the work
+    line = one_line(bhr("follow", "--traj", "line", "--length", "20", "--no-plots", "--out", "o", cwd=tmp_path,
+                        timeout=300, env=dict(ENV, NUMBA_NUM_THREADS="0")))
+    assert line == ("Error: numba refused its settings (Number of threads specified must be > 0.); check the "
+                    "environment's NUMBA_NUM_THREADS"), line
+    assert list(tmp_path.iterdir()) == []
