@@ -80,6 +80,17 @@ def _quiet_stdout() -> None:
         os.dup2(devnull, sys.stdout.fileno())
 
 
+def _before_placing() -> None:
+    """The command's work is done and its outputs staged: standard output takes the summary (a full or closed one
+    fails here, and nothing is put in place), then a signal from now on changes nothing, so that the set goes in
+    place whole and the command ends with its own status (a Ctrl-C while a folder was renamed into place ended in
+    "Interrupted." and 130 with the folder there; one before this point still leaves nothing)."""
+    sys.stdout.flush()
+    from bhr.settings.interrupts import settle
+
+    settle()
+
+
 def guarded(func: Callable[..., Any]) -> Callable[..., Any]:
     """Turn a BhrError, a failed write (disk or standard output full), memory exhaustion and Ctrl-C into one
     line on stderr and a non-zero exit."""
@@ -93,7 +104,7 @@ def guarded(func: Callable[..., Any]) -> Callable[..., Any]:
             # the command's files and folders, and what it prints, are one set: they are put in place only once
             # standard output took the summary (a full or closed standard output fails at this flush, and then
             # leaves no folder, as a full disk does)
-            with together(check=sys.stdout.flush):
+            with together(check=_before_placing):
                 rv = func(*args, **kwargs)
             if INTERRUPTED.is_set():  # a Ctrl-C that something caught on the way: still honoured
                 raise KeyboardInterrupt

@@ -303,3 +303,40 @@ def test_a_numba_setting_numba_refuses_is_one_line(tmp_path):
     assert line == ("Error: numba refused its settings (Number of threads specified must be > 0.); check the "
                     "environment's NUMBA_NUM_THREADS"), line
     assert list(tmp_path.iterdir()) == []
+
+
+# --- a signal while the outputs go in place -------------------------------------------------------------------------
+
+SLOW_RENAME = r'''
+import os, signal, sys, time
+import bhr.output.atomic as atomic
+
+SIG = getattr(signal, sys.argv[1])
+rename = atomic.OutputFolder._commit
+
+
+def slow_rename(self):  # a file system slow to rename (a network share): the signal comes just after the rename
+    old = rename(self)
+    os.kill(os.getpid(), SIG)
+    time.sleep(0.5)  # the handler runs as soon as os.kill returns
+    return old
+
+
+atomic.OutputFolder._commit = slow_rename
+sys.argv = ["bhr", "follow", "--traj", "line", "--length", "20", "--no-plots", "--out", "o"]
+from bhr.cli.main import run
+run()
+'''
+
+
+@pytest.mark.parametrize("sig", ["SIGINT", "SIGTERM"])
+def test_a_signal_while_the_folder_goes_in_place_changes_nothing(tmp_path, sig):
+    # the folder was renamed into place, then the signal: "Interrupted." and 130 with the folder there (the
+    # summary printed, the set whole, the status a lie). Once the summary is out, the set goes in place whole and
+    # the command ends with its own status; a signal before that still leaves nothing (the tests above).
+    python = str(Path(bhr_exe()[0]).parent / "python")
+    r = subprocess.run([python, "-c", SLOW_RENAME, sig], cwd=tmp_path, capture_output=True, text=True, timeout=300,
+                       env=ENV)
+    assert (r.returncode, r.stderr) == (0, ""), r.stderr[-1500:]
+    assert "Wrote o/codes.csv" in r.stdout
+    assert sorted(os.listdir(tmp_path / "o")) == ["codes.csv", "manifest.json", "run.json", "steps.csv"]
