@@ -548,14 +548,16 @@ class OutputFolder:
             self.stage = Path(tempfile.mkdtemp(prefix=f".{self.target.name}{_STAGE}{os.getpid()}-",
                                                dir=self.target.parent))
             os.chmod(self.stage, _mode_for(self.target, 0o777))
-            (self.stage / _STAGE_MARK).write_text(self.run_id + "\n", encoding="utf-8")
-        except BaseException:  # a Ctrl-C (or a full disk) in here: no with block to clean up after
+            (self.stage / _STAGE_MARK).touch()  # empty: it takes no room on a disk that has none left
+        except BaseException as failure:  # a Ctrl-C (or a full disk) in here: no with block to clean up after
             mine = f".{self.target.name}{_STAGE}{os.getpid()}-"
             with contextlib.suppress(OSError):
                 for e in self.target.parent.iterdir():  # this process's stage, made or half made
                     if e.name.startswith(mine):
                         shutil.rmtree(e, ignore_errors=True)
             self._remove_made()
+            if isinstance(failure, OSError) and (failure.filename is None or mine in str(failure.filename)):
+                failure.filename = str(self.given)  # the folder as the user named it, not its hidden stage
             raise
         _staging.add(self.stage)
         return self
