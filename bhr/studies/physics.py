@@ -704,7 +704,13 @@ def replay_physics(result, progress: Any = None, **options: Any) -> PhysicsRepla
     mujoco = require("mujoco")
     chain = replay_chain(result)
     xml, settings = scene_xml(result, chain=chain, **options)
-    model = mujoco.MjModel.from_xml_string(xml)
+    try:
+        model = mujoco.MjModel.from_xml_string(xml)
+    except ValueError as exc:  # a scene MuJoCo cannot simulate: a lumen of 1e-6 mm makes wall pieces of no inertia
+        why = str(exc).splitlines()[0].removeprefix("Error: ")[:120]
+        narrowest = float(min(result.trajectory.lumen)) if result.trajectory.lumen is not None else float("nan")
+        raise BhrError(f"MuJoCo cannot build this run's scene ({why}); its lumen is {narrowest:g} mm at its "
+                       "narrowest: replay a run whose lumen is a colon's, a few mm at least") from None
     w = 2 * math.pi * float(settings["servo_hz"])
     mujoco.mj_setConst(model, mujoco.MjData(model))
     for a in range(model.nu):  # rotor inertia: the joint's inertia becomes kp / w^2, so every servo settles at w

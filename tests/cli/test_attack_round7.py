@@ -341,3 +341,15 @@ def test_a_signal_while_the_folder_goes_in_place_changes_nothing(tmp_path, sig):
     assert (r.returncode, r.stderr) == (0, ""), r.stderr[-1500:]
     assert "Wrote o/codes.csv" in r.stdout
     assert sorted(os.listdir(tmp_path / "o")) == ["codes.csv", "manifest.json", "run.json", "steps.csv"]
+
+
+def test_a_lumen_too_narrow_for_mujoco_is_one_line(tmp_path, loose_run):
+    # a lumen of 1e-6 mm (a positive diameter): "ValueError: Error: mass and inertia of moving bodies must be larger
+    # than mjMINVAL" from MuJoCo's model compiler, with a traceback
+    doc = json.loads(loose_run)
+    doc["trajectory"]["lumen"] = [1e-6] * len(doc["trajectory"]["points"])
+    (tmp_path / "r.json").write_text(json.dumps(doc))
+    before = snapshot(tmp_path)
+    line = one_line(bhr("physics", "r.json", "--out", "o", cwd=tmp_path, timeout=300))
+    assert line.startswith("Error: MuJoCo cannot build this run's scene (mass and inertia") and "1e-06 mm" in line, line
+    assert snapshot(tmp_path) == before
