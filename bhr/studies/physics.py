@@ -206,9 +206,12 @@ def check_replay_options(wall_stiffness: Any, rate: Any, substeps: Any) -> None:
     dt_ms = 1000.0 / (float(rate) * int(substeps))
     if dt_ms > MAX_TIMESTEP_MS:
         need = math.ceil(1000.0 / (float(rate) * MAX_TIMESTEP_MS) - 1e-9)
+        most = int(BY_NAME["substeps"].maximum or 1000)
+        fix = (f"give --substeps {need} or more at --rate {float(rate):g}" if need <= most else
+               f"give --rate {1000.0 / (most * MAX_TIMESTEP_MS):g} or more (--substeps is at most {most})")
         raise BhrError(f"a time step of {dt_ms:.3g} ms (1 / --rate / --substeps) is too long for the servos' and the "
-                       f"wall's {SERVO_HZ:g} Hz, and the replay would blow up; give --substeps {need} or more at "
-                       f"--rate {float(rate):g} (a time step of at most {MAX_TIMESTEP_MS:g} ms)")
+                       f"wall's {SERVO_HZ:g} Hz, and the replay would blow up; {fix} (a time step of at most "
+                       f"{MAX_TIMESTEP_MS:g} ms)")
 
 
 def whole_chain(result) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

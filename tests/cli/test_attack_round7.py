@@ -353,3 +353,12 @@ def test_a_lumen_too_narrow_for_mujoco_is_one_line(tmp_path, loose_run):
     line = one_line(bhr("physics", "r.json", "--out", "o", cwd=tmp_path, timeout=300))
     assert line.startswith("Error: MuJoCo cannot build this run's scene (mass and inertia") and "1e-06 mm" in line, line
     assert snapshot(tmp_path) == before
+
+
+@pytest.mark.parametrize("rate", ["0.001", "1e-300"])
+def test_a_physics_rate_too_slow_for_any_substeps_names_a_fix_that_exists(tmp_path, loose_run, rate):
+    # "give --substeps 160000 or more" (at 1e-300 Hz: a 303-digit count), where --substeps is at most 1000
+    (tmp_path / "r.json").write_text(loose_run)
+    line = one_line(bhr("physics", "r.json", "--out", "o", "--rate", rate, cwd=tmp_path, timeout=300))
+    assert "give --rate 0.16 or more (--substeps is at most 1000)" in line and len(line) < 300, line
+    assert os.listdir(tmp_path) == ["r.json"]
