@@ -362,3 +362,15 @@ def test_a_physics_rate_too_slow_for_any_substeps_names_a_fix_that_exists(tmp_pa
     line = one_line(bhr("physics", "r.json", "--out", "o", "--rate", rate, cwd=tmp_path, timeout=300))
     assert "give --rate 0.16 or more (--substeps is at most 1000)" in line and len(line) < 300, line
     assert os.listdir(tmp_path) == ["r.json"]
+
+
+def test_physics_never_replaces_the_folder_of_its_own_run(tmp_path):
+    # bhr physics o/run.json --out o: o (bhr's, so replaceable) was replaced by the replay's files, deleting the
+    # run.json it read, codes.csv and steps.csv; every other command refuses a folder that holds its input
+    (tmp_path / "lum.csv").write_text("x,y,z,lumen\n" + "".join(f"{2 * k},0,0,30\n" for k in range(21)))
+    assert bhr("follow", "--traj", "lum.csv", "--no-plots", "--out", "o", cwd=tmp_path, timeout=300).returncode == 0
+    before = snapshot(tmp_path)
+    line = one_line(bhr("physics", "o/run.json", "--out", "o", cwd=tmp_path, timeout=300))
+    assert line == ("Error: output folder o holds o/run.json, an input of this run; give another folder for the "
+                    "output (bhr replaces the whole folder)"), line
+    assert snapshot(tmp_path) == before
