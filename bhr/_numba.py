@@ -251,6 +251,8 @@ def _dispatcher_of(func: Any, options: dict[str, Any]) -> Any:
     from numba.core import types
 
     dispatcher = numba.njit(**options)(func)
+    if not hasattr(dispatcher, "get_call_template"):  # NUMBA_DISABLE_JIT=1: numba gives the function back
+        return dispatcher
     typed_by_value = dispatcher.get_call_template
 
     def get_call_template(args: Any, kws: Any) -> Any:

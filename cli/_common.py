@@ -43,6 +43,7 @@ def os_error_line(exc: OSError, on_stdout: bool = True) -> str:
         errno.EPERM: "check the permissions or choose another path",
         errno.EFBIG: "the file is too large for this file system; write elsewhere",
         errno.EIO: "the device reported an input/output error; check it and run again",
+        errno.EBADF: "give it an open file or /dev/null",
     }
     fix = fixes.get(exc.errno or 0, "check the path and the device, then run again")
     return f"{what}: {why}; {fix}"
@@ -79,15 +80,32 @@ def _quiet_stdout() -> None:
         os.dup2(devnull, sys.stdout.fileno())
 
 
+def _before_placing() -> None:
+    """The command's work is done and its outputs staged: standard output takes the summary (a full or closed one
+    fails here, and nothing is put in place), then a signal from now on changes nothing, so that the set goes in
+    place whole and the command ends with its own status (a Ctrl-C while a folder was renamed into place ended in
+    "Interrupted." and 130 with the folder there; one before this point still leaves nothing)."""
+    sys.stdout.flush()
+    from bhr.settings.interrupts import settle
+
+    settle()
+
+
 def guarded(func: Callable[..., Any]) -> Callable[..., Any]:
     """Turn a BhrError, a failed write (disk or standard output full), memory exhaustion and Ctrl-C into one
     line on stderr and a non-zero exit."""
 
     @functools.wraps(func)
     def wrapper(*args: Any, **kwargs: Any) -> Any:
+        from bhr.output.atomic import current_folder, together
+
         try:
-            rv = func(*args, **kwargs)
-            sys.stdout.flush()  # a full or closed standard output fails here, inside the guard
+            current_folder()  # deleted under the command: one line before any work, not a failed write after it
+            # the command's files and folders, and what it prints, are one set: they are put in place only once
+            # standard output took the summary (a full or closed standard output fails at this flush, and then
+            # leaves no folder, as a full disk does)
+            with together(check=_before_placing):
+                rv = func(*args, **kwargs)
             if INTERRUPTED.is_set():  # a Ctrl-C that something caught on the way: still honoured
                 raise KeyboardInterrupt
             return rv
@@ -96,6 +114,11 @@ def guarded(func: Callable[..., Any]) -> Callable[..., Any]:
                 end_interrupted()
             raise click.ClickException(str(exc).splitlines()[0] if str(exc) else type(exc).__name__) from None
         except ValueError as exc:
+            if _raised_in_numba(exc):  # NUMBA_NUM_THREADS=0 and the like: numba's own settings, not bhr's
+                names = ", ".join(sorted(k for k in os.environ
+                                         if k.startswith("NUMBA_") and k != "NUMBA_CACHE_DIR")[:4]) or "NUMBA_*"
+                raise click.ClickException(f"numba refused its settings ({str(exc).splitlines()[0][:120]}); check "
+                                           f"the environment's {names}") from None
             if not str(exc).startswith("Key backend:"):
                 raise
             shown = repr(os.environ.get("MPLBACKEND", ""))[:40]  # matplotlib refused the environment's backend
@@ -118,6 +141,14 @@ def guarded(func: Callable[..., Any]) -> Callable[..., Any]:
             raise click.ClickException("input nested too deeply to read; give a file as bhr writes it") from None
 
     return wrapper
+
+
+def _raised_in_numba(exc: BaseException) -> bool:
+    """Whether ``exc`` was raised inside numba itself (its innermost frame is in numba's package)."""
+    tb = exc.__traceback__
+    while tb is not None and tb.tb_next is not None:
+        tb = tb.tb_next
+    return tb is not None and f"{os.sep}numba{os.sep}" in tb.tb_frame.f_code.co_filename
 
 
 def check_writable(path: str | os.PathLike[str] | None, what: str = "output") -> None:

@@ -147,7 +147,7 @@ def follow(traj, solver, out_dir, json_path, no_plots, **kwargs):
         click.echo(f"Warning: {w}", err=True)
     for anim, shown in run.animations:
         click.echo(f"Animation: {anim.frames} frames (every {anim.stride} step{'s' if anim.stride > 1 else ''} of "
-                   f"{run.result.steps}), {anim.bytes / 1e6:.2f} MB -> {shown}", err=True)
+                   f"{run.result.steps}), {anim.bytes / 1e6:.2f} MB -> {shown}", err=to_stdout)  # with the summary
     if to_stdout:
         click.echo(json.dumps(run.doc))
     for line in run.lines():

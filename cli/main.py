@@ -1,7 +1,9 @@
 """The ``bhr`` console script: a click group whose commands load lazily."""
 from __future__ import annotations
 
+import errno
 import importlib
+import io
 import os
 import sys
 from typing import NoReturn
@@ -125,6 +127,7 @@ def run() -> NoReturn:
     need Python's own exit (a thread still running, an exit status that is not a number, a stream that cannot
     be flushed), Python's exit is used, as before.
     """
+    _hold_closed_streams()
     try:
         main()
         code: str | int | None = 0
@@ -135,6 +138,66 @@ def run() -> NoReturn:
     if not isinstance(code, int) or isinstance(code, bool) or not -2**31 <= code < 2**31:
         sys.exit(code)
     _leave(code)
+
+
+class _ClosedStream(io.TextIOBase):
+    """A standard stream the caller closed (``bhr ... >&-``, ``<&-``): every read or write fails with one OSError
+    naming the stream, which the command's guard turns into its one line (Python itself would have left it None:
+    a traceback at the first print, or a summary silently dropped while the folder is written)."""
+
+    def __init__(self, name: str) -> None:
+        super().__init__()
+        self._name = name
+
+    @property
+    def encoding(self) -> str:  # type: ignore[override]
+        return "utf-8"
+
+    @property
+    def errors(self) -> str:  # type: ignore[override]
+        return "strict"
+
+    @property
+    def buffer(self) -> "_ClosedStream":
+        return self
+
+    def readable(self) -> bool:
+        return True
+
+    def writable(self) -> bool:
+        return True
+
+    def _fail(self, *args: object) -> NoReturn:
+        raise OSError(errno.EBADF, "closed by the caller", self._name)
+
+    read = readline = write = _fail  # type: ignore[assignment]
+
+    def flush(self) -> None:
+        pass
+
+
+def _hold_closed_streams() -> None:
+    """Standard input, output or error closed by the caller: the descriptor is held by /dev/null, so that no file
+    bhr opens takes its number (a library writing to descriptor 2 would write into it, a worker would inherit it),
+    and the stream fails in one line when the command reads or writes it (standard error, which nothing can then
+    show, goes to /dev/null: the exit status still tells)."""
+    for fd, name in ((0, "stdin"), (1, "stdout"), (2, "stderr")):
+        try:
+            os.fstat(fd)
+            continue
+        except OSError:
+            pass
+        try:
+            held = os.open(os.devnull, os.O_RDWR)
+            if held != fd:
+                os.dup2(held, fd)
+                os.close(held)
+        except OSError:
+            continue
+        if name == "stderr":
+            sys.stderr = open(fd, "w", closefd=False)  # noqa: SIM115 - the process's own stream
+        else:
+            setattr(sys, name, _ClosedStream("standard input" if fd == 0 else "standard output"))
 
 
 def _leave(code: int) -> NoReturn:

@@ -49,7 +49,7 @@ def render_animation(result, animate_path: str, stride: int | None, shown: Path 
 
         anim = animate(result, animate_path, stride=stride, progress=progress)
     click.echo(f"Animation: {anim.frames} frames (every {anim.stride} step{'s' if anim.stride > 1 else ''} of "
-               f"{result.steps}), {anim.bytes / 1e6:.2f} MB -> {shown or anim.path}", err=True)
+               f"{result.steps}), {anim.bytes / 1e6:.2f} MB -> {shown or anim.path}")  # the summary: standard output
     return anim.path
 
 

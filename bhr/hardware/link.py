@@ -334,6 +334,10 @@ def _rename_module(fault: str, order: Sequence[int]) -> str:
     return f"{name}:m{order[int(pos) - 1]}" if pos.isdigit() and int(pos) <= len(order) else fault
 
 
+#: Faults the board keeps until stop-all (docs/protocol.md): an ACK that carries one is followed by a status that
+#: holds it too.
+LATCHED = ("overheat", "early", "reset", "flood")
+
 #: The longest the host waits for a board whose wires are cooling or relaxing (docs/protocol.md).
 READY_TIMEOUT = 30.0
 
@@ -475,6 +479,10 @@ class Pacer:
         if any(f != "silence" for f in names):
             # latched faults: the ACK has no module detail, so ask (only while the board reports a fault)
             detail = [f for f in self.link.status()["faults"] if f != "silence"]
+            gone = [f for f in names if f in LATCHED and f not in {d.split(":")[0] for d in detail}]
+            if gone:  # a latched fault stays until stop-all: an ACK that says one and a status that lacks it lie
+                raise self.link._lie("STATUS", f"the ACK of step {self.sent} said {', '.join(gone)}, the status "
+                                     "right after does not, though it stays until stop-all", P.Msg.STATUS)
             fresh = [f for f in detail if f not in self._seen and f.split(":")[0] != "cooling"]
             self._seen.update(detail)
             for f in fresh:

@@ -32,6 +32,7 @@ from typing import Any
 import numpy as np
 
 from bhr.settings.errors import BhrError
+from bhr.settings.options import excerpt
 from bhr.model.pathfile import rotate_about, unit_vector
 
 __all__ = ["SECTIONS", "RANGES", "SEED_MAX", "SHIPPED", "POPULATION", "SHARES", "LENGTH_LIMITS", "Colon",
@@ -114,10 +115,10 @@ _START_HEADING = (0.0, 0.25, 1.0)  # the anal canal and lower rectum point up an
 def check_seed(seed: Any, where: str = "anatomy") -> int:
     """A seed as a Python int, or a one-line BhrError."""
     if isinstance(seed, bool) or not isinstance(seed, (int, float, np.integer, np.floating)):
-        raise BhrError(f"{where}: seed must be a whole number from 0 to {SEED_MAX}, got {seed!r}")
+        raise BhrError(f"{where}: seed must be a whole number from 0 to {SEED_MAX}, got {excerpt(seed)}")
     v = float(seed)
     if not math.isfinite(v) or v != math.floor(v) or v < 0 or v > SEED_MAX:
-        raise BhrError(f"{where}: seed must be a whole number from 0 to {SEED_MAX}, got {seed!r}")
+        raise BhrError(f"{where}: seed must be a whole number from 0 to {SEED_MAX}, got {excerpt(seed)}")
     return int(v)
 
 

@@ -288,7 +288,7 @@ def load_trajectory(name_or_path: str | os.PathLike[str], feed: float = 2.0, **p
         raise BhrError(f"feed must be a positive number of mm, got {feed!r}")
     end = params.pop("lumen_end", None)
     if end is not None and end not in ("closed", "open"):
-        raise BhrError(f"lumen_end must be closed or open, got {end!r}")
+        raise BhrError(f"lumen_end must be closed or open, got {excerpt(end)}")
     traj = _load(name_or_path, float(feed), params)
     if end is not None:
         traj.lumen_end = str(end)
@@ -349,10 +349,10 @@ def _generator_lumen(spec: Any, gen_name: str, traj: Trajectory, feed: float, wh
                        f"(only {', '.join(SECTIONS)} has sections)")
     for key in spec:
         if key not in names:
-            raise BhrError(f"{where}: lumen: unknown section {key!r}; sections: {', '.join(names)}")
+            raise BhrError(f"{where}: lumen: unknown section {excerpt(key)}; sections: {', '.join(names)}")
     missing = [k for k in names if k not in spec]
     if missing:
-        raise BhrError(f"{where}: lumen: no diameter for section {missing[0]!r}; "
+        raise BhrError(f"{where}: lumen: no diameter for section {excerpt(missing[0])}; "
                        f"give every section: {', '.join(names)}")
     per = np.array([number(spec[k], f"{where}: lumen.{k!r}" if " " in k else f"{where}: lumen.{k}",
                            positive=True, unit="mm", maximum=1e6) for k in names])
@@ -388,7 +388,8 @@ def _from_file(path: Path, feed: float, params: dict[str, Any], builtin: bool) -
     check_keys(data, _GENERATOR_KEYS, str(path))
     gen_name = data.get("generator")
     if not isinstance(gen_name, str) or gen_name not in GENERATORS:
-        raise BhrError(f"{path}: generator must be one of {', '.join(repr(g) for g in GENERATORS)}, got {gen_name!r}")
+        raise BhrError(f"{path}: generator must be one of {', '.join(repr(g) for g in GENERATORS)}, "
+                       f"got {excerpt(gen_name)}")
     file_params = data.get("params", {})
     if not isinstance(file_params, dict):
         raise BhrError(f"{path}: params must be a table ([params]) of numbers")

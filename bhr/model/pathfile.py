@@ -262,7 +262,7 @@ def read_points_csv(path: Path) -> tuple[np.ndarray, np.ndarray | None, np.ndarr
                     raise BhrError(f"{where}, line {no}: unknown column {shown}{hint}; "
                                    f"allowed columns: x, y, z, lumen")
                 if h in cols:
-                    raise BhrError(f"{where}, line {no}: column {h!r} appears twice; give each column once")
+                    raise BhrError(f"{where}, line {no}: column {excerpt(h)} appears twice; give each column once")
                 cols[h] = i
             missing = [c for c in "xyz" if c not in cols]
             if missing:

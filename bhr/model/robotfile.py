@@ -173,8 +173,9 @@ def _check_codes(table: Any, where: str) -> dict[int, str]:
             raise BhrError(f"{w}.{key} must be text such as {ours[code]!r}, got {type_name(motion)}")
         m = motion.strip().lower()
         if m != ours[code]:
-            raise BhrError(f"{w}: code {code} is {m!r} in this file but {ours[code]!r} in bhr, which supports only "
-                           f"its documented table ({_table_text()}; docs/conventions.md); fix the file or the wiring")
+            raise BhrError(f"{w}: code {code} is {excerpt(m)} in this file but {ours[code]!r} in bhr, which "
+                           f"supports only its documented table ({_table_text()}; docs/conventions.md); fix the file "
+                           "or the wiring")
         seen[code] = m
     missing = [c for c in ours if c not in seen]
     if missing:

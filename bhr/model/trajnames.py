@@ -11,7 +11,7 @@ import os
 from importlib import resources
 from pathlib import Path
 
-from bhr.settings.inputs import broken_link, did_you_mean
+from bhr.settings.inputs import broken_link, did_you_mean, excerpt
 from bhr.settings.errors import BhrError
 
 __all__ = ["GENERATOR_NAMES", "trajectory_folder", "shipped_csvs", "builtin_names", "check_trajectory_name"]
@@ -54,5 +54,5 @@ def check_trajectory_name(key: str | os.PathLike[str]) -> None:
     if link:
         raise BhrError(f"{link}; give the trajectory file itself, or a built-in")
     names = builtin_names()
-    raise BhrError(f"unknown trajectory {key!r}: not a built-in ({', '.join(names)}) and no such file; "
+    raise BhrError(f"unknown trajectory {excerpt(key)}: not a built-in ({', '.join(names)}) and no such file; "
                    f"{did_you_mean(key, names)}give one of the built-ins or a .toml/.csv file")

@@ -95,7 +95,7 @@ def thermal_from_table(table: Any, where: str = "thermal") -> ThermalParams:
         raise BhrError(f"{where} must be a table ([thermal]) with keys {', '.join(THERMAL_KEYS)}")
     unknown = [k for k in table if k not in THERMAL_KEYS]
     if unknown:
-        raise BhrError(f"{where}: unknown key {unknown[0]!r}; known keys: {', '.join(THERMAL_KEYS)}")
+        raise BhrError(f"{where}: unknown key {excerpt(unknown[0])}; known keys: {', '.join(THERMAL_KEYS)}")
     vals: dict[str, Any] = {}
     for k, v in table.items():
         if isinstance(v, bool) or not isinstance(v, (int, float)):

@@ -212,4 +212,5 @@ def animate(result: "FollowResult", path: str | os.PathLike[str], stride: int | 
             _write_gif(view, steps, tmp, fps, tick)
         else:
             _write_mp4(view, steps, tmp, fps, tick)
-    return Animation(target, fmt, total, s, steps, target.stat().st_size)
+        size = tmp.stat().st_size  # here: in a set of outputs (atomic.together) the file goes in place at its end
+    return Animation(target, fmt, total, s, steps, size)

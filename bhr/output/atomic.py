@@ -51,6 +51,10 @@ __all__ = ["atomic_path", "write_text", "write_json", "check_output_file", "toge
 MANIFEST = "manifest.json"
 _STAGE = ".bhr-stage-"
 _ASIDE = ".bhr-old-"
+#: A file in every staging folder while it is written (removed just before the folder goes in place): a leftover
+#: folder of a dead run is deleted by the next run only when it has it, or a bhr manifest, so that a folder of the
+#: user's that only looks like one (``.o.bhr-stage-99999-x``) is never deleted.
+_STAGE_MARK = ".bhr-staging"
 
 
 # --- single files ------------------------------------------------------------------------------------------------
@@ -91,6 +95,16 @@ def _refuse_control(path: Any, what: str) -> None:
                        "give a plain name")
 
 
+def current_folder() -> Path:
+    """The current folder; a BhrError when it no longer exists (deleted or moved away under the command): every
+    output named relative to it would fail, after the work, with a message naming no file."""
+    try:
+        return Path(os.getcwd())
+    except FileNotFoundError:
+        raise BhrError("the current folder no longer exists (it was deleted or moved away); cd into an existing "
+                       "folder and run again") from None
+
+
 def _real_target(path: Path, what: str = "output") -> Path:
     """Where a write to ``path`` lands: ``path`` itself. A symbolic link to a file is refused, never written
     through (the file behind it may be anyone's); links to devices (/dev/stdout) are written in place before
@@ -112,6 +126,8 @@ def check_output_file(path: str | os.PathLike[str], what: str = "output") -> Non
         return
     _refuse_control(path, what)
     p = Path(path)
+    if not p.is_absolute():
+        current_folder()
     if p.is_symlink() and not p.exists():
         raise BhrError(f"{what} {p} is a symbolic link to a missing {os.readlink(p)}; "
                        "create its target or choose another path")
@@ -176,7 +192,7 @@ def atomic_path(path: str | os.PathLike[str], suffix: str | None = None) -> Iter
                 # folder's stage goes in with its folder)
                 kept = tmp_path.with_name(tmp_path.name + ".set")
                 os.replace(tmp_path, kept)
-                _together.append((kept, target, str(path)))
+                _together.files.append((kept, target, str(path)))
             else:
                 os.replace(tmp_path, target)
         except OSError as exc:
@@ -215,45 +231,82 @@ def _wait_for_reader(target: Path) -> int | None:
         time.sleep(0.05)
 
 
-_together: list[tuple[Path, Path, str]] | None = None
+class _Set:
+    """The outputs of one :func:`together` block: single files staged beside their targets (``.NAME.XXXX.set``),
+    output folders staged whole (their manifest written), and what follows their placing (``bhr-out/latest``)."""
+
+    def __init__(self) -> None:
+        self.files: list[tuple[Path, Path, str]] = []   # (staged file, target, the name the user gave)
+        self.folders: list["OutputFolder"] = []
+        self.after: list[Any] = []                       # callables run once everything is in place
+
+    def discard(self) -> None:
+        for kept, _, _ in self.files:
+            with contextlib.suppress(OSError):
+                kept.unlink()
+        for folder in self.folders:
+            folder._discard()
+        self.files, self.folders, self.after = [], [], []
+
+    def place(self) -> None:
+        """Put every staged folder, then every staged file, in place; on a failure the rest are discarded."""
+        folders, files, after = self.folders, self.files, self.after
+        self.folders, self.files, self.after = [], [], []
+        for k, folder in enumerate(folders):
+            try:
+                folder._place()
+            except BaseException:
+                for rest in folders[k + 1:]:
+                    rest._discard()
+                self.files = files
+                self.discard()
+                raise
+        for k, (kept, target, given) in enumerate(files):
+            try:
+                os.replace(kept, target)
+            except OSError as exc:
+                for later, _, _ in files[k:]:
+                    with contextlib.suppress(OSError):
+                        later.unlink()
+                if exc.filename is None or str(exc.filename) == str(kept):
+                    exc.filename = given
+                raise
+        for action in after:
+            action()
+
+
+_together: _Set | None = None
 _staging: set[Path] = set()  # the stage folders of the OutputFolders being written
 
 
 @contextlib.contextmanager
-def together() -> Iterator[None]:
-    """The single files written inside (:func:`atomic_path`, :func:`write_text`, :func:`write_json`) are one set:
-    each is put in place only when the block ends without an error, so a failure writing the last one (disk
-    full) leaves none of them, not the first ones alone."""
+def together(check: Any = None) -> Iterator[None]:
+    """The outputs written inside are one set: single files (:func:`atomic_path`, :func:`write_text`,
+    :func:`write_json`) and output folders (:class:`OutputFolder`, staged whole) are put in place only when the
+    block ends without an error, so a failure writing the last one (disk full) leaves none of them, not the first
+    ones alone. ``check()``, when given, runs after the block and before anything is put in place; an exception
+    from it leaves nothing either (the command line flushes its standard output there, so that a summary that
+    cannot be printed, ``> /dev/full``, leaves no folder behind it). Nested blocks join the outermost one."""
     global _together
     if _together is not None:  # already inside one
         yield
         return
-    staged: list[tuple[Path, Path, str]] = []
+    staged = _Set()
     _together = staged
     try:
         yield
+        if INTERRUPTED.is_set():  # a Ctrl-C caught on the way: none of them
+            raise KeyboardInterrupt
+        if check is not None:
+            check()
+        if INTERRUPTED.is_set():
+            raise KeyboardInterrupt
     except BaseException:
-        for kept, _, _ in staged:
-            with contextlib.suppress(OSError):
-                kept.unlink()
-        raise
-    finally:
         _together = None
-    if INTERRUPTED.is_set():  # a Ctrl-C caught on the way: none of them
-        for kept, _, _ in staged:
-            with contextlib.suppress(OSError):
-                kept.unlink()
-        raise KeyboardInterrupt
-    for k, (kept, target, given) in enumerate(staged):
-        try:
-            os.replace(kept, target)
-        except OSError as exc:
-            for later, _, _ in staged[k:]:
-                with contextlib.suppress(OSError):
-                    later.unlink()
-            if exc.filename is None or str(exc.filename) == str(kept):
-                exc.filename = given
-            raise
+        staged.discard()
+        raise
+    _together = None
+    staged.place()
 
 
 def _mode_for(target: Path, new: int = 0o666) -> int:
@@ -387,6 +440,9 @@ class OutputFolder:
     def __init__(self, target: str | os.PathLike[str], command: str, names: Iterable[str] = (),
                  keep: bool = False, what: str = "output folder", inputs: Iterable[Any] = (),
                  settings: str | None = None) -> None:
+        if str(target) == "-":  # standard output everywhere else (--json -, export --out -): no folder
+            raise BhrError(f"{what} '-' is standard output, which cannot hold a folder; give a folder name (./- for "
+                           "a folder named '-')")
         self.given = Path(target)
         self.command = command
         self.names = tuple(names)
@@ -405,6 +461,7 @@ class OutputFolder:
     def _resolve(self) -> Path:
         p = self.given
         _refuse_control(p, self.what)
+        current_folder()  # checks below compare with it
         if p.is_symlink():
             if not p.exists():
                 raise BhrError(f"{self.what} {short_path(p)} is a symbolic link to a missing "
@@ -421,7 +478,7 @@ class OutputFolder:
         t = self.target
         if t.exists() and not t.is_dir():
             raise BhrError(f"{self.what} {short_path(self.given)} is a file, not a folder; choose a folder name")
-        cwd = Path(os.path.realpath(os.getcwd()))
+        cwd = Path(os.path.realpath(current_folder()))
         home = Path(os.path.realpath(Path.home()))
         if t == Path(os.path.abspath(os.sep)) or t == home or _within(cwd, t):
             raise BhrError(f"{self.what} {short_path(self.given)} is the current folder or holds it; give a new "
@@ -466,6 +523,12 @@ class OutputFolder:
                     continue
                 if _pid_alive(pid) and pid != os.getpid():
                     continue
+                if e.is_symlink() or not e.is_dir():
+                    continue
+                if not ((mark == _STAGE and (e / _STAGE_MARK).is_file()) or _read_manifest(e / MANIFEST) is not None):
+                    with contextlib.suppress(OSError):
+                        e.rmdir()  # killed before its mark was written: empty; a folder with anything in it ...
+                    continue  # ... and neither mark nor manifest is not one bhr staged or set aside, whatever its name
                 if mark == _ASIDE and not self.target.exists():
                     with contextlib.suppress(OSError):
                         os.rename(e, self.target)  # the fallback swap died half-way: restore the old set
@@ -479,11 +542,23 @@ class OutputFolder:
         while not p.exists() and p != p.parent:
             self.made.append(p)
             p = p.parent
-        self.target.parent.mkdir(parents=True, exist_ok=True)
-        self._clean_stale()
-        self.stage = Path(tempfile.mkdtemp(prefix=f".{self.target.name}{_STAGE}{os.getpid()}-",
-                                           dir=self.target.parent))
-        os.chmod(self.stage, _mode_for(self.target, 0o777))
+        try:
+            self.target.parent.mkdir(parents=True, exist_ok=True)
+            self._clean_stale()
+            self.stage = Path(tempfile.mkdtemp(prefix=f".{self.target.name}{_STAGE}{os.getpid()}-",
+                                               dir=self.target.parent))
+            os.chmod(self.stage, _mode_for(self.target, 0o777))
+            (self.stage / _STAGE_MARK).touch()  # empty: it takes no room on a disk that has none left
+        except BaseException as failure:  # a Ctrl-C (or a full disk) in here: no with block to clean up after
+            mine = f".{self.target.name}{_STAGE}{os.getpid()}-"
+            with contextlib.suppress(OSError):
+                for e in self.target.parent.iterdir():  # this process's stage, made or half made
+                    if e.name.startswith(mine):
+                        shutil.rmtree(e, ignore_errors=True)
+            self._remove_made()
+            if isinstance(failure, OSError) and (failure.filename is None or mine in str(failure.filename)):
+                failure.filename = str(self.given)  # the folder as the user named it, not its hidden stage
+            raise
         _staging.add(self.stage)
         return self
 
@@ -504,8 +579,7 @@ class OutputFolder:
         assert self.stage is not None
         _staging.discard(self.stage)
         if exc_type is not None:
-            shutil.rmtree(self.stage, ignore_errors=True)
-            self._remove_made()
+            self._discard()
             if isinstance(exc, OSError):
                 self._name_output(exc)
             return
@@ -517,10 +591,36 @@ class OutputFolder:
             self._write_manifest()
             if INTERRUPTED.is_set():
                 raise KeyboardInterrupt
+        except BaseException as failure:
+            self._discard()
+            if isinstance(failure, OSError):
+                self._name_output(failure)
+            raise
+        if _together is not None:  # one set with the command's other outputs: put in place at its end
+            _together.folders.append(self)
+            return
+        self._place(verify=False)
+
+    def _discard(self) -> None:
+        """Delete the staged folder and the parents this run made (a failure, an interrupt, a set not placed)."""
+        if self.stage is not None:
+            shutil.rmtree(self.stage, ignore_errors=True)
+        self._remove_made()
+
+    def _place(self, verify: bool = True) -> None:
+        """Put the staged folder (manifest written) in place, and delete the folder it replaced. ``verify``: prove
+        the folder being replaced is still only bhr's (a set placed at its end: a file added meanwhile is kept)."""
+        try:
+            if INTERRUPTED.is_set():
+                raise KeyboardInterrupt
+            if verify and self.target.is_dir():
+                self.previous()
+            assert self.stage is not None
+            with contextlib.suppress(FileNotFoundError):
+                (self.stage / _STAGE_MARK).unlink()  # the manifest marks it bhr's from now on
             old = self._commit()
         except BaseException as failure:
-            shutil.rmtree(self.stage, ignore_errors=True)
-            self._remove_made()
+            self._discard()
             if isinstance(failure, OSError):
                 self._name_output(failure)
             raise
@@ -559,6 +659,8 @@ class OutputFolder:
             if dst.exists() or dst.is_symlink():
                 continue
             src = self.target / rel
+            if not src.is_file() or src.is_symlink():  # a figure the user deleted since: not there to keep
+                continue
             dst.parent.mkdir(parents=True, exist_ok=True)
             try:
                 os.link(src, dst)
@@ -571,7 +673,7 @@ class OutputFolder:
         files = {}
         for p in sorted(self.stage.rglob("*")):
             rel = p.relative_to(self.stage).as_posix()
-            if p.is_file() and rel != MANIFEST:
+            if p.is_file() and rel not in (MANIFEST, _STAGE_MARK):
                 files[rel] = {"bytes": p.stat().st_size, "sha256": _sha256(p)}
         doc = {"bhr_output": 2, "written_by": f"bhr {__version__}", "bhr_version": __version__,
                "command": self.command, "run_id": self.run_id, "settings": self.settings,
@@ -705,7 +807,16 @@ def _read_manifest(path: Path) -> dict[str, Any] | None:
         return None
     if not isinstance(doc.get("run_id"), str) or not isinstance(doc.get("command"), str):
         return None
+    if not all(isinstance(rel, str) and _inside_name(rel) for rel in doc["files"]):
+        return None  # bhr lists only the files inside its folder: "../x" or "/etc/x" is no manifest of bhr's
     return doc
+
+
+def _inside_name(rel: str) -> bool:
+    """``rel`` names a file inside a folder: relative, without ``..``, ``.`` or empty parts, one line."""
+    parts = rel.split("/")
+    return bool(rel) and not rel.startswith("/") and "\\" not in rel and not has_control_char(rel) and \
+        all(p not in ("", ".", "..") for p in parts)
 
 
 def settings_hash(*parts: Any) -> str:
@@ -734,6 +845,9 @@ def point_latest(folder: str | os.PathLike[str], link_name: str = "latest") -> P
     user's own file or folder), or when the file system has no links.
     """
     target = Path(folder)
+    if _together is not None:  # the folder goes in place at the end of the set: the link after it
+        _together.after.append(lambda: point_latest(target, link_name))
+        return target.parent / link_name
     link = target.parent / link_name
     if link.exists() and not link.is_symlink():
         return None
@@ -804,6 +918,8 @@ def json_in_folder(json_path: str | None, folder: Any, taken: tuple[str, ...], o
 def check_parent_folder(folder: str | os.PathLike[str], what: str = "output folder") -> None:
     """Fail before any work when run folders cannot be made inside ``folder`` (the default ``bhr-out``)."""
     p = Path(folder)
+    if not p.is_absolute():
+        current_folder()
     probe = p
     while not probe.exists() and probe != probe.parent:
         probe = probe.parent

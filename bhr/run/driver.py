@@ -407,6 +407,8 @@ def _run_from_json(doc: Any, where: str) -> FollowResult:
     lumen = None
     if tr.get("lumen") is not None:
         lumen = array(tr["lumen"], (path.shape[0],), "trajectory lumen")
+        if not np.all(lumen > 0):  # a diameter: the clearance and the physics replay's wall need a real one
+            raise bad(f"trajectory lumen diameters must be greater than 0 mm, got {float(lumen.min()):g}")
     body = None
     if any("body_points" in st for st in steps):
         body = _body_from_json(steps, robot, bad, array)
@@ -419,7 +421,12 @@ def _run_from_json(doc: Any, where: str) -> FollowResult:
         lumen_end = "closed"
     if lumen_end not in ("open", "closed"):  # "Open" or 5 was read as closed: the clearance of another lumen
         raise bad(f"trajectory lumen_end must be \"open\" or \"closed\", got {excerpt(lumen_end)}")
-    traj = Trajectory(str(tr.get("name", "run")), path, dict(params), source=where, lumen=lumen,
+    name = tr.get("name", "run")
+    if not isinstance(name, str) or has_control_char(name) or not name.isprintable():
+        # the figures' titles, view.html and the summary print it: one line of printable text, as in a trajectory
+        # file (a line break in it forged a line of the page, an escape garbled it)
+        raise bad(f"trajectory name must be one line of printable text, got {excerpt(name)}")
+    traj = Trajectory(name, path, dict(params), source=where, lumen=lumen,
                       lumen_end=lumen_end, start_direction=start_dir, start_point=start_pt)
     result = FollowResult(traj, robot, solver, pts, np.asarray(iters, dtype=np.int64), pe, oe, codes,
                           [str(m) for m in msgs] if isinstance(msgs, list) else [])

@@ -215,6 +215,6 @@ def name_value(value: Any, where: str) -> str:
 def choice(value: Any, where: str, allowed: Iterable[str]) -> str:
     allowed = list(allowed)
     if not isinstance(value, str) or value not in allowed:
-        shown = repr(value) if isinstance(value, str) else type_name(value)
+        shown = _excerpt(value) if isinstance(value, str) else type_name(value)
         raise BhrError(f"{where} must be one of {', '.join(repr(a) for a in allowed)}, got {shown}")
     return value

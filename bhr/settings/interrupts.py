@@ -124,21 +124,26 @@ def release() -> None:
 
 
 def install() -> None:
-    """Install the handler and the hook (once; in the main thread; not where Ctrl-C is ignored or under pytest)."""
+    """Install the handler and the hook (once; in the main thread; not under pytest): for Ctrl-C unless it is
+    ignored (a background job), for SIGTERM and SIGHUP unless they are (nohup)."""
     global _installed
     if _installed or "pytest" in sys.modules:
         return
     try:
-        # SIG_IGN: a background job, where Ctrl-C is not the command's (SIG_DFL: Python's own not yet put)
-        if signal.getsignal(signal.SIGINT) not in (signal.default_int_handler, signal.SIG_DFL):
-            return
-        sys.excepthook = _excepthook
-        signal.signal(signal.SIGINT, _on_interrupt)
+        # SIG_IGN: a background job, where Ctrl-C is not the command's (SIG_DFL: Python's own not yet put); its
+        # SIGTERM and SIGHUP are still the command's (kill %1 of `bhr sweep ... &` ends it as a Ctrl-C would)
+        ctrl_c = signal.getsignal(signal.SIGINT) in (signal.default_int_handler, signal.SIG_DFL)
         # SIGTERM and SIGHUP end the command as a Ctrl-C does (its outputs are not put in place, its staging
         # folders and workers go), unless they were ignored when it started (nohup)
-        for other in (getattr(signal, "SIGTERM", None), getattr(signal, "SIGHUP", None)):
-            if other is not None and signal.getsignal(other) == signal.SIG_DFL:
-                signal.signal(other, _on_interrupt)
+        others = [s for s in (getattr(signal, "SIGTERM", None), getattr(signal, "SIGHUP", None))
+                  if s is not None and signal.getsignal(s) == signal.SIG_DFL]
+        if not ctrl_c and not others:
+            return
+        sys.excepthook = _excepthook
+        if ctrl_c:
+            signal.signal(signal.SIGINT, _on_interrupt)
+        for other in others:
+            signal.signal(other, _on_interrupt)
     except ValueError:  # not the main thread
         return
     _installed = True

@@ -107,7 +107,7 @@ class Option:
         key = self.name
         if self.choices is not None:
             if not isinstance(value, str) or value not in self.choices:
-                raise BhrError(f"{where}: {key} must be one of {', '.join(self.choices)}, got {value!r}")
+                raise BhrError(f"{where}: {key} must be one of {', '.join(self.choices)}, got {excerpt(value)}")
             return value
         if self.kind == "weights" and isinstance(value, (list, tuple)):
             return [self._number(v, where) for v in value]

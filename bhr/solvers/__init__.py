@@ -126,7 +126,8 @@ def _check_solver_options(cls: type[Solver], options: dict[str, Any]) -> dict[st
     for key, value in options.items():
         if not takes_any and key not in allowed:
             takes = f"its options: {', '.join(allowed)}" if allowed else "it takes no options"
-            raise BhrError(f"solver {cls.name} does not take the option {key!r}; {did_you_mean(key, allowed)}{takes}")
+            raise BhrError(f"solver {cls.name} does not take the option {excerpt(key)}; "
+                           f"{did_you_mean(key, allowed)}{takes}")
         opt = BY_NAME.get(key)
         out[key] = opt.check(value, f"solver {cls.name}") if opt is not None and opt.group in (
             "solver", "constraint") else value

@@ -19,6 +19,7 @@ from typing import Any, ClassVar, Sequence
 import numpy as np
 
 from bhr.settings.errors import BhrError, renamed
+from bhr.settings.options import excerpt
 from bhr.kinematics.leader import advance_kernel
 from bhr.model.robot import Robot, base_frame, straight_chain
 from bhr.solvers.names import BUILTIN, REGISTRY  # the light index of names, and the registry register() fills
@@ -167,7 +168,7 @@ class Solver(ABC):
     def __init__(self, robot: Robot, **options: Any) -> None:
         self.robot = robot
         if options:
-            raise BhrError(f"solver {self.name} takes no option {sorted(options)[0]!r}")
+            raise BhrError(f"solver {self.name} takes no option {excerpt(sorted(options)[0])}")
 
     @abstractmethod
     def solve(self, chain: Chain, target: np.ndarray, orientation: np.ndarray | None = None,

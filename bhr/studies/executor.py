@@ -39,6 +39,7 @@ from dataclasses import dataclass
 from typing import Any, Callable, Generic, Iterator, Sequence, TypeVar
 
 from bhr.settings.errors import BhrError
+from bhr.settings.options import excerpt
 
 __all__ = ["run_jobs", "Executed", "capture", "reason", "connect_scheduler", "DASK_MISSING", "worker_init",
            "DASK_WAIT_S", "close_client"]
@@ -53,12 +54,22 @@ DASK_MISSING = ("--scheduler needs Dask's distributed package, which is not inst
 # ------------------------------------------------------------------------------------------ failures
 
 
+#: The longest reason a study's row keeps (summary.csv, the report's page, the table printed).
+MAX_REASON_CHARS = 300
+
+
 def reason(exc: BaseException) -> str:
-    """One line saying why a run failed: a BhrError's own first line, else the exception's type and first line."""
+    """One line saying why a run failed: a BhrError's own first line, a failed read or write's file (quoted short)
+    and why, else the exception's type and first line; at most :data:`MAX_REASON_CHARS` characters (a file name of
+    thousands of characters in a batch file was quoted whole)."""
     if isinstance(exc, BhrError):
-        return str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-    lines = str(exc).splitlines()
-    return f"{type(exc).__name__}: {lines[0]}" if lines else type(exc).__name__
+        text = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+    elif isinstance(exc, OSError) and exc.strerror:
+        text = exc.strerror + (f": {excerpt(str(exc.filename), 80)}" if exc.filename is not None else "")
+    else:
+        lines = str(exc).splitlines()
+        text = f"{type(exc).__name__}: {lines[0]}" if lines else type(exc).__name__
+    return text if len(text) <= MAX_REASON_CHARS else text[:MAX_REASON_CHARS - 3] + "..."
 
 
 #: A write that failed for want of room (a full disk, a quota, a file-size limit): the study's output failed, not

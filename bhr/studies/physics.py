@@ -206,9 +206,12 @@ def check_replay_options(wall_stiffness: Any, rate: Any, substeps: Any) -> None:
     dt_ms = 1000.0 / (float(rate) * int(substeps))
     if dt_ms > MAX_TIMESTEP_MS:
         need = math.ceil(1000.0 / (float(rate) * MAX_TIMESTEP_MS) - 1e-9)
+        most = int(BY_NAME["substeps"].maximum or 1000)
+        fix = (f"give --substeps {need} or more at --rate {float(rate):g}" if need <= most else
+               f"give --rate {1000.0 / (most * MAX_TIMESTEP_MS):g} or more (--substeps is at most {most})")
         raise BhrError(f"a time step of {dt_ms:.3g} ms (1 / --rate / --substeps) is too long for the servos' and the "
-                       f"wall's {SERVO_HZ:g} Hz, and the replay would blow up; give --substeps {need} or more at "
-                       f"--rate {float(rate):g} (a time step of at most {MAX_TIMESTEP_MS:g} ms)")
+                       f"wall's {SERVO_HZ:g} Hz, and the replay would blow up; {fix} (a time step of at most "
+                       f"{MAX_TIMESTEP_MS:g} ms)")
 
 
 def whole_chain(result) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -704,7 +707,13 @@ def replay_physics(result, progress: Any = None, **options: Any) -> PhysicsRepla
     mujoco = require("mujoco")
     chain = replay_chain(result)
     xml, settings = scene_xml(result, chain=chain, **options)
-    model = mujoco.MjModel.from_xml_string(xml)
+    try:
+        model = mujoco.MjModel.from_xml_string(xml)
+    except ValueError as exc:  # a scene MuJoCo cannot simulate: a lumen of 1e-6 mm makes wall pieces of no inertia
+        why = str(exc).splitlines()[0].removeprefix("Error: ")[:120]
+        narrowest = float(min(result.trajectory.lumen)) if result.trajectory.lumen is not None else float("nan")
+        raise BhrError(f"MuJoCo cannot build this run's scene ({why}); its lumen is {narrowest:g} mm at its "
+                       "narrowest: replay a run whose lumen is a colon's, a few mm at least") from None
     w = 2 * math.pi * float(settings["servo_hz"])
     mujoco.mj_setConst(model, mujoco.MjData(model))
     for a in range(model.nu):  # rotor inertia: the joint's inertia becomes kp / w^2, so every servo settles at w

@@ -165,7 +165,7 @@ def parse_batch(data: dict[str, Any], source: str = "batch", base_dir: str | os.
             allowed = GENERATORS[traj].params
             for key in tp:
                 if key not in allowed:
-                    raise BhrError(f"{where}: the {traj} trajectory has no parameter {key!r} "
+                    raise BhrError(f"{where}: the {traj} trajectory has no parameter {excerpt(key)} "
                                    f"(its parameters: {', '.join(allowed) or 'none'})")
         elif traj not in builtin_names():
             traj = _resolve(traj, base)

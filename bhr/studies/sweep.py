@@ -115,7 +115,7 @@ def parse_values(key: str, value: Any, where: str) -> tuple[Any, ...]:
     STEP defaults to 1. Values are type-checked for ``key``; raises BhrError.
     """
     if key not in GRID_KEYS:
-        raise BhrError(f"{where}: {key!r} is not a parameter a sweep can vary; {suggest(key, GRID_KEYS)}")
+        raise BhrError(f"{where}: {excerpt(key)} is not a parameter a sweep can vary; {suggest(key, GRID_KEYS)}")
     if isinstance(value, str):
         text = value.strip()
         if not text:
@@ -144,7 +144,7 @@ def parse_values(key: str, value: Any, where: str) -> tuple[Any, ...]:
     seen = set()
     for v in out:
         if v in seen:
-            raise BhrError(f"{where}: {key} lists {v!r} twice; give each value once")
+            raise BhrError(f"{where}: {key} lists {excerpt(v)} twice; give each value once")
         seen.add(v)
     return tuple(out)
 
@@ -195,7 +195,7 @@ class Sweep:
 def _as_list(value: Any, key: str, where: str) -> tuple[str, ...]:
     items = value if isinstance(value, list) else [value]
     if not items or not all(isinstance(v, str) and v.strip() for v in items):
-        raise BhrError(f"{where}: {key} must be a name or a list of names, got {value!r}")
+        raise BhrError(f"{where}: {key} must be a name or a list of names, got {excerpt(value)}")
     if len(set(items)) != len(items):
         raise BhrError(f"{where}: {key} lists a name twice; give each once")
     return tuple(items)
@@ -213,7 +213,7 @@ def sweep_from_toml(data: dict[str, Any], source: str = "sweep", base_dir: str |
     robot_file = None
     if "robot" in data:
         if not isinstance(data["robot"], str) or not data["robot"].strip():
-            raise BhrError(f"{source}: robot must be the path of a robot file (TOML), got {data['robot']!r}")
+            raise BhrError(f"{source}: robot must be the path of a robot file (TOML), got {excerpt(data['robot'])}")
         rp = Path(data["robot"]).expanduser()
         robot_file = str(rp if rp.is_absolute() else Path(base_dir) / rp)
     return build_sweep(trajs, solvers, grid, title=data.get("title", "bhr sweep"),
@@ -244,7 +244,7 @@ def build_sweep(trajs: Sequence[str], solvers: Sequence[str], grid: Iterable[tup
     keys = [k for k, _ in grid]
     dup = {k for k in keys if keys.count(k) > 1}
     if dup:
-        raise BhrError(f"{where}: grid key {sorted(dup)[0]!r} is given twice; give each key once")
+        raise BhrError(f"{where}: grid key {excerpt(sorted(dup)[0])} is given twice; give each key once")
     if not trajs or not solvers:
         raise BhrError(f"{where}: a sweep needs at least one trajectory and one solver")
     # tables name a solver one way (seed: thesis)
@@ -300,7 +300,7 @@ def build_sweep(trajs: Sequence[str], solvers: Sequence[str], grid: Iterable[tup
         if t in GENERATORS:
             for k in traj_first:
                 if k not in GENERATORS[t].params:
-                    raise BhrError(f"{where}: grid key {k!r} is not a parameter of the {t} trajectory (its "
+                    raise BhrError(f"{where}: grid key {excerpt(k)} is not a parameter of the {t} trajectory (its "
                                    f"parameters: {', '.join(GENERATORS[t].params) or 'none'}); sweep it on its own")
         check_traj(traj_first, "")
         for k, values in grid:
@@ -399,7 +399,7 @@ def heatmap_axes(sweep: Sweep, x: str | None = None, y: str | None = None) -> tu
     sizes = {k: len(v) for k, v in sweep.axes}
     for name, val in (("x", x), ("y", y)):
         if val is not None and val not in sizes:
-            raise BhrError(f"heat-map {name} axis {val!r} is not an axis of this sweep; choose one of "
+            raise BhrError(f"heat-map {name} axis {excerpt(val)} is not an axis of this sweep; choose one of "
                            f"{', '.join(sizes)}")
     if x is not None and x == y:
         raise BhrError("heat-map x and y axes must differ")

@@ -144,7 +144,7 @@ def build_study(grid: Sequence[tuple[str, tuple[Any, ...]]], colons: Sequence[in
             raise BhrError(f"{where}: the colons are the study's population; give their seeds with --colons, "
                            "not --grid seed=...")
         if key in TRAJ_KEYS:
-            raise BhrError(f"{where}: {key!r} is a trajectory option; a study varies the robot and its solver "
+            raise BhrError(f"{where}: {excerpt(key)} is a trajectory option; a study varies the robot and its solver "
                            "(e.g. alpha, module_length, modules, robot_radius)")
     sweep = build_sweep(("anatomy",), tuple(solvers), (*grid, ("seed", seeds)), title=title, where=where,
                         robot_file=robot_file)
@@ -296,7 +296,7 @@ def heatmap_axes(study: Study, x: str | None = None, y: str | None = None) -> tu
                         grid=tuple((k, v) for k, v in study.sweep.grid if k != "seed"))
     for name, val in (("x", x), ("y", y)):
         if val in ("traj", "seed"):
-            raise BhrError(f"heat-map {name} axis {val!r} is not a design axis; choose one of "
+            raise BhrError(f"heat-map {name} axis {excerpt(val)} is not a design axis; choose one of "
                            f"{', '.join(study.design_keys)}")
     return _sweep_axes(design_only, x, y)
 

@@ -170,8 +170,8 @@ def test_colon_gif_is_small_and_has_one_frame_per_stride(colon_gif):
     assert result.steps == 827
     size = gif.stat().st_size
     assert 0 < size <= TEN_MB, f"colon GIF is {size / 1e6:.2f} MB"
-    m = re.search(r"Animation: (\d+) frames \(every (\d+) steps? of 827\), ([\d.]+) MB", res.stderr)
-    assert m, res.stderr
+    m = re.search(r"Animation: (\d+) frames \(every (\d+) steps? of 827\), ([\d.]+) MB", res.stdout)
+    assert m, res.stdout
     frames, stride = int(m.group(1)), int(m.group(2))
     assert stride == default_stride(827) > 1
     with Image.open(gif) as im:

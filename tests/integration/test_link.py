@@ -671,3 +671,26 @@ def test_status_help_names_every_fault_the_board_can_report():
     assert len(names) == len(P.Fault)
     for name in names:
         assert name.replace(":m1", ":mK") in text, name
+
+
+@pytest.mark.parametrize("fault", ["reset", "flood", "early"])
+def test_an_ack_with_a_latched_fault_its_status_denies_is_a_lie(board, tmp_path, fault):
+    # round seven: an ACK saying reset (flood, early) mid-stream, and the status asked for its detail saying no
+    # fault at all: the stream went on and ended with exit 0, as if nothing was said. A latched fault stays until
+    # stop-all, so the two replies cannot both be true.
+    flag = {"reset": P.Fault.RESET, "flood": P.Fault.FLOOD, "early": P.Fault.EARLY}[fault]
+
+    def lie(b, f):
+        if f.type == P.Msg.SET_CODES and sum(x.type == P.Msg.SET_CODES for x in b.received) >= 3:
+            b.codes = list(f.payload[1:])
+            return P.encode_frame(P.Msg.ACK, f.seq, bytes([f.type, flag]))
+        return None  # the status: the truth as the board keeps it, no fault
+
+    b = board(lie=lie)
+    f = write_codes(tmp_path / "codes.csv", [[0, 3, 0, 0, 0], [0, 3, 6, 0, 0], [0, 0, 6, 0, 0]] * 4)
+    r = run_bhr("stream", "--port", b.path, "--codes", f, "--rate", "20", "--timeout", "0.2")
+    assert r.returncode == 1 and r.stdout == ""
+    msg = one_line(r.stderr)
+    assert "impossible reply" in msg and f"the ACK of step 3 said {fault}, the status right after does not" in msg, msg
+    assert "sent stop-all" in msg and b.types()[-1] == "STOP_ALL"
+    assert sum(x.type == P.Msg.SET_CODES for x in b.received) == 3  # nothing after the lie
