@@ -23,7 +23,8 @@ def physics(run, out_dir, wall_stiffness, physics_rate, substeps):
     Writes DIR/physics.json (per step the largest contact force in N, where, and the deviation from bhr's
     pose in mm; a summary), DIR/force.png and DIR/view.html. Example:
 
-        bhr physics bhr-out/latest/run.json --out phys
+    \b
+        bhr physics bhr-out/latest/run.json --out bhr-out/physics
     """
     from bhr.output.atomic import OutputFolder, write_json
     from bhr.cli._progress import status

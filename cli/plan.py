@@ -30,14 +30,14 @@ def plan(codes_path, rate, schedule, robot_file, plot_path, no_plot, csv_path):
     """Plan a stream of module codes against the thermal model of the wires.
 
     Prints the steps where the codes change with the time each is sent, and
-    the total procedure time. With --schedule rate (the default) it checks
-    that the board can take the rows at --rate and, where it cannot, names the
-    module, the step and the fix; with --schedule auto it stretches each step
-    to what the wires allow (full-power contraction, relaxation before a wire
-    contracts again). The figure shows each wire's normalised temperature.
+    the total procedure time. With --schedule auto (the default) it stretches
+    each step to what the wires allow (full-power contraction, relaxation
+    before a wire contracts again), never faster than --rate; with --schedule
+    rate it checks that the board can take the rows at --rate and, where it
+    cannot, names the module, the step and the fix. The figure shows each wire's normalised temperature.
 
     \b
-        bhr plan --codes bhr-out/latest/codes.csv --schedule auto
+        bhr plan --codes bhr-out/latest/codes.csv
     """
     from bhr.model.codes import read_codes_csv
 

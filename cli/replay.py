@@ -80,7 +80,7 @@ def replay(run, show, animate_path, stride, out_dir, step):
     standard input). With neither --show nor --animate it redraws the
     figures (errors, and the path with the robot) into --out.
 
-        bhr replay bhr-out/latest/run.json --animate colon.gif
+        bhr replay bhr-out/latest/run.json --animate bhr-out/colon.gif
     """
     from bhr.run.driver import load_run
 

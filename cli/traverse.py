@@ -42,6 +42,7 @@ def traverse(grid, colons, solvers, target_pass, robot_file, out_dir, jobs, sche
     worst-colon.png (penetration along the answer's worst colon) and
     index.html. The exit status is 1 when any run failed.
 
+    \b
         bhr traverse --grid alpha=10:30:5 --grid module_length=5,6,8,10 --colons 1-100
     """
     from bhr.solvers import check_solver_name

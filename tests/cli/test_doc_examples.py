@@ -91,3 +91,60 @@ def test_a_stale_example_is_caught():
     ctx = main.make_context("bhr", list(argv))
     with pytest.raises(click.ClickException):
         main.get_command(ctx, argv[0]).make_context(argv[0], argv[1:], parent=ctx)
+
+
+# ------------------------------------------------------------------ examples bhr itself prints or ships
+# The examples in each command's --help (as rendered in an 80-column terminal) and in the shipped example
+# files' comments are advice a user copies as printed: each must parse, must not be wrapped over two lines,
+# and, as the README's, must write under bhr-out/ rather than into the folder the user runs it from.
+
+OUTPUT_OPTIONS = ("--out", "--animate", "--plot", "--csv", "--json")
+
+
+def help_examples() -> list[tuple[str, str]]:
+    from click.testing import CliRunner
+
+    from bhr.cli.main import COMMANDS, main
+
+    out = []
+    for name in sorted(COMMANDS):
+        text = CliRunner().invoke(main, [name, "--help"], terminal_width=80).output
+        for line in text.split("Options:")[0].splitlines():
+            m = re.search(r"(?:^\s+|Example: )(bhr [a-z].*)$", line)
+            if m:
+                out.append((f"bhr {name} --help", m.group(1).strip()))
+    return out
+
+
+def shipped_file_examples() -> list[tuple[str, str]]:
+    out = []
+    for path in sorted([*(ROOT / "docs" / "examples").glob("*.toml"), *(ROOT / "trajectories").glob("*.toml")]):
+        for line in path.read_text(encoding="utf-8").splitlines():
+            m = re.match(r"#\s+(bhr [a-z].*)$", line)
+            if m:
+                out.append((path.relative_to(ROOT).as_posix(), m.group(1).strip()))
+    return out
+
+
+def outputs_of(argv: list[str]) -> list[str]:
+    return [argv[i + 1] for i, w in enumerate(argv[:-1]) if w in OUTPUT_OPTIONS and argv[i + 1] != "-"]
+
+
+def test_every_command_help_has_an_example_and_the_shipped_files_too():
+    cmds = {where for where, _ in help_examples()}
+    assert len(cmds) >= 14, sorted(cmds)
+    assert len(shipped_file_examples()) >= 4
+
+
+@pytest.mark.parametrize("where,line", help_examples() + shipped_file_examples())
+def test_printed_example_parses_as_printed(where, line):
+    test_example_parses(where, line)
+
+
+USER_FACING = [(f, line) for f, line in CASES if f in ("README.md", "docs/commands.md")]
+
+
+@pytest.mark.parametrize("where,line", USER_FACING + help_examples() + shipped_file_examples())
+def test_printed_example_writes_under_bhr_out(where, line):
+    for path in outputs_of(command_of(line)):
+        assert path.startswith("bhr-out/"), f"{where}: {line!r} writes {path}, outside bhr-out/"
