@@ -748,9 +748,13 @@ def write_outputs(result: SweepResult, out_dir: str | os.PathLike[str], *, plot:
 
 def format_summary(result: SweepResult, count: int = 5) -> list[str]:
     """A few lines for the terminal: counts, time, and the best designs."""
-    lines = [f"{len(result.rows)} designs on {result.runner}: {len(result.rows) - len(result.failed)} ok, "
-             f"{len(result.failed)} failed, {result.wall_time_s:.2f} s"]
     ranked = best_designs(result, None)
+    runs = len(result.rows)
+    # a robot design runs once per trajectory: count runs as runs, and designs as the ranking below counts them
+    what_ran = f"{runs} designs" if len(ranked) in (0, runs) else \
+        f"{runs} runs ({len(ranked)} designs x {runs // len(ranked)} trajectories)"
+    lines = [f"{what_ran} on {result.runner}: {runs - len(result.failed)} ok, "
+             f"{len(result.failed)} failed, {result.wall_time_s:.2f} s"]
     best = ranked[:count]
     if best:
         design_keys = robot_design_keys(result.sweep)
