@@ -62,10 +62,12 @@ def compare(traj, solvers, out_dir, json_path, no_plots, **kwargs):
     from bhr.output.atomic import OutputFolder
 
     folder = None
+    # as bhr follow: every solver's run is kept in a folder, unless stdout is the whole output (--json - --no-plots)
+    use_folder = out_dir is not None or not (json_path == "-" and no_plots)
     if out_dir is not None:
         folder = OutputFolder(out_dir, "compare", names=COMPARE_NAMES,  # checked before any work
                               inputs=input_files(traj, kwargs.get("robot_file"))).check()
-    elif not no_plots:
+    elif use_folder:
         check_parent_folder("bhr-out")
     check_writable(json_path, "JSON")
     per_solver = pop_solver_options(kwargs, names)
@@ -77,7 +79,7 @@ def compare(traj, solvers, out_dir, json_path, no_plots, **kwargs):
                        "--locomotion")
     announce_compiles()
     tr = load_trajectory(traj, feed=robot.feed, **pop_trajectory(kwargs))
-    if folder is None and not no_plots:
+    if folder is None and use_folder:
         name = run_folder_name(f"compare-{stem}", tr.points, tr.lumen if tr.lumen is not None else 0,
                                robot.to_dict(), names, per_solver, body_modules)
         folder = OutputFolder(Path("bhr-out") / name, "compare", names=COMPARE_NAMES,

@@ -83,6 +83,22 @@ def test_cli_with_lumen_and_body(run_bhr, tmp_path):
     doc = json.loads(out.stdout)
     assert all("min_clearance_mm" in r and "body_points_max_error_mm" in r for r in doc["rows"])
     assert "clear mm" in out.stderr  # the table goes to stderr when the JSON is on stdout
+    assert not (tmp_path / "bhr-out").exists()  # --json - --no-plots: standard output is the whole output
+
+
+def test_no_plots_keeps_every_solver_run_as_follow_does(run_bhr, tmp_path):
+    """The documented `bhr compare ... --no-plots` keeps each solver's run (for replay, plan, stream), as
+    `bhr follow --no-plots` keeps its run: it wrote nothing at all."""
+    out = run_bhr("compare", "--traj", "curve", "--solver", "thesis", "--solver", "optimal", "--no-plots")
+    assert out.returncode == 0, out.stderr
+    (folder,) = (tmp_path / "bhr-out").glob("compare-curve-*")
+    assert (tmp_path / "bhr-out" / "latest").resolve() == folder.resolve()
+    for name in ("thesis", "optimal"):
+        assert (folder / name / "run.json").is_file() and (folder / name / "codes.csv").is_file()
+    assert not (folder / "compare.png").exists()
+    assert f"Wrote bhr-out/{folder.name}/thesis" in out.stdout
+    plan = run_bhr("plan", "--codes", f"bhr-out/{folder.name}/optimal/codes.csv", "--no-plots")
+    assert plan.returncode == 0, plan.stderr
 
 
 @pytest.mark.parametrize("args,word", [
