@@ -46,6 +46,7 @@ def plan(codes_path, rate, schedule, robot_file, plot_path, no_plot, csv_path):
 
     from bhr.settings.options import LIMITS
 
+    shown = plot_path
     if not no_plot and table.shape[1] > LIMITS["figure_modules"]:
         if plot_path is not None:
             from bhr.settings.errors import BhrError
@@ -60,6 +61,7 @@ def plan(codes_path, rate, schedule, robot_file, plot_path, no_plot, csv_path):
             from bhr.output.atomic import MANIFEST
 
             plot_path = str(Path(codes_path).resolve().parent / "thermal.png")
+            shown = str(Path(codes_path).parent / "thermal.png")  # named as the user named the codes
             if not (Path(plot_path).parent / MANIFEST).is_file():  # a loose codes.csv: the figure goes beside it
                 refuse_replacing_beside(Path(plot_path).parent, ["thermal.png"], codes_path,
                                         "move it away, or give --plot FILE.png or --no-plots")
@@ -84,7 +86,7 @@ def plan(codes_path, rate, schedule, robot_file, plot_path, no_plot, csv_path):
     with together():  # the CSV and the figure: both or neither
         written = _write_outputs(sched, table, steps, name, csv_path, plot_path, no_plot)
     if written:
-        click.echo("Wrote " + ", ".join(str(p) for p in written), err=True)
+        click.echo("Wrote " + ", ".join(shown if p == plot_path else str(p) for p in written), err=True)
 
 
 def _write_outputs(sched, table, steps, name, csv_path, plot_path, no_plot) -> list:

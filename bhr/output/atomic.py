@@ -377,8 +377,10 @@ class OutputFolder:
     figures of the earlier run with the same settings). With ``keep`` every
     file of the existing folder is carried over unless the run writes it
     again, whatever its settings (``bhr replay`` and ``bhr plan`` add files
-    beside a run's data). ``names`` are the files a run may write at the
-    top of the folder (for messages; patterns like ``*.png`` allowed).
+    beside a run's data); the folder then still holds that run (its manifest's
+    ``made_by`` and ``settings``), so the run's own rerun keeps those files.
+    ``names`` are the files a run may write at the top of the folder (for
+    messages; patterns like ``*.png`` allowed).
 
         with OutputFolder("bhr-out/curve", command="follow") as of:
             write_json(of.path("run.json"), doc)
@@ -398,6 +400,7 @@ class OutputFolder:
         self.stage: Path | None = None
         self.carried: list[str] = []
         self.made: list[Path] = []
+        self.made_by: str | None = None  # the command whose settings the folder holds (see _carry_over)
         self.target = self._resolve()
 
     # -- checks (also callable before any work starts) --
@@ -550,8 +553,12 @@ class OutputFolder:
         assert self.stage is not None
         if old_doc is None:
             return
+        if self.keep and self.settings is None:
+            # files added beside a run (replay, plan): the folder still holds that run, of its command and
+            # settings, so that the run's own rerun keeps these files as it keeps its other ones
+            self.settings, self.made_by = old_doc.get("settings"), _made_by(old_doc)
         same = (self.settings is not None and old_doc.get("settings") == self.settings
-                and old_doc.get("command") == self.command)
+                and _made_by(old_doc) == self.command)
         if not (self.keep or same):
             return
         for rel in old_doc.get("files", {}):
@@ -574,7 +581,8 @@ class OutputFolder:
             if p.is_file() and rel != MANIFEST:
                 files[rel] = {"bytes": p.stat().st_size, "sha256": _sha256(p)}
         doc = {"bhr_output": 2, "written_by": f"bhr {__version__}", "bhr_version": __version__,
-               "command": self.command, "run_id": self.run_id, "settings": self.settings,
+               "command": self.command, "made_by": self.made_by or self.command, "run_id": self.run_id,
+               "settings": self.settings,
                "written": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()), "files": files,
                "carried_over": sorted(self.carried)}
         (self.stage / MANIFEST).write_text(json.dumps(doc, indent=1) + "\n", encoding="utf-8")
@@ -626,6 +634,11 @@ class OutputFolder:
 
 #: A manifest larger than this is not bhr's (a run's lists a few thousand files at most).
 _MAX_MANIFEST = 16 * 1024 * 1024
+
+
+def _made_by(doc: dict[str, Any]) -> Any:
+    """The command whose run (and settings) a folder holds: ``made_by``, else (older manifests) ``command``."""
+    return doc.get("made_by", doc.get("command"))
 
 
 def short_path(p: Any, limit: int = 80) -> str:
