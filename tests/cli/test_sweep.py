@@ -241,6 +241,10 @@ def test_heatmap_axes_and_worst_case_cells():
     lines = format_summary(res, count=5)
     # the first line counts what ran as the ranking counts designs: 12 runs are 6 designs on 2 trajectories
     assert lines[0].startswith("12 runs (6 designs x 2 trajectories) on "), lines[0]
+    from bhr.studies.sweep import _html, heatmap_figure
+
+    assert heatmap_figure(res, "modules", "alpha")._suptitle.get_text().endswith(": 12 runs (6 designs x 2 trajectories)")
+    assert "12 runs (6 designs x 2 trajectories), 0 failed" in _html(res, None)
     assert lines[1] == "Best 5 of 6 designs by worst point error over the trajectories (mm), as the heat-map shows:"
     assert lines[2].startswith(f"  #{ranked[0]['design']}: modules={ranked[0]['modules']}, alpha={ranked[0]['alpha']}: "
                                f"{ranked[0]['points_max_error_mm']:.3f}")
