@@ -58,7 +58,6 @@ def compare(traj, solvers, out_dir, json_path, no_plots, **kwargs):
     robot = build_robot(kwargs)
     if traj is None:
         raise BhrError("give the trajectory to compare on: --traj line|curve|spiral|colon|FILE")
-    stem = Path(traj).stem if traj not in ("line", "curve", "spiral", "colon") else traj
     from bhr.output.atomic import OutputFolder
 
     folder = None
@@ -78,7 +77,11 @@ def compare(traj, solvers, out_dir, json_path, no_plots, **kwargs):
         raise BhrError("bhr compare runs the thesis's locomotion; use bhr follow (or bhr traverse) for --reach and "
                        "--locomotion")
     announce_compiles()
-    tr = load_trajectory(traj, feed=robot.feed, **pop_trajectory(kwargs))
+    traj_params = pop_trajectory(kwargs)
+    tr = load_trajectory(traj, feed=robot.feed, **traj_params)
+    from bhr.studies.follow_run import folder_stem
+
+    stem = folder_stem(traj, traj_params.get("seed"))  # as follow's: one folder name per anatomical colon
     if folder is None and use_folder:
         name = run_folder_name(f"compare-{stem}", tr.points, tr.lumen if tr.lumen is not None else 0,
                                robot.to_dict(), names, per_solver, body_modules)

@@ -101,6 +101,14 @@ def test_no_plots_keeps_every_solver_run_as_follow_does(run_bhr, tmp_path):
     assert plan.returncode == 0, plan.stderr
 
 
+
+def test_an_anatomical_colon_names_the_folder_as_follow_does(run_bhr, tmp_path):
+    out = run_bhr("compare", "--traj", "anatomy", "--seed", "4", "--solver", "thesis", "--solver", "fabrik",
+                  "--no-plots", "--modules", "3")
+    assert out.returncode == 0, out.stderr
+    assert [p.name.rsplit("-", 1)[0] for p in (tmp_path / "bhr-out").glob("compare-*")] == ["compare-anatomy-4"]
+
+
 @pytest.mark.parametrize("args,word", [
     (["--solver", "seed"], "at least two"),
     (["--solver", "seed", "--solver", "seed"], "twice"),
