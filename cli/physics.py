@@ -35,7 +35,9 @@ def physics(run, out_dir, wall_stiffness, physics_rate, substeps):
     from bhr.settings.options import BY_NAME
 
     if run != "-" and not Path(run).exists():  # a folder, FIFO or device is load_run's to name
-        raise BhrError(f"{run}: no such run file; give the run.json that 'bhr follow' wrote")
+        from bhr.settings.inputs import latest_note
+
+        raise BhrError(f"{run}: no such run file{latest_note(Path(run))}; give the run.json that 'bhr follow' wrote")
     opts = {"wall_stiffness": BY_NAME["wall_stiffness"].default if wall_stiffness is None else wall_stiffness,
             "rate": BY_NAME["physics_rate"].default if physics_rate is None else physics_rate,
             "substeps": BY_NAME["substeps"].default if substeps is None else substeps}

@@ -102,6 +102,23 @@ def test_no_plots_keeps_every_solver_run_as_follow_does(run_bhr, tmp_path):
 
 
 
+def test_after_compare_the_latest_hints_lead_to_its_runs(run_bhr, tmp_path):
+    """`bhr plan --codes bhr-out/latest/codes.csv` (bhr plan --help's example) after a compare: latest is the
+    compare's folder, whose runs are one folder down; the refusal names them, and the file it names runs."""
+    out = run_bhr("compare", "--traj", "line", "--solver", "thesis", "--solver", "fabrik", "--no-plots")
+    assert out.returncode == 0, out.stderr
+    folder = (tmp_path / "bhr-out" / "latest").resolve().name
+    plan = run_bhr("plan", "--codes", "bhr-out/latest/codes.csv", "--no-plots")
+    assert plan.returncode == 1
+    assert (f"(bhr-out/latest points to {folder}, which has none; its runs have bhr-out/latest/thesis/codes.csv)"
+            in plan.stderr), plan.stderr  # fabrik gives no codes
+    assert run_bhr("plan", "--codes", "bhr-out/latest/thesis/codes.csv", "--no-plots").returncode == 0
+    replay = run_bhr("replay", "bhr-out/latest/run.json", "--out", "r")
+    assert replay.returncode == 1
+    assert ("its runs have bhr-out/latest/fabrik/run.json, bhr-out/latest/thesis/run.json)" in replay.stderr), \
+        replay.stderr
+
+
 def test_an_anatomical_colon_names_the_folder_as_follow_does(run_bhr, tmp_path):
     out = run_bhr("compare", "--traj", "anatomy", "--seed", "4", "--solver", "thesis", "--solver", "fabrik",
                   "--no-plots", "--modules", "3")
