@@ -334,7 +334,7 @@ def test_dask_cluster_gives_the_local_results(dask_cluster, tmp_path):
     remote = run_cli("sweep", *GRID, "--solver", "seed", "--solver", "fabrik", "--out", "dask", "--scheduler",
                      dask_cluster.scheduler_address, cwd=tmp_path)
     assert local.returncode == 0 and remote.returncode == 0, local.stderr + remote.stderr
-    assert f"36 designs on dask {dask_cluster.scheduler_address}" in remote.stdout
+    assert f"36 runs (18 designs x 2 trajectories) on dask {dask_cluster.scheduler_address}" in remote.stdout
     assert (tmp_path / "local" / "results.csv").read_bytes() == (tmp_path / "dask" / "results.csv").read_bytes()
     doc = json.loads((tmp_path / "dask" / "results.json").read_text())
     assert doc["runner"] == f"dask {dask_cluster.scheduler_address}" and doc["workers"] == 2
