@@ -431,7 +431,7 @@ class OutputFolder:
                            "folder for the output, such as bhr-out/run1")
         for name in self.inputs:
             real = Path(os.path.realpath(os.path.abspath(name)))
-            if _within(real, t) and not (self.keep and real.parent == t):
+            if _within(real, t) and not self.keep:  # with keep, every file it holds is carried over, inputs too
                 raise BhrError(f"{self.what} {short_path(self.given)} holds {short_path(name)}, an input of this run; "
                                "give another folder for the output (bhr replaces the whole folder)")
         if t.is_dir():
@@ -719,6 +719,23 @@ def _read_manifest(path: Path) -> dict[str, Any] | None:
     if not isinstance(doc.get("run_id"), str) or not isinstance(doc.get("command"), str):
         return None
     return doc
+
+
+def owning_folder(path: str | os.PathLike[str]) -> tuple[Path, str] | None:
+    """The bhr output folder whose manifest lists ``path``, and ``path`` inside it (None: none does).
+
+    A run's own folder (``bhr-out/colon-thesis-<hash>/codes.csv``), or a folder one or two levels up that holds
+    runs (``compare``'s ``thesis/codes.csv``, a report's ``runs/colon/codes.csv``): ``bhr plan`` and ``bhr replay``
+    add their figures to that folder whole, so its manifest lists them and a rerun never takes them for a
+    user's file.
+    """
+    p = Path(os.path.realpath(path))
+    for folder in list(p.parents)[:3]:
+        doc = _read_manifest(folder / MANIFEST)
+        if doc is not None:
+            rel = p.relative_to(folder).as_posix()
+            return (folder, rel) if rel in doc["files"] else None
+    return None
 
 
 def settings_hash(*parts: Any) -> str:
