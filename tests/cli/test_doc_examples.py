@@ -189,3 +189,15 @@ def test_the_readme_wall_example_keeps_off_the_wall(run_bhr):
     assert res.returncode == 0, res.stderr
     summary = json.loads(res.stdout)["summary"]
     assert summary["wall_touch_steps"] == [] and summary["min_clearance_mm"] > 0, summary["min_clearance_mm"]
+
+
+def test_bhr_help_names_every_solver_solve_takes():
+    """`bhr --help` said solve uses 'FABRIK, CCD or the thesis's solver'; `bhr solve --help` lists six."""
+    from click.testing import CliRunner
+
+    from bhr.cli.main import main
+    from bhr.solvers.names import BUILTIN
+
+    text = " ".join(CliRunner().invoke(main, ["--help"], terminal_width=200).output.split())
+    line = text[text.index("solve Solve"):text.index(" status ")]
+    assert all(name in line for name in BUILTIN) and "seed" not in line, line
