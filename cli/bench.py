@@ -24,6 +24,9 @@ def bench(cases, repeat, json_path, check):
     Every figure is a median over repeats; the ratio is reference time / bhr
     time measured in the same run. Results depend on the machine: quote them
     with the machine and this command.
+
+    \b
+        bhr bench --case thesis-colon --repeat 9
     """
     from bhr.bench import cases as b
     from bhr.cli._progress import announce_compiles, status

@@ -58,14 +58,15 @@ def compare(traj, solvers, out_dir, json_path, no_plots, **kwargs):
     robot = build_robot(kwargs)
     if traj is None:
         raise BhrError("give the trajectory to compare on: --traj line|curve|spiral|colon|FILE")
-    stem = Path(traj).stem if traj not in ("line", "curve", "spiral", "colon") else traj
     from bhr.output.atomic import OutputFolder
 
     folder = None
+    # as bhr follow: every solver's run is kept in a folder, unless stdout is the whole output (--json - --no-plots)
+    use_folder = out_dir is not None or not (json_path == "-" and no_plots)
     if out_dir is not None:
         folder = OutputFolder(out_dir, "compare", names=COMPARE_NAMES,  # checked before any work
                               inputs=input_files(traj, kwargs.get("robot_file"))).check()
-    elif not no_plots:
+    elif use_folder:
         check_parent_folder("bhr-out")
     check_writable(json_path, "JSON")
     per_solver = pop_solver_options(kwargs, names)
@@ -76,8 +77,12 @@ def compare(traj, solvers, out_dir, json_path, no_plots, **kwargs):
         raise BhrError("bhr compare runs the thesis's locomotion; use bhr follow (or bhr traverse) for --reach and "
                        "--locomotion")
     announce_compiles()
-    tr = load_trajectory(traj, feed=robot.feed, **pop_trajectory(kwargs))
-    if folder is None and not no_plots:
+    traj_params = pop_trajectory(kwargs)
+    tr = load_trajectory(traj, feed=robot.feed, **traj_params)
+    from bhr.studies.follow_run import folder_stem
+
+    stem = folder_stem(traj, traj_params.get("seed"))  # as follow's: one folder name per anatomical colon
+    if folder is None and use_folder:
         name = run_folder_name(f"compare-{stem}", tr.points, tr.lumen if tr.lumen is not None else 0,
                                robot.to_dict(), names, per_solver, body_modules)
         folder = OutputFolder(Path("bhr-out") / name, "compare", names=COMPARE_NAMES,

@@ -18,7 +18,10 @@ def export(fmt, out, **kwargs):
     """Write the robot as a URDF or MJCF model: per module two revolute tilts (+-alpha) and a prismatic lift.
 
     The model has --body-modules modules when given (the whole robot), else --modules. Joint names,
-    units and masses: docs/export.md. Example: bhr export --format urdf --modules 60 --out bhr60.urdf
+    units and masses: docs/export.md. Example:
+
+    \b
+        bhr export --format urdf --modules 60 --out bhr-out/bhr60.urdf
     """
     from bhr.output.atomic import write_text
     from bhr.settings.errors import BhrError

@@ -14,7 +14,7 @@ from bhr.cli._interrupt import end_interrupted
 
 # command name -> "module:attribute", imported only when the command runs.
 COMMANDS: dict[str, tuple[str, str]] = {
-    "solve": ("bhr.cli.solve:solve", "Solve one target with FABRIK, CCD or the thesis's solver."),
+    "solve": ("bhr.cli.solve:solve", "Solve one target (fabrik, ccd, thesis, constrained, optimal, lumen)."),
     "follow": ("bhr.cli.follow:follow", "Follow a trajectory; write error plots, codes.csv and JSON."),
     "fk": ("bhr.cli.fk:fk", "Forward kinematics: chain points from module codes."),
     "bench": ("bhr.cli.bench:bench", "Time bhr against numpy implementations of the same algorithms."),

@@ -14,7 +14,9 @@ PHYSICS_NAMES = ("physics.json", "force.png", "view.html", "manifest.json")
 
 @click.command()
 @click.argument("run", metavar="RUN.json")
-@click.option("--out", "out_dir", required=True, metavar="DIR", help="Folder for physics.json, force.png, view.html.")
+@click.option("--out", "out_dir", default=None, metavar="DIR",
+              help="Folder for physics.json, force.png, view.html [./bhr-out/physics-<run's folder>-<hash of the run "
+                   "and the options>/; needed when RUN.json is '-'].")
 @physics_options
 @guarded
 def physics(run, out_dir, wall_stiffness, physics_rate, substeps):
@@ -23,20 +25,31 @@ def physics(run, out_dir, wall_stiffness, physics_rate, substeps):
     Writes DIR/physics.json (per step the largest contact force in N, where, and the deviation from bhr's
     pose in mm; a summary), DIR/force.png and DIR/view.html. Example:
 
-        bhr physics bhr-out/latest/run.json --out phys
+    \b
+        bhr physics bhr-out/latest/run.json
     """
-    from bhr.output.atomic import OutputFolder, write_json
+    from bhr.output.atomic import write_json
     from bhr.cli._progress import status
     from bhr.run.driver import load_run
     from bhr.settings.errors import BhrError
     from bhr.settings.options import BY_NAME
 
     if run != "-" and not Path(run).exists():  # a folder, FIFO or device is load_run's to name
-        raise BhrError(f"{run}: no such run file; give the run.json that 'bhr follow --out DIR' wrote")
-    folder = OutputFolder(out_dir, "physics", names=PHYSICS_NAMES, inputs=[run]).check()  # never onto its run.json
+        from bhr.settings.inputs import latest_note
+
+        raise BhrError(f"{run}: no such run file{latest_note(Path(run))}; give the run.json that 'bhr follow' wrote")
     opts = {"wall_stiffness": BY_NAME["wall_stiffness"].default if wall_stiffness is None else wall_stiffness,
             "rate": BY_NAME["physics_rate"].default if physics_rate is None else physics_rate,
             "substeps": BY_NAME["substeps"].default if substeps is None else substeps}
+    if out_dir is None and run == "-":
+        raise BhrError("give --out DIR for a run read from standard input (the default folder is named by the run's "
+                       "file)")
+    from bhr.cli._common import default_output, input_files, point_latest_if_default
+
+    # as every command's: --out, or bhr-out/physics-<the run's folder>-<hash of the run's file and the options>
+    source = Path(run).resolve()
+    readable = f"physics-{source.parent.name if source.name == 'run.json' else source.stem}"
+    folder = default_output("physics", readable, (sorted(opts.items()),), input_files(run), PHYSICS_NAMES, out_dir)
     from bhr.studies.physics import check_replay_options, force_figure, replay_physics, require
 
     check_replay_options(**opts)
@@ -53,6 +66,7 @@ def physics(run, out_dir, wall_stiffness, physics_rate, substeps):
         save_figure(force_figure(rep, f"{result.trajectory.name}: {result.solver} solver, MuJoCo replay"),
                     folder.path("force.png"))
         save_view(result, folder.stage, contacts=rep.contacts)
+    point_latest_if_default(folder, out_dir)
     s = rep.summary()
     out = folder.final("")
     where = f" at step {s['max_force_step']}" if s["max_force_step"] else ""

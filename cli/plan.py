@@ -30,14 +30,14 @@ def plan(codes_path, rate, schedule, robot_file, plot_path, no_plot, csv_path):
     """Plan a stream of module codes against the thermal model of the wires.
 
     Prints the steps where the codes change with the time each is sent, and
-    the total procedure time. With --schedule rate (the default) it checks
-    that the board can take the rows at --rate and, where it cannot, names the
-    module, the step and the fix; with --schedule auto it stretches each step
-    to what the wires allow (full-power contraction, relaxation before a wire
-    contracts again). The figure shows each wire's normalised temperature.
+    the total procedure time. With --schedule auto (the default) it stretches
+    each step to what the wires allow (full-power contraction, relaxation
+    before a wire contracts again), never faster than --rate; with --schedule
+    rate it checks that the board can take the rows at --rate and, where it
+    cannot, names the module, the step and the fix. The figure shows each wire's normalised temperature.
 
     \b
-        bhr plan --codes bhr-out/latest/codes.csv --schedule auto
+        bhr plan --codes bhr-out/latest/codes.csv
     """
     from bhr.model.codes import read_codes_csv
 
@@ -46,6 +46,7 @@ def plan(codes_path, rate, schedule, robot_file, plot_path, no_plot, csv_path):
 
     from bhr.settings.options import LIMITS
 
+    shown = plot_path
     if not no_plot and table.shape[1] > LIMITS["figure_modules"]:
         if plot_path is not None:
             from bhr.settings.errors import BhrError
@@ -57,10 +58,11 @@ def plan(codes_path, rate, schedule, robot_file, plot_path, no_plot, csv_path):
         no_plot = True
     if not no_plot:
         if plot_path is None:
-            from bhr.output.atomic import MANIFEST
+            from bhr.output.atomic import owning_folder
 
             plot_path = str(Path(codes_path).resolve().parent / "thermal.png")
-            if not (Path(plot_path).parent / MANIFEST).is_file():  # a loose codes.csv: the figure goes beside it
+            shown = str(Path(codes_path).parent / "thermal.png")  # named as the user named the codes
+            if owning_folder(codes_path) is None:  # a loose codes.csv: the figure goes beside it
                 refuse_replacing_beside(Path(plot_path).parent, ["thermal.png"], codes_path,
                                         "move it away, or give --plot FILE.png or --no-plots")
         check_writable(plot_path, "figure")
@@ -84,7 +86,7 @@ def plan(codes_path, rate, schedule, robot_file, plot_path, no_plot, csv_path):
     with together():  # the CSV and the figure: both or neither
         written = _write_outputs(sched, table, steps, name, csv_path, plot_path, no_plot)
     if written:
-        click.echo("Wrote " + ", ".join(str(p) for p in written), err=True)
+        click.echo("Wrote " + ", ".join(shown if p == plot_path else str(p) for p in written), err=True)
 
 
 def _write_outputs(sched, table, steps, name, csv_path, plot_path, no_plot) -> list:
@@ -98,14 +100,19 @@ def _write_outputs(sched, table, steps, name, csv_path, plot_path, no_plot) -> l
         write_text(Path(csv_path), "\n".join(lines) + "\n")
         written.append(csv_path)
     if not no_plot:
-        from bhr.output.atomic import MANIFEST, OutputFolder
+        from bhr.output.atomic import MANIFEST, OutputFolder, owning_folder
         from bhr.output.thermal_plot import save_schedule_figure
 
-        run_folder = Path(plot_path).parent
-        if (run_folder / MANIFEST).is_file():
-            # a run's folder: put it back whole with the figure added, so its manifest lists every file
-            with OutputFolder(run_folder, "plan", keep=True) as folder:
-                save_schedule_figure(sched, folder.path(Path(plot_path).name), title=name)
+        # the figure in a folder bhr wrote (a run's own, or a compare's or report's holding the run one or two
+        # levels down): that folder is put back whole with the figure added, so its manifest lists every file
+        plot_dir = Path(plot_path).resolve().parent
+        owner = owning_folder(plot_dir / "codes.csv")
+        if owner is None and (plot_dir / MANIFEST).is_file():
+            owner = (plot_dir, "codes.csv")
+        if owner is not None:
+            rel = (Path(owner[1]).parent / Path(plot_path).name).as_posix()
+            with OutputFolder(owner[0], "plan", keep=True) as folder:
+                save_schedule_figure(sched, folder.path(rel), title=name)
         else:
             save_schedule_figure(sched, plot_path, title=name)
         written.append(plot_path)

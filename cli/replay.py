@@ -80,22 +80,27 @@ def replay(run, show, animate_path, stride, out_dir, step):
     standard input). With neither --show nor --animate it redraws the
     figures (errors, and the path with the robot) into --out.
 
-        bhr replay bhr-out/latest/run.json --animate colon.gif
+        bhr replay bhr-out/latest/run.json --animate bhr-out/colon.gif
     """
     from bhr.run.driver import load_run
 
     import os
 
-    from bhr.output.atomic import MANIFEST, OutputFolder
+    from bhr.output.atomic import MANIFEST, OutputFolder, owning_folder
 
     write_plots = out_dir is not None or not (show or animate_path)
     out = Path(out_dir) if out_dir else (Path(run).parent if run != "-" else Path("bhr-out") / "replay")
     path_name = "path.png" if step is None else f"path-step{step}.png"
     folder = None
+    inner = Path()  # where the figures go inside the folder put in place: a compare's or report's run is a level down
     if write_plots:
         # Into the run's own folder: the run's files are kept and the folder is replaced whole, figures redrawn.
         same = run != "-" and os.path.realpath(out) == os.path.realpath(Path(run).parent)
-        if same and not (out / MANIFEST).is_file():
+        owner = owning_folder(run) if same and not (out / MANIFEST).is_file() else None
+        if owner is not None:  # a run inside a compare's or report's folder: that folder is put back whole
+            inner = Path(owner[1]).parent
+            folder = OutputFolder(owner[0], "replay", inputs=[run], keep=True).check()
+        elif same and not (out / MANIFEST).is_file():
             check_writable(out / path_name, "output folder")  # a loose run.json: figures written beside it
         else:
             folder = OutputFolder(out, "replay", names=("*.png", "view.html", "run.json", "codes.csv", "manifest.json"),
@@ -124,8 +129,10 @@ def replay(run, show, animate_path, stride, out_dir, step):
         else:
             with folder:
                 with status(drawing):
-                    written += [folder.final(p.name) for p in save_run_plots(result, folder.stage, step)]
-                    written.append(folder.final(save_view(result, folder.stage).name))
+                    stage = folder.stage / inner
+                    stage.mkdir(parents=True, exist_ok=True)
+                    written += [out / p.name for p in save_run_plots(result, stage, step)]
+                    written.append(out / save_view(result, stage).name)
                 if animate_path:  # before the folder goes in place: a Ctrl-C while it renders leaves none
                     render_animation(result, animate_path, stride)
     if animate_path and folder is None:

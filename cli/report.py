@@ -30,7 +30,7 @@ def report(batch_path, batch_old, out_dir, jobs, inline_images, no_plots):
     (figures and run.json of each run). A failed run is recorded with its
     reason and the others still run; the exit status is 1 when any run failed.
 
-        bhr report --file docs/examples/chapter7.toml --out chapter7
+        bhr report --file docs/examples/chapter7.toml --out bhr-out/chapter7
     """
     from bhr.cli._progress import announce_compiles, status
     from bhr.settings.errors import BhrError

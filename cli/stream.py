@@ -55,7 +55,10 @@ def stream(codes_path, rate, schedule, at_end, dry_run, **link_kw):
     port, link_args = link_settings(link_kw, need_port=not dry_run, hint=", or use --dry-run to print the frames")
     from bhr.hardware.thermal import format_duration, plan
 
-    # the same checks with and without --dry-run: the thermal model first
+    # the same checks with and without --dry-run: what one board drives, then the thermal model
+    from bhr.hardware.protocol import check_board_modules
+
+    check_board_modules(n_modules, str(codes_path))
     sched = plan(thermal_params(robot_file), table, rate, schedule, name=str(codes_path), sending=not dry_run,
                  trace=False)
     if dry_run:

@@ -29,12 +29,14 @@ def sweep(sweep_file, trajs, solvers, grid, robot_file, out_dir, jobs, scheduler
           title):
     """Follow trajectories with every design of a parameter grid.
 
-    Writes DIR/results.csv and DIR/results.json (one row per design: its
-    parameters, status, worst errors and minimum clearance where known),
+    Writes DIR/results.csv and DIR/results.json (one row per design and
+    trajectory: its parameters, status, worst errors and minimum clearance
+    where known),
     DIR/heatmap.png (worst point error and minimum clearance per design over
     two axes, the worst case over the others) and DIR/index.html. The exit
     status is 1 when any design failed.
 
+    \b
         bhr sweep --traj curve --grid modules=3:12 --grid alpha=6:15 --grid module_length=8,10,12
     """
     from bhr.cli._progress import announce_compiles, status

@@ -42,12 +42,14 @@ def traverse(grid, colons, solvers, target_pass, robot_file, out_dir, jobs, sche
     worst-colon.png (penetration along the answer's worst colon) and
     index.html. The exit status is 1 when any run failed.
 
+    \b
         bhr traverse --grid alpha=10:30:5 --grid module_length=5,6,8,10 --colons 1-100
     """
     from bhr.solvers import check_solver_name
 
     for name in solvers:  # a misspelt solver is refused before the studies' modules (numpy, numba) load
         check_solver_name(name, "traverse")
+    from bhr.settings.errors import BhrError
     from bhr.studies.sweep import parse_grid_option
     from bhr.studies.traverse import build_study, format_study, heatmap_axes, run_study, write_study
 
@@ -55,6 +57,13 @@ def traverse(grid, colons, solvers, target_pass, robot_file, out_dir, jobs, sche
     study = build_study([parse_grid_option(g) for g in grid], colons, solvers=solvers or ("thesis",),
                         target=target_pass, robot_file=robot_file, title=title or "bhr traverse")
     heatmap_axes(study, hx, hy)  # refuse unknown heat-map axes before running
+    if physics:  # before the study: it ran whole, then --physics was refused, or silently skipped with --no-plots
+        if no_plot:
+            raise BhrError("--physics replays the worst colon beside its figures (worst-colon-force.png); drop "
+                           "--no-plots or --physics")
+        from bhr.studies.physics import check_installed
+
+        check_installed("mujoco")
     import dataclasses
 
     from bhr.cli._common import default_output, input_files, print_study

@@ -196,8 +196,11 @@ def run_all(with_sensitivity: bool = False) -> dict[str, Any]:
 
 
 def format_report(doc: dict[str, Any]) -> list[str]:
+    """The report as printed: each solver by its one name (the thesis's solver runs here by its alias, seed)."""
+    from bhr.solvers import canonical
+
     lines = ["Worst position error over all scored points (mm), thesis robot: 5 x 10 mm, alpha 10 deg",
-             f"{'trajectory':<12}{'steps':>7}{'seed':>9}{'optimal':>9}{'ratio':>8}{'target':>8}"]
+             f"{'trajectory':<12}{'steps':>7}{'thesis':>9}{'optimal':>9}{'ratio':>8}{'target':>8}"]
     for r in doc["ratios"]:
         lines.append(f"{r['case']:<12}{r['steps']:>7d}{r['seed_worst_mm']:>9.3f}{r['optimal_worst_mm']:>9.3f}"
                      f"{r['ratio']:>8.3f}{'<= ' + format(r['target'], '.1f'):>8}{'' if r['ok'] else '  MISSED'}")
@@ -207,13 +210,14 @@ def format_report(doc: dict[str, Any]) -> list[str]:
               f"{'':<12}{'solve() median':>16}{'p90':>10}{'compiled loop':>16}"]
     for s in ("optimal", "seed"):
         v = t[s]
-        lines.append(f"{s:<12}{v['median_solve_s'] * 1e3:>13.3f} ms{v['p90_solve_s'] * 1e3:>7.3f} ms"
+        lines.append(f"{canonical(s):<12}{v['median_solve_s'] * 1e3:>13.3f} ms{v['p90_solve_s'] * 1e3:>7.3f} ms"
                      f"{v['compiled_loop_per_step_s'] * 1e3:>13.3f} ms")
-    lines.append(f"optimal / seed: {t['median_ratio_optimal_to_seed']:.1f}x per solve() call, "
+    lines.append(f"optimal / thesis: {t['median_ratio_optimal_to_seed']:.1f}x per solve() call, "
                  f"{t['loop_ratio_optimal_to_seed']:.1f}x in the compiled loop")
     lines += ["", "Whole body (colon lumen: 30 mm rectum, 45 mm elsewhere; robot radius 5 mm):"]
     for b in doc["body"]:
-        line = (f"  {b['case']}, {b['modules']} modules, {b['solver']}: head worst {b['head_worst_mm']:.3f} mm, "
+        line = (f"  {b['case']}, {b['modules']} modules, {canonical(b['solver'])}: "
+                f"head worst {b['head_worst_mm']:.3f} mm, "
                 f"body worst {b['body_worst_mm']:.3f} mm (step {b['body_worst_step']})")
         if b["min_clearance_mm"] is not None:
             touch = b["wall_touch_steps"] or []
@@ -221,7 +225,7 @@ def format_report(doc: dict[str, Any]) -> list[str]:
                      f"({b['min_clearance_point']}), wall touched at {len(touch)} steps")
         lines.append(line)
     if "sensitivity" in doc:
-        lines += ["", "optimal / seed worst error with one setting changed:",
+        lines += ["", "optimal / thesis worst error with one setting changed:",
                   f"{'':<52}" + "".join(f"{c:>11}" for c, _, _ in CASES)]
         for row in doc["sensitivity"]:
             lines.append(f"{row['variant']:<52}" + "".join(f"{row['ratios'][c]:>11.3f}" for c, _, _ in CASES)

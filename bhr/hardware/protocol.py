@@ -177,6 +177,17 @@ def set_codes_frame(seq: int, codes: Iterable[int]) -> bytes:
     return encode_frame(Msg.SET_CODES, seq, bytes([len(values)] + values))
 
 
+def check_board_modules(count: int, where: str) -> None:
+    """Refuse codes for more modules than one board drives (its firmware's BHR_MODULES is 1 ... 32).
+
+    A stream is checked before its first row, with or without ``--dry-run``: a dry run that accepted
+    60 modules promised a stream no board takes (the board reports its own count, at most 32).
+    """
+    if count > MAX_BOARD_MODULES:
+        raise BhrError(f"{where} has {count} modules, and one board drives at most {MAX_BOARD_MODULES}; stream the "
+                       f"codes of a robot of at most {MAX_BOARD_MODULES} modules (a run without --body-modules)")
+
+
 def status_frame(seq: int) -> bytes:
     return encode_frame(Msg.STATUS, seq)
 

@@ -19,7 +19,7 @@ if TYPE_CHECKING:  # numpy loads when a table is read or written: a code is chec
     import numpy as np
 
 from bhr.settings.errors import BhrError
-from bhr.settings.inputs import MAX_POINTS, broken_link, read_capped
+from bhr.settings.inputs import MAX_POINTS, broken_link, latest_note, read_capped
 from bhr.settings.options import LIMITS, excerpt
 from bhr.kinematics.codetable import CODE_AXIS, LIFT, REST, TILT_CODES, VALID_CODES
 
@@ -102,18 +102,6 @@ def format_codes_csv(codes: np.ndarray | Sequence[Sequence[int]], steps: Sequenc
     return buf.getvalue()
 
 
-def _link_note(p: Path) -> str:
-    """Where ``bhr-out/latest`` on the way to ``p`` points, when it is there: after another command it is that
-    command's folder."""
-    for parent in p.parents:
-        if parent.name == "latest" and parent.is_symlink():  # bhr-out/latest, the link bhr keeps to a folder it wrote
-            try:
-                return f" ({parent} points to {os.readlink(parent)}, which has none)"
-            except OSError:
-                return ""
-    return ""
-
-
 def raw_line(path: Path, offset: int) -> int:
     """The line (from 1) that byte ``offset`` of ``path`` is on."""
     with open(path, "rb") as fh:
@@ -138,7 +126,7 @@ def read_codes_csv(path: str | os.PathLike[str]) -> tuple[list[int], np.ndarray]
         if link:
             raise BhrError(f"{link}; {hint}") from None
         if isinstance(exc, FileNotFoundError):
-            raise BhrError(f"codes file {p} does not exist{_link_note(p)}; {hint}") from None
+            raise BhrError(f"codes file {p} does not exist{latest_note(p)}; {hint}") from None
         raise BhrError(f"cannot read codes file {p} ({exc.strerror or exc.__class__.__name__}); {hint}") from None
     except UnicodeDecodeError as exc:
         raise BhrError(f"{p}, line {raw_line(p, exc.start)}: not UTF-8 text; save the codes file as UTF-8 "

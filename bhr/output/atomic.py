@@ -430,8 +430,10 @@ class OutputFolder:
     figures of the earlier run with the same settings). With ``keep`` every
     file of the existing folder is carried over unless the run writes it
     again, whatever its settings (``bhr replay`` and ``bhr plan`` add files
-    beside a run's data). ``names`` are the files a run may write at the
-    top of the folder (for messages; patterns like ``*.png`` allowed).
+    beside a run's data); the folder then still holds that run (its manifest's
+    ``made_by`` and ``settings``), so the run's own rerun keeps those files.
+    ``names`` are the files a run may write at the top of the folder (for
+    messages; patterns like ``*.png`` allowed).
 
         with OutputFolder("bhr-out/curve", command="follow") as of:
             write_json(of.path("run.json"), doc)
@@ -454,6 +456,7 @@ class OutputFolder:
         self.stage: Path | None = None
         self.carried: list[str] = []
         self.made: list[Path] = []
+        self.made_by: str | None = None  # the command whose settings the folder holds (see _carry_over)
         self.target = self._resolve()
 
     # -- checks (also callable before any work starts) --
@@ -485,7 +488,7 @@ class OutputFolder:
                            "folder for the output, such as bhr-out/run1")
         for name in self.inputs:
             real = Path(os.path.realpath(os.path.abspath(name)))
-            if _within(real, t) and not (self.keep and real.parent == t):
+            if _within(real, t) and not self.keep:  # with keep, every file it holds is carried over, inputs too
                 raise BhrError(f"{self.what} {short_path(self.given)} holds {short_path(name)}, an input of this run; "
                                "give another folder for the output (bhr replaces the whole folder)")
         if t.is_dir():
@@ -650,8 +653,12 @@ class OutputFolder:
         assert self.stage is not None
         if old_doc is None:
             return
+        if self.keep and self.settings is None:
+            # files added beside a run (replay, plan): the folder still holds that run, of its command and
+            # settings, so that the run's own rerun keeps these files as it keeps its other ones
+            self.settings, self.made_by = old_doc.get("settings"), _made_by(old_doc)
         same = (self.settings is not None and old_doc.get("settings") == self.settings
-                and old_doc.get("command") == self.command)
+                and _made_by(old_doc) == self.command)
         if not (self.keep or same):
             return
         for rel in old_doc.get("files", {}):
@@ -676,7 +683,8 @@ class OutputFolder:
             if p.is_file() and rel not in (MANIFEST, _STAGE_MARK):
                 files[rel] = {"bytes": p.stat().st_size, "sha256": _sha256(p)}
         doc = {"bhr_output": 2, "written_by": f"bhr {__version__}", "bhr_version": __version__,
-               "command": self.command, "run_id": self.run_id, "settings": self.settings,
+               "command": self.command, "made_by": self.made_by or self.command, "run_id": self.run_id,
+               "settings": self.settings,
                "written": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()), "files": files,
                "carried_over": sorted(self.carried)}
         (self.stage / MANIFEST).write_text(json.dumps(doc, indent=1) + "\n", encoding="utf-8")
@@ -728,6 +736,11 @@ class OutputFolder:
 
 #: A manifest larger than this is not bhr's (a run's lists a few thousand files at most).
 _MAX_MANIFEST = 16 * 1024 * 1024
+
+
+def _made_by(doc: dict[str, Any]) -> Any:
+    """The command whose run (and settings) a folder holds: ``made_by``, else (older manifests) ``command``."""
+    return doc.get("made_by", doc.get("command"))
 
 
 def short_path(p: Any, limit: int = 80) -> str:
@@ -817,6 +830,23 @@ def _inside_name(rel: str) -> bool:
     parts = rel.split("/")
     return bool(rel) and not rel.startswith("/") and "\\" not in rel and not has_control_char(rel) and \
         all(p not in ("", ".", "..") for p in parts)
+
+
+def owning_folder(path: str | os.PathLike[str]) -> tuple[Path, str] | None:
+    """The bhr output folder whose manifest lists ``path``, and ``path`` inside it (None: none does).
+
+    A run's own folder (``bhr-out/colon-thesis-<hash>/codes.csv``), or a folder one or two levels up that holds
+    runs (``compare``'s ``thesis/codes.csv``, a report's ``runs/colon/codes.csv``): ``bhr plan`` and ``bhr replay``
+    add their figures to that folder whole, so its manifest lists them and a rerun never takes them for a
+    user's file.
+    """
+    p = Path(os.path.realpath(path))
+    for folder in list(p.parents)[:3]:
+        doc = _read_manifest(folder / MANIFEST)
+        if doc is not None:
+            rel = p.relative_to(folder).as_posix()
+            return (folder, rel) if rel in doc["files"] else None
+    return None
 
 
 def settings_hash(*parts: Any) -> str:

@@ -152,7 +152,9 @@ def view_figure(result, contacts: Sequence[np.ndarray] | None = None, title: str
                      marker=dict(size=6, color="red", symbol="diamond"), **xyz(per_step[shown[last]])))
     # plotly draws a line coloured by a scale black in the legend: the robot's legend is two empty lines of
     # its two colours, in its legend group (clicking either hides or shows the robot)
-    for label, rgb in (("robot: body", BODY_RGB), ("robot: head", HEAD_RGB)):
+    # (a robot that is its head only has no body to name)
+    parts = (("robot: body", BODY_RGB), ("robot: head", HEAD_RGB)) if len(p_last) > n_head else (("robot", HEAD_RGB),)
+    for label, rgb in parts:
         data.append(dict(type="scatter3d", mode="lines", name=label, hoverinfo="skip", legendgroup="robot",
                          line=dict(width=7, color=rgb), x=[None], y=[None], z=[None]))
     frames = [dict(name=str(s + 1), data=[xyz(robots[k]), xyz(per_step[s])], traces=[i_robot, i_contact])

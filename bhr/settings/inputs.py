@@ -18,7 +18,7 @@ from bhr.settings.options import type_name as _type_name
 
 __all__ = ["MAX_FILE_BYTES", "MAX_RUN_BYTES", "MAX_MM", "MAX_POINTS", "MAX_STEP_POINTS", "read_capped", "read_text",
            "read_toml", "check_keys", "type_name", "number", "vector3", "text_value", "choice", "did_you_mean",
-           "parse_number", "check_number", "excerpt", "check_regular", "broken_link"]
+           "parse_number", "check_number", "excerpt", "check_regular", "broken_link", "latest_note"]
 
 #: Input files larger than this are refused: at most this many bytes are ever read, whatever the file's size
 #: reads as (a link to /dev/zero reads as 0 bytes and never ends).
@@ -36,6 +36,29 @@ MAX_STEP_POINTS = LIMITS["step_points"]
 MAX_RUN_BYTES = 256 * MAX_STEP_POINTS
 
 
+def latest_note(p: Path) -> str:
+    """Where ``bhr-out/latest`` on the way to a missing ``p`` points, and the files of that name inside it.
+
+    ``latest`` is the folder the last command wrote: after ``bhr compare`` or a report its runs are one
+    folder down (``bhr-out/latest/thesis/codes.csv``), and the note names them, so the hint that named
+    ``bhr-out/latest/codes.csv`` leads on to a file that is there.
+    """
+    for parent in p.parents:
+        if parent.name == "latest" and parent.is_symlink():  # bhr-out/latest, the link bhr keeps to a folder it wrote
+            try:
+                note = f" ({parent} points to {os.readlink(parent)}, which has none"
+                rest = p.relative_to(parent)
+                inside = sorted(q for q in parent.glob(f"*/{rest}") if q.is_file())
+                inside += sorted(q for q in parent.glob(f"*/*/{rest}") if q.is_file())
+            except (OSError, ValueError):
+                return ""
+            if inside:
+                more = f" and {len(inside) - 3} more" if len(inside) > 3 else ""
+                note += f"; its runs have {', '.join(str(q) for q in inside[:3])}{more}"
+            return note + ")"
+    return ""
+
+
 def read_text(path: str | os.PathLike[str], what: str, hint: str, limit: int | None = None) -> str:
     """The UTF-8 text of ``path`` (at most ``limit`` bytes, :data:`MAX_FILE_BYTES` by default); a BhrError
     naming ``what`` and ``hint`` otherwise."""
@@ -46,7 +69,7 @@ def read_text(path: str | os.PathLike[str], what: str, hint: str, limit: int | N
         raw = read_capped(p, what, hint, limit)
     except FileNotFoundError:
         link = broken_link(p)
-        raise BhrError(f"{link}; {hint}" if link else f"no such {what} {p}; {hint}") from None
+        raise BhrError(f"{link}; {hint}" if link else f"no such {what} {p}{latest_note(p)}; {hint}") from None
     except PermissionError:
         raise BhrError(f"cannot read {what} {p}: permission denied; {hint}") from None
     except OSError as exc:

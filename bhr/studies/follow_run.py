@@ -156,7 +156,10 @@ def follow_run(traj: str, *, robot: Any, solver: str = "thesis", solver_options:
     say = notice or (lambda line: None)
     to_stdout = json_path == "-"
     use_folder = out_dir is not None or not (to_stdout and not plots)
-    inputs = input_files(traj, robot_file)
+    # the default folder is named by the run's settings, so a --robot file inside it is that same run's run.json
+    # (a file bhr did not write there is refused anyway); its robot was read whole before this run: the rerun
+    # replaces it with the run it makes again (`bhr follow --traj T --robot bhr-out/latest/run.json`)
+    inputs = input_files(traj)
     folder = check_outputs(traj, robot_file, out_dir, json_path)
     if animate_path is not None:
         from bhr.output.animate import check_target

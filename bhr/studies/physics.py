@@ -17,7 +17,8 @@ from bhr.model.export import MM, joint_names, joint_values, to_mjcf, to_urdf
 from bhr.model.robot import Robot, forward_kinematics
 
 __all__ = ["FkAgreement", "fk_cross_check", "pinocchio_model", "pinocchio_points", "mujoco_model",
-           "mujoco_points", "require", "whole_chain", "start_direction", "PhysicsReplay", "replay_physics",
+           "mujoco_points", "require", "check_installed", "whole_chain", "start_direction", "PhysicsReplay",
+           "replay_physics",
            "scene_xml", "replay_chain", "ReplayChain", "insertion", "WALL_STIFFNESS_RANGE", "DEFAULT_WALL_STIFFNESS",
            "FORCE_LINES_N"]
 
@@ -30,6 +31,14 @@ def require(module: str) -> Any:
         return importlib.import_module(module)
     except ImportError:
         raise BhrError(f"{module} is not installed; install the physics extra: pip install 'bhr[physics]'") from None
+
+
+def check_installed(module: str) -> None:
+    """Refuse, before any work, an option that needs ``module`` (``mujoco``, ``pinocchio``) when it is missing."""
+    import importlib.util
+
+    if importlib.util.find_spec(module) is None:
+        raise BhrError(f"{module} is not installed; install the physics extra: pip install 'bhr[physics]'")
 
 
 def pinocchio_model(robot: Robot, modules: int | None = None) -> Any:

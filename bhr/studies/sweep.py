@@ -569,7 +569,7 @@ def heatmap_figure(result: SweepResult, x: str | None = None, y: str | None = No
         handles.append(Patch(facecolor="none", edgecolor="red", linewidth=2.5, label=f"thesis design ({what})"))
     handles.append(Patch(facecolor="#d0d0d0", label="every design in the cell failed"))
     legend = fig.legend(handles=handles, loc="lower center", ncol=len(handles), fontsize=9, frameon=False)
-    fig.suptitle(f"{result.sweep.title}: {len(result.rows)} designs", fontsize=12)
+    fig.suptitle(f"{result.sweep.title}: {what_ran(result)}", fontsize=12)
     need = legend.get_window_extent().width / fig.dpi + 0.4
     if need > fig.get_figwidth():  # a narrow grid: widen the canvas so that the legend is whole
         fig.set_figwidth(need)
@@ -697,7 +697,7 @@ def _html(result: SweepResult, heatmap: str | None) -> str:
     axes = "; ".join(f"{k}: {', '.join(_label(v) for v in vals)}" for k, vals in s.axes)
     if s.robot_file:
         axes += f"; robot file: {s.robot_file}"
-    parts.append(f"<p class=\"meta\">{len(result.rows)} designs, {len(result.failed)} failed, "
+    parts.append(f"<p class=\"meta\">{what_ran(result)}, {len(result.failed)} failed, "
                  f"{result.wall_time_s:.1f} s on {escape(result.runner)}; bhr {escape(__version__)}.<br>"
                  f"{escape(axes)}</p>\n")
     if heatmap:
@@ -746,11 +746,23 @@ def write_outputs(result: SweepResult, out_dir: str | os.PathLike[str], *, plot:
     return files
 
 
+def what_ran(result: SweepResult) -> str:
+    """'1000 runs (500 designs x 2 trajectories)', or '30 designs' when each design ran once.
+
+    A robot design runs once per trajectory: runs are counted as runs, and designs as the ranking and the
+    heat-map count them (the terminal, the heat-map's title and the page say the same)."""
+    runs, designs = len(result.rows), len(best_designs(result, None))
+    if designs in (0, runs):
+        return f"{runs} designs"
+    return f"{runs} runs ({designs} designs x {runs // designs} trajectories)"
+
+
 def format_summary(result: SweepResult, count: int = 5) -> list[str]:
     """A few lines for the terminal: counts, time, and the best designs."""
-    lines = [f"{len(result.rows)} designs on {result.runner}: {len(result.rows) - len(result.failed)} ok, "
-             f"{len(result.failed)} failed, {result.wall_time_s:.2f} s"]
     ranked = best_designs(result, None)
+    runs = len(result.rows)
+    lines = [f"{what_ran(result)} on {result.runner}: {runs - len(result.failed)} ok, "
+             f"{len(result.failed)} failed, {result.wall_time_s:.2f} s"]
     best = ranked[:count]
     if best:
         design_keys = robot_design_keys(result.sweep)

@@ -382,6 +382,13 @@ def test_plan_adds_its_figure_to_the_run_folder_whole(tmp_path):
     assert set(man["files"]) == set(run_files) | {"thermal.png"}
     assert all(man["files"][k] == v for k, v in run_files.items())  # the run's own files untouched
     assert (latest / "thermal.png").stat().st_size > 10_000
+    # the run's own rerun keeps the figure plan added, as it keeps its own (it was deleted)
+    r = bhr("follow", "--traj", "curve", "--no-plots", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    assert set(check_whole(latest.resolve())["files"]) == set(run_files) | {"thermal.png"}
+    # the figure is named as the user named the codes (it was the resolved absolute path)
+    p = bhr("plan", "--codes", "bhr-out/latest/codes.csv", cwd=tmp_path)
+    assert p.returncode == 0 and p.stderr == "Wrote bhr-out/latest/thermal.png\n", p.stderr
     # a loose codes.csv (no run folder): the figure is written beside it, nothing else appears
     loose = tmp_path / "loose"
     loose.mkdir()

@@ -43,3 +43,21 @@ def test_stroke_and_lever_in_the_file_and_alpha_on_the_command_line(run_bhr, tmp
     assert json.loads(res.stdout)["points"][2][0] == pytest.approx(20 * math.cos(a))  # module 1 tilts by alpha
     res = run_bhr("fk", "--codes", "3,0,0,0,0", "--robot", "r.toml", "--alpha", "30", "--json", "-")
     assert json.loads(res.stdout)["points"][2][0] == pytest.approx(20 * math.cos(math.radians(30)))
+
+
+def test_a_run_json_reused_as_robot_on_its_own_trajectory_reruns_in_place(run_bhr, tmp_path):
+    """`bhr follow --traj T --robot bhr-out/latest/run.json` right after `bhr follow --traj T ...`: the same settings
+    name the same folder, which holds that run.json; it was refused as 'an input of this run'. The rerun makes the
+    same run again; an explicit --out onto the input's folder is still refused."""
+    first = run_bhr("follow", "--traj", "curve", "--modules", "6", "--alpha", "12", "--no-plots")
+    assert first.returncode == 0, first.stderr
+    (folder,) = (tmp_path / "bhr-out").glob("curve-thesis-*")
+    before = json.loads((folder / "run.json").read_text())
+    again = run_bhr("follow", "--traj", "curve", "--robot", "bhr-out/latest/run.json", "--no-plots")
+    assert again.returncode == 0, again.stderr
+    assert [p.name for p in (tmp_path / "bhr-out").glob("curve-thesis-*")] == [folder.name]  # the same settings
+    after = json.loads((folder / "run.json").read_text())
+    assert after["robot"] == before["robot"] and after["summary"] == before["summary"]
+    out = run_bhr("follow", "--traj", "line", "--robot", f"bhr-out/{folder.name}/run.json", "--out",
+                  f"bhr-out/{folder.name}")
+    assert out.returncode == 1 and "an input of this run" in out.stderr

@@ -239,6 +239,12 @@ def test_heatmap_axes_and_worst_case_cells():
         assert d["points_max_error_mm"] == cells[j][i] and d["trajectories"] == 2
     assert [d["points_max_error_mm"] for d in ranked] == sorted(d["points_max_error_mm"] for d in ranked)
     lines = format_summary(res, count=5)
+    # the first line counts what ran as the ranking counts designs: 12 runs are 6 designs on 2 trajectories
+    assert lines[0].startswith("12 runs (6 designs x 2 trajectories) on "), lines[0]
+    from bhr.studies.sweep import _html, heatmap_figure
+
+    assert heatmap_figure(res, "modules", "alpha")._suptitle.get_text().endswith(": 12 runs (6 designs x 2 trajectories)")
+    assert "12 runs (6 designs x 2 trajectories), 0 failed" in _html(res, None)
     assert lines[1] == "Best 5 of 6 designs by worst point error over the trajectories (mm), as the heat-map shows:"
     assert lines[2].startswith(f"  #{ranked[0]['design']}: modules={ranked[0]['modules']}, alpha={ranked[0]['alpha']}: "
                                f"{ranked[0]['points_max_error_mm']:.3f}")
@@ -328,7 +334,7 @@ def test_dask_cluster_gives_the_local_results(dask_cluster, tmp_path):
     remote = run_cli("sweep", *GRID, "--solver", "seed", "--solver", "fabrik", "--out", "dask", "--scheduler",
                      dask_cluster.scheduler_address, cwd=tmp_path)
     assert local.returncode == 0 and remote.returncode == 0, local.stderr + remote.stderr
-    assert f"36 designs on dask {dask_cluster.scheduler_address}" in remote.stdout
+    assert f"36 runs (18 designs x 2 trajectories) on dask {dask_cluster.scheduler_address}" in remote.stdout
     assert (tmp_path / "local" / "results.csv").read_bytes() == (tmp_path / "dask" / "results.csv").read_bytes()
     doc = json.loads((tmp_path / "dask" / "results.json").read_text())
     assert doc["runner"] == f"dask {dask_cluster.scheduler_address}" and doc["workers"] == 2

@@ -93,6 +93,8 @@ def test_progress_bar_on_a_terminal(tmp_path):
     (["--colons", "1", "--grid", "wings=2"], "is not a parameter a sweep can vary"),
     (["--colons", "1", "--jobs", "2", "--scheduler", "tcp://127.0.0.1:1"], "exclude each other"),
     (["--colons", "1", "--scheduler", "tcp://127.0.0.1:1"], "cannot connect to the Dask scheduler"),
+    # --physics with --no-plots was silently skipped after the whole study ran
+    (["--colons", "1", "--physics", "--no-plots"], "--physics replays the worst colon beside its figures"),
 ])
 def test_bad_input_is_one_line_and_writes_nothing(tmp_path, args, msg):
     proc = run_cli("traverse", *args, "--out", "o", cwd=tmp_path, timeout=120)
@@ -107,3 +109,15 @@ def test_output_folder_that_is_a_file_fails_before_running(tmp_path):
     proc = run_cli("traverse", "--colons", "1", "--out", "o", cwd=tmp_path, timeout=120)
     assert proc.returncode != 0 and proc.stderr.startswith("Error: ") and len(proc.stderr.strip().splitlines()) == 1
     assert (tmp_path / "o").read_text() == "not a folder"
+
+
+def test_physics_needs_mujoco_before_the_study_runs():
+    """`bhr traverse --physics` without MuJoCo ran the whole study, then refused; the check is now made first
+    (bhr.studies.physics.check_installed, named by the module; here for a module no machine has)."""
+    from bhr.settings.errors import BhrError
+    from bhr.studies.physics import check_installed
+
+    check_installed("json")
+    with pytest.raises(BhrError, match=r"^bhr_no_such_module is not installed; install the physics extra: "
+                                       r"pip install 'bhr\[physics\]'$"):
+        check_installed("bhr_no_such_module")

@@ -131,6 +131,24 @@ def test_physics_command_writes_its_set(run_bhr, tmp_path):
     assert (tmp_path / "phys" / "view.html").stat().st_size > 1e6
 
 
+def test_physics_without_out_writes_a_default_folder_named_by_the_run(run_bhr, tmp_path):
+    """As every command's, physics's output has a default folder (--out was required: 'Missing option')."""
+    run = _head(20, "thesis")
+    (tmp_path / "th").mkdir()
+    (tmp_path / "th" / "run.json").write_text(run.to_json())
+    r = run_bhr("physics", "th/run.json")
+    assert r.returncode == 0, r.stderr
+    (folder,) = (tmp_path / "bhr-out").glob("physics-th-*")
+    assert (tmp_path / "bhr-out" / "latest").resolve() == folder.resolve()
+    assert {p.name for p in folder.iterdir()} == {"physics.json", "force.png", "view.html", "manifest.json"}
+    assert f"Wrote bhr-out/{folder.name}/physics.json" in r.stdout
+    r = run_bhr("physics", "th/run.json", "--wall-stiffness", "0.5")  # other options: another folder
+    assert r.returncode == 0, r.stderr
+    assert len(list((tmp_path / "bhr-out").glob("physics-th-*"))) == 2
+    r = run_bhr("physics", "-", input=run.to_json())
+    assert r.returncode == 1 and r.stderr.startswith("Error: give --out DIR for a run read from standard input")
+
+
 @pytest.mark.parametrize("args,word", [
     (("missing.json", "--out", "p"), "missing.json"),
     (("run.json", "--out", "p", "--wall-stiffness", "0"), "wall"),

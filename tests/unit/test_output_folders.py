@@ -108,6 +108,22 @@ def test_same_settings_keep_what_the_rerun_does_not_make(tmp_path):
     assert not (out / "path.png").exists()
 
 
+def test_files_added_beside_a_run_survive_its_rerun(tmp_path):
+    """bhr plan (or replay) adds a figure to a follow run's folder; the same follow run again keeps it, as it keeps
+    its own figures (it was deleted: plan's manifest named another command and no settings)."""
+    out = tmp_path / "o"
+    write_run(out, {"run.json": "1", "codes.csv": "c"}, settings="abc")
+    write_run(out, {"thermal.png": "t"}, command="plan", keep=True)
+    doc = json.loads((out / MANIFEST).read_text())
+    assert doc["command"] == "plan" and doc["made_by"] == "follow" and doc["settings"] == "abc"
+    write_run(out, {"run.json": "2", "codes.csv": "c"}, settings="abc")  # the rerun: same settings
+    assert (out / "thermal.png").read_text() == "t" and (out / "run.json").read_text() == "2"
+    assert json.loads((out / MANIFEST).read_text())["carried_over"] == ["thermal.png"]
+    write_run(out, {"thermal.png": "t2"}, command="plan", keep=True)  # plan again, then another follow
+    write_run(out, {"run.json": "3"}, settings="other")  # other settings: the old figure is not this run's
+    assert not (out / "thermal.png").exists()
+
+
 def test_a_symbolic_link_inside_is_not_bhrs(tmp_path):
     out = tmp_path / "o"
     write_run(out, {"run.json": "1"})

@@ -43,7 +43,16 @@ def test_default_file_is_the_thesis_robot():
     for key in ROBOT_KEYS:
         key = {v: k for k, v in KEY_ALIASES.items()}.get(key, key)  # the file's name of the field
         assert key in data or f"# {key} =" in text
-    assert set(data["link"]) == set(LINK_KEYS)
+    assert set(data["link"]) | {"module_order"} == set(LINK_KEYS) and "# module_order = [1, 2, 3, 4, 5]" in text
+
+
+def test_a_copy_of_the_default_file_with_other_modules_loads(tmp_path):
+    """docs/robot-files.md says: copy the default file and edit it. A copy with `modules = 7` was refused by every
+    command (its [link] listed the module order of 5 modules) until that line was edited too."""
+    text = default_robot_file().read_text()
+    assert "\nmodules = 5 " in text
+    rf = load_robot_file(write(tmp_path / "my-robot.toml", text.replace("\nmodules = 5 ", "\nmodules = 7 ")))
+    assert rf.robot.modules == 7 and rf.link.module_order == (1, 2, 3, 4, 5, 6, 7)
 
 
 def test_code_table_is_the_one_in_bhr_codes():

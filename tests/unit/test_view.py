@@ -76,3 +76,18 @@ def test_plots_import_leaves_matplotlibs_kwdoc_as_it_was():
 
     assert matplotlib.artist.kwdoc.__module__ == "matplotlib.artist"
     assert "Properties" in matplotlib.artist.kwdoc(matplotlib.artist.Artist)
+
+
+def test_the_legend_names_a_body_only_when_the_robot_has_one():
+    """A head-only run's view listed 'robot: body' in its legend beside 'robot: head'."""
+    from bhr.model.generators import load_trajectory
+    from bhr.model.robot import Robot
+    from bhr.output.view import view_figure
+    from bhr.run.driver import follow
+
+    robot = Robot()
+    tr = load_trajectory("curve", feed=robot.feed)
+    legend = lambda fig: [d["name"] for d in fig["data"] if d.get("legendgroup") == "robot" and d.get("showlegend", 1)]
+    assert legend(view_figure(follow(tr, solver="thesis", robot=robot))) == ["robot"]
+    body = follow(tr, solver="thesis", robot=robot, body_modules=12)
+    assert legend(view_figure(body)) == ["robot: body", "robot: head"]
