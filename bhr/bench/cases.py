@@ -554,7 +554,7 @@ def case_lumen(repeat: int = 3) -> BenchResult:
     from bhr.bench.lumen import solve_times
 
     st = solve_times(1, repeats=max(1, repeat))
-    tl, ts = st["lumen_ms"] / 1e3, st["seed_ms"] / 1e3
+    tl, ts = st["lumen_ms"] / 1e3, st["thesis_ms"] / 1e3
     return BenchResult("lumen-default-anatomy", "per step", tl, ts, "thesis solve (same driver)", ts / tl,
                        "<= 2 ms median per step", tl <= 2e-3,
                        {"colon": st["colon"], "steps": st["steps"],

@@ -11,8 +11,8 @@ thesis's (5 modules of 10 mm, alpha 10 deg, radius 5 mm, feed 2 mm).
 
 Per colon, for each solver, the geometric clearance (:mod:`bhr.run.clearance`):
 ``max_penetration_mm`` and the number of wall-touch steps; then the median
-over colons and the ratios lumen / seed. And the time per step of
-``--solver lumen`` against ``--solver seed`` on one colon, both driven
+over colons and the ratios lumen / thesis. And the time per step of
+``--solver lumen`` against ``--solver thesis`` on one colon, both driven
 step by step (the same Python overhead), as a ratio measured in the same run.
 """
 from __future__ import annotations
@@ -116,7 +116,7 @@ def _metrics(res) -> dict[str, Any]:
             "max_penetration_to_cecum_mm": float(max(0.0, -np.nanmin(until))) if np.any(~np.isnan(until)) else 0.0}
 
 
-def population(seeds: list[int], solvers: tuple[str, ...] = ("seed", "lumen"), robot: Robot | None = None,
+def population(seeds: list[int], solvers: tuple[str, ...] = ("thesis", "lumen"), robot: Robot | None = None,
                solver_options: dict[str, dict[str, Any]] | None = None, progress: bool = False) -> dict[str, Any]:
     """Each solver on each colon; medians over colons and the ratios to the first solver."""
     robot = robot or Robot()
@@ -147,7 +147,7 @@ def population(seeds: list[int], solvers: tuple[str, ...] = ("seed", "lumen"), r
 
 
 def solve_times(seed: int = 1, repeats: int = 3, robot: Robot | None = None) -> dict[str, Any]:
-    """Median CPU time per ``solve()`` call along one colon, lumen and seed, driven step by step (same run)."""
+    """Median CPU time per ``solve()`` call along one colon, lumen and thesis, driven step by step (same run)."""
     robot = robot or Robot()
     tr = colon_for(seed, robot.feed)
     out: dict[str, Any] = {"colon": tr.name, "steps": int(tr.points.shape[0]), "repeats": repeats}
@@ -156,7 +156,7 @@ def solve_times(seed: int = 1, repeats: int = 3, robot: Robot | None = None) -> 
     from bhr.solvers import available, base
 
     available()  # load every solver module
-    for name in ("seed", "lumen"):
+    for name in ("thesis", "lumen"):
         per_run = []
         for _ in range(repeats + 1):  # the first run compiles
             times: list[float] = []
@@ -178,7 +178,7 @@ def solve_times(seed: int = 1, repeats: int = 3, robot: Robot | None = None) -> 
                 cls.solve = orig
             per_run.append(statistics.median(times))
         out[name + "_ms"] = 1e3 * statistics.median(per_run[1:])
-    out["lumen_over_seed"] = out["lumen_ms"] / out["seed_ms"]
+    out["lumen_over_thesis"] = out["lumen_ms"] / out["thesis_ms"]
     return out
 
 
@@ -202,20 +202,20 @@ def main(argv: list[str] | None = None) -> int:
     seeds = a.seeds
     pop = population(seeds, progress=True)
     doc: dict[str, Any] = {"population": pop}
-    med, ratio = pop["median"], pop["ratio_to_seed"]["lumen"]
+    med, ratio = pop["median"], pop["ratio_to_thesis"]["lumen"]
     print(f"{len(seeds)} colons ({pop['rows'][0]['colon']} ...), thesis robot, geometric clearance:")
-    print(f"  median max_penetration_mm  seed {med['seed']['max_penetration_mm']:.3f}  "
+    print(f"  median max_penetration_mm  thesis {med['thesis']['max_penetration_mm']:.3f}  "
           f"lumen {med['lumen']['max_penetration_mm']:.3f}  ratio {ratio['max_penetration_mm']:.3f}")
-    print(f"  median max_penetration_mm until the tip reaches the cecum  seed "
-          f"{med['seed']['max_penetration_to_cecum_mm']:.3f}  lumen {med['lumen']['max_penetration_to_cecum_mm']:.3f}"
+    print(f"  median max_penetration_mm until the tip reaches the cecum  thesis "
+          f"{med['thesis']['max_penetration_to_cecum_mm']:.3f}  lumen {med['lumen']['max_penetration_to_cecum_mm']:.3f}"
           f"  ratio {ratio['max_penetration_to_cecum_mm']:.3f}")
-    print(f"  median wall-touch steps    seed {med['seed']['wall_touch_steps']:.1f}  "
+    print(f"  median wall-touch steps    thesis {med['thesis']['wall_touch_steps']:.1f}  "
           f"lumen {med['lumen']['wall_touch_steps']:.1f}  ratio {ratio['wall_touch_steps']:.3f}")
     if not a.no_timing:
         t = solve_times(seeds[0])
         doc["timing"] = t
         print(f"  solve() per step on {t['colon']} (median of {t['repeats']} runs): lumen {t['lumen_ms']:.3f} ms, "
-              f"seed {t['seed_ms']:.3f} ms, lumen / seed {t['lumen_over_seed']:.1f}")
+              f"thesis {t['thesis_ms']:.3f} ms, lumen / thesis {t['lumen_over_thesis']:.1f}")
     if a.json:
         with open(a.json, "w", encoding="utf-8") as fh:
             json.dump(doc, fh, indent=1)

@@ -154,12 +154,7 @@ def test_printed_example_writes_under_bhr_out(where, line):
 # ------------------------------------------------------------------ one name per solver
 # The thesis's solver is `thesis` wherever bhr shows it; `seed`, its old name, is accepted but never shown.
 ALIAS_SHOWN = re.compile(r"--solver seed\b|solver=seed\b|\bseed solver\b|^\s*\d+\s+seed\s", re.M)
-# docs/lumen.md is being rewritten in another branch (its `bhr compare ... --solver seed` example is that
-# branch's to rename); every other page is held to the rule here.
-ONE_NAME_PAGES = [p for p in DOCS if p.name != "lumen.md"]
-
-
-@pytest.mark.parametrize("page", ONE_NAME_PAGES, ids=lambda p: p.name)
+@pytest.mark.parametrize("page", DOCS, ids=lambda p: p.name)
 def test_the_docs_show_the_thesis_solver_by_its_one_name(page):
     shown = [m.group(0) for m in ALIAS_SHOWN.finditer(page.read_text(encoding="utf-8"))]
     assert not shown, f"{page.name} shows the thesis's solver as 'seed': {shown[:3]}"
