@@ -54,9 +54,13 @@ def render_animation(result, animate_path: str, stride: int | None, shown: Path 
 
 
 def run_live_view(result, stride: int | None) -> None:
-    """Open the live view (blocks until the user quits) and print what it showed."""
+    """Open the live view (blocks until the user quits) and print what it showed. What the command wrote goes in
+    place first, with the summary printed (a full standard output still leaves nothing), so that its folder is
+    there while the window is open."""
+    from bhr.output.atomic import place_now
     from bhr.output.liveview import keys_help, show
 
+    place_now(check=sys.stdout.flush)
     click.echo(f"Live view: {keys_help()}", err=True)
     report = show(result, stride=stride or 1)
     click.echo(report.line(), err=True)

@@ -44,8 +44,8 @@ from bhr import __version__
 from bhr.settings.errors import INTERRUPTED, BhrError
 from bhr.settings.options import excerpt, has_control_char
 
-__all__ = ["atomic_path", "write_text", "write_json", "check_output_file", "together", "OutputFolder", "MANIFEST",
-           "in_place_target", "point_latest", "verify_folder", "INTERRUPTED", "settings_hash"]
+__all__ = ["atomic_path", "write_text", "write_json", "check_output_file", "together", "place_now", "OutputFolder",
+           "MANIFEST", "in_place_target", "point_latest", "verify_folder", "INTERRUPTED", "settings_hash"]
 
 #: The file in every output folder that ties its files to one run.
 MANIFEST = "manifest.json"
@@ -306,6 +306,21 @@ def together(check: Any = None) -> Iterator[None]:
         staged.discard()
         raise
     _together = None
+    staged.place()
+
+
+def place_now(check: Any = None) -> None:
+    """Inside :func:`together`: put what the block has staged so far in place now, after ``check()``, as its end
+    would (what it writes afterwards goes in place at its end). For a command that goes on after its outputs are
+    written, waiting on the user (the live view's window): its folder is there while the window is open. Outside a
+    block, nothing to do."""
+    staged = _together
+    if staged is None:
+        return
+    if INTERRUPTED.is_set():
+        raise KeyboardInterrupt
+    if check is not None:
+        check()
     staged.place()
 
 
