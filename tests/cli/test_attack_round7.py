@@ -17,18 +17,15 @@ import pytest
 from tests.conftest import bhr_exe, snapshot
 
 from tests.cli.test_attack_round3 import ENV, bhr, one_line  # the same checks as rounds three to five
+from tests.cli.test_attack_round5 import loose_run as loose_run_files  # noqa: F401  (a fixture)
 
 BATCH = '[[run]]\nname = "a"\ntraj = "line"\nlength = 20\n'
 
 
 @pytest.fixture(scope="module")
-def loose_run(tmp_path_factory):
-    """The run.json of a run with a lumen (21 points), outside any bhr folder."""
-    folder = tmp_path_factory.mktemp("run")
-    (folder / "lum.csv").write_text("x,y,z,lumen\n" + "".join(f"{2 * k},0,0,30\n" for k in range(21)))
-    r = bhr("follow", "--traj", "lum.csv", "--no-plots", "--out", "run", cwd=folder, timeout=300)
-    assert r.returncode == 0, r.stderr
-    return (folder / "run" / "run.json").read_text()
+def loose_run(loose_run_files):
+    """The run.json of a run with a lumen (21 points), outside any bhr folder (round five's run)."""
+    return loose_run_files[0]
 
 
 # --- standard output full or closed: the command's outputs and its summary are one set ---------------------------
