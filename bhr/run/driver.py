@@ -431,6 +431,12 @@ def _run_from_json(doc: Any, where: str) -> FollowResult:
     result = FollowResult(traj, robot, solver, pts, np.asarray(iters, dtype=np.int64), pe, oe, codes,
                           [str(m) for m in msgs] if isinstance(msgs, list) else [])
     result.body = body
+    told: dict[str, Any] = summary if isinstance(summary, dict) else {}
+    stop = told.get("feeder_stop_step")
+    if stop is not None and told.get("locomotion") != "trail":
+        if isinstance(stop, bool) or not isinstance(stop, int) or not 1 <= stop < pts.shape[0]:
+            raise bad(f"summary feeder_stop_step must be a step from 1 to {pts.shape[0] - 1}, got {excerpt(stop)}")
+        result.extra["summary"] = {"feeder_stop_step": stop}  # the robot held its pose from there (contact length)
     return result
 
 

@@ -124,3 +124,21 @@ def test_a_held_robot_travels_no_contact_length():
         touching = run.clearance.module_table <= 0.0
     assert touching[k:].any() and k < run.steps  # held in contact
     assert s["contact_length_mm"] == (touching[:k].sum(axis=0) * run.robot.feed).tolist()
+
+
+def test_a_stopped_run_reads_back_whole_and_a_bad_stop_is_refused():
+    import pytest
+
+    from bhr.run.driver import FollowResult
+    from bhr.settings.errors import BhrError
+
+    run = _quiet(tight_colon(2), solver="lumen")
+    doc = run.to_dict()
+    back = FollowResult.from_json(doc)
+    s, t = run.summary.to_dict(), back.summary.to_dict()
+    assert t["feeder_stop_step"] == s["feeder_stop_step"]
+    assert t["contact_length_mm"] == s["contact_length_mm"] and t["max_penetration_mm"] == s["max_penetration_mm"]
+    for bad in (0, True, "12", run.steps, 1e3):
+        doc["summary"]["feeder_stop_step"] = bad
+        with pytest.raises(BhrError, match="feeder_stop_step must be a step"):
+            FollowResult.from_json(doc, "r.json")
