@@ -247,7 +247,9 @@ def _interrupt(args, delay, cwd):
 
 
 @pytest.mark.parametrize("args, delay", [
-    (["follow", "--traj", "colon"], 0.2), (["follow", "--traj", "colon"], 1.3),
+    (["follow", "--traj", "colon"], 0.2),
+    # a run of 5-6 s here (the thesis's colon alone takes under 2 s, so a Ctrl-C at 1.3 s could come after its end)
+    (["follow", "--traj", "anatomy", "--seed", "3", "--solver", "lumen"], 1.3),
     # workers busy: each study runs 4-6 s here, so the Ctrl-C comes while they work
     (["sweep", "--traj", "colon", "--grid", "modules=3:12", "--grid", "alpha=6:15", "--jobs", "2"], 1.5),
     (["report", "--file", "b.toml", "--jobs", "2"], 1.5),
