@@ -146,11 +146,15 @@ def segment_scan(C, lo, hi, px, py, pz):
         ax, ay, az = C[k, 0], C[k, 1], C[k, 2]
         ux, uy, uz = C[k + 1, 0] - ax, C[k + 1, 1] - ay, C[k + 1, 2] - az
         uu = ux * ux + uy * uy + uz * uz
-        t = ((px - ax) * ux + (py - ay) * uy + (pz - az) * uz) / uu
-        if t < 0.0:
+        dot = (px - ax) * ux + (py - ay) * uy + (pz - az) * uz
+        if dot <= 0.0:  # the division only where it decides: the same t (clamped to 0..1) with less work
             t = 0.0
-        elif t > 1.0:
+        elif dot >= uu:
             t = 1.0
+        else:
+            t = dot / uu
+            if t > 1.0:
+                t = 1.0
         dx, dy, dz = px - (ax + t * ux), py - (ay + t * uy), pz - (az + t * uz)
         d2 = dx * dx + dy * dy + dz * dz
         if d2 < best:

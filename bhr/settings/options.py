@@ -163,10 +163,10 @@ OPTIONS: tuple[Option, ...] = (
     Option("warmup", _C, int, "Unconstrained warm-up iterations of the constrained solvers", 10),
     # --solver optimal (bhr.solvers.optimal, docs/optimal.md) and --solver lumen (bhr.solvers.lumen, docs/lumen.md);
     # ranges checked by the solver
-    Option("lookahead", _S, int, "optimal, lumen: steps the base module's tilt is planned ahead (lumen [12])", 10,
-           solvers=_OPT + _LUM, metavar="STEPS", solver_defaults=(("lumen", 12),)),
-    Option("beam", _S, int, "optimal, lumen: base-tilt sequences kept while planning (lumen [5])", 10,
-           solvers=_OPT + _LUM, metavar="N", solver_defaults=(("lumen", 5),)),
+    Option("lookahead", _S, int, "optimal, lumen: steps the base module's tilt is planned ahead (lumen [10])", 10,
+           solvers=_OPT + _LUM, metavar="STEPS", solver_defaults=(("lumen", 10),)),
+    Option("beam", _S, int, "optimal, lumen: base-tilt sequences kept while planning (lumen [4])", 10,
+           solvers=_OPT + _LUM, metavar="N", solver_defaults=(("lumen", 4),)),
     Option("point_weights", _S, "weights", "optimal: weight of each point's squared error, base to tip", 1.0,
            solvers=_OPT, metavar="W|W0,..,Wn"),
     Option("ori_weight", _S, float, "optimal, lumen: tip orientation weight, mm of error per degree (lumen [0.1])",

@@ -41,6 +41,10 @@ ranks its sequences first by the deepest penetration of their history (the
 run is judged by it; the summed cost can prefer one deep contact to a long
 shallow one), in steps of :data:`DEPTH_STEP` mm, then by their summed cost.
 With ``lookahead = 0`` the solver is the exact per-step optimum over all modules.
+Two shortcuts change no answer: the beam stops the search of a candidate
+that it can show it will not keep (:func:`_kept_bound`), and a search
+discards a module whose far end already reaches its bound before measuring
+the module's middle.
 
 The nearest-point search of the solver starts from the previous sample's
 nearest point and scans outwards while it improves (capped by the window),
@@ -84,6 +88,8 @@ RANK_SPAN = 1e12
 #: Two beam members closer than this (mm, and unit-vector difference of their frames) count as one.
 DEDUP_MM = 1.0
 DEDUP_DIR = 0.06
+#: The cost of a candidate the beam's search cut (it could not have been kept).
+_CUT = 1e300
 
 
 # ---------------------------------------------------------------------------
@@ -148,13 +154,19 @@ def _schedule(a, e, sp, prm):
 
 
 @njit(cache=True)
-def _module_cost(C, Q, R, pre, w, g, e0, ef, A, B, cA, radius, margin, ww, wc, prm, sp, pre0, dR, res, tmp, out):
+def _module_cost(C, Q, R, pre, w, g, e0, ef, A, B, cA, radius, margin, ww, wc, prm, sp, pre0, dR, res, tmp, out,
+                 v0, bound, frames, lv, last, wo):
     """Cost of the module A->B: its far end (wall and centerline) and, where the wall may be near, its middle
     (wall only). ``cA`` is A's clearance; out[0] gets B's. res[1]: the far end's segment.
 
     The clearance changes by at most 1 mm per mm moved plus the change of the lumen radius (at most ``dR``
     over half a module), so the middle is skipped when both ends clear the margin by more than half a
     module plus ``dR``: its wall term is then zero.
+
+    The caller's search discards the module when ``v0`` plus its cost (plus, for the tip module (``last``), the
+    tip term of ``frames[lv]`` with weight ``wo``) reaches ``bound``; as the middle's term is not negative, that
+    is known before the middle is measured, and the cost of the far end alone is returned then (the same
+    decision, less work).
     """
     half = int(0.5 * ef)  # guesses: the centerline runs on by about half a module per half module of robot
     _near(C, pre, w, g + int(ef), e0 + ef, B[0], B[1], B[2], res, tmp)
@@ -162,6 +174,11 @@ def _module_cost(C, Q, R, pre, w, g, e0, ef, A, B, cA, radius, margin, ww, wc, p
     a = _along(res, pre0, e0 + ef, sp)
     cost += wc * res[0] + _schedule(a, e0 + ef, sp, prm) + _race(Q, res, prm[13], B[0], B[1], B[2])
     out[0] = cB
+    v = v0 + cost
+    if v >= bound:
+        return cost
+    if last and v + _tip_term(C, int(res[1]), frames[lv], wo) >= bound:
+        return cost
     gB = res[1]
     tB = res[2]
     dB = res[0]
@@ -195,10 +212,13 @@ def _place(frames, pts, lv, q, c, s, L):
 
 
 @njit(cache=True)
-def _head_search(C, Q, R, pre, w, step, n, f, L, c, s, T, prm, best_codes, frames, pts, part, guess, choice, res, tmp):
+def _head_search(C, Q, R, pre, w, step, n, f, L, c, s, T, prm, best_codes, frames, pts, part, guess, choice, res, tmp,
+                 cap):
     """Exact branch and bound over modules 2..n with module 1's frame in ``frames[0]`` and ``pts[0]`` the base.
 
     prm = (radius, margin, w_wall, w_center, w_track, w_ori). Returns the best cost; codes in best_codes[1:].
+    ``cap``: only a cost below it matters to the caller; when the best is not below it, returns :data:`_CUT`
+    (codes undefined) as soon as that is known.
     """
     radius, margin, ww, wc, wt, wo = prm[0], prm[1], prm[2], prm[3], prm[4], prm[5]
     e0 = float(step - n * f)
@@ -214,7 +234,8 @@ def _head_search(C, Q, R, pre, w, step, n, f, L, c, s, T, prm, best_codes, frame
     for b in range(3):
         pts[1, b] = pts[0, b] + L * frames[0, 2, b]
     part[1] = part[0] + _module_cost(C, Q, R, pre, w, guess[0], e0, float(f), pts[0], pts[1], clr[0], radius, margin,
-                                     ww, wc, prm, sp, pre0, dR, res, tmp, cout) + wt * dist2(pts[1], T[1])
+                                     ww, wc, prm, sp, pre0, dR, res, tmp, cout, 0.0, 1e300, frames, 0, False,
+                                     wo) + wt * dist2(pts[1], T[1])
     clr[1] = cout[0]
     guess[1] = int(res[1])
     best_codes[0] = 0
@@ -231,7 +252,8 @@ def _head_search(C, Q, R, pre, w, step, n, f, L, c, s, T, prm, best_codes, frame
             if v >= bv:
                 continue
             v += _module_cost(C, Q, R, pre, w, guess[lv], float(step - (n - lv) * f), float(f), pts[lv], pts[lv + 1],
-                              clr[lv], radius, margin, ww, wc, prm, sp, pre0, dR, res, tmp, cout)
+                              clr[lv], radius, margin, ww, wc, prm, sp, pre0, dR, res, tmp, cout, v, bv, frames,
+                              lv, lv == n - 1, wo)
             if lv == n - 1:
                 v += _tip_term(C, int(res[1]), frames[lv], wo)
             if v < bv:
@@ -246,6 +268,9 @@ def _head_search(C, Q, R, pre, w, step, n, f, L, c, s, T, prm, best_codes, frame
     for q in range(1, n):
         best_codes[q] = choice[q]
     best *= 1.0 + 1e-12  # the exact search below may find the same configuration again: let it
+    capped = cap < best
+    if capped:  # the same search with a lower bound to cut with: the same best when it is below the cap
+        best = cap
     lvl = 1
     choice[1] = -1
     while lvl >= 1:
@@ -258,7 +283,8 @@ def _head_search(C, Q, R, pre, w, step, n, f, L, c, s, T, prm, best_codes, frame
         if v >= best:
             continue
         v += _module_cost(C, Q, R, pre, w, guess[lvl], float(step - (n - lvl) * f), float(f), pts[lvl], pts[lvl + 1],
-                          clr[lvl], radius, margin, ww, wc, prm, sp, pre0, dR, res, tmp, cout)
+                          clr[lvl], radius, margin, ww, wc, prm, sp, pre0, dR, res, tmp, cout, v, best, frames,
+                          lvl, lvl == n - 1, wo)
         if v >= best:
             continue
         clr[lvl + 1] = cout[0]
@@ -269,19 +295,21 @@ def _head_search(C, Q, R, pre, w, step, n, f, L, c, s, T, prm, best_codes, frame
         else:
             lvl += 1
             choice[lvl] = -1
+    if capped and best >= cap:
+        return _CUT
     return best
 
 
 @njit(cache=True)
 def _head_cost(C, Q, R, pre, w, P0, F1, step, n, f, L, c, s, T, prm, best_codes, frames, pts, part, guess, choice,
-               res, tmp):
+               res, tmp, cap):
     for a in range(3):
         for b in range(3):
             frames[0, a, b] = F1[a, b]
     for b in range(3):
         pts[0, b] = P0[b]
     return _head_search(C, Q, R, pre, w, step, n, f, L, c, s, T, prm, best_codes, frames, pts, part, guess, choice,
-                        res, tmp)
+                        res, tmp, cap)
 
 
 # ---------------------------------------------------------------------------
@@ -317,31 +345,108 @@ def _head_depth(C, R, pre, w, k, n, f, L, c, s, radius, F1, P0, best_codes, fram
 
 
 @njit(cache=True)
+def _far(cP, cF, i, j, dpos, ddir):
+    """Candidates ``i`` and ``j`` are too far apart for any third one to be a near-duplicate (as :func:`beam_keep`
+    counts them) of both: twice the distances, by the triangle inequality, with a rounding margin."""
+    if dpos <= 0.0 or ddir <= 0.0:
+        return True
+    g = 4.0 * (1.0 + 1e-9)
+    if dist2(cP[i], cP[j]) >= g * dpos * dpos:
+        return True
+    return dist2(cF[i, 1], cF[j, 1]) + dist2(cF[i, 2], cF[j, 2]) >= g * ddir * ddir
+
+
+@njit(cache=True)
+def _kept_bound(cC, cP, cF, done, m, B, sorted_buf, pick):
+    """A key that the last member the beam keeps cannot exceed, from the candidates searched so far (``done``):
+    the largest key of ``B`` of them that are pairwise :func:`_far` (chosen cheapest first). Every one of those is
+    either kept or the near-duplicate of a distinct kept candidate of no larger key, so the beam is full before any
+    key above it. ``inf`` while there are not ``B`` such candidates."""
+    cnt = 0
+    for j in range(m):  # insertion by key, equal keys in index order (as beam_keep's stable sort)
+        if not done[j]:
+            continue
+        u = cnt
+        while u > 0 and cC[sorted_buf[u - 1]] > cC[j]:
+            sorted_buf[u] = sorted_buf[u - 1]
+            u -= 1
+        sorted_buf[u] = j
+        cnt += 1
+    got = 0
+    for u in range(cnt):
+        r = sorted_buf[u]
+        ok = True
+        for v in range(got):
+            if not _far(cP, cF, pick[v], r, DEDUP_MM, DEDUP_DIR):
+                ok = False
+                break
+        if ok:
+            pick[got] = r
+            got += 1
+            if got >= B:
+                return cC[r]
+    return math.inf
+
+
+@njit(cache=True)
 def _beam_expand(bP, bF, bC, bH, state, cP, cF, cC, cPar, cA, order_buf, bM, cM, cS, C, Q, R, pre, w, path, dirs, n,
                  f, feed, L, c, s, prm, T, d, best_codes, frames, pts, part, guess, choice, res, tmp, F1):
     """Expand every member by the five base tilts at step ``state[1]`` and keep the best distinct ones: ranked first
     by the deepest penetration of their whole history (``bM``, in steps of :data:`DEPTH_STEP` mm), then by their
-    summed cost (``bC``)."""
+    summed cost (``bC``).
+
+    The ranking key of a candidate is ``depth step * RANK_SPAN + min(summed cost - low, RANK_SPAN / 2)``, ``low``
+    the cheapest member's summed cost (every cost is non-negative, so no candidate is below it). The members are
+    searched best first; once ``B`` pairwise distant candidates are known (:func:`_kept_bound`), a candidate whose
+    key must exceed theirs cannot be kept, so its search stops as soon as its cost shows it (the same beam as
+    searching every candidate whole: ``prm[14] = 0`` does that, for the tests)."""
     nb = state[0]
     k = state[1]
+    B = bP.shape[0]
     step_targets(path, dirs, k, n, f, feed, T, d)
-    m = 0
-    for q in range(nb):
-        for a in range(5):
-            _rot(bF[q], a, c, s, F1)
-            cost = _head_cost(C, Q, R, pre, w, bP[q], F1, k, n, f, L, c, s, T, prm, best_codes, frames, pts, part,
-                              guess, choice, res, tmp)
-            deep = _head_depth(C, R, pre, w, k, n, f, L, c, s, prm[0], F1, bP[q], best_codes, frames, pts, res, tmp)
-            beam_candidate(bP, bF, bC, q, a, F1, cost, feed, m, cP, cF, cC, cPar, cA)
-            cM[m] = max(bM[q], math.floor(deep / DEPTH_STEP)) if deep > 0.0 else bM[q]
-            m += 1
-    # the ranking key: the depth's step first, the summed cost (relative to the cheapest candidate) within a step
+    m = 5 * nb
     low = 1e300
-    for j in range(m):
-        cS[j] = cC[j]
-        low = min(low, cC[j])
-    for j in range(m):
-        cC[j] = cM[j] * RANK_SPAN + min(cS[j] - low, 0.5 * RANK_SPAN)
+    for q in range(nb):
+        low = min(low, bC[q])
+    done = np.zeros(m, dtype=np.bool_)
+    sorted_buf = np.empty(m, dtype=np.int64)
+    pick = np.empty(B, dtype=np.int64)
+    prune = prm[14] != 0.0 and m > B
+    bound = math.inf
+    fresh = 0  # candidates searched since the bound was last worked out
+    for q in range(nb):  # the members are in the order of their keys: best first
+        base = bM[q] * RANK_SPAN
+        for a in range(5):
+            j = 5 * q + a
+            _rot(bF[q], a, c, s, F1)
+            cap = 1e300
+            if bound < math.inf:
+                slack = 1e-9 + 1e-14 * (abs(bound) + abs(bC[q]) + abs(low))
+                rest = bound - base
+                if rest < -slack:
+                    cap = -1.0  # a deeper history than the bound: cannot be kept, whatever this step costs
+                elif rest + slack < 0.5 * RANK_SPAN:
+                    cap = rest + slack - bC[q] + low
+            if cap < 0.0:
+                cost = _CUT
+            else:
+                cost = _head_cost(C, Q, R, pre, w, bP[q], F1, k, n, f, L, c, s, T, prm, best_codes, frames, pts, part,
+                                  guess, choice, res, tmp, cap)
+            beam_candidate(bP, bF, bC, q, a, F1, 0.0 if cost == _CUT else cost, feed, j, cP, cF, cC, cPar, cA)
+            if cost == _CUT:
+                cS[j] = _CUT
+                cM[j] = bM[q]
+                cC[j] = _CUT
+                continue
+            deep = _head_depth(C, R, pre, w, k, n, f, L, c, s, prm[0], F1, bP[q], best_codes, frames, pts, res, tmp)
+            cM[j] = max(bM[q], math.floor(deep / DEPTH_STEP)) if deep > 0.0 else bM[q]
+            cS[j] = cC[j]
+            cC[j] = cM[j] * RANK_SPAN + min(cS[j] - low, 0.5 * RANK_SPAN)
+            done[j] = True
+            fresh += 1
+            if prune and fresh >= 1 + (j >> 3):
+                bound = _kept_bound(cC, cP, cF, done, m, B, sorted_buf, pick)
+                fresh = 0
     beam_keep(cP, cF, cC, cPar, cA, m, order_buf, bP, bF, bC, bH, state, k, DEDUP_MM, DEDUP_DIR)
     for u in range(state[0]):
         r = order_buf[u]
@@ -395,7 +500,7 @@ def _lumen_step(P, E1, E2, i, bP, bF, bC, bH, state, cP, cF, cC, cPar, cA, order
     step_targets(path, dirs, i, n, f, feed, T, d)
     _rot(F, a0, c, s, F1)
     cost = _head_cost(C, Q, R, pre, w, P0, F1, i, n, f, L, c, s, T, prm, best_codes, frames, pts, part, guess, choice,
-                      res, tmp)
+                      res, tmp, 1e300)
     best_codes[0] = a0
     write_pose(F, best_codes, c, s, L, alpha, frames, P, E1, E2, out_codes, tilts)
     return layers, cost
@@ -451,7 +556,8 @@ def head_search(tube, robot, settings: dict[str, float], path: np.ndarray, step:
     frames, pts, res, tmp = np.empty((n, 3, 3)), np.empty((n + 1, 3)), np.empty(3), np.empty(3)
     cost = _head_cost(tube.points, Q, tube.radius, float(tube.pre), float(tube.window), P0, F1, step, n,
                       robot.feed_divisor, float(robot.module_length), math.cos(a), math.sin(a), T, prm, best, frames,
-                      pts, np.empty(n + 1), np.zeros(n + 1, dtype=np.int64), np.zeros(n, dtype=np.int64), res, tmp)
+                      pts, np.empty(n + 1), np.zeros(n + 1, dtype=np.int64), np.zeros(n, dtype=np.int64), res, tmp,
+                      1e300)
     deep = _head_depth(tube.points, tube.radius, float(tube.pre), float(tube.window), step, n, robot.feed_divisor,
                        float(robot.module_length), math.cos(a), math.sin(a), float(robot.radius), F1, P0, best,
                        frames, pts, res, tmp)
@@ -466,7 +572,7 @@ def lumen_config_cost(tube, robot, settings: dict[str, float], path: np.ndarray,
     """
     n, f = robot.modules, robot.feed_divisor
     prm = _prm(robot, settings, tube)
-    radius, margin, ww, wc, wt, wo, dR, wa, sp, _, wl, slack, end, wr = prm
+    radius, margin, ww, wc, wt, wo, dR, wa, sp, _, wl, slack, end, wr = prm[:14]
     Q = tube.points if line is None else np.asarray(line, dtype=float)
     path = np.asarray(path, dtype=float)
     dirs = np.diff(path, axis=0)
@@ -527,8 +633,9 @@ def _radius_near(tube, p: np.ndarray, e: float) -> float:
     return float(tube.radius[k] + t * (tube.radius[k + 1] - tube.radius[k]))
 
 
-def _prm(robot, settings: dict[str, float], tube=None) -> np.ndarray:
-    """Kernel settings: radius, margin, weights, and the largest change of the lumen radius along one module."""
+def _prm(robot, settings: dict[str, float], tube=None, prune: bool = True) -> np.ndarray:
+    """Kernel settings: radius, margin, weights, the largest change of the lumen radius along one module, and
+    whether the beam cuts the searches of candidates it cannot keep (``prune``: the same beam either way)."""
     dR = 0.0
     sp = float(robot.feed)
     pre = 0.0
@@ -544,7 +651,7 @@ def _prm(robot, settings: dict[str, float], tube=None) -> np.ndarray:
                      settings["track_weight"], (settings["ori_weight"] * DEG) ** 2, dR, settings["along_weight"], sp,
                      pre, settings.get("lead_weight", DEFAULTS["lead_weight"]),
                      settings.get("lead_slack", DEFAULTS["lead_slack"]), end,
-                     settings.get("racing_weight", DEFAULTS["racing_weight"])], dtype=np.float64)
+                     settings.get("racing_weight", DEFAULTS["racing_weight"]), float(prune)], dtype=np.float64)
 
 
 def planned_line(tube: Tube, robot, margin: float) -> np.ndarray:
@@ -600,7 +707,8 @@ class Lumen(Optimal):
         self._tube: Tube | None = None
         self._tube_path: np.ndarray | None = None  # the points the tube was made from (held)
         self._checked_path: np.ndarray | None = None
-        self._prm_cache = np.zeros(14)
+        self._prm_cache = np.zeros(15)
+        self._prune_beam = True  # False: the beam searches every candidate whole (the same beam; for the tests)
         self._line: np.ndarray | None = None  # the racing line, one point per tube point (None: the centerline)
         self._lag = np.zeros(1)
 
@@ -636,7 +744,7 @@ class Lumen(Optimal):
                 raise BhrError("--solver lumen was not given this path's lumen; run it through bhr.follow with a "
                                "trajectory that has a lumen")
             self._checked_path = path
-            self._prm_cache = _prm(self.robot, self.settings, t)
+            self._prm_cache = _prm(self.robot, self.settings, t, self._prune_beam)
             if self.racing_weight > 0.0 and self._line is None:
                 self._line = planned_line(t, self.robot, self.margin)
         return t.points, (t.points if self._line is None else self._line), t.radius, float(t.pre), float(t.window)

@@ -148,3 +148,18 @@ def test_the_depth_the_beam_ranks_by_is_the_best_heads_deepest_sample_in_numpy(t
             mid = 0.5 * (pts[j] + pts[j - 1])
             want = max(want, -nearest_numpy(tube, robot.radius, mid, k + (j - 0.5) * f + tube.pre)[0])
     assert got == pytest.approx(want, abs=1e-9)
+
+
+@settings(max_examples=8, deadline=None)
+@given(seed=st.integers(1, 10_000), beam=st.integers(1, 7), lookahead=st.integers(0, 12), modules=st.integers(2, 5))
+def test_the_beam_cutting_candidates_it_cannot_keep_is_the_beam_that_searches_them_all(seed, beam, lookahead, modules):
+    """The beam stops the search of a candidate as soon as it is sure the candidate cannot be kept: the same codes
+    and the same robot at every step as searching every candidate whole."""
+    tr = tight_colon(seed)
+    runs = []
+    for prune in (True, False):
+        s = get_solver("lumen", Robot(modules=modules), beam=beam, lookahead=lookahead)
+        s._prune_beam = prune
+        runs.append(quiet_follow(tr, solver=s, modules=modules))
+    assert np.array_equal(runs[0].codes, runs[1].codes)
+    assert np.array_equal(runs[0].points, runs[1].points)

@@ -21,7 +21,7 @@ def test_robot_defaults_are_the_registry_defaults():
     assert set(FILE_KEYS) == set(fields)
     assert DEFAULTS == {o.name: o.default for o in by_group("solver") if "optimal" in o.solvers}
     assert set(LUMEN_DEFAULTS) == {o.name for o in by_group("solver") if "lumen" in o.solvers}
-    assert LUMEN_DEFAULTS["beam"] == 5 and LUMEN_DEFAULTS["lookahead"] == 12  # docs/lumen.md
+    assert LUMEN_DEFAULTS["beam"] == 4 and LUMEN_DEFAULTS["lookahead"] == 10  # docs/lumen.md
     assert LUMEN_DEFAULTS["wall_weight"] == 1000.0 and LUMEN_DEFAULTS["racing_weight"] == 0.05
 
 
