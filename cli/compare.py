@@ -7,6 +7,7 @@ from pathlib import Path
 
 import click
 
+from bhr.model.trajnames import traj_help
 from bhr.cli._common import (check_parent_folder, check_writable, guarded, input_files, json_in_folder,
                              run_folder_name)
 from bhr.cli._options import (build_robot, lumen_options, optimal_options, pop_solver_options, pop_trajectory,
@@ -15,8 +16,7 @@ from bhr.cli._options import (build_robot, lumen_options, optimal_options, pop_s
 
 @click.command()
 @click.option("--traj", default=None, metavar="NAME|PATH",
-              help="line, curve, spiral, colon, anatomy (--seed N), a shipped anatomy-* colon, or a trajectory file: "
-                   ".toml (segments) or .csv (points). Required.")
+              help=traj_help() + " Required.")
 @trajectory_options
 @click.option("--solver", "solvers", multiple=True, metavar="NAME",
               help="A solver to run; give it once per solver, the first is the reference [thesis, optimal].")

@@ -15,14 +15,14 @@ from bhr.cli._progress import announce_compiles, status
 from bhr.cli._link import (at_end_option, end_text, exit_interrupted, fault_printer, link_options, link_settings,
                            schedule_option, stop_on_signals, thermal_params)
 from bhr.cli.replay import STRIDE_HELP, check_view_options, run_live_view
+from bhr.model.trajnames import traj_help
 from bhr.cli._options import (rate_type, PlainIntRange, build_robot, constraint_options, lumen_options,
                               optimal_options, pop_constraints, pop_solver_options, pop_trajectory, robot_options,
                               run_options, trajectory_options)
 
 @click.command()
 @click.option("--traj", required=True, metavar="NAME|PATH",
-              help="line, curve, spiral, colon, anatomy (--seed N), a shipped anatomy-* colon, or a trajectory file: "
-                   ".toml (segments) or .csv (points).")
+              help=traj_help())
 @trajectory_options
 @click.option("--solver", default="thesis", show_default=True,
               help="thesis (the thesis's algorithm), constrained, fabrik, ccd, optimal, lumen (keeps "

@@ -24,6 +24,13 @@ def _status_text(result, robot) -> str:
     return f"not reached: {result.reason}"
 
 
+def plot_title(solver: str, target, result) -> str:
+    """The figure's title: the solver, the target and the verdict of the table's ``status`` row."""
+    its = f"{result.iterations} iteration" + ("" if result.iterations == 1 else "s")
+    return (f"{solver}: target ({', '.join(f'{v:g}' for v in target)}), {result.status or 'not judged'}, "
+            f"{result.position_error_mm:.3g} mm off, {its}")
+
+
 @click.command()
 @click.option("--target", nargs=3, type=MM, required=True, metavar="X Y Z", help="Target point.")
 @click.option("--orientation", nargs=3, type=MM, default=None, metavar="X Y Z",
@@ -96,5 +103,4 @@ def _write_outputs(json_path, plot_path, doc, robot, solver, target, result) -> 
         from bhr.solvers import Chain
 
         initial = Chain.straight(robot, (0, 1, 0)).points
-        title = f"{solver}: target ({', '.join(f'{v:g}' for v in target)}), {result.iterations} iterations"
-        save_figure(chain_figure(initial, result.points, target, None, title), plot_path)
+        save_figure(chain_figure(initial, result.points, target, None, plot_title(solver, target, result)), plot_path)

@@ -14,7 +14,8 @@ from pathlib import Path
 from bhr.settings.inputs import broken_link, did_you_mean, excerpt
 from bhr.settings.errors import BhrError
 
-__all__ = ["GENERATOR_NAMES", "trajectory_folder", "shipped_csvs", "builtin_names", "check_trajectory_name"]
+__all__ = ["GENERATOR_NAMES", "trajectory_folder", "shipped_csvs", "builtin_names", "check_trajectory_name",
+           "traj_help"]
 
 #: The generators' names (the keys of ``bhr.model.generators.GENERATORS``, in that order).
 GENERATOR_NAMES = ("line", "curve", "spiral", "colon", "anatomy")
@@ -43,6 +44,14 @@ def shipped_csvs() -> dict[str, Path]:
 def builtin_names() -> list[str]:
     """Names ``load_trajectory`` knows: the generators, then the shipped point files (trajectories/NAME.csv)."""
     return list(GENERATOR_NAMES) + sorted(shipped_csvs())
+
+
+def traj_help() -> str:
+    """The ``--traj`` help: every name :func:`check_trajectory_name` accepts, from the same lists."""
+    shipped = sorted(shipped_csvs())
+    files = f"a shipped point file ({', '.join(shipped)}), " if shipped else ""
+    return (f"{', '.join(GENERATOR_NAMES)} (anatomy: --seed N), {files}or a trajectory file: .toml (segments) "
+            "or .csv (points).")
 
 
 def check_trajectory_name(key: str | os.PathLike[str]) -> None:
