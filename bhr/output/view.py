@@ -175,11 +175,15 @@ def view_figure(result, contacts: Sequence[np.ndarray] | None = None, title: str
     pad = (float(np.max(tr.lumen)) / 2 if tr.lumen is not None else 0.0) + VIEW_MARGIN_MM
     lo, hi = path.min(axis=0) - pad, path.max(axis=0) + pad
     span = hi - lo
+    # ticks in proportion to each axis's share of the box: a flat path's short axis gets two or three, not a
+    # crowd of labels on top of each other
+    ratio = span / span.max()
     axes = {f"{a}axis": dict(title=dict(text=f"{a} (mm)"), range=[round(float(lo[k]), 1), round(float(hi[k]), 1)],
-                             autorange=False) for k, a in enumerate("xyz")}
+                             autorange=False, nticks=int(max(2, min(8, round(8 * float(ratio[k]))))))
+            for k, a in enumerate("xyz")}
     layout = dict(title=dict(text=name), sliders=[slider], updatemenus=[play], margin=dict(l=0, r=0, t=40, b=0),
-                  scene=dict(aspectmode="manual", aspectratio={a: float(span[k] / span.max())
-                                                               for k, a in enumerate("xyz")}, **axes),
+                  scene=dict(aspectmode="manual", aspectratio={a: float(ratio[k]) for k, a in enumerate("xyz")},
+                             **axes),
                   legend=dict(x=0.0, y=1.0), uirevision="keep")
     return dict(data=data, layout=layout, frames=frames)
 

@@ -91,3 +91,23 @@ def test_the_legend_names_a_body_only_when_the_robot_has_one():
     assert legend(view_figure(follow(tr, solver="thesis", robot=robot))) == ["robot"]
     body = follow(tr, solver="thesis", robot=robot, body_modules=12)
     assert legend(view_figure(body)) == ["robot: body", "robot: head"]
+
+
+def test_a_flat_paths_short_axis_gets_few_tick_labels():
+    """The thesis's colon lies in a plane: its z axis is a sliver of the box, so it gets two or three tick labels
+    (plotly's default crowds them on top of each other there); the longest axis gets eight."""
+    from bhr.model.generators import load_trajectory
+    from bhr.model.robot import Robot
+    from bhr.output.view import view_figure
+    from bhr.run.driver import follow
+
+    robot = Robot()
+    run = follow(load_trajectory("colon", feed=robot.feed), solver="thesis", robot=robot)
+    scene = view_figure(run)["layout"]["scene"]
+    ratio = scene["aspectratio"]
+    assert ratio["z"] < 0.2 and max(ratio.values()) == 1.0
+    longest = max(ratio, key=ratio.get)
+    assert scene[f"{longest}axis"]["nticks"] == 8
+    assert 2 <= scene["zaxis"]["nticks"] <= 3
+    for a in "xyz":
+        assert scene[f"{a}axis"]["nticks"] == max(2, min(8, round(8 * ratio[a])))
