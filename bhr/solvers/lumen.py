@@ -70,7 +70,7 @@ from bhr.model.tube import (Tube, lumen_end_of, make_tube, nearest_numpy, point_
 from bhr.settings.errors import BhrError
 from bhr.settings.options import solver_defaults
 from bhr.kinematics.frames import tilt_frame as _rot
-from bhr.kinematics.leader import advance_kernel, finish_step, tip_angle
+from bhr.kinematics.leader import advance_kernel, finish_step, stable_argsort, tip_angle
 from bhr.solvers.base import Chain, FollowContext, SolveResult, register
 from bhr.solvers.optimal import (CODE_OF, DEG, Optimal, beam_candidate, beam_commit, beam_keep, beam_reset, dist2,
                                  frame_of_chain, keep_best, setting_number, step_targets, write_pose)
@@ -357,24 +357,18 @@ def _far(cP, cF, i, j, dpos, ddir):
 
 
 @njit(cache=True)
-def _kept_bound(cC, cP, cF, done, m, B, sorted_buf, pick):
+def _kept_bound(cC, cP, cF, done, m, B, keys, pick):
     """A key that the last member the beam keeps cannot exceed, from the candidates searched so far (``done``):
-    the largest key of ``B`` of them that are pairwise :func:`_far` (chosen cheapest first). Every one of those is
-    either kept or the near-duplicate of a distinct kept candidate of no larger key, so the beam is full before any
-    key above it. ``inf`` while there are not ``B`` such candidates."""
-    cnt = 0
-    for j in range(m):  # insertion by key, equal keys in index order (as beam_keep's stable sort)
-        if not done[j]:
-            continue
-        u = cnt
-        while u > 0 and cC[sorted_buf[u - 1]] > cC[j]:
-            sorted_buf[u] = sorted_buf[u - 1]
-            u -= 1
-        sorted_buf[u] = j
-        cnt += 1
+    the largest key of ``B`` of them that are pairwise :func:`_far` (chosen cheapest first, equal keys in index
+    order as :func:`beam_keep`'s sort). Every one of those is either kept or the near-duplicate of a distinct kept
+    candidate of no larger key, so the beam is full before any key above it. ``inf`` while there are not ``B``
+    such candidates."""
+    for j in range(m):
+        keys[j] = cC[j] if done[j] else math.inf
     got = 0
-    for u in range(cnt):
-        r = sorted_buf[u]
+    for r in stable_argsort(keys, m):
+        if not done[r]:
+            break
         ok = True
         for v in range(got):
             if not _far(cP, cF, pick[v], r, DEDUP_MM, DEDUP_DIR):
@@ -409,7 +403,7 @@ def _beam_expand(bP, bF, bC, bH, state, cP, cF, cC, cPar, cA, order_buf, bM, cM,
     for q in range(nb):
         low = min(low, bC[q])
     done = np.zeros(m, dtype=np.bool_)
-    sorted_buf = np.empty(m, dtype=np.int64)
+    keys = np.empty(m)
     pick = np.empty(B, dtype=np.int64)
     prune = prm[14] != 0.0 and m > B
     bound = math.inf
@@ -445,7 +439,7 @@ def _beam_expand(bP, bF, bC, bH, state, cP, cF, cC, cPar, cA, order_buf, bM, cM,
             done[j] = True
             fresh += 1
             if prune and fresh >= 1 + (j >> 3):
-                bound = _kept_bound(cC, cP, cF, done, m, B, sorted_buf, pick)
+                bound = _kept_bound(cC, cP, cF, done, m, B, keys, pick)
                 fresh = 0
     beam_keep(cP, cF, cC, cPar, cA, m, order_buf, bP, bF, bC, bH, state, k, DEDUP_MM, DEDUP_DIR)
     for u in range(state[0]):
