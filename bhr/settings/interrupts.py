@@ -4,7 +4,9 @@
 sets :data:`bhr.settings.errors.INTERRUPTED` (so that a KeyboardInterrupt caught
 somewhere on the way still ends the command, and no output folder is put in
 place once it is set), and a ``sys.excepthook`` for a Ctrl-C that reaches the
-top before any command's guard runs (while modules are still importing). It
+top before any command's guard runs (while modules are still importing), and a ``sys.unraisablehook`` for
+one raised where Python can only print it and go on (a weakref callback, a finalizer): it is raised again a
+few ms later in the command's own code. It
 is installed by the command line only: ``bhr/__init__`` calls it first thing
 when the running program is the ``bhr`` console script, ``bhr.cli`` otherwise;
 a program that imports the library keeps Python's own handling.
@@ -51,6 +53,8 @@ def _in_extension_init(frame: object) -> bool:
         code = getattr(f, "f_code", None)
         if code is None:
             break
+        if code.co_name == "cb" and code.co_filename == "<frozen importlib._bootstrap>":
+            return True  # the weakref callback of an import's module lock: "Exception ignored in" and lost
         if code.co_name == "__del__":  # a finalizer (llvmlite's ObjectRef): Python would print the
             return True                # KeyboardInterrupt as "Exception ignored in ..." and a traceback
         if code.co_name in _C_CALLBACKS and "llvmlite" in code.co_filename:  # a ctypes callback of numba's
@@ -94,6 +98,24 @@ def _on_interrupt(signum: int, frame: object) -> None:
         signal.setitimer(signal.ITIMER_REAL, 0.01)
         return
     raise KeyboardInterrupt
+
+
+def _unraisablehook(args: object) -> None:
+    """A Ctrl-C raised where Python cannot raise it (a weakref callback such as importlib's module-lock ``cb``, a
+    finalizer, a ctypes callback, wherever the frame check above does not foresee) would be printed as
+    "Exception ignored in ..." with a traceback and lost: it is raised again a few ms later, in the command's
+    own code, instead. Any other unraisable exception goes to Python's hook as before."""
+    if issubclass(getattr(args, "exc_type", type(None)) or type(None), KeyboardInterrupt):
+        try:
+            signal.signal(signal.SIGALRM, _raise_when_clear)
+            signal.setitimer(signal.ITIMER_REAL, 0.01)
+            return
+        except (AttributeError, ValueError, OSError):  # not the main thread, or no timers: as Python would
+            pass
+    _previous_unraisable(args)  # type: ignore[arg-type]
+
+
+_previous_unraisable = sys.unraisablehook
 
 
 def _excepthook(kind: type[BaseException], exc: BaseException, tb: object) -> None:
@@ -140,6 +162,7 @@ def install() -> None:
         if not ctrl_c and not others:
             return
         sys.excepthook = _excepthook
+        sys.unraisablehook = _unraisablehook
         if ctrl_c:
             signal.signal(signal.SIGINT, _on_interrupt)
         for other in others:

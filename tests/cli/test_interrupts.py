@@ -98,6 +98,41 @@ def test_a_ctrl_c_inside_a_finalizer_is_held():
     assert interrupts._in_extension_init(Ref.frame)
 
 
+def test_a_ctrl_c_inside_an_imports_module_lock_callback_is_held():
+    """importlib drops a module's lock through a weakref callback (``_get_module_lock.<locals>.cb``): a Ctrl-C
+    raised there was printed as "Exception ignored in" with a traceback before "Interrupted."."""
+    scope: dict = {"sys": sys}
+    exec(compile("def cb(ref):\n    return sys._getframe()\n", "<frozen importlib._bootstrap>", "exec"), scope)
+    assert interrupts._in_extension_init(scope["cb"](None))
+    exec(compile("def cb(ref):\n    return sys._getframe()\n", "elsewhere.py", "exec"), scope)
+    assert not interrupts._in_extension_init(scope["cb"](None))
+
+
+WEAKREF_CALLBACK = (
+    "import os, signal, sys, time, weakref; sys.argv[0] = 'bhr'; import bhr\n"
+    "class Thing: pass\n"
+    "def cb(ref):\n"
+    "    os.kill(os.getpid(), signal.SIGINT)\n"
+    "    for _ in range(10 ** 6): pass  # the Ctrl-C's KeyboardInterrupt is raised in here, unraisable\n"
+    "t = Thing(); r = weakref.ref(t, cb); del t\n"
+    "time.sleep(2); print('went on')\n")
+
+
+def test_a_ctrl_c_that_python_cannot_raise_where_it_arrives_still_ends_the_command():
+    """A Ctrl-C whose KeyboardInterrupt is raised where Python can only print it and go on (any weakref callback,
+    not only those the frame check knows): the command still ends with "Interrupted." and 130, no traceback."""
+    r = _python(WEAKREF_CALLBACK)
+    assert (r.returncode, r.stderr, r.stdout) == (130, "Interrupted.\n", ""), r.stderr
+
+
+def test_other_unraisable_exceptions_are_printed_as_python_prints_them():
+    r = _python("import sys, weakref; sys.argv[0] = 'bhr'; import bhr\n"
+                "class Thing: pass\n"
+                "def cb(ref): raise ValueError('from a callback')\n"
+                "t = Thing(); r = weakref.ref(t, cb); del t\nprint('went on')\n")
+    assert r.returncode == 0 and r.stdout == "went on\n" and "ValueError: from a callback" in r.stderr
+
+
 LIBRARY_SWALLOWS = r'''
 import os, signal, sys, time
 import bhr.output.plots as plots
