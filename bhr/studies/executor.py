@@ -236,11 +236,117 @@ def _stop_pool(pool: Any) -> None:
         pool.shutdown(wait=False, cancel_futures=True)
 
 
+def _no_tracker_relaunch() -> Callable[[], None] | None:
+    """A resource tracker that dies (killed) is not started again: the study goes on without it.
+
+    multiprocessing's tracker only deletes the pool's semaphores should this process die without doing so; when
+    it is killed, the next message to it starts a new one, which prints a warning and, for every semaphore the
+    pool then releases, a KeyError traceback (it never heard of them), and the command still exits 0. Here the
+    tracker's messages go to ``/dev/null`` from then on instead (this process still releases its semaphores
+    itself as it ends)."""
+    from multiprocessing import resource_tracker
+
+    tracker = getattr(resource_tracker, "_resource_tracker", None)
+    original = getattr(tracker, "ensure_running", None)
+    if getattr(original, "_bhr_quiet", False):
+        return original
+    if tracker is None or original is None or \
+            not all(hasattr(tracker, a) for a in ("_lock", "_fd", "_pid", "_check_alive")):
+        return None
+
+    def ensure_running() -> None:
+        with tracker._lock:
+            if tracker._fd is not None and not tracker._check_alive():
+                with contextlib.suppress(OSError):
+                    os.close(tracker._fd)
+                with contextlib.suppress(OSError, ChildProcessError, TypeError):
+                    os.waitpid(tracker._pid, 0)
+                tracker._fd = os.open(os.devnull, os.O_WRONLY)
+                tracker._pid = None
+                return
+        original()
+
+    ensure_running._bhr_quiet = True  # type: ignore[attr-defined]
+    tracker.ensure_running = ensure_running  # what the tracker's own register/unregister call
+    return ensure_running
+
+
+#: How often a study's parent looks at its local workers (s).
+WATCH_TICK_S = 1.0
+#: How long a worker may stay stopped (SIGSTOP, Ctrl-Z of it alone, a debugger) before the study stops (s).
+STOPPED_WAIT_S = 10.0
+#: How long every worker may go without using any CPU, with runs still to do, before the study stops (s): a
+#: worker runs compiled loops and draws, so this long without a CPU tick is a worker that hangs (a deadlock,
+#: a read that never returns), not one that works slowly on a busy machine.
+IDLE_WAIT_S = 120.0
+
+
+def _proc_state(pid: int) -> tuple[str, int] | None:
+    """A process's state letter and its CPU time in clock ticks (user + system), from ``/proc`` (None: gone or
+    not Linux)."""
+    try:
+        with open(f"/proc/{pid}/stat", "rb") as f:
+            text = f.read().decode("ascii", "replace")
+    except OSError:
+        return None
+    fields = text.rsplit(")", 1)[-1].split()
+    try:
+        return fields[0], int(fields[11]) + int(fields[12])
+    except (IndexError, ValueError):
+        return None
+
+
+class _Watchdog:
+    """Stops a study whose local workers no longer work, with one line, instead of waiting for ever.
+
+    A worker that is stopped (state T or t in ``/proc``) for :data:`STOPPED_WAIT_S`, or workers none of which
+    has used any CPU for :data:`IDLE_WAIT_S` while no run finished: :class:`BhrError`. Linux only (elsewhere
+    it never fires). A worker that dies is the pool's to report (BrokenProcessPool)."""
+
+    def __init__(self, pool: Any, clock: Callable[[], float] = time.monotonic) -> None:
+        self.pool = pool
+        self.clock = clock
+        self.stopped_since: dict[int, float] = {}
+        self.cpu: dict[int, int] = {}
+        self.busy_at = self.checked = clock()
+
+    def check(self, progressed: bool = False) -> None:
+        now = self.clock()
+        if progressed:
+            self.busy_at = now
+        if now - self.checked > 5 * WATCH_TICK_S:
+            # this process was itself stopped (Ctrl-Z of the whole command) or starved: the workers' stillness
+            # until now is not theirs to answer for
+            self.busy_at = now
+            self.stopped_since.clear()
+        self.checked = now
+        pids = [p.pid for p in list((getattr(self.pool, "_processes", None) or {}).values()) if p.pid]
+        for pid in pids:
+            state = _proc_state(pid)
+            if state is None:
+                self.stopped_since.pop(pid, None)
+                continue
+            letter, ticks = state
+            if letter in ("T", "t"):
+                since = self.stopped_since.setdefault(pid, now)
+                if now - since >= STOPPED_WAIT_S:
+                    raise BhrError(f"worker process {pid} has been stopped for {now - since:.0f} s (SIGSTOP, or a "
+                                   "debugger holds it), so the study stopped; run it again and let its workers run")
+            else:
+                self.stopped_since.pop(pid, None)
+            if self.cpu.get(pid) != ticks:
+                self.cpu[pid] = ticks
+                self.busy_at = now
+        if pids and now - self.busy_at >= IDLE_WAIT_S:
+            raise BhrError(f"no worker process has done any work for {now - self.busy_at:.0f} s (they hang); the "
+                           "study stopped: run again, with --jobs 1 to run in this process")
+
+
 def _run_pool(workers: int, fn: Callable[[Any], Any], warm_up: Callable[..., Any] | None,
               warm_up_args: tuple[Any, ...], chunks: list[list[Any]],
               finished: Callable[[Sequence[tuple[int, Any]]], None]) -> None:
     import multiprocessing
-    from concurrent.futures import ProcessPoolExecutor, as_completed
+    from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
     from concurrent.futures.process import BrokenProcessPool
 
     ctx = multiprocessing.get_context("spawn")  # safe next to threads (a Dask client, a GUI)
@@ -252,9 +358,10 @@ def _run_pool(workers: int, fn: Callable[[Any], Any], warm_up: Callable[..., Any
         # place printed a KeyError traceback. Started here with SIGHUP blocked, it keeps it blocked.
         from multiprocessing import resource_tracker
 
+        ensure = _no_tracker_relaunch() or resource_tracker.ensure_running
         mask = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGHUP})
         try:
-            resource_tracker.ensure_running()
+            ensure()
         finally:
             signal.pthread_sigmask(signal.SIG_SETMASK, mask)
     pool = ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=worker_init,
@@ -285,13 +392,19 @@ def _run_pool(workers: int, fn: Callable[[Any], Any], warm_up: Callable[..., Any
                 signal.signal(sig, signal.SIG_DFL if handler is None else handler)
             if noted:
                 signal.raise_signal(noted[0])  # now the command's own handler: it ends as that signal ends it
-        for fut in as_completed(futures):
-            try:
-                part = fut.result()
-            except BrokenProcessPool as exc:
-                raise BhrError(f"a worker process stopped ({reason(exc)}); run again, with fewer --jobs if "
-                               "memory is short") from None
-            finished(part)
+        pending = set(futures)
+        watch = _Watchdog(pool)
+        while pending:
+            done, pending = wait(pending, timeout=WATCH_TICK_S, return_when=FIRST_COMPLETED)
+            for fut in done:
+                try:
+                    part = fut.result()
+                except BrokenProcessPool as exc:
+                    raise BhrError(f"a worker process stopped ({reason(exc)}); run again, with fewer --jobs if "
+                                   "memory is short") from None
+                finished(part)
+            if pending:
+                watch.check(progressed=bool(done))
     except BaseException:  # Ctrl-C, a failure: no worker goes on working (nor outlives this process)
         _stop_pool(pool)
         raise
