@@ -300,6 +300,9 @@ def load_trajectory(name_or_path: str | os.PathLike[str], feed: float = 2.0, **p
 
 def _load(name_or_path: str | os.PathLike[str], feed: float, params: dict[str, Any]) -> Trajectory:
     key = str(name_or_path)
+    if not key:  # Path("") is the current folder: "--traj ''" was named "."
+        raise BhrError(f"the trajectory name is empty; give a built-in ({', '.join(trajnames.builtin_names())}) "
+                       "or a .toml/.csv file")
     if key in GENERATORS:
         path = _builtin_file(key)
         if path is None:  # the data file is missing: fall back to the generator's defaults

@@ -324,6 +324,11 @@ def parse_number(text: str, where: str, *, integer: bool = False) -> int | float
     raise BhrError(f"{where} must be {kind} written with plain digits (0-9), got {excerpt(t)}")
 
 
+def _whole(x: float) -> str:
+    """A limit as an integer is written: 4294967295, not 4.29497e+09 (1e+18 and beyond in the short form)."""
+    return str(int(x)) if float(x).is_integer() and abs(x) < 1e16 else f"{x:g}"
+
+
 def check_number(value: Any, where: str, *, integer: bool = False, limit: float = MAX_ANY, unit: str = "",
                  positive: bool = False, nonneg: bool = False, minimum: float | None = None,
                  maximum: float | None = None, tiny: float | None = None) -> Any:
@@ -345,11 +350,11 @@ def check_number(value: Any, where: str, *, integer: bool = False, limit: float 
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             raise BhrError(f"{where} must be {'a whole number' if integer else 'a number'}, got {type_name(value)}")
     if isinstance(value, int):
-        shown = f"{value:g}" if abs(value) < 10 ** 30 else excerpt(value)
+        shown = str(value) if abs(value) < 10 ** 30 else excerpt(value)
         if maximum is not None and value > maximum and abs(value) > limit:
-            raise BhrError(f"{where} must be at most {maximum:g}{u}, got {shown}")
+            raise BhrError(f"{where} must be at most {_whole(maximum)}{u}, got {shown}")
         if abs(value) > limit:
-            raise BhrError(f"{where} = {shown} is too large; the limit is {limit:g}{u}")
+            raise BhrError(f"{where} = {shown} is too large; the limit is {_whole(limit)}{u}")
     else:
         if not math.isfinite(value):
             raise BhrError(f"{where} must be a finite number, got {value}")

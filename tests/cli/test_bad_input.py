@@ -126,6 +126,9 @@ CASES += [
     # follow: names, options and outputs
     Bad("follow-unknown-trajectory", "follow", ["--traj", "stomach"], expect="unknown trajectory 'stomach'"),
     Bad("follow-missing-file", "follow", ["--traj", "nope.toml"], expect="unknown trajectory"),
+    Bad("follow-empty-trajectory", "follow", ["--traj", ""], expect="the trajectory name is empty; give a built-in"),
+    Bad("follow-seed-too-large", "follow", ["--traj", "anatomy", "--seed", "99999999999999999999999"],
+        expect="99999999999999999999999 is too large; the limit is 4294967295"),
     Bad("follow-folder", "follow", ["--traj", "d.csv"], {"d.csv/x": "x"}, expect="folder"),
     Bad("follow-wrong-extension", "follow", ["--traj", "p.txt"], {"p.txt": "x,y,z\n"}, expect=".toml"),
     Bad("follow-unknown-solver", "follow", ["--traj", "line", "--solver", "nope"], expect="unknown solver"),
