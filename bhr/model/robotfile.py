@@ -25,7 +25,7 @@ from typing import Any, Sequence
 from bhr.settings.inputs import check_keys, name_value, number, read_text, read_toml, text_value, type_name
 from bhr.model.codes import CODE_AXIS, LIFT, REST, VALID_CODES
 from bhr.settings.errors import BhrError
-from bhr.settings.options import by_group, excerpt, has_control_char, parse_number
+from bhr.settings.options import Underflow, by_group, excerpt, file_float, has_control_char, parse_number
 from bhr.model.robot import Robot
 from bhr.model.wires import DEFAULT_THERMAL, ThermalParams, thermal_from_table
 
@@ -284,7 +284,10 @@ def read_json_robot(path: Path) -> dict[str, Any]:
     hint = f"give a robot description such as {default_robot_file()} or a run.json written by 'bhr follow'"
     text = read_text(path, "robot file", hint)
     try:
-        data = json.loads(text)
+        data = json.loads(text, parse_float=file_float)
+    except Underflow as exc:
+        raise BhrError(f"{path}: the number {exc} is too small to mean anything (it would read as 0); give 0 or a "
+                       "larger number") from None
     except json.JSONDecodeError as exc:
         raise BhrError(f"{path}: not valid JSON (line {exc.lineno}: {exc.msg}); {hint}") from None
     except (RecursionError, ValueError):

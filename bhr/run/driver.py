@@ -30,7 +30,7 @@ import numpy as np
 from bhr import __version__
 from bhr.settings.inputs import MAX_MM, MAX_RUN_BYTES, MAX_STEP_POINTS, read_text
 from bhr.settings.errors import BhrError, renamed
-from bhr.settings.options import MIN_MAGNITUDE, OPTIONS, excerpt, has_control_char, robot_limits
+from bhr.settings.options import MIN_MAGNITUDE, OPTIONS, Underflow, excerpt, file_float, has_control_char, robot_limits
 from bhr.model.codes import VALID_CODES as STABLE_CODES
 from bhr.model.robot import THESIS_ROBOT, Robot, robot_with
 from bhr.solvers import Chain, FollowContext, Solver, get_solver
@@ -499,7 +499,10 @@ def load_run(path: Any) -> FollowResult:
     else:
         text = read_text(path, "run file", hint, MAX_RUN_BYTES)
     try:
-        doc = json.loads(text)
+        doc = json.loads(text, parse_float=file_float)
+    except Underflow as exc:
+        raise BhrError(f"{name}: the number {exc} is too small to mean anything (it would read as 0); give 0 or a "
+                       "larger number") from None
     except json.JSONDecodeError as exc:
         raise BhrError(f"{name}: not valid JSON (line {exc.lineno}: {exc.msg}); give a run.json written by "
                        "'bhr follow'") from None

@@ -12,7 +12,8 @@ from pathlib import Path
 from typing import Any, Iterable
 
 from bhr.settings.errors import BhrError
-from bhr.settings.options import MAX_MM, LIMITS, check_number, did_you_mean, has_control_char, parse_number
+from bhr.settings.options import MAX_MM, LIMITS, Underflow, check_number, did_you_mean, file_float, has_control_char
+from bhr.settings.options import parse_number
 from bhr.settings.options import excerpt as _excerpt
 from bhr.settings.options import type_name as _type_name
 
@@ -152,7 +153,10 @@ def read_toml(path: str | os.PathLike[str], what: str, hint: str) -> dict[str, A
     """Parse ``path`` as TOML; a BhrError naming the line on a syntax error."""
     text = read_text(path, what, hint)
     try:
-        return tomllib.loads(text)
+        return tomllib.loads(text, parse_float=file_float)
+    except Underflow as exc:
+        raise BhrError(f"{path}: the number {exc} is too small to mean anything (it would read as 0); give 0 or a "
+                       "larger number") from None
     except RecursionError:
         raise BhrError(f"{path}: nested too deeply to read; {hint}") from None
     except tomllib.TOMLDecodeError as exc:

@@ -317,11 +317,32 @@ def parse_number(text: str, where: str, *, integer: bool = False) -> int | float
     if _PLAIN_INT.fullmatch(t):
         return int(t) if integer else float(t) if abs(int(t)) < 10 ** 300 else float("inf")
     if not integer and _PLAIN_FLOAT.fullmatch(t):
-        return float(t)
+        v = float(t)
+        if _underflows(t, v):  # 1e-400: not 0, and too small for a float
+            raise BhrError(f"{where} {t} is too small to mean anything; give 0 or a larger number")
+        return v
     if integer and _PLAIN_FLOAT.fullmatch(t):  # "3.0", "1e3": a count or a seed is written as digits only
         raise BhrError(f"{where} must be a whole number written with digits only (no point or exponent), "
                        f"got {excerpt(t)}")
     raise BhrError(f"{where} must be {kind} written with plain digits (0-9), got {excerpt(t)}")
+
+
+def _underflows(text: str, value: float) -> bool:
+    """True when ``text`` is a number other than 0 that a float can only hold as 0 (1e-400)."""
+    return value == 0.0 and any(c in "123456789" for c in text.lower().split("e")[0])
+
+
+class Underflow(ValueError):
+    """A number in a file that is not 0 but reads as 0 (1e-400): raised by :func:`file_float`."""
+
+
+def file_float(text: str) -> float:
+    """The ``parse_float`` of every TOML and JSON file bhr reads: 1e-400 is refused (:class:`Underflow`), not
+    silently read as 0."""
+    v = float(text)
+    if _underflows(text, v):
+        raise Underflow(text[:40])
+    return v
 
 
 def _whole(x: float) -> str:
