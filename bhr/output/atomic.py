@@ -16,13 +16,18 @@ previous folder (Linux ``renameat2(RENAME_EXCHANGE)``), after which the
 previous folder is deleted. A folder therefore always holds the complete set
 of exactly one run, also when a run is killed (``kill -9``), the disk fills
 up, or two runs write the same folder at once (the last to finish wins
-whole). ``manifest.json`` in the folder is bhr's signature: it names the run
-(``run_id``, the command, the settings' hash, bhr's version) and lists every
-file with its size and SHA-256. A folder is replaced only when its manifest
-proves that bhr wrote every file in it (:func:`verify_folder`); a folder
-holding one of the run's inputs, the current folder and its parents are
-refused. Staging folders of runs that died are deleted by the next run into
-the same place.
+whole). ``manifest.json`` in the folder names the run (``run_id``, the
+command, the settings' hash, bhr's version), lists every file with its size
+and SHA-256, and is signed: an HMAC-SHA256 with a secret key of the user's
+(:func:`output_key`, ``~/.config/bhr/output-key``) over everything else in
+it. A folder is replaced only when its manifest proves that bhr wrote every
+file in it (:func:`verify_folder`): the signature is this user's bhr's, and
+every file is listed with the size and hash it has. Anyone can compute the
+hashes; only the user's bhr can sign them, so a manifest forged, edited,
+copied from another user or machine, or written by an older bhr proves
+nothing. A folder holding one of the run's inputs, the current folder and its
+parents are refused. Staging folders of runs that died are deleted by the next
+run into the same place when bhr's signed mark in them proves they are bhr's.
 """
 from __future__ import annotations
 
@@ -30,8 +35,10 @@ import contextlib
 import ctypes
 import errno
 import hashlib
+import hmac
 import json
 import os
+import secrets
 import shutil
 import stat
 import tempfile
@@ -45,15 +52,17 @@ from bhr.settings.errors import INTERRUPTED, BhrError
 from bhr.settings.options import excerpt, has_control_char
 
 __all__ = ["atomic_path", "write_text", "write_json", "check_output_file", "together", "place_now", "OutputFolder",
-           "MANIFEST", "in_place_target", "point_latest", "verify_folder", "INTERRUPTED", "settings_hash"]
+           "MANIFEST", "in_place_target", "point_latest", "verify_folder", "INTERRUPTED", "settings_hash",
+           "output_key", "key_file", "sign_manifest", "signed_by_bhr", "KEY_ENV"]
 
 #: The file in every output folder that ties its files to one run.
 MANIFEST = "manifest.json"
 _STAGE = ".bhr-stage-"
 _ASIDE = ".bhr-old-"
-#: A file in every staging folder while it is written (removed just before the folder goes in place): a leftover
-#: folder of a dead run is deleted by the next run only when it has it, or a bhr manifest, so that a folder of the
-#: user's that only looks like one (``.o.bhr-stage-99999-x``) is never deleted.
+#: A file in every staging folder while it is written (removed just before the folder goes in place), holding
+#: bhr's signature of the staging folder's name: a leftover folder of a dead run is deleted by the next run only
+#: when it has it, or a signed bhr manifest, so that a folder of the user's that only looks like one
+#: (``.o.bhr-stage-99999-x``, even with a ``.bhr-staging`` file in it) is never deleted.
 _STAGE_MARK = ".bhr-staging"
 
 
@@ -426,16 +435,183 @@ def _sha256(path: Path) -> str:
     return h.hexdigest()
 
 
+# --- bhr's signature: a secret key of the user's ---------------------------------------------------------------
+
+#: Names the key file instead of ``$XDG_CONFIG_HOME/bhr/output-key`` (tests; a home shared between machines).
+KEY_ENV = "BHR_OUTPUT_KEY_FILE"
+_KEY_BYTES = 32
+_SIGNATURE = "hmac-sha256:"
+
+
+def key_file() -> Path | None:
+    """Where this user's signing key is: ``$BHR_OUTPUT_KEY_FILE``, else ``$XDG_CONFIG_HOME/bhr/output-key``, else
+    ``~/.config/bhr/output-key``; None without a home folder."""
+    given = os.environ.get(KEY_ENV, "")
+    if given:
+        return Path(os.path.abspath(given))
+    base = os.environ.get("XDG_CONFIG_HOME", "")
+    if not os.path.isabs(base):  # unset, empty or relative: not a config folder (the XDG rule)
+        try:
+            base = str(Path.home() / ".config")
+        except (RuntimeError, KeyError):  # no home folder at all
+            return None
+    return Path(base) / "bhr" / "output-key"
+
+
+def output_key() -> tuple[bytes | None, str]:
+    """This user's key for signing output folders, made on first need; ``(None, why)`` when there is no key bhr
+    can trust (``why`` says so in a clause for a one-line message; the key itself is never shown).
+
+    The key is 32 random bytes in :func:`key_file`, mode 0600, in a folder made 0700. Several bhr processes
+    making it at once agree on one (each writes its own beside it and links it into place; the losers read the
+    winner's). A key file that is not a regular file of this user's, that other users may read or write, or that
+    does not hold 32 bytes, is not trusted, and not replaced either.
+    """
+    path = key_file()
+    if path is None:
+        return None, "bhr has no signing key (there is no home folder to keep it in)"
+    key, why = _read_key(path)
+    if key is not None or why:
+        return key, why
+    try:
+        _make_key(path)
+    except OSError as exc:
+        return None, (f"bhr has no signing key: it cannot make {short_path(path, 200)} "
+                      f"({exc.strerror or type(exc).__name__})")
+    key, why = _read_key(path)
+    return key, why or f"bhr has no signing key: {short_path(path, 200)} disappeared as it was made"
+
+
+def _read_key(path: Path) -> tuple[bytes | None, str]:
+    """The key in ``path``; ``(None, "")`` when there is no file; ``(None, why)`` when it is not to be trusted."""
+    shown = short_path(path, 200)
+    untrusted = "so bhr does not trust it (delete it and bhr makes a new one)"
+    for _ in range(40):
+        try:
+            fd = os.open(path, os.O_RDONLY | os.O_NOFOLLOW | os.O_NONBLOCK | getattr(os, "O_CLOEXEC", 0))
+        except (FileNotFoundError, NotADirectoryError):  # none yet (or no folder for it: making it says why)
+            return None, ""
+        except OSError as exc:
+            if exc.errno == errno.ELOOP:
+                return None, f"the signing key {shown} is a symbolic link, {untrusted}"
+            return None, f"bhr cannot read its signing key {shown} ({exc.strerror or type(exc).__name__})"
+        try:
+            st = os.fstat(fd)
+            if not stat.S_ISREG(st.st_mode):
+                return None, f"the signing key {shown} is not a regular file, {untrusted}"
+            if hasattr(os, "geteuid") and st.st_uid != os.geteuid():
+                return None, f"the signing key {shown} belongs to another user, {untrusted}"
+            if st.st_mode & 0o077:
+                return None, f"the signing key {shown} can be read or written by other users, {untrusted}"
+            data = os.read(fd, _KEY_BYTES + 1)
+        except OSError as exc:
+            return None, f"bhr cannot read its signing key {shown} ({exc.strerror or type(exc).__name__})"
+        finally:
+            os.close(fd)
+        if len(data) == _KEY_BYTES:
+            return data, ""
+        if len(data) < _KEY_BYTES and time.time() - st.st_mtime < 2.0:
+            time.sleep(0.05)  # another bhr writing it in place (a file system without hard links): wait for it
+            continue
+        break
+    return None, f"the signing key {shown} does not hold {_KEY_BYTES} bytes, {untrusted}"
+
+
+def _make_key(path: Path) -> None:
+    """Make the key file, unless another process makes it first (then theirs stays): never replace one."""
+    folder = path.parent
+    if not folder.is_dir():
+        folder.mkdir(mode=0o700, parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=folder)  # 0600, never an existing file
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(secrets.token_bytes(_KEY_BYTES))
+            fh.flush()
+            os.fsync(fh.fileno())
+        try:
+            os.link(tmp, path)  # whole or not at all; fails when another process was first
+        except FileExistsError:
+            pass
+        except OSError as exc:
+            if exc.errno not in (errno.EPERM, errno.EOPNOTSUPP, errno.ENOTSUP, errno.ENOSYS, errno.EMLINK,
+                                 errno.EXDEV):
+                raise
+            _make_key_in_place(path)  # a file system without hard links
+    finally:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+
+
+def _make_key_in_place(path: Path) -> None:
+    try:
+        fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW, 0o600)
+    except FileExistsError:
+        return
+    with os.fdopen(fd, "wb") as fh:
+        fh.write(secrets.token_bytes(_KEY_BYTES))
+        fh.flush()
+        os.fsync(fh.fileno())
+
+
+def _mac(key: bytes, text: str) -> str:
+    return _SIGNATURE + hmac.new(key, text.encode("ascii"), hashlib.sha256).hexdigest()
+
+
+def _canonical(doc: dict[str, Any]) -> str:
+    """The text a manifest's signature is made over: everything in it but ``signature``, as sorted, compact,
+    ASCII JSON (so the indentation it is written with does not matter)."""
+    return json.dumps({k: v for k, v in doc.items() if k != "signature"}, sort_keys=True, separators=(",", ":"),
+                      ensure_ascii=True)
+
+
+def sign_manifest(doc: dict[str, Any], key: bytes) -> str:
+    """The signature of manifest ``doc`` with ``key``: ``hmac-sha256:`` and 64 hex digits."""
+    return _mac(key, _canonical(doc))
+
+
+def signed_by_bhr(doc: dict[str, Any], key: bytes | None) -> bool:
+    """True when ``doc`` carries the signature ``key`` makes of its content (False without a key)."""
+    given = doc.get("signature")
+    if key is None or not isinstance(given, str) or not given.isascii():
+        return False
+    try:
+        wanted = sign_manifest(doc, key)
+    except (ValueError, TypeError, RecursionError):
+        return False
+    return hmac.compare_digest(wanted.encode("ascii"), given.encode("ascii"))
+
+
+def _stage_mark_text(stage_name: str, key: bytes) -> str:
+    """What the mark in a staging folder holds: bhr's signature of the folder's name."""
+    return _mac(key, "bhr-stage:" + stage_name.encode("unicode_escape").decode("ascii")) + "\n"
+
+
+def _stage_mark_ok(stage: Path, key: bytes | None) -> bool:
+    """True when ``stage`` holds the mark this user's bhr put in it (a regular file with its signed name)."""
+    if key is None:
+        return False
+    mark = stage / _STAGE_MARK
+    try:
+        if mark.is_symlink() or not mark.is_file() or mark.stat().st_size > 200:
+            return False
+        given = mark.read_bytes()
+    except OSError:
+        return False
+    return hmac.compare_digest(given, _stage_mark_text(stage.name, key).encode("ascii"))
+
+
 class OutputFolder:
     """Stage an output folder beside ``target`` and put it in place whole when the ``with`` block succeeds.
 
     An existing folder is replaced only when bhr provably wrote it: it is
-    empty, or its ``manifest.json`` is a bhr manifest (``bhr_output``) that
-    lists every file in the folder with the size and SHA-256 it still has.
-    A folder holding anything else (a user's notes, a file changed since, a
-    web project's own manifest.json) is refused with one line naming the
-    file, and so are the current folder, its parents, the home and root
-    folders, and a folder holding one of the run's ``inputs``.
+    empty, or its ``manifest.json`` is a bhr manifest (``bhr_output``), signed
+    with this user's key (:func:`output_key`), that lists every file in the
+    folder with the size and SHA-256 it still has. A folder holding anything
+    else (a user's notes, a file changed since, a web project's own
+    manifest.json, a manifest forged, edited, copied or written by an older
+    bhr) is refused with one line naming the file or the manifest, and so are
+    the current folder, its parents, the home and root folders, and a folder
+    holding one of the run's ``inputs``.
 
     ``settings`` is a short text (a hash) of what determines the run's
     results. When the folder being replaced was written by the same command
@@ -530,6 +706,7 @@ class OutputFolder:
         parent, name = self.target.parent, self.target.name
         if not parent.is_dir():
             return
+        key: bytes | None = None
         for e in parent.iterdir():
             for mark in (_STAGE, _ASIDE):
                 prefix = f".{name}{mark}"
@@ -543,10 +720,15 @@ class OutputFolder:
                     continue
                 if e.is_symlink() or not e.is_dir():
                     continue
-                if not ((mark == _STAGE and (e / _STAGE_MARK).is_file()) or _read_manifest(e / MANIFEST) is not None):
+                if key is None:
+                    key = output_key()[0] or b""  # b"": no key; looked for once
+                doc = _read_manifest(e / MANIFEST)
+                if not ((mark == _STAGE and _stage_mark_ok(e, key or None))
+                        or (doc is not None and signed_by_bhr(doc, key or None))):
                     with contextlib.suppress(OSError):
                         e.rmdir()  # killed before its mark was written: empty; a folder with anything in it ...
-                    continue  # ... and neither mark nor manifest is not one bhr staged or set aside, whatever its name
+                    continue  # ... and neither signed mark nor signed manifest is not one bhr staged or set aside,
+                    # whatever its name
                 if mark == _ASIDE and not self.target.exists():
                     with contextlib.suppress(OSError):
                         os.rename(e, self.target)  # the fallback swap died half-way: restore the old set
@@ -566,7 +748,7 @@ class OutputFolder:
             self.stage = Path(tempfile.mkdtemp(prefix=f".{self.target.name}{_STAGE}{os.getpid()}-",
                                                dir=self.target.parent))
             os.chmod(self.stage, _mode_for(self.target, 0o777))
-            (self.stage / _STAGE_MARK).touch()  # empty: it takes no room on a disk that has none left
+            self._mark_stage()
         except BaseException as failure:  # a Ctrl-C (or a full disk) in here: no with block to clean up after
             mine = f".{self.target.name}{_STAGE}{os.getpid()}-"
             with contextlib.suppress(OSError):
@@ -579,6 +761,20 @@ class OutputFolder:
             raise
         _staging.add(self.stage)
         return self
+
+    def _mark_stage(self) -> None:
+        """Mark the stage bhr's (signed with the user's key), so that the next run deletes it if this one dies."""
+        assert self.stage is not None
+        mark = self.stage / _STAGE_MARK
+        mark.touch()  # empty, when there is no key or no room: never deleted as a dead run's, not a failure
+        key, _ = output_key()
+        if key is None:
+            return
+        try:
+            mark.write_text(_stage_mark_text(self.stage.name, key), encoding="ascii")
+        except OSError as exc:  # a full disk fails at the run's first file, which the message then names
+            if exc.errno not in (errno.ENOSPC, errno.EDQUOT):
+                raise
 
     def path(self, name: str | os.PathLike[str]) -> Path:
         """Where to write ``name`` (relative to the folder) while staging."""
@@ -702,6 +898,9 @@ class OutputFolder:
                "settings": self.settings,
                "written": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()), "files": files,
                "carried_over": sorted(self.carried)}
+        key, _ = output_key()
+        if key is not None:  # without a key the manifest is written unsigned: no later run may replace the folder
+            doc["signature"] = sign_manifest(doc, key)
         (self.stage / MANIFEST).write_text(json.dumps(doc, indent=1) + "\n", encoding="utf-8")
         os.chmod(self.stage / MANIFEST, _mode_for(self.target / MANIFEST))
 
@@ -774,10 +973,12 @@ def verify_folder(folder: Path, given: Any = None, what: str = "output folder") 
     """The bhr manifest of ``folder`` when it proves bhr wrote every file there; None when the folder is empty.
 
     Proof: ``manifest.json`` is a bhr manifest (``bhr_output``, ``files``)
-    and every file under the folder is listed with the size and SHA-256 it
-    has now; no symbolic link, device, or folder the manifest does not
-    account for. Anything else raises a BhrError naming the file and the
-    fix (bhr replaces the whole folder, so it would be deleted).
+    signed with this user's key (:func:`output_key`, compared in constant
+    time), and every file under the folder is listed with the size and
+    SHA-256 it has now; no symbolic link, device, or folder the manifest does
+    not account for. Anything else raises a BhrError naming the file (or the
+    manifest) and the fix (bhr replaces the whole folder, so it would be
+    deleted).
     """
     shown = short_path(given if given is not None else folder)
     fix = f"move it out of {shown} or give another folder for the output"
@@ -803,6 +1004,13 @@ def verify_folder(folder: Path, given: Any = None, what: str = "output folder") 
         first = sorted(e.name for e in entries)[0]
         raise BhrError(f"{what} {shown} holds {short_path(first)}, which no bhr run wrote (no bhr manifest.json "
                        f"lists it); {fix}")
+    key, why = output_key()
+    if not signed_by_bhr(doc, key):
+        if key is None:
+            raise BhrError(f"{what} {shown} has a manifest.json that bhr cannot check: {why}; remove the folder "
+                           "yourself or choose another --out")
+        raise BhrError(f"{what} {shown} has a manifest.json not signed by bhr for this user (copied, edited or "
+                       "written by an older bhr); remove the folder yourself or choose another --out")
     listed = doc["files"]
     for rel in sorted(found):
         if rel == MANIFEST:
@@ -853,12 +1061,15 @@ def owning_folder(path: str | os.PathLike[str]) -> tuple[Path, str] | None:
     A run's own folder (``bhr-out/colon-thesis-<hash>/codes.csv``), or a folder one or two levels up that holds
     runs (``compare``'s ``thesis/codes.csv``, a report's ``runs/colon/codes.csv``): ``bhr plan`` and ``bhr replay``
     add their figures to that folder whole, so its manifest lists them and a rerun never takes them for a
-    user's file.
+    user's file. Only a manifest signed by this user's bhr counts (:func:`verify_folder`): with any other the
+    file is taken as loose.
     """
     p = Path(os.path.realpath(path))
     for folder in list(p.parents)[:3]:
         doc = _read_manifest(folder / MANIFEST)
         if doc is not None:
+            if not signed_by_bhr(doc, output_key()[0]):
+                return None
             rel = p.relative_to(folder).as_posix()
             return (folder, rel) if rel in doc["files"] else None
     return None

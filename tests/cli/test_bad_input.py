@@ -42,12 +42,18 @@ SEG = '[[segment]]\ntype = "straight"\nlength = 40.0\n'
 
 
 def _manifest(files: dict[str, str]) -> str:
-    """A bhr manifest.json proving that bhr wrote ``files`` (name -> text)."""
+    """A bhr manifest.json proving that bhr wrote ``files`` (name -> text): signed with the tests' key, which the
+    commands they run share (tests/conftest.py)."""
     import hashlib
     import json
 
+    from bhr.output.atomic import output_key, sign_manifest
+
     listed = {n: {"bytes": len(t.encode()), "sha256": hashlib.sha256(t.encode()).hexdigest()} for n, t in files.items()}
-    return json.dumps({"bhr_output": 2, "command": "follow", "run_id": "0" * 32, "files": listed})
+    doc = {"bhr_output": 2, "command": "follow", "run_id": "0" * 32, "files": listed}
+    key, why = output_key()
+    assert key is not None, why
+    return json.dumps({**doc, "signature": sign_manifest(doc, key)})
 
 
 def seg(text: str) -> dict[str, str]:
