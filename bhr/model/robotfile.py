@@ -286,8 +286,7 @@ def read_json_robot(path: Path) -> dict[str, Any]:
     try:
         data = json.loads(text, parse_float=file_float)
     except Underflow as exc:
-        raise BhrError(f"{path}: the number {exc} is too small to mean anything (it would read as 0); give 0 or a "
-                       "larger number") from None
+        raise BhrError(f"{path}: {exc}") from None
     except json.JSONDecodeError as exc:
         raise BhrError(f"{path}: not valid JSON (line {exc.lineno}: {exc.msg}); {hint}") from None
     except (RecursionError, ValueError):

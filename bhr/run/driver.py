@@ -501,8 +501,7 @@ def load_run(path: Any) -> FollowResult:
     try:
         doc = json.loads(text, parse_float=file_float)
     except Underflow as exc:
-        raise BhrError(f"{name}: the number {exc} is too small to mean anything (it would read as 0); give 0 or a "
-                       "larger number") from None
+        raise BhrError(f"{name}: {exc}") from None
     except json.JSONDecodeError as exc:
         raise BhrError(f"{name}: not valid JSON (line {exc.lineno}: {exc.msg}); give a run.json written by "
                        "'bhr follow'") from None

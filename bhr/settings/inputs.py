@@ -155,8 +155,7 @@ def read_toml(path: str | os.PathLike[str], what: str, hint: str) -> dict[str, A
     try:
         return tomllib.loads(text, parse_float=file_float)
     except Underflow as exc:
-        raise BhrError(f"{path}: the number {exc} is too small to mean anything (it would read as 0); give 0 or a "
-                       "larger number") from None
+        raise BhrError(f"{path}: {exc}") from None
     except RecursionError:
         raise BhrError(f"{path}: nested too deeply to read; {hint}") from None
     except tomllib.TOMLDecodeError as exc:

@@ -333,7 +333,8 @@ def _underflows(text: str, value: float) -> bool:
 
 
 class Underflow(ValueError):
-    """A number in a file that is not 0 but reads as 0 (1e-400): raised by :func:`file_float`."""
+    """A number in a file that is not 0 but reads as 0 (1e-400): raised by :func:`file_float`; its text is the
+    clause a reader puts after the file's name."""
 
 
 def file_float(text: str) -> float:
@@ -341,7 +342,8 @@ def file_float(text: str) -> float:
     silently read as 0."""
     v = float(text)
     if _underflows(text, v):
-        raise Underflow(text[:40])
+        raise Underflow(f"the number {text[:40]} is too small to mean anything (it would read as 0); give 0 or a "
+                        "larger number")
     return v
 
 
