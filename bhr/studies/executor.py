@@ -271,6 +271,30 @@ def _no_tracker_relaunch() -> Callable[[], None] | None:
     return ensure_running
 
 
+@contextlib.contextmanager
+def _quiet_stderr() -> Iterator[None]:
+    """Standard error on /dev/null for what starts inside (the resource tracker, which keeps it).
+
+    The tracker outlives a command interrupted (Ctrl-C) while its pool starts, and then deletes the pool's
+    semaphores itself, printing "leaked semaphore objects" warnings after "Interrupted."; what it cleans up is
+    this command's own, so it says nothing the user could act on."""
+    try:
+        saved = os.dup(2)
+    except OSError:  # no standard error at all: nothing to hide
+        yield
+        return
+    try:
+        null = os.open(os.devnull, os.O_WRONLY)
+        try:
+            os.dup2(null, 2)
+        finally:
+            os.close(null)
+        yield
+    finally:
+        os.dup2(saved, 2)
+        os.close(saved)
+
+
 #: How often a study's parent looks at its local workers (s).
 WATCH_TICK_S = 1.0
 #: How long a worker may stay stopped (SIGSTOP, Ctrl-Z of it alone, a debugger) before the study stops (s).
@@ -361,7 +385,8 @@ def _run_pool(workers: int, fn: Callable[[Any], Any], warm_up: Callable[..., Any
         ensure = _no_tracker_relaunch() or resource_tracker.ensure_running
         mask = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGHUP})
         try:
-            ensure()
+            with _quiet_stderr():  # the tracker inherits it: see _quiet_stderr
+                ensure()
         finally:
             signal.pthread_sigmask(signal.SIG_SETMASK, mask)
     pool = ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=worker_init,

@@ -156,3 +156,29 @@ def test_a_killed_resource_tracker_leaves_no_traceback_and_the_study_goes_on(tmp
     r = subprocess.run([sys.executable, str(script), str(Path(__file__).parent)], capture_output=True, text=True,
                        timeout=120)
     assert (r.returncode, r.stdout.strip(), r.stderr) == (0, str(2 * (0 + 1 + 4 + 16)), ""), r.stderr
+
+
+TRACKER_STDERR = r'''
+import os, sys
+from multiprocessing import resource_tracker
+sys.path.insert(0, sys.argv[1])
+from test_study_workers import square
+from bhr.studies.executor import run_jobs
+
+if __name__ == '__main__':  # the workers import this script
+    run_jobs(square, [(n, "") for n in range(4)], jobs=2)
+    print(os.readlink(f"/proc/{resource_tracker._resource_tracker._pid}/fd/2"))
+    print("still mine", file=sys.stderr)
+'''
+
+
+@pytest.mark.skipif(not Path("/proc/self/fd").exists(), reason="reads /proc")
+def test_the_resource_tracker_speaks_to_no_terminal(tmp_path):
+    """A Ctrl-C while the pool starts leaves the tracker to delete the pool's semaphores, and it printed "leaked
+    semaphore objects" warnings after "Interrupted.": it starts with standard error on /dev/null, the command's
+    own standard error is back as it was."""
+    script = tmp_path / "tracker_stderr.py"
+    script.write_text(TRACKER_STDERR)
+    r = subprocess.run([sys.executable, str(script), str(Path(__file__).parent)], capture_output=True, text=True,
+                       timeout=120)
+    assert (r.returncode, r.stdout.strip(), r.stderr) == (0, os.devnull, "still mine\n"), r.stderr
