@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import functools
 import hashlib
+import math
 import os
 import sys
 import tempfile
@@ -417,25 +418,41 @@ def is_ready(kernel: Any) -> bool:
         return True
 
 
-def call_cold(kernel: Any, interpreted_s: float, compile_s: float, *args: Any, shallow: bool = False) -> Any:
+def call_cold(kernel: Any, interpreted_s: float, compile_s: float, *args: Any, instead: Any = None) -> Any:
     """``kernel(*args)``; on a cold cache, interpreted instead when that is estimated to cost less.
 
     ``interpreted_s`` is a bound on what this call costs interpreted (CPU seconds, from the call's
     size), ``compile_s`` what compiling the kernel costs. While interpreting is allowed
     (:func:`allow_interpreting`) and the kernel is neither compiled nor cached, the call runs
     interpreted as long as the interpreted seconds this process spent on the kernel stay within
-    ``compile_s``; past that, or for a large call, it compiles as always. ``shallow=True``
-    interprets the kernel's own statements only: the kernels it calls run compiled (for a loop
-    whose body is a kernel worth compiling on its own).
+    ``compile_s``; past that, or for a large call, it compiles as always.
+
+    ``instead``, if given, runs in place of the interpreted kernel: a numpy version of it that gives
+    its results bit for bit (``interpreted_s`` is then that version's estimated cost), called as
+    ``instead(*args, deadline=...)``. Its cost may depend on more than the call's size (how much of
+    a robot lies in the wall), so it gets the CPU time (:func:`time.process_time`) by which it must
+    be done and raises :class:`TooSlow` past it: the kernel then runs compiled, the seconds spent
+    costing at most what compiling costs.
     """
     if _interpreting and interpreted_s <= compile_s:
         func = kernel.py_func if _is_kernel(kernel) else kernel
-        spent = _spent.get(func, 0.0) + interpreted_s
+        before = _spent.get(func, 0.0)
+        spent = before + interpreted_s
         if spent <= compile_s and not is_ready(kernel):
             _spent[func] = spent
-            return (func if shallow else interpreted(kernel))(*args)
+            if instead is None:
+                return interpreted(kernel)(*args)
+            import time
+
+            try:
+                return instead(*args, deadline=time.process_time() + (compile_s - before))
+            except TooSlow:
+                _spent[func] = math.inf  # this process compiles it from now on
     return kernel(*args)
 
+
+class TooSlow(Exception):
+    """Raised by a numpy version of a kernel (``call_cold(..., instead=...)``) past its deadline."""
 
 configure_cache()
 install_light_blas()

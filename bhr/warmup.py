@@ -9,8 +9,8 @@ give them (the types are what numba compiles for, not the sizes).
 
 The first command on a machine that had to compile (or ran a cold kernel
 interpreted, :func:`bhr._numba.call_cold`) starts this in the background when
-it ends (``python -m bhr.warmup``, at low priority), so the user waits only for
-the kernels of that first command. Setting
+it ends (``python -m bhr.warmup``, at low priority, one at a time per cache
+folder), so the user waits only for the kernels of that first command. Setting
 ``BHR_NO_BACKGROUND_COMPILE=1`` turns that off.
 """
 from __future__ import annotations
@@ -20,7 +20,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-__all__ = ["compile_all", "start_in_background", "background_enabled", "BACKGROUND_ENV"]
+__all__ = ["compile_all", "run_once", "start_in_background", "background_enabled", "BACKGROUND_ENV"]
 
 #: Set to 1 to keep bhr from compiling the remaining kernels in the background after a first run.
 BACKGROUND_ENV = "BHR_NO_BACKGROUND_COMPILE"
@@ -94,14 +94,51 @@ def start_in_background() -> bool:
     try:
         subprocess.Popen([sys.executable, "-m", "bhr.warmup"], stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
                          stderr=subprocess.DEVNULL, start_new_session=True, close_fds=True, cwd=home,
-                         preexec_fn=(lambda: os.nice(10)) if hasattr(os, "nice") else None, env=env)
+                         preexec_fn=_background_child, env=env)
     except OSError:
         return False
     return True
 
 
-if __name__ == "__main__":  # pragma: no cover - run by start_in_background
+def _background_child() -> None:  # pragma: no cover - runs in the child between fork and exec
+    """Low priority, and SIGTERM and SIGINT back to their defaults: the command that starts the compile ignores
+    them as it ends (bhr.settings.interrupts.settle), and a child would inherit that (``kill PID`` did nothing)."""
+    import signal
+
+    if hasattr(os, "nice"):
+        os.nice(10)
+    for sig in (signal.SIGTERM, signal.SIGINT):
+        signal.signal(sig, signal.SIG_DFL)
+
+
+def run_once() -> int:
+    """Compile everything unless another background compile of the same cache is under way: exit status 0 or 1.
+
+    Several commands run one after another on a fresh machine each start one; they would compile the same
+    kernels side by side. A lock file in numba's cache folder lets the first one work and the others end at once.
+    """
+    from bhr import _numba
+
+    folder = _numba.cache_dir()
+    try:
+        import fcntl
+
+        lock = open(Path(folder) / ".bhr-warmup.lock", "a") if folder else None
+        if lock is not None:
+            fcntl.flock(lock.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except BlockingIOError:
+        return 0  # another one is compiling this cache
+    except (ImportError, OSError):
+        lock = None  # no locks here: compile anyway
     try:
         compile_all()
     except Exception:  # a background convenience: a failure here only means a later command compiles
-        raise SystemExit(1) from None
+        return 1
+    finally:
+        if lock is not None:
+            lock.close()
+    return 0
+
+
+if __name__ == "__main__":  # pragma: no cover - run by start_in_background
+    raise SystemExit(run_once())

@@ -745,7 +745,8 @@ def case_cli(repeat: int = 5) -> list[BenchResult]:
 
 def case_first_run(repeat: int = 3) -> BenchResult:
     """`bhr follow --traj colon` on an empty cache as a user's first command runs it (loops cheaper interpreted
-    than compiled run interpreted, bhr._numba.call_cold) against the same command compiling every kernel it runs
+    than compiled run interpreted, the clearance in numpy: bhr._numba.call_cold) against the same command
+    compiling every kernel it runs
     (BHR_NO_BACKGROUND_COMPILE=1), alternating in one run: CPU seconds, medians."""
     args = ["follow", "--traj", "colon", "--out", "o"]
     first: list[float] = []

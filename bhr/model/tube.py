@@ -25,7 +25,8 @@ from bhr.settings.errors import BhrError
 
 __all__ = ["Tube", "make_tube", "segment_scan", "nearest_kernel", "search_window", "scan_from", "local_scan",
            "global_scan", "locate_kernel", "point_clearance", "nearest_numpy", "locate_numpy", "lumen_end_of",
-           "WINDOW_MM", "LUMEN_ENDS", "GLOBAL_BELOW", "BLOCK", "LOOP_RATIO"]
+           "Segments", "windows_batch", "locate_batch", "WINDOW_MM", "LUMEN_ENDS", "GLOBAL_BELOW", "BLOCK",
+           "LOOP_RATIO"]
 
 #: Half-width (mm of arc length) of the stretch of centerline searched for a point's nearest point.
 WINDOW_MM = 40.0
@@ -438,6 +439,195 @@ def locate_numpy(tube: Tube, radius: float, p: np.ndarray, centre: float, expect
         elif d > r and dg < rg:  # out of its own lumen and into another pass's: it crossed the wall
             d, r, pos, crossed = dg, rg, gk + gt, True
     return r - radius - d, pos, crossed
+
+
+# ---------------------------------------------------------------------------
+# many points at once (numpy, vectorised): the kernels' results bit for bit, with nothing to compile
+
+#: Largest number of (point, segment) pairs one vectorised scan holds in memory at once.
+_BATCH_PAIRS = 1 << 18
+
+
+class Segments:
+    """A tube's centerline segments as :func:`segment_scan` sees them, for :func:`locate_batch`.
+
+    Each segment's start ``(ax, ay, az)`` and direction ``(ux, uy, uz)``, ``uu`` its squared length: the same
+    float64 values the kernel computes, so that the vectorised search gives the kernel's results exactly.
+    """
+
+    def __init__(self, C: np.ndarray, R: np.ndarray, S: np.ndarray, BC: np.ndarray, BR: np.ndarray) -> None:
+        self.C, self.R, self.S, self.BC, self.BR = C, R, S, BC, BR
+        self.M = C.shape[0]
+        self.ax, self.ay, self.az = C[:-1, 0].copy(), C[:-1, 1].copy(), C[:-1, 2].copy()
+        self.ux, self.uy, self.uz = C[1:, 0] - self.ax, C[1:, 1] - self.ay, C[1:, 2] - self.az
+        self.uu = self.ux * self.ux + self.uy * self.uy + self.uz * self.uz
+
+    def scan(self, lo: np.ndarray, hi: np.ndarray, px: np.ndarray, py: np.ndarray, pz: np.ndarray
+             ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """:func:`segment_scan` of point ``i`` over segments ``lo[i]..hi[i]-1``: (squared distance, segment, t)."""
+        B = lo.shape[0]
+        best = np.full(B, 1e300)
+        bk = lo.astype(np.int64)
+        bt = np.zeros(B)
+        if B == 0:
+            return best, bk, bt
+        W = int(np.max(hi - lo))
+        if W <= 0:
+            return best, bk, bt
+        rows = max(1, _BATCH_PAIRS // W)
+        for s in range(0, B, rows):
+            e = min(B, s + rows)
+            d2, k, t = self.pairs(lo[s:e], hi[s:e], px[s:e], py[s:e], pz[s:e], W)
+            j = np.argmin(d2, axis=1)  # the first of equally near segments
+            r = np.arange(e - s)
+            hit = d2[r, j] < np.inf
+            best[s:e] = np.where(hit, d2[r, j], 1e300)
+            bk[s:e] = np.where(hit, k[r, j], bk[s:e])
+            bt[s:e] = np.where(hit, t[r, j], 0.0)
+        return best, bk, bt
+
+    def pairs(self, lo, hi, px, py, pz, W: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(squared distance, segment, t) of point ``i`` to segments ``lo[i] + j`` for j < W: (B, W) arrays.
+
+        :func:`segment_scan`'s arithmetic; infinite where the segment is past ``hi[i] - 1`` or the distance is
+        not below 1e300 (the kernel takes a segment only below that).
+        """
+        k = lo[:, None] + np.arange(W, dtype=np.int64)
+        valid = k < hi[:, None]
+        k = np.minimum(k, self.M - 2)
+        ax, ay, az = self.ax[k], self.ay[k], self.az[k]
+        ux, uy, uz, uu = self.ux[k], self.uy[k], self.uz[k], self.uu[k]
+        qx, qy, qz = px[:, None], py[:, None], pz[:, None]
+        dot = (qx - ax) * ux + (qy - ay) * uy + (qz - az) * uz
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = np.where(dot <= 0.0, 0.0, np.where(dot >= uu, 1.0, np.minimum(dot / uu, 1.0)))
+        dx, dy, dz = qx - (ax + t * ux), qy - (ay + t * uy), qz - (az + t * uz)
+        d2 = dx * dx + dy * dy + dz * dz
+        return np.where(valid & (d2 < 1e300), d2, np.inf), k, t
+
+    def scan_blocks(self, best: np.ndarray, px: np.ndarray, py: np.ndarray, pz: np.ndarray
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """:func:`global_scan` of many points: (squared distance, segment or -1, t), nearer than ``best`` only.
+
+        Scans the blocks whose bounding sphere is nearer than the best so far: every block the kernel scans,
+        and some it skips because a block before had found a nearer point (whose segments, the sphere being
+        padded, are all farther than that point: the same segment wins, the first of equally near ones).
+        """
+        B = best.shape[0]
+        BC, BR = self.BC, self.BR
+        dx, dy, dz = px[:, None] - BC[:, 0], py[:, None] - BC[:, 1], pz[:, None] - BC[:, 2]
+        centre = np.sqrt(dx * dx + dy * dy + dz * dz)
+        gap = centre - BR
+        # the nearest point is no farther than the nearest point of the block nearest to the point's sphere
+        # test: blocks whose sphere lies beyond that hold only farther points (the spheres are padded by 1e-9 mm,
+        # far more than the rounding), so they need no scan either
+        nseg = self.M - 1
+        near = np.argmin(gap, axis=1) * BLOCK
+        d2, _, _ = self.pairs(near, np.minimum(near + BLOCK, nseg), px, py, pz, BLOCK)
+        bound = np.minimum(best, np.min(d2, axis=1))
+        pi, bj = np.nonzero(~((gap > 0.0) & (gap * gap >= bound[:, None])))  # by point, then by block
+        out_b, out_k, out_t = best.copy(), np.full(B, -1, dtype=np.int64), np.zeros(B)
+        if pi.size == 0:
+            return out_b, out_k, out_t
+        lo = bj * BLOCK
+        d2, k, t = self.pairs(lo, np.minimum(lo + BLOCK, nseg), px[pi], py[pi], pz[pi], BLOCK)
+        # the first of the smallest per point, over its blocks in order
+        d2, k, t = d2.ravel(), k.ravel(), t.ravel()
+        owner = np.repeat(pi, BLOCK)
+        starts = np.flatnonzero(np.r_[True, owner[1:] != owner[:-1]])
+        who = owner[starts]
+        low = np.minimum.reduceat(d2, starts)
+        group = np.repeat(np.arange(starts.size), np.diff(np.r_[starts, d2.size]))
+        first = np.minimum.reduceat(np.where(d2 == low[group], np.arange(d2.size), d2.size), starts)
+        hit = low < best[who]
+        who, first = who[hit], first[hit]
+        out_b[who], out_k[who], out_t[who] = d2[first], k[first], t[first]
+        return out_b, out_k, out_t
+
+    def at(self, k: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The centerline point at tube positions k + t, as :func:`_apart` computes it."""
+        C = self.C
+        return (C[k, 0] + t * (C[k + 1, 0] - C[k, 0]), C[k, 1] + t * (C[k + 1, 1] - C[k, 1]),
+                C[k, 2] + t * (C[k + 1, 2] - C[k, 2]))
+
+    def apart(self, ka, ta, kb, tb, px, py, pz) -> np.ndarray:
+        """:func:`_apart` for many pairs of tube positions and points."""
+        S = self.S
+        ax, ay, az = self.at(ka, ta)
+        bx, by, bz = self.at(kb, tb)
+        arc = np.abs(S[kb] + tb * (S[kb + 1] - S[kb]) - S[ka] - ta * (S[ka + 1] - S[ka]))
+        chord = np.sqrt((ax - bx) * (ax - bx) + (ay - by) * (ay - by) + (az - bz) * (az - bz))
+        da = np.sqrt((ax - px) * (ax - px) + (ay - py) * (ay - py) + (az - pz) * (az - pz))
+        db = np.sqrt((bx - px) * (bx - px) + (by - py) * (by - py) + (bz - pz) * (bz - pz))
+        return arc > LOOP_RATIO * (chord + da + db)
+
+
+def windows_batch(M: int, e: np.ndarray, w: float) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`search_window` for many window centres ``e`` (finite): (lo, hi) int64 arrays."""
+    lo = np.floor(e - w).astype(np.int64)
+    hi = np.ceil(e + w).astype(np.int64)
+    lo = np.minimum(np.maximum(lo, 0), M - 2)
+    hi = np.minimum(hi, M - 1)
+    return lo, np.where(hi <= lo, lo + 1, hi)
+
+
+def locate_batch(seg: Segments, radius: float, lo: np.ndarray, hi: np.ndarray, ze: np.ndarray, px: np.ndarray,
+                 py: np.ndarray, pz: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`locate_kernel` for many points (finite coordinates) at once: (distance, radius, position, flag).
+
+    The same float64 operations as the kernel, vectorised: the results are the kernel's bit for bit (tests hold
+    them so). The whole-centerline search looks at every segment instead of skipping the blocks that cannot hold
+    a nearer point; a skipped block's segments are all farther than the best so far (its bounding sphere is
+    padded), so the same segment wins.
+    """
+    M = seg.M
+    best, bk, bt = seg.scan(lo, hi, px, py, pz)
+    lo, hi = lo.copy(), hi.copy()
+    step = np.maximum(hi - lo, 1)
+    # followed on past the window's start while it comes nearer (local_scan), then past its end
+    for back in (True, False):
+        go = ((bk == lo) & (bt == 0.0) & (lo > 0)) if back else ((bk == hi - 1) & (bt == 1.0) & (hi < M - 1))
+        idx = np.flatnonzero(go)
+        while idx.size:
+            if back:
+                a, b = np.maximum(lo[idx] - step[idx], 0), lo[idx]
+                lo[idx] = a
+            else:
+                a, b = hi[idx], np.minimum(hi[idx] + step[idx], M - 1)
+                hi[idx] = b
+            b2, k2, t2 = seg.scan(a, b, px[idx], py[idx], pz[idx])
+            better = b2 < best[idx]
+            idx = idx[better]
+            best[idx], bk[idx], bt[idx] = b2[better], k2[better], t2[better]
+            if back:
+                idx = idx[(bk[idx] == lo[idx]) & (bt[idx] == 0.0) & (lo[idx] > 0)]
+            else:
+                idx = idx[(bk[idx] == hi[idx] - 1) & (bt[idx] == 1.0) & (hi[idx] < M - 1)]
+    R = seg.R
+    d = np.sqrt(best)
+    r = R[bk] + bt * (R[bk + 1] - R[bk])
+    pos = bk + bt
+    flag = np.zeros(best.shape[0])
+    g = np.flatnonzero(r - radius - d <= GLOBAL_BELOW)
+    if g.size:
+        gb, gk, gt = seg.scan_blocks(best[g], px[g], py[g], pz[g])
+        nearer = gb < best[g]
+        g, gb, gk, gt = g[nearer], gb[nearer], gk[nearer], gt[nearer]
+    if g.size:
+        dg = np.sqrt(gb)
+        rg = R[gk] + gt * (R[gk + 1] - R[gk])
+        e = np.minimum(np.maximum(ze[g], 0.0), M - 1.0)
+        ke = np.minimum(np.floor(e).astype(np.int64), M - 2)
+        qx, qy, qz = px[g], py[g], pz[g]
+        dl, rl = d[g], r[g]
+        take = (~seg.apart(bk[g], bt[g], gk, gt, qx, qy, qz) | ~seg.apart(ke, e - ke, gk, gt, qx, qy, qz)
+                | ((dl <= rl) & (rg - dg >= rl - dl)))
+        crossed = ~take & (dl > rl) & (dg < rg)
+        moved = take | crossed
+        g, dg, rg, gk, gt = g[moved], dg[moved], rg[moved], gk[moved], gt[moved]
+        d[g], r[g], pos[g] = dg, rg, gk + gt
+        flag[g] = crossed[moved].astype(np.float64)
+    return d, r, pos, flag
 
 
 def lumen_end_of(trajectory) -> str:

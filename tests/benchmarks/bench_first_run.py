@@ -11,8 +11,8 @@ A/B, alternating in one run, each `bhr follow --traj colon --out o` with an empt
 CPU seconds (user + system) of the command, medians, and their ratio.
 
 The calibration backs the constants in bhr/solvers/thesis.py, bhr/hardware/thermal.py and bhr/run/clearance.py:
-interpreted CPU seconds per unit of size (the largest over the cases), and the CPU seconds numba takes to compile
-each kernel (a fresh cache, in a process of its own).
+interpreted CPU seconds per unit of size (the largest over the cases; for the clearance, its numpy version per
+place scored), and the CPU seconds numba takes to compile each kernel (a fresh cache, in a process of its own).
 """
 from __future__ import annotations
 
@@ -41,14 +41,14 @@ what = sys.argv[1]
 out = {}
 cases = [("colon", {}), ("curve", {}), ("line", {"length": 400})]
 if what == "interpreted":
-    per_loop, per_drive, per_step = [], [], []
+    per_loop, per_drive, per_step, ratios = [], [], [], []
     for name, kw in cases:
         traj = bhr.trajectory(name, **kw)
         for modules in (5, 10):
             calls = []
-            def timed(kernel, i_s, c_s, *args, shallow=False, calls=calls):
+            def timed(kernel, i_s, c_s, *args, instead=None, calls=calls):
                 t = time.process_time()
-                r = ((kernel.py_func if shallow else _numba.interpreted(kernel)))(*args)
+                r = (instead if instead is not None else _numba.interpreted(kernel))(*args)
                 calls.append((kernel.py_func.__name__, args, time.process_time() - t))
                 return r
             for module in (thesis, thermal, clearance):
@@ -60,20 +60,22 @@ if what == "interpreted":
                     per_loop.append(s / (args[0].shape[0] * (args[2].shape[0] - 1) ** 2))
                 elif fname == "_kernel_py":
                     per_drive.append(s / (args[1].shape[0] * args[1].shape[1]))
-    traj = bhr.trajectory("anatomy", seed=1)
-    for body in (None, 20):
-        r = bhr.follow(traj, solver="thesis", body_modules=body)
-        Q, E, _ = clearance.run_chain(r)
-        tube = clearance.make_tube(traj.points, traj.lumen, traj.start_direction)
-        seen = []
-        clearance.call_cold = lambda k, i_s, c_s, *args, shallow=False: seen.append((k, args)) or k(*args)
-        clearance.clearance_run_all(tube, 5.0, Q, E)  # warm: the arguments of the loop
-        kernel, args = seen[-1]
-        t = time.process_time(); kernel.py_func(*args); in_python = time.process_time() - t
-        t = time.process_time(); kernel(*args); compiled = time.process_time() - t
-        per_step.append((in_python - compiled) / (Q.shape[0] * Q.shape[1]))
+    for seed in (1, 2, 3):  # the clearance in numpy, per place scored, on anatomical colons with and without a body
+        traj = bhr.trajectory("anatomy", seed=seed)
+        for body in (None, 20):
+            r = bhr.follow(traj, solver="thesis", body_modules=body)
+            Q, E, _ = clearance.run_chain(r)
+            tube = clearance.make_tube(traj.points, traj.lumen, traj.start_direction, closed_end=True)
+            seen = []
+            clearance.call_cold = lambda k, i_s, c_s, *args, instead=None: seen.append(args) or k(*args)
+            clearance.clearance_run_all(tube, 5.0, Q, E)  # warm: the arguments of the run
+            t = time.process_time(); clearance._run_vectorised(*seen[-1]); vectorised = time.process_time() - t
+            t = time.process_time(); clearance._run_kernel(*seen[-1]); compiled = time.process_time() - t
+            per_step.append(vectorised / clearance._places(Q, 1.0))
+            ratios.append(vectorised / compiled)
     out = {"loop_per_step_module2": max(per_loop), "drive_per_row_module": max(per_drive),
-           "clearance_loop_extra_per_step_point": max(per_step)}
+           "clearance_numpy_per_place": max(per_step),
+           "clearance_numpy_over_compiled": [round(min(ratios), 1), round(max(ratios), 1)]}
 else:  # compile times: each kernel on its first call, a fresh cache
     traj = bhr.trajectory("colon")
     t = time.process_time(); r = bhr.follow(traj, solver="thesis"); out["follow loop (thesis)"] = time.process_time() - t
@@ -91,6 +93,7 @@ else:  # compile times: each kernel on its first call, a fresh cache
     out["clearance step kernel"] = time.process_time() - t
     t = time.process_time(); clearance.clearance_run_all(tube, 5.0, Q[:2], E[:2])
     out["clearance loop (its step kernel compiled)"] = time.process_time() - t
+    out["clearance, both"] = out["clearance step kernel"] + out["clearance loop (its step kernel compiled)"]
 print(json.dumps(out))
 '''
 
