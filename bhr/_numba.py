@@ -454,6 +454,7 @@ def call_cold(kernel: Any, interpreted_s: float, compile_s: float, *args: Any, i
 class TooSlow(Exception):
     """Raised by a numpy version of a kernel (``call_cold(..., instead=...)``) past its deadline."""
 
+
 configure_cache()
 install_light_blas()
 install_cache_write_guard()

@@ -120,16 +120,19 @@ def run_once() -> int:
     from bhr import _numba
 
     folder = _numba.cache_dir()
+    lock = None
     try:
         import fcntl
 
-        lock = open(Path(folder) / ".bhr-warmup.lock", "a") if folder else None
-        if lock is not None:
+        if folder:
+            lock = open(Path(folder) / ".bhr-warmup.lock", "a")
             fcntl.flock(lock.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
     except BlockingIOError:
+        if lock is not None:
+            lock.close()
         return 0  # another one is compiling this cache
     except (ImportError, OSError):
-        lock = None  # no locks here: compile anyway
+        pass  # no lock to be had here: compile anyway
     try:
         compile_all()
     except Exception:  # a background convenience: a failure here only means a later command compiles

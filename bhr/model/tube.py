@@ -515,6 +515,12 @@ class Segments:
         """
         B = best.shape[0]
         BC, BR = self.BC, self.BR
+        rows = max(1, _BATCH_PAIRS // (BLOCK * max(1, BC.shape[0])))
+        if B > rows:  # a bounded share of memory at a time
+            parts = [self.scan_blocks(best[s:s + rows], px[s:s + rows], py[s:s + rows], pz[s:s + rows])
+                     for s in range(0, B, rows)]
+            return (np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts]),
+                    np.concatenate([p[2] for p in parts]))
         dx, dy, dz = px[:, None] - BC[:, 0], py[:, None] - BC[:, 1], pz[:, None] - BC[:, 2]
         centre = np.sqrt(dx * dx + dy * dy + dz * dz)
         gap = centre - BR

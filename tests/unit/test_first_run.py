@@ -154,9 +154,16 @@ def test_the_clearance_in_numpy_is_the_kernels_bit_for_bit_on_any_chain(gap, dia
         assert _same(a, b)
 
 
-def test_the_clearance_in_numpy_finds_a_crossing_as_the_kernel_does():
-    """A point that left its limb's lumen for the other limb's is flagged (lost) by both, on the same steps."""
+@pytest.mark.parametrize("small", [False, True])
+def test_the_clearance_in_numpy_finds_a_crossing_as_the_kernel_does(small, monkeypatch):
+    """A point that left its limb's lumen for the other limb's is flagged (lost) by both, on the same steps; and
+    the same when the numpy version works a few points and modules at a time (its memory bound)."""
+    from bhr.model import tube as tube_module
     from bhr.run import clearance
+
+    if small:
+        monkeypatch.setattr(tube_module, "_BATCH_PAIRS", 40)
+        monkeypatch.setattr(clearance, "_MODULES_AT_ONCE", 3)
 
     path = _u_turn(35.0)
     tube = clearance.make_tube(path, np.full(len(path), 30.0), closed_end=True)
