@@ -1008,9 +1008,9 @@ def verify_folder(folder: Path, given: Any = None, what: str = "output folder") 
     if not signed_by_bhr(doc, key):
         if key is None:
             raise BhrError(f"{what} {shown} has a manifest.json that bhr cannot check: {why}; remove the folder "
-                           "yourself or choose another --out")
+                           "yourself or give another folder for the output")
         raise BhrError(f"{what} {shown} has a manifest.json not signed by bhr for this user (copied, edited or "
-                       "written by an older bhr); remove the folder yourself or choose another --out")
+                       "written by an older bhr); remove the folder yourself or give another folder for the output")
     listed = doc["files"]
     for rel in sorted(found):
         if rel == MANIFEST:

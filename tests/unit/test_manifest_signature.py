@@ -25,7 +25,7 @@ from bhr.output.atomic import (KEY_ENV, MANIFEST, OutputFolder, key_file, output
 from bhr.settings.errors import BhrError
 
 NOT_SIGNED = ("has a manifest.json not signed by bhr for this user (copied, edited or written by an older bhr); "
-              "remove the folder yourself or choose another --out")
+              "remove the folder yourself or give another folder for the output")
 
 
 @pytest.fixture(autouse=True)
@@ -268,7 +268,7 @@ def test_a_key_file_not_to_be_trusted_is_not_used(tmp_path, config_home, case):
     assert "signature" not in json.loads((out / MANIFEST).read_text())
     msg = refused(out)  # and never replaced
     assert msg.startswith(f"output folder {out} has a manifest.json that bhr cannot check: the signing key {path}")
-    assert msg.endswith("remove the folder yourself or choose another --out")
+    assert msg.endswith("remove the folder yourself or give another folder for the output")
     assert everything(config_home) == before  # the key file is left as it was, not replaced
 
 
@@ -281,7 +281,7 @@ def test_without_a_key_output_is_written_unsigned_and_never_replaced(tmp_path, m
     msg = refused(out)
     assert msg == (f"output folder {out} has a manifest.json that bhr cannot check: bhr has no signing key: it "
                    f"cannot make {tmp_path}/afile/bhr/output-key (Not a directory); remove the folder yourself or "
-                   "choose another --out")
+                   "give another folder for the output")
 
 
 # --- any change to a signed manifest's content invalidates it (property) ---------------------------------------------
