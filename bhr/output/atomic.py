@@ -682,6 +682,11 @@ class OutputFolder:
             if _within(real, t) and not self.keep:  # with keep, every file it holds is carried over, inputs too
                 raise BhrError(f"{self.what} {short_path(self.given)} holds {short_path(name)}, an input of this run; "
                                "give another folder for the output (bhr replaces the whole folder)")
+        for parent in t.parents:  # a run inside a run: the outer one could then never be replaced (or checked)
+            if _read_manifest(parent / MANIFEST) is not None:
+                raise BhrError(f"{self.what} {short_path(self.given)} is inside {short_path(parent)}, a folder bhr "
+                               "wrote (bhr replaces such a folder whole); give a folder outside it, such as "
+                               "bhr-out/run2")
         if t.is_dir():
             self.previous()
         probe = t.parent
