@@ -66,6 +66,11 @@ def plan(codes_path, rate, schedule, robot_file, plot_path, no_plot, csv_path):
                 refuse_replacing_beside(Path(plot_path).parent, ["thermal.png"], codes_path,
                                         "move it away, or give --plot FILE.png or --no-plots")
         check_writable(plot_path, "figure")
+        owner = _figure_owner(plot_path)
+        if owner is not None:  # a folder bhr cannot replace is refused before the schedule is printed
+            from bhr.output.atomic import OutputFolder
+
+            OutputFolder(owner[0], "plan", keep=True).check()
     check_writable(csv_path, "CSV")
     params = thermal_params(robot_file)
     name = Path(codes_path).resolve().parent.name or Path(codes_path).stem
@@ -100,15 +105,10 @@ def _write_outputs(sched, table, steps, name, csv_path, plot_path, no_plot) -> l
         write_text(Path(csv_path), "\n".join(lines) + "\n")
         written.append(csv_path)
     if not no_plot:
-        from bhr.output.atomic import MANIFEST, OutputFolder, owning_folder
+        from bhr.output.atomic import OutputFolder
         from bhr.output.thermal_plot import save_schedule_figure
 
-        # the figure in a folder bhr wrote (a run's own, or a compare's or report's holding the run one or two
-        # levels down): that folder is put back whole with the figure added, so its manifest lists every file
-        plot_dir = Path(plot_path).resolve().parent
-        owner = owning_folder(plot_dir / "codes.csv")
-        if owner is None and (plot_dir / MANIFEST).is_file():
-            owner = (plot_dir, "codes.csv")
+        owner = _figure_owner(plot_path)
         if owner is not None:
             rel = (Path(owner[1]).parent / Path(plot_path).name).as_posix()
             with OutputFolder(owner[0], "plan", keep=True) as folder:
@@ -117,3 +117,18 @@ def _write_outputs(sched, table, steps, name, csv_path, plot_path, no_plot) -> l
             save_schedule_figure(sched, plot_path, title=name)
         written.append(plot_path)
     return written
+
+
+def _figure_owner(plot_path):
+    """The folder bhr wrote that the figure goes into, and the codes' place in it (None: a loose figure).
+
+    A run's own folder, or a compare's or report's holding the run one or two levels down: that folder is put
+    back whole with the figure added, so its manifest lists every file.
+    """
+    from bhr.output.atomic import MANIFEST, owning_folder
+
+    plot_dir = Path(plot_path).resolve().parent
+    owner = owning_folder(plot_dir / "codes.csv")
+    if owner is None and (plot_dir / MANIFEST).is_file():
+        owner = (plot_dir, "codes.csv")
+    return owner

@@ -748,3 +748,21 @@ def test_a_killed_follow_leaves_only_whole_files(tmp_path):
         assert text == GOOD_JSON or len(json.loads(text)["steps"]) == 827
         codes = (out / "codes.csv").read_text()
         assert codes == CODES_OK or codes.count("\n") == 828
+
+
+def test_plan_refuses_a_run_folder_it_cannot_replace_before_printing_the_schedule(run_bhr, tmp_path):
+    """A run folder whose manifest is not signed by this user's bhr: `bhr plan --codes run/codes.csv` would put
+    thermal.png there; it is refused in one line that names a fix plan has, before any schedule is printed."""
+    import json
+
+    (tmp_path / "run").mkdir()
+    (tmp_path / "run" / "codes.csv").write_text(CODES_OK)
+    doc = json.loads(_manifest({"codes.csv": CODES_OK}))
+    doc.pop("signature")
+    (tmp_path / "run" / "manifest.json").write_text(json.dumps(doc))
+    before = snapshot(tmp_path)
+    res = run_bhr("plan", "--codes", "run/codes.csv")
+    assert res.returncode == 1 and res.stdout == "", res.stdout
+    assert res.stderr.count("\n") == 1 and "not signed by bhr" in res.stderr, res.stderr
+    assert "--out" not in res.stderr and "give another folder for the output" in res.stderr
+    assert snapshot(tmp_path) == before
