@@ -243,9 +243,9 @@ def check_executor(jobs: int | None, scheduler: str | None) -> None:
         try:
             import distributed  # noqa: F401
         except ImportError:
-            from bhr.studies.executor import DASK_MISSING
+            from bhr.studies.executor import dask_missing
 
-            raise BhrError(DASK_MISSING) from None
+            raise BhrError(dask_missing()) from None
 
 
 def print_study(folder: Any, out_dir: str | None, lines: Any, files: Any, failed: int, total: int, what: str,

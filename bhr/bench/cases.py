@@ -658,9 +658,11 @@ def case_physics(repeat: int = 1, steps: int = 1000) -> BenchResult:
 
     import importlib.util
 
+    from bhr.settings.extras import install_command
+
     if importlib.util.find_spec("mujoco") is None:
         return BenchResult("physics-300", "per replay (CPU)", float("nan"), float("nan"), "the run itself",
-                           float("nan"), "<= 5 min (needs the physics extra: pip install 'bhr[physics]')", None)
+                           float("nan"), f"<= 5 min (needs the physics extra: {install_command('physics')})", None)
     r = Robot(alpha=25.0, module_length=5.0)
     tr = load_trajectory("anatomy", feed=r.feed, seed=1)
     t0 = time.process_time()

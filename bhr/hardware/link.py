@@ -17,6 +17,8 @@ No click in here: the command line passes ``progress`` callbacks.
 """
 from __future__ import annotations
 
+import shlex
+import sys
 import time
 from dataclasses import dataclass
 from typing import Callable, Sequence
@@ -95,7 +97,8 @@ class BoardLink:
         try:
             import serial
         except ImportError:  # pragma: no cover - pyserial is a dependency
-            raise LinkError("pyserial is not installed; run 'pip install pyserial'") from None
+            raise LinkError("pyserial is not installed; install it with: "
+                            f"{shlex.quote(sys.executable or 'python3')} -m pip install pyserial") from None
         if not port or not str(port).strip():
             raise LinkError("no serial port given; pass --port with a device such as /dev/ttyUSB0, loop:// or socket://host:port")
         if not any_url:

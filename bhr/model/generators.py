@@ -327,8 +327,10 @@ def _from_generator(gen_name: str, file_params: dict[str, Any], cli_params: dict
     gen = GENERATORS[gen_name]
     count = _generator_length(gen_name, p) / feed
     if count > MAX_POINTS:
+        least = math.ceil(count * feed / MAX_POINTS * 1e4) / 1e4  # rounded up: the feed that fits
         raise BhrError(f"{where}: the {gen_name} is {count * feed:g} mm long, {count:.0f} points at a feed of "
-                       f"{feed:g} mm (limit {MAX_POINTS}); make it shorter")
+                       f"{feed:g} mm (limit {MAX_POINTS}); make it shorter, or raise the feed (the module length "
+                       f"divided by the feed divisor) to at least {least:g} mm")
     if gen.build is not None:
         return gen.build(p, feed, where)
     pts = gen.func(feed, **p)

@@ -41,14 +41,18 @@ from typing import Any, Callable, Generic, Iterator, Sequence, TypeVar
 from bhr.settings.errors import BhrError
 from bhr.settings.options import excerpt
 
-__all__ = ["run_jobs", "Executed", "capture", "reason", "connect_scheduler", "DASK_MISSING", "worker_init",
+__all__ = ["run_jobs", "Executed", "capture", "reason", "connect_scheduler", "dask_missing", "worker_init",
            "DASK_WAIT_S", "close_client"]
 
 J = TypeVar("J")
 R = TypeVar("R")
 
-DASK_MISSING = ("--scheduler needs Dask's distributed package, which is not installed; "
-                "install it with: pip install 'bhr[dask]' (or pip install 'dask[distributed]')")
+def dask_missing() -> str:
+    """The one-line error for --scheduler without Dask's distributed package, with the command that installs it."""
+    from bhr.settings.extras import install_command
+
+    return ("--scheduler needs Dask's distributed package, which is not installed; "
+            f"install it with: {install_command('dask')}")
 
 
 # ------------------------------------------------------------------------------------------ failures
@@ -498,7 +502,7 @@ def _run_dask(scheduler: Any, fn: Callable[[Any], Any], warm_up: Callable[..., A
     try:
         import distributed  # noqa: F401
     except ImportError:
-        raise BhrError(DASK_MISSING) from None
+        raise BhrError(dask_missing()) from None
     limit = DASK_WAIT_S if wait_s is None else float(wait_s)
     own = isinstance(scheduler, str)
     client = connect_scheduler(scheduler) if own else scheduler
@@ -627,7 +631,7 @@ def connect_scheduler(address: str, timeout: float = 15.0) -> Any:
         from distributed.comm import connect
         from distributed.comm.addressing import parse_address, parse_host_port
     except ImportError:
-        raise BhrError(DASK_MISSING) from None
+        raise BhrError(dask_missing()) from None
     try:
         scheme, loc = parse_address(address.strip())
         if scheme in ("tcp", "tls"):

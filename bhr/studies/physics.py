@@ -1,8 +1,9 @@
 """bhr robots in pinocchio and MuJoCo: the exported models cross-checked, a run replayed against the colon wall.
 
-Needs the ``physics`` extra (``pip install 'bhr[physics]'``: pinocchio and
-MuJoCo); both are imported only inside the functions here, so ``import bhr``
-never loads them. docs/export.md and docs/physics.md describe what is computed.
+Needs the ``physics`` extra (``python3 -m pip install '.[physics]'`` in bhr's source folder:
+pinocchio and MuJoCo; the errors print the exact command, :func:`bhr.settings.extras.install_command`);
+both are imported only inside the functions here, so ``import bhr`` never loads them.
+docs/export.md and docs/physics.md describe what is computed.
 """
 from __future__ import annotations
 
@@ -16,11 +17,18 @@ from bhr.settings.errors import BhrError
 from bhr.model.export import MM, joint_names, joint_values, to_mjcf, to_urdf
 from bhr.model.robot import Robot, forward_kinematics
 
-__all__ = ["FkAgreement", "fk_cross_check", "pinocchio_model", "pinocchio_points", "mujoco_model",
+__all__ = ["missing", "FkAgreement", "fk_cross_check", "pinocchio_model", "pinocchio_points", "mujoco_model",
            "mujoco_points", "require", "check_installed", "whole_chain", "start_direction", "PhysicsReplay",
            "replay_physics",
            "scene_xml", "replay_chain", "ReplayChain", "insertion", "WALL_STIFFNESS_RANGE", "DEFAULT_WALL_STIFFNESS",
            "FORCE_LINES_N"]
+
+
+def missing(module: str) -> str:
+    """The one-line error for ``module`` (``mujoco``, ``pinocchio``) missing, with the command that installs it."""
+    from bhr.settings.extras import install_command
+
+    return f"{module} is not installed; install the physics extra: {install_command('physics')}"
 
 
 def require(module: str) -> Any:
@@ -30,7 +38,7 @@ def require(module: str) -> Any:
     try:
         return importlib.import_module(module)
     except ImportError:
-        raise BhrError(f"{module} is not installed; install the physics extra: pip install 'bhr[physics]'") from None
+        raise BhrError(missing(module)) from None
 
 
 def check_installed(module: str) -> None:
@@ -38,7 +46,7 @@ def check_installed(module: str) -> None:
     import importlib.util
 
     if importlib.util.find_spec(module) is None:
-        raise BhrError(f"{module} is not installed; install the physics extra: pip install 'bhr[physics]'")
+        raise BhrError(missing(module))
 
 
 def pinocchio_model(robot: Robot, modules: int | None = None) -> Any:

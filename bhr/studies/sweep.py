@@ -33,7 +33,7 @@ from bhr import __version__
 from bhr.output.atomic import write_json, write_text
 from bhr.settings.errors import BhrError
 from bhr.settings.inputs import check_document, read_toml
-from bhr.studies.executor import DASK_MISSING, capture, connect_scheduler, run_jobs
+from bhr.studies.executor import capture, connect_scheduler, dask_missing, run_jobs
 from bhr.model.generators import GENERATORS, builtin_names, load_trajectory
 from bhr.run.driver import BhrWarning, follow
 from bhr.output.htmlpage import PAGE_END, escape, figure, fmt, page_head, table
@@ -48,7 +48,7 @@ from bhr.studies.study import (CONSTRAINT_KEYS, NUMBER_KEYS, ROBOT_KEYS, TRAJ_KE
 
 __all__ = ["Sweep", "SweepResult", "GRID_KEYS", "parse_grid_option", "parse_values", "sweep_from_toml",
            "load_sweep", "build_sweep", "run_design", "run_chunk", "run_sweep", "heatmap_axes",
-           "heatmap_figure", "write_outputs", "METRICS", "DASK_MISSING", "connect_scheduler", "make_robot",
+           "heatmap_figure", "write_outputs", "METRICS", "dask_missing", "connect_scheduler", "make_robot",
            "axis_label", "axis_value", "column_title", "AXIS_NAMES", "COLUMN_TITLES"]
 
 #: Keys a grid may vary: trajectory and robot options, and the constrained solvers' options.

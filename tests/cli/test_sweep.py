@@ -401,8 +401,10 @@ def test_scheduler_without_dask_installed_is_one_line(tmp_path):
     proc = run_cli("sweep", "--grid", "modules=4", "--scheduler", "tcp://127.0.0.1:1", "--out", "o", cwd=tmp_path,
                    env=env)
     assert proc.returncode != 0
+    from bhr.settings.extras import install_command
+
     assert proc.stderr.strip() == ("Error: --scheduler needs Dask's distributed package, which is not installed; "
-                                   "install it with: pip install 'bhr[dask]' (or pip install 'dask[distributed]')")
+                                   f"install it with: {install_command('dask')}")
     # the local path does not need it
     ok = run_cli("sweep", "--grid", "modules=4", "--jobs", "1", "--no-plot", "--out", "o", cwd=tmp_path, env=env)
     assert ok.returncode == 0, ok.stderr

@@ -442,3 +442,23 @@ def test_a_header_cell_is_quoted_only_when_it_looks_like_a_column_name(tmp_path,
     with pytest.raises(BhrError) as err:
         load_trajectory(str(f), feed=2.0)
     assert shown in str(err.value) and "hunter2" not in str(err.value) and "AKIA" not in str(err.value)
+
+
+@pytest.mark.parametrize("name, params", [("colon", {}), ("line", {"length": 1e6}), ("curve", {"radius": 1e4,
+                                                                                                "angle": 360})])
+def test_a_path_of_too_many_points_names_a_feed_that_fits(name, params):
+    """The refusal said only "make it shorter", which a built-in colon cannot be; it names the feed that fits,
+    and a path drawn at that feed is accepted (the limit is a count of points, so the feed is rounded up)."""
+    import re
+
+    from bhr.model.generators import load_trajectory
+    from bhr.settings.errors import BhrError
+
+    with pytest.raises(BhrError) as err:
+        load_trajectory(name, feed=0.00016, **params)
+    message = str(err.value)
+    assert "\n" not in message and "(limit 500000); make it shorter, or raise the feed" in message
+    least = float(re.search(r"to at least ([0-9.e+-]+) mm$", message).group(1))
+    assert load_trajectory(name, feed=least, **params).points.shape[0] <= 500_001
+    with pytest.raises(BhrError, match="limit 500000"):
+        load_trajectory(name, feed=least * 0.99, **params)
