@@ -12,6 +12,7 @@ folder. The command line (``cli/follow.py``) parses, calls it and prints
 from __future__ import annotations
 
 import contextlib
+import shlex
 import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -81,7 +82,7 @@ class FollowRun:
             from bhr.hardware.thermal import format_duration
 
             out.append(f"Procedure time on the board: {format_duration(self.procedure_s)} at the board's limits "
-                       f"(bhr plan --codes {self.folder / 'codes.csv'} shows the schedule).")
+                       f"(bhr plan --codes {shlex.quote(str(self.folder / 'codes.csv'))} shows the schedule).")
         if self.written:
             out.append("Wrote " + ", ".join(str(p) for p in self.written))
         return out

@@ -10,6 +10,7 @@ from __future__ import annotations
 import json
 import os
 import select
+import shlex
 import shutil
 import subprocess
 import sys
@@ -663,6 +664,22 @@ def test_the_hints_bhr_prints_run_as_printed(tmp_path):
     assert latest.exists()
     r = run_bhr(*args, cwd=tmp_path)
     assert r.returncode == 0, r.stderr
+
+
+@pytest.mark.parametrize("folder", ["bhr-out/my run", "bhr-out/it's $HOME"])
+def test_the_plan_hint_runs_as_printed_in_a_shell_when_the_folder_has_spaces_or_quotes(tmp_path, folder):
+    """The hint printed the folder unquoted: with `--out "bhr-out/my run"`, pasting it gave the shell two words."""
+    import re
+
+    r = run_bhr("follow", "--traj", "curve", "--angle", "90", "--no-plots", "--out", folder, cwd=tmp_path,
+                timeout=600)
+    assert r.returncode == 0, r.stderr
+    hint = re.search(r"\((bhr plan --codes .+) shows the schedule\)\.$", r.stdout, re.M).group(1)
+    exe = " ".join(shlex.quote(w) for w in bhr_cmd())
+    shell = subprocess.run(["sh", "-c", exe + hint[len("bhr"):] + " --no-plots"], cwd=tmp_path, capture_output=True,
+                           text=True, timeout=120)
+    assert shell.returncode == 0, shell.stderr
+    assert re.search(r": 85 steps, [0-9.]+ s at the board.s limits$", shell.stdout, re.M), shell.stdout
 
 
 def test_status_help_names_every_fault_the_board_can_report():
