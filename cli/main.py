@@ -52,6 +52,9 @@ class LazyGroup(click.Group):
         try:
             rv = super().main(args, prog_name, complete_var, standalone_mode=False, **extra)
         except click.UsageError as exc:
+            if type(exc).__name__ == "NoArgsIsHelpError":  # `bhr` alone (click >= 8.2): the help, not an error line
+                exc.show()
+                sys.exit(exc.exit_code)
             where = exc.ctx.command_path if exc.ctx is not None else "bhr"
             if where == "bhr":  # an error while parsing a command's options: point to that command's help
                 words = list(sys.argv[1:] if args is None else args)

@@ -13,6 +13,13 @@ def test_help_lists_commands(run_bhr):
         assert cmd in res.stdout
 
 
+def test_bhr_alone_shows_the_help_not_an_error(run_bhr):
+    """`bhr` with nothing after it printed "Error: Usage: ..." and "(see 'bhr --help')" after the whole help."""
+    res = run_bhr()
+    assert res.returncode != 0 and res.stdout == ""
+    assert res.stderr == run_bhr("--help").stdout  # the help itself, as `bhr --help` prints it
+
+
 @pytest.mark.parametrize("args, message", [
     (["solve", "--modules", "0", "--target", "1", "2", "3"], "modules must be greater than 0"),
     (["solve", "--module-length", "-2", "--target", "1", "2", "3"], "module length must be greater than 0"),
