@@ -47,6 +47,7 @@ __all__ = ["run_jobs", "Executed", "capture", "reason", "connect_scheduler", "da
 J = TypeVar("J")
 R = TypeVar("R")
 
+
 def dask_missing() -> str:
     """The one-line error for --scheduler without Dask's distributed package, with the command that installs it."""
     from bhr.settings.extras import install_command
