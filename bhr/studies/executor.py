@@ -33,6 +33,7 @@ import errno
 import functools
 import math
 import os
+import threading
 import time
 import traceback
 from dataclasses import dataclass
@@ -276,6 +277,37 @@ def _no_tracker_relaunch() -> Callable[[], None] | None:
     return ensure_running
 
 
+_WAKEUP_LOCK = threading.Lock()
+
+
+def _serialised_wakeups() -> None:
+    """Make a process pool's wake-up pipe safe to use while its manager thread closes it (once per process).
+
+    At interpreter exit, ``concurrent.futures.process._python_exit`` wakes every pool's manager thread without
+    the pool's lock, while that thread may be closing the pipe (CPython 3.11-3.13): the check "not closed" and
+    the write can straddle the close, and the command that had printed "Interrupted by SIGHUP." went on with
+    "Exception ignored in: <module 'threading'>" and an OSError (Bad file descriptor) traceback. Waking up and
+    closing now take one lock, so a wake-up finds the pipe either open or marked closed, never half-closed.
+    """
+    from concurrent.futures import process
+
+    cls = getattr(process, "_ThreadWakeup", None)
+    if cls is None or getattr(cls, "_bhr_serialised", False) or not all(hasattr(cls, a) for a in ("wakeup", "close")):
+        return
+    wakeup, close = cls.wakeup, cls.close
+
+    def serialised_wakeup(self: Any) -> None:
+        with _WAKEUP_LOCK:
+            wakeup(self)
+
+    def serialised_close(self: Any) -> None:
+        with _WAKEUP_LOCK:
+            close(self)
+
+    cls.wakeup, cls.close = serialised_wakeup, serialised_close
+    cls._bhr_serialised = True
+
+
 @contextlib.contextmanager
 def _quiet_stderr() -> Iterator[None]:
     """Standard error on /dev/null for what starts inside (the resource tracker, which keeps it).
@@ -394,6 +426,7 @@ def _run_pool(workers: int, fn: Callable[[Any], Any], warm_up: Callable[..., Any
                 ensure()
         finally:
             signal.pthread_sigmask(signal.SIG_SETMASK, mask)
+    _serialised_wakeups()
     pool = ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=worker_init,
                                initargs=(os.getpid(),))
     try:

@@ -135,3 +135,53 @@ def test_a_signal_taken_by_another_thread_while_a_worker_starts_leaves_it_its_st
     assert multiprocessing.active_children() == []
     err = capfd.readouterr().err
     assert "EOFError" not in err and "Traceback" not in err, err
+
+
+class _PausedWriter:
+    """The pool's real pipe end, pausing a wake-up between its "not closed" check and its write until the pipe is
+    closed (or 0.5 s pass): the moment at which a command's exit met its pool's manager thread closing the pipe."""
+
+    def __init__(self, conn):
+        self.conn = conn
+        self.entered = __import__("threading").Event()
+        self.closed = __import__("threading").Event()
+
+    def send_bytes(self, data):
+        self.entered.set()
+        self.closed.wait(0.5)
+        self.conn.send_bytes(data)
+
+    def close(self):
+        self.conn.close()
+        self.closed.set()
+
+
+def test_a_pool_wakeup_never_writes_to_a_pipe_being_closed():
+    """CI saw `bhr sweep --jobs 2` end by SIGHUP print "Exception ignored in: <module 'threading'>" and an
+    OSError traceback: concurrent.futures woke the pool's manager thread as Python exited, without the pool's
+    lock, while that thread closed the pipe. bhr serialises the two, so the wake-up completes before the close."""
+    import threading
+    from concurrent.futures import process
+
+    from bhr.studies.executor import _serialised_wakeups
+
+    _serialised_wakeups()
+    _serialised_wakeups()  # once only: a second call wraps nothing again
+    w = process._ThreadWakeup()
+    w._writer = _PausedWriter(w._writer)
+    errors = []
+
+    def wake():
+        try:
+            w.wakeup()
+        except (OSError, TypeError) as exc:  # a closed Connection raises OSError, or TypeError on its None handle
+            errors.append(exc)
+
+    t = threading.Thread(target=wake)
+    t.start()
+    assert w._writer.entered.wait(5)
+    w.close()  # the manager thread's close, while the wake-up is inside its write
+    t.join(5)
+    assert not t.is_alive() and errors == []
+    assert w._closed
+    w.wakeup()  # and after the close, a wake-up is a no-op
