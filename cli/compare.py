@@ -79,17 +79,17 @@ def compare(traj, solvers, out_dir, json_path, no_plots, **kwargs):
     announce_compiles()
     traj_params = pop_trajectory(kwargs)
     tr = load_trajectory(traj, feed=robot.feed, **traj_params)
-    from bhr.studies.follow_run import folder_stem
+    from bhr.studies.follow_run import folder_stem, trajectory_parts
 
     stem = folder_stem(traj, traj_params.get("seed"))  # as follow's: one folder name per anatomical colon
     if folder is None and use_folder:
-        name = run_folder_name(f"compare-{stem}", tr.points, tr.lumen if tr.lumen is not None else 0,
-                               robot.to_dict(), names, per_solver, body_modules)
+        name = run_folder_name(f"compare-{stem}", *trajectory_parts(tr), robot.to_dict(), names, per_solver,
+                               body_modules)
         folder = OutputFolder(Path("bhr-out") / name, "compare", names=COMPARE_NAMES,
                               inputs=input_files(traj, robot_file)).check()
     if folder is not None:  # what makes the results (docs/commands.md#output-folders)
-        folder.settings = run_folder_name("", tr.points, tr.lumen if tr.lumen is not None else 0, robot.to_dict(),
-                                          names, per_solver, body_modules).rsplit("-", 1)[1]
+        folder.settings = run_folder_name("", *trajectory_parts(tr), robot.to_dict(), names, per_solver,
+                                          body_modules).rsplit("-", 1)[1]
     json_inside = json_in_folder(json_path, folder, COMPARE_NAMES) if folder is not None else None
     with warnings.catch_warnings(record=True) as caught, \
             status(f"following {tr.name} ({len(tr.points)} steps) with {', '.join(names)}"):

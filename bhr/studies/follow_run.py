@@ -22,7 +22,8 @@ from bhr.output.atomic import (OutputFolder, check_parent_folder, input_files, j
                                write_json, write_text)
 from bhr.settings.errors import BhrError
 
-__all__ = ["FOLLOW_NAMES", "FollowRun", "StreamSettings", "check_outputs", "follow_run", "summary_lines", "folder_stem"]
+__all__ = ["FOLLOW_NAMES", "FollowRun", "StreamSettings", "check_outputs", "follow_run", "summary_lines", "folder_stem",
+           "trajectory_parts"]
 
 #: What bhr follow writes into its folder (an existing folder holding only such files may be replaced).
 FOLLOW_NAMES = ("run.json", "codes.csv", "steps.csv", "*.png", "view.html", "manifest.json")
@@ -183,8 +184,7 @@ def follow_run(traj: str, *, robot: Any, solver: str = "thesis", solver_options:
 
     tr = load_trajectory(traj, feed=robot.feed, **traj_params)
     extra = (reach, locomotion) if (reach, locomotion) != (None, "thesis") else ()
-    settings_parts = (tr.points, tr.lumen if tr.lumen is not None else 0, robot.to_dict(), solver, solver_options,
-                      body_modules, *extra)
+    settings_parts = (*trajectory_parts(tr), robot.to_dict(), solver, solver_options, body_modules, *extra)
     if folder is None and use_folder:
         name = run_folder_name(f"{folder_stem(traj, traj_params.get('seed'))}-{solver}", *settings_parts)
         folder = OutputFolder(Path("bhr-out") / name, "follow", names=FOLLOW_NAMES, inputs=inputs).check()
@@ -317,6 +317,14 @@ def _follow_streaming(tr, solver, robot, solver_options, thermal, rate, s: Strea
     outcome = StreamOutcome(report.sent, robot.modules, s.port, how, report.elapsed_s + settle, sched.total_s,
                             s.at_end, list(report.fault_events))
     return result, outcome
+
+
+def trajectory_parts(tr: Any) -> tuple[Any, ...]:
+    """What of a trajectory makes a run's results, for its folder's settings hash: the points, the lumen, and how
+    the lumen ends when it is open (a closed end, the default, adds nothing, so earlier folders keep their names)."""
+    parts: tuple[Any, ...] = (tr.points, tr.lumen if tr.lumen is not None else 0)
+    end = getattr(tr, "lumen_end", "closed")
+    return parts + (("lumen_end", end),) if tr.lumen is not None and end != "closed" else parts
 
 
 def summary_lines(result) -> list[str]:

@@ -409,3 +409,18 @@ def test_output_paths_with_control_characters_are_refused(tmp_path, args):
     assert r.returncode == 1 and r.stdout == ""
     assert "contains a control character" in one_line(r.stderr)
     assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("command", [["follow", "--solver", "thesis"], ["compare", "--solver", "thesis", "--solver",
+                                                                          "ccd"]])
+def test_an_open_lumen_end_is_a_different_run_with_its_own_folder(tmp_path, command):
+    """--lumen-end changes the clearance, but was left out of the default folder's hash: the open-ended rerun
+    replaced the closed one's data in its folder and kept its figures beside it."""
+    def folder(*extra: str) -> str:
+        r = bhr(*command, "--traj", "anatomy-short", "--no-plots", *extra, cwd=tmp_path)
+        assert r.returncode == 0, r.stderr
+        return re.search(r"bhr-out/([^/]+)/", r.stdout).group(1)
+
+    default, closed, opened = folder(), folder("--lumen-end", "closed"), folder("--lumen-end", "open")
+    assert default == closed != opened  # the default end is closed: same run, same folder as before
+    assert (tmp_path / "bhr-out" / closed).is_dir() and (tmp_path / "bhr-out" / opened).is_dir()
