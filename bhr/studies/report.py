@@ -65,7 +65,7 @@ __all__ = ["RunSpec", "Batch", "load_batch", "parse_batch", "execute_run", "run_
 
 # The keys of a run table (TRAJ_KEYS, ROBOT_KEYS, ...) come from the option registry, via bhr.studies.study.
 _STRING_KEYS = frozenset({"name", "description", "traj", "solver", "robot"}) | {
-    o.name for o in by_group("constraint") if o.choices is not None}
+    o.name for o in by_group("constraint", "trajectory") if o.choices is not None}
 RUN_KEYS = frozenset(NUMBER_KEYS | _STRING_KEYS)
 _TOP_KEYS = ("title", "description", "defaults", "run")
 
@@ -164,7 +164,7 @@ def parse_batch(data: dict[str, Any], source: str = "batch", base_dir: str | os.
         if traj in GENERATORS:
             allowed = GENERATORS[traj].params
             for key in tp:
-                if key not in allowed:
+                if key not in allowed and key != "lumen_end":  # every trajectory with a lumen takes lumen_end
                     raise BhrError(f"{where}: the {traj} trajectory has no parameter {excerpt(key)} "
                                    f"(its parameters: {', '.join(allowed) or 'none'})")
         elif traj not in builtin_names():

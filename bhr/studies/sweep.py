@@ -54,7 +54,9 @@ __all__ = ["Sweep", "SweepResult", "GRID_KEYS", "parse_grid_option", "parse_valu
 #: Keys a grid may vary: trajectory and robot options, and the constrained solvers' options.
 #: How a run is simulated, by name (``locomotion = thesis, trail``; ``reach = cecum``).
 RUN_CHOICE_KEYS = frozenset(o.name for o in by_group("run") if o.choices is not None)
-GRID_KEYS = frozenset(NUMBER_KEYS | set(CONSTRAINT_KEYS) | RUN_CHOICE_KEYS)
+#: Trajectory options taken by name (``lumen_end = closed, open``), for every trajectory with a lumen.
+TRAJ_CHOICE_KEYS = frozenset(o.name for o in by_group("trajectory") if o.choices is not None)
+GRID_KEYS = frozenset(NUMBER_KEYS | set(CONSTRAINT_KEYS) | RUN_CHOICE_KEYS | TRAJ_CHOICE_KEYS)
 #: Result columns of every design, after its design keys.
 METRICS = ("status", "steps", "tip_max_error_mm", "tip_final_error_mm", "points_max_error_mm",
            "orientation_max_deg", "global_max", "tip_rmse_mm", "tip_orientation_rmse_deg", "tolerance_exceeded",
@@ -120,7 +122,7 @@ def parse_values(key: str, value: Any, where: str) -> tuple[Any, ...]:
         text = value.strip()
         if not text:
             raise BhrError(f"{where}: {key} has no values; give e.g. {key}=4,5,6 or {key}=4:8")
-        if (key in CONSTRAINT_KEYS and CONSTRAINT_KEYS[key] is not None) or key in RUN_CHOICE_KEYS:
+        if (key in CONSTRAINT_KEYS and CONSTRAINT_KEYS[key] is not None) or key in RUN_CHOICE_KEYS | TRAJ_CHOICE_KEYS:
             raw: list[Any] = [t.strip() for t in text.split(",")]
         elif (re.fullmatch(r"\d+\s*-\s*\d+", text, re.ASCII) and BY_NAME.get(key) is not None
               and BY_NAME[key].kind is int):
@@ -299,7 +301,7 @@ def build_sweep(trajs: Sequence[str], solvers: Sequence[str], grid: Iterable[tup
 
         if t in GENERATORS:
             for k in traj_first:
-                if k not in GENERATORS[t].params:
+                if k not in GENERATORS[t].params and k not in TRAJ_CHOICE_KEYS:
                     raise BhrError(f"{where}: grid key {excerpt(k)} is not a parameter of the {t} trajectory (its "
                                    f"parameters: {', '.join(GENERATORS[t].params) or 'none'}); sweep it on its own")
         check_traj(traj_first, "")

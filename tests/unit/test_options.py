@@ -49,3 +49,19 @@ def test_optimal_options_in_batch_and_sweep():
     assert [r["status"] for r in rows] == ["ok"] * 4
 
 
+
+
+def test_lumen_end_is_a_key_of_batch_runs_and_sweep_grids_as_documented():
+    """docs/lumen.md promises `lumen_end = "open"` in a batch or sweep table; both refused it as unknown."""
+    from bhr.settings.errors import BhrError
+    from bhr.studies.sweep import parse_values
+
+    b = parse_batch({"run": [{"name": "a", "traj": "anatomy-short", "lumen_end": "open"},
+                             {"name": "b", "traj": "colon", "lumen_end": "closed"}]}, "b")
+    assert [r.traj_params for r in b.runs] == [{"lumen_end": "open"}, {"lumen_end": "closed"}]
+    with pytest.raises(BhrError, match="lumen_end must be one of closed, open, got 'ajar'"):
+        parse_batch({"run": [{"name": "a", "traj": "colon", "lumen_end": "ajar"}]}, "b")
+    assert parse_values("lumen_end", "open, closed", "--grid") == ("open", "closed")
+    assert parse_values("lumen_end", ["open"], "t") == ("open",)
+    with pytest.raises(BhrError, match="lumen_end must be one of closed, open"):
+        parse_values("lumen_end", "ajar", "--grid")
