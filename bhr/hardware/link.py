@@ -202,7 +202,7 @@ class BoardLink:
             if len(doc["codes"]) != len(self.module_order):
                 raise LinkError(f"board on {self.port} drives {len(doc['codes'])} modules but the robot file's "
                                 f"link.module_order lists {len(self.module_order)}; fix module_order or build "
-                                f"the firmware with 'make MODULES={len(self.module_order)}'")
+                                f"the firmware with 'make -C firmware MODULES={len(self.module_order)}'")
             chain = doc["codes"]
             doc["codes"] = [0] * len(chain)
             for pos, m in enumerate(self.module_order):
@@ -324,7 +324,8 @@ class BoardLink:
         text = P.nak_text(reason, detail)
         if reason == P.Nak.BAD_COUNT:
             return (f"board on {self.port} refused {what}: it drives {detail} modules but {n_codes} codes were "
-                    f"sent; use codes for {detail} modules or build the firmware with 'make MODULES={n_codes}'")
+                    f"sent; use codes for {detail} modules or build the firmware with "
+                    f"'make -C firmware MODULES={n_codes}'")
         if reason == P.Nak.BAD_VERSION:
             return (f"board on {self.port} refused {what}: it speaks protocol version {detail}, bhr speaks "
                     f"{P.VERSION}; update the firmware or bhr so they match")
@@ -528,7 +529,8 @@ def check_board(link: BoardLink, modules: int) -> dict:
     doc = link.status()
     if len(doc["codes"]) != modules:
         raise LinkError(f"board on {link.port} drives {len(doc['codes'])} modules but the robot has {modules}; "
-                        f"use --modules {len(doc['codes'])} or build the firmware with 'make MODULES={modules}'")
+                        f"use --modules {len(doc['codes'])} or build the firmware with "
+                        f"'make -C firmware MODULES={modules}'")
     return doc
 
 
@@ -597,7 +599,7 @@ def run_stream(link: BoardLink, codes, rate: float = 10.0, *, times: Sequence[fl
             # the board said how many modules it drives: a row of another length would only be refused row by row
             raise LinkError(f"board on {link.port} drives {link.modules} modules but the codes have {table.shape[1]} "
                             f"per row; use codes for {link.modules} modules or build the firmware with "
-                            f"'make MODULES={table.shape[1]}'")
+                            f"'make -C firmware MODULES={table.shape[1]}'")
         pacer = Pacer(link, rate, heartbeat, times=planned, on_fault=on_fault, known_faults=known_faults or (),
                       wait_relaxed=wait_relaxed)
         t0 = time.monotonic()

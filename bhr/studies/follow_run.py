@@ -169,9 +169,15 @@ def follow_run(traj: str, *, robot: Any, solver: str = "thesis", solver_options:
         check_target(animate_path)
         check_output_file(animate_path, "animation")
     if stream is not None and body_modules is not None:
-        raise BhrError("--port streams the head's run as it is solved, not a --body-modules run; drop --port, then "
-                       "stream the whole robot's codes.csv (every module, rear first): bhr stream --port PORT --codes "
-                       "bhr-out/latest/codes.csv")
+        from bhr.model.robotfile import MAX_BOARD_MODULES
+
+        head = "--port streams the head's run as it is solved, not a --body-modules run; drop --port"
+        if body_modules > MAX_BOARD_MODULES:
+            raise BhrError(f"{head}: one board drives at most {MAX_BOARD_MODULES} modules, so the whole robot's "
+                           f"{body_modules} cannot be streamed to one")
+        raise BhrError(f"{head}, then stream the whole robot's codes.csv (every module, rear first) to a board built "
+                       f"for {body_modules} modules (make -C firmware MODULES={body_modules}): bhr stream --port PORT "
+                       "--codes bhr-out/latest/codes.csv")
     if stream is not None and (locomotion != "thesis" or reach is not None):
         raise BhrError("--port streams the thesis's locomotion; drop --locomotion and --reach to stream")
     if thermal is None:

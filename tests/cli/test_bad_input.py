@@ -489,6 +489,11 @@ CASES += [
     Bad("compare-too-large", "compare", ["--traj", "line", "--length", "600000", "--solver", "seed", "--solver",
                                          "ccd", "--no-plots"], expect="in memory"),
     Bad("follow-modules-over-limit", "follow", ["--traj", "line", "--modules", "1001"], expect="too large"),
+    # --port with a whole robot: the advice names what works (a board drives 32 modules at most)
+    Bad("follow-port-body-over-a-board", "follow", ["--traj", "curve", "--body-modules", "40", "--port", "/dev/pts/999"],
+        expect="one board drives at most 32 modules, so the whole robot's 40 cannot be streamed to one"),
+    Bad("follow-port-body", "follow", ["--traj", "curve", "--body-modules", "6", "--port", "/dev/pts/999"],
+        expect="to a board built for 6 modules (make -C firmware MODULES=6): bhr stream --port PORT"),
     # the robot limits of the command line hold in batch and sweep files too
     Bad("report-modules-huge", "report", ["--batch", "b.toml"],
         {"b.toml": '[[run]]\nname = "a"\ntraj = "line"\nmodules = 1000000\n'}, "too large"),
