@@ -632,7 +632,12 @@ def summarize(schedule: Schedule, name: str = "") -> str:
 
 
 def max_safe_rate(params: ThermalParams, rows, rate: float) -> float | None:
-    """The highest fixed rate (<= rate, to 0.1 Hz, at least 0.1 Hz) the model accepts, or None."""
+    """A fixed rate (<= rate, to 0.1 Hz, at least 0.1 Hz) the model accepts, the highest a bisection finds, or None.
+
+    Whether a rate is accepted is not monotonic in the rate (send times are rounded to whole milliseconds and
+    each row may arrive LINK_MARGIN_MS early), so the bisection's answer, rounded down to 0.1 Hz, is checked
+    itself and lowered by 0.1 Hz until the model accepts it: the rate printed as the fix is one that passes.
+    """
     lo, hi = 0.1, float(rate)
     if check_schedule(params, rows, lo, trace=False).faults:
         return None
@@ -642,7 +647,12 @@ def max_safe_rate(params: ThermalParams, rows, rate: float) -> float | None:
             hi = mid
         else:
             lo = mid
-    return math.floor(lo * 10) / 10 or None
+    tenths = math.floor(lo * 10 + 1e-9)
+    while tenths > 1:
+        if not check_schedule(params, rows, tenths / 10, trace=False).faults:
+            return tenths / 10
+        tenths -= 1
+    return 0.1  # accepted above
 
 
 def _released_step(rows: np.ndarray, step: int, module: int) -> int | None:

@@ -150,3 +150,36 @@ def test_the_plan_figure_draws_wires_that_move_together_as_one_named_line():
         import matplotlib.pyplot as plt
 
         plt.close(fig)
+
+
+def _fix_rate(rows, rate):
+    """The rate a refused fixed-rate plan names as its fix, or None when it is accepted or names none."""
+    import re
+
+    try:
+        T.plan(T.DEFAULT_THERMAL, rows, rate, "rate", trace=False)
+    except BhrError as exc:
+        m = re.search(r"use --rate ([0-9.]+) or", str(exc))
+        return float(m.group(1)) if m else None
+    return None
+
+
+def test_the_rate_a_refusal_names_is_accepted_when_acceptance_is_not_monotonic():
+    """A file (found by a tester's random codes) refused at 2 Hz was told "use --rate 0.9", which was refused in
+    turn ("use --rate 0.8"): a slower rate is not always accepted, so the bisection's answer is checked itself."""
+    from bhr.model.codes import read_codes_csv
+
+    _, rows = read_codes_csv(Path(__file__).resolve().parents[1] / "data" / "rate-hint-not-monotonic.csv")
+    assert T.check_schedule(T.DEFAULT_THERMAL, rows, 0.9, trace=False).faults  # the old advice: refused
+    fix = _fix_rate(rows, 2.0)
+    assert fix is not None and not T.check_schedule(T.DEFAULT_THERMAL, rows, fix, trace=False).faults
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.lists(st.sampled_from(VALID), min_size=3, max_size=3), min_size=2, max_size=40),
+       st.sampled_from([1.0, 2.0, 5.0, 10.0, 20.0]))
+def test_a_refused_rate_names_a_rate_the_model_accepts(rows, rate):
+    fix = _fix_rate(np.asarray(rows, dtype=np.int64), rate)
+    if fix is not None:
+        assert 0.1 <= fix <= rate
+        assert not T.check_schedule(T.DEFAULT_THERMAL, np.asarray(rows, dtype=np.int64), fix, trace=False).faults
