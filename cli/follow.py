@@ -75,7 +75,7 @@ def follow(traj, solver, out_dir, json_path, no_plots, **kwargs):
     check_trajectory_name(traj)  # a misspelt name costs no numba import
     from bhr.solvers import check_solver_name
 
-    check_solver_name(solver)  # nor does a misspelt solver (bhr.solvers.names)
+    solver = check_solver_name(solver)  # nor does a misspelt solver (bhr.solvers.names); an alias is shown by its name
     from bhr.settings.errors import BhrError
 
     from bhr.studies.follow_run import StreamSettings, check_outputs, follow_run

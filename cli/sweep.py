@@ -44,8 +44,8 @@ def sweep(sweep_file, trajs, solvers, grid, robot_file, out_dir, jobs, scheduler
     no_plot = no_plot or no_plot_old
     from bhr.solvers import check_solver_name
 
-    for name in solvers:  # a misspelt solver is refused before the studies' modules (numpy, numba) load
-        check_solver_name(name, "sweep")
+    # a misspelt solver is refused before the studies' modules (numpy, numba) load; an alias is shown by its name
+    solvers = tuple(check_solver_name(name, "sweep") for name in solvers)
     from bhr.studies.sweep import build_sweep, format_summary, heatmap_axes, load_sweep, parse_grid_option, run_sweep, \
         write_outputs
 

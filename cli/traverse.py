@@ -47,8 +47,8 @@ def traverse(grid, colons, solvers, target_pass, robot_file, out_dir, jobs, sche
     """
     from bhr.solvers import check_solver_name
 
-    for name in solvers:  # a misspelt solver is refused before the studies' modules (numpy, numba) load
-        check_solver_name(name, "traverse")
+    # a misspelt solver is refused before the studies' modules (numpy, numba) load; an alias is shown by its name
+    solvers = tuple(check_solver_name(name, "traverse") for name in solvers)
     from bhr.settings.errors import BhrError
     from bhr.studies.sweep import parse_grid_option
     from bhr.studies.traverse import build_study, format_study, heatmap_axes, run_study, write_study

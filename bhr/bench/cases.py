@@ -543,7 +543,7 @@ def case_body(repeat: int = 5) -> BenchResult:
     tb = _median_time(lambda: simulate_body(res, 60), repeat) / steps
     tn = _median_time(ref, max(1, repeat // 2)) / steps
     return BenchResult("body-60-colon", "per step", tb, tn, "numpy beam search", tn / tb, "", None,
-                       {"steps": steps, "head": "seed", "body_modules": nb, "beam": BODY_BEAM,
+                       {"steps": steps, "head": "thesis", "body_modules": nb, "beam": BODY_BEAM,
                         "max_point_difference_mm": gap,
                         "timed": "bhr: simulate_body (module 1's frames, beam search, scoring); "
                                  "numpy: the beam search alone, whole colon"})

@@ -590,7 +590,7 @@ def follow(points: Any, solver: str | Solver = "thesis", robot: Robot | None = T
                        f"{work:,} points to keep, more than the {MAX_STEP_POINTS:,} a run may hold in memory; "
                        "shorten the path, raise the feed or use fewer modules")
     s = get_solver(solver, robot, **(solver_options or {}))
-    solver = solver if isinstance(solver, str) else s.name
+    solver = s.name  # the registered name, also for an alias (seed: thesis)
     s.reset()
     s.prepare(traj)
     msgs: list[str] = []

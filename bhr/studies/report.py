@@ -54,7 +54,7 @@ from bhr.settings.options import by_group, check_run_name, excerpt, solver_optio
 from bhr.model.robot import Robot
 from bhr.model.robotfile import load_robot_file
 from bhr.output.steptable import write_run_files
-from bhr.solvers import get_solver
+from bhr.solvers import check_solver_name, get_solver
 from bhr.studies.study import (CONSTRAINT_KEYS, INT_KEYS, NUMBER_KEYS, ROBOT_KEYS, SOLVER_KEYS, TRAJ_KEYS, check_value,
                        check_body, sim_options, suggest, summary_row, warm_up)
 from bhr.studies.study import csv_text as _csv_text
@@ -169,7 +169,7 @@ def parse_batch(data: dict[str, Any], source: str = "batch", base_dir: str | os.
                                    f"(its parameters: {', '.join(allowed) or 'none'})")
         elif traj not in builtin_names():
             traj = _resolve(traj, base)
-        solver = values.get("solver", "thesis")
+        solver = check_solver_name(values.get("solver", "thesis"), where)  # an alias (seed) is shown by its name
         spec = RunSpec(
             name=name, traj=traj, solver=solver, description=values.get("description", ""),
             traj_params=tp,

@@ -424,3 +424,22 @@ def test_an_open_lumen_end_is_a_different_run_with_its_own_folder(tmp_path, comm
     default, closed, opened = folder(), folder("--lumen-end", "closed"), folder("--lumen-end", "open")
     assert default == closed != opened  # the default end is closed: same run, same folder as before
     assert (tmp_path / "bhr-out" / closed).is_dir() and (tmp_path / "bhr-out" / opened).is_dir()
+
+
+def test_the_thesis_solver_by_its_old_name_is_the_same_run_shown_by_its_one_name(tmp_path):
+    """`--solver seed` (the accepted alias) wrote bhr-out/line-seed-*, a second folder for the thesis's run, and
+    a batch run with solver = "seed" showed seed in its summary."""
+    def run(*args: str) -> subprocess.CompletedProcess:
+        r = bhr(*args, cwd=tmp_path)
+        assert r.returncode == 0, r.stderr
+        return r
+
+    a = run("follow", "--traj", "line", "--length", "40", "--no-plots", "--solver", "seed")
+    b = run("follow", "--traj", "line", "--length", "40", "--no-plots", "--solver", "thesis")
+    folder = re.search(r"bhr-out/(line-thesis-[0-9a-f]{8})/", a.stdout).group(1)
+    assert f"bhr-out/{folder}/" in b.stdout and "seed" not in a.stdout + a.stderr
+    assert json.loads((tmp_path / "bhr-out" / folder / "run.json").read_text())["solver"] == "thesis"
+    (tmp_path / "b.toml").write_text('[[run]]\nname = "a"\ntraj = "line"\nlength = 40\nsolver = "seed"\n')
+    run("report", "--file", "b.toml", "--out", "bhr-out/r", "--no-plots")
+    summary = (tmp_path / "bhr-out" / "r" / "summary.csv").read_text()
+    assert ",thesis," in summary and "seed" not in summary
