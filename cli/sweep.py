@@ -17,7 +17,8 @@ from bhr.cli._options import study_options
 @click.option("--solver", "solvers", multiple=True, metavar="NAME", help="Solver (repeat for several) [thesis].")
 @click.option("--grid", "-g", "grid", multiple=True, metavar="KEY=VALUES",
               help="Values of a robot or trajectory option: modules=4,5,6 or alpha=8:12 or module_length=8:12:0.5 "
-                   "(START:STOP[:STEP], STOP included). Repeat for each key.")
+                   "(START:STOP[:STEP], STOP included) or modules=3-5,8 (FIRST-LAST, as --colons takes). "
+                   "Repeat for each key.")
 @study_options("./bhr-out/<sweep file or sweep>-<hash of the settings>/")
 @click.option("--x", "hx", default=None, metavar="KEY", help="Heat-map columns [the axis with the most values].")
 @click.option("--y", "hy", default=None, metavar="KEY", help="Heat-map rows [the axis with the next most values].")

@@ -14,7 +14,8 @@ OUTPUTS = ("designs.csv", "runs.csv", "study.json", "passrate.png", "worst-colon
 @click.command()
 @click.option("--grid", "-g", "grid", multiple=True, metavar="KEY=VALUES",
               help="Values of a robot or solver option: alpha=10:30:5, module_length=5,6,8, modules=5:8 "
-                   "(START:STOP[:STEP], STOP included). Repeat for each key.")
+                   "(START:STOP[:STEP], STOP included) or alpha=20-25,30 (FIRST-LAST, as --colons takes). "
+                   "Repeat for each key.")
 @click.option("--colons", default="1-100", show_default=True, metavar="SEEDS",
               help="The anatomical colons every design must get through: seeds such as 1-100 (or 1:100, as in a "
                    "grid) or 1,4,10-20.")

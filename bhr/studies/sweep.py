@@ -72,7 +72,8 @@ def _number(text: str, key: str, where: str) -> int | float:
         raise BhrError(f"{where}: {key} value {excerpt(t)} is {len(t)} characters, longer than any number "
                        f"({MAX_NUMBER_CHARS})")
     if not _NUM.match(t):
-        raise BhrError(f"{where}: {key} value {excerpt(t)} is not a number")
+        raise BhrError(f"{where}: {key} value {excerpt(t)} is not a number; give numbers and ranges such as "
+                       f"{key}=4,5,6, {key}=4:8:0.5 or {key}=4-8")
     whole = re.fullmatch(r"[+-]?\d+", t, re.ASCII)
     if not whole and BY_NAME.get(key) is not None and BY_NAME[key].kind is int:  # as --modules takes it
         raise BhrError(f"{where}: {key} must be a whole number written with digits only (no point or exponent), "
@@ -83,15 +84,37 @@ def _number(text: str, key: str, where: str) -> int | float:
     return v
 
 
-def _range(start: float, stop: float, step: float, key: str, where: str) -> list[int | float]:
+_DASH = re.compile(r"\s*(\d+(?:\.\d*)?)\s*-\s*(\d+(?:\.\d*)?)\s*", re.ASCII)
+
+
+def _values(item: str, key: str, where: str) -> list[int | float]:
+    """One comma-separated item of a grid value: a number, ``START:STOP[:STEP]`` or ``FIRST-LAST`` (step 1)."""
+    t = item.strip()
+    if not t:
+        raise BhrError(f"{where}: {key} has an empty value; give e.g. {key}=4,5,6, {key}=4:8 or {key}=4-8")
+    m = _DASH.fullmatch(t)
+    if m is not None:  # FIRST-LAST, both plain numbers (a leading - is a negative number, not a range)
+        first, last = _number(m.group(1), key, where), _number(m.group(2), key, where)
+        return _range(first, last, 1, key, where, shown=t)
+    if ":" in t:
+        parts = t.split(":")
+        if len(parts) not in (2, 3):
+            raise BhrError(f"{where}: {key} range {excerpt(t)} must be START:STOP or START:STOP:STEP")
+        nums = [_number(p, key, where) for p in parts]
+        return _range(nums[0], nums[1], nums[2] if len(nums) == 3 else 1, key, where, shown=t)
+    return [_number(t, key, where)]
+
+
+def _range(start: float, stop: float, step: float, key: str, where: str, shown: str | None = None
+           ) -> list[int | float]:
     for end in (start, stop):
         if abs(end) > 1e300:  # FIRST-LAST of whole numbers of any length: :g of one would overflow
             raise BhrError(f"{where}: {key} range end {excerpt(end)} is too large to be a value of {key}")
     if step <= 0:
         raise BhrError(f"{where}: {key} range step must be positive, got {step:g}")
     if stop < start:
-        raise BhrError(f"{where}: {key} range {start:g}:{stop:g} runs backwards; give START:STOP[:STEP] with "
-                       "START <= STOP")
+        raise BhrError(f"{where}: {key} range {excerpt(shown) if shown else f'{start:g}:{stop:g}'} runs backwards; "
+                       "give START:STOP[:STEP] or FIRST-LAST with the smaller first")
     try:
         span = (stop - start) / step
     except OverflowError:  # whole numbers too far apart for a float
@@ -124,18 +147,12 @@ def parse_values(key: str, value: Any, where: str) -> tuple[Any, ...]:
             raise BhrError(f"{where}: {key} has no values; give e.g. {key}=4,5,6 or {key}=4:8")
         if (key in CONSTRAINT_KEYS and CONSTRAINT_KEYS[key] is not None) or key in RUN_CHOICE_KEYS | TRAJ_CHOICE_KEYS:
             raw: list[Any] = [t.strip() for t in text.split(",")]
-        elif (re.fullmatch(r"\d+\s*-\s*\d+", text, re.ASCII) and BY_NAME.get(key) is not None
-              and BY_NAME[key].kind is int):
-            a, b = (int(t) for t in text.split("-"))  # FIRST-LAST of whole numbers, as --colons takes them
-            raw = _range(a, b, 1, key, where)
-        elif ":" in text and "," not in text:
-            parts = text.split(":")
-            if len(parts) not in (2, 3):
-                raise BhrError(f"{where}: {key} range {excerpt(text)} must be START:STOP or START:STOP:STEP")
-            nums = [_number(p, key, where) for p in parts]
-            raw = _range(nums[0], nums[1], nums[2] if len(nums) == 3 else 1, key, where)
-        else:
-            raw = [_number(t, key, where) for t in text.split(",")]
+        else:  # values and ranges, comma-separated, in any mix: 4,5,6 or 8:12:0.5 or 3-5,7 (as --colons takes)
+            raw = []
+            for item in text.split(","):
+                raw.extend(_values(item, key, where))
+                if len(raw) > _MAX_DESIGNS:
+                    raise BhrError(f"{where}: {key} has more than {_MAX_DESIGNS} values; use fewer or a larger step")
     elif isinstance(value, list):
         raw = list(value)
     else:

@@ -520,5 +520,30 @@ def test_whole_number_grid_keys_take_first_last_as_colons_do():
 
     assert parse_values("seed", "1-3", "x") == parse_values("seed", "1:3", "x") == (1, 2, 3)
     assert parse_values("modules", "4-6", "x") == (4, 5, 6)
-    with pytest.raises(BhrError):
-        parse_values("alpha", "10-20", "x")  # not a whole-number key: a range is START:STOP[:STEP]
+    # every key takes both syntaxes (it was refused for decimal keys: "'10-20' is not a number", with no fix)
+    assert parse_values("alpha", "10-20", "x") == parse_values("alpha", "10:20", "x")
+
+
+@pytest.mark.parametrize("text, values", [
+    ("8-12", (8, 9, 10, 11, 12)),  # FIRST-LAST of decimals' keys too, not only whole numbers'
+    ("8.5-10", (8.5, 9.5)),
+    ("3,5:6", (3, 5, 6)),  # mixes, as --colons takes them
+    ("4-5,7", (4, 5, 7)),
+    ("8:9:0.5,12", (8.0, 8.5, 9.0, 12)),
+])
+def test_one_range_syntax_for_grids_and_colons(text, values):
+    key = "modules" if "." not in text and text in ("3,5:6", "4-5,7") else "alpha"
+    assert parse_values(key, text, "--grid") == values
+
+
+@pytest.mark.parametrize("text, message", [
+    ("5-4", "--grid: modules range '5-4' runs backwards; give START:STOP[:STEP] or FIRST-LAST with the smaller first"),
+    ("x", "--grid: modules value 'x' is not a number; give numbers and ranges such as modules=4,5,6, "
+          "modules=4:8:0.5 or modules=4-8"),
+    ("3,,4", "--grid: modules has an empty value; give e.g. modules=4,5,6, modules=4:8 or modules=4-8"),
+    ("3,3-4", "--grid: modules lists 3 twice; give each value once"),
+])
+def test_a_bad_grid_value_says_what_to_write(text, message):
+    with pytest.raises(BhrError) as err:
+        parse_values("modules", text, "--grid")
+    assert str(err.value) == message
