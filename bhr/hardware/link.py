@@ -417,7 +417,9 @@ class Pacer:
     from firing. ``wait_relaxed``: before a row that energises a recently
     released wire, ask the board and wait while that module still has a wire
     relaxing (the board's clock decides, so a board whose clock runs slow is
-    still never asked too early). ``on_fault(step, names)`` is called once for
+    still never asked too early); ``held``, the codes the board holds before the
+    first row, counts a first row's switching off of their wires as a release.
+    ``on_fault(step, names)`` is called once for
     each fault the board raises anew, with the 1-based step and the fault
     names with their modules (a status request gives the modules);
     ``known_faults`` (from a status before the stream) are not news. Calling
@@ -429,7 +431,7 @@ class Pacer:
     def __init__(self, link: BoardLink, rate: float = 10.0, heartbeat: float = DEFAULT_HEARTBEAT,
                  times: Sequence[float] | None = None,
                  on_fault: Callable[[int, list[str]], None] | None = None, known_faults: Sequence[str] = (),
-                 wait_relaxed: bool = False) -> None:
+                 wait_relaxed: bool = False, held: Sequence[int] | None = None) -> None:
         if not rate or not np.isfinite(rate) or rate <= 0:
             raise BhrError(f"rate must be a positive number of rows per second, got {rate}")
         self.link = link
@@ -443,7 +445,9 @@ class Pacer:
         self._t0: float | None = None
         self._seen: set[str] = set(known_faults)  # latched before the stream: not news
         self.wait_relaxed = wait_relaxed
-        self._last: list[int] | None = None
+        # the codes the board holds before the first row (a stream before it ended with --at-end hold): a first row
+        # that switches one of their wires off starts its relaxation, which a later row re-energising it waits for
+        self._last: list[int] | None = None if held is None else [int(c) for c in held]
         self._released: dict[tuple[int, int], float] = {}
 
     def send(self, codes: Sequence[int]) -> None:
@@ -589,19 +593,22 @@ def run_stream(link: BoardLink, codes, rate: float = 10.0, *, times: Sequence[fl
     if planned:
         planned = [t - planned[0] for t in planned]
     pacer: Pacer | None = None
+    held = None
     t0 = time.monotonic()
     try:
         if wait_ready:
             wait_until_ready(link)
+            doc = link.status()
+            held = doc["codes"] if len(doc["codes"]) == table.shape[1] else None
             if known_faults is None:
-                known_faults = link.status()["faults"]
+                known_faults = doc["faults"]
         if link.modules is not None and table.shape[1] != link.modules:
             # the board said how many modules it drives: a row of another length would only be refused row by row
             raise LinkError(f"board on {link.port} drives {link.modules} modules but the codes have {table.shape[1]} "
                             f"per row; use codes for {link.modules} modules or build the firmware with "
                             f"'make -C firmware MODULES={table.shape[1]}'")
         pacer = Pacer(link, rate, heartbeat, times=planned, on_fault=on_fault, known_faults=known_faults or (),
-                      wait_relaxed=wait_relaxed)
+                      wait_relaxed=wait_relaxed, held=held)
         t0 = time.monotonic()
         for i in range(start, total):
             pacer.send(table[i].tolist())

@@ -583,6 +583,24 @@ def test_a_hot_wire_is_not_re_energised_before_it_relaxed(sim):
     assert all(not (e["codes"][0] & 1) for e in evs if t_ask < e["t_us"] < back["t_us"])
 
 
+def test_a_stream_right_after_one_that_held_its_codes_is_accepted(sim, tmp_path):
+    """`bhr stream A` (--at-end hold, the default), then at once `bhr stream B` whose first row switches off a wire
+    A holds and whose second switches it on again: B's default schedule treated the wire as cold and the board
+    raised early:m1. The pacer now counts the held codes, so it waits for the board to say the wire relaxed."""
+    s = sim()
+    a, b = tmp_path / "a.csv", tmp_path / "b.csv"
+    a.write_text(format_codes_csv([[0, 0, 0, 0, 0], [15, 0, 0, 0, 0], [15, 0, 0, 0, 0]]))
+    b.write_text(format_codes_csv([[0, 0, 0, 0, 0], [15, 0, 0, 0, 0]]))
+    for _ in range(2):
+        first = run_bhr("stream", "--port", s.pty, "--codes", a)
+        assert first.returncode == 0, first.stderr
+        second = run_bhr("stream", "--port", s.pty, "--codes", b)
+        assert second.returncode == 0 and "fault" not in second.stderr.lower(), second.stderr
+        st = run_bhr("status", "--port", s.pty, "--json", "-")
+        assert json.loads(st.stdout)["faults"] in ([], ["silence"]), st.stdout
+    assert "Board fault" not in first.stderr + second.stderr
+
+
 def test_floods_of_every_frame_type_leave_on_time_and_duty_within_limits(sim):
     """The attack: all-on codes, heartbeats every 0.2 s, bursts of 500 HEARTBEAT, STATUS or bad-CRC frames."""
     s = sim()
