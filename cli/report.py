@@ -47,7 +47,7 @@ def report(batch_path, batch_old, out_dir, jobs, inline_images, no_plots):
 
     batch = load_batch(batch_path)
     inputs = input_files(batch_path, *(r.traj for r in batch.runs), *(r.robot_file for r in batch.runs))
-    folder = default_output("report", Path(batch_path).stem, (dataclasses.asdict(batch), no_plots, inline_images),
+    folder = default_output("report", Path(batch_path).stem, (dataclasses.asdict(batch), inline_images),
                             inputs, REPORT_NAMES, out_dir, what="report folder")  # before any work
     out = folder.final("")
     total = len(batch.runs)

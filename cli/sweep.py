@@ -74,7 +74,7 @@ def sweep(sweep_file, trajs, solvers, grid, robot_file, out_dir, jobs, scheduler
 
     inputs = input_files(sweep_file, robot_file, s.robot_file, *s.traj_sources.values())
     folder = default_output("sweep", Path(sweep_file).stem if sweep_file else "sweep",
-                            (dataclasses.asdict(s), no_plot, hx, hy), inputs, SWEEP_NAMES, out_dir,
+                            (dataclasses.asdict(s), hx, hy), inputs, SWEEP_NAMES, out_dir,
                             what="sweep output folder")  # before any work
     out = folder.final("")
     total = len(s)

@@ -69,7 +69,7 @@ def traverse(grid, colons, solvers, target_pass, robot_file, out_dir, jobs, sche
 
     from bhr.cli._common import default_output, input_files, print_study
 
-    folder = default_output("traverse", "traverse", (dataclasses.asdict(study), no_plot, hx, hy),
+    folder = default_output("traverse", "traverse", (dataclasses.asdict(study), hx, hy),
                             input_files(robot_file), OUTPUTS + ("manifest.json",), out_dir,
                             what="study output folder")  # before any work
     from bhr.studies.executor import scheduler_client

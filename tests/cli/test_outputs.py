@@ -443,3 +443,21 @@ def test_the_thesis_solver_by_its_old_name_is_the_same_run_shown_by_its_one_name
     run("report", "--file", "b.toml", "--out", "bhr-out/r", "--no-plots")
     summary = (tmp_path / "bhr-out" / "r" / "summary.csv").read_text()
     assert ",thesis," in summary and "seed" not in summary
+
+
+@pytest.mark.parametrize("command, figures", [
+    (["report", "--file", "b.toml"], ["runs/a/path.png", "runs/a/position_errors.png"]),
+    (["sweep", "--grid", "modules=3:4", "--traj", "line"], ["heatmap.png"]),
+])
+def test_a_rerun_without_figures_keeps_the_earlier_figures(tmp_path, command, figures):
+    """--no-plots was part of the studies' settings hash, so the same study rerun with --no-plots into the same
+    folder replaced it whole and the figures were gone; as bhr follow does, it now keeps what it does not redraw."""
+    (tmp_path / "b.toml").write_text('[[run]]\nname = "a"\ntraj = "line"\nlength = 40\n')
+    first = bhr(*command, "--out", "bhr-out/s", cwd=tmp_path)
+    assert first.returncode == 0, first.stderr
+    before = {f: (tmp_path / "bhr-out" / "s" / f).read_bytes() for f in figures}
+    again = bhr(*command, "--out", "bhr-out/s", "--no-plots", cwd=tmp_path)
+    assert again.returncode == 0, again.stderr
+    assert {f: (tmp_path / "bhr-out" / "s" / f).read_bytes() for f in figures} == before
+    man = check_whole(tmp_path / "bhr-out" / "s")
+    assert set(figures) <= set(man["carried_over"])
