@@ -6,7 +6,7 @@ import sys
 import click
 
 from bhr.cli._common import check_executor, guarded
-from bhr.cli._options import FiniteRange, study_options
+from bhr.cli._options import Share, study_options
 
 OUTPUTS = ("designs.csv", "runs.csv", "study.json", "passrate.png", "worst-colon.png", "index.html")
 
@@ -20,7 +20,7 @@ OUTPUTS = ("designs.csv", "runs.csv", "study.json", "passrate.png", "worst-colon
               help="The anatomical colons every design must get through: seeds such as 1-100 (or 1:100, as in a "
                    "grid) or 1,4,10-20.")
 @click.option("--solver", "solvers", multiple=True, metavar="NAME", help="Solver (repeat for several) [thesis].")
-@click.option("--target-pass", type=FiniteRange(min=0, max=1e6), default=0.95, show_default=True, metavar="SHARE",
+@click.option("--target-pass", type=Share(), default=0.95, show_default=True, metavar="SHARE",
               help="Share of colons a design must traverse without touching the wall.")
 @study_options("./bhr-out/traverse-<hash of the settings>/")
 @click.option("--x", "hx", default=None, metavar="KEY", help="Heat-map columns [the design axis with the most values].")

@@ -139,7 +139,10 @@ class SolveResult:
 
     def to_dict(self) -> dict[str, Any]:
         """The ``bhr solve --json`` document (its keys are a documented contract, docs/commands.md)."""
+        import sys
+
         return {
+            "bhr_version": sys.modules["bhr"].__version__,  # the package, loaded before any of its modules
             "iterations": int(self.iterations),
             "position_error": float(self.position_error_mm),
             "orientation_error_deg": None if self.orientation_error_deg is None else float(self.orientation_error_deg),

@@ -131,8 +131,11 @@ def format_table(runs: Sequence[Compared]) -> list[str]:
 
 def compare_json(runs: Sequence[Compared]) -> dict[str, Any]:
     """The ``bhr compare --json`` document: the rows, and each run's largest point error and tip error per step."""
+    from bhr import __version__
+
     r0 = runs[0].result
     return {
+        "bhr_version": __version__,
         "trajectory": {"name": r0.trajectory.name, "params": r0.trajectory.params, "steps": r0.steps},
         "robot": r0.robot.to_dict(),
         "rows": [{k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in row.items()}

@@ -440,7 +440,9 @@ class PhysicsReplay:
                           "arc_mm": float(self.arc_mm[i]) if hit else None,
                           "module": int(self.module[i]), "contacts": int(len(self.contacts[i])),
                           "deviation_mm": float(self.deviation_mm[i])})
-        return {"steps": steps, "summary": self.summary()}
+        from bhr import __version__
+
+        return {"bhr_version": __version__, "steps": steps, "summary": self.summary()}
 
 
 def _quat(R: np.ndarray) -> np.ndarray:

@@ -62,6 +62,7 @@ def test_cli_prints_and_plots(run_bhr, tmp_path):
     assert png.read_bytes()[:4] == b"\x89PNG"
     doc = json.loads((tmp_path / "c.json").read_text())
     assert [r["solver"] for r in doc["rows"]] == ["thesis", "optimal"]
+    assert doc["bhr_version"] == __import__("bhr").__version__
     # each solver's run is kept as bhr follow writes it, replayable and streamable
     for name in ("thesis", "optimal"):
         run = json.loads((tmp_path / "c" / name / "run.json").read_text())

@@ -8,7 +8,7 @@ import subprocess
 
 import pytest
 
-from tests.conftest import bhr_exe
+from tests.conftest import REPO, bhr_exe
 from tests.unit.test_traverse import PNG, follow_summary, rows_of, run_cli, small_study  # noqa: F401
 
 
@@ -124,3 +124,9 @@ def test_physics_needs_mujoco_before_the_study_runs():
         check_installed("bhr_no_such_module")
     assert str(err.value) == ("bhr_no_such_module is not installed; install the physics extra: "
                               + install_command("physics"))
+
+
+def test_target_pass_help_shows_the_range_a_share_has():
+    """The help said 0<=x<=1000000.0, though anything above 1 is refused."""
+    proc = run_cli("traverse", "--help", cwd=REPO)
+    assert "[default: 0.95; 0<x<=1]" in " ".join(proc.stdout.split())

@@ -124,7 +124,7 @@ def test_physics_command_writes_its_set(run_bhr, tmp_path):
     r = run_bhr("physics", "run.json", "--out", "phys")
     assert r.returncode == 0, r.stderr
     doc = json.loads((tmp_path / "phys" / "physics.json").read_text())
-    assert len(doc["steps"]) == 40
+    assert len(doc["steps"]) == 40 and doc["bhr_version"] == __import__("bhr").__version__
     assert {"max_force_n", "deviation_mm"} <= set(doc["steps"][0])
     assert {"max_force_n", "contact_steps", "max_deviation_mm"} <= set(doc["summary"])
     assert (tmp_path / "phys" / "force.png").stat().st_size > 10000

@@ -31,8 +31,9 @@ def test_solve_result_success_and_json():
     assert short.success is False and short.status == "not reached" and "after 1 iterations" in short.reason
     doc = ok.to_dict()
     # SPEC's keys, and whether and why the target was reached
-    assert set(doc) == {"iterations", "position_error", "orientation_error_deg", "points", "codes",
+    assert set(doc) == {"bhr_version", "iterations", "position_error", "orientation_error_deg", "points", "codes",
                         "success", "status", "reason"}
+    assert doc["bhr_version"] == bhr.__version__  # every JSON bhr writes says which bhr wrote it
     assert doc["position_error"] == ok.position_error_mm and doc["success"] is True and doc["status"] == "reached"
     assert json.loads(ok.to_json()) == doc
     assert far.status == "out of reach" and far.to_dict()["success"] is False
