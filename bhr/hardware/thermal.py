@@ -648,7 +648,9 @@ def max_safe_rate(params: ThermalParams, rows, rate: float) -> float | None:
         else:
             lo = mid
     tenths = math.floor(lo * 10 + 1e-9)
-    while tenths > 1:
+    for _ in range(20):  # a few tenths down at most (each try simulates the stream), then the rate checked first
+        if tenths <= 1:
+            break
         if not check_schedule(params, rows, tenths / 10, trace=False).faults:
             return tenths / 10
         tenths -= 1
