@@ -48,7 +48,8 @@ def test_console_script_table_5_1(run_bhr, tmp_path):
     assert "iterations" in res.stdout and "12" in res.stdout
     assert "0.00874" in res.stdout
     doc = json.loads((tmp_path / "out.json").read_text())
-    assert set(doc) == {"iterations", "position_error", "orientation_error_deg", "points", "codes", "success", "status", "reason"}
+    assert set(doc) == {"bhr_version", "iterations", "position_error", "orientation_error_deg", "points", "codes",
+                        "success", "status", "reason"}
     assert doc["status"] == "reached" and "reached (within tolerance 0.01)" in res.stdout
     png = (tmp_path / "chain.png").read_bytes()
     assert png[:8] == b"\x89PNG\r\n\x1a\n" and len(png) > 5000
