@@ -28,8 +28,6 @@ if sys.argv and sys.argv[0].rsplit("/", 1)[-1] == "bhr":  # the bhr command: Ctr
         _release_interrupts()  # a Ctrl-C held since start-up (SIGINT blocked) ends the command here
 
 import importlib
-import types
-import warnings
 from typing import TYPE_CHECKING, Any
 
 from bhr import _numba  # noqa: F401  (sets NUMBA_CACHE_DIR before numba loads)
@@ -69,59 +67,6 @@ def __getattr__(name: str) -> Any:  # PEP 562: lazy re-exports keep `import bhr`
     raise AttributeError(f"module 'bhr' has no attribute {name!r}")
 
 
-class _MovedModule(types.ModuleType):
-    """A module's old name, kept for one release: each name taken from it warns and comes from the new module."""
-
-    def __init__(self, old: str, new: str) -> None:
-        super().__init__(old, f"Deprecated: the old name of {new}.")
-        self._new = new
-
-    def __getattr__(self, name: str) -> Any:
-        if name.startswith("__"):
-            raise AttributeError(name)
-        warnings.warn(f"{self.__name__} is deprecated; import {name} from {self._new}", DeprecationWarning,
-                      stacklevel=2)
-        return getattr(importlib.import_module(self._new), name)
-
-
-#: Modules' old names (bhr was flat until its layers became subpackages), kept for one release.
-_MOVED = {
-    # ``bhr.follow`` and ``bhr.trajectory`` are functions; the modules that held them are the driver and
-    # the generators. The stand-ins are never set as attributes of this package, so ``bhr.follow`` stays
-    # the function.
-    "bhr.follow": "bhr.run.driver",
-    "bhr.trajectory": "bhr.model.generators",
-    "bhr.errors": "bhr.settings.errors",
-    "bhr.options": "bhr.settings.options",
-    "bhr._input": "bhr.settings.inputs",
-    "bhr.names": "bhr.settings.names",
-    "bhr.codes": "bhr.model.codes",
-    "bhr.robot": "bhr.model.robot",
-    "bhr.path": "bhr.model.path",
-    "bhr.generators": "bhr.model.generators",
-    "bhr.pathfile": "bhr.model.pathfile",
-    "bhr.anatomy": "bhr.model.anatomy",
-    "bhr.robotfile": "bhr.model.robotfile",
-    "bhr.driver": "bhr.run.driver",
-    "bhr.body": "bhr.run.body",
-    "bhr.clearance": "bhr.run.clearance",
-    "bhr.plots": "bhr.output.plots",
-    "bhr.animate": "bhr.output.animate",
-    "bhr.liveview": "bhr.output.liveview",
-    "bhr.htmlpage": "bhr.output.htmlpage",
-    "bhr.atomic": "bhr.output.atomic",
-    "bhr.thermal_plot": "bhr.output.thermal_plot",
-    "bhr.report": "bhr.studies.report",
-    "bhr.sweep": "bhr.studies.sweep",
-    "bhr.traverse": "bhr.studies.traverse",
-    "bhr.compare": "bhr.studies.compare",
-    "bhr.executor": "bhr.studies.executor",
-    "bhr.study": "bhr.studies.study",
-    "bhr.thermal": "bhr.hardware.thermal",
-    "bhr.protocol": "bhr.hardware.protocol",
-    "bhr.link": "bhr.hardware.link",
-    "bhr.firmware_header": "bhr.hardware.firmware_header",
-}
-# ``from bhr.clearance import X`` still works, with a DeprecationWarning, through these stand-ins.
-for _old, _new in _MOVED.items():
-    sys.modules.setdefault(_old, _MovedModule(_old, _new))
+def __dir__() -> list[str]:
+    """The supported API: the names of ``__all__`` and the public subpackages."""
+    return sorted([*__all__, "model", "output", "solvers"])

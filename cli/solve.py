@@ -52,6 +52,7 @@ def solve(target, orientation, solver, json_path, plot_path, **kwargs):
         bhr solve --modules 5 --module-length 2 --target 3 9 0 --solver ccd
     """
     from bhr.cli._progress import announce_compiles
+    from bhr.model.robot import CHAPTER5_ROBOT
     from bhr.solvers import canonical, check_solver_name, solve as run
 
     check_solver_name(solver)  # before numba or a solver module loads (bhr.solvers.names)
@@ -63,9 +64,10 @@ def solve(target, orientation, solver, json_path, plot_path, **kwargs):
         from bhr.output.plots import check_figure_path
 
         check_figure_path(plot_path)
-    robot = build_robot(kwargs, modules=5, module_length=2.0, tol_pos=0.01, max_iter=30)
+    chapter5 = {k: getattr(CHAPTER5_ROBOT, k) for k in ("modules", "module_length", "tol_pos", "max_iter")}
+    robot = build_robot(kwargs, **chapter5)  # bhr.solve's defaults
     constraints = pop_constraints(kwargs)
-    result = run(target, orientation=orientation, solver=solver, robot=robot, solver_options=constraints)
+    result = run(target, tip_direction=orientation, solver=solver, robot=robot, solver_options=constraints)
     doc = result.to_dict()
     solver = canonical(solver)  # tables name a solver one way (seed: thesis)
     if json_path == "-":

@@ -151,8 +151,9 @@ class Robot:
 
 #: The thesis's trajectory-following robot (ch. 7): 5 modules of 10 mm, alpha 10 deg; :func:`bhr.follow`'s default.
 THESIS_ROBOT = Robot()
-#: The chapter 5 chain: 5 modules of 2 mm, straight along +Y; :func:`bhr.solve`'s default.
-CHAPTER5_ROBOT = Robot(modules=5, module_length=2.0)
+#: The chapter 5 chain: 5 modules of 2 mm, straight along +Y, position tolerance 0.01 mm, 30 iterations;
+#: :func:`bhr.solve`'s and ``bhr solve``'s default.
+CHAPTER5_ROBOT = Robot(modules=5, module_length=2.0, tol_pos=0.01, max_iter=30)
 
 #: The registry's robot options by every name the library accepts: the registry's (robot_radius) and the
 #: Robot field's (radius).

@@ -29,7 +29,7 @@ def trajectory_folder() -> Path | None:
         res = None
     if res is not None and res.is_dir():
         return Path(str(res))
-    repo = Path(__file__).resolve().parent.parent / "trajectories"
+    repo = Path(__file__).resolve().parents[2] / "trajectories"
     return repo if repo.is_dir() else None
 
 

@@ -48,7 +48,7 @@ from typing import Any
 import numpy as np
 from bhr._numba import njit
 
-from bhr.settings.errors import BhrError, renamed
+from bhr.settings.errors import BhrError
 from bhr.kinematics.codetable import SEARCH_CODES, SEARCH_INVERSE
 from bhr.kinematics.frames import tilt_frame as _rot
 from bhr.kinematics.leader import stable_argsort
@@ -76,8 +76,6 @@ class BodyRun:
     point_errors_mm: np.ndarray  # (N, B) mm, 0 where not scored yet
     orientation_errors_deg: np.ndarray  # (N, B) degrees, 0 where not scored yet
     scored: np.ndarray  # (N, B) bool: the trajectory point this body point is scored against exists
-    point_errors = renamed("BodyRun", "point_errors_mm")
-    orientation_errors = renamed("BodyRun", "orientation_errors_deg")
 
 
 @njit(cache=True)

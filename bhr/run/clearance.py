@@ -53,7 +53,7 @@ from typing import Callable
 import numpy as np
 from bhr._numba import TooSlow, call_cold, njit
 
-from bhr.settings.errors import BhrError, renamed
+from bhr.settings.errors import BhrError
 # the tube and its nearest-point kernels live in the model layer; their names stay importable from here
 from bhr.model.tube import (BLOCK, GLOBAL_BELOW, LOOP_RATIO, LUMEN_ENDS, WINDOW_MM, Segments, Tube,  # noqa: F401
                             global_scan, local_scan, locate_batch, locate_kernel, locate_numpy, lumen_end_of,
@@ -500,7 +500,6 @@ class ClearanceReport:
     left_lumen_step: int | None = None  # 1-based first step where the robot left the lumen (None: it never did)
     left_lumen_reason: str = ""  # why, in words
     lumen_end: str = "closed"  # how the lumen ends past the last centerline point: "closed" (a cap) or "open"
-    contact_length = renamed("ClearanceReport", "contact_length_mm")
 
     @property
     def per_step(self) -> np.ndarray:

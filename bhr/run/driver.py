@@ -29,7 +29,7 @@ import numpy as np
 
 from bhr import __version__
 from bhr.settings.inputs import MAX_MM, MAX_RUN_BYTES, MAX_STEP_POINTS, read_text
-from bhr.settings.errors import BhrError, renamed
+from bhr.settings.errors import BhrError
 from bhr.settings.options import MIN_MAGNITUDE, OPTIONS, Underflow, excerpt, file_float, has_control_char, robot_limits
 from bhr.model.codes import VALID_CODES as STABLE_CODES
 from bhr.model.robot import THESIS_ROBOT, Robot, robot_with
@@ -69,10 +69,6 @@ def stats(values: np.ndarray, first: int = 0) -> dict[str, float | int]:
         "final": float(values[-1]),
         "worst_step": worst,
     }
-
-
-def _deprecated(old: str, new: str) -> None:
-    warnings.warn(f"{old} is deprecated; use {new}", DeprecationWarning, stacklevel=3)
 
 
 @dataclass
@@ -135,10 +131,6 @@ class Summary:
                 f"{self.tip_max_error_mm:.4g} mm at step {self.tip_worst_step}, ends "
                 f"{self.tip_final_error_mm:.4g} mm and {self.tip_orientation_final_deg:.4g} deg off)")
 
-    def __call__(self) -> dict[str, Any]:
-        """Deprecated: ``result.summary()`` was a dict; use ``result.summary.to_dict()``."""
-        _deprecated("FollowResult.summary()", "FollowResult.summary.to_dict()")
-        return self.to_dict()
 
 
 @dataclass(repr=False)
@@ -162,8 +154,6 @@ class FollowResult:
     extra: dict[str, Any] = field(default_factory=dict)
     body: BodyRun | None = None  # the modules behind the head (follow(..., body_modules=M))
     trail: TrailRun | None = None  # locomotion "trail": the trail and its clearance tables (bhr.run.trail)
-    point_errors = renamed("FollowResult", "point_errors_mm")
-    orientation_errors = renamed("FollowResult", "orientation_errors_deg")
 
     @property
     def clearance(self) -> ClearanceReport | None:

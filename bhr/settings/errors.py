@@ -34,17 +34,3 @@ class _Flag:
 #: Set by the command line's Ctrl-C handler (``bhr.cli``): whatever catches the KeyboardInterrupt later, the
 #: command ends "Interrupted." with exit status 130 and no output folder is put in place once it is set.
 INTERRUPTED = _Flag()
-
-
-def renamed(owner: str, new: str) -> property:
-    """A read-only property under a quantity's old name (before its unit was in the name): it warns
-    (DeprecationWarning) and gives ``new``'s value."""
-    import warnings
-
-    def get(self: object) -> object:
-        old = get.__name__
-        warnings.warn(f"{owner}.{old} is deprecated; use {new}", DeprecationWarning, stacklevel=2)
-        return getattr(self, new)
-
-    get.__name__ = new.rsplit("_", 1)[0]
-    return property(get, doc=f"Deprecated name of :attr:`{new}`.")

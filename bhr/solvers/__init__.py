@@ -166,31 +166,49 @@ def get_solver(name: str | Solver | type[Solver], robot: Robot, **options: Any) 
 
 
 def solve(target: Sequence[float], *, robot: Robot | None = CHAPTER5_ROBOT, solver: str | Solver = "fabrik",
-          orientation: Sequence[float] | None = None, direction: Sequence[float] = (0, 1, 0),
+          tip_direction: Sequence[float] | None = None, base_direction: Sequence[float] = (0, 1, 0),
           solver_options: dict[str, Any] | None = None, **robot_options: Any) -> SolveResult:
-    """Solve one target from a straight chain (default along +Y from the origin, as thesis ch. 5).
+    """Solve one target from a straight chain whose base sits at the origin (thesis ch. 5).
 
-    ``robot`` defaults to the chapter 5 chain (5 modules of 2 mm);
-    ``robot_options`` change its settings (``modules``, ``module_length``,
-    ``alpha``, ``tol_pos``, ``tol_ori``, ``max_iter`` ... as in the option
-    registry); the chapter 5 experiments use ``tol_pos=0.01`` and
-    ``max_iter=30``. ``solver`` is a name or a :class:`Solver` object. The
-    result's ``success`` and ``status`` say whether the target was reached
-    within the tolerances, and why not.
+    Parameters
+    ----------
+    target : sequence of 3 floats
+        The point the tip should reach, in mm.
+    robot : Robot, optional
+        The chain; default the chapter 5 chain (5 modules of 2 mm, position tolerance 0.01 mm, 30 iterations), the
+        same as ``bhr solve``'s defaults.
+    solver : str or Solver, default "fabrik"
+        A solver's name (:func:`available`) or a configured :class:`Solver` object.
+    tip_direction : sequence of 3 floats, optional
+        The wanted direction of the last module (any length); ``None`` leaves the tip free (``--orientation``).
+    base_direction : sequence of 3 floats, default (0, 1, 0)
+        The direction the straight starting chain runs along from the origin (+Y in the thesis's chapter 5).
+    solver_options : dict, optional
+        Solver settings (``limit``, ``axes``, ``warmup``, ...), checked by the option registry.
+    **robot_options
+        Robot settings that change ``robot`` (``modules``, ``module_length``, ``alpha``, ``tol_pos``, ``tol_ori``,
+        ``max_iter``, ...), checked by the option registry.
 
-    >>> res = solve([3, 9, 0], modules=10, tol_pos=0.01)
+    Returns
+    -------
+    SolveResult
+        ``status`` ('reached', 'not reached', 'out of reach') and ``reason``; ``iterations``;
+        ``position_error_mm``; ``orientation_error_deg`` (None without ``tip_direction``); ``points`` (n+1, 3) in mm,
+        base first; ``codes`` (n,) for the binary solvers.
+
+    >>> res = solve([3, 9, 0], modules=10)
     >>> res.success, res.iterations
     (True, 1)
     """
     from bhr.solvers.base import Chain, Solver, check_direction, check_target
 
     t = check_target(target)
-    d = check_direction(orientation)
+    d = check_direction(tip_direction)
     if isinstance(solver, Solver) and robot is CHAPTER5_ROBOT and not robot_options:
         robot = solver.robot
     robot = robot_with(robot, robot_options, default=CHAPTER5_ROBOT)
     s = get_solver(solver, robot, **(solver_options or {}))
     if d is not None and not s.accepts_orientation:
         raise BhrError(f"the {s.name} solver cannot aim the tip; drop --orientation or use --solver fabrik or thesis")
-    chain = Chain.straight(robot, direction)
+    chain = Chain.straight(robot, base_direction)
     return s.solve(chain, t, d)

@@ -18,7 +18,7 @@ from typing import Any, ClassVar, Sequence
 
 import numpy as np
 
-from bhr.settings.errors import BhrError, renamed
+from bhr.settings.errors import BhrError
 from bhr.settings.options import excerpt
 from bhr.kinematics.leader import advance_kernel
 from bhr.model.robot import Robot, base_frame, straight_chain
@@ -125,7 +125,6 @@ class SolveResult:
     def points(self) -> np.ndarray:
         return self.chain.points
 
-    position_error = renamed("SolveResult", "position_error_mm")
 
     def __repr__(self) -> str:
         ori = "" if self.orientation_error_deg is None else f", tip {self.orientation_error_deg:.4g} deg off"
@@ -174,9 +173,9 @@ class Solver(ABC):
             raise BhrError(f"solver {self.name} takes no option {excerpt(sorted(options)[0])}")
 
     @abstractmethod
-    def solve(self, chain: Chain, target: np.ndarray, orientation: np.ndarray | None = None,
+    def solve(self, chain: Chain, target: np.ndarray, tip_direction: np.ndarray | None = None,
               context: FollowContext | None = None) -> SolveResult:
-        """Move ``chain`` toward ``target`` (and ``orientation`` for the tip, if given)."""
+        """Move ``chain`` toward ``target`` (and the tip along ``tip_direction``, if given)."""
 
     def reset(self) -> None:  # noqa: B027 (a default, not abstract: most solvers keep no state)
         """Forget any state kept between steps of a run (default: none)."""
@@ -207,9 +206,9 @@ class Solver(ABC):
             return
 
         @functools.wraps(inner)
-        def solve(self: "Solver", chain: Chain, target: np.ndarray, orientation: np.ndarray | None = None,
+        def solve(self: "Solver", chain: Chain, target: np.ndarray, tip_direction: np.ndarray | None = None,
                   context: FollowContext | None = None) -> SolveResult:
-            return self.judge(inner(self, chain, target, orientation, context), chain, target)
+            return self.judge(inner(self, chain, target, tip_direction, context), chain, target)
 
         solve._judged = True  # type: ignore[attr-defined]
         cls.solve = solve  # type: ignore[method-assign]

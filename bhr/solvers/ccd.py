@@ -86,9 +86,9 @@ class CCD(Solver):
     summary = "cyclic coordinate descent, tip to base (thesis ch. 5); position only"
     accepts_orientation = False
 
-    def solve(self, chain: Chain, target: np.ndarray, orientation: np.ndarray | None = None,
+    def solve(self, chain: Chain, target: np.ndarray, tip_direction: np.ndarray | None = None,
               context: FollowContext | None = None) -> SolveResult:
-        if orientation is not None:
+        if tip_direction is not None:
             raise BhrError("the ccd solver cannot aim the tip; drop --orientation or use --solver fabrik or thesis")
         r = self.robot
         out = chain.copy()

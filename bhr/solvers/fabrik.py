@@ -147,12 +147,12 @@ class Fabrik(Solver):
     name = "fabrik"
     summary = "unconstrained FABRIK (thesis ch. 5); optional tip orientation"
 
-    def solve(self, chain: Chain, target: np.ndarray, orientation: np.ndarray | None = None,
+    def solve(self, chain: Chain, target: np.ndarray, tip_direction: np.ndarray | None = None,
               context: FollowContext | None = None) -> SolveResult:
         r = self.robot
         out = chain.copy()
-        has_dir = orientation is not None
-        d = np.zeros(3) if orientation is None else np.asarray(orientation, dtype=np.float64)
+        has_dir = tip_direction is not None
+        d = np.zeros(3) if tip_direction is None else np.asarray(tip_direction, dtype=np.float64)
         k, err, ang = fabrik_kernel(out.points, np.asarray(target, dtype=np.float64), float(r.module_length),
                                     float(r.tol_pos), int(r.max_iter), d, has_dir, float(r.tol_ori))
         return SolveResult(out, int(k), float(err), float(ang) if has_dir else None)

@@ -757,10 +757,10 @@ class Lumen(Optimal):
     def _prm(self) -> np.ndarray:
         return self._prm_cache
 
-    def solve(self, chain: Chain, target: np.ndarray, orientation: np.ndarray | None = None,
+    def solve(self, chain: Chain, target: np.ndarray, tip_direction: np.ndarray | None = None,
               context: FollowContext | None = None) -> SolveResult:
         if context is None:
-            return self._solve_target(chain, target, orientation)
+            return self._solve_target(chain, target, tip_direction)
         r = self.robot
         n = chain.modules
         path = np.ascontiguousarray(context.path, dtype=np.float64)
@@ -786,7 +786,7 @@ class Lumen(Optimal):
         self._expect = (self._tube_path, i + 1, nxt.points, np.ascontiguousarray(nxt.axes[0]),
                         np.ascontiguousarray(nxt.axes[1]))
         err = float(np.linalg.norm(P[-1] - np.asarray(target, dtype=np.float64)))
-        ang = None if orientation is None else float(tip_angle(P, np.asarray(orientation, dtype=np.float64)))
+        ang = None if tip_direction is None else float(tip_angle(P, np.asarray(tip_direction, dtype=np.float64)))
         return SolveResult(out, int(layers), err, ang, [int(c) for c in codes],
                            {"cost": float(cost), "tilts_deg": [float(v) for v in tilts]})
 

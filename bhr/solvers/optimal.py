@@ -623,10 +623,10 @@ class Optimal(Solver):
         return (int(r.feed_divisor), float(r.feed), float(r.module_length), float(r.alpha), self.point_weights,
                 float(wo), int(self.lookahead))
 
-    def solve(self, chain: Chain, target: np.ndarray, orientation: np.ndarray | None = None,
+    def solve(self, chain: Chain, target: np.ndarray, tip_direction: np.ndarray | None = None,
               context: FollowContext | None = None) -> SolveResult:
         if context is None:
-            return self._solve_target(chain, target, orientation)
+            return self._solve_target(chain, target, tip_direction)
         r = self.robot
         n = chain.modules
         if n != r.modules:
@@ -657,11 +657,11 @@ class Optimal(Solver):
                         np.ascontiguousarray(nxt.axes[1]))
         t = np.asarray(target, dtype=np.float64)
         err = float(np.linalg.norm(P[-1] - t))
-        ang = None if orientation is None else float(tip_angle(P, np.asarray(orientation, dtype=np.float64)))
+        ang = None if tip_direction is None else float(tip_angle(P, np.asarray(tip_direction, dtype=np.float64)))
         return SolveResult(out, int(layers), err, ang, [int(c) for c in codes],
                            {"cost": float(cost), "tilts_deg": [float(v) for v in tilts]})
 
-    def _solve_target(self, chain: Chain, target: np.ndarray, orientation: np.ndarray | None) -> SolveResult:
+    def _solve_target(self, chain: Chain, target: np.ndarray, tip_direction: np.ndarray | None) -> SolveResult:
         """One target, no trajectory: the tip nearest the target (and aimed, with an orientation), exactly."""
         r = self.robot
         n = chain.modules
@@ -671,12 +671,12 @@ class Optimal(Solver):
         w = np.zeros(n + 1)
         w[n] = 1.0
         frame = chain.base_frame()
-        codes, cost = search_all(chain.points[0], frame, T, w, r.module_length, r.alpha, orientation,
+        codes, cost = search_all(chain.points[0], frame, T, w, r.module_length, r.alpha, tip_direction,
                                  self.ori_weight, reach=True)
         pts, frames = forward_kinematics(r.replace(modules=n), codes, chain.points[0], frame)
         axes = np.stack([pts[:-1] + frames[:, 0], pts[:-1] + frames[:, 1]])
         err = float(np.linalg.norm(pts[-1] - t))
-        ang = None if orientation is None else float(tip_angle(pts, np.asarray(orientation, dtype=np.float64)))
+        ang = None if tip_direction is None else float(tip_angle(pts, np.asarray(tip_direction, dtype=np.float64)))
         return SolveResult(Chain(pts, axes), 1, err, ang, codes,
                            {"cost": cost, "tilts_deg": [0.0 if c == 0 else float(r.alpha) for c in codes]})
 

@@ -229,15 +229,15 @@ class ConstrainedFabrik(Solver):
     def returns_codes(self) -> bool:
         return self.limit == "binary" and self.axes == "local"
 
-    def solve(self, chain: Chain, target: np.ndarray, orientation: np.ndarray | None = None,
+    def solve(self, chain: Chain, target: np.ndarray, tip_direction: np.ndarray | None = None,
               context: FollowContext | None = None) -> SolveResult:
         r = self.robot
         out = chain.copy()
         n = out.modules
         codes = np.zeros(n, dtype=np.int64)
         tilts = np.zeros(n)
-        has_dir = orientation is not None
-        d = np.zeros(3) if orientation is None else np.asarray(orientation, dtype=np.float64)
+        has_dir = tip_direction is not None
+        d = np.zeros(3) if tip_direction is None else np.asarray(tip_direction, dtype=np.float64)
         E1 = np.ascontiguousarray(out.axes[0])
         E2 = np.ascontiguousarray(out.axes[1])
         k, err, ang = constrained_kernel(out.points, E1, E2, np.asarray(target, dtype=np.float64), d, has_dir,

@@ -36,7 +36,7 @@ CASES = [
 
 @pytest.mark.parametrize("target, orientation, tol, options, expected", CASES)
 def test_chapter6_tables(target, orientation, tol, options, expected):
-    res = solve(target, orientation=orientation, modules=10, module_length=2, tol_pos=tol, tol_ori=10,
+    res = solve(target, tip_direction=orientation, modules=10, module_length=2, tol_pos=tol, tol_ori=10,
                 alpha=10, max_iter=30, solver="seed" if not options else "constrained", solver_options=options)
     assert (round(res.position_error_mm, 4), round(res.orientation_error_deg, 4), res.iterations) == expected
 
@@ -44,7 +44,7 @@ def test_chapter6_tables(target, orientation, tol, options, expected):
 def test_seed_codes_rebuild_the_chain():
     """The codes the thesis's solver returns give back its points through forward kinematics."""
     robot = Robot(modules=10, module_length=2, tol_pos=1, tol_ori=10, alpha=10)
-    res = solve((7, 18, 4), orientation=(1, 1, 1), solver="seed", robot=robot)
+    res = solve((7, 18, 4), tip_direction=(1, 1, 1), solver="seed", robot=robot)
     assert res.codes == [12, 3, 12, 6, 12, 0, 12, 6, 12, 6]
     frame = Chain.straight(robot, (0, 1, 0)).base_frame()
     pts, _ = forward_kinematics(robot, res.codes, frame=frame)

@@ -1,6 +1,5 @@
-"""The Python API: overrides applied, typed results, to_dict/to_json, deprecated aliases."""
+"""The Python API: overrides applied, typed results, to_dict/to_json, no deprecated aliases."""
 import json
-import warnings
 
 import numpy as np
 import pytest
@@ -50,15 +49,13 @@ def test_solve_status_tells_a_missed_target_within_reach_from_one_out_of_reach()
     assert inside.status == "reached"
 
 
-def test_follow_result_summary_is_typed_and_old_call_is_deprecated():
+def test_follow_result_summary_is_typed():
     run = bhr.follow(bhr.trajectory("curve"), solver="thesis")
     s = run.summary
     assert isinstance(s, Summary) and s.steps == run.steps and s.tip_final_error_mm == s.to_dict()["tip_final_error_mm"]
     assert isinstance(run.to_json(), str) and json.loads(run.to_json())["summary"] == s.to_dict()
-    with warnings.catch_warnings(record=True) as w:
-        warnings.simplefilter("always")
-        assert run.summary() == s.to_dict()
-    assert any(issubclass(x.category, DeprecationWarning) for x in w)
+    with pytest.raises(TypeError):
+        run.summary()  # a typed summary, not a function
 
 
 def test_robot_fk():

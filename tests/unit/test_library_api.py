@@ -119,7 +119,8 @@ def test_a_misspelt_solver_option_gets_a_did_you_mean():
 def test_the_defaults_are_in_the_signatures():
     import inspect
     assert inspect.signature(bhr.follow).parameters["robot"].default == bhr.Robot()
-    assert inspect.signature(bhr.solve).parameters["robot"].default == bhr.Robot(modules=5, module_length=2.0)
+    assert inspect.signature(bhr.solve).parameters["robot"].default == bhr.Robot(modules=5, module_length=2.0,
+                                                                                 tol_pos=0.01, max_iter=30)
 
 
 # ------------------------------------------------------------------ solver objects and plug-ins
@@ -149,7 +150,7 @@ def test_a_solver_from_another_package_is_found_by_its_entry_point(tmp_path, mon
                 super().__init__(robot)
                 self.patience = patience
 
-            def solve(self, chain, target, orientation=None, context=None):
+            def solve(self, chain, target, tip_direction=None, context=None):
                 import numpy as np
                 return SolveResult(chain.copy(), 0, float(np.linalg.norm(chain.points[-1] - target)), None)
     '''))
@@ -161,7 +162,7 @@ def test_a_solver_from_another_package_is_found_by_its_entry_point(tmp_path, mon
     monkeypatch.setattr(solvers, "_loaded", False)
     monkeypatch.setattr(solvers, "REGISTRY", dict(solvers.REGISTRY))
     assert "stay" in solvers.available()
-    res = bhr.solve([0, 9, 0], solver="stay", modules=5)
+    res = bhr.solve([0, 10, 0], solver="stay", modules=5)  # the straight chain's tip: reached as it stands
     assert res.status == "reached" and res.iterations == 0
     with pytest.raises(BhrError, match="does not take the option 'patiense'; did you mean 'patience'"):
         solvers.get_solver("stay", bhr.Robot(), patiense=2)
@@ -192,15 +193,49 @@ def test_a_run_says_when_it_touched_the_wall():
     assert bhr.follow(bhr.trajectory("curve")).success is True
 
 
-def test_every_quantity_has_its_unit_in_its_name_and_the_old_names_warn():
+def test_every_quantity_has_its_unit_in_its_name_and_the_old_names_are_gone():
     run = bhr.follow(bhr.trajectory("anatomy", seed=2), body_modules=7)
     assert run.point_errors_mm.shape == (run.steps, run.modules + 1)
     assert run.orientation_errors_deg.shape == (run.steps, run.modules)
     assert run.body is not None and run.clearance is not None
-    for obj, old, new in ((run, "point_errors", "point_errors_mm"), (run, "orientation_errors", "orientation_errors_deg"),
-                          (run.body, "point_errors", "point_errors_mm"),
-                          (run.body, "orientation_errors", "orientation_errors_deg"),
-                          (run.clearance, "contact_length", "contact_length_mm"),
-                          (bhr.solve([3, 9, 0]), "position_error", "position_error_mm")):
-        with pytest.warns(DeprecationWarning, match=f"{type(obj).__name__}.{old} is deprecated; use {new}"):
-            assert getattr(obj, old) is getattr(obj, new)
+    for obj, old in ((run, "point_errors"), (run, "orientation_errors"), (run.body, "point_errors"),
+                     (run.body, "orientation_errors"), (run.clearance, "contact_length"),
+                     (bhr.solve([3, 9, 0]), "position_error")):
+        assert not hasattr(obj, old), (type(obj).__name__, old)
+
+
+def test_dir_shows_the_supported_api():
+    names = dir(bhr)
+    for name in ("follow", "trajectory", "solve", "Robot", "Trajectory", "Solver", "model", "solvers", "output"):
+        assert name in names
+    assert not [n for n in names if n.startswith("_") and n not in ("__version__",)]
+
+
+def test_solve_iterates_with_the_command_lines_defaults():
+    """bhr.solve's chain and tolerance are bhr solve's: 3.16 mm off is not reached after 0 iterations."""
+    res = bhr.solve([3, 9, 0])
+    assert res.status == "reached" and res.position_error_mm <= 0.01 and res.iterations > 0
+    from bhr.model.robot import CHAPTER5_ROBOT
+
+    assert (CHAPTER5_ROBOT.modules, CHAPTER5_ROBOT.module_length, CHAPTER5_ROBOT.tol_pos, CHAPTER5_ROBOT.max_iter) == \
+        (5, 2.0, 0.01, 30)
+
+
+def test_a_source_checkout_finds_its_shipped_trajectories(monkeypatch):
+    """Imported from a checkout (no installed bhr.trajectories package), the repository's trajectories/ is used."""
+    from importlib import resources
+    from pathlib import Path
+
+    from bhr.model import trajnames
+
+    real = resources.files
+
+    def files(name):
+        if name == "bhr.trajectories":
+            raise ModuleNotFoundError(name)
+        return real(name)
+
+    monkeypatch.setattr(trajnames.resources, "files", files)
+    folder = trajnames.trajectory_folder()
+    assert folder == Path(__file__).resolve().parents[2] / "trajectories"
+    assert "anatomy-typical" in trajnames.shipped_csvs()
