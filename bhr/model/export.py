@@ -96,8 +96,19 @@ def joint_names(modules: int) -> list[str]:
 def joint_values(codes: Any, robot: Robot | None = None) -> np.ndarray:
     """Joint values of the exported model for module codes, in :func:`joint_names` order (rad, m).
 
-    ``codes``: one code per module (base first), or one row per step (a
-    codes.csv's rows): the result is ``(3 n,)`` or ``(steps, 3 n)``. Code 3 sets
+    Parameters
+    ----------
+    codes : array_like of int, shape (n,) or (steps, n)
+        One code per module (base first), or one row per step (a codes.csv's rows).
+    robot : Robot, optional
+        Gives alpha and the lift (default: the thesis robot); the number of modules is the number of codes.
+
+    Returns
+    -------
+    ndarray, shape (3 n,) or (steps, 3 n)
+        ``tilt_x`` and ``tilt_y`` in rad and ``lift`` in m for each module, in :func:`joint_names` order.
+
+    Code 3 sets
     ``tilt_x`` to +alpha, 12 to -alpha; 6 sets ``tilt_y`` to +alpha, 9 to -alpha;
     15 sets ``lift`` to the robot's lift (:attr:`bhr.model.robot.Robot.lift`); 0 leaves
     all three at 0. ``robot`` gives alpha and the lift (default: the thesis robot);

@@ -413,11 +413,23 @@ def _from_file(path: Path, feed: float, params: dict[str, Any], builtin: bool) -
 def trajectory(name_or_path: str | os.PathLike[str], feed: float = 2.0, **params: Any) -> Trajectory:
     """A built-in trajectory or trajectory file, its points spaced by ``feed`` mm (the thesis robot's feed).
 
-    The :class:`Trajectory` carries its points, its feed and its lumen (the
-    anatomical colons have one); it reads as the (N, 3) points wherever numpy
-    expects an array. :func:`bhr.follow` draws it again at the robot's feed
-    when that differs. ``params`` are the generator's parameters
-    (docs/trajectories.md).
+    Parameters
+    ----------
+    name_or_path : str or path
+        A generator (``line``, ``curve``, ``spiral``, ``colon``, ``anatomy``), a shipped colon, or a trajectory
+        file (``.toml`` segments or ``.csv`` points, docs/trajectories.md).
+    feed : float, default 2.0
+        Spacing of the points in mm (the robot's advance per step; the thesis robot's is 2 mm).
+    **params
+        The generator's parameters (``length``, ``radius``, ``angle``, ``seed`` ...; docs/trajectories.md), or
+        ``lumen_end`` (``closed``, ``open``).
+
+    Returns
+    -------
+    Trajectory
+        ``points`` (N, 3) in mm, start first; ``feed`` in mm; ``lumen`` (N,) diameters in mm, or None. It reads as
+        the (N, 3) points wherever numpy expects an array. :func:`bhr.follow` draws it again at the robot's feed when
+        that differs.
 
     >>> t = trajectory("line", length=10)
     >>> t.shape, t.feed

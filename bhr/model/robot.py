@@ -48,11 +48,32 @@ def _positive(name: str, value: Any, *, integer: bool = False) -> None:
 
 @dataclass(frozen=True)
 class Robot:
-    """Geometry, actuator and tolerance settings of one robot design.
+    """Geometry, actuator and tolerance settings of one robot design (frozen; :meth:`replace` makes a copy).
 
     Defaults are the thesis's trajectory-following robot (ch. 7): 5 head
     modules of 10 mm, radius 5 mm, alpha 10 deg, tolerances 8 mm and 20 deg,
     at most 30 iterations per point, feed = length / 5.
+
+    Parameters
+    ----------
+    modules : int, default 5
+        Modules the solver places (the head).
+    module_length : float, default 10.0
+        Length of one module in mm.
+    radius : float, default 5.0
+        Disc radius in mm (``robot_radius`` on the command line and in files).
+    alpha : float, default 10.0
+        Tilt of one actuated joint in degrees (0 < alpha < 90); derived as asin(stroke / lever) when both are given.
+    stroke, lever : float, optional
+        Actuator stroke and lever in mm (Ec. 4.1).
+    tol_pos, tol_ori : float, default 8.0 and 20.0
+        Position (mm) and tip orientation (degrees) tolerances.
+    max_iter : int, default 30
+        Iterations per target.
+    feed_divisor : int, default 5
+        Steps per module length: the feed is ``module_length / feed_divisor`` mm.
+    weight_pos, weight_ori : float, default 0.7 and 0.3
+        Weights of the global error (ch. 5.2.3).
     """
 
     modules: int = 5
@@ -127,7 +148,23 @@ class Robot:
 
     def fk(self, codes: Sequence[int], base: Sequence[float] = (0, 0, 0),
            frame: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
-        """Points (n+1, 3) and module frames (n, 3, 3) for one code per module (see :func:`forward_kinematics`).
+        """Points and module frames for one code per module (see :func:`forward_kinematics`).
+
+        Parameters
+        ----------
+        codes : sequence of int, length n
+            One valid code per module, base first (0, 3, 6, 9, 12, 15).
+        base : sequence of 3 floats, default (0, 0, 0)
+            The base point in mm.
+        frame : ndarray, shape (3, 3), optional
+            The base frame, rows x, y, z (z the direction of a straight chain); default along +X.
+
+        Returns
+        -------
+        points : ndarray, shape (n+1, 3)
+            Joint positions in mm, base first.
+        frames : ndarray, shape (n, 3, 3)
+            Each module's frame, rows x, y, z.
 
         >>> pts, frames = Robot(modules=2).fk([0, 0])
         >>> pts[-1].tolist()

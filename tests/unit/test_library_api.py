@@ -239,3 +239,14 @@ def test_a_source_checkout_finds_its_shipped_trajectories(monkeypatch):
     folder = trajnames.trajectory_folder()
     assert folder == Path(__file__).resolve().parents[2] / "trajectories"
     assert "anatomy-typical" in trajnames.shipped_csvs()
+
+
+@pytest.mark.parametrize("package", ["bhr", "bhr.model", "bhr.output", "bhr.solvers"])
+def test_each_public_package_lists_what_it_supports_and_every_name_is_there(package):
+    mod = importlib.import_module(package)
+    assert mod.__all__ and len(set(mod.__all__)) == len(mod.__all__)
+    for name in mod.__all__:
+        assert getattr(mod, name) is not None, name
+    if package != "bhr.solvers":
+        assert set(dir(mod)) >= set(mod.__all__) and not [n for n in dir(mod) if n.startswith("_") and
+                                                          n != "__version__"]
