@@ -24,14 +24,15 @@ import tempfile
 import time
 import uuid
 from pathlib import Path
-from typing import Any, Callable, Iterable, Iterator
-
-from filelock import FileLock, Timeout
+from typing import TYPE_CHECKING, Any, Callable, Iterable, Iterator
 
 from bhr import __version__
 from bhr.output.paths import (check_output_file, current_folder, in_place_target, refuse_control, sha256_file,
                               short_path, unwritable_folder)
 from bhr.settings.errors import INTERRUPTED, BhrError
+
+if TYPE_CHECKING:
+    from filelock import FileLock  # imported when a folder is written (30 ms): not by a command writing a file
 from bhr.settings.options import has_control_char
 
 __all__ = ["atomic_path", "write_text", "write_json", "json_text", "together", "place_now", "OutputFolder", "MANIFEST",
@@ -283,10 +284,12 @@ class OutputFolder:
             if read_manifest(parent / MANIFEST) is not None:
                 raise BhrError(f"{self.what} {shown} is inside {short_path(parent)}, a folder bhr wrote (bhr replaces "
                                "such a folder whole); give a folder outside it, such as bhr-out/run2")
-        self.previous()
         if (bad := unwritable_folder(t.parent)) is not None:
             raise BhrError(f"cannot write {self.what} {shown}: {short_path(bad)} is not a writable folder; choose "
                            "another path")
+        if t.is_dir():
+            with self._locked():  # not while another run replaces it
+                self.previous()
         return self
 
     def previous(self) -> dict[str, Any] | None:
@@ -344,6 +347,8 @@ class OutputFolder:
             with self._locked():  # what runs killed before left here
                 self._clean_dead_stages()
             stage = self.target.parent / (self._beside("stage") + uuid.uuid4().hex[:12])
+            from filelock import FileLock
+
             self._lock = FileLock(f"{stage}.lock")  # held while the stage is written: its run is alive
             self._lock.acquire()
             stage.mkdir()
@@ -436,6 +441,8 @@ class OutputFolder:
     @contextlib.contextmanager
     def _locked(self) -> Iterator[None]:
         """Hold the folder's lock (``.NAME.bhr-lock``); first put back a folder a killed run moved aside."""
+        from filelock import FileLock, Timeout
+
         lock = FileLock(self.target.parent / self._beside("lock")[:-1])
         try:
             lock.acquire(timeout=LOCK_WAIT_S)
@@ -458,6 +465,8 @@ class OutputFolder:
 
     def _clean_dead_stages(self) -> None:
         """Delete the staging folders of runs into this target that died (their lock is no longer held)."""
+        from filelock import FileLock, Timeout
+
         for e in self.target.parent.iterdir():
             if e.name.startswith(self._beside("stage")) and e.name.endswith(".lock"):
                 lock = FileLock(e)
