@@ -33,6 +33,7 @@ This module does not import matplotlib until a run draws its figures.
 """
 from __future__ import annotations
 
+import contextlib
 import os
 import re
 import time
@@ -264,8 +265,32 @@ def execute_run(spec: RunSpec, out_dir: str | os.PathLike[str] | None = None, pl
                 from bhr.output.view import save_view
 
                 row["view"] = save_view(result, out).name
+    if row["status"] != "ok":
+        row["status"] = _without_file_text(row["status"], (spec.traj, spec.robot_file))
     row["wall_time_s"] = time.perf_counter() - t0
     return row
+
+
+#: A quoted piece of a message: 'text' or "text".
+_QUOTED = re.compile(r"'([^'\n]{1,300})'|\"([^\"\n]{1,300})\"")
+
+
+def _without_file_text(status: str, files: tuple[str | None, ...]) -> str:
+    """``status`` with every quoted piece that comes from one of ``files`` (a run's trajectory and robot files)
+    left out: a report's files are shared, and a message about a file's line 2 quoted its cell ("x = 'TOKEN...'
+    is not a number"), so that a file a batch names reached summary.csv, summary.json and index.html."""
+    texts = []
+    for f in files:
+        with contextlib.suppress(OSError, ValueError):
+            if f is not None and os.path.isfile(f) and os.path.getsize(f) <= 64 << 20:
+                texts.append((Path(f).name, Path(f).read_text(encoding="utf-8", errors="replace")))
+
+    def hide(m: re.Match[str]) -> str:
+        piece = m.group(1) if m.group(1) is not None else m.group(2)
+        owner = next((name for name, text in texts if piece in text), None)
+        return m.group(0) if owner is None else f"(text of {owner} left out)"
+
+    return _QUOTED.sub(hide, status) if texts else status
 
 
 def _execute_job(job: tuple[RunSpec, str | None, bool]) -> dict[str, Any]:

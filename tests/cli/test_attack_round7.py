@@ -306,20 +306,17 @@ def test_a_numba_setting_numba_refuses_is_one_line(tmp_path):
 
 SLOW_RENAME = r'''
 import os, signal, sys, time
-import bhr.output.atomic as atomic
 
 SIG = getattr(signal, sys.argv[1])
-rename = atomic.OutputFolder._commit
 
 
-def slow_rename(self):  # a file system slow to rename (a network share): the signal comes just after the rename
-    old = rename(self)
-    os.kill(os.getpid(), SIG)
-    time.sleep(0.5)  # the handler runs as soon as os.kill returns
-    return old
+def signal_at_rename(event, args):  # the signal comes as the staged folder is renamed into place
+    if event == "os.rename" and os.path.basename(os.fspath(args[0])).startswith(".o.bhr-stage-"):
+        os.kill(os.getpid(), SIG)
+        time.sleep(0.5)  # the handler runs as soon as os.kill returns
 
 
-atomic.OutputFolder._commit = slow_rename
+sys.addaudithook(signal_at_rename)
 sys.argv = ["bhr", "follow", "--traj", "line", "--length", "20", "--no-plots", "--out", "o"]
 from bhr.cli.main import run
 run()

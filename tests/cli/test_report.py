@@ -355,3 +355,28 @@ def test_robot_file_in_a_run(tmp_path):
     direct = follow(load_trajectory("curve"), solver="seed", robot=bhr.Robot(modules=4, alpha=9)).summary.to_dict()
     assert rows[1]["tip_max_error_mm"] == direct["tip_max_error_mm"]
     assert rows[2]["status"].startswith("failed: ") and "bad.toml" in rows[2]["status"]
+
+
+SECRET = "TOKEN-8f2d9c4e1b7a6d3f"
+
+
+@pytest.mark.parametrize("files, traj, robot", [
+    ({"t.csv": f"x,y,z\n{SECRET},1,2\n3,4,5\n"}, "t.csv", None),  # a cell of line 2
+    ({"t.csv": f"x y z\n0 0 0\n1 2 {SECRET}\n"}, "t.csv", None),
+    ({"t.csv": f"# points\n{SECRET}\n"}, "t.csv", None),  # line 2 is the header
+    ({"t.toml": f"[[segment]]\ntype = '{SECRET}'\n"}, "t.toml", None),
+    ({"r.toml": f"modules = 5\nalpha = '{SECRET}'\n"}, "line", "r.toml"),
+    ({"r.json": f'{{"modules": 5,\n "{SECRET}": 1}}'}, "line", "r.json"),
+], ids=["csv-cell", "csv-blanks", "csv-header", "traj-toml", "robot-toml", "robot-json"])
+def test_a_files_second_line_never_reaches_the_report(tmp_path, files, traj, robot):
+    """A run whose trajectory or robot file cannot be read is a failed row, whose reason names the file and the
+    line but quotes nothing of it: summary.csv, summary.json and index.html are shared."""
+    for name, text in files.items():
+        (tmp_path / name).write_text(text)
+    batch = f'[[run]]\nname = "a"\ntraj = "{traj}"\n' + (f'robot = "{robot}"\n' if robot else "")
+    (tmp_path / "b.toml").write_text(batch)
+    rep = run_batch(load_batch(tmp_path / "b.toml"), tmp_path / "out", jobs=1, plots=False)
+    (row,) = rep.rows
+    assert row["status"].startswith("failed: ") and SECRET not in row["status"], row["status"]
+    for name in ("summary.csv", "summary.json", "index.html"):
+        assert SECRET not in (tmp_path / "out" / name).read_text(), name
