@@ -45,13 +45,13 @@ from typing import Any, Callable, Sequence
 from bhr import __version__
 from bhr.output.atomic import write_json, write_text
 from bhr.settings.errors import BhrError
-from bhr.settings.inputs import check_document, read_toml
+from bhr.settings.inputs import check_document, read_text, read_toml
 from bhr.studies.executor import capture, run_jobs
 from bhr.model.generators import GENERATORS, builtin_names, load_trajectory
 from bhr.run.driver import BhrWarning, follow
 from bhr.output.htmlpage import PAGE_END, escape, figure, fmt, page_head
 from bhr.output.htmlpage import table as html_table
-from bhr.settings.options import by_group, check_run_name, excerpt, solver_options_for
+from bhr.settings.options import LIMITS, by_group, check_run_name, excerpt, solver_options_for
 from bhr.model.robot import Robot
 from bhr.model.robotfile import load_robot_file
 from bhr.output.steptable import write_run_files
@@ -144,6 +144,8 @@ def parse_batch(data: dict[str, Any], source: str = "batch", base_dir: str | os.
     runs = data.get("run")
     if runs is None:
         raise BhrError(f"{source}: no runs; add at least one [[run]] table with name and traj")
+    if isinstance(runs, list):
+        check_run_count(len(runs), source)  # before any run is checked: a million took minutes
     if not isinstance(runs, list) or not all(isinstance(r, dict) for r in runs) or not runs:
         raise BhrError(f"{source}: 'run' must be a list of [[run]] tables with name and traj")
     specs: list[RunSpec] = []
@@ -202,10 +204,25 @@ def _check_values(spec: RunSpec, where: str) -> None:
         raise BhrError(f"{where}: {str(exc).splitlines()[0]}") from None
 
 
+#: Runs a batch may hold: as many as a sweep or a traversability study (docs/commands.md#limits).
+MAX_RUNS = LIMITS["study_runs"]
+#: A line that opens a [[run]] table.
+_RUN_HEADER = re.compile(r"^[ \t]*\[\[[ \t]*run[ \t]*\]\]", re.MULTILINE)
+
+
+def check_run_count(count: int, source: str) -> None:
+    """Refuse a batch of more runs than :data:`MAX_RUNS`, in the words a sweep refuses its designs."""
+    if count > MAX_RUNS:
+        raise BhrError(f"{source}: {count} runs is more than {MAX_RUNS}; use fewer runs")
+
+
 def load_batch(path: str | os.PathLike[str]) -> Batch:
     """Read and check a batch file (TOML); raises BhrError with one line naming the problem."""
     p = Path(path)  # a folder, a FIFO or a missing file: read_toml says so in one line
-    data = read_toml(p, "batch file", "give a TOML file of [[run]] tables (see docs/report.md)")
+    hint = "give a TOML file of [[run]] tables (see docs/report.md)"
+    # counted before the TOML is parsed (11 s of CPU for a million runs); parse_batch counts the runs parsed
+    check_run_count(len(_RUN_HEADER.findall(read_text(p, "batch file", hint))), str(p))
+    data = read_toml(p, "batch file", hint)
     return parse_batch(data, str(p), p.parent)
 
 

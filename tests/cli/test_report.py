@@ -380,3 +380,20 @@ def test_a_files_second_line_never_reaches_the_report(tmp_path, files, traj, rob
     assert row["status"].startswith("failed: ") and SECRET not in row["status"], row["status"]
     for name in ("summary.csv", "summary.json", "index.html"):
         assert SECRET not in (tmp_path / "out" / name).read_text(), name
+
+
+def test_a_batch_of_more_runs_than_a_study_may_have_is_refused_up_front(run_bhr, tmp_path):
+    """1,000,001 runs (a sweep or traversability study is refused past 1,000,000 designs): refused in one line
+    before any run is checked (the runs here are empty tables, which a check would refuse first) and before the
+    TOML is parsed; nothing written."""
+    from bhr.settings.options import LIMITS
+
+    n = LIMITS["study_runs"] + 1
+    with pytest.raises(BhrError, match=f"^b: {n} runs is more than {n - 1}; use fewer runs$"):
+        parse_batch({"run": [{}] * n}, "b")
+    (tmp_path / "big.toml").write_text('[[run]]\nname = "a"\n' * n)  # no traj: any check of a run would refuse it
+    proc = run_bhr("report", "--file", "big.toml")
+    assert proc.returncode == 1 and proc.stdout == ""
+    assert proc.stderr == f"Error: big.toml: {n} runs is more than {n - 1}; use fewer runs\n"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["big.toml"]
+    parse_batch({"run": [{"name": "a", "traj": "line"}]}, "b")  # one run is fine
