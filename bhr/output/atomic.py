@@ -62,7 +62,11 @@ def atomic_path(path: Any, suffix: str | None = None) -> Iterator[Path]:
     """
     target = Path(path)
     if in_place_target(target):
-        yield target
+        try:
+            yield target
+        except OSError as exc:
+            exc.filename = str(path) if exc.filename is None else exc.filename  # the message names the device
+            raise
         return
     check_output_file(target)
     target.parent.mkdir(parents=True, exist_ok=True)

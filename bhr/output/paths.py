@@ -73,11 +73,11 @@ def check_output_file(path: Any, what: str = "output") -> None:
     p = Path(path)
     if not p.is_absolute():
         current_folder()
+    if p.is_dir():
+        raise BhrError(f"{what} path {p} is a directory; give a file name")
     if p.is_symlink() and not in_place_target(p):
         raise BhrError(f"{what} {short_path(p)} is a symbolic link to {short_path(os.readlink(p))}; bhr does not "
                        "write through links: remove the link or choose another path")
-    if p.is_dir():
-        raise BhrError(f"{what} path {p} is a directory; give a file name")
     if p.exists() and not (os.access(p, os.W_OK) and (in_place_target(p) or p.stat().st_mode & 0o222)):
         raise BhrError(f"{what} {p} is read-only; make it writable (chmod u+w) or choose another path")
     if not in_place_target(p) and (bad := unwritable_folder(p.parent if str(p.parent) else Path("."))) is not None:

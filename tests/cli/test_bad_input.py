@@ -757,9 +757,12 @@ def test_plan_refuses_a_run_folder_it_cannot_replace_before_printing_the_schedul
     (tmp_path / "run" / "codes.csv").write_text(CODES_OK)
     (tmp_path / "run" / "manifest.json").write_text(_manifest({"codes.csv": CODES_OK}))
     (tmp_path / "run" / "notes.txt").write_text("mine")
+    import os
+
     before = snapshot(tmp_path)
     res = run_bhr("plan", "--codes", "run/codes.csv")
     assert res.returncode == 1 and res.stdout == "", res.stdout
     assert res.stderr.count("\n") == 1 and "holds notes.txt, which no bhr run wrote" in res.stderr, res.stderr
-    assert "--out" not in res.stderr and "--force" not in res.stderr and "move it out of run" in res.stderr
+    run = os.path.realpath(tmp_path / "run")
+    assert "--out" not in res.stderr and "--force" not in res.stderr and res.stderr.endswith(f"move it out of {run}\n")
     assert snapshot(tmp_path) == before
