@@ -11,8 +11,8 @@ from typing import Any, Callable
 
 import click
 
-from bhr.output.atomic import (check_parent_folder, folder_name, input_files, json_in_folder,  # noqa: F401
-                               run_folder_name, short_path)
+from bhr.output.paths import (check_parent_folder, folder_name, input_files, json_in_folder,  # noqa: F401
+                              run_folder_name, short_path)
 from bhr.cli._interrupt import end_interrupted
 from bhr.settings.errors import INTERRUPTED, BhrError
 
@@ -97,7 +97,8 @@ def guarded(func: Callable[..., Any]) -> Callable[..., Any]:
 
     @functools.wraps(func)
     def wrapper(*args: Any, **kwargs: Any) -> Any:
-        from bhr.output.atomic import current_folder, together
+        from bhr.output.atomic import together
+        from bhr.output.paths import current_folder
 
         try:
             current_folder()  # deleted under the command: one line before any work, not a failed write after it
@@ -159,7 +160,7 @@ def check_writable(path: str | os.PathLike[str] | None, what: str = "output") ->
     """
     if path is None or str(path) == "-":
         return
-    from bhr.output.atomic import check_output_file
+    from bhr.output.paths import check_output_file
 
     check_output_file(path, what)
     _refuse_an_input(path, what)
@@ -209,14 +210,15 @@ def _refuse_an_input(path: str | os.PathLike[str], what: str) -> None:
 
 
 def default_output(command: str, readable: str, settings_parts: tuple[Any, ...], inputs: list[Path],
-                   names: tuple[str, ...], out_dir: str | None, what: str = "output folder"):
+                   names: tuple[str, ...], out_dir: str | None, what: str = "output folder", force: bool = False):
     """The checked output folder of a study command: ``--out`` or ``bhr-out/<readable>-<hash of the settings>``.
 
     The hash covers ``settings_parts`` and the content of every input file, so two runs share the
     default folder only when they would make the same results; the manifest records it, so a rerun keeps
     what the earlier run made and this one does not make again (docs/commands.md#output-folders).
     """
-    from bhr.output.atomic import OutputFolder, settings_hash
+    from bhr.output.atomic import OutputFolder
+    from bhr.output.paths import settings_hash
 
     settings = settings_hash(*settings_parts, *inputs)
     if out_dir is None:
@@ -224,7 +226,8 @@ def default_output(command: str, readable: str, settings_parts: tuple[Any, ...],
         target: Path = Path("bhr-out") / folder_name(readable, settings)
     else:
         target = Path(out_dir)
-    return OutputFolder(target, command, names=names, what=what, inputs=inputs, settings=settings).check()
+    return OutputFolder(target, command, names=names, what=what, inputs=inputs, settings=settings,
+                        force=force).check()
 
 
 def point_latest_if_default(folder: Any, out_dir: str | None) -> None:

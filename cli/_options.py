@@ -141,13 +141,21 @@ def stack_options(*decorators: Callable[[Any], Any]) -> Callable[[Any], Any]:
     return apply
 
 
+#: --force, for every command that writes an output folder (docs/commands.md#output-folders).
+force_option = click.option(
+    "--force", is_flag=True,
+    help="Replace the output folder even when bhr did not write it (a folder without bhr's manifest.json, or "
+         "holding files its manifest does not list): what it holds is deleted.")
+
+
 def study_options(out_default: str) -> Callable[[Any], Any]:
-    """--robot, --out, --jobs and --scheduler, as every study (sweep, traverse) takes them."""
+    """--robot, --out, --force, --jobs and --scheduler, as every study (sweep, traverse) takes them."""
     return stack_options(
         click.option("--robot", "robot_file", default=None, metavar="FILE",
                      help="Robot description (.toml or .json, docs/robot-files.md) every design starts from; grid "
                           "values replace its values."),
         click.option("--out", "out_dir", default=None, metavar="DIR", help=f"Output folder [{out_default}]."),
+        force_option,
         click.option("--jobs", "-j", type=PlainIntRange(min=1, max=1024), default=None, metavar="N",
                      help="Worker processes [the number of CPUs]; 1 runs in this process."),
         click.option("--scheduler", default=None, metavar="ADDRESS",

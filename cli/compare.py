@@ -10,8 +10,8 @@ import click
 from bhr.model.trajnames import traj_help
 from bhr.cli._common import (check_parent_folder, check_writable, guarded, input_files, json_in_folder,
                              run_folder_name)
-from bhr.cli._options import (build_robot, lumen_options, optimal_options, pop_solver_options, pop_trajectory,
-                              robot_options, run_options, trajectory_options)
+from bhr.cli._options import (build_robot, force_option, lumen_options, optimal_options, pop_solver_options,
+                              pop_trajectory, robot_options, run_options, trajectory_options)
 
 
 @click.command()
@@ -26,11 +26,12 @@ from bhr.cli._options import (build_robot, lumen_options, optimal_options, pop_s
 @run_options
 @click.option("--out", "out_dir", default=None, metavar="DIR",
               help="Output folder, replaced whole by this run [./bhr-out/compare-<traj>-<hash>/].")
+@force_option
 @click.option("--json", "json_path", default=None, metavar="PATH|-",
               help="Also write the comparison as JSON ('-': stdout).")
 @click.option("--no-plots", is_flag=True, help="Skip the figure.")
 @guarded
-def compare(traj, solvers, out_dir, json_path, no_plots, **kwargs):
+def compare(traj, solvers, out_dir, json_path, no_plots, force, **kwargs):
     """Run one trajectory with several solvers and compare their errors.
 
     Prints, per solver, the worst position error over all scored points
@@ -65,7 +66,7 @@ def compare(traj, solvers, out_dir, json_path, no_plots, **kwargs):
     use_folder = out_dir is not None or not (json_path == "-" and no_plots)
     if out_dir is not None:
         folder = OutputFolder(out_dir, "compare", names=COMPARE_NAMES,  # checked before any work
-                              inputs=input_files(traj, kwargs.get("robot_file"))).check()
+                              inputs=input_files(traj, kwargs.get("robot_file")), force=force).check()
     elif use_folder:
         check_parent_folder("bhr-out")
     check_writable(json_path, "JSON")
@@ -86,7 +87,7 @@ def compare(traj, solvers, out_dir, json_path, no_plots, **kwargs):
         name = run_folder_name(f"compare-{stem}", *trajectory_parts(tr), robot.to_dict(), names, per_solver,
                                body_modules)
         folder = OutputFolder(Path("bhr-out") / name, "compare", names=COMPARE_NAMES,
-                              inputs=input_files(traj, robot_file)).check()
+                              inputs=input_files(traj, robot_file), force=force).check()
     if folder is not None:  # what makes the results (docs/commands.md#output-folders)
         folder.settings = run_folder_name("", *trajectory_parts(tr), robot.to_dict(), names, per_solver,
                                           body_modules).rsplit("-", 1)[1]

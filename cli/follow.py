@@ -16,7 +16,7 @@ from bhr.cli._link import (at_end_option, end_text, exit_interrupted, fault_prin
                            schedule_option, stop_on_signals, thermal_params)
 from bhr.cli.replay import STRIDE_HELP, check_view_options, run_live_view
 from bhr.model.trajnames import traj_help
-from bhr.cli._options import (rate_type, PlainIntRange, build_robot, constraint_options, lumen_options,
+from bhr.cli._options import (rate_type, PlainIntRange, force_option, build_robot, constraint_options, lumen_options,
                               optimal_options, pop_constraints, pop_solver_options, pop_trajectory, robot_options,
                               run_options, trajectory_options)
 
@@ -35,6 +35,7 @@ from bhr.cli._options import (rate_type, PlainIntRange, build_robot, constraint_
 @click.option("--out", "out_dir", default=None, metavar="DIR",
               help="Output folder, replaced whole by this run [./bhr-out/<traj>-<solver>-<hash>/, the hash "
                    "of the trajectory, robot and solver settings].")
+@force_option
 @click.option("--json", "json_path", default=None, metavar="PATH|-",
               help="Where to write the run as JSON ('-': stdout) [DIR/run.json].")
 @click.option("--no-plots", is_flag=True, help="Skip the PNG figures.")
@@ -50,7 +51,7 @@ from bhr.cli._options import (rate_type, PlainIntRange, build_robot, constraint_
 @schedule_option()
 @at_end_option("stop", "With --port, after the last step")
 @guarded
-def follow(traj, solver, out_dir, json_path, no_plots, **kwargs):
+def follow(traj, solver, out_dir, json_path, no_plots, force, **kwargs):
     """Follow a trajectory with follow-the-leader and report the errors.
 
     Writes into DIR the position, orientation and global error figures, a
@@ -80,7 +81,7 @@ def follow(traj, solver, out_dir, json_path, no_plots, **kwargs):
 
     from bhr.studies.follow_run import StreamSettings, check_outputs, follow_run
 
-    check_outputs(traj, kwargs.get("robot_file"), out_dir, json_path)  # before any work
+    check_outputs(traj, kwargs.get("robot_file"), out_dir, json_path, force)  # before any work
     check_writable(json_path, "JSON")  # and never onto an input (--traj, --robot)
     show, animate_path, stride = kwargs.pop("show"), kwargs.pop("animate_path"), kwargs.pop("stride")
     check_view_options(show, animate_path)
@@ -129,7 +130,7 @@ def follow(traj, solver, out_dir, json_path, no_plots, **kwargs):
                          out_dir=out_dir, json_path=json_path, plots=not no_plots, animate_path=animate_path,
                          stride=stride, rate=rate, robot_file=robot_file, thermal=thermal_params(robot_file),
                          stream=stream, status=status, frames_progress=_bar(bars, f"Rendering {animate_path}"),
-                         notice=lambda line: click.echo(line, err=True))
+                         notice=lambda line: click.echo(line, err=True), force=force)
     except interrupted as exc:
         _close(bars)
         exit_interrupted(exc, getattr(exc, "total", 0), "steps")

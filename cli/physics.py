@@ -6,7 +6,7 @@ from pathlib import Path
 import click
 
 from bhr.cli._common import guarded
-from bhr.cli._options import physics_options
+from bhr.cli._options import force_option, physics_options
 
 #: What bhr physics writes into its folder.
 PHYSICS_NAMES = ("physics.json", "force.png", "view.html", "manifest.json")
@@ -17,9 +17,10 @@ PHYSICS_NAMES = ("physics.json", "force.png", "view.html", "manifest.json")
 @click.option("--out", "out_dir", default=None, metavar="DIR",
               help="Folder for physics.json, force.png, view.html [./bhr-out/physics-<run's folder>-<hash of the run "
                    "and the options>/; needed when RUN.json is '-'].")
+@force_option
 @physics_options
 @guarded
-def physics(run, out_dir, wall_stiffness, physics_rate, substeps):
+def physics(run, out_dir, force, wall_stiffness, physics_rate, substeps):
     """Replay a run (run.json of `bhr follow`, with a lumen and codes) in MuJoCo against the colon wall.
 
     Writes DIR/physics.json (per step the largest contact force in N, where, and the deviation from bhr's
@@ -49,7 +50,8 @@ def physics(run, out_dir, wall_stiffness, physics_rate, substeps):
     # as every command's: --out, or bhr-out/physics-<the run's folder>-<hash of the run's file and the options>
     source = Path(run).resolve()
     readable = f"physics-{source.parent.name if source.name == 'run.json' else source.stem}"
-    folder = default_output("physics", readable, (sorted(opts.items()),), input_files(run), PHYSICS_NAMES, out_dir)
+    folder = default_output("physics", readable, (sorted(opts.items()),), input_files(run), PHYSICS_NAMES, out_dir,
+                            force=force)
     from bhr.studies.physics import check_replay_options, force_figure, replay_physics, require
 
     check_replay_options(**opts)

@@ -12,7 +12,7 @@ from typing import Any
 import click
 
 from bhr.cli._common import check_writable, guarded, refuse_replacing_beside
-from bhr.cli._options import PlainIntRange
+from bhr.cli._options import PlainIntRange, force_option
 
 STRIDE_HELP = ("Draw every Nth step (the last step always): frames of --animate [default: N keeping it at "
                "300 frames or fewer] and of --show [default: 1].")
@@ -74,10 +74,11 @@ def run_live_view(result, stride: int | None) -> None:
 @click.option("--stride", type=PlainIntRange(min=1, max=10**9), default=None, metavar="N", help=STRIDE_HELP)
 @click.option("--out", "out_dir", default=None, metavar="DIR",
               help="Write the error figures and path.png here [the run's folder, unless --show/--animate].")
+@force_option
 @click.option("--step", type=PlainIntRange(min=1, max=10**9), default=None, metavar="K",
               help="Draw the robot at step K in the path figure (path-stepK.png) [last step: path.png].")
 @guarded
-def replay(run, show, animate_path, stride, out_dir, step):
+def replay(run, show, animate_path, stride, out_dir, force, step):
     """Redraw, watch or animate a run saved by `bhr follow`, without solving again.
 
     RUN.json is the run.json that `bhr follow` wrote ('-' reads it from
@@ -108,8 +109,7 @@ def replay(run, show, animate_path, stride, out_dir, step):
             check_writable(out / path_name, "output folder")  # a loose run.json: figures written beside it
         else:
             folder = OutputFolder(out, "replay", names=("*.png", "view.html", "run.json", "codes.csv", "manifest.json"),
-                                  inputs=[run],
-                                  keep=same).check()
+                                  inputs=[run], keep=same, force=force).check()
     check_view_options(show, animate_path)
     result = load_run(run)
     if step is not None and step > result.steps:

@@ -7,7 +7,7 @@ from pathlib import Path
 import click
 
 from bhr.cli._common import guarded
-from bhr.cli._options import PlainIntRange
+from bhr.cli._options import PlainIntRange, force_option
 
 
 @click.command()
@@ -16,13 +16,14 @@ from bhr.cli._options import PlainIntRange
 @click.option("--batch", "batch_old", default=None, metavar="FILE.toml", hidden=True)  # the old spelling
 @click.option("--out", "out_dir", default=None, metavar="DIR",
               help="Output folder [./bhr-out/<batch name>-<hash of the batch and its files>/].")
+@force_option
 @click.option("--jobs", "-j", type=PlainIntRange(min=1, max=1024), default=None, metavar="N",
               help="Worker processes [the number of CPUs, at most one per run].")
 @click.option("--inline-images", is_flag=True,
               help="Embed the figures in index.html, so the page is one file to share.")
 @click.option("--no-plots", is_flag=True, help="Skip the figures (the page has the tables only).")
 @guarded
-def report(batch_path, batch_old, out_dir, jobs, inline_images, no_plots):
+def report(batch_path, batch_old, out_dir, force, jobs, inline_images, no_plots):
     """Run every run of a batch file and write a report page.
 
     Writes DIR/index.html (the summary table, then each run's figures),
@@ -48,7 +49,7 @@ def report(batch_path, batch_old, out_dir, jobs, inline_images, no_plots):
     batch = load_batch(batch_path)
     inputs = input_files(batch_path, *(r.traj for r in batch.runs), *(r.robot_file for r in batch.runs))
     folder = default_output("report", Path(batch_path).stem, (dataclasses.asdict(batch), inline_images),
-                            inputs, REPORT_NAMES, out_dir, what="report folder")  # before any work
+                            inputs, REPORT_NAMES, out_dir, what="report folder", force=force)  # before any work
     out = folder.final("")
     total = len(batch.runs)
     workers = min(jobs or os.cpu_count() or 1, total)

@@ -26,7 +26,7 @@ from bhr.cli._options import study_options
 @click.option("--no-plot", "no_plot_old", is_flag=True, hidden=True)  # the old spelling
 @click.option("--title", default=None, help="Title of the heat-map and page.")
 @guarded
-def sweep(sweep_file, trajs, solvers, grid, robot_file, out_dir, jobs, scheduler, hx, hy, no_plot, no_plot_old,
+def sweep(sweep_file, trajs, solvers, grid, robot_file, out_dir, force, jobs, scheduler, hx, hy, no_plot, no_plot_old,
           title):
     """Follow trajectories with every design of a parameter grid.
 
@@ -75,7 +75,7 @@ def sweep(sweep_file, trajs, solvers, grid, robot_file, out_dir, jobs, scheduler
     inputs = input_files(sweep_file, robot_file, s.robot_file, *s.traj_sources.values())
     folder = default_output("sweep", Path(sweep_file).stem if sweep_file else "sweep",
                             (dataclasses.asdict(s), hx, hy), inputs, SWEEP_NAMES, out_dir,
-                            what="sweep output folder")  # before any work
+                            what="sweep output folder", force=force)  # before any work
     out = folder.final("")
     total = len(s)
     from bhr.studies.executor import scheduler_client

@@ -30,7 +30,7 @@ OUTPUTS = ("designs.csv", "runs.csv", "study.json", "passrate.png", "worst-colon
 @click.option("--physics", is_flag=True, help="Replay the answer's worst colon in MuJoCo (worst-colon-physics.json, "
               "worst-colon-force.png; docs/physics.md).")
 @guarded
-def traverse(grid, colons, solvers, target_pass, robot_file, out_dir, jobs, scheduler, hx, hy, no_plot, title,
+def traverse(grid, colons, solvers, target_pass, robot_file, out_dir, force, jobs, scheduler, hx, hy, no_plot, title,
              physics):
     """Follow a population of anatomical colons with every design of a grid.
 
@@ -71,7 +71,7 @@ def traverse(grid, colons, solvers, target_pass, robot_file, out_dir, jobs, sche
 
     folder = default_output("traverse", "traverse", (dataclasses.asdict(study), hx, hy),
                             input_files(robot_file), OUTPUTS + ("manifest.json",), out_dir,
-                            what="study output folder")  # before any work
+                            what="study output folder", force=force)  # before any work
     from bhr.studies.executor import scheduler_client
 
     err = sys.stderr

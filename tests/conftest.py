@@ -1,12 +1,10 @@
 """Shared fixtures: run the real `bhr` console script, and a thesis robot."""
 from __future__ import annotations
 
-import atexit
 import os
 import shutil
 import subprocess
 import sys
-import tempfile
 from pathlib import Path
 
 import pytest
@@ -73,10 +71,3 @@ def pytest_collection_modifyitems(config, items):
 # A command that had to compile starts the other commands' kernels compiling in the background
 # (bhr.warmup); tests run many fresh caches, so they turn it off (test_startup checks it).
 os.environ.setdefault("BHR_NO_BACKGROUND_COMPILE", "1")
-
-# bhr signs the manifest of every output folder with a key of the user's (~/.config/bhr/output-key, made on first
-# need): the tests and every bhr command they run share one key of their own in a temporary folder, never the
-# user's (bhr.output.atomic.output_key).
-_KEY_HOME = Path(tempfile.mkdtemp(prefix="bhr-test-key-"))
-os.environ["BHR_OUTPUT_KEY_FILE"] = str(_KEY_HOME / "bhr" / "output-key")
-atexit.register(shutil.rmtree, _KEY_HOME, ignore_errors=True)

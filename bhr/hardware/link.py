@@ -216,9 +216,11 @@ class BoardLink:
         """Switch every actuator off (and acknowledge latched overheat faults)."""
         self._transact(P.stop_all_frame, "STOP_ALL", P.Msg.STOP_ALL, retries=retries)
 
-    def heartbeat(self) -> None:
-        """Tell the board the host is alive (restarts its silence timeout)."""
-        self._transact(P.heartbeat_frame, "HEARTBEAT", P.Msg.HEARTBEAT)
+    def heartbeat(self) -> list[str]:
+        """Tell the board the host is alive (restarts its silence timeout); return the fault names the ACK carried."""
+        _, faults = P.parse_ack(self._transact(P.heartbeat_frame, "HEARTBEAT", P.Msg.HEARTBEAT))
+        self.last_faults = P.fault_names(faults)
+        return self.last_faults
 
     def try_stop_all(self) -> bool:
         """Stop-all as a last resort (after a failure): one try, no exception; True when acknowledged."""
@@ -464,7 +466,7 @@ class Pacer:
                     break
                 if self.heartbeat and due - now > self.heartbeat:
                     time.sleep(self.heartbeat)
-                    self.link.heartbeat()
+                    self._refuse_silence(self.link.heartbeat(), f"before step {self.sent + 1}")
                 else:
                     time.sleep(due - now)
         codes = [int(c) for c in codes]
@@ -484,6 +486,7 @@ class Pacer:
         self._last = codes
         names = self.link.set_codes(codes)
         self.sent += 1
+        self._refuse_silence(names, f"at step {self.sent}")
         if any(f != "silence" for f in names):
             # latched faults: the ACK has no module detail, so ask (only while the board reports a fault)
             detail = [f for f in self.link.status()["faults"] if f != "silence"]
@@ -507,6 +510,14 @@ class Pacer:
         for f in names:
             if f not in self.faults:
                 self.faults.append(f)
+
+    def _refuse_silence(self, names: list[str], when: str) -> None:
+        """"silence" once the stream is under way: the board switched every wire off (it clears the flag on each
+        row it accepts, so a healthy board never reports it then): the procedure did not happen, the stream stops."""
+        if "silence" in names:
+            raise StreamStopped(f"board on {self.link.port} reports silence {when}: it switched every wire off "
+                                "during the stream, so the procedure did not happen as planned; the stream is "
+                                "stopped; check the board and its link (bhr status), then stream again")
 
     def _await_relaxed(self, modules: list[int], timeout: float = 10.0) -> None:
         end = time.monotonic() + timeout

@@ -338,8 +338,8 @@ def _run_from_json(doc: Any, where: str) -> FollowResult:
         if arr is None or has_bool(value):
             raise bad(f"{what} must be numbers, not {'text' if raw.dtype.kind in 'US' else 'true/false'}")
         if arr.ndim != len(shape) or any(w is not None and w != h for w, h in zip(shape, arr.shape)):
-            want = " x ".join("N" if w is None else str(w) for w in shape)
-            raise bad(f"{what} must be {want} numbers, got shape {' x '.join(map(str, arr.shape)) or 'scalar'}")
+            want = " x ".join("N" if w is None else str(w) for w in shape) + " numbers" if shape else "one number"
+            raise bad(f"{what} must be {want}, got shape {' x '.join(map(str, arr.shape)) or 'scalar'}")
         if not np.all(np.isfinite(arr)):
             raise bad(f"{what} must be finite numbers")
         if np.any((arr != 0.0) & (np.abs(arr) < MIN_MAGNITUDE)):  # 1e-320: the one checker refuses denormals
@@ -376,6 +376,9 @@ def _run_from_json(doc: Any, where: str) -> FollowResult:
                    for k, st in enumerate(steps)])
     oe = np.stack([array(st["module_orientation_errors_deg"], (n,), f"step {k + 1} module_orientation_errors_deg")
                    for k, st in enumerate(steps)])
+    for k, st in enumerate(steps):  # written where the path has a lumen; null where nothing is scored yet
+        if st.get("clearance_mm") is not None:
+            array(st["clearance_mm"], (), f"step {k + 1} clearance_mm")
     iters = [st["iterations"] for st in steps]
     max_iter = robot_limits()["max_iter"][0]
     if not all(isinstance(v, int) and not isinstance(v, bool) and 0 <= v <= max_iter

@@ -18,8 +18,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, ContextManager
 
-from bhr.output.atomic import (OutputFolder, check_parent_folder, input_files, json_in_folder, run_folder_name,
-                               write_json, write_text)
+from bhr.output.atomic import OutputFolder, write_json, write_text
+from bhr.output.paths import check_parent_folder, input_files, json_in_folder, run_folder_name
 from bhr.settings.errors import BhrError
 
 __all__ = ["FOLLOW_NAMES", "FollowRun", "StreamSettings", "check_outputs", "follow_run", "summary_lines", "folder_stem",
@@ -112,17 +112,18 @@ def _describe(body_modules, reach, locomotion) -> str:
     return body
 
 
-def check_outputs(traj: str, robot_file: str | None, out_dir: str | None, json_path: str | None
-                  ) -> OutputFolder | None:
+def check_outputs(traj: str, robot_file: str | None, out_dir: str | None, json_path: str | None,
+                  force: bool = False) -> OutputFolder | None:
     """Refuse, before any work, outputs that cannot be written; the checked ``--out`` folder (None: the default).
 
     Cheap (no numba): the command line calls it before it builds the robot, :func:`follow_run` again.
     """
-    from bhr.output.atomic import check_output_file
+    from bhr.output.paths import check_output_file
 
     folder = None
     if out_dir is not None:
-        folder = OutputFolder(out_dir, "follow", names=FOLLOW_NAMES, inputs=input_files(traj, robot_file)).check()
+        folder = OutputFolder(out_dir, "follow", names=FOLLOW_NAMES, inputs=input_files(traj, robot_file),
+                              force=force).check()
     else:
         check_parent_folder("bhr-out")
     if json_path not in (None, "-"):
@@ -136,7 +137,8 @@ def follow_run(traj: str, *, robot: Any, solver: str = "thesis", solver_options:
                plots: bool = True, animate_path: str | None = None, stride: int | None = None,
                rate: float = 10.0, robot_file: str | None = None, thermal: Any = None,
                stream: StreamSettings | None = None, status: Status = _no_status,
-               frames_progress: Progress | None = None, notice: Callable[[str], None] | None = None) -> FollowRun:
+               frames_progress: Progress | None = None, notice: Callable[[str], None] | None = None,
+               force: bool = False) -> FollowRun:
     """Follow ``traj`` and write the run's whole output set; see the module's docstring.
 
     ``out_dir`` None: ``bhr-out/<traj>-<solver>-<hash of the settings>/``
@@ -151,7 +153,7 @@ def follow_run(traj: str, *, robot: Any, solver: str = "thesis", solver_options:
     stage (a spinner); ``frames_progress(done, total)`` while an animation
     renders; ``notice(line)`` for lines to show during the run.
     """
-    from bhr.output.atomic import check_output_file
+    from bhr.output.paths import check_output_file
 
     solver_options = dict(solver_options or {})
     traj_params = dict(traj_params or {})
@@ -162,7 +164,7 @@ def follow_run(traj: str, *, robot: Any, solver: str = "thesis", solver_options:
     # (a file bhr did not write there is refused anyway); its robot was read whole before this run: the rerun
     # replaces it with the run it makes again (`bhr follow --traj T --robot bhr-out/latest/run.json`)
     inputs = input_files(traj)
-    folder = check_outputs(traj, robot_file, out_dir, json_path)
+    folder = check_outputs(traj, robot_file, out_dir, json_path, force)
     if animate_path is not None:
         from bhr.output.animate import check_target
 
@@ -193,7 +195,8 @@ def follow_run(traj: str, *, robot: Any, solver: str = "thesis", solver_options:
     settings_parts = (*trajectory_parts(tr), robot.to_dict(), solver, solver_options, body_modules, *extra)
     if folder is None and use_folder:
         name = run_folder_name(f"{folder_stem(traj, traj_params.get('seed'))}-{solver}", *settings_parts)
-        folder = OutputFolder(Path("bhr-out") / name, "follow", names=FOLLOW_NAMES, inputs=inputs).check()
+        folder = OutputFolder(Path("bhr-out") / name, "follow", names=FOLLOW_NAMES, inputs=inputs,
+                              force=force).check()
     if folder is not None:  # what makes the results: a rerun with the same keeps what it does not redraw
         folder.settings = run_folder_name("", *settings_parts).rsplit("-", 1)[1]
     json_inside = json_in_folder(json_path, folder, FOLLOW_NAMES) if folder is not None else None

@@ -33,6 +33,7 @@ This module does not import matplotlib until a run draws its figures.
 """
 from __future__ import annotations
 
+import contextlib
 import os
 import re
 import time
@@ -44,13 +45,13 @@ from typing import Any, Callable, Sequence
 from bhr import __version__
 from bhr.output.atomic import write_json, write_text
 from bhr.settings.errors import BhrError
-from bhr.settings.inputs import check_document, read_toml
+from bhr.settings.inputs import check_document, read_text, read_toml
 from bhr.studies.executor import capture, run_jobs
 from bhr.model.generators import GENERATORS, builtin_names, load_trajectory
 from bhr.run.driver import BhrWarning, follow
 from bhr.output.htmlpage import PAGE_END, escape, figure, fmt, page_head
 from bhr.output.htmlpage import table as html_table
-from bhr.settings.options import by_group, check_run_name, excerpt, solver_options_for
+from bhr.settings.options import LIMITS, by_group, check_run_name, excerpt, solver_options_for
 from bhr.model.robot import Robot
 from bhr.model.robotfile import load_robot_file
 from bhr.output.steptable import write_run_files
@@ -143,6 +144,8 @@ def parse_batch(data: dict[str, Any], source: str = "batch", base_dir: str | os.
     runs = data.get("run")
     if runs is None:
         raise BhrError(f"{source}: no runs; add at least one [[run]] table with name and traj")
+    if isinstance(runs, list):
+        check_run_count(len(runs), source)  # before any run is checked: a million took minutes
     if not isinstance(runs, list) or not all(isinstance(r, dict) for r in runs) or not runs:
         raise BhrError(f"{source}: 'run' must be a list of [[run]] tables with name and traj")
     specs: list[RunSpec] = []
@@ -201,10 +204,25 @@ def _check_values(spec: RunSpec, where: str) -> None:
         raise BhrError(f"{where}: {str(exc).splitlines()[0]}") from None
 
 
+#: Runs a batch may hold: as many as a sweep or a traversability study (docs/commands.md#limits).
+MAX_RUNS = LIMITS["study_runs"]
+#: A line that opens a [[run]] table.
+_RUN_HEADER = re.compile(r"^[ \t]*\[\[[ \t]*run[ \t]*\]\]", re.MULTILINE)
+
+
+def check_run_count(count: int, source: str) -> None:
+    """Refuse a batch of more runs than :data:`MAX_RUNS`, in the words a sweep refuses its designs."""
+    if count > MAX_RUNS:
+        raise BhrError(f"{source}: {count} runs is more than {MAX_RUNS}; use fewer runs")
+
+
 def load_batch(path: str | os.PathLike[str]) -> Batch:
     """Read and check a batch file (TOML); raises BhrError with one line naming the problem."""
     p = Path(path)  # a folder, a FIFO or a missing file: read_toml says so in one line
-    data = read_toml(p, "batch file", "give a TOML file of [[run]] tables (see docs/report.md)")
+    hint = "give a TOML file of [[run]] tables (see docs/report.md)"
+    # counted before the TOML is parsed (11 s of CPU for a million runs); parse_batch counts the runs parsed
+    check_run_count(len(_RUN_HEADER.findall(read_text(p, "batch file", hint))), str(p))
+    data = read_toml(p, "batch file", hint)
     return parse_batch(data, str(p), p.parent)
 
 
@@ -264,8 +282,32 @@ def execute_run(spec: RunSpec, out_dir: str | os.PathLike[str] | None = None, pl
                 from bhr.output.view import save_view
 
                 row["view"] = save_view(result, out).name
+    if row["status"] != "ok":
+        row["status"] = _without_file_text(row["status"], (spec.traj, spec.robot_file))
     row["wall_time_s"] = time.perf_counter() - t0
     return row
+
+
+#: A quoted piece of a message: 'text' or "text".
+_QUOTED = re.compile(r"'([^'\n]{1,300})'|\"([^\"\n]{1,300})\"")
+
+
+def _without_file_text(status: str, files: tuple[str | None, ...]) -> str:
+    """``status`` with every quoted piece that comes from one of ``files`` (a run's trajectory and robot files)
+    left out: a report's files are shared, and a message about a file's line 2 quoted its cell ("x = 'TOKEN...'
+    is not a number"), so that a file a batch names reached summary.csv, summary.json and index.html."""
+    texts = []
+    for f in files:
+        with contextlib.suppress(OSError, ValueError):
+            if f is not None and os.path.isfile(f) and os.path.getsize(f) <= 64 << 20:
+                texts.append((Path(f).name, Path(f).read_text(encoding="utf-8", errors="replace")))
+
+    def hide(m: re.Match[str]) -> str:
+        piece = m.group(1) if m.group(1) is not None else m.group(2)
+        owner = next((name for name, text in texts if piece in text), None)
+        return m.group(0) if owner is None else f"(text of {owner} left out)"
+
+    return _QUOTED.sub(hide, status) if texts else status
 
 
 def _execute_job(job: tuple[RunSpec, str | None, bool]) -> dict[str, Any]:

@@ -102,7 +102,7 @@ def test_ctrl_c_at_a_spread_of_moments(tmp_path, name, delay):
     assert _living(p.pid) == []
 
 
-# --- an output that is also an input, a named pipe as an output ----------------------------------------------
+# --- an output that is also an input ----------------------------------------------------------------------
 
 ROBOT = "modules = 5\n"
 TRAJ = "x,y,z\n0,0,0\n10,0,0\n20,0,0\n"
@@ -130,13 +130,6 @@ def test_an_output_file_that_is_an_input_is_refused(tmp_path, args, files, flags
     line = one_line(bhr(*args, cwd=tmp_path, timeout=120))
     assert flags in line and "replace what this command reads" in line
     assert snapshot(tmp_path) == before
-
-
-@pytest.mark.parametrize("args", [["export", "--format", "urdf", "--out", "o"], ["fk", "--codes", "0,3", "--json", "o"]],
-                         ids=["export", "fk"])
-def test_a_named_pipe_nobody_reads_is_waited_on_for_a_bounded_time(tmp_path, args):
-    os.mkfifo(tmp_path / "o")  # nobody reads it: opening it to write would wait for ever
-    assert "nobody reads the named pipe o" in one_line(bhr(*args, cwd=tmp_path, timeout=60))
 
 
 def test_fk_codes_with_a_module_left_out(tmp_path):

@@ -207,16 +207,11 @@ def test_a_users_folder_named_like_a_staging_folder_is_kept(tmp_path):
 
 
 def test_a_dead_runs_staging_folder_is_still_cleaned(tmp_path):
-    from bhr.output.atomic import _stage_mark_text, output_key
-
-    dead = tmp_path / ".o.bhr-stage-999999-abc"
+    # a run killed while it staged leaves its stage and the lock file it held beside it (nobody holds it now)
+    dead = tmp_path / ".o.bhr-stage-0123456789ab"
     dead.mkdir()
-    key, why = output_key()  # the tests' key, which the commands they run share (tests/conftest.py)
-    assert key is not None, why
-    (dead / ".bhr-staging").write_text(_stage_mark_text(dead.name, key))  # the mark bhr signs into its stages
     (dead / "run.json").write_text("{")
-    empty = tmp_path / ".o.bhr-stage-999998-def"  # killed before its mark was written
-    empty.mkdir()
+    (tmp_path / ".o.bhr-stage-0123456789ab.lock").write_text("")
     r = bhr("follow", "--traj", "line", "--length", "20", "--no-plots", "--out", "o", cwd=tmp_path, timeout=300)
     assert r.returncode == 0, r.stderr
     assert sorted(os.listdir(tmp_path)) == ["o"]
@@ -311,20 +306,17 @@ def test_a_numba_setting_numba_refuses_is_one_line(tmp_path):
 
 SLOW_RENAME = r'''
 import os, signal, sys, time
-import bhr.output.atomic as atomic
 
 SIG = getattr(signal, sys.argv[1])
-rename = atomic.OutputFolder._commit
 
 
-def slow_rename(self):  # a file system slow to rename (a network share): the signal comes just after the rename
-    old = rename(self)
-    os.kill(os.getpid(), SIG)
-    time.sleep(0.5)  # the handler runs as soon as os.kill returns
-    return old
+def signal_at_rename(event, args):  # the signal comes as the staged folder is renamed into place
+    if event == "os.rename" and os.path.basename(os.fspath(args[0])).startswith(".o.bhr-stage-"):
+        os.kill(os.getpid(), SIG)
+        time.sleep(0.5)  # the handler runs as soon as os.kill returns
 
 
-atomic.OutputFolder._commit = slow_rename
+sys.addaudithook(signal_at_rename)
 sys.argv = ["bhr", "follow", "--traj", "line", "--length", "20", "--no-plots", "--out", "o"]
 from bhr.cli.main import run
 run()

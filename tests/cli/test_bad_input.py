@@ -42,18 +42,12 @@ SEG = '[[segment]]\ntype = "straight"\nlength = 40.0\n'
 
 
 def _manifest(files: dict[str, str]) -> str:
-    """A bhr manifest.json proving that bhr wrote ``files`` (name -> text): signed with the tests' key, which the
-    commands they run share (tests/conftest.py)."""
+    """A bhr manifest.json listing ``files`` (name -> text), as bhr writes it (any machine, any user)."""
     import hashlib
     import json
 
-    from bhr.output.atomic import output_key, sign_manifest
-
     listed = {n: {"bytes": len(t.encode()), "sha256": hashlib.sha256(t.encode()).hexdigest()} for n, t in files.items()}
-    doc = {"bhr_output": 2, "command": "follow", "run_id": "0" * 32, "files": listed}
-    key, why = output_key()
-    assert key is not None, why
-    return json.dumps({**doc, "signature": sign_manifest(doc, key)})
+    return json.dumps({"bhr_output": 2, "command": "follow", "run_id": "0" * 32, "files": listed})
 
 
 def seg(text: str) -> dict[str, str]:
@@ -756,18 +750,19 @@ def test_a_killed_follow_leaves_only_whole_files(tmp_path):
 
 
 def test_plan_refuses_a_run_folder_it_cannot_replace_before_printing_the_schedule(run_bhr, tmp_path):
-    """A run folder whose manifest is not signed by this user's bhr: `bhr plan --codes run/codes.csv` would put
-    thermal.png there; it is refused in one line that names a fix plan has, before any schedule is printed."""
-    import json
-
+    """A run folder holding a file of the user's (its manifest does not list it): `bhr plan --codes run/codes.csv`
+    would put thermal.png there and replace the folder; it is refused in one line that names a fix plan has,
+    before any schedule is printed."""
     (tmp_path / "run").mkdir()
     (tmp_path / "run" / "codes.csv").write_text(CODES_OK)
-    doc = json.loads(_manifest({"codes.csv": CODES_OK}))
-    doc.pop("signature")
-    (tmp_path / "run" / "manifest.json").write_text(json.dumps(doc))
+    (tmp_path / "run" / "manifest.json").write_text(_manifest({"codes.csv": CODES_OK}))
+    (tmp_path / "run" / "notes.txt").write_text("mine")
+    import os
+
     before = snapshot(tmp_path)
     res = run_bhr("plan", "--codes", "run/codes.csv")
     assert res.returncode == 1 and res.stdout == "", res.stdout
-    assert res.stderr.count("\n") == 1 and "not signed by bhr" in res.stderr, res.stderr
-    assert "--out" not in res.stderr and "give another folder for the output" in res.stderr
+    assert res.stderr.count("\n") == 1 and "holds notes.txt, which no bhr run wrote" in res.stderr, res.stderr
+    run = os.path.realpath(tmp_path / "run")
+    assert "--out" not in res.stderr and "--force" not in res.stderr and res.stderr.endswith(f"move it out of {run}\n")
     assert snapshot(tmp_path) == before

@@ -461,3 +461,50 @@ def test_a_rerun_without_figures_keeps_the_earlier_figures(tmp_path, command, fi
     assert {f: (tmp_path / "bhr-out" / "s" / f).read_bytes() for f in figures} == before
     man = check_whole(tmp_path / "bhr-out" / "s")
     assert set(figures) <= set(man["carried_over"])
+
+
+def test_a_home_bhr_cannot_write_costs_nothing(tmp_path):
+    """HOME=/proc/nohome: the same run twice both succeed (the second replaced the first's folder)."""
+    env = dict(ENV, HOME="/proc/nohome")
+    env.pop("XDG_CONFIG_HOME", None)
+    for _ in range(2):
+        r = subprocess.run(bhr_exe() + ["follow", "--traj", "line", "--no-plots"], cwd=tmp_path, env=env,
+                           capture_output=True, text=True, timeout=300)
+        assert r.returncode == 0, r.stderr
+    (folder,) = [p for p in (tmp_path / "bhr-out").iterdir() if not p.is_symlink()]
+    check_whole(folder)
+    no_staging(tmp_path / "bhr-out")
+
+
+def test_a_folder_of_another_machine_is_replaced(tmp_path):
+    """A run folder copied from another machine (another user, an older bhr, a signed manifest of the old format)
+    is bhr's: the same command replaces it."""
+    out = tmp_path / "o"
+    assert bhr("follow", "--traj", "line", "--no-plots", "--out", out, cwd=tmp_path).returncode == 0
+    man = json.loads((out / "manifest.json").read_text())
+    man.update(written_by="bhr 0.0.1", bhr_version="0.0.1", signature="hmac-sha256:" + "5" * 64, host="lab-pc")
+    (out / "manifest.json").write_text(json.dumps(man))
+    r = bhr("follow", "--traj", "curve", "--no-plots", "--out", out, cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    assert len(json.loads((out / "run.json").read_text())["steps"]) == 85 and "signature" not in check_whole(out)
+
+
+@pytest.mark.parametrize("args", [["follow", "--traj", "line", "--no-plots"],
+                                  ["sweep", "--traj", "line", "--grid", "modules=3", "--jobs", "1", "--no-plots"]],
+                         ids=["follow", "sweep"])
+def test_a_foreign_folder_is_refused_and_replaced_with_force(tmp_path, args):
+    mine = tmp_path / "mine"
+    (mine / "src").mkdir(parents=True)
+    (mine / "chapter1.tex").write_text("text")
+    (mine / "src" / "x.py").write_text("x = 1")
+    before = snapshot(tmp_path)
+    r = bhr(*args, "--out", "mine", cwd=tmp_path)
+    line = one_line(r.stderr)
+    assert r.returncode == 1 and line.endswith("folder mine holds chapter1.tex, which no bhr run wrote (no bhr "
+                                               "manifest.json lists it); move it out of mine, give another folder, "
+                                               "or give --force to replace it"), line
+    assert snapshot(tmp_path) == before
+    r = bhr(*args, "--out", "mine", "--force", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    assert "chapter1.tex" not in check_whole(mine)["files"] and not (mine / "src").exists()
+    no_staging(tmp_path)

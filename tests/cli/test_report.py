@@ -355,3 +355,45 @@ def test_robot_file_in_a_run(tmp_path):
     direct = follow(load_trajectory("curve"), solver="seed", robot=bhr.Robot(modules=4, alpha=9)).summary.to_dict()
     assert rows[1]["tip_max_error_mm"] == direct["tip_max_error_mm"]
     assert rows[2]["status"].startswith("failed: ") and "bad.toml" in rows[2]["status"]
+
+
+SECRET = "TOKEN-8f2d9c4e1b7a6d3f"
+
+
+@pytest.mark.parametrize("files, traj, robot", [
+    ({"t.csv": f"x,y,z\n{SECRET},1,2\n3,4,5\n"}, "t.csv", None),  # a cell of line 2
+    ({"t.csv": f"x y z\n0 0 0\n1 2 {SECRET}\n"}, "t.csv", None),
+    ({"t.csv": f"# points\n{SECRET}\n"}, "t.csv", None),  # line 2 is the header
+    ({"t.toml": f"[[segment]]\ntype = '{SECRET}'\n"}, "t.toml", None),
+    ({"r.toml": f"modules = 5\nalpha = '{SECRET}'\n"}, "line", "r.toml"),
+    ({"r.json": f'{{"modules": 5,\n "{SECRET}": 1}}'}, "line", "r.json"),
+], ids=["csv-cell", "csv-blanks", "csv-header", "traj-toml", "robot-toml", "robot-json"])
+def test_a_files_second_line_never_reaches_the_report(tmp_path, files, traj, robot):
+    """A run whose trajectory or robot file cannot be read is a failed row, whose reason names the file and the
+    line but quotes nothing of it: summary.csv, summary.json and index.html are shared."""
+    for name, text in files.items():
+        (tmp_path / name).write_text(text)
+    batch = f'[[run]]\nname = "a"\ntraj = "{traj}"\n' + (f'robot = "{robot}"\n' if robot else "")
+    (tmp_path / "b.toml").write_text(batch)
+    rep = run_batch(load_batch(tmp_path / "b.toml"), tmp_path / "out", jobs=1, plots=False)
+    (row,) = rep.rows
+    assert row["status"].startswith("failed: ") and SECRET not in row["status"], row["status"]
+    for name in ("summary.csv", "summary.json", "index.html"):
+        assert SECRET not in (tmp_path / "out" / name).read_text(), name
+
+
+def test_a_batch_of_more_runs_than_a_study_may_have_is_refused_up_front(run_bhr, tmp_path):
+    """1,000,001 runs (a sweep or traversability study is refused past 1,000,000 designs): refused in one line
+    before any run is checked (the runs here are empty tables, which a check would refuse first) and before the
+    TOML is parsed; nothing written."""
+    from bhr.settings.options import LIMITS
+
+    n = LIMITS["study_runs"] + 1
+    with pytest.raises(BhrError, match=f"^b: {n} runs is more than {n - 1}; use fewer runs$"):
+        parse_batch({"run": [{}] * n}, "b")
+    (tmp_path / "big.toml").write_text('[[run]]\nname = "a"\n' * n)  # no traj: any check of a run would refuse it
+    proc = run_bhr("report", "--file", "big.toml")
+    assert proc.returncode == 1 and proc.stdout == ""
+    assert proc.stderr == f"Error: big.toml: {n} runs is more than {n - 1}; use fewer runs\n"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["big.toml"]
+    parse_batch({"run": [{"name": "a", "traj": "line"}]}, "b")  # one run is fine

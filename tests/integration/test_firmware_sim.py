@@ -979,3 +979,21 @@ def test_the_silence_timeout_and_the_stream_hold_under_load_10(sim, tmp_path):
     assert evs[i_off]["t_us"] - t_last_row >= SILENCE_MS * 1000  # never sooner than the timeout (board time)
     with BoardLink(s.pty) as link:
         assert link.status()["faults"] == ["silence"]
+
+
+def test_a_board_that_switched_off_mid_stream_stops_the_stream(sim):
+    """The host falls silent mid-stream longer than the board's silence timeout (heartbeats every 2.6 s, the
+    simulator's timeout 2 s): the real firmware switches every wire off and says "silence" in the next ACK. The
+    procedure did not happen: the stream stops there with one line, sends stop-all, and the board is off."""
+    from bhr.hardware.link import BoardLink, StreamStopped, run_stream
+
+    s = sim()
+    with BoardLink(s.pty) as link:
+        with pytest.raises(StreamStopped) as e:
+            run_stream(link, [[3, 0, 0, 0, 0], [6, 0, 0, 0, 0]], rate=1 / 8, heartbeat=2.6, at_end="stop")
+        assert link.status()["codes"] == [0] * MODULES
+    msg = str(e.value)
+    assert "reports silence before step 2: it switched every wire off" in msg and "sent stop-all" in msg, msg
+    assert "(after 1 of 2 rows)" in msg, msg
+    latched = [ev["latched"] for ev in s.events() if ev["ev"] == "latch"]
+    assert not any(row[0] & 6 == 6 for row in latched)  # the second row never reached the pins

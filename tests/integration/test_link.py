@@ -711,3 +711,24 @@ def test_an_ack_with_a_latched_fault_its_status_denies_is_a_lie(board, tmp_path,
     assert "impossible reply" in msg and f"the ACK of step 3 said {fault}, the status right after does not" in msg, msg
     assert "sent stop-all" in msg and b.types()[-1] == "STOP_ALL"
     assert sum(x.type == P.Msg.SET_CODES for x in b.received) == 3  # nothing after the lie
+
+
+@pytest.mark.parametrize("after", [1, 2])
+def test_a_board_reporting_silence_mid_stream_stops_the_stream(board, tmp_path, after):
+    """A board whose ACK of a row carries "silence" (every output switched off) once the stream is under way: the
+    firmware clears that flag on every row it accepts, so this board did not do the procedure. bhr stream exited
+    0 and printed "sent 3 rows"; now it stops with one line, sends stop-all and exits 1."""
+    def silent_after(b, frame):
+        rows = sum(fr.type == P.Msg.SET_CODES for fr in b.received)
+        if frame.type == P.Msg.SET_CODES and rows > after:
+            return P.encode_frame(P.Msg.ACK, frame.seq, bytes([frame.type, P.Fault.SILENCE]))
+        return None
+
+    b = board(lie=silent_after)
+    f = write_codes(tmp_path / "codes.csv", [[0, 3, 0, 0, 0], [0, 3, 6, 0, 0], [0, 0, 6, 0, 0]])
+    r = run_bhr("stream", "--port", b.path, "--codes", f, "--rate", "50")
+    assert r.returncode == 1 and "sent 3 rows" not in r.stdout, r.stdout
+    msg = one_line(r.stderr)
+    assert f"reports silence at step {after + 1}: it switched every wire off" in msg, msg
+    assert "sent stop-all" in msg and f"(after {after + 1} of 3 rows)" in msg, msg
+    assert b.types()[-1] == "STOP_ALL"

@@ -1,17 +1,21 @@
-"""Output folders replace only bhr's own output (bhr.output.atomic.OutputFolder): the manifest must prove it.
+"""Output folders replace only bhr's own output (bhr.output.atomic.OutputFolder): a plain manifest.json marks it.
 
 Library-level tests of the rules every command's output goes through; tests/cli/test_outputs.py runs
 the commands themselves.
 """
 from __future__ import annotations
 
+import hashlib
 import json
 import os
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
 
-from bhr.output.atomic import MANIFEST, OutputFolder, settings_hash, verify_folder
+from bhr.output.atomic import MANIFEST, OutputFolder, owning_folder
+from bhr.output.paths import settings_hash
 from bhr.settings.errors import BhrError
 
 
@@ -103,7 +107,7 @@ def test_same_settings_keep_what_the_rerun_does_not_make(tmp_path):
     assert (out / "path.png").read_text() == "fig" and (out / "run.json").read_text() == "2"
     doc = json.loads((out / MANIFEST).read_text())
     assert set(doc["files"]) == {"run.json", "path.png"} and doc["carried_over"] == ["path.png"]
-    verify_folder(out)
+    OutputFolder(out, "follow").check()  # still only bhr's files: replaceable
     write_run(out, {"run.json": "3"}, settings="other")  # other settings: the old figure is not this run's
     assert not (out / "path.png").exists()
 
@@ -141,3 +145,199 @@ def test_settings_hash_follows_file_content(tmp_path):
     a = settings_hash({"x": 1}, f)
     f.write_text("2")
     assert settings_hash({"x": 1}, f) != a and settings_hash({"x": 1}, f) == settings_hash({"x": 1}, f)
+
+
+def _listing(files: dict[str, str], **fields) -> str:
+    """A manifest.json as bhr writes it, listing ``files`` (name -> text)."""
+    listed = {n: {"bytes": len(t.encode()), "sha256": hashlib.sha256(t.encode()).hexdigest()} for n, t in files.items()}
+    return json.dumps({"bhr_output": 2, "command": "follow", "run_id": "0" * 32, "files": listed, **fields})
+
+
+@pytest.mark.parametrize("fields", [
+    {"written_by": "bhr 0.0.9", "bhr_version": "0.0.9"},  # an older bhr
+    {"signature": "hmac-sha256:" + "0" * 64},  # signed with a key of another user or machine
+    {"bhr_output": 1},  # the first manifest format
+    {"bhr_output": 7, "host": "elsewhere", "user": "someone"},  # a later bhr, on another machine
+])
+def test_a_folder_from_another_machine_user_or_bhr_is_replaced(tmp_path, fields):
+    out = tmp_path / "o"
+    out.mkdir()
+    mine = {"run.json": "theirs", "figs/path.png": "png"}
+    for name, text in mine.items():
+        (out / name).parent.mkdir(exist_ok=True)
+        (out / name).write_text(text)
+    (out / MANIFEST).write_text(_listing(mine, **fields))
+    write_run(out, {"run.json": "new"})
+    assert sorted(p.name for p in out.iterdir()) == [MANIFEST, "run.json"] and (out / "run.json").read_text() == "new"
+    assert sorted(os.listdir(tmp_path)) == ["o"]  # no staging folder, no lock file, no folder set aside
+
+
+def test_a_foreign_folder_is_refused_and_replaced_with_force(tmp_path):
+    proj = tmp_path / "proj"
+    (proj / "src").mkdir(parents=True)
+    (proj / "notes.txt").write_text("mine")
+    (proj / "src" / "a.c").write_text("int x;")
+    with pytest.raises(BhrError) as e:
+        write_run(proj, {"run.json": "1"})
+    assert str(e.value) == (f"output folder {proj} holds notes.txt, which no bhr run wrote (no bhr manifest.json "
+                            f"lists it); move it out of {proj}, give another folder, or give --force to replace it")
+    assert (proj / "notes.txt").read_text() == "mine" and (proj / "src" / "a.c").read_text() == "int x;"
+    write_run(proj, {"run.json": "1"}, force=True)
+    assert sorted(p.name for p in proj.iterdir()) == [MANIFEST, "run.json"]
+    assert sorted(os.listdir(tmp_path)) == ["proj"]
+
+
+def test_force_never_replaces_the_current_folder_or_an_inputs_folder(tmp_path, monkeypatch):
+    (tmp_path / "d").mkdir()
+    (tmp_path / "d" / "t.csv").write_text("x,y,z\n")
+    monkeypatch.chdir(tmp_path / "d")
+    with pytest.raises(BhrError, match="current folder"):
+        OutputFolder(".", "follow", force=True).check()
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(BhrError, match="an input of this run"):
+        OutputFolder("d", "follow", inputs=["d/t.csv"], force=True).check()
+
+
+def test_a_plain_manifest_owns_the_files_it_lists(tmp_path):
+    """bhr plan and replay add their figures to the folder whose manifest lists the codes, whoever wrote it."""
+    out = tmp_path / "cmp"
+    write_run(out, {"thesis/codes.csv": "c"})
+    assert owning_folder(out / "thesis" / "codes.csv") == (out.resolve(), "thesis/codes.csv")
+    other = tmp_path / "copied"
+    (other / "thesis").mkdir(parents=True)
+    (other / "thesis" / "codes.csv").write_text("c")
+    (other / MANIFEST).write_text(_listing({"thesis/codes.csv": "c"}))
+    assert owning_folder(other / "thesis" / "codes.csv") == (other.resolve(), "thesis/codes.csv")
+    assert owning_folder(other / "thesis" / "other.csv") is None
+
+
+HOLD = """
+import sys, time
+from filelock import FileLock
+lock = FileLock(sys.argv[1])
+lock.acquire()
+print("held", flush=True)
+sys.stdin.read()
+"""
+
+
+def test_a_dead_runs_stage_is_cleaned_a_live_runs_and_a_users_are_kept(tmp_path):
+    """A stage is a live run's while the lock file beside it is held (a real process holds it here); a killed
+    run's lock is free (the kernel dropped it), so the next run deletes its stage; a folder that only has a
+    stage's name (no lock file beside it) is the user's and kept."""
+    def stage(name: str, lock: bool) -> Path:
+        (tmp_path / name).mkdir()
+        (tmp_path / name / "run.json").write_text("{")
+        if lock:
+            (tmp_path / f"{name}.lock").write_text("")
+        return tmp_path / name
+
+    dead, live, users = stage(".o.bhr-stage-dead", True), stage(".o.bhr-stage-live", True), \
+        stage(".o.bhr-stage-999999-abc", False)
+    holder = subprocess.Popen([sys.executable, "-c", HOLD, f"{live}.lock"], stdin=subprocess.PIPE,
+                              stdout=subprocess.PIPE, text=True)
+    try:
+        assert holder.stdout.readline() == "held\n"
+        write_run(tmp_path / "o", {"run.json": "1"})
+        assert not dead.exists() and not Path(f"{dead}.lock").exists()
+        assert (live / "run.json").exists() and (users / "run.json").exists()
+    finally:
+        holder.communicate("")
+    write_run(tmp_path / "o", {"run.json": "2"})  # its run ended without cleaning up (killed): now it goes
+    assert sorted(os.listdir(tmp_path)) == [".o.bhr-stage-999999-abc", "o"]
+
+
+def test_a_folder_set_aside_by_a_killed_run_is_put_back(tmp_path):
+    """Killed between its two renames, a run leaves the old folder whole under .NAME.bhr-old-*: the next run into
+    the place puts it back before anything else (here: it then refuses, so the old folder stays)."""
+    out = tmp_path / "o"
+    write_run(out, {"run.json": "1", "a.png": "x"}, settings="s")
+    os.rename(out, tmp_path / ".o.bhr-old-0123456789ab")
+    mine = tmp_path / ".o.bhr-old-mine"  # the user's, only named like one: no bhr manifest
+    mine.mkdir()
+    (mine / "notes.txt").write_text("mine")
+    with pytest.raises(BhrError, match="an input of this run"):  # fails after the lock was taken once
+        with OutputFolder(out, "follow") as of:
+            of.add_inputs(out / "a.png")
+    assert (out / "run.json").read_text() == "1" and (out / "a.png").read_text() == "x"
+    assert sorted(os.listdir(tmp_path)) == [".o.bhr-old-mine", "o"]
+
+
+# --- real processes: concurrent writers, kill -9 ---------------------------------------------------------------------
+
+WRITER = """
+import os, sys, time
+from bhr.output.atomic import OutputFolder, write_text
+target, tag, pause_at = sys.argv[1], sys.argv[2], sys.argv[3]
+n = 3 + int(tag) % 4  # writers write different numbers of files: a mix of two shows
+if pause_at == "aside":  # stop between moving the old folder aside and moving the new one in
+    def hook(event, args):
+        if event == "os.rename" and ".bhr-old-" in os.fspath(args[1]):
+            hook.armed = True
+        elif event == "os.rename" and getattr(hook, "armed", False):
+            print("aside", flush=True)
+            time.sleep(600)
+    sys.addaudithook(hook)
+with OutputFolder(target, "test") as of:
+    for k in range(n):
+        write_text(of.path(f"f{k}.txt"), (tag + "\\n") * 500)
+        if pause_at == "staging" and k == 1:
+            print("staging", flush=True)
+            time.sleep(600)
+"""
+
+
+def whole(folder: Path) -> str:
+    """The tag of the one writer whose set ``folder`` holds, whole: every file listed with its hash, nothing else,
+    all of one writer, as many as that writer writes."""
+    doc = json.loads((folder / MANIFEST).read_text())
+    files = {p.relative_to(folder).as_posix() for p in folder.rglob("*") if p.is_file()} - {MANIFEST}
+    assert files == set(doc["files"])
+    for name, entry in doc["files"].items():
+        assert hashlib.sha256((folder / name).read_bytes()).hexdigest() == entry["sha256"]
+    texts = {(folder / name).read_text() for name in files}
+    (text,) = texts
+    tag = text.split("\n")[0]
+    assert text == (tag + "\n") * 500
+    assert len(files) == 3 + int(tag) % 4
+    return tag
+
+
+def writer(target: Path, tag: int, pause_at: str = "") -> subprocess.Popen:
+    return subprocess.Popen([sys.executable, "-c", WRITER, str(target), str(tag), pause_at],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+
+
+def test_concurrent_writers_in_real_processes_leave_one_whole_set(tmp_path):
+    out = tmp_path / "o"
+    for rnd in range(3):
+        procs = [writer(out, 10 * rnd + k) for k in range(10)]
+        for p in procs:
+            _, err = p.communicate(timeout=300)
+            assert p.returncode == 0, err
+        assert int(whole(out)) in range(10 * rnd, 10 * rnd + 10)
+        assert sorted(os.listdir(tmp_path)) == ["o"]  # no stage, lock file or old folder left
+
+
+@pytest.mark.parametrize("moment", ["staging", "aside"])
+def test_kill_9_of_a_writer_leaves_a_whole_folder(tmp_path, moment):
+    """kill -9 while the writer stages its files, or between its two renames (the old folder moved aside, the
+    new one not yet in): the folder is the old one, whole (after the second kind, once the next run put it back);
+    the next run cleans up what the killed one left."""
+    out = tmp_path / "o"
+    p = writer(out, 1)
+    assert p.communicate(timeout=300)[0] == "" and p.returncode == 0
+    for tag in (2, 3):
+        p = writer(out, tag, moment)
+        assert p.stdout.readline() == moment + "\n"
+        p.kill()
+        p.wait()
+        if moment == "staging":
+            assert whole(out) == "1"
+        else:
+            assert not out.exists() and len([e for e in os.listdir(tmp_path) if ".o.bhr-old-" in e]) == 1
+        p.stdout.close()
+        p.stderr.close()
+    p = writer(out, 4)
+    assert p.communicate(timeout=300)[1] == "" and p.returncode == 0
+    assert whole(out) == "4" and sorted(os.listdir(tmp_path)) == ["o"]

@@ -58,3 +58,25 @@ def test_bad_start_direction_is_one_named_error(value):
     doc["trajectory"]["start_direction"] = value
     with pytest.raises(bhr.BhrError, match="start_direction"):
         FollowResult.from_json(doc)
+
+
+@pytest.mark.parametrize("value, words", [(float("nan"), "must be finite numbers"), ("3.5", "must be numbers, not text"),
+                                          (True, "must be numbers, not true/false"), ([1.0, 2.0], "must be one number, got shape 2"),
+                                          (1e9, "must lie within")])
+def test_a_steps_clearance_is_checked_as_the_other_numbers_are(tmp_path, value, words):
+    """run.json's per-step clearance_mm (a path with a lumen): NaN, text, true or a list was accepted."""
+    from bhr.run.driver import load_run
+    from bhr.settings.errors import BhrError
+
+    doc = json.loads(_run("example_centerline").to_json())
+    assert "clearance_mm" in doc["steps"][3]
+    load_run(_write(tmp_path / "ok.json", doc))  # as written: fine, null where nothing is scored included
+    doc["steps"][3]["clearance_mm"] = value
+    with pytest.raises(BhrError) as e:
+        load_run(_write(tmp_path / "r.json", doc))
+    assert str(e.value).startswith(f"{tmp_path / 'r.json'}: step 4 clearance_mm ") and words in str(e.value)
+
+
+def _write(path, doc):
+    path.write_text(json.dumps(doc))  # NaN written as JSON's NaN literal, which json reads back
+    return path

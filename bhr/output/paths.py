@@ -1,0 +1,162 @@
+"""Output paths checked before any work, and the names of run folders.
+
+Every command checks its outputs here before it reads or computes anything (a file it cannot write, a link, a
+read-only file, a folder bhr may not replace), so that a refusal costs one line and no work. Run folders are
+named by a hash of what makes their results (:func:`run_folder_name`).
+"""
+from __future__ import annotations
+
+import contextlib
+import hashlib
+import json
+import os
+import stat
+from pathlib import Path
+from typing import Any
+
+from bhr.settings.errors import BhrError
+from bhr.settings.options import excerpt, has_control_char
+
+__all__ = ["short_path", "current_folder", "in_place_target", "check_output_file", "check_parent_folder",
+           "settings_hash", "run_folder_name", "folder_name", "input_files", "json_in_folder", "sha256_file"]
+
+
+def sha256_file(path: Path) -> str:
+    """The SHA-256 of a file's content, in hex."""
+    with open(path, "rb") as fh:
+        return hashlib.file_digest(fh, "sha256").hexdigest()
+
+
+def short_path(p: Any, limit: int = 80) -> str:
+    """A path as quoted in a one-line message: control characters escaped, at most ``limit`` characters."""
+    text = str(p)
+    text = text if text.isprintable() else text.encode("unicode_escape").decode("ascii")
+    return text if len(text) <= limit else text[:limit - 3] + "..."
+
+
+def current_folder() -> Path:
+    """The current folder; a BhrError when it was deleted or moved away under the command."""
+    try:
+        return Path(os.getcwd())
+    except FileNotFoundError:
+        raise BhrError("the current folder no longer exists (it was deleted or moved away); cd into an existing "
+                       "folder and run again") from None
+
+
+def refuse_control(path: Any, what: str) -> None:
+    if has_control_char(str(path)):
+        raise BhrError(f"{what} path {excerpt(str(path))} contains a control character (a newline or tab); "
+                       "give a plain name")
+
+
+def unwritable_folder(p: Path) -> Path | None:
+    """The nearest existing folder at or above ``p`` when this user cannot make files in it, else None."""
+    while not p.exists() and p != p.parent:
+        p = p.parent
+    return None if p.is_dir() and os.access(p, os.W_OK | os.X_OK) else p
+
+
+def in_place_target(path: Any) -> bool:
+    """True for a target written in place: anything under /dev or /proc, or an existing non-regular file."""
+    if os.path.abspath(path).startswith(("/dev/", "/proc/")):
+        return True
+    with contextlib.suppress(OSError):
+        return not stat.S_ISREG(os.stat(path).st_mode) and not os.path.isdir(path)
+    return False
+
+
+def check_output_file(path: Any, what: str = "output") -> None:
+    """Refuse, before any work, an output file that cannot be written: ``-`` (standard output) always does."""
+    if str(path) == "-":
+        return
+    refuse_control(path, what)
+    p = Path(path)
+    if not p.is_absolute():
+        current_folder()
+    if p.is_dir():
+        raise BhrError(f"{what} path {p} is a directory; give a file name")
+    if p.is_symlink() and not in_place_target(p):
+        raise BhrError(f"{what} {short_path(p)} is a symbolic link to {short_path(os.readlink(p))}; bhr does not "
+                       "write through links: remove the link or choose another path")
+    if p.exists() and not (os.access(p, os.W_OK) and (in_place_target(p) or p.stat().st_mode & 0o222)):
+        raise BhrError(f"{what} {p} is read-only; make it writable (chmod u+w) or choose another path")
+    if not in_place_target(p) and (bad := unwritable_folder(p.parent if str(p.parent) else Path("."))) is not None:
+        raise BhrError(f"cannot write {what} {p}: {bad} is not a writable folder; choose another path")
+
+
+def settings_hash(*parts: Any) -> str:
+    """8 hex digits of a SHA-256 over ``parts``: arrays (their bytes), files named by ``Path`` (their content),
+    anything else as sorted JSON. Two runs agree on it only when they agree on all parts."""
+    h = hashlib.sha256()
+    for part in parts:
+        if hasattr(part, "tobytes"):
+            h.update(part.tobytes())
+        elif isinstance(part, Path):
+            try:
+                h.update(sha256_file(part).encode())
+            except OSError:
+                h.update(str(part).encode())
+        else:
+            h.update(json.dumps(part, sort_keys=True, default=repr).encode())
+        h.update(b"\x00")
+    return h.hexdigest()[:8]
+
+
+
+def run_folder_name(readable: str, *parts: Any) -> str:
+    """A folder name for a run: ``readable`` plus 8 hex digits of a hash of what makes the run different.
+
+    ``parts`` are JSON-able descriptions (trajectory points, robot, solver and
+    its options; a ``Path`` stands for its file's content); two runs share a
+    folder only when they agree on all of them (:func:`bhr.output.atomic.settings_hash`).
+    """
+    return folder_name(readable, settings_hash(*parts))
+
+
+def folder_name(readable: str, settings: str) -> str:
+    """``readable`` made safe for a file name (at most 60 characters) plus ``-`` and the settings hash."""
+    safe = "".join(c if c.isalnum() and c.isascii() or c in "-_." else "_" for c in readable)[:60].lstrip(".")
+    return f"{safe or 'run'}-{settings}"
+
+
+def input_files(*paths: Any) -> list[Path]:
+    """The ones of ``paths`` that name existing files (inputs a run reads), for output checks and hashes."""
+    out = []
+    for p in paths:
+        if p is None or str(p) == "-":
+            continue
+        with contextlib.suppress(OSError, ValueError):
+            if os.path.isfile(p):
+                out.append(Path(p))
+    return out
+
+
+def json_in_folder(json_path: str | None, folder: Any, taken: tuple[str, ...], option: str = "--json"
+                   ) -> str | None:
+    """The name inside the output folder that ``--json`` (or ``option``) names, if it names a file in it.
+
+    None when it names a file elsewhere. Refuses a name that another output of the same run writes
+    (codes.csv, a figure, the manifest).
+    """
+    import fnmatch
+
+    if json_path is None or json_path == "-":
+        return None
+    real = Path(os.path.abspath(os.path.realpath(json_path)))
+    try:
+        rel = real.relative_to(folder.target)
+    except ValueError:
+        return None
+    name = str(rel)
+    if name == "." or any(fnmatch.fnmatch(name, pat) for pat in taken) or name == "manifest.json":
+        raise BhrError(f"{option} {json_path} names another output of this run; choose another file name")
+    return name
+
+
+def check_parent_folder(folder: str | os.PathLike[str], what: str = "output folder") -> None:
+    """Fail before any work when run folders cannot be made inside ``folder`` (the default ``bhr-out``)."""
+    p = Path(folder)
+    if not p.is_absolute():
+        current_folder()
+    if (bad := unwritable_folder(p)) is not None:
+        raise BhrError(f"cannot make the {what} in {p}: {bad} is not a writable folder; give --out DIR")
