@@ -310,7 +310,7 @@ def _load(name_or_path: str | os.PathLike[str], feed: float, params: dict[str, A
         return _from_file(path, feed, params, builtin=True)
     p = Path(key)
     if not p.exists():
-        shipped = _builtin_csvs().get(key)
+        shipped = _builtin_csvs().get(key) or trajnames.real_colons().get(key)
         if shipped is not None:
             traj = _from_file(shipped, feed, params, builtin=True)
             traj.name = key

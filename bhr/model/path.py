@@ -55,6 +55,19 @@ class Trajectory:
     #: How the lumen ends past the last point: "closed" (a blind end, as the cecum: past it is wall) or "open"
     #: (it goes on straight). The entrance (the first point) is always open: the robot comes in there.
     lumen_end: str = "closed"
+    #: Named anatomical sections along the path: (name, first point, one past the last point), in order, covering
+    #: the points (a real colon's landmarks bound them); empty when the path has none.
+    sections: tuple[tuple[str, int, int], ...] = ()
+    #: A surface mesh of the lumen's wall in the same frame (a .vtp file), where one is known; the clearance is
+    #: then measured against it (docs/real_colons.md).
+    mesh: str | None = None
+
+    def section_at(self, i: int) -> str | None:
+        """The name of the section point ``i`` lies in, or None."""
+        for name, a, b in self.sections:
+            if a <= i < b:
+                return name
+        return None
 
     @property
     def planar(self) -> bool:
@@ -104,8 +117,34 @@ class Trajectory:
             raise BhrError(f"the trajectory is {self.length_mm:g} mm long, shorter than one feed ({feed:g} mm); "
                            "give a longer path or a smaller feed")
         pts, lumen = resample_polyline(self.points, float(feed), self.lumen)
+        sections = ()
+        if self.sections:  # each new point keeps the section of the old point it falls after
+            _, idx = resample_polyline(self.points, float(feed), np.arange(len(self.points), dtype=np.float64))
+            assert idx is not None
+            sections = runs_of(labels_of(self.sections, len(self.points))[np.floor(idx + 1e-9).astype(int)])
         return Trajectory(self.name, pts, dict(self.params), self.min_radius, lumen, self.source,
-                          self.start_direction, self.start_point, float(feed), lumen_end=self.lumen_end)
+                          self.start_direction, self.start_point, float(feed), lumen_end=self.lumen_end,
+                          sections=sections, mesh=self.mesh)
+
+
+def labels_of(sections: tuple[tuple[str, int, int], ...], count: int) -> np.ndarray:
+    """One label per point ("" outside every section) from (name, first, one past last) runs."""
+    out = np.full(count, "", dtype=object)
+    for name, a, b in sections:
+        out[a:b] = name
+    return out
+
+
+def runs_of(labels: np.ndarray) -> tuple[tuple[str, int, int], ...]:
+    """(name, first point, one past the last point) for each run of equal, non-empty labels."""
+    runs: list[tuple[str, int, int]] = []
+    start = 0
+    for i in range(1, len(labels) + 1):
+        if i == len(labels) or labels[i] != labels[start]:
+            if labels[start]:
+                runs.append((str(labels[start]), start, i))
+            start = i
+    return tuple(runs)
 
 
 def spacing(points: np.ndarray) -> float:

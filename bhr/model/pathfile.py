@@ -33,7 +33,7 @@ from bhr.settings.inputs import (MAX_MM, MAX_POINTS, check_keys, choice, name_va
                                  type_name, vector3)
 from bhr.settings.errors import BhrError
 from bhr.settings.options import LIMITS, MAX_NUMBER_CHARS, MIN_MAGNITUDE, excerpt
-from bhr.model.path import Trajectory, resample_polyline
+from bhr.model.path import Trajectory, resample_polyline, runs_of
 
 __all__ = ["segments_trajectory", "csv_trajectory", "resample_polyline", "estimate_min_radius",
            "MAX_POINTS", "CURVATURE_WINDOW_MM", "SEGMENT_KEYS"]
@@ -223,7 +223,9 @@ def segments_trajectory(data: dict[str, Any], path: Path, feed: float):
 
 # --- CSV point lists ---------------------------------------------------------------------------------------------
 
-CSV_COLUMNS = ("x", "y", "z", "lumen")
+CSV_COLUMNS = ("x", "y", "z", "lumen", "section")
+#: A section's name in a CSV (letters, digits, blanks and - ' ( ), at most 40 characters).
+_SECTION_NAME = re.compile(r"[A-Za-z][A-Za-z0-9 '()-]{0,39}", re.ASCII)
 #: A header cell quoted back in a message: a short name (letters, digits, underscore), as a column's is.
 _COLUMN_LIKE = re.compile(r"[A-Za-z_][A-Za-z0-9_]{0,7}", re.ASCII)
 
@@ -233,12 +235,13 @@ def _split(line: str) -> list[str]:
     return [f.strip() for f in (line.split(sep) if sep else line.split())]
 
 
-def read_points_csv(path: Path) -> tuple[np.ndarray, np.ndarray | None, np.ndarray]:
-    """Points (N, 3), lumen (N,) or None, and each point's line number, from a CSV file.
+def read_points_csv(path: Path) -> tuple[np.ndarray, np.ndarray | None, np.ndarray, list[str] | None]:
+    """Points (N, 3), lumen (N,) or None, each point's line number, and each point's section or None.
 
     The first line that is not blank or a ``#`` comment is the header: ``x``,
-    ``y``, ``z`` and optionally ``lumen``, in any order (case does not matter).
-    Fields are separated by commas (or semicolons, or blanks).
+    ``y``, ``z`` and optionally ``lumen`` and ``section``, in any order (case
+    does not matter). Fields are separated by commas (or semicolons, or blanks;
+    a section name with blanks needs commas or semicolons).
     """
     where = str(path)
     text = read_text(path, "trajectory CSV", HINT_CSV)
@@ -246,6 +249,7 @@ def read_points_csv(path: Path) -> tuple[np.ndarray, np.ndarray | None, np.ndarr
     cols: dict[str, int] = {}
     rows: list[list[float]] = []
     lines: list[int] = []
+    sections: list[str] = []
     for no, raw in enumerate(text.splitlines(), start=1):
         line = raw.strip()
         if not line or line.startswith("#"):
@@ -260,14 +264,14 @@ def read_points_csv(path: Path) -> tuple[np.ndarray, np.ndarray | None, np.ndarr
                     # names ("password=hunter2") would otherwise reach the report's shareable files
                     shown = repr(fields[i]) if _COLUMN_LIKE.fullmatch(fields[i]) else f"{i + 1} of the header"
                     raise BhrError(f"{where}, line {no}: unknown column {shown}{hint}; "
-                                   f"allowed columns: x, y, z, lumen")
+                                   f"allowed columns: x, y, z, lumen, section")
                 if h in cols:
                     raise BhrError(f"{where}, line {no}: column {excerpt(h)} appears twice; give each column once")
                 cols[h] = i
             missing = [c for c in "xyz" if c not in cols]
             if missing:
                 raise BhrError(f"{where}, line {no}: the header lacks {', '.join(missing)}; "
-                               "it must name x, y, z (and optionally lumen)")
+                               "it must name x, y, z (and optionally lumen, section)")
             continue
         if len(fields) != len(header):
             raise BhrError(f"{where}, line {no}: {len(fields)} fields where the header has {len(header)} "
@@ -297,16 +301,24 @@ def read_points_csv(path: Path) -> tuple[np.ndarray, np.ndarray | None, np.ndarr
             if name == "lumen" and v <= 0:
                 raise BhrError(f"{where}, line {no}: lumen = {f} must be a diameter greater than 0 mm")
             vals.append(v)
+        if "section" in cols:
+            name = fields[cols["section"]]
+            if name and not _SECTION_NAME.fullmatch(name):
+                raise BhrError(f"{where}, line {no}: section {excerpt(name)} is not a section name; give letters, "
+                               "digits, blanks and - ' ( ), starting with a letter, at most 40 characters "
+                               "(or leave it empty)")
+            sections.append(name)
         rows.append(vals)
         lines.append(no)
         if len(rows) > MAX_POINTS:
             raise BhrError(f"{where}: more than {MAX_POINTS} points; thin the centerline first")
     if header is None:
         raise BhrError(f"{where}: no header and no points; {HINT_CSV}")
-    arr = np.array(rows, dtype=np.float64).reshape(len(rows), len(cols))
+    numeric = len(cols) - ("section" in cols)
+    arr = np.array(rows, dtype=np.float64).reshape(len(rows), numeric)
     pts = arr[:, :3]
     lumen = arr[:, 3].copy() if "lumen" in cols else None
-    return pts, lumen, np.array(lines, dtype=np.int64)
+    return pts, lumen, np.array(lines, dtype=np.int64), (sections if "section" in cols else None)
 
 
 def _is_number(s: str) -> bool:
@@ -413,7 +425,7 @@ def csv_trajectory(path: Path, feed: float):
     """A :class:`~bhr.model.generators.Trajectory` resampled from a CSV point list."""
 
     where = str(path)
-    raw, lumen_raw, lines = read_points_csv(path)
+    raw, lumen_raw, lines, section_raw = read_points_csv(path)
     check_points(raw, lines, where)
     length = float(np.linalg.norm(np.diff(raw, axis=0), axis=1).sum())
     if length < feed * (1 - 1e-9):
@@ -430,8 +442,16 @@ def csv_trajectory(path: Path, feed: float):
     d0 = pts[1] - pts[0]
     heading = tuple(float(v) for v in d0 / np.linalg.norm(d0))
     params = {"points_in_file": int(raw.shape[0]), "length": length}
+    sections: tuple[tuple[str, int, int], ...] = ()
+    if section_raw is not None:  # each resampled point keeps the section of the file's point it falls after
+        _, idx = resample_polyline(raw, feed, np.arange(raw.shape[0], dtype=np.float64))
+        assert idx is not None
+        labels = np.array(section_raw, dtype=object)[np.floor(idx[:pts.shape[0]] + 1e-9).astype(int)]
+        sections = runs_of(labels)
+    mesh = path.with_suffix(".vtp")
     return Trajectory(path.stem, pts, params, estimate_min_radius(pts, feed), lumen, where, heading,
-                      tuple(float(v) for v in pts[0]), lumen_end=csv_lumen_end(path))
+                      tuple(float(v) for v in pts[0]), lumen_end=csv_lumen_end(path), sections=sections,
+                      mesh=str(mesh) if mesh.is_file() else None)
 
 
 def csv_lumen_end(path: Path) -> str:

@@ -14,11 +14,13 @@ from pathlib import Path
 from bhr.settings.inputs import broken_link, did_you_mean, excerpt
 from bhr.settings.errors import BhrError
 
-__all__ = ["GENERATOR_NAMES", "trajectory_folder", "shipped_csvs", "builtin_names", "check_trajectory_name",
-           "traj_help"]
+__all__ = ["GENERATOR_NAMES", "REAL_PREFIX", "trajectory_folder", "shipped_csvs", "real_colons", "builtin_names",
+           "check_trajectory_name", "traj_help"]
 
 #: The generators' names (the keys of ``bhr.model.generators.GENERATORS``, in that order).
 GENERATOR_NAMES = ("line", "curve", "spiral", "colon", "anatomy")
+#: Real colons are named ``gca:SHORT`` (trajectories/gca/SHORT.csv, docs/real_colons.md).
+REAL_PREFIX = "gca:"
 
 
 def trajectory_folder() -> Path | None:
@@ -41,23 +43,34 @@ def shipped_csvs() -> dict[str, Path]:
     return {p.stem: p for p in folder.glob("*.csv") if p.is_file()}
 
 
+def real_colons() -> dict[str, Path]:
+    """The shipped real colons by name (``gca:VHM`` is trajectories/gca/VHM.csv), in name order."""
+    folder = trajectory_folder()
+    if folder is None or not (folder / "gca").is_dir():
+        return {}
+    return {REAL_PREFIX + p.stem: p for p in sorted((folder / "gca").glob("*.csv")) if p.is_file()}
+
+
 def builtin_names() -> list[str]:
-    """Names ``load_trajectory`` knows: the generators, then the shipped point files (trajectories/NAME.csv)."""
-    return list(GENERATOR_NAMES) + sorted(shipped_csvs())
+    """Names ``load_trajectory`` knows: the generators, the shipped point files (trajectories/NAME.csv), the real
+    colons (gca:NAME)."""
+    return list(GENERATOR_NAMES) + sorted(shipped_csvs()) + list(real_colons())
 
 
 def traj_help() -> str:
     """The ``--traj`` help: every name :func:`check_trajectory_name` accepts, from the same lists."""
     shipped = sorted(shipped_csvs())
     files = f"a shipped point file ({', '.join(shipped)}), " if shipped else ""
-    return (f"{', '.join(GENERATOR_NAMES)} (anatomy: --seed N), {files}or a trajectory file: .toml (segments) "
-            "or .csv (points).")
+    real = list(real_colons())
+    reals = f"a real colon ({', '.join(real)}), " if real else ""
+    return (f"{', '.join(GENERATOR_NAMES)} (anatomy: --seed N), {files}{reals}or a trajectory file: .toml "
+            "(segments) or .csv (points).")
 
 
 def check_trajectory_name(key: str | os.PathLike[str]) -> None:
     """Refuse a ``--traj`` that is neither a built-in, a shipped colon nor an existing file (one line)."""
     key = str(key)
-    if key in GENERATOR_NAMES or Path(key).exists() or key in shipped_csvs():
+    if key in GENERATOR_NAMES or Path(key).exists() or key in shipped_csvs() or key in real_colons():
         return
     link = broken_link(key)
     if link:

@@ -1,0 +1,81 @@
+"""Real colons (trajectories/gca): names, units, sections, lumen, and the CSV section column."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import bhr
+from bhr.model.generators import load_trajectory
+from bhr.model.path import Trajectory, labels_of, runs_of
+from bhr.model.trajnames import builtin_names, check_trajectory_name, real_colons
+from bhr.settings.errors import BhrError
+
+REAL = ("gca:E20", "gca:E60", "gca:E90", "gca:VHF", "gca:VHM")
+ORDER = ("rectum and sigmoid", "rectum", "sigmoid", "descending", "transverse", "ascending", "cecum")
+
+
+def test_the_five_real_colons_are_built_ins():
+    assert tuple(real_colons()) == REAL
+    assert set(REAL) <= set(builtin_names())
+    for name in REAL:
+        check_trajectory_name(name)
+    with pytest.raises(BhrError, match="unknown trajectory"):
+        check_trajectory_name("gca:XYZ")
+
+
+@pytest.mark.parametrize("name", REAL)
+def test_a_real_colon_loads_in_mm_with_its_sections_and_mesh(name):
+    t = load_trajectory(name, feed=2.0)
+    assert t.name == name and t.feed == 2.0 and t.lumen_end == "closed"
+    steps = np.linalg.norm(np.diff(t.points, axis=0), axis=1)
+    assert np.allclose(steps, 2.0, atol=1e-9)
+    # in mm: a human large intestine, anus to appendix orifice, is about a metre or two long
+    assert 900.0 < t.length_mm < 2500.0
+    assert np.allclose(t.points[0], 0.0, atol=1e-6)  # the anus at the origin
+    # lumen diameters of a human colon (mm), collapsed or inflated
+    assert t.lumen is not None and t.lumen.shape == (len(t),)
+    assert 10.0 < float(np.median(t.lumen)) < 40.0 and float(t.lumen.max()) < 60.0
+    # sections in anatomical order, covering every point, from the anus to the cecum
+    names = [s[0] for s in t.sections]
+    assert names[-4:] == ["descending", "transverse", "ascending", "cecum"]
+    assert [ORDER.index(n) for n in names] == sorted(ORDER.index(n) for n in names)
+    assert t.sections[0][1] == 0 and t.sections[-1][2] == len(t)
+    assert all(a[2] == b[1] for a, b in zip(t.sections, t.sections[1:]))
+    assert t.section_at(0) == names[0] and t.section_at(len(t) - 1) == "cecum"
+    assert t.mesh is not None and t.mesh.endswith(name.split(":")[1] + ".vtp")
+
+
+def test_bhr_trajectory_names_a_real_colon():
+    pts = bhr.trajectory("gca:VHM")
+    assert pts.shape[1] == 3 and len(pts) > 600
+
+
+def test_sections_follow_a_change_of_feed():
+    t = load_trajectory("gca:E90", feed=2.0)
+    u = Trajectory(t.name, t.points, lumen=t.lumen, sections=t.sections, feed=2.0).at_feed(1.0)
+    assert [s[0] for s in u.sections] == [s[0] for s in t.sections]
+    for (_, a, b), (_, c, d) in zip(t.sections, u.sections):
+        assert abs(2 * a - c) <= 2 and abs(2 * b - d) <= 2
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.sampled_from(["", "a", "b"]), min_size=1, max_size=40))
+def test_runs_of_and_labels_of_are_inverse(labels):
+    arr = np.array(labels, dtype=object)
+    runs = runs_of(arr)
+    assert list(labels_of(runs, len(arr))) == labels
+    assert all(a < b for _, a, b in runs)
+
+
+def test_csv_section_column(tmp_path):
+    f = tmp_path / "c.csv"
+    rows = ["x,y,z,lumen,section"] + [f"{i}.0,0,0,30,{'rectum' if i < 10 else 'sigmoid'}" for i in range(21)]
+    f.write_text("\n".join(rows) + "\n")
+    t = load_trajectory(f, feed=2.0)
+    assert t.sections == (("rectum", 0, 5), ("sigmoid", 5, 11))
+    assert t.mesh is None
+    f.write_text("x,y,z,section\n0,0,0,rec;tum\n1,0,0,a\n")
+    with pytest.raises(BhrError, match="line 2: section"):
+        load_trajectory(f, feed=0.5)
