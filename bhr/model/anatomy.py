@@ -49,6 +49,7 @@ SEED_MAX = 2**32 - 1
 #: docs/anatomy.md gives the source of each figure.
 RANGES: dict[str, tuple[float, float]] = {
     # inner (lumen) diameter of each section
+    "lumen.anal canal": (13.0, 16.0),  # the first stretch of the rectum section: anal canal and anorectal flexure
     "lumen.rectum": (30.0, 45.0),
     "lumen.sigmoid": (24.0, 32.0),
     "lumen.descending": (25.0, 35.0),
@@ -57,9 +58,13 @@ RANGES: dict[str, tuple[float, float]] = {
     "lumen.hepatic flexure": (38.0, 50.0),
     "lumen.ascending": (40.0, 55.0),
     "lumen.cecum": (50.0, 60.0),
+    # the anal canal: a narrow straight from the anus, then the anorectal flexure (mm)
+    "length.anal canal": (32.0, 38.0),
     # bends: angle turned (deg) and radius of curvature of the centerline (mm)
+    "angle.anorectal": (60.0, 90.0),  # from the anal canal back into the rectum
+    "radius.anorectal": (8.0, 11.0),
     "angle.sacral": (30.0, 60.0),  # the rectum following the sacrum
-    "radius.sacral": (80.0, 150.0),
+    "radius.sacral": (50.0, 120.0),
     "angle.rectosigmoid": (60.0, 100.0),
     "radius.rectosigmoid": (15.0, 30.0),
     "angle.sigmoid apex": (120.0, 170.0),  # the top of the sigmoid loop
@@ -78,7 +83,7 @@ RANGES: dict[str, tuple[float, float]] = {
     "radius.fold": (10.0, 25.0),
 }
 #: Fold pairs per section: a whole number drawn from this range, ends included.
-FOLD_PAIRS = {"sigmoid": (1, 3), "transverse": (1, 4)}
+FOLD_PAIRS = {"sigmoid": (1, 3), "transverse": (1, 3)}
 #: The CT population the whole length is drawn from: mean and standard deviation (mm), Khashab et al. 2009
 #: (505 adults; women 193.3 cm, men 185.4 cm; the study's pooled SD is used for both).
 POPULATION = {"any": (1895.0, 263.0), "female": (1933.0, 263.0), "male": (1854.0, 263.0)}
@@ -86,12 +91,21 @@ POPULATION = {"any": (1895.0, 263.0), "female": (1933.0, 263.0), "male": (1854.0
 LENGTH_LIMITS = (1100.0, 2700.0)
 #: Each section's share of the whole length (the flexures' arcs aside) and its spread (sigma of a log-normal
 #: factor): the sigmoid carries most of the variability of colon length (docs/anatomy.md).
-SHARES = {"rectum": (0.095, 0.12), "sigmoid": (0.25, 0.30), "descending": (0.13, 0.15), "transverse": (0.33, 0.18),
-          "ascending": (0.13, 0.15), "cecum": (0.045, 0.12)}
-#: Control points of the spline: one every CONTROL_MM of the course, each moved by a normal offset of
-#: JITTER_MM (standard deviation, per axis).
-CONTROL_MM = 25.0
-JITTER_MM = 1.4
+SHARES = {"rectum": (0.085, 0.12), "sigmoid": (0.22, 0.30), "descending": (0.27, 0.12), "transverse": (0.28, 0.18),
+          "ascending": (0.12, 0.15), "cecum": (0.045, 0.12)}
+#: Control points of the spline: one every CONTROL_MM of the course, dense enough that the spline follows the
+#: course's tightest arcs (a 90 deg arc of 8 mm radius holds 6 of them).
+CONTROL_MM = 2.0
+#: The wiggle: a smooth random offset added to the course, a cubic B-spline in the course's arc length whose
+#: coefficients, one every WIGGLE_KNOT_MM, are normal with WIGGLE_MM standard deviation per axis. It is zero over
+#: the anal canal and the anorectal flexure and grows to its full size over the next WIGGLE_RAMP_MM.
+WIGGLE_MM = 5.0
+WIGGLE_KNOT_MM = 15.0
+WIGGLE_RAMP_MM = 40.0
+#: No point of a centerline bends tighter than this radius (mm): where the wiggle would, it is damped there
+#: (the course's own arcs are wider). The tightest bend of the real colons measured the same way is 4.6 mm
+#: (docs/anatomy.md).
+MIN_RADIUS_MM = 5.0
 #: Spacing (mm) of the dense samples used for arc length and curvature.
 DENSE_MM = 0.25
 #: How far (mm) either side of a point the headings are compared when acute flexures are counted.
@@ -101,7 +115,8 @@ FOLD_GAP = (15.0, 40.0)
 
 #: Where each bend aims (it turns the heading toward this direction by its drawn angle), in the body frame.
 _AIM = {
-    "sacral": (0.0, -0.45, 0.9),  # rectum bends back along the sacrum
+    "anorectal": (0.0, -0.5, 0.87),  # from the anal canal up and back into the rectum
+    "sacral": (0.0, 0.3, 1.0),  # the rectum follows the sacrum's hollow, up and forward again
     "rectosigmoid": (-0.25, 0.85, 0.45),  # sigmoid heads forward, a little right and up
     "sigmoid apex": (0.75, -0.45, -0.5),  # loop over to the left, back and down
     "sigmoid-descending": (0.1, -0.15, 1.0),  # up the left side
@@ -109,7 +124,7 @@ _AIM = {
     "transverse sag": (-0.6, -0.2, 0.75),  # climb again toward the liver
     "hepatic flexure": (0.05, -0.1, -1.0),  # down the right side
 }
-_START_HEADING = (0.0, 0.25, 1.0)  # the anal canal and lower rectum point up and a little forward
+_START_HEADING = (0.0, 0.7, 0.7)  # the anal canal points up and forward, toward the umbilicus
 
 
 def check_seed(seed: Any, where: str = "anatomy") -> int:
@@ -122,20 +137,43 @@ def check_seed(seed: Any, where: str = "anatomy") -> int:
     return int(v)
 
 
-class _Smooth:
-    """The centerline: a cubic spline through jittered control points along a course of straights and arcs."""
+class _Wiggle:
+    """A smooth random offset (mm) as a function of the course's arc length: a cubic B-spline, damped near the anus
+    and wherever :meth:`damp` was asked to."""
 
-    def __init__(self, pieces: list, jitter_seed: int) -> None:
+    def __init__(self, seed: int, ramp_start: float) -> None:
+        n = int(math.ceil(2.0 * LENGTH_LIMITS[1] / WIGGLE_KNOT_MM)) + 8  # enough for any course
+        self.coef = np.random.default_rng(seed).normal(0.0, WIGGLE_MM, size=(n, 3))
+        self.knots = (np.arange(n + 4) - 3.0) * WIGGLE_KNOT_MM
+        self.ramp_start = ramp_start
+        self.dips: list[float] = []  # course arc lengths where the wiggle is halved (as often as listed)
+
+    def damp(self, s: float) -> None:
+        self.dips.append(float(s))
+
+    def __call__(self, s: np.ndarray) -> np.ndarray:
+        from scipy.interpolate import BSpline
+
+        off = BSpline(self.knots, self.coef, 3, extrapolate=False)(s)
+        x = np.clip((s - self.ramp_start) / WIGGLE_RAMP_MM, 0.0, 1.0)
+        env = x * x * x * (10.0 - 15.0 * x + 6.0 * x * x)  # smootherstep: from 0 with zero slope and curvature
+        for d in self.dips:
+            env = env * (1.0 - 0.5 * np.exp(-0.5 * ((s - d) / WIGGLE_KNOT_MM) ** 2))
+        return off * env[:, None]
+
+
+class _Smooth:
+    """The centerline: a cubic spline through control points of the course (straights and arcs) plus its wiggle."""
+
+    def __init__(self, pieces: list, wiggle: _Wiggle) -> None:
         from scipy.interpolate import make_interp_spline
 
         lengths = np.array([p[1] for p in pieces])
         course_len = float(lengths.sum())
         n = max(int(math.ceil(course_len / CONTROL_MM)), 4)
         sc = np.linspace(0.0, course_len, n + 1)  # course arc length of each control point
-        ctrl = _course_points(pieces, sc)
-        off = np.random.default_rng(jitter_seed).normal(0.0, JITTER_MM, size=ctrl.shape)
-        off[0] = 0.0  # the anus stays at the origin
-        ctrl = ctrl + off
+        ctrl = _course_points(pieces, sc) + wiggle(sc)
+        ctrl[0] = 0.0  # the anus stays at the origin
         u = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(ctrl, axis=0), axis=1))])
         t0 = pieces[0][4]
         spline = make_interp_spline(u, ctrl, k=3, bc_type=([(1, t0)], [(2, np.zeros(3))]))
@@ -151,6 +189,10 @@ class _Smooth:
         """Arc length along the centerline of the points at ``course_s`` of the course (by control point)."""
         return np.interp(np.interp(course_s, self.sc, self.u), self.uu, self.arc)
 
+    def course_of(self, s: np.ndarray) -> np.ndarray:
+        """The course's arc length at the centerline's arc lengths ``s`` (the inverse of :meth:`arc_of`)."""
+        return np.interp(np.interp(s, self.arc, self.uu), self.u, self.sc)
+
     def at(self, s: np.ndarray) -> np.ndarray:
         """Points at arc lengths ``s`` (mm from the anus)."""
         return self.spline(np.interp(s, self.arc, self.uu))
@@ -161,6 +203,25 @@ class _Smooth:
         d1, d2 = self.spline(u, 1), self.spline(u, 2)
         sp = np.linalg.norm(d1, axis=1)
         return np.linalg.norm(np.cross(d1, d2), axis=1) / sp ** 3
+
+
+def _bounded(pieces: list, wiggle: _Wiggle) -> _Smooth:
+    """The centerline of ``pieces`` plus ``wiggle``, the wiggle damped where it bent tighter than MIN_RADIUS_MM.
+
+    Each round halves the wiggle around the tightest point of every stretch under the limit (by the
+    course's arc length, so the same places on every machine); the course's own arcs are never that tight.
+    """
+    for _ in range(40):
+        smooth = _Smooth(pieces, wiggle)
+        s = np.arange(0.0, smooth.length, DENSE_MM)
+        kappa = smooth.curvature(s)
+        over = kappa > 1.0 / MIN_RADIUS_MM
+        if not over.any():
+            return smooth
+        edges = np.flatnonzero(np.diff(np.concatenate([[0], over.astype(np.int8), [0]])))
+        for a, b in zip(edges[::2], edges[1::2]):
+            wiggle.damp(float(smooth.course_of(s[a + int(np.argmax(kappa[a:b]))])))
+    raise BhrError("anatomy: the centerline still bends tighter than its limit after 40 rounds")  # pragma: no cover
 
 
 def _course_points(pieces: list, s: np.ndarray) -> np.ndarray:
@@ -297,7 +358,8 @@ def anatomical_colon(seed: int, sex: str = "any") -> Colon:
     norm = sum(share.values())
     share = {k: v / norm for k, v in share.items()}
     lumen = {s_: draw(f"lumen.{s_}") for s_ in SECTIONS}
-    bend_names = ("sacral", "rectosigmoid", "sigmoid apex", "sigmoid-descending", "splenic flexure",
+    canal_d, canal_len = draw("lumen.anal canal"), draw("length.anal canal")
+    bend_names = ("anorectal", "sacral", "rectosigmoid", "sigmoid apex", "sigmoid-descending", "splenic flexure",
                   "transverse sag", "hepatic flexure")
     # Bends that set the course turn exactly onto their (tilted) aim: their angle is what that takes; the
     # angle booked here is an upper bound, and what it does not use goes to the straight after the bend.
@@ -325,7 +387,7 @@ def anatomical_colon(seed: int, sex: str = "any") -> Colon:
             folds[sec].append(name)
     # Where the anatomical bends and the folds sit inside each section: its straight length is shared out
     # between the gaps by weights drawn here.
-    layout0 = {"rectum": ["sacral"],
+    layout0 = {"rectum": ["anorectal", "sacral"],
                "sigmoid": ["rectosigmoid", "sigmoid apex", "sigmoid-descending"],
                "transverse": ["transverse sag"]}
     for sec, items in layout0.items():
@@ -333,7 +395,7 @@ def anatomical_colon(seed: int, sex: str = "any") -> Colon:
             # sigmoid folds sit before its last bend, transverse folds before or after its sag
             items.insert(int(rng.integers(1, len(items))) if sec == "sigmoid" else int(rng.integers(0, 2)), name)
     gaps = {sec: rng.uniform(0.5, 1.5, size=len(items) + 1) for sec, items in layout0.items()}
-    jitter_seed = int(rng.integers(0, 2**63 - 1))
+    wiggle_seed = int(rng.integers(0, 2**63 - 1))
 
     def build(seg_len: dict[str, float]):
         bends = dict(bends0)
@@ -344,11 +406,17 @@ def anatomical_colon(seed: int, sex: str = "any") -> Colon:
 
         def fixed_len(sec: str) -> float:
             """Length of a section taken by its bends and the straights inside its folds."""
-            total = 0.0
+            total = canal_len if sec == "rectum" else 0.0  # the anal canal is a straight of its own length
             for b in layout[sec]:
                 total += 2 * arc_len(b) + draws[f"gap.{b}"] if "fold" in b else arc_len(b)
             return total
 
+        # A rectum too short for its anal canal and its bends (at their smallest angles and radii) takes the length it
+        # lacks from the sigmoid.
+        least = (canal_len + sum(math.radians(RANGES[f"angle.{b}"][0]) * RANGES[f"radius.{b}"][0]
+                                 for b in ("anorectal", "sacral"))) / 0.85
+        if seg_len["rectum"] < least:
+            seg_len = dict(seg_len, rectum=least, sigmoid=seg_len["sigmoid"] - (least - seg_len["rectum"]))
         # Bends and folds may take at most 85 % of a section's length: when a short section was drawn with
         # many folds, tighten its bends (never below the smallest radius of their range), then drop folds.
         for sec in layout:
@@ -429,9 +497,11 @@ def anatomical_colon(seed: int, sex: str = "any") -> Colon:
             items = layout[sec]
             free = seg_len[sec] - fixed_len(sec)
             g = gaps[sec][:len(items) + 1]
+            if sec == "rectum":  # the anal canal, then straight into the anorectal flexure
+                g = np.concatenate([[0.0], g[1:]])
             w = g / g.sum()
             for k, name in enumerate(items):
-                straight(w[k] * free, sec)
+                straight(w[k] * free + (canal_len if sec == "rectum" and k == 0 else 0.0), sec)
                 if "fold" in name:
                     bend(name, sec)
                     straight(draws[f"gap.{name}"], sec)
@@ -454,13 +524,17 @@ def anatomical_colon(seed: int, sex: str = "any") -> Colon:
     def seg_lengths(scale: float) -> dict[str, float]:
         return {k: v * total * scale for k, v in share.items()}
 
+    def centerline(pieces: list) -> _Smooth:
+        canal_end = canal_len + pieces[1][1]  # the anal canal's straight and the anorectal flexure
+        return _bounded(pieces, _Wiggle(wiggle_seed, canal_end))
+
     pieces, bends, fold_count = build(seg_lengths(1.0))
     course_len = sum(p[1] for p in pieces)
-    smooth = _Smooth(pieces, jitter_seed)
+    smooth = centerline(pieces)
     # the spline is longer than its course by the factor rho; the flexures' arcs are not in the shares
     rho = smooth.length / course_len
     pieces, bends, fold_count = build(seg_lengths((total / rho - (course_len - total)) / total))
-    smooth = _Smooth(pieces, jitter_seed)
+    smooth = centerline(pieces)
     for sec, n in fold_count.items():
         draws[f"folds.{sec}"] = float(n)
     course_lengths = {s_: 0.0 for s_ in SECTIONS}
@@ -470,17 +544,21 @@ def anatomical_colon(seed: int, sex: str = "any") -> Colon:
     ends = smooth.arc_of(course_ends)
     section_lengths = dict(zip(SECTIONS, np.diff(np.concatenate([[0.0], ends])).tolist()))
     mids = ends - 0.5 * np.array([section_lengths[s_] for s_ in SECTIONS])
-    knots_s = np.concatenate([[0.0], mids, [ends[-1]]])
+    # the anal canal keeps its narrow lumen through the anorectal flexure, then widens into the rectum
+    narrow_end = float(smooth.arc_of(np.array([canal_len + pieces[1][1]]))[0])
+    mids[0] = max(mids[0], narrow_end + 0.5 * (ends[0] - narrow_end))
+    knots_s = np.concatenate([[0.0, narrow_end], mids, [ends[-1]]])
     diam = [lumen[s_] for s_ in SECTIONS]
-    knots_d = np.array([diam[0], *diam, diam[-1]])
+    knots_d = np.array([canal_d, canal_d, *diam, diam[-1]])
+    draws["lumen.anal canal"], draws["length.anal canal"] = canal_d, canal_len
     return Colon(seed, pieces, section_lengths, (knots_s, knots_d), bends, draws, smooth, sex)
 
 
 #: The colons shipped as editable point files (trajectories/NAME.csv): name -> (seed, what it shows).
 SHIPPED: dict[str, tuple[int, str]] = {
     "anatomy-short": (92, "the shortest colon of seeds 1-100"),
-    "anatomy-typical": (95, "the median length of seeds 1-100"),
-    "anatomy-tortuous": (30, "the most acute flexures of seeds 1-100"),
+    "anatomy-typical": (97, "the median length of seeds 1-100"),
+    "anatomy-tortuous": (14, "the most acute flexures of seeds 1-100"),
 }
 
 

@@ -17,7 +17,7 @@ from bhr.settings.inputs import MAX_POINTS
 from bhr.settings.errors import BhrError
 from bhr.kinematics.polyline import walk_kernel
 
-__all__ = ["Trajectory", "path_directions", "spacing", "resample_polyline"]
+__all__ = ["Trajectory", "path_directions", "spacing", "resample_polyline", "unfollowable_bends", "BEND_WINDOWS_MM"]
 
 
 @dataclass
@@ -189,3 +189,67 @@ def path_directions(path: np.ndarray) -> np.ndarray:
         k = int(np.argmin(norms))
         raise BhrError(f"trajectory points {k + 1} and {k + 2} are the same point; remove the duplicate")
     return diff / norms[:, None]
+
+
+#: Half-lengths (mm of arc) of the stretches :func:`unfollowable_bends` judges a bend over: from 2.5 mm to
+#: 160 mm, each about 8 % longer than the last (and at least one point longer).
+BEND_WINDOWS_MM = tuple(float(v) for v in np.geomspace(2.5, 160.0, 55))
+
+
+def unfollowable_bends(points: np.ndarray, lumen: np.ndarray, turn_radius: float, robot_radius: float
+                       ) -> list[tuple[int, int, float, float]]:
+    """The stretches of a centerline where a robot of ``turn_radius`` cannot follow the bend inside its lumen.
+
+    The rule (docs/lumen.md, "Which bends a robot can follow"): a robot of radius a may leave the
+    centerline by up to e = lumen/2 - a either way. Take a stretch of centerline 2w long around a point that
+    turns by theta (between the headings at its ends): as a bend it has the mean radius r = 2w / theta.
+    A robot turning at radius R >= r can still take it by swinging wide: riding the outer wall before
+    and after and the inner wall at the apex, a circle of radius R, tangent to the stretch's limbs, fits
+    in the tube when R - r <= e (1 + c) / (1 - c), c = cos(theta / 2) (a U-turn, theta = 180 deg: R <= r + e;
+    a gentle turn: ever more room). A point is unfollowable when some stretch around it, of half-length
+    w in :data:`BEND_WINDOWS_MM` (rounded to whole points), fails that; e is the narrowest over the
+    stretch. A path that bends nowhere tighter than R has none (r >= R on every stretch).
+
+    ``points`` (N, 3) and ``lumen`` (N, diameters in mm) are spaced evenly. Returns one tuple per stretch
+    of unfollowable points: (first index, last index, the mean radius r of its tightest failing stretch
+    in mm, the narrowest lumen diameter there in mm).
+    """
+    from scipy.ndimage import minimum_filter1d
+
+    pts = np.asarray(points, dtype=np.float64)
+    lum = np.asarray(lumen, dtype=np.float64)
+    n = pts.shape[0]
+    h = spacing(pts)
+    if n < 3 or h <= 0 or not math.isfinite(turn_radius) or turn_radius <= 0:
+        return []
+    t = np.empty_like(pts)
+    t[1:-1] = pts[2:] - pts[:-2]
+    t[0], t[-1] = pts[1] - pts[0], pts[-1] - pts[-2]
+    t /= np.maximum(np.linalg.norm(t, axis=1), 1e-300)[:, None]
+    free = np.maximum(0.5 * lum - robot_radius, 0.0)
+    bad = np.zeros(n, dtype=bool)
+    worst_r = np.full(n, np.inf)
+    worst_d = np.full(n, np.inf)
+    for k in sorted({max(int(round(w / h)), 1) for w in BEND_WINDOWS_MM}):
+        if 2 * k >= n:
+            break
+        i = np.arange(k, n - k)
+        theta = np.arccos(np.clip(np.einsum("ij,ij->i", t[i - k], t[i + k]), -1.0, 1.0))
+        with np.errstate(divide="ignore"):
+            r = np.where(theta > 1e-9, 2.0 * k * h / theta, np.inf)
+        c = np.cos(0.5 * theta)
+        e = minimum_filter1d(free, 2 * k + 1, mode="nearest")[i]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            room = np.where(c < 1.0, e * (1.0 + c) / (1.0 - c), np.inf)
+        fail = turn_radius > r + room
+        sel = i[fail]
+        bad[sel] = True
+        better = r[fail] < worst_r[sel]
+        worst_r[sel[better]] = r[fail][better]
+        worst_d[sel[better]] = (minimum_filter1d(lum, 2 * k + 1, mode="nearest")[i])[fail][better]
+    out = []
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], bad.astype(np.int8), [0]])))
+    for a, b in zip(edges[::2], edges[1::2]):
+        j = a + int(np.argmin(worst_r[a:b]))
+        out.append((int(a), int(b - 1), float(worst_r[j]), float(worst_d[j])))
+    return out

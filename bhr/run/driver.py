@@ -37,7 +37,7 @@ from bhr.solvers import Chain, FollowContext, Solver, get_solver
 from bhr.run.body import BodyRun, check_body_modules, score_body, simulate_body, whole_robot_codes
 from bhr.run.clearance import CecumWatch, ClearanceReport, cecum_step, clearance_report
 from bhr.kinematics.leader import angle_deg, score_step
-from bhr.model.path import Trajectory, path_directions, spacing
+from bhr.model.path import Trajectory, path_directions, spacing, unfollowable_bends
 from bhr.model.tube import lumen_end_of, make_tube
 from bhr.run.trail import TrailRun, cecum_modules, run_trail, sweep_bound_mm, trail_report
 
@@ -593,6 +593,18 @@ def follow(points: Any, solver: str | Solver = "thesis", robot: Robot | None = T
                "follow it, its turn radius is near 0); expect large errors")
         msgs.append(msg)
         warnings.warn(msg, BhrWarning, stacklevel=2)
+    elif traj.lumen is not None and len(traj.lumen) == path.shape[0]:
+        # with a lumen, only the bends the robot cannot take by swinging wide inside it (docs/lumen.md)
+        bends = unfollowable_bends(path, np.asarray(traj.lumen), robot.min_turn_radius, robot.radius)
+        if bends:
+            first, last, r_bend, d_lumen = min(bends, key=lambda x: x[2])
+            msg = (f"the trajectory bends tighter than the robot's minimum turn radius {robot.min_turn_radius:.2f} mm "
+                   f"with too little lumen to swing wide at {len(bends)} place{'s' if len(bends) > 1 else ''}, "
+                   f"tightest at points {first + 1}-{last + 1} (a {r_bend:.1f} mm bend in a lumen {d_lumen:.1f} mm "
+                   "across); "
+                   "expect the robot to touch the wall there")
+            msgs.append(msg)
+            warnings.warn(msg, BhrWarning, stacklevel=2)
     elif traj.min_radius < robot.min_turn_radius:
         msg = (f"the trajectory turns with radius {traj.min_radius:.2f} mm, tighter than the robot's minimum "
                f"turn radius {robot.min_turn_radius:.2f} mm; expect large errors")
