@@ -1,15 +1,19 @@
 """Anatomical colons: random but realistic 3-D human large intestines, anus to cecum.
 
 ``anatomical_colon(seed)`` draws one colon from the ranges in :data:`RANGES`
-(segment lengths, lumen diameters, flexure angles and bend radii, each
-taken from the anatomy and CT-colonography literature cited in
-docs/anatomy.md) and builds its centerline as straights joined tangent to
-tangent by circular arcs, so the path has no kinks and its smallest radius
-of curvature is exactly the smallest arc radius drawn. The robot enters at
-the anus (the origin) and the path ends at the cecum. Sections, in order:
+(lumen diameters, flexure angles and bend radii, from the anatomy and
+CT-colonography literature cited in docs/anatomy.md) and the shares in
+:data:`SHARES` (calibrated on the real colons' landmarks), builds its course
+as straights joined tangent to tangent by circular arcs, and its centerline
+as a cubic spline through the course plus a smooth random wiggle, calibrated
+so that the population bends as the real colons do
+(:mod:`bhr.model.anatomy_stats`) and damped wherever the centerline would bend
+tighter than :data:`MIN_RADIUS_MM`. The robot enters at the anus (the origin)
+and the path ends at the cecum. Sections, in order:
 
-    rectum, sigmoid (with its loop), descending colon, splenic flexure,
-    transverse colon (sagging), hepatic flexure, ascending colon, cecum
+    rectum (from its anal canal and anorectal flexure), sigmoid (with its loop),
+    descending colon, splenic flexure, transverse colon (sagging), hepatic flexure,
+    ascending colon, cecum
 
 Frame: x toward the patient's left, y anterior, z cranial (head-wards).
 
@@ -36,7 +40,8 @@ from bhr.settings.options import excerpt
 from bhr.model.pathfile import rotate_about, unit_vector
 
 __all__ = ["SECTIONS", "RANGES", "SEED_MAX", "SHIPPED", "POPULATION", "SHARES", "LENGTH_LIMITS", "Colon",
-           "anatomical_colon", "check_seed", "anatomy_csv_text", "acute_flexures", "bend_radii"]
+           "anatomical_colon", "check_seed", "anatomy_csv_text", "acute_flexures", "bend_radii", "MIN_RADIUS_MM",
+           "WIGGLE_MM", "WIGGLE_KNOT_MM", "WIGGLE_RAMP_MM", "CONTROL_MM"]
 
 #: Sections of an anatomical colon, from the anus to the cecum.
 SECTIONS = ("rectum", "sigmoid", "descending", "splenic flexure", "transverse", "hepatic flexure", "ascending",
