@@ -20,7 +20,8 @@ from typing import Any
 _API = {
     "Robot": "robot", "THESIS_ROBOT": "robot", "CHAPTER5_ROBOT": "robot", "forward_kinematics": "robot",
     "min_turn_radius": "robot", "alpha_from_stroke": "robot",
-    "Trajectory": "path", "trajectory": "generators", "load_trajectory": "generators", "builtin_names": "generators",
+    "Trajectory": "path", "unfollowable_bends": "path",
+    "trajectory": "generators", "load_trajectory": "generators", "builtin_names": "generators",
     "Colon": "anatomy", "anatomical_colon": "anatomy",
     "VALID_CODES": "codes", "check_codes": "codes", "read_codes_csv": "codes", "format_codes_csv": "codes",
     "RobotFile": "robotfile", "load_robot_file": "robotfile",

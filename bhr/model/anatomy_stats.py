@@ -23,13 +23,13 @@ import math
 import sys
 import time
 from dataclasses import dataclass
-from importlib import resources
 from pathlib import Path
 from typing import Iterable, Sequence
 
 import numpy as np
 
 from bhr.model.anatomy import SECTIONS, Colon, anatomical_colon, bend_radii
+from bhr.model.trajnames import trajectory_folder
 from bhr.settings.errors import BhrError
 
 __all__ = ["SMOOTHING_MM", "CHORD_MM", "TIGHT_MM", "GROUPS", "Shape", "bend_profile", "shape", "generated_shape",
@@ -159,13 +159,8 @@ class RealColon:
 
 
 def _real_dir() -> Path:
-    try:
-        res = resources.files("bhr.trajectories").joinpath("gca")
-        if res.is_dir():
-            return Path(str(res))
-    except ModuleNotFoundError:  # pragma: no cover - bhr.trajectories is part of the distribution
-        pass
-    return Path(__file__).resolve().parents[2] / "trajectories" / "gca"
+    folder = trajectory_folder()
+    return (folder if folder is not None else Path("trajectories")) / "gca"
 
 
 def real_colons(folder: Path | None = None) -> list[RealColon]:
@@ -173,15 +168,23 @@ def real_colons(folder: Path | None = None) -> list[RealColon]:
     folder = folder or _real_dir()
     files = sorted(folder.glob("*.csv")) if folder.is_dir() else []
     if not files:
-        raise BhrError(f"no real colons in {folder}: they are shipped with bhr as trajectories/gca/*.csv")
+        raise BhrError(f"no real colons in {folder}: give a folder of CSV files with columns x, y, z, lumen, section "
+                       "(bhr ships its own as trajectories/gca/*.csv)")
     out = []
     for f in files:
         text = f.read_text(encoding="utf-8")
         rows = list(csv.DictReader(io.StringIO("".join(ln + "\n" for ln in text.splitlines()
                                                          if ln.strip() and not ln.startswith("#")))))
-        pts = np.array([[float(r["x"]), float(r["y"]), float(r["z"])] for r in rows])
-        out.append(RealColon(f.stem, pts, np.array([float(r["lumen"]) for r in rows]),
-                             [r["section"] for r in rows]))
+        try:
+            pts = np.array([[float(r["x"]), float(r["y"]), float(r["z"])] for r in rows], dtype=np.float64)
+            lumen = np.array([float(r["lumen"]) for r in rows], dtype=np.float64)
+            sections = [str(r["section"]).strip() for r in rows]
+        except (KeyError, TypeError, ValueError) as e:
+            raise BhrError(f"real colon {f}: every row needs numbers x, y, z, lumen and a section name "
+                           f"({type(e).__name__}: {e})") from None
+        if len(pts) < 3 or not np.all(np.isfinite(pts)):
+            raise BhrError(f"real colon {f}: needs at least 3 points with finite coordinates")
+        out.append(RealColon(f.stem, pts, lumen, sections))
     return out
 
 

@@ -117,7 +117,7 @@ class Trajectory:
             raise BhrError(f"the trajectory is {self.length_mm:g} mm long, shorter than one feed ({feed:g} mm); "
                            "give a longer path or a smaller feed")
         pts, lumen = resample_polyline(self.points, float(feed), self.lumen)
-        sections = ()
+        sections: tuple[tuple[str, int, int], ...] = ()
         if self.sections:  # each new point keeps the section of the old point it falls after
             _, idx = resample_polyline(self.points, float(feed), np.arange(len(self.points), dtype=np.float64))
             assert idx is not None

@@ -121,6 +121,9 @@ def test_bad_input_is_one_line(tmp_path):
         bend_profile(np.zeros((5, 3)), -1.0)
     with pytest.raises(BhrError, match="no real colons in"):
         real_colons(tmp_path)
+    (tmp_path / "c.csv").write_text("# a colon without its sections\nx,y,z,lumen\n0,0,0,10\n1,0,0,10\n2,0,0,10\n")
+    with pytest.raises(BhrError, match="c.csv: every row needs numbers x, y, z, lumen and a section name"):
+        real_colons(tmp_path)
     bad = RealColon("X", np.zeros((3, 3)), np.ones(3), ["rectum", "ileum", "cecum"])
     with pytest.raises(BhrError, match="real colon X: unknown section 'ileum'"):
         bad.shares()
