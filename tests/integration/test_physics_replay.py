@@ -14,21 +14,21 @@ import pytest
 import bhr
 from bhr.model.generators import load_trajectory
 from bhr.model.path import Trajectory
-from bhr.model.robot import forward_kinematics
+from bhr.model.robot import Robot, forward_kinematics
 from bhr.run.body import whole_robot
 from bhr.run.driver import BhrWarning
 from bhr.studies.physics import replay_physics, scene_xml, whole_chain
 
 
-def _head(steps: int, solver: str, body_modules=None, seed: int = 7):
-    tr = load_trajectory("anatomy", seed=seed)
+def _head(steps: int, solver: str, body_modules=None, seed: int = 7, robot=None):
+    tr = load_trajectory("anatomy", seed=seed, feed=robot.feed if robot is not None else 2.0)
     cut = Trajectory(tr.name, tr.points[: steps + 10], dict(tr.params), tr.min_radius, tr.lumen[: steps + 10],
                      tr.source, tr.start_direction, tr.start_point)
     import warnings
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", BhrWarning)  # the colon turns tighter than the robot can
-        run = bhr.follow(cut, solver=solver, body_modules=body_modules)
+        run = bhr.follow(cut, solver=solver, body_modules=body_modules, **({"robot": robot} if robot else {}))
     run.points, run.codes = run.points[:steps], run.codes[:steps]
     run.iterations, run.point_errors_mm, run.orientation_errors_deg = (run.iterations[:steps], run.point_errors_mm[:steps],
                                                                 run.orientation_errors_deg[:steps])
@@ -52,7 +52,9 @@ def test_whole_chain_reproduces_the_whole_robot():
 
 
 def test_clear_run_never_touches_and_tracks_bhr():
-    run = _head(90, "lumen")
+    # through the anal canal (15-16 mm across) and the anorectal flexure: a robot of 5 mm modules and 25 deg tilts
+    # that keeps at least 1 mm off the wall there (colon 34; the thesis robot cannot, in any colon)
+    run = _head(90, "lumen", seed=34, robot=Robot(alpha=25, module_length=5))
     assert run.clearance.min_mm >= 1.0
     rep = replay_physics(run)
     assert rep.contact_steps == []
@@ -61,7 +63,7 @@ def test_clear_run_never_touches_and_tracks_bhr():
 
 
 def test_run_into_the_wall_touches_at_bhrs_steps():
-    run = _head(130, "thesis", seed=4)  # the thesis solver goes into this colon's wall from step 112
+    run = _head(130, "thesis", seed=4)  # the thesis solver goes into this colon's wall from step 21 (its anorectal flexure)
     touched = run.clearance.touch_steps
     assert touched, "the thesis solver's run should go into this colon's wall"
     rep = replay_physics(run)
