@@ -1,10 +1,12 @@
-"""Progress on stderr: one status line, redrawn on a terminal, nothing when piped; the first-compile notice.
+"""Progress on stderr: one status line redrawn on a terminal, plain lines in a log; the first-compile notice.
 
-Work that can take more than about a second runs inside :func:`status`: on a
-terminal a spinner line shows what runs, how far it is (``done/total`` and a
-bar when the total is known) and the seconds spent; when stderr is a pipe or
-a file nothing is written, so logs stay clean. Statuses nest: the innermost is
-shown, and the outer one comes back when it ends.
+Work that can take more than about a second runs inside :func:`status`. On a
+terminal a status line shows what runs, how far it is (``done/total`` and a
+bar when the total is known) and the seconds spent, redrawn in place; statuses
+nest, the innermost is shown. When stderr is a pipe or a file, the statuses of
+long work (``log=True``: runs of a study, a stream, a physics replay) write a
+plain line every :data:`INTERVAL_ENV` seconds (30 by default; 0: when the work
+starts and at every step), so a log shows that the command is alive.
 
 :func:`announce_compiles` makes the first run on a machine say, in one line,
 that numba is compiling the kernels (once: they are cached), and, on a
@@ -17,151 +19,150 @@ import os
 import sys
 import threading
 import time
-from typing import IO, Iterator
+from typing import Iterator
 
-FRAMES = "|/-\\"
-BAR = 20
-
-
-def _stderr() -> IO[str]:
-    return sys.stderr
+#: Seconds between two progress lines when stderr is not a terminal.
+INTERVAL_ENV = "BHR_PROGRESS_INTERVAL"
 
 
 def on_terminal() -> bool:
-    """True when progress should be drawn: stderr is a terminal (and TERM is not 'dumb')."""
+    """True when the status line is drawn: stderr is a terminal (and TERM is not 'dumb')."""
     try:
-        return _stderr().isatty() and os.environ.get("TERM") != "dumb"
+        return sys.stderr.isatty() and os.environ.get("TERM") != "dumb"
     except (AttributeError, ValueError):
         return False
 
 
-class Progress:
-    """One entry of the status line; ``update`` it as work is done."""
+def _interval() -> float:
+    try:
+        return max(0.0, float(os.environ.get(INTERVAL_ENV, "30")))
+    except ValueError:
+        return 30.0
 
-    def __init__(self, label: str, total: int | None) -> None:
-        self.label = label
-        self.total = total
-        self.done = 0
-        self.item = ""
-        self.t0 = time.perf_counter()
+
+class Progress:
+    """One status; ``update`` it as work is done (``item``: what it is on)."""
+
+    def __init__(self, label: str, total: int | None = None, log: bool = False) -> None:
+        self.label, self.total, self.log = label, total, log
+        self.done, self.item, self.t0 = 0, "", time.perf_counter()
 
     def update(self, n: int = 1, item: str | None = None) -> None:
         self.done += n
-        if item is not None:
-            self.item = item
+        self.item = self.item if item is None else item
+        if self.log and _LINES.stack[-1:] == [self] and not _LINES.tty and _interval() == 0:
+            _LINES.draw()
 
-    def text(self, frame: str) -> str:
-        parts = [frame, self.label]
-        if self.total:
-            filled = int(BAR * min(self.done, self.total) / self.total)
-            parts.append(f"[{'#' * filled}{'-' * (BAR - filled)}] {self.done}/{self.total}")
-        if self.item:
-            parts.append(self.item)
-        parts.append(f"{time.perf_counter() - self.t0:.0f} s")
-        return " ".join(parts)
+    def set(self, done: int, total: int | None = None) -> None:
+        """A ``(done, total)`` progress callback."""
+        self.total = total or self.total
+        self.update(done - self.done)
+
+    def text(self, bar: bool) -> str:
+        """The status line (with a bar), or a log's line: ``label: done/total, item, seconds``."""
+        count = f"{self.done}/{self.total}" if self.total else ""
+        if bar and self.total:
+            filled = int(20 * min(self.done, self.total) / self.total)
+            count = f"[{'#' * filled}{'-' * (20 - filled)}] {count}"
+        parts = (count, self.item, f"{time.perf_counter() - self.t0:.0f} s")
+        return f"{self.label} " + " ".join(p for p in parts if p) if bar else \
+            f"{self.label.rstrip(':')}: " + ", ".join(p for p in parts if p)
 
 
-class _Line:
-    """The status line: a stack of Progress entries and the thread that redraws the innermost."""
+class _Lines:
+    """The shown statuses (innermost last) and the thread that redraws (terminal) or logs (elsewhere) them."""
 
     def __init__(self) -> None:
         self.stack: list[Progress] = []
         self.lock = threading.RLock()
-        self.thread: threading.Thread | None = None
         self.wake = threading.Event()
+        self.tty = False
         self.shown = False
 
-    def _draw(self, frame: str) -> None:
-        err = _stderr()
+    def draw(self) -> None:
         with self.lock:
-            if not self.stack:
-                return
-            width = 79
-            try:
-                width = max(os.get_terminal_size(err.fileno()).columns - 1, 0) or width
-            except (OSError, ValueError, AttributeError):
-                pass
-            err.write("\r\033[K" + self.stack[-1].text(frame)[:width])
-            err.flush()
-            self.shown = True
+            if self.stack:
+                if self.tty:
+                    width = 79
+                    with contextlib.suppress(OSError, ValueError):
+                        width = max(os.get_terminal_size(sys.stderr.fileno()).columns - 1, 1)
+                    self._write("\r\033[K" + self.stack[-1].text(bar=True)[:width])
+                else:
+                    self._write(self.stack[-1].text(bar=False) + "\n")
+                self.shown = self.tty
+
+    def _write(self, text: str) -> None:
+        with contextlib.suppress(OSError, ValueError):
+            sys.stderr.write(text)
+            sys.stderr.flush()
 
     def clear(self) -> None:
         with self.lock:
             if self.shown:
-                err = _stderr()
-                err.write("\r\033[K")
-                err.flush()
+                self._write("\r\033[K")
                 self.shown = False
 
-    def _run(self) -> None:
-        k = 0
+    def _run(self, p: Progress, tick: float) -> None:
         while True:
+            self.wake.wait(tick)
             with self.lock:
-                if not self.stack:
-                    self.clear()
-                    self.thread = None
+                self.wake.clear()
+                if p not in self.stack:
                     return
-            self._draw(FRAMES[k % len(FRAMES)])
-            k += 1
-            self.wake.wait(0.1)
-            self.wake.clear()
+                if self.stack[-1] is p:  # the innermost status's thread draws
+                    self.draw()
 
     def push(self, p: Progress) -> None:
+        self.tty, tick = on_terminal(), (0.1 if on_terminal() else _interval())
         with self.lock:
             self.stack.append(p)
-            self._draw(FRAMES[0])  # at once: short work is shown too
-            if self.thread is None:
-                self.thread = threading.Thread(target=self._run, name="bhr-progress", daemon=True)
-                self.thread.start()
+            if self.tty or tick == 0:
+                self.draw()  # at once: short work is shown too
+        if tick > 0:
+            threading.Thread(target=self._run, args=(p, tick), name="bhr-progress", daemon=True).start()
 
     def pop(self, p: Progress) -> None:
-        thread = None
         with self.lock:
             if p in self.stack:
                 self.stack.remove(p)
-            if not self.stack:
-                thread = self.thread
-                self.wake.set()
-        if thread is not None and thread is not threading.current_thread():
-            thread.join(1.0)
-        with self.lock:
-            if not self.stack:
-                self.clear()
+            self.wake.set()
+            self.clear()
 
     def echo(self, message: str) -> None:
-        """Print a line above the status line (which is redrawn on its next tick)."""
+        """A line above the status line (redrawn at its next tick)."""
         with self.lock:
             self.clear()
-            err = _stderr()
-            err.write(message + "\n")
-            err.flush()
+            self._write(message + "\n")
 
 
-LINE = _Line()
+_LINES = _Lines()
+
+
+def start(label: str, total: int | None = None, log: bool = False) -> Progress:
+    """Show a status until :func:`stop`: on a terminal always, elsewhere when ``log`` (see the module's text)."""
+    p = Progress(label, total, log)
+    if log or on_terminal():
+        _LINES.push(p)
+    return p
+
+
+def stop(p: Progress) -> None:
+    _LINES.pop(p)
 
 
 @contextlib.contextmanager
-def status(label: str, total: int | None = None) -> Iterator[Progress]:
-    """Show ``label`` (and ``done/total`` when given) with a spinner while the block runs, on a terminal only."""
-    p = Progress(label, total)
-    if not on_terminal():
-        yield p
-        return
-    LINE.push(p)
+def status(label: str, total: int | None = None, log: bool = False) -> Iterator[Progress]:
+    """Show ``label`` (and ``done/total`` when given) while the block runs (:func:`start`)."""
+    p = start(label, total, log)
     try:
         yield p
     finally:
-        LINE.pop(p)
+        stop(p)
 
 
 def echo(message: str) -> None:
     """A line on stderr that does not collide with a status line being drawn."""
-    if LINE.stack and on_terminal():
-        LINE.echo(message)
-    else:
-        err = _stderr()
-        err.write(message + "\n")
-        err.flush()
+    _LINES.echo(message)
 
 
 # ---------------------------------------------------------------------------
