@@ -1,16 +1,13 @@
-"""Progress on stderr: one status line redrawn on a terminal, plain lines in a log; the first-compile notice.
+"""Progress on stderr: a status line redrawn on a terminal, plain lines in a log; the first-compile notice.
 
-Work that can take more than about a second runs inside :func:`status`. On a
-terminal a status line shows what runs, how far it is (``done/total`` and a
-bar when the total is known) and the seconds spent, redrawn in place; statuses
-nest, the innermost is shown. When stderr is a pipe or a file, the statuses of
-long work (``log=True``: runs of a study, a stream, a physics replay) write a
-plain line every :data:`INTERVAL_ENV` seconds (30 by default; 0: when the work
-starts and at every step), so a log shows that the command is alive.
+Work that can take more than about a second runs inside :func:`status`. On a terminal a status line shows what
+runs, ``done/total`` with a bar when the total is known, and the seconds spent, redrawn in place; statuses nest,
+the innermost is shown. When stderr is a pipe or a file, the statuses of long work (``log=True``: a study's runs,
+a stream, a replay) write a plain line every ``BHR_PROGRESS_INTERVAL`` seconds (30; 0: when the work starts and at
+every step), so that a log shows the command is alive.
 
-:func:`announce_compiles` makes the first run on a machine say, in one line,
-that numba is compiling the kernels (once: they are cached), and, on a
-terminal, which kernel it is compiling.
+:func:`announce_compiles` makes the first run on a machine say, in one line, that numba is compiling the kernels
+(once: they are cached), and, on a terminal, which kernel it is compiling.
 """
 from __future__ import annotations
 
@@ -21,138 +18,83 @@ import threading
 import time
 from typing import Iterator
 
-#: Seconds between two progress lines when stderr is not a terminal.
-INTERVAL_ENV = "BHR_PROGRESS_INTERVAL"
+_LOCK = threading.RLock()
+_WAKE = threading.Event()
+_STACK: list[Progress] = []  # the statuses shown, innermost last
+_DRAWN = [False]  # a status line is on the terminal
 
 
 def on_terminal() -> bool:
     """True when the status line is drawn: stderr is a terminal (and TERM is not 'dumb')."""
-    try:
+    with contextlib.suppress(AttributeError, ValueError):
         return sys.stderr.isatty() and os.environ.get("TERM") != "dumb"
-    except (AttributeError, ValueError):
-        return False
+    return False
 
 
 def _interval() -> float:
-    try:
-        return max(0.0, float(os.environ.get(INTERVAL_ENV, "30")))
-    except ValueError:
-        return 30.0
+    with contextlib.suppress(ValueError):
+        return max(0.0, float(os.environ.get("BHR_PROGRESS_INTERVAL", "30")))
+    return 30.0
+
+
+def _write(text: str) -> None:
+    with contextlib.suppress(OSError, ValueError):
+        sys.stderr.write(text)
+        sys.stderr.flush()
 
 
 class Progress:
-    """One status; ``update`` it as work is done (``item``: what it is on)."""
+    """One status; ``update`` it as work is done (``item``: what it is on), or ``set`` it (a (done, total) callback)."""
 
-    def __init__(self, label: str, total: int | None = None, log: bool = False) -> None:
-        self.label, self.total, self.log = label, total, log
-        self.done, self.item, self.t0 = 0, "", time.perf_counter()
+    def __init__(self, label: str, total: int | None = None) -> None:
+        self.label, self.total, self.done, self.item, self.t0 = label, total, 0, "", time.perf_counter()
+        self.tty = on_terminal()
 
     def update(self, n: int = 1, item: str | None = None) -> None:
         self.done += n
         self.item = self.item if item is None else item
-        if self.log and _LINES.stack[-1:] == [self] and not _LINES.tty and _interval() == 0:
-            _LINES.draw()
+        if not self.tty and _interval() == 0:
+            self.draw()
 
     def set(self, done: int, total: int | None = None) -> None:
-        """A ``(done, total)`` progress callback."""
         self.total = total or self.total
         self.update(done - self.done)
 
-    def text(self, bar: bool) -> str:
-        """The status line (with a bar), or a log's line: ``label: done/total, item, seconds``."""
-        count = f"{self.done}/{self.total}" if self.total else ""
-        if bar and self.total:
-            filled = int(20 * min(self.done, self.total) / self.total)
-            count = f"[{'#' * filled}{'-' * (20 - filled)}] {count}"
-        parts = (count, self.item, f"{time.perf_counter() - self.t0:.0f} s")
-        return f"{self.label} " + " ".join(p for p in parts if p) if bar else \
-            f"{self.label.rstrip(':')}: " + ", ".join(p for p in parts if p)
-
-
-class _Lines:
-    """The shown statuses (innermost last) and the thread that redraws (terminal) or logs (elsewhere) them."""
-
-    def __init__(self) -> None:
-        self.stack: list[Progress] = []
-        self.lock = threading.RLock()
-        self.wake = threading.Event()
-        self.tty = False
-        self.shown = False
-
     def draw(self) -> None:
-        with self.lock:
-            if self.stack:
-                if self.tty:
-                    width = 79
-                    with contextlib.suppress(OSError, ValueError):
-                        width = max(os.get_terminal_size(sys.stderr.fileno()).columns - 1, 1)
-                    self._write("\r\033[K" + self.stack[-1].text(bar=True)[:width])
-                else:
-                    self._write(self.stack[-1].text(bar=False) + "\n")
-                self.shown = self.tty
+        """Its status line (over the one drawn), or its line in a log: ``label: done/total, item, seconds``."""
+        with _LOCK:
+            if _STACK[-1:] != [self]:
+                return
+            parts = [f"{self.done}/{self.total}" if self.total else "", self.item,
+                     f"{time.perf_counter() - self.t0:.0f} s"]
+            if not self.tty:
+                return _write(f"{self.label.rstrip(':')}: " + ", ".join(p for p in parts if p) + "\n")
+            if self.total:
+                filled = int(20 * min(self.done, self.total) / self.total)
+                parts[0] = f"[{'#' * filled}{'-' * (20 - filled)}] {parts[0]}"
+            width = 79
+            with contextlib.suppress(OSError, ValueError):
+                width = max(os.get_terminal_size(sys.stderr.fileno()).columns - 1, 1)
+            _write("\r\033[K" + " ".join([self.label, *(p for p in parts if p)])[:width])
+            _DRAWN[0] = True
 
-    def _write(self, text: str) -> None:
-        with contextlib.suppress(OSError, ValueError):
-            sys.stderr.write(text)
-            sys.stderr.flush()
-
-    def clear(self) -> None:
-        with self.lock:
-            if self.shown:
-                self._write("\r\033[K")
-                self.shown = False
-
-    def _run(self, p: Progress, tick: float) -> None:
-        while True:
-            self.wake.wait(tick)
-            with self.lock:
-                self.wake.clear()
-                if p not in self.stack:
-                    return
-                if self.stack[-1] is p:  # the innermost status's thread draws
-                    self.draw()
-
-    def push(self, p: Progress) -> None:
-        self.tty, tick = on_terminal(), (0.1 if on_terminal() else _interval())
-        with self.lock:
-            self.stack.append(p)
-            if self.tty or tick == 0:
-                self.draw()  # at once: short work is shown too
-        if tick > 0:
-            threading.Thread(target=self._run, args=(p, tick), name="bhr-progress", daemon=True).start()
-
-    def pop(self, p: Progress) -> None:
-        with self.lock:
-            if p in self.stack:
-                self.stack.remove(p)
-            self.wake.set()
-            self.clear()
-
-    def echo(self, message: str) -> None:
-        """A line above the status line (redrawn at its next tick)."""
-        with self.lock:
-            self.clear()
-            self._write(message + "\n")
+    def _tick(self, seconds: float) -> None:
+        while self in _STACK:
+            _WAKE.wait(seconds)
+            self.draw()
 
 
-_LINES = _Lines()
-
-
-def start(label: str, total: int | None = None, log: bool = False) -> Progress:
-    """Show a status until :func:`stop`: on a terminal always, elsewhere when ``log`` (see the module's text)."""
-    p = Progress(label, total, log)
-    if log or on_terminal():
-        _LINES.push(p)
-    return p
-
-
-def stop(p: Progress) -> None:
-    _LINES.pop(p)
+def clear() -> None:
+    with _LOCK:
+        if _DRAWN[0]:
+            _write("\r\033[K")
+            _DRAWN[0] = False
 
 
 @contextlib.contextmanager
 def status(label: str, total: int | None = None, log: bool = False) -> Iterator[Progress]:
-    """Show ``label`` (and ``done/total`` when given) while the block runs (:func:`start`)."""
+    """Show ``label`` (and ``done/total`` when given) while the block runs: on a terminal, and in a log when
+    ``log`` (see the module's text)."""
     p = start(label, total, log)
     try:
         yield p
@@ -160,9 +102,34 @@ def status(label: str, total: int | None = None, log: bool = False) -> Iterator[
         stop(p)
 
 
+def start(label: str, total: int | None = None, log: bool = False) -> Progress:
+    """:func:`status` without a block: shown until :func:`stop`."""
+    p = Progress(label, total)
+    seconds = 0.1 if p.tty else _interval()
+    if p.tty or log:
+        with _LOCK:
+            _STACK.append(p)
+            if p.tty or seconds == 0:
+                p.draw()  # at once: short work is shown too
+        if seconds > 0:
+            threading.Thread(target=p._tick, args=(seconds,), name="bhr-progress", daemon=True).start()
+    return p
+
+
+def stop(p: Progress) -> None:
+    with _LOCK:
+        if p in _STACK:
+            _STACK.remove(p)
+        clear()
+    _WAKE.set()  # its thread ends now
+    _WAKE.clear()
+
+
 def echo(message: str) -> None:
     """A line on stderr that does not collide with a status line being drawn."""
-    _LINES.echo(message)
+    with _LOCK:
+        clear()
+        _write(message + "\n")
 
 
 # ---------------------------------------------------------------------------
