@@ -53,7 +53,7 @@ class Progress:
     def update(self, n: int = 1, item: str | None = None) -> None:
         self.done += n
         self.item = self.item if item is None else item
-        if not self.tty and _interval() == 0:
+        if self.tty or _interval() == 0:  # a terminal shows every step; a log too when asked to
             self.draw()
 
     def set(self, done: int, total: int | None = None) -> None:
@@ -74,7 +74,7 @@ class Progress:
                 parts[0] = f"[{'#' * filled}{'-' * (20 - filled)}] {parts[0]}"
             width = 79
             with contextlib.suppress(OSError, ValueError):
-                width = max(os.get_terminal_size(sys.stderr.fileno()).columns - 1, 1)
+                width = max(os.get_terminal_size(sys.stderr.fileno()).columns - 1, 0) or width  # 0: no size known
             _write("\r\033[K" + " ".join([self.label, *(p for p in parts if p)])[:width])
             _DRAWN[0] = True
 
