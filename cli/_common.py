@@ -244,7 +244,7 @@ def check_executor(jobs: int | None, scheduler: str | None) -> None:
         try:
             import distributed  # noqa: F401
         except ImportError:
-            from bhr.studies.executor import dask_missing
+            from bhr.studies.cluster import dask_missing
 
             raise BhrError(dask_missing()) from None
 

@@ -78,7 +78,7 @@ def sweep(sweep_file, trajs, solvers, grid, robot_file, out_dir, force, jobs, sc
                             what="sweep output folder", force=force)  # before any work
     out = folder.final("")
     total = len(s)
-    from bhr.studies.executor import scheduler_client
+    from bhr.studies.cluster import scheduler_client
 
     where = f"on {scheduler}" if scheduler else ""
     with scheduler_client(scheduler) as client:  # fails in one line before anything starts

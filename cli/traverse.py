@@ -72,7 +72,7 @@ def traverse(grid, colons, solvers, target_pass, robot_file, out_dir, force, job
                             input_files(robot_file), OUTPUTS + ("manifest.json",), out_dir,
                             what="study output folder", force=force)  # before any work
     from bhr.cli._progress import status
-    from bhr.studies.executor import scheduler_client
+    from bhr.studies.cluster import scheduler_client
 
     total = len(study)
     label = f"{total} runs ({study.designs} designs x {len(study.colons)} colons)" + (

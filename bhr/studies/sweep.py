@@ -33,7 +33,8 @@ from bhr import __version__
 from bhr.output.atomic import write_json, write_text
 from bhr.settings.errors import BhrError
 from bhr.settings.inputs import check_document, read_toml
-from bhr.studies.executor import capture, connect_scheduler, dask_missing, run_jobs
+from bhr.studies.cluster import connect_scheduler, dask_missing
+from bhr.studies.executor import capture, run_jobs
 from bhr.model.generators import GENERATORS, builtin_names, load_trajectory
 from bhr.run.driver import BhrWarning, follow
 from bhr.output.htmlpage import PAGE_END, escape, figure, fmt, page_head, table

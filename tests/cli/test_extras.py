@@ -91,7 +91,7 @@ def test_without_a_usable_folder_it_falls_back_to_this_copys_source_folder(tmp_p
 
 
 def test_the_physics_and_dask_errors_carry_the_command():
-    from bhr.studies.executor import dask_missing
+    from bhr.studies.cluster import dask_missing
     from bhr.studies.physics import missing
 
     assert missing("mujoco") == f"mujoco is not installed; install the physics extra: {install_command('physics')}"
