@@ -219,6 +219,9 @@ class _Lane:
             if self.pool is None:
                 self.pool = ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn"),
                                                 initializer=_end_with_parent)
+            # blocked again: the pool's first lock starts multiprocessing's resource tracker, which unblocks Ctrl-C
+            # and SIGTERM in this thread once it has started it, and the worker starts just below
+            signal.pthread_sigmask(signal.SIG_BLOCK, _SIGNALS)
             before = set(multiprocessing.active_children())
             chunk = todo.popleft()
             self.sent = (self.pool.submit(call, chunk), chunk)
