@@ -323,7 +323,8 @@ def test_a_signal_while_the_folder_goes_in_place_changes_nothing(tmp_path, sig):
     python = str(Path(bhr_exe()[0]).parent / "python")
     r = subprocess.run([python, "-c", SLOW_RENAME, sig], cwd=tmp_path, capture_output=True, text=True, timeout=300,
                        env=ENV, preexec_fn=foreground)
-    assert (r.returncode, r.stderr) == (0, ""), r.stderr[-1500:]
+    lines = [ln for ln in r.stderr.splitlines() if not ln.startswith("Compiling bhr's")]  # a cold kernel cache
+    assert (r.returncode, lines) == (0, []), r.stderr[-1500:]
     assert "Wrote o/codes.csv" in r.stdout
     assert sorted(os.listdir(tmp_path / "o")) == ["codes.csv", "manifest.json", "run.json", "steps.csv"]
 
