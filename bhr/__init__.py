@@ -13,20 +13,6 @@ need are re-exported here and loaded lazily:
 """
 from __future__ import annotations
 
-import sys
-
-if sys.argv and sys.argv[0].rsplit("/", 1)[-1] == "bhr":  # the bhr command: Ctrl-C from the first moment
-    if "multiprocessing.spawn" in sys.modules:  # a worker process of the command: Ctrl-C is the parent's
-        import signal as _signal
-
-        _signal.signal(_signal.SIGINT, _signal.SIG_IGN)
-    else:
-        from bhr.settings.interrupts import install as _install_interrupts
-        from bhr.settings.interrupts import release as _release_interrupts
-
-        _install_interrupts()
-        _release_interrupts()  # a Ctrl-C held since start-up (SIGINT blocked) ends the command here
-
 import importlib
 from typing import TYPE_CHECKING, Any
 

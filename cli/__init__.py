@@ -3,7 +3,3 @@
 Each command lives in its own module and is loaded only when it is invoked,
 so ``bhr --help`` does not import numba, matplotlib or pyserial.
 """
-
-from bhr.settings.interrupts import install as _install
-
-_install()

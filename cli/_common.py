@@ -13,7 +13,7 @@ import click
 
 from bhr.output.paths import (check_parent_folder, folder_name, input_files, json_in_folder,  # noqa: F401
                               run_folder_name, short_path)
-from bhr.cli._interrupt import end_interrupted
+from bhr.cli._interrupt import end_interrupted, settle
 from bhr.settings.errors import INTERRUPTED, BhrError
 
 
@@ -86,8 +86,6 @@ def _before_placing() -> None:
     place whole and the command ends with its own status (a Ctrl-C while a folder was renamed into place ended in
     "Interrupted." and 130 with the folder there; one before this point still leaves nothing)."""
     sys.stdout.flush()
-    from bhr.settings.interrupts import settle
-
     settle()
 
 
@@ -125,8 +123,8 @@ def guarded(func: Callable[..., Any]) -> Callable[..., Any]:
             shown = repr(os.environ.get("MPLBACKEND", ""))[:40]  # matplotlib refused the environment's backend
             raise click.ClickException(f"MPLBACKEND={shown} is not a matplotlib backend; unset it or set "
                                        "MPLBACKEND=Agg") from None
-        except KeyboardInterrupt:
-            end_interrupted()
+        except KeyboardInterrupt as exc:
+            end_interrupted(exc)
         except BrokenPipeError:
             _quiet_stdout()  # the reader went away (bhr ... | head): stop quietly
             sys.exit(141)
@@ -246,7 +244,7 @@ def check_executor(jobs: int | None, scheduler: str | None) -> None:
         try:
             import distributed  # noqa: F401
         except ImportError:
-            from bhr.studies.executor import dask_missing
+            from bhr.studies.cluster import dask_missing
 
             raise BhrError(dask_missing()) from None
 

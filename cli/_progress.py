@@ -1,14 +1,13 @@
-"""Progress on stderr: one status line, redrawn on a terminal, nothing when piped; the first-compile notice.
+"""Progress on stderr: a status line redrawn on a terminal, plain lines in a log; the first-compile notice.
 
-Work that can take more than about a second runs inside :func:`status`: on a
-terminal a spinner line shows what runs, how far it is (``done/total`` and a
-bar when the total is known) and the seconds spent; when stderr is a pipe or
-a file nothing is written, so logs stay clean. Statuses nest: the innermost is
-shown, and the outer one comes back when it ends.
+Work that can take more than about a second runs inside :func:`status`. On a terminal a status line shows what
+runs, ``done/total`` with a bar when the total is known, and the seconds spent, redrawn in place; statuses nest,
+the innermost is shown. When stderr is a pipe or a file, the statuses of long work (``log=True``: a study's runs,
+a stream, a replay) write a plain line every ``BHR_PROGRESS_INTERVAL`` seconds (30; 0: when the work starts and at
+every step), so that a log shows the command is alive.
 
-:func:`announce_compiles` makes the first run on a machine say, in one line,
-that numba is compiling the kernels (once: they are cached), and, on a
-terminal, which kernel it is compiling.
+:func:`announce_compiles` makes the first run on a machine say, in one line, that numba is compiling the kernels
+(once: they are cached), and, on a terminal, which kernel it is compiling.
 """
 from __future__ import annotations
 
@@ -17,151 +16,120 @@ import os
 import sys
 import threading
 import time
-from typing import IO, Iterator
+from typing import Iterator
 
-FRAMES = "|/-\\"
-BAR = 20
-
-
-def _stderr() -> IO[str]:
-    return sys.stderr
+_LOCK = threading.RLock()
+_WAKE = threading.Event()
+_STACK: list[Progress] = []  # the statuses shown, innermost last
+_DRAWN = [False]  # a status line is on the terminal
 
 
 def on_terminal() -> bool:
-    """True when progress should be drawn: stderr is a terminal (and TERM is not 'dumb')."""
-    try:
-        return _stderr().isatty() and os.environ.get("TERM") != "dumb"
-    except (AttributeError, ValueError):
-        return False
+    """True when the status line is drawn: stderr is a terminal (and TERM is not 'dumb')."""
+    with contextlib.suppress(AttributeError, ValueError):
+        return sys.stderr.isatty() and os.environ.get("TERM") != "dumb"
+    return False
+
+
+def _interval() -> float:
+    with contextlib.suppress(ValueError):
+        return max(0.0, float(os.environ.get("BHR_PROGRESS_INTERVAL", "30")))
+    return 30.0
+
+
+def _write(text: str) -> None:
+    with contextlib.suppress(OSError, ValueError):
+        sys.stderr.write(text)
+        sys.stderr.flush()
 
 
 class Progress:
-    """One entry of the status line; ``update`` it as work is done."""
+    """One status; ``update`` it as work is done (``item``: what it is on), or ``set`` it (a (done, total) callback)."""
 
-    def __init__(self, label: str, total: int | None) -> None:
-        self.label = label
-        self.total = total
-        self.done = 0
-        self.item = ""
-        self.t0 = time.perf_counter()
+    def __init__(self, label: str, total: int | None = None) -> None:
+        self.label, self.total, self.done, self.item, self.t0 = label, total, 0, "", time.perf_counter()
+        self.tty = on_terminal()
 
     def update(self, n: int = 1, item: str | None = None) -> None:
         self.done += n
-        if item is not None:
-            self.item = item
+        self.item = self.item if item is None else item
+        if self.tty or _interval() == 0:  # a terminal shows every step; a log too when asked to
+            self.draw()
 
-    def text(self, frame: str) -> str:
-        parts = [frame, self.label]
-        if self.total:
-            filled = int(BAR * min(self.done, self.total) / self.total)
-            parts.append(f"[{'#' * filled}{'-' * (BAR - filled)}] {self.done}/{self.total}")
-        if self.item:
-            parts.append(self.item)
-        parts.append(f"{time.perf_counter() - self.t0:.0f} s")
-        return " ".join(parts)
+    def set(self, done: int, total: int | None = None) -> None:
+        self.total = total or self.total
+        self.update(done - self.done)
 
-
-class _Line:
-    """The status line: a stack of Progress entries and the thread that redraws the innermost."""
-
-    def __init__(self) -> None:
-        self.stack: list[Progress] = []
-        self.lock = threading.RLock()
-        self.thread: threading.Thread | None = None
-        self.wake = threading.Event()
-        self.shown = False
-
-    def _draw(self, frame: str) -> None:
-        err = _stderr()
-        with self.lock:
-            if not self.stack:
+    def draw(self) -> None:
+        """Its status line (over the one drawn), or its line in a log: ``label: done/total, item, seconds``."""
+        with _LOCK:
+            if _STACK[-1:] != [self]:
                 return
+            parts = [f"{self.done}/{self.total}" if self.total else "", self.item,
+                     f"{time.perf_counter() - self.t0:.0f} s"]
+            if not self.tty:
+                return _write(f"{self.label.rstrip(':')}: " + ", ".join(p for p in parts if p) + "\n")
+            if self.total:
+                filled = int(20 * min(self.done, self.total) / self.total)
+                parts[0] = f"[{'#' * filled}{'-' * (20 - filled)}] {parts[0]}"
             width = 79
-            try:
-                width = max(os.get_terminal_size(err.fileno()).columns - 1, 0) or width
-            except (OSError, ValueError, AttributeError):
-                pass
-            err.write("\r\033[K" + self.stack[-1].text(frame)[:width])
-            err.flush()
-            self.shown = True
+            with contextlib.suppress(OSError, ValueError):
+                width = max(os.get_terminal_size(sys.stderr.fileno()).columns - 1, 0) or width  # 0: no size known
+            _write("\r\033[K" + " ".join([self.label, *(p for p in parts if p)])[:width])
+            _DRAWN[0] = True
 
-    def clear(self) -> None:
-        with self.lock:
-            if self.shown:
-                err = _stderr()
-                err.write("\r\033[K")
-                err.flush()
-                self.shown = False
-
-    def _run(self) -> None:
-        k = 0
-        while True:
-            with self.lock:
-                if not self.stack:
-                    self.clear()
-                    self.thread = None
-                    return
-            self._draw(FRAMES[k % len(FRAMES)])
-            k += 1
-            self.wake.wait(0.1)
-            self.wake.clear()
-
-    def push(self, p: Progress) -> None:
-        with self.lock:
-            self.stack.append(p)
-            self._draw(FRAMES[0])  # at once: short work is shown too
-            if self.thread is None:
-                self.thread = threading.Thread(target=self._run, name="bhr-progress", daemon=True)
-                self.thread.start()
-
-    def pop(self, p: Progress) -> None:
-        thread = None
-        with self.lock:
-            if p in self.stack:
-                self.stack.remove(p)
-            if not self.stack:
-                thread = self.thread
-                self.wake.set()
-        if thread is not None and thread is not threading.current_thread():
-            thread.join(1.0)
-        with self.lock:
-            if not self.stack:
-                self.clear()
-
-    def echo(self, message: str) -> None:
-        """Print a line above the status line (which is redrawn on its next tick)."""
-        with self.lock:
-            self.clear()
-            err = _stderr()
-            err.write(message + "\n")
-            err.flush()
+    def _tick(self, seconds: float) -> None:
+        while self in _STACK:
+            _WAKE.wait(seconds)
+            self.draw()
 
 
-LINE = _Line()
+def clear() -> None:
+    with _LOCK:
+        if _DRAWN[0]:
+            _write("\r\033[K")
+            _DRAWN[0] = False
 
 
 @contextlib.contextmanager
-def status(label: str, total: int | None = None) -> Iterator[Progress]:
-    """Show ``label`` (and ``done/total`` when given) with a spinner while the block runs, on a terminal only."""
-    p = Progress(label, total)
-    if not on_terminal():
-        yield p
-        return
-    LINE.push(p)
+def status(label: str, total: int | None = None, log: bool = False) -> Iterator[Progress]:
+    """Show ``label`` (and ``done/total`` when given) while the block runs: on a terminal, and in a log when
+    ``log`` (see the module's text)."""
+    p = start(label, total, log)
     try:
         yield p
     finally:
-        LINE.pop(p)
+        stop(p)
+
+
+def start(label: str, total: int | None = None, log: bool = False) -> Progress:
+    """:func:`status` without a block: shown until :func:`stop`."""
+    p = Progress(label, total)
+    seconds = 0.1 if p.tty else _interval()
+    if p.tty or log:
+        with _LOCK:
+            _STACK.append(p)
+            if p.tty or seconds == 0:
+                p.draw()  # at once: short work is shown too
+        if seconds > 0:
+            threading.Thread(target=p._tick, args=(seconds,), name="bhr-progress", daemon=True).start()
+    return p
+
+
+def stop(p: Progress) -> None:
+    with _LOCK:
+        if p in _STACK:
+            _STACK.remove(p)
+        clear()
+    _WAKE.set()  # its thread ends now
+    _WAKE.clear()
 
 
 def echo(message: str) -> None:
     """A line on stderr that does not collide with a status line being drawn."""
-    if LINE.stack and on_terminal():
-        LINE.echo(message)
-    else:
-        err = _stderr()
-        err.write(message + "\n")
-        err.flush()
+    with _LOCK:
+        clear()
+        _write(message + "\n")
 
 
 # ---------------------------------------------------------------------------

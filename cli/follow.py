@@ -5,13 +5,13 @@ streams it with --port) and prints what it returns.
 """
 from __future__ import annotations
 
+import functools
 import json
-import sys
 
 import click
 
 from bhr.cli._common import check_writable, guarded
-from bhr.cli._progress import announce_compiles, status
+from bhr.cli._progress import announce_compiles, start, status, stop
 from bhr.cli._link import (at_end_option, end_text, exit_interrupted, fault_printer, link_options, link_settings,
                            schedule_option, stop_on_signals, thermal_params)
 from bhr.cli.replay import STRIDE_HELP, check_view_options, run_live_view
@@ -115,7 +115,7 @@ def follow(traj, solver, out_dir, json_path, no_plots, force, **kwargs):
     if link_kw["port"] is not None:
         port, link_args = link_settings(link_kw, use_file_port=False)
         stream = StreamSettings(port, link_args, schedule=schedule, at_end=at_end, on_fault=fault_printer(port),
-                                progress=_bar(bars, f"streaming to {port}") if sys.stderr.isatty() else None,
+                                progress=_bar(bars, f"streaming to {port}"),
                                 guard=stop_on_signals)
     traj_params = pop_trajectory(kwargs)
     announce_compiles()
@@ -129,7 +129,8 @@ def follow(traj, solver, out_dir, json_path, no_plots, force, **kwargs):
                          traj_params=traj_params, body_modules=body_modules, reach=reach, locomotion=locomotion,
                          out_dir=out_dir, json_path=json_path, plots=not no_plots, animate_path=animate_path,
                          stride=stride, rate=rate, robot_file=robot_file, thermal=thermal_params(robot_file),
-                         stream=stream, status=status, frames_progress=_bar(bars, f"Rendering {animate_path}"),
+                         stream=stream, status=functools.partial(status, log=True),
+                         frames_progress=_bar(bars, f"Rendering {animate_path}"),
                          notice=lambda line: click.echo(line, err=True), force=force)
     except interrupted as exc:
         _close(bars)
@@ -159,22 +160,18 @@ def follow(traj, solver, out_dir, json_path, no_plots, force, **kwargs):
 
 
 def _bar(bars: list, label: str):
-    """A progress callback (done, total) drawing a click progress bar on stderr, made at its first call."""
-    state: dict = {}
+    """A progress callback (done, total) showing ``label``'s status (:mod:`bhr.cli._progress`) from its first call."""
+    mine: list = []
 
     def progress(done: int, total: int) -> None:
-        if not sys.stderr.isatty():  # the bar only on a terminal: piped, stderr stays empty unless something fails
-            return
-        if "bar" not in state:
-            bar = click.progressbar(length=total, label=label, file=sys.stderr, show_pos=True)
-            state["bar"], state["done"] = bar.__enter__(), 0
-            bars.append(bar)
-        state["bar"].update(done - state["done"])  # done: how many so far
-        state["done"] = done
+        if not mine:
+            mine.append(start(label, total, log=True))
+            bars.append(mine[0])
+        mine[0].set(done, total)
 
     return progress
 
 
 def _close(bars: list) -> None:
     while bars:
-        bars.pop().__exit__(None, None, None)
+        stop(bars.pop())

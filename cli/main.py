@@ -10,7 +10,8 @@ from typing import NoReturn
 
 import click
 
-from bhr.cli._interrupt import end_interrupted
+from bhr.cli._interrupt import end_interrupted, install, settle
+from bhr.settings.errors import INTERRUPTED
 
 # command name -> "module:attribute", imported only when the command runs.
 COMMANDS: dict[str, tuple[str, str]] = {
@@ -44,8 +45,6 @@ class LazyGroup(click.Group):
         try:
             self._run(args, prog_name, complete_var, **extra)
         finally:  # the command has ended (outputs written or not): a Ctrl-C from now on changes nothing
-            from bhr.settings.interrupts import settle
-
             settle()
 
     def _run(self, args, prog_name, complete_var, **extra):
@@ -66,28 +65,28 @@ class LazyGroup(click.Group):
         except click.ClickException as exc:
             exc.show()
             sys.exit(exc.exit_code)
-        except click.Abort:
-            from bhr.settings.errors import INTERRUPTED
-
-            if INTERRUPTED.is_set():  # click turns a Ctrl-C into Abort
-                end_interrupted()
+        except click.Abort as exc:
+            if INTERRUPTED.is_set() or isinstance(exc.__cause__, KeyboardInterrupt):  # click's Abort of a Ctrl-C
+                end_interrupted(exc.__cause__)
             click.echo("Aborted.", err=True)
             sys.exit(1)
-        except (EOFError, KeyboardInterrupt):
-            end_interrupted()
+        except (EOFError, KeyboardInterrupt) as exc:
+            end_interrupted(exc)
         except Exception:
-            from bhr.settings.errors import INTERRUPTED
-
             # a signal's KeyboardInterrupt raised inside a library's callback can come back as that library's
             # error (matplotlib's renderer: "ValueError: Invalid bounding box"): the interrupt is what happened
             if INTERRUPTED.is_set():
                 end_interrupted()
             raise
-        from bhr.settings.errors import INTERRUPTED
-
         if INTERRUPTED.is_set():  # a Ctrl-C that something caught on the way: still honoured
             end_interrupted()
         sys.exit(rv if isinstance(rv, int) else 0)
+
+    def invoke(self, ctx: click.Context):
+        try:
+            return super().invoke(ctx)
+        except KeyboardInterrupt as exc:  # before click's main turns it into Abort (and an empty line)
+            end_interrupted(exc)
 
     def list_commands(self, ctx: click.Context) -> list[str]:
         return sorted(COMMANDS)
@@ -118,8 +117,9 @@ def main() -> None:
 
 
 def run() -> NoReturn:
-    """The ``bhr`` program (the launcher cli/bhr and ``python -m bhr.cli.main`` run this; tests that call
-    :func:`main` in-process are unaffected): the command, then the end of the process.
+    """The ``bhr`` program (its ``[project.scripts]`` entry point, and ``python -m bhr.cli.main``; tests that call
+    :func:`main` in-process are unaffected): Ctrl-C, SIGTERM and SIGHUP raise KeyboardInterrupt (unless the caller
+    ignored them), then the command, then the end of the process.
 
     Once a command has ended, its outputs written and closed, what is left of a normal exit is Python freeing
     every object the command made and collecting the cycles of its figures: about 0.4 s of CPU after
@@ -130,6 +130,7 @@ def run() -> NoReturn:
     need Python's own exit (a thread still running, an exit status that is not a number, a stream that cannot
     be flushed), Python's exit is used, as before.
     """
+    install()
     _hold_closed_streams()
     try:
         main()

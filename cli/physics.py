@@ -58,7 +58,7 @@ def physics(run, out_dir, force, wall_stiffness, physics_rate, substeps):
     result = load_run(run)
 
     require("mujoco")
-    with status(f"replaying {result.steps} steps in MuJoCo"):
+    with status(f"replaying {result.steps} steps in MuJoCo", log=True):
         rep = replay_physics(result, **opts)
     from bhr.output.plots import save_figure
     from bhr.output.view import save_view

@@ -4,10 +4,8 @@ Also home of the helpers that ``bhr follow --show/--animate`` share with it.
 """
 from __future__ import annotations
 
-import contextlib
 import sys
 from pathlib import Path
-from typing import Any
 
 import click
 
@@ -36,18 +34,10 @@ def render_animation(result, animate_path: str, stride: int | None, shown: Path 
     from bhr.output.animate import animate, default_stride, frame_steps
 
     total = len(frame_steps(result.steps, stride or default_stride(result.steps)))
-    # the bar only on a terminal: piped or logged, stderr stays empty unless something fails (then one line)
-    progressbar: Any = click.progressbar(length=total, label=f"Rendering {animate_path}", file=sys.stderr,
-                                         show_pos=True) if sys.stderr.isatty() else contextlib.nullcontext()
-    with progressbar as bar:
-        done = [0]
+    from bhr.cli._progress import status
 
-        def progress(k: int, _total: int) -> None:
-            if bar is not None:
-                bar.update(k - done[0])
-            done[0] = k
-
-        anim = animate(result, animate_path, stride=stride, progress=progress)
+    with status(f"Rendering {animate_path}", total) as bar:
+        anim = animate(result, animate_path, stride=stride, progress=bar.set)
     click.echo(f"Animation: {anim.frames} frames (every {anim.stride} step{'s' if anim.stride > 1 else ''} of "
                f"{result.steps}), {anim.bytes / 1e6:.2f} MB -> {shown or anim.path}")  # the summary: standard output
     return anim.path

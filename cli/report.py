@@ -55,7 +55,7 @@ def report(batch_path, batch_old, out_dir, force, jobs, inline_images, no_plots)
     workers = min(jobs or os.cpu_count() or 1, total)
     announce_compiles()
     starting = f"(starting {workers} worker processes)" if workers > 1 else ""
-    with status(f"Running {total} runs", total=total) as bar:
+    with status(f"Running {total} runs", total=total, log=True) as bar:
         bar.item = starting
 
         def progress(done: int, _total: int, row: dict) -> None:

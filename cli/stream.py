@@ -1,7 +1,6 @@
 """bhr stream: send a codes.csv to the actuator board over a serial port."""
 from __future__ import annotations
 
-import contextlib
 import sys
 
 import click
@@ -79,16 +78,14 @@ def stream(codes_path, rate, schedule, at_end, dry_run, **link_kw):
                    f"accepts them {how}, procedure time {format_duration(sched.total_s)}", err=True)
         return
 
+    from bhr.cli._progress import status
     from bhr.hardware.link import BoardLink, StreamInterrupted, run_stream
 
     times = sched.times_ms / 1000.0 if schedule == "auto" else None
     events: list = []
-    # The bar only on a terminal: in a pipe or a log, stderr stays empty unless something fails.
-    show_bar = sys.stderr.isatty()
     with BoardLink(port, **link_args) as link, stop_on_signals():
         try:
-            with (click.progressbar(length=n_rows, label=f"streaming to {port}", file=sys.stderr, show_pos=True)
-                  if show_bar else contextlib.nullcontext()) as bar:
+            with status(f"streaming to {port}", n_rows, log=True) as bar:
                 printer = fault_printer(port)
 
                 def on_fault(step: int, names: list[str]) -> None:
@@ -97,7 +94,7 @@ def stream(codes_path, rate, schedule, at_end, dry_run, **link_kw):
 
                 report = run_stream(link, table, rate=rate, times=times, on_fault=on_fault, wait_ready=True,
                                     wait_relaxed=schedule == "auto", at_end=at_end,
-                                    progress=(lambda done, total: bar.update(1)) if bar is not None else None)
+                                    progress=bar.set)
         except StreamInterrupted as exc:
             exit_interrupted(exc, n_rows, "rows")
     sent = report.sent

@@ -78,16 +78,13 @@ def sweep(sweep_file, trajs, solvers, grid, robot_file, out_dir, force, jobs, sc
                             what="sweep output folder", force=force)  # before any work
     out = folder.final("")
     total = len(s)
-    from bhr.studies.executor import scheduler_client
+    from bhr.studies.cluster import scheduler_client
 
     where = f"on {scheduler}" if scheduler else ""
     with scheduler_client(scheduler) as client:  # fails in one line before anything starts
         announce_compiles()
-        with status(f"Running {total} designs {where}".rstrip(), total=total) as bar:
-            def progress(done: int, _total: int) -> None:
-                bar.update(done - bar.done)
-
-            result = run_sweep(s, jobs=jobs, scheduler=client, progress=progress)
+        with status(f"Running {total} designs {where}".rstrip(), total=total, log=True) as bar:
+            result = run_sweep(s, jobs=jobs, scheduler=client, progress=bar.set)
     with status(f"writing {out}"), folder:
         files = [folder.final(p.name) for p in write_outputs(result, folder.stage, plot=not no_plot, x=hx, y=hy)]
     return print_study(folder, out_dir, format_summary(result), files, len(result.failed), total, "designs",

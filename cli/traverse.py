@@ -1,7 +1,6 @@
 """bhr traverse: which robot designs get through a population of anatomical colons."""
 from __future__ import annotations
 
-import sys
 
 import click
 
@@ -72,24 +71,15 @@ def traverse(grid, colons, solvers, target_pass, robot_file, out_dir, force, job
     folder = default_output("traverse", "traverse", (dataclasses.asdict(study), hx, hy),
                             input_files(robot_file), OUTPUTS + ("manifest.json",), out_dir,
                             what="study output folder", force=force)  # before any work
-    from bhr.studies.executor import scheduler_client
+    from bhr.cli._progress import status
+    from bhr.studies.cluster import scheduler_client
 
-    err = sys.stderr
     total = len(study)
     label = f"{total} runs ({study.designs} designs x {len(study.colons)} colons)" + (
         f" on {scheduler}" if scheduler else "")
     with scheduler_client(scheduler) as client:  # fails in one line before anything starts
-        if err.isatty():
-            with click.progressbar(length=total, label=label, file=err, show_pos=True, show_eta=True) as bar:
-                last = [0]
-
-                def progress(done: int, _total: int) -> None:
-                    bar.update(done - last[0])
-                    last[0] = done
-
-                result = run_study(study, jobs=jobs, scheduler=client, progress=progress)
-        else:  # piped or logged: no bar
-            result = run_study(study, jobs=jobs, scheduler=client)
+        with status(label, total, log=True) as bar:
+            result = run_study(study, jobs=jobs, scheduler=client, progress=bar.set)
     with folder:
         files = write_study(result, folder, plot=not no_plot, x=hx, y=hy, physics=physics)
     return print_study(folder, out_dir, format_study(result), files, len(result.failed), total, "runs", "runs.csv")

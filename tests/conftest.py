@@ -2,9 +2,12 @@
 from __future__ import annotations
 
 import os
+import select
 import shutil
+import signal
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import pytest
@@ -20,6 +23,18 @@ def bhr_exe() -> list[str]:
     return [exe]
 
 
+def cli_install_command(extra: str) -> str:
+    """``install_command(extra)`` as the bhr command prints it: with the Python that runs the command (its script's
+    ``#!`` line, e.g. the venv's python3), which may be another name for this test run's Python."""
+    import shlex
+
+    from bhr.settings.extras import install_command
+
+    first = Path(bhr_exe()[0]).read_text(errors="replace").splitlines()[0] if bhr_exe()[0] != sys.executable else ""
+    python = first[2:].strip() if first.startswith("#!") else sys.executable
+    return install_command(extra).replace(shlex.quote(sys.executable), shlex.quote(python), 1)
+
+
 @pytest.fixture
 def run_bhr(tmp_path):
     """Run `bhr ARGS...` in a subprocess (cwd = a temporary folder); return CompletedProcess."""
@@ -31,6 +46,50 @@ def run_bhr(tmp_path):
                               text=True, timeout=timeout, env=env, input=input)
 
     return run
+
+
+def foreground() -> None:
+    """``preexec_fn`` of a command a test sends signals to: Ctrl-C, SIGTERM and SIGHUP at their default actions, as
+    a shell's foreground job has them, whatever this test run inherited (``bash tests/run &`` and nohup ignore
+    some of them, and a child inherits what is ignored)."""
+    for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
+        signal.signal(sig, signal.SIG_DFL)
+
+
+def start_bhr(args, cwd: Path, env: dict | None = None, preexec_fn=foreground) -> subprocess.Popen:
+    """Start `bhr ARGS...` in its own session, stdout and stderr piped (bytes, unbuffered), its progress lines
+    written as its work starts and at every step (BHR_PROGRESS_INTERVAL=0): :func:`wait_for_stderr` waits for one."""
+    env = dict(env or os.environ, BHR_PROGRESS_INTERVAL="0")
+    env.setdefault("MPLBACKEND", "Agg")
+    return subprocess.Popen(bhr_exe() + [str(a) for a in args], cwd=cwd, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, bufsize=0, env=env, start_new_session=True, preexec_fn=preexec_fn)
+
+
+def wait_for_stderr(p: subprocess.Popen, needle: str, timeout: float = 300.0) -> str:
+    """Read ``p``'s stderr until it holds ``needle`` (a readiness line); return what was read. The timeout is only
+    a guard against a hang: the test waits for the line, not for a time."""
+    got, fd, deadline = b"", p.stderr.fileno(), time.monotonic() + timeout
+    while needle.encode() not in got:
+        ready, _, _ = select.select([fd], [], [], max(0.0, deadline - time.monotonic()))
+        chunk = os.read(fd, 65536) if ready else b""
+        if not chunk:
+            raise AssertionError(f"no {needle!r} on bhr's stderr ({'ended' if ready else 'timed out'}): "
+                                 f"{got.decode(errors='replace')[-2000:]}")
+        got += chunk
+    return got.decode(errors="replace")
+
+
+def finish(p: subprocess.Popen, read: str = "", timeout: float = 300.0) -> tuple[int, str, list[str]]:
+    """Wait for ``p``; its exit status, stdout, and the lines of its stderr (with ``read``, what was read before)
+    that are neither progress lines nor the first-compile notice."""
+    out, err = p.communicate(timeout=timeout)
+    lines = (read + err.decode(errors="replace")).strip().splitlines()
+    return p.returncode, out.decode(errors="replace"), [
+        ln for ln in lines if ln.strip() and not ln.startswith("Compiling bhr's") and not PROGRESS.match(ln)]
+
+
+#: A progress line of a command whose stderr is not a terminal (bhr.cli._progress): ``label: ..., N s``.
+PROGRESS = __import__("re").compile(r"^.+: .*\b\d+ s$")
 
 
 def snapshot(folder: Path) -> dict[str, tuple[int, int]]:
@@ -67,6 +126,10 @@ def pytest_collection_modifyitems(config, items):
             if fixture in fixtures and layer == "unit":
                 raise pytest.UsageError(f"{item.nodeid} uses {fixture}: move it to tests/{home}/")
         item.add_marker(getattr(pytest.mark, layer))
+
+# Progress lines of long commands whose stderr is not a terminal come every 30 s: a test that pins what a command
+# writes to stderr must not depend on how fast this machine is, so they come once an hour unless a test asks.
+os.environ.setdefault("BHR_PROGRESS_INTERVAL", "3600")
 
 # A command that had to compile starts the other commands' kernels compiling in the background
 # (bhr.warmup); tests run many fresh caches, so they turn it off (test_startup checks it).

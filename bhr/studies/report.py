@@ -248,12 +248,7 @@ def execute_run(spec: RunSpec, out_dir: str | os.PathLike[str] | None = None, pl
     ``figures`` (file names written).
     """
     t0 = time.perf_counter()
-    row: dict[str, Any] = {"name": spec.name, "status": "ok", "traj": spec.traj, "solver": spec.solver,
-                           "description": spec.description, "inputs": spec.inputs()}
-    for key in ROW_FIELDS:
-        row.setdefault(key, None)
-    row["warnings"] = []
-    row["figures"] = []
+    row = _blank_row(spec)
     with capture(row, keep_traceback=True):  # one failed run must not stop the batch
         robot = robot_from_options(spec.robot_params, spec.robot_file)
         row["robot"] = robot.to_dict()
@@ -310,6 +305,21 @@ def _without_file_text(status: str, files: tuple[str | None, ...]) -> str:
     return _QUOTED.sub(hide, status) if texts else status
 
 
+def _blank_row(spec: RunSpec, status: str = "ok") -> dict[str, Any]:
+    row: dict[str, Any] = {"name": spec.name, "status": status, "traj": spec.traj, "solver": spec.solver,
+                           "description": spec.description, "inputs": spec.inputs()}
+    for key in ROW_FIELDS:
+        row.setdefault(key, None)
+    row["warnings"] = []
+    row["figures"] = []
+    return row
+
+
+def _lost_job(job: tuple[RunSpec, str | None, bool], why: str) -> dict[str, Any]:
+    """The row of a run whose worker process died."""
+    return _blank_row(job[0], f"failed: {why}")
+
+
 def _execute_job(job: tuple[RunSpec, str | None, bool]) -> dict[str, Any]:
     spec, out, plots = job
     return execute_run(spec, out, plots)
@@ -356,7 +366,7 @@ def run_batch(batch: Batch, out_dir: str | os.PathLike[str], *, jobs: int = 1, p
     solvers = tuple(dict.fromkeys(spec.solver for spec in batch.runs))
     # one run per job: runs last from a fraction of a second to minutes, so workers take them one at a time
     done = run_jobs(_execute_job, job_list, jobs=jobs, warm_up=warm_up, warm_up_args=(solvers, plots), max_chunk=1,
-                    progress=progress)
+                    progress=progress, lost=_lost_job)
     rows, wall = done.rows, done.wall_time_s
     final: list[dict[str, Any]] = []
     for row, s in zip(rows, slugs):

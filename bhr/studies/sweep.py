@@ -33,7 +33,8 @@ from bhr import __version__
 from bhr.output.atomic import write_json, write_text
 from bhr.settings.errors import BhrError
 from bhr.settings.inputs import check_document, read_toml
-from bhr.studies.executor import capture, connect_scheduler, dask_missing, run_jobs
+from bhr.studies.cluster import connect_scheduler, dask_missing
+from bhr.studies.executor import capture, run_jobs
 from bhr.model.generators import GENERATORS, builtin_names, load_trajectory
 from bhr.run.driver import BhrWarning, follow
 from bhr.output.htmlpage import PAGE_END, escape, figure, fmt, page_head, table
@@ -340,9 +341,7 @@ def run_design(design: dict[str, Any], traj_source: str, base_robot: dict[str, A
                extra: Sequence[str] = ()) -> dict[str, Any]:
     """Follow one design's trajectory; return its row (design keys, :data:`METRICS`, then the summary's
     ``extra`` keys as they are, None where the summary lacks one). Never raises."""
-    row: dict[str, Any] = dict(design)
-    row.update({k: None for k in (*METRICS, *extra)})
-    row["status"] = "ok"
+    row = _blank_row(design, extra)
     with capture(row):  # one failed design must not stop the sweep
         robot = make_robot({ROBOT_KEYS[k]: v for k, v in design.items() if k in ROBOT_KEYS}, base_robot)
         row["min_turn_radius_mm"] = robot.min_turn_radius
@@ -355,6 +354,15 @@ def run_design(design: dict[str, Any], traj_source: str, base_robot: dict[str, A
         row.update(summary_row(summary))
         row.update({k: summary.get(k) for k in extra})
     return row
+
+
+def _blank_row(design: dict[str, Any], extra: Sequence[str] = (), status: str = "ok") -> dict[str, Any]:
+    return {**design, **{k: None for k in (*METRICS, *extra)}, "status": status}
+
+
+def _lost_design(item: tuple[Any, ...], why: str) -> dict[str, Any]:
+    """The row of a design whose worker process died."""
+    return _blank_row(item[0], item[3] if len(item) > 3 else (), f"failed: {why}")
 
 
 def run_chunk(chunk: Sequence[tuple[Any, ...]]) -> list[tuple[int, dict[str, Any]]]:
@@ -400,7 +408,7 @@ def run_sweep(sweep: Sweep, *, jobs: int | None = None, scheduler: Any = None,
     items = [(d, sweep.traj_sources.get(d["traj"], d["traj"]), base, *((sweep.extra,) if sweep.extra else ()))
              for d in sweep.designs()]
     done = run_jobs(_design_job, items, jobs=jobs, scheduler=scheduler, warm_up=warm_up,
-                    warm_up_args=(sweep.solvers,),
+                    warm_up_args=(sweep.solvers,), lost=_lost_design,
                     progress=None if progress is None else (lambda d, t, _row: progress(d, t)))
     final = [{"design": i + 1, **r} for i, r in enumerate(done.rows)]
     return SweepResult(sweep, final, done.wall_time_s, done.runner, done.workers)

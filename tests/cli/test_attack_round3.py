@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-from tests.conftest import bhr_exe, snapshot
+from tests.conftest import bhr_exe, finish, snapshot, start_bhr, wait_for_stderr
 
 ENV = dict(os.environ, MPLBACKEND="Agg")
 
@@ -28,73 +28,36 @@ def one_line(r: subprocess.CompletedProcess) -> str:
     return lines[0]
 
 
-# --- Ctrl-C from the first instant ----------------------------------------------------------------------------
+# --- Ctrl-C while the work runs ------------------------------------------------------------------------------
 
 def _living(session: int) -> list[str]:
     out = subprocess.run(["ps", "-s", str(session), "-o", "pid=,stat=,args="], capture_output=True, text=True).stdout
     return [ln for ln in out.splitlines() if ln.split() and "Z" not in ln.split()[1]]
 
 
-def _codes(n_rows: int, modules: int) -> str:
-    cycle = [0, 3, 6, 9, 12, 15]
-    rows = [",".join(str(cycle[(r // 40 + m) % 6] if r % 40 == 0 else cycle[(r // 40 + m) % 6])
-                     for m in range(modules)) for r in range(n_rows)]
-    return "step," + ",".join(f"m{m + 1}" for m in range(modules)) + "\n" + "".join(
-        f"{k + 1},{row}\n" for k, row in enumerate(rows))
-
-
-#: The earliest moment: as soon as the launcher has blocked Ctrl-C (env --block-signal), that is while Python
-#: starts and imports. Before that, the loading of sh and of env (each well under a millisecond, but at a moment
-#: that moves with the machine's load) is the one time a Ctrl-C ends the command by the signal itself, as it
-#: would any program before its first instruction (docs/commands.md, tests/benchmarks/early_interrupt.py).
-EARLY = 0.005
-
-
-def _when_held(pid: int, timeout: float = 5.0) -> None:
-    """Return as soon as process ``pid`` blocks SIGINT (its SigBlk in /proc), or when it ends."""
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        try:
-            status = Path(f"/proc/{pid}/status").read_text()
-        except OSError:
-            return
-        blocked = next((int(ln.split()[1], 16) for ln in status.splitlines() if ln.startswith("SigBlk:")), 0)
-        if blocked & (1 << (signal.SIGINT - 1)):
-            return
-        time.sleep(0.0002)
-    raise AssertionError(f"bhr (pid {pid}) did not block Ctrl-C within {timeout} s")
-
-
 COMMANDS = {
-    "follow": (["follow", "--traj", "colon"], [EARLY, 0.05, 0.2, 0.6]),
-    "sweep": (["sweep", "--traj", "colon", "--grid", "modules=3:12", "--grid", "alpha=6:15", "--jobs", "2"],
-              [EARLY, 0.1, 0.5, 1.0]),
-    "traverse": (["traverse", "--colons", "1-4", "--jobs", "2"], [EARLY, 0.3, 1.0]),
-    "report": (["report", "--file", "b.toml", "--jobs", "2"], [EARLY, 0.3, 1.0]),
-    "plan": (["plan", "--codes", "codes.csv"], [EARLY, 0.05, 0.15]),
-    "stream": (["stream", "--codes", "codes.csv", "--dry-run"], [EARLY, 0.05, 0.15]),
+    "follow": ["follow", "--traj", "colon"],
+    "sweep": ["sweep", "--traj", "colon", "--grid", "modules=3:12", "--grid", "alpha=6:15", "--jobs", "2"],
+    "traverse": ["traverse", "--colons", "1-4", "--jobs", "2"],
+    "report": ["report", "--file", "b.toml", "--jobs", "2"],
 }
+#: The readiness line of each command's work, and its line once some of it is done.
+READY = {"follow": ("following colon", None), "sweep": ("Running 100 designs: 0/100", "Running 100 designs: 1/100"),
+         "traverse": ("4 runs (1 designs x 4 colons): 0/4", "4 runs (1 designs x 4 colons): 1/4"),
+         "report": ("Running 4 runs: 0/4", "Running 4 runs: 1/4")}
 
 
-@pytest.mark.parametrize("name, delay", [(n, d) for n, (_, ds) in COMMANDS.items() for d in ds],
-                         ids=[f"{n}-held" if d == EARLY else f"{n}-{int(d * 1000)}ms" for n, (_, ds) in COMMANDS.items()
-                              for d in ds])
-def test_ctrl_c_at_a_spread_of_moments(tmp_path, name, delay):
-    # the launcher holds a Ctrl-C during Python's start-up and imports; the command honours it at once after
+@pytest.mark.parametrize("name, when", [(n, w) for n in READY for w in (0, 1) if READY[n][w]])
+def test_ctrl_c_while_a_command_works(tmp_path, name, when):
+    # as its work starts (workers starting), and once some of it is done (workers busy): one line, nothing written
     (tmp_path / "b.toml").write_text("".join(f'[[run]]\nname = "r{k}"\ntraj = "colon"\nmodules = {3 + k}\n'
                                              for k in range(4)))
-    (tmp_path / "codes.csv").write_text(_codes(4000, 12))
     before = snapshot(tmp_path)
-    p = subprocess.Popen(bhr_exe() + COMMANDS[name][0], cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                         text=True, env=ENV, start_new_session=True)
-    if delay == EARLY:
-        _when_held(p.pid)
-    else:
-        time.sleep(delay)
+    p = start_bhr(COMMANDS[name], tmp_path)
+    read = wait_for_stderr(p, READY[name][when])
     os.killpg(p.pid, signal.SIGINT)  # as a terminal's Ctrl-C: the whole process group
-    out, err = p.communicate(timeout=120)
-    lines = [ln for ln in err.strip().splitlines() if not ln.startswith("Compiling bhr's")]
-    assert p.returncode == 130 and lines == ["Interrupted."], (p.returncode, err[-2000:])
+    code, _, lines = finish(p, read)
+    assert code == 130 and lines == ["Interrupted."], (code, read)
     assert snapshot(tmp_path) == before  # no folder, not even bhr-out/
     deadline = time.monotonic() + 20
     while _living(p.pid) and time.monotonic() < deadline:  # workers go with their parent
@@ -189,11 +152,6 @@ def test_a_bhr_folder_in_the_current_folder_does_not_replace_the_installed_bhr(t
     assert r.returncode == 0 and "wrong bhr" not in r.stderr, r.stderr
 
 
-def _default_signals():
-    for sig in (signal.SIGTERM, signal.SIGHUP):  # as a terminal's session has them (not nohup's ignored SIGHUP)
-        signal.signal(sig, signal.SIG_DFL)
-
-
 @pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGHUP], ids=["SIGTERM", "SIGHUP"])
 @pytest.mark.parametrize("name, to_group", [("follow", False), ("sweep", False), ("sweep", True), ("report", True)],
                          ids=["follow", "sweep", "sweep-group", "report-group"])
@@ -202,55 +160,16 @@ def test_sigterm_and_sighup_end_a_command_as_a_ctrl_c_does(tmp_path, sig, name, 
     (tmp_path / "b.toml").write_text("".join(f'[[run]]\nname = "r{k}"\ntraj = "colon"\nmodules = {3 + k}\n'
                                              for k in range(4)))
     before = snapshot(tmp_path)
-    p = subprocess.Popen(bhr_exe() + COMMANDS[name][0], cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                         text=True, env=ENV, start_new_session=True, preexec_fn=_default_signals)
-    time.sleep(1.0)
+    p = start_bhr(COMMANDS[name], tmp_path)
+    read = wait_for_stderr(p, READY[name][0])
     (os.killpg if to_group else os.kill)(p.pid, sig)
-    out, err = p.communicate(timeout=120)
-    lines = [ln for ln in err.strip().splitlines() if not ln.startswith("Compiling bhr's")]
-    assert p.returncode == 128 + sig and lines == [f"Interrupted by {sig.name}."], (p.returncode, err[-2000:])
+    code, _, lines = finish(p, read)
+    assert code == 128 + sig and lines == [f"Interrupted by {sig.name}."], (code, read)
     assert snapshot(tmp_path) == before and sorted(os.listdir(tmp_path)) == ["b.toml"]
     deadline = time.monotonic() + 20
     while _living(p.pid) and time.monotonic() < deadline:
         time.sleep(0.2)
     assert _living(p.pid) == []
-
-
-def _launcher_held_before_python(tmp_path, **popen):
-    """bhr's launcher script running ``fk`` with a slow ``env`` on the PATH (a loaded machine): its shell is held
-    for 2 s before Python starts. Returns the process, 0.5 s in."""
-    launcher = Path(bhr_exe()[0])
-    if not launcher.read_bytes().startswith(b"#!/bin/sh"):
-        pytest.fail(f"{launcher} is not bhr's launcher script (cli/bhr)")
-    real_env = shutil.which("env")
-    slow = tmp_path / "bin"
-    slow.mkdir()
-    # the launcher's check (env --block-signal=... --version) is slow, not the exec that starts Python
-    (slow / "env").write_text(f'#!/bin/sh\ncase "$2" in --version|true) sleep 2;; esac\nexec {real_env} "$@"\n')
-    (slow / "env").chmod(0o755)
-    p = subprocess.Popen([str(launcher), "fk", "--codes", "0,3"], cwd=tmp_path, stdout=subprocess.PIPE,
-                         stderr=subprocess.PIPE, text=True, start_new_session=True,
-                         env=dict(ENV, PATH=f"{slow}{os.pathsep}{ENV.get('PATH', '')}"), **popen)
-    time.sleep(0.5)
-    return p
-
-
-@pytest.mark.parametrize("sig, line", [(signal.SIGINT, "Interrupted."), (signal.SIGTERM, "Interrupted by SIGTERM."),
-                                       (signal.SIGHUP, "Interrupted by SIGHUP.")], ids=["SIGINT", "SIGTERM", "SIGHUP"])
-def test_a_signal_while_the_launcher_script_runs_is_one_line(tmp_path, sig, line):
-    p = _launcher_held_before_python(tmp_path, preexec_fn=_default_signals)
-    os.kill(p.pid, sig)
-    out, err = p.communicate(timeout=60)
-    assert (p.returncode, err, out) == (128 + sig, line + "\n", "")
-
-
-def test_a_ctrl_c_while_the_launcher_script_runs_is_interrupted(tmp_path):
-    # the launcher's shell runs env (its check for --block-signal, then exec) before Python starts; a slow env
-    # (a loaded machine) holds it there: a Ctrl-C then still ends in "Interrupted." and 130, not the signal
-    p = _launcher_held_before_python(tmp_path)
-    os.killpg(p.pid, signal.SIGINT)
-    out, err = p.communicate(timeout=60)
-    assert (p.returncode, err, out) == (130, "Interrupted.\n", "")
 
 
 def test_a_file_too_large_with_a_cold_kernel_cache_names_the_output(tmp_path):

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from tests.conftest import bhr_exe, snapshot
+from tests.conftest import bhr_exe, foreground, snapshot
 
 from tests.cli.test_attack_round3 import ENV, bhr, one_line  # the same checks as round three
 
@@ -297,7 +297,7 @@ def test_a_ctrl_c_while_the_animation_renders_leaves_no_folder(tmp_path, cmd):
         args = ["follow", "--traj", "colon", "--no-plots", "--out", "figs", "--animate", "a.gif"]
     before = snapshot(tmp_path)
     p = subprocess.Popen(bhr_exe() + args, cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                         env=ENV, start_new_session=True)
+                         env=ENV, start_new_session=True, preexec_fn=foreground)
     deadline = time.monotonic() + 240
     while not [n for n in os.listdir(tmp_path) if n.startswith(".a.gif.")]:  # the animation's file being written
         assert p.poll() is None and time.monotonic() < deadline, p.communicate()

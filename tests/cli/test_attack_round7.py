@@ -9,12 +9,11 @@ import json
 import os
 import signal
 import subprocess
-import time
 from pathlib import Path
 
 import pytest
 
-from tests.conftest import bhr_exe, snapshot
+from tests.conftest import bhr_exe, finish, foreground, snapshot, start_bhr, wait_for_stderr
 
 from tests.cli.test_attack_round3 import ENV, bhr, one_line  # the same checks as rounds three to five
 from tests.cli.test_attack_round5 import loose_run as loose_run_files  # noqa: F401  (a fixture)
@@ -120,19 +119,12 @@ def _background_job():
 def test_kill_of_a_background_job_ends_it_as_in_the_foreground(tmp_path, sig, args):
     # with Ctrl-C ignored (a background job), bhr installed no handler at all: kill PID ended it by the signal, with
     # no line, its staging folder and bhr-out/ left behind
-    p = subprocess.Popen(bhr_exe() + args, cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                         env=ENV, start_new_session=True, preexec_fn=_background_job)
-    if args[0] == "follow":  # solved in about a second here: the signal comes while its figures are drawn
-        deadline = time.monotonic() + 120
-        while not (tmp_path / "bhr-out").exists():
-            assert p.poll() is None and time.monotonic() < deadline, p.communicate()
-            time.sleep(0.01)
-    else:
-        time.sleep(1.5)
+    p = start_bhr(args, tmp_path, preexec_fn=_background_job)
+    # follow: while its figures are drawn; sweep: once its workers are busy
+    read = wait_for_stderr(p, "drawing the figures" if args[0] == "follow" else "Running 100 designs: 1/100")
     os.kill(p.pid, sig)
-    out, err = p.communicate(timeout=120)
-    lines = [ln for ln in err.strip().splitlines() if not ln.startswith("Compiling bhr's")]
-    assert p.returncode == 128 + sig and lines == [f"Interrupted by {sig.name}."], (p.returncode, err[-2000:])
+    code, _, lines = finish(p, read)
+    assert code == 128 + sig and lines == [f"Interrupted by {sig.name}."], (code, read)
     assert list(tmp_path.iterdir()) == []
 
 
@@ -330,8 +322,9 @@ def test_a_signal_while_the_folder_goes_in_place_changes_nothing(tmp_path, sig):
     # the command ends with its own status; a signal before that still leaves nothing (the tests above).
     python = str(Path(bhr_exe()[0]).parent / "python")
     r = subprocess.run([python, "-c", SLOW_RENAME, sig], cwd=tmp_path, capture_output=True, text=True, timeout=300,
-                       env=ENV)
-    assert (r.returncode, r.stderr) == (0, ""), r.stderr[-1500:]
+                       env=ENV, preexec_fn=foreground)
+    lines = [ln for ln in r.stderr.splitlines() if not ln.startswith("Compiling bhr's")]  # a cold kernel cache
+    assert (r.returncode, lines) == (0, []), r.stderr[-1500:]
     assert "Wrote o/codes.csv" in r.stdout
     assert sorted(os.listdir(tmp_path / "o")) == ["codes.csv", "manifest.json", "run.json", "steps.csv"]
 

@@ -18,7 +18,7 @@ from pathlib import Path
 import pytest
 
 from bhr.settings.extras import install_command, source_folder
-from tests.conftest import bhr_exe
+from tests.conftest import bhr_exe, cli_install_command
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -91,7 +91,7 @@ def test_without_a_usable_folder_it_falls_back_to_this_copys_source_folder(tmp_p
 
 
 def test_the_physics_and_dask_errors_carry_the_command():
-    from bhr.studies.executor import dask_missing
+    from bhr.studies.cluster import dask_missing
     from bhr.studies.physics import missing
 
     assert missing("mujoco") == f"mujoco is not installed; install the physics extra: {install_command('physics')}"
@@ -113,5 +113,5 @@ def test_bhr_physics_without_mujoco_prints_the_command_in_one_line(tmp_path):
     proc = subprocess.run(bhr_exe() + ["physics", str(run), "--out", "bhr-out/p"], cwd=tmp_path, env=env,
                           capture_output=True, text=True, timeout=300)
     assert proc.returncode == 1 and proc.stdout == ""
-    assert proc.stderr == f"Error: mujoco is not installed; install the physics extra: {install_command('physics')}\n"
+    assert proc.stderr == f"Error: mujoco is not installed; install the physics extra: {cli_install_command('physics')}\n"
     assert not (tmp_path / "bhr-out").exists()

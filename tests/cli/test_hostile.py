@@ -17,7 +17,7 @@ from pathlib import Path
 
 import pytest
 
-from tests.conftest import bhr_exe, snapshot
+from tests.conftest import bhr_exe, finish, snapshot, start_bhr, wait_for_stderr
 
 ENV = dict(os.environ, MPLBACKEND="Agg")
 BIG = "9" * 400
@@ -237,30 +237,22 @@ def test_a_full_disk_names_the_output_file(tmp_path):
 
 # --- interrupts honoured --------------------------------------------------------------------------------------
 
-def _interrupt(args, delay, cwd):
-    p = subprocess.Popen(bhr_exe() + args, cwd=cwd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                         env=ENV, start_new_session=True)
-    time.sleep(delay)
-    os.killpg(p.pid, signal.SIGINT)  # as a terminal's Ctrl-C: the whole process group
-    out, err = p.communicate(timeout=120)
-    return p.returncode, err
-
-
-@pytest.mark.parametrize("args, delay", [
-    (["follow", "--traj", "colon"], 0.2),
-    # a run of 5-6 s here (the thesis's colon alone takes under 2 s, so a Ctrl-C at 1.3 s could come after its end)
-    (["follow", "--traj", "anatomy", "--seed", "3", "--solver", "lumen"], 1.3),
-    # workers busy: each study runs 4-6 s here, so the Ctrl-C comes while they work
-    (["sweep", "--traj", "colon", "--grid", "modules=3:12", "--grid", "alpha=6:15", "--jobs", "2"], 1.5),
-    (["report", "--file", "b.toml", "--jobs", "2"], 1.5),
-    (["traverse", "--colons", "1-8", "--jobs", "2"], 1.5),
-], ids=["follow-0.2s", "follow-1.3s", "sweep-1.5s", "report-1.5s", "traverse-1.5s"])
-def test_ctrl_c_at_any_moment(tmp_path, args, delay):
+@pytest.mark.parametrize("args, ready", [
+    (["follow", "--traj", "colon"], "following colon"),
+    (["follow", "--traj", "anatomy", "--seed", "3", "--solver", "lumen"], "following "),
+    (["sweep", "--traj", "colon", "--grid", "modules=3:12", "--grid", "alpha=6:15", "--jobs", "2"],
+     "Running 100 designs: 2/100"),  # workers busy
+    (["report", "--file", "b.toml", "--jobs", "2"], "Running 4 runs: 1/4"),
+    (["traverse", "--colons", "1-8", "--jobs", "2"], ": 1/8"),
+], ids=["follow", "follow-anatomy", "sweep", "report", "traverse"])
+def test_ctrl_c_at_any_moment(tmp_path, args, ready):
     (tmp_path / "b.toml").write_text("".join(f'[[run]]\nname = "r{k}"\ntraj = "colon"\nmodules = {3 + k}\n'
                                              for k in range(4)))
-    rc, err = _interrupt(args, delay, tmp_path)
-    lines = [ln for ln in err.strip().splitlines() if not ln.startswith("Compiling bhr's")]
-    assert rc == 130 and lines == ["Interrupted."], (rc, err)
+    p = start_bhr(args, tmp_path)
+    read = wait_for_stderr(p, ready)
+    os.killpg(p.pid, signal.SIGINT)  # as a terminal's Ctrl-C: the whole process group
+    rc, _, lines = finish(p, read)
+    assert rc == 130 and lines == ["Interrupted."], (rc, read)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["b.toml"]  # no folder, not even bhr-out/
 
 

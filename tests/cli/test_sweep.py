@@ -28,7 +28,7 @@ from bhr.studies.sweep import (
     run_sweep,
     sweep_from_toml,
 )
-from tests.conftest import bhr_exe, snapshot
+from tests.conftest import bhr_exe, cli_install_command, snapshot
 
 REPO = Path(__file__).resolve().parents[2]
 PNG = b"\x89PNG\r\n\x1a\n"
@@ -401,10 +401,8 @@ def test_scheduler_without_dask_installed_is_one_line(tmp_path):
     proc = run_cli("sweep", "--grid", "modules=4", "--scheduler", "tcp://127.0.0.1:1", "--out", "o", cwd=tmp_path,
                    env=env)
     assert proc.returncode != 0
-    from bhr.settings.extras import install_command
-
     assert proc.stderr.strip() == ("Error: --scheduler needs Dask's distributed package, which is not installed; "
-                                   f"install it with: {install_command('dask')}")
+                                   f"install it with: {cli_install_command('dask')}")
     # the local path does not need it
     ok = run_cli("sweep", "--grid", "modules=4", "--jobs", "1", "--no-plot", "--out", "o", cwd=tmp_path, env=env)
     assert ok.returncode == 0, ok.stderr
