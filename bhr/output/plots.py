@@ -526,6 +526,7 @@ def path_figure(result: "FollowResult", step: int | None = None) -> plt.Figure:
         ax = _setup_axes(fig, True, (left / fw, bottom / fh, ax_w / fw, ax_h / fh))
         _draw_context(ax, result, True, every)
         _draw_pose(ax, result, i, True)
+        draw_section_names(ax, traj, True)
         ax.set_xlim(lo[0], hi[0])
         ax.set_ylim(lo[1], hi[1])
         ax.set_title(title, fontsize=10)
@@ -556,6 +557,7 @@ def path_figure(result: "FollowResult", step: int | None = None) -> plt.Figure:
     _draw_context(ax, result, False, every)
     _draw_pose(ax, result, i, False)
     _depth_cue(ax, result, i, ax.get_zlim()[0])
+    draw_section_names(ax, traj, False)
     ax.set_title(title, fontsize=10)
     if zoom:
         ins = fig.add_subplot(1, 2, 2, projection="3d")
@@ -885,6 +887,7 @@ def body_figure(result: "FollowResult") -> plt.Figure:
     assert b is not None, "body_figure needs a run with a body (follow(..., body_modules=M))"
     steps = np.arange(1, result.steps + 1)
     fig, ax = plt.subplots(figsize=(10, 4))
+    draw_sections(ax, result)
     ax.plot(steps, result.point_errors_mm.max(axis=1), color="tab:blue", linewidth=1.0, label="head (largest point)")
     ax.plot(steps, b.point_errors_mm.max(axis=1), color="tab:orange", linewidth=1.0, label="body (largest point)")
     ax.plot(steps, b.point_errors_mm[:, -1], color="tab:brown", linewidth=0.8, linestyle=":", label="tail point")
@@ -918,12 +921,44 @@ def draw_contact_steps(ax: Any, result: "FollowResult") -> list[Any]:
                    label=f"wall contact ({len(steps)} steps, deepest {pen:.2f} mm)")
 
 
+def draw_sections(ax: Any, result: "FollowResult") -> None:
+    """On a per-step figure: the trajectory's anatomical sections as alternate grey bands named at the top
+    (step k targets point k - 1, so a section of points [a, b) covers steps a + 1 ... b)."""
+    sections = getattr(result.trajectory, "sections", ())
+    if not sections:
+        return
+    import matplotlib.transforms as mtransforms
+
+    trans = mtransforms.blended_transform_factory(ax.transData, ax.transAxes)
+    for k, (name, a, b) in enumerate(sections):
+        lo, hi = a + 0.5, min(b, result.steps) + 0.5
+        if lo >= hi:
+            continue
+        if k % 2 == 0:
+            ax.axvspan(lo, hi, color="#e6e9f0", zorder=0, linewidth=0)
+        ax.text((lo + hi) / 2, 0.985, name.replace(" and ", "\nand "), transform=trans, ha="center", va="top",
+                fontsize=7, color="#333", zorder=5, clip_on=True)
+
+
+def draw_section_names(ax: Any, traj: Any, planar: bool) -> None:
+    """On a path view: each anatomical section's name beside its middle point."""
+    for name, a, b in getattr(traj, "sections", ()):
+        p = traj.points[(a + b - 1) // 2]
+        kw = {"fontsize": 7, "color": "#222", "ha": "left", "va": "bottom", "zorder": 10,
+              "bbox": {"boxstyle": "round,pad=0.15", "fc": "white", "ec": "none", "alpha": 0.7}}
+        if planar:
+            ax.text(p[0], p[1], " " + name, **kw)
+        else:
+            ax.text(p[0], p[1], p[2], " " + name, **kw)
+
+
 def clearance_figure(result: "FollowResult") -> plt.Figure:
     """Smallest clearance to the lumen wall at each step (mm); below zero the wall is touched."""
     cl = result.clearance
     assert cl is not None, "clearance_figure needs a trajectory with a lumen"
     steps = np.arange(1, result.steps + 1)
     fig, ax = plt.subplots(figsize=(10, 4), gridspec_kw=_margins(10, 4, 1, 1, left=0.75, top=0.4))  # fixed layout
+    draw_sections(ax, result)
     ax.plot(steps, cl.per_step, color="tab:green", linewidth=1.0, label="smallest clearance")
     ax.axhline(0.0, color="tab:red", linestyle="--", linewidth=0.8, label="wall (clearance 0)")
     mark_wall_touches(ax, result)

@@ -5,7 +5,8 @@ Columns: ``step``, the target ``target_x_mm`` ``target_y_mm`` ``target_z_mm``,
 ``max_global_error`` (1 = at tolerance), each point's position error ``p1_error_mm`` (base)
 ... ``pN_error_mm`` (tip), each module's orientation error ``m1_orientation_error_deg`` ...,
 and when the path has a lumen ``min_clearance_mm`` (empty where nothing is scored yet)
-and ``wall_touched`` (0/1). A whole-body run adds ``body_max_error_mm``. Numbers are
+and ``wall_touched`` (0/1). A whole-body run adds ``body_max_error_mm``; a path with anatomical
+sections (a real colon's landmarks) adds ``section``, the section of the step's target. Numbers are
 the run's own (run.json's), written with 6 decimals.
 """
 from __future__ import annotations
@@ -45,6 +46,9 @@ def format_steps_csv(result: "FollowResult") -> str:
     body = result.body if result.body is not None and result.body.modules else None
     if body is not None:
         head.append("body_max_error_mm")
+    sections = getattr(result.trajectory, "sections", ())
+    if sections:
+        head.append("section")
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
     w.writerow(head)
@@ -58,6 +62,8 @@ def format_steps_csv(result: "FollowResult") -> str:
             row += [_num(per[i]), "1" if i + 1 in touched else "0"]
         if body is not None:
             row.append(_num(body.point_errors_mm[i].max()))
+        if sections:
+            row.append(result.trajectory.section_at(i) or "")
         w.writerow(row)
     return buf.getvalue()
 

@@ -297,6 +297,8 @@ class FollowResult:
         if self.trajectory.lumen is not None:
             traj_doc["lumen"] = [float(v) for v in self.trajectory.lumen]
             traj_doc["lumen_end"] = self.trajectory.lumen_end
+        if self.trajectory.sections:  # the anatomical sections: [name, first point, one past the last]
+            traj_doc["sections"] = [[n, int(a), int(b)] for n, a, b in self.trajectory.sections]
         return {
             "bhr_version": __version__,
             "trajectory": traj_doc,
@@ -419,8 +421,9 @@ def _run_from_json(doc: Any, where: str) -> FollowResult:
         # the figures' titles, view.html and the summary print it: one line of printable text, as in a trajectory
         # file (a line break in it forged a line of the page, an escape garbled it)
         raise bad(f"trajectory name must be one line of printable text, got {excerpt(name)}")
+    sections = _sections_from_json(tr.get("sections"), path.shape[0], bad)
     traj = Trajectory(name, path, dict(params), source=where, lumen=lumen,
-                      lumen_end=lumen_end, start_direction=start_dir, start_point=start_pt)
+                      lumen_end=lumen_end, start_direction=start_dir, start_point=start_pt, sections=sections)
     result = FollowResult(traj, robot, solver, pts, np.asarray(iters, dtype=np.int64), pe, oe, codes,
                           [str(m) for m in msgs] if isinstance(msgs, list) else [])
     result.body = body
@@ -771,6 +774,25 @@ def _follow_trail(traj: Trajectory, robot: Robot, s: Any, solver: str, path: np.
         "procedure_time_s": procedure_time_s(tr),
     }
     return result
+
+
+def _sections_from_json(doc: Any, count: int, bad: Any) -> tuple[tuple[str, int, int], ...]:
+    """A run.json's trajectory sections ([name, first point, one past the last], in order) or ()."""
+    if doc is None:
+        return ()
+    out: list[tuple[str, int, int]] = []
+    prev = 0
+    if not isinstance(doc, list):
+        raise bad("trajectory sections must be a list of [name, first point, one past the last point]")
+    for k, item in enumerate(doc, start=1):
+        ok = (isinstance(item, list) and len(item) == 3 and isinstance(item[0], str) and item[0].isprintable()
+              and 0 < len(item[0]) <= 40 and all(isinstance(v, int) and not isinstance(v, bool) for v in item[1:]))
+        if not ok or not prev <= item[1] < item[2] <= count:
+            raise bad(f"trajectory section {k} must be [name, first point, one past the last point] in order, "
+                      f"within the {count} points, got {excerpt(item)}")
+        prev = item[2]
+        out.append((item[0], item[1], item[2]))
+    return tuple(out)
 
 
 def procedure_time_s(tr: TrailRun) -> float:

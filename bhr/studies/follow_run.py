@@ -102,6 +102,8 @@ def folder_stem(traj: str, seed: int | None) -> str:
     """The readable part of a run's default folder name: the trajectory's name, one folder per anatomy colon."""
     if traj == "anatomy":
         return f"anatomy-{seed if seed is not None else 1}"
+    if traj.startswith("gca:"):  # a real colon: gca-VHM (no colon in a folder's name)
+        return "gca-" + traj[4:]
     return traj if traj in ("line", "curve", "spiral", "colon") else Path(traj).stem
 
 
@@ -363,7 +365,25 @@ def summary_lines(result) -> list[str]:
                  f"tip ends {s['tip_final_error_mm']:.4f} mm and {s['tip_orientation_final_deg']:.3f} deg off.")
     lines += tolerance_lines(s, r)
     lines += body_clearance_lines(s)
+    lines += section_lines(result, s)
     return lines
+
+
+def section_lines(result, s: dict) -> list[str]:
+    """Where the trajectory has anatomical sections: the steps touching the wall in each (a step targets the
+    trajectory point of its number)."""
+    sections = getattr(result.trajectory, "sections", ())
+    touch = s.get("wall_touch_steps")
+    if not sections or touch is None:
+        return []
+    parts = []
+    for name, a, b in sections:
+        lo, hi = a + 1, min(b, result.steps)
+        if lo > hi:
+            continue
+        k = sum(1 for t in touch if lo <= t <= hi)
+        parts.append(f"{name} {k} of {hi - lo + 1}")
+    return ["Wall touched by section (steps): " + ", ".join(parts) + "."] if parts else []
 
 
 def tolerance_lines(s: dict, robot) -> list[str]:

@@ -79,3 +79,44 @@ def test_csv_section_column(tmp_path):
     f.write_text("x,y,z,section\n0,0,0,rec;tum\n1,0,0,a\n")
     with pytest.raises(BhrError, match="line 2: section"):
         load_trajectory(f, feed=0.5)
+
+
+def _sectioned_csv(tmp_path):
+    """A short bent path in two named sections with a 30 mm lumen."""
+    f = tmp_path / "two.csv"
+    a = np.linspace(0.0, np.pi / 2, 40)
+    pts = np.concatenate([np.stack([np.linspace(0, 60, 31)[:-1], np.zeros(30), np.zeros(30)], axis=1),
+                          np.stack([60 + 80 * np.sin(a), 80 * (1 - np.cos(a)), np.zeros(40)], axis=1)])
+    rows = ["x,y,z,lumen,section"] + [f"{x:.4f},{y:.4f},{z:.4f},30,{'rectum' if i < 30 else 'sigmoid'}"
+                                      for i, (x, y, z) in enumerate(pts)]
+    f.write_text("\n".join(rows) + "\n")
+    return f
+
+
+def test_a_run_names_its_sections_in_steps_csv_run_json_summary_and_figures(tmp_path):
+    from bhr.output.plots import clearance_figure, path_figure
+    from bhr.output.steptable import format_steps_csv
+    from bhr.run.driver import FollowResult
+    from bhr.studies.follow_run import summary_lines
+
+    t = load_trajectory(_sectioned_csv(tmp_path), feed=2.0)
+    assert [s[0] for s in t.sections] == ["rectum", "sigmoid"]
+    r = bhr.follow(t, "lumen")
+    rows = format_steps_csv(r).splitlines()
+    assert rows[0].endswith(",section")
+    labels = [row.rsplit(",", 1)[1] for row in rows[1:]]
+    assert labels[0] == "rectum" and labels[-1] == "sigmoid"
+    assert labels == [t.section_at(i) for i in range(r.steps)]
+    doc = r.to_dict()
+    assert doc["trajectory"]["sections"] == [[n, a, b] for n, a, b in t.sections]
+    back = FollowResult.from_json(doc)
+    assert back.trajectory.sections == t.sections
+    line = [ln for ln in summary_lines(r) if ln.startswith("Wall touched by section")]
+    assert len(line) == 1 and "rectum" in line[0] and "sigmoid" in line[0]
+    for fig in (clearance_figure(r), path_figure(r)):
+        texts = [t_.get_text() for ax in fig.axes for t_ in ax.texts]
+        assert any("rectum" in x for x in texts) and any("sigmoid" in x for x in texts)
+    bad = dict(doc)
+    bad["trajectory"] = dict(doc["trajectory"], sections=[["rectum", 5, 2]])
+    with pytest.raises(BhrError, match="section 1"):
+        FollowResult.from_json(bad)
