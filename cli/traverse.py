@@ -15,9 +15,10 @@ OUTPUTS = ("designs.csv", "runs.csv", "study.json", "passrate.png", "worst-colon
               help="Values of a robot or solver option: alpha=10:30:5, module_length=5,6,8, modules=5:8 "
                    "(START:STOP[:STEP], STOP included) or alpha=20-25,30 (FIRST-LAST, as --colons takes). "
                    "Repeat for each key.")
-@click.option("--colons", default="1-100", show_default=True, metavar="SEEDS",
-              help="The anatomical colons every design must get through: seeds such as 1-100 (or 1:100, as in a "
-                   "grid) or 1,4,10-20.")
+@click.option("--colons", default="1-100", show_default=True, metavar="COLONS",
+              help="The colons every design must get through: generated colons' seeds such as 1-100 (or 1:100, as "
+                   "in a grid) or 1,4,10-20; real for every shipped real colon, or real colons by name (gca:VHM); "
+                   "or a mix: real,1-100.")
 @click.option("--solver", "solvers", multiple=True, metavar="NAME", help="Solver (repeat for several) [thesis].")
 @click.option("--target-pass", type=Share(), default=0.95, show_default=True, metavar="SHARE",
               help="Share of colons a design must traverse without touching the wall.")

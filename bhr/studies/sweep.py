@@ -313,7 +313,8 @@ def build_sweep(trajs: Sequence[str], solvers: Sequence[str], grid: Iterable[tup
     for t in trajs:
         def check_traj(params: dict[str, Any], what: str, t: str = t) -> None:
             try:
-                load_trajectory(sources[t], feed=robot.feed, **params)
+                src, prm = colon_source(sources[t], params)
+                load_trajectory(src, feed=robot.feed, **prm)
             except BhrError as exc:
                 raise BhrError(f"{where}: trajectory {t}{what}: {str(exc).splitlines()[0]}") from None
 
@@ -337,6 +338,15 @@ def build_sweep(trajs: Sequence[str], solvers: Sequence[str], grid: Iterable[tup
 # ------------------------------------------------------------------------------------------ running
 
 
+def colon_source(traj_source: str, params: dict[str, Any]) -> tuple[str, dict[str, Any]]:
+    """The trajectory to load and its parameters: a study's colon given as a real colon's name in place of an
+    anatomy seed (``seed = "gca:VHM"``) is that real colon."""
+    seed = params.get("seed")
+    if isinstance(seed, str) and seed.startswith("gca:"):
+        return seed, {k: v for k, v in params.items() if k != "seed"}
+    return traj_source, params
+
+
 def run_design(design: dict[str, Any], traj_source: str, base_robot: dict[str, Any] | None = None,
                extra: Sequence[str] = ()) -> dict[str, Any]:
     """Follow one design's trajectory; return its row (design keys, :data:`METRICS`, then the summary's
@@ -345,7 +355,8 @@ def run_design(design: dict[str, Any], traj_source: str, base_robot: dict[str, A
     with capture(row):  # one failed design must not stop the sweep
         robot = make_robot({ROBOT_KEYS[k]: v for k, v in design.items() if k in ROBOT_KEYS}, base_robot)
         row["min_turn_radius_mm"] = robot.min_turn_radius
-        tr = load_trajectory(traj_source, feed=robot.feed, **{k: v for k, v in design.items() if k in TRAJ_KEYS})
+        source, params = colon_source(traj_source, {k: v for k, v in design.items() if k in TRAJ_KEYS})
+        tr = load_trajectory(source, feed=robot.feed, **params)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", BhrWarning)
             res = follow(tr, solver=design["solver"], robot=robot,

@@ -68,18 +68,37 @@ _MAX_COLONS = LIMITS["colons"]
 _RANGE = re.compile(r"^\s*([0-9]+)\s*(?:(-|:)\s*([0-9]+)\s*(?::\s*([0-9]+)\s*)?)?$", re.ASCII)
 
 
-def parse_colons(text: str | Sequence[int]) -> tuple[int, ...]:
-    """Seeds from ``"1-100"`` or ``"1:100"`` (the grid's syntax, ``"1:100:2"`` with a step), ``"1-50,61,70-80"``
-    (ends included) or a list of whole numbers."""
+def real_colon_names() -> list[str]:
+    """The shipped real colons (``gca:E20`` ...), as --colons names them."""
+    from bhr.model.trajnames import real_colons
+
+    return list(real_colons())
+
+
+def parse_colons(text: str | Sequence[int | str]) -> tuple[int | str, ...]:
+    """Colons from ``"1-100"`` or ``"1:100"`` (the grid's syntax, ``"1:100:2"`` with a step), ``"1-50,61,70-80"``
+    (ends included), ``real`` (every shipped real colon), real colons by name (``gca:VHM``), any mix of these
+    (``real,1-100``), or a list of whole numbers and real colons' names."""
+    real = real_colon_names()
+    seeds: list[int | str] = []
     if isinstance(text, str):
         if not text.strip():
             raise BhrError("--colons is empty; give seeds such as 1-100 or 1,2,5-9")
-        seeds: list[int] = []
         for part in text.split(","):
+            word = part.strip()
+            if word == "real":
+                seeds.extend(real)
+                continue
+            if word.startswith("gca:"):
+                if word not in real:
+                    raise BhrError(f"--colons: {excerpt(word)} is not a shipped real colon; real colons: "
+                                   f"{', '.join(real)} (or real for all of them)")
+                seeds.append(word)
+                continue
             m = _RANGE.match(part)
             if m is None:
-                raise BhrError(f"--colons: {excerpt(part.strip())} is not a seed or a range of seeds; give e.g. 1-100, "
-                               "1:100 or 1,2,5-9 (whole numbers)")
+                raise BhrError(f"--colons: {excerpt(part.strip())} is not a seed or a range of seeds, nor a real "
+                               "colon; give e.g. 1-100, 1:100, 1,2,5-9 (whole numbers), real or gca:VHM")
             a = int(m.group(1))
             b = int(m.group(3)) if m.group(3) is not None else a
             step = int(m.group(4)) if m.group(4) is not None else 1
@@ -97,7 +116,11 @@ def parse_colons(text: str | Sequence[int]) -> tuple[int, ...]:
     else:
         if len(text) > _MAX_COLONS:
             raise BhrError(f"--colons: more than {_MAX_COLONS} colons; give fewer seeds")
-        seeds = [check_seed(s, "--colons") for s in text]
+        for s_ in text:
+            if isinstance(s_, str) and s_ in real:
+                seeds.append(s_)
+            else:
+                seeds.append(check_seed(s_, "--colons"))
     if not seeds:
         raise BhrError("--colons is empty; give seeds such as 1-100 or 1,2,5-9")
     if len(set(seeds)) != len(seeds):
@@ -108,10 +131,10 @@ def parse_colons(text: str | Sequence[int]) -> tuple[int, ...]:
 
 @dataclass(frozen=True)
 class Study:
-    """Designs (solvers x grid) x colons (seeds of the anatomical colon generator)."""
+    """Designs (solvers x grid) x colons (seeds of the anatomical colon generator, or real colons' names)."""
 
-    sweep: Sweep  # traj "anatomy", the design axes, then seed (the colons) last
-    colons: tuple[int, ...]
+    sweep: Sweep  # traj "anatomy", the design axes, then seed (the colons: a seed or a real colon's name) last
+    colons: tuple[int | str, ...]
     target: float = 0.95
 
     @property
@@ -131,7 +154,7 @@ class Study:
         return len(self.sweep)
 
 
-def build_study(grid: Sequence[tuple[str, tuple[Any, ...]]], colons: Sequence[int] | str, *,
+def build_study(grid: Sequence[tuple[str, tuple[Any, ...]]], colons: Sequence[int | str] | str, *,
                 solvers: Sequence[str] = ("thesis",), target: float = 0.95, robot_file: str | None = None,
                 title: str = "bhr traverse", where: str = "traverse") -> Study:
     """Check and assemble a study; every design and colon is checked before anything runs."""
@@ -217,14 +240,15 @@ def design_rows(study: Study, runs: Sequence[dict[str, Any]], min_turn: dict[tup
     out = []
     for n, (combo, rows) in enumerate(groups.items(), start=1):
         # the worst colon: deepest into the wall, then (when none touches) the least clearance left
-        pen = [(r["max_penetration_mm"], r["seed"], r.get("min_clearance_mm")) for r in rows
+        pen = [(r["max_penetration_mm"], r["seed"], r.get("min_clearance_mm"), -k) for k, r in enumerate(rows)
                if r["max_penetration_mm"] is not None]
         contact = [r["contact_length_mm"] for r in rows if r["contact_length_mm"] is not None]
         touch = [r["touch_steps"] for r in rows if r["touch_steps"] is not None]
         clear = [r["min_clearance_mm"] for r in rows if r["status"] == "ok" and r.get("min_clearance_mm") is not None]
         proc = [r["procedure_time_s"] for r in rows if r.get("procedure_time_s") is not None]
         passed = sum(1 for r in rows if r["traversed"])
-        worst = max(pen, key=lambda p: (p[0], -(p[2] if p[2] is not None else math.inf), -p[1])) if pen else None
+        # ties: the colon listed first
+        worst = max(pen, key=lambda p: (p[0], -(p[2] if p[2] is not None else math.inf), p[3])) if pen else None
         d = {"design": n, **dict(zip(keys, combo))}
         d.update({
             "colons": len(rows),
@@ -351,12 +375,52 @@ def passrate_figure(result: StudyResult, x: str | None = None, y: str | None = N
     return fig
 
 
+def colons_phrase(colons: Sequence[int | str]) -> str:
+    """``100 anatomical colons (seeds 1-100)``, ``5 real colons (gca:E20, ...)`` or both."""
+    seeds = [c for c in colons if not isinstance(c, str)]
+    real = [c for c in colons if isinstance(c, str)]
+    parts = []
+    if seeds:
+        span = f"{seeds[0]}-{seeds[-1]}" if seeds == list(range(seeds[0], seeds[-1] + 1)) else ", ".join(
+            map(str, seeds[:20])) + (" ..." if len(seeds) > 20 else "")
+        parts.append(f"{len(seeds)} anatomical colon{'s' * (len(seeds) != 1)} (seeds {span})")
+    if real:
+        parts.append(f"{len(real)} real colon{'s' * (len(real) != 1)} ({', '.join(real)})")
+    return " and ".join(parts)
+
+
+def colon_label(colon: int | str) -> str:
+    """A colon as the outputs name it: ``seed 7`` or the real colon's name."""
+    return colon if isinstance(colon, str) else f"seed {colon}"
+
+
+def colon_trajectory(colon: int | str, feed: float):
+    """The trajectory of one colon of a study: a generated colon's seed or a real colon's name."""
+    if isinstance(colon, str):
+        return load_trajectory(colon, feed=feed)
+    return load_trajectory("anatomy", feed=feed, seed=colon)
+
+
+def colon_sections(colon: int | str, run: Any) -> tuple[list[str], Any, Any]:
+    """Section names, start and end (mm from the anus) of a study's colon: a generated colon's drawn sections or a
+    real colon's landmarks (its run's trajectory)."""
+    import numpy as np
+
+    if isinstance(colon, str):
+        tr = run.trajectory
+        feed = run.robot.feed
+        return ([n for n, _, _ in tr.sections], np.array([a * feed for _, a, _ in tr.sections]),
+                np.array([(b - 1) * feed for _, _, b in tr.sections]))
+    ends = anatomical_colon(colon).section_ends()
+    return list(SECTIONS), np.concatenate([[0.0], ends[:-1]]), ends
+
+
 def worst_colon_run(result: StudyResult, design: dict[str, Any]):
     """Follow ``design``'s worst colon again (same robot, solver and options) and return the run."""
     s = result.study.sweep
     robot = make_robot({ROBOT_KEYS[k]: design[k] for k in result.study.design_keys if k in ROBOT_KEYS},
                        dict(s.robot) or None)
-    tr = load_trajectory("anatomy", feed=robot.feed, seed=design["worst_colon"])
+    tr = colon_trajectory(design["worst_colon"], robot.feed)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", BhrWarning)
         keys = {k: design[k] for k in result.study.design_keys}
@@ -378,10 +442,8 @@ def penetration_figure(result: StudyResult, design: dict[str, Any], run):
     clearance = np.array([np.nan if st.get("clearance_mm") is None else st["clearance_mm"] for st in doc["steps"]],
                          dtype=float)
     s = np.arange(len(clearance)) * run.robot.feed
-    colon = anatomical_colon(design["worst_colon"])
-    ends = colon.section_ends()
+    names, starts, ends = colon_sections(design["worst_colon"], run)
     fig, ax = plt.subplots(figsize=(11, 4.2))
-    starts = np.concatenate([[0.0], ends[:-1]])
     finite = clearance[np.isfinite(clearance)]
     lo = min(-1.0, float(finite.min()) if finite.size else -1.0)
     hi = max(1.0, float(finite.max()) if finite.size else 1.0)
@@ -389,7 +451,7 @@ def penetration_figure(result: StudyResult, design: dict[str, Any], run):
     for k, (a, b) in enumerate(zip(starts, ends)):
         if k % 2 == 0:
             ax.axvspan(a, b, color="#eef0f4", zorder=0)
-        ax.text((a + b) / 2, top - 0.02 * (top - lo), SECTIONS[k].replace(" flexure", "\nflexure"), ha="center",
+        ax.text((a + b) / 2, top - 0.02 * (top - lo), names[k].replace(" flexure", "\nflexure"), ha="center",
                 va="top", fontsize=7, color="#444")
     ax.axhline(0.0, color="black", linewidth=0.8, zorder=2)
     ax.fill_between(s, 0, np.minimum(0.0, np.nan_to_num(clearance, nan=0.0)), color="#d62728", alpha=0.45,
@@ -402,7 +464,7 @@ def penetration_figure(result: StudyResult, design: dict[str, Any], run):
     ax.legend(loc="lower right", fontsize=8)
     keys = ", ".join(f"{k} {_label(design[k])}" for k in result.study.design_keys)
     pen = design["worst_penetration_mm"]
-    ax.set_title(f"Worst colon (seed {design['worst_colon']}) of design #{design['design']} ({keys}):\n"
+    ax.set_title(f"Worst colon ({colon_label(design['worst_colon'])}) of design #{design['design']} ({keys}):\n"
                  f"{pen:.2f} mm into the wall at worst, smallest clearance {np.nanmin(clearance):.2f} mm; "
                  f"{result.clearance_kind} clearance", fontsize=9)
     fig.tight_layout()
@@ -478,11 +540,8 @@ def _html(result: StudyResult, heat: str | None, worst: str | None, worst_design
     ids = {d["design"] for d in meeting}
     parts = [page_head(study.sweep.title), f"<h1>{escape(study.sweep.title)}</h1>\n"]
     axes = "; ".join(f"{k}: {', '.join(_label(v) for v in vals)}" for k, vals in study.design_axes)
-    seeds = study.colons
-    span = f"{seeds[0]}-{seeds[-1]}" if list(seeds) == list(range(seeds[0], seeds[-1] + 1)) else ", ".join(
-        map(str, seeds[:20])) + (" ..." if len(seeds) > 20 else "")
-    parts.append(f"<p class=\"meta\">{len(result.designs)} designs &times; {len(seeds)} anatomical colons (seeds "
-                 f"{escape(span)}), {len(result.runs)} runs, {len(result.failed)} failed, {result.wall_time_s:.1f} s "
+    parts.append(f"<p class=\"meta\">{len(result.designs)} designs &times; {escape(colons_phrase(study.colons))}, "
+                 f"{len(result.runs)} runs, {len(result.failed)} failed, {result.wall_time_s:.1f} s "
                  f"on {escape(result.runner)}; penetration from the {escape(result.clearance_kind)} clearance; bhr "
                  f"{escape(__version__)}.<br>{escape(axes)}"
                  + (f"; robot file: {escape(study.sweep.robot_file)}" if study.sweep.robot_file else "") + "</p>\n")

@@ -120,3 +120,29 @@ def test_a_run_names_its_sections_in_steps_csv_run_json_summary_and_figures(tmp_
     bad["trajectory"] = dict(doc["trajectory"], sections=[["rectum", 5, 2]])
     with pytest.raises(BhrError, match="section 1"):
         FollowResult.from_json(bad)
+
+
+def test_traverse_takes_real_colons_by_name_all_together_and_mixed_with_seeds():
+    from bhr.studies.traverse import build_study, colons_phrase, parse_colons
+
+    assert parse_colons("real") == REAL
+    assert parse_colons("gca:VHM,1-3") == ("gca:VHM", 1, 2, 3)
+    assert parse_colons(["gca:E20", 4]) == ("gca:E20", 4)
+    with pytest.raises(BhrError, match="not a shipped real colon"):
+        parse_colons("gca:NOPE")
+    with pytest.raises(BhrError, match="twice"):
+        parse_colons("real,gca:VHM")
+    assert colons_phrase(("gca:VHM", 1, 2, 3)) == "3 anatomical colons (seeds 1-3) and 1 real colon (gca:VHM)"
+    study = build_study([("alpha", (25.0,))], "gca:VHF,2", solvers=("lumen",))
+    assert study.colons == ("gca:VHF", 2) and len(study) == 2
+
+
+def test_a_study_runs_a_real_colon_as_that_colon():
+    from bhr.studies.sweep import colon_source, run_design
+
+    assert colon_source("anatomy", {"seed": "gca:VHF"}) == ("gca:VHF", {})
+    assert colon_source("anatomy", {"seed": 3}) == ("anatomy", {"seed": 3})
+    row = run_design({"traj": "anatomy", "solver": "lumen", "alpha": 25.0, "seed": "gca:VHF"}, "anatomy",
+                     None, ("wall_touch_steps",))
+    assert row["status"] == "ok"
+    assert row["steps"] == len(load_trajectory("gca:VHF", feed=2.0))
