@@ -188,9 +188,12 @@ def _seeds(text: str) -> list[int]:
     from bhr.studies.traverse import parse_colons
 
     try:
-        return list(parse_colons(text))
+        seeds = parse_colons(text)
     except BhrError as exc:
         raise argparse.ArgumentTypeError(str(exc).replace("--colons", "--seeds")) from None
+    if any(isinstance(s, str) for s in seeds):
+        raise argparse.ArgumentTypeError("--seeds takes the generated colons' seeds, not real colons")
+    return [int(s) for s in seeds]
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -500,6 +500,7 @@ class ClearanceReport:
     left_lumen_step: int | None = None  # 1-based first step where the robot left the lumen (None: it never did)
     left_lumen_reason: str = ""  # why, in words
     lumen_end: str = "closed"  # how the lumen ends past the last centerline point: "closed" (a cap) or "open"
+    wall: str = "tube"  # what the clearance was measured against: "tube", "mesh NAME", or "tube (why not the mesh)"
 
     @property
     def per_step(self) -> np.ndarray:
@@ -539,7 +540,7 @@ class ClearanceReport:
                 "index_matched_min_clearance_mm": None if np.isnan(self.index_matched_min_mm)
                 else float(self.index_matched_min_mm),
                 "left_lumen_step": self.left_lumen_step, "left_lumen_reason": self.left_lumen_reason or None,
-                "lumen_end": self.lumen_end}
+                "lumen_end": self.lumen_end, "wall": self.wall}
 
 
 def clearance_table(point_errors: np.ndarray, offsets: np.ndarray, lumen: np.ndarray, radius: float) -> np.ndarray:
@@ -700,8 +701,11 @@ def tables_report(table: np.ndarray, labels: list[str], mtable: np.ndarray, mlab
 
 
 def clearance_report(result, window_mm: float = WINDOW_MM, sample_mm: float = SAMPLE_MM,
-                     lumen_end: str | None = None) -> ClearanceReport | None:
+                     lumen_end: str | None = None, mesh: bool = True) -> ClearanceReport | None:
     """The geometric clearance of a run (:class:`bhr.run.driver.FollowResult`) whose trajectory has a lumen, else None.
+
+    Where the trajectory has a surface mesh of its lumen (and ``mesh`` is true) the clearance is measured against
+    that surface (:func:`bhr.model.wallmesh.wall_grid`); else, and always with ``mesh=False``, against the tube.
 
     ``lumen_end`` (default: the trajectory's, else ``"closed"``) says whether
     the lumen is capped at the last centerline point (``"closed"``: past it is
@@ -713,9 +717,16 @@ def clearance_report(result, window_mm: float = WINDOW_MM, sample_mm: float = SA
     end = lumen_end_of(tr if lumen_end is None else lumen_end)
     r = result.robot
     n = r.modules
-    tube = make_tube(tr.points, tr.lumen, tr.start_direction, window_mm, closed_end=end == "closed")
     Q, E, B = run_chain(result)
-    pt, mod, where, lost = clearance_run_all(tube, r.radius, Q, E, sample_mm, float(r.feed) / tube.spacing)
+    from bhr.model.wallmesh import mesh_clearance_run, wall_grid
+
+    grid, wall = wall_grid(tr) if mesh else (None, "tube")
+    if grid is not None:  # the real surface: its signed distance (docs/real_colons.md)
+        pt, mod, where = mesh_clearance_run(grid, r.radius, Q, E, sample_mm)
+        lost = np.zeros(Q.shape[0])
+    else:
+        tube = make_tube(tr.points, tr.lumen, tr.start_direction, window_mm, closed_end=end == "closed")
+        pt, mod, where, lost = clearance_run_all(tube, r.radius, Q, E, sample_mm, float(r.feed) / tube.spacing)
     # reorder: points head 0..n then body 1..B; modules head 1..n then body 1..B
     p_order = list(range(B, B + n + 1)) + list(range(B - 1, -1, -1))
     m_order = list(range(B, B + n)) + list(range(B - 1, -1, -1))
@@ -725,6 +736,7 @@ def clearance_report(result, window_mm: float = WINDOW_MM, sample_mm: float = SA
     moved = result.extra.get("summary", {}).get("feeder_stop_step")
     rep, both = tables_report(table, labels, mtable, mlabels, mwhere, float(r.feed), index_matched_min(result, B),
                               end, moved)
+    rep.wall = wall
     if rep.min_step == 0:
         return rep
 

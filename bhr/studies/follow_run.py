@@ -425,7 +425,7 @@ def body_clearance_lines(s: dict) -> list[str]:
             out.append("Lumen clearance: no point of the robot reached the path yet.")
         else:
             out.append(f"Lumen clearance: minimum {s['min_clearance_mm']:.3f} mm at step {s['min_clearance_step']}, "
-                       f"{s['min_clearance_point']}.")
+                       f"{s['min_clearance_point']}; wall: {s.get('wall', 'tube')}.")
         touch = s["wall_touch_steps"]
         out.append(f"Wall touched at {len(touch)} step{'s' if len(touch) != 1 else ''}"
                    + (f": {step_ranges(touch)}." if touch else "."))

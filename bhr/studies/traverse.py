@@ -53,7 +53,7 @@ __all__ = ["Study", "StudyResult", "parse_colons", "build_study", "run_study", "
 
 #: Summary keys a study keeps from every run (the ones a run does not report stay empty).
 LUMEN_KEYS = ("max_penetration_mm", "wall_touch_steps", "contact_length_mm", "procedure_time_s", "body_modules",
-              "left_lumen_step", "left_lumen_reason")
+              "left_lumen_step", "left_lumen_reason", "wall")
 #: Columns of designs.csv after the design's own keys.
 DESIGN_COLUMNS = ("colons", "traversed", "pass_rate", "failed_runs", "worst_penetration_mm", "median_penetration_mm",
                   "worst_clearance_mm", "median_contact_length_mm", "worst_contact_length_mm", "median_touch_steps",
@@ -62,7 +62,7 @@ DESIGN_COLUMNS = ("colons", "traversed", "pass_rate", "failed_runs", "worst_pene
 #: Columns of runs.csv after the design's keys and the seed.
 RUN_COLUMNS = ("status", "steps", "traversed", "max_penetration_mm", "touch_steps", "contact_length_mm",
                "min_clearance_mm", "points_max_error_mm", "tip_max_error_mm", "modules", "procedure_time_s",
-               "left_lumen_step", "failure")
+               "left_lumen_step", "failure", "wall")
 _MAX_COLONS = LIMITS["colons"]
 #: One seed, or FIRST-LAST, or FIRST:LAST[:STEP] as in a sweep's grid (ends included); plain ASCII digits.
 _RANGE = re.compile(r"^\s*([0-9]+)\s*(?:(-|:)\s*([0-9]+)\s*(?::\s*([0-9]+)\s*)?)?$", re.ASCII)
@@ -226,6 +226,7 @@ def _run_row(row: dict[str, Any], keys: Sequence[str]) -> dict[str, Any]:
         # a colon fails when the run fails or the robot left the lumen (bhr.run.clearance.left_lumen): the reason
         "left_lumen_step": row.get("left_lumen_step") if ok else None,
         "failure": (row.get("left_lumen_reason") or "") if ok else str(row["status"]),
+        "wall": row.get("wall"),  # what the clearance was measured against: the tube or the colon's mesh
     })
     return out
 

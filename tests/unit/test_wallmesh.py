@@ -1,0 +1,129 @@
+"""The wall as a real surface (bhr.model.wallmesh): the signed-distance grid against vtk's exact distance and the
+analytic one, the clearance against a mesh against the tube's, and the fallbacks."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+pytest.importorskip("vtk")
+
+import bhr  # noqa: E402
+from bhr.model.generators import load_trajectory  # noqa: E402
+from bhr.model.path import Trajectory  # noqa: E402
+from bhr.model.wallmesh import GRID_MM, SdfGrid, exact_distance, sdf_values, wall_grid  # noqa: E402
+from bhr.run.clearance import clearance_report  # noqa: E402
+
+BOUND = math.sqrt(3.0) * GRID_MM  # the signed distance changes by at most 1 mm per mm
+
+
+def _write(poly, path):
+    from vtkmodules.vtkIOXML import vtkXMLPolyDataWriter
+
+    w = vtkXMLPolyDataWriter()
+    w.SetFileName(str(path))
+    w.SetInputData(poly)
+    w.Write()
+    return path
+
+
+def _sphere(r=20.0, res=96):
+    from vtkmodules.vtkFiltersSources import vtkSphereSource
+
+    s = vtkSphereSource()
+    s.SetRadius(r)
+    s.SetThetaResolution(res)
+    s.SetPhiResolution(res)
+    s.Update()
+    return s.GetOutput()
+
+
+def _cylinder(radius=15.0, length=200.0, res=96):
+    """A closed cylinder along +x from x = -20 to length - 20 (a straight lumen)."""
+    from vtkmodules.vtkCommonTransforms import vtkTransform
+    from vtkmodules.vtkFiltersCore import vtkTriangleFilter
+    from vtkmodules.vtkFiltersGeneral import vtkTransformFilter
+    from vtkmodules.vtkFiltersSources import vtkCylinderSource
+
+    c = vtkCylinderSource()
+    c.SetRadius(radius)
+    c.SetHeight(length)
+    c.SetResolution(res)
+    c.CappingOn()
+    t = vtkTransform()
+    t.PostMultiply()
+    t.RotateZ(-90.0)  # the source's axis is y: along x
+    t.Translate(length / 2 - 20.0, 0.0, 0.0)
+    f = vtkTransformFilter()
+    f.SetInputConnection(c.GetOutputPort())
+    f.SetTransform(t)
+    tri = vtkTriangleFilter()
+    tri.SetInputConnection(f.GetOutputPort())
+    tri.Update()
+    return tri.GetOutput()
+
+
+@pytest.fixture(scope="module")
+def sphere_grid():
+    mesh = _sphere()
+    return mesh, sdf_values(mesh, np.zeros((1, 3)), 40.0)
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.lists(st.tuples(*[st.floats(-30.0, 30.0)] * 3), min_size=1, max_size=20))
+def test_the_grid_is_within_its_bound_of_vtks_exact_distance(sphere_grid, pts):
+    mesh, grid = sphere_grid
+    p = np.array(pts, dtype=np.float64)
+    p = p[np.linalg.norm(p, axis=1) <= 40.0 - BOUND]  # within the band (40 mm of the centre) by a cell's reach
+    exact = exact_distance(mesh, p)
+    assert np.all(np.abs(grid.at(p) - exact) <= BOUND + 1e-9)
+    # and of the analytic distance to the sphere (the mesh's facets are within 0.03 mm of it)
+    assert np.all(np.abs(grid.at(p) - (np.linalg.norm(p, axis=1) - 20.0)) <= BOUND + 0.05)
+
+
+def test_the_grid_is_negative_inside_and_a_far_node_is_wall(sphere_grid):
+    _, grid = sphere_grid
+    assert grid.at(np.zeros(3)) == pytest.approx(-20.0, abs=0.1)
+    assert grid.at(np.array([100.0, 0.0, 0.0])) > 0.0  # beyond the grid: wall
+
+
+def test_clearance_against_a_straight_mesh_matches_the_tube(tmp_path, monkeypatch):
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
+    mesh = _write(_cylinder(), tmp_path / "straight.vtp")
+    x = np.arange(0.0, 150.0 + 1e-9, 2.0)
+    pts = np.stack([x, 3.0 * np.sin(x / 25.0), np.zeros_like(x)], axis=1)  # a gentle wave inside the tube
+    traj = Trajectory("straight", pts, lumen=np.full(len(x), 30.0), feed=2.0, mesh=str(mesh))
+    grid, wall = wall_grid(traj)
+    assert grid is not None and wall == "mesh straight.vtp"
+    assert (tmp_path / "cache" / "bhr" / "sdf").is_dir()  # cached
+    r = bhr.follow(traj, "lumen")
+    m = clearance_report(r)
+    t = clearance_report(r, mesh=False)
+    assert m.wall.startswith("mesh") and t.wall == "tube"
+    # the tube is the cylinder around the wave's own axis, not the mesh's: they differ by the wave (3 mm) at most,
+    # and by the grid's bound
+    diff = np.abs(m.per_step - t.per_step)
+    ok = np.isfinite(diff)
+    assert ok.sum() > 50 and np.max(diff[ok]) <= 3.0 + BOUND
+
+
+def test_no_mesh_or_a_mesh_that_does_not_enclose_the_path_is_the_tube(tmp_path, monkeypatch):
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
+    pts = np.stack([np.arange(0.0, 100.0, 2.0), np.zeros(50), np.zeros(50)], axis=1)
+    assert wall_grid(Trajectory("p", pts, lumen=np.full(50, 30.0)))[0] is None
+    far = _write(_sphere(10.0, 24), tmp_path / "far.vtp")  # encloses 5 of the 50 points
+    grid, wall = wall_grid(Trajectory("p", pts, lumen=np.full(50, 30.0), mesh=str(far)))
+    assert grid is None and wall.startswith("tube (the mesh leaves")
+
+
+def test_a_real_colon_is_measured_against_its_mesh_where_it_encloses_the_path():
+    t = load_trajectory("gca:E90", feed=2.0)
+    grid, wall = wall_grid(t)
+    assert isinstance(grid, SdfGrid) and wall == "mesh E90.vtp"
+    d = grid.at(t.points)
+    assert np.all(d < 0.0)  # every centerline point inside the colon's surface
+    # the lumen column is twice the exact distance: the grid reads the same within its bound
+    assert np.all(np.abs(-d - t.lumen / 2) <= BOUND + 1e-6)
