@@ -94,8 +94,8 @@ def read_mesh(path: str | os.PathLike[str]):
     from vtkmodules.vtkIOXML import vtkXMLPolyDataReader
 
     p = Path(path)
-    readers: dict[str, Any] = {".vtp": vtkXMLPolyDataReader, ".vtk": vtkPolyDataReader, ".stl": vtkSTLReader, ".ply": vtkPLYReader,
-               ".obj": vtkOBJReader}
+    readers: dict[str, Any] = {".vtp": vtkXMLPolyDataReader, ".vtk": vtkPolyDataReader, ".stl": vtkSTLReader,
+                               ".ply": vtkPLYReader, ".obj": vtkOBJReader}
     kind = readers.get(p.suffix.lower())
     if kind is None:
         raise BhrError(f"{p}: a surface mesh must be .vtp, .vtk, .stl, .ply or .obj, got {p.suffix or 'no extension'}")
