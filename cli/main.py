@@ -28,6 +28,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "sweep": ("bhr.cli.sweep:sweep", "Sweep robot designs over trajectories, locally or on a Dask cluster."),
     "traverse": ("bhr.cli.traverse:traverse", "Which robot designs get through a population of anatomical colons."),
     "export": ("bhr.cli.export:export", "Write the robot as a URDF or MJCF model (pinocchio, MuJoCo)."),
+    "import": ("bhr.cli.import_:import_", "Import a colon (surface mesh, centerline, segmentation) as a trajectory."),
     "physics": ("bhr.cli.physics:physics", "Replay a run in MuJoCo against the colon wall: contact forces."),
 }
 

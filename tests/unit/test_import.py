@@ -1,0 +1,94 @@
+"""bhr import: a shipped real colon's surface back to its centerline and lumen (the round trip), a labelled
+segmentation, a mesh with its centerline and sections, and one-line errors."""
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+pytest.importorskip("vtk")
+pytest.importorskip("kimimaro")
+nib = pytest.importorskip("nibabel")
+
+from bhr.model.generators import load_trajectory  # noqa: E402
+from bhr.model.importer import import_colon, longest_path  # noqa: E402
+from bhr.model.trajnames import real_colons  # noqa: E402
+
+
+def test_mesh_alone_round_trip_on_a_shipped_colon():
+    """The closed surface of gca:E90 alone gives back a centerline of about its length and its lumen (the skeleton
+    runs on into the appendix, which the shipped path leaves out, and takes shortcuts where loops touch)."""
+    shipped = load_trajectory("gca:E90", feed=1.0)
+    res = import_colon(real_colons()["gca:E90"].with_suffix(".vtp"), start=(0.0, 0.0, 0.0))
+    length = float(np.linalg.norm(np.diff(res.points, axis=0), axis=1).sum())
+    assert abs(length - shipped.length_mm) < 0.1 * shipped.length_mm
+    assert abs(float(np.median(res.lumen)) - float(np.median(shipped.lumen))) < 0.1 * float(np.median(shipped.lumen))
+    # the path starts at the anus and, point for point, lies within the shipped colon's lumen of its centerline
+    assert np.linalg.norm(res.points[0]) < 10.0
+    from scipy.spatial import cKDTree
+
+    d, k = cKDTree(shipped.points).query(res.points)
+    assert np.median(d / (shipped.lumen[k] / 2)) < 0.5
+    assert any(line.startswith("centerline: skeleton") and "branch selection" in line for line in res.report)
+
+
+def test_mesh_with_its_centerline_keeps_the_sections_and_measures_the_lumen():
+    path = real_colons()["gca:E60"]
+    res = import_colon(path.with_suffix(".vtp"), centerline=path, smooth_mm=0.0)
+    shipped = load_trajectory("gca:E60", feed=1.0)
+    assert res.sections is not None and res.sections[0] == "rectum and sigmoid" and res.sections[-1] == "cecum"
+    n = min(len(res.lumen), len(shipped.lumen))
+    # the same points and the same surface (decimated to what is shipped): the same lumen within a millimetre
+    assert np.median(np.abs(res.lumen[:n] - shipped.lumen[:n])) < 1.0
+
+
+def test_a_labelled_segmentation(tmp_path):
+    """A bent tube of radius 8 mm (a quarter circle of radius 60 mm) in 1 x 1 x 2 mm voxels, label 3 among others."""
+    shape = (100, 100, 30)
+    i, j, k = np.meshgrid(*[np.arange(n) for n in shape], indexing="ij")
+    x, y, z = i * 1.0, j * 1.0, k * 2.0
+    # distance to the arc of radius 60 about (10, 10) in the plane z = 30, quarter from +x to +y
+    r = np.hypot(x - 10, y - 10)
+    ang = np.arctan2(y - 10, x - 10)
+    on_arc = (ang >= 0) & (ang <= np.pi / 2)
+    dist = np.where(on_arc, np.hypot(r - 60, z - 30), np.inf)
+    data = np.zeros(shape, dtype=np.uint8)
+    data[dist <= 8.0] = 3
+    data[:5, :5, :5] = 1  # another organ
+    f = tmp_path / "seg.nii.gz"
+    nib.save(nib.Nifti1Image(data, np.diag([1.0, 1.0, 2.0, 1.0])), str(f))
+    with pytest.raises(Exception, match="choose the colon's with --label"):
+        import_colon(f)
+    res = import_colon(f, label=3, start=(70.0, 10.0, 30.0))
+    length = float(np.linalg.norm(np.diff(res.points, axis=0), axis=1).sum())
+    # a skeleton may end short of a flat end or run out to its rim (at most the tube's radius, 8 mm, either end)
+    assert 60 * np.pi / 2 - 20 < length < 60 * np.pi / 2 + 16
+    off = np.abs(np.hypot(res.points[:, 0] - 10, res.points[:, 1] - 10) - 60)
+    assert np.median(off) < 1.0 and np.max(off) <= 8.0
+    assert abs(float(np.median(res.lumen)) - 16.0) < 2.0
+    assert res.points[0, 1] < res.points[-1, 1]  # from the start point's end
+
+
+def test_longest_path_drops_the_side_branch():
+    v = np.array([[0, 0, 0], [1, 0, 0], [2, 0, 0], [3, 0, 0], [2, 1, 0]], dtype=float)
+    e = np.array([[0, 1], [1, 2], [2, 3], [2, 4]])
+    path, dropped, branches = longest_path(v, e)
+    assert sorted(path.tolist()) == [0, 1, 2, 3] and dropped == 1 and branches == 1
+
+
+def test_the_command_writes_the_trajectory_and_its_surface_and_refuses_bad_input(tmp_path):
+    out = tmp_path / "c.csv"
+    src = real_colons()["gca:E90"].with_suffix(".vtp")
+    r = subprocess.run([sys.executable, "-m", "bhr.cli.main", "import", str(src), "--start", "0,0,0", "--out",
+                        str(out)], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    assert "branch selection" in r.stdout and out.is_file() and out.with_suffix(".vtp").is_file()
+    t = load_trajectory(out, feed=2.0)
+    assert t.mesh == str(out.with_suffix(".vtp")) and t.lumen is not None
+    for args, msg in ((["/no/such.stl"], "no such file"), ([str(src), "--start", "1,2"], "--start must be three"),
+                      ([str(tmp_path / "x.txt")], "no such file")):
+        r = subprocess.run([sys.executable, "-m", "bhr.cli.main", "import", *args], capture_output=True, text=True)
+        assert r.returncode != 0 and msg in r.stderr and "Traceback" not in r.stderr
+        assert len(r.stderr.strip().splitlines()) == 1
