@@ -289,12 +289,25 @@ def load_trajectory(name_or_path: str | os.PathLike[str], feed: float = 2.0, **p
     end = params.pop("lumen_end", None)
     if end is not None and end not in ("closed", "open"):
         raise BhrError(f"lumen_end must be closed or open, got {excerpt(end)}")
+    model = params.pop("lumen_model", None)
+    if model is not None and model not in ("ct", "insufflated"):
+        raise BhrError(f"lumen_model must be ct or insufflated, got {excerpt(model)}")
     traj = _load(name_or_path, float(feed), params)
     if end is not None:
         traj.lumen_end = str(end)
+    if model == "insufflated":
+        from bhr.model.insufflation import insufflated_lumen
+
+        if traj.lumen is None:
+            raise BhrError(f"trajectory {excerpt(str(name_or_path))} has no lumen to insufflate; use --lumen-model ct")
+        traj.lumen, k = insufflated_lumen(traj.lumen, traj.sections, float(feed))
+        traj.lumen_model = "insufflated"
+        traj.params = {**traj.params, "lumen_model": "insufflated", "insufflation_scale": k}
+        traj.mesh = None  # the CT surface is not the insufflated wall
     traj.feed = float(feed)
     traj.redraw = functools.partial(load_trajectory, name_or_path, **params,
-                                    **({} if end is None else {"lumen_end": end}))
+                                    **({} if end is None else {"lumen_end": end}),
+                                    **({} if model is None else {"lumen_model": model}))
     return traj
 
 

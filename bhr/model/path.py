@@ -61,6 +61,9 @@ class Trajectory:
     #: A surface mesh of the lumen's wall in the same frame (a .vtp file), where one is known; the clearance is
     #: then measured against it (docs/real_colons.md).
     mesh: str | None = None
+    #: Which lumen the diameters are: "ct" (as given: measured, drawn or written) or "insufflated" (the model of
+    #: bhr.model.insufflation, an idealisation).
+    lumen_model: str = "ct"
 
     def section_at(self, i: int) -> str | None:
         """The name of the section point ``i`` lies in, or None."""
@@ -124,7 +127,7 @@ class Trajectory:
             sections = runs_of(labels_of(self.sections, len(self.points))[np.floor(idx + 1e-9).astype(int)])
         return Trajectory(self.name, pts, dict(self.params), self.min_radius, lumen, self.source,
                           self.start_direction, self.start_point, float(feed), lumen_end=self.lumen_end,
-                          sections=sections, mesh=self.mesh)
+                          sections=sections, mesh=self.mesh, lumen_model=self.lumen_model)
 
 
 def labels_of(sections: tuple[tuple[str, int, int], ...], count: int) -> np.ndarray:

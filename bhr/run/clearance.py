@@ -736,7 +736,7 @@ def clearance_report(result, window_mm: float = WINDOW_MM, sample_mm: float = SA
     moved = result.extra.get("summary", {}).get("feeder_stop_step")
     rep, both = tables_report(table, labels, mtable, mlabels, mwhere, float(r.feed), index_matched_min(result, B),
                               end, moved)
-    rep.wall = wall
+    rep.wall = wall if getattr(tr, "lumen_model", "ct") == "ct" else f"{wall}, insufflated lumen (a model)"
     if rep.min_step == 0:
         return rep
 

@@ -297,6 +297,8 @@ class FollowResult:
         if self.trajectory.lumen is not None:
             traj_doc["lumen"] = [float(v) for v in self.trajectory.lumen]
             traj_doc["lumen_end"] = self.trajectory.lumen_end
+        if getattr(self.trajectory, "lumen_model", "ct") != "ct":
+            traj_doc["lumen_model"] = self.trajectory.lumen_model
         if self.trajectory.sections:  # the anatomical sections: [name, first point, one past the last]
             traj_doc["sections"] = [[n, int(a), int(b)] for n, a, b in self.trajectory.sections]
         return {
@@ -422,8 +424,12 @@ def _run_from_json(doc: Any, where: str) -> FollowResult:
         # file (a line break in it forged a line of the page, an escape garbled it)
         raise bad(f"trajectory name must be one line of printable text, got {excerpt(name)}")
     sections = _sections_from_json(tr.get("sections"), path.shape[0], bad)
+    model = tr.get("lumen_model", "ct")
+    if model not in ("ct", "insufflated"):
+        raise bad(f"trajectory lumen_model must be \"ct\" or \"insufflated\", got {excerpt(model)}")
     traj = Trajectory(name, path, dict(params), source=where, lumen=lumen,
-                      lumen_end=lumen_end, start_direction=start_dir, start_point=start_pt, sections=sections)
+                      lumen_end=lumen_end, start_direction=start_dir, start_point=start_pt, sections=sections,
+                      lumen_model=model)
     result = FollowResult(traj, robot, solver, pts, np.asarray(iters, dtype=np.int64), pe, oe, codes,
                           [str(m) for m in msgs] if isinstance(msgs, list) else [])
     result.body = body

@@ -156,6 +156,9 @@ OPTIONS: tuple[Option, ...] = (
     Option("lumen_end", _T, str, "How the lumen ends past the trajectory's last point: closed (a blind end, as the "
            "cecum: past it is wall) or open (it goes on straight); the entrance is always open", "closed",
            choices=("closed", "open")),
+    Option("lumen_model", _T, str, "A real colon's lumen: ct (as the CT surface has it) or insufflated (a "
+           "literature-based model of the distended colon at colonoscopy, an idealisation; docs/real_colons.md)",
+           "ct", choices=("ct", "insufflated")),
     # the constrained solvers (thesis ch. 6; bhr.solvers.thesis)
     Option("limit", _C, str, "Rotation limit of the constrained solvers", "binary",
            choices=("binary", "continuous", "none")),

@@ -166,7 +166,7 @@ def build_study(grid: Sequence[tuple[str, tuple[Any, ...]]], colons: Sequence[in
         if key == "seed":
             raise BhrError(f"{where}: the colons are the study's population; give their seeds with --colons, "
                            "not --grid seed=...")
-        if key in TRAJ_KEYS:
+        if key in TRAJ_KEYS and key != "lumen_model":  # a real colon's lumen model is a study's axis
             raise BhrError(f"{where}: {excerpt(key)} is a trajectory option; a study varies the robot and its solver "
                            "(e.g. alpha, module_length, modules, robot_radius)")
     sweep = build_sweep(("anatomy",), tuple(solvers), (*grid, ("seed", seeds)), title=title, where=where,

@@ -146,3 +146,28 @@ def test_a_study_runs_a_real_colon_as_that_colon():
                      None, ("wall_touch_steps",))
     assert row["status"] == "ok"
     assert row["steps"] == len(load_trajectory("gca:VHF", feed=2.0))
+
+
+def test_the_insufflated_lumen_model():
+    from bhr.model.insufflation import AREA_MM2, CALIBRE_MM, insufflated_lumen
+
+    ct = load_trajectory("gca:E90", feed=2.0)
+    ins = load_trajectory("gca:E90", feed=2.0, lumen_model="insufflated")
+    assert ct.lumen_model == "ct" and ins.lumen_model == "insufflated" and ins.mesh is None
+    assert np.all(ins.lumen >= ct.lumen) and np.array_equal(ins.points, ct.points)
+    # where the model sets the lumen, its mean cross-section over the colon is the CT colonography figure
+    model, k = insufflated_lumen(np.zeros(len(ct)), ct.sections, 2.0)
+    assert float(np.mean(np.pi * model ** 2 / 4)) == pytest.approx(AREA_MM2, rel=1e-9)
+    # the cecum wider than the sigmoid, as the calibres say
+    sec = {n: (a, b) for n, a, b in ct.sections}
+    assert np.median(model[slice(*sec["cecum"])]) > np.median(model[slice(*sec["sigmoid"])])
+    assert k * CALIBRE_MM["cecum"] == pytest.approx(float(model[sec["cecum"][1] - 1]), rel=0.05)
+    # it follows the trajectory to another feed, and a path without sections is refused in one line
+    assert ins.at_feed(1.0).lumen_model == "insufflated"
+    with pytest.raises(BhrError, match="named section"):
+        load_trajectory("anatomy-typical", feed=2.0, lumen_model="insufflated")
+    r = bhr.follow(load_trajectory("gca:VHF", feed=2.0, lumen_model="insufflated"), "lumen")
+    assert "insufflated" in r.summary.to_dict()["wall"]
+    from bhr.run.driver import FollowResult
+
+    assert FollowResult.from_json(r.to_dict()).trajectory.lumen_model == "insufflated"
