@@ -395,11 +395,12 @@ def colon_label(colon: int | str) -> str:
     return colon if isinstance(colon, str) else f"seed {colon}"
 
 
-def colon_trajectory(colon: int | str, feed: float):
-    """The trajectory of one colon of a study: a generated colon's seed or a real colon's name."""
+def colon_trajectory(colon: int | str, feed: float, **params: Any):
+    """The trajectory of one colon of a study: a generated colon's seed or a real colon's name (``params``: the
+    design's trajectory keys, such as ``lumen_model``)."""
     if isinstance(colon, str):
-        return load_trajectory(colon, feed=feed)
-    return load_trajectory("anatomy", feed=feed, seed=colon)
+        return load_trajectory(colon, feed=feed, **params)
+    return load_trajectory("anatomy", feed=feed, seed=colon, **params)
 
 
 def colon_sections(colon: int | str, run: Any) -> tuple[list[str], Any, Any]:
@@ -421,7 +422,8 @@ def worst_colon_run(result: StudyResult, design: dict[str, Any]):
     s = result.study.sweep
     robot = make_robot({ROBOT_KEYS[k]: design[k] for k in result.study.design_keys if k in ROBOT_KEYS},
                        dict(s.robot) or None)
-    tr = colon_trajectory(design["worst_colon"], robot.feed)
+    traj_keys = {k: design[k] for k in result.study.design_keys if k in TRAJ_KEYS}  # a real colon's lumen model
+    tr = colon_trajectory(design["worst_colon"], robot.feed, **traj_keys)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", BhrWarning)
         keys = {k: design[k] for k in result.study.design_keys}

@@ -171,3 +171,13 @@ def test_the_insufflated_lumen_model():
     from bhr.run.driver import FollowResult
 
     assert FollowResult.from_json(r.to_dict()).trajectory.lumen_model == "insufflated"
+
+
+def test_a_studys_worst_colon_is_followed_again_with_the_designs_lumen_model():
+    from bhr.studies.traverse import StudyResult, build_study, worst_colon_run
+
+    study = build_study([("alpha", (25.0,)), ("lumen_model", ("insufflated",))], "gca:VHF", solvers=("lumen",))
+    design = {"design": 1, "solver": "lumen", "alpha": 25.0, "lumen_model": "insufflated", "worst_colon": "gca:VHF"}
+    result = StudyResult(study, [], [design], 0.0, "in-process", 1, "geometric")
+    run = worst_colon_run(result, design)
+    assert run.trajectory.lumen_model == "insufflated" and "insufflated" in run.summary.to_dict()["wall"]
