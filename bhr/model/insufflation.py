@@ -11,9 +11,9 @@ lumen ranges, docs/anatomy.md, smoothed over +-20 mm of arc length across the se
 chosen for each colon so that its mean cross-section, over its length, is the mean length-adjusted volume
 of colons distended with CO2 at screening CT colonography: 11.6 mL/cm (:data:`AREA_MM2` = 1160 mm^2, an
 equivalent diameter of 38.4 mm; Patrick JL, Bakke JR, Bannas P, Kim DH, Lubner MG, Pickhardt PJ. Objective
-volumetric comparison of room air versus carbon dioxide for colonic distention at screening CT colonography.
-Abdom Radiol 2017, 150 adults with CO2; 9.9 mL/cm with room air). Where the CT lumen is wider (an inflated
-scan, the cecum) it is kept. The course of the centerline is not changed (an insufflated colon also
+volumetric comparison of room air versus carbon dioxide for colonic distention at screening CT colonography;
+150 adults with CO2, 9.9 mL/cm in 150 with room air; figures from its abstract). Where the CT lumen is
+wider (an inflated scan, the cecum) it is kept. The course of the centerline is not changed (an insufflated colon also
 lengthens and straightens a little), and the lumen is a tube (the CT surface no longer is the wall): an
 idealisation, labelled as such in every output, never the default.
 """
@@ -29,7 +29,7 @@ __all__ = ["LUMEN_MODELS", "CALIBRE_MM", "AREA_MM2", "insufflated_lumen"]
 
 #: ``ct``: the lumen as measured (the default); ``insufflated``: this module's model.
 LUMEN_MODELS = ("ct", "insufflated")
-#: Mean cross-section (mm^2) of a colon distended with CO2 at CT colonography: 11.6 mL/cm (Patrick et al. 2017).
+#: Mean cross-section (mm^2) of a colon distended with CO2 at CT colonography: 11.6 mL/cm (Patrick et al.).
 AREA_MM2 = 1160.0
 #: Typical calibre of each section (mm), relative sizes: the midpoints of docs/anatomy.md's lumen ranges; a
 #: section "rectum and sigmoid" is their length-weighted mean (9.5 : 25 of the colon).
