@@ -13,7 +13,8 @@ from typing import Any, Mapping
 from bhr.settings.errors import BhrError
 from bhr.settings.options import check_number, excerpt
 
-__all__ = ["ThermalParams", "DEFAULT_THERMAL", "THERMAL_KEYS", "thermal_from_table"]
+__all__ = ["ThermalParams", "DEFAULT_THERMAL", "THERMAL_KEYS", "thermal_from_table", "FLEXINOL_LT_C", "transform_thetas",
+           "contraction_reference"]
 
 THERMAL_KEYS: dict[str, tuple[str, float, float]] = {
     # key: (meaning, lowest, highest)
@@ -106,3 +107,44 @@ def thermal_from_table(table: Any, where: str = "thermal") -> ThermalParams:
         return ThermalParams(**vals)
     except BhrError as exc:
         raise BhrError(f"{where}: {exc}") from None
+
+
+# ---------------------------------------------------------------------------
+# the wire's contraction: strain against the normalised temperature theta, with the transformation's hysteresis
+
+#: Transformation temperatures (deg C) of Dynalloy's 70 deg C "LT" Flexinol wire (the defaults' wire): austenite
+#: start and finish on heating (the wire contracts between them), martensite start and finish on cooling (it
+#: relaxes between them). Dynalloy, *Technical Characteristics of Flexinol Actuator Wires* (F1140 Rev I.2), the
+#: figure "Typical Temperature vs. Strain Characteristics" for the LT alloy at 172 MPa, read to the degree.
+FLEXINOL_LT_C: dict[str, float] = {"As": 68.0, "Af": 78.0, "Ms": 52.0, "Mf": 42.0}
+
+
+def transform_thetas(params: ThermalParams, temps: Mapping[str, float] = FLEXINOL_LT_C) -> tuple[float, ...]:
+    """(As, Af, Ms, Mf) as normalised temperatures theta of the thermal model (docs/thermal.md).
+
+    The thermal model puts theta = 1 at the end of the austenite transformation (Af: fully contracted) and a wire
+    is relaxed at ``theta_relax`` (Mf: fully stretched back); the temperature is taken linear in theta between
+    the two, which places As and Ms. With the defaults: 0.824, 1, 0.541, 0.365.
+    """
+    tr = params.theta_relax
+    af, mf = temps["Af"], temps["Mf"]
+
+    def th(t: float) -> float:
+        return tr + (t - mf) / (af - mf) * (1.0 - tr)
+
+    return th(temps["As"]), th(af), th(temps["Ms"]), th(mf)
+
+
+def contraction_reference(theta_path: Any, thetas: tuple[float, ...], s0: float = 0.0) -> list[float]:
+    """The wire's contraction fraction (0 stretched, 1 fully contracted) along a path of temperatures (numpy-free
+    reference of :func:`bhr.run.motion.contraction`): a play hysteresis between the heating branch (As..Af) and
+    the cooling branch (Mf..Ms), each a half cosine (Liang and Rogers, J. Intell. Mater. Syst. Struct. 1, 1990)."""
+    a_s, a_f, m_s, m_f = thetas
+    out = []
+    s = s0
+    for th in theta_path:
+        heat = 0.0 if th <= a_s else 1.0 if th >= a_f else 0.5 - 0.5 * math.cos(math.pi * (th - a_s) / (a_f - a_s))
+        cool = 1.0 if th >= m_s else 0.0 if th <= m_f else 0.5 - 0.5 * math.cos(math.pi * (th - m_f) / (m_s - m_f))
+        s = min(cool, max(heat, s))
+        out.append(s)
+    return out

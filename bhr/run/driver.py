@@ -154,16 +154,23 @@ class FollowResult:
     extra: dict[str, Any] = field(default_factory=dict)
     body: BodyRun | None = None  # the modules behind the head (follow(..., body_modules=M))
     trail: TrailRun | None = None  # locomotion "trail": the trail and its clearance tables (bhr.run.trail)
+    motion: Any = None  # locomotion "wires": every pose of the whole robot (bhr.run.motion.MotionRun)
 
     @property
     def clearance(self) -> ClearanceReport | None:
         """The clearance report when the trajectory has a lumen (head and body points), else None."""
         if self.trajectory.lumen is None:
             return None
-        key = (self.body, self.trajectory.lumen, self.point_errors_mm, self.trail)  # held, compared by identity
+        key = (self.body, self.trajectory.lumen, self.point_errors_mm, self.trail, self.motion)  # compared by identity
         cached = getattr(self, "_clearance_cache", None)
         if cached is None or any(a is not b for a, b in zip(cached[0], key)):
-            cached = (key, clearance_report(self) if self.trail is None else trail_report(self))
+            if self.motion is not None:
+                from bhr.run.motion import motion_report
+
+                report = motion_report(self)
+            else:
+                report = clearance_report(self) if self.trail is None else trail_report(self)
+            cached = (key, report)
             self._clearance_cache = cached
         return cached[1]
 
@@ -435,7 +442,7 @@ def _run_from_json(doc: Any, where: str) -> FollowResult:
     result.body = body
     told: dict[str, Any] = summary if isinstance(summary, dict) else {}
     stop = told.get("feeder_stop_step")
-    if stop is not None and told.get("locomotion") != "trail":
+    if stop is not None and told.get("locomotion") not in ("trail", "wires"):
         if isinstance(stop, bool) or not isinstance(stop, int) or not 1 <= stop < pts.shape[0]:
             raise bad(f"summary feeder_stop_step must be a step from 1 to {pts.shape[0] - 1}, got {excerpt(stop)}")
         result.extra["summary"] = {"feeder_stop_step": stop}  # the robot held its pose from there (contact length)
@@ -541,7 +548,7 @@ def follow(points: Any, solver: str | Solver = "thesis", robot: Robot | None = T
            solver_options: dict[str, Any] | None = None,
            on_step: Callable[[int, np.ndarray | None], None] | None = None,
            compiled: bool = True, body_modules: int | None = None, reach: str | None = None,
-           locomotion: str = "thesis", **robot_options: Any) -> FollowResult:
+           locomotion: str | None = None, **robot_options: Any) -> FollowResult:
     """Run follow-the-leader along ``points`` (a :class:`Trajectory` or an (N, 3) array) with ``solver``.
 
     ``robot`` defaults to the thesis's robot (5 modules of 10 mm, alpha 10
@@ -558,8 +565,13 @@ def follow(points: Any, solver: str | Solver = "thesis", robot: Robot | None = T
     ``body`` holds them and they are scored and counted in the clearance too.
     ``reach="cecum"`` makes the whole robot long enough to reach the path's
     end from its start (instead of ``body_modules``). ``locomotion`` is the
-    thesis's model (``"thesis"``) or exact follow-the-leader along a planned
-    trail (``"trail"``, docs/locomotion.md; with ``solver="lumen"``).
+    thesis's model (``"thesis"``), the robot as it can be built: rigid
+    modules driven by their wires along a planned trail (``"wires"``,
+    :mod:`bhr.run.motion`), or the trail model's ideal follow-the-leader
+    (``"trail"``, not buildable; both docs/locomotion.md, with
+    ``solver="lumen"``). By default a whole robot (``body_modules`` or
+    ``reach``) with ``solver="lumen"`` on a path with a lumen moves by its
+    wires, anything else by the thesis's model.
 
     >>> import bhr
     >>> run = bhr.follow(bhr.trajectory("curve", radius=70, angle=90))
@@ -573,8 +585,13 @@ def follow(points: Any, solver: str | Solver = "thesis", robot: Robot | None = T
     path = np.ascontiguousarray(traj.points, dtype=np.float64)
     if path.shape[0] < 2:
         raise BhrError("a trajectory needs at least two points")
-    if locomotion not in ("thesis", "trail"):
-        raise BhrError(f"locomotion must be thesis or trail, got {locomotion!r}")
+    if locomotion is None:
+        whole_robot = body_modules is not None or reach is not None
+        has_lumen = getattr(traj, "lumen", None) is not None
+        named = solver.name if isinstance(solver, Solver) else solver
+        locomotion = "wires" if whole_robot and has_lumen and named == "lumen" else "thesis"
+    if locomotion not in ("thesis", "trail", "wires"):
+        raise BhrError(f"locomotion must be thesis, wires or trail, got {locomotion!r}")
     if reach is not None:
         if reach != "cecum":
             raise BhrError(f"reach must be cecum (a robot long enough to reach the path's end), got {reach!r}")
@@ -631,10 +648,12 @@ def follow(points: Any, solver: str | Solver = "thesis", robot: Robot | None = T
             warnings.warn(msg, BhrWarning, stacklevel=2)
     n = robot.modules
     N = path.shape[0]
-    if locomotion == "trail":
+    if locomotion in ("trail", "wires"):
         if s.name != "lumen":
-            raise BhrError(f"locomotion trail plans the trail the whole robot follows with the wall-aware planner; "
-                           f"use --solver lumen (not {solver})")
+            raise BhrError(f"locomotion {locomotion} plans the trail the whole robot follows with the wall-aware "
+                           f"planner; use --solver lumen (not {solver})")
+        if locomotion == "wires":
+            return _follow_wires(traj, robot, s, solver, path, dirs, body_modules, reach is not None, msgs, on_step)
         return _follow_trail(traj, robot, s, solver, path, dirs, body_modules, reach is not None, msgs, on_step)
     chain = Chain.straight(robot, traj.start_direction, traj.start_point, tip_at_origin=True)
     out_points = np.zeros((N, n + 1, 3))
@@ -799,6 +818,79 @@ def _sections_from_json(doc: Any, count: int, bad: Any) -> tuple[tuple[str, int,
         prev = item[2]
         out.append((item[0], item[1], item[2]))
     return tuple(out)
+
+
+def _follow_wires(traj: Trajectory, robot: Robot, s: Any, solver: str, path: np.ndarray, dirs: np.ndarray,
+                  body_modules: int | None, reach: bool, msgs: list[str],
+                  on_step: Callable[[int, np.ndarray | None], None] | None) -> FollowResult:
+    """A run of the robot as it can be built (bhr.run.motion): plan the trail, drive the rigid robot's joints along
+    it by their wires, write and score every pose."""
+    from bhr.run.motion import plan_motion, per_step
+    from bhr.run.trail import dense_tube, plan_trail, stop_step, trail_vertices, vertex_hints
+
+    if traj.lumen is None:
+        raise BhrError(f"locomotion wires plans the trail against the lumen; {traj.name} has none (give a "
+                       "trajectory with a lumen, e.g. --traj anatomy)")
+    n, f = robot.modules, robot.feed_divisor
+    N = path.shape[0]
+    L = float(robot.module_length)
+    settings = {**s.settings, "trail_beam": s.trail_beam, "center_weight": s.trail_center_weight}
+    tube = dense_tube(traj.points, traj.lumen, traj.start_direction, s.window,
+                      closed_end=getattr(traj, "lumen_end", "closed") == "closed")
+    V = (N - 1) // f + 1
+    tcodes = plan_trail(tube, robot, settings, V, traj.start_direction, traj.start_point)
+    T = trail_vertices(tcodes, traj.start_direction, traj.start_point, L, robot.alpha, 2)
+    stop = stop_step(tube, vertex_hints(tube, T, 2, L), 2, f, N)
+    if reach:
+        body_modules = check_body_modules(cecum_modules(stop + 1, f, n), n, "reach cecum")
+    M = int(n if body_modules is None else body_modules)
+    back = M + 2
+    T = trail_vertices(tcodes, traj.start_direction, traj.start_point, L, robot.alpha, back)
+    z = vertex_hints(tube, T, back, L)
+    stop = min(stop, M * f)  # a feeder at the anus pushes the tail in no further than the robot's length
+    m, k = divmod(stop, f)
+    ztip = z[back + m] + (k / f) * (z[back + m + 1] - z[back + m])
+    short = max(0.0, float(tube.points.shape[0] - tube.post - 1 - ztip) * float(tube.spacing))
+    mo = plan_motion(tube, float(robot.radius), tcodes, T, back, z, M, L, float(robot.feed), float(robot.alpha),
+                     traj.start_point, traj.start_direction, stop * float(robot.feed))
+    joints, jcodes, _, _, _ = per_step(mo, N)
+    tipfirst = joints[:, ::-1]
+    head = np.ascontiguousarray(tipfirst[:, n::-1])
+    codes = np.ascontiguousarray(jcodes[:, ::-1][:, n - 1::-1]) if n else np.zeros((N, 0), np.int64)
+    pe = np.zeros((N, n + 1))
+    oe = np.zeros((N, n))
+    for i in range(N):
+        d = dirs[-1] if i == N - 1 else dirs[i]
+        P = head[i]
+        tip = float(angle_deg(P[n, 0] - P[n - 1, 0], P[n, 1] - P[n - 1, 1], P[n, 2] - P[n - 1, 2], d))
+        score_step(i, P, path, dirs, f, tip, pe[i], oe[i])
+        if on_step is not None:
+            on_step(i, codes[i])
+    iters = (np.arange(N) % f == 0).astype(np.int64)
+    result = FollowResult(traj, robot, solver, head, iters, pe, oe, codes, msgs)
+    result.motion = mo
+    if body_modules is not None:
+        nb = M - n
+        pts = np.ascontiguousarray(tipfirst[:, n + 1:])
+        bpe, boe = np.zeros((N, nb)), np.zeros((N, nb))
+        scored = np.zeros((N, nb), dtype=bool)
+        if nb:
+            score_body(result, pts, path, dirs, bpe, boe, scored)
+        bcodes = np.ascontiguousarray(jcodes[:, ::-1][:, n:])  # body module 1 (right behind the head) first
+        result.body = BodyRun(nb, pts, bcodes, bpe, boe, scored)
+    names, counts = np.unique(np.array(mo.strategies), return_counts=True)
+    result.extra["summary"] = {
+        "locomotion": "wires",
+        "trail_vertices": int(tcodes.shape[0]),
+        "feeder_stop_step": int(stop) + 1,
+        "cecum_shortfall_mm": float(short),
+        "poses": int(mo.points_mm.shape[0]),
+        "poses_file": "poses.npz",
+        "max_trail_offset_mm": float(np.max(mo.trail_offset_mm)),
+        "switching": {str(a): int(b) for a, b in zip(names, counts)},
+        "procedure_time_s": float(mo.t_s[-1]),
+    }
+    return result
 
 
 def procedure_time_s(tr: TrailRun) -> float:
