@@ -106,7 +106,7 @@ def follow(traj, solver, out_dir, json_path, no_plots, force, **kwargs):
         from bhr.run.body import check_body_modules
 
         check_body_modules(body_modules, robot.modules, "--body-modules")
-    reach, locomotion = kwargs.pop("reach"), kwargs.pop("locomotion") or "thesis"
+    reach, locomotion = kwargs.pop("reach"), kwargs.pop("locomotion")
     if reach is not None and body_modules is not None:
         raise BhrError("give either --body-modules or --reach cecum, not both (--reach cecum sets the whole robot's "
                        "modules from the path's length)")

@@ -82,3 +82,14 @@ def write_run_files(result: "FollowResult", out_dir: "str | os.PathLike[str]") -
     codes = result.board_codes
     if codes is not None:
         write_text(out / "codes.csv", format_codes_csv(codes))
+    if getattr(result, "motion", None) is not None:
+        write_poses(result, out / "poses.npz")
+
+
+def write_poses(result: "FollowResult", path: "str | os.PathLike[str]") -> None:
+    """``poses.npz``: every pose of a whole robot moved by its wires (docs/locomotion.md, "Every pose"): ``t_s``,
+    ``insertion_mm``, ``points_mm`` (tail first), ``tilts_rad``, ``codes``, ``step`` (1-based), as float64/int64."""
+    import numpy as np
+
+    with open(path, "wb") as fh:
+        np.savez_compressed(fh, **result.motion.npz())

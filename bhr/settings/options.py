@@ -208,9 +208,11 @@ OPTIONS: tuple[Option, ...] = (
            maximum=10000, positive=True, metavar="M", shown="head only"),
     Option("reach", _RUN, str, "cecum: the whole robot is long enough to reach the cecum of the path (its modules "
            "from the path's length; instead of --body-modules)", None, choices=("cecum",), shown="head only"),
-    Option("locomotion", _RUN, str, "How the robot moves: thesis (the thesis's model, the head solved every step) "
-           "or trail (exact follow-the-leader, every module along the trail the tip lays; docs/locomotion.md)",
-           "thesis", choices=("thesis", "trail")),
+    Option("locomotion", _RUN, str, "How the robot moves: thesis (the thesis's model, the head solved every step), "
+           "wires (the robot as it can be built: rigid modules whose joints its wires drive along the trail the tip "
+           "lays, every pose scored) or trail (ideal follow-the-leader, not buildable; docs/locomotion.md)",
+           None, choices=("thesis", "wires", "trail"),
+           shown="wires for a whole robot with --solver lumen on a path with a lumen, else thesis"),
     # the physics replay (bhr.studies.physics, docs/physics.md)
     Option("wall_stiffness", "physics", float, "Colon wall stiffness per module length of wall, N/mm (published "
            "0.7-2.4)", 1.5, "N/mm", 24.0, positive=True, metavar="N/MM"),

@@ -26,7 +26,7 @@ __all__ = ["FOLLOW_NAMES", "FollowRun", "StreamSettings", "check_outputs", "foll
            "trajectory_parts"]
 
 #: What bhr follow writes into its folder (an existing folder holding only such files may be replaced).
-FOLLOW_NAMES = ("run.json", "codes.csv", "steps.csv", "*.png", "view.html", "manifest.json")
+FOLLOW_NAMES = ("run.json", "codes.csv", "steps.csv", "poses.npz", "*.png", "view.html", "manifest.json")
 
 Status = Callable[[str], ContextManager[Any]]
 Progress = Callable[[int, int], None]
@@ -135,7 +135,7 @@ def check_outputs(traj: str, robot_file: str | None, out_dir: str | None, json_p
 
 def follow_run(traj: str, *, robot: Any, solver: str = "thesis", solver_options: dict | None = None,
                traj_params: dict | None = None, body_modules: int | None = None, reach: str | None = None,
-               locomotion: str = "thesis", out_dir: str | None = None, json_path: str | None = None,
+               locomotion: str | None = None, out_dir: str | None = None, json_path: str | None = None,
                plots: bool = True, animate_path: str | None = None, stride: int | None = None,
                rate: float = 10.0, robot_file: str | None = None, thermal: Any = None,
                stream: StreamSettings | None = None, status: Status = _no_status,
@@ -182,7 +182,7 @@ def follow_run(traj: str, *, robot: Any, solver: str = "thesis", solver_options:
         raise BhrError(f"{head}, then stream the whole robot's codes.csv (every module, rear first) to a board built "
                        f"for {body_modules} modules (make -C firmware MODULES={body_modules}): bhr stream --port PORT "
                        "--codes bhr-out/latest/codes.csv")
-    if stream is not None and (locomotion != "thesis" or reach is not None):
+    if stream is not None and (locomotion not in (None, "thesis") or reach is not None):
         raise BhrError("--port streams the thesis's locomotion; drop --locomotion and --reach to stream")
     if thermal is None:
         from bhr.hardware.thermal import DEFAULT_THERMAL
@@ -193,6 +193,9 @@ def follow_run(traj: str, *, robot: Any, solver: str = "thesis", solver_options:
     from bhr.run.driver import BhrWarning
 
     tr = load_trajectory(traj, feed=robot.feed, **traj_params)
+    if locomotion is None:  # a whole robot moves by its wires (bhr.run.driver.follow's default)
+        whole = (body_modules is not None or reach is not None) and getattr(tr, "lumen", None) is not None
+        locomotion = "wires" if whole and solver == "lumen" else "thesis"
     extra = (reach, locomotion) if (reach, locomotion) != (None, "thesis") else ()
     settings_parts = (*trajectory_parts(tr), robot.to_dict(), solver, solver_options, body_modules, *extra)
     if folder is None and use_folder:
@@ -243,6 +246,11 @@ def follow_run(traj: str, *, robot: Any, solver: str = "thesis", solver_options:
                 written.append(folder.final(name))
             write_text(folder.path(STEPS_CSV), format_steps_csv(result))  # the errors per step, for a spreadsheet
             written.append(folder.final(STEPS_CSV))
+            if getattr(result, "motion", None) is not None:  # every pose of the whole robot (docs/locomotion.md)
+                from bhr.output.steptable import write_poses
+
+                write_poses(result, folder.path("poses.npz"))
+                written.append(folder.final("poses.npz"))
             if plots:
                 from bhr.output.plots import save_run_plots
 
@@ -414,7 +422,16 @@ def body_clearance_lines(s: dict) -> list[str]:
                    f"{s['trail_offset_bound_mm']:.2f} mm of the trail); the feeder pushes until step "
                    f"{s['feeder_stop_step']}, the tip {s['cecum_shortfall_mm']:.1f} mm short of the path's end; "
                    f"{format_duration(s['procedure_time_s'])} at the wires' pace, the whole robot.")
-    if s.get("locomotion") != "trail" and s.get("feeder_stop_step"):
+    if s.get("locomotion") == "wires":
+        from bhr.hardware.thermal import format_duration
+
+        ways = ", ".join(f"{k} {v}" for k, v in sorted(s["switching"].items(), key=lambda kv: -kv[1]))
+        out.append(f"Wires: rigid modules driven by their wires along a trail of {s['trail_vertices']} vertices; "
+                   f"{s['poses']} poses in {s['poses_file']}, the robot up to {s['max_trail_offset_mm']:.1f} mm off "
+                   f"the trail between module lengths (switching: {ways}); the feeder pushes until step "
+                   f"{s['feeder_stop_step']}, the tip {s['cecum_shortfall_mm']:.1f} mm short of the path's end; "
+                   f"{format_duration(s['procedure_time_s'])} at the wires' pace.")
+    if s.get("locomotion") not in ("trail", "wires") and s.get("feeder_stop_step"):
         out.append(f"The tip reached the cecum at step {s['feeder_stop_step']} of {s['steps']}: the feeder stopped "
                    "there and the robot holds its pose.")
     if "body_modules" in s:
