@@ -82,7 +82,7 @@ def write_run_files(result: "FollowResult", out_dir: "str | os.PathLike[str]") -
     codes = result.board_codes
     if codes is not None:
         write_text(out / "codes.csv", format_codes_csv(codes))
-    if getattr(result, "motion", None) is not None:
+    if getattr(result, "motion", None) is not None and result.motion.kept:
         write_poses(result, out / "poses.npz")
 
 

@@ -825,7 +825,7 @@ def _follow_wires(traj: Trajectory, robot: Robot, s: Any, solver: str, path: np.
                   on_step: Callable[[int, np.ndarray | None], None] | None) -> FollowResult:
     """A run of the robot as it can be built (bhr.run.motion): plan the trail, drive the rigid robot's joints along
     it by their wires, write and score every pose."""
-    from bhr.run.motion import plan_motion, per_step
+    from bhr.run.motion import plan_motion
     from bhr.run.trail import dense_tube, plan_trail, stop_step, trail_vertices, vertex_hints
 
     if traj.lumen is None:
@@ -852,8 +852,8 @@ def _follow_wires(traj: Trajectory, robot: Robot, s: Any, solver: str, path: np.
     ztip = z[back + m] + (k / f) * (z[back + m + 1] - z[back + m])
     short = max(0.0, float(tube.points.shape[0] - tube.post - 1 - ztip) * float(tube.spacing))
     mo = plan_motion(tube, float(robot.radius), tcodes, T, back, z, M, L, float(robot.feed), float(robot.alpha),
-                     traj.start_point, traj.start_direction, stop * float(robot.feed))
-    joints, jcodes, _, _, _ = per_step(mo, N)
+                     traj.start_point, traj.start_direction, stop * float(robot.feed), N)
+    joints, jcodes = mo.step_joints, mo.step_codes
     tipfirst = joints[:, ::-1]
     head = np.ascontiguousarray(tipfirst[:, n::-1])
     codes = np.ascontiguousarray(jcodes[:, ::-1][:, n - 1::-1]) if n else np.zeros((N, 0), np.int64)
@@ -884,8 +884,8 @@ def _follow_wires(traj: Trajectory, robot: Robot, s: Any, solver: str, path: np.
         "trail_vertices": int(tcodes.shape[0]),
         "feeder_stop_step": int(stop) + 1,
         "cecum_shortfall_mm": float(short),
-        "poses": int(mo.points_mm.shape[0]),
-        "poses_file": "poses.npz",
+        "poses": int(mo.t_s.shape[0]),
+        "poses_file": "poses.npz" if mo.kept else None,
         "max_trail_offset_mm": float(np.max(mo.trail_offset_mm)),
         "switching": {str(a): int(b) for a, b in zip(names, counts)},
         "procedure_time_s": float(mo.t_s[-1]),

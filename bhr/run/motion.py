@@ -57,6 +57,10 @@ MAX_JOINT_STEP_MM = 1.9
 FEED_MM_S = 5.0
 #: Samples per switching window when the planner compares strategies.
 PLAN_SAMPLES = 8
+#: Modules whose samples come this close to the wall (mm) are refined (golden section) when scored.
+NEAR_MM = 2.0
+#: Robot points (poses x joints) a run keeps to write poses.npz (about 48 bytes each with the tilts and codes).
+POSE_POINTS_LIMIT = 6_000_000
 #: The file beside run.json with every pose of the whole robot.
 POSES_FILE = "poses.npz"
 #: Wire k's pull on the joint's tilt, in the module's local (x, y) axes (times alpha).
@@ -146,9 +150,13 @@ def _rotate_rows(F, tx, ty, out):
             for b in range(3):
                 out[r, b] = F[r, b]
         return
-    n0 = (tx * F[0, 0] + ty * F[1, 0]) / a
-    n1 = (tx * F[0, 1] + ty * F[1, 1]) / a
-    n2 = (tx * F[0, 2] + ty * F[1, 2]) / a
+    n0 = tx * F[0, 0] + ty * F[1, 0]
+    n1 = tx * F[0, 1] + ty * F[1, 1]
+    n2 = tx * F[0, 2] + ty * F[1, 2]
+    nn = math.sqrt(n0 * n0 + n1 * n1 + n2 * n2)  # the axis made unit itself: a rotation even if F has drifted
+    n0 /= nn
+    n1 /= nn
+    n2 /= nn
     c = math.cos(a)
     s = math.sin(a)
     for r in range(3):
@@ -157,6 +165,19 @@ def _rotate_rows(F, tx, ty, out):
         out[r, 0] = v0 * c + (n1 * v2 - n2 * v1) * s + n0 * d * (1.0 - c)
         out[r, 1] = v1 * c + (n2 * v0 - n0 * v2) * s + n1 * d * (1.0 - c)
         out[r, 2] = v2 * c + (n0 * v1 - n1 * v0) * s + n2 * d * (1.0 - c)
+    # and the frame kept orthonormal (z unit, x made orthogonal to it, y = z x x): rounding cannot build up
+    zn = math.sqrt(out[2, 0] ** 2 + out[2, 1] ** 2 + out[2, 2] ** 2)
+    for b in range(3):
+        out[2, b] /= zn
+    d = out[0, 0] * out[2, 0] + out[0, 1] * out[2, 1] + out[0, 2] * out[2, 2]
+    for b in range(3):
+        out[0, b] -= d * out[2, b]
+    xn = math.sqrt(out[0, 0] ** 2 + out[0, 1] ** 2 + out[0, 2] ** 2)
+    for b in range(3):
+        out[0, b] /= xn
+    out[1, 0] = out[2, 1] * out[0, 2] - out[2, 2] * out[0, 1]
+    out[1, 1] = out[2, 2] * out[0, 0] - out[2, 0] * out[0, 2]
+    out[1, 2] = out[2, 0] * out[0, 1] - out[2, 1] * out[0, 0]
 
 
 @njit(cache=True)
@@ -294,25 +315,107 @@ def end_state(t, tsw, delay, th0, s0, on_old, on_new, prm, th_out, s_out):
 
 
 @njit(cache=True)
-def score_kernel(pts, xs, L, z, back, tube_c, tube_r, S, BC, BR, pre, w, radius, sample, pc, mc, mwhere):
-    """Clearance of every pose (points (P, M+1, 3) tail first at insertions xs): each joint's (P, M+1) and each
-    module's smallest along it (P, M) and where (P, M, 3), by :func:`clearance_chain_kernel` (NaN outside)."""
-    P = pts.shape[0]
+def score_kernel(pts, xs, steps, L, z, back, tube_c, tube_r, S, BC, BR, pre, w, radius, sample, near, pc, mc, mwhere,
+                 low):
+    """Clearance of poses (points (K, M+1, 3) tail first at insertions xs, of 0-based path steps ``steps``),
+    folded into the steps' tables: each joint's smallest (N, M+1) and each module's smallest along it (N, M), and
+    where (N, M, 3); ``low`` (K) each pose's smallest. A module is sampled at most ``sample`` mm apart; one whose
+    samples come within ``near`` mm of the wall is scored by :func:`clearance_chain_kernel` (its worst sample
+    refined by a golden-section search). Points outside the anus are not scored. Returns 1.0 when a point crossed
+    into another pass of a loop (:func:`bhr.model.tube.locate_kernel`)."""
+    K = pts.shape[0]
     J = pts.shape[1]
     M = J - 1
     E = np.empty(J)
     Z = np.empty(J)
-    found = np.empty(J)
+    cj = np.empty(J)
+    fj = np.empty(J)
+    res = np.empty(4)
+    Q = np.empty((2, 3))
+    E2 = np.empty(2)
+    Z2 = np.empty(2)
+    p2 = np.empty(2)
+    m2 = np.empty(1)
+    w2 = np.empty((1, 3))
+    f2 = np.empty(2)
     crossed = 0.0
-    for j in range(P):
+    NT = tube_c.shape[0]
+    for j in range(K):
+        st = steps[j]
+        best = np.inf
         for i in range(J):
             q = xs[j] / L - M + i
             Z[i] = _hint_at(z, back, q)
-            E[i] = Z[i] - pre if q >= 0.0 else -1.0
-        c = clearance_chain_kernel(tube_c, tube_r, S, BC, BR, pre, w, radius, pts[j], E, Z, sample, pc[j], mc[j],
-                                   mwhere[j], found)
-        if c > crossed:
-            crossed = c
+            if q < 0.0:
+                E[i] = -1.0
+                cj[i] = np.nan
+                fj[i] = Z[i]
+                continue
+            E[i] = Z[i] - pre
+            lo, hi = search_window(NT, Z[i], w)
+            locate_kernel(tube_c, tube_r, S, BC, BR, radius, lo, hi, Z[i], pts[j, i, 0], pts[j, i, 1], pts[j, i, 2],
+                          res)
+            cj[i] = res[1] - radius - res[0]
+            fj[i] = res[2]
+            if res[3] > crossed:
+                crossed = res[3]
+            if cj[i] < best:
+                best = cj[i]
+            if not (pc[st, i] <= cj[i]):
+                pc[st, i] = cj[i]
+        for m in range(M):
+            if E[m] < 0.0 and E[m + 1] < 0.0:
+                continue
+            # sampled along the module (the scored part), around where its ends were found
+            ns = int(math.ceil(L / sample))
+            lo_t = 0.0 if E[m] >= 0.0 else (-E[m]) / (E[m + 1] - E[m])
+            v = np.inf
+            bt = 0.0
+            for k in range(ns + 1):
+                t = k / ns
+                if t < lo_t:
+                    continue
+                px = pts[j, m, 0] + t * (pts[j, m + 1, 0] - pts[j, m, 0])
+                py = pts[j, m, 1] + t * (pts[j, m + 1, 1] - pts[j, m, 1])
+                pz = pts[j, m, 2] + t * (pts[j, m + 1, 2] - pts[j, m, 2])
+                zz = fj[m] + t * (fj[m + 1] - fj[m])
+                lo, hi = search_window(NT, zz, w)
+                locate_kernel(tube_c, tube_r, S, BC, BR, radius, lo, hi, Z[m] + t * (Z[m + 1] - Z[m]), px, py, pz,
+                              res)
+                if res[3] > crossed:
+                    crossed = res[3]
+                c = res[1] - radius - res[0]
+                if c < v:
+                    v = c
+                    bt = t
+            if v == np.inf:
+                continue
+            wx = pts[j, m, 0] + bt * (pts[j, m + 1, 0] - pts[j, m, 0])
+            wy = pts[j, m, 1] + bt * (pts[j, m + 1, 1] - pts[j, m, 1])
+            wz = pts[j, m, 2] + bt * (pts[j, m + 1, 2] - pts[j, m, 2])
+            if v <= near:
+                for b in range(3):
+                    Q[0, b] = pts[j, m, b]
+                    Q[1, b] = pts[j, m + 1, b]
+                E2[0] = E[m]
+                E2[1] = E[m + 1]
+                Z2[0] = Z[m]
+                Z2[1] = Z[m + 1]
+                c = clearance_chain_kernel(tube_c, tube_r, S, BC, BR, pre, w, radius, Q, E2, Z2, sample, p2, m2, w2,
+                                           f2)
+                if c > crossed:
+                    crossed = c
+                if m2[0] < v:
+                    v = m2[0]
+                    wx, wy, wz = w2[0, 0], w2[0, 1], w2[0, 2]
+            if v < best:
+                best = v
+            if not (mc[st, m] <= v):
+                mc[st, m] = v
+                mwhere[st, m, 0] = wx
+                mwhere[st, m, 1] = wy
+                mwhere[st, m, 2] = wz
+        low[j] = best if best < np.inf else np.nan
     return crossed
 
 
@@ -415,20 +518,28 @@ def schedule(strategy: Strategy, changing: np.ndarray, L: float, feed: float, wi
 
 @dataclass
 class MotionRun:
-    """Every pose of the whole robot through one run (the contract of ``poses.npz``, docs/locomotion.md)."""
+    """A run of the robot as it can be built: every pose (``poses.npz``, docs/locomotion.md) and the steps' tables.
+
+    The poses are kept when there are at most :data:`POSE_POINTS_LIMIT` robot points in all (``kept``); the
+    tables always.
+    """
 
     t_s: np.ndarray  # (P,) s from the start
     insertion_mm: np.ndarray  # (P,)
-    points_mm: np.ndarray  # (P, M+1, 3) tail first
+    points_mm: np.ndarray  # (P, M+1, 3) tail first (empty when not kept)
     tilts_rad: np.ndarray  # (P, M, 2)
     codes: np.ndarray  # (P, M) tail first
     step: np.ndarray  # (P,) 1-based path step
     strategies: list[str]  # per module length, the strategy the planner chose
-    joint_clear: np.ndarray  # (P, M+1) mm, NaN outside the lumen
-    module_clear: np.ndarray  # (P, M) mm
-    module_where: np.ndarray  # (P, M, 3)
+    pose_clear: np.ndarray  # (P,) mm each pose's smallest clearance (NaN: nothing in the lumen)
     trail_offset_mm: np.ndarray  # (P,) the largest distance of a joint from the trail
-    ends: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))  # each module length's last pose
+    ends: np.ndarray  # (V,) index of each module length's last pose
+    step_joints: np.ndarray  # (N, M+1, 3) each step's last pose (held once the feeder stopped), tail first
+    step_codes: np.ndarray  # (N, M)
+    joint_clear: np.ndarray  # (N, M+1) mm, the smallest over the step's poses, NaN outside the lumen
+    module_clear: np.ndarray  # (N, M)
+    module_where: np.ndarray  # (N, M, 3)
+    kept: bool = True
     crossed: bool = False
 
     def npz(self) -> dict[str, np.ndarray]:
@@ -438,7 +549,7 @@ class MotionRun:
 
 
 def plan_motion(tube: Tube, radius: float, codes: np.ndarray, T: np.ndarray, back: int, z: np.ndarray, M: int,
-                L: float, feed: float, alpha_deg: float, start_point, start_direction, stop_mm: float,
+                L: float, feed: float, alpha_deg: float, start_point, start_direction, stop_mm: float, steps: int,
                 params: ThermalParams = DEFAULT_THERMAL, strategies: tuple[Strategy, ...] | None = None,
                 sample: float = 1.0) -> MotionRun:
     """The whole robot of M rigid modules driven along the trail (``codes`` per vertex, vertices ``T`` with
@@ -479,7 +590,19 @@ def plan_motion(tube: Tube, radius: float, codes: np.ndarray, T: np.ndarray, bac
     s = th.copy()
     chunks: list[tuple] = []
     chosen: list[str] = []
+    ends: list[int] = []
     clock = 0.0
+    count = 0
+    kept = True
+    N = int(steps)
+    pc = np.full((N, M + 1), np.nan)
+    mc = np.full((N, M), np.nan)
+    mw = np.full((N, M, 3), np.nan)
+    sj = np.empty((N, M + 1, 3))
+    scd = np.empty((N, M), dtype=np.int64)
+    filled = -1
+    crossed = 0.0
+    prev: np.ndarray | None = None
 
     def poses(times, bt, bx, tsw, dly, on_old, on_new, cur, nxt, p, rad):
         K = times.shape[0]
@@ -511,50 +634,73 @@ def plan_motion(tube: Tube, radius: float, codes: np.ndarray, T: np.ndarray, bac
                 best = ((0.0, 0.0), st, times, bt, bx, tsw, dly, end)
                 break
             xs, pts, tl, cd, dev, clr = poses(times, bt, bx, tsw, dly, on_old, on_new, cur, nxt, p, float(radius))
-            low = float(np.nanmin(clr)) if np.any(np.isfinite(clr)) else math.inf
-            key = (round(low, 3), -round(float(np.max(dev)), 3))
+            lowest = float(np.nanmin(clr)) if np.any(np.isfinite(clr)) else math.inf
+            key = (round(lowest, 3), -round(float(np.max(dev)), 3))
             if best is None or key > best[0]:
                 best = (key, st, times, bt, bx, tsw, dly, end)
         assert best is not None
         _, st, times, bt, bx, tsw, dly, end = best
-        if chunks:
+        if prev is not None:
             times = times[times > 0.0]  # t = 0 is the last pose of the module length before
         # dense: refine until no joint moves more than MAX_JOINT_STEP_MM between two written poses
-        for _ in range(16):
-            xs, pts, tl, cd, dev, clr = poses(times, bt, bx, tsw, dly, on_old, on_new, cur, nxt, p, -1.0)
-            full = pts if not chunks else np.concatenate([chunks[-1][2][-1:], pts])
-            tt = times if not chunks else np.concatenate([[0.0], times])
+        for _ in range(24):
+            xs, pts, tl, cd, dev, _c = poses(times, bt, bx, tsw, dly, on_old, on_new, cur, nxt, p, -1.0)
+            full = pts if prev is None else np.concatenate([prev[None], pts])
+            tt = times if prev is None else np.concatenate([[0.0], times])
             move = np.max(np.linalg.norm(np.diff(full, axis=0), axis=2), axis=1)
             bad = np.flatnonzero(move > MAX_JOINT_STEP_MM)
             if not bad.size:
                 break
             more = [tt[b] + (tt[b + 1] - tt[b]) * np.arange(1, n) / n
-                    for b, n in zip(bad, np.ceil(move[bad] / MAX_JOINT_STEP_MM * 1.05).astype(int))]
+                    for b, n in zip(bad, np.ceil(move[bad] / MAX_JOINT_STEP_MM * 1.25).astype(int) + 1)]
             times = np.unique(np.concatenate([times] + more))
         else:
-            raise BhrError("the robot's motion could not be sampled finely enough; report this run")
-        chunks.append((clock + times, xs, pts, tl, cd, dev))
+            i = int(np.argmax(move))
+            raise BhrError(f"the robot's motion could not be sampled finely enough (module length {p}, {st.name}, "
+                           f"{move[i]:.3g} mm at t = {tt[i]:.6g} ms); report this run")
+        steps0 = np.minimum(np.floor(xs / feed + 1e-6).astype(np.int64), N - 1)
+        low = np.empty(times.shape[0])
+        c = score_kernel(pts, xs, steps0, L, z, back, C, R, S, BC, BR, pre, w, float(radius), float(sample),
+                         NEAR_MM, pc, mc, mw, low)
+        crossed = max(crossed, c)
+        # each step's last pose
+        last_of = np.flatnonzero(np.diff(np.append(steps0, -1)) != 0)
+        sj[steps0[last_of]] = pts[last_of]
+        scd[steps0[last_of]] = cd[last_of]
+        filled = max(filled, int(steps0[-1]))
+        count += pts.shape[0] * (M + 1)
+        if count > POSE_POINTS_LIMIT:
+            kept = False
+        chunks.append((clock + times, xs, pts if kept else None, tl if kept else None,
+                       cd.astype(np.int8) if kept else None, dev, low, steps0))
+        prev = pts[-1].copy()
         chosen.append(st.name)
+        ends.append(sum(ch[0].shape[0] for ch in chunks) - 1)
         end_th = np.empty_like(th)
         end_s = np.empty_like(s)
         end_state(end, tsw, dly, th, s, on_old, on_new, prm, end_th, end_s)
         th, s = end_th, end_s
         clock += end
         cur = nxt
-    t = np.concatenate([c[0] for c in chunks]) / 1000.0
-    x = np.concatenate([c[1] for c in chunks])
-    pts = np.concatenate([c[2] for c in chunks])
-    tl = np.concatenate([c[3] for c in chunks])
-    cd = np.concatenate([c[4] for c in chunks])
-    dev = np.concatenate([c[5] for c in chunks])
-    step = (np.floor(x / feed + 1e-6)).astype(np.int64) + 1
-    P = pts.shape[0]
-    pc = np.empty((P, M + 1))
-    mc = np.empty((P, M))
-    mw = np.empty((P, M, 3))
-    crossed = score_kernel(pts, x, L, z, back, C, R, S, BC, BR, pre, w, float(radius), float(sample), pc, mc, mw)
-    ends = np.cumsum([c[2].shape[0] for c in chunks]) - 1
-    return MotionRun(t, x, pts, tl, cd, step, chosen, pc, mc, mw, dev, ends, bool(crossed > 0.0))
+    if filled < N - 1:  # the feeder stopped: the robot holds its last pose
+        sj[filled + 1:] = sj[filled]
+        scd[filled + 1:] = scd[filled]
+        pc[filled + 1:] = pc[filled]
+        mc[filled + 1:] = mc[filled]
+        mw[filled + 1:] = mw[filled]
+    t = np.concatenate([ch[0] for ch in chunks]) / 1000.0
+    x = np.concatenate([ch[1] for ch in chunks])
+    if kept:
+        pts = np.concatenate([ch[2] for ch in chunks])
+        tl = np.concatenate([ch[3] for ch in chunks])
+        cd = np.concatenate([ch[4] for ch in chunks])
+    else:
+        pts, tl, cd = np.zeros((0, M + 1, 3)), np.zeros((0, M, 2)), np.zeros((0, M), np.int8)
+    dev = np.concatenate([ch[5] for ch in chunks])
+    low = np.concatenate([ch[6] for ch in chunks])
+    step = np.concatenate([ch[7] for ch in chunks]) + 1
+    return MotionRun(t, x, pts, tl, cd, step, chosen, low, dev, np.array(ends, dtype=np.int64), sj, scd, pc, mc, mw,
+                     kept, bool(crossed > 0.0))
 
 
 # ---------------------------------------------------------------------------
@@ -595,39 +741,6 @@ def chain_poses(tail, frame, L: float, tilts: np.ndarray) -> np.ndarray:
 # a run's steps and its clearance, from the poses
 
 
-def per_step(motion: MotionRun, steps: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """(joints (N, M+1, 3) tail first: each step's last pose (held after the feeder stopped), codes (N, M),
-    joints' clearance (N, M+1) and modules' (N, M): the smallest over the step's poses, where (N, M, 3))."""
-    st = motion.step
-    P, J = motion.points_mm.shape[0], motion.points_mm.shape[1]
-    last = np.searchsorted(st, np.arange(1, steps + 1), side="right") - 1
-    last = np.clip(last, 0, P - 1)
-    joints = motion.points_mm[last]
-    codes = motion.codes[last]
-    pc = np.full((steps, J), np.nan)
-    mc = np.full((steps, J - 1), np.nan)
-    mw = np.full((steps, J - 1, 3), np.nan)
-    u, first = np.unique(st, return_index=True)
-    keep = (u >= 1) & (u <= steps)
-    u, first = u[keep], first[keep]
-    bounds = np.append(first, P)
-    for k, i in enumerate(u):
-        a, b = bounds[k], bounds[k + 1]
-        blk = motion.module_clear[a:b]
-        with np.errstate(invalid="ignore"):
-            pc[i - 1] = np.fmin.reduce(motion.joint_clear[a:b], axis=0)
-            mc[i - 1] = np.fmin.reduce(blk, axis=0)
-        arg = np.argmin(np.where(np.isnan(blk), np.inf, blk), axis=0)
-        mw[i - 1] = motion.module_where[a + arg, np.arange(J - 1)]
-    done = int(u[-1]) if u.size else 0
-    if done < steps:  # the feeder stopped: the robot holds its last pose
-        pc[done:] = pc[done - 1]
-        mc[done:] = mc[done - 1]
-        mw[done:] = mw[done - 1]
-    mw[np.isnan(mc)] = np.nan
-    return joints, codes, pc, mc, mw
-
-
 def motion_report(result):
     """The :class:`~bhr.run.clearance.ClearanceReport` of a run of the wires' motion: every joint and module of the
     whole robot, the smallest over every pose written in each step."""
@@ -639,8 +752,7 @@ def motion_report(result):
     n = r.modules
     M = mo.points_mm.shape[1] - 1
     B = M - n
-    _, _, pc, mc, mw = per_step(mo, result.steps)
-    jp, jm, jw = pc[:, ::-1], mc[:, ::-1], mw[:, ::-1]  # tip first
+    jp, jm, jw = mo.joint_clear[:, ::-1], mo.module_clear[:, ::-1], mo.module_where[:, ::-1]  # tip first
     p_idx = [n - jj for jj in range(n + 1)] + [n + k for k in range(1, B + 1)]
     m_idx = [n - 1 - jj for jj in range(n)] + [n + k - 1 for k in range(1, B + 1)]
     labels, mlabels = robot_labels(n, B)

@@ -1,0 +1,200 @@
+"""The robot as it can be built (bhr.run.motion): wires, joints, rigid chains, every pose written and scored."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import bhr
+from bhr.kinematics.codetable import CODE_AXIS, VALID_CODES
+from bhr.model.robot import base_frame
+from bhr.model.wires import DEFAULT_THERMAL, contraction_reference, transform_thetas
+from bhr.run.driver import follow
+from bhr.run.motion import (MAX_JOINT_STEP_MM, chain_poses, code_wires, contraction, joint_tilts, switch_times,
+                            wire_states)
+from bhr.run.trail import trail_vertices
+
+ALPHAS = st.floats(5.0, 35.0)
+TILT_CODES = [0, 3, 6, 12, 9]
+
+
+def test_codes_give_their_tilts_all_four_none():
+    for code in VALID_CODES:
+        t = joint_tilts(np.array(code_wires(code), dtype=float), 25.0)
+        if code in CODE_AXIS:
+            axis, sign = CODE_AXIS[code]
+            want = np.zeros(2)
+            want[axis] = sign * math.radians(25.0)
+            assert np.allclose(t, want, atol=1e-15)
+        else:  # rest and the lift: no tilt
+            assert np.allclose(t, 0.0, atol=1e-15)
+
+
+@given(st.lists(st.floats(0.0, 1.0), min_size=4, max_size=4), ALPHAS)
+def test_a_joint_never_tilts_more_than_alpha(s, alpha):
+    t = joint_tilts(np.array(s), alpha)
+    assert np.linalg.norm(t) <= math.radians(alpha) * (1 + 1e-12)
+
+
+def test_contraction_has_the_transformation_hysteresis():
+    thetas = transform_thetas(DEFAULT_THERMAL)
+    a_s, a_f, m_s, m_f = thetas
+    assert m_f < m_s < a_s < a_f == 1.0
+    assert math.isclose(m_f, DEFAULT_THERMAL.theta_relax)
+    up = np.linspace(0.0, 1.2, 61)
+    heat = contraction_reference(up, thetas, 0.0)
+    cool = contraction_reference(up[::-1], thetas, 1.0)[::-1]
+    # heating from cold: nothing until As, all by Af; cooling from hot: all until Ms, nothing by Mf
+    mid = (m_s + a_s) / 2
+    k = int(np.argmin(np.abs(up - mid)))
+    assert heat[k] == 0.0 and cool[k] == 1.0
+    assert heat[-1] == 1.0 and cool[0] == 0.0
+    assert all(a <= b for a, b in zip(heat, heat[1:]))  # monotone on a monotone path
+    for th, want in zip(up, heat):  # the compiled branch is the reference's
+        assert contraction(0.0, th, *thetas) == pytest.approx(want, abs=1e-15)
+
+
+def test_switching_ends_on_the_new_code_with_the_board_drive():
+    window, delay = switch_times(DEFAULT_THERMAL)
+    assert window >= DEFAULT_THERMAL.relax_ms  # the old wires have relaxed when a group's window ends
+    old, new = [3, 3, 12, 0, 6], [6, 12, 12, 9, 0]
+    s_end = wire_states(old, new, window, 0.0)
+    assert np.array_equal(s_end, np.array([code_wires(c) for c in new], dtype=float))
+    s_start = wire_states(old, new, 0.0, 0.0)
+    assert np.array_equal(s_start, np.array([code_wires(c) for c in old], dtype=float))
+    # in between a joint going from +x to +y passes through tilts no code gives, never more than alpha
+    for t in np.linspace(0.0, window, 23):
+        s = wire_states([3], [6], t, 0.0)
+        assert np.linalg.norm(joint_tilts(s, 25.0)) <= math.radians(25.0) + 1e-12
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.lists(st.lists(st.floats(0.0, 1.0), min_size=4, max_size=4), min_size=1, max_size=400), ALPHAS,
+       st.floats(2.0, 12.0))
+def test_every_chain_is_rigid_and_bends_within_the_wires(wires, alpha, L):
+    tilts = joint_tilts(np.array(wires), alpha)
+    pts = chain_poses(np.zeros(3), base_frame((1.0, 0.0, 0.0)), L, tilts)
+    seg = np.diff(pts, axis=0)
+    assert np.max(np.abs(np.linalg.norm(seg, axis=1) - L)) <= 1e-6
+    u = seg / np.linalg.norm(seg, axis=1)[:, None]
+    bend = np.degrees(np.arccos(np.clip(np.sum(u[1:] * u[:-1], axis=1), -1.0, 1.0)))
+    most = math.degrees(math.acos(math.cos(math.radians(alpha)) ** 2))
+    assert bend.size == 0 or bend.max() <= most + 1e-6
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.lists(st.sampled_from(TILT_CODES), min_size=2, max_size=300), ALPHAS)
+def test_codes_lay_the_trail_exactly(codes, alpha):
+    codes = np.array(codes)
+    M = len(codes)
+    T = trail_vertices(codes, (1.0, 0.0, 0.0), (0.0, 0.0, 0.0), 5.0, alpha, 0)
+    s = np.array([code_wires(c) for c in codes], dtype=float)
+    pts = chain_poses(T[0], base_frame((1.0, 0.0, 0.0)), 5.0, joint_tilts(s, alpha))
+    assert np.max(np.abs(pts - T[:M + 1])) <= 1e-9
+
+
+@pytest.fixture(scope="module")
+def wires_run():
+    tr = bhr.trajectory("anatomy", seed=2)
+    return follow(tr, solver="lumen", alpha=25, module_length=5, body_modules=30)
+
+
+def test_a_whole_robot_moves_by_its_wires_by_default(wires_run):
+    assert wires_run.extra["summary"]["locomotion"] == "wires"
+    assert wires_run.motion is not None
+
+
+def test_every_written_pose_is_a_rigid_chain_within_the_wires(wires_run):
+    mo = wires_run.motion
+    L, alpha = 5.0, 25.0
+    seg = np.diff(mo.points_mm, axis=1)
+    assert np.max(np.abs(np.linalg.norm(seg, axis=2) - L)) <= 1e-6
+    u = seg / np.linalg.norm(seg, axis=2)[..., None]
+    bend = np.degrees(np.arccos(np.clip(np.sum(u[:, 1:] * u[:, :-1], axis=2), -1.0, 1.0)))
+    assert bend.max() <= math.degrees(math.acos(math.cos(math.radians(alpha)) ** 2)) + 1e-6
+    assert np.linalg.norm(mo.tilts_rad, axis=2).max() <= math.radians(alpha) + 1e-12
+    # the tail lies in the feeder, straight along the insertion axis
+    d = mo.points_mm[:, 1] - mo.points_mm[:, 0]
+    assert np.allclose(d / L, np.array(wires_run.trajectory.start_direction)[None, :], atol=1e-9)
+
+
+def test_no_joint_moves_more_than_2_mm_between_written_poses(wires_run):
+    mo = wires_run.motion
+    move = np.linalg.norm(np.diff(mo.points_mm, axis=0), axis=2)
+    assert move.max() <= min(2.0, MAX_JOINT_STEP_MM + 1e-9)
+    assert np.all(np.diff(mo.t_s) > 0) and np.all(np.diff(mo.insertion_mm) >= -1e-12)
+    assert np.all(np.diff(mo.step) >= 0) and mo.step[0] == 1
+
+
+def test_each_module_length_ends_on_the_trail(wires_run):
+    mo = wires_run.motion
+    assert np.max(mo.trail_offset_mm[mo.ends[:-1]]) <= 1e-6
+
+
+def _brute(path, lumen, radius, points, closed=True):
+    """Clearance of points against the whole centerline (no window), the lumen radius linear along it."""
+    a, b = path[:-1], path[1:]
+    u = b - a
+    uu = np.einsum("ij,ij->i", u, u)
+    out = np.empty(len(points))
+    for k, p in enumerate(points):
+        t = np.clip(np.einsum("ij,ij->i", p - a, u) / uu, 0.0, 1.0)
+        d = np.linalg.norm(p - (a + t[:, None] * u), axis=1)
+        j = int(np.argmin(d))
+        out[k] = lumen[j] / 2 + t[j] * (lumen[j + 1] - lumen[j]) / 2 - radius - d[j]
+    return out
+
+
+def test_clearance_of_the_written_poses_agrees_with_an_independent_one(wires_run):
+    """Dense samples along every module of every written pose (0.25 mm), the nearest point of the whole
+    centerline refined as bhr's (a Catmull-Rom spline, <= 1 mm): bhr's minimum within 0.5 mm, same touches."""
+    from bhr.run.trail import dense_tube
+
+    tr = wires_run.trajectory
+    tube = dense_tube(tr.points, tr.lumen, tr.start_direction, 40.0)
+    C = tube.points[tube.pre:]
+    Rd = 2 * tube.radius[tube.pre:]
+    mo = wires_run.motion
+    radius = wires_run.robot.radius
+    rng = np.random.default_rng(0)
+    # every pose of the run is too many for numpy here: the worst 40 by bhr plus 40 at random
+    worst = np.argsort(np.where(np.isnan(mo.pose_clear), np.inf, mo.pose_clear))[:40]
+    pick = np.unique(np.concatenate([worst, rng.choice(len(mo.t_s), 40, replace=False)]))
+    f = np.linspace(0.0, 1.0, 21)
+    for p in pick:
+        P = mo.points_mm[p]
+        inside = mo.insertion_mm[p] - (P.shape[0] - 1 - np.arange(P.shape[0])) * 5.0 >= 0.0
+        samples = (P[:-1, None] + f[None, :, None] * (P[1:] - P[:-1])[:, None])[inside[:-1] & inside[1:]]
+        if not samples.size:
+            continue
+        mine = _brute(C, Rd, radius, samples.reshape(-1, 3)).min()
+        bhrs = mo.pose_clear[p]
+        assert abs(mine - bhrs) <= 0.5, (p, mine, bhrs)
+        assert (mine <= 0.0) == (bhrs <= 0.0) or abs(mine) < 0.05
+
+
+def test_the_run_scores_the_poses(wires_run):
+    s = wires_run.summary.extra
+    mo = wires_run.motion
+    assert s["min_clearance_mm"] == pytest.approx(float(np.nanmin(mo.pose_clear)))
+    with np.errstate(invalid="ignore"):
+        touched = set(int(k) for k in mo.step[mo.pose_clear <= 0.0])
+    # every step with a pose in the wall is a wall-touch step, and every touch step has one (or holds one)
+    stop = s["feeder_stop_step"]
+    assert touched == {k for k in s["wall_touch_steps"] if k <= stop}
+    assert s["poses"] == mo.points_mm.shape[0]
+
+
+def test_poses_file_keeps_its_contract(wires_run, tmp_path):
+    from bhr.output.steptable import write_poses
+
+    write_poses(wires_run, tmp_path / "poses.npz")
+    d = np.load(tmp_path / "poses.npz")
+    P = wires_run.motion.points_mm.shape[0]
+    M = wires_run.motion.points_mm.shape[1] - 1
+    assert d["t_s"].shape == (P,) and d["insertion_mm"].shape == (P,) and d["step"].shape == (P,)
+    assert d["points_mm"].shape == (P, M + 1, 3) and d["tilts_rad"].shape == (P, M, 2)
+    assert d["codes"].shape == (P, M) and set(np.unique(d["codes"])) <= set(VALID_CODES)
