@@ -608,6 +608,41 @@ def case_trail(repeat: int = 3) -> BenchResult:
                         "median over repeats, divided by the steps"})
 
 
+def case_wires(repeat: int = 1, modules: int = 300) -> BenchResult:
+    """The robot as it can be built (docs/locomotion.md, "The wires"): a ``modules``-module robot of 5 mm modules
+    (1.5 m at 300), alpha 25 deg, along anatomical colon 1 by --locomotion wires (the trail planned, every module
+    length's switching planned, every pose written and scored), CPU seconds of the whole run; against the trail
+    model's run of the same robot in the same process."""
+    import warnings
+
+    from bhr.model.generators import load_trajectory
+    from bhr.model.robot import Robot
+    from bhr.run.driver import BhrWarning, follow
+
+    r = Robot(alpha=25.0, module_length=5.0)
+    tr = load_trajectory("anatomy", feed=r.feed, seed=1)
+
+    def run(locomotion: str, m: int = modules):
+        def go():
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", BhrWarning)
+                return follow(tr, solver="lumen", robot=r, body_modules=m, locomotion=locomotion)
+        return go
+
+    run("wires", 20)()  # compiles
+    run("trail", 20)()
+    out = []
+    tb = _cpu_time(lambda: out.append(run("wires")()), repeat)
+    tt = _cpu_time(run("trail"), repeat)
+    s = out[0].summary.to_dict()
+    return BenchResult(f"wires-{modules}", "per run (CPU)", tb, tt, "the trail model, same robot (same run)",
+                       tt / tb, "<= 60 s", tb <= 60.0,
+                       {"colon": 1, "modules": modules, "poses": s["poses"], "kept": out[0].motion.kept,
+                        "max_trail_offset_mm": s["max_trail_offset_mm"], "min_clearance_mm": s["min_clearance_mm"],
+                        "switching": s["switching"], "procedure_time_s": s["procedure_time_s"],
+                        "measured": "CPU seconds (user + sys) of one whole run, median over repeats"})
+
+
 def case_study(repeat: int = 1, colons: int = 100) -> BenchResult:
     """A whole-length study (docs/locomotion.md): ``colons`` anatomical colons x 1 design (--solver lumen, alpha 25
     deg, 5 mm modules, reach cecum, trail locomotion) on every CPU, wall time; against the thesis's solver on the
@@ -773,6 +808,7 @@ CASES: dict[str, Callable[..., BenchResult | list[BenchResult]]] = {
     "body-60": case_body,
     "lumen": case_lumen,
     "trail-300": case_trail,
+    "wires-300": case_wires,
     "study-100": case_study,
     "physics-300": case_physics,
     "cli": case_cli,

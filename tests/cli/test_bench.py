@@ -112,7 +112,8 @@ def test_body_reference_matches_on_a_curve_and_the_colon():
 
 
 def test_every_case_is_registered_and_the_table_formats():
-    assert list(CASES) == ["fabrik", "ccd", "thesis-colon", "optimal", "body-60", "lumen", "trail-300", "study-100",
+    assert list(CASES) == ["fabrik", "ccd", "thesis-colon", "optimal", "body-60", "lumen", "trail-300", "wires-300",
+                           "study-100",
                            "physics-300", "cli", "first-run"]
     table = format_table(run_case("ccd", repeat=1))
     assert table.splitlines()[0].split()[:3] == ["case", "unit", "bhr"] and "ccd-ch5-10" in table

@@ -46,7 +46,7 @@ def test_a_robot_ahead_of_its_schedule_stops_at_the_cecum_and_holds_its_pose():
 
 def test_the_body_holds_its_pose_behind_a_stopped_head():
     tr = tight_colon(2)
-    run = _quiet(tr, solver="lumen", body_modules=12)
+    run = _quiet(tr, solver="lumen", body_modules=12, locomotion="thesis")  # the thesis model's body
     k = run.summary.to_dict()["feeder_stop_step"] - 1
     b = run.body
     assert b is not None and b.modules == 7

@@ -62,7 +62,7 @@ def test_the_head_search_is_the_exact_minimum_of_the_cost(tight, modules, step):
 
 
 def test_codes_are_always_valid_and_the_body_follows(tight):
-    r = quiet_follow(tight, solver="lumen", body_modules=9)
+    r = quiet_follow(tight, solver="lumen", body_modules=9, locomotion="thesis")  # the thesis model's body
     assert set(np.unique(r.codes)) <= set(CODES)
     assert r.body is not None and r.body.modules == 4
     s = r.summary.to_dict()

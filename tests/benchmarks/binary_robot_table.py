@@ -1,0 +1,93 @@
+"""What a binary robot can and cannot do (docs/binary-robot.md): the ideal (trail) and the physical (wires)
+verdicts side by side, per design and robot length, over anatomical colons.
+
+    python tests/benchmarks/binary_robot_table.py --colons 1-20 --alpha 20,25,30 --module 5,6 \
+        --length 0.3,0.7,1.5,cecum [--json out.json]
+
+Prints a Markdown table: per design, the colons traversed (no module touching the wall at any moment) by the
+ideal follow-the-leader (not buildable) and by the rigid robot driven by its wires, the worst penetration of
+each, and the wires' largest distance from the trail; and the CPU seconds it took.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import resource
+import warnings
+
+import numpy as np
+
+
+def _cpu() -> float:
+    r = resource.getrusage(resource.RUSAGE_SELF)
+    return r.ru_utime + r.ru_stime
+
+
+def _range(text: str) -> list[int]:
+    out: list[int] = []
+    for part in text.split(","):
+        a, _, b = part.partition("-")
+        out += list(range(int(a), int(b or a) + 1))
+    return out
+
+
+def main() -> None:
+    import bhr
+    from bhr.run.driver import BhrWarning, follow
+
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--colons", default="1-20")
+    ap.add_argument("--alpha", default="20,25,30")
+    ap.add_argument("--module", default="5,6")
+    ap.add_argument("--length", default="0.3,0.7,1.5,cecum")
+    ap.add_argument("--json")
+    a = ap.parse_args()
+    rows = []
+    t0 = _cpu()
+    for alpha in (float(v) for v in a.alpha.split(",")):
+        for L in (float(v) for v in a.module.split(",")):
+            for length in a.length.split(","):
+                for model in ("trail", "wires"):
+                    res = []
+                    for seed in _range(a.colons):
+                        tr = bhr.trajectory("anatomy", seed=seed)
+                        kw = {"reach": "cecum"} if length == "cecum" else \
+                            {"body_modules": int(round(float(length) * 1000 / L))}
+                        with warnings.catch_warnings():
+                            warnings.simplefilter("ignore", BhrWarning)
+                            run = follow(tr, solver="lumen", alpha=alpha, module_length=L, locomotion=model, **kw)
+                        s = run.summary.extra
+                        res.append({"colon": seed, "touch": bool(s.get("wall_touch_steps")),
+                                    "pen": float(s.get("max_penetration_mm", 0.0)),
+                                    "offset": float(s.get("max_trail_offset_mm", 0.0)),
+                                    "short": float(s.get("cecum_shortfall_mm", 0.0))})
+                    rows.append({"alpha": alpha, "module_mm": L, "length": length, "model": model, "colons": res})
+                    ok = sum(not r["touch"] for r in res)
+                    print(f"alpha {alpha:g} module {L:g} length {length} {model}: {ok}/{len(res)} traversed, worst "
+                          f"pen {max(r['pen'] for r in res):.2f} mm, offset {max(r['offset'] for r in res):.1f} mm "
+                          f"({_cpu() - t0:.0f} s CPU so far)", flush=True)
+    print()
+    print("| α | module | robot | ideal (trail): traversed | worst pen | physical (wires): traversed | worst pen | "
+          "off the trail |")
+    print("|---|---|---|---|---|---|---|---|")
+    for i in range(0, len(rows), 2):
+        t, w = rows[i], rows[i + 1]
+        n = len(t["colons"])
+
+        def ok(r):
+            return sum(not c["touch"] for c in r["colons"])
+
+        def pen(r):
+            return max(c["pen"] for c in r["colons"])
+
+        length = t["length"] if t["length"] == "cecum" else f"{float(t['length']):g} m"
+        print(f"| {t['alpha']:g}° | {t['module_mm']:g} mm | {length} | {ok(t)}/{n} | {pen(t):.1f} mm | {ok(w)}/{n} | "
+              f"{pen(w):.1f} mm | {max(c['offset'] for c in w['colons']):.0f} mm |")
+    print(f"\n{_cpu() - t0:.0f} s CPU")
+    if a.json:
+        with open(a.json, "w") as fh:
+            json.dump({"rows": rows, "cpu_s": _cpu() - t0}, fh, indent=1)
+
+
+if __name__ == "__main__":
+    main()
