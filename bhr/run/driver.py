@@ -825,34 +825,13 @@ def _follow_wires(traj: Trajectory, robot: Robot, s: Any, solver: str, path: np.
                   on_step: Callable[[int, np.ndarray | None], None] | None) -> FollowResult:
     """A run of the robot as it can be built (bhr.run.motion): plan the trail, drive the rigid robot's joints along
     it by their wires, write and score every pose."""
-    from bhr.run.motion import plan_motion
-    from bhr.run.trail import dense_tube, plan_trail, stop_step, trail_vertices, vertex_hints
+    from bhr.run.motion import wires_motion
 
-    if traj.lumen is None:
-        raise BhrError(f"locomotion wires plans the trail against the lumen; {traj.name} has none (give a "
-                       "trajectory with a lumen, e.g. --traj anatomy)")
     n, f = robot.modules, robot.feed_divisor
     N = path.shape[0]
-    L = float(robot.module_length)
-    settings = {**s.settings, "trail_beam": s.trail_beam, "center_weight": s.trail_center_weight}
-    tube = dense_tube(traj.points, traj.lumen, traj.start_direction, s.window,
-                      closed_end=getattr(traj, "lumen_end", "closed") == "closed")
-    V = (N - 1) // f + 1
-    tcodes = plan_trail(tube, robot, settings, V, traj.start_direction, traj.start_point)
-    T = trail_vertices(tcodes, traj.start_direction, traj.start_point, L, robot.alpha, 2)
-    stop = stop_step(tube, vertex_hints(tube, T, 2, L), 2, f, N)
+    mo, tcodes, M, stop, short = wires_motion(traj, robot, s, body_modules, reach)
     if reach:
-        body_modules = check_body_modules(cecum_modules(stop + 1, f, n), n, "reach cecum")
-    M = int(n if body_modules is None else body_modules)
-    back = M + 2
-    T = trail_vertices(tcodes, traj.start_direction, traj.start_point, L, robot.alpha, back)
-    z = vertex_hints(tube, T, back, L)
-    stop = min(stop, M * f)  # a feeder at the anus pushes the tail in no further than the robot's length
-    m, k = divmod(stop, f)
-    ztip = z[back + m] + (k / f) * (z[back + m + 1] - z[back + m])
-    short = max(0.0, float(tube.points.shape[0] - tube.post - 1 - ztip) * float(tube.spacing))
-    mo = plan_motion(tube, float(robot.radius), tcodes, T, back, z, M, L, float(robot.feed), float(robot.alpha),
-                     traj.start_point, traj.start_direction, stop * float(robot.feed), N)
+        body_modules = M
     joints, jcodes = mo.step_joints, mo.step_codes
     tipfirst = joints[:, ::-1]
     head = np.ascontiguousarray(tipfirst[:, n::-1])

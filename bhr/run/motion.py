@@ -48,7 +48,7 @@ from bhr.model.wires import DEFAULT_THERMAL, ThermalParams, transform_thetas
 from bhr.run.clearance import clearance_chain_kernel
 from bhr.settings.errors import BhrError
 
-__all__ = ["Strategy", "STRATEGIES", "MotionRun", "plan_motion", "contraction", "joint_tilts", "chain_poses",
+__all__ = ["Strategy", "STRATEGIES", "MotionRun", "plan_motion", "wires_motion", "motion_report", "contraction", "joint_tilts", "chain_poses",
            "wire_states", "MAX_JOINT_STEP_MM", "FEED_MM_S", "POSES_FILE", "code_wires", "WIRE_DIRECTIONS"]
 
 #: No joint moves more than this (mm) between two written poses (the contract is 2 mm; kept below it).
@@ -701,6 +701,44 @@ def plan_motion(tube: Tube, radius: float, codes: np.ndarray, T: np.ndarray, bac
     step = np.concatenate([ch[7] for ch in chunks]) + 1
     return MotionRun(t, x, pts, tl, cd, step, chosen, low, dev, np.array(ends, dtype=np.int64), sj, scd, pc, mc, mw,
                      kept, bool(crossed > 0.0))
+
+
+def wires_motion(traj, robot, solver, body_modules: int | None = None, reach: bool = False,
+                 strategies: tuple[Strategy, ...] | None = None, params: ThermalParams = DEFAULT_THERMAL
+                 ) -> tuple[MotionRun, np.ndarray, int, int, float]:
+    """The whole robot of ``body_modules`` (or, ``reach``, as many as reach the cecum) along ``traj`` (with a lumen)
+    moved by its wires: (the motion, the trail's codes, the modules M, the 0-based step where the feeder stops, how
+    far short of the path's end the tip stops in mm). ``solver``: the configured lumen solver (its planner
+    settings)."""
+    from bhr.run.body import check_body_modules
+    from bhr.run.trail import cecum_modules, dense_tube, plan_trail, stop_step, trail_vertices, vertex_hints
+
+    if traj.lumen is None:
+        raise BhrError(f"locomotion wires plans the trail against the lumen; {traj.name} has none (give a "
+                       "trajectory with a lumen, e.g. --traj anatomy)")
+    n, f = robot.modules, robot.feed_divisor
+    N = traj.points.shape[0]
+    L = float(robot.module_length)
+    settings = {**solver.settings, "trail_beam": solver.trail_beam, "center_weight": solver.trail_center_weight}
+    tube = dense_tube(traj.points, traj.lumen, traj.start_direction, solver.window,
+                      closed_end=getattr(traj, "lumen_end", "closed") == "closed")
+    V = (N - 1) // f + 1
+    tcodes = plan_trail(tube, robot, settings, V, traj.start_direction, traj.start_point)
+    T = trail_vertices(tcodes, traj.start_direction, traj.start_point, L, robot.alpha, 2)
+    stop = stop_step(tube, vertex_hints(tube, T, 2, L), 2, f, N)
+    if reach:
+        body_modules = check_body_modules(cecum_modules(stop + 1, f, n), n, "reach cecum")
+    M = int(n if body_modules is None else body_modules)
+    back = M + 2
+    T = trail_vertices(tcodes, traj.start_direction, traj.start_point, L, robot.alpha, back)
+    z = vertex_hints(tube, T, back, L)
+    stop = min(stop, M * f)  # a feeder at the anus pushes the tail in no further than the robot's length
+    m, k = divmod(stop, f)
+    ztip = z[back + m] + (k / f) * (z[back + m + 1] - z[back + m])
+    short = max(0.0, float(tube.points.shape[0] - tube.post - 1 - ztip) * float(tube.spacing))
+    mo = plan_motion(tube, float(robot.radius), tcodes, T, back, z, M, L, float(robot.feed), float(robot.alpha),
+                     traj.start_point, traj.start_direction, stop * float(robot.feed), N, params, strategies)
+    return mo, tcodes, M, stop, short
 
 
 # ---------------------------------------------------------------------------
