@@ -13,8 +13,8 @@ from typing import Any, Mapping
 from bhr.settings.errors import BhrError
 from bhr.settings.options import check_number, excerpt
 
-__all__ = ["ThermalParams", "DEFAULT_THERMAL", "THERMAL_KEYS", "thermal_from_table", "FLEXINOL_LT_C", "transform_thetas",
-           "contraction_reference"]
+__all__ = ["ThermalParams", "DEFAULT_THERMAL", "THERMAL_KEYS", "thermal_from_table", "FLEXINOL_LT_C",
+           "transform_thetas", "contraction_reference"]
 
 THERMAL_KEYS: dict[str, tuple[str, float, float]] = {
     # key: (meaning, lowest, highest)

@@ -38,7 +38,7 @@ modules, :func:`bhr.run.clearance.clearance_chain_kernel`).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 from bhr._numba import njit
@@ -48,7 +48,8 @@ from bhr.model.wires import DEFAULT_THERMAL, ThermalParams, transform_thetas
 from bhr.run.clearance import clearance_chain_kernel
 from bhr.settings.errors import BhrError
 
-__all__ = ["Strategy", "STRATEGIES", "MotionRun", "plan_motion", "wires_motion", "motion_report", "contraction", "joint_tilts", "chain_poses",
+__all__ = ["Strategy", "STRATEGIES", "MotionRun", "plan_motion", "wires_motion", "motion_report", "contraction",
+           "joint_tilts", "chain_poses",
            "wire_states", "MAX_JOINT_STEP_MM", "FEED_MM_S", "POSES_FILE", "code_wires", "WIRE_DIRECTIONS"]
 
 #: No joint moves more than this (mm) between two written poses (the contract is 2 mm; kept below it).

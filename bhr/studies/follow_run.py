@@ -246,7 +246,7 @@ def follow_run(traj: str, *, robot: Any, solver: str = "thesis", solver_options:
                 written.append(folder.final(name))
             write_text(folder.path(STEPS_CSV), format_steps_csv(result))  # the errors per step, for a spreadsheet
             written.append(folder.final(STEPS_CSV))
-            if getattr(result, "motion", None) is not None and result.motion.kept:  # every pose of the whole robot (docs/locomotion.md)
+            if getattr(result, "motion", None) is not None and result.motion.kept:  # every pose (docs/locomotion.md)
                 from bhr.output.steptable import write_poses
 
                 write_poses(result, folder.path("poses.npz"))
@@ -425,9 +425,10 @@ def body_clearance_lines(s: dict) -> list[str]:
     if s.get("locomotion") == "wires":
         from bhr.hardware.thermal import format_duration
 
+        where = f" in {s['poses_file']}" if s["poses_file"] else " (too many to keep)"
         ways = ", ".join(f"{k} {v}" for k, v in sorted(s["switching"].items(), key=lambda kv: -kv[1]))
         out.append(f"Wires: rigid modules driven by their wires along a trail of {s['trail_vertices']} vertices; "
-                   f"{s['poses']} poses{' in ' + s['poses_file'] if s['poses_file'] else ' (too many to keep)'}, the robot up to {s['max_trail_offset_mm']:.1f} mm off "
+                   f"{s['poses']} poses{where}, the robot up to {s['max_trail_offset_mm']:.1f} mm off "
                    f"the trail between module lengths (switching: {ways}); the feeder pushes until step "
                    f"{s['feeder_stop_step']}, the tip {s['cecum_shortfall_mm']:.1f} mm short of the path's end; "
                    f"{format_duration(s['procedure_time_s'])} at the wires' pace.")

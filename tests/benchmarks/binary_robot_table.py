@@ -15,8 +15,6 @@ import json
 import resource
 import warnings
 
-import numpy as np
-
 
 def _cpu() -> float:
     r = resource.getrusage(resource.RUSAGE_SELF)
