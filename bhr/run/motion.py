@@ -320,7 +320,8 @@ def score_kernel(pts, xs, steps, L, z, back, tube_c, tube_r, S, BC, BR, pre, w, 
                  low):
     """Clearance of poses (points (K, M+1, 3) tail first at insertions xs, of 0-based path steps ``steps``),
     folded into the steps' tables: each joint's smallest (N, M+1) and each module's smallest along it (N, M), and
-    where (N, M, 3); ``low`` (K) each pose's smallest. A module is sampled at most ``sample`` mm apart; one whose
+    where (N, M, 3); ``low`` (K) each pose's smallest. A module is sampled at most ``sample`` mm apart (at its
+    ends and middle when both ends are more than half its length plus ``near`` + 1 mm from the wall); one whose
     samples come within ``near`` mm of the wall is scored by :func:`clearance_chain_kernel` (its worst sample
     refined by a golden-section search). Points outside the anus are not scored. Returns 1.0 when a point crossed
     into another pass of a loop (:func:`bhr.model.tube.locate_kernel`)."""
@@ -369,6 +370,8 @@ def score_kernel(pts, xs, steps, L, z, back, tube_c, tube_r, S, BC, BR, pre, w, 
                 continue
             # sampled along the module (the scored part), around where its ends were found
             ns = int(math.ceil(L / sample))
+            if E[m] >= 0.0 and min(cj[m], cj[m + 1]) - 0.5 * L > near + 1.0:
+                ns = 2  # both ends far from the wall: so is all of it (the clearance is 1-Lipschitz); ends and middle
             lo_t = 0.0 if E[m] >= 0.0 else (-E[m]) / (E[m + 1] - E[m])
             v = np.inf
             bt = 0.0
