@@ -6,8 +6,8 @@ the innermost is shown. When stderr is a pipe or a file, the statuses of long wo
 a stream, a replay) write a plain line every ``BHR_PROGRESS_INTERVAL`` seconds (30; 0: when the work starts and at
 every step), so that a log shows the command is alive.
 
-:func:`announce_compiles` makes the first run on a machine say, in one line, that numba is compiling the kernels
-(once: they are cached), and, on a terminal, which kernel it is compiling.
+:func:`announce_compiles` makes a command that compiles bhr's kernels say so in one line (once: numba caches
+them).
 """
 from __future__ import annotations
 
@@ -135,105 +135,36 @@ def echo(message: str) -> None:
 # ---------------------------------------------------------------------------
 # the first compile
 
-COMPILE_NOTICE = ("Compiling bhr's kernels for this machine; this happens once (they are cached in {cache}), "
-                  "later runs start at once. When this command ends, the kernels of the other commands are "
-                  "compiled in the background ({env}=1 turns that off).")
-#: The notice when the background compile is turned off: other commands then compile their own kernels.
-COMPILE_NOTICE_ALONE = ("Compiling bhr's kernels for this machine; this happens once for each kernel (they are cached "
-                        "in {cache}): this command starts at once next time, and another command compiles the "
-                        "kernels it adds the first time it runs ({env} is set, so nothing is compiled in the "
-                        "background; 'python -m bhr.warmup' compiles them all now).")
-
-
-def compile_notice() -> str:
-    """The first-compile line, true to what happens next: the other commands' kernels compiled in the background
-    (:func:`bhr.warmup.start_in_background`) or not (BHR_NO_BACKGROUND_COMPILE set)."""
-    from bhr import _numba
-    from bhr.warmup import BACKGROUND_ENV, background_enabled
-
-    text = COMPILE_NOTICE if background_enabled() else COMPILE_NOTICE_ALONE
-    return text.format(cache=_numba.cache_dir(), env=BACKGROUND_ENV)
-
+COMPILE_NOTICE = ("Compiling bhr's kernels for this machine (once; they are cached in {cache}); "
+                  "'bhr warmup' compiles every command's kernels at once.")
 
 _announcer = None
-_registered = False
 
 
 def announce_compiles() -> None:
-    """From now on, the first numba compile of a bhr kernel says so in one line, with progress on a terminal.
+    """From now on, the first numba compile of a bhr kernel says so in one line (numba's compile event).
 
-    Nothing is printed when every kernel comes from numba's on-disk cache
-    (numba only fires its compile event on a cache miss).
+    Call it once the command's input is checked. numba fires the event only on
+    a cache miss: nothing is printed when every kernel comes from the cache.
     """
-    global _registered
-    if _registered:
-        return
-    _registered = True
-
-    # numba is imported by the first kernel a command calls, after its input is checked, and its compile event
-    # says so at the first compile: a refused input never prints the notice
-    from bhr import _numba
-
-    _numba.when_numba_loads(_listen)  # numba's compile event, once the first kernel imports numba
-    from bhr.warmup import background_enabled
-
-    # every kernel is compiled in the background when this command ends: a kernel whose cache is cold may run
-    # interpreted now where that costs less than compiling it (bhr._numba.call_cold)
-    if background_enabled():
-        _numba.allow_interpreting()
-    import atexit
-
-    atexit.register(_compile_the_rest)
-
-
-def _listen() -> None:
-    """Register the compile listener (numba's compile event), once numba is imported for the first kernel."""
     global _announcer
+    if _announcer is not None:
+        return
     from numba.core import event
 
+    from bhr import _numba
+
     class Announcer(event.Listener):
-        def __init__(self) -> None:
-            self.depth = 0
-            self.announced = False
-            self.kernels = 0
-            self.progress: Progress | None = None
-            self.cm: contextlib.AbstractContextManager[Progress] | None = None
+        announced = False
 
         def on_start(self, ev: event.Event) -> None:
-            disp = ev.data.get("dispatcher")
-            func = getattr(disp, "py_func", None)
-            ours = func is not None and getattr(func, "__module__", "").startswith("bhr")
-            if self.depth == 0 and ours:
-                if not self.announced:
-                    self.announced = True
-                    echo(compile_notice())
-                self.cm = status("compiling kernels:")
-                self.progress = self.cm.__enter__()
-            if self.progress is not None and func is not None and ours:
-                self.progress.item = f"{func.__name__} ({self.kernels} done)"
-            self.depth += 1
+            func = getattr(ev.data.get("dispatcher"), "py_func", None)
+            if not self.announced and getattr(func, "__module__", "").startswith("bhr"):
+                self.announced = True
+                echo(COMPILE_NOTICE.format(cache=_numba.cache_dir()))
 
         def on_end(self, ev: event.Event) -> None:
-            self.depth -= 1
-            func = getattr(ev.data.get("dispatcher"), "py_func", None)
-            if func is not None and getattr(func, "__module__", "").startswith("bhr"):
-                self.kernels += 1
-                if self.progress is not None:
-                    self.progress.item = f"{self.kernels} done"
-            if self.depth == 0 and self.cm is not None:
-                cm, self.cm, self.progress = self.cm, None, None
-                cm.__exit__(None, None, None)
+            pass
 
     _announcer = Announcer()
     event.register("numba:compile", _announcer)
-
-
-def _compile_the_rest() -> None:
-    """After a command that had to compile: compile every other command's kernels in the background, once."""
-    from bhr import _numba
-
-    if (_announcer is None or not _announcer.kernels) and not _numba.interpreted_any():
-        return
-    from bhr.warmup import start_in_background
-
-    start_in_background()

@@ -30,6 +30,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "export": ("bhr.cli.export:export", "Write the robot as a URDF or MJCF model (pinocchio, MuJoCo)."),
     "import": ("bhr.cli.import_:import_", "Import a colon (surface mesh, centerline, segmentation) as a trajectory."),
     "physics": ("bhr.cli.physics:physics", "Replay a run in MuJoCo against the colon wall: contact forces."),
+    "warmup": ("bhr.cli.warmup:warmup", "Compile every command's kernels now (otherwise each compiles on first use)."),
 }
 
 

@@ -56,7 +56,6 @@ def solve(target, orientation, solver, json_path, plot_path, **kwargs):
     from bhr.solvers import canonical, check_solver_name, solve as run
 
     check_solver_name(solver)  # before numba or a solver module loads (bhr.solvers.names)
-    announce_compiles()
 
     check_writable(json_path, "JSON")
     check_writable(plot_path, "plot")
@@ -67,6 +66,7 @@ def solve(target, orientation, solver, json_path, plot_path, **kwargs):
     chapter5 = {k: getattr(CHAPTER5_ROBOT, k) for k in ("modules", "module_length", "tol_pos", "max_iter")}
     robot = build_robot(kwargs, **chapter5)  # bhr.solve's defaults
     constraints = pop_constraints(kwargs)
+    announce_compiles()  # imports numba: the input is checked
     result = run(target, tip_direction=orientation, solver=solver, robot=robot, solver_options=constraints)
     doc = result.to_dict()
     solver = canonical(solver)  # tables name a solver one way (seed: thesis)

@@ -130,7 +130,3 @@ def pytest_collection_modifyitems(config, items):
 # Progress lines of long commands whose stderr is not a terminal come every 30 s: a test that pins what a command
 # writes to stderr must not depend on how fast this machine is, so they come once an hour unless a test asks.
 os.environ.setdefault("BHR_PROGRESS_INTERVAL", "3600")
-
-# A command that had to compile starts the other commands' kernels compiling in the background
-# (bhr.warmup); tests run many fresh caches, so they turn it off (test_startup checks it).
-os.environ.setdefault("BHR_NO_BACKGROUND_COMPILE", "1")

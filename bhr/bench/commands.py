@@ -5,10 +5,8 @@
     python -m bhr.bench.commands --repeat 3      # each command three times (median and range)
 
 Each command runs in a fresh temporary folder with a warm numba cache (one untimed run of
-``bhr follow --traj colon`` first) and BHR_NO_BACKGROUND_COMPILE=1, from the repository's root for the
-example files. The "first run" rows have an empty cache of their own (NUMBA_CACHE_DIR in that folder);
-the first command's row runs with the background compile on, as a user's does, and stops the background
-compile as the command ends (see :func:`run_once`). The
+``bhr follow --traj colon`` first), from the repository's root for the example files. The "first run"
+rows have an empty cache of their own (NUMBA_CACHE_DIR in that folder): they compile what they run. The
 table states the load average before and after and the machine; on a shared machine the CPU
 times are the steady figures (waiting for a core is not a command's cost), the wall times
 are what a user waited. Sizes of written files (the animation) are measured too.
@@ -50,11 +48,11 @@ COMMANDS: dict[str, tuple[list[str], str | None]] = {
     "fk --codes 3,0,7 (refused)": (["fk", "--codes", "3,0,7"], None),
     "plan --codes missing.csv (refused)": (["plan", "--codes", "missing.csv"], None),
     "first run: follow colon, empty cache": (["follow", "--traj", "colon", "--out", "o"], None),
-    "first run: python -m bhr.warmup, empty cache": (["-m", "bhr.warmup"], None),
+    "first run: bhr warmup, empty cache": (["warmup"], None),
 }
 
 #: Rows run with an empty numba cache of their own (NUMBA_CACHE_DIR in the row's folder): a first run.
-COLD = ("first run: follow colon, empty cache", "first run: python -m bhr.warmup, empty cache")
+COLD = ("first run: follow colon, empty cache", "first run: bhr warmup, empty cache")
 
 
 def bhr_command() -> list[str]:
@@ -78,38 +76,15 @@ def plan_codes_csv(path: str, steps: int = 1500, modules: int = 300, seed: int =
     Path(path).write_text(head + "\n" + body + "\n", encoding="utf-8")
 
 
-def background_compiles(cache: str) -> list[int]:
-    """The process ids of the background compiles (``python -m bhr.warmup``) that fill the numba cache ``cache``."""
-    found = []
-    for proc in Path("/proc").iterdir() if Path("/proc").is_dir() else ():
-        if not proc.name.isdigit():
-            continue
-        try:
-            cmdline = (proc / "cmdline").read_bytes().split(b"\0")
-            environ = (proc / "environ").read_bytes().split(b"\0")
-        except OSError:
-            continue
-        if b"bhr.warmup" in cmdline and f"NUMBA_CACHE_DIR={cache}".encode() in environ:
-            found.append(int(proc.name))
-    return found
-
-
-def run_once(args: list[str], cwd: Path, cold: bool = False, interpret: bool = True) -> tuple[float, float, int]:
+def run_once(args: list[str], cwd: Path, cold: bool = False) -> tuple[float, float, int]:
     """CPU seconds (user + system of the command and its children), wall seconds, exit status.
 
     ``args`` starting with ``-m`` run a module of this Python instead of bhr. ``cold``: an empty numba
-    cache in ``cwd`` (a first run). A bhr command then runs as a user's first command does, the background
-    compile on (so its small loops run interpreted, bhr._numba.call_cold); the background compile it starts
-    as it ends is stopped at once (it is not the command's own time: the warmup row measures it).
-    ``interpret=False`` runs a cold bhr command with the background compile off instead: it compiles every
-    kernel it runs (the first run before call_cold, the reference of the benchmarks).
+    cache in ``cwd`` (a first run, which compiles what it runs).
     """
-    env = dict(os.environ, MPLBACKEND="Agg", BHR_NO_BACKGROUND_COMPILE="1")
-    bhr_cold = cold and interpret and args[:1] != ["-m"]
+    env = dict(os.environ, MPLBACKEND="Agg")
     if cold:
         env["NUMBA_CACHE_DIR"] = str(cwd / "numba-cache")
-    if bhr_cold:
-        del env["BHR_NO_BACKGROUND_COMPILE"]
     cmd = [sys.executable] + args if args[:1] == ["-m"] else bhr_command() + args
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()
@@ -117,28 +92,7 @@ def run_once(args: list[str], cwd: Path, cold: bool = False, interpret: bool = T
     wall = time.perf_counter() - t0
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
-    if bhr_cold:
-        _stop_background(env["NUMBA_CACHE_DIR"])
     return cpu, wall, proc.returncode
-
-
-def _stop_background(cache: str, wait_s: float = 10.0) -> None:
-    """Stop the background compile a first command started for ``cache`` (seen within ``wait_s``), and wait till
-    it is gone."""
-    import signal
-
-    deadline = time.monotonic() + wait_s
-    pids = background_compiles(cache)
-    while not pids and time.monotonic() < deadline:
-        time.sleep(0.05)
-        pids = background_compiles(cache)
-    for pid in pids:
-        try:
-            os.kill(pid, signal.SIGKILL)
-        except ProcessLookupError:
-            pass
-    while pids and background_compiles(cache) and time.monotonic() < deadline + wait_s:
-        time.sleep(0.05)
 
 
 def measure(names: list[str], repeat: int) -> list[dict]:
@@ -182,7 +136,7 @@ def table(rows: list[dict], load_before: tuple[float, ...], load_after: tuple[fl
     lines = [f"Measured {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())} by `python -m bhr.bench.commands`: "
              f"bhr {__version__}, Python {platform.python_version()}, {cpu} cores ({model or platform.machine()}); "
              f"load average {load_before[0]:.1f} before, {load_after[0]:.1f} after; warm numba cache except the "
-             "first-run rows (an empty cache of their own); BHR_NO_BACKGROUND_COMPILE=1.", "",
+             "first-run rows (an empty cache of their own).", "",
              "| command | CPU (user + system) | wall | exit | output size |", "| --- | --- | --- | --- | --- |"]
     for r in rows:
         size = f"{sorted(r['bytes'])[len(r['bytes']) // 2] / 1e6:.1f} MB" if r["bytes"] else ""

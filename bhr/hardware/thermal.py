@@ -39,8 +39,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from bhr import _numba  # noqa: F401 - sets numba's cache folder before numba is imported
-from bhr._numba import call_cold
+from numba import njit
 from bhr.model.wires import DEFAULT_THERMAL, THERMAL_KEYS, ThermalParams, thermal_from_table
 from bhr.settings.errors import BhrError
 
@@ -105,6 +104,7 @@ def _const_array(p: ThermalParams) -> np.ndarray:
 # last row's code was reached (every energised wire contracted; -1: never), and where the run stopped.
 
 
+@njit(cache=True, inline="always")
 def _drive_code(want, dj, cool, warm):
     """(code, blocked): what a module drives for the code ``want`` while it drives ``dj``.
 
@@ -121,6 +121,7 @@ def _drive_code(want, dj, cool, warm):
     return want, 0
 
 
+@njit(cache=True, inline="always")
 def _run_after(on, n, run, longest):
     """A wire on ``on`` of the last ``n`` ticks: its run of on-ticks after them and the longest run so far (a run
     ends when a tick off follows). Scalars in and out: a helper taking the arrays costs the hot loop a reference
@@ -133,6 +134,7 @@ def _run_after(on, n, run, longest):
     return run, longest
 
 
+@njit(cache=True, inline="always")
 def _wire_on(n, p0, full_power, hold):
     """Ticks a driven wire is on among ``n`` ticks from phase ``p0`` (within one PWM period).
 
@@ -145,6 +147,7 @@ def _wire_on(n, p0, full_power, hold):
     return on if on > 0 else 0
 
 
+@njit(cache=True, inline="always")
 def _wire_masks(j, cooling, theta, relax):
     """Module ``j``'s wires as two 4-bit masks: cooling, and above theta_relax."""
     cool = 0
@@ -157,6 +160,7 @@ def _wire_masks(j, cooling, theta, relax):
     return cool, warm
 
 
+@njit(cache=True, inline="always")
 def _account(j, upto, last, drive, mode_full, hold, period, on_ticks, on_ms, run, max_run):
     """Count module ``j``'s wires' on-ticks from ``last[j]`` up to (not including) tick ``upto``.
 
@@ -179,7 +183,8 @@ def _account(j, upto, last, drive, mode_full, hold, period, on_ticks, on_ms, run
     last[j] = upto
 
 
-def _kernel_py(row_t, rows, end_t, k, theta0, stride, auto, min_gap, margin, on_trace):
+@njit(cache=True)
+def _kernel(row_t, rows, end_t, k, theta0, stride, auto, min_gap, margin, on_trace):
     period, hold, full, relax, limit, a = k[0], k[1], k[2], k[3], k[4], k[5]
     n_rows, m = rows.shape
     na = 4 * m
@@ -436,21 +441,6 @@ def simulate_reference(row_t, rows, end_t, k, theta0, stride, auto, min_gap, mar
             on_tr)
 
 
-_kernel = None
-
-
-def _compiled():
-    global _kernel
-    if _kernel is None:
-        from bhr._numba import njit
-
-        # the kernel calls its helpers compiled: numba reads them from the module's globals when it compiles
-        for helper in ("_drive_code", "_run_after", "_wire_on", "_wire_masks", "_account"):
-            globals()[helper] = njit(cache=True, inline="always")(globals()[helper])
-        _kernel = njit(cache=True)(_kernel_py)
-    return _kernel
-
-
 @dataclass
 class Simulation:
     """What the board's drive does with rows of codes reaching it at ``times_ms``."""
@@ -501,13 +491,6 @@ class Simulation:
 #: At most this many temperature samples (times wires) are kept by default (32 MB): see ``simulate``'s stride.
 TRACE_CELLS = 4_000_000
 
-#: A bound on the drive model's CPU seconds run interpreted, per row of codes and per module: 0.28–0.45 ms measured
-#: at most, over the colon, the curve and a 400 mm line with 5 and 10 modules (tests/benchmarks/bench_first_run.py).
-INTERPRETED_S_PER_ROW_MODULE = 0.46e-3
-#: What compiling the drive model costs (CPU seconds, numba's compile of its kernel).
-COMPILE_S = 2.1
-
-
 def simulate(params: ThermalParams, times_ms, rows, end_ms: int | None = None, theta0=None,
              stride: int | None = None, reference: bool = False, auto: bool = False, min_gap_ms: int = 0,
              margin_ms: int = LINK_MARGIN_MS, on_trace: bool = False, trace: bool = True) -> Simulation:
@@ -548,8 +531,8 @@ def simulate(params: ThermalParams, times_ms, rows, end_ms: int | None = None, t
     args = (t, rows, int(end_ms), k, th0, stride, int(auto), int(min_gap_ms), int(margin_ms), int(on_trace))
     if reference:
         out = simulate_reference(*args)
-    else:  # on a first run (cold cache) the model may run interpreted: INTERPRETED_S_PER_ROW_MODULE bounds its cost
-        out = call_cold(_compiled(), INTERPRETED_S_PER_ROW_MODULE * n * m, COMPILE_S, *args)
+    else:
+        out = _kernel(*args)
     samples, early, over, max_run, max_theta, on_ms, done_t, t_stop, on_tr = out
     samples = samples[: t_stop // stride + 1]
     on_cum = on_tr[: t_stop // stride + 1].reshape(-1, m, 4) if on_trace else None

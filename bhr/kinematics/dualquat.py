@@ -20,7 +20,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from bhr._numba import njit
+from numba import njit
 
 __all__ = [
     "k_qmul",

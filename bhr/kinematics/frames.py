@@ -13,7 +13,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from bhr._numba import njit
+from numba import njit
 
 from bhr.kinematics.codetable import CODE_AXIS, LIFT_OF, SEARCH_INDEX
 

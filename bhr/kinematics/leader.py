@@ -18,7 +18,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from bhr._numba import njit
+from numba import njit
 
 __all__ = ["score_step", "advance_kernel", "finish_step", "acos_deg", "angle_deg", "tip_angle",
            "score_reference", "advance_reference"]

@@ -46,7 +46,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from bhr._numba import njit
+from numba import njit
 
 from bhr.settings.errors import BhrError
 from bhr.kinematics.codetable import SEARCH_CODES, SEARCH_INVERSE

@@ -38,27 +38,23 @@ own trajectory point instead of the nearest one (the figure bhr reported
 before; a robot lagging behind along the path reads there as deep in the
 wall).
 
-:func:`clearance_run` is compiled with numba; on a first run, before the
-kernels are compiled, :func:`_run_vectorised` gives its results bit for bit
-in vectorised numpy; :func:`clearance_run_numpy` is the readable reference
-that tests hold them equal to.
+:func:`clearance_run` is compiled with numba; :func:`clearance_run_numpy` is
+the readable reference that tests hold it equal to.
 """
 from __future__ import annotations
 
 import math
-import time
 from dataclasses import dataclass, field
 from typing import Callable
 
 import numpy as np
-from bhr._numba import TooSlow, call_cold, njit
+from numba import njit
 
 from bhr.settings.errors import BhrError
 # the tube and its nearest-point kernels live in the model layer; their names stay importable from here
-from bhr.model.tube import (BLOCK, GLOBAL_BELOW, LOOP_RATIO, LUMEN_ENDS, WINDOW_MM, Segments, Tube,  # noqa: F401
-                            global_scan, local_scan, locate_batch, locate_kernel, locate_numpy, lumen_end_of,
-                            make_tube, nearest_kernel, nearest_numpy, point_clearance, search_window, segment_scan,
-                            windows_batch)
+from bhr.model.tube import (BLOCK, GLOBAL_BELOW, LOOP_RATIO, LUMEN_ENDS, WINDOW_MM, Tube,  # noqa: F401
+                            global_scan, local_scan, locate_kernel, locate_numpy, lumen_end_of,
+                            make_tube, nearest_kernel, nearest_numpy, point_clearance, search_window, segment_scan)
 
 __all__ = ["ClearanceReport", "CecumWatch", "cecum_step", "Tube", "make_tube", "clearance_table", "clearance_report",
            "clearance_run", "clearance_run_all", "clearance_run_numpy", "point_clearance", "locate_numpy",
@@ -188,13 +184,6 @@ def clearance_chain_kernel(C, R, S, BC, BR, pre, w, radius, Q, E, Z, sample, pt_
     return crossed
 
 
-#: What :func:`_run_vectorised` costs per place it scores (CPU seconds per point and per sample or refinement
-#: along a module, a bound over runs whose robot stays near its lumen), and what compiling :func:`_run_kernel`
-#: and the kernels it calls costs instead: tests/benchmarks/bench_first_run.py.
-VECTORISED_S_PER_PLACE = 3e-6
-COMPILE_S = 2.0
-
-
 @njit(cache=True)
 def _run_kernel(C, R, S, BC, BR, pre, w, radius, Q, E, adv, sample, pt_out, mod_out, where, lost):
     K = Q.shape[1]
@@ -213,126 +202,6 @@ def _run_kernel(C, R, S, BC, BR, pre, w, radius, Q, E, adv, sample, pt_out, mod_
             trk[k] = found[k] if E[i, k] >= 0.0 else np.nan
 
 
-#: Modules scored together by :func:`_run_vectorised` (their samples and refinements side by side).
-_MODULES_AT_ONCE = 4096
-
-
-def _run_vectorised(C, R, S, BC, BR, pre, w, radius, Q, E, adv, sample, pt_out, mod_out, where, lost, *,
-                    deadline=math.inf):
-    """:func:`_run_kernel` in vectorised numpy: the same results bit for bit, and nothing to compile.
-
-    The points are followed step by step (each step's search starts where the step before found them), all of a
-    step's points at once; then the samples along the modules of many steps are scored at once, and their
-    golden-section refinements run side by side. The same float64 operations as the kernels
-    (:func:`bhr.model.tube.locate_batch`). A first run uses it instead of compiling the kernels
-    (:func:`call_cold`); past ``deadline`` (CPU seconds, :func:`time.process_time`) it raises
-    :class:`bhr._numba.TooSlow` and the kernels are compiled after all.
-    """
-    seg = Segments(C, R, S, BC, BR)
-    M = C.shape[0]
-    N, K = E.shape
-    if not (np.all(np.isfinite(Q)) and np.all(np.isfinite(E))):
-        raise TooSlow("not finite")  # the kernels decide what becomes of such points
-    found = np.full((N, K), np.nan)
-    Z = np.empty((N, K))
-    trk = np.full(K, np.nan)
-    crossed = np.zeros(N)
-    px, py, pz = Q[:, :, 0], Q[:, :, 1], Q[:, :, 2]
-    for i in range(N):
-        scored = E[i] >= 0.0
-        Z[i] = np.where(scored & ~np.isnan(trk), trk + adv, E[i] + pre)
-        k = np.flatnonzero(scored)
-        pt_out[i] = np.nan
-        if k.size:
-            lo, hi = windows_batch(M, Z[i, k], w)
-            d, r, pos, flag = locate_batch(seg, radius, lo, hi, E[i, k] + pre, px[i, k], py[i, k], pz[i, k])
-            pt_out[i, k] = r - radius - d
-            found[i, k] = pos
-            crossed[i] = max(crossed[i], float(np.max(flag)))
-        trk = np.where(scored, found[i], np.nan)
-        if i % 64 == 63 and time.process_time() > deadline:
-            raise TooSlow("points")
-    if K >= 2:
-        rows = max(1, _MODULES_AT_ONCE // (K - 1))
-        for i in range(0, N, rows):
-            sl = slice(i, min(N, i + rows))
-            _modules_vectorised(seg, pre, w, radius, Q[sl], E[sl], Z[sl], found[sl], sample, mod_out[sl], where[sl],
-                                crossed[sl], deadline)
-    lost[:] = crossed
-
-
-def _modules_vectorised(seg, pre, w, radius, Q, E, Z, found, sample, mod_out, where, crossed, deadline):
-    """The modules' part of :func:`clearance_chain_kernel`, for every module of the steps given at once."""
-    N, K = E.shape
-    M = seg.M
-    ax, ay, az = Q[:, :-1, 0].ravel(), Q[:, :-1, 1].ravel(), Q[:, :-1, 2].ravel()
-    bx, by, bz = Q[:, 1:, 0].ravel(), Q[:, 1:, 1].ravel(), Q[:, 1:, 2].ravel()
-    ea, eb = E[:, :-1].ravel(), E[:, 1:].ravel()
-    ta = np.where(ea < 0.0, Z[:, :-1].ravel(), found[:, :-1].ravel())
-    tb = np.where(eb < 0.0, Z[:, 1:].ravel(), found[:, 1:].ravel())
-    step = np.repeat(np.arange(N), K - 1)
-    ea_p, eb_p = ea + pre, eb + pre
-    L = np.sqrt((bx - ax) * (bx - ax) + (by - ay) * (by - ay) + (bz - az) * (bz - az))
-    ns = np.maximum(np.ceil(L / sample).astype(np.int64), 1)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        lo_t = np.where(ea < 0.0, np.where(eb < 0.0, 2.0, -ea / (eb - ea)), 0.0)
-        hi_t = np.where((ea >= 0.0) & (eb < 0.0), ea / (ea - eb), 1.0)
-
-    def clear_at(j, t):  # _clear_at of modules j at fractions t: (clearance, crossed flag)
-        if time.process_time() > deadline:
-            raise TooSlow("modules")
-        lo, hi = windows_batch(M, ta[j] + t * (tb[j] - ta[j]), w)
-        d, r, _, flag = locate_batch(seg, radius, lo, hi, ea_p[j] + t * (eb_p[j] - ea_p[j]),
-                                     ax[j] + t * (bx[j] - ax[j]), ay[j] + t * (by[j] - ay[j]),
-                                     az[j] + t * (bz[j] - az[j]))
-        return r - radius - d, flag
-
-    # the samples: t = q / ns for q = 0..ns, those in the scored part [lo_t, hi_t]; the kernel keeps the first
-    # smallest below 1e300 (never NaN)
-    count = ns + 1
-    start = np.concatenate([[0], np.cumsum(count)[:-1]])
-    owner = np.repeat(np.arange(ns.shape[0]), count)
-    q = np.arange(owner.shape[0]) - start[owner]
-    t = q / ns[owner]
-    at = np.flatnonzero(~((t < lo_t[owner]) | (t > hi_t[owner])))
-    v = np.full(t.shape[0], np.inf)
-    if at.size:
-        val, flag = clear_at(owner[at], t[at])
-        v[at] = np.where(val < 1e300, val, np.inf)
-        np.maximum.at(crossed, step[owner[at]], flag)
-    low = np.minimum.reduceat(v, start)
-    first = np.minimum.reduceat(np.where(v == low[owner], np.arange(v.shape[0]), v.shape[0]), start)
-    j = np.flatnonzero(low < np.inf)
-    out = np.full(ns.shape[0], np.nan)
-    wx, wy, wz = np.full(ns.shape[0], np.nan), np.full(ns.shape[0], np.nan), np.full(ns.shape[0], np.nan)
-    if j.size:
-        # golden-section refinement between the worst sample's neighbours, all modules side by side
-        best, bt = low[j], t[first[j]]
-        a = np.maximum(bt - 1.0 / ns[j], lo_t[j])
-        b = np.minimum(bt + 1.0 / ns[j], hi_t[j])
-        x1 = b - _GOLD * (b - a)
-        x2 = a + _GOLD * (b - a)
-        f1 = clear_at(j, x1)[0]
-        f2 = clear_at(j, x2)[0]
-        for _ in range(REFINE_ITERS):
-            left = f1 < f2  # keep [a, x2] (x1 its new upper point), else [x1, b] (x2 its new lower point)
-            b = np.where(left, x2, b)
-            a = np.where(left, a, x1)
-            x1, x2 = np.where(left, x1, x2), np.where(left, x1, x2)  # the point kept, on both sides
-            f1, f2 = np.where(left, f1, f2), np.where(left, f1, f2)
-            xn = np.where(left, b - _GOLD * (b - a), a + _GOLD * (b - a))
-            fn = clear_at(j, xn)[0]
-            x1, f1 = np.where(left, xn, x1), np.where(left, fn, f1)
-            x2, f2 = np.where(left, x2, xn), np.where(left, f2, fn)
-        take = f1 < best
-        best, bt = np.where(take, f1, best), np.where(take, x1, bt)
-        take = f2 < best
-        best, bt = np.where(take, f2, best), np.where(take, x2, bt)
-        out[j] = best
-        wx[j], wy[j], wz[j] = ax[j] + bt * (bx[j] - ax[j]), ay[j] + bt * (by[j] - ay[j]), az[j] + bt * (bz[j] - az[j])
-    mod_out[:] = out.reshape(N, K - 1)
-    where[:, :, 0], where[:, :, 1], where[:, :, 2] = wx.reshape(N, K - 1), wy.reshape(N, K - 1), wz.reshape(N, K - 1)
-
 def clearance_run_all(tube: Tube, radius: float, Q: np.ndarray, E: np.ndarray, sample: float = SAMPLE_MM,
                       advance: float = 1.0):
     """:func:`clearance_run` and, per step, whether some point crossed into another loop (N,) bool."""
@@ -344,21 +213,9 @@ def clearance_run_all(tube: Tube, radius: float, Q: np.ndarray, E: np.ndarray, s
     where = np.empty((N, max(K - 1, 0), 3))
     lost = np.zeros(N)
     S, BC, BR = tube.search_arrays()
-    # on a first run (cold cache) the run may be scored in numpy, bit for bit, instead of compiling the kernels
-    call_cold(_run_kernel, VECTORISED_S_PER_PLACE * _places(Q, sample), COMPILE_S, tube.points, tube.radius, S, BC,
-              BR, float(tube.pre), float(tube.window), float(radius), Q, E, float(advance), float(sample), pt, mod,
-              where, lost, instead=_run_vectorised)
+    _run_kernel(tube.points, tube.radius, S, BC, BR, float(tube.pre), float(tube.window), float(radius), Q, E,
+                float(advance), float(sample), pt, mod, where, lost)
     return pt, mod, where, lost > 0.0
-
-
-def _places(Q: np.ndarray, sample: float) -> float:
-    """How many places :func:`_run_kernel` scores: every point, every sample along a module and its refinement."""
-    N, K = Q.shape[:2]
-    if K < 2:
-        return float(N * K)
-    with np.errstate(invalid="ignore", over="ignore"):
-        samples = np.ceil(np.linalg.norm(np.diff(Q, axis=1), axis=2) / sample)
-    return float(N * K + np.nansum(np.maximum(samples, 1.0) + 1.0) + N * (K - 1) * (2 + REFINE_ITERS))
 
 
 def clearance_run(tube: Tube, radius: float, Q: np.ndarray, E: np.ndarray, sample: float = SAMPLE_MM,

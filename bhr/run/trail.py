@@ -39,7 +39,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from bhr._numba import njit
+from numba import njit
 
 from bhr.run.body import check_body_modules
 from bhr.model.tube import Tube, lumen_end_of, make_tube, nearest_kernel, point_clearance, scan_from

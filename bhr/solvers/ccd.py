@@ -11,7 +11,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from bhr._numba import njit
+from numba import njit
 
 from bhr.kinematics.dualquat import k_rotate
 from bhr.settings.errors import BhrError

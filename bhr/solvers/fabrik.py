@@ -14,7 +14,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from bhr._numba import njit
+from numba import njit
 
 from bhr.kinematics.leader import acos_deg
 from bhr.solvers.base import Chain, FollowContext, SolveResult, Solver, register

@@ -62,7 +62,7 @@ import math
 from typing import Any
 
 import numpy as np
-from bhr._numba import njit
+from numba import njit
 
 from bhr.model.racing import head_radius_mm, racing_line
 from bhr.model.tube import (Tube, lumen_end_of, make_tube, nearest_numpy, point_clearance, scan_from, search_window,

@@ -52,7 +52,7 @@ import math
 from typing import Any, Sequence
 
 import numpy as np
-from bhr._numba import njit
+from numba import njit
 
 from bhr.settings.errors import BhrError
 from bhr.settings.options import check_number, solver_defaults

@@ -23,7 +23,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from bhr._numba import call_cold, njit
+from numba import njit
 
 from bhr.model.codes import TILT_CODES
 from bhr.kinematics.dualquat import k_rotate
@@ -37,13 +37,6 @@ LIMIT_NONE, LIMIT_CONTINUOUS, LIMIT_BINARY = 0, 1, 2
 LIMITS = {"none": LIMIT_NONE, "continuous": LIMIT_CONTINUOUS, "binary": LIMIT_BINARY}
 AXES = BY_NAME["axes"].choices or ()
 _TILT = np.array(TILT_CODES, dtype=np.int64)
-
-#: A bound on the whole-trajectory loop's CPU seconds run interpreted, per step and per module squared (the
-#: iterations grow with the modules): 66–71 µs measured at most, over the colon, the curve and a 400 mm line
-#: with 5 and 10 modules (tests/benchmarks/bench_first_run.py).
-INTERPRETED_S_PER_STEP_MODULE2 = 80e-6
-#: What compiling the loop costs (CPU seconds, numba's compile of follow_constrained_kernel and its callees).
-COMPILE_S = 3.5
 
 
 @njit(cache=True)
@@ -257,13 +250,11 @@ class ConstrainedFabrik(Solver):
         valid."""
         r = self.robot
         c = chain.copy()
-        n = c.points.shape[0] - 1
-        # on a first run (cold cache) the loop may run interpreted: INTERPRETED_S_PER_STEP_MODULE2 bounds its cost
-        call_cold(follow_constrained_kernel, INTERPRETED_S_PER_STEP_MODULE2 * path.shape[0] * n * n, COMPILE_S,
-                  path, dirs, c.points, np.ascontiguousarray(c.axes[0]), np.ascontiguousarray(c.axes[1]),
-                  float(r.module_length), float(r.feed), int(r.feed_divisor), float(r.tol_pos),
-                  float(r.tol_ori), float(r.alpha), int(r.max_iter), LIMITS[self.limit],
-                  self.axes == "local", int(self.warmup), out_points, out_iters, pe, oe, codes)
+        follow_constrained_kernel(path, dirs, c.points, np.ascontiguousarray(c.axes[0]),
+                                  np.ascontiguousarray(c.axes[1]), float(r.module_length), float(r.feed),
+                                  int(r.feed_divisor), float(r.tol_pos), float(r.tol_ori), float(r.alpha),
+                                  int(r.max_iter), LIMITS[self.limit], self.axes == "local", int(self.warmup),
+                                  out_points, out_iters, pe, oe, codes)
         return self.returns_codes
 
 

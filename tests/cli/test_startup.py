@@ -54,7 +54,7 @@ def test_second_run_loads_compiled_code_from_cache(tmp_path, run_bhr):
     assert "index saved" not in log and "data saved" not in log
 
 
-NOTICE = "Compiling bhr's kernels for this machine; this happens once"
+NOTICE = "Compiling bhr's kernels for this machine (once;"
 
 
 def test_first_run_says_it_compiles_the_kernels_and_later_runs_do_not(tmp_path):

@@ -38,32 +38,14 @@ def test_a_folder_the_user_chose_is_kept(tmp_path, monkeypatch):
     assert os.environ["NUMBA_CACHE_DIR"] == str(tmp_path / "mine")
 
 
-def test_a_failed_cache_write_costs_a_compile_not_the_command(tmp_path, monkeypatch):
-    import errno
+def test_an_unwritable_home_falls_back_to_the_temporary_folder(tmp_path, monkeypatch):
+    monkeypatch.delenv("NUMBA_CACHE_DIR", raising=False)
+    monkeypatch.delenv("XDG_CACHE_HOME", raising=False)
+    monkeypatch.setenv("HOME", "/proc/nohome")
+    monkeypatch.setenv("TMPDIR", str(tmp_path))
+    import tempfile
 
-    import numba
-    from numba.core import caching
-
-    assert getattr(caching.Cache.save_overload, "_bhr_guarded", False)  # bhr imported: numba's cache is guarded
-
-    @numba.njit(cache=True)
-    def twice(x):
-        return 2.0 * x
-
-    def too_large(*_args):
-        raise OSError(errno.EFBIG, "File too large")  # as a write under ulimit -f
-
-    monkeypatch.setattr(caching.IndexDataCacheFile, "save", too_large)
-    assert twice(3.0) == 6.0  # compiled, not cached, and runs
-
-    class Cache:  # a module whose Cache is not guarded yet: guarded once, its other errors untouched
-        def save_overload(self, sig, data):
-            raise OSError(errno.ENOSPC, "No space left on device")
-
-    module = type(os)("caching")
-    module.Cache = Cache
-    _numba.guard_cache_writes(module)
-    guarded = Cache.save_overload
-    _numba.guard_cache_writes(module)
-    assert Cache.save_overload is guarded
-    Cache().save_overload(None, None)
+    monkeypatch.setattr(tempfile, "tempdir", None)  # read TMPDIR again
+    folder = _numba.configure_cache()
+    assert folder == str(tmp_path / f"bhr-numba-{os.getuid()}" / _numba.source_key())
+    assert os.environ["NUMBA_CACHE_DIR"] == folder and os.path.isdir(folder)

@@ -1,12 +1,10 @@
-"""Bad input is refused before numba loads: kernels are made on first use, solver names known without the solvers."""
+"""Solver names are known without the solvers (bad input is refused before numba loads); a small kernel."""
 from __future__ import annotations
 
-import sys
 import types
 
 import pytest
 
-from bhr import _numba
 from bhr.settings.errors import BhrError
 
 
@@ -57,37 +55,6 @@ def test_a_solver_another_package_adds_is_looked_up_in_the_full_registry(monkeyp
     with pytest.raises(BhrError, match="unknown solver 'plugged'"):
         solvers.check_solver_name("plugged")
     assert calls  # not refused from bhr's own names alone
-
-
-def test_a_kernel_is_made_on_first_use_and_its_module_then_names_numbas_dispatcher(monkeypatch):
-    import numba
-
-    monkeypatch.setattr(_numba, "_made", False)
-    monkeypatch.setattr(_numba, "_pending", [])
-    loaded = []
-    _numba.when_numba_loads(lambda: loaded.append(1))
-    module = types.ModuleType("bhr._lazy_probe")
-    monkeypatch.setitem(sys.modules, module.__name__, module)
-    code = (
-        "from bhr._numba import njit\n"
-        "@njit(cache=False)\n"
-        "def inner(x):\n    return 2.0 * x\n"
-        "@njit(cache=False)\n"
-        "def outer(x):\n    return inner(x) + 1.0\n"
-    )
-    exec(compile(code, "<lazy probe>", "exec"), module.__dict__)
-    lazy = module.outer
-    assert isinstance(lazy, _numba.LazyKernel) and isinstance(module.inner, _numba.LazyKernel)
-    assert not loaded  # declared: nothing made yet
-    assert lazy(3.0) == 7.0  # the compiled caller calls the compiled callee
-    assert loaded == [1]
-    assert isinstance(module.outer, numba.core.registry.CPUDispatcher)
-    assert isinstance(module.inner, numba.core.registry.CPUDispatcher)
-    assert lazy.dispatcher() is module.outer and lazy.py_func is module.outer.py_func
-    assert lazy.signatures == module.outer.signatures  # numba's attributes through the lazy name
-    after = _numba.njit(cache=False)(lambda x: x)  # numba loaded: a dispatcher at once
-    assert isinstance(after, numba.core.registry.CPUDispatcher)
-
 
 
 def test_the_stable_argsort_kernel_is_numpys_mergesort():
