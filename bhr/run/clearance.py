@@ -56,7 +56,7 @@ from bhr.model.tube import (BLOCK, GLOBAL_BELOW, LOOP_RATIO, LUMEN_ENDS, WINDOW_
                             global_scan, local_scan, locate_kernel, locate_numpy, lumen_end_of,
                             make_tube, nearest_kernel, nearest_numpy, point_clearance, search_window, segment_scan)
 
-__all__ = ["ClearanceReport", "CecumWatch", "cecum_step", "Tube", "make_tube", "clearance_table", "clearance_report",
+__all__ = ["ClearanceReport", "CecumWatch", "cecum_step", "cecum_kernel", "Tube", "make_tube", "clearance_table", "clearance_report",
            "clearance_run", "clearance_run_all", "clearance_run_numpy", "point_clearance", "locate_numpy",
            "brute_force_clearance", "left_lumen", "lumen_end_of", "run_chain", "step_ranges", "WINDOW_MM", "SAMPLE_MM",
            "LUMEN_ENDS", "LOOP_RATIO", "BLOCK", "tables_report", "index_matched_min", "robot_labels"]
@@ -445,42 +445,64 @@ def run_chain(result) -> tuple[np.ndarray, np.ndarray, int]:
     return np.ascontiguousarray(Q, dtype=np.float64), np.ascontiguousarray(E, dtype=np.float64), B
 
 
+@njit(cache=True)
+def cecum_kernel(C, R, S, BC, BR, w, pos, end, direction, tips):
+    """Track ``tips`` (N, 3) step by step from tube position ``pos``: (first step at the blind end or -1, position).
+
+    Each step's nearest centerline point is searched locally, in the window around the step before's
+    (:func:`locate_kernel`, as :func:`bhr.model.tube.locate_numpy` does it: never across a loop); the tip is at
+    the blind end when that point is the last one and the tip is at or past its cross-section (``end``, the unit
+    ``direction`` of the last segment).
+    """
+    M = C.shape[0]
+    res = np.empty(4)
+    for i in range(tips.shape[0]):
+        x, y, z = tips[i, 0], tips[i, 1], tips[i, 2]
+        lo, hi = search_window(M, pos, w)
+        locate_kernel(C, R, S, BC, BR, 0.0, lo, hi, pos, x, y, z, res)
+        pos = res[2]
+        if pos >= M - 1 - 1e-9 and ((x - end[0]) * direction[0] + (y - end[1]) * direction[1]
+                                    + (z - end[2]) * direction[2]) >= -1e-9:
+            return i, pos
+    return -1, pos
+
+
 class CecumWatch:
     """Watches a tip move along a lumen with a blind end and says when it has reached the cecum.
 
     The tip has reached it when its nearest centerline point, tracked from step to step from the path's start
-    (:func:`bhr.model.tube.locate_numpy`: never across a loop), is the path's last point and the tip is at or past
-    that point's cross-section. In the thesis's model the feeder stops there (docs/locomotion.md): a robot ahead of
-    its schedule is not pushed on into the wall at the blind end.
+    (:func:`cecum_kernel`: never across a loop), is the path's last point and the tip is at or past that point's
+    cross-section. In the thesis's model the feeder stops there (docs/locomotion.md): a robot ahead of its
+    schedule is not pushed on into the wall at the blind end.
     """
 
     def __init__(self, tube: Tube) -> None:
         self.tube = tube
         C = tube.points
         d = C[-1] - C[-2]
-        self._end = C[-1]
+        self._end = np.ascontiguousarray(C[-1])
         self._dir = d / float(np.linalg.norm(d))
         self._pos = float(tube.pre)  # the tip starts at the path's start
 
+    def first(self, tips: np.ndarray) -> int | None:
+        """Track the tip through ``tips`` (N, 3); the index of the first at or past the blind end, or None."""
+        t = self.tube
+        if not t.closed:
+            return None
+        S, BC, BR = t.search_arrays()
+        i, self._pos = cecum_kernel(t.points, t.radius, S, BC, BR, float(t.window), self._pos, self._end,
+                                    self._dir, np.ascontiguousarray(tips, dtype=np.float64).reshape(-1, 3))
+        return None if i < 0 else int(i)
+
     def reached(self, tip: np.ndarray) -> bool:
         """Track the tip to its next position; True once it is at or past the blind end."""
-        t = self.tube
-        _, pos, _ = locate_numpy(t, 0.0, np.asarray(tip, dtype=np.float64), self._pos)
-        self._pos = pos
-        return bool(t.closed and pos >= t.points.shape[0] - 1 - 1e-9
-                    and float(np.dot(np.asarray(tip, dtype=np.float64) - self._end, self._dir)) >= -1e-9)
+        return self.first(tip) is not None
 
 
 def cecum_step(tube: Tube, tips: np.ndarray) -> int | None:
     """0-based first step at which ``tips[i]`` has reached the blind end of ``tube`` (:class:`CecumWatch`); None
     when it never does or the lumen's end is open."""
-    if not tube.closed:
-        return None
-    watch = CecumWatch(tube)
-    for i in range(tips.shape[0]):
-        if watch.reached(tips[i]):
-            return i
-    return None
+    return CecumWatch(tube).first(tips)
 
 
 def left_lumen(per_step: np.ndarray, lost: np.ndarray, radius: float, where: Callable[[int], str] | None = None

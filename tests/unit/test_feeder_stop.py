@@ -142,3 +142,64 @@ def test_a_stopped_run_reads_back_whole_and_a_bad_stop_is_refused():
         doc["summary"]["feeder_stop_step"] = bad
         with pytest.raises(BhrError, match="feeder_stop_step must be a step"):
             FollowResult.from_json(doc, "r.json")
+
+
+def _u_turn(gap: float, spacing: float, limb: float) -> np.ndarray:
+    """A centerline out along +x, a half-turn of diameter ``gap``, and back: two limbs ``gap`` apart."""
+    a = np.arange(0.0, limb, spacing)
+    first = np.stack([a, np.zeros_like(a), np.zeros_like(a)], axis=1)
+    r = gap / 2.0
+    th = np.arange(spacing / r, np.pi, spacing / r)
+    turn = np.stack([limb + r * np.sin(th), r - r * np.cos(th), np.zeros_like(th)], axis=1)
+    second = np.stack([a[::-1], np.full_like(a, gap), np.zeros_like(a)], axis=1)
+    return np.concatenate([first, turn, second])
+
+
+def _random_chain(rng: np.random.Generator, n: int, spacing: float) -> np.ndarray:
+    d = np.array([1.0, 0.0, 0.0])
+    pts = [np.zeros(3)]
+    for _ in range(n - 1):
+        d = d + rng.normal(scale=0.35, size=3)
+        d /= np.linalg.norm(d)
+        pts.append(pts[-1] + spacing * d)
+    return np.array(pts)
+
+
+def _cecum_numpy(tube, tips):
+    """The watch in numpy (the reference): each tip located by locate_numpy around where the one before was."""
+    from bhr.model.tube import locate_numpy
+
+    C = tube.points
+    d = (C[-1] - C[-2]) / np.linalg.norm(C[-1] - C[-2])
+    pos, track = float(tube.pre), []
+    for i, p in enumerate(tips):
+        _, pos, _ = locate_numpy(tube, 0.0, p, pos)
+        track.append(pos)
+        if pos >= C.shape[0] - 1 - 1e-9 and float(np.dot(p - C[-1], d)) >= -1e-9:
+            return i, track
+    return None, track
+
+
+@settings(max_examples=80, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), shape=st.sampled_from(["u-turn", "random"]), gap=st.floats(8.0, 70.0),
+       diameter=st.floats(10.0, 50.0), spacing=st.floats(0.7, 3.0), wander=st.floats(0.0, 1.4),
+       feed=st.floats(0.3, 4.0))
+def test_the_compiled_watch_tracks_the_tip_as_the_numpy_search_does(seed, shape, gap, diameter, spacing, wander,
+                                                                    feed):
+    # a tip moving along U-turns whose limbs are near (their lumens may overlap) and along random chains, off the
+    # axis by up to 1.4 lumen radii (outside the wall: the whole centerline is searched): the compiled local update
+    # finds, step by step, the same nearest centerline point as the numpy search and stops at the same step
+    rng = np.random.default_rng(seed)
+    pts = _u_turn(gap, spacing, 60.0) if shape == "u-turn" else _random_chain(rng, 80, spacing)
+    tube = make_tube(pts, np.full(len(pts), diameter), closed_end=True)
+    arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(pts, axis=0), axis=1))])
+    s = np.arange(0.0, arc[-1] + 3 * feed, feed)
+    axis = np.stack([np.interp(s, arc, pts[:, j]) for j in range(3)], axis=1)
+    tips = axis + rng.normal(size=axis.shape) * wander * diameter / 2 / np.sqrt(3)
+    want, track = _cecum_numpy(tube, tips)
+    watch = CecumWatch(tube)
+    for i, p in enumerate(tips[:len(track)]):
+        hit = watch.reached(p)
+        assert abs(watch._pos - track[i]) <= 1e-9, (i, watch._pos, track[i])  # numpy's einsum: an ulp apart
+        assert hit == (want == i)
+    assert cecum_step(tube, tips) == want
