@@ -56,7 +56,8 @@ from bhr.model.tube import (BLOCK, GLOBAL_BELOW, LOOP_RATIO, LUMEN_ENDS, WINDOW_
                             global_scan, local_scan, locate_kernel, locate_numpy, lumen_end_of,
                             make_tube, nearest_kernel, nearest_numpy, point_clearance, search_window, segment_scan)
 
-__all__ = ["ClearanceReport", "CecumWatch", "cecum_step", "cecum_kernel", "Tube", "make_tube", "clearance_table", "clearance_report",
+__all__ = ["ClearanceReport", "CecumWatch", "cecum_step", "cecum_kernel", "Tube", "make_tube", "clearance_table",
+           "clearance_report",
            "clearance_run", "clearance_run_all", "clearance_run_numpy", "point_clearance", "locate_numpy",
            "brute_force_clearance", "left_lumen", "lumen_end_of", "run_chain", "step_ranges", "WINDOW_MM", "SAMPLE_MM",
            "LUMEN_ENDS", "LOOP_RATIO", "BLOCK", "tables_report", "index_matched_min", "robot_labels"]
