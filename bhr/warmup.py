@@ -43,7 +43,7 @@ def compile_all() -> None:
         short = type(colon)(colon.name, np.ascontiguousarray(colon.points[:60]), colon.params, colon.min_radius,
                             None if colon.lumen is None else np.ascontiguousarray(colon.lumen[:60]), colon.source,
                             start_direction=colon.start_direction, start_point=colon.start_point)
-        follow(short, solver="thesis")
+        follow(colon, solver="thesis")  # the whole colon: its arrays exactly as a command gives them
         follow(short, solver="lumen")
         follow(short, solver="thesis", body_modules=8)
         rows = np.array([[3, 0, 6, 0, 0], [0, 12, 0, 9, 15]], dtype=np.int64)

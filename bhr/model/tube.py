@@ -24,8 +24,9 @@ from numba import njit
 from bhr.settings.errors import BhrError
 
 __all__ = ["Tube", "make_tube", "segment_scan", "nearest_kernel", "search_window", "scan_from", "local_scan",
+           "local_scan_from", "window_scan", "past_the_window",
            "global_scan", "locate_kernel", "point_clearance", "nearest_numpy", "locate_numpy", "lumen_end_of",
-           "WINDOW_MM", "LUMEN_ENDS", "GLOBAL_BELOW", "BLOCK", "LOOP_RATIO"]
+           "WINDOW_MM", "LUMEN_ENDS", "GLOBAL_BELOW", "BLOCK", "GROUP", "LOOP_RATIO"]
 
 #: Half-width (mm of arc length) of the stretch of centerline searched for a point's nearest point.
 WINDOW_MM = 40.0
@@ -35,6 +36,8 @@ LUMEN_ENDS = ("closed", "open")
 GLOBAL_BELOW = 0.0
 #: Segments of centerline per block of the global search (each block is bounded by a sphere).
 BLOCK = 16
+#: Segments per group of the local search (each bounded by a sphere; GROUP divides BLOCK).
+GROUP = 4
 #: Two stretches of centerline are different passes of a loop when the centerline between their nearest points
 #: is longer than LOOP_RATIO x (the straight distance between those points + the point's distance to each).
 LOOP_RATIO = 2.0
@@ -53,7 +56,8 @@ class Tube:
     past it is wall. ``window`` is the local search half-width in points;
     ``arc`` the arc length (mm) at each tube point; ``block_centre`` and
     ``block_radius`` bound each run of :data:`BLOCK` segments by a sphere
-    (the global search skips the blocks that cannot hold a nearer point).
+    (the global search skips the blocks that cannot hold a nearer point),
+    then each run of :data:`GROUP` segments (the local search's bounds).
     """
 
     points: np.ndarray  # (M, 3)
@@ -63,8 +67,8 @@ class Tube:
     window: float  # points
     spacing: float = 1.0  # mm between centerline points (median)
     arc: np.ndarray | None = None  # (M,) mm
-    block_centre: np.ndarray | None = None  # (ceil((M-1)/BLOCK), 3)
-    block_radius: np.ndarray | None = None  # (ceil((M-1)/BLOCK),)
+    block_centre: np.ndarray | None = None  # (ceil((M-1)/BLOCK) + ceil((M-1)/GROUP), 3)
+    block_radius: np.ndarray | None = None  # (ceil((M-1)/BLOCK) + ceil((M-1)/GROUP),)
 
     @property
     def closed(self) -> bool:
@@ -78,18 +82,24 @@ class Tube:
         return self.arc, self.block_centre, self.block_radius
 
 
-def _search_arrays(pts: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(pts, axis=0), axis=1))])
+def _spheres(pts: np.ndarray, size: int) -> tuple[np.ndarray, np.ndarray]:
+    """Bounding spheres (centres, radii) of the runs of ``size`` segments of the polyline ``pts``."""
     nseg = pts.shape[0] - 1
-    nb = (nseg + BLOCK - 1) // BLOCK
-    centre = np.empty((nb, 3))
-    rad = np.empty(nb)
-    for j in range(nb):
-        block = pts[j * BLOCK:min(j * BLOCK + BLOCK, nseg) + 1]
-        c = 0.5 * (block.min(axis=0) + block.max(axis=0))
-        centre[j] = c
-        rad[j] = float(np.sqrt(((block - c) ** 2).sum(axis=1).max())) * (1.0 + 1e-12) + 1e-9
-    return np.ascontiguousarray(arc), centre, rad
+    n = (nseg + size - 1) // size
+    idx = np.minimum(np.arange(n)[:, None] * size + np.arange(size + 1)[None, :], nseg)  # each run's points
+    runs = pts[idx]
+    centre = 0.5 * (runs.min(axis=1) + runs.max(axis=1))
+    rad = np.sqrt(((runs - centre[:, None, :]) ** 2).sum(axis=2).max(axis=1)) * (1.0 + 1e-12) + 1e-9
+    return centre, rad
+
+
+def _search_arrays(pts: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(arc, centres, radii): the spheres of the blocks of BLOCK segments, then of the groups of GROUP segments."""
+    arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(pts, axis=0), axis=1))])
+    bc, br = _spheres(pts, BLOCK)
+    gc, gr = _spheres(pts, GROUP)
+    return (np.ascontiguousarray(arc), np.ascontiguousarray(np.concatenate([bc, gc])),
+            np.ascontiguousarray(np.concatenate([br, gr])))
 
 
 def make_tube(path: np.ndarray, lumen: np.ndarray, start_direction=None, window_mm: float = WINDOW_MM, *,
@@ -232,8 +242,21 @@ def local_scan(C, lo, hi, px, py, pz):
     started from (never across a loop, which would first have to come nearer
     and then go away again). Returns (squared distance, segment, t).
     """
-    M = C.shape[0]
     best, bk, bt = segment_scan(C, lo, hi, px, py, pz)
+    return past_the_window(C, lo, hi, best, bk, bt, px, py, pz)
+
+
+@njit(cache=True)
+def local_scan_from(C, BC, BR, lo, hi, g, px, py, pz):
+    """:func:`local_scan`, the same result, its window searched from segment ``g`` (:func:`window_scan`)."""
+    best, bk, bt = window_scan(C, BC, BR, lo, hi, g, px, py, pz)
+    return past_the_window(C, lo, hi, best, bk, bt, px, py, pz)
+
+
+@njit(cache=True)
+def past_the_window(C, lo, hi, best, bk, bt, px, py, pz):
+    """:func:`local_scan`'s search past the window's ends, from the window's nearest point (best, bk, bt)."""
+    M = C.shape[0]
     step = hi - lo
     if step < 1:
         step = 1
@@ -259,6 +282,71 @@ def local_scan(C, lo, hi, px, py, pz):
     return best, bk, bt
 
 
+
+@njit(cache=True)
+def window_scan(C, BC, BR, lo, hi, g, px, py, pz):
+    """:func:`segment_scan` of segments ``lo..hi-1``, bit for bit, searched from segment ``g`` (a guess) outwards.
+
+    The segments around ``g`` first, walking on along the centerline while
+    the nearest point is at an end of the stretch scanned; then the rest of
+    the window, except the blocks and groups of segments whose bounding
+    sphere (``BC``, ``BR``: :func:`make_tube`) lies farther than the nearest
+    point found: no segment there can be as near. Among equally near
+    segments the first wins, as in :func:`segment_scan`. When the guess is
+    good (a point's place at the step before, a sample's neighbour along a
+    module) only a few segments and spheres are looked at.
+    """
+    nb = (C.shape[0] - 1 + BLOCK - 1) // BLOCK
+    g = min(max(g, lo), hi - 1)
+    a = max(lo, g - 2)
+    b = min(hi, g + 3)
+    best, bk, bt = segment_scan(C, a, b, px, py, pz)
+    while bk == a and a > lo:  # nearest at the stretch's start: walk back
+        a2 = max(lo, a - GROUP)
+        d2, k, t = segment_scan(C, a2, a, px, py, pz)
+        a = a2
+        if d2 <= best:  # an equally near segment before wins
+            best, bk, bt = d2, k, t
+        else:
+            break
+    while bk == b - 1 and b < hi:  # at its end: walk on
+        b2 = min(hi, b + GROUP)
+        d2, k, t = segment_scan(C, b, b2, px, py, pz)
+        b = b2
+        if d2 < best:
+            best, bk, bt = d2, k, t
+        else:
+            break
+    reach = math.sqrt(best)
+    for side in range(2):  # the window's rest before the stretch, then after it
+        k = lo if side == 0 else b
+        end = a if side == 0 else hi
+        while k < end:
+            blk = k // BLOCK
+            stop = min(end, (blk + 1) * BLOCK)
+            if _farther(BC, BR, blk, px, py, pz, reach):
+                k = stop
+                continue
+            while k < stop:
+                grp = k // GROUP
+                gstop = min(stop, (grp + 1) * GROUP)
+                if not _farther(BC, BR, nb + grp, px, py, pz, reach):
+                    d2, kk, t = segment_scan(C, k, gstop, px, py, pz)
+                    if d2 < best or (d2 == best and kk < bk):
+                        best, bk, bt = d2, kk, t
+                        reach = math.sqrt(best)
+                k = gstop
+    return best, bk, bt
+
+
+@njit(cache=True)
+def _farther(BC, BR, j, px, py, pz, reach):
+    """Whether every point in sphere ``j`` is farther from p than ``reach`` (strictly): no square root taken."""
+    dx, dy, dz = px - BC[j, 0], py - BC[j, 1], pz - BC[j, 2]
+    far = BR[j] + reach
+    return dx * dx + dy * dy + dz * dz > far * far * (1.0 + 1e-12)
+
+
 @njit(cache=True)
 def global_scan(C, BC, BR, px, py, pz, best):
     """Nearest point on the whole centerline if nearer than ``sqrt(best)``: (squared distance, segment, t).
@@ -270,7 +358,7 @@ def global_scan(C, BC, BR, px, py, pz, best):
     bk = -1
     bt = 0.0
     nseg = C.shape[0] - 1
-    for j in range(BC.shape[0]):
+    for j in range((nseg + BLOCK - 1) // BLOCK):  # the blocks (the groups follow them in BC, BR)
         dx, dy, dz = px - BC[j, 0], py - BC[j, 1], pz - BC[j, 2]
         gap = math.sqrt(dx * dx + dy * dy + dz * dz) - BR[j]
         if gap > 0.0 and gap * gap >= best:
@@ -319,7 +407,7 @@ def locate_kernel(C, R, S, BC, BR, radius, lo, hi, ze, px, py, pz, out):
     it is scored in the lumen it is in now, and flagged (the robot left the
     lumen it was in). out = (distance, lumen radius, tube position, flag).
     """
-    best, bk, bt = local_scan(C, lo, hi, px, py, pz)
+    best, bk, bt = local_scan_from(C, BC, BR, lo, hi, (lo + hi) // 2, px, py, pz)
     d = math.sqrt(best)
     r = R[bk] + bt * (R[bk + 1] - R[bk])
     pos = bk + bt

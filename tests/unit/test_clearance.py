@@ -372,3 +372,50 @@ def test_a_colon_the_robot_left_is_failed_by_traverse_with_its_reason():
         if r["left_lumen_step"] is not None:
             assert not r["traversed"] and r["failure"].startswith("left the lumen at step")
     assert res.designs[0]["left_lumen"] == sum(r["left_lumen_step"] is not None for r in res.runs) >= 1
+
+
+# the local search from a guess: the windowed scan's own result, bit for bit (U-turns with near limbs, random chains)
+
+from bhr.model.tube import local_scan, local_scan_from, segment_scan, window_scan  # noqa: E402
+
+
+def _chain(rng: np.random.Generator, shape: str, n: int, spacing: float, gap: float) -> np.ndarray:
+    if shape == "u-turn":  # out along +x, a half-turn, back: two limbs `gap` apart
+        a = np.arange(n // 2) * spacing
+        r = gap / 2.0
+        th = np.arange(spacing / r, np.pi, spacing / r)
+        return np.concatenate([np.stack([a, 0 * a, 0 * a], 1),
+                               np.stack([a[-1] + r * np.sin(th), r - r * np.cos(th), 0 * th], 1),
+                               np.stack([a[::-1], 0 * a + gap, 0 * a], 1)])
+    if shape == "straight":  # many segments equally near a point on the axis's side: ties
+        return np.arange(n)[:, None] * np.array([spacing, 0.0, 0.0])
+    d, pts = np.array([1.0, 0.0, 0.0]), [np.zeros(3)]
+    for _ in range(n - 1):
+        d = d + rng.normal(scale=0.6, size=3)
+        d /= np.linalg.norm(d)
+        pts.append(pts[-1] + spacing * d)
+    return np.array(pts)
+
+
+@settings(max_examples=300, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), shape=st.sampled_from(["u-turn", "random", "straight"]),
+       n=st.integers(2, 200), spacing=st.floats(0.3, 4.0), gap=st.floats(2.0, 60.0), spread=st.floats(0.0, 40.0),
+       width=st.integers(1, 120), guess=st.floats(-0.2, 1.2), quantise=st.booleans())
+def test_the_search_from_a_guess_finds_the_windows_nearest_segment_bit_for_bit(seed, shape, n, spacing, gap, spread,
+                                                                               width, guess, quantise):
+    rng = np.random.default_rng(seed)
+    C = np.ascontiguousarray(_chain(rng, shape, n, spacing, gap))
+    M = C.shape[0]
+    tube = make_tube(C, np.full(M, 10.0))
+    S, BC, BR = tube.search_arrays()
+    P = tube.points
+    for _ in range(20):
+        at = P[rng.integers(0, P.shape[0])]
+        p = at + rng.normal(size=3) * spread
+        if quantise:  # on a grid: exact ties between segments
+            p = np.round(p)
+        lo = int(rng.integers(0, P.shape[0] - 1))
+        hi = min(P.shape[0] - 1, lo + width)
+        g = lo + int(guess * (hi - lo))
+        assert window_scan(P, BC, BR, lo, hi, g, *p) == segment_scan(P, lo, hi, *p)
+        assert local_scan_from(P, BC, BR, lo, hi, g, *p) == local_scan(P, lo, hi, *p)
