@@ -54,6 +54,32 @@ def test_seed_colon_numpy(benchmark):
     benchmark.pedantic(numpy_seed_follow, args=(COLON.points,), rounds=2)
 
 
+# the clearance of the colon run's first 100 steps to the lumen wall: compiled (local search from a guess) and numpy
+def _colon_clearance_inputs():
+    from bhr.run.clearance import make_tube, run_chain
+
+    run = follow(COLON)
+    tube = make_tube(COLON.points, COLON.lumen, COLON.start_direction, closed_end=True)
+    Q, E, _ = run_chain(run)
+    return tube, run.robot.radius, Q[:100], E[:100], run.robot.feed / tube.spacing
+
+
+@pytest.mark.benchmark(group="clearance-colon")
+def test_clearance_colon_bhr(benchmark):
+    from bhr.run.clearance import clearance_run
+
+    tube, radius, Q, E, adv = _colon_clearance_inputs()
+    assert benchmark(clearance_run, tube, radius, Q, E, advance=adv)[1].shape == (100, Q.shape[1] - 1)
+
+
+@pytest.mark.benchmark(group="clearance-colon")
+def test_clearance_colon_numpy(benchmark):
+    from bhr.run.clearance import clearance_run_numpy
+
+    tube, radius, Q, E, adv = _colon_clearance_inputs()
+    benchmark.pedantic(clearance_run_numpy, args=(tube, radius, Q, E), kwargs={"advance": adv}, rounds=2)
+
+
 # --solver optimal without its planner (the exact per-step search) and the 60-module body
 from bhr.bench.cases import OPTIMAL_PER_STEP, numpy_body, numpy_optimal_follow  # noqa: E402
 from bhr.run.body import BODY_BEAM, module1_frames, simulate_body  # noqa: E402
