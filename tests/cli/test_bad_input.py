@@ -365,6 +365,7 @@ RUN_OK = ('{"trajectory": {"points": [[0,0,0],[2,0,0]]}, "robot": {"modules": 1}
           '"codes": [0], "iterations": 1}]}')
 ONE = ["--codes", "c.csv", "--dry-run"]
 CASES += [
+    Bad("warmup-extra-argument", "warmup", ["now"], expect="unexpected extra argument"),
     Bad("export-format-unknown", "export", ["--format", "sdf", "--out", "r.urdf"], expect="not a format bhr writes"),
     Bad("export-no-out", "export", ["--format", "urdf"], expect="--out"),
     Bad("export-modules-zero", "export", ["--format", "urdf", "--out", "r.urdf", "--modules", "0"],
