@@ -455,6 +455,7 @@ def case_seed_colon(repeat: int = 5) -> list[BenchResult]:
     rows = [BenchResult("thesis-colon", "per step", tb, tn, "numpy thesis loop", tn / tb,
                         "<= 5 us/step and >= 300x faster than numpy", ok, {"steps": steps})]
     report = clearance_report(res)
+    assert tr.lumen is not None and report is not None and report.module_table is not None, "the colon has a lumen"
     tc = _median_time(lambda: clearance_report(res), repeat) / steps
     tube = make_tube(tr.points, tr.lumen, tr.start_direction, closed_end=True)
     Q, E, _ = run_chain(res)
