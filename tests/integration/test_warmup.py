@@ -39,8 +39,8 @@ def test_a_home_bhr_cannot_write_runs_twice(tmp_path):
     env = {k: v for k, v in os.environ.items() if k not in ("NUMBA_CACHE_DIR", "XDG_CACHE_HOME")}
     env.update(HOME="/proc/nohome", TMPDIR=str(tmp_path / "tmp"), MPLBACKEND="Agg")
     os.mkdir(tmp_path / "tmp")
-    runs = [subprocess.run(bhr_exe() + ["follow", "--traj", "line", "--no-plots"], cwd=tmp_path, env=env,
-                           capture_output=True, text=True, timeout=900) for _ in range(2)]
+    runs = [subprocess.run(bhr_exe() + ["follow", "--traj", "line", "--no-plots", "--out", out], cwd=tmp_path,
+                           env=env, capture_output=True, text=True, timeout=900) for out in ("a", "b")]
     assert [r.returncode for r in runs] == [0, 0], runs[1].stderr
     assert NOTICE in runs[0].stderr and NOTICE not in runs[1].stderr
     assert list((tmp_path / "tmp").glob(f"bhr-numba-{os.getuid()}/*/*.nbi"))
