@@ -33,7 +33,7 @@ def compile_all() -> None:
         warnings.simplefilter("ignore")  # tiny cases tighter than the robot turns: no advice wanted here
         for solver in ("fabrik", "ccd", "thesis", "constrained", "optimal", "lumen"):
             bhr.solve([3, 9, 0], modules=5, solver=solver, tol_pos=0.01)
-        bhr.solve([3, 9, 0], modules=5, solver="thesis", orientation=[0, 1, 0])
+        bhr.solve([3, 9, 0], modules=5, solver="thesis", tip_direction=[0, 1, 0])
         bhr.Robot().fk([3, 0, 6, 0, 15])
         curve = load_trajectory("curve", angle=30, entry=4, exit=4)
         for solver in ("thesis", "constrained", "optimal", "fabrik", "ccd"):
