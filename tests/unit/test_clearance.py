@@ -419,3 +419,17 @@ def test_the_search_from_a_guess_finds_the_windows_nearest_segment_bit_for_bit(s
         g = lo + int(guess * (hi - lo))
         assert window_scan(P, BC, BR, lo, hi, g, *p) == segment_scan(P, lo, hi, *p)
         assert local_scan_from(P, BC, BR, lo, hi, g, *p) == local_scan(P, lo, hi, *p)
+
+
+def test_the_bounding_spheres_hold_their_segments():
+    from bhr.model.tube import BLOCK, GROUP, _spheres
+
+    rng = np.random.default_rng(3)
+    for m in (2, 3, 5, 17, 18, 100):
+        pts = np.cumsum(rng.normal(size=(m, 3)) * 3.0, axis=0)
+        for size in (BLOCK, GROUP):
+            c, r = _spheres(pts, size)
+            assert c.shape == (-(-(m - 1) // size), 3)
+            for j in range(c.shape[0]):
+                run = pts[j * size:min(j * size + size, m - 1) + 1]
+                assert np.all(np.linalg.norm(run - c[j], axis=1) <= r[j])
