@@ -30,14 +30,15 @@ def table(rows: list[dict], when: float) -> str:
         model = platform.machine()
     lines = [f"Measured {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime(when))}: bhr {__version__}, Python "
              f"{platform.python_version()}, numba {numba.__version__}, numpy {numpy.__version__}, {os.cpu_count()} "
-             f"cores ({model}); times are CPU seconds of the process (medians), the ratio is reference ÷ bhr.", "",
+             f"cores ({model}); CPU seconds, the ratio is reference ÷ bhr.", "",
              "| case | unit | bhr | reference | reference time | ratio | requirement | met |",
              "| --- | --- | --- | --- | --- | --- | --- | --- |"]
     for r in rows:
         met = "" if r["ok"] is None else ("yes" if r["ok"] else "**no**")
-        req = r["requirement"].replace("<=", "≤").replace(">=", "≥").replace(" us", " µs")
+        req = r["requirement"].replace("<=", "≤").replace(">=", "≥").replace(" us", " µs").replace("0x ", "0× ")
+        ratio = f"{r['ratio']:,.0f}" if r["ratio"] >= 100 else f"{r['ratio']:.3g}"
         lines.append(f"| `{r['case']}` | {r['unit']} | {_t(r['bhr_s'])} | {r['reference']} | {_t(r['reference_s'])} "
-                     f"| {r['ratio']:.3g}× | {req} | {met} |")
+                     f"| {ratio}× | {req} | {met} |")
     return "\n".join(lines)
 
 
