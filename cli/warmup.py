@@ -12,9 +12,6 @@ def warmup():
     """Compile every command's kernels now (numba caches them), so that no later command compiles.
 
     Not needed: each command compiles the kernels it runs the first time it runs them.
-
-    \b
-        bhr warmup
     """
     from bhr import _numba
     from bhr.cli._progress import announce_compiles, status
