@@ -126,8 +126,8 @@ def run() -> NoReturn:
     Once a command has ended, its outputs written and closed, what is left of a normal exit is Python freeing
     every object the command made and collecting the cycles of its figures: about 0.4 s of CPU after
     ``bhr follow --traj colon``, a fifth of the command (docs/performance.md). So the process ends as Python's
-    exit would, without that tidy-up: the exit handlers run (``atexit``: the background compile of the other
-    commands' kernels, multiprocessing's and weakref.finalize's clean-ups, logging's flush), standard output and
+    exit would, without that tidy-up: the exit handlers run (``atexit``: multiprocessing's and
+    weakref.finalize's clean-ups, logging's flush), standard output and
     standard error are flushed, then ``os._exit`` with the command's exit status. Where anything else may still
     need Python's own exit (a thread still running, an exit status that is not a number, a stream that cannot
     be flushed), Python's exit is used, as before.
