@@ -1,4 +1,4 @@
-"""Time whole commands as docs/performance.md quotes them: CPU (user + system) and wall, with the machine's load.
+"""Time whole commands as the documentation quotes them: CPU (user + system) and wall, with the machine's load.
 
     python -m bhr.bench.commands                 # every command below, a Markdown table on stdout
     python -m bhr.bench.commands --only follow   # the rows whose name contains "follow"
