@@ -31,7 +31,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from bhr._numba import njit
+from numba import njit
 
 from bhr.settings.errors import BhrError
 

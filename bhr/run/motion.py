@@ -41,7 +41,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from bhr._numba import njit
+from numba import njit
 
 from bhr.model.tube import Tube, locate_kernel, search_window
 from bhr.model.wires import DEFAULT_THERMAL, ThermalParams, transform_thetas
