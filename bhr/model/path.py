@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 from typing import Any, Callable
 
 import numpy as np
+from numba import njit
 
 from bhr.settings.inputs import MAX_POINTS
 from bhr.settings.errors import BhrError
@@ -217,6 +218,96 @@ def unfollowable_bends(points: np.ndarray, lumen: np.ndarray, turn_radius: float
     of unfollowable points: (first index, last index, the mean radius r of its tightest failing stretch
     in mm, the narrowest lumen diameter there in mm).
     """
+    pts = np.asarray(points, dtype=np.float64)
+    lum = np.ascontiguousarray(lumen, dtype=np.float64)
+    n = pts.shape[0]
+    h = spacing(pts)
+    if n < 3 or h <= 0 or not math.isfinite(turn_radius) or turn_radius <= 0:
+        return []
+    bad = np.zeros(n, dtype=np.bool_)
+    worst_r = np.full(n, np.inf)
+    worst_d = np.full(n, np.inf)
+    _bends_kernel(_tangents(pts), np.maximum(0.5 * lum - robot_radius, 0.0), lum, h, float(turn_radius),
+                  _windows(h), bad, worst_r, worst_d)
+    return _stretches(bad, worst_r, worst_d)
+
+
+def _tangents(pts: np.ndarray) -> np.ndarray:
+    t = np.empty_like(pts)
+    t[1:-1] = pts[2:] - pts[:-2]
+    t[0], t[-1] = pts[1] - pts[0], pts[-1] - pts[-2]
+    t /= np.maximum(np.linalg.norm(t, axis=1), 1e-300)[:, None]
+    return t
+
+
+def _windows(h: float) -> np.ndarray:
+    """The stretches' half-lengths in whole points, shortest first."""
+    return np.array(sorted({max(int(round(w / h)), 1) for w in BEND_WINDOWS_MM}), dtype=np.int64)
+
+
+def _stretches(bad: np.ndarray, worst_r: np.ndarray, worst_d: np.ndarray) -> list[tuple[int, int, float, float]]:
+    out = []
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], bad.astype(np.int8), [0]])))
+    for a, b in zip(edges[::2], edges[1::2]):
+        j = a + int(np.argmin(worst_r[a:b]))
+        out.append((int(a), int(b - 1), float(worst_r[j]), float(worst_d[j])))
+    return out
+
+
+@njit(cache=True)
+def _range_min_table(v):
+    """Sparse table of ``v``'s minima: row j holds the minimum of ``v[i : i + 2**j]``."""
+    n = v.shape[0]
+    levels = 1
+    while (1 << levels) <= n:
+        levels += 1
+    tab = np.empty((levels, n))
+    tab[0] = v
+    for j in range(1, levels):
+        half = 1 << (j - 1)
+        for i in range(n - (1 << j) + 1):
+            tab[j, i] = min(tab[j - 1, i], tab[j - 1, i + half])
+    return tab
+
+
+@njit(cache=True)
+def _range_min(tab, a, b):
+    """The minimum of ``v[a : b + 1]`` from its sparse table."""
+    j = 0
+    while (1 << (j + 1)) <= b - a + 1:
+        j += 1
+    return min(tab[j, a], tab[j, b - (1 << j) + 1])
+
+
+@njit(cache=True)
+def _bends_kernel(t, free, lum, h, big_r, ks, bad, worst_r, worst_d):
+    """:func:`unfollowable_bends_numpy`'s rule, point by point: ``bad``, ``worst_r`` and ``worst_d`` filled."""
+    n = t.shape[0]
+    tf = _range_min_table(free)
+    tl = _range_min_table(lum)
+    for k in ks:
+        if 2 * k >= n:
+            break
+        for i in range(k, n - k):
+            dot = t[i - k, 0] * t[i + k, 0] + t[i - k, 1] * t[i + k, 1] + t[i - k, 2] * t[i + k, 2]
+            theta = math.acos(min(1.0, max(-1.0, dot)))
+            if theta <= 1e-9:
+                continue
+            r = 2.0 * k * h / theta
+            if big_r <= r:  # the room below is never negative
+                continue
+            c = math.cos(0.5 * theta)
+            room = _range_min(tf, i - k, i + k) * (1.0 + c) / (1.0 - c) if c < 1.0 else np.inf
+            if big_r > r + room:
+                bad[i] = True
+                if r < worst_r[i]:
+                    worst_r[i] = r
+                    worst_d[i] = _range_min(tl, i - k, i + k)
+
+
+def unfollowable_bends_numpy(points: np.ndarray, lumen: np.ndarray, turn_radius: float, robot_radius: float
+                             ) -> list[tuple[int, int, float, float]]:
+    """The numpy reference of :func:`unfollowable_bends` (the same rule, window by window)."""
     from scipy.ndimage import minimum_filter1d
 
     pts = np.asarray(points, dtype=np.float64)
@@ -225,15 +316,12 @@ def unfollowable_bends(points: np.ndarray, lumen: np.ndarray, turn_radius: float
     h = spacing(pts)
     if n < 3 or h <= 0 or not math.isfinite(turn_radius) or turn_radius <= 0:
         return []
-    t = np.empty_like(pts)
-    t[1:-1] = pts[2:] - pts[:-2]
-    t[0], t[-1] = pts[1] - pts[0], pts[-1] - pts[-2]
-    t /= np.maximum(np.linalg.norm(t, axis=1), 1e-300)[:, None]
+    t = _tangents(pts)
     free = np.maximum(0.5 * lum - robot_radius, 0.0)
     bad = np.zeros(n, dtype=bool)
     worst_r = np.full(n, np.inf)
     worst_d = np.full(n, np.inf)
-    for k in sorted({max(int(round(w / h)), 1) for w in BEND_WINDOWS_MM}):
+    for k in _windows(h):
         if 2 * k >= n:
             break
         i = np.arange(k, n - k)
@@ -250,9 +338,4 @@ def unfollowable_bends(points: np.ndarray, lumen: np.ndarray, turn_radius: float
         better = r[fail] < worst_r[sel]
         worst_r[sel[better]] = r[fail][better]
         worst_d[sel[better]] = (minimum_filter1d(lum, 2 * k + 1, mode="nearest")[i])[fail][better]
-    out = []
-    edges = np.flatnonzero(np.diff(np.concatenate([[0], bad.astype(np.int8), [0]])))
-    for a, b in zip(edges[::2], edges[1::2]):
-        j = a + int(np.argmin(worst_r[a:b]))
-        out.append((int(a), int(b - 1), float(worst_r[j]), float(worst_d[j])))
-    return out
+    return _stretches(bad, worst_r, worst_d)

@@ -85,3 +85,18 @@ def test_the_warning_fires_only_where_the_robot_cannot_follow():
                                         r"little lumen to swing wide at 1 place, tightest at points 14-30 \(a 10\.1 mm bend in a lumen "
                                         r"14\.7 mm across\); expect the robot to touch the wall there"):
         bhr.follow(tr, solver="thesis")
+
+
+@pytest.mark.parametrize("seed", range(1, 31))
+def test_the_compiled_rule_is_its_numpy_reference(seed):
+    """The kernel (sparse-table minima, point by point) finds the numpy reference's stretches on anatomical colons
+    for the thesis robot and a 5 mm / 25 deg one; radii agree to rounding (acos in libm and in numpy)."""
+    from bhr.model.path import unfollowable_bends_numpy
+
+    t = bhr.trajectory("anatomy", seed=seed)
+    for robot in (Robot(), Robot(module_length=5.0, alpha=25.0)):
+        args = (t.points, np.asarray(t.lumen), robot.min_turn_radius, robot.radius)
+        got, want = unfollowable_bends(*args), unfollowable_bends_numpy(*args)
+        assert [g[:2] for g in got] == [w[:2] for w in want]
+        for g, w in zip(got, want):
+            assert g[2] == pytest.approx(w[2], rel=1e-12) and g[3] == w[3]
