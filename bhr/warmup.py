@@ -55,6 +55,10 @@ def _run_all() -> None:
         bhr.solve([3, 9, 0], modules=5, solver=solver, tol_pos=0.01)
     bhr.solve([3, 9, 0], modules=5, solver="thesis", orientation=[0, 1, 0])
     bhr.Robot().fk([3, 0, 6, 0, 15])
+    from bhr.model.workspace import workspace  # bhr workspace: every pose, and a Monte Carlo sample
+
+    workspace(bhr.Robot(modules=2))
+    workspace(bhr.Robot(modules=2), exact=False, samples=4)
     line = load_trajectory("line", length=40)
     curve = load_trajectory("curve", angle=30, entry=4, exit=4)
     for solver in ("thesis", "constrained", "optimal", "fabrik", "ccd"):
