@@ -135,7 +135,8 @@ def check_outputs(traj: str, robot_file: str | None, out_dir: str | None, json_p
 
 def follow_run(traj: str, *, robot: Any, solver: str = "thesis", solver_options: dict | None = None,
                traj_params: dict | None = None, body_modules: int | None = None, reach: str | None = None,
-               locomotion: str | None = None, out_dir: str | None = None, json_path: str | None = None,
+               locomotion: str | None = None, stop_at_wall: bool = False, out_dir: str | None = None,
+               json_path: str | None = None,
                plots: bool = True, animate_path: str | None = None, stride: int | None = None,
                rate: float = 10.0, robot_file: str | None = None, thermal: Any = None,
                stream: StreamSettings | None = None, status: Status = _no_status,
@@ -153,7 +154,8 @@ def follow_run(traj: str, *, robot: Any, solver: str = "thesis", solver_options:
     [the default wire]; ``rate``: steps per second at most, of the stream
     and of the procedure time's schedule. ``status(label)``: a context manager around each
     stage (a spinner); ``frames_progress(done, total)`` while an animation
-    renders; ``notice(line)`` for lines to show during the run.
+    renders; ``notice(line)`` for lines to show during the run. ``stop_at_wall``: end the run where the robot
+    leaves the lumen (:func:`bhr.run.driver.follow`).
     """
     from bhr.output.paths import check_output_file
 
@@ -182,6 +184,9 @@ def follow_run(traj: str, *, robot: Any, solver: str = "thesis", solver_options:
         raise BhrError(f"{head}, then stream the whole robot's codes.csv (every module, rear first) to a board built "
                        f"for {body_modules} modules (make -C firmware MODULES={body_modules}): bhr stream --port PORT "
                        "--codes bhr-out/latest/codes.csv")
+    if stream is not None and stop_at_wall:
+        raise BhrError("--port streams every step as it is solved, so it cannot stop where the robot left the lumen "
+                       "later; drop --stop-at-wall to stream, or --port to check the run first")
     if stream is not None and (locomotion not in (None, "thesis") or reach is not None):
         raise BhrError("--port streams the thesis's locomotion; drop --locomotion and --reach to stream")
     if thermal is None:
@@ -197,6 +202,7 @@ def follow_run(traj: str, *, robot: Any, solver: str = "thesis", solver_options:
         whole = (body_modules is not None or reach is not None) and getattr(tr, "lumen", None) is not None
         locomotion = "wires" if whole and solver == "lumen" else "thesis"
     extra = (reach, locomotion) if (reach, locomotion) != (None, "thesis") else ()
+    extra += ("stop_at_wall",) if stop_at_wall else ()  # a run stopped at the wall is another output set
     settings_parts = (*trajectory_parts(tr), robot.to_dict(), solver, solver_options, body_modules, *extra)
     if folder is None and use_folder:
         name = run_folder_name(f"{folder_stem(traj, traj_params.get('seed'))}-{solver}", *settings_parts)
@@ -219,7 +225,8 @@ def follow_run(traj: str, *, robot: Any, solver: str = "thesis", solver_options:
             with status(f"following {tr.name} ({len(tr.points)} steps, solver {solver}"
                         f"{_describe(body_modules, reach, locomotion)})"):
                 result = follow(tr, solver=solver, robot=robot, solver_options=solver_options,
-                                body_modules=body_modules, reach=reach, locomotion=locomotion)
+                                body_modules=body_modules, reach=reach, locomotion=locomotion,
+                                stop_at_wall=stop_at_wall)
         else:
             result, outcome = _follow_streaming(tr, solver, robot, solver_options, thermal, rate, stream, say)
     messages = list(dict.fromkeys(str(w.message) for w in caught if issubclass(w.category, BhrWarning)))
@@ -374,6 +381,9 @@ def summary_lines(result) -> list[str]:
     lines += tolerance_lines(s, r)
     lines += body_clearance_lines(s)
     lines += section_lines(result, s)
+    # the verdict's reason is one of the lines above, except for a run that followed
+    why = f" ({s['verdict_reason']})" if s["verdict"] == "followed" else ""
+    lines.append(f"Finished: {s['finished']}. Verdict: {s['verdict']}{why}.")
     return lines
 
 
@@ -433,8 +443,13 @@ def body_clearance_lines(s: dict) -> list[str]:
                    f"{s['feeder_stop_step']}, the tip {s['cecum_shortfall_mm']:.1f} mm short of the path's end; "
                    f"{format_duration(s['procedure_time_s'])} at the wires' pace.")
     if s.get("locomotion") not in ("trail", "wires") and s.get("feeder_stop_step"):
-        out.append(f"The tip reached the cecum at step {s['feeder_stop_step']} of {s['steps']}: the feeder stopped "
-                   "there and the robot holds its pose.")
+        if s.get("left_lumen_step") is not None and s["left_lumen_step"] <= s["feeder_stop_step"]:
+            # a robot outside the colon reached no cecum: its tip only came to the path's end through the wall
+            out.append(f"The tip came to the end of the path at step {s['feeder_stop_step']} of {s['steps']} after "
+                       f"leaving the lumen at step {s['left_lumen_step']}: it did not reach the cecum.")
+        else:
+            out.append(f"The tip reached the cecum at step {s['feeder_stop_step']} of {s['steps']}: the feeder "
+                       "stopped there and the robot holds its pose.")
     if "body_modules" in s:
         out.append(f"Whole body: {s['body_modules']} modules; the body behind the head is off the path by at most "
                    f"{s['body_points_max_error_mm']:.3f} mm (step {s['body_worst_step']}).")
@@ -449,4 +464,7 @@ def body_clearance_lines(s: dict) -> list[str]:
                    + (f": {step_ranges(touch)}." if touch else "."))
         if s.get("left_lumen_reason"):
             out.append(f"The robot {s['left_lumen_reason']}.")
+    if s.get("stopped_at_wall_step"):
+        out.append(f"Stopped at the wall: the run ended at step {s['stopped_at_wall_step']} of the path's "
+                   f"{s['path_steps']}, where the robot left the lumen (--stop-at-wall).")
     return out

@@ -42,7 +42,8 @@ from bhr.output.htmlpage import PAGE_END, escape, figure, fmt, page_head, table
 from bhr.settings.names import axis_label
 from bhr.settings.names import label as _label
 from bhr.settings.options import LIMITS, excerpt, solver_options_for
-from bhr.studies.study import ROBOT_KEYS, TRAJ_KEYS, csv_text, make_robot, sim_options
+from bhr.studies.study import (ROBOT_KEYS, TRAJ_KEYS, csv_text, finished_cell, make_robot, sim_options,
+                               verdict_cell)
 from bhr.studies.sweep import Sweep, SweepResult, build_sweep, run_sweep
 from bhr.studies.sweep import heatmap_axes as _sweep_axes
 from bhr.model.generators import load_trajectory
@@ -60,9 +61,9 @@ DESIGN_COLUMNS = ("colons", "traversed", "pass_rate", "failed_runs", "worst_pene
                   "worst_colon", "min_turn_radius_mm", "median_procedure_time_s", "worst_procedure_time_s",
                   "left_lumen")
 #: Columns of runs.csv after the design's keys and the seed.
-RUN_COLUMNS = ("status", "steps", "traversed", "max_penetration_mm", "touch_steps", "contact_length_mm",
-               "min_clearance_mm", "points_max_error_mm", "tip_max_error_mm", "modules", "procedure_time_s",
-               "left_lumen_step", "failure", "wall")
+RUN_COLUMNS = ("status", "finished", "verdict", "steps", "traversed", "max_penetration_mm", "touch_steps",
+               "contact_length_mm", "min_clearance_mm", "points_max_error_mm", "tip_max_error_mm", "modules",
+               "procedure_time_s", "left_lumen_step", "failure", "wall")
 _MAX_COLONS = LIMITS["colons"]
 #: One seed, or FIRST-LAST, or FIRST:LAST[:STEP] as in a sweep's grid (ends included); plain ASCII digits.
 _RANGE = re.compile(r"^\s*([0-9]+)\s*(?:(-|:)\s*([0-9]+)\s*(?::\s*([0-9]+)\s*)?)?$", re.ASCII)
@@ -213,6 +214,8 @@ def _run_row(row: dict[str, Any], keys: Sequence[str]) -> dict[str, Any]:
     touches = row.get("wall_touch_steps")
     out.update({
         "status": row["status"],
+        "finished": finished_cell(row),  # how the run ended (or FAILED), apart from its verdict
+        "verdict": verdict_cell(row),
         "steps": row.get("steps"),
         "traversed": bool(ok and touches is not None and len(touches) == 0 and row.get("left_lumen_step") is None),
         "max_penetration_mm": _penetration(row) if ok else None,
@@ -511,7 +514,7 @@ def format_study(result: StudyResult, count: int = 8) -> list[str]:
     """The terminal summary: what ran, the best designs, and the answer."""
     study = result.study
     lines = [f"{len(result.runs)} runs ({len(result.designs)} designs x {len(study.colons)} colons) on "
-             f"{result.runner}: {len(result.runs) - len(result.failed)} ok, {len(result.failed)} failed, "
+             f"{result.runner}: {len(result.runs) - len(result.failed)} finished, {len(result.failed)} failed, "
              f"{result.wall_time_s:.1f} s; penetration from the {result.clearance_kind} clearance"]
     keys = study.design_keys
     head = "  ".join(f"{k:>13}" for k in keys)
