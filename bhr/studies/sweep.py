@@ -808,12 +808,6 @@ def format_summary(result: SweepResult, count: int = 5) -> list[str]:
     runs = len(result.rows)
     lines = [f"{what_ran(result)} on {result.runner}: {runs - len(result.failed)} finished, "
              f"{len(result.failed)} failed, {result.wall_time_s:.2f} s"]
-    verdicts: dict[str, int] = {}
-    for r in result.rows:
-        if r["status"] == "ok" and r.get("verdict"):
-            verdicts[r["verdict"]] = verdicts.get(r["verdict"], 0) + 1
-    if verdicts:
-        lines.append("Verdicts: " + ", ".join(f"{verdicts[v]} {v}" for v in VERDICTS if v in verdicts) + ".")
     best = ranked[:count]
     if best:
         design_keys = robot_design_keys(result.sweep)
@@ -829,6 +823,12 @@ def format_summary(result: SweepResult, count: int = 5) -> list[str]:
             clear = "" if r["min_clearance_mm"] is None else f", clearance {r['min_clearance_mm']:.2f} mm"
             where = f" (worst: {_label(r['worst_traj'])}, row #{r['worst_row']})" if many else ""
             lines.append(f"  #{r['design']}: {desc}: {r['points_max_error_mm']:.3f}{clear}{where}")
+    verdicts: dict[str, int] = {}
+    for r in result.rows:
+        if r["status"] == "ok" and r.get("verdict"):
+            verdicts[r["verdict"]] = verdicts.get(r["verdict"], 0) + 1
+    if verdicts:
+        lines.append("Verdicts: " + ", ".join(f"{verdicts[v]} {v}" for v in VERDICTS if v in verdicts) + ".")
     reasons: dict[str, int] = {}
     for r in result.failed:
         reasons[r["status"]] = reasons.get(r["status"], 0) + 1
