@@ -71,7 +71,9 @@ class FollowRun:
     doc: dict
     written: list[Path]
     folder: Path | None                   # the run's folder (None: no folder)
-    procedure_s: float | None = None      # the codes at the board's limits (auto schedule)
+    procedure_s: float | None = None      # the codes at the wires' pace, at most ``rate`` (auto schedule)
+    procedure_pace: str = ""              # what sets it, in words (bhr.hardware.thermal.pace)
+    procedure_rate: float = 10.0          # the rate cap of that schedule (bhr plan --rate gives the same time)
     stream: StreamOutcome | None = None
     animations: list[tuple[Any, Path]] = field(default_factory=list)  # (bhr.output.animate.Animation, path shown)
     warnings: list[str] = field(default_factory=list)     # BhrWarning messages of the run, once each
@@ -82,8 +84,9 @@ class FollowRun:
         if self.procedure_s is not None and self.folder is not None:
             from bhr.hardware.thermal import format_duration
 
-            out.append(f"Procedure time on the board: {format_duration(self.procedure_s)} at the board's limits "
-                       f"(bhr plan --codes {shlex.quote(str(self.folder / 'codes.csv'))} shows the schedule).")
+            out.append(f"Procedure time on the board: {format_duration(self.procedure_s)} {self.procedure_pace} "
+                       f"(bhr plan --codes {shlex.quote(str(self.folder / 'codes.csv'))} --rate "
+                       f"{self.procedure_rate:g} shows the schedule).")
         if self.written:
             out.append("Wrote " + ", ".join(str(p) for p in self.written))
         return out
@@ -285,7 +288,10 @@ def follow_run(traj: str, *, robot: Any, solver: str = "thesis", solver_options:
     if codes is not None and stream is None and folder is not None:
         from bhr.hardware.thermal import auto_schedule
 
-        run.procedure_s = auto_schedule(thermal, codes, rate, trace=False).total_s  # memory: not per step
+        from bhr.hardware.thermal import pace
+
+        sched = auto_schedule(thermal, codes, rate, trace=False)  # memory: not per step
+        run.procedure_s, run.procedure_pace, run.procedure_rate = sched.total_s, pace(sched), float(rate)
     if animate_path is not None and anim_inside is None and folder is None:
         run.animations.append(_animate(result, animate_path, stride, frames_progress, None))
     return run
@@ -338,7 +344,9 @@ def _follow_streaming(tr, solver, robot, solver_options, thermal, rate, s: Strea
         except KeyboardInterrupt as exc:  # bhr.hardware.link.StreamInterrupted: how many of how many
             exc.total = len(rows)  # type: ignore[attr-defined]
             raise
-    how = f"at {rate:g} Hz" if s.schedule == "rate" else "at the board's limits"
+    from bhr.hardware.thermal import pace
+
+    how = pace(sched, counts=False)
     settle = sched.total_s - float(sched.times_ms[-1]) / 1000.0  # the last step's contraction
     outcome = StreamOutcome(report.sent, robot.modules, s.port, how, report.elapsed_s + settle, sched.total_s,
                             s.at_end, list(report.fault_events))
@@ -426,12 +434,11 @@ def body_clearance_lines(s: dict) -> list[str]:
 
     out = []
     if s.get("locomotion") == "trail":
-        from bhr.hardware.thermal import format_duration
-
+        # the procedure time is the one line bhr follow prints for the board's schedule of codes.csv (as bhr plan
+        # computes it), not a second estimate here
         out.append(f"Trail: {s['trail_vertices']} vertices, every module along it (exact follow-the-leader, within "
                    f"{s['trail_offset_bound_mm']:.2f} mm of the trail); the feeder pushes until step "
-                   f"{s['feeder_stop_step']}, the tip {s['cecum_shortfall_mm']:.1f} mm short of the path's end; "
-                   f"{format_duration(s['procedure_time_s'])} at the wires' pace, the whole robot.")
+                   f"{s['feeder_stop_step']}, the tip {s['cecum_shortfall_mm']:.1f} mm short of the path's end.")
     if s.get("locomotion") == "wires":
         from bhr.hardware.thermal import format_duration
 

@@ -638,7 +638,7 @@ def test_dry_run_checks_what_a_real_stream_checks(tmp_path, board):
     # the default schedule is one the board accepts, with and without --dry-run
     dry = run_bhr("stream", "--codes", f, "--rate", "20", "--dry-run")
     assert dry.returncode == 0 and len(dry.stdout.splitlines()) == len(rows)
-    assert "the thermal model accepts them at the board's limits" in dry.stderr
+    assert "the thermal model accepts them at the wires' pace, at most " in dry.stderr
 
 
 def test_the_hints_bhr_prints_run_as_printed(tmp_path):
