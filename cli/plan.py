@@ -65,7 +65,7 @@ def plan(codes_path, rate, schedule, robot_file, plot_path, no_plot, csv_path):
             plot_path = str(Path(codes_path).resolve().parent / figure_name)
             shown = str(Path(codes_path).parent / figure_name)  # named as the user named the codes
             if owning_folder(codes_path) is None:  # a loose codes.csv: the figure goes beside it
-                refuse_replacing_beside(Path(plot_path).parent, [figure_name], codes_path,
+                refuse_replacing_beside(Path(codes_path).parent, [figure_name], codes_path,  # as the user named it
                                         "move it away, or give --plot FILE.png or --no-plots")
         check_writable(plot_path, "figure")
         owner = _figure_owner(plot_path)

@@ -377,7 +377,7 @@ def test_plan_adds_its_figure_to_the_run_folder_whole(tmp_path):
     run_files = {k: v for k, v in check_whole(latest.resolve())["files"].items()}
     p = bhr("plan", "--codes", latest / "codes.csv", "--schedule", "auto", cwd=tmp_path)
     assert p.returncode == 0, p.stderr
-    assert re.search(r": 85 steps, [\d.]+ s at the board.s limits", p.stdout), p.stdout
+    assert re.search(r": 85 steps, [\d.]+ s at the wires' pace, at most 10 Hz", p.stdout), p.stdout
     man = check_whole(latest.resolve())
     assert set(man["files"]) == set(run_files) | {"thermal-auto-10hz.png"}
     assert all(man["files"][k] == v for k, v in run_files.items())  # the run's own files untouched
