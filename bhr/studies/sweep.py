@@ -597,8 +597,10 @@ def heatmap_figure(result: SweepResult, x: str | None = None, y: str | None = No
                                            edgecolor="red", linewidth=2.5, zorder=5))
                     framed = True
             head = axis_value(z, zv) if z else label
-            over = f"worst over {', '.join(axis_label(o) for o in others)}" if others else "one design per cell"
-            ax.set_title(f"{head}\n{label}, {over}" if z else f"{head}\n{over}", fontsize=9)
+            # one quantity per panel: the metric, and how a cell holding several designs shows it
+            over = (f"each cell the worst over {', '.join(axis_label(o) for o in others)}" if others
+                    else "each cell one design")
+            ax.set_title(f"{head}\n{label}: {over}" if z else f"{head}:\n{over}", fontsize=9)
         bars.append((im, [a for row in block for a in row if a.get_visible()], label,
                      sorted(tols) if metric == "points_max_error_mm" else []))
     tol_text = ", ".join(f"{t:g}" for t in sorted(tols) if math.isfinite(t)) or "8"
