@@ -204,7 +204,7 @@ def follow_run(traj: str, *, robot: Any, solver: str = "thesis", solver_options:
     if locomotion is None:  # a whole robot moves by its wires (bhr.run.driver.follow's default)
         whole = (body_modules is not None or reach is not None) and getattr(tr, "lumen", None) is not None
         locomotion = "wires" if whole and solver == "lumen" else "thesis"
-    extra = (reach, locomotion) if (reach, locomotion) != (None, "thesis") else ()
+    extra: tuple[str | None, ...] = (reach, locomotion) if (reach, locomotion) != (None, "thesis") else ()
     extra += ("stop_at_wall",) if stop_at_wall else ()  # a run stopped at the wall is another output set
     settings_parts = (*trajectory_parts(tr), robot.to_dict(), solver, solver_options, body_modules, *extra)
     if folder is None and use_folder:
