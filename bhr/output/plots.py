@@ -319,22 +319,10 @@ def draw_start_end(ax: Any, path: np.ndarray, planar: bool, size: float = 8) -> 
 
 
 def colon_sections(traj: Any) -> list[tuple[str, int]] | None:
-    """The anatomical sections of an anatomical colon's path (``--traj anatomy --seed N``): each section's name
-    and the index of the path point in its middle; None for any other path."""
-    seed = (getattr(traj, "params", None) or {}).get("seed")
-    if seed is None or not str(getattr(traj, "name", "")).startswith("anatomy"):
-        return None
-    from bhr.model.anatomy import SECTIONS, anatomical_colon
+    """The anatomical sections of an anatomical colon's path: :func:`bhr.model.anatomy.path_sections`."""
+    from bhr.model.anatomy import path_sections
 
-    ends = anatomical_colon(int(seed)).section_ends()
-    pts = np.asarray(traj.points, dtype=np.float64)
-    s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(pts, axis=0), axis=1))])
-    starts = np.concatenate([[0.0], ends[:-1]])
-    out = []
-    for name, a, b in zip(SECTIONS, starts, ends):
-        k = int(np.clip(np.searchsorted(s, (a + b) / 2.0), 0, len(pts) - 1))
-        out.append((name, k))
-    return out
+    return path_sections(traj)
 
 
 def draw_sections(ax: Any, traj: Any, planar: bool) -> list[Any]:

@@ -75,3 +75,18 @@ def test_an_anatomical_colon_carries_its_sections_and_the_direction_of_travel(to
     assert set(SECTIONS) <= set(texts)
     assert " direction of travel" in texts
     assert any(type(c).__name__ == "Line3DCollection" for c in fig.axes[0].collections)  # the arrow (quiver)
+
+
+def test_the_3d_view_names_the_sections_and_shows_the_direction_of_travel(touching):
+    from bhr.output.view import view_figure
+
+    fig = view_figure(touching)
+    names = {t.get("name"): t for t in fig["data"]}
+    assert names["sections"]["text"] == list(SECTIONS)
+    cone = names["direction of travel"]
+    d = np.array([cone["u"][0], cone["v"][0], cone["w"][0]])
+    start = np.asarray(touching.trajectory.points[:10])
+    assert d @ (start[-1] - start[0]) > 0  # it points along the path, away from the anus
+    # the robot and the step's contacts are still the traces the frames update
+    assert all(fig["data"][i]["name"] in ("robot (head orange)", "contact at this step")
+               for i in fig["frames"][0]["traces"])
