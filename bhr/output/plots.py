@@ -56,7 +56,7 @@ from bhr.settings.errors import BhrError  # noqa: E402
 if TYPE_CHECKING:  # pragma: no cover
     from bhr.run.driver import FollowResult
 
-__all__ = ["error_figure", "path_figure", "chain_figure", "draw_robot", "capsule_outline", "draw_sections",
+__all__ = ["error_figure", "path_figure", "chain_figure", "draw_robot", "capsule_outline", "label_sections",
            "draw_travel_arrow", "colon_sections", "draw_path", "save_figure",
            "save_run_plots", "ERROR_KINDS", "StepView", "run_is_planar",
            "body_figure", "clearance_figure", "mark_wall_touches", "mark_worst", "draw_lumen_wall", "lumen_walls",
@@ -325,7 +325,7 @@ def colon_sections(traj: Any) -> list[tuple[str, int]] | None:
     return path_sections(traj)
 
 
-def draw_sections(ax: Any, traj: Any, planar: bool) -> list[Any]:
+def label_sections(ax: Any, traj: Any, planar: bool) -> list[Any]:
     """Each anatomical section's name beside the middle of its stretch of path (anatomical colons only)."""
     sections = colon_sections(traj)
     if not sections:
@@ -591,7 +591,7 @@ def path_figure(result: "FollowResult", step: int | None = None) -> plt.Figure:
         fig = plt.figure(figsize=(fw, fh))
         ax = _setup_axes(fig, True, (left / fw, bottom / fh, ax_w / fw, ax_h / fh))
         _draw_context(ax, result, True, every, contacts_step=only)
-        draw_sections(ax, traj, True)
+        label_sections(ax, traj, True)
         draw_travel_arrow(ax, traj.points, True)
         _draw_pose(ax, result, i, True)
         draw_section_names(ax, traj, True)
@@ -623,7 +623,7 @@ def path_figure(result: "FollowResult", step: int | None = None) -> plt.Figure:
     ax.set_zlabel("z (mm)")
     _equal_3d(ax, allpts, pad=0.02 * extent)
     _draw_context(ax, result, False, every, contacts_step=only)
-    draw_sections(ax, traj, False)
+    label_sections(ax, traj, False)
     draw_travel_arrow(ax, traj.points, False)
     _draw_pose(ax, result, i, False)
     _depth_cue(ax, result, i, ax.get_zlim()[0])
