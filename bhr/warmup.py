@@ -35,6 +35,10 @@ def compile_all() -> None:
             bhr.solve([3, 9, 0], modules=5, solver=solver, tol_pos=0.01)
         bhr.solve([3, 9, 0], modules=5, solver="thesis", tip_direction=[0, 1, 0])
         bhr.Robot().fk([3, 0, 6, 0, 15])
+        from bhr.model.workspace import workspace  # bhr workspace: every pose, and a Monte Carlo sample
+
+        workspace(bhr.Robot(modules=2))
+        workspace(bhr.Robot(modules=2), exact=False, samples=4)
         curve = load_trajectory("curve", angle=30, entry=4, exit=4)
         for solver in ("thesis", "constrained", "optimal", "fabrik", "ccd"):
             follow(curve, solver=solver)

@@ -116,6 +116,8 @@ def _param(o: Option) -> str:
 def _click_option(o: Option) -> Callable[[Any], Any]:
     """The click option of one registry entry: its flag, type (with the registry's limit), help and default."""
     _PARAM[_param(o)] = o
+    if o.kind is bool:  # a switch: present or not (None when absent, so that a robot file or default decides)
+        return click.option(o.flag, _param(o), is_flag=True, default=None, help=o.help_text())
     if o.choices is not None:
         kind: Any = click.Choice(list(o.choices))
     elif o.kind == "weights":

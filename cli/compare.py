@@ -74,6 +74,7 @@ def compare(traj, solvers, out_dir, json_path, no_plots, force, **kwargs):
     body_modules = kwargs.pop("body_modules")
     if body_modules is not None:
         check_body_modules(body_modules, robot.modules, "--body-modules")
+    stop_at_wall = bool(kwargs.pop("stop_at_wall", None))
     if kwargs.pop("reach", None) is not None or (kwargs.pop("locomotion", None) or "thesis") != "thesis":
         raise BhrError("bhr compare runs the thesis's locomotion; use bhr follow (or bhr traverse) for --reach and "
                        "--locomotion")
@@ -85,17 +86,19 @@ def compare(traj, solvers, out_dir, json_path, no_plots, force, **kwargs):
     stem = folder_stem(traj, traj_params.get("seed"))  # as follow's: one folder name per anatomical colon
     if folder is None and use_folder:
         name = run_folder_name(f"compare-{stem}", *trajectory_parts(tr), robot.to_dict(), names, per_solver,
-                               body_modules)
+                               body_modules, *(("stop_at_wall",) if stop_at_wall else ()))
         folder = OutputFolder(Path("bhr-out") / name, "compare", names=COMPARE_NAMES,
                               inputs=input_files(traj, robot_file), force=force).check()
     if folder is not None:  # what makes the results (docs/commands.md#output-folders)
         folder.settings = run_folder_name("", *trajectory_parts(tr), robot.to_dict(), names, per_solver,
-                                          body_modules).rsplit("-", 1)[1]
+                                          body_modules, *(("stop_at_wall",) if stop_at_wall else ())
+                                          ).rsplit("-", 1)[1]
     json_inside = json_in_folder(json_path, folder, COMPARE_NAMES) if folder is not None else None
     with warnings.catch_warnings(record=True) as caught, \
             status(f"following {tr.name} ({len(tr.points)} steps) with {', '.join(names)}"):
         warnings.simplefilter("always", BhrWarning)
-        runs = compare_runs(tr, names, robot, solver_options=per_solver, body_modules=body_modules)
+        runs = compare_runs(tr, names, robot, solver_options=per_solver, body_modules=body_modules,
+                            stop_at_wall=stop_at_wall)
     for w in {str(w.message) for w in caught if issubclass(w.category, BhrWarning)}:
         click.echo(f"Warning: {w}", err=True)
     stream = json_path == "-"

@@ -14,11 +14,13 @@ from bhr.cli._options import build_robot, robot_options
               help="One code per module, base first, comma-separated (0, 3, 6, 9, 12 or 15).")
 @robot_options(feed=False, solving=False)
 @click.option("--json", "json_path", default=None, metavar="PATH|-", help="Write points and frames as JSON.")
+@click.option("--plot", "plot_path", default=None, metavar="PATH",
+              help="Draw the pose (.png, .svg or .pdf): each module as a cylinder of the robot's radius.")
 @guarded
-def fk(codes, json_path, **kwargs):
+def fk(codes, json_path, plot_path, **kwargs):
     """Points of the chain for a list of codes (robot straight along +X from the origin).
 
-    Example: bhr fk --codes 3,0,6,0,0
+    Example: bhr fk --codes 3,0,6,0,0 --plot bhr-out/pose.png
     """
     from bhr.output.atomic import write_json
     from bhr.cli._progress import announce_compiles
@@ -27,6 +29,11 @@ def fk(codes, json_path, **kwargs):
     from bhr.model.robot import forward_kinematics
 
     check_writable(json_path, "JSON")
+    check_writable(plot_path, "plot")
+    if plot_path is not None:
+        from bhr.output.workspace_plot import check_path
+
+        check_path(plot_path)
     values = [c.strip() for c in codes.split(",")] if "," in codes else codes.split()
     if not any(values):
         raise BhrError("--codes needs at least one code, e.g. --codes 3,0,6")
@@ -39,6 +46,8 @@ def fk(codes, json_path, **kwargs):
     announce_compiles()
     points, frames = forward_kinematics(robot, checked)
     doc = {"codes": checked, "points": points.tolist(), "frames": frames.tolist()}
+    if plot_path:
+        robot.plot(checked, plot_path)
     if json_path == "-":
         click.echo(json.dumps(doc, indent=1))
         return

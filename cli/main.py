@@ -18,6 +18,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "solve": ("bhr.cli.solve:solve", "Solve one target (fabrik, ccd, thesis, constrained, optimal, lumen)."),
     "follow": ("bhr.cli.follow:follow", "Follow a trajectory; write error plots, codes.csv and JSON."),
     "fk": ("bhr.cli.fk:fk", "Forward kinematics: chain points from module codes."),
+    "workspace": ("bhr.cli.workspace:workspace", "Every reachable tip of a binary robot: figure and indices."),
     "bench": ("bhr.cli.bench:bench", "Time bhr against numpy implementations of the same algorithms."),
     "replay": ("bhr.cli.replay:replay", "Redraw or re-animate a saved run without solving again."),
     "compare": ("bhr.cli.compare:compare", "Run one trajectory with several solvers; print and plot their errors."),

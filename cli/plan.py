@@ -21,7 +21,8 @@ from bhr.cli._options import rate_type
 @click.option("--robot", "robot_file", default=None, metavar="FILE",
               help="Robot file whose [thermal] table describes the wires (docs/thermal.md) [the default wire].")
 @click.option("--plot", "plot_path", default=None, metavar="FILE.png",
-              help="Figure of each wire's temperature over the schedule [thermal.png beside FILE].")
+              help="Figure of each wire's temperature over the schedule [thermal-<schedule>-<rate>hz.png beside "
+                   "FILE, named by its settings: thermal-auto-10hz.png].")
 @click.option("--no-plots", "no_plot", is_flag=True, help="Skip the figure.")
 @click.option("--csv", "csv_path", default=None, metavar="FILE",
               help="Write the whole schedule: step, send time (s), codes.")
@@ -47,23 +48,24 @@ def plan(codes_path, rate, schedule, robot_file, plot_path, no_plot, csv_path):
     from bhr.settings.options import LIMITS
 
     shown = plot_path
+    figure_name = f"thermal-{schedule}-{rate:g}hz.png"  # a plan at another rate or schedule keeps this one
     if not no_plot and table.shape[1] > LIMITS["figure_modules"]:
         if plot_path is not None:
             from bhr.settings.errors import BhrError
 
             raise BhrError(f"--plot draws the wires of at most {LIMITS['figure_modules']} modules and "
                            f"{codes_path} has {table.shape[1]}; drop --plot (the schedule is printed) or use --csv")
-        click.echo(f"Note: no thermal.png for {table.shape[1]} modules (the figure shows at most "
+        click.echo(f"Note: no {figure_name} for {table.shape[1]} modules (the figure shows at most "
                    f"{LIMITS['figure_modules']}); the schedule follows.", err=True)
         no_plot = True
     if not no_plot:
         if plot_path is None:
             from bhr.output.atomic import owning_folder
 
-            plot_path = str(Path(codes_path).resolve().parent / "thermal.png")
-            shown = str(Path(codes_path).parent / "thermal.png")  # named as the user named the codes
+            plot_path = str(Path(codes_path).resolve().parent / figure_name)
+            shown = str(Path(codes_path).parent / figure_name)  # named as the user named the codes
             if owning_folder(codes_path) is None:  # a loose codes.csv: the figure goes beside it
-                refuse_replacing_beside(Path(plot_path).parent, ["thermal.png"], codes_path,
+                refuse_replacing_beside(Path(codes_path).parent, [figure_name], codes_path,  # as the user named it
                                         "move it away, or give --plot FILE.png or --no-plots")
         check_writable(plot_path, "figure")
         owner = _figure_owner(plot_path)

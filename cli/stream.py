@@ -52,7 +52,7 @@ def stream(codes_path, rate, schedule, at_end, dry_run, **link_kw):
     robot_file = link_kw.get("robot_file")
 
     port, link_args = link_settings(link_kw, need_port=not dry_run, hint=", or use --dry-run to print the frames")
-    from bhr.hardware.thermal import format_duration, plan
+    from bhr.hardware.thermal import format_duration, pace, plan
 
     # the same checks with and without --dry-run: what one board drives, then the thermal model
     from bhr.hardware.protocol import check_board_modules
@@ -73,7 +73,7 @@ def stream(codes_path, rate, schedule, at_end, dry_run, **link_kw):
             frame = set_codes_frame(i & 0xFF, codes)
             out.write(" ".join(f"{b:02x}" for b in frame) + "\n")
         out.flush()
-        how = f"at {rate:g} Hz" if schedule == "rate" else "at the board's limits"
+        how = pace(sched, counts=False)
         click.echo(f"dry run: {n_rows} SET_CODES frames for {n_modules} modules (nothing sent); the thermal model "
                    f"accepts them {how}, procedure time {format_duration(sched.total_s)}", err=True)
         return
@@ -98,7 +98,7 @@ def stream(codes_path, rate, schedule, at_end, dry_run, **link_kw):
         except StreamInterrupted as exc:
             exit_interrupted(exc, n_rows, "rows")
     sent = report.sent
-    how = f"at {rate:g} Hz" if schedule == "rate" else "at the board's limits"
+    how = pace(sched, counts=False)
     took = report.elapsed_s + sched.total_s - float(sched.times_ms[-1]) / 1000.0
     click.echo(f"sent {sent} row{'s' * (sent != 1)} ({n_modules} modules, steps {steps[0]}..{steps[-1]}) to {port} "
                f"{how}; procedure time {format_duration(took)} (planned {format_duration(sched.total_s)}); "

@@ -41,7 +41,7 @@ from bhr.model.pathfile import rotate_about, unit_vector
 
 __all__ = ["SECTIONS", "RANGES", "SEED_MAX", "SHIPPED", "POPULATION", "SHARES", "LENGTH_LIMITS", "Colon",
            "anatomical_colon", "check_seed", "anatomy_csv_text", "acute_flexures", "bend_radii", "MIN_RADIUS_MM",
-           "WIGGLE_MM", "WIGGLE_KNOT_MM", "WIGGLE_RAMP_MM", "CONTROL_MM"]
+           "WIGGLE_MM", "WIGGLE_KNOT_MM", "WIGGLE_RAMP_MM", "CONTROL_MM", "path_sections"]
 
 #: Sections of an anatomical colon, from the anus to the cecum.
 SECTIONS = ("rectum", "sigmoid", "descending", "splenic flexure", "transverse", "hepatic flexure", "ascending",
@@ -579,3 +579,17 @@ def anatomy_csv_text(seed: int, spacing: float = 1.0, note: str = "") -> str:
              "x,y,z,lumen"]
     lines += [f"{x:.3f},{y:.3f},{z:.3f},{d:.2f}" for (x, y, z), d in zip(pts, lumen)]
     return "\n".join(lines) + "\n"
+
+
+def path_sections(traj: Any) -> list[tuple[str, int]] | None:
+    """The anatomical sections along an anatomical colon's path (``--traj anatomy --seed N``): each section's name
+    and the index of the path point in its middle (for the figures' labels); None for any other path."""
+    seed = (getattr(traj, "params", None) or {}).get("seed")
+    if seed is None or not str(getattr(traj, "name", "")).startswith("anatomy"):
+        return None
+    ends = anatomical_colon(int(seed)).section_ends()
+    pts = np.asarray(traj.points, dtype=np.float64)
+    s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(pts, axis=0), axis=1))])
+    starts = np.concatenate([[0.0], ends[:-1]])
+    return [(name, int(np.clip(np.searchsorted(s, (a + b) / 2.0), 0, len(pts) - 1)))
+            for name, a, b in zip(SECTIONS, starts, ends)]

@@ -17,8 +17,9 @@ series give exactly bhr's tilt about one signed local axis
 
 The files are in SI units (metres, kilograms, radians), as URDF and MuJoCo
 expect; bhr's millimetres are divided by 1000. The ``base`` link is bhr's base
-frame: for bhr's default robot along +X, place it with the rotation whose
-columns are :func:`bhr.model.robot.base_frame` ``((1, 0, 0))``'s rows.
+frame, whose z a straight robot runs along: :func:`base_transform` gives the
+4x4 transform from it to bhr's frames (``Robot.fk`` along +X, ``bhr solve``
+along +Y).
 
 Mass and inertia of a module: the robot file's ``[mass]`` table where it
 gives them (``module_mass`` in grams, or ``density`` in kg/m^3), otherwise a
@@ -40,7 +41,7 @@ from bhr.kinematics.codetable import CODE_AXIS, LIFT
 from bhr.model.robot import Robot
 
 __all__ = ["FORMATS", "DEFAULT_DENSITY", "Inertia", "module_inertia", "joint_names", "joint_values", "to_urdf",
-           "to_mjcf", "export_text", "MM"]
+           "to_mjcf", "export_text", "MM", "BASE_DIRECTIONS", "base_transform"]
 
 #: Export formats, by the name ``bhr export --format`` takes.
 FORMATS = ("urdf", "mjcf")
@@ -134,6 +135,55 @@ def joint_values(codes: Any, robot: Robot | None = None) -> np.ndarray:
                 out[s, i, axis] = sign * a
     flat = out.reshape(rows.shape[0], -1)
     return flat[0] if arr.ndim == 1 else flat
+
+
+#: bhr's named base frames: the direction a straight robot runs along in each (docs/model.md, "Frames").
+BASE_DIRECTIONS: dict[str, tuple[float, float, float]] = {
+    "follow": (1.0, 0.0, 0.0),  # Robot.fk, bhr fk, bhr follow: the thesis's ch. 7 robot along +X
+    "solve": (0.0, 1.0, 0.0),  # bhr solve, bhr.solve: the thesis's ch. 5/6 chain along +Y
+    "model": (0.0, 0.0, 1.0),  # the exported URDF/MJCF: the base link's z
+}
+
+
+def base_transform(frame: str | Sequence[float] = "follow", base: Sequence[float] = (0.0, 0.0, 0.0), *,
+                   units: str = "m") -> np.ndarray:
+    """The 4x4 homogeneous transform from the exported model's ``base`` link to one of bhr's frames.
+
+    A point ``p`` of the URDF/MJCF model (its world when the base is fixed at the origin, as
+    ``bhr export`` writes it) is ``T @ [p, 1]`` in bhr's frame, where the same codes give
+    :func:`bhr.model.robot.forward_kinematics`'s points; a module frame ``F`` (rows x, y, z) of the
+    model is ``F @ T[:3, :3].T`` there. ``frame`` names bhr's frame: ``"follow"`` (``Robot.fk``,
+    ``bhr fk``, ``bhr follow``: a straight robot along +X), ``"solve"`` (``bhr solve``: along +Y),
+    ``"model"`` (the identity rotation: along +Z), or any direction a straight robot runs along
+    (:func:`bhr.model.robot.base_frame`). ``base`` is the base point in bhr's frame, in mm.
+    ``units``: ``"m"`` (the model's metres, default: translation in metres) or ``"mm"`` (bhr's
+    millimetres: scale the model's points by 1000 before applying ``T``). The inverse,
+    ``numpy.linalg.inv(T)``, places bhr's pose in the model's frame; in MuJoCo, ``<body name="base"
+    pos=... quat=...>`` carries it (pos ``T[:3, 3]``, quat of ``T[:3, :3]``).
+
+    >>> base_transform("follow").round(6).tolist()
+    [[0.0, 0.0, 1.0, 0.0], [1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0]]
+    """
+    from bhr.model.robot import base_frame
+
+    if units not in ("m", "mm"):
+        raise BhrError(f"units must be 'm' (the exported model's metres) or 'mm' (bhr's), got {units!r}")
+    if isinstance(frame, str):
+        if frame not in BASE_DIRECTIONS:
+            raise BhrError(f"unknown frame {frame!r}; give one of {', '.join(BASE_DIRECTIONS)} or a direction X Y Z")
+        direction: Sequence[float] = BASE_DIRECTIONS[frame]
+    else:
+        direction = frame
+    d = np.asarray(direction, dtype=np.float64)
+    if d.shape != (3,):
+        raise BhrError(f"a frame's direction is 3 numbers X Y Z, got {list(np.ravel(d))}")
+    b = np.asarray(base, dtype=np.float64)
+    if b.shape != (3,) or not np.isfinite(b).all():
+        raise BhrError(f"base must be 3 finite numbers X Y Z in mm, got {list(np.ravel(b))}")
+    T = np.eye(4)
+    T[:3, :3] = base_frame(d).T  # columns: bhr's base frame's x, y, z (the model's base link axes)
+    T[:3, 3] = b * (MM if units == "m" else 1.0)
+    return T
 
 
 def _rgba(i: int) -> str:

@@ -56,7 +56,8 @@ from bhr.settings.errors import BhrError  # noqa: E402
 if TYPE_CHECKING:  # pragma: no cover
     from bhr.run.driver import FollowResult
 
-__all__ = ["error_figure", "path_figure", "chain_figure", "draw_robot", "draw_path", "save_figure",
+__all__ = ["error_figure", "path_figure", "chain_figure", "draw_robot", "capsule_outline", "label_sections",
+           "draw_travel_arrow", "colon_sections", "draw_path", "save_figure",
            "save_run_plots", "ERROR_KINDS", "StepView", "run_is_planar",
            "body_figure", "clearance_figure", "mark_wall_touches", "mark_worst", "draw_lumen_wall", "lumen_walls",
            "draw_start_end", "draw_target", "marker_stride", "zoom_half_width", "FRAME_INCHES", "draw_contacts",
@@ -317,10 +318,66 @@ def draw_start_end(ax: Any, path: np.ndarray, planar: bool, size: float = 8) -> 
                     label="end", zorder=4))
 
 
+def colon_sections(traj: Any) -> list[tuple[str, int]] | None:
+    """The anatomical sections of an anatomical colon's path: :func:`bhr.model.anatomy.path_sections`."""
+    from bhr.model.anatomy import path_sections
+
+    return path_sections(traj)
+
+
+def label_sections(ax: Any, traj: Any, planar: bool) -> list[Any]:
+    """Each anatomical section's name beside the middle of its stretch of path (anatomical colons only)."""
+    sections = colon_sections(traj)
+    if not sections:
+        return []
+    artists = []
+    for name, k in sections:
+        p = traj.points[k]
+        kw = {"fontsize": 7.5, "color": "#5a3d33", "ha": "left", "va": "bottom", "zorder": 8,
+              "bbox": {"boxstyle": "round,pad=0.15", "facecolor": "white", "alpha": 0.7, "linewidth": 0}}
+        artists.append(ax.text(p[0], p[1], name, **kw) if planar else ax.text(p[0], p[1], p[2], name, **kw))
+    return artists
+
+
+def draw_travel_arrow(ax: Any, path: np.ndarray, planar: bool) -> list[Any]:
+    """An arrow along the path near its start: the direction the robot travels (anus to cecum on a colon)."""
+    pts = np.asarray(path, dtype=np.float64)
+    if len(pts) < 3:
+        return []
+    extent = float(np.ptp(pts, axis=0).max()) or 1.0
+    s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(pts, axis=0), axis=1))])
+    a = int(np.searchsorted(s, 0.04 * extent))
+    b = int(np.searchsorted(s, s[min(a, len(s) - 1)] + 0.08 * extent))
+    a, b = min(a, len(pts) - 2), min(max(b, a + 1), len(pts) - 1)
+    p, q = pts[a], pts[b]
+    if planar:
+        return [ax.annotate("", xy=(q[0], q[1]), xytext=(p[0], p[1]), zorder=8,
+                            arrowprops={"arrowstyle": "-|>", "color": "#2b2b2b", "linewidth": 2.0}),
+                ax.text(q[0], q[1], " direction of travel", fontsize=7.5, color="#2b2b2b", zorder=8)]
+    d = q - p
+    return [ax.quiver(p[0], p[1], p[2], d[0], d[1], d[2], color="#2b2b2b", linewidth=2.0, arrow_length_ratio=0.35),
+            ax.text(q[0], q[1], q[2], " direction of travel", fontsize=7.5, color="#2b2b2b", va="top")]
+
+
 def draw_target(ax: Any, point: np.ndarray, planar: bool, size: float = 9) -> list[Any]:
     """The step's target point (green x)."""
     return _plot(ax, point, planar, "x", color="tab:green", markersize=size, markeredgewidth=1.5, label="target",
                  zorder=5)
+
+
+def capsule_outline(a: np.ndarray, b: np.ndarray, radius: float, count: int = 16) -> np.ndarray | None:
+    """(K, 2) outline of the module from ``a`` to ``b`` (2-D) widened by ``radius``: the shape the clearance
+    scores (the segment's points within the radius), None for a module of no length."""
+    d = b - a
+    length = float(np.hypot(d[0], d[1]))
+    if length == 0.0:
+        return None
+    u = d / length
+    n = np.array([-u[1], u[0]])
+    t = np.linspace(-np.pi / 2, np.pi / 2, count)
+    front = b + radius * (np.outer(np.cos(t), u) + np.outer(np.sin(t), n))  # around b, from -n through +u to +n
+    back = a + radius * (np.outer(-np.cos(t), u) + np.outer(-np.sin(t), n))  # around a, from +n through -u to -n
+    return np.vstack([front, back, front[:1]])
 
 
 def draw_robot(ax: Any, points: np.ndarray, radius: float, planar: bool, color: str = "tab:red",
@@ -332,6 +389,13 @@ def draw_robot(ax: Any, points: np.ndarray, radius: float, planar: bool, color: 
     """
     artists: list[Any] = []
     artists += _plot(ax, points, planar, "-o", color=color, markersize=3, linewidth=1.5, label=label, zorder=6)
+    if discs and planar and radius > 0:  # seen from the top each module is its capsule: the width clearance counts
+        for j in range(points.shape[0] - 1):
+            outline = capsule_outline(points[j, :2], points[j + 1, :2], radius)
+            if outline is not None:
+                artists += ax.fill(outline[:, 0], outline[:, 1], facecolor=color, alpha=0.18, edgecolor=color,
+                                   linewidth=0.6, zorder=5, label=f"{label} (radius {radius:g} mm)"
+                                   if (j == 0 and label) else None)
     if discs:
         for j in range(points.shape[0] - 1):
             d = points[j + 1] - points[j]
@@ -402,13 +466,14 @@ def _head_centre(result: "FollowResult", i: int) -> np.ndarray:
 
 
 def _draw_context(ax: Any, result: "FollowResult", planar: bool, markevery: int = 1,
-                  path_style: dict[str, Any] | None = None) -> list[Any]:
-    """What does not move between steps: the lumen wall, the path, its start and end, the wall contacts."""
+                  path_style: dict[str, Any] | None = None, contacts_step: int | None = None) -> list[Any]:
+    """What does not move between steps: the lumen wall, the path, its start and end, the wall contacts (of every
+    step, or of the 0-based ``contacts_step`` only)."""
     traj = result.trajectory
     artists = draw_lumen_wall(ax, traj, planar)
     artists += draw_path(ax, traj.points, planar, markevery=markevery, **(path_style or {}))
     artists += draw_start_end(ax, traj.points, planar)
-    _draw_touch_points(ax, result, planar)
+    _draw_touch_points(ax, result, planar, contacts_step)
     return artists
 
 
@@ -495,6 +560,7 @@ def path_figure(result: "FollowResult", step: int | None = None) -> plt.Figure:
     second panel) zooms on it. The canvas takes the shape of the path.
     """
     i = _check_step(result, result.steps - 1 if step is None else step)
+    only = None if step is None else i  # a figure of one chosen step: that step's wall contacts, not every step's
     planar = run_is_planar(result)
     traj = result.trajectory
     walls = lumen_walls(traj, planar)
@@ -524,7 +590,9 @@ def path_figure(result: "FollowResult", step: int | None = None) -> plt.Figure:
         fw, fh = max(ax_w + left + right, 6.0), ax_h + bottom + top
         fig = plt.figure(figsize=(fw, fh))
         ax = _setup_axes(fig, True, (left / fw, bottom / fh, ax_w / fw, ax_h / fh))
-        _draw_context(ax, result, True, every)
+        _draw_context(ax, result, True, every, contacts_step=only)
+        label_sections(ax, traj, True)
+        draw_travel_arrow(ax, traj.points, True)
         _draw_pose(ax, result, i, True)
         draw_section_names(ax, traj, True)
         ax.set_xlim(lo[0], hi[0])
@@ -536,7 +604,7 @@ def path_figure(result: "FollowResult", step: int | None = None) -> plt.Figure:
             side = max(0.36 * min(w, h), 2.2 * half)
             rect = _inset_rect((lo[0], hi[0], lo[1], hi[1]), np.vstack([traj.points, pose]), window, side)
             ins = ax.inset_axes(rect)
-            _draw_context(ins, result, True)
+            _draw_context(ins, result, True, contacts_step=only)
             _draw_pose(ins, result, i, True, target_size=11)
             ins.set_xlim(window[0], window[1])
             ins.set_ylim(window[2], window[3])
@@ -554,7 +622,9 @@ def path_figure(result: "FollowResult", step: int | None = None) -> plt.Figure:
     ax.set_ylabel("y (mm)")
     ax.set_zlabel("z (mm)")
     _equal_3d(ax, allpts, pad=0.02 * extent)
-    _draw_context(ax, result, False, every)
+    _draw_context(ax, result, False, every, contacts_step=only)
+    label_sections(ax, traj, False)
+    draw_travel_arrow(ax, traj.points, False)
     _draw_pose(ax, result, i, False)
     _depth_cue(ax, result, i, ax.get_zlim()[0])
     draw_section_names(ax, traj, False)
@@ -566,7 +636,7 @@ def path_figure(result: "FollowResult", step: int | None = None) -> plt.Figure:
         ins.set_zlabel("z (mm)")
         _set_window(ins, centre, half, False)
         ins.set_box_aspect((1, 1, 1))
-        _draw_context(ins, result, False)
+        _draw_context(ins, result, False, contacts_step=only)
         _draw_pose(ins, result, i, False, target_size=11)
         _depth_cue(ins, result, i, ins.get_zlim()[0])
         ins.set_title(f"robot, zoomed (step {i + 1})", fontsize=10)
@@ -861,21 +931,24 @@ def mark_wall_touches(ax: Any, result: "FollowResult") -> None:
             start = prev = s
 
 
-def _draw_touch_points(ax: Any, result: "FollowResult", planar: bool) -> None:
-    """Mark where the robot touched the wall (any step) on the path view: see :func:`draw_contacts`."""
-    draw_contacts(ax, result, planar)
+def _draw_touch_points(ax: Any, result: "FollowResult", planar: bool, step: int | None = None) -> None:
+    """Mark where the robot touched the wall on the path view (every step, or ``step``'s): see
+    :func:`draw_contacts`."""
+    draw_contacts(ax, result, planar, step)
 
 
-def draw_contacts(ax: Any, result: "FollowResult", planar: bool) -> list[Any]:
-    """Red dots where the robot touched the lumen wall: each touching module's deepest spot, at every step."""
+def draw_contacts(ax: Any, result: "FollowResult", planar: bool, step: int | None = None) -> list[Any]:
+    """Red dots where the robot touched the lumen wall: each touching module's deepest spot, at every step, or at
+    the 0-based ``step`` only (a figure of one step shows that step's contacts, labelled with it)."""
     cl = getattr(result, "clearance", None)
     if cl is None or not cl.touch_steps:
         return []
-    w = cl.contacts()
+    w = cl.contacts(step)
     if not len(w):
         return []
-    style = {"color": "tab:red", "marker": "o", "markersize": 3.5, "linestyle": "none", "alpha": 0.55,
-             "label": "wall contact", "zorder": 4}
+    label = "wall contact (every step)" if step is None else f"wall contact at step {step + 1}"
+    style = {"color": "tab:red", "marker": "o", "markersize": 3.5 if step is None else 6, "linestyle": "none",
+             "alpha": 0.55 if step is None else 0.9, "label": label, "zorder": 4 if step is None else 7}
     if planar:
         return ax.plot(w[:, 0], w[:, 1], **style)
     return ax.plot(w[:, 0], w[:, 1], w[:, 2], axlim_clip=True, **style)  # none outside a zoomed 3-D view

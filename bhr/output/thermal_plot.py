@@ -73,7 +73,9 @@ def schedule_figure(schedule: Schedule, title: str = "") -> "plt.Figure":
     axes[0, 0].legend([handles[lb] for lb in order], order, loc="lower left", ncol=min(len(order), 7), fontsize=7.5,
                       bbox_to_anchor=(0, 1.02, 1, 0.2), mode="expand", frameon=False, handlelength=1.6)
     axes[-1, 0].set_xlabel("time (min)" if minutes else "time (s)")
-    how = "at the board's limits" if schedule.mode == "auto" else f"at {schedule.rate:g} Hz"
+    from bhr.hardware.thermal import pace
+
+    how = pace(schedule, counts=False)
     fig.suptitle(f"{title + ': ' if title else ''}wire temperatures over {len(schedule.times_ms)} steps, "
                  f"{format_duration(schedule.total_s)} {how}", fontsize=11)
     fig.tight_layout(rect=(0, 0, 1, 0.97))

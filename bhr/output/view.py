@@ -132,6 +132,22 @@ def view_figure(result, contacts: Sequence[np.ndarray] | None = None, title: str
     data.append(dict(type="scatter3d", x=_r(allc[:, 0]), y=_r(allc[:, 1]), z=_r(allc[:, 2]), mode="markers",
                              marker=dict(size=2, color="rgba(220,40,40,0.35)"), name="contacts (all steps)",
                              hoverinfo="skip"))
+    from bhr.model.anatomy import path_sections
+
+    sections = path_sections(tr)
+    if sections:  # an anatomical colon: its sections named along it
+        at = path[[k for _, k in sections]]
+        data.append(dict(type="scatter3d", mode="text", text=[name for name, _ in sections], name="sections",
+                         textfont=dict(size=11, color="rgb(90,61,51)"), hoverinfo="skip", **{
+                             a: _r(at[:, k]) for k, a in enumerate("xyz")}))
+    if len(path) > 2:  # the direction of travel: a cone near the start, along the path
+        k = min(len(path) - 2, max(1, len(path) // 50))
+        d = path[k + 1] - path[k - 1]
+        data.append(dict(type="cone", x=[float(path[k, 0])], y=[float(path[k, 1])], z=[float(path[k, 2])],
+                         u=[float(d[0])], v=[float(d[1])], w=[float(d[2])], sizemode="absolute",
+                         sizeref=float(max(10.0, 0.04 * float(np.ptp(path, axis=0).max()))), anchor="tail",
+                         showscale=False, colorscale=[[0, "rgb(40,40,40)"], [1, "rgb(40,40,40)"]],
+                         name="direction of travel", showlegend=True, hoverinfo="name"))
     i_robot, i_contact = len(data), len(data) + 1
 
     def xyz(p: np.ndarray) -> dict[str, Any]:

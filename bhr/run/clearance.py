@@ -380,13 +380,17 @@ class ClearanceReport:
             s, p = np.nonzero(self.table <= 0.0)
         return [(int(a) + 1, int(b)) for a, b in zip(s, p)]
 
-    def contacts(self) -> np.ndarray:
-        """(K, 3) where the robot touched the wall: each touching module's deepest spot, at every step."""
+    def contacts(self, step: int | None = None) -> np.ndarray:
+        """(K, 3) where the robot touched the wall: each touching module's deepest spot, at every step (or at the
+        0-based ``step`` only)."""
         if self.module_table is None or self.module_where is None:
             return np.zeros((0, 3))
+        table, where = self.module_table, self.module_where
+        if step is not None:
+            table, where = table[step:step + 1], where[step:step + 1]
         with np.errstate(invalid="ignore"):
-            hit = self.module_table <= 0.0
-        return self.module_where[hit]
+            hit = table <= 0.0
+        return where[hit]
 
     def summary(self) -> dict:
         return {"min_clearance_mm": None if np.isnan(self.min_mm) else float(self.min_mm),

@@ -41,7 +41,7 @@ from bhr.model.path import Trajectory, path_directions, spacing, unfollowable_be
 from bhr.model.tube import lumen_end_of, make_tube
 from bhr.run.trail import TrailRun, cecum_modules, run_trail, sweep_bound_mm, trail_report
 
-__all__ = ["follow", "FollowResult", "Summary", "BhrWarning", "stats", "load_run"]
+__all__ = ["follow", "FollowResult", "Summary", "BhrWarning", "stats", "load_run", "VERDICTS", "verdict_of"]
 
 
 class BhrWarning(UserWarning):
@@ -133,6 +133,28 @@ class Summary:
 
 
 
+#: A run's verdicts, gravest last: what :attr:`FollowResult.status` says (tables show it beside ``finished``).
+VERDICTS = ("followed", "out of tolerance", "touched the wall", "left the lumen")
+
+
+def verdict_of(s: Summary, robot: Robot) -> tuple[str, str]:
+    """The verdict of a run's summary and its reason in words: left the lumen (a point of the robot's axis
+    outside the wall), else touched the wall, else out of tolerance, else followed."""
+    x = s.extra
+    touch = x.get("wall_touch_steps") or []
+    if x.get("left_lumen_step") is not None:
+        return "left the lumen", f"the robot {x.get('left_lumen_reason') or 'left the lumen'}"
+    if touch:
+        return ("touched the wall", f"the robot touches the wall at {len(touch)} of {s.steps} steps (first "
+                f"step {touch[0]}), up to {x.get('max_penetration_mm', 0.0):.4g} mm deep")
+    if s.tolerance_exceeded:
+        return ("out of tolerance", f"{s.over_tol_pos_steps} steps with a point more than {robot.tol_pos:g} mm off "
+                f"and {s.over_tol_ori_steps} with the tip more than {robot.tol_ori:g} deg off (worst "
+                f"{s.points_max_error_mm:.4g} mm at step {s.points_worst_step})")
+    return ("followed", f"every scored point within {robot.tol_pos:g} mm and the tip within {robot.tol_ori:g} deg "
+            f"over {s.steps} steps")
+
+
 @dataclass(repr=False)
 class FollowResult:
     """A whole run: per-step poses, codes and errors, with the summary of the thesis's script.
@@ -194,7 +216,8 @@ class FollowResult:
 
     @property
     def status(self) -> str:
-        """``"followed"``, ``"out of tolerance"`` or ``"touched the wall"`` (the wall first when both)."""
+        """The verdict: ``"followed"``, ``"out of tolerance"``, ``"touched the wall"`` or ``"left the lumen"`` (the
+        gravest when several hold: left the lumen, then touched the wall, then out of tolerance)."""
         return self._verdict()[0]
 
     @property
@@ -202,19 +225,16 @@ class FollowResult:
         """Why :attr:`status` is what it is, in words with the figures."""
         return self._verdict()[1]
 
+    @property
+    def finished(self) -> str:
+        """How the run ended, apart from its verdict: ``"ran to the end"`` or ``"stopped at the wall"``
+        (``stop_at_wall`` ended it where the robot left the lumen)."""
+        stopped = self.extra.get("summary", {}).get("stopped_at_wall_step")
+        return "stopped at the wall" if stopped else "ran to the end"
+
     def _verdict(self) -> tuple[str, str]:
         s = self.summary
-        touch = s.extra.get("wall_touch_steps") or []
-        if touch:
-            return ("touched the wall", f"the robot touches the wall at {len(touch)} of {self.steps} steps (first "
-                    f"step {touch[0]}), up to {s.extra.get('max_penetration_mm', 0.0):.4g} mm deep")
-        if s.tolerance_exceeded:
-            return ("out of tolerance", f"{s.over_tol_pos_steps} steps with a point more than "
-                    f"{self.robot.tol_pos:g} mm off and {s.over_tol_ori_steps} with the tip more than "
-                    f"{self.robot.tol_ori:g} deg off (worst {s.points_max_error_mm:.4g} mm at step "
-                    f"{s.points_worst_step})")
-        return ("followed", f"every scored point within {self.robot.tol_pos:g} mm and the tip within "
-                f"{self.robot.tol_ori:g} deg over {self.steps} steps")
+        return s.extra["verdict"], s.extra["verdict_reason"]
 
     def __repr__(self) -> str:
         s = self.summary
@@ -256,7 +276,7 @@ class FollowResult:
         if cl is not None:
             out.update(cl.summary())
         out.update(self.extra.get("summary", {}))
-        return Summary(self.steps, self.solver, self.trajectory.name, pts[-1]["max"], pts[-1]["final"],
+        s = Summary(self.steps, self.solver, self.trajectory.name, pts[-1]["max"], pts[-1]["final"],
                        int(pts[-1]["worst_step"]), float(self.point_errors_mm.max()), worst_flat,
                        float(self.orientation_errors_deg.max()), mods[-1]["max"], mods[-1]["final"],
                        float(self.global_errors.max()), float(np.mean(self.iterations)), pts, mods, glob,
@@ -265,6 +285,9 @@ class FollowResult:
                        rmse_point_mm=[float(p["rmse"]) for p in pts], rmse_module_deg=[float(m["rmse"]) for m in mods],
                        over_tol_pos_steps=over_pos, over_tol_ori_steps=over_ori,
                        tolerance_exceeded=bool(over_pos or over_ori), extra=out)
+        out["verdict"], out["verdict_reason"] = verdict_of(s, self.robot)
+        out["finished"] = self.finished
+        return s
 
     def to_json(self) -> str:
         """:meth:`to_dict` as a JSON string (the text of ``run.json``)."""
@@ -548,7 +571,7 @@ def follow(points: Any, solver: str | Solver = "thesis", robot: Robot | None = T
            solver_options: dict[str, Any] | None = None,
            on_step: Callable[[int, np.ndarray | None], None] | None = None,
            compiled: bool = True, body_modules: int | None = None, reach: str | None = None,
-           locomotion: str | None = None, **robot_options: Any) -> FollowResult:
+           locomotion: str | None = None, stop_at_wall: bool | None = None, **robot_options: Any) -> FollowResult:
     """Run follow-the-leader along ``points`` (a :class:`Trajectory` or an (N, 3) array) with ``solver``.
 
     ``robot`` defaults to the thesis's robot (5 modules of 10 mm, alpha 10
@@ -572,6 +595,9 @@ def follow(points: Any, solver: str | Solver = "thesis", robot: Robot | None = T
     ``solver="lumen"``). By default a whole robot (``body_modules`` or
     ``reach``) with ``solver="lumen"`` on a path with a lumen moves by its
     wires, anything else by the thesis's model.
+    ``stop_at_wall`` ends a run of the thesis's model at the step where the robot leaves the lumen
+    (:func:`bhr.run.clearance.left_lumen`): the result has that many steps, its ``finished`` says so,
+    and no later (impossible) pose is scored.
 
     >>> import bhr
     >>> run = bhr.follow(bhr.trajectory("curve", radius=70, angle=90))
@@ -592,6 +618,12 @@ def follow(points: Any, solver: str | Solver = "thesis", robot: Robot | None = T
         locomotion = "wires" if whole_robot and has_lumen and named == "lumen" else "thesis"
     if locomotion not in ("thesis", "trail", "wires"):
         raise BhrError(f"locomotion must be thesis, wires or trail, got {locomotion!r}")
+    if stop_at_wall is not None and not isinstance(stop_at_wall, bool):
+        raise BhrError(f"stop_at_wall must be True or False, got {stop_at_wall!r}")
+    if stop_at_wall and locomotion != "thesis":
+        raise BhrError(f"stop at wall ends a run of the thesis's locomotion where the robot leaves the lumen; the "
+                       f"{locomotion} locomotion plans its trail inside the lumen: drop --stop-at-wall or give "
+                       "--locomotion thesis")
     if reach is not None:
         if reach != "cecum":
             raise BhrError(f"reach must be cecum (a robot long enough to reach the path's end), got {reach!r}")
@@ -707,7 +739,34 @@ def follow(points: Any, solver: str | Solver = "thesis", robot: Robot | None = T
         result.extra["summary"] = {"feeder_stop_step": stop + 1}
     if body_modules is not None:
         result.body = _held_body(result, body_modules, stop)
+    if stop_at_wall:
+        return _stopped_at_wall(result)
     return result
+
+
+def _stopped_at_wall(result: "FollowResult") -> "FollowResult":
+    """``result`` ended at the step where the robot left the lumen (unchanged when it never did, or has no lumen).
+
+    A step depends only on the steps before it (the head's solve, the body following it, the lumen clearance
+    tracking each point along the tube), so the first K steps of the whole run are exactly the run stopped there.
+    """
+    cl = result.clearance
+    k = None if cl is None else cl.left_lumen_step
+    if k is None or k >= result.steps:
+        return result
+    codes = None if result.codes is None else result.codes[:k]
+    part = FollowResult(result.trajectory, result.robot, result.solver, result.points[:k], result.iterations[:k],
+                        result.point_errors_mm[:k], result.orientation_errors_deg[:k], codes, list(result.warnings))
+    b = result.body
+    if b is not None:
+        part.body = BodyRun(b.modules, b.points[:k], b.codes[:k], b.point_errors_mm[:k],
+                            b.orientation_errors_deg[:k], b.scored[:k])
+    summary = {key: v for key, v in result.extra.get("summary", {}).items()
+               if not (key == "feeder_stop_step" and v > k)}
+    summary["stopped_at_wall_step"] = k
+    summary["path_steps"] = result.steps
+    part.extra["summary"] = summary
+    return part
 
 
 def _blind_tube(traj: Trajectory):

@@ -55,7 +55,7 @@ class Option:
 
     name: str
     group: str  # "robot", "trajectory", "constraint", "solver" or "run"
-    kind: Any
+    kind: Any  # int, float, str (with choices), bool (a switch) or "weights"
     help: str
     default: Any = None
     unit: str = ""
@@ -105,6 +105,12 @@ class Option:
     def check(self, value: Any, where: str) -> Any:
         """``value`` type-checked and within limits; BhrError naming ``where`` and the key otherwise."""
         key = self.name
+        if self.kind is bool:  # a switch: true or false (TOML's booleans; on a grid's text, true or false)
+            if isinstance(value, str) and value.strip().lower() in ("true", "false"):
+                return value.strip().lower() == "true"
+            if not isinstance(value, bool):
+                raise BhrError(f"{where}: {key} must be true or false, got {excerpt(value)}")
+            return value
         if self.choices is not None:
             if not isinstance(value, str) or value not in self.choices:
                 raise BhrError(f"{where}: {key} must be one of {', '.join(self.choices)}, got {excerpt(value)}")
@@ -213,6 +219,9 @@ OPTIONS: tuple[Option, ...] = (
            "lays, every pose scored) or trail (ideal follow-the-leader, not buildable; docs/locomotion.md)",
            None, choices=("thesis", "wires", "trail"),
            shown="wires for a whole robot with --solver lumen on a path with a lumen, else thesis"),
+    Option("stop_at_wall", _RUN, bool, "End the run at the step where the robot leaves the lumen (a point of its "
+           "axis outside the wall): a study then scores no pose a real robot cannot take (docs/lumen.md)", None,
+           shown="run to the end"),
     # the physics replay (bhr.studies.physics, docs/physics.md)
     Option("wall_stiffness", "physics", float, "Colon wall stiffness per module length of wall, N/mm (published "
            "0.7-2.4)", 1.5, "N/mm", 24.0, positive=True, metavar="N/MM"),

@@ -28,20 +28,22 @@ __all__ = ["Compared", "compare_runs", "compare_rows", "format_table", "compare_
 
 @dataclass
 class Compared:
-    """One solver's run and how long it took (seconds, whole run)."""
+    """One solver's run and the CPU time it took (seconds of this process's CPU, whole run)."""
 
     solver: str
     result: Any  # bhr.run.driver.FollowResult
     seconds: float
 
     @property
-    def ms_per_step(self) -> float:
+    def cpu_ms_per_step(self) -> float:
+        """CPU milliseconds per step (this process's user + system time: not the wall clock, which counts what
+        other programs on the machine take)."""
         return 1000.0 * self.seconds / self.result.steps
 
 
 def compare_runs(traj: Trajectory, solvers: Sequence[str], robot: Robot, *,
                  solver_options: dict[str, dict[str, Any]] | None = None,
-                 body_modules: int | None = None) -> list[Compared]:
+                 body_modules: int | None = None, stop_at_wall: bool = False) -> list[Compared]:
     """Run ``traj`` with each solver (options per solver name); raises BhrError for fewer than two or repeats."""
     names = [check_solver_name(s) for s in solvers]  # one name per solver in the table and the figure (seed: thesis)
     if len(names) < 2:
@@ -65,9 +67,10 @@ def compare_runs(traj: Trajectory, solvers: Sequence[str], robot: Robot, *,
                           lumen=None if traj.lumen is None else traj.lumen[:3], start_direction=traj.start_direction,
                           start_point=traj.start_point)
         follow(warm, solver=s, robot=robot, solver_options=opts.get(s))
-        t0 = time.perf_counter()
-        res = follow(traj, solver=s, robot=robot, solver_options=opts.get(s), body_modules=body_modules)
-        out.append(Compared(s, res, time.perf_counter() - t0))
+        t0 = time.process_time()  # CPU time: a busy machine does not change it
+        res = follow(traj, solver=s, robot=robot, solver_options=opts.get(s), body_modules=body_modules,
+                     stop_at_wall=stop_at_wall)
+        out.append(Compared(s, res, time.process_time() - t0))
     return out
 
 
@@ -80,12 +83,14 @@ def compare_rows(runs: Sequence[Compared]) -> list[dict[str, Any]]:
         worst = float(c.result.point_errors_mm.max())
         row = {
             "solver": c.solver,
+            "finished": s["finished"],
+            "verdict": s["verdict"],
             "points_max_error_mm": worst,
             "points_worst_step": s["points_worst_step"],
             "tip_max_error_mm": s["tip_max_error_mm"],
             "tip_final_error_mm": s["tip_final_error_mm"],
             "tip_orientation_max_deg": s["tip_orientation_max_deg"],
-            "ms_per_step": c.ms_per_step,
+            "cpu_ms_per_step": c.cpu_ms_per_step,
             "ratio_to_first": worst / ref if ref > 0 else float("nan"),
         }
         if "body_points_max_error_mm" in s:
@@ -111,7 +116,7 @@ def format_table(runs: Sequence[Compared]) -> list[str]:
         head += f"{'body mm':>9}"
     if lumen:
         head += f"{'clear mm':>10}{'touches':>9}"
-    head += f"{'ms/step':>9}{'x ' + rows[0]['solver']:>12}"
+    head += f"{'CPU ms/step':>13}{'x ' + rows[0]['solver']:>12}  {'finished':<20}verdict"
     lines.append(head)
     for row in rows:
         line = (f"{row['solver']:<13}{row['points_max_error_mm']:>10.3f}{row['points_worst_step']:>9d}"
@@ -121,11 +126,13 @@ def format_table(runs: Sequence[Compared]) -> list[str]:
         if lumen:
             mc = row["min_clearance_mm"]
             line += f"{'-' if mc is None else format(mc, '.3f'):>10}{len(row['wall_touch_steps']):>9d}"
-        line += f"{row['ms_per_step']:>9.3f}{row['ratio_to_first']:>12.3f}"
+        line += f"{row['cpu_ms_per_step']:>13.3f}{row['ratio_to_first']:>12.3f}  {row['finished']:<20}{row['verdict']}"
         lines.append(line)
     lines.append("")
     lines.append(f"worst mm: largest position error over all scored points and steps; x {rows[0]['solver']}: "
-                 f"that error divided by {rows[0]['solver']}'s; ms/step: run time / steps, after loading the kernels.")
+                 f"that error divided by {rows[0]['solver']}'s; CPU ms/step: this process's CPU time (user + system, "
+                 "not the wall clock) of the run / steps, after loading the kernels; finished: how the run ended; "
+                 "verdict: followed, out of tolerance, touched the wall or left the lumen.")
     return lines
 
 

@@ -71,7 +71,9 @@ class FollowRun:
     doc: dict
     written: list[Path]
     folder: Path | None                   # the run's folder (None: no folder)
-    procedure_s: float | None = None      # the codes at the board's limits (auto schedule)
+    procedure_s: float | None = None      # the codes at the wires' pace, at most ``rate`` (auto schedule)
+    procedure_pace: str = ""              # what sets it, in words (bhr.hardware.thermal.pace)
+    procedure_rate: float = 10.0          # the rate cap of that schedule (bhr plan --rate gives the same time)
     stream: StreamOutcome | None = None
     animations: list[tuple[Any, Path]] = field(default_factory=list)  # (bhr.output.animate.Animation, path shown)
     warnings: list[str] = field(default_factory=list)     # BhrWarning messages of the run, once each
@@ -82,8 +84,9 @@ class FollowRun:
         if self.procedure_s is not None and self.folder is not None:
             from bhr.hardware.thermal import format_duration
 
-            out.append(f"Procedure time on the board: {format_duration(self.procedure_s)} at the board's limits "
-                       f"(bhr plan --codes {shlex.quote(str(self.folder / 'codes.csv'))} shows the schedule).")
+            out.append(f"Procedure time on the board: {format_duration(self.procedure_s)} {self.procedure_pace} "
+                       f"(bhr plan --codes {shlex.quote(str(self.folder / 'codes.csv'))} --rate "
+                       f"{self.procedure_rate:g} shows the schedule).")
         if self.written:
             out.append("Wrote " + ", ".join(str(p) for p in self.written))
         return out
@@ -135,7 +138,8 @@ def check_outputs(traj: str, robot_file: str | None, out_dir: str | None, json_p
 
 def follow_run(traj: str, *, robot: Any, solver: str = "thesis", solver_options: dict | None = None,
                traj_params: dict | None = None, body_modules: int | None = None, reach: str | None = None,
-               locomotion: str | None = None, out_dir: str | None = None, json_path: str | None = None,
+               locomotion: str | None = None, stop_at_wall: bool = False, out_dir: str | None = None,
+               json_path: str | None = None,
                plots: bool = True, animate_path: str | None = None, stride: int | None = None,
                rate: float = 10.0, robot_file: str | None = None, thermal: Any = None,
                stream: StreamSettings | None = None, status: Status = _no_status,
@@ -153,7 +157,8 @@ def follow_run(traj: str, *, robot: Any, solver: str = "thesis", solver_options:
     [the default wire]; ``rate``: steps per second at most, of the stream
     and of the procedure time's schedule. ``status(label)``: a context manager around each
     stage (a spinner); ``frames_progress(done, total)`` while an animation
-    renders; ``notice(line)`` for lines to show during the run.
+    renders; ``notice(line)`` for lines to show during the run. ``stop_at_wall``: end the run where the robot
+    leaves the lumen (:func:`bhr.run.driver.follow`).
     """
     from bhr.output.paths import check_output_file
 
@@ -182,6 +187,9 @@ def follow_run(traj: str, *, robot: Any, solver: str = "thesis", solver_options:
         raise BhrError(f"{head}, then stream the whole robot's codes.csv (every module, rear first) to a board built "
                        f"for {body_modules} modules (make -C firmware MODULES={body_modules}): bhr stream --port PORT "
                        "--codes bhr-out/latest/codes.csv")
+    if stream is not None and stop_at_wall:
+        raise BhrError("--port streams every step as it is solved, so it cannot stop where the robot left the lumen "
+                       "later; drop --stop-at-wall to stream, or --port to check the run first")
     if stream is not None and (locomotion not in (None, "thesis") or reach is not None):
         raise BhrError("--port streams the thesis's locomotion; drop --locomotion and --reach to stream")
     if thermal is None:
@@ -196,7 +204,8 @@ def follow_run(traj: str, *, robot: Any, solver: str = "thesis", solver_options:
     if locomotion is None:  # a whole robot moves by its wires (bhr.run.driver.follow's default)
         whole = (body_modules is not None or reach is not None) and getattr(tr, "lumen", None) is not None
         locomotion = "wires" if whole and solver == "lumen" else "thesis"
-    extra = (reach, locomotion) if (reach, locomotion) != (None, "thesis") else ()
+    extra: tuple[str | None, ...] = (reach, locomotion) if (reach, locomotion) != (None, "thesis") else ()
+    extra += ("stop_at_wall",) if stop_at_wall else ()  # a run stopped at the wall is another output set
     settings_parts = (*trajectory_parts(tr), robot.to_dict(), solver, solver_options, body_modules, *extra)
     if folder is None and use_folder:
         name = run_folder_name(f"{folder_stem(traj, traj_params.get('seed'))}-{solver}", *settings_parts)
@@ -219,7 +228,8 @@ def follow_run(traj: str, *, robot: Any, solver: str = "thesis", solver_options:
             with status(f"following {tr.name} ({len(tr.points)} steps, solver {solver}"
                         f"{_describe(body_modules, reach, locomotion)})"):
                 result = follow(tr, solver=solver, robot=robot, solver_options=solver_options,
-                                body_modules=body_modules, reach=reach, locomotion=locomotion)
+                                body_modules=body_modules, reach=reach, locomotion=locomotion,
+                                stop_at_wall=stop_at_wall)
         else:
             result, outcome = _follow_streaming(tr, solver, robot, solver_options, thermal, rate, stream, say)
     messages = list(dict.fromkeys(str(w.message) for w in caught if issubclass(w.category, BhrWarning)))
@@ -278,7 +288,10 @@ def follow_run(traj: str, *, robot: Any, solver: str = "thesis", solver_options:
     if codes is not None and stream is None and folder is not None:
         from bhr.hardware.thermal import auto_schedule
 
-        run.procedure_s = auto_schedule(thermal, codes, rate, trace=False).total_s  # memory: not per step
+        from bhr.hardware.thermal import pace
+
+        sched = auto_schedule(thermal, codes, rate, trace=False)  # memory: not per step
+        run.procedure_s, run.procedure_pace, run.procedure_rate = sched.total_s, pace(sched), float(rate)
     if animate_path is not None and anim_inside is None and folder is None:
         run.animations.append(_animate(result, animate_path, stride, frames_progress, None))
     return run
@@ -331,7 +344,9 @@ def _follow_streaming(tr, solver, robot, solver_options, thermal, rate, s: Strea
         except KeyboardInterrupt as exc:  # bhr.hardware.link.StreamInterrupted: how many of how many
             exc.total = len(rows)  # type: ignore[attr-defined]
             raise
-    how = f"at {rate:g} Hz" if s.schedule == "rate" else "at the board's limits"
+    from bhr.hardware.thermal import pace
+
+    how = pace(sched, counts=False)
     settle = sched.total_s - float(sched.times_ms[-1]) / 1000.0  # the last step's contraction
     outcome = StreamOutcome(report.sent, robot.modules, s.port, how, report.elapsed_s + settle, sched.total_s,
                             s.at_end, list(report.fault_events))
@@ -374,6 +389,9 @@ def summary_lines(result) -> list[str]:
     lines += tolerance_lines(s, r)
     lines += body_clearance_lines(s)
     lines += section_lines(result, s)
+    # the verdict's reason is one of the lines above, except for a run that followed
+    why = f" ({s['verdict_reason']})" if s["verdict"] == "followed" else ""
+    lines.append(f"Finished: {s['finished']}. Verdict: {s['verdict']}{why}.")
     return lines
 
 
@@ -416,12 +434,11 @@ def body_clearance_lines(s: dict) -> list[str]:
 
     out = []
     if s.get("locomotion") == "trail":
-        from bhr.hardware.thermal import format_duration
-
+        # the procedure time is the one line bhr follow prints for the board's schedule of codes.csv (as bhr plan
+        # computes it), not a second estimate here
         out.append(f"Trail: {s['trail_vertices']} vertices, every module along it (exact follow-the-leader, within "
                    f"{s['trail_offset_bound_mm']:.2f} mm of the trail); the feeder pushes until step "
-                   f"{s['feeder_stop_step']}, the tip {s['cecum_shortfall_mm']:.1f} mm short of the path's end; "
-                   f"{format_duration(s['procedure_time_s'])} at the wires' pace, the whole robot.")
+                   f"{s['feeder_stop_step']}, the tip {s['cecum_shortfall_mm']:.1f} mm short of the path's end.")
     if s.get("locomotion") == "wires":
         from bhr.hardware.thermal import format_duration
 
@@ -433,8 +450,13 @@ def body_clearance_lines(s: dict) -> list[str]:
                    f"{s['feeder_stop_step']}, the tip {s['cecum_shortfall_mm']:.1f} mm short of the path's end; "
                    f"{format_duration(s['procedure_time_s'])} at the wires' pace.")
     if s.get("locomotion") not in ("trail", "wires") and s.get("feeder_stop_step"):
-        out.append(f"The tip reached the cecum at step {s['feeder_stop_step']} of {s['steps']}: the feeder stopped "
-                   "there and the robot holds its pose.")
+        if s.get("left_lumen_step") is not None and s["left_lumen_step"] <= s["feeder_stop_step"]:
+            # a robot outside the colon reached no cecum: its tip only came to the path's end through the wall
+            out.append(f"The tip came to the end of the path at step {s['feeder_stop_step']} of {s['steps']} after "
+                       f"leaving the lumen at step {s['left_lumen_step']}: it did not reach the cecum.")
+        else:
+            out.append(f"The tip reached the cecum at step {s['feeder_stop_step']} of {s['steps']}: the feeder "
+                       "stopped there and the robot holds its pose.")
     if "body_modules" in s:
         out.append(f"Whole body: {s['body_modules']} modules; the body behind the head is off the path by at most "
                    f"{s['body_points_max_error_mm']:.3f} mm (step {s['body_worst_step']}).")
@@ -449,4 +471,7 @@ def body_clearance_lines(s: dict) -> list[str]:
                    + (f": {step_ranges(touch)}." if touch else "."))
         if s.get("left_lumen_reason"):
             out.append(f"The robot {s['left_lumen_reason']}.")
+    if s.get("stopped_at_wall_step"):
+        out.append(f"Stopped at the wall: the run ended at step {s['stopped_at_wall_step']} of the path's "
+                   f"{s['path_steps']}, where the robot left the lumen (--stop-at-wall).")
     return out

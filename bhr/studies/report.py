@@ -56,7 +56,8 @@ from bhr.model.robot import Robot
 from bhr.model.robotfile import load_robot_file
 from bhr.output.steptable import write_run_files
 from bhr.solvers import check_solver_name, get_solver
-from bhr.studies.study import (CONSTRAINT_KEYS, INT_KEYS, NUMBER_KEYS, ROBOT_KEYS, SOLVER_KEYS, TRAJ_KEYS, check_value,
+from bhr.studies.study import (BOOL_KEYS, CONSTRAINT_KEYS, INT_KEYS, NUMBER_KEYS, ROBOT_KEYS, SOLVER_KEYS, TRAJ_KEYS,
+                       check_value, finished_cell, verdict_cell, verdict_class,
                        check_body, sim_options, suggest, summary_row, warm_up)
 from bhr.studies.study import csv_text as _csv_text
 
@@ -67,13 +68,14 @@ __all__ = ["RunSpec", "Batch", "load_batch", "parse_batch", "execute_run", "run_
 # The keys of a run table (TRAJ_KEYS, ROBOT_KEYS, ...) come from the option registry, via bhr.studies.study.
 _STRING_KEYS = frozenset({"name", "description", "traj", "solver", "robot"}) | {
     o.name for o in by_group("constraint", "trajectory") if o.choices is not None}
-RUN_KEYS = frozenset(NUMBER_KEYS | _STRING_KEYS)
+RUN_KEYS = frozenset(NUMBER_KEYS | _STRING_KEYS | BOOL_KEYS)
 _TOP_KEYS = ("title", "description", "defaults", "run")
 
 #: Columns of summary.csv, in order (summary.json rows have these and more).
-ROW_FIELDS = ("name", "status", "traj", "solver", "steps", "tip_max_error_mm", "tip_final_error_mm",
-              "points_max_error_mm", "orientation_max_deg", "global_max", "tip_rmse_mm", "tip_orientation_rmse_deg",
-              "tolerance_exceeded", "min_clearance_mm", "warnings", "solve_time_s", "wall_time_s")
+ROW_FIELDS = ("name", "status", "finished", "verdict", "traj", "solver", "steps", "tip_max_error_mm",
+              "tip_final_error_mm", "points_max_error_mm", "orientation_max_deg", "global_max", "tip_rmse_mm",
+              "tip_orientation_rmse_deg", "tolerance_exceeded", "min_clearance_mm", "warnings", "solve_time_s",
+              "wall_time_s")
 
 _FIGURES = (  # file, caption, thesis figures
     ("path.png", "Path and final pose", "Figs. 7.1, 7.5, 7.9, 7.13, 7.18"),
@@ -411,7 +413,8 @@ def write_report(report: BatchReport, inline_images: bool = False) -> list[Path]
 
 def format_table(rows: Sequence[dict[str, Any]]) -> list[str]:
     """The summary as fixed-width text lines (what ``bhr report`` prints)."""
-    cols = [("name", "run", None), ("status", "status", None), ("steps", "steps", None),
+    cols = [("name", "run", None), ("finished", "finished", None), ("verdict", "verdict", None),
+            ("steps", "steps", None),
             ("tip_max_error_mm", "tip max mm", 3), ("points_max_error_mm", "pts max mm", 3),
             ("orientation_max_deg", "ori max deg", 2), ("global_max", "global max", 3),
             ("tip_rmse_mm", "tip rmse mm", 3), ("tip_orientation_rmse_deg", "tip rmse deg", 2),
@@ -419,13 +422,13 @@ def format_table(rows: Sequence[dict[str, Any]]) -> list[str]:
             ("wall_time_s", "time s", 2)]
     cells = [[h for _, h, _ in cols]]
     for r in rows:
-        cells.append([("ok" if r[k] == "ok" else "FAILED") if k == "status"
+        cells.append([finished_cell(r) if k == "finished" else verdict_cell(r) if k == "verdict"
                       else ("OVER" if r.get(k) else "") if k == "tolerance_exceeded"
                       else fmt(r.get(k), d or 3) for k, _, d in cols])
     widths = [max(len(c[i]) for c in cells) for i in range(len(cols))]
     lines = []
     for c in cells:
-        lines.append("  ".join(v.ljust(widths[i]) if i < 2 else v.rjust(widths[i]) for i, v in enumerate(c)))
+        lines.append("  ".join(v.ljust(widths[i]) if i < 3 else v.rjust(widths[i]) for i, v in enumerate(c)))
     for r in rows:
         if r["status"] != "ok":
             lines.append(f"{r['name']}: {r['status']}")
@@ -435,7 +438,8 @@ def format_table(rows: Sequence[dict[str, Any]]) -> list[str]:
 # ---------------------------------------------------------------------------------------------- HTML
 
 #: The summary table's columns and the decimals of each number.
-_SUMMARY = (("name", 0), ("status", 0), ("traj", 0), ("solver", 0), ("steps", 0), ("tip_max_error_mm", 3),
+_SUMMARY = (("name", 0), ("finished", 0), ("verdict", 0), ("traj", 0), ("solver", 0), ("steps", 0),
+            ("tip_max_error_mm", 3),
             ("tip_final_error_mm", 4), ("points_max_error_mm", 3), ("orientation_max_deg", 2), ("global_max", 3),
             ("tip_rmse_mm", 3), ("tip_orientation_rmse_deg", 2), ("tolerance_exceeded", 0), ("min_clearance_mm", 2),
             ("wall_time_s", 2))
@@ -447,8 +451,10 @@ def _summary_table(rows: Sequence[dict[str, Any]], anchors: Sequence[str]) -> st
         r, anchor = item
         if k == "name":
             return f"<a href=\"#{escape(anchor)}\">{escape(r['name'])}</a>", "l"
-        if k == "status":
-            return escape(r["status"]), "ok" if r["status"] == "ok" else "bad"
+        if k == "finished":  # how the run ended; whether it followed is the verdict's, beside it
+            return escape(finished_cell(r)), "l" if r["status"] == "ok" else "bad"
+        if k == "verdict":
+            return escape(verdict_cell(r)), f"l {verdict_class(r)}" if r["status"] == "ok" else "l"
         if k == "traj":
             return escape((r.get("trajectory") or {}).get("name", r["traj"])), "l"
         if k == "solver":
@@ -458,7 +464,7 @@ def _summary_table(rows: Sequence[dict[str, Any]], anchors: Sequence[str]) -> st
         return escape(fmt(r.get(k), _DIGITS[k] or 3)), ""
 
     return html_table("summary", [k for k, _ in _SUMMARY], list(zip(rows, anchors)), cell,
-                 head_class=lambda k: "l" if k in ("name", "status", "traj", "solver") else "",
+                 head_class=lambda k: "l" if k in ("name", "finished", "verdict", "traj", "solver") else "",
                  row_class=lambda item: "ok" if item[0]["status"] == "ok" else "failed")
 
 

@@ -22,8 +22,9 @@ from bhr.settings.options import BY_NAME, by_group, did_you_mean, excerpt
 from bhr.model.robot import Robot
 
 __all__ = ["TRAJ_KEYS", "ROBOT_KEYS", "CONSTRAINT_KEYS", "SOLVER_KEYS", "SIM_KEYS", "INT_KEYS", "NUMBER_KEYS",
-           "sim_options", "check_body", "suggest",
-           "check_value", "summary_row", "make_robot", "warm_up", "csv_text", "csv_safe", "FORMULA_STARTS"]
+           "BOOL_KEYS", "sim_options", "check_body", "suggest",
+           "check_value", "summary_row", "finished_cell", "verdict_cell", "verdict_class",
+           "make_robot", "warm_up", "csv_text", "csv_safe", "FORMULA_STARTS"]
 
 # The keys of a run table come from the option registry (bhr.settings.options), as the command-line options do.
 #: Trajectory options (CLI long names with underscores), as in ``bhr follow``.
@@ -41,7 +42,9 @@ _GROUPS = ("robot", "trajectory", "constraint", "solver", "run")
 #: Keys whose value is a whole number.
 INT_KEYS = frozenset(o.name for o in by_group(*_GROUPS) if o.kind is int)
 #: Keys whose value is a number.
-NUMBER_KEYS = frozenset(o.name for o in by_group(*_GROUPS) if o.choices is None)
+NUMBER_KEYS = frozenset(o.name for o in by_group(*_GROUPS) if o.choices is None and o.kind is not bool)
+#: Switches (true or false), such as stop_at_wall.
+BOOL_KEYS = frozenset(o.name for o in by_group(*_GROUPS) if o.kind is bool)
 
 
 def check_body(options: dict[str, Any], robot: Robot) -> None:
@@ -96,7 +99,26 @@ def summary_row(summary: dict[str, Any]) -> dict[str, Any]:
         "tip_orientation_rmse_deg": float(summary["tip_orientation_rmse_deg"]),
         "tolerance_exceeded": bool(summary["tolerance_exceeded"]),
         "min_clearance_mm": _num(summary.get("min_clearance_mm")),
+        "finished": summary.get("finished", "ran to the end"),
+        "verdict": summary.get("verdict"),
     }
+
+
+def finished_cell(row: dict[str, Any]) -> str:
+    """A result row's "finished" in words: how the run ended (ran to the end, stopped at the wall), or FAILED
+    (it raised; the row's status says why)."""
+    return str(row.get("finished") or "ran to the end") if row.get("status") == "ok" else "FAILED"
+
+
+def verdict_cell(row: dict[str, Any]) -> str:
+    """A result row's verdict (followed, out of tolerance, touched the wall, left the lumen); empty for a run that
+    failed."""
+    return str(row.get("verdict") or "") if row.get("status") == "ok" else ""
+
+
+def verdict_class(row: dict[str, Any]) -> str:
+    """The table cell class of a row's verdict: "ok" (green) only for a run that followed."""
+    return "ok" if verdict_cell(row) == "followed" else "bad"
 
 
 def make_robot(params: dict[str, Any], base: dict[str, Any] | None = None) -> Robot:

@@ -36,7 +36,7 @@ from bhr.settings.inputs import check_document, read_toml
 from bhr.studies.cluster import connect_scheduler, dask_missing
 from bhr.studies.executor import capture, run_jobs
 from bhr.model.generators import GENERATORS, builtin_names, load_trajectory
-from bhr.run.driver import BhrWarning, follow
+from bhr.run.driver import VERDICTS, BhrWarning, follow
 from bhr.output.htmlpage import PAGE_END, escape, figure, fmt, page_head, table
 from bhr.settings.options import BY_NAME, LIMITS, MAX_NUMBER_CHARS, by_group, excerpt, solver_options_for
 from bhr.model.robot import Robot
@@ -44,7 +44,8 @@ from bhr.model.robotfile import load_robot_file
 from bhr.solvers import check_solver_name
 from bhr.settings.names import AXIS_NAMES, COLUMN_TITLES, axis_label, axis_value, column_title
 from bhr.settings.names import label as _label
-from bhr.studies.study import (CONSTRAINT_KEYS, NUMBER_KEYS, ROBOT_KEYS, TRAJ_KEYS, check_body, check_value, csv_text,
+from bhr.studies.study import (BOOL_KEYS, CONSTRAINT_KEYS, NUMBER_KEYS, ROBOT_KEYS, TRAJ_KEYS, check_body, check_value,
+                       csv_text, finished_cell, verdict_cell, verdict_class,
                        make_robot, sim_options, suggest, summary_row, warm_up)
 
 __all__ = ["Sweep", "SweepResult", "GRID_KEYS", "parse_grid_option", "parse_values", "sweep_from_toml",
@@ -57,9 +58,9 @@ __all__ = ["Sweep", "SweepResult", "GRID_KEYS", "parse_grid_option", "parse_valu
 RUN_CHOICE_KEYS = frozenset(o.name for o in by_group("run") if o.choices is not None)
 #: Trajectory options taken by name (``lumen_end = closed, open``), for every trajectory with a lumen.
 TRAJ_CHOICE_KEYS = frozenset(o.name for o in by_group("trajectory") if o.choices is not None)
-GRID_KEYS = frozenset(NUMBER_KEYS | set(CONSTRAINT_KEYS) | RUN_CHOICE_KEYS | TRAJ_CHOICE_KEYS)
+GRID_KEYS = frozenset(NUMBER_KEYS | set(CONSTRAINT_KEYS) | RUN_CHOICE_KEYS | TRAJ_CHOICE_KEYS | BOOL_KEYS)
 #: Result columns of every design, after its design keys.
-METRICS = ("status", "steps", "tip_max_error_mm", "tip_final_error_mm", "points_max_error_mm",
+METRICS = ("status", "finished", "verdict", "steps", "tip_max_error_mm", "tip_final_error_mm", "points_max_error_mm",
            "orientation_max_deg", "global_max", "tip_rmse_mm", "tip_orientation_rmse_deg", "tolerance_exceeded",
            "min_clearance_mm", "min_turn_radius_mm")
 _TOP_KEYS = ("title", "description", "traj", "solver", "robot", "grid")
@@ -146,7 +147,8 @@ def parse_values(key: str, value: Any, where: str) -> tuple[Any, ...]:
         text = value.strip()
         if not text:
             raise BhrError(f"{where}: {key} has no values; give e.g. {key}=4,5,6 or {key}=4:8")
-        if (key in CONSTRAINT_KEYS and CONSTRAINT_KEYS[key] is not None) or key in RUN_CHOICE_KEYS | TRAJ_CHOICE_KEYS:
+        if ((key in CONSTRAINT_KEYS and CONSTRAINT_KEYS[key] is not None)
+                or key in RUN_CHOICE_KEYS | TRAJ_CHOICE_KEYS | BOOL_KEYS):
             raw: list[Any] = [t.strip() for t in text.split(",")]
         else:  # values and ranges, comma-separated, in any mix: 4,5,6 or 8:12:0.5 or 3-5,7 (as --colons takes)
             raw = []
@@ -595,8 +597,10 @@ def heatmap_figure(result: SweepResult, x: str | None = None, y: str | None = No
                                            edgecolor="red", linewidth=2.5, zorder=5))
                     framed = True
             head = axis_value(z, zv) if z else label
-            over = f"worst over {', '.join(axis_label(o) for o in others)}" if others else "one design per cell"
-            ax.set_title(f"{head}\n{label}, {over}" if z else f"{head}\n{over}", fontsize=9)
+            # one quantity per panel: the metric, and how a cell holding several designs shows it
+            over = (f"each cell the worst over {', '.join(axis_label(o) for o in others)}" if others
+                    else "each cell one design")
+            ax.set_title(f"{head}\n{label}: {over}" if z else f"{head}:\n{over}", fontsize=9)
         bars.append((im, [a for row in block for a in row if a.get_visible()], label,
                      sorted(tols) if metric == "points_max_error_mm" else []))
     tol_text = ", ".join(f"{t:g}" for t in sorted(tols) if math.isfinite(t)) or "8"
@@ -712,14 +716,19 @@ def _best_html(result: SweepResult, count: int = 10) -> str:
 def _html(result: SweepResult, heatmap: str | None) -> str:
     # The ranking column (worst point error) right after the design's values, so it shows without scrolling.
     rank = "points_max_error_mm"
-    cols = ["design", *result.sweep.keys, rank, *[m for m in METRICS if m != rank]]
+    # "finished" (how the run ended, or FAILED) and the verdict (followed, out of tolerance, touched the wall, left
+    # the lumen) in words, apart: the status column of a run that raised is its error, in the row's own line
+    cols = ["design", *result.sweep.keys, rank, *[m for m in METRICS if m not in (rank, "status")]]
 
     def cell(item: tuple[int, dict[str, Any]], c: str) -> tuple[str, str]:
         n, r = item
         if c == "rank":
             return str(n), ""
-        if c == "status":
-            return escape(r["status"]), "ok" if r["status"] == "ok" else "bad"
+        if c == "finished":
+            return escape(finished_cell(r) if r["status"] == "ok" else f"FAILED: {r['status']}"), (
+                "l" if r["status"] == "ok" else "l bad")
+        if c == "verdict":
+            return escape(verdict_cell(r)), f"l {verdict_class(r)}" if r["status"] == "ok" else "l"
         v = _label(r[c]) if c == "traj" else r.get(c)
         return escape(fmt(v)), "l" if c in ("traj", "solver") else ("rank" if c == rank else "")
 
@@ -799,7 +808,7 @@ def format_summary(result: SweepResult, count: int = 5) -> list[str]:
     """A few lines for the terminal: counts, time, and the best designs."""
     ranked = best_designs(result, None)
     runs = len(result.rows)
-    lines = [f"{what_ran(result)} on {result.runner}: {runs - len(result.failed)} ok, "
+    lines = [f"{what_ran(result)} on {result.runner}: {runs - len(result.failed)} finished, "
              f"{len(result.failed)} failed, {result.wall_time_s:.2f} s"]
     best = ranked[:count]
     if best:
@@ -816,6 +825,12 @@ def format_summary(result: SweepResult, count: int = 5) -> list[str]:
             clear = "" if r["min_clearance_mm"] is None else f", clearance {r['min_clearance_mm']:.2f} mm"
             where = f" (worst: {_label(r['worst_traj'])}, row #{r['worst_row']})" if many else ""
             lines.append(f"  #{r['design']}: {desc}: {r['points_max_error_mm']:.3f}{clear}{where}")
+    verdicts: dict[str, int] = {}
+    for r in result.rows:
+        if r["status"] == "ok" and r.get("verdict"):
+            verdicts[r["verdict"]] = verdicts.get(r["verdict"], 0) + 1
+    if verdicts:
+        lines.append("Verdicts: " + ", ".join(f"{verdicts[v]} {v}" for v in VERDICTS if v in verdicts) + ".")
     reasons: dict[str, int] = {}
     for r in result.failed:
         reasons[r["status"]] = reasons.get(r["status"], 0) + 1

@@ -42,10 +42,12 @@ from bhr.output.htmlpage import PAGE_END, escape, figure, fmt, page_head, table
 from bhr.settings.names import axis_label
 from bhr.settings.names import label as _label
 from bhr.settings.options import LIMITS, excerpt, solver_options_for
-from bhr.studies.study import ROBOT_KEYS, TRAJ_KEYS, csv_text, make_robot, sim_options
+from bhr.studies.study import (ROBOT_KEYS, TRAJ_KEYS, csv_text, finished_cell, make_robot, sim_options,
+                               verdict_cell)
 from bhr.studies.sweep import Sweep, SweepResult, build_sweep, run_sweep
 from bhr.studies.sweep import heatmap_axes as _sweep_axes
 from bhr.model.generators import load_trajectory
+from bhr.model.robot import Robot
 from bhr.hardware.thermal import format_duration
 
 __all__ = ["Study", "StudyResult", "parse_colons", "build_study", "run_study", "design_rows", "answer",
@@ -55,14 +57,14 @@ __all__ = ["Study", "StudyResult", "parse_colons", "build_study", "run_study", "
 LUMEN_KEYS = ("max_penetration_mm", "wall_touch_steps", "contact_length_mm", "procedure_time_s", "body_modules",
               "left_lumen_step", "left_lumen_reason", "wall")
 #: Columns of designs.csv after the design's own keys.
-DESIGN_COLUMNS = ("colons", "traversed", "pass_rate", "failed_runs", "worst_penetration_mm", "median_penetration_mm",
-                  "worst_clearance_mm", "median_contact_length_mm", "worst_contact_length_mm", "median_touch_steps",
-                  "worst_colon", "min_turn_radius_mm", "median_procedure_time_s", "worst_procedure_time_s",
-                  "left_lumen")
+DESIGN_COLUMNS = ("robot_judged", "rank", "ranked_by", "colons", "traversed", "pass_rate", "failed_runs",
+                  "worst_penetration_mm", "median_penetration_mm", "worst_clearance_mm", "median_contact_length_mm",
+                  "worst_contact_length_mm", "median_touch_steps", "worst_colon", "min_turn_radius_mm",
+                  "median_procedure_time_s", "worst_procedure_time_s", "left_lumen")
 #: Columns of runs.csv after the design's keys and the seed.
-RUN_COLUMNS = ("status", "steps", "traversed", "max_penetration_mm", "touch_steps", "contact_length_mm",
-               "min_clearance_mm", "points_max_error_mm", "tip_max_error_mm", "modules", "procedure_time_s",
-               "left_lumen_step", "failure", "wall")
+RUN_COLUMNS = ("status", "finished", "verdict", "steps", "traversed", "max_penetration_mm", "touch_steps",
+               "contact_length_mm", "min_clearance_mm", "points_max_error_mm", "tip_max_error_mm", "modules",
+               "procedure_time_s", "left_lumen_step", "failure", "wall")
 _MAX_COLONS = LIMITS["colons"]
 #: One seed, or FIRST-LAST, or FIRST:LAST[:STEP] as in a sweep's grid (ends included); plain ASCII digits.
 _RANGE = re.compile(r"^\s*([0-9]+)\s*(?:(-|:)\s*([0-9]+)\s*(?::\s*([0-9]+)\s*)?)?$", re.ASCII)
@@ -213,6 +215,8 @@ def _run_row(row: dict[str, Any], keys: Sequence[str]) -> dict[str, Any]:
     touches = row.get("wall_touch_steps")
     out.update({
         "status": row["status"],
+        "finished": finished_cell(row),  # how the run ended (or FAILED), apart from its verdict
+        "verdict": verdict_cell(row),
         "steps": row.get("steps"),
         "traversed": bool(ok and touches is not None and len(touches) == 0 and row.get("left_lumen_step") is None),
         "max_penetration_mm": _penetration(row) if ok else None,
@@ -268,8 +272,39 @@ def design_rows(study: Study, runs: Sequence[dict[str, Any]], min_turn: dict[tup
             "worst_procedure_time_s": max(proc) if proc else None,
             "left_lumen": sum(1 for r in rows if r.get("left_lumen_step") is not None),
         })
+        d["robot_judged"] = robot_judged(study, d)
         out.append(d)
+    ranked = sorted(out, key=_rank)
+    for k, d in enumerate(ranked):
+        d["rank"] = k + 1
+        other = ranked[k + 1] if k + 1 < len(ranked) else (ranked[k - 1] if k else None)
+        d["ranked_by"] = "" if other is None else _separated_by(d, other)
     return out
+
+
+#: What ranks designs, in order (:func:`_rank`): the words the tables and the figure use.
+RANKING = ("pass rate", "worst penetration", "worst clearance", "median penetration", "design order (a tie)")
+
+
+def _separated_by(d: dict[str, Any], other: dict[str, Any]) -> str:
+    """The first of :data:`RANKING` on which design ``d`` and ``other`` differ: what puts one ahead of the other."""
+    for name, a, b in zip(RANKING, _rank(d), _rank(other)):
+        if a != b:
+            return name
+    return RANKING[-1]
+
+
+def robot_judged(study: "Study", d: dict[str, Any]) -> str:
+    """Which robot a design's verdict is about: ``head only (5 modules)`` (the modules the solver moves; no body
+    behind them scored), ``whole robot (300 modules)`` (``body_modules``) or ``whole robot (to the cecum)``
+    (``reach``)."""
+    if d.get("reach") is not None:
+        return "whole robot (to the cecum)"
+    if d.get("body_modules") is not None:
+        return f"whole robot ({d['body_modules']} modules)"
+    base = dict(study.sweep.robot) if study.sweep.robot else {}
+    modules = d.get("modules", base.get("modules", Robot().modules))
+    return f"head only ({modules} modules)"
 
 
 def _rank(d: dict[str, Any]) -> tuple[Any, ...]:
@@ -350,12 +385,27 @@ def passrate_figure(result: StudyResult, x: str | None = None, y: str | None = N
         if (j, i) not in best or _rank(d) < _rank(best[(j, i)]):
             best[(j, i)] = d
             data[j, i] = d["pass_rate"]
-    w = min(max(7.0, 0.8 * len(xs) + 3.0), 14)
-    h = min(max(4.5, 0.55 * len(ys) + 2.4), 12)
+    clear = np.full(data.shape, np.nan)
+    for (j, i), d in best.items():
+        if d["worst_clearance_mm"] is not None:
+            clear[j, i] = d["worst_clearance_mm"]
+    top = min(result.designs, key=_rank) if result.designs else None
+    finite = data[np.isfinite(data)]
+    # every cell at one pass rate (all through, say): a map of it would be one colour and hide what ranks them;
+    # the colour then shows the next measure that tells the designs apart, and says so
+    tied = finite.size > 1 and float(np.ptp(finite)) == 0.0 and np.isfinite(clear).any()
+    w = min(max(8.5, 0.8 * len(xs) + 3.0), 14)
+    h = min(max(5.0, 0.55 * len(ys) + 2.8), 12)
     fig, ax = plt.subplots(figsize=(w, h))
-    im = ax.imshow(data * 100, origin="lower", aspect="auto", cmap="RdYlGn", vmin=0, vmax=100,
-                   interpolation="nearest")
-    fig.colorbar(im, ax=ax, label="colons traversed without wall contact (%)")
+    if tied:
+        lo, hi = float(np.nanmin(clear)), float(np.nanmax(clear))
+        im = ax.imshow(clear, origin="lower", aspect="auto", cmap="viridis", vmin=lo, vmax=hi if hi > lo else lo + 1,
+                       interpolation="nearest")
+        fig.colorbar(im, ax=ax, label=f"worst clearance (mm)\nthe tie-break: every cell {100 * float(finite[0]):.0f}%")
+    else:
+        im = ax.imshow(data * 100, origin="lower", aspect="auto", cmap="RdYlGn", vmin=0, vmax=100,
+                       interpolation="nearest")
+        fig.colorbar(im, ax=ax, label="colons traversed without wall contact (%)")
     ax.set_xticks(range(len(xs)), [_label(v) for v in xs] if x else [""])  # one column: no axis to name
     ax.set_yticks(range(len(ys)), [_label(v) for v in ys] if y else [""])
     ax.set_xlabel(axis_label(x))
@@ -363,15 +413,31 @@ def passrate_figure(result: StudyResult, x: str | None = None, y: str | None = N
     for (j, i), v in np.ndenumerate(data):
         cell = best.get((j, i))
         text = "-" if not np.isfinite(v) else f"{100 * v:.0f}%"
-        if cell is not None and cell["worst_penetration_mm"] is not None and data.size <= 200:
-            text += f"\n{cell['worst_penetration_mm']:.1f} mm"
-        dark = np.isfinite(v) and (v < 0.25 or v > 0.85)  # the deep red and deep green ends of the map
+        if cell is not None and data.size <= 200:
+            text = f"rank {cell.get('rank', '')}: " + text
+            if cell["worst_penetration_mm"] is not None:
+                text += f"\npen {cell['worst_penetration_mm']:.2f} mm"
+            if cell["worst_clearance_mm"] is not None:
+                text += f"\nclear {cell['worst_clearance_mm']:.2f} mm"
+        if tied:
+            share = (clear[j, i] - np.nanmin(clear)) / max(1e-12, float(np.nanmax(clear) - np.nanmin(clear)))
+            dark = bool(np.isfinite(share) and share < 0.55)  # viridis is dark at its low end
+        else:
+            dark = bool(np.isfinite(v) and (v < 0.25 or v > 0.85))  # the deep red and deep green ends of the map
         ax.text(i, j, text, ha="center", va="center", fontsize=8, color="white" if dark else "black")
         if np.isfinite(v) and v >= study.target - 1e-12:
             ax.add_patch(Rectangle((i - 0.5, j - 0.5), 1, 1, fill=False, edgecolor="black", linewidth=2.2))
+        if cell is not None and top is not None and cell is top:  # the answer: marked, whatever the colours
+            ax.add_patch(Rectangle((i - 0.46, j - 0.46), 0.92, 0.92, fill=False, edgecolor="#e8112d",
+                                   linewidth=3.0, linestyle="--"))
+            ax.annotate("best", (i + 0.44, j + 0.44), ha="right", va="top", fontsize=8, color="#e8112d",
+                        fontweight="bold")
     over = f"best design over {', '.join(others)}" if others else "one design per cell"
-    ax.set_title(f"Share of {len(study.colons)} colons traversed without wall contact, worst penetration (mm)\n"
-                 f"{over}; outlined: at least {100 * study.target:g}%", fontsize=9)
+    judged = sorted({d.get("robot_judged") or robot_judged(study, d) for d in result.designs})
+    ax.set_title(f"Share of {len(study.colons)} colons traversed without wall contact; robot judged: "
+                 f"{'; '.join(judged)}\nranked by pass rate, then worst penetration (pen), then worst clearance "
+                 f"(clear); {over}\noutlined black: at least {100 * study.target:g}%; dashed red: the best design",
+                 fontsize=8.5)
     fig.tight_layout()
     return fig
 
@@ -489,17 +555,37 @@ def _describe(study: Study, d: dict[str, Any]) -> str:
     return ", ".join(f"{k}={_label(d[k])}" for k in study.design_keys)
 
 
+def _decided(result: StudyResult, best: dict[str, Any]) -> str:
+    """`` (ahead of design #6 by its worst clearance, 1.34 against 0.64 mm)``: what put the best design first."""
+    ranked = sorted(result.designs, key=_rank)
+    if len(ranked) < 2 or ranked[0] is not best:
+        return ""
+    nxt = ranked[1]
+    by = _separated_by(best, nxt)
+    fields = {"pass rate": ("pass_rate", "{:.0%}"), "worst penetration": ("worst_penetration_mm", "{:.2f} mm"),
+              "worst clearance": ("worst_clearance_mm", "{:.2f} mm"),
+              "median penetration": ("median_penetration_mm", "{:.2f} mm")}
+    if by not in fields:
+        return f" (tied with design #{nxt['design']} on every measure; listed first)"
+    key, form = fields[by]
+    a, b = best.get(key), nxt.get(key)
+    vals = "" if a is None or b is None else f", {form.format(a)} against {form.format(b)}"
+    tie = "; a tie-break at the same pass rate" if by != "pass rate" else ""
+    return f" (ahead of design #{nxt['design']} by its {by}{vals}{tie})"
+
+
 def answer_line(result: StudyResult) -> str:
     study = result.study
     best, meeting = answer(result)
     pct = f"{100 * study.target:g}%"
     if best is not None:
         return (f"{len(meeting)} of {len(result.designs)} designs traverse at least {pct} of the "
-                f"{len(study.colons)} colons; best: design #{best['design']} ({_describe(study, best)}): "
+                f"{len(study.colons)} colons; best: design #{best['design']} ({_describe(study, best)}), "
+                f"{best.get('robot_judged') or robot_judged(study, best)}: "
                 f"{best['traversed']}/{best['colons']} traversed, worst penetration "
                 f"{best['worst_penetration_mm']:.2f} mm" + (
                     "" if best["worst_clearance_mm"] is None else
-                    f", worst clearance {best['worst_clearance_mm']:.2f} mm"))
+                    f", worst clearance {best['worst_clearance_mm']:.2f} mm") + _decided(result, best))
     top = best_design(result)
     worst = "-" if top["worst_penetration_mm"] is None else f"{top['worst_penetration_mm']:.2f} mm"
     return (f"No design traverses {pct} of the {len(study.colons)} colons; the best, design #{top['design']} "
@@ -511,13 +597,19 @@ def format_study(result: StudyResult, count: int = 8) -> list[str]:
     """The terminal summary: what ran, the best designs, and the answer."""
     study = result.study
     lines = [f"{len(result.runs)} runs ({len(result.designs)} designs x {len(study.colons)} colons) on "
-             f"{result.runner}: {len(result.runs) - len(result.failed)} ok, {len(result.failed)} failed, "
+             f"{result.runner}: {len(result.runs) - len(result.failed)} finished, {len(result.failed)} failed, "
              f"{result.wall_time_s:.1f} s; penetration from the {result.clearance_kind} clearance"]
     keys = study.design_keys
+    judged = sorted({d.get("robot_judged") or robot_judged(study, d) for d in result.designs})
+    lines.append(f"Robot judged: {'; '.join(judged)}" + (
+        " -- the modules the solver moves, no body behind them (--grid reach=cecum --grid locomotion=trail judges "
+        "the whole robot)" if all(j.startswith("head only") for j in judged) else ""))
+    lines.append("Ranked by " + ", then ".join(RANKING[:4]) + "; 'ranked by': what puts a design ahead of the next")
     head = "  ".join(f"{k:>13}" for k in keys)
     proc = any(d.get("median_procedure_time_s") is not None for d in result.designs)
     lines.append(f"{'#':>5}  {head}  {'traversed':>10}  {'worst pen':>9}  {'median pen':>10}  {'worst clear':>11}  "
-                 f"{'median contact':>14}  {'left lumen':>10}" + (f"  {'median time':>11}" if proc else ""))
+                 f"{'median contact':>14}  {'left lumen':>10}" + (f"  {'median time':>11}" if proc else "")
+                 + "  ranked by")
     ranked = sorted(result.designs, key=_rank)
     for d in ranked[:count]:
         vals = "  ".join(f"{_label(d[k]):>13}" for k in keys)
@@ -526,8 +618,9 @@ def format_study(result: StudyResult, count: int = 8) -> list[str]:
         mc = "-" if d["median_contact_length_mm"] is None else f"{d['median_contact_length_mm']:.1f}"
         wc = "-" if d["worst_clearance_mm"] is None else f"{d['worst_clearance_mm']:.2f}"
         pt = "-" if d.get("median_procedure_time_s") is None else format_duration(d["median_procedure_time_s"])
-        lines.append(f"{d['design']:>5}  {vals}  {100 * d['pass_rate']:>9.0f}%  {wp:>9}  {mp:>10}  {wc:>11}  {mc:>14}"
-                     f"  {d['left_lumen']:>10}" + (f"  {pt:>11}" if proc else ""))
+        line = (f"{d['design']:>5}  {vals}  {100 * d['pass_rate']:>9.0f}%  {wp:>9}  {mp:>10}  {wc:>11}  {mc:>14}"
+                f"  {d['left_lumen']:>10}" + (f"  {pt:>11}" if proc else "") + f"  {d.get('ranked_by', '')}")
+        lines.append(line.rstrip())
     if len(ranked) > count:
         rest = ranked[count:]
         lines.append(f"  ... the best {count} of {len(ranked)} designs shown; {len(rest)} more (down to design "

@@ -55,7 +55,7 @@ def loose_run(tmp_path_factory):
     (["replay", "r.json", "--out", "."], "path.png"),
     (["replay", "r.json"], "clearance.png"),
     (["replay", "./r.json", "--out", "sub/.."], "view.html"),
-    (["plan", "--codes", "codes.csv"], "thermal.png"),
+    (["plan", "--codes", "codes.csv"], "thermal-auto-10hz.png"),
 ], ids=["replay-out-dot", "replay-default", "replay-same-folder", "plan-default"])
 def test_figures_beside_a_loose_input_never_replace_a_users_file(tmp_path, loose_run, args, mine):
     # the user's path.png (thermal.png ...) beside their run.json (codes.csv) was replaced by bhr's figure, exit 0

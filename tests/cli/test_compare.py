@@ -122,22 +122,22 @@ def test_after_compare_the_latest_hints_lead_to_its_runs(run_bhr, tmp_path):
 
 def test_plan_and_replay_of_a_compared_run_keep_the_compare_folder_whole(run_bhr, tmp_path):
     """`bhr plan --codes bhr-out/latest/thesis/codes.csv` after a compare wrote thermal.png into the compare's
-    folder unlisted, and the compare's own rerun then refused it ('holds thesis/thermal.png, which no bhr run
+    folder unlisted, and the compare's own rerun then refused it ('holds thesis/thermal-auto-10hz.png, which no bhr run
     wrote'). The figures of plan and replay join that folder, listed, and its rerun keeps them."""
     args = ("compare", "--traj", "line", "--solver", "thesis", "--solver", "fabrik", "--no-plots")
     assert run_bhr(*args).returncode == 0
     folder = (tmp_path / "bhr-out" / "latest").resolve()
     plan = run_bhr("plan", "--codes", "bhr-out/latest/thesis/codes.csv")
-    assert plan.returncode == 0 and plan.stderr == "Wrote bhr-out/latest/thesis/thermal.png\n", plan.stderr
+    assert plan.returncode == 0 and plan.stderr == "Wrote bhr-out/latest/thesis/thermal-auto-10hz.png\n", plan.stderr
     replay = run_bhr("replay", "bhr-out/latest/fabrik/run.json")
     assert replay.returncode == 0, replay.stderr
     assert "Wrote bhr-out/latest/fabrik/position_errors.png" in replay.stdout
     man = json.loads((folder / "manifest.json").read_text())
-    assert {"thesis/thermal.png", "fabrik/path.png", "fabrik/view.html"} <= set(man["files"])
+    assert {"thesis/thermal-auto-10hz.png", "fabrik/path.png", "fabrik/view.html"} <= set(man["files"])
     assert man["made_by"] == "compare"
     again = run_bhr(*args)
     assert again.returncode == 0, again.stderr
-    assert (folder / "thesis" / "thermal.png").is_file() and (folder / "fabrik" / "path.png").is_file()
+    assert (folder / "thesis" / "thermal-auto-10hz.png").is_file() and (folder / "fabrik" / "path.png").is_file()
 
 
 def test_an_anatomical_colon_names_the_folder_as_follow_does(run_bhr, tmp_path):

@@ -377,25 +377,25 @@ def test_plan_adds_its_figure_to_the_run_folder_whole(tmp_path):
     run_files = {k: v for k, v in check_whole(latest.resolve())["files"].items()}
     p = bhr("plan", "--codes", latest / "codes.csv", "--schedule", "auto", cwd=tmp_path)
     assert p.returncode == 0, p.stderr
-    assert re.search(r": 85 steps, [\d.]+ s at the board.s limits", p.stdout), p.stdout
+    assert re.search(r": 85 steps, [\d.]+ s at the wires' pace, at most 10 Hz", p.stdout), p.stdout
     man = check_whole(latest.resolve())
-    assert set(man["files"]) == set(run_files) | {"thermal.png"}
+    assert set(man["files"]) == set(run_files) | {"thermal-auto-10hz.png"}
     assert all(man["files"][k] == v for k, v in run_files.items())  # the run's own files untouched
-    assert (latest / "thermal.png").stat().st_size > 10_000
+    assert (latest / "thermal-auto-10hz.png").stat().st_size > 10_000
     # the run's own rerun keeps the figure plan added, as it keeps its own (it was deleted)
     r = bhr("follow", "--traj", "curve", "--no-plots", cwd=tmp_path)
     assert r.returncode == 0, r.stderr
-    assert set(check_whole(latest.resolve())["files"]) == set(run_files) | {"thermal.png"}
+    assert set(check_whole(latest.resolve())["files"]) == set(run_files) | {"thermal-auto-10hz.png"}
     # the figure is named as the user named the codes (it was the resolved absolute path)
     p = bhr("plan", "--codes", "bhr-out/latest/codes.csv", cwd=tmp_path)
-    assert p.returncode == 0 and p.stderr == "Wrote bhr-out/latest/thermal.png\n", p.stderr
+    assert p.returncode == 0 and p.stderr == "Wrote bhr-out/latest/thermal-auto-10hz.png\n", p.stderr
     # a loose codes.csv (no run folder): the figure is written beside it, nothing else appears
     loose = tmp_path / "loose"
     loose.mkdir()
     (loose / "codes.csv").write_bytes((latest / "codes.csv").read_bytes())
     p = bhr("plan", "--codes", "loose/codes.csv", "--schedule", "auto", cwd=tmp_path)
     assert p.returncode == 0, p.stderr
-    assert sorted(q.name for q in loose.iterdir()) == ["codes.csv", "thermal.png"]
+    assert sorted(q.name for q in loose.iterdir()) == ["codes.csv", "thermal-auto-10hz.png"]
     no_staging(tmp_path / "bhr-out")
 
 

@@ -545,3 +545,22 @@ def test_a_bad_grid_value_says_what_to_write(text, message):
     with pytest.raises(BhrError) as err:
         parse_values("modules", text, "--grid")
     assert str(err.value) == message
+
+
+def test_a_heatmap_panel_title_names_one_quantity_and_how_a_cell_shows_it():
+    """The panel's title read "module length 10 mm / worst point error (mm), worst over turned angle (deg)": two
+    quantities to a reader. It names the metric once, then what a cell holding several designs shows."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from bhr.studies.sweep import build_sweep, heatmap_figure, run_sweep
+
+    s = build_sweep(["curve"], ["thesis"], [("angle", (90, 180)), ("modules", (4, 5)), ("alpha", (8, 10)),
+                                            ("module_length", (10, 12))])
+    fig = heatmap_figure(run_sweep(s, jobs=1))
+    panels = [ax for ax in fig.axes if ax.get_visible() and ax.images]
+    for ax in panels:
+        lines = ax.get_title().splitlines()
+        metric, _, how = lines[1].partition(": ")
+        assert metric == "worst point error (mm)" and how.startswith("each cell the worst over "), lines
+        assert "," not in lines[1]  # one quantity, not two

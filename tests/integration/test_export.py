@@ -114,3 +114,59 @@ def test_export_command_writes_files_that_load(run_bhr, tmp_path):
     assert mujoco.MjModel.from_xml_path(str(tmp_path / "r.xml")).njnt == 120
 
 
+
+
+@settings(max_examples=25, deadline=None)
+@given(codes=st.lists(st.sampled_from(CODES), min_size=6, max_size=6),
+       frame=st.sampled_from(["follow", "solve", "model", (1.0, -2.0, 0.5)]),
+       base=st.tuples(*[st.floats(-500, 500, allow_nan=False)] * 3))
+def test_base_transform_maps_pinocchio_and_mujoco_fk_to_bhrs_frames(codes, frame, base):
+    """base_transform's 4x4 takes the exported model's FK (pinocchio and MuJoCo, in metres) onto bhr's FK in the
+    named frame (Robot.fk along +X, bhr solve along +Y, any direction), base point in mm."""
+    from bhr.model.export import BASE_DIRECTIONS, base_transform
+    from bhr.model.robot import base_frame
+
+    robot = Robot(modules=6, alpha=13)
+    direction = BASE_DIRECTIONS[frame] if isinstance(frame, str) else frame
+    want_pts, want_frames = forward_kinematics(robot, codes, base=base, frame=base_frame(direction))
+    T = base_transform(frame, base)
+    values = joint_values(codes, robot)
+    model = pin.buildModelFromXML(to_urdf(robot))
+    p_mm, f = pinocchio_points(model, pinocchio_q(model, values), full=True)
+    p_m = np.c_[p_mm * MM, np.ones(len(p_mm))] @ T.T  # the model's metres through T
+    assert np.abs(p_m[:, :3] / MM - want_pts).max() < 1e-9
+    assert np.abs(f @ T[:3, :3].T - want_frames).max() < 1e-12
+    Tmm = base_transform(frame, base, units="mm")
+    assert np.abs(np.c_[p_mm, np.ones(len(p_mm))] @ Tmm.T - np.c_[want_pts, np.ones(len(want_pts))]).max() < 1e-9
+    # MuJoCo: the base body placed by T (pos, quat) puts the model where bhr's FK is
+    quat = np.zeros(4)
+    mujoco.mju_mat2Quat(quat, T[:3, :3].ravel())
+    xml = to_mjcf(robot).replace('<body name="base" pos="0 0 0" quat="1 0 0 0">',
+                                 f'<body name="base" pos="{" ".join(repr(float(v)) for v in T[:3, 3])}" '
+                                 f'quat="{" ".join(repr(float(v)) for v in quat)}">')
+    m = mujoco.MjModel.from_xml_string(xml)
+    d = mujoco.MjData(m)
+    d.qpos[:] = values
+    mujoco.mj_kinematics(m, d)
+    from bhr.studies.physics import mujoco_points
+
+    mp, mf = mujoco_points(m, d, 6)
+    assert np.abs(mp - want_pts).max() < 1e-9
+    assert np.abs(mf - want_frames).max() < 1e-12
+
+
+def test_base_transform_of_the_solve_chain_and_robot_fk():
+    """The chapter 5 chain of bhr solve starts straight along +Y; Robot.fk along +X: both from the model's +Z."""
+    from bhr.model.export import base_transform
+
+    assert np.array_equal(base_transform("solve")[:3, :3] @ [0, 0, 1], [0, 1, 0])
+    assert np.array_equal(base_transform("follow")[:3, :3] @ [0, 0, 1], [1, 0, 0])
+    assert np.array_equal(base_transform("model"), np.eye(4))
+    res = bhr.solve([0, 10, 0], modules=5, module_length=2)  # on the straight chain's axis: stays straight
+    tip = base_transform("solve", units="mm") @ [0, 0, 10, 1]
+    assert np.allclose(res.points[-1], tip[:3])
+    for bad, msg in (("folow", "unknown frame"), ((1, 0), "3 numbers")):
+        with pytest.raises(BhrError, match=msg):
+            base_transform(bad)
+    with pytest.raises(BhrError, match="units"):
+        base_transform("follow", units="cm")

@@ -188,9 +188,20 @@ def test_results_print_short():
 
 
 def test_a_run_says_when_it_touched_the_wall():
-    run = bhr.follow(bhr.trajectory("anatomy", seed=3))
+    run = bhr.follow(bhr.trajectory("anatomy", seed=3), solver="lumen", alpha=20)
+    assert run.summary.extra["left_lumen_step"] is None and run.summary.extra["wall_touch_steps"]
     assert run.success is False and run.status == "touched the wall" and "touches the wall at" in run.reason
     assert bhr.follow(bhr.trajectory("curve")).success is True
+
+
+def test_a_run_that_left_the_lumen_says_so_before_touching_and_tolerance():
+    """The gravest verdict wins: the thesis robot on colon 3 goes through the wall (and touches it, and is out of
+    tolerance); its verdict is that it left the lumen, with the step and the depth."""
+    run = bhr.follow(bhr.trajectory("anatomy", seed=3))
+    x = run.summary.extra
+    assert x["wall_touch_steps"] and run.summary.tolerance_exceeded and x["left_lumen_step"] is not None
+    assert run.status == "left the lumen" and f"left the lumen at step {x['left_lumen_step']}" in run.reason
+    assert run.summary.to_dict()["verdict"] == "left the lumen" and run.finished == "ran to the end"
 
 
 def test_every_quantity_has_its_unit_in_its_name_and_the_old_names_are_gone():

@@ -112,7 +112,7 @@ def test_fixed_rate_schedules_are_checked_and_auto_schedules_fit():
     # and the auto schedule, replayed as fixed times (with the link margin), is still accepted
     again = T.simulate(P, auto.times_ms, rows)
     assert again.faults == []
-    assert "steps" in T.summarize(auto, "x") and "board's limits" in T.summarize(auto)
+    assert "steps" in T.summarize(auto, "x") and "at the wires' pace, at most " in T.summarize(auto)
 
 
 def test_bad_thermal_tables_are_one_line():

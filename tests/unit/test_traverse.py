@@ -11,6 +11,7 @@ import subprocess
 import warnings
 from pathlib import Path
 
+import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
@@ -247,3 +248,70 @@ def test_the_table_says_when_designs_are_left_out():
     assert len(shown) == 8
     assert "the best 8 of 9 designs shown; 1 more (down to design #1, 0% traversed) are in designs.csv" in lines[-2]
     assert len([ln for ln in format_study(r, count=9)[2:] if ln[:5].strip().isdigit()]) == 9
+
+
+def _tied_result(clearances):
+    """A study whose designs all traverse every colon: only the clearance left tells them apart."""
+    study = build_study([("alpha", (20, 25, 30)), ("module_length", (5, 6))], "1-2")
+    runs = [{"solver": "thesis", "alpha": a, "module_length": ml, "seed": s, "status": "ok", "steps": 5,
+             "traversed": True, "max_penetration_mm": 0.0, "touch_steps": 0, "contact_length_mm": 0.0,
+             "min_clearance_mm": clearances[(a, ml)] + 0.1 * s}
+            for a in (20, 25, 30) for ml in (5, 6) for s in (1, 2)]
+
+    class R:
+        runner, wall_time_s, clearance_kind, failed = "in-process", 1.0, "geometric", []
+
+    r = R()
+    r.study, r.designs, r.runs = study, design_rows(study, runs, {}), runs
+    return r
+
+
+CLEAR = {(20, 5): 0.9, (20, 6): 0.5, (25, 5): 1.3, (25, 6): 0.7, (30, 5): 0.4, (30, 6): 1.1}
+
+
+def test_the_ranking_metric_and_the_robot_judged_are_in_the_table_and_the_answer():
+    from bhr.studies.traverse import DESIGN_COLUMNS, answer_line, format_study
+
+    r = _tied_result(CLEAR)
+    best = min(r.designs, key=lambda d: d["rank"])
+    assert (best["alpha"], best["module_length"]) == (25, 5) and best["ranked_by"] == "worst clearance"
+    assert {"robot_judged", "rank", "ranked_by"} <= set(DESIGN_COLUMNS)
+    assert {d["robot_judged"] for d in r.designs} == {"head only (5 modules)"}
+    assert sorted(d["rank"] for d in r.designs) == [1, 2, 3, 4, 5, 6]
+    line = answer_line(r)
+    assert "head only (5 modules)" in line
+    assert "ahead of design #6 by its worst clearance, 1.40 mm against 1.20 mm; a tie-break at the same pass rate" \
+        in line
+    lines = format_study(r)
+    assert any(x.startswith("Robot judged: head only (5 modules)") for x in lines)
+    assert any(x.startswith("Ranked by pass rate, then worst penetration, then worst clearance") for x in lines)
+    assert lines[3].rstrip().endswith("ranked by") and lines[4].endswith("worst clearance")
+
+
+def test_a_whole_robot_is_labelled_as_one():
+    from bhr.studies.traverse import robot_judged
+
+    study = build_study([("alpha", (25,)), ("body_modules", (5, 300))], "1")
+    assert robot_judged(study, {"alpha": 25, "body_modules": 300}) == "whole robot (300 modules)"
+    assert robot_judged(study, {"alpha": 25, "reach": "cecum"}) == "whole robot (to the cecum)"
+    assert robot_judged(study, {"alpha": 25, "modules": 7}) == "head only (7 modules)"
+
+
+def test_the_pass_rate_map_shows_ties_by_their_tie_break_and_marks_the_best():
+    """Every design at 100 %: one colour of pass rate would hide the ranking; the map colours the worst clearance,
+    says so, writes each cell's rank and marks the best cell."""
+    from matplotlib.patches import Rectangle
+
+    from bhr.studies.traverse import passrate_figure
+
+    r = _tied_result(CLEAR)
+    fig = passrate_figure(r, "alpha", "module_length")
+    ax = fig.axes[0]
+    image = ax.images[0].get_array()
+    assert np.ptp(np.asarray(image)) > 0  # not one colour
+    assert "tie-break" in fig.axes[1].get_ylabel()
+    texts = [t.get_text() for t in ax.texts]
+    assert any(t.startswith("rank 1: 100%") and "clear 1.40 mm" in t for t in texts) and "best" in texts
+    dashed = [p for p in ax.patches if isinstance(p, Rectangle) and p.get_linestyle() == "--"]
+    assert len(dashed) == 1 and dashed[0].get_xy() == pytest.approx((1 - 0.46, 0 - 0.46))  # alpha 25, length 5
+    assert "robot judged: head only (5 modules)" in ax.get_title()
