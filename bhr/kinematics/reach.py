@@ -16,7 +16,7 @@ import itertools
 import math
 
 import numpy as np
-from bhr._numba import njit
+from numba import njit
 
 from bhr.kinematics.codetable import LIFT_OF, SEARCH_INDEX
 from bhr.kinematics.frames import fk_reference, tilt_frame

@@ -85,7 +85,7 @@ def test_tight_curve_warns_and_completes():
         r = follow(tr)
     assert r.steps == len(tr.points)
     assert any("57.15" in w for w in r.warnings)
-    assert r.summary()["warnings"]
+    assert r.summary.warnings
 
 
 def test_cli_tight_curve_warning_line(run_bhr, tmp_path):
