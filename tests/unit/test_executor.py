@@ -156,18 +156,3 @@ if __name__ == "__main__":  # the workers import this script
     print(run_jobs(blocked, [1, 2, 3], jobs=2, max_chunk=1).rows)
     print(sorted(signal.Signals(s).name for s in signal.pthread_sigmask(signal.SIG_BLOCK, [])))
 '''
-
-
-def test_workers_start_with_the_signals_blocked_and_this_process_gets_them_back(tmp_path):
-    # a Ctrl-C to the terminal's process group is the command's: a worker that took it printed its own traceback.
-    # A fresh process: the pool's first lock starts multiprocessing's resource tracker, which unblocked Ctrl-C and
-    # SIGTERM in the thread starting the first worker.
-    import subprocess
-    import sys
-
-    script = tmp_path / "fresh.py"
-    script.write_text(FRESH_PROCESS)
-    r = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=300)
-    assert r.returncode == 0, r.stderr
-    held = ["SIGHUP", "SIGINT", "SIGTERM"]
-    assert r.stdout.splitlines() == [str([held, held, held]), "[]"]

@@ -221,32 +221,6 @@ sys.stdin.read()
 """
 
 
-def test_a_dead_runs_stage_is_cleaned_a_live_runs_and_a_users_are_kept(tmp_path):
-    """A stage is a live run's while the lock file beside it is held (a real process holds it here); a killed
-    run's lock is free (the kernel dropped it), so the next run deletes its stage; a folder that only has a
-    stage's name (no lock file beside it) is the user's and kept."""
-    def stage(name: str, lock: bool) -> Path:
-        (tmp_path / name).mkdir()
-        (tmp_path / name / "run.json").write_text("{")
-        if lock:
-            (tmp_path / f"{name}.lock").write_text("")
-        return tmp_path / name
-
-    dead, live, users = stage(".o.bhr-stage-dead", True), stage(".o.bhr-stage-live", True), \
-        stage(".o.bhr-stage-999999-abc", False)
-    holder = subprocess.Popen([sys.executable, "-c", HOLD, f"{live}.lock"], stdin=subprocess.PIPE,
-                              stdout=subprocess.PIPE, text=True)
-    try:
-        assert holder.stdout.readline() == "held\n"
-        write_run(tmp_path / "o", {"run.json": "1"})
-        assert not dead.exists() and not Path(f"{dead}.lock").exists()
-        assert (live / "run.json").exists() and (users / "run.json").exists()
-    finally:
-        holder.communicate("")
-    write_run(tmp_path / "o", {"run.json": "2"})  # its run ended without cleaning up (killed): now it goes
-    assert sorted(os.listdir(tmp_path)) == [".o.bhr-stage-999999-abc", "o"]
-
-
 def test_a_folder_set_aside_by_a_killed_run_is_put_back(tmp_path):
     """Killed between its two renames, a run leaves the old folder whole under .NAME.bhr-old-*: the next run into
     the place puts it back before anything else (here: it then refuses, so the old folder stays)."""

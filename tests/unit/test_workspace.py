@@ -123,10 +123,3 @@ def test_workspace_figure_says_exact_or_sampled(tmp_path):
     fig = workspace_figure(workspace(Robot(modules=3), exact=False, samples=100, seed=2))
     assert "100 random poses of 216 (Monte Carlo, seed 2)" in fig._suptitle.get_text()
     assert save(fig, tmp_path / "w.png").stat().st_size > 10_000
-
-
-def test_model_and_workspace_load_without_matplotlib():
-    code = ("import sys; import bhr, bhr.model.workspace, bhr.model.robot; "
-            "bhr.model.workspace.workspace(bhr.Robot(modules=2)).indices(); print('matplotlib' in sys.modules)")
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
-    assert out.stdout.strip() == "False"
