@@ -27,8 +27,8 @@ OUTPUTS = ("designs.csv", "runs.csv", "study.json", "passrate.png", "worst-colon
 @click.option("--y", "hy", default=None, metavar="KEY", help="Heat-map rows [the next one].")
 @click.option("--no-plots", "no_plot", is_flag=True, help="Skip the figures (passrate.png, worst-colon.png).")
 @click.option("--title", default=None, help="Title of the heat-map and page.")
-@click.option("--physics", is_flag=True, help="Replay the answer's worst colon in MuJoCo (worst-colon-physics.json, "
-              "worst-colon-force.png; docs/physics.md).")
+@click.option("--physics", is_flag=True, help="Replay the answer's worst colon as the physical robot against the wall "
+              "(worst-colon-physics.json, worst-colon-force.png; docs/physics.md).")
 @guarded
 def traverse(grid, colons, solvers, target_pass, robot_file, out_dir, force, jobs, scheduler, hx, hy, no_plot, title,
              physics):
@@ -62,9 +62,6 @@ def traverse(grid, colons, solvers, target_pass, robot_file, out_dir, force, job
         if no_plot:
             raise BhrError("--physics replays the worst colon beside its figures (worst-colon-force.png); drop "
                            "--no-plots or --physics")
-        from bhr.studies.physics import check_installed
-
-        check_installed("mujoco")
     import dataclasses
 
     from bhr.cli._common import default_output, input_files, print_study

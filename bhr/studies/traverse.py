@@ -702,7 +702,7 @@ def write_study(result: StudyResult, out_dir: Any, *, plot: bool = True,
                 save_figure(penetration_figure(result, focus, worst_run), stage / "worst-colon.png")
                 worst = "worst-colon.png"
                 names.append(worst)
-                from bhr.studies.physics import worst_colon_extras  # the 3-D view; with physics, the MuJoCo replay
+                from bhr.studies.physics.extras import worst_colon_extras  # the 3-D view; with physics, the replay
 
                 names += worst_colon_extras(worst_run, stage, physics)
         write_json(stage / "study.json", {
