@@ -22,7 +22,7 @@ WIRES_PER_TILT = 2
 
 
 def lever_mm(robot) -> float:
-    """The wires' lever: the robot file's ``lever``, else one module diameter (as :attr:`bhr.model.robot.Robot.lift`)."""
+    """The wires' lever: the robot file's ``lever``, else one module diameter (as ``Robot.lift`` takes it)."""
     if getattr(robot, "lever", None):
         return float(robot.lever)
     return 2.0 * float(robot.radius)
