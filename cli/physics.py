@@ -44,6 +44,9 @@ def physics(run, out_dir, force, wall_stiffness, wire_force, feeder_force, subst
     given = {"wall_stiffness": wall_stiffness, "wire_force": wire_force, "feeder_force": feeder_force,
              "substeps": substeps, "max_wall_force": max_wall_force}
     opts = {k: BY_NAME[k].default if v is None else BY_NAME[k].check(v, "physics") for k, v in given.items()}
+    for k, v in opts.items():
+        if not v > 0:
+            raise BhrError(f"--{k.replace('_', '-')} must be greater than 0, got {v:g}")
     from bhr.studies.physics import check_wall_stiffness
 
     check_wall_stiffness(float(opts["wall_stiffness"]))
