@@ -194,13 +194,6 @@ def _energy(z, target, x_target, base, d0, A0, length, radius, ns, k_wall, k_joi
 
 
 @njit(cache=True)
-def _solve2(D, b):
-    """x = D^-1 b for a symmetric 2 x 2 D (positive definite)."""
-    det = D[0, 0] * D[1, 1] - D[0, 1] * D[1, 0]
-    return ((D[1, 1] * b[0] - D[0, 1] * b[1]) / det, (D[0, 0] * b[1] - D[1, 0] * b[0]) / det)
-
-
-@njit(cache=True)
 def _newton_step(z, grad, x_target, d0, ns, k_wall, length, k_joint, k_feed, f_feed, pen, Aprev, Jl, P, nrm, spos,
                  dist, out):
     """The Gauss-Newton step: out = -H^-1 grad, H = the joints' and the feeder's stiffness + the wall's
@@ -227,14 +220,15 @@ def _newton_step(z, grad, x_target, d0, ns, k_wall, length, k_joint, k_feed, f_f
                         IA[j + 1, a, b] += c * wv[a] * wv[b]
                 # the wall's curvature across the lumen: pen grows as |s - centre|, whose Hessian is
                 # (I - m m^T) / d (m the unit direction from the centre); c pen (I - m m^T) / d, PSD
-                if dist[i] > 1e-9:
+                if dist[i] > 1e-9 and (n0 != 0.0 or n1 != 0.0 or n2 != 0.0):
                     kt = c * pen[i] / dist[i]
                     G[0, 1], G[0, 2] = s2, -s1
                     G[1, 0], G[1, 2] = -s2, s0
                     G[2, 0], G[2, 1] = s1, -s0
+                    nn = math.sqrt(n0 * n0 + n1 * n1 + n2 * n2)  # nrm carries the radius's slope: unit here
                     for e in range(3):
                         for f in range(3):
-                            K3[e, f] = kt * ((1.0 if e == f else 0.0) - nrm[i, e] * nrm[i, f])
+                            K3[e, f] = kt * ((1.0 if e == f else 0.0) - nrm[i, e] * nrm[i, f] / (nn * nn))
                     for e in range(3):
                         for bb in range(6):
                             KG[e, bb] = K3[e, 0] * G[0, bb] + K3[e, 1] * G[1, bb] + K3[e, 2] * G[2, bb]
@@ -275,6 +269,9 @@ def _newton_step(z, grad, x_target, d0, ns, k_wall, length, k_joint, k_feed, f_f
             u[j, q] = -grad[1 + 2 * j + q] - acc
         # the parent's articulated inertia and bias
         det = Dm[j, 0, 0] * Dm[j, 1, 1] - Dm[j, 0, 1] * Dm[j, 1, 0]
+        if not det > 1e-300:  # rounding lost the articulated inertia's definiteness: the wires' stiffness alone
+            Dm[j, 0, 0], Dm[j, 0, 1], Dm[j, 1, 0], Dm[j, 1, 1] = k_joint, 0.0, 0.0, k_joint
+            det = k_joint * k_joint
         i00, i01, i10, i11 = Dm[j, 1, 1] / det, -Dm[j, 0, 1] / det, -Dm[j, 1, 0] / det, Dm[j, 0, 0] / det
         du0 = i00 * u[j, 0] + i01 * u[j, 1]
         du1 = i10 * u[j, 0] + i11 * u[j, 1]
@@ -292,6 +289,8 @@ def _newton_step(z, grad, x_target, d0, ns, k_wall, length, k_joint, k_feed, f_f
         U0[a] = IA[0, a, 3] * d0[0] + IA[0, a, 4] * d0[1] + IA[0, a, 5] * d0[2]
     D0 = U0[3] * d0[0] + U0[4] * d0[1] + U0[5] * d0[2] + kf
     u0 = -grad[0] - (pA[0, 3] * d0[0] + pA[0, 4] * d0[1] + pA[0, 5] * d0[2])
+    if not D0 > 0.0:
+        D0 = kf
     q0 = u0 / D0
     out[0] = q0
     acc6 = np.zeros(6)
