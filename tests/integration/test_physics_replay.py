@@ -2,8 +2,9 @@
 
 A rigid chain held straight and pressed a known depth into one side of a straight lumen loads the wall with the
 wall's stiffness x depth x contact length; the wall is the same for 5 and 6 mm modules; modules keep their length
-at every pose; a robot clear of bhr's wall touches nothing and stays on its poses; the wall's load converges as the
-motion between poses is refined; the command writes its set and refuses bad input in one line.
+at every pose (any codes, a hypothesis property); a robot clear of bhr's wall touches nothing and stays on its poses;
+the wall's load converges as the motion between poses is refined; the command writes its set and refuses bad input in
+one line.
 """
 from __future__ import annotations
 
@@ -14,6 +15,8 @@ from types import SimpleNamespace
 
 import numpy as np
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 import bhr
 from bhr.model.path import Trajectory
@@ -184,3 +187,31 @@ def test_joint_stiffness_is_the_wires_pull_over_the_tilt():
     assert joint_stiffness(r) == pytest.approx(2 * WIRE_FORCE_N * 10.0 / math.radians(25.0))
     assert joint_stiffness(Robot(stroke=1.7365, lever=10.0)) == pytest.approx(
         2 * WIRE_FORCE_N * 10.0 / math.asin(0.17365))
+
+
+@settings(max_examples=15, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(codes=st.lists(st.sampled_from([0, 3, 6, 12, 9]), min_size=3, max_size=12),
+       lumen=st.floats(min_value=8.0, max_value=60.0), alpha=st.floats(min_value=5.0, max_value=30.0))
+def test_any_codes_in_a_straight_lumen_keep_modules_rigid_and_load_only_where_bhrs_wall_is(codes, lumen, alpha):
+    """Whatever the codes and the lumen: every module keeps its length, the wall's load is the sum of the
+    modules', and a pose whose every axis point is clear of bhr's tube loads nothing and is kept exactly."""
+    from bhr.studies.physics.poses import code_tilts
+
+    n = len(codes)
+    robot = Robot(modules=n, module_length=5.0, radius=3.0, alpha=alpha)
+    frame = base_frame(np.array([1.0, 0.0, 0.0]))
+    tilts = code_tilts(np.array([codes]), math.radians(alpha))
+    pts = chain_points(np.zeros(3), frame, tilts[0], 5.0)[None]
+    poses = Poses(np.zeros(1), np.zeros(1), pts, tilts, np.array([codes]), np.array([1]), np.zeros(3), frame, 5.0)
+    tr = _straight_lumen(lumen / 2.0)
+    rep = replay_poses(poses, SimpleNamespace(trajectory=tr, robot=robot))
+    _rigid(rep, 5.0)
+    assert rep.total_force_n[0] == pytest.approx(rep.module_force_n[0].sum(), rel=1e-12, abs=1e-12)
+    s = np.linspace(0.0, 1.0, 41)
+    axis = (pts[0][:-1, None] + s[None, :, None] * np.diff(pts[0], axis=0)[:, None]).reshape(-1, 3)
+    # the straight lumen's clearance: its radius - the robot's - the distance from the x axis (x >= 0 here)
+    clear = lumen / 2.0 - 3.0 - np.hypot(axis[:, 1], axis[:, 2])
+    if np.all(axis[:, 0] >= 0.0) and clear.min() > 0.0:
+        assert rep.total_force_n[0] == 0.0 and rep.deviation_mm[0] <= 1e-9
+    if clear.min() < -0.5:
+        assert rep.total_force_n[0] > 0.0
