@@ -215,3 +215,25 @@ def test_any_codes_in_a_straight_lumen_keep_modules_rigid_and_load_only_where_bh
         assert rep.total_force_n[0] == 0.0 and rep.deviation_mm[0] <= 1e-9
     if clear.min() < -0.5:
         assert rep.total_force_n[0] > 0.0
+
+
+def test_a_runs_poses_file_is_read_as_the_contract_says(tmp_path):
+    """poses.npz beside run.json (t_s, insertion_mm, points_mm, tilts_rad, codes, step) is what the replay reads;
+    a file with a wrong shape is refused in one line."""
+    from bhr.studies.physics import load_poses, replay_physics
+    from bhr.settings.errors import BhrError
+
+    run = _run(30, 12)
+    p = poses_from_run(run)
+    (tmp_path / "run.json").write_text(run.to_json())
+    arrays = {k: getattr(p, k) for k in ("t_s", "insertion_mm", "points_mm", "tilts_rad", "codes", "step")}
+    np.savez(tmp_path / "poses.npz", **arrays)
+    q = load_poses(tmp_path / "run.json", run)
+    for k, v in arrays.items():
+        assert np.array_equal(getattr(q, k), v)
+    a, b = replay_physics(run, tmp_path / "run.json"), replay_poses(p, run)
+    assert np.array_equal(a.points_mm, b.points_mm)
+    np.savez(tmp_path / "poses.npz", **{**arrays, "codes": arrays["codes"][:, :-1]})
+    with pytest.raises(BhrError) as e:
+        load_poses(tmp_path / "run.json", run)
+    assert "codes has shape" in str(e.value) and "\n" not in str(e.value)
