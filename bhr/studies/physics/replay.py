@@ -348,6 +348,13 @@ def _equilibrium(z, target, x_target, base, d0, A0, length, radius, ns, k_wall, 
             break
         _newton_step(z, grad, x_target, d0, ns, k_wall, length, k_joint, k_feed, f_feed, pen, Aprev, Jl, P, nrm,
                      spos, dist, step)
+        finite = True
+        for i in range(n):
+            if not math.isfinite(step[i]):
+                finite = False
+        if not finite:  # the recursion lost itself in rounding: a gradient step, scaled by the wires' stiffness
+            for i in range(n):
+                step[i] = -grad[i] / (k_feed if i == 0 else k_joint)
         slope = 0.0
         for i in range(n):
             slope += grad[i] * step[i]
@@ -360,14 +367,18 @@ def _equilibrium(z, target, x_target, base, d0, A0, length, radius, ns, k_wall, 
                 zn[i] = z[i] + t * step[i]
             En = _energy(zn, target, x_target, base, d0, A0, length, radius, ns, k_wall, k_joint, k_feed, f_feed,
                          C, Rad, seg, found, grad, pen, Aprev, Jl, P, nrm, spos, dist)
-            if En <= E + 1e-4 * t * slope or t < 1e-12:
+            if En <= E + 1e-4 * t * slope:
+                break
+            if t < 1e-12:
                 break
             t *= 0.5
-        z[:] = zn
-        if t < 1e-12:  # no descent left along the step: the energy's kinks (the wall's nearest centerline point
-            # switching from one segment to the next) hold the gradient up; at the minimum if it is small
+        if not En <= E + 1e-4 * t * slope:  # no descent left along the step: the energy's kinks (the wall's
+            # nearest centerline point switching from one segment to the next) hold the gradient up; z stays
+            _energy(z, target, x_target, base, d0, A0, length, radius, ns, k_wall, k_joint, k_feed, f_feed, C, Rad,
+                    seg, found, grad, pen, Aprev, Jl, P, nrm, spos, dist)
             seg[:] = found
             return it + 1 if g <= lim else maxit + 1
+        z[:] = zn
         E = En
     return maxit + 1
 
@@ -609,6 +620,9 @@ def replay_poses(poses: Poses, result, *, wall_stiffness: float = DEFAULT_WALL_S
             z0[1:] += (t_s - zt_prev).reshape(-1)
             z0[0] += x_s - x_prev
             z, k, left = solve_pose(pb, z0, t_s, x_s)
+            if not np.all(np.isfinite(z)):
+                raise BhrError(f"the replay lost the robot at step {int(poses.step[i])} (a pose that is not a number); "
+                               "give more --substeps")
             n_it += min(k, MAX_ITERATIONS)
             if k > MAX_ITERATIONS:
                 unconverged += 1
