@@ -30,7 +30,7 @@ def force_figure(rep: Any, title: str = "", lines_n: tuple[float, float] = (9.8,
     a1.set_ylabel("force on the wall (N)")
     a1.set_ylim(0, max(16.0, float(rep.total_force_n.max(initial=0.0)) * 1.1))
     a1.grid(alpha=0.3)
-    a1.legend(loc="lower right", fontsize=8)
+    a1.legend(loc="center right", fontsize=8)
     reached = s["reached_cecum_step"]
     a1.set_title(title or "the wall's load along the run", fontsize=10)
     a2.plot(x, rep.stretch_mm, color="tab:blue", lw=1.0, label="wall pushed out of place (largest, mm)")
