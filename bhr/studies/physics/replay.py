@@ -22,7 +22,7 @@ from dataclasses import dataclass
 from typing import Any, Callable
 
 import numpy as np
-from bhr._numba import njit
+from numba import njit
 
 from bhr.model.tube import scan_from, segment_scan
 from bhr.settings.errors import BhrError
