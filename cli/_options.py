@@ -11,7 +11,7 @@ from typing import Any, Callable
 import click
 
 from bhr.settings.errors import BhrError
-from bhr.settings.options import MAX_MM, Option, by_group, check_number, excerpt, parse_number
+from bhr.settings.options import BY_NAME, MAX_MM, Option, by_group, check_number, excerpt, parse_number
 
 
 def plain_number(text: str) -> bool:
@@ -200,6 +200,15 @@ def model_modules_option(f: Any) -> Any:
     o = next(o for o in by_group("run") if o.name == "body_modules")
     return _click_option(replace(o, help="The whole robot has M modules (M >= --modules): the model's links",
                                  shown="--modules"))(f)
+
+
+def max_wall_force_option(f: Any) -> Any:
+    """``bhr traverse --max-wall-force N``: the registry's entry (bhr.settings.options); left out, the study keeps the
+    geometric verdict and replays nothing."""
+    import dataclasses
+
+    return _click_option(dataclasses.replace(BY_NAME["max_wall_force"], shown="not given: the geometric verdict; "
+                                             "bhr physics's default 9.8"))(f)
 
 
 def physics_options(f: Any) -> Any:

@@ -1,4 +1,4 @@
-"""bhr physics: replay a run in MuJoCo against the colon wall (contact forces, deviation from bhr's pose)."""
+"""bhr physics: the physical robot of a run against the colon wall (the wall's load, stretch, reaching the cecum)."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -20,11 +20,13 @@ PHYSICS_NAMES = ("physics.json", "force.png", "view.html", "manifest.json")
 @force_option
 @physics_options
 @guarded
-def physics(run, out_dir, force, wall_stiffness, physics_rate, substeps):
-    """Replay a run (run.json of `bhr follow`, with a lumen and codes) in MuJoCo against the colon wall.
+def physics(run, out_dir, force, wall_stiffness, wire_force, feeder_force, substeps, max_wall_force):
+    """Replay a run (run.json of `bhr follow`, with a lumen and codes) as the physical robot: rigid modules, joints
+    held by their wires, the feeder pushing the rear end, against the colon's wall.
 
-    Writes DIR/physics.json (per step the largest contact force in N, where, and the deviation from bhr's
-    pose in mm; a summary), DIR/force.png and DIR/view.html. Example:
+    Reads poses.npz beside RUN.json when there is one, else the run's codes at every step. Writes DIR/physics.json
+    (per step the wall's load in N, per module, the largest pressure, the stretch; a summary), DIR/force.png and
+    DIR/view.html. Example:
 
     \b
         bhr physics bhr-out/latest/run.json
@@ -39,40 +41,46 @@ def physics(run, out_dir, force, wall_stiffness, physics_rate, substeps):
         from bhr.settings.inputs import latest_note
 
         raise BhrError(f"{run}: no such run file{latest_note(Path(run))}; give the run.json that 'bhr follow' wrote")
-    opts = {"wall_stiffness": BY_NAME["wall_stiffness"].default if wall_stiffness is None else wall_stiffness,
-            "rate": BY_NAME["physics_rate"].default if physics_rate is None else physics_rate,
-            "substeps": BY_NAME["substeps"].default if substeps is None else substeps}
+    given = {"wall_stiffness": wall_stiffness, "wire_force": wire_force, "feeder_force": feeder_force,
+             "substeps": substeps, "max_wall_force": max_wall_force}
+    opts = {k: BY_NAME[k].default if v is None else BY_NAME[k].check(v, "physics") for k, v in given.items()}
+    for k, v in opts.items():
+        if not v > 0:
+            raise BhrError(f"--{k.replace('_', '-')} must be greater than 0, got {v:g}")
+    from bhr.studies.physics import check_wall_stiffness
+
+    check_wall_stiffness(float(opts["wall_stiffness"]))
     if out_dir is None and run == "-":
         raise BhrError("give --out DIR for a run read from standard input (the default folder is named by the run's "
                        "file)")
     from bhr.cli._common import default_output, input_files, point_latest_if_default
 
-    # as every command's: --out, or bhr-out/physics-<the run's folder>-<hash of the run's file and the options>
     source = Path(run).resolve()
     readable = f"physics-{source.parent.name if source.name == 'run.json' else source.stem}"
     folder = default_output("physics", readable, (sorted(opts.items()),), input_files(run), PHYSICS_NAMES, out_dir,
                             force=force)
-    from bhr.studies.physics import check_replay_options, force_figure, replay_physics, require
+    from bhr.studies.physics import replay_physics
 
-    check_replay_options(**opts)
     result = load_run(run)
-
-    require("mujoco")
-    with status(f"replaying {result.steps} steps in MuJoCo", log=True):
-        rep = replay_physics(result, **opts)
+    with status(f"replaying {result.steps} steps against the wall", log=True):
+        rep = replay_physics(result, None if run == "-" else run, **opts)
+    from bhr.output.physics_plot import force_figure
     from bhr.output.plots import save_figure
     from bhr.output.view import save_view
 
     with folder:
         write_json(folder.path("physics.json"), rep.to_dict())
-        save_figure(force_figure(rep, f"{result.trajectory.name}: {result.solver} solver, MuJoCo replay"),
+        save_figure(force_figure(rep, f"{result.trajectory.name}: {result.solver} solver, the physical robot"),
                     folder.path("force.png"))
         save_view(result, folder.stage, contacts=rep.contacts)
     point_latest_if_default(folder, out_dir)
     s = rep.summary()
     out = folder.final("")
-    where = f" at step {s['max_force_step']}" if s["max_force_step"] else ""
-    click.echo(f"largest contact force {s['max_force_n']:.2f} N{where}; contact at {len(s['contact_steps'])} of "
-               f"{s['steps']} steps; largest deviation from bhr's pose {s['max_deviation_mm']:.3f} mm; "
+    where = f" at step {s['max_total_force_step']}" if s["max_total_force_step"] else ""
+    reach = (f"tip at the cecum from step {s['reached_cecum_step']}" if s["reached_cecum_step"] else
+             "tip never at the cecum")
+    click.echo(f"wall load at most {s['max_total_force_n']:.2f} N{where} (one module {s['max_module_force_n']:.2f} N, "
+               f"{s['max_pressure_kpa']:.0f} kPa); wall pushed out {s['max_stretch_mm']:.1f} mm at most; {reach}; "
+               f"{'traversed' if s['traversed'] else 'not traversed'} (at most {s['max_wall_force_n']:g} N); "
                f"{s['cpu_s']:.1f} s CPU")
     click.echo(f"Wrote {out / 'physics.json'}, {out / 'force.png'}, {out / 'view.html'}")

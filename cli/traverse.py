@@ -5,7 +5,7 @@ from __future__ import annotations
 import click
 
 from bhr.cli._common import check_executor, guarded
-from bhr.cli._options import Share, study_options
+from bhr.cli._options import Share, max_wall_force_option, study_options
 
 OUTPUTS = ("designs.csv", "runs.csv", "study.json", "passrate.png", "worst-colon.png", "index.html")
 
@@ -27,14 +27,16 @@ OUTPUTS = ("designs.csv", "runs.csv", "study.json", "passrate.png", "worst-colon
 @click.option("--y", "hy", default=None, metavar="KEY", help="Heat-map rows [the next one].")
 @click.option("--no-plots", "no_plot", is_flag=True, help="Skip the figures (passrate.png, worst-colon.png).")
 @click.option("--title", default=None, help="Title of the heat-map and page.")
-@click.option("--physics", is_flag=True, help="Replay the answer's worst colon in MuJoCo (worst-colon-physics.json, "
-              "worst-colon-force.png; docs/physics.md).")
+@max_wall_force_option
+@click.option("--physics", is_flag=True, help="Replay the answer's worst colon as the physical robot against the wall "
+              "(worst-colon-physics.json, worst-colon-force.png; docs/physics.md).")
 @guarded
 def traverse(grid, colons, solvers, target_pass, robot_file, out_dir, force, jobs, scheduler, hx, hy, no_plot, title,
-             physics):
+             max_wall_force, physics):
     """Follow a population of anatomical colons with every design of a grid.
 
-    A colon is traversed when the robot touches its wall at no step. Prints,
+    A colon is traversed when the robot touches its wall at no step (with --max-wall-force: when the physical
+    robot, replayed against the wall, reaches the cecum with the wall's load never above N). Prints,
     per design, the share of colons traversed, the worst and median
     penetration into the wall and the contact length, then the best design
     that traverses at least --target-pass of the colons. Writes into DIR
@@ -56,15 +58,13 @@ def traverse(grid, colons, solvers, target_pass, robot_file, out_dir, force, job
 
     check_executor(jobs, scheduler)
     study = build_study([parse_grid_option(g) for g in grid], colons, solvers=solvers or ("thesis",),
-                        target=target_pass, robot_file=robot_file, title=title or "bhr traverse")
+                        target=target_pass, robot_file=robot_file, title=title or "bhr traverse",
+                        max_wall_force=max_wall_force)
     heatmap_axes(study, hx, hy)  # refuse unknown heat-map axes before running
     if physics:  # before the study: it ran whole, then --physics was refused, or silently skipped with --no-plots
         if no_plot:
             raise BhrError("--physics replays the worst colon beside its figures (worst-colon-force.png); drop "
                            "--no-plots or --physics")
-        from bhr.studies.physics import check_installed
-
-        check_installed("mujoco")
     import dataclasses
 
     from bhr.cli._common import default_output, input_files, print_study

@@ -223,12 +223,18 @@ OPTIONS: tuple[Option, ...] = (
            "axis outside the wall): a study then scores no pose a real robot cannot take (docs/lumen.md)", None,
            shown="run to the end"),
     # the physics replay (bhr.studies.physics, docs/physics.md)
-    Option("wall_stiffness", "physics", float, "Colon wall stiffness per module length of wall, N/mm (published "
-           "0.7-2.4)", 1.5, "N/mm", 24.0, positive=True, metavar="N/MM"),
-    Option("physics_rate", "physics", float, "Steps per second of the replay (the servos settle within a step)",
-           20.0, "Hz", 1000.0, positive=True, cli="rate", metavar="HZ"),
-    Option("substeps", "physics", int, "MuJoCo time steps per run step (16: 3.125 ms at 20 Hz, where the largest "
-           "force has converged)", 16, maximum=1000, positive=True),
+    Option("wall_stiffness", "physics", float, "Colon wall stiffness per mm of robot in contact, N/mm per mm "
+           "(published indentation 0.7-2.4 N/mm over a 13 mm colonoscope head: 0.054-0.185)", 0.1192, "N/mm^2", 2.0,
+           positive=True, metavar="N/MM2"),
+    Option("wire_force", "physics", float, "Recovery force of one actuator wire, N (0.100 mm Flexinol: 1.47); with "
+           "the lever and alpha it sets how stiffly the wires hold a joint", 1.4709975, "N", 1000.0, positive=True,
+           metavar="N"),
+    Option("feeder_force", "physics", float, "Force limit of the feeder that pushes the robot's rear end, N (the "
+           "largest push measured on a colonoscope: 4.4 kg)", 43.14926, "N", 10000.0, positive=True, metavar="N"),
+    Option("substeps", "physics", int, "Equilibria solved from one written pose to the next at least (more where a "
+           "joint would move over 2 mm)", 1, maximum=1000, positive=True),
+    Option("max_wall_force", "physics", float, "Largest total wall force a traversal may put on the colon, N "
+           "(9.8: exceeded 5 % of the time in colonoscopy)", 9.8, "N", 10000.0, positive=True, metavar="N"),
 )
 
 BY_NAME: dict[str, Option] = {o.name: o for o in OPTIONS}

@@ -195,6 +195,9 @@ class Sweep:
     robot_file: str | None = None
     #: Further keys of each run's summary to keep in its row, after :data:`METRICS` (e.g. lumen keys).
     extra: tuple[str, ...] = ()
+    #: Replay every run as the physical robot against the wall (bhr.studies.physics) with these options
+    #: (``max_wall_force`` among them); () = no replay.
+    physics: tuple[tuple[str, Any], ...] = ()
 
     @property
     def axes(self) -> list[tuple[str, tuple[Any, ...]]]:
@@ -349,11 +352,18 @@ def colon_source(traj_source: str, params: dict[str, Any]) -> tuple[str, dict[st
     return traj_source, params
 
 
+#: What a run's row gets from its physical replay (:func:`run_design` with ``physics``).
+PHYSICS_KEYS = ("peak_wall_force_n", "wall_stretch_mm", "physical_cecum_step", "physically_traversed")
+
+
 def run_design(design: dict[str, Any], traj_source: str, base_robot: dict[str, Any] | None = None,
-               extra: Sequence[str] = ()) -> dict[str, Any]:
+               extra: Sequence[str] = (), physics: Sequence[tuple[str, Any]] = ()) -> dict[str, Any]:
     """Follow one design's trajectory; return its row (design keys, :data:`METRICS`, then the summary's
-    ``extra`` keys as they are, None where the summary lacks one). Never raises."""
+    ``extra`` keys as they are, None where the summary lacks one; with ``physics``, the run replayed as the
+    physical robot with those options: :data:`PHYSICS_KEYS`). Never raises."""
     row = _blank_row(design, extra)
+    if physics:
+        row.update({k: None for k in PHYSICS_KEYS})
     with capture(row):  # one failed design must not stop the sweep
         robot = make_robot({ROBOT_KEYS[k]: v for k, v in design.items() if k in ROBOT_KEYS}, base_robot)
         row["min_turn_radius_mm"] = robot.min_turn_radius
@@ -366,6 +376,12 @@ def run_design(design: dict[str, Any], traj_source: str, base_robot: dict[str, A
         summary = res.summary.to_dict()
         row.update(summary_row(summary))
         row.update({k: summary.get(k) for k in extra})
+        if physics:
+            from bhr.studies.physics import replay_physics
+
+            ps = replay_physics(res, **dict(physics)).summary()
+            row.update({"peak_wall_force_n": ps["max_total_force_n"], "wall_stretch_mm": ps["max_stretch_mm"],
+                        "physical_cecum_step": ps["reached_cecum_step"], "physically_traversed": ps["traversed"]})
     return row
 
 
@@ -418,8 +434,8 @@ def run_sweep(sweep: Sweep, *, jobs: int | None = None, scheduler: Any = None,
     ``progress(done, total)`` is called as designs finish.
     """
     base = dict(sweep.robot) or None
-    items = [(d, sweep.traj_sources.get(d["traj"], d["traj"]), base, *((sweep.extra,) if sweep.extra else ()))
-             for d in sweep.designs()]
+    tail: tuple[Any, ...] = (sweep.extra, sweep.physics) if sweep.physics else ((sweep.extra,) if sweep.extra else ())
+    items = [(d, sweep.traj_sources.get(d["traj"], d["traj"]), base, *tail) for d in sweep.designs()]
     done = run_jobs(_design_job, items, jobs=jobs, scheduler=scheduler, warm_up=warm_up,
                     warm_up_args=(sweep.solvers,), lost=_lost_design,
                     progress=None if progress is None else (lambda d, t, _row: progress(d, t)))

@@ -44,7 +44,7 @@ from bhr.settings.names import label as _label
 from bhr.settings.options import LIMITS, excerpt, solver_options_for
 from bhr.studies.study import (ROBOT_KEYS, TRAJ_KEYS, csv_text, finished_cell, make_robot, sim_options,
                                verdict_cell)
-from bhr.studies.sweep import Sweep, SweepResult, build_sweep, run_sweep
+from bhr.studies.sweep import PHYSICS_KEYS, Sweep, SweepResult, build_sweep, run_sweep
 from bhr.studies.sweep import heatmap_axes as _sweep_axes
 from bhr.model.generators import load_trajectory
 from bhr.model.robot import Robot
@@ -158,8 +158,12 @@ class Study:
 
 def build_study(grid: Sequence[tuple[str, tuple[Any, ...]]], colons: Sequence[int | str] | str, *,
                 solvers: Sequence[str] = ("thesis",), target: float = 0.95, robot_file: str | None = None,
-                title: str = "bhr traverse", where: str = "traverse") -> Study:
-    """Check and assemble a study; every design and colon is checked before anything runs."""
+                title: str = "bhr traverse", where: str = "traverse", max_wall_force: float | None = None) -> Study:
+    """Check and assemble a study; every design and colon is checked before anything runs.
+
+    ``max_wall_force`` (N): every run is also replayed as the physical robot against the wall
+    (bhr.studies.physics), and a colon counts as traversed when the replayed tip reaches the cecum with the
+    wall's load never above it (docs/physics.md)."""
     seeds = parse_colons(colons) if isinstance(colons, str) else parse_colons(list(colons))
     if isinstance(target, bool) or not isinstance(target, (int, float)) or not 0.0 < float(target) <= 1.0:
         raise BhrError(f"--target-pass must be a share of colons above 0 and at most 1 (e.g. 0.95), got {target!r}")
@@ -174,6 +178,11 @@ def build_study(grid: Sequence[tuple[str, tuple[Any, ...]]], colons: Sequence[in
     sweep = build_sweep(("anatomy",), tuple(solvers), (*grid, ("seed", seeds)), title=title, where=where,
                         robot_file=robot_file)
     sweep = dataclasses.replace(sweep, extra=LUMEN_KEYS)
+    if max_wall_force is not None:
+        v = float(max_wall_force)
+        if not (math.isfinite(v) and v > 0):
+            raise BhrError(f"--max-wall-force must be a positive force in N, got {max_wall_force!r}")
+        sweep = dataclasses.replace(sweep, physics=(("max_wall_force", v),))
     return Study(sweep, seeds, float(target))
 
 
@@ -213,12 +222,14 @@ def _run_row(row: dict[str, Any], keys: Sequence[str]) -> dict[str, Any]:
     out["seed"] = row["seed"]
     ok = row["status"] == "ok"
     touches = row.get("wall_touch_steps")
+    physical = "physically_traversed" in row  # the study replays every run: its verdict is the physical one
     out.update({
         "status": row["status"],
         "finished": finished_cell(row),  # how the run ended (or FAILED), apart from its verdict
         "verdict": verdict_cell(row),
         "steps": row.get("steps"),
-        "traversed": bool(ok and touches is not None and len(touches) == 0 and row.get("left_lumen_step") is None),
+        "traversed": bool(ok and row.get("physically_traversed")) if physical else
+        bool(ok and touches is not None and len(touches) == 0 and row.get("left_lumen_step") is None),
         "max_penetration_mm": _penetration(row) if ok else None,
         "touch_steps": len(touches) if (ok and touches is not None) else None,
         "contact_length_mm": _contact(row) if ok else None,
@@ -232,6 +243,8 @@ def _run_row(row: dict[str, Any], keys: Sequence[str]) -> dict[str, Any]:
         "failure": (row.get("left_lumen_reason") or "") if ok else str(row["status"]),
         "wall": row.get("wall"),  # what the clearance was measured against: the tube or the colon's mesh
     })
+    if physical:
+        out.update({k: row.get(k) for k in PHYSICS_KEYS})
     return out
 
 
@@ -548,7 +561,7 @@ def design_columns(study: Study) -> list[str]:
 
 
 def run_columns(study: Study) -> list[str]:
-    return [*study.design_keys, "seed", *RUN_COLUMNS]
+    return [*study.design_keys, "seed", *RUN_COLUMNS, *(PHYSICS_KEYS if study.sweep.physics else ())]
 
 
 def _describe(study: Study, d: dict[str, Any]) -> str:
@@ -702,7 +715,7 @@ def write_study(result: StudyResult, out_dir: Any, *, plot: bool = True,
                 save_figure(penetration_figure(result, focus, worst_run), stage / "worst-colon.png")
                 worst = "worst-colon.png"
                 names.append(worst)
-                from bhr.studies.physics import worst_colon_extras  # the 3-D view; with physics, the MuJoCo replay
+                from bhr.studies.physics.extras import worst_colon_extras  # the 3-D view; with physics, the replay
 
                 names += worst_colon_extras(worst_run, stage, physics)
         write_json(stage / "study.json", {

@@ -203,10 +203,11 @@ def test_every_rate_has_the_same_range(tmp_path, args):
         assert r.returncode == 0, r.stderr
 
 
-@pytest.mark.parametrize("option, flag", [("--substeps", "--substeps"), ("--rate", "--rate"),
-                                          ("--wall-stiffness", "--wall-stiffness")])
+@pytest.mark.parametrize("option, flag", [("--substeps", "--substeps"), ("--wire-force", "--wire-force"),
+                                          ("--wall-stiffness", "--wall-stiffness"), ("--feeder-force", "--feeder-force"),
+                                          ("--max-wall-force", "--max-wall-force")])
 def test_a_physics_option_of_zero_is_refused_before_the_replay(tmp_path, option, flag):
-    # a run with a lumen reaches the replay's time step, 1 / rate / substeps: a zero divided by zero there
+    # every one of the replay's options is a positive amount
     (tmp_path / "lum.csv").write_text("x,y,z,lumen\n" + "".join(f"{2 * k},0,0,30\n" for k in range(41)))
     assert bhr("follow", "--traj", "lum.csv", "--no-plots", "--out", "run", cwd=tmp_path, timeout=300).returncode == 0
     before = snapshot(tmp_path)

@@ -329,27 +329,6 @@ def test_a_signal_while_the_folder_goes_in_place_changes_nothing(tmp_path, sig):
     assert sorted(os.listdir(tmp_path / "o")) == ["codes.csv", "manifest.json", "run.json", "steps.csv"]
 
 
-def test_a_lumen_too_narrow_for_mujoco_is_one_line(tmp_path, loose_run):
-    # a lumen of 1e-6 mm (a positive diameter): "ValueError: Error: mass and inertia of moving bodies must be larger
-    # than mjMINVAL" from MuJoCo's model compiler, with a traceback
-    doc = json.loads(loose_run)
-    doc["trajectory"]["lumen"] = [1e-6] * len(doc["trajectory"]["points"])
-    (tmp_path / "r.json").write_text(json.dumps(doc))
-    before = snapshot(tmp_path)
-    line = one_line(bhr("physics", "r.json", "--out", "o", cwd=tmp_path, timeout=300))
-    assert line.startswith("Error: MuJoCo cannot build this run's scene (mass and inertia") and "1e-06 mm" in line, line
-    assert snapshot(tmp_path) == before
-
-
-@pytest.mark.parametrize("rate", ["0.001", "1e-300"])
-def test_a_physics_rate_too_slow_for_any_substeps_names_a_fix_that_exists(tmp_path, loose_run, rate):
-    # "give --substeps 160000 or more" (at 1e-300 Hz: a 303-digit count), where --substeps is at most 1000
-    (tmp_path / "r.json").write_text(loose_run)
-    line = one_line(bhr("physics", "r.json", "--out", "o", "--rate", rate, cwd=tmp_path, timeout=300))
-    assert "give --rate 0.16 or more (--substeps is at most 1000)" in line and len(line) < 300, line
-    assert os.listdir(tmp_path) == ["r.json"]
-
-
 def test_physics_never_replaces_the_folder_of_its_own_run(tmp_path):
     # bhr physics o/run.json --out o: o (bhr's, so replaceable) was replaced by the replay's files, deleting the
     # run.json it read, codes.csv and steps.csv; every other command refuses a folder that holds its input

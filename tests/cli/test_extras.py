@@ -18,7 +18,6 @@ from pathlib import Path
 import pytest
 
 from bhr.settings.extras import install_command, source_folder
-from tests.conftest import bhr_exe, cli_install_command
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -97,21 +96,3 @@ def test_the_physics_and_dask_errors_carry_the_command():
     assert missing("mujoco") == f"mujoco is not installed; install the physics extra: {install_command('physics')}"
     assert dask_missing().endswith(f"install it with: {install_command('dask')}")
     assert "\n" not in missing("pinocchio") + dask_missing()
-
-
-def test_bhr_physics_without_mujoco_prints_the_command_in_one_line(tmp_path):
-    """As a user sees it: MuJoCo unimportable (a module of that name that fails to import), the command's
-    one line ends with the install command, which names this Python and this checkout."""
-    block = tmp_path / "block"
-    block.mkdir()
-    (block / "mujoco.py").write_text("raise ImportError('No module named mujoco')\n")
-    made = subprocess.run(bhr_exe() + ["follow", "--traj", "anatomy", "--seed", "1", "--no-plots", "--out", "r"],
-                          cwd=tmp_path, capture_output=True, text=True, timeout=600)
-    assert made.returncode == 0, made.stderr
-    run = tmp_path / "r" / "run.json"
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(block), os.environ.get("PYTHONPATH", "")])}
-    proc = subprocess.run(bhr_exe() + ["physics", str(run), "--out", "bhr-out/p"], cwd=tmp_path, env=env,
-                          capture_output=True, text=True, timeout=300)
-    assert proc.returncode == 1 and proc.stdout == ""
-    assert proc.stderr == f"Error: mujoco is not installed; install the physics extra: {cli_install_command('physics')}\n"
-    assert not (tmp_path / "bhr-out").exists()

@@ -130,3 +130,21 @@ def test_target_pass_help_shows_the_range_a_share_has():
     """The help said 0<=x<=1000000.0, though anything above 1 is refused."""
     proc = run_cli("traverse", "--help", cwd=REPO)
     assert "[default: 0.95; 0<x<=1]" in " ".join(proc.stdout.split())
+
+
+def test_max_wall_force_judges_each_colon_by_the_physical_replay(tmp_path):
+    """--max-wall-force replays every run as the physical robot: runs.csv gets its peak wall force, stretch and
+    cecum step, and a colon counts as traversed exactly when the replay says so (tip at the cecum, the wall's load
+    never above the threshold) -- whatever the geometric verdict."""
+    import csv
+
+    proc = run_cli("traverse", "--grid", "alpha=25", "--grid", "body_modules=12", "--colons", "1", "--solver",
+                   "lumen", "--max-wall-force", "9.8", "--no-plots", "--jobs", "1", "--out", "tv", cwd=tmp_path,
+                   timeout=1800)
+    assert proc.returncode == 0, proc.stderr
+    (row,) = list(csv.DictReader((tmp_path / "tv" / "runs.csv").open()))
+    assert {"peak_wall_force_n", "wall_stretch_mm", "physical_cecum_step", "physically_traversed"} <= set(row)
+    assert row["traversed"] == row["physically_traversed"]
+    peak = float(row["peak_wall_force_n"])
+    assert peak >= 0.0
+    assert (row["traversed"] == "True") == (row["physical_cecum_step"] != "" and peak <= 9.8)

@@ -1,159 +1,168 @@
-"""Runs replayed in MuJoCo against the colon wall (bhr.studies.physics, bhr physics): real MuJoCo scenes.
+"""The physical robot's replay against the colon's wall (bhr.studies.physics, bhr physics).
 
-A run whose geometric clearance stays >= 1 mm never touches the simulated wall and the simulated robot
-stays within 0.5 mm of bhr's poses; the thesis solver's run into the wall of an anatomical colon touches
-it in MuJoCo at the steps bhr reports (within one step).
+A rigid chain held straight and pressed a known depth into one side of a straight lumen loads the wall with the
+wall's stiffness x depth x contact length; the wall is the same for 5 and 6 mm modules; modules keep their length
+at every pose (any codes, a hypothesis property); a robot clear of bhr's wall touches nothing and stays on its poses;
+the wall's load converges as the motion between poses is refined; the command writes its set and refuses bad input in
+one line.
 """
 from __future__ import annotations
 
 import json
+import math
+import warnings
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 import bhr
-from bhr.model.generators import load_trajectory
 from bhr.model.path import Trajectory
-from bhr.model.robot import Robot, forward_kinematics
-from bhr.run.body import whole_robot
+from bhr.model.robot import Robot, base_frame
 from bhr.run.driver import BhrWarning
-from bhr.studies.physics import replay_physics, scene_xml, whole_chain
+from bhr.studies.physics import DEFAULT_WALL_STIFFNESS, Poses, poses_from_run, replay_poses
+from bhr.studies.physics.poses import chain_points
 
 
-def _head(steps: int, solver: str, body_modules=None, seed: int = 7, robot=None):
-    tr = load_trajectory("anatomy", seed=seed, feed=robot.feed if robot is not None else 2.0)
+def _straight_lumen(radius: float, length: float = 400.0) -> Trajectory:
+    x = np.arange(0.0, length + 0.5, 0.5)
+    pts = np.stack([x, np.zeros_like(x), np.zeros_like(x)], axis=1)
+    return Trajectory("straight", pts, lumen=np.full(len(x), 2.0 * radius), start_direction=(1.0, 0.0, 0.0))
+
+
+def _straight_poses(robot: Robot, n: int, offset: float = 0.0) -> Poses:
+    """One pose: the robot straight along +x from x = 0, its feeder's axis ``offset`` mm to the -y side of the
+    lumen's centerline (so a robot of radius r in a lumen of radius R is offset + r - R into the wall's -y side,
+    along its whole length)."""
+    frame = base_frame(np.array([1.0, 0.0, 0.0]))
+    tilts = np.zeros((1, n, 2))
+    base = np.array([0.0, -offset, 0.0])
+    pts = chain_points(base, frame, tilts[0], robot.module_length)[None]
+    return Poses(np.zeros(1), np.zeros(1), pts, tilts, np.zeros((1, n), dtype=np.int64), np.array([1]), base, frame,
+                 robot.module_length)
+
+
+def _rigid(rep, length: float) -> None:
+    seg = np.linalg.norm(np.diff(rep.points_mm, axis=1), axis=2)
+    assert np.abs(seg - length).max() <= 1e-9, "a module changed its length"
+
+
+@pytest.mark.parametrize("depth", [0.5, 2.0, 5.0])
+def test_a_robot_pressed_into_a_straight_wall_loads_it_by_stiffness_depth_and_length(depth):
+    robot = Robot(modules=10, module_length=5.0, radius=5.0, alpha=10.0)
+    run = SimpleNamespace(trajectory=_straight_lumen(6.0), robot=robot)
+    # the wires made stiff enough that the robot stays straight: the wall's load alone is measured
+    rep = replay_poses(_straight_poses(robot, 10, offset=1.0 + depth), run, wire_force=1e6)
+    _rigid(rep, 5.0)
+    contact = 50.0  # the whole robot presses the wall's -y side
+    expected = DEFAULT_WALL_STIFFNESS * depth * contact
+    assert abs(rep.total_force_n[0] - expected) <= 0.10 * expected, (rep.total_force_n[0], expected)
+    assert abs(rep.stretch_mm[0] - depth) <= 0.05 * depth + 1e-3
+    assert np.allclose(rep.module_force_n[0], rep.module_force_n[0].mean(), rtol=0.05)  # evenly along it
+    assert rep.where_mm[0][1] < -depth  # on the -y side
+    assert rep.module_force_n[0].sum() == pytest.approx(rep.total_force_n[0])
+    assert rep.max_pressure_kpa[0] == pytest.approx(DEFAULT_WALL_STIFFNESS * rep.stretch_mm[0] / 10.0 * 1000, rel=1e-9)
+
+
+def test_the_wall_does_not_change_with_the_module_length():
+    """5 and 6 mm modules pressed 2 mm into the same wall: the same wall parameters, the same force per mm of
+    contact (the wall used to be its stiffness divided by the module length)."""
+    tr = _straight_lumen(6.0)
+    force = []
+    for length, n in ((5.0, 12), (6.0, 10)):  # both 60 mm long
+        robot = Robot(modules=n, module_length=length, radius=5.0, alpha=10.0)
+        rep = replay_poses(_straight_poses(robot, n, offset=3.0), SimpleNamespace(trajectory=tr, robot=robot),
+                           wire_force=1e6)
+        _rigid(rep, length)
+        assert rep.settings["wall_stiffness_n_per_mm2"] == DEFAULT_WALL_STIFFNESS
+        force.append(rep.total_force_n[0])
+    assert force[0] == pytest.approx(force[1], rel=0.02)
+    assert force[0] == pytest.approx(DEFAULT_WALL_STIFFNESS * 2.0 * 60.0, rel=0.10)
+
+
+def test_the_wires_yield_to_the_wall():
+    """With the datasheet's wires the same press bends the robot away from the wall: less depth, less force."""
+    robot = Robot(modules=10, module_length=5.0, radius=5.0, alpha=10.0)
+    run = SimpleNamespace(trajectory=_straight_lumen(6.0), robot=robot)
+    stiff = replay_poses(_straight_poses(robot, 10, offset=3.0), run, wire_force=1e6)
+    soft = replay_poses(_straight_poses(robot, 10, offset=3.0), run)
+    _rigid(soft, 5.0)
+    assert soft.total_force_n[0] < stiff.total_force_n[0]
+    assert soft.deviation_mm[0] > 0.1 and stiff.deviation_mm[0] < 0.05
+
+
+def _run(steps: int, body: int, seed: int = 7, alpha: float = 25.0, locomotion: str = "trail"):
+    from bhr.model.generators import load_trajectory
+
+    r = Robot(alpha=alpha, module_length=5.0)
+    tr = load_trajectory("anatomy", feed=r.feed, seed=seed)
     cut = Trajectory(tr.name, tr.points[: steps + 10], dict(tr.params), tr.min_radius, tr.lumen[: steps + 10],
                      tr.source, tr.start_direction, tr.start_point)
-    import warnings
-
     with warnings.catch_warnings():
-        warnings.simplefilter("ignore", BhrWarning)  # the colon turns tighter than the robot can
-        run = bhr.follow(cut, solver=solver, body_modules=body_modules, **({"robot": robot} if robot else {}))
-    run.points, run.codes = run.points[:steps], run.codes[:steps]
-    run.iterations, run.point_errors_mm, run.orientation_errors_deg = (run.iterations[:steps], run.point_errors_mm[:steps],
-                                                                run.orientation_errors_deg[:steps])
-    if run.body is not None:
-        b = run.body
-        b.points, b.codes, b.point_errors_mm, b.orientation_errors_deg, b.scored = (
-            b.points[:steps], b.codes[:steps], b.point_errors_mm[:steps], b.orientation_errors_deg[:steps], b.scored[:steps])
-    return run
+        warnings.simplefilter("ignore", BhrWarning)
+        return bhr.follow(cut, solver="lumen", robot=r, body_modules=body, locomotion=locomotion)
 
 
-def test_whole_chain_reproduces_the_whole_robot():
-    run = _head(60, "thesis", body_modules=25)
-    roots, frames, codes = whole_chain(run)
-    assert codes.shape == (60, 25)
-    robot = run.robot.replace(modules=25)
-    for i in range(60):
-        pts, _ = forward_kinematics(robot, codes[i], roots[i], frames[i])
-        assert np.abs(pts - whole_robot(run, i)).max() < 1e-9
-    # what codes.csv holds for a run with a body: these codes, every module of the whole robot, rear first
-    assert np.array_equal(run.board_codes, codes)
+def test_no_contact_where_bhrs_geometry_says_clear():
+    """Poses clear of bhr's wall (its own tube and nearest-point kernel, sampled every 0.25 mm along every module)
+    load nothing and the robot stays on them; a pose that goes into bhr's wall loads it."""
+    from bhr.model.tube import make_tube, point_clearance
+
+    run = _run(240, 30)
+    poses = poses_from_run(run)
+    rep = replay_poses(poses, run)
+    _rigid(rep, 5.0)
+    tr = run.trajectory
+    tube = make_tube(np.asarray(tr.points), np.asarray(tr.lumen), tr.start_direction, window_mm=1e4,
+                     closed_end=True)
+    s = np.linspace(0.0, 1.0, 21)
+    clear = []
+    for i in range(poses.points_mm.shape[0]):
+        P = poses.points_mm[i]
+        axis = (P[:-1, None] + s[None, :, None] * np.diff(P, axis=0)[:, None]).reshape(-1, 3)
+        clear.append(min(point_clearance(tube, run.robot.radius, p, tube.pre + 0.0, float(tube.points.shape[0]) / 2)
+                         for p in axis))
+    clear = np.array(clear)
+    first_touch = int(np.argmax(clear <= 0)) if np.any(clear <= 0) else len(clear)
+    assert first_touch > 20
+    assert np.all(rep.total_force_n[:first_touch] == 0.0)
+    assert rep.deviation_mm[:first_touch].max() <= 1e-9
+    if first_touch < len(clear):
+        assert rep.total_force_n[first_touch] > 0.0
 
 
-def test_clear_run_never_touches_and_tracks_bhr():
-    # through the anal canal (15-16 mm across) and the anorectal flexure: a robot of 5 mm modules and 25 deg tilts
-    # that keeps at least 1 mm off the wall there (colon 34; the thesis robot cannot, in any colon)
-    run = _head(90, "lumen", seed=34, robot=Robot(alpha=25, module_length=5))
-    assert run.clearance.min_mm >= 1.0
-    rep = replay_physics(run)
-    assert rep.contact_steps == []
-    assert rep.max_force_n.max() == 0.0
-    assert rep.deviation_mm.max() <= 0.5
-
-
-def test_run_into_the_wall_touches_at_bhrs_steps():
-    run = _head(130, "thesis", seed=4)  # the thesis solver goes into this colon's wall from step 21 (its anorectal flexure)
-    touched = run.clearance.touch_steps
-    assert touched, "the thesis solver's run should go into this colon's wall"
-    rep = replay_physics(run)
-    sim = rep.contact_steps
-    assert sim
-    assert abs(sim[0] - touched[0]) <= 1
-    assert all(any(abs(a - b) <= 1 for b in sim) for a in touched)
-    assert all(any(abs(a - b) <= 1 for b in touched) for a in sim)
-    assert rep.max_force_n.max() > 1.0  # several mm into a 0.7-2.4 N/mm wall
-
-
-def test_largest_force_converges_in_the_time_step():
-    """The run into the wall at the default 16 substeps and at 32: the largest force within 10 % (the wall's
-    springs set it, not the contact's softness, which stiffens with the time step), the same contact steps."""
-    run = _head(130, "thesis", seed=4)
-    fine, finer = replay_physics(run, substeps=16), replay_physics(run, substeps=32)
-    a, b = float(fine.max_force_n.max()), float(finer.max_force_n.max())
-    assert a > 1.0
-    assert abs(a - b) <= 0.1 * b
-    assert fine.contact_steps == finer.contact_steps
-
-
-def test_folded_damping_replays_the_run_into_the_wall_as_mujocos_euler(monkeypatch):
-    """The replay with the implicit damping folded into the mass matrix where no contact acts (the default) and with
-    MuJoCo's own at every time step: the same contact steps, forces and deviations (to rounding where any
-    constraint unfolds it; within 1e-6 N and 1e-4 mm where a joint limit alone is solved with M + h D: 1e-8 N and
-    4e-6 mm measured), folded at most time steps and unfolded where a contact starts."""
-    from bhr.studies import physics
-
-    run = _head(130, "thesis", seed=4)
-    folded = replay_physics(run)
-    monkeypatch.setattr(physics, "FOLD_AT_JOINT_LIMITS", False)
-    exact = replay_physics(run)
-    monkeypatch.setattr(physics, "DAMPING_IN_ARMATURE", False)
-    old = replay_physics(run)
-    total = 130 * folded.settings["substeps"]
-    assert old.settings["time_steps_unfolded"] == total and old.settings["time_steps_redone"] == 0
-    assert folded.settings["time_steps_unfolded"] < total / 2 and folded.settings["time_steps_redone"] >= 1
-    assert exact.settings["time_steps_unfolded"] < total
-    for rep, tol_n, tol_mm in ((exact, 1e-9, 1e-9), (folded, 1e-6, 1e-4)):
-        assert rep.contact_steps == old.contact_steps
-        assert np.abs(rep.max_force_n - old.max_force_n).max() <= tol_n
-        assert np.abs(rep.deviation_mm - old.deviation_mm).max() <= tol_mm
-
-
-def test_wall_pieces_are_outside_the_lumen():
-    """Every box's inner face is at the lumen radius or farther from its ring's centerline point."""
-    run = _head(20, "thesis")
-    xml, st = scene_xml(run, pieces=8)
-    assert st["pieces_per_ring"] == 8 and (st["wall_pieces"] + st["folded_pieces_left_out"]) % 8 == 0
-    # each piece on three springs (its normal, along the centerline, around the ring), of the same stiffness
-    assert xml.count("<joint type=\"slide\"") == 3 * st["wall_pieces"]
-    for axis in ("1 0 0", "0 1 0", "0 0 1"):
-        assert xml.count(f"<joint type=\"slide\" axis=\"{axis}\" stiffness=") == st["wall_pieces"]
+def test_the_wall_load_converges_as_the_motion_between_poses_is_refined():
+    run = _run(400, 40, seed=4)
+    poses = poses_from_run(run)
+    a = replay_poses(poses, run, substeps=1)
+    b = replay_poses(poses, run, substeps=4)
+    _rigid(a, 5.0)
+    _rigid(b, 5.0)
+    fa, fb = float(a.total_force_n.max()), float(b.total_force_n.max())
+    assert fb > 1.0, "this run should load the wall"
+    assert abs(fa - fb) <= 0.10 * fb, (fa, fb)
 
 
 def test_physics_command_writes_its_set(run_bhr, tmp_path):
-    run = _head(40, "thesis")
+    run = _run(60, 20, locomotion="thesis")  # a cut trail run's summary names a feeder stop past its last step
     (tmp_path / "run.json").write_text(run.to_json())
     r = run_bhr("physics", "run.json", "--out", "phys")
     assert r.returncode == 0, r.stderr
     doc = json.loads((tmp_path / "phys" / "physics.json").read_text())
-    assert len(doc["steps"]) == 40 and doc["bhr_version"] == __import__("bhr").__version__
-    assert {"max_force_n", "deviation_mm"} <= set(doc["steps"][0])
-    assert {"max_force_n", "contact_steps", "max_deviation_mm"} <= set(doc["summary"])
+    assert len(doc["steps"]) == run.steps and doc["bhr_version"] == bhr.__version__
+    assert {"total_force_n", "max_module_force_n", "max_pressure_kpa", "stretch_mm", "deviation_mm"} <= set(doc["steps"][0])
+    assert {"max_total_force_n", "contact_steps", "max_stretch_mm", "reached_cecum_step", "traversed"} <= set(doc["summary"])
     assert (tmp_path / "phys" / "force.png").stat().st_size > 10000
     assert (tmp_path / "phys" / "view.html").stat().st_size > 1e6
-
-
-def test_physics_without_out_writes_a_default_folder_named_by_the_run(run_bhr, tmp_path):
-    """As every command's, physics's output has a default folder (--out was required: 'Missing option')."""
-    run = _head(20, "thesis")
-    (tmp_path / "th").mkdir()
-    (tmp_path / "th" / "run.json").write_text(run.to_json())
-    r = run_bhr("physics", "th/run.json")
-    assert r.returncode == 0, r.stderr
-    (folder,) = (tmp_path / "bhr-out").glob("physics-th-*")
-    assert (tmp_path / "bhr-out" / "latest").resolve() == folder.resolve()
-    assert {p.name for p in folder.iterdir()} == {"physics.json", "force.png", "view.html", "manifest.json"}
-    assert f"Wrote bhr-out/{folder.name}/physics.json" in r.stdout
-    r = run_bhr("physics", "th/run.json", "--wall-stiffness", "0.5")  # other options: another folder
-    assert r.returncode == 0, r.stderr
-    assert len(list((tmp_path / "bhr-out").glob("physics-th-*"))) == 2
-    r = run_bhr("physics", "-", input=run.to_json())
-    assert r.returncode == 1 and r.stderr.startswith("Error: give --out DIR for a run read from standard input")
+    assert "wall load at most" in r.stdout
 
 
 @pytest.mark.parametrize("args,word", [
     (("missing.json", "--out", "p"), "missing.json"),
     (("run.json", "--out", "p", "--wall-stiffness", "0"), "wall"),
+    (("run.json", "--out", "p", "--wall-stiffness", "50"), "wall"),
     (("run.json", "--out", "p", "--substeps", "x"), "substeps"),
 ])
 def test_physics_bad_input_one_line(run_bhr, tmp_path, args, word):
@@ -169,3 +178,62 @@ def test_run_without_lumen_is_refused(run_bhr, tmp_path):
     (tmp_path / "run.json").write_text(run.to_json())
     r = run_bhr("physics", "run.json", "--out", "p")
     assert r.returncode != 0 and "lumen" in r.stderr and len(r.stderr.strip().splitlines()) == 1
+
+
+def test_joint_stiffness_is_the_wires_pull_over_the_tilt():
+    from bhr.studies.physics import WIRE_FORCE_N, joint_stiffness
+
+    r = Robot(alpha=25.0, radius=5.0)
+    assert joint_stiffness(r) == pytest.approx(2 * WIRE_FORCE_N * 10.0 / math.radians(25.0))
+    assert joint_stiffness(Robot(stroke=1.7365, lever=10.0)) == pytest.approx(
+        2 * WIRE_FORCE_N * 10.0 / math.asin(0.17365))
+
+
+@settings(max_examples=15, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(codes=st.lists(st.sampled_from([0, 3, 6, 12, 9]), min_size=3, max_size=12),
+       lumen=st.floats(min_value=8.0, max_value=60.0), alpha=st.floats(min_value=5.0, max_value=30.0))
+def test_any_codes_in_a_straight_lumen_keep_modules_rigid_and_load_only_where_bhrs_wall_is(codes, lumen, alpha):
+    """Whatever the codes and the lumen: every module keeps its length, the wall's load is the sum of the
+    modules', and a pose whose every axis point is clear of bhr's tube loads nothing and is kept exactly."""
+    from bhr.studies.physics.poses import code_tilts
+
+    n = len(codes)
+    robot = Robot(modules=n, module_length=5.0, radius=3.0, alpha=alpha)
+    frame = base_frame(np.array([1.0, 0.0, 0.0]))
+    tilts = code_tilts(np.array([codes]), math.radians(alpha))
+    pts = chain_points(np.zeros(3), frame, tilts[0], 5.0)[None]
+    poses = Poses(np.zeros(1), np.zeros(1), pts, tilts, np.array([codes]), np.array([1]), np.zeros(3), frame, 5.0)
+    tr = _straight_lumen(lumen / 2.0)
+    rep = replay_poses(poses, SimpleNamespace(trajectory=tr, robot=robot))
+    _rigid(rep, 5.0)
+    assert rep.total_force_n[0] == pytest.approx(rep.module_force_n[0].sum(), rel=1e-12, abs=1e-12)
+    s = np.linspace(0.0, 1.0, 41)
+    axis = (pts[0][:-1, None] + s[None, :, None] * np.diff(pts[0], axis=0)[:, None]).reshape(-1, 3)
+    # the straight lumen's clearance: its radius - the robot's - the distance from the x axis (x >= 0 here)
+    clear = lumen / 2.0 - 3.0 - np.hypot(axis[:, 1], axis[:, 2])
+    if np.all(axis[:, 0] >= 0.0) and clear.min() > 0.0:
+        assert rep.total_force_n[0] == 0.0 and rep.deviation_mm[0] <= 1e-9
+    if clear.min() < -0.5:
+        assert rep.total_force_n[0] > 0.0
+
+
+def test_a_runs_poses_file_is_read_as_the_contract_says(tmp_path):
+    """poses.npz beside run.json (t_s, insertion_mm, points_mm, tilts_rad, codes, step) is what the replay reads;
+    a file with a wrong shape is refused in one line."""
+    from bhr.studies.physics import load_poses, replay_physics
+    from bhr.settings.errors import BhrError
+
+    run = _run(30, 12)
+    p = poses_from_run(run)
+    (tmp_path / "run.json").write_text(run.to_json())
+    arrays = {k: getattr(p, k) for k in ("t_s", "insertion_mm", "points_mm", "tilts_rad", "codes", "step")}
+    np.savez(tmp_path / "poses.npz", **arrays)
+    q = load_poses(tmp_path / "run.json", run)
+    for k, v in arrays.items():
+        assert np.array_equal(getattr(q, k), v)
+    a, b = replay_physics(run, tmp_path / "run.json"), replay_poses(p, run)
+    assert np.array_equal(a.points_mm, b.points_mm)
+    np.savez(tmp_path / "poses.npz", **{**arrays, "codes": arrays["codes"][:, :-1]})
+    with pytest.raises(BhrError) as e:
+        load_poses(tmp_path / "run.json", run)
+    assert "codes has shape" in str(e.value) and "\n" not in str(e.value)
