@@ -2,8 +2,6 @@
 segmentation, a mesh with its centerline and sections, and one-line errors."""
 from __future__ import annotations
 
-import subprocess
-import sys
 
 import numpy as np
 import pytest

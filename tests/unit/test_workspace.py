@@ -3,8 +3,6 @@ kinematics of every pose, the indices, the pose and workspace figures, and the l
 from __future__ import annotations
 
 import itertools
-import subprocess
-import sys
 
 import numpy as np
 import pytest
