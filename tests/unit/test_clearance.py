@@ -107,7 +107,7 @@ def test_plots_mark_the_touches(tmp_path):
     labels = [p.get_label() for ax in fig.axes for p in ax.patches]
     assert "wall touched" in labels
     fig = path_figure(r)
-    assert "wall contact" in [ln.get_label() for ax in fig.axes for ln in ax.lines]
+    assert "wall contact (every step)" in [ln.get_label() for ax in fig.axes for ln in ax.lines]
     fig = clearance_figure(r)
     assert any(ln.get_label().startswith("minimum") for ln in fig.axes[0].lines)
     files = save_run_plots(r, tmp_path)

@@ -203,7 +203,7 @@ def test_grid_values_of_a_whole_length_study():
 
     assert parse_grid_option("locomotion=thesis,trail") == ("locomotion", ("thesis", "trail"))
     assert parse_grid_option("reach=cecum") == ("reach", ("cecum",))
-    with pytest.raises(BhrError, match="locomotion must be one of thesis, trail"):
+    with pytest.raises(BhrError, match="locomotion must be one of thesis, wires, trail"):
         parse_grid_option("locomotion=walk")
     study = build_study([("alpha", (25,)), ("module_length", (5,)), ("reach", ("cecum",)),
                          ("locomotion", ("trail",))], "1-2", solvers=["lumen"])
