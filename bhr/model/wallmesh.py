@@ -101,11 +101,19 @@ def read_mesh(path: str | os.PathLike[str]):
         raise BhrError(f"{p}: a surface mesh must be .vtp, .vtk, .stl, .ply or .obj, got {p.suffix or 'no extension'}")
     if not p.is_file():
         raise BhrError(f"{p}: no such mesh file")
+    from vtkmodules.vtkCommonCore import vtkObject
+
     r = kind()
     r.SetFileName(str(p))
     tri = vtkTriangleFilter()
     tri.SetInputConnection(r.GetOutputPort())
-    tri.Update()
+    # a file vtk cannot parse is reported below in one line: vtk's own multi-line error report is not printed
+    shown = vtkObject.GetGlobalWarningDisplay()
+    vtkObject.GlobalWarningDisplayOff()
+    try:
+        tri.Update()
+    finally:
+        vtkObject.SetGlobalWarningDisplay(shown)
     out = tri.GetOutput()
     if out.GetNumberOfCells() < 4:
         raise BhrError(f"{p}: no surface read ({out.GetNumberOfCells()} triangles); give a closed surface mesh in mm")

@@ -787,7 +787,7 @@ def motion_report(result):
     """The :class:`~bhr.run.clearance.ClearanceReport` of a run of the wires' motion: every joint and module of the
     whole robot, the smallest over every pose written in each step."""
     from bhr.model.tube import lumen_end_of
-    from bhr.run.clearance import index_matched_min, robot_labels, tables_report
+    from bhr.run.clearance import index_matched_min, left_lumen, robot_labels, tables_report
 
     mo = result.motion
     r = result.robot
@@ -799,5 +799,16 @@ def motion_report(result):
     m_idx = [n - 1 - jj for jj in range(n)] + [n + k - 1 for k in range(1, B + 1)]
     labels, mlabels = robot_labels(n, B)
     stop = result.extra.get("summary", {}).get("feeder_stop_step", result.steps)
-    return tables_report(jp[:, p_idx], labels, jm[:, m_idx], mlabels, jw[:, m_idx], float(r.feed),
-                         index_matched_min(result, B), lumen_end_of(result.trajectory), stop)[0]
+    rep, both = tables_report(jp[:, p_idx], labels, jm[:, m_idx], mlabels, jw[:, m_idx], float(r.feed),
+                              index_matched_min(result, B), lumen_end_of(result.trajectory), stop)
+    if rep.min_step == 0:
+        return rep
+
+    def worst_at(i: int) -> str:
+        return "" if np.all(np.isnan(both[i])) else (labels + mlabels)[int(np.nanargmin(both[i]))]
+
+    # out of the lumen when some joint or module is deeper in the wall than the robot's radius, as for the other
+    # models (a point crossing into another loop is known for the whole run only: MotionRun.crossed)
+    rep.left_lumen_step, rep.left_lumen_reason = left_lumen(rep.per_step, np.zeros(rep.per_step.shape[0], dtype=bool),
+                                                            r.radius, worst_at)
+    return rep

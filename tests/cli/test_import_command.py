@@ -26,3 +26,16 @@ def test_the_command_writes_the_trajectory_and_its_surface_and_refuses_bad_input
         r = subprocess.run([sys.executable, "-m", "bhr.cli.main", "import", *args], capture_output=True, text=True)
         assert r.returncode != 0 and msg in r.stderr and "Traceback" not in r.stderr
         assert len(r.stderr.strip().splitlines()) == 1
+
+
+@pytest.mark.parametrize("suffix", [".stl", ".vtp", ".vtk", ".ply", ".obj"])
+def test_a_file_that_is_not_a_mesh_is_refused_in_one_line(tmp_path, suffix):
+    """A file with a mesh's name that vtk cannot read: bhr's one line, and none of vtk's own error report."""
+    bad = tmp_path / f"colon{suffix}"
+    bad.write_text("not a mesh\n")
+    r = subprocess.run([sys.executable, "-m", "bhr.cli.main", "import", str(bad), "--start", "0,0,0", "--out",
+                        str(tmp_path / "c.csv")], capture_output=True, text=True)
+    assert r.returncode == 1
+    assert r.stderr.strip().splitlines() == [f"Error: {bad}: no surface read (0 triangles); give a closed surface "
+                                             "mesh in mm"]
+    assert r.stdout == "" and not (tmp_path / "c.csv").exists()

@@ -188,6 +188,20 @@ def test_the_run_scores_the_poses(wires_run):
     assert s["poses"] == mo.points_mm.shape[0]
 
 
+def test_a_pose_deeper_in_the_wall_than_the_robot_radius_has_left_the_lumen():
+    """The first step with a written pose whose joint or module is more than the robot's radius into the wall is the
+    step the run left the lumen (docs/lumen.md's left_lumen_step), as for the thesis's model."""
+    run = follow(bhr.trajectory("anatomy", seed=1), solver="lumen", alpha=25, module_length=5, body_modules=30)
+    s = run.summary.extra
+    mo = run.motion
+    radius = run.robot.radius
+    with np.errstate(invalid="ignore"):
+        deep = sorted(set(int(k) for k in mo.step[mo.pose_clear < -radius]))
+    assert deep, "this run should go deeper than the robot's radius into the wall"
+    assert s["left_lumen_step"] == deep[0]
+    assert s["left_lumen_reason"].startswith(f"left the lumen at step {deep[0]}: ")
+
+
 def test_poses_file_keeps_its_contract(wires_run, tmp_path):
     from bhr.output.steptable import write_poses
 
