@@ -813,6 +813,23 @@ def _held_body(result: "FollowResult", body_modules: int, stop: int | None) -> B
 
 
 
+def _score_head(head: np.ndarray, codes: np.ndarray, path: np.ndarray, dirs: np.ndarray, f: int,
+                on_step: Callable[[int, np.ndarray | None], None] | None) -> tuple[np.ndarray, np.ndarray]:
+    """The head's point and module orientation errors (mm, deg) at every step of a whole-robot model, scored as the
+    thesis scores its head; ``on_step`` called with each step's codes."""
+    N, n = head.shape[0], head.shape[1] - 1
+    pe = np.zeros((N, n + 1))
+    oe = np.zeros((N, n))
+    for i in range(N):
+        d = dirs[-1] if i == N - 1 else dirs[i]
+        P = head[i]
+        tip = float(angle_deg(P[n, 0] - P[n - 1, 0], P[n, 1] - P[n - 1, 1], P[n, 2] - P[n - 1, 2], d))
+        score_step(i, P, path, dirs, f, tip, pe[i], oe[i])
+        if on_step is not None:
+            on_step(i, codes[i])
+    return pe, oe
+
+
 def _follow_trail(traj: Trajectory, robot: Robot, s: Any, solver: str, path: np.ndarray, dirs: np.ndarray,
                   body_modules: int | None, reach: bool, msgs: list[str],
                   on_step: Callable[[int, np.ndarray | None], None] | None) -> FollowResult:
@@ -827,15 +844,7 @@ def _follow_trail(traj: Trajectory, robot: Robot, s: Any, solver: str, path: np.
         body_modules = M
     head = np.ascontiguousarray(tr.joints[:, n::-1])
     codes = np.ascontiguousarray(tr.joint_codes[:, n:0:-1])
-    pe = np.zeros((N, n + 1))
-    oe = np.zeros((N, n))
-    for i in range(N):
-        d = dirs[-1] if i == N - 1 else dirs[i]
-        P = head[i]
-        tip = float(angle_deg(P[n, 0] - P[n - 1, 0], P[n, 1] - P[n - 1, 1], P[n, 2] - P[n - 1, 2], d))
-        score_step(i, P, path, dirs, f, tip, pe[i], oe[i])
-        if on_step is not None:
-            on_step(i, codes[i])
+    pe, oe = _score_head(head, codes, path, dirs, f, on_step)
     iters = (np.arange(N) % f == 0).astype(np.int64)
     result = FollowResult(traj, robot, solver, head, iters, pe, oe, codes, msgs)
     result.trail = tr
@@ -895,15 +904,7 @@ def _follow_wires(traj: Trajectory, robot: Robot, s: Any, solver: str, path: np.
     tipfirst = joints[:, ::-1]
     head = np.ascontiguousarray(tipfirst[:, n::-1])
     codes = np.ascontiguousarray(jcodes[:, ::-1][:, n - 1::-1]) if n else np.zeros((N, 0), np.int64)
-    pe = np.zeros((N, n + 1))
-    oe = np.zeros((N, n))
-    for i in range(N):
-        d = dirs[-1] if i == N - 1 else dirs[i]
-        P = head[i]
-        tip = float(angle_deg(P[n, 0] - P[n - 1, 0], P[n, 1] - P[n - 1, 1], P[n, 2] - P[n - 1, 2], d))
-        score_step(i, P, path, dirs, f, tip, pe[i], oe[i])
-        if on_step is not None:
-            on_step(i, codes[i])
+    pe, oe = _score_head(head, codes, path, dirs, f, on_step)
     iters = (np.arange(N) % f == 0).astype(np.int64)
     result = FollowResult(traj, robot, solver, head, iters, pe, oe, codes, msgs)
     result.motion = mo
