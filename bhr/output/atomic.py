@@ -85,30 +85,14 @@ def write_text(path: Any, text: str) -> None:
             fh.write(text)  # a file behind /dev/stdout is appended to, not truncated
 
 
-def json_text(doc: Any, depth: int = 2) -> str:
+def json_text(doc: Any, depth: int = 2, level: int = 0) -> str:
     """``doc`` as JSON indented for ``depth`` levels, each deeper value on one line (a run's step is one line)."""
-    out: list[str] = []
-
-    def put(value: Any, level: int) -> None:
-        if level >= depth or not isinstance(value, (dict, list)) or not value:
-            out.append(json.dumps(value, allow_nan=False))
-            return
-        pad = "\n" + " " * (level + 1)
-        if isinstance(value, dict):
-            out.append("{")
-            for k, (key, item) in enumerate(value.items()):
-                out.append(("," if k else "") + pad + json.dumps(str(key)) + ": ")
-                put(item, level + 1)
-            out.append("\n" + " " * level + "}")
-        else:
-            out.append("[")
-            for k, item in enumerate(value):
-                out.append(("," if k else "") + pad)
-                put(item, level + 1)
-            out.append("\n" + " " * level + "]")
-
-    put(doc, 0)
-    return "".join(out)
+    if level >= depth or not isinstance(doc, (dict, list)) or not doc:
+        return json.dumps(doc, allow_nan=False)
+    pairs = doc.items() if isinstance(doc, dict) else ((None, v) for v in doc)
+    items = [("" if k is None else json.dumps(str(k)) + ": ") + json_text(v, depth, level + 1) for k, v in pairs]
+    pad, (start, end) = "\n" + " " * (level + 1), ("{}" if isinstance(doc, dict) else "[]")
+    return start + pad + ("," + pad).join(items) + "\n" + " " * level + end
 
 
 def write_json(path: Any, doc: Any) -> None:
@@ -120,8 +104,8 @@ def write_json(path: Any, doc: Any) -> None:
 
 class _Set:
     def __init__(self) -> None:
+        self.folders: list[OutputFolder] = []  # placed first: a folder refused at the end still stops the set
         self.files: list[tuple[Path, Path]] = []  # (temporary file, target)
-        self.folders: list[OutputFolder] = []
         self.after: list[Callable[[], Any]] = []
 
     def discard(self) -> None:
@@ -132,22 +116,20 @@ class _Set:
             folder._discard()
 
     def place(self) -> None:
-        folders, self.folders = self.folders, []
-        for k, folder in enumerate(folders):
-            try:
-                folder._place()
-            except BaseException:
-                self.folders = folders[k + 1:]
-                self.discard()
-                raise
-        for k, (tmp, target) in enumerate(self.files):
-            try:
-                os.replace(tmp, target)
-            except OSError as exc:
-                self.files = self.files[k + 1:]
-                self.discard()
-                exc.filename = str(target)
-                raise
+        try:
+            while self.folders:
+                self.folders[0]._place()
+                self.folders.pop(0)
+            while self.files:
+                try:
+                    os.replace(*self.files[0])
+                except OSError as exc:
+                    exc.filename = str(self.files[0][1])
+                    raise
+                self.files.pop(0)
+        except BaseException:
+            self.discard()
+            raise
         for action in self.after:
             action()
 
@@ -271,10 +253,10 @@ class OutputFolder:
         t, shown = self.target, short_path(self.given)
         try:
             entries = sorted(os.listdir(t))
-        except (FileNotFoundError, NotADirectoryError):
+        except FileNotFoundError:
             return None
-        except OSError as exc:
-            raise BhrError(f"cannot read {self.what} {shown} ({exc.strerror}); choose another folder") from None
+        except OSError as exc:  # not a folder (any more), not readable
+            raise BhrError(f"cannot use {self.what} {shown} ({exc.strerror}); choose another folder") from None
         doc = read_manifest(t / MANIFEST) if entries else None
         if not entries or self.force:
             return doc
@@ -391,9 +373,6 @@ class OutputFolder:
         try:
             with self._locked():
                 if os.path.lexists(self.target):
-                    if not self.target.is_dir():
-                        raise BhrError(f"{self.what} {short_path(self.given)} became a file while the run worked; "
-                                       "choose another folder")
                     self.previous()  # again: the user may have added a file meanwhile
                     aside = self.target.with_name(self._beside("old") + uuid.uuid4().hex[:12])
                     os.rename(self.target, aside)
