@@ -123,16 +123,12 @@ def run_jobs(fn: Callable[[J], R], jobs_list: Sequence[J], *, jobs: int | None =
     size = max(1, min(max_chunk, -(-total // (8 * (8 if scheduler is not None else workers)))))
     chunks = deque(list(enumerate(jobs_list))[k:k + size] for k in range(0, total, size))
     if scheduler is not None:
-        from bhr.studies.cluster import close_client, connect_scheduler, run_dask
+        from bhr.studies.cluster import run_dask, scheduler_client
 
         own = isinstance(scheduler, str)
-        client = connect_scheduler(scheduler) if own else scheduler
-        try:
+        with scheduler_client(scheduler) if own else contextlib.nullcontext(scheduler) as client:
             workers = run_dask(client, call, chunks, finished, died)
-        finally:
-            if own:
-                close_client(client)
-        runner = f"dask {scheduler if own else client.scheduler.address}"
+            runner = f"dask {scheduler if own else client.scheduler.address}"
     elif workers == 1:
         for pair in enumerate(jobs_list):
             finished(call([pair]))
