@@ -1,11 +1,9 @@
 """Output paths checked before any work (a refusal costs one line and no work), and the names of run folders."""
 from __future__ import annotations
 
-import contextlib
 import hashlib
 import json
 import os
-import stat
 from pathlib import Path
 from typing import Any
 
@@ -53,11 +51,8 @@ def unwritable_folder(p: Path) -> Path | None:
 
 def in_place_target(path: Any) -> bool:
     """True for a target written in place: anything under /dev or /proc, or an existing non-regular file."""
-    if os.path.abspath(path).startswith(("/dev/", "/proc/")):
-        return True
-    with contextlib.suppress(OSError):
-        return not stat.S_ISREG(os.stat(path).st_mode) and not os.path.isdir(path)
-    return False
+    return os.path.abspath(path).startswith(("/dev/", "/proc/")) or (
+        os.path.exists(path) and not os.path.isfile(path) and not os.path.isdir(path))
 
 
 def check_output_file(path: Any, what: str = "output") -> None:
@@ -75,7 +70,7 @@ def check_output_file(path: Any, what: str = "output") -> None:
                        "write through links: remove the link or choose another path")
     if p.exists() and not (os.access(p, os.W_OK) and (in_place_target(p) or p.stat().st_mode & 0o222)):
         raise BhrError(f"{what} {p} is read-only; make it writable (chmod u+w) or choose another path")
-    if not in_place_target(p) and (bad := unwritable_folder(p.parent if str(p.parent) else Path("."))) is not None:
+    if not in_place_target(p) and (bad := unwritable_folder(p.parent)) is not None:
         raise BhrError(f"cannot write {what} {p}: {bad} is not a writable folder; choose another path")
 
 
