@@ -1,17 +1,9 @@
 """Outputs written whole or not at all: single files, output folders, and sets of both.
 
-A single file (:func:`atomic_path`, :func:`write_text`, :func:`write_json`) is written to a temporary file beside
-it and renamed onto it (``os.replace``). A device, FIFO or anything under ``/dev`` (``/dev/null``,
-``/dev/stdout``) is written in place, never replaced.
-
-An output folder (:class:`OutputFolder`) is staged in a hidden folder beside it (``.NAME.bhr-stage-XXXX``, the same
-file system) and renamed into place: an earlier folder is first moved aside (``.NAME.bhr-old-XXXX``), then the new
-one moved in, then the old one deleted, under a lock file (``.NAME.bhr-lock``, the ``filelock`` package) that one
-writer at a time holds for those renames. ``manifest.json`` (plain JSON) marks bhr's folders and lists their files;
-a folder with one is bhr's, whoever wrote it, and is replaced; a non-empty folder without one, or holding a file
-its manifest does not list (or lists with another size or SHA-256), is refused unless ``force``. A staging folder
-of a killed run (its lock file no longer held) and a folder a killed run moved aside are cleaned up by the next run
-into the same place.
+A file is written beside its target and renamed onto it (a device or anything under /dev is written in place).
+An output folder is staged beside its target (``.NAME.bhr-stage-*``) and renamed into place under a lock file
+(``.NAME.bhr-lock``, filelock); its ``manifest.json`` marks it as bhr's. A non-empty folder bhr did not write (or
+that was changed since) is refused unless ``force``.
 """
 from __future__ import annotations
 
@@ -45,8 +37,7 @@ LOCK_WAIT_S = 600.0
 
 
 def _mode_for(target: Path, new: int = 0o666) -> int:
-    """The permissions a plain ``open(target, "w")`` (or ``mkdir``, 0o777) would give: the old file's, else
-    ``new`` less the umask (mkstemp and mkdtemp would make them private)."""
+    """The old file's permissions, else ``new`` less the umask (mkstemp and mkdtemp make files private)."""
     with contextlib.suppress(OSError):
         return target.stat().st_mode & 0o7777
     mask = os.umask(0)
@@ -56,10 +47,7 @@ def _mode_for(target: Path, new: int = 0o666) -> int:
 
 @contextlib.contextmanager
 def atomic_path(path: Any, suffix: str | None = None) -> Iterator[Path]:
-    """Yield a temporary path beside ``path`` (with its suffix, for matplotlib); rename it onto ``path`` on success.
-
-    Inside :func:`together` the rename waits for the end of the set. A target written in place is yielded itself.
-    """
+    """Yield a temporary path beside ``path``, renamed onto it on success (inside :func:`together`: at its end)."""
     target = Path(path)
     if in_place_target(target):
         try:
@@ -97,39 +85,14 @@ def write_text(path: Any, text: str) -> None:
             fh.write(text)  # a file behind /dev/stdout is appended to, not truncated
 
 
-#: Levels of a JSON document written indented (one item a line); deeper values are written on one line each.
-JSON_DEPTH = 2
-
-
-def json_text(doc: Any, depth: int = JSON_DEPTH) -> str:
-    """``doc`` as JSON indented by one space for ``depth`` levels, each deeper value on one line.
-
-    A run's step (its points, errors and codes) is one line, not one line per number: the colon's run.json
-    is 0.59 MB instead of 0.84 MB and written mostly by json's C encoder, which no ``indent`` uses (0.016 s
-    of CPU instead of 0.038 s).
-    """
-    out: list[str] = []
-
-    def put(value: Any, level: int) -> None:
-        if level >= depth or not isinstance(value, (dict, list)) or not value:
-            out.append(json.dumps(value, allow_nan=False))
-            return
-        pad = "\n" + " " * (level + 1)
-        if isinstance(value, dict):
-            out.append("{")
-            for k, (key, item) in enumerate(value.items()):
-                out.append(("," if k else "") + pad + json.dumps(str(key)) + ": ")
-                put(item, level + 1)
-            out.append("\n" + " " * level + "}")
-        else:
-            out.append("[")
-            for k, item in enumerate(value):
-                out.append(("," if k else "") + pad)
-                put(item, level + 1)
-            out.append("\n" + " " * level + "]")
-
-    put(doc, 0)
-    return "".join(out)
+def json_text(doc: Any, depth: int = 2, level: int = 0) -> str:
+    """``doc`` as JSON indented for ``depth`` levels, each deeper value on one line (a run's step is one line)."""
+    if level >= depth or not isinstance(doc, (dict, list)) or not doc:
+        return json.dumps(doc, allow_nan=False)
+    pairs = doc.items() if isinstance(doc, dict) else ((None, v) for v in doc)
+    items = [("" if k is None else json.dumps(str(k)) + ": ") + json_text(v, depth, level + 1) for k, v in pairs]
+    pad, (start, end) = "\n" + " " * (level + 1), ("{}" if isinstance(doc, dict) else "[]")
+    return start + pad + ("," + pad).join(items) + "\n" + " " * level + end
 
 
 def write_json(path: Any, doc: Any) -> None:
@@ -141,8 +104,8 @@ def write_json(path: Any, doc: Any) -> None:
 
 class _Set:
     def __init__(self) -> None:
+        self.folders: list[OutputFolder] = []  # placed first: a folder refused at the end still stops the set
         self.files: list[tuple[Path, Path]] = []  # (temporary file, target)
-        self.folders: list[OutputFolder] = []
         self.after: list[Callable[[], Any]] = []
 
     def discard(self) -> None:
@@ -153,22 +116,20 @@ class _Set:
             folder._discard()
 
     def place(self) -> None:
-        folders, self.folders = self.folders, []
-        for k, folder in enumerate(folders):
-            try:
-                folder._place()
-            except BaseException:
-                self.folders = folders[k + 1:]
-                self.discard()
-                raise
-        for k, (tmp, target) in enumerate(self.files):
-            try:
-                os.replace(tmp, target)
-            except OSError as exc:
-                self.files = self.files[k + 1:]
-                self.discard()
-                exc.filename = str(target)
-                raise
+        try:
+            while self.folders:
+                self.folders[0]._place()
+                self.folders.pop(0)
+            while self.files:
+                try:
+                    os.replace(*self.files[0])
+                except OSError as exc:
+                    exc.filename = str(self.files[0][1])
+                    raise
+                self.files.pop(0)
+        except BaseException:
+            self.discard()
+            raise
         for action in self.after:
             action()
 
@@ -179,8 +140,7 @@ _stages: set[Path] = set()  # the stages of the folders being written
 
 @contextlib.contextmanager
 def together(check: Callable[[], Any] | None = None) -> Iterator[None]:
-    """The files and folders written inside go in place only when the block ends without an error (and after
-    ``check()``, which may still fail): a failure leaves none of them. Nested blocks join the outermost."""
+    """What is written inside goes in place only when the block (and ``check()``) succeeds; nested blocks join."""
     global _set
     if _set is not None:
         yield
@@ -201,8 +161,7 @@ def together(check: Callable[[], Any] | None = None) -> Iterator[None]:
 
 
 def place_now(check: Callable[[], Any] | None = None) -> None:
-    """Inside :func:`together`: put what was staged so far in place now (for a command that then waits on the
-    user, the live view); what it writes later goes in place at the end."""
+    """Inside :func:`together`: put what was staged so far in place now (a command that then waits on the user)."""
     global _set
     if _set is None:
         return
@@ -215,7 +174,7 @@ def place_now(check: Callable[[], Any] | None = None) -> None:
 # --- output folders ----------------------------------------------------------------------------------------------
 
 def read_manifest(path: Path) -> dict[str, Any] | None:
-    """The content of a bhr ``manifest.json`` (any bhr version), or None when ``path`` is not one."""
+    """The content of a bhr ``manifest.json`` (any bhr version), else None."""
     try:
         if path.is_symlink() or not path.is_file() or path.stat().st_size > 16 << 20:
             return None
@@ -230,18 +189,11 @@ def read_manifest(path: Path) -> dict[str, Any] | None:
 
 
 class OutputFolder:
-    """Stage an output folder beside ``target`` and rename it into place when the ``with`` block succeeds.
+    """Stage an output folder beside ``target``; rename it into place when the ``with`` block succeeds.
 
-    The folder there before is replaced when it is empty or bhr's (a ``manifest.json`` listing every file in it
-    with the size and SHA-256 it has); anything else is refused in one line (:meth:`check`) unless ``force``. The
-    current folder and those above it, the home and root folders, a folder holding one of the run's ``inputs``
-    and a folder inside a bhr folder are refused even with ``force``. When the folder replaced holds the same
-    command's run with the same ``settings`` (a hash), or with ``keep`` (a command adding files beside a run:
-    replay, plan), the files this run does not write are copied into the new set: a ``--no-plots`` rerun keeps
-    the earlier figures. ``names`` are the files a run writes at its top (patterns allowed).
-
-        with OutputFolder("bhr-out/curve", command="follow") as of:
-            write_json(of.path("run.json"), doc)
+    Refused even with ``force``: the current folder or one above it, home, root, a folder holding one of the
+    run's ``inputs``, a folder inside a bhr folder. A rerun of the same ``command`` and ``settings`` (or any run
+    with ``keep``) carries over the files it does not write. ``names``: the files a run writes at its top.
     """
 
     def __init__(self, target: Any, command: str, names: Iterable[str] = (), keep: bool = False,
@@ -266,7 +218,7 @@ class OutputFolder:
         self._lock: FileLock | None = None
 
     def add_inputs(self, *paths: Any) -> "OutputFolder":
-        """Name more input files of the run (a folder holding one is refused); checks again."""
+        """Name more input files of the run; checks again."""
         self.inputs += tuple(str(i) for i in paths if i is not None and str(i) != "-")
         return self.check()
 
@@ -297,15 +249,14 @@ class OutputFolder:
         return self
 
     def previous(self) -> dict[str, Any] | None:
-        """The manifest of the folder there now (None: no folder, an empty one, or a foreign one with ``force``);
-        a BhrError naming the first thing in it that bhr did not write."""
+        """The manifest of the folder there now, if any; a BhrError naming the first thing bhr did not write."""
         t, shown = self.target, short_path(self.given)
         try:
             entries = sorted(os.listdir(t))
-        except (FileNotFoundError, NotADirectoryError):
+        except FileNotFoundError:
             return None
-        except OSError as exc:
-            raise BhrError(f"cannot read {self.what} {shown} ({exc.strerror}); choose another folder") from None
+        except OSError as exc:  # not a folder (any more), not readable
+            raise BhrError(f"cannot use {self.what} {shown} ({exc.strerror}); choose another folder") from None
         doc = read_manifest(t / MANIFEST) if entries else None
         if not entries or self.force:
             return doc
@@ -334,7 +285,7 @@ class OutputFolder:
         return self.stage / name
 
     def final(self, name: Any) -> Path:
-        """Where ``name`` will be once the folder is in place (as the user named the folder)."""
+        """Where ``name`` will be once the folder is in place."""
         return self.given / name
 
     def _beside(self, kind: str) -> str:
@@ -408,7 +359,7 @@ class OutputFolder:
         assert self.stage is not None
         files = {p.relative_to(self.stage).as_posix(): {"bytes": p.stat().st_size, "sha256": sha256_file(p)}
                  for p in sorted(self.stage.rglob("*")) if p.is_file() and p.name != MANIFEST}
-        doc = {"bhr_output": 2, "written_by": f"bhr {__version__}", "bhr_version": __version__,
+        doc = {"bhr_output": 2, "bhr_version": __version__,
                "command": self.command, "made_by": self.made_by or self.command, "run_id": uuid.uuid4().hex,
                "settings": self.settings, "written": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
                "files": files, "carried_over": sorted(self.carried)}
@@ -422,9 +373,6 @@ class OutputFolder:
         try:
             with self._locked():
                 if os.path.lexists(self.target):
-                    if not self.target.is_dir():
-                        raise BhrError(f"{self.what} {short_path(self.given)} became a file while the run worked; "
-                                       "choose another folder")
                     self.previous()  # again: the user may have added a file meanwhile
                     aside = self.target.with_name(self._beside("old") + uuid.uuid4().hex[:12])
                     os.rename(self.target, aside)
@@ -444,7 +392,7 @@ class OutputFolder:
 
     @contextlib.contextmanager
     def _locked(self) -> Iterator[None]:
-        """Hold the folder's lock (``.NAME.bhr-lock``); first put back a folder a killed run moved aside."""
+        """Hold the folder's lock; first put back a folder a killed run moved aside."""
         from filelock import FileLock, Timeout
 
         lock = FileLock(self.target.parent / self._beside("lock")[:-1])
@@ -458,7 +406,7 @@ class OutputFolder:
             yield
 
     def _restore_aside(self) -> None:
-        """A folder moved aside by a run killed before it moved its own in: put back when whole, else deleted."""
+        """A folder a killed run moved aside: put back when whole, else deleted."""
         for e in self.target.parent.iterdir():
             doc = read_manifest(e / MANIFEST) if e.name.startswith(self._beside("old")) else None
             if doc is not None and not e.is_symlink():
@@ -468,7 +416,7 @@ class OutputFolder:
                     shutil.rmtree(e, ignore_errors=True)
 
     def _clean_dead_stages(self) -> None:
-        """Delete the staging folders of runs into this target that died (their lock is no longer held)."""
+        """Delete the staging folders of dead runs (their lock is no longer held)."""
         from filelock import FileLock, Timeout
 
         for e in self.target.parent.iterdir():
@@ -496,8 +444,7 @@ class OutputFolder:
 
 @contextlib.contextmanager
 def _releasing(lock: FileLock) -> Iterator[None]:
-    """Release ``lock`` (held) at the end, its file deleted first: a run waiting for it then takes a new one
-    (filelock checks that the file it locked still has a name), and no lock file is left behind."""
+    """Release ``lock`` at the end, its file deleted first (no lock file is left behind)."""
     try:
         yield
     finally:
@@ -507,8 +454,7 @@ def _releasing(lock: FileLock) -> Iterator[None]:
 
 
 def owning_folder(path: Any) -> tuple[Path, str] | None:
-    """The bhr folder whose manifest lists ``path`` (the file's own folder, or one or two up: a compare's or a
-    report's), and ``path`` inside it; None when none does."""
+    """The bhr folder (up to two levels up) whose manifest lists ``path``, and ``path`` inside it; else None."""
     p = Path(os.path.realpath(path))
     for folder in list(p.parents)[:3]:
         doc = read_manifest(folder / MANIFEST)
@@ -519,8 +465,7 @@ def owning_folder(path: Any) -> tuple[Path, str] | None:
 
 
 def point_latest(folder: Any, link_name: str = "latest") -> Path | None:
-    """Point ``<parent>/latest`` (a symbolic link, replaced by a rename) at ``folder``; nothing when ``latest`` is
-    a user's file or folder, or links cannot be made. Inside :func:`together`, once the set is in place."""
+    """Point the link ``<parent>/latest`` at ``folder`` (not a user's file of that name), once the set is placed."""
     target = Path(folder)
     link = target.parent / link_name
     if _set is not None:

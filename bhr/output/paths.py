@@ -1,16 +1,9 @@
-"""Output paths checked before any work, and the names of run folders.
-
-Every command checks its outputs here before it reads or computes anything (a file it cannot write, a link, a
-read-only file, a folder bhr may not replace), so that a refusal costs one line and no work. Run folders are
-named by a hash of what makes their results (:func:`run_folder_name`).
-"""
+"""Output paths checked before any work (a refusal costs one line and no work), and the names of run folders."""
 from __future__ import annotations
 
-import contextlib
 import hashlib
 import json
 import os
-import stat
 from pathlib import Path
 from typing import Any
 
@@ -58,11 +51,8 @@ def unwritable_folder(p: Path) -> Path | None:
 
 def in_place_target(path: Any) -> bool:
     """True for a target written in place: anything under /dev or /proc, or an existing non-regular file."""
-    if os.path.abspath(path).startswith(("/dev/", "/proc/")):
-        return True
-    with contextlib.suppress(OSError):
-        return not stat.S_ISREG(os.stat(path).st_mode) and not os.path.isdir(path)
-    return False
+    return os.path.abspath(path).startswith(("/dev/", "/proc/")) or (
+        os.path.exists(path) and not os.path.isfile(path) and not os.path.isdir(path))
 
 
 def check_output_file(path: Any, what: str = "output") -> None:
@@ -80,13 +70,12 @@ def check_output_file(path: Any, what: str = "output") -> None:
                        "write through links: remove the link or choose another path")
     if p.exists() and not (os.access(p, os.W_OK) and (in_place_target(p) or p.stat().st_mode & 0o222)):
         raise BhrError(f"{what} {p} is read-only; make it writable (chmod u+w) or choose another path")
-    if not in_place_target(p) and (bad := unwritable_folder(p.parent if str(p.parent) else Path("."))) is not None:
+    if not in_place_target(p) and (bad := unwritable_folder(p.parent)) is not None:
         raise BhrError(f"cannot write {what} {p}: {bad} is not a writable folder; choose another path")
 
 
 def settings_hash(*parts: Any) -> str:
-    """8 hex digits of a SHA-256 over ``parts``: arrays (their bytes), files named by ``Path`` (their content),
-    anything else as sorted JSON. Two runs agree on it only when they agree on all parts."""
+    """8 hex digits of a SHA-256 over ``parts``: arrays' bytes, the content of files named by ``Path``, else JSON."""
     h = hashlib.sha256()
     for part in parts:
         if hasattr(part, "tobytes"):
@@ -102,14 +91,8 @@ def settings_hash(*parts: Any) -> str:
     return h.hexdigest()[:8]
 
 
-
 def run_folder_name(readable: str, *parts: Any) -> str:
-    """A folder name for a run: ``readable`` plus 8 hex digits of a hash of what makes the run different.
-
-    ``parts`` are JSON-able descriptions (trajectory points, robot, solver and
-    its options; a ``Path`` stands for its file's content); two runs share a
-    folder only when they agree on all of them (:func:`bhr.output.atomic.settings_hash`).
-    """
+    """A folder name for a run: ``readable`` plus the :func:`settings_hash` of what makes the run."""
     return folder_name(readable, settings_hash(*parts))
 
 
@@ -120,24 +103,14 @@ def folder_name(readable: str, settings: str) -> str:
 
 
 def input_files(*paths: Any) -> list[Path]:
-    """The ones of ``paths`` that name existing files (inputs a run reads), for output checks and hashes."""
-    out = []
-    for p in paths:
-        if p is None or str(p) == "-":
-            continue
-        with contextlib.suppress(OSError, ValueError):
-            if os.path.isfile(p):
-                out.append(Path(p))
-    return out
+    """The ones of ``paths`` that name existing files (inputs a run reads)."""
+    return [Path(p) for p in paths if p is not None and str(p) != "-" and os.path.isfile(p)]
 
 
 def json_in_folder(json_path: str | None, folder: Any, taken: tuple[str, ...], option: str = "--json"
                    ) -> str | None:
-    """The name inside the output folder that ``--json`` (or ``option``) names, if it names a file in it.
-
-    None when it names a file elsewhere. Refuses a name that another output of the same run writes
-    (codes.csv, a figure, the manifest).
-    """
+    """The name inside the output folder that ``--json`` (or ``option``) names, else None; refuses a name that
+    another output of the run writes."""
     import fnmatch
 
     if json_path is None or json_path == "-":

@@ -1,9 +1,9 @@
-"""Studies on a Dask cluster: the connection to its scheduler, and the jobs run there (:mod:`bhr.studies.executor`).
+"""Studies on a Dask cluster: the connection to its scheduler, and the jobs run there.
 
-A cluster that cannot run the jobs stops the study with one line: an address that is no Dask scheduler, no
-worker for :data:`DASK_WAIT_S`, a scheduler that goes away, or a scheduler or every worker silent that long (a
-stopped process keeps its connections open, and Dask would wait minutes for it). Dask itself runs a job whose
-worker died again elsewhere, and reports it as ``KilledWorker`` once it has killed several: that job's row.
+A cluster that cannot run the jobs stops the study with one line: an address that is no Dask scheduler, no worker
+for :data:`DASK_WAIT_S`, a scheduler that goes away, or a scheduler or every worker silent that long (a stopped
+process keeps its connections open, and Dask would wait minutes). A job whose worker died Dask runs again
+elsewhere, and reports as ``KilledWorker`` after several: that job's row.
 """
 from __future__ import annotations
 
@@ -13,16 +13,17 @@ from collections import deque
 from typing import Any, Callable, Iterator
 
 from bhr.settings.errors import BhrError
+from bhr.settings.options import excerpt
 from bhr.studies.executor import reason
 
-__all__ = ["DASK_WAIT_S", "connect_scheduler", "scheduler_client", "close_client", "dask_missing", "run_dask"]
+__all__ = ["DASK_WAIT_S", "connect_scheduler", "scheduler_client", "dask_missing", "run_dask"]
 
 #: How long a study waits for a Dask cluster with no worker, or one whose scheduler or workers are silent (s).
 DASK_WAIT_S = 20.0
 
 
 def dask_missing() -> str:
-    """The one-line error for --scheduler without Dask's distributed package, with the command that installs it."""
+    """The one-line error for --scheduler without Dask's distributed package."""
     from bhr.settings.extras import install_command
 
     return ("--scheduler needs Dask's distributed package, which is not installed; "
@@ -31,8 +32,7 @@ def dask_missing() -> str:
 
 def run_dask(client: Any, call: Callable[[Any], Any], todo: deque, finished: Callable[..., None],
              died: Callable[..., None]) -> int:
-    """Run the chunks on a Dask cluster (Dask retries a job whose worker died, then reports it as KilledWorker);
-    return its worker threads. No worker, or a silent scheduler or workers, for :data:`DASK_WAIT_S`: one line."""
+    """Run the chunks on the cluster; return its worker threads."""
     from distributed import wait
 
     _quiet_dask()
@@ -47,7 +47,7 @@ def run_dask(client: Any, call: Callable[[Any], Any], todo: deque, finished: Cal
                 chunk = todo.popleft()
                 sent[client.submit(call, chunk, pure=False)] = chunk
             try:
-                with client.as_current():  # distributed.wait's client
+                with client.as_current():
                     wait(list(sent), timeout=2.0, return_when="FIRST_COMPLETED")
             except TimeoutError:
                 _check_cluster(client, address, heard)
@@ -62,8 +62,8 @@ def run_dask(client: Any, call: Callable[[Any], Any], todo: deque, finished: Cal
                         raise _dask_failure(address, exc) from None
                     died(sent.pop(future), reason(exc), todo)
                     continue
-                sent.pop(future)
                 finished(rows)
+                sent.pop(future)
     except (BhrError, KeyboardInterrupt):
         raise
     except TimeoutError:
@@ -76,7 +76,7 @@ def run_dask(client: Any, call: Callable[[Any], Any], todo: deque, finished: Cal
 
 def _check_cluster(client: Any, address: str, heard: dict[Any, Any]) -> None:
     """No job finished for a while: the scheduler must answer, and some worker must have sent a heartbeat, within
-    :data:`DASK_WAIT_S` (a stopped process keeps its connections open, and Dask waits minutes for it)."""
+    :data:`DASK_WAIT_S`."""
     try:
         info = client.sync(client.scheduler.identity, n_workers=-1, callback_timeout=DASK_WAIT_S)
     except Exception:
@@ -110,50 +110,35 @@ def _dask_failure(address: str, exc: BaseException) -> BhrError:
 
 
 def _quiet_dask() -> None:
-    """Dask's own log lines (reconnect attempts, tracebacks of a lost scheduler) stay out of the one-line report."""
+    """Dask's own log lines (reconnects, a lost scheduler's tracebacks) stay out of the one-line report."""
     import logging
 
-    names = ["distributed", "distributed.client", "tornado", "asyncio"]
-    names += [n for n in list(logging.root.manager.loggerDict) if n.startswith(("distributed.", "tornado."))]
+    names = ["distributed", "tornado", "asyncio"] + [n for n in logging.root.manager.loggerDict
+                                                     if n.startswith(("distributed.", "tornado."))]
     for name in names:
         logging.getLogger(name).setLevel(logging.CRITICAL + 1)
 
 
-def close_client(client: Any) -> None:
-    """Close a Dask client without waiting long or printing Dask's log lines (the scheduler may be gone)."""
-    _quiet_dask()
-    with contextlib.suppress(Exception):
-        client.close(timeout=2)
-
-def _cannot(address: str, why: str) -> BhrError:
-    from bhr.settings.options import excerpt
-
-    shown = address if len(address) <= 60 and address.isprintable() else excerpt(address, 60)
-    why = why if len(why) <= 120 and why.isprintable() else excerpt(why, 120)  # may quote the address again
-    return BhrError(f"cannot connect to the Dask scheduler at {shown} ({why}); check the address "
-                    "(e.g. tcp://127.0.0.1:8786) and that the scheduler is running")
-
-
 @contextlib.contextmanager
 def scheduler_client(address: str | None) -> Iterator[Any]:
-    """``None`` without an address (local processes), else a client on the scheduler at ``address``
-    (:func:`connect_scheduler`, one line when it cannot connect), closed on leaving."""
-    client = None if address is None else connect_scheduler(address)
+    """None without an address, else a client on the scheduler at ``address``, closed on leaving."""
+    if address is None:
+        yield None
+        return
+    client = connect_scheduler(address)
     try:
         yield client
-    finally:
-        if client is not None:
-            close_client(client)
+    finally:  # without waiting long: the scheduler may be gone
+        _quiet_dask()
+        with contextlib.suppress(Exception):
+            client.close(timeout=2)
 
 
 def connect_scheduler(address: str, timeout: float = 15.0) -> Any:
-    """A ``distributed.Client`` on the scheduler at ``address``, or one BhrError line saying why not.
-
-    The address is checked, then a Dask handshake is tried with a deadline
-    (so a port that answers but is not a scheduler fails in ``timeout``
-    seconds instead of hanging), then the client is made.
-    """
+    """A ``distributed.Client`` on the scheduler at ``address``, or one BhrError line saying why not: the address
+    is checked, then a Dask handshake tried within ``timeout`` (Dask's own connect does not bound it)."""
     import asyncio
+    import socket
 
     _quiet_dask()
     try:
@@ -162,44 +147,37 @@ def connect_scheduler(address: str, timeout: float = 15.0) -> Any:
         from distributed.comm.addressing import parse_address, parse_host_port
     except ImportError:
         raise BhrError(dask_missing()) from None
+
+    def cannot(why: Any) -> BhrError:
+        why = str(why).splitlines()[0] if str(why) else type(why).__name__
+        shown = address if len(address) <= 60 and address.isprintable() else excerpt(address, 60)
+        return BhrError(f"cannot connect to the Dask scheduler at {shown} "
+                        f"({why if len(why) <= 120 and why.isprintable() else excerpt(why, 120)}); check the "
+                        "address (e.g. tcp://127.0.0.1:8786) and that the scheduler is running")
+
+    async def handshake() -> None:
+        await (await connect(address.strip(), timeout=f"{timeout}s")).close()
+
     try:
         scheme, loc = parse_address(address.strip())
         if scheme in ("tcp", "tls"):
-            parse_host_port(loc)
-            port = loc.rpartition(":")[2]
-            if not (port.isascii() and port.isdigit()):  # int() takes full-width digits: '８７８６' is 8786
-                raise ValueError(f"the port {port!r} is not plain digits 0-9")
+            host, port = parse_host_port(loc)
+            if not (loc.rpartition(":")[2].isascii() and loc.rpartition(":")[2].isdigit()):  # int() reads '８７８６'
+                raise ValueError(f"the port {loc.rpartition(':')[2]!r} is not plain digits 0-9")
+            if scheme == "tcp":  # a closed port fails at once, without Dask's retries
+                socket.create_connection((host, port), timeout=timeout).close()
+    except OSError as exc:
+        raise cannot(exc.strerror or exc) from None
     except (ValueError, TypeError) as exc:
-        raise _cannot(address, str(exc).splitlines()[0] if str(exc) else "malformed address") from None
-
-    if scheme == "tcp":  # a closed port fails at once, without Dask's retries
-        import socket
-
-        host, port = parse_host_port(loc)
-        try:
-            socket.create_connection((host, port), timeout=timeout).close()
-        except OSError as exc:
-            raise _cannot(address, exc.strerror or exc.__class__.__name__) from None
-
-    async def handshake() -> None:
-        comm = await connect(address.strip(), timeout=f"{timeout}s")
-        await comm.close()
-
-    async def bounded() -> None:
-        # Dask's connect() does not bound the handshake: a port that answers but never speaks Dask would hang
-        await asyncio.wait_for(handshake(), timeout)
-
+        raise cannot(exc or "malformed address") from None
     try:
-        asyncio.run(bounded())
-    except (asyncio.TimeoutError, TimeoutError):
-        raise _cannot(address, f"no Dask handshake within {timeout:g} s; is it a Dask scheduler?") from None
-    except MemoryError:  # its first bytes, read as Dask's message length, ask for exabytes: not a Dask answer
-        raise _cannot(address, "it answered, but not as Dask does; is it a Dask scheduler?") from None
-    except Exception as exc:  # OSError, ValueError
-        raise _cannot(address, str(exc).splitlines()[0] if str(exc) else exc.__class__.__name__) from None
-    try:
+        asyncio.run(asyncio.wait_for(handshake(), timeout))
         client = Client(address.strip(), timeout=f"{timeout}s", set_as_default=False)
-        _quiet_dask()
-        return client
+    except (asyncio.TimeoutError, TimeoutError):
+        raise cannot(f"no Dask handshake within {timeout:g} s; is it a Dask scheduler?") from None
+    except MemoryError:  # its first bytes, read as Dask's message length, ask for exabytes
+        raise cannot("it answered, but not as Dask does; is it a Dask scheduler?") from None
     except Exception as exc:
-        raise _cannot(address, str(exc).splitlines()[0] if str(exc) else exc.__class__.__name__) from None
+        raise cannot(exc) from None
+    _quiet_dask()
+    return client

@@ -1,21 +1,10 @@
 """Where a study's runs execute: in this process, in local worker processes, or on a Dask cluster.
 
-Every study (batch reports, sweeps, traversability studies) is a list of independent, picklable jobs and one
-function that runs a job and returns its row. :func:`run_jobs` runs them in this process (``jobs=1``), in
-``jobs`` local worker processes (:mod:`concurrent.futures`, started with ``spawn``), or on a Dask cluster
-(``scheduler``: its address or a ``distributed.Client``), and returns the rows in job order whatever ran them.
-Jobs travel in chunks (at most ``max_chunk`` jobs each) so that many short jobs cost few round trips.
-
-- **warm-up**: ``warm_up(*warm_up_args)`` runs once in each process before its first job;
-- **progress**: ``progress(done, total, row)`` is called in this process once per finished job;
-- **failures**: a job never raises: the code that runs one records a failure in its row with :class:`capture`.
-  A job whose worker process dies (killed, out of memory, a crash) is the row ``lost(job, reason)`` and the other
-  jobs go on (without ``lost``: one line, :class:`BhrError`). A Dask cluster that cannot run the jobs stops the
-  study with one line (:mod:`bhr.studies.cluster`);
-- **interrupts**: Ctrl-C is the caller's (a KeyboardInterrupt at once): local workers start with Ctrl-C, SIGTERM
-  and SIGHUP blocked, are killed when the study stops, and end with this process whatever ends it.
-
-Dask (:mod:`bhr.studies.cluster`) is imported only when a scheduler is given.
+A study is a list of picklable jobs and a function that turns a job into its row (a failure recorded in it with
+:class:`capture`). :func:`run_jobs` runs them in this process, in ``spawn``-started :mod:`concurrent.futures`
+workers, or on Dask (:mod:`bhr.studies.cluster`), in chunks, and returns the rows in job order. A job whose worker
+dies is the row ``lost(job, reason)``. Local workers start with Ctrl-C, SIGTERM and SIGHUP blocked and end with
+this process.
 """
 from __future__ import annotations
 
@@ -59,25 +48,18 @@ def reason(exc: BaseException) -> str:
     return text if len(text) <= MAX_REASON_CHARS else text[:MAX_REASON_CHARS - 3] + "..."
 
 
-class capture:
-    """``with capture(row):`` -- an exception inside (not Ctrl-C, not a full disk) becomes
-    ``row["status"] = "failed: <reason>"``; with ``keep_traceback`` an unexpected error's traceback (anything but a
-    BhrError, which explains itself) is kept in ``row["traceback"]``. One failed run must not stop a study."""
-
-    def __init__(self, row: dict[str, Any], *, keep_traceback: bool = False) -> None:
-        self.row = row
-        self.keep_traceback = keep_traceback
-
-    def __enter__(self) -> dict[str, Any]:
-        return self.row
-
-    def __exit__(self, kind: Any, exc: BaseException | None, tb: Any) -> bool:
-        if not isinstance(exc, Exception) or (isinstance(exc, OSError) and exc.errno in _OUTPUT_FULL):
-            return False
-        self.row["status"] = f"failed: {reason(exc)}"
-        if self.keep_traceback and not isinstance(exc, BhrError):
-            self.row["traceback"] = "".join(traceback.format_exception(kind, exc, tb, limit=8))
-        return True
+@contextlib.contextmanager
+def capture(row: dict[str, Any], *, keep_traceback: bool = False) -> Iterator[dict[str, Any]]:
+    """``with capture(row):`` -- an exception inside (not Ctrl-C, not a full disk) becomes ``row["status"] =
+    "failed: <reason>"`` (and, with ``keep_traceback``, a non-BhrError's traceback ``row["traceback"]``)."""
+    try:
+        yield row
+    except Exception as exc:
+        if isinstance(exc, OSError) and exc.errno in _OUTPUT_FULL:
+            raise
+        row["status"] = f"failed: {reason(exc)}"
+        if keep_traceback and not isinstance(exc, BhrError):
+            row["traceback"] = "".join(traceback.format_exception(exc, limit=8))
 
 
 @dataclass
@@ -95,7 +77,6 @@ _WARMED: set[tuple[str, str, tuple[Any, ...]]] = set()  # the warm-ups this proc
 
 def _run_chunk(fn: Callable[[Any], Any], warm_up: Callable[..., Any] | None, warm_up_args: tuple[Any, ...],
                chunk: Sequence[tuple[int, Any]]) -> list[tuple[int, Any]]:
-    """Run ``(index, job)`` pairs (after this process's warm-up, once); return ``(index, row)`` pairs."""
     key = (getattr(warm_up, "__module__", ""), getattr(warm_up, "__qualname__", ""), warm_up_args)
     if warm_up is not None and key not in _WARMED:
         warm_up(*warm_up_args)
@@ -107,13 +88,10 @@ def run_jobs(fn: Callable[[J], R], jobs_list: Sequence[J], *, jobs: int | None =
              warm_up: Callable[..., Any] | None = None, warm_up_args: tuple[Any, ...] = (), max_chunk: int = 64,
              progress: Callable[[int, int, R], None] | None = None,
              lost: Callable[[J, str], R] | None = None) -> Executed[R]:
-    """Run ``fn(job)`` for every job; return the rows in job order (see the module's text).
-
-    ``jobs``: worker processes (default: the number of CPUs, at most one per job; 1 runs in this process).
-    ``scheduler``: a Dask scheduler's address or a ``distributed.Client`` to run on instead. ``fn``, the jobs,
-    ``warm_up`` and its arguments must pickle (module-level functions, plain data) for the worker paths.
-    ``lost(job, reason)``: the row of a job whose worker process died.
-    """
+    """Run ``fn(job)`` for every job; return the rows in job order. ``jobs``: worker processes (default: one per
+    CPU, at most one per job); ``scheduler``: a Dask address or ``distributed.Client``; ``warm_up(*warm_up_args)``
+    runs once per process; ``progress(done, total, row)`` per finished job; ``lost(job, reason)``: a dead worker's
+    row."""
     if scheduler is not None and jobs is not None:
         raise BhrError("give either jobs (local processes) or a Dask scheduler, not both")
     if jobs is not None and (isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1):
@@ -145,16 +123,12 @@ def run_jobs(fn: Callable[[J], R], jobs_list: Sequence[J], *, jobs: int | None =
     size = max(1, min(max_chunk, -(-total // (8 * (8 if scheduler is not None else workers)))))
     chunks = deque(list(enumerate(jobs_list))[k:k + size] for k in range(0, total, size))
     if scheduler is not None:
-        from bhr.studies.cluster import close_client, connect_scheduler, run_dask
+        from bhr.studies.cluster import run_dask, scheduler_client
 
         own = isinstance(scheduler, str)
-        client = connect_scheduler(scheduler) if own else scheduler
-        try:
+        with scheduler_client(scheduler) if own else contextlib.nullcontext(scheduler) as client:
             workers = run_dask(client, call, chunks, finished, died)
-        finally:
-            if own:
-                close_client(client)
-        runner = f"dask {scheduler if own else client.scheduler.address}"
+            runner = f"dask {scheduler if own else client.scheduler.address}"
     elif workers == 1:
         for pair in enumerate(jobs_list):
             finished(call([pair]))
@@ -170,9 +144,8 @@ def run_jobs(fn: Callable[[J], R], jobs_list: Sequence[J], *, jobs: int | None =
 
 @contextlib.contextmanager
 def _signals_held() -> Iterator[None]:
-    """While local workers start: Ctrl-C, SIGTERM and SIGHUP blocked in this thread, so that a worker (and
-    multiprocessing's resource tracker) inherits them blocked and a signal meant for the command never reaches it;
-    one that comes meanwhile (to any thread) is noted and raised again at the end, once the worker has its data."""
+    """Ctrl-C, SIGTERM and SIGHUP blocked while a worker starts (it inherits them blocked); one that comes
+    meanwhile is raised again at the end."""
     noted: list[int] = []
     main = threading.current_thread() is threading.main_thread()
     handlers = {s: signal.signal(s, lambda n, _f: noted.append(n)) for s in _SIGNALS
@@ -189,7 +162,7 @@ def _signals_held() -> Iterator[None]:
 
 
 def _end_with_parent() -> None:
-    """A local worker's initializer: the worker ends when the process that started it does (``kill -9`` too)."""
+    """A worker ends when its parent does (``kill -9`` too)."""
     parent = multiprocessing.parent_process()
 
     def watch() -> None:
@@ -209,8 +182,7 @@ class _Lane:
         self.sent: tuple[Any, list[Any]] | None = None  # (future, chunk)
 
     def feed(self, todo: deque, call: Callable[[Any], Any]) -> None:
-        """Send the worker the next chunk once it has none (starting the worker first if needed): no chunk waits
-        behind another while a worker is free, and a worker that dies was running the chunk it was sent."""
+        """Send the next chunk once the worker has none: a worker that dies was running the chunk it was sent."""
         from concurrent.futures import ProcessPoolExecutor
 
         if self.sent is not None or not todo:
