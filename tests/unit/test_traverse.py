@@ -26,7 +26,7 @@ from tests.conftest import bhr_exe
 
 PNG = b"\x89PNG\r\n\x1a\n"
 # one design that gets through these colons and one that does not (checked against bhr.follow below)
-SMALL = ["--solver", "seed", "--solver", "optimal", "--grid", "alpha=10,30", "--grid", "module_length=5",
+SMALL = ["--solver", "seed", "--solver", "lumen", "--grid", "alpha=10,30", "--grid", "module_length=5",
          "--colons", "3,7"]
 
 
