@@ -33,7 +33,7 @@ def os_error_line(exc: OSError, on_stdout: bool = True) -> str:
     import errno
 
     what = short_path(str(exc.filename)) if exc.filename is not None else (
-        "standard output" if on_stdout else "writing a file")
+        "standard output" if on_stdout else _unnamed_writer(exc))
     why = exc.strerror or type(exc).__name__
     fixes = {
         errno.ENOSPC: "free some disk space or write to another device",
@@ -47,6 +47,17 @@ def os_error_line(exc: OSError, on_stdout: bool = True) -> str:
     }
     fix = fixes.get(exc.errno or 0, "check the path and the device, then run again")
     return f"{what}: {why}; {fix}"
+
+
+def _unnamed_writer(exc: OSError) -> str:
+    """What wrote the file an OSError does not name: numba's cache of compiled kernels (its folder named, as
+    NUMBA_CACHE_DIR can move it), else some library."""
+    import traceback
+
+    if any("numba" in f.filename and "caching" in f.filename for f in traceback.extract_tb(exc.__traceback__)):
+        cache = short_path(os.environ.get("NUMBA_CACHE_DIR", "?"))
+        return f"writing bhr's compiled kernels to {cache} (NUMBA_CACHE_DIR)"
+    return "writing a file"
 
 
 def _stdout_failed(exc: OSError | None = None) -> bool:
