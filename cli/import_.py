@@ -40,14 +40,14 @@ def _start(text: str | None) -> tuple[float, float, float] | None:
 @guarded
 def import_(source, centerline, label, start, smooth_mm, spacing, voxel_mm, out_path):
     """Turn a colon's surface mesh (.vtp .vtk .stl .ply .obj), with its centerline or without, or a labelled
-    segmentation (.nii, .nii.gz), into a trajectory file bhr follows: the centerline with the lumen diameter at
+    segmentation (.nii, .nii.gz), into a trajectory file for --traj: the centerline with the lumen diameter at
     every point, its sections (from a given centerline's section column), and the surface beside it, which the
     clearance is then measured against. Prints what was done (centerline extraction and branch selection,
     direction, smoothing, resampling, lumen); the same lines head the CSV. Needs the anatomy extra.
 
     \b
-        bhr import colon.stl --start 0,0,0 --out my-colon.csv
-        bhr follow --traj my-colon.csv --solver lumen
+        bhr import colon.stl --start 0,0,0 --out bhr-out/my-colon.csv
+        bhr follow --traj bhr-out/my-colon.csv --solver lumen
     """
     from pathlib import Path
 
