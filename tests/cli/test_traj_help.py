@@ -20,8 +20,8 @@ def test_the_help_lists_every_accepted_name(command):
 
 
 def test_every_name_in_the_help_is_accepted():
-    named = re.findall(r"[a-z][a-z_-]*[a-z]", traj_help().split("or a trajectory file")[0])
-    names = set(named) - {"seed", "shipped", "point", "file"}
-    assert "example_centerline" in names and "line" in names
+    named = re.findall(r"[a-z][A-Za-z0-9_:-]*[A-Za-z0-9]", traj_help().split("or a trajectory file")[0])
+    names = set(named) - {"seed", "shipped", "point", "file", "real"}
+    assert "example_centerline" in names and "line" in names and "gca:VHM" in names
     for name in names:
         check_trajectory_name(name)  # raises for a name bhr does not know
