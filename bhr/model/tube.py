@@ -24,7 +24,7 @@ from numba import njit
 from bhr.settings.errors import BhrError
 
 __all__ = ["Tube", "make_tube", "segment_scan", "nearest_kernel", "search_window", "scan_from", "local_scan",
-           "local_scan_from", "window_scan", "past_the_window",
+           "local_scan_from", "window_scan", "past_the_window", "search_arrays",
            "global_scan", "locate_kernel", "point_clearance", "nearest_numpy", "locate_numpy", "lumen_end_of",
            "WINDOW_MM", "LUMEN_ENDS", "GLOBAL_BELOW", "BLOCK", "GROUP", "LOOP_RATIO"]
 
@@ -78,7 +78,7 @@ class Tube:
     def search_arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(arc, block_centre, block_radius), computed once if the tube was built without them."""
         if self.arc is None or self.block_centre is None or self.block_radius is None:
-            self.arc, self.block_centre, self.block_radius = _search_arrays(self.points)
+            self.arc, self.block_centre, self.block_radius = search_arrays(self.points)
         return self.arc, self.block_centre, self.block_radius
 
 
@@ -113,7 +113,7 @@ def _spheres_kernel(pts, size, centre, rad):
         rad[j] = math.sqrt(r2) * (1.0 + 1e-12) + 1e-9
 
 
-def _search_arrays(pts: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def search_arrays(pts: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(arc, centres, radii): the spheres of the blocks of BLOCK segments, then of the groups of GROUP segments."""
     arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(pts, axis=0), axis=1))])
     bc, br = _spheres(pts, BLOCK)
@@ -154,7 +154,7 @@ def make_tube(path: np.ndarray, lumen: np.ndarray, start_direction=None, window_
     after = P[-1] + spacing * np.arange(1, post + 1)[:, None] * d1
     pts = np.ascontiguousarray(np.vstack([before, P, after]))
     rad = np.concatenate([np.full(pad, lum[0]), lum[:N], np.full(post, lum[N - 1])]) / 2.0
-    arc, centre, brad = _search_arrays(pts)
+    arc, centre, brad = search_arrays(pts)
     return Tube(pts, np.ascontiguousarray(rad), pad, post, float(w), spacing, arc, centre, brad)
 
 

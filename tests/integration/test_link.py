@@ -647,7 +647,7 @@ def test_the_hints_bhr_prints_run_as_printed(tmp_path):
 
     r = run_bhr("follow", "--traj", "curve", "--angle", "90", "--no-plots", cwd=tmp_path, timeout=600)
     assert r.returncode == 0, r.stderr
-    m = re.search(r"\((bhr plan --codes \S+) shows the schedule\)", r.stdout + r.stderr)
+    m = re.search(r"\((bhr plan --codes \S+ --rate \S+) shows the schedule\)", r.stdout + r.stderr)
     assert m, r.stdout + r.stderr
     hint = shlex.split(m.group(1))
     r = run_bhr(*hint[1:], "--no-plots", cwd=tmp_path)

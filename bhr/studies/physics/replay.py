@@ -414,7 +414,7 @@ def _global_seg(C, pts, seg):
 def wall_tube(result, behind_mm: float = 0.0):
     """The lumen the wall bounds: bhr's tube of the run (capped at the cecum, continued straight behind the
     entrance, here at least ``behind_mm`` far), as the run's clearance is scored (bhr.model.tube.make_tube)."""
-    from bhr.model.tube import Tube, _search_arrays, make_tube
+    from bhr.model.tube import Tube, search_arrays, make_tube
 
     tr = result.trajectory
     if tr.lumen is None:
@@ -433,7 +433,7 @@ def wall_tube(result, behind_mm: float = 0.0):
     d0 = (C[1] - C[0]) / np.linalg.norm(C[1] - C[0])
     pts = np.ascontiguousarray(np.vstack([C[0] - tube.spacing * np.arange(nb, 0, -1)[:, None] * d0, C]))
     rad = np.ascontiguousarray(np.concatenate([np.full(nb, tube.radius[0]), tube.radius]))
-    arc, centre, brad = _search_arrays(pts)
+    arc, centre, brad = search_arrays(pts)
     return Tube(pts, rad, tube.pre + nb, tube.post, tube.window, tube.spacing, arc, centre, brad)
 
 
