@@ -71,3 +71,15 @@ def test_the_marker_is_the_folder(layer):
 def test_a_test_in_the_wrong_place_stops_the_collection(where, fixtures, says):
     with pytest.raises(pytest.UsageError, match=says.replace("{", r"\{").replace("}", r"\}")):
         pytest_collection_modifyitems(None, [_Item(where, fixtures)])
+
+
+def test_every_package_of_the_library_is_installed():
+    """pyproject's explicit package list names every folder with an __init__.py: a package left out is missing
+    from an installed (non-editable) bhr, as bhr.studies.physics was."""
+    import tomllib
+
+    root = TESTS.parent
+    listed = set(tomllib.loads((root / "pyproject.toml").read_text())["tool"]["setuptools"]["packages"])
+    found = {".".join(p.parent.relative_to(root).parts) for p in (root / "bhr").rglob("__init__.py")}
+    found |= {"bhr.cli" if p.parent.name == "cli" and p.parent.parent == root else "" for p in (root / "cli").rglob("__init__.py")} - {""}
+    assert found - listed == set()
