@@ -47,7 +47,9 @@ def fk(codes, json_path, plot_path, **kwargs):
     points, frames = forward_kinematics(robot, checked)
     doc = {"codes": checked, "points": points.tolist(), "frames": frames.tolist()}
     if plot_path:
-        robot.plot(checked, plot_path)
+        from bhr.output.workspace_plot import plot_pose
+
+        plot_pose(robot, checked, plot_path)
     if json_path == "-":
         click.echo(json.dumps(doc, indent=1))
         return

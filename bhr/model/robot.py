@@ -172,19 +172,6 @@ class Robot:
         """
         return forward_kinematics(self, codes, base, frame)
 
-    def plot(self, codes: Sequence[int], path: str | None = None, title: str | None = None) -> Any:
-        """A figure of the pose for ``codes`` (one per module, base first): each module drawn as the cylinder of
-        the robot's radius it is, the base frame's axes, each module's code (``bhr fk --plot``). Returns a
-        :class:`matplotlib.figure.Figure`; with ``path`` (.png, .svg or .pdf) it is also written there.
-        Needs matplotlib (imported here only: the model loads without it)."""
-        from bhr.output.workspace_plot import pose_figure, save
-
-        points, frames = self.fk(codes)
-        fig = pose_figure(self, [int(c) for c in codes], points, frames, base_frame((1, 0, 0)), title)
-        if path is not None:
-            save(fig, path)
-        return fig
-
     def to_dict(self) -> dict[str, Any]:
         """The robot as run.json, the report and the sweeps write it: the option names of the registry
         (``robot_radius``, as on the command line and in robot files), then ``feed`` and ``min_turn_radius``."""

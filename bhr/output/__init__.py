@@ -20,7 +20,7 @@ _API = {
     "error_figure": "plots", "path_figure": "plots", "chain_figure": "plots", "body_figure": "plots",
     "clearance_figure": "plots", "save_run_plots": "plots", "save_figure": "plots",
     "animate": "animate", "view_figure": "view", "view_html": "view", "save_view": "view",
-    "write_run_files": "steptable",
+    "write_run_files": "steptable", "plot_pose": "workspace_plot",
 }
 
 __all__ = sorted(_API)

@@ -1,4 +1,4 @@
-"""Figures of a robot by itself: a pose (``Robot.plot``, ``bhr fk --plot``) and the workspace (``bhr workspace``).
+"""Figures of a robot by itself: a pose (:func:`plot_pose`, ``bhr fk --plot``) and the workspace (``bhr workspace``).
 
 Drawn on :class:`matplotlib.figure.Figure` (no pyplot: nothing global, nothing
 shown), saved atomically by :func:`save`. The pose figure draws each module as
@@ -23,7 +23,7 @@ if TYPE_CHECKING:  # pragma: no cover
     from bhr.model.robot import Robot
     from bhr.model.workspace import Workspace
 
-__all__ = ["pose_figure", "workspace_figure", "draw_modules", "cylinder_surface", "save"]
+__all__ = ["plot_pose", "pose_figure", "workspace_figure", "draw_modules", "cylinder_surface", "save"]
 
 #: Most tips the workspace figure's 3-D cloud draws (a random subset beyond, said in its title).
 CLOUD_POINTS = 30_000
@@ -175,6 +175,20 @@ def check_path(path: str | os.PathLike[str]) -> None:
     suffix = Path(path).suffix.lower()
     if suffix and suffix not in FORMATS:
         raise BhrError(f"cannot draw a figure as {path}: give a file ending in .png, .svg or .pdf")
+
+
+def plot_pose(robot: "Robot", codes: Sequence[int], path: str | os.PathLike[str] | None = None,
+              title: str | None = None) -> Figure:
+    """A figure of ``robot``'s pose for ``codes`` (one per module, base first), the robot straight along +X from the
+    origin as :meth:`bhr.model.Robot.fk` puts it (``bhr fk --plot``); with ``path`` (.png, .svg or .pdf) it is also
+    written there."""
+    from bhr.model.robot import base_frame
+
+    points, frames = robot.fk(codes)
+    fig = pose_figure(robot, [int(c) for c in codes], points, frames, base_frame((1, 0, 0)), title)
+    if path is not None:
+        save(fig, path)
+    return fig
 
 
 def save(fig: Figure, path: str | os.PathLike[str], dpi: int = 110) -> Path:

@@ -17,7 +17,8 @@ from bhr.settings.options import parse_number
 from bhr.settings.options import excerpt as _excerpt
 from bhr.settings.options import type_name as _type_name
 
-__all__ = ["MAX_FILE_BYTES", "MAX_RUN_BYTES", "MAX_MM", "MAX_POINTS", "MAX_STEP_POINTS", "read_capped", "read_text",
+__all__ = ["MAX_REASON_CHARS", "reason",
+           "MAX_FILE_BYTES", "MAX_RUN_BYTES", "MAX_MM", "MAX_POINTS", "MAX_STEP_POINTS", "read_capped", "read_text",
            "read_toml", "check_keys", "type_name", "number", "vector3", "text_value", "choice", "did_you_mean",
            "parse_number", "check_number", "excerpt", "check_regular", "broken_link", "latest_note"]
 
@@ -244,3 +245,20 @@ def choice(value: Any, where: str, allowed: Iterable[str]) -> str:
         shown = _excerpt(value) if isinstance(value, str) else type_name(value)
         raise BhrError(f"{where} must be one of {', '.join(repr(a) for a in allowed)}, got {shown}")
     return value
+
+
+#: The longest reason a study's row keeps (summary.csv, the report's page, the table printed).
+MAX_REASON_CHARS = 300
+
+
+def reason(exc: BaseException) -> str:
+    """One line saying why a run failed: a BhrError's own first line, a failed read or write's file (quoted short)
+    and why, else the exception's type and first line; at most :data:`MAX_REASON_CHARS` characters."""
+    if isinstance(exc, BhrError):
+        text = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+    elif isinstance(exc, OSError) and exc.strerror:
+        text = exc.strerror + (f": {_excerpt(str(exc.filename), 80)}" if exc.filename is not None else "")
+    else:
+        lines = str(exc).splitlines()
+        text = f"{type(exc).__name__}: {lines[0]}" if lines else type(exc).__name__
+    return text if len(text) <= MAX_REASON_CHARS else text[:MAX_REASON_CHARS - 3] + "..."

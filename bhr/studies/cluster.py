@@ -14,7 +14,7 @@ from typing import Any, Callable, Iterator
 
 from bhr.settings.errors import BhrError
 from bhr.settings.options import excerpt
-from bhr.studies.executor import reason
+from bhr.settings.inputs import reason
 
 __all__ = ["DASK_WAIT_S", "connect_scheduler", "scheduler_client", "dask_missing", "run_dask"]
 

@@ -22,30 +22,15 @@ from dataclasses import dataclass
 from typing import Any, Callable, Generic, Iterator, Sequence, TypeVar
 
 from bhr.settings.errors import BhrError
-from bhr.settings.options import excerpt
+from bhr.settings.inputs import reason
 
 __all__ = ["run_jobs", "Executed", "capture", "reason"]
 
 J = TypeVar("J")
 R = TypeVar("R")
-#: The longest reason a study's row keeps (summary.csv, the report's page, the table printed).
-MAX_REASON_CHARS = 300
 #: A write that failed for want of room: the study's output failed, not one run, and the next run's would too.
 _OUTPUT_FULL = (errno.ENOSPC, errno.EDQUOT, errno.EFBIG)
 _SIGNALS = tuple(getattr(signal, n) for n in ("SIGINT", "SIGTERM", "SIGHUP") if hasattr(signal, n))
-
-
-def reason(exc: BaseException) -> str:
-    """One line saying why a run failed: a BhrError's own first line, a failed read or write's file (quoted short)
-    and why, else the exception's type and first line; at most :data:`MAX_REASON_CHARS` characters."""
-    if isinstance(exc, BhrError):
-        text = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-    elif isinstance(exc, OSError) and exc.strerror:
-        text = exc.strerror + (f": {excerpt(str(exc.filename), 80)}" if exc.filename is not None else "")
-    else:
-        lines = str(exc).splitlines()
-        text = f"{type(exc).__name__}: {lines[0]}" if lines else type(exc).__name__
-    return text if len(text) <= MAX_REASON_CHARS else text[:MAX_REASON_CHARS - 3] + "..."
 
 
 @contextlib.contextmanager

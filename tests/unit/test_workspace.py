@@ -89,12 +89,14 @@ def test_too_many_poses_to_enumerate_is_refused_with_the_fix():
         workspace(Robot(modules=12), exact=False, samples=0)
 
 
-def test_robot_plot_draws_each_module_with_its_radius(tmp_path):
+def test_plot_pose_draws_each_module_with_its_radius(tmp_path):
     from matplotlib.figure import Figure
     from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
     robot = Robot(modules=4, radius=3.0)
-    fig = robot.plot([3, 0, 6, 15], tmp_path / "pose.png")
+    from bhr.output import plot_pose
+
+    fig = plot_pose(robot, [3, 0, 6, 15], tmp_path / "pose.png")
     assert isinstance(fig, Figure) and (tmp_path / "pose.png").stat().st_size > 10_000
     ax = fig.axes[0]
     tubes = [c for c in ax.collections if isinstance(c, Poly3DCollection)]
@@ -110,7 +112,7 @@ def test_robot_plot_draws_each_module_with_its_radius(tmp_path):
         assert np.allclose(np.linalg.norm(radial, axis=1), 3.0)
         assert np.allclose(np.sort(np.unique(np.round(rel @ axis, 9))), [0.0, np.linalg.norm(b - a)])
     with pytest.raises(BhrError, match=".png, .svg or .pdf"):
-        robot.plot([0, 0, 0, 0], tmp_path / "pose.jpg")
+        plot_pose(robot, [0, 0, 0, 0], tmp_path / "pose.jpg")
 
 
 def test_workspace_figure_says_exact_or_sampled(tmp_path):
