@@ -326,6 +326,24 @@ def test_firmware_builds_for_the_atmega328p(built):
     assert data + bss < 1024  # of 2048 bytes of RAM: the rest is stack
 
 
+def test_the_firmware_sizes_in_the_docs_are_the_build_s(built):
+    """docs/firmware.md quotes avr-size of the 5-module build: flash, RAM and the board's state in .noinit."""
+    sections = {}
+    for line in subprocess.run(["avr-size", "-A", str(FIRMWARE / "build" / "bhr.elf")], capture_output=True,
+                               text=True, check=True).stdout.splitlines():
+        parts = line.split()
+        if len(parts) >= 2 and parts[0].startswith(".") and parts[1].isdigit():
+            sections[parts[0]] = int(parts[1])
+    flash = sections[".text"] + sections.get(".data", 0)
+    ram = sections.get(".data", 0) + sections.get(".bss", 0)
+    doc = " ".join((Path(__file__).parents[2] / "docs" / "firmware.md").read_text(encoding="utf-8").split())
+    m = re.search(r"(\d+) bytes of flash and (\d+) bytes of RAM \(plus the board's state, (\d+) bytes in `\.noinit`\)",
+                  doc)
+    assert m, "docs/firmware.md no longer quotes the firmware's size"
+    assert (int(m[1]), int(m[2]), int(m[3])) == (flash, ram, sections[".noinit"]), \
+        f"docs/firmware.md quotes {m[0]!r}; avr-size measures {flash} flash, {ram} RAM, {sections['.noinit']} .noinit"
+
+
 def test_make_sim_prints_the_pty_first_and_stops_cleanly(sim):
     s = sim(via_make=True)
     # GNU make prints its own "Entering directory" line first when run with -C; nothing else may come first
