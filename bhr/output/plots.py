@@ -454,10 +454,10 @@ def _pose_points(result: "FollowResult", i: int) -> np.ndarray:
 def zoom_half_width(result: "FollowResult", factor: float) -> float:
     """Half the side of a square view around the head: ``factor`` head lengths, and the lumen with room."""
     head = float(np.sum(np.linalg.norm(np.diff(result.points[0], axis=0), axis=1)))
-    head = max(head, result.robot.module_length * result.modules, 4 * result.robot.radius)
+    head = max(head, result.robot.module_length * result.modules, 4 * result.robot.robot_radius)
     lumen = getattr(result.trajectory, "lumen", None)
     wall = 0.75 * float(np.max(lumen)) if lumen is not None and len(lumen) else 0.0
-    return max(factor * head, wall, 3 * result.robot.radius)
+    return max(factor * head, wall, 3 * result.robot.robot_radius)
 
 
 def _head_centre(result: "FollowResult", i: int) -> np.ndarray:
@@ -480,10 +480,10 @@ def _draw_context(ax: Any, result: "FollowResult", planar: bool, markevery: int 
 def _draw_pose(ax: Any, result: "FollowResult", i: int, planar: bool, target_size: float = 9) -> list[Any]:
     """What changes with the step: the target, the robot (head) and the body behind it."""
     new = draw_target(ax, result.trajectory.points[i], planar, target_size)
-    new += draw_robot(ax, result.points[i], result.robot.radius, planar)
+    new += draw_robot(ax, result.points[i], result.robot.robot_radius, planar)
     body = _body_pose(result, i)
     if body is not None:
-        new += draw_robot(ax, body, result.robot.radius, planar, color="tab:orange", label="body")
+        new += draw_robot(ax, body, result.robot.robot_radius, planar, color="tab:orange", label="body")
     return new
 
 
@@ -574,7 +574,7 @@ def path_figure(result: "FollowResult", step: int | None = None) -> plt.Figure:
     if planar:
         lo, hi = allpts[:, :2].min(axis=0), allpts[:, :2].max(axis=0)
         span = hi - lo
-        pad = result.robot.radius + 0.03 * max(float(span.max()), 1.0)
+        pad = result.robot.robot_radius + 0.03 * max(float(span.max()), 1.0)
         lo, hi = lo - pad, hi + pad
         w, h = float(hi[0] - lo[0]), float(hi[1] - lo[1])
         ax_w = 7.6

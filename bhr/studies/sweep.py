@@ -293,7 +293,7 @@ def build_sweep(trajs: Sequence[str], solvers: Sequence[str], grid: Iterable[tup
         rb = load_robot_file(robot_file).robot
         base_robot = {f.name: getattr(rb, f.name) for f in fields(rb)}
     first = {k: v[0] for k, v in grid}
-    robot_first = {ROBOT_KEYS[k]: v for k, v in first.items() if k in ROBOT_KEYS}
+    robot_first = {k: v for k, v in first.items() if k in ROBOT_KEYS}
     traj_first = {k: v for k, v in first.items() if k in TRAJ_KEYS}
 
     def check_robot(params: dict[str, Any], what: str) -> Any:
@@ -306,7 +306,7 @@ def build_sweep(trajs: Sequence[str], solvers: Sequence[str], grid: Iterable[tup
     for k, values in grid:
         if k in ROBOT_KEYS:
             for v in values[1:]:
-                check_robot({**robot_first, ROBOT_KEYS[k]: v}, f"{k} = {v}")
+                check_robot({**robot_first, k: v}, f"{k} = {v}")
     body = dict(grid).get("body_modules")
     if body is not None:  # the whole robot is at least its head, with every head of the grid
         most = max(check_robot({**robot_first, "modules": m}, f"modules = {m}").modules
@@ -365,7 +365,7 @@ def run_design(design: dict[str, Any], traj_source: str, base_robot: dict[str, A
     if physics:
         row.update({k: None for k in PHYSICS_KEYS})
     with capture(row):  # one failed design must not stop the sweep
-        robot = make_robot({ROBOT_KEYS[k]: v for k, v in design.items() if k in ROBOT_KEYS}, base_robot)
+        robot = make_robot({k: v for k, v in design.items() if k in ROBOT_KEYS}, base_robot)
         row["min_turn_radius_mm"] = robot.min_turn_radius
         source, params = colon_source(traj_source, {k: v for k, v in design.items() if k in TRAJ_KEYS})
         tr = load_trajectory(source, feed=robot.feed, **params)
@@ -510,13 +510,13 @@ def heatmap_panels(sweep: Sweep, x: str | None, y: str | None) -> str | None:
 
 def _thesis_value(key: str) -> Any:
     """The thesis design's value of a robot key (bhr's default robot), or None for any other key."""
-    return getattr(Robot(), ROBOT_KEYS[key]) if key in ROBOT_KEYS else None
+    return getattr(Robot(), key) if key in ROBOT_KEYS else None
 
 
 def _row_tolerance(result: SweepResult, row: dict[str, Any]) -> float:
     """The position tolerance of a design (its grid value, the sweep's robot, or the thesis's 8 mm)."""
     try:
-        return float(make_robot({ROBOT_KEYS[k]: v for k, v in row.items() if k in ROBOT_KEYS},
+        return float(make_robot({k: v for k, v in row.items() if k in ROBOT_KEYS},
                                 dict(result.sweep.robot) or None).tol_pos)
     except Exception:  # a failed design has no error to compare
         return math.inf

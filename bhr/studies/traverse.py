@@ -499,7 +499,7 @@ def colon_sections(colon: int | str, run: Any) -> tuple[list[str], Any, Any]:
 def worst_colon_run(result: StudyResult, design: dict[str, Any]):
     """Follow ``design``'s worst colon again (same robot, solver and options) and return the run."""
     s = result.study.sweep
-    robot = make_robot({ROBOT_KEYS[k]: design[k] for k in result.study.design_keys if k in ROBOT_KEYS},
+    robot = make_robot({k: design[k] for k in result.study.design_keys if k in ROBOT_KEYS},
                        dict(s.robot) or None)
     traj_keys = {k: design[k] for k in result.study.design_keys if k in TRAJ_KEYS}  # a real colon's lumen model
     tr = colon_trajectory(design["worst_colon"], robot.feed, **traj_keys)
