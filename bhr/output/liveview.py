@@ -208,7 +208,7 @@ class LiveView:
         """Open the window and block until it is closed (key q or the window's close button)."""
         import matplotlib.pyplot as plt
 
-        from bhr.output.plots import StepView
+        from bhr.output.plots import FRAME_INCHES, StepView
 
         backend = _requested_backend() or "TkAgg"
         try:
@@ -218,7 +218,7 @@ class LiveView:
             first = str(exc).splitlines()[0] if str(exc) else exc.__class__.__name__
             raise BhrError(f"--show cannot start the {backend} window ({first}); check DISPLAY and tkinter, "
                            "or write a file with --animate FILE.gif instead") from None
-        self.view = StepView(self.result)
+        self.view = StepView(self.result, fig=plt.figure(figsize=FRAME_INCHES))  # a window: pyplot's figure manager
         fig = self.view.fig
         manager = fig.canvas.manager
         handler = getattr(manager, "key_press_handler_id", None)

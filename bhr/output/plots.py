@@ -15,48 +15,16 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, Sequence
 
 import matplotlib
+import numpy as np
+from matplotlib.figure import Figure
 
-if os.environ.get("DISPLAY", "") == "" and os.environ.get("MPLBACKEND") is None:
-    matplotlib.use("Agg")
-
-
-def _import_pyplot() -> Any:
-    """``matplotlib.pyplot``, imported without the property tables of the artists' ``set()`` docstrings.
-
-    When matplotlib defines an artist class it writes, into its ``set()`` docstring and into the docstrings
-    that name it, a table of the class's settable properties (``matplotlib.artist.kwdoc``, inspecting every
-    setter's docstring): about 0.09 s of the 0.33 s that importing matplotlib costs bhr follow, for help
-    text a run never shows. Those docstrings say "see matplotlib's documentation" instead; ``kwdoc`` is
-    matplotlib's own again once pyplot is loaded (tests/unit/test_figures.py). Figures are not affected.
-    """
-    import sys
-
-    if "matplotlib.pyplot" in sys.modules:
-        return sys.modules["matplotlib.pyplot"]
-    import matplotlib.artist as artist
-
-    kwdoc = artist.kwdoc
-    artist.kwdoc = lambda artist: "Properties: see matplotlib's documentation (matplotlib.artist.kwdoc)."
-    try:
-        import matplotlib.pyplot
-    finally:
-        artist.kwdoc = kwdoc
-    return matplotlib.pyplot
-
-
-if TYPE_CHECKING:  # pragma: no cover
-    import matplotlib.pyplot as plt
-else:
-    plt = _import_pyplot()
-import numpy as np  # noqa: E402
-
-from bhr.output.atomic import atomic_path  # noqa: E402
-from bhr.settings.errors import BhrError  # noqa: E402
+from bhr.output.atomic import atomic_path
+from bhr.settings.errors import BhrError
 
 if TYPE_CHECKING:  # pragma: no cover
     from bhr.run.driver import FollowResult
 
-__all__ = ["error_figure", "path_figure", "chain_figure", "draw_robot", "capsule_outline", "label_sections",
+__all__ = ["subplots", "error_figure", "path_figure", "chain_figure", "draw_robot", "capsule_outline", "label_sections",
            "draw_travel_arrow", "colon_sections", "draw_path", "save_figure",
            "save_run_plots", "ERROR_KINDS", "StepView", "run_is_planar",
            "body_figure", "clearance_figure", "mark_wall_touches", "mark_worst", "draw_lumen_wall", "lumen_walls",
@@ -70,6 +38,13 @@ ERROR_KINDS = {
     "orientation": ("orientation_errors.png", "Orientation error of each module", "orientation error (deg)"),
     "global": ("global_errors.png", "Global error of each module", "global error (-)"),
 }
+
+
+def subplots(*grid: int, figsize: tuple[float, float], **kw: Any) -> tuple[Figure, Any]:
+    """A new :class:`matplotlib.figure.Figure` of ``figsize`` inches and its axes (``Figure.subplots``): no pyplot,
+    so nothing global to close and no backend to choose; the figure is saved by :func:`save_figure`."""
+    fig = Figure(figsize=figsize)
+    return fig, fig.subplots(*grid, **kw)
 
 
 def _panel_title(kind: str, j: int, count: int) -> str:
@@ -127,7 +102,7 @@ class _ErrorGrid:
         self.result, self.rows, self.cols = result, rows, cols
         self.n = result.steps
         width, height = 10.0, 2.6 * rows + 0.9
-        self.fig, axes = plt.subplots(rows, cols, figsize=(width, height), squeeze=False, sharex=True,
+        self.fig, axes = subplots(rows, cols, figsize=(width, height), squeeze=False, sharex=True,
                                       gridspec_kw=_margins(width, height, rows, cols))
         self.axes = [axes[j // cols][j % cols] for j in range(rows * cols)]
         self.steps = np.arange(1, self.n + 1)
@@ -146,7 +121,7 @@ class _ErrorGrid:
             _light_ticks(ax)
         self.title = self.fig.suptitle("", fontsize=12, y=1 - 0.12 / height)
 
-    def fill(self, kind: str) -> plt.Figure:
+    def fill(self, kind: str) -> Figure:
         """The figure with ``kind``'s errors: one panel per point (position) or module (orientation, global)."""
         result, cols = self.result, self.cols
         data = _error_data(result, kind)
@@ -188,7 +163,7 @@ class _ErrorGrid:
         return self.fig
 
 
-def error_figure(result: "FollowResult", kind: str) -> plt.Figure:
+def error_figure(result: "FollowResult", kind: str) -> Figure:
     """One panel per point (position) or module (orientation, global) against trajectory step.
 
     Every panel has its step numbers, the tolerance line and its worst step
@@ -406,7 +381,7 @@ def draw_robot(ax: Any, points: np.ndarray, radius: float, planar: bool, color: 
     return artists
 
 
-def _setup_axes(fig: plt.Figure, planar: bool, rect: tuple[float, float, float, float] | None = None) -> Any:
+def _setup_axes(fig: Figure, planar: bool, rect: tuple[float, float, float, float] | None = None) -> Any:
     kw: dict[str, Any] = {} if planar else {"projection": "3d"}
     ax: Any = fig.add_subplot(111, **kw) if rect is None else fig.add_axes(rect, **kw)
     ax.set_xlabel("x (mm)")
@@ -552,7 +527,7 @@ FRAME_ZOOM = 1.2
 FRAME_INCHES = (10.0, 7.0)
 
 
-def path_figure(result: "FollowResult", step: int | None = None) -> plt.Figure:
+def path_figure(result: "FollowResult", step: int | None = None) -> Figure:
     """The whole path and the robot's pose at ``step`` (0-based, default: the last); top view when planar.
 
     The lumen's wall is drawn where the trajectory has a lumen, start and end
@@ -588,7 +563,7 @@ def path_figure(result: "FollowResult", step: int | None = None) -> plt.Figure:
         # A fixed layout in inches (no tight_layout pass): the canvas takes the path's shape.
         left, right, bottom, top = 0.85, 0.3, 1.05, 0.4
         fw, fh = max(ax_w + left + right, 6.0), ax_h + bottom + top
-        fig = plt.figure(figsize=(fw, fh))
+        fig = Figure(figsize=(fw, fh))
         ax = _setup_axes(fig, True, (left / fw, bottom / fh, ax_w / fw, ax_h / fh))
         _draw_context(ax, result, True, every, contacts_step=only)
         label_sections(ax, traj, True)
@@ -616,7 +591,7 @@ def path_figure(result: "FollowResult", step: int | None = None) -> plt.Figure:
         return fig
     extent = float(np.ptp(allpts, axis=0).max())
     zoom = 2 * half < 0.45 * extent
-    fig = plt.figure(figsize=(14, 7) if zoom else (8, 7))
+    fig = Figure(figsize=(14, 7) if zoom else (8, 7))
     ax = fig.add_subplot(1, 2 if zoom else 1, 1, projection="3d")
     ax.set_xlabel("x (mm)")
     ax.set_ylabel("y (mm)")
@@ -645,7 +620,7 @@ def path_figure(result: "FollowResult", step: int | None = None) -> plt.Figure:
     return fig
 
 
-def _legend_below(fig: plt.Figure, ax: Any, ncol: int | None = None, x: float = 0.5) -> Any:
+def _legend_below(fig: Figure, ax: Any, ncol: int | None = None, x: float = 0.5) -> Any:
     """One legend below the axes (fixed, so it never hides the path nor moves between frames)."""
     handles, labels = ax.get_legend_handles_labels()
     seen: dict[str, Any] = {}
@@ -668,11 +643,11 @@ class StepView:
     off-screen Agg figure); its size should be :data:`FRAME_INCHES`.
     """
 
-    def __init__(self, result: "FollowResult", fig: plt.Figure | None = None,
+    def __init__(self, result: "FollowResult", fig: Figure | None = None,
                  figsize: tuple[float, float] = FRAME_INCHES) -> None:
         self.result = result
         self.planar = run_is_planar(result)
-        self.fig = plt.figure(figsize=figsize) if fig is None else fig
+        self.fig = Figure(figsize=figsize) if fig is None else fig
         self.half = zoom_half_width(result, FRAME_ZOOM)
         traj = result.trajectory
         main = (0.07, 0.15, 0.58, 0.77)
@@ -793,12 +768,12 @@ class StepView:
 
 
 def chain_figure(initial: np.ndarray, final: np.ndarray, target: Sequence[float], radius: float | None = None,
-                 title: str = "") -> plt.Figure:
+                 title: str = "") -> Figure:
     """Initial and final chain of one solve (thesis Figs. 5.8-5.22): 2D when all lies in z = 0."""
     t = np.asarray(target, dtype=np.float64)
     allpts = np.vstack([initial, final, t[None]])
     planar = bool(np.all(np.abs(allpts[:, 2]) < 1e-12))
-    fig = plt.figure(figsize=(7, 7))
+    fig = Figure(figsize=(7, 7))
     ax = _setup_axes(fig, planar)
     if not planar:
         ax.computed_zorder = False  # draw in zorder: the solution over the initial chain, whatever the depth
@@ -845,29 +820,23 @@ RUN_PNG_COMPRESS = 1
 TEXT_RENDERING: dict[Any, Any] = {"text.hinting": "none"}
 
 
-def save_figure(fig: plt.Figure, path: str | os.PathLike[str], dpi: int = 110, compress: int | None = None,
-                close: bool = True) -> Path:
-    """Save ``fig`` atomically as PNG (or SVG/PDF by extension) and close it (unless ``close`` is false: the
-    figure is filled and saved again); ``compress``: a PNG's zlib level."""
+def save_figure(fig: Figure, path: str | os.PathLike[str], dpi: int = 110, compress: int | None = None) -> Path:
+    """Save ``fig`` atomically as PNG (or SVG/PDF by extension); ``compress``: a PNG's zlib level."""
     p = Path(path)
-    try:
-        fmt = p.suffix.lower().lstrip(".") if p.suffix.lower() in FIGURE_FORMATS else "png"
-        kw: dict[str, Any] = {}
-        if compress is not None and fmt == "png":
-            kw["pil_kwargs"] = {"compress_level": int(compress)}
-        with atomic_path(p) as tmp, matplotlib.rc_context(TEXT_RENDERING):
-            if tmp == p:  # a device, FIFO or /dev/stdout: render in memory, then one plain write (no seeking)
-                import io
+    fmt = p.suffix.lower().lstrip(".") if p.suffix.lower() in FIGURE_FORMATS else "png"
+    kw: dict[str, Any] = {}
+    if compress is not None and fmt == "png":
+        kw["pil_kwargs"] = {"compress_level": int(compress)}
+    with atomic_path(p) as tmp, matplotlib.rc_context(TEXT_RENDERING):
+        if tmp == p:  # a device, FIFO or /dev/stdout: render in memory, then one plain write (no seeking)
+            import io
 
-                buf = io.BytesIO()
-                fig.savefig(buf, dpi=dpi, format=fmt, **kw)
-                with open(p, "ab" if p.is_file() else "wb") as fh:
-                    fh.write(buf.getvalue())
-            else:
-                fig.savefig(tmp, dpi=dpi, format=fmt, **kw)
-    finally:
-        if close:
-            plt.close(fig)
+            buf = io.BytesIO()
+            fig.savefig(buf, dpi=dpi, format=fmt, **kw)
+            with open(p, "ab" if p.is_file() else "wb") as fh:
+                fh.write(buf.getvalue())
+        else:
+            fig.savefig(tmp, dpi=dpi, format=fmt, **kw)
     return p
 
 
@@ -889,15 +858,11 @@ def save_run_plots(result: "FollowResult", out_dir: str | os.PathLike[str], step
     out = Path(out_dir)
     files = []
     grids: dict[tuple[int, int], _ErrorGrid] = {}  # the three error figures share one grid where their panels fit
-    try:
-        for kind, (name, _, _) in ERROR_KINDS.items():
-            shape = _error_grid_shape(_error_data(result, kind).shape[1])
-            if shape not in grids:
-                grids[shape] = _ErrorGrid(result, *shape)
-            files.append(save_figure(grids[shape].fill(kind), out / name, compress=RUN_PNG_COMPRESS, close=False))
-    finally:
-        for grid in grids.values():
-            plt.close(grid.fig)
+    for kind, (name, _, _) in ERROR_KINDS.items():
+        shape = _error_grid_shape(_error_data(result, kind).shape[1])
+        if shape not in grids:
+            grids[shape] = _ErrorGrid(result, *shape)
+        files.append(save_figure(grids[shape].fill(kind), out / name, compress=RUN_PNG_COMPRESS))
     path_name = "path.png" if step is None else f"path-step{step}.png"
     files.append(save_figure(path_figure(result, None if step is None else step - 1), out / path_name,
                              compress=RUN_PNG_COMPRESS))
@@ -954,12 +919,12 @@ def draw_contacts(ax: Any, result: "FollowResult", planar: bool, step: int | Non
     return ax.plot(w[:, 0], w[:, 1], w[:, 2], axlim_clip=True, **style)  # none outside a zoomed 3-D view
 
 
-def body_figure(result: "FollowResult") -> plt.Figure:
+def body_figure(result: "FollowResult") -> Figure:
     """Position error of the body behind the head: the largest over its points, and its last point."""
     b = result.body
     assert b is not None, "body_figure needs a run with a body (follow(..., body_modules=M))"
     steps = np.arange(1, result.steps + 1)
-    fig, ax = plt.subplots(figsize=(10, 4))
+    fig, ax = subplots(figsize=(10, 4))
     draw_sections(ax, result)
     ax.plot(steps, result.point_errors_mm.max(axis=1), color="tab:blue", linewidth=1.0, label="head (largest point)")
     ax.plot(steps, b.point_errors_mm.max(axis=1), color="tab:orange", linewidth=1.0, label="body (largest point)")
@@ -1025,12 +990,12 @@ def draw_section_names(ax: Any, traj: Any, planar: bool) -> None:
             ax.text(p[0], p[1], p[2], " " + name, **kw)
 
 
-def clearance_figure(result: "FollowResult") -> plt.Figure:
+def clearance_figure(result: "FollowResult") -> Figure:
     """Smallest clearance to the lumen wall at each step (mm); below zero the wall is touched."""
     cl = result.clearance
     assert cl is not None, "clearance_figure needs a trajectory with a lumen"
     steps = np.arange(1, result.steps + 1)
-    fig, ax = plt.subplots(figsize=(10, 4), gridspec_kw=_margins(10, 4, 1, 1, left=0.75, top=0.4))  # fixed layout
+    fig, ax = subplots(figsize=(10, 4), gridspec_kw=_margins(10, 4, 1, 1, left=0.75, top=0.4))  # fixed layout
     draw_sections(ax, result)
     ax.plot(steps, cl.per_step, color="tab:green", linewidth=1.0, label="smallest clearance")
     ax.axhline(0.0, color="tab:red", linestyle="--", linewidth=0.8, label="wall (clearance 0)")

@@ -274,7 +274,7 @@ def test_compare_figure_has_step_numbers_tolerance_and_each_solvers_worst_step()
 
 
 def test_solve_plot_keeps_the_target_inside_and_the_solution_in_front():
-    from bhr.output.plots import chain_figure, plt
+    from bhr.output.plots import chain_figure
 
     initial = np.array([[0, 2.0 * k, 0] for k in range(6)])
     final = np.array([[0, 0, 0], [0, 2, 0], [0.35, 3.97, 0], [1.03, 5.85, 0], [2.03, 7.58, 0], [3.0, 9.0, 0]])
@@ -283,7 +283,6 @@ def test_solve_plot_keeps_the_target_inside_and_the_solution_in_front():
     x0, x1 = ax.get_xlim()
     y0, y1 = ax.get_ylim()
     assert x0 < 0 - 0.05 * 10 and x1 > 3 + 0.05 * 10 and y1 > 10 + 0.05 * 10  # room around the target's marker
-    plt.close(fig)
     lifted = final.copy()
     lifted[2:, 2] = [0.5, 1.5, 2.5, 4.0]
     fig = chain_figure(initial, lifted, lifted[-1])
@@ -293,4 +292,3 @@ def test_solve_plot_keeps_the_target_inside_and_the_solution_in_front():
     assert z["final"] > z["initial"] and z["target"] > z["final"]
     lo, hi = np.array([ax.get_xlim(), ax.get_ylim(), ax.get_zlim()]).T
     assert np.all(lifted[-1] > lo) and np.all(lifted[-1] < hi)
-    plt.close(fig)
