@@ -8,7 +8,7 @@ import numpy as np
 from matplotlib import rcParams
 from matplotlib.figure import Figure
 
-from bhr.output.plots import mark_worst, subplots
+from bhr.output.figure import mark_worst, subplots
 
 __all__ = ["CompareSeries", "compare_figure"]
 

@@ -5,7 +5,7 @@ appendix 1): the path, the current target and the robot (points, links, a
 disc of the robot's radius at each module), top view for a planar run and 3D
 otherwise (drag to rotate), in a view that follows the robot, beside an
 overview of the whole path and a readout of the step's errors. Drawing is
-:class:`bhr.output.plots.StepView`, the same code as the animation. The run plays by itself;
+:class:`bhr.output.stepview.StepView`, the same code as the animation. The run plays by itself;
 keys (see :data:`KEYS`) pause, step and quit. The window's title names the
 step shown, e.g. ``bhr colon: step 12/827 (paused)``.
 
@@ -208,7 +208,8 @@ class LiveView:
         """Open the window and block until it is closed (key q or the window's close button)."""
         import matplotlib.pyplot as plt
 
-        from bhr.output.plots import FRAME_INCHES, StepView
+        from bhr.output.scene import FRAME_INCHES
+        from bhr.output.stepview import StepView
 
         backend = _requested_backend() or "TkAgg"
         try:

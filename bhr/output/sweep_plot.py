@@ -11,7 +11,7 @@ from matplotlib.colors import LogNorm, Normalize
 from matplotlib.figure import Figure
 from matplotlib.patches import Patch, Rectangle
 
-from bhr.output.plots import subplots
+from bhr.output.figure import subplots
 
 __all__ = ["HeatMetric", "heatmap_figure"]
 

@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 from matplotlib.figure import Figure
 
-from bhr.output.plots import save_figure, subplots
+from bhr.output.figure import save_figure, subplots
 from bhr.hardware.thermal import Schedule, format_duration
 
 WIRE_COLORS = ("tab:blue", "tab:orange", "tab:green", "tab:purple")

@@ -8,7 +8,7 @@ import numpy as np
 from matplotlib.figure import Figure
 from matplotlib.patches import Rectangle
 
-from bhr.output.plots import subplots
+from bhr.output.figure import subplots
 
 __all__ = ["passrate_figure", "penetration_figure"]
 

@@ -188,7 +188,7 @@ def write_compare(runs: Sequence[Compared], folder: Any, *, json_name: str | Non
         write_json(folder.path(json_name), compare_json(runs))
         written.append(folder.final(json_name))
     if plot:
-        from bhr.output.plots import save_figure
+        from bhr.output.figure import save_figure
 
         with progress(f"drawing {folder.final('compare.png')}") if progress else contextlib.nullcontext():
             save_figure(compare_figure(runs), folder.path("compare.png"))

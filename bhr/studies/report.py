@@ -272,7 +272,7 @@ def execute_run(spec: RunSpec, out_dir: str | os.PathLike[str] | None = None, pl
             out = Path(out_dir)
             write_run_files(result, out)  # as bhr follow writes them: replay, plan and stream take them
             if plots:
-                from bhr.output.plots import save_run_plots
+                from bhr.output.run_plots import save_run_plots
 
                 row["figures"] = [p.name for p in save_run_plots(result, out)]
                 from bhr.output.view import save_view

@@ -142,7 +142,7 @@ def warm_up(solvers: Sequence[str], plots: bool = False) -> None:
         except Exception:  # noqa: BLE001  (a bad solver name fails, and is reported, in its run)
             pass
     if plots:
-        import bhr.output.plots  # noqa: F401
+        import bhr.output.run_plots  # noqa: F401
 
 
 def _cell(key: str, value: Any, joined: Iterable[str]) -> str:

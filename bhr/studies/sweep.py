@@ -737,7 +737,7 @@ def write_outputs(result: SweepResult, out_dir: str | os.PathLike[str], *, plot:
     })
     heat = None
     if plot:
-        from bhr.output.plots import save_figure
+        from bhr.output.figure import save_figure
 
         files.append(save_figure(heatmap_figure(result, x, y), out / "heatmap.png"))
         heat = "heatmap.png"

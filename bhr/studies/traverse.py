@@ -649,7 +649,7 @@ def write_study(result: StudyResult, out_dir: Any, *, plot: bool = True,
         hx, hy = heatmap_axes(study, x, y)
         heat = worst = None
         if plot:
-            from bhr.output.plots import save_figure
+            from bhr.output.figure import save_figure
 
             save_figure(passrate_figure(result, hx, hy), stage / "passrate.png")
             heat = "passrate.png"
