@@ -129,7 +129,7 @@ def _click_option(o: Option) -> Callable[[Any], Any]:
     return click.option(o.flag, _param(o), type=kind, default=None, help=o.help_text(), metavar=o.metavar)
 
 
-ROBOT_FIELDS = {_param(o): o.key for o in by_group("robot")}
+ROBOT_FIELDS = {_param(o): o.name for o in by_group("robot")}
 TRAJ_FIELDS = tuple(o.name for o in by_group("trajectory"))
 CONSTRAINT_FIELDS = tuple(o.name for o in by_group("constraint"))
 

@@ -65,7 +65,7 @@ def physics(run, out_dir, force, wall_stiffness, wire_force, feeder_force, subst
     with status(f"replaying {result.steps} steps against the wall", log=True):
         rep = replay_physics(result, None if run == "-" else run, **opts)
     from bhr.output.physics_plot import force_figure
-    from bhr.output.plots import save_figure
+    from bhr.output.figure import save_figure
     from bhr.output.view import save_view
 
     with folder:

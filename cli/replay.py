@@ -108,7 +108,7 @@ def replay(run, show, animate_path, stride, out_dir, force, step):
     written: list[Path] = []
     if write_plots:
         from bhr.cli._progress import status
-        from bhr.output.plots import run_plot_names, save_run_plots
+        from bhr.output.run_plots import run_plot_names, save_run_plots
         from bhr.output.view import VIEW_NAME, save_view
 
         if folder is None:

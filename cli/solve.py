@@ -60,7 +60,7 @@ def solve(target, orientation, solver, json_path, plot_path, **kwargs):
     check_writable(json_path, "JSON")
     check_writable(plot_path, "plot")
     if plot_path is not None:
-        from bhr.output.plots import check_figure_path
+        from bhr.output.figure import check_figure_path
 
         check_figure_path(plot_path)
     chapter5 = {k: getattr(CHAPTER5_ROBOT, k) for k in ("modules", "module_length", "tol_pos", "max_iter")}
@@ -101,7 +101,8 @@ def _write_outputs(json_path, plot_path, doc, robot, solver, target, result) -> 
 
         write_json(json_path, doc)
     if plot_path:
-        from bhr.output.plots import chain_figure, save_figure
+        from bhr.output.figure import save_figure
+        from bhr.output.path_plot import chain_figure
         from bhr.solvers import Chain
 
         initial = Chain.straight(robot, (0, 1, 0)).points

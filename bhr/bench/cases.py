@@ -469,7 +469,7 @@ def case_seed_colon(repeat: int = 5) -> list[BenchResult]:
     got: list[np.ndarray] = []
 
     def reference():
-        got[:] = [clearance_run_numpy(tube, res.robot.radius, Q[:part], E[:part],
+        got[:] = [clearance_run_numpy(tube, res.robot.robot_radius, Q[:part], E[:part],
                                       advance=res.robot.feed / tube.spacing)[1]]
 
     tr_ref = _best_time(reference, 1) / part

@@ -75,7 +75,7 @@ def module_inertia(robot: Robot, mass_g: float | None = None, density: float | N
 
     ``mass_g`` (grams) wins over ``density`` (kg/m^3); neither: :data:`DEFAULT_DENSITY`.
     """
-    r, ln = robot.radius * MM, robot.module_length * MM
+    r, ln = robot.robot_radius * MM, robot.module_length * MM
     if mass_g is not None:
         if not (isinstance(mass_g, (int, float)) and math.isfinite(mass_g) and mass_g > 0):
             raise BhrError(f"module mass must be a positive number of grams, got {mass_g!r}")
@@ -196,10 +196,10 @@ def to_urdf(robot: Robot, modules: int | None = None, *, mass_g: float | None = 
     n = robot.modules if modules is None else int(modules)
     if n < 1:
         raise BhrError(f"a robot needs at least one module, got {n}")
-    a, r, ln, lift = math.radians(robot.alpha), robot.radius * MM, robot.module_length * MM, robot.lift * MM
+    a, r, ln, lift = math.radians(robot.alpha), robot.robot_radius * MM, robot.module_length * MM, robot.lift * MM
     inert = module_inertia(robot, mass_g, density)
     out = ['<?xml version="1.0"?>',
-           f"<!-- bhr robot: {n} modules of {robot.module_length:g} mm, radius {robot.radius:g} mm, "
+           f"<!-- bhr robot: {n} modules of {robot.module_length:g} mm, radius {robot.robot_radius:g} mm, "
            f"alpha {robot.alpha:g} deg, lift {robot.lift:g} mm; SI units; joints per docs/export.md -->",
            f'<robot name="{name}">',
            '  <link name="base"/>']
@@ -253,7 +253,7 @@ def mjcf_robot_body(robot: Robot, modules: int, *, mass_g: float | None = None, 
     to every module's collision capsule (contact classes, friction). ``lift=False`` leaves out the lift
     joints (a run that never lifts); ``mocap`` makes the base a MuJoCo mocap body (moved by the scene).
     """
-    a, r, ln, stroke = math.radians(robot.alpha), robot.radius * MM, robot.module_length * MM, robot.lift * MM
+    a, r, ln, stroke = math.radians(robot.alpha), robot.robot_radius * MM, robot.module_length * MM, robot.lift * MM
     inert = module_inertia(robot, mass_g, density)
     pos = " ".join(_f(v) for v in base_pos)
     quat = " ".join(_f(v) for v in base_quat)
@@ -295,7 +295,7 @@ def to_mjcf(robot: Robot, modules: int | None = None, *, mass_g: float | None = 
     if n < 1:
         raise BhrError(f"a robot needs at least one module, got {n}")
     out = [f'<mujoco model="{name}">',
-           f"  <!-- bhr robot: {n} modules of {robot.module_length:g} mm, radius {robot.radius:g} mm, "
+           f"  <!-- bhr robot: {n} modules of {robot.module_length:g} mm, radius {robot.robot_radius:g} mm, "
            f"alpha {robot.alpha:g} deg, lift {robot.lift:g} mm; SI units; joints per docs/export.md -->",
            '  <compiler angle="radian" autolimits="true"/>',
            '  <option gravity="0 0 0"/>',

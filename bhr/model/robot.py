@@ -60,8 +60,8 @@ class Robot:
         Modules the solver places (the head).
     module_length : float, default 10.0
         Length of one module in mm.
-    radius : float, default 5.0
-        Disc radius in mm (``robot_radius`` on the command line and in files).
+    robot_radius : float, default 5.0
+        Disc radius in mm (``--robot-radius`` on the command line, ``robot_radius`` in files).
     alpha : float, default 10.0
         Tilt of one actuated joint in degrees (0 < alpha < 90); derived as asin(stroke / lever) when both are given.
     stroke, lever : float, optional
@@ -78,7 +78,7 @@ class Robot:
 
     modules: int = 5
     module_length: float = 10.0
-    radius: float = 5.0
+    robot_radius: float = 5.0
     alpha: float = 10.0
     stroke: float | None = None
     lever: float | None = None
@@ -92,7 +92,7 @@ class Robot:
     def __post_init__(self) -> None:
         _positive("modules", self.modules, integer=True)
         _positive("module length", self.module_length)
-        _positive("radius", self.radius)
+        _positive("robot radius", self.robot_radius)
         _positive("tol-pos", self.tol_pos)
         _positive("tol-ori", self.tol_ori)
         _positive("max-iter", self.max_iter, integer=True)
@@ -132,11 +132,11 @@ class Robot:
         """Extra length of a module whose next module is lifted (code 15), in mm.
 
         The actuator stroke when given; otherwise derived from alpha with a
-        lever of one module diameter (``2 * radius * sin(alpha)``).
+        lever of one module diameter (``2 * robot_radius * sin(alpha)``).
         """
         if self.stroke is not None:
             return float(self.stroke)
-        return 2.0 * self.radius * math.sin(math.radians(self.alpha))
+        return 2.0 * self.robot_radius * math.sin(math.radians(self.alpha))
 
     def replace(self, **changes: Any) -> "Robot":
         """A copy with some fields changed (validated again)."""
@@ -173,9 +173,9 @@ class Robot:
         return forward_kinematics(self, codes, base, frame)
 
     def to_dict(self) -> dict[str, Any]:
-        """The robot as run.json, the report and the sweeps write it: the option names of the registry
-        (``robot_radius``, as on the command line and in robot files), then ``feed`` and ``min_turn_radius``."""
-        d = {("robot_radius" if k == "radius" else k): v for k, v in asdict(self).items()}
+        """The robot as run.json, the report and the sweeps write it: its fields (the option names of the
+        registry, as on the command line and in robot files), then ``feed`` and ``min_turn_radius``."""
+        d = asdict(self)
         d["feed"] = self.feed
         d["min_turn_radius"] = self.min_turn_radius
         return d
@@ -192,9 +192,8 @@ THESIS_ROBOT = Robot()
 #: :func:`bhr.solve`'s and ``bhr solve``'s default.
 CHAPTER5_ROBOT = Robot(modules=5, module_length=2.0, tol_pos=0.01, max_iter=30)
 
-#: The registry's robot options by every name the library accepts: the registry's (robot_radius) and the
-#: Robot field's (radius).
-_ROBOT_OPTIONS = {**{o.key: o for o in by_group("robot")}, **{o.name: o for o in by_group("robot")}}
+#: The registry's robot options by name (the Robot's fields).
+_ROBOT_OPTIONS = {o.name: o for o in by_group("robot")}
 
 
 def robot_with(robot: Robot | None, options: dict[str, Any], default: Robot = THESIS_ROBOT) -> Robot:
@@ -224,7 +223,7 @@ module_length, robot_radius, alpha, stroke, lever, tol_pos, tol_ori, max_iter, f
             names = [o.name for o in by_group("robot")]
             raise BhrError(f"{name!r} is not a robot setting; {did_you_mean(name, list(_ROBOT_OPTIONS))}"
                            f"robot settings: {', '.join(names)}")
-        changes[opt.key] = value if value is None else opt.check(value, "robot")
+        changes[opt.name] = value if value is None else opt.check(value, "robot")
     return robot.replace(**changes)
 
 

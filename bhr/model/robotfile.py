@@ -38,15 +38,12 @@ HINT = "see docs/robot-files.md"
 #: :mod:`bhr.settings.options`.
 #: alpha's range (0, 90) is checked with its own message.
 ROBOT_KEYS: dict[str, dict[str, Any]] = {
-    o.key: {"integer": o.kind is int, "positive": o.positive, "nonneg": o.nonneg, "unit": o.unit,
+    o.name: {"integer": o.kind is int, "positive": o.positive, "nonneg": o.nonneg, "unit": o.unit,
             "maximum": None if o.maximum is None else o.limit}
     for o in by_group("robot")
 }
 LINK_KEYS = ("port", "baudrate", "module_order", "on_max_ms", "cooldown_ms", "silence_ms")
-#: File key -> Robot field where they differ: ``robot_radius`` is the disc radius in robot files, batch
-#: and sweep files and on the command line (``--robot-radius``); ``radius``, its old name here, is accepted.
-KEY_ALIASES = {"robot_radius": "radius"}
-TOP_KEYS = ("name", "description", "robot_radius", *(k for k in ROBOT_KEYS if k != "radius"), "codes", "link",
+TOP_KEYS = ("name", "description", *ROBOT_KEYS, "codes", "link",
             "thermal", "mass")
 #: Keys of the ``[mass]`` table (docs/export.md): one module's mass in grams, or its density in kg/m^3.
 MASS_KEYS = ("module_mass", "density")
@@ -317,19 +314,13 @@ def load_robot_file(path: str | os.PathLike[str]) -> RobotFile:
         data = read_json_robot(p)
     else:
         data = read_toml(p, "robot file", f"give a robot description such as {default_robot_file()}")
-    if "radius" in data:  # the old name, still read
-        if "robot_radius" in data:
-            raise BhrError(f"{where}: radius is the old name of robot_radius; give robot_radius only")
-        data = {("robot_radius" if k == "radius" else k): v for k, v in data.items()}
     check_keys(data, TOP_KEYS, where)
-    data = {("radius" if k == "robot_radius" else k): v for k, v in data.items()}
     name = name_value(data.get("name", p.stem), f"{where}: name")
     description = text_value(data.get("description", ""), f"{where}: description")
     fields_: dict[str, Any] = {}
     for key, rules in ROBOT_KEYS.items():
         if key in data:
-            shown = "robot_radius" if key == "radius" else key  # the file's name of the field
-            fields_[key] = number(data[key], f"{where}: {shown}", **rules)
+            fields_[key] = number(data[key], f"{where}: {key}", **rules)
     has_sl = "stroke" in fields_ or "lever" in fields_
     if has_sl and "alpha" in fields_:
         raise BhrError(f"{where}: give alpha, or stroke and lever (alpha = asin(stroke/lever)), not both")

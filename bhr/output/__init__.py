@@ -17,8 +17,8 @@ from typing import Any
 
 #: Public name -> the module of this package that defines it.
 _API = {
-    "error_figure": "plots", "path_figure": "plots", "chain_figure": "plots", "body_figure": "plots",
-    "clearance_figure": "plots", "save_run_plots": "plots", "save_figure": "plots",
+    "error_figure": "error_plot", "path_figure": "path_plot", "chain_figure": "path_plot", "body_figure": "error_plot",
+    "clearance_figure": "clearance_plot", "save_run_plots": "run_plots", "save_figure": "figure",
     "animate": "animate", "view_figure": "view", "view_html": "view", "save_view": "view",
     "write_run_files": "steptable", "plot_pose": "workspace_plot",
 }

@@ -1,6 +1,6 @@
 """Animate a run off-screen: the frames of the live view, to a GIF (Pillow) or an MP4 (ffmpeg).
 
-Each frame is :class:`bhr.output.plots.StepView` drawing one step (a view that
+Each frame is :class:`bhr.output.stepview.StepView` drawing one step (a view that
 follows the robot: path, lumen wall, target, robot with a disc per module;
 an overview of the whole path; a readout of the step's errors) on an
 off-screen Agg figure, so an animation shows exactly what ``bhr follow
@@ -29,7 +29,7 @@ from bhr.output.atomic import atomic_path
 
 if TYPE_CHECKING:  # pragma: no cover
     from bhr.run.driver import FollowResult
-    from bhr.output.plots import StepView
+    from bhr.output.stepview import StepView
 
 __all__ = ["animate", "check_target", "default_stride", "frame_steps", "frame_view", "ffmpeg_program",
            "Animation", "FORMATS", "DEFAULT_FPS", "MAX_FRAMES", "FRAME_INCHES", "FRAME_DPI"]
@@ -40,7 +40,7 @@ FORMATS = {".gif": "Pillow", ".mp4": "ffmpeg"}
 DEFAULT_FPS = 20
 #: The default stride keeps an animation at or under this many frames.
 MAX_FRAMES = 300
-#: Frame size: inches and dots per inch (1000 x 700 pixels; the live view's too, bhr.output.plots.FRAME_INCHES).
+#: Frame size: inches and dots per inch (1000 x 700 pixels; the live view's too, bhr.output.scene.FRAME_INCHES).
 FRAME_INCHES = (10.0, 7.0)
 FRAME_DPI = 100
 #: How long the last frame stays before a GIF loops (ms).
@@ -96,11 +96,11 @@ def frame_steps(steps: int, stride: int) -> list[int]:
 
 
 def frame_view(result: "FollowResult") -> "StepView":
-    """A :class:`bhr.output.plots.StepView` on an off-screen figure of the animation's frame size."""
+    """A :class:`bhr.output.stepview.StepView` on an off-screen figure of the animation's frame size."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
-    from bhr.output.plots import StepView
+    from bhr.output.stepview import StepView
 
     fig = Figure(figsize=FRAME_INCHES, dpi=FRAME_DPI)
     FigureCanvasAgg(fig)

@@ -5,7 +5,7 @@ appendix 1): the path, the current target and the robot (points, links, a
 disc of the robot's radius at each module), top view for a planar run and 3D
 otherwise (drag to rotate), in a view that follows the robot, beside an
 overview of the whole path and a readout of the step's errors. Drawing is
-:class:`bhr.output.plots.StepView`, the same code as the animation. The run plays by itself;
+:class:`bhr.output.stepview.StepView`, the same code as the animation. The run plays by itself;
 keys (see :data:`KEYS`) pause, step and quit. The window's title names the
 step shown, e.g. ``bhr colon: step 12/827 (paused)``.
 
@@ -208,7 +208,8 @@ class LiveView:
         """Open the window and block until it is closed (key q or the window's close button)."""
         import matplotlib.pyplot as plt
 
-        from bhr.output.plots import StepView
+        from bhr.output.scene import FRAME_INCHES
+        from bhr.output.stepview import StepView
 
         backend = _requested_backend() or "TkAgg"
         try:
@@ -218,7 +219,7 @@ class LiveView:
             first = str(exc).splitlines()[0] if str(exc) else exc.__class__.__name__
             raise BhrError(f"--show cannot start the {backend} window ({first}); check DISPLAY and tkinter, "
                            "or write a file with --animate FILE.gif instead") from None
-        self.view = StepView(self.result)
+        self.view = StepView(self.result, fig=plt.figure(figsize=FRAME_INCHES))  # a window: pyplot's figure manager
         fig = self.view.fig
         manager = fig.canvas.manager
         handler = getattr(manager, "key_press_handler_id", None)

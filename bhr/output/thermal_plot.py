@@ -5,8 +5,9 @@ import os
 from pathlib import Path
 
 import numpy as np
+from matplotlib.figure import Figure
 
-from bhr.output.plots import plt, save_figure
+from bhr.output.figure import save_figure, subplots
 from bhr.hardware.thermal import Schedule, format_duration
 
 WIRE_COLORS = ("tab:blue", "tab:orange", "tab:green", "tab:purple")
@@ -37,7 +38,7 @@ def group_label(members: tuple[int, ...]) -> str:
     return f"actuator{'s' if len(members) > 1 else ''} {names}"
 
 
-def schedule_figure(schedule: Schedule, title: str = "") -> "plt.Figure":
+def schedule_figure(schedule: Schedule, title: str = "") -> Figure:
     """One panel per module: the temperature proxy theta of its 4 wires, with contraction, relax and limit levels."""
     sim = schedule.sim
     p = sim.params
@@ -45,7 +46,7 @@ def schedule_figure(schedule: Schedule, title: str = "") -> "plt.Figure":
     t = np.arange(sim.theta.shape[0]) * sim.stride / 1000.0
     minutes = t[-1] > 300
     tt = t / 60.0 if minutes else t
-    fig, axes = plt.subplots(n_mod, 1, figsize=(10, 1.6 + 1.5 * n_mod), sharex=True, squeeze=False)
+    fig, axes = subplots(n_mod, 1, figsize=(10, 1.6 + 1.5 * n_mod), sharex=True, squeeze=False)
     top = max(p.theta_limit * 1.08, float(sim.theta.max()) * 1.05)
     colors: dict[tuple[int, ...], str] = {}
     for j, ax in enumerate(axes[:, 0]):
@@ -83,8 +84,4 @@ def schedule_figure(schedule: Schedule, title: str = "") -> "plt.Figure":
 
 
 def save_schedule_figure(schedule: Schedule, path: str | os.PathLike[str], title: str = "") -> Path:
-    fig = schedule_figure(schedule, title)
-    try:
-        return save_figure(fig, path)
-    finally:
-        plt.close(fig)
+    return save_figure(schedule_figure(schedule, title), path)

@@ -75,26 +75,26 @@ def pose_figure(robot: "Robot", codes: Sequence[int], points: np.ndarray, frames
     fig = Figure(figsize=(7.0, 6.4))
     ax = fig.add_subplot(projection="3d")
     ax.computed_zorder = False
-    draw_modules(ax, points, robot.radius)
+    draw_modules(ax, points, robot.robot_radius)
     ax.plot(points[:, 0], points[:, 1], points[:, 2], "-o", color="black", markersize=2.5, linewidth=0.8,
             label="module axes and joints")
     ax.scatter(*points[-1], color="tab:red", s=30, label="tip", depthshade=False)
-    arrow = 1.5 * robot.radius
+    arrow = 1.5 * robot.robot_radius
     for k, (name, color) in enumerate((("x", "tab:red"), ("y", "tab:green"), ("z", "tab:blue"))):
         d = np.asarray(base_axes[k], dtype=np.float64)
         ax.quiver(*points[0], *(arrow * d), color=color, linewidth=1.2, arrow_length_ratio=0.25)
         ax.text(*(points[0] + 1.15 * arrow * d), f"base {name}", color=color, fontsize=8)
     for j, code in enumerate(codes):
         mid = (points[j] + points[j + 1]) / 2.0
-        ax.text(*(mid + 1.3 * robot.radius * frames[j][0]), str(int(code)), fontsize=7, color="0.25")
-    _equal_box(ax, points, pad=1.6 * robot.radius)
+        ax.text(*(mid + 1.3 * robot.robot_radius * frames[j][0]), str(int(code)), fontsize=7, color="0.25")
+    _equal_box(ax, points, pad=1.6 * robot.robot_radius)
     ax.set_xlabel("x (mm)")
     ax.set_ylabel("y (mm)")
     ax.set_zlabel("z (mm)")
     d = points[-1] - points[0]
     ax.view_init(elev=22, azim=float(np.degrees(np.arctan2(d[1], d[0]))) - 60)
     tip = points[-1]
-    ax.set_title(title or (f"{len(codes)} modules of {robot.module_length:g} mm, radius {robot.radius:g} mm, "
+    ax.set_title(title or (f"{len(codes)} modules of {robot.module_length:g} mm, radius {robot.robot_radius:g} mm, "
                            f"\u03b1 = {robot.alpha:g}\u00b0\ncodes {','.join(str(int(c)) for c in codes)} "
                            f"(base first); tip at ({tip[0]:.4g}, {tip[1]:.4g}, {tip[2]:.4g}) mm"), fontsize=9)
     ax.legend(loc="upper left", fontsize=8)

@@ -554,7 +554,7 @@ def index_matched_min(result, body: int) -> float:
     if body:
         offsets += [(n + k) * f for k in range(1, body + 1)]
         errors = np.concatenate([errors, body_errors(result)], axis=1)
-    im = clearance_table(errors, np.array(offsets), result.trajectory.lumen, r.radius)
+    im = clearance_table(errors, np.array(offsets), result.trajectory.lumen, r.robot_radius)
     return float(np.nanmin(im)) if not np.all(np.isnan(im)) else float("nan")
 
 
@@ -606,11 +606,11 @@ def clearance_report(result, window_mm: float = WINDOW_MM, sample_mm: float = SA
 
     grid, wall = wall_grid(tr) if mesh else (None, "tube")
     if grid is not None:  # the real surface: its signed distance (docs/real_colons.md)
-        pt, mod, where = mesh_clearance_run(grid, r.radius, Q, E, sample_mm)
+        pt, mod, where = mesh_clearance_run(grid, r.robot_radius, Q, E, sample_mm)
         lost = np.zeros(Q.shape[0])
     else:
         tube = make_tube(tr.points, tr.lumen, tr.start_direction, window_mm, closed_end=end == "closed")
-        pt, mod, where, lost = clearance_run_all(tube, r.radius, Q, E, sample_mm, float(r.feed) / tube.spacing)
+        pt, mod, where, lost = clearance_run_all(tube, r.robot_radius, Q, E, sample_mm, float(r.feed) / tube.spacing)
     # reorder: points head 0..n then body 1..B; modules head 1..n then body 1..B
     p_order = list(range(B, B + n + 1)) + list(range(B - 1, -1, -1))
     m_order = list(range(B, B + n)) + list(range(B - 1, -1, -1))
@@ -627,7 +627,7 @@ def clearance_report(result, window_mm: float = WINDOW_MM, sample_mm: float = SA
     def worst_at(i: int) -> str:
         return "" if np.all(np.isnan(both[i])) else (labels + mlabels)[int(np.nanargmin(both[i]))]
 
-    rep.left_lumen_step, rep.left_lumen_reason = left_lumen(rep.per_step, lost, r.radius, worst_at)
+    rep.left_lumen_step, rep.left_lumen_reason = left_lumen(rep.per_step, lost, r.robot_radius, worst_at)
     return rep
 
 

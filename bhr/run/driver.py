@@ -389,11 +389,10 @@ def _run_from_json(doc: Any, where: str) -> FollowResult:
         raise bad("'trajectory' and 'robot' must be objects and 'steps' a non-empty list")
     path = array(tr.get("points"), (None, 3), "trajectory points")
     names = set(Robot.__dataclass_fields__)
-    rb = {("radius" if k == "robot_radius" else k): v for k, v in rb.items()}  # older runs wrote "radius"
     try:
         for o in OPTIONS:  # the one number checker first: a 400-digit integer is refused, not overflowed
-            if o.group == "robot" and rb.get(o.key) is not None:
-                o.check(rb[o.key], "robot")
+            if o.group == "robot" and rb.get(o.name) is not None:
+                o.check(rb[o.name], "robot")
         robot = Robot(**{k: v for k, v in rb.items() if k in names})
     except (BhrError, TypeError) as exc:
         why = str(exc).splitlines()[0]
@@ -653,7 +652,7 @@ def follow(points: Any, solver: str | Solver = "thesis", robot: Robot | None = T
         warnings.warn(msg, BhrWarning, stacklevel=2)
     elif traj.lumen is not None and len(traj.lumen) == path.shape[0]:
         # with a lumen, only the bends the robot cannot take by swinging wide inside it (docs/lumen.md)
-        bends = unfollowable_bends(path, np.asarray(traj.lumen), robot.min_turn_radius, robot.radius)
+        bends = unfollowable_bends(path, np.asarray(traj.lumen), robot.min_turn_radius, robot.robot_radius)
         if bends:
             first, last, r_bend, d_lumen = min(bends, key=lambda x: x[2])
             msg = (f"the trajectory bends tighter than the robot's minimum turn radius {robot.min_turn_radius:.2f} mm "
@@ -670,10 +669,10 @@ def follow(points: Any, solver: str | Solver = "thesis", robot: Robot | None = T
         warnings.warn(msg, BhrWarning, stacklevel=2)
     lumen = getattr(traj, "lumen", None)
     if lumen is not None and len(lumen):
-        narrow = np.flatnonzero(np.asarray(lumen, dtype=float) < 2.0 * robot.radius)
+        narrow = np.flatnonzero(np.asarray(lumen, dtype=float) < 2.0 * robot.robot_radius)
         if narrow.size:
             k = int(narrow[np.argmin(np.asarray(lumen)[narrow])])
-            msg = (f"the lumen is narrower than the robot ({2.0 * robot.radius:g} mm across) at {narrow.size} of "
+            msg = (f"the lumen is narrower than the robot ({2.0 * robot.robot_radius:g} mm across) at {narrow.size} of "
                    f"{len(lumen)} points, narrowest {float(lumen[k]):.2f} mm at point {k + 1}; the robot touches the "
                    "wall there whatever the solver does")
             msgs.append(msg)

@@ -740,7 +740,7 @@ def wires_motion(traj, robot, solver, body_modules: int | None = None, reach: bo
     m, k = divmod(stop, f)
     ztip = z[back + m] + (k / f) * (z[back + m + 1] - z[back + m])
     short = max(0.0, float(tube.points.shape[0] - tube.post - 1 - ztip) * float(tube.spacing))
-    mo = plan_motion(tube, float(robot.radius), tcodes, T, back, z, M, L, float(robot.feed), float(robot.alpha),
+    mo = plan_motion(tube, float(robot.robot_radius), tcodes, T, back, z, M, L, float(robot.feed), float(robot.alpha),
                      traj.start_point, traj.start_direction, stop * float(robot.feed), N, params, strategies)
     return mo, tcodes, M, stop, short
 
@@ -810,5 +810,5 @@ def motion_report(result):
     # out of the lumen when some joint or module is deeper in the wall than the robot's radius, as for the other
     # models (a point crossing into another loop is known for the whole run only: MotionRun.crossed)
     rep.left_lumen_step, rep.left_lumen_reason = left_lumen(rep.per_step, np.zeros(rep.per_step.shape[0], dtype=bool),
-                                                            r.radius, worst_at)
+                                                            r.robot_radius, worst_at)
     return rep

@@ -281,7 +281,7 @@ def plan_kernel(C, R, w, sp, start, T0, g0, V, L, c, s, prm, beam, dpos, ddir, c
 def _plan_args(tube: Tube, robot, settings: dict) -> tuple:
     L = float(robot.module_length)
     ns = max(1, int(math.ceil(L / PLAN_SAMPLE_MM)))
-    prm = np.array([float(robot.radius), float(settings["margin"]), float(settings["wall_weight"]),
+    prm = np.array([float(robot.robot_radius), float(settings["margin"]), float(settings["wall_weight"]),
                     float(settings["center_weight"]), float(settings["along_weight"]), float(ns)])
     return L, prm
 
@@ -741,7 +741,7 @@ def run_trail(traj, robot, settings: dict, window_mm: float, modules: int | None
     joints = trail_poses(T, back, f, N, M + 1, stop)
     jc = step_codes(codes, f, N, M + 1, stop)
     m_lo = -M - 1
-    tables = trail_tables(tube, float(robot.radius), T, back, f, m_lo, V, L)
+    tables = trail_tables(tube, float(robot.robot_radius), T, back, f, m_lo, V, L)
     return TrailRun(codes, T, back, joints, jc, tables, m_lo, M, stop, short)
 
 

@@ -41,10 +41,9 @@ MAX_ANY = 1e6
 class Option:
     """One setting.
 
-    ``name`` is the key in batch files and sweep grids and, with dashes, the
-    command-line option (``cli`` overrides it); ``field`` the
-    :class:`bhr.model.robot.Robot` field and robot-file key when it differs
-    (``robot_radius`` -> ``radius``). ``kind`` is ``int``, ``float``, ``str``
+    ``name`` is the key in batch files, robot files and sweep grids, the
+    :class:`bhr.model.robot.Robot` field or the solver's or trajectory's keyword and, with dashes, the
+    command-line option (``cli`` overrides it). ``kind`` is ``int``, ``float``, ``str``
     (with ``choices``) or ``"weights"`` (one number or one per point).
     ``maximum`` is the largest value accepted (``None``: checked elsewhere,
     magnitude capped at ``cap``); ``positive``/``nonneg`` the sign rule of robot
@@ -64,7 +63,6 @@ class Option:
     positive: bool = False
     nonneg: bool = False
     choices: tuple[str, ...] | None = None
-    field: str | None = None
     cli: str | None = None
     shown: str | None = None
     solvers: tuple[str, ...] | None = None  # solvers taking this option (None: every constrained solver)
@@ -74,11 +72,6 @@ class Option:
     def default_for(self, solver: str) -> Any:
         """The default of this option for ``solver`` (its own where it has one)."""
         return dict(self.solver_defaults).get(solver, self.default)
-
-    @property
-    def key(self) -> str:
-        """The Robot field / robot-file key (robot options) or the keyword of the solver or trajectory."""
-        return self.field or self.name
 
     @property
     def flag(self) -> str:
@@ -135,7 +128,7 @@ OPTIONS: tuple[Option, ...] = (
     # the robot (bhr.model.robot.Robot; thesis ch. 4 and 7)
     Option("modules", _R, int, "Number of modules the solver moves", 5, maximum=1000, positive=True, shown=""),
     Option("module_length", _R, float, "Length of one module (mm)", 10.0, "mm", 1e4, positive=True, shown=""),
-    Option("robot_radius", _R, float, "Robot (disc) radius in mm", 5.0, "mm", 1e4, positive=True, field="radius"),
+    Option("robot_radius", _R, float, "Robot (disc) radius in mm", 5.0, "mm", 1e4, positive=True),
     Option("alpha", _R, float, "Tilt angle of one actuator pair (deg)", 10.0, "deg"),  # (0, 90): Robot
     Option("stroke", _R, float, "Actuator stroke h (mm); with --lever gives alpha = asin(h/L)", None, "mm", 1e4,
            positive=True),
@@ -271,7 +264,7 @@ def by_group(*groups: str) -> tuple[Option, ...]:
 
 def robot_limits() -> dict[str, tuple[float, str]]:
     """Robot field -> (largest value, unit), for readers that check robot settings."""
-    return {o.key: (o.limit, o.unit) for o in by_group(_R)}
+    return {o.name: (o.limit, o.unit) for o in by_group(_R)}
 
 
 def check_option(name: str, value: Any, where: str) -> Any:

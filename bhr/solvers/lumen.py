@@ -553,7 +553,7 @@ def head_search(tube, robot, settings: dict[str, float], path: np.ndarray, step:
                       pts, np.empty(n + 1), np.zeros(n + 1, dtype=np.int64), np.zeros(n, dtype=np.int64), res, tmp,
                       1e300)
     deep = _head_depth(tube.points, tube.radius, float(tube.pre), float(tube.window), step, n, robot.feed_divisor,
-                       float(robot.module_length), math.cos(a), math.sin(a), float(robot.radius), F1, P0, best,
+                       float(robot.module_length), math.cos(a), math.sin(a), float(robot.robot_radius), F1, P0, best,
                        frames, pts, res, tmp)
     return [int(CODE_OF[k]) for k in best[1:]], float(cost), float(deep)
 
@@ -641,7 +641,7 @@ def _prm(robot, settings: dict[str, float], tube=None, prune: bool = True) -> np
         R = tube.radius
         dR = float(np.max(np.abs(R[f:] - R[:-f]))) if R.shape[0] > f else 0.0
         sp = tube.spacing
-    return np.array([float(robot.radius), settings["margin"], settings["wall_weight"], settings["center_weight"],
+    return np.array([float(robot.robot_radius), settings["margin"], settings["wall_weight"], settings["center_weight"],
                      settings["track_weight"], (settings["ori_weight"] * DEG) ** 2, dR, settings["along_weight"], sp,
                      pre, settings.get("lead_weight", DEFAULTS["lead_weight"]),
                      settings.get("lead_slack", DEFAULTS["lead_slack"]), end,
@@ -652,7 +652,7 @@ def planned_line(tube: Tube, robot, margin: float) -> np.ndarray:
     """The racing line through the tube's corridor (R - robot radius - margin), curvature bounded by the head's
     tightest bend where the corridor allows it (:func:`bhr.model.racing.racing_line`)."""
     kmax = 1.0 / head_radius_mm(float(robot.module_length), float(robot.alpha))
-    return np.ascontiguousarray(racing_line(tube.points, tube.radius - float(robot.radius) - margin, kmax))
+    return np.ascontiguousarray(racing_line(tube.points, tube.radius - float(robot.robot_radius) - margin, kmax))
 
 
 # ---------------------------------------------------------------------------

@@ -155,43 +155,15 @@ def compare_json(runs: Sequence[Compared]) -> dict[str, Any]:
 
 
 def compare_figure(runs: Sequence[Compared]):
-    """Largest point error and tip error per step, every solver on the same axes; wall touches shaded."""
-    import matplotlib.pyplot as plt
+    """Largest point error and tip error per step, every solver on the same axes; wall touches marked
+    (:func:`bhr.output.compare_plot.compare_figure` draws it)."""
+    from bhr.output.compare_plot import CompareSeries, compare_figure as draw
 
-    from bhr.output import plots  # (also chooses a backend without a display)
-
-    colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
-    fig, axes = plt.subplots(2, 1, figsize=(10, 6.5), sharex=True)
     r0 = runs[0].result
-    for k, c in enumerate(runs):
-        res = c.result
-        col = colors[k % len(colors)]
-        steps = np.arange(1, res.steps + 1)
-        worst, tip = res.point_errors_mm.max(axis=1), res.point_errors_mm[:, -1]
-        axes[0].plot(steps, worst, color=col, linewidth=1.0, label=c.solver)
-        axes[1].plot(steps, tip, color=col, linewidth=1.0, label=c.solver)
-        plots.mark_worst(axes[0], steps, worst, "mm", color=col, what=f"{c.solver} worst")
-        plots.mark_worst(axes[1], steps, tip, "mm", color=col, what=f"{c.solver} worst")
-        cl = res.clearance
-        if cl is not None and cl.touch_steps:
-            for ax in axes:
-                ax.plot(cl.touch_steps, np.zeros(len(cl.touch_steps)), "|", color=col, markersize=12,
-                        label=f"{c.solver}: wall touched" if ax is axes[0] else None)
-    for ax, title in zip(axes, ("Largest position error over the robot's points", "Tip position error")):
-        ax.axhline(r0.robot.tol_pos, color="tab:red", linestyle="--", linewidth=0.8,
-                   label=f"tolerance {r0.robot.tol_pos:g} mm")
-        ax.set_ylabel("error (mm)")
-        ax.set_title(title, fontsize=10)
-        ax.grid(True, alpha=0.3)
-        top = max([r0.robot.tol_pos] + [float(c.result.point_errors_mm.max()) for c in runs])
-        ax.set_ylim(0, 1.4 * top)  # room above for the legend
-        ax.tick_params(labelbottom=True)  # step numbers under both panels
-        ax.set_xlim(1, max(2, r0.steps))
-        ax.legend(loc="upper right", fontsize=8, ncol=2)
-    axes[1].set_xlabel("trajectory step")
-    fig.suptitle(f"{r0.trajectory.name}: " + " vs ".join(c.solver for c in runs), fontsize=12)
-    fig.tight_layout()
-    return fig
+    series = [CompareSeries(c.solver, c.result.point_errors_mm.max(axis=1), c.result.point_errors_mm[:, -1],
+                            tuple(c.result.clearance.touch_steps) if c.result.clearance is not None else ())
+              for c in runs]
+    return draw(series, r0.robot.tol_pos, f"{r0.trajectory.name}: " + " vs ".join(c.solver for c in runs))
 
 
 def write_compare(runs: Sequence[Compared], folder: Any, *, json_name: str | None = None, plot: bool = True,
@@ -216,7 +188,7 @@ def write_compare(runs: Sequence[Compared], folder: Any, *, json_name: str | Non
         write_json(folder.path(json_name), compare_json(runs))
         written.append(folder.final(json_name))
     if plot:
-        from bhr.output.plots import save_figure
+        from bhr.output.figure import save_figure
 
         with progress(f"drawing {folder.final('compare.png')}") if progress else contextlib.nullcontext():
             save_figure(compare_figure(runs), folder.path("compare.png"))

@@ -262,7 +262,7 @@ def follow_run(traj: str, *, robot: Any, solver: str = "thesis", solver_options:
                 write_poses(result, folder.path("poses.npz"))
                 written.append(folder.final("poses.npz"))
             if plots:
-                from bhr.output.plots import save_run_plots
+                from bhr.output.run_plots import save_run_plots
 
                 with status(f"drawing the figures into {folder.final('')}"):
                     written += [folder.final(p.name) for p in save_run_plots(result, stage)]

@@ -105,8 +105,7 @@ class RunSpec:
         """The run's table as given (batch keys), for summary.json."""
         out: dict[str, Any] = {"traj": self.traj, "solver": self.solver}
         out.update(self.traj_params)
-        back = {v: k for k, v in ROBOT_KEYS.items()}
-        out.update({back.get(k, k): v for k, v in self.robot_params.items()})
+        out.update(self.robot_params)
         out.update(self.solver_options)
         out.update(self.sim_options)
         if self.robot_file is not None:
@@ -178,7 +177,7 @@ def parse_batch(data: dict[str, Any], source: str = "batch", base_dir: str | os.
         spec = RunSpec(
             name=name, traj=traj, solver=solver, description=values.get("description", ""),
             traj_params=tp,
-            robot_params={fld: values[key] for key, fld in ROBOT_KEYS.items() if key in values},
+            robot_params={key: values[key] for key in ROBOT_KEYS if key in values},
             solver_options=solver_options_for(solver, values),
             robot_file=_resolve(values["robot"], base) if "robot" in values else None,
             sim_options=sim_options(values),
@@ -273,7 +272,7 @@ def execute_run(spec: RunSpec, out_dir: str | os.PathLike[str] | None = None, pl
             out = Path(out_dir)
             write_run_files(result, out)  # as bhr follow writes them: replay, plan and stream take them
             if plots:
-                from bhr.output.plots import save_run_plots
+                from bhr.output.run_plots import save_run_plots
 
                 row["figures"] = [p.name for p in save_run_plots(result, out)]
                 from bhr.output.view import save_view
@@ -503,7 +502,7 @@ def _run_section(row: dict[str, Any], anchor: str, out_dir: Path, inline: bool) 
     dl.append(("solver", row["solver"]))
     rb = row.get("robot")
     if rb:
-        disc = rb.get("robot_radius", rb.get("radius", 0.0))  # older rows said radius
+        disc = rb.get("robot_radius", 0.0)
         dl.append(("robot", f"{rb['modules']} modules x {rb['module_length']:g} mm, radius {disc:g} mm, "
                             f"alpha {rb['alpha']:g} deg (min turn radius {rb['min_turn_radius']:.2f} mm), "
                             f"feed {rb['feed']:g} mm"))

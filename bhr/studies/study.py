@@ -29,9 +29,9 @@ __all__ = ["TRAJ_KEYS", "ROBOT_KEYS", "CONSTRAINT_KEYS", "SOLVER_KEYS", "SIM_KEY
 # The keys of a run table come from the option registry (bhr.settings.options), as the command-line options do.
 #: Trajectory options (CLI long names with underscores), as in ``bhr follow``.
 TRAJ_KEYS = tuple(o.name for o in by_group("trajectory"))
-#: Robot options: batch key -> :class:`bhr.model.robot.Robot` field (``robot_radius`` is the robot's, ``radius``
+#: Robot options: batch keys and :class:`bhr.model.robot.Robot` fields (``robot_radius`` is the robot's, ``radius``
 #: the path's).
-ROBOT_KEYS = {o.name: o.key for o in by_group("robot")}
+ROBOT_KEYS = tuple(o.name for o in by_group("robot"))
 #: Options of the constrained solvers and their allowed values (None: a whole number).
 CONSTRAINT_KEYS: dict[str, tuple[str, ...] | None] = {o.name: o.choices for o in by_group("constraint")}
 #: Options of one solver (``--solver optimal``): key -> the solvers that take it.
@@ -142,7 +142,7 @@ def warm_up(solvers: Sequence[str], plots: bool = False) -> None:
         except Exception:  # noqa: BLE001  (a bad solver name fails, and is reported, in its run)
             pass
     if plots:
-        import bhr.output.plots  # noqa: F401
+        import bhr.output.run_plots  # noqa: F401
 
 
 def _cell(key: str, value: Any, joined: Iterable[str]) -> str:

@@ -293,7 +293,7 @@ def build_sweep(trajs: Sequence[str], solvers: Sequence[str], grid: Iterable[tup
         rb = load_robot_file(robot_file).robot
         base_robot = {f.name: getattr(rb, f.name) for f in fields(rb)}
     first = {k: v[0] for k, v in grid}
-    robot_first = {ROBOT_KEYS[k]: v for k, v in first.items() if k in ROBOT_KEYS}
+    robot_first = {k: v for k, v in first.items() if k in ROBOT_KEYS}
     traj_first = {k: v for k, v in first.items() if k in TRAJ_KEYS}
 
     def check_robot(params: dict[str, Any], what: str) -> Any:
@@ -306,7 +306,7 @@ def build_sweep(trajs: Sequence[str], solvers: Sequence[str], grid: Iterable[tup
     for k, values in grid:
         if k in ROBOT_KEYS:
             for v in values[1:]:
-                check_robot({**robot_first, ROBOT_KEYS[k]: v}, f"{k} = {v}")
+                check_robot({**robot_first, k: v}, f"{k} = {v}")
     body = dict(grid).get("body_modules")
     if body is not None:  # the whole robot is at least its head, with every head of the grid
         most = max(check_robot({**robot_first, "modules": m}, f"modules = {m}").modules
@@ -365,7 +365,7 @@ def run_design(design: dict[str, Any], traj_source: str, base_robot: dict[str, A
     if physics:
         row.update({k: None for k in PHYSICS_KEYS})
     with capture(row):  # one failed design must not stop the sweep
-        robot = make_robot({ROBOT_KEYS[k]: v for k, v in design.items() if k in ROBOT_KEYS}, base_robot)
+        robot = make_robot({k: v for k, v in design.items() if k in ROBOT_KEYS}, base_robot)
         row["min_turn_radius_mm"] = robot.min_turn_radius
         source, params = colon_source(traj_source, {k: v for k, v in design.items() if k in TRAJ_KEYS})
         tr = load_trajectory(source, feed=robot.feed, **params)
@@ -510,13 +510,13 @@ def heatmap_panels(sweep: Sweep, x: str | None, y: str | None) -> str | None:
 
 def _thesis_value(key: str) -> Any:
     """The thesis design's value of a robot key (bhr's default robot), or None for any other key."""
-    return getattr(Robot(), ROBOT_KEYS[key]) if key in ROBOT_KEYS else None
+    return getattr(Robot(), key) if key in ROBOT_KEYS else None
 
 
 def _row_tolerance(result: SweepResult, row: dict[str, Any]) -> float:
     """The position tolerance of a design (its grid value, the sweep's robot, or the thesis's 8 mm)."""
     try:
-        return float(make_robot({ROBOT_KEYS[k]: v for k, v in row.items() if k in ROBOT_KEYS},
+        return float(make_robot({k: v for k, v in row.items() if k in ROBOT_KEYS},
                                 dict(result.sweep.robot) or None).tol_pos)
     except Exception:  # a failed design has no error to compare
         return math.inf
@@ -528,128 +528,65 @@ def heatmap_figure(result: SweepResult, x: str | None = None, y: str | None = No
     One panel per value of a third axis (:func:`heatmap_panels`), each cell the
     worst case over the remaining axes. Cells over the position tolerance are
     hatched; the thesis design (5 modules of 10 mm, alpha 10 deg, ...) is framed
-    in red wherever the axes show it.
+    in red wherever the axes show it. :func:`bhr.output.sweep_plot.heatmap_figure` draws it.
     """
-    import matplotlib
-
-    if os.environ.get("DISPLAY", "") == "" and os.environ.get("MPLBACKEND") is None:
-        matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
     import numpy as np
-    from matplotlib.colors import LogNorm, Normalize
-    from matplotlib.patches import Patch, Rectangle
+
+    from bhr.output.sweep_plot import HeatMetric
+    from bhr.output.sweep_plot import heatmap_figure as draw
 
     x, y = heatmap_axes(result.sweep, x, y)
     z = heatmap_panels(result.sweep, x, y)
     xs, ys = _grid_values(result.sweep, x), _grid_values(result.sweep, y)
     zs = _grid_values(result.sweep, z)
     others = [k for k, v in result.sweep.axes if k not in (x, y, z) and len(v) > 1]
-    metrics = [("points_max_error_mm", "worst point error (mm)", max, "viridis")]
-    if any(r.get("min_clearance_mm") is not None for r in result.rows):
-        metrics.append(("min_clearance_mm", "minimum clearance (mm)", min, "viridis_r"))
-    over_cells = [[[False] * len(xs) for _ in ys] for _ in zs]
+    over_cells = np.zeros((len(zs), len(ys), len(xs)), dtype=bool)
+    ran = np.zeros((len(zs), len(ys), len(xs)), dtype=bool)  # some design of the cell ran (did not fail)
     xi = {v: k for k, v in enumerate(xs)}
     yi = {v: k for k, v in enumerate(ys)}
     zi = {v: k for k, v in enumerate(zs)}
-    ran = [[[False] * len(xs) for _ in ys] for _ in zs]  # some design of the cell ran (did not fail)
     tols = set()
     for r in result.rows:
         e = r.get("points_max_error_mm")
         if r["status"] != "ok" or e is None:
             continue
-        ran[zi[r[z]] if z else 0][yi[r[y]] if y else 0][xi[r[x]] if x else 0] = True
+        cell = (zi[r[z]] if z else 0, yi[r[y]] if y else 0, xi[r[x]] if x else 0)
+        ran[cell] = True
         tol = _row_tolerance(result, r)
         tols.add(tol)
         if e > tol:
-            over_cells[zi[r[z]] if z else 0][yi[r[y]] if y else 0][xi[r[x]] if x else 0] = True
+            over_cells[cell] = True
     thesis = {k: _thesis_value(k) for k in (x, y, z) if k is not None and _thesis_value(k) is not None}
-    ncols = min(len(zs), 3)
-    zrows = -(-len(zs) // ncols)
-    w = min(max(4.0, 0.5 * len(xs) + 1.6), 9)
-    h = min(max(3.2, 0.42 * len(ys) + 1.6), 8)
-    fig, axes = plt.subplots(zrows * len(metrics), ncols, figsize=(w * ncols + 1.2, h * zrows * len(metrics) + 1.2),
-                             squeeze=False)
-    bars: list[tuple[Any, list[Any], str, list[float]]] = []
-    framed = False  # the thesis design is on the map
-    for m, (metric, label, worst, cmap) in enumerate(metrics):
-        datas = [np.array(heatmap_cells(result, x, y, metric, worst, {z: zv} if z else None), dtype=float)
+    frames: list[tuple[int, int, int, int] | None] = []
+    for zv in zs:
+        frame = None
+        if z not in thesis or zv == thesis[z]:
+            tx = xs.index(thesis[x]) if x in thesis and thesis[x] in xs else (None if x in thesis else -1)
+            ty = ys.index(thesis[y]) if y in thesis and thesis[y] in ys else (None if y in thesis else -1)
+            if tx is not None and ty is not None and (tx >= 0 or ty >= 0):
+                cx = [tx] if tx >= 0 else list(range(len(xs)))
+                cy = [ty] if ty >= 0 else list(range(len(ys)))
+                frame = (min(cx), min(cy), len(cx), len(cy))
+        frames.append(frame)
+    # one quantity per panel: the metric, and how a cell holding several designs shows it
+    how = (f"each cell the worst over {', '.join(axis_label(o) for o in others)}" if others
+           else "each cell one design")
+    wanted = [("points_max_error_mm", "worst point error (mm)", max, "viridis")]
+    if any(r.get("min_clearance_mm") is not None for r in result.rows):
+        wanted.append(("min_clearance_mm", "minimum clearance (mm)", min, "viridis_r"))
+    metrics = []
+    for metric, label, worst, cmap in wanted:
+        cells = [np.array(heatmap_cells(result, x, y, metric, worst, {z: zv} if z else None), dtype=float)
                  for zv in zs]
-        finite = np.concatenate([d[np.isfinite(d)] for d in datas])
-        lo, hi = (float(finite.min()), float(finite.max())) if finite.size else (0.0, 1.0)
-        cm = plt.get_cmap(cmap).with_extremes(bad="#d0d0d0")
-        # errors spanning more than a decade: a log scale keeps the small (good) ones apart
-        norm = LogNorm(lo, hi) if lo > 0 and hi > 10 * lo else Normalize(lo, hi)
-        block = axes[m * zrows:(m + 1) * zrows]
-        for k in range(zrows * ncols):
-            ax = block[k // ncols][k % ncols]
-            if k >= len(zs):
-                ax.set_visible(False)
-                continue
-            data, zv = datas[k], zs[k]
-            im = ax.imshow(np.ma.masked_invalid(data), origin="lower", aspect="auto", cmap=cm,
-                           interpolation="nearest", norm=norm)
-            ax.set_xticks(range(len(xs)), [_label(v) for v in xs] if x else [""], rotation=45 if len(xs) > 8 else 0,
-                          fontsize=8)  # one column or row: no axis to name
-            ax.set_yticks(range(len(ys)), [_label(v) for v in ys] if y else [""], fontsize=8)
-            ax.set_xlabel(axis_label(x))
-            ax.set_ylabel(axis_label(y))
-            mid = float(norm.inverse(0.5))
-            for (j, i), v in np.ndenumerate(data):
-                if metric == "points_max_error_mm" and over_cells[k][j][i]:
-                    ax.add_patch(Rectangle((i - 0.5, j - 0.5), 1, 1, fill=False, hatch="///", linewidth=0,
-                                           edgecolor=(1, 1, 1, 0.45)))
-                if data.size <= 400:
-                    text = f"{v:.2f}" if np.isfinite(v) else ("n/a" if ran[k][j][i] else "failed")
-                    dark = np.isfinite(v) and ((v < mid) if cmap == "viridis" else (v > mid))
-                    ax.text(i, j, text, ha="center", va="center", fontsize=7 if data.size <= 100 else 6,
-                            color="white" if dark else "black")
-            if z not in thesis or zv == thesis[z]:
-                tx = xs.index(thesis[x]) if x in thesis and thesis[x] in xs else (None if x in thesis else -1)
-                ty = ys.index(thesis[y]) if y in thesis and thesis[y] in ys else (None if y in thesis else -1)
-                if tx is not None and ty is not None and (tx >= 0 or ty >= 0):
-                    cx = [tx] if tx >= 0 else list(range(len(xs)))
-                    cy = [ty] if ty >= 0 else list(range(len(ys)))
-                    ax.add_patch(Rectangle((min(cx) - 0.5, min(cy) - 0.5), len(cx), len(cy), fill=False,
-                                           edgecolor="red", linewidth=2.5, zorder=5))
-                    framed = True
-            head = axis_value(z, zv) if z else label
-            # one quantity per panel: the metric, and how a cell holding several designs shows it
-            over = (f"each cell the worst over {', '.join(axis_label(o) for o in others)}" if others
-                    else "each cell one design")
-            ax.set_title(f"{head}\n{label}: {over}" if z else f"{head}:\n{over}", fontsize=9)
-        bars.append((im, [a for row in block for a in row if a.get_visible()], label,
-                     sorted(tols) if metric == "points_max_error_mm" else []))
+        titles = [f"{axis_value(z, zv)}\n{label}: {how}" if z else f"{label}:\n{how}" for zv in zs]
+        error = metric == "points_max_error_mm"
+        metrics.append(HeatMetric(label, cmap, cells, titles, over=list(over_cells) if error else None,
+                                  marks=sorted(tols) if error else ()))
     tol_text = ", ".join(f"{t:g}" for t in sorted(tols) if math.isfinite(t)) or "8"
-    handles = [Patch(facecolor="#777", hatch="///", edgecolor="white", label=f"over the position tolerance "
-                     f"({tol_text} mm)")]
-    if framed:
-        what = ", ".join(f"{axis_label(k).split(' (')[0]} {_label(v)}" for k, v in thesis.items())
-        handles.append(Patch(facecolor="none", edgecolor="red", linewidth=2.5, label=f"thesis design ({what})"))
-    handles.append(Patch(facecolor="#d0d0d0", label="every design in the cell failed"))
-    legend = fig.legend(handles=handles, loc="lower center", ncol=len(handles), fontsize=9, frameon=False)
-    fig.suptitle(f"{result.sweep.title}: {what_ran(result)}", fontsize=12)
-    need = legend.get_window_extent().width / fig.dpi + 0.4
-    if need > fig.get_figwidth():  # a narrow grid: widen the canvas so that the legend is whole
-        fig.set_figwidth(need)
-    fh, fw = fig.get_figheight(), fig.get_figwidth()
-    fig.subplots_adjust(bottom=0.95 / fh, top=1 - 1.15 / fh, hspace=1.6 / (h - 1.6), wspace=1.0 / (w - 1.0),
-                        left=0.85 / fw, right=1 - 1.3 / fw)
-    for im, axs, label, marks in bars:  # one colour bar per metric, right of its panels
-        y0 = min(a.get_position().y0 for a in axs)
-        y1 = max(a.get_position().y1 for a in axs)
-        cax = fig.add_axes((1 - 1.1 / fw, y0, 0.18 / fw, y1 - y0))
-        bar = fig.colorbar(im, cax=cax, label=label)
-        if isinstance(im.norm, LogNorm):
-            lo, hi = float(im.norm.vmin or 0.0), float(im.norm.vmax or 1.0)
-            ticks = [t * 10.0 ** e for e in range(-2, 6) for t in (1, 2, 5) if lo <= t * 10.0 ** e <= hi]
-            bar.set_ticks(ticks, labels=[f"{t:g}" for t in ticks])
-            bar.ax.minorticks_off()
-        for t in marks:  # the tolerance on the colour scale
-            if im.norm.vmin <= t <= im.norm.vmax:
-                bar.ax.axhline(t, color="red", linewidth=2)
-                bar.ax.text(-0.3, t, f"tol. {t:g}", transform=bar.ax.get_yaxis_transform(), ha="right",
-                            va="center", fontsize=8, color="red")
-    return fig
+    what = ", ".join(f"{axis_label(k).split(' (')[0]} {_label(v)}" for k, v in thesis.items())
+    return draw(metrics, list(ran), frames, [_label(v) for v in xs] if x else [""],
+                [_label(v) for v in ys] if y else [""], axis_label(x), axis_label(y), tol_text, what,
+                f"{result.sweep.title}: {what_ran(result)}")
 
 
 # ------------------------------------------------------------------------------------------ outputs
@@ -800,7 +737,7 @@ def write_outputs(result: SweepResult, out_dir: str | os.PathLike[str], *, plot:
     })
     heat = None
     if plot:
-        from bhr.output.plots import save_figure
+        from bhr.output.figure import save_figure
 
         files.append(save_figure(heatmap_figure(result, x, y), out / "heatmap.png"))
         heat = "heatmap.png"

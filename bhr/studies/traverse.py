@@ -25,7 +25,6 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import math
-import os
 import re
 import statistics
 import warnings
@@ -375,14 +374,11 @@ def heatmap_axes(study: Study, x: str | None = None, y: str | None = None) -> tu
 
 
 def passrate_figure(result: StudyResult, x: str | None = None, y: str | None = None):
-    """Pass rate per (x, y) design, the best over the other design axes; cells reaching the target outlined."""
-    import matplotlib
-
-    if os.environ.get("DISPLAY", "") == "" and os.environ.get("MPLBACKEND") is None:
-        matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    """Pass rate per (x, y) design, the best over the other design axes; cells reaching the target outlined
+    (:func:`bhr.output.traverse_plot.passrate_figure` draws it)."""
     import numpy as np
-    from matplotlib.patches import Rectangle
+
+    from bhr.output.traverse_plot import passrate_figure as draw
 
     study = result.study
     x, y = heatmap_axes(study, x, y)
@@ -403,26 +399,7 @@ def passrate_figure(result: StudyResult, x: str | None = None, y: str | None = N
         if d["worst_clearance_mm"] is not None:
             clear[j, i] = d["worst_clearance_mm"]
     top = min(result.designs, key=_rank) if result.designs else None
-    finite = data[np.isfinite(data)]
-    # every cell at one pass rate (all through, say): a map of it would be one colour and hide what ranks them;
-    # the colour then shows the next measure that tells the designs apart, and says so
-    tied = finite.size > 1 and float(np.ptp(finite)) == 0.0 and np.isfinite(clear).any()
-    w = min(max(8.5, 0.8 * len(xs) + 3.0), 14)
-    h = min(max(5.0, 0.55 * len(ys) + 2.8), 12)
-    fig, ax = plt.subplots(figsize=(w, h))
-    if tied:
-        lo, hi = float(np.nanmin(clear)), float(np.nanmax(clear))
-        im = ax.imshow(clear, origin="lower", aspect="auto", cmap="viridis", vmin=lo, vmax=hi if hi > lo else lo + 1,
-                       interpolation="nearest")
-        fig.colorbar(im, ax=ax, label=f"worst clearance (mm)\nthe tie-break: every cell {100 * float(finite[0]):.0f}%")
-    else:
-        im = ax.imshow(data * 100, origin="lower", aspect="auto", cmap="RdYlGn", vmin=0, vmax=100,
-                       interpolation="nearest")
-        fig.colorbar(im, ax=ax, label="colons traversed without wall contact (%)")
-    ax.set_xticks(range(len(xs)), [_label(v) for v in xs] if x else [""])  # one column: no axis to name
-    ax.set_yticks(range(len(ys)), [_label(v) for v in ys] if y else [""])
-    ax.set_xlabel(axis_label(x))
-    ax.set_ylabel(axis_label(y))
+    texts = [["" for _ in xs] for _ in ys]
     for (j, i), v in np.ndenumerate(data):
         cell = best.get((j, i))
         text = "-" if not np.isfinite(v) else f"{100 * v:.0f}%"
@@ -432,27 +409,16 @@ def passrate_figure(result: StudyResult, x: str | None = None, y: str | None = N
                 text += f"\npen {cell['worst_penetration_mm']:.2f} mm"
             if cell["worst_clearance_mm"] is not None:
                 text += f"\nclear {cell['worst_clearance_mm']:.2f} mm"
-        if tied:
-            share = (clear[j, i] - np.nanmin(clear)) / max(1e-12, float(np.nanmax(clear) - np.nanmin(clear)))
-            dark = bool(np.isfinite(share) and share < 0.55)  # viridis is dark at its low end
-        else:
-            dark = bool(np.isfinite(v) and (v < 0.25 or v > 0.85))  # the deep red and deep green ends of the map
-        ax.text(i, j, text, ha="center", va="center", fontsize=8, color="white" if dark else "black")
-        if np.isfinite(v) and v >= study.target - 1e-12:
-            ax.add_patch(Rectangle((i - 0.5, j - 0.5), 1, 1, fill=False, edgecolor="black", linewidth=2.2))
-        if cell is not None and top is not None and cell is top:  # the answer: marked, whatever the colours
-            ax.add_patch(Rectangle((i - 0.46, j - 0.46), 0.92, 0.92, fill=False, edgecolor="#e8112d",
-                                   linewidth=3.0, linestyle="--"))
-            ax.annotate("best", (i + 0.44, j + 0.44), ha="right", va="top", fontsize=8, color="#e8112d",
-                        fontweight="bold")
+        texts[j][i] = text
+    reached = np.isfinite(data) & (np.nan_to_num(data, nan=-1.0) >= study.target - 1e-12)
+    top_cell = next((c for c, d in best.items() if top is not None and d is top), None)
     over = f"best design over {', '.join(others)}" if others else "one design per cell"
     judged = sorted({d.get("robot_judged") or robot_judged(study, d) for d in result.designs})
-    ax.set_title(f"Share of {len(study.colons)} colons traversed without wall contact; robot judged: "
-                 f"{'; '.join(judged)}\nranked by pass rate, then worst penetration (pen), then worst clearance "
-                 f"(clear); {over}\noutlined black: at least {100 * study.target:g}%; dashed red: the best design",
-                 fontsize=8.5)
-    fig.tight_layout()
-    return fig
+    title = (f"Share of {len(study.colons)} colons traversed without wall contact; robot judged: "
+             f"{'; '.join(judged)}\nranked by pass rate, then worst penetration (pen), then worst clearance "
+             f"(clear); {over}\noutlined black: at least {100 * study.target:g}%; dashed red: the best design")
+    return draw(data, clear, texts, reached, top_cell, [_label(v) for v in xs] if x else [""],
+                [_label(v) for v in ys] if y else [""], axis_label(x), axis_label(y), title)
 
 
 def colons_phrase(colons: Sequence[int | str]) -> str:
@@ -499,7 +465,7 @@ def colon_sections(colon: int | str, run: Any) -> tuple[list[str], Any, Any]:
 def worst_colon_run(result: StudyResult, design: dict[str, Any]):
     """Follow ``design``'s worst colon again (same robot, solver and options) and return the run."""
     s = result.study.sweep
-    robot = make_robot({ROBOT_KEYS[k]: design[k] for k in result.study.design_keys if k in ROBOT_KEYS},
+    robot = make_robot({k: design[k] for k in result.study.design_keys if k in ROBOT_KEYS},
                        dict(s.robot) or None)
     traj_keys = {k: design[k] for k in result.study.design_keys if k in TRAJ_KEYS}  # a real colon's lumen model
     tr = colon_trajectory(design["worst_colon"], robot.feed, **traj_keys)
@@ -512,45 +478,23 @@ def worst_colon_run(result: StudyResult, design: dict[str, Any]):
 
 def penetration_figure(result: StudyResult, design: dict[str, Any], run):
     """The worst colon followed again: the robot's smallest clearance to the wall at each step against the tip's
-    distance from the anus; below zero (shaded red) the robot is that deep in the wall."""
-    import matplotlib
-
-    if os.environ.get("DISPLAY", "") == "" and os.environ.get("MPLBACKEND") is None:
-        matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    distance from the anus; below zero (shaded red) the robot is that deep in the wall
+    (:func:`bhr.output.traverse_plot.penetration_figure` draws it)."""
     import numpy as np
+
+    from bhr.output.traverse_plot import penetration_figure as draw
 
     doc = run.to_dict()
     clearance = np.array([np.nan if st.get("clearance_mm") is None else st["clearance_mm"] for st in doc["steps"]],
                          dtype=float)
     s = np.arange(len(clearance)) * run.robot.feed
     names, starts, ends = colon_sections(design["worst_colon"], run)
-    fig, ax = plt.subplots(figsize=(11, 4.2))
-    finite = clearance[np.isfinite(clearance)]
-    lo = min(-1.0, float(finite.min()) if finite.size else -1.0)
-    hi = max(1.0, float(finite.max()) if finite.size else 1.0)
-    top = hi + 0.25 * (hi - lo)
-    for k, (a, b) in enumerate(zip(starts, ends)):
-        if k % 2 == 0:
-            ax.axvspan(a, b, color="#eef0f4", zorder=0)
-        ax.text((a + b) / 2, top - 0.02 * (top - lo), names[k].replace(" flexure", "\nflexure"), ha="center",
-                va="top", fontsize=7, color="#444")
-    ax.axhline(0.0, color="black", linewidth=0.8, zorder=2)
-    ax.fill_between(s, 0, np.minimum(0.0, np.nan_to_num(clearance, nan=0.0)), color="#d62728", alpha=0.45,
-                    step="mid", zorder=3, label="into the wall")
-    ax.plot(s, clearance, color="#1f4e79", linewidth=0.9, zorder=4, label="smallest clearance")
-    ax.set_xlim(0, max(float(ends[-1]), float(s[-1]) if len(s) else 1.0))
-    ax.set_ylim(lo - 0.05 * (hi - lo), top)
-    ax.set_xlabel("tip's distance from the anus along the colon (mm)")
-    ax.set_ylabel("robot's smallest clearance\nto the wall (mm)")
-    ax.legend(loc="lower right", fontsize=8)
     keys = ", ".join(f"{k} {_label(design[k])}" for k in result.study.design_keys)
     pen = design["worst_penetration_mm"]
-    ax.set_title(f"Worst colon ({colon_label(design['worst_colon'])}) of design #{design['design']} ({keys}):\n"
-                 f"{pen:.2f} mm into the wall at worst, smallest clearance {np.nanmin(clearance):.2f} mm; "
-                 f"{result.clearance_kind} clearance", fontsize=9)
-    fig.tight_layout()
-    return fig
+    title = (f"Worst colon ({colon_label(design['worst_colon'])}) of design #{design['design']} ({keys}):\n"
+             f"{pen:.2f} mm into the wall at worst, smallest clearance {np.nanmin(clearance):.2f} mm; "
+             f"{result.clearance_kind} clearance")
+    return draw(s, clearance, names, starts, ends, title)
 
 
 # ------------------------------------------------------------------------------------------ outputs
@@ -705,7 +649,7 @@ def write_study(result: StudyResult, out_dir: Any, *, plot: bool = True,
         hx, hy = heatmap_axes(study, x, y)
         heat = worst = None
         if plot:
-            from bhr.output.plots import save_figure
+            from bhr.output.figure import save_figure
 
             save_figure(passrate_figure(result, hx, hy), stage / "passrate.png")
             heat = "passrate.png"

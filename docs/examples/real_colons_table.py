@@ -31,7 +31,7 @@ def main() -> None:
     a = ap.parse_args()
     robot = bhr.Robot(alpha=a.alpha, module_length=a.module_length)
     print(f"solver {a.solver}, alpha {a.alpha:g} deg, modules of {a.module_length:g} mm, robot radius "
-          f"{robot.radius:g} mm, feed {robot.feed:g} mm")
+          f"{robot.robot_radius:g} mm, feed {robot.feed:g} mm")
     print("| colon | steps | wall | mesh: min clearance (mm) | mesh: steps touching | tube: min clearance (mm) | "
           "tube: steps touching | steps where the two disagree | CPU s (run, mesh, tube) |")
     print("| --- | --- | --- | --- | --- | --- | --- | --- | --- |", flush=True)

@@ -61,7 +61,7 @@ def _colon_clearance_inputs():
     run = follow(COLON)
     tube = make_tube(COLON.points, COLON.lumen, COLON.start_direction, closed_end=True)
     Q, E, _ = run_chain(run)
-    return tube, run.robot.radius, Q[:100], E[:100], run.robot.feed / tube.spacing
+    return tube, run.robot.robot_radius, Q[:100], E[:100], run.robot.feed / tube.spacing
 
 
 @pytest.mark.benchmark(group="clearance-colon")

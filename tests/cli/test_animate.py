@@ -123,7 +123,7 @@ def check_frame(img: np.ndarray, result, view, step: int, *, other_far_step: boo
     hit = near(red, robot, 3.0)
     assert hit.all(), f"step {step + 1}: no robot pixels at points {np.nonzero(~hit)[0] + 1} ({robot[~hit]})"
     # every red pixel belongs to this step's robot: within a disc radius (plus line width) of its points
-    scale = np.linalg.norm(to_image(result.points[step][:1] + [[result.robot.radius, 0, 0]]) - robot[:1])
+    scale = np.linalg.norm(to_image(result.points[step][:1] + [[result.robot.robot_radius, 0, 0]]) - robot[:1])
     ys, xs = np.nonzero(red)
     pix = np.stack([xs, ys], axis=1).astype(float)
     seg = _dist_to_polyline(pix, robot)
@@ -199,7 +199,7 @@ def test_colon_gif_frames_show_the_robot_at_the_right_steps(colon_gif):
             assert inside.sum() >= 10 and not inside.all()  # zoomed on the robot: part of the path in view
             # ...where the robot (its discs), the target and the start and end marks do not cover it
             cover = np.vstack([result.points[steps[k]], result.trajectory.points[[steps[k], 0, -1]]])
-            inside &= np.linalg.norm(p[:, None] - cover[None], axis=2).min(axis=1) > result.robot.radius + 3.0
+            inside &= np.linalg.norm(p[:, None] - cover[None], axis=2).min(axis=1) > result.robot.robot_radius + 3.0
             assert inside.sum() >= 5
             assert near(blue_mask(img) & in_box(img, box), to_image(p[inside]), 2.5).all()
         # Frames at the start, in each bend and straight, and the last (the final pose).

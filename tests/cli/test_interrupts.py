@@ -46,7 +46,7 @@ def test_a_signal_the_caller_ignored_stays_ignored(tmp_path, sig):
 
 LIBRARY_SWALLOWS = r'''
 import os, signal, sys, time
-import bhr.output.plots as plots
+import bhr.output.run_plots as run_plots
 
 SIG = getattr(signal, sys.argv[1])
 
@@ -59,7 +59,7 @@ def save_run_plots(*args, **kwargs):  # a library whose callback took the signal
         raise ValueError("Invalid bounding box") from None  # as matplotlib's renderer reports it
     raise AssertionError("the signal did not arrive")
 
-plots.save_run_plots = save_run_plots
+run_plots.save_run_plots = save_run_plots
 sys.argv = ["bhr", "follow", "--traj", "curve", "--out", "o"]
 from bhr.cli.main import run
 run()

@@ -142,7 +142,7 @@ def test_replay_reads_standard_input_and_draws_a_chosen_step(tmp_path, curve_run
     assert sorted(p.name for p in (tmp_path / "figs").iterdir()) == [
         "global_errors.png", "manifest.json", "orientation_errors.png", "path-step40.png", "position_errors.png",
         "view.html"]
-    from bhr.output.plots import path_figure
+    from bhr.output.path_plot import path_figure
 
     img = np.asarray(Image.open(tmp_path / "figs" / "path-step40.png").convert("RGB"))
     fig = path_figure(curve_run, 39)

@@ -124,7 +124,8 @@ def screen_view(result):
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
-    from bhr.output.plots import FRAME_INCHES, StepView
+    from bhr.output.scene import FRAME_INCHES
+    from bhr.output.stepview import StepView
 
     fig = Figure(figsize=FRAME_INCHES, dpi=100)
     FigureCanvasAgg(fig)

@@ -51,7 +51,7 @@ def _rigid(rep, length: float) -> None:
 
 @pytest.mark.parametrize("depth", [0.5, 2.0, 5.0])
 def test_a_robot_pressed_into_a_straight_wall_loads_it_by_stiffness_depth_and_length(depth):
-    robot = Robot(modules=10, module_length=5.0, radius=5.0, alpha=10.0)
+    robot = Robot(modules=10, module_length=5.0, robot_radius=5.0, alpha=10.0)
     run = SimpleNamespace(trajectory=_straight_lumen(6.0), robot=robot)
     # the wires made stiff enough that the robot stays straight: the wall's load alone is measured
     rep = replay_poses(_straight_poses(robot, 10, offset=1.0 + depth), run, wire_force=1e6)
@@ -72,7 +72,7 @@ def test_the_wall_does_not_change_with_the_module_length():
     tr = _straight_lumen(6.0)
     force = []
     for length, n in ((5.0, 12), (6.0, 10)):  # both 60 mm long
-        robot = Robot(modules=n, module_length=length, radius=5.0, alpha=10.0)
+        robot = Robot(modules=n, module_length=length, robot_radius=5.0, alpha=10.0)
         rep = replay_poses(_straight_poses(robot, n, offset=3.0), SimpleNamespace(trajectory=tr, robot=robot),
                            wire_force=1e6)
         _rigid(rep, length)
@@ -84,7 +84,7 @@ def test_the_wall_does_not_change_with_the_module_length():
 
 def test_the_wires_yield_to_the_wall():
     """With the datasheet's wires the same press bends the robot away from the wall: less depth, less force."""
-    robot = Robot(modules=10, module_length=5.0, radius=5.0, alpha=10.0)
+    robot = Robot(modules=10, module_length=5.0, robot_radius=5.0, alpha=10.0)
     run = SimpleNamespace(trajectory=_straight_lumen(6.0), robot=robot)
     stiff = replay_poses(_straight_poses(robot, 10, offset=3.0), run, wire_force=1e6)
     soft = replay_poses(_straight_poses(robot, 10, offset=3.0), run)
@@ -122,7 +122,7 @@ def test_no_contact_where_bhrs_geometry_says_clear():
     for i in range(poses.points_mm.shape[0]):
         P = poses.points_mm[i]
         axis = (P[:-1, None] + s[None, :, None] * np.diff(P, axis=0)[:, None]).reshape(-1, 3)
-        clear.append(min(point_clearance(tube, run.robot.radius, p, tube.pre + 0.0, float(tube.points.shape[0]) / 2)
+        clear.append(min(point_clearance(tube, run.robot.robot_radius, p, tube.pre + 0.0, float(tube.points.shape[0]) / 2)
                          for p in axis))
     clear = np.array(clear)
     first_touch = int(np.argmax(clear <= 0)) if np.any(clear <= 0) else len(clear)
@@ -183,7 +183,7 @@ def test_run_without_lumen_is_refused(run_bhr, tmp_path):
 def test_joint_stiffness_is_the_wires_pull_over_the_tilt():
     from bhr.studies.physics import WIRE_FORCE_N, joint_stiffness
 
-    r = Robot(alpha=25.0, radius=5.0)
+    r = Robot(alpha=25.0, robot_radius=5.0)
     assert joint_stiffness(r) == pytest.approx(2 * WIRE_FORCE_N * 10.0 / math.radians(25.0))
     assert joint_stiffness(Robot(stroke=1.7365, lever=10.0)) == pytest.approx(
         2 * WIRE_FORCE_N * 10.0 / math.asin(0.17365))
@@ -198,7 +198,7 @@ def test_any_codes_in_a_straight_lumen_keep_modules_rigid_and_load_only_where_bh
     from bhr.studies.physics.poses import code_tilts
 
     n = len(codes)
-    robot = Robot(modules=n, module_length=5.0, radius=3.0, alpha=alpha)
+    robot = Robot(modules=n, module_length=5.0, robot_radius=3.0, alpha=alpha)
     frame = base_frame(np.array([1.0, 0.0, 0.0]))
     tilts = code_tilts(np.array([codes]), math.radians(alpha))
     pts = chain_points(np.zeros(3), frame, tilts[0], 5.0)[None]

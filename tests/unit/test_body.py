@@ -115,7 +115,7 @@ def test_sixty_module_robot_through_the_colon():
     assert r.steps == tr.points.shape[0] and s["body_modules"] == 60
     assert r.body.scored[-1].all()  # at the end the whole body is inside the path
     assert s["body_points_max_error_mm"] < r.robot.tol_pos
-    assert s["min_clearance_mm"] is not None and 0 < s["min_clearance_mm"] < 45 / 2 - r.robot.radius
+    assert s["min_clearance_mm"] is not None and 0 < s["min_clearance_mm"] < 45 / 2 - r.robot.robot_radius
     assert s["wall_touch_steps"] == []
 
 

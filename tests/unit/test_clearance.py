@@ -99,7 +99,10 @@ def test_plots_mark_the_touches(tmp_path):
     import matplotlib
 
     matplotlib.use("Agg")
-    from bhr.output.plots import clearance_figure, error_figure, path_figure, save_run_plots
+    from bhr.output.clearance_plot import clearance_figure
+    from bhr.output.error_plot import error_figure
+    from bhr.output.path_plot import path_figure
+    from bhr.output.run_plots import save_run_plots
 
     r = follow(with_lumen(load_trajectory("curve", angle=180.0), 16.0), solver="seed", body_modules=8)
     assert r.summary.to_dict()["wall_touch_steps"]

@@ -20,18 +20,10 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 
 from bhr.model.generators import load_trajectory  # noqa: E402
-from bhr.output.plots import (  # noqa: E402
-    ERROR_KINDS,
-    FRAME_INCHES,
-    FRAME_ZOOM,
-    LUMEN_WALL,
-    StepView,
-    body_figure,
-    error_figure,
-    lumen_walls,
-    path_figure,
-    zoom_half_width,
-)
+from bhr.output.error_plot import ERROR_KINDS, body_figure, error_figure  # noqa: E402
+from bhr.output.path_plot import path_figure  # noqa: E402
+from bhr.output.scene import FRAME_INCHES, FRAME_ZOOM, LUMEN_WALL, lumen_walls, zoom_half_width  # noqa: E402
+from bhr.output.stepview import StepView  # noqa: E402
 from bhr.run.driver import follow  # noqa: E402
 
 
@@ -76,7 +68,8 @@ def test_a_runs_error_figures_drawn_on_one_grid_are_the_figures_drawn_alone(tmp_
     figure error_figure draws on its own. With 4 modules the points need 3 rows and the modules 2: two grids."""
     from PIL import Image
 
-    from bhr.output.plots import save_figure, save_run_plots
+    from bhr.output.figure import save_figure
+    from bhr.output.run_plots import save_run_plots
 
     run = follow(load_trajectory("curve", angle=180.0), solver="seed", modules=modules)
     save_run_plots(run, tmp_path)
@@ -274,7 +267,7 @@ def test_compare_figure_has_step_numbers_tolerance_and_each_solvers_worst_step()
 
 
 def test_solve_plot_keeps_the_target_inside_and_the_solution_in_front():
-    from bhr.output.plots import chain_figure, plt
+    from bhr.output.path_plot import chain_figure
 
     initial = np.array([[0, 2.0 * k, 0] for k in range(6)])
     final = np.array([[0, 0, 0], [0, 2, 0], [0.35, 3.97, 0], [1.03, 5.85, 0], [2.03, 7.58, 0], [3.0, 9.0, 0]])
@@ -283,7 +276,6 @@ def test_solve_plot_keeps_the_target_inside_and_the_solution_in_front():
     x0, x1 = ax.get_xlim()
     y0, y1 = ax.get_ylim()
     assert x0 < 0 - 0.05 * 10 and x1 > 3 + 0.05 * 10 and y1 > 10 + 0.05 * 10  # room around the target's marker
-    plt.close(fig)
     lifted = final.copy()
     lifted[2:, 2] = [0.5, 1.5, 2.5, 4.0]
     fig = chain_figure(initial, lifted, lifted[-1])
@@ -293,4 +285,3 @@ def test_solve_plot_keeps_the_target_inside_and_the_solution_in_front():
     assert z["final"] > z["initial"] and z["target"] > z["final"]
     lo, hi = np.array([ax.get_xlim(), ax.get_ylim(), ax.get_zlim()]).T
     assert np.all(lifted[-1] > lo) and np.all(lifted[-1] < hi)
-    plt.close(fig)

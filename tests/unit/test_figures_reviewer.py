@@ -15,7 +15,8 @@ from hypothesis import strategies as st  # noqa: E402
 
 import bhr  # noqa: E402
 from bhr.model.anatomy import SECTIONS  # noqa: E402
-from bhr.output.plots import capsule_outline, path_figure  # noqa: E402
+from bhr.output.path_plot import path_figure  # noqa: E402
+from bhr.output.scene import capsule_outline
 
 
 @pytest.fixture(scope="module")

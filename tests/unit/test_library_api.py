@@ -106,7 +106,7 @@ def test_robot_settings_are_checked_by_the_registry():
         bhr.follow(bhr.trajectory("line"), modules=5000)
     with pytest.raises(BhrError, match="alpha must be a number"):
         bhr.solve([3, 9, 0], alpha="ten")
-    assert bhr.follow(bhr.trajectory("line", feed=1.6), robot_radius=4, module_length=8).robot.radius == 4
+    assert bhr.follow(bhr.trajectory("line", feed=1.6), robot_radius=4, module_length=8).robot.robot_radius == 4
 
 
 def test_a_misspelt_solver_option_gets_a_did_you_mean():

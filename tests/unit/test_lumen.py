@@ -143,10 +143,10 @@ def test_the_depth_the_beam_ranks_by_is_the_best_heads_deepest_sample_in_numpy(t
     pts, _ = forward_kinematics(robot, [0, *codes], base, frame)
     want = -np.inf
     for j in range(n + 1):
-        want = max(want, -nearest_numpy(tube, robot.radius, pts[j], k + j * f + tube.pre)[0])
+        want = max(want, -nearest_numpy(tube, robot.robot_radius, pts[j], k + j * f + tube.pre)[0])
         if j:
             mid = 0.5 * (pts[j] + pts[j - 1])
-            want = max(want, -nearest_numpy(tube, robot.radius, mid, k + (j - 0.5) * f + tube.pre)[0])
+            want = max(want, -nearest_numpy(tube, robot.robot_radius, mid, k + (j - 0.5) * f + tube.pre)[0])
     assert got == pytest.approx(want, abs=1e-9)
 
 

@@ -158,7 +158,7 @@ def test_clearance_of_the_written_poses_agrees_with_an_independent_one(wires_run
     C = tube.points[tube.pre:]
     Rd = 2 * tube.radius[tube.pre:]
     mo = wires_run.motion
-    radius = wires_run.robot.radius
+    radius = wires_run.robot.robot_radius
     rng = np.random.default_rng(0)
     # every pose of the run is too many for numpy here: the worst 40 by bhr plus 40 at random
     worst = np.argsort(np.where(np.isnan(mo.pose_clear), np.inf, mo.pose_clear))[:40]
@@ -194,7 +194,7 @@ def test_a_pose_deeper_in_the_wall_than_the_robot_radius_has_left_the_lumen():
     run = follow(bhr.trajectory("anatomy", seed=1), solver="lumen", alpha=25, module_length=5, body_modules=30)
     s = run.summary.extra
     mo = run.motion
-    radius = run.robot.radius
+    radius = run.robot.robot_radius
     with np.errstate(invalid="ignore"):
         deep = sorted(set(int(k) for k in mo.step[mo.pose_clear < -radius]))
     assert deep, "this run should go deeper than the robot's radius into the wall"

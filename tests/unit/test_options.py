@@ -16,8 +16,8 @@ from bhr.studies.sweep import GRID_KEYS, build_sweep, run_design
 def test_robot_defaults_are_the_registry_defaults():
     fields = {f.name: f.default for f in dataclasses.fields(Robot)}
     for o in by_group("robot"):
-        assert fields[o.key] == o.default, o.name
-    assert set(fields) == {o.key for o in by_group("robot")}
+        assert fields[o.name] == o.default, o.name
+    assert set(fields) == {o.name for o in by_group("robot")}
     assert set(FILE_KEYS) == set(fields)
     assert DEFAULTS == {o.name: o.default for o in by_group("solver") if "optimal" in o.solvers}
     assert set(LUMEN_DEFAULTS) == {o.name for o in by_group("solver") if "lumen" in o.solvers}

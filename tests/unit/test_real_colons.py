@@ -94,7 +94,8 @@ def _sectioned_csv(tmp_path):
 
 
 def test_a_run_names_its_sections_in_steps_csv_run_json_summary_and_figures(tmp_path):
-    from bhr.output.plots import clearance_figure, path_figure
+    from bhr.output.clearance_plot import clearance_figure
+    from bhr.output.path_plot import path_figure
     from bhr.output.steptable import format_steps_csv
     from bhr.run.driver import FollowResult
     from bhr.studies.follow_run import summary_lines

@@ -12,7 +12,6 @@ from hypothesis import strategies as st
 from bhr.model.codes import CODE_AXIS, VALID_CODES
 from bhr.model.robot import Robot
 from bhr.model.robotfile import (
-    KEY_ALIASES,
     LINK_KEYS,
     ROBOT_KEYS,
     LinkSettings,
@@ -41,7 +40,6 @@ def test_default_file_is_the_thesis_robot():
     data = tomllib.loads(default_robot_file().read_text())
     text = default_robot_file().read_text()
     for key in ROBOT_KEYS:
-        key = {v: k for k, v in KEY_ALIASES.items()}.get(key, key)  # the file's name of the field
         assert key in data or f"# {key} =" in text
     assert set(data["link"]) | {"module_order"} == set(LINK_KEYS) and "# module_order = [1, 2, 3, 4, 5]" in text
 
@@ -104,7 +102,8 @@ def test_chain_order_round_trip(order, codes):
     ("module_length = inf\n", "module_length must be a finite number"),
     ("module_length = true\n", "module_length must be a number, got a boolean"),
     ("module_length = [10]\n", "module_length must be a number, got a list"),
-    ("radius = -1\n", "radius must be greater than 0"),
+    ("robot_radius = -1\n", "robot_radius must be greater than 0"),
+    ("radius = 4\n", "unknown key 'radius'; did you mean 'robot_radius'"),
     ("alpha = 0\n", "outside (0, 90)"),
     ("alpha = 90\n", "outside (0, 90)"),
     ("alpha = 95.5\n", "outside (0, 90)"),
@@ -181,7 +180,7 @@ def test_json_robot_file_is_read_as_the_toml_one(tmp_path):
     table["alpha"] = 12.5
     table["robot_radius"] = 4.0
     rf = load_robot_file(write(tmp_path / "r2.json", json.dumps(table)))
-    assert rf.robot.alpha == 12.5 and rf.robot.radius == 4.0
+    assert rf.robot.alpha == 12.5 and rf.robot.robot_radius == 4.0
     table["alphaa"] = 3
     with pytest.raises(BhrError, match=r"r3.json: unknown key 'alphaa'; did you mean 'alpha'\?"):
         load_robot_file(write(tmp_path / "r3.json", json.dumps(table)))
@@ -192,13 +191,10 @@ def test_a_runs_robot_is_reused_from_its_run_json(tmp_path):
 
     import bhr
 
-    robot = bhr.Robot(modules=4, module_length=8.0, radius=3.5, stroke=1.0, lever=6.0, tol_pos=5.0)
+    robot = bhr.Robot(modules=4, module_length=8.0, robot_radius=3.5, stroke=1.0, lever=6.0, tol_pos=5.0)
     run = bhr.follow(bhr.trajectory("line", length=30), robot=robot)
     rf = load_robot_file(write(tmp_path / "run.json", json.dumps(run.to_dict())))
     assert rf.robot == robot
-    old = run.to_dict()  # an older run.json named the disc radius "radius"
-    old["robot"]["radius"] = old["robot"].pop("robot_radius")
-    assert load_robot_file(write(tmp_path / "old.json", json.dumps(old))).robot == robot
 
 
 def test_robot_file_keys_name_the_disc_radius_robot_radius_only(tmp_path):
@@ -206,7 +202,7 @@ def test_robot_file_keys_name_the_disc_radius_robot_radius_only(tmp_path):
         load_robot_file(write(tmp_path / "r.toml", "modules = 5\nbogus = 1\n"))
     allowed = str(err.value).split("allowed: ")[1]
     assert "robot_radius" in allowed and " radius," not in allowed
-    assert load_robot_file(write(tmp_path / "old.toml", "radius = 4.5\n")).robot.radius == 4.5
+    assert load_robot_file(write(tmp_path / "r.toml", "robot_radius = 4.5\n")).robot.robot_radius == 4.5
 
 
 values = st.one_of(st.integers(-10, 2000), st.floats(allow_nan=True, allow_infinity=True), st.booleans(),
@@ -254,13 +250,14 @@ def test_any_text_is_a_robot_or_one_clear_line(tmp_path, text):
 # --- on the command line ----------------------------------------------------------------------------------------
 
 
-def test_disc_radius_is_robot_radius_and_the_old_name_is_read(tmp_path):
+def test_the_disc_radius_has_one_name_robot_radius(tmp_path):
+    """One name per setting: the Robot field, the robot-file key and the option are all robot_radius."""
     new = tmp_path / "new.toml"
     new.write_text("robot_radius = 7.5\n")
+    assert load_robot_file(new).robot.robot_radius == 7.5 == Robot(robot_radius=7.5).robot_radius
     old = tmp_path / "old.toml"
     old.write_text("radius = 7.5\n")
-    assert load_robot_file(new).robot.radius == load_robot_file(old).robot.radius == 7.5
-    both = tmp_path / "both.toml"
-    both.write_text("radius = 7.5\nrobot_radius = 7.5\n")
-    with pytest.raises(BhrError, match="radius is the old name of robot_radius"):
-        load_robot_file(both)
+    with pytest.raises(BhrError, match="unknown key 'radius'; did you mean 'robot_radius'"):
+        load_robot_file(old)
+    with pytest.raises(TypeError, match="radius"):
+        Robot(radius=7.5)  # type: ignore[call-arg]

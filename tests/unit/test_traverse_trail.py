@@ -136,11 +136,11 @@ def test_motion_between_steps_against_brute_force():
     codes = np.array([0] * 8 + [6] * 6 + [3, 6, 9, 6, 12, 0] + [0] * 4)
     back = 4
     T = trail_vertices(codes, tr.start_direction, tr.start_point, 5.0, 25.0, back)
-    tb = trail_tables(tube, r.radius, T, back, 3, 1, len(codes), 5.0)
+    tb = trail_tables(tube, r.robot_radius, T, back, 3, 1, len(codes), 5.0)
     checked = 0
     for m in range(8, 16):  # into the bend and across its tightest vertices
         for k in range(3):
-            brute = chord_sweep_numpy(tube, r.radius, T, tb["z"], back + m, k / 3, (k + 1) / 3, 31, 31)
+            brute = chord_sweep_numpy(tube, r.robot_radius, T, tb["z"], back + m, k / 3, (k + 1) / 3, 31, 31)
             sw = min(tb["sw"][m - 1, k], tb["mc"][m - 1, k])
             assert sw <= brute + 1e-6
             assert brute - sw <= 0.05

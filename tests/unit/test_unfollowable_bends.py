@@ -95,7 +95,7 @@ def test_the_compiled_rule_is_its_numpy_reference(seed):
 
     t = bhr.trajectory("anatomy", seed=seed)
     for robot in (Robot(), Robot(module_length=5.0, alpha=25.0)):
-        args = (t.points, np.asarray(t.lumen), robot.min_turn_radius, robot.radius)
+        args = (t.points, np.asarray(t.lumen), robot.min_turn_radius, robot.robot_radius)
         got, want = unfollowable_bends(*args), unfollowable_bends_numpy(*args)
         assert [g[:2] for g in got] == [w[:2] for w in want]
         for g, w in zip(got, want):

@@ -93,7 +93,7 @@ def test_plot_pose_draws_each_module_with_its_radius(tmp_path):
     from matplotlib.figure import Figure
     from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
-    robot = Robot(modules=4, radius=3.0)
+    robot = Robot(modules=4, robot_radius=3.0)
     from bhr.output import plot_pose
 
     fig = plot_pose(robot, [3, 0, 6, 15], tmp_path / "pose.png")
@@ -105,7 +105,7 @@ def test_plot_pose_draws_each_module_with_its_radius(tmp_path):
     from bhr.output.workspace_plot import cylinder_surface
 
     for a, b in zip(pts[:-1], pts[1:]):  # the surface drawn: every vertex one radius from its module's axis
-        verts = np.stack([g.ravel() for g in cylinder_surface(a, b, robot.radius)], axis=1)
+        verts = np.stack([g.ravel() for g in cylinder_surface(a, b, robot.robot_radius)], axis=1)
         axis = (b - a) / np.linalg.norm(b - a)
         rel = verts - a
         radial = rel - np.outer(rel @ axis, axis)

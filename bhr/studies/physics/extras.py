@@ -11,7 +11,7 @@ def worst_colon_extras(run, folder: Any, physics: bool = False) -> list[str]:
     """The worst colon's 3-D view and, with ``physics``, its replay (:func:`replay_physics`); the file names."""
     from bhr.output.atomic import write_json
     from bhr.output.physics_plot import force_figure
-    from bhr.output.plots import save_figure
+    from bhr.output.figure import save_figure
     from bhr.output.view import save_view
     from bhr.studies.physics.replay import replay_physics
 

@@ -25,7 +25,7 @@ def lever_mm(robot) -> float:
     """The wires' lever: the robot file's ``lever``, else one module diameter (as ``Robot.lift`` takes it)."""
     if getattr(robot, "lever", None):
         return float(robot.lever)
-    return 2.0 * float(robot.radius)
+    return 2.0 * float(robot.robot_radius)
 
 
 def joint_stiffness(robot, wire_force_n: float = WIRE_FORCE_N) -> float:

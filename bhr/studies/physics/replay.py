@@ -575,7 +575,7 @@ def replay_poses(poses: Poses, result, *, wall_stiffness: float = DEFAULT_WALL_S
         raise BhrError(f"the poses' modules are {L:g} mm and the run's {r.module_length:g} mm; give the run's poses")
     P, M = poses.tilts_rad.shape[:2]
     ns = samples_per_module(L, sample_mm)
-    robot_radius = float(r.radius)
+    robot_radius = float(r.robot_radius)
     k_joint = joint_stiffness(r, wire_force)
     pb = _Problem(np.ascontiguousarray(poses.entrance, dtype=np.float64), np.ascontiguousarray(poses.frame[2]),
                   np.ascontiguousarray(poses.frame.T), L, robot_radius, ns, float(wall_stiffness), k_joint,
