@@ -241,7 +241,8 @@ def test_heatmap_axes_and_worst_case_cells():
     lines = format_summary(res, count=5)
     # the first line counts what ran as the ranking counts designs: 12 runs are 6 designs on 2 trajectories
     assert lines[0].startswith("12 runs (6 designs x 2 trajectories) on "), lines[0]
-    from bhr.studies.sweep import _html, heatmap_figure
+    from bhr.studies.sweep import heatmap_figure
+    from bhr.studies.sweep.pages import _html
 
     assert heatmap_figure(res, "modules", "alpha")._suptitle.get_text().endswith(": 12 runs (6 designs x 2 trajectories)")
     assert "12 runs (6 designs x 2 trajectories), 0 failed" in _html(res, None)

@@ -26,11 +26,11 @@ def test_a_run_whose_worker_is_killed_is_a_row_and_the_others_run():
 
 
 def test_a_sweep_design_whose_worker_dies_is_a_failed_row():
-    from bhr.studies import sweep
+    from bhr.studies.sweep import runs
 
     s = build_sweep(["line"], ["seed"], [("modules", (3, 4, 5))])
     rows = run_sweep(s, jobs=1).rows
-    lost = sweep._lost_design((s.designs()[1], "line", None), "its worker process died (killed by SIGKILL)")
+    lost = runs._lost_design((s.designs()[1], "line", None), "its worker process died (killed by SIGKILL)")
     assert set(lost) == set(rows[1]) - {"design"}
     assert lost["status"] == "failed: its worker process died (killed by SIGKILL)" and lost["modules"] == 4
 
