@@ -3,7 +3,8 @@
 - :mod:`.poses`: the physical robot's poses as the replay reads them (``poses.npz``; a run's codes converted);
 - :mod:`.wall`: the colon's wall (a foundation around bhr's lumen, its stiffness from the literature);
 - :mod:`.joints`: how stiffly the nitinol wires hold a joint;
-- :mod:`.replay`: the rigid, wire-held robot in equilibrium at every pose, the wall's load;
+- :mod:`.equilibrium`: one pose of the rigid, wire-held robot in equilibrium (the compiled energy and its minimisation);
+- :mod:`.replay`: that equilibrium at every pose of a run, the wall's load;
 - :mod:`.engines`: bhr's robot exported to pinocchio and MuJoCo and cross-checked (needs the ``physics`` extra).
 
 docs/physics.md describes the replay, docs/export.md the export.
