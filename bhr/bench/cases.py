@@ -701,15 +701,17 @@ def case_study(repeat: int = 1, colons: int = 100) -> BenchResult:
 
 
 def first_steps(run, steps: int):
-    """``run`` (a FollowResult) cut to its first ``steps`` steps, head and body (in place; returned)."""
-    run.points, run.codes = run.points[:steps], None if run.codes is None else run.codes[:steps]
-    run.iterations = run.iterations[:steps]
-    run.point_errors_mm, run.orientation_errors_deg = run.point_errors_mm[:steps], run.orientation_errors_deg[:steps]
-    if run.body is not None:
-        b = run.body
-        b.points, b.codes, b.scored = b.points[:steps], b.codes[:steps], b.scored[:steps]
-        b.point_errors_mm, b.orientation_errors_deg = b.point_errors_mm[:steps], b.orientation_errors_deg[:steps]
-    return run
+    """``run`` (a FollowResult) cut to its first ``steps`` steps, head and body: another run (a run is frozen)."""
+    import dataclasses
+
+    from bhr.run.body import BodyRun
+
+    b = run.body
+    body = None if b is None else BodyRun(b.modules, b.points[:steps], b.codes[:steps], b.point_errors_mm[:steps],
+                                          b.orientation_errors_deg[:steps], b.scored[:steps])
+    return dataclasses.replace(run, points=run.points[:steps], codes=None if run.codes is None else run.codes[:steps],
+                               iterations=run.iterations[:steps], point_errors_mm=run.point_errors_mm[:steps],
+                               orientation_errors_deg=run.orientation_errors_deg[:steps], body=body)
 
 
 def case_physics(repeat: int = 1, steps: int = 1000) -> BenchResult:
@@ -731,7 +733,7 @@ def case_physics(repeat: int = 1, steps: int = 1000) -> BenchResult:
         warnings.simplefilter("ignore", BhrWarning)
         run = follow(tr, solver="lumen", robot=r, body_modules=300, locomotion="trail")
     tf = time.process_time() - t0
-    first_steps(run, min(steps, run.steps))
+    run = first_steps(run, min(steps, run.steps))
     reps = []
     times = []
     for _ in range(repeat):

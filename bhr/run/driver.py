@@ -21,7 +21,8 @@ import json
 import math
 import sys
 import warnings
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field, fields, replace
+from functools import cached_property
 from pathlib import Path
 from typing import Any, Callable
 
@@ -155,13 +156,19 @@ def verdict_of(s: Summary, robot: Robot) -> tuple[str, str]:
             f"over {s.steps} steps")
 
 
-@dataclass(repr=False)
+@dataclass(frozen=True, repr=False, eq=False)
 class FollowResult:
     """A whole run: per-step poses, codes and errors, with the summary of the thesis's script.
 
     ``success`` and ``status`` say whether the run kept every scored point
     within the robot's tolerances and, when the path has a lumen, off the
     wall; ``reason`` says why not, in words.
+
+    The result is frozen: a run's poses, codes, body and model never change once it is made, so its
+    :attr:`clearance` and :attr:`summary` are scored once, the first time either is read, and kept
+    (:func:`dataclasses.replace` makes another run, scored afresh). The driver does not score inside
+    the follower's loop: ``bhr.follow`` returns as soon as the robot has moved, and the clearance to the
+    lumen wall (several times the follow's own time on a colon) is computed when the run is first judged.
     """
 
     trajectory: Trajectory
@@ -178,23 +185,16 @@ class FollowResult:
     trail: TrailRun | None = None  # locomotion "trail": the trail and its clearance tables (bhr.run.trail)
     motion: Any = None  # locomotion "wires": every pose of the whole robot (bhr.run.motion.MotionRun)
 
-    @property
+    @cached_property
     def clearance(self) -> ClearanceReport | None:
-        """The clearance report when the trajectory has a lumen (head and body points), else None."""
+        """The clearance report when the trajectory has a lumen (head and body points), else None; scored once."""
         if self.trajectory.lumen is None:
             return None
-        key = (self.body, self.trajectory.lumen, self.point_errors_mm, self.trail, self.motion)  # compared by identity
-        cached = getattr(self, "_clearance_cache", None)
-        if cached is None or any(a is not b for a, b in zip(cached[0], key)):
-            if self.motion is not None:
-                from bhr.run.motion import motion_report
+        if self.motion is not None:
+            from bhr.run.motion import motion_report
 
-                report = motion_report(self)
-            else:
-                report = clearance_report(self) if self.trail is None else trail_report(self)
-            cached = (key, report)
-            self._clearance_cache = cached
-        return cached[1]
+            return motion_report(self)
+        return clearance_report(self) if self.trail is None else trail_report(self)
 
     @property
     def steps(self) -> int:
@@ -253,10 +253,10 @@ class FollowResult:
         return (r.weight_pos * self.point_errors_mm[:, 1:] / r.tol_pos
                 + r.weight_ori * self.orientation_errors_deg / r.tol_ori)
 
-    @property
+    @cached_property
     def summary(self) -> Summary:
         """Max, mean, median, RMSE and final per point and module (leading unscored steps left out of mean,
-        median and RMSE), and the run's headline figures (see :class:`Summary`)."""
+        median and RMSE), and the run's headline figures (see :class:`Summary`); scored once."""
         n = self.modules
         f = self.robot.feed_divisor
         pts = [stats(self.point_errors_mm[:, j], (n - j) * f) for j in range(n + 1)]
@@ -459,16 +459,15 @@ def _run_from_json(doc: Any, where: str) -> FollowResult:
     traj = Trajectory(name, path, dict(params), source=where, lumen=lumen,
                       lumen_end=lumen_end, start_direction=start_dir, start_point=start_pt, sections=sections,
                       lumen_model=model)
-    result = FollowResult(traj, robot, solver, pts, np.asarray(iters, dtype=np.int64), pe, oe, codes,
-                          [str(m) for m in msgs] if isinstance(msgs, list) else [])
-    result.body = body
     told: dict[str, Any] = summary if isinstance(summary, dict) else {}
     stop = told.get("feeder_stop_step")
+    extra: dict[str, Any] = {}
     if stop is not None and told.get("locomotion") not in ("trail", "wires"):
         if isinstance(stop, bool) or not isinstance(stop, int) or not 1 <= stop < pts.shape[0]:
             raise bad(f"summary feeder_stop_step must be a step from 1 to {pts.shape[0] - 1}, got {excerpt(stop)}")
-        result.extra["summary"] = {"feeder_stop_step": stop}  # the robot held its pose from there (contact length)
-    return result
+        extra["summary"] = {"feeder_stop_step": stop}  # the robot held its pose from there (contact length)
+    return FollowResult(traj, robot, solver, pts, np.asarray(iters, dtype=np.int64), pe, oe, codes,
+                        [str(m) for m in msgs] if isinstance(msgs, list) else [], extra, body)
 
 
 def _start_from_json(tr: dict, path: np.ndarray, pts: np.ndarray, robot: Robot, bad: Callable[[str], BhrError],
@@ -733,11 +732,10 @@ def follow(points: Any, solver: str | Solver = "thesis", robot: Robot | None = T
                 _hold(i, stop, out_points, out_iters, codes, path, dirs, f, pe, oe)
     if stop is not None and stop == N - 1:
         stop = None  # the tip reached the cecum at the last step: the feeder stopped where the path ends anyway
-    result = FollowResult(traj, robot, s.name, out_points, out_iters, pe, oe, codes if has_codes else None, msgs)
-    if stop is not None:
-        result.extra["summary"] = {"feeder_stop_step": stop + 1}
+    result = FollowResult(traj, robot, s.name, out_points, out_iters, pe, oe, codes if has_codes else None, msgs,
+                          {} if stop is None else {"summary": {"feeder_stop_step": stop + 1}})
     if body_modules is not None:
-        result.body = _held_body(result, body_modules, stop)
+        result = replace(result, body=_held_body(result, body_modules, stop))
     if stop_at_wall:
         return _stopped_at_wall(result)
     return result
@@ -754,18 +752,16 @@ def _stopped_at_wall(result: "FollowResult") -> "FollowResult":
     if k is None or k >= result.steps:
         return result
     codes = None if result.codes is None else result.codes[:k]
-    part = FollowResult(result.trajectory, result.robot, result.solver, result.points[:k], result.iterations[:k],
-                        result.point_errors_mm[:k], result.orientation_errors_deg[:k], codes, list(result.warnings))
     b = result.body
-    if b is not None:
-        part.body = BodyRun(b.modules, b.points[:k], b.codes[:k], b.point_errors_mm[:k],
-                            b.orientation_errors_deg[:k], b.scored[:k])
+    body = None if b is None else BodyRun(b.modules, b.points[:k], b.codes[:k], b.point_errors_mm[:k],
+                                          b.orientation_errors_deg[:k], b.scored[:k])
     summary = {key: v for key, v in result.extra.get("summary", {}).items()
                if not (key == "feeder_stop_step" and v > k)}
     summary["stopped_at_wall_step"] = k
     summary["path_steps"] = result.steps
-    part.extra["summary"] = summary
-    return part
+    return FollowResult(result.trajectory, result.robot, result.solver, result.points[:k], result.iterations[:k],
+                        result.point_errors_mm[:k], result.orientation_errors_deg[:k], codes, list(result.warnings),
+                        {"summary": summary}, body)
 
 
 def _blind_tube(traj: Trajectory):
@@ -845,8 +841,8 @@ def _follow_trail(traj: Trajectory, robot: Robot, s: Any, solver: str, path: np.
     codes = np.ascontiguousarray(tr.joint_codes[:, n:0:-1])
     pe, oe = _score_head(head, codes, path, dirs, f, on_step)
     iters = (np.arange(N) % f == 0).astype(np.int64)
-    result = FollowResult(traj, robot, solver, head, iters, pe, oe, codes, msgs)
-    result.trail = tr
+    result = FollowResult(traj, robot, solver, head, iters, pe, oe, codes, msgs, trail=tr)
+    body = None
     if body_modules is not None:
         nb = M - n
         pts = np.ascontiguousarray(tr.joints[:, n + 1:])
@@ -854,9 +850,9 @@ def _follow_trail(traj: Trajectory, robot: Robot, s: Any, solver: str, path: np.
         scored = np.zeros((N, nb), dtype=bool)
         if nb:
             score_body(result, pts, path, dirs, bpe, boe, scored)
-        result.body = BodyRun(nb, pts, np.ascontiguousarray(tr.joint_codes[:, n + 1:]), bpe, boe, scored)
+        body = BodyRun(nb, pts, np.ascontiguousarray(tr.joint_codes[:, n + 1:]), bpe, boe, scored)
     model, rigid = sweep_bound_mm(robot.module_length, robot.alpha)
-    result.extra["summary"] = {
+    summary = {
         "locomotion": "trail",
         "trail_vertices": int(tr.codes.shape[0]),
         "feeder_stop_step": int(tr.stop) + 1,
@@ -865,7 +861,7 @@ def _follow_trail(traj: Trajectory, robot: Robot, s: Any, solver: str, path: np.
         "rigid_offset_bound_mm": rigid,
         "procedure_time_s": procedure_time_s(tr),
     }
-    return result
+    return replace(result, body=body, extra={"summary": summary})
 
 
 def _sections_from_json(doc: Any, count: int, bad: Any) -> tuple[tuple[str, int, int], ...]:
@@ -905,8 +901,8 @@ def _follow_wires(traj: Trajectory, robot: Robot, s: Any, solver: str, path: np.
     codes = np.ascontiguousarray(jcodes[:, ::-1][:, n - 1::-1]) if n else np.zeros((N, 0), np.int64)
     pe, oe = _score_head(head, codes, path, dirs, f, on_step)
     iters = (np.arange(N) % f == 0).astype(np.int64)
-    result = FollowResult(traj, robot, solver, head, iters, pe, oe, codes, msgs)
-    result.motion = mo
+    result = FollowResult(traj, robot, solver, head, iters, pe, oe, codes, msgs, motion=mo)
+    body = None
     if body_modules is not None:
         nb = M - n
         pts = np.ascontiguousarray(tipfirst[:, n + 1:])
@@ -915,9 +911,9 @@ def _follow_wires(traj: Trajectory, robot: Robot, s: Any, solver: str, path: np.
         if nb:
             score_body(result, pts, path, dirs, bpe, boe, scored)
         bcodes = np.ascontiguousarray(jcodes[:, ::-1][:, n:])  # body module 1 (right behind the head) first
-        result.body = BodyRun(nb, pts, bcodes, bpe, boe, scored)
+        body = BodyRun(nb, pts, bcodes, bpe, boe, scored)
     names, counts = np.unique(np.array(mo.strategies), return_counts=True)
-    result.extra["summary"] = {
+    summary = {
         "locomotion": "wires",
         "trail_vertices": int(tcodes.shape[0]),
         "feeder_stop_step": int(stop) + 1,
@@ -928,7 +924,7 @@ def _follow_wires(traj: Trajectory, robot: Robot, s: Any, solver: str, path: np.
         "switching": {str(a): int(b) for a, b in zip(names, counts)},
         "procedure_time_s": float(mo.t_s[-1]),
     }
-    return result
+    return replace(result, body=body, extra={"summary": summary})
 
 
 def procedure_time_s(tr: TrailRun) -> float:
