@@ -79,7 +79,7 @@ def test_the_warning_fires_only_where_the_robot_cannot_follow():
         bhr.follow(tr, solver="lumen", robot=Robot(alpha=25, module_length=5))  # the anal canal: followable
     assert not [x for x in w if "bends tighter" in str(x.message) or "turns with radius" in str(x.message)]
     thesis = Robot()
-    bends = unfollowable_bends(tr.points, tr.lumen, thesis.min_turn_radius, thesis.radius)
+    bends = unfollowable_bends(tr.points, tr.lumen, thesis.min_turn_radius, thesis.robot_radius)
     assert bends  # the thesis robot (57 mm turn radius) cannot take the anorectal flexure in a 15 mm lumen
     with pytest.warns(BhrWarning, match=r"bends tighter than the robot's minimum turn radius 57\.15 mm with too "
                                         r"little lumen to swing wide at 1 place, tightest at points 14-30 \(a 10\.1 mm bend in a lumen "
