@@ -226,6 +226,13 @@ class FollowResult:
         return self._verdict()[1]
 
     @property
+    def feeder_stop_step(self) -> int | None:
+        """The 1-based step from which the feeder stopped feeding (the tip at a blind cecum, or the end of the trail
+        model's trail), else None: it fed to the path's end."""
+        stop = self.extra.get("summary", {}).get("feeder_stop_step")
+        return None if stop is None else int(stop)
+
+    @property
     def finished(self) -> str:
         """How the run ended, apart from its verdict: ``"ran to the end"`` or ``"stopped at the wall"``
         (``stop_at_wall`` ended it where the robot left the lumen)."""

@@ -27,6 +27,8 @@ def test_summary_and_clearance_are_scored_once():
     assert run.clearance is not None
     assert run.clearance is run.clearance and run.summary is run.summary  # the same objects: computed once
     assert run.summary.extra["min_clearance_mm"] == run.clearance.min_mm
+    assert run.feeder_stop_step == run.summary.extra.get("feeder_stop_step")
+    assert run.feeder_stop_step is None or 1 <= run.feeder_stop_step < run.steps
 
 
 def test_a_replaced_run_is_scored_afresh(tube_run):
