@@ -1,6 +1,6 @@
 """The whole robot as it can be built: rigid modules whose joints are driven by their wires (docs/locomotion.md).
 
-The trail (:mod:`bhr.run.trail`'s planner) gives one code per vertex. At an
+The trail (:mod:`bhr.solvers.trail`, the planner) gives one code per vertex. At an
 insertion of ``p`` whole module lengths module ``i`` of the robot (0 = the
 tail) holds the code of trail vertex ``p - M + i``, so the robot of rigid
 modules lies exactly on the trail. Between ``p`` and ``p + 1`` the feeder
@@ -715,7 +715,8 @@ def wires_motion(traj, robot, solver, body_modules: int | None = None, reach: bo
     far short of the path's end the tip stops in mm). ``solver``: the configured lumen solver (its planner
     settings)."""
     from bhr.run.body import check_body_modules
-    from bhr.run.trail import cecum_modules, dense_tube, plan_trail, stop_step, trail_vertices, vertex_hints
+    from bhr.run.trail import cecum_modules, stop_step, vertex_hints
+    from bhr.solvers.trail import dense_tube, plan_trail, trail_vertices
 
     if traj.lumen is None:
         raise BhrError(f"locomotion wires plans the trail against the lumen; {traj.name} has none (give a "

@@ -15,7 +15,7 @@ from bhr.model.wires import DEFAULT_THERMAL, contraction_reference, transform_th
 from bhr.run.driver import follow
 from bhr.run.motion import (MAX_JOINT_STEP_MM, chain_poses, code_wires, contraction, joint_tilts, switch_times,
                             wire_states)
-from bhr.run.trail import trail_vertices
+from bhr.solvers.trail import trail_vertices
 
 ALPHAS = st.floats(5.0, 35.0)
 TILT_CODES = [0, 3, 6, 12, 9]
@@ -151,7 +151,7 @@ def _brute(path, lumen, radius, points, closed=True):
 def test_clearance_of_the_written_poses_agrees_with_an_independent_one(wires_run):
     """Dense samples along every module of every written pose (0.25 mm), the nearest point of the whole
     centerline refined as bhr's (a Catmull-Rom spline, <= 1 mm): bhr's minimum within 0.5 mm, same touches."""
-    from bhr.run.trail import dense_tube
+    from bhr.solvers.trail import dense_tube
 
     tr = wires_run.trajectory
     tube = dense_tube(tr.points, tr.lumen, tr.start_direction, 40.0)

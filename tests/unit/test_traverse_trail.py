@@ -14,17 +14,8 @@ from bhr.model.generators import load_trajectory
 from bhr.model.path import Trajectory
 from bhr.model.robot import Robot
 from bhr.run.driver import BhrWarning, follow
-from bhr.run.trail import (
-    chord_sweep_numpy,
-    dense_tube,
-    plan_trail,
-    plan_trail_numpy,
-    sweep_bound_mm,
-    trail_poses,
-    trail_poses_numpy,
-    trail_tables,
-    trail_vertices,
-)
+from bhr.run.trail import chord_sweep_numpy, sweep_bound_mm, trail_poses, trail_poses_numpy, trail_tables
+from bhr.solvers.trail import dense_tube, plan_trail, plan_trail_numpy, trail_vertices
 from bhr.settings.errors import BhrError
 
 codes_st = st.lists(st.sampled_from([int(c) for c in SEARCH_CODES]), min_size=1, max_size=12)
