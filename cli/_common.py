@@ -134,8 +134,8 @@ def guarded(func: Callable[..., Any]) -> Callable[..., Any]:
             shown = repr(os.environ.get("MPLBACKEND", ""))[:40]  # matplotlib refused the environment's backend
             raise click.ClickException(f"MPLBACKEND={shown} is not a matplotlib backend; unset it or set "
                                        "MPLBACKEND=Agg") from None
-        except KeyboardInterrupt as exc:
-            end_interrupted(exc)
+        except KeyboardInterrupt:
+            end_interrupted()
         except BrokenPipeError:
             _quiet_stdout()  # the reader went away (bhr ... | head): stop quietly
             sys.exit(141)
@@ -219,7 +219,7 @@ def _refuse_an_input(path: str | os.PathLike[str], what: str) -> None:
 
 
 def default_output(command: str, readable: str, settings_parts: tuple[Any, ...], inputs: list[Path],
-                   names: tuple[str, ...], out_dir: str | None, what: str = "output folder", force: bool = False):
+                   out_dir: str | None, what: str = "output folder", force: bool = False):
     """The checked output folder of a study command: ``--out`` or ``bhr-out/<readable>-<hash of the settings>``.
 
     The hash covers ``settings_parts`` and the content of every input file, so two runs share the
@@ -235,7 +235,7 @@ def default_output(command: str, readable: str, settings_parts: tuple[Any, ...],
         target: Path = Path("bhr-out") / folder_name(readable, settings)
     else:
         target = Path(out_dir)
-    return OutputFolder(target, command, names=names, what=what, inputs=inputs, settings=settings,
+    return OutputFolder(target, command, what=what, inputs=inputs, settings=settings,
                         force=force).check()
 
 

@@ -1,8 +1,7 @@
 """Options shared by the commands that talk to the actuator board: port, baud, timeout, retries."""
 from __future__ import annotations
 
-import contextlib
-from typing import Any, Callable, Iterator
+from typing import Any, Callable
 
 import click
 
@@ -65,40 +64,16 @@ def link_settings(kwargs: dict[str, Any], need_port: bool = True, use_file_port:
 
 
 def exit_interrupted(exc, total: int, unit: str) -> None:
-    """After Ctrl-C while streaming (a bhr.hardware.link.StreamInterrupted): one line on stderr, exit status 130."""
-    import sys
+    """After Ctrl-C, SIGTERM or SIGHUP while streaming (a bhr.hardware.link.StreamInterrupted): one line, and the
+    signal's exit status (130 for Ctrl-C)."""
+    from bhr.cli._interrupt import exit_status
 
     if exc.stopped:
         click.echo(f"Interrupted after {exc.sent} of {total} {unit}; sent stop-all, every actuator is off.", err=True)
     else:
         click.echo(f"Interrupted after {exc.sent} of {total} {unit}; stop-all failed ({exc.detail}); "
                    "the board switches off by itself after its silence timeout.", err=True)
-    sys.exit(130)
-
-
-@contextlib.contextmanager
-def stop_on_signals() -> Iterator[None]:
-    """While streaming, SIGTERM and SIGHUP (kill, a closed terminal) act like Ctrl-C: stop-all is sent.
-
-    Each raises KeyboardInterrupt in the main thread, which the streaming
-    code answers with stop-all and the one-line "Interrupted" message.
-    """
-    import signal
-
-    def handler(signum: int, frame: Any) -> None:
-        raise KeyboardInterrupt
-
-    old = {}
-    for sig in (signal.SIGTERM, signal.SIGHUP):
-        try:
-            old[sig] = signal.signal(sig, handler)
-        except (ValueError, OSError):  # not the main thread: leave the defaults
-            pass
-    try:
-        yield
-    finally:
-        for sig, h in old.items():
-            signal.signal(sig, h)
+    raise SystemExit(exit_status())
 
 
 SCHEDULE_HELP = ("auto (the default, always one the board accepts): stretch each step to what the wires allow "

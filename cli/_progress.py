@@ -1,13 +1,9 @@
-"""Progress on stderr: a status line redrawn on a terminal, plain lines in a log; the first-compile notice.
+"""Progress on stderr, and the first-compile notice.
 
-Work that can take more than about a second runs inside :func:`status`. On a terminal a status line shows what
-runs, ``done/total`` with a bar when the total is known, and the seconds spent, redrawn in place; statuses nest,
-the innermost is shown. When stderr is a pipe or a file, the statuses of long work (``log=True``: a study's runs,
-a stream, a replay) write a plain line every ``BHR_PROGRESS_INTERVAL`` seconds (30; 0: when the work starts and at
-every step), so that a log shows the command is alive.
-
-:func:`announce_compiles` makes a command that compiles bhr's kernels say so in one line (once: numba caches
-them).
+On a terminal, work that takes a while shows a status line (``label [bar] done/total item seconds``) redrawn in
+place; statuses nest, the innermost is shown. When stderr is a pipe or a file, long work (``log=True``: a study's
+runs, a stream, an animation) writes a plain line every ``BHR_PROGRESS_INTERVAL`` seconds (30; 0: at every step),
+so that a log shows the command is alive.
 """
 from __future__ import annotations
 
@@ -19,13 +15,11 @@ import time
 from typing import Iterator
 
 _LOCK = threading.RLock()
-_WAKE = threading.Event()
 _STACK: list[Progress] = []  # the statuses shown, innermost last
 _DRAWN = [False]  # a status line is on the terminal
 
 
 def on_terminal() -> bool:
-    """True when the status line is drawn: stderr is a terminal (and TERM is not 'dumb')."""
     with contextlib.suppress(AttributeError, ValueError):
         return sys.stderr.isatty() and os.environ.get("TERM") != "dumb"
     return False
@@ -48,12 +42,12 @@ class Progress:
 
     def __init__(self, label: str, total: int | None = None) -> None:
         self.label, self.total, self.done, self.item, self.t0 = label, total, 0, "", time.perf_counter()
-        self.tty = on_terminal()
+        self.tty, self.stopped = on_terminal(), threading.Event()
 
     def update(self, n: int = 1, item: str | None = None) -> None:
         self.done += n
         self.item = self.item if item is None else item
-        if self.tty or _interval() == 0:  # a terminal shows every step; a log too when asked to
+        if self.tty or _interval() == 0:
             self.draw()
 
     def set(self, done: int, total: int | None = None) -> None:
@@ -61,7 +55,6 @@ class Progress:
         self.update(done - self.done)
 
     def draw(self) -> None:
-        """Its status line (over the one drawn), or its line in a log: ``label: done/total, item, seconds``."""
         with _LOCK:
             if _STACK[-1:] != [self]:
                 return
@@ -74,27 +67,24 @@ class Progress:
                 parts[0] = f"[{'#' * filled}{'-' * (20 - filled)}] {parts[0]}"
             width = 79
             with contextlib.suppress(OSError, ValueError):
-                width = max(os.get_terminal_size(sys.stderr.fileno()).columns - 1, 0) or width  # 0: no size known
+                width = os.get_terminal_size(sys.stderr.fileno()).columns - 1 or width
             _write("\r\033[K" + " ".join([self.label, *(p for p in parts if p)])[:width])
             _DRAWN[0] = True
 
     def _tick(self, seconds: float) -> None:
-        while self in _STACK:
-            _WAKE.wait(seconds)
+        while not self.stopped.wait(seconds):
             self.draw()
 
 
-def clear() -> None:
-    with _LOCK:
-        if _DRAWN[0]:
-            _write("\r\033[K")
-            _DRAWN[0] = False
+def _clear() -> None:
+    if _DRAWN[0]:
+        _write("\r\033[K")
+        _DRAWN[0] = False
 
 
 @contextlib.contextmanager
 def status(label: str, total: int | None = None, log: bool = False) -> Iterator[Progress]:
-    """Show ``label`` (and ``done/total`` when given) while the block runs: on a terminal, and in a log when
-    ``log`` (see the module's text)."""
+    """Show ``label`` (and ``done/total``) while the block runs: on a terminal, and in a log when ``log``."""
     p = start(label, total, log)
     try:
         yield p
@@ -117,35 +107,29 @@ def start(label: str, total: int | None = None, log: bool = False) -> Progress:
 
 
 def stop(p: Progress) -> None:
+    p.stopped.set()
     with _LOCK:
         if p in _STACK:
             _STACK.remove(p)
-        clear()
-    _WAKE.set()  # its thread ends now
-    _WAKE.clear()
+        _clear()
 
 
 def echo(message: str) -> None:
     """A line on stderr that does not collide with a status line being drawn."""
     with _LOCK:
-        clear()
+        _clear()
         _write(message + "\n")
 
 
-# ---------------------------------------------------------------------------
-# the first compile
-
 COMPILE_NOTICE = ("Compiling bhr's kernels for this machine (once; they are cached in {cache}); "
                   "'bhr warmup' compiles every command's kernels at once.")
-
 _announcer = None
 
 
 def announce_compiles() -> None:
-    """From now on, the first numba compile of a bhr kernel says so in one line (numba's compile event).
+    """From now on, numba's first compile of a bhr kernel (a cache miss) says so in one line.
 
-    Call it once the command's input is checked. numba fires the event only on
-    a cache miss: nothing is printed when every kernel comes from the cache.
+    Call it once the command's input is checked: it imports numba.
     """
     global _announcer
     if _announcer is not None:
@@ -161,7 +145,7 @@ def announce_compiles() -> None:
             func = getattr(ev.data.get("dispatcher"), "py_func", None)
             if not self.announced and getattr(func, "__module__", "").startswith("bhr"):
                 self.announced = True
-                echo(COMPILE_NOTICE.format(cache=_numba.cache_dir()))
+                echo(COMPILE_NOTICE.format(cache=_numba.configure_cache()))
 
         def on_end(self, ev: event.Event) -> None:
             pass

@@ -65,7 +65,7 @@ def compare(traj, solvers, out_dir, json_path, no_plots, force, **kwargs):
     # as bhr follow: every solver's run is kept in a folder, unless stdout is the whole output (--json - --no-plots)
     use_folder = out_dir is not None or not (json_path == "-" and no_plots)
     if out_dir is not None:
-        folder = OutputFolder(out_dir, "compare", names=COMPARE_NAMES,  # checked before any work
+        folder = OutputFolder(out_dir, "compare",  # checked before any work
                               inputs=input_files(traj, kwargs.get("robot_file")), force=force).check()
     elif use_folder:
         check_parent_folder("bhr-out")
@@ -87,8 +87,8 @@ def compare(traj, solvers, out_dir, json_path, no_plots, force, **kwargs):
     if folder is None and use_folder:
         name = run_folder_name(f"compare-{stem}", *trajectory_parts(tr), robot.to_dict(), names, per_solver,
                                body_modules, *(("stop_at_wall",) if stop_at_wall else ()))
-        folder = OutputFolder(Path("bhr-out") / name, "compare", names=COMPARE_NAMES,
-                              inputs=input_files(traj, robot_file), force=force).check()
+        folder = OutputFolder(Path("bhr-out") / name, "compare", inputs=input_files(traj, robot_file),
+                              force=force).check()
     if folder is not None:  # what makes the results (docs/commands.md#output-folders)
         folder.settings = run_folder_name("", *trajectory_parts(tr), robot.to_dict(), names, per_solver,
                                           body_modules, *(("stop_at_wall",) if stop_at_wall else ())

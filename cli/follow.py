@@ -13,7 +13,7 @@ import click
 from bhr.cli._common import check_writable, guarded
 from bhr.cli._progress import announce_compiles, start, status, stop
 from bhr.cli._link import (at_end_option, end_text, exit_interrupted, fault_printer, link_options, link_settings,
-                           schedule_option, stop_on_signals, thermal_params)
+                           schedule_option, thermal_params)
 from bhr.cli.replay import STRIDE_HELP, check_view_options, run_live_view
 from bhr.model.trajnames import traj_help
 from bhr.cli._options import (rate_type, PlainIntRange, force_option, build_robot, constraint_options, lumen_options,
@@ -116,8 +116,7 @@ def follow(traj, solver, out_dir, json_path, no_plots, force, **kwargs):
     if link_kw["port"] is not None:
         port, link_args = link_settings(link_kw, use_file_port=False)
         stream = StreamSettings(port, link_args, schedule=schedule, at_end=at_end, on_fault=fault_printer(port),
-                                progress=_bar(bars, f"streaming to {port}"),
-                                guard=stop_on_signals)
+                                progress=_bar(bars, f"streaming to {port}"))
     traj_params = pop_trajectory(kwargs)
     announce_compiles()
     interrupted = ()  # nothing to catch without a stream; the board's link is loaded only for a stream (0.14 s)

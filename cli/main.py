@@ -70,11 +70,11 @@ class LazyGroup(click.Group):
             sys.exit(exc.exit_code)
         except click.Abort as exc:
             if INTERRUPTED.is_set() or isinstance(exc.__cause__, KeyboardInterrupt):  # click's Abort of a Ctrl-C
-                end_interrupted(exc.__cause__)
+                end_interrupted()
             click.echo("Aborted.", err=True)
             sys.exit(1)
-        except (EOFError, KeyboardInterrupt) as exc:
-            end_interrupted(exc)
+        except (EOFError, KeyboardInterrupt):
+            end_interrupted()
         except Exception:
             # a signal's KeyboardInterrupt raised inside a library's callback can come back as that library's
             # error (matplotlib's renderer: "ValueError: Invalid bounding box"): the interrupt is what happened
@@ -88,8 +88,8 @@ class LazyGroup(click.Group):
     def invoke(self, ctx: click.Context):
         try:
             return super().invoke(ctx)
-        except KeyboardInterrupt as exc:  # before click's main turns it into Abort (and an empty line)
-            end_interrupted(exc)
+        except KeyboardInterrupt:  # before click's main turns it into Abort (and an empty line)
+            end_interrupted()
 
     def list_commands(self, ctx: click.Context) -> list[str]:
         return sorted(COMMANDS)

@@ -9,7 +9,6 @@ from bhr.cli._common import guarded
 from bhr.cli._options import force_option, physics_options
 
 #: What bhr physics writes into its folder.
-PHYSICS_NAMES = ("physics.json", "force.png", "view.html", "manifest.json")
 
 
 @click.command()
@@ -57,7 +56,7 @@ def physics(run, out_dir, force, wall_stiffness, wire_force, feeder_force, subst
 
     source = Path(run).resolve()
     readable = f"physics-{source.parent.name if source.name == 'run.json' else source.stem}"
-    folder = default_output("physics", readable, (sorted(opts.items()),), input_files(run), PHYSICS_NAMES, out_dir,
+    folder = default_output("physics", readable, (sorted(opts.items()),), input_files(run), out_dir,
                             force=force)
     from bhr.studies.physics import replay_physics
 

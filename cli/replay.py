@@ -98,8 +98,7 @@ def replay(run, show, animate_path, stride, out_dir, force, step):
         elif same and not (out / MANIFEST).is_file():
             check_writable(out / path_name, "output folder")  # a loose run.json: figures written beside it
         else:
-            folder = OutputFolder(out, "replay", names=("*.png", "view.html", "run.json", "codes.csv", "manifest.json"),
-                                  inputs=[run], keep=same, force=force).check()
+            folder = OutputFolder(out, "replay", inputs=[run], keep=same, force=force).check()
     check_view_options(show, animate_path)
     result = load_run(run)
     if step is not None and step > result.steps:

@@ -49,7 +49,7 @@ def report(batch_path, batch_old, out_dir, force, jobs, inline_images, no_plots)
     batch = load_batch(batch_path)
     inputs = input_files(batch_path, *(r.traj for r in batch.runs), *(r.robot_file for r in batch.runs))
     folder = default_output("report", Path(batch_path).stem, (dataclasses.asdict(batch), inline_images),
-                            inputs, REPORT_NAMES, out_dir, what="report folder", force=force)  # before any work
+                            inputs, out_dir, what="report folder", force=force)  # before any work
     out = folder.final("")
     total = len(batch.runs)
     workers = min(jobs or os.cpu_count() or 1, total)
@@ -76,4 +76,3 @@ def report(batch_path, batch_old, out_dir, force, jobs, inline_images, no_plots)
 
 
 #: What bhr report writes at the top of its folder (besides runs/).
-REPORT_NAMES = ("index.html", "summary.csv", "summary.json", "manifest.json")

@@ -7,7 +7,7 @@ import click
 
 from bhr.cli._common import guarded
 from bhr.cli._link import (at_end_option, end_text, exit_interrupted, fault_printer, link_options, link_settings,
-                           schedule_option, stop_on_signals, thermal_params)
+                           schedule_option, thermal_params)
 from bhr.cli._options import rate_type
 
 
@@ -83,7 +83,7 @@ def stream(codes_path, rate, schedule, at_end, dry_run, **link_kw):
 
     times = sched.times_ms / 1000.0 if schedule == "auto" else None
     events: list = []
-    with BoardLink(port, **link_args) as link, stop_on_signals():
+    with BoardLink(port, **link_args) as link:
         try:
             with status(f"streaming to {port}", n_rows, log=True) as bar:
                 printer = fault_printer(port)

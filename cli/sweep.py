@@ -74,7 +74,7 @@ def sweep(sweep_file, trajs, solvers, grid, robot_file, out_dir, force, jobs, sc
 
     inputs = input_files(sweep_file, robot_file, s.robot_file, *s.traj_sources.values())
     folder = default_output("sweep", Path(sweep_file).stem if sweep_file else "sweep",
-                            (dataclasses.asdict(s), hx, hy), inputs, SWEEP_NAMES, out_dir,
+                            (dataclasses.asdict(s), hx, hy), inputs, out_dir,
                             what="sweep output folder", force=force)  # before any work
     out = folder.final("")
     total = len(s)
@@ -92,4 +92,3 @@ def sweep(sweep_file, trajs, solvers, grid, robot_file, out_dir, force, jobs, sc
 
 
 #: What bhr sweep writes into its folder (an existing folder holding only such files may be replaced).
-SWEEP_NAMES = ("results.csv", "results.json", "heatmap.png", "index.html", "manifest.json")

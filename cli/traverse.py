@@ -70,7 +70,7 @@ def traverse(grid, colons, solvers, target_pass, robot_file, out_dir, force, job
     from bhr.cli._common import default_output, input_files, print_study
 
     folder = default_output("traverse", "traverse", (dataclasses.asdict(study), hx, hy),
-                            input_files(robot_file), OUTPUTS + ("manifest.json",), out_dir,
+                            input_files(robot_file), out_dir,
                             what="study output folder", force=force)  # before any work
     from bhr.cli._progress import status
     from bhr.studies.cluster import scheduler_client

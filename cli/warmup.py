@@ -20,4 +20,4 @@ def warmup():
     announce_compiles()
     with status("compiling kernels"):
         compile_all()
-    click.echo(f"bhr's kernels are compiled and cached in {_numba.cache_dir()}")
+    click.echo(f"bhr's kernels are compiled and cached in {_numba.configure_cache()}")

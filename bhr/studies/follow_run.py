@@ -46,7 +46,6 @@ class StreamSettings:
     at_end: str = "stop"                 # bhr.hardware.link.AT_END
     on_fault: Callable[[int, list[str]], None] | None = None
     progress: Progress | None = None     # (done, total) after each acknowledged row
-    guard: Callable[[], ContextManager[Any]] = contextlib.nullcontext  # e.g. SIGTERM as Ctrl-C while streaming
 
 
 @dataclass
@@ -127,7 +126,7 @@ def check_outputs(traj: str, robot_file: str | None, out_dir: str | None, json_p
 
     folder = None
     if out_dir is not None:
-        folder = OutputFolder(out_dir, "follow", names=FOLLOW_NAMES, inputs=input_files(traj, robot_file),
+        folder = OutputFolder(out_dir, "follow", inputs=input_files(traj, robot_file),
                               force=force).check()
     else:
         check_parent_folder("bhr-out")
@@ -209,7 +208,7 @@ def follow_run(traj: str, *, robot: Any, solver: str = "thesis", solver_options:
     settings_parts = (*trajectory_parts(tr), robot.to_dict(), solver, solver_options, body_modules, *extra)
     if folder is None and use_folder:
         name = run_folder_name(f"{folder_stem(traj, traj_params.get('seed'))}-{solver}", *settings_parts)
-        folder = OutputFolder(Path("bhr-out") / name, "follow", names=FOLLOW_NAMES, inputs=inputs,
+        folder = OutputFolder(Path("bhr-out") / name, "follow", inputs=inputs,
                               force=force).check()
     if folder is not None:  # what makes the results: a rerun with the same keeps what it does not redraw
         folder.settings = run_folder_name("", *settings_parts).rsplit("-", 1)[1]
@@ -320,7 +319,7 @@ def _follow_streaming(tr, solver, robot, solver_options, thermal, rate, s: Strea
     if order is not None and len(order) != robot.modules:
         raise BhrError(f"the robot file's link.module_order lists {len(order)} modules but the robot has "
                        f"{robot.modules}; make them agree")
-    with BoardLink(s.port, **s.link_args) as link, s.guard():
+    with BoardLink(s.port, **s.link_args) as link:
         board = check_board(link, robot.modules)  # a wrong board is refused before the solve
         try:
             refuse_overheat(link, board["faults"])  # so is a board with a latched overheat

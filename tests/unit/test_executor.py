@@ -149,10 +149,12 @@ FRESH_PROCESS = r'''
 import signal, sys
 from bhr.studies.executor import run_jobs
 
-def blocked(job):
-    return sorted(signal.Signals(s).name for s in signal.pthread_sigmask(signal.SIG_BLOCK, []))
+SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
+
+def ignored(job):
+    return sorted(signal.Signals(s).name for s in SIGNALS if signal.getsignal(s) is signal.SIG_IGN)
 
 if __name__ == "__main__":  # the workers import this script
-    print(run_jobs(blocked, [1, 2, 3], jobs=2, max_chunk=1).rows)
-    print(sorted(signal.Signals(s).name for s in signal.pthread_sigmask(signal.SIG_BLOCK, [])))
+    print(run_jobs(ignored, [1, 2, 3], jobs=2, max_chunk=1).rows)
+    print(ignored(0), signal.pthread_sigmask(signal.SIG_BLOCK, []))
 '''
