@@ -1,21 +1,10 @@
-"""Compile every kernel bhr's commands run, once (``bhr warmup``), so that later commands start at once.
-
-numba compiles a kernel on its first call and caches it (:mod:`bhr._numba`),
-so a command compiles only the kernels it runs, the first time it runs them.
-:func:`compile_all` runs a tiny case of everything instead: every solver,
-the forward kinematics, following with and without a body, the lumen
-clearance and the thermal model, with the argument types the commands give
-(numba compiles for types, not sizes).
-"""
+"""``bhr warmup``: run every kernel bhr's commands run on a tiny case, with the argument types the commands give (numba
+compiles for types, not sizes), so that numba's cache holds them all."""
 from __future__ import annotations
 
 import warnings
 
-__all__ = ["compile_all"]
-
-
 def compile_all() -> None:
-    """Run every kernel once on a tiny case: compiles what numba's cache lacks, loads the rest."""
     import numpy as np
 
     import bhr

@@ -1,28 +1,28 @@
 """Progress on stderr, and the first-compile notice.
 
-On a terminal, work that takes a while shows a status line (``label [bar] done/total item seconds``) redrawn in
-place; statuses nest, the innermost is shown. When stderr is a pipe or a file, long work (``log=True``: a study's
-runs, a stream, an animation) writes a plain line every ``BHR_PROGRESS_INTERVAL`` seconds (30; 0: at every step),
-so that a log shows the command is alive.
+On a terminal, work that takes a while shows a status line (``label done/total, item, seconds``) redrawn in place;
+statuses nest, the innermost is shown. When stderr is not a terminal, long work (``log=True``: a study's runs, a
+stream, an animation) writes it as a plain line every ``BHR_PROGRESS_INTERVAL`` seconds (30; 0: at every step).
 """
 from __future__ import annotations
 
 import contextlib
 import os
+import shutil
 import sys
 import threading
 import time
-from typing import Iterator
+from typing import Any, Iterator
 
 _LOCK = threading.RLock()
 _STACK: list[Progress] = []  # the statuses shown, innermost last
 _DRAWN = [False]  # a status line is on the terminal
 
 
-def on_terminal() -> bool:
-    with contextlib.suppress(AttributeError, ValueError):
-        return sys.stderr.isatty() and os.environ.get("TERM") != "dumb"
-    return False
+def _write(text: str) -> None:
+    with contextlib.suppress(OSError, ValueError, AttributeError):
+        sys.stderr.write(text)
+        sys.stderr.flush()
 
 
 def _interval() -> float:
@@ -31,22 +31,18 @@ def _interval() -> float:
     return 30.0
 
 
-def _write(text: str) -> None:
-    with contextlib.suppress(OSError, ValueError):
-        sys.stderr.write(text)
-        sys.stderr.flush()
-
-
 class Progress:
     """One status; ``update`` it as work is done (``item``: what it is on), or ``set`` it (a (done, total) callback)."""
 
     def __init__(self, label: str, total: int | None = None) -> None:
         self.label, self.total, self.done, self.item, self.t0 = label, total, 0, "", time.perf_counter()
-        self.tty, self.stopped = on_terminal(), threading.Event()
+        self.stopped = threading.Event()
+        self.tty = False
+        with contextlib.suppress(AttributeError, ValueError):
+            self.tty = sys.stderr.isatty() and os.environ.get("TERM") != "dumb"
 
     def update(self, n: int = 1, item: str | None = None) -> None:
-        self.done += n
-        self.item = self.item if item is None else item
+        self.done, self.item = self.done + n, self.item if item is None else item
         if self.tty or _interval() == 0:
             self.draw()
 
@@ -56,30 +52,18 @@ class Progress:
 
     def draw(self) -> None:
         with _LOCK:
-            if _STACK[-1:] != [self]:
-                return
-            parts = [f"{self.done}/{self.total}" if self.total else "", self.item,
-                     f"{time.perf_counter() - self.t0:.0f} s"]
-            if not self.tty:
-                return _write(f"{self.label.rstrip(':')}: " + ", ".join(p for p in parts if p) + "\n")
-            if self.total:
-                filled = int(20 * min(self.done, self.total) / self.total)
-                parts[0] = f"[{'#' * filled}{'-' * (20 - filled)}] {parts[0]}"
-            width = 79
-            with contextlib.suppress(OSError, ValueError):
-                width = os.get_terminal_size(sys.stderr.fileno()).columns - 1 or width
-            _write("\r\033[K" + " ".join([self.label, *(p for p in parts if p)])[:width])
-            _DRAWN[0] = True
+            if _STACK[-1:] == [self]:
+                parts = [f"{self.done}/{self.total}" if self.total else "", self.item,
+                         f"{time.perf_counter() - self.t0:.0f} s"]
+                line = f"{self.label.rstrip(':')}: " + ", ".join(p for p in parts if p)
+                if not self.tty:
+                    return _write(line + "\n")
+                _write("\r\033[K" + line[:shutil.get_terminal_size().columns - 1])
+                _DRAWN[0] = True
 
     def _tick(self, seconds: float) -> None:
         while not self.stopped.wait(seconds):
             self.draw()
-
-
-def _clear() -> None:
-    if _DRAWN[0]:
-        _write("\r\033[K")
-        _DRAWN[0] = False
 
 
 @contextlib.contextmanager
@@ -102,7 +86,7 @@ def start(label: str, total: int | None = None, log: bool = False) -> Progress:
             if p.tty or seconds == 0:
                 p.draw()  # at once: short work is shown too
         if seconds > 0:
-            threading.Thread(target=p._tick, args=(seconds,), name="bhr-progress", daemon=True).start()
+            threading.Thread(target=p._tick, args=(seconds,), daemon=True).start()
     return p
 
 
@@ -111,44 +95,44 @@ def stop(p: Progress) -> None:
     with _LOCK:
         if p in _STACK:
             _STACK.remove(p)
-        _clear()
+        echo("")
 
 
 def echo(message: str) -> None:
-    """A line on stderr that does not collide with a status line being drawn."""
+    """A line on stderr (``""``: none) that does not collide with a status line being drawn."""
     with _LOCK:
-        _clear()
-        _write(message + "\n")
+        if _DRAWN[0]:
+            _write("\r\033[K")
+            _DRAWN[0] = False
+        if message:
+            _write(message + "\n")
 
 
 COMPILE_NOTICE = ("Compiling bhr's kernels for this machine (once; they are cached in {cache}); "
                   "'bhr warmup' compiles every command's kernels at once.")
-_announcer = None
+_announcer: Any = None
 
 
 def announce_compiles() -> None:
-    """From now on, numba's first compile of a bhr kernel (a cache miss) says so in one line.
-
-    Call it once the command's input is checked: it imports numba.
-    """
+    """From now on, numba's first compile of a bhr kernel (a cache miss) says so in one line. Call it once the
+    command's input is checked: it imports numba."""
     global _announcer
-    if _announcer is not None:
-        return
     from numba.core import event
 
     from bhr import _numba
 
     class Announcer(event.Listener):
-        announced = False
+        said = False
 
         def on_start(self, ev: event.Event) -> None:
             func = getattr(ev.data.get("dispatcher"), "py_func", None)
-            if not self.announced and getattr(func, "__module__", "").startswith("bhr"):
-                self.announced = True
+            if not self.said and getattr(func, "__module__", "").startswith("bhr"):
+                self.said = True
                 echo(COMPILE_NOTICE.format(cache=_numba.configure_cache()))
 
         def on_end(self, ev: event.Event) -> None:
             pass
 
-    _announcer = Announcer()
-    event.register("numba:compile", _announcer)
+    if _announcer is None:
+        _announcer = Announcer()
+        event.register("numba:compile", _announcer)

@@ -1,10 +1,10 @@
 """Outputs written whole or not at all: single files, output folders, and sets of both.
 
-A file is written beside its target and renamed onto it (a device or anything under /dev is written in place).
-An output folder is staged beside its target (``.NAME.bhr-stage-*``) and renamed into place under a lock file
-(``.NAME.bhr-lock``, filelock); its plain ``manifest.json`` lists the files bhr wrote. A non-empty folder holding
-anything the manifest does not list (or lists with other content) is refused unless ``force``, as ``git clone``
-refuses a non-empty folder.
+A file is written beside its target and renamed onto it (a device, or anything under /dev, is written in place).
+An output folder is staged beside its target (``.NAME.bhr-stage-*``) and renamed into place; the lock file
+``.NAME.bhr-lock`` (filelock) is held from the stage's start until then. Its plain ``manifest.json`` lists the files
+bhr wrote: a folder holding anything else (or a listed file changed) is refused unless ``force``, as ``git clone``
+refuses a non-empty folder. Inside :func:`together`, everything goes in place at the end of the block, or nothing.
 """
 from __future__ import annotations
 
@@ -29,7 +29,9 @@ __all__ = ["atomic_path", "write_text", "write_json", "json_text", "together", "
            "read_manifest", "owning_folder", "point_latest"]
 
 MANIFEST = "manifest.json"
-LOCK_WAIT_S = 600.0  # how long a run waits for another one putting the same folder in place
+LOCK_WAIT_S = 600.0  # how long a run waits for another one writing the same folder
+_set: list[tuple[int, Callable[[], Any], Callable[[], Any]]] | None = None  # (rank, place, discard) of a set
+_stages: set[Path] = set()  # the stages of the folders being written
 
 
 def _mode_for(target: Path, new: int = 0o666) -> int:
@@ -39,6 +41,14 @@ def _mode_for(target: Path, new: int = 0o666) -> int:
     mask = os.umask(0)
     os.umask(mask)
     return new & ~mask
+
+
+def _replace(tmp: Path, target: Path) -> None:
+    try:
+        os.replace(tmp, target)
+    except OSError as exc:
+        exc.filename = str(target)  # the message names the output, not the temporary file
+        raise
 
 
 @contextlib.contextmanager
@@ -62,17 +72,17 @@ def atomic_path(path: Any, suffix: str | None = None) -> Iterator[Path]:
         yield tmp
         os.chmod(tmp, _mode_for(target))
         if _set is not None and not any(s in tmp.parents for s in _stages):  # a file in a stage goes with it
-            _set.files.append((tmp, target))
+            _set.append((1, lambda: _replace(tmp, target), lambda: tmp.unlink(missing_ok=True)))
             queued = True
         else:
-            os.replace(tmp, target)
+            _replace(tmp, target)
     except OSError as exc:
         if exc.filename is None or str(exc.filename) == name:
-            exc.filename = str(path)  # the message names the output, not the temporary file
+            exc.filename = str(path)
         raise
     finally:
-        if not queued and tmp.exists():
-            tmp.unlink()
+        if not queued:
+            tmp.unlink(missing_ok=True)
 
 
 def write_text(path: Any, text: str) -> None:
@@ -93,46 +103,20 @@ def json_text(doc: Any, depth: int = 2, level: int = 0) -> str:
 
 
 def write_json(path: Any, doc: Any) -> None:
-    """Write ``doc`` as JSON (:func:`json_text`) to ``path`` whole."""
     write_text(path, json_text(doc) + "\n")
 
 
-class _Set:
-    """Every output of a command: folders placed first (a refused folder stops the set), then files."""
-
-    def __init__(self) -> None:
-        self.folders: list[OutputFolder] = []
-        self.files: list[tuple[Path, Path]] = []  # (temporary file, target)
-        self.after: list[Callable[[], Any]] = []
-
-    def discard(self) -> None:
-        for tmp, _ in self.files:
-            with contextlib.suppress(OSError):
-                tmp.unlink()
-        for folder in self.folders:
-            folder._discard()
-
-    def place(self) -> None:
-        try:
-            while self.folders:
-                self.folders.pop(0)._place()
-            while self.files:
-                tmp, target = self.files[0]
-                try:
-                    os.replace(tmp, target)
-                except OSError as exc:
-                    exc.filename = str(target)
-                    raise
-                self.files.pop(0)
-        except BaseException:
-            self.discard()
-            raise
-        for action in self.after:
-            action()
-
-
-_set: _Set | None = None
-_stages: set[Path] = set()  # the stages of the folders being written
+def _place_all(items: list[tuple[int, Callable[[], Any], Callable[[], Any]]]) -> None:
+    """Folders first (one refused at the end still stops the set), then files, then links; a failure discards the
+    rest."""
+    items = sorted(items, key=lambda item: item[0])
+    try:
+        while items:
+            items[0][1]()
+            items.pop(0)
+    finally:
+        for _, _, discard in items:
+            discard()
 
 
 @contextlib.contextmanager
@@ -142,7 +126,8 @@ def together(check: Callable[[], Any] | None = None) -> Iterator[None]:
     if _set is not None:
         yield
         return
-    _set = staged = _Set()
+    staged: list[Any] = []
+    _set = staged
     try:
         yield
         if check is not None:
@@ -150,11 +135,12 @@ def together(check: Callable[[], Any] | None = None) -> Iterator[None]:
         if INTERRUPTED.is_set():  # a Ctrl-C that something caught on the way
             raise KeyboardInterrupt
     except BaseException:
-        staged.discard()
+        for _, _, discard in staged:
+            discard()
         raise
     finally:
         _set = None
-    staged.place()
+    _place_all(staged)
 
 
 def place_now(check: Callable[[], Any] | None = None) -> None:
@@ -163,8 +149,8 @@ def place_now(check: Callable[[], Any] | None = None) -> None:
     if _set is not None:
         if check is not None:
             check()
-        staged, _set = _set, _Set()
-        staged.place()
+        staged, _set = _set, []
+        _place_all(staged)
 
 
 def read_manifest(path: Path) -> dict[str, Any] | None:
@@ -256,7 +242,7 @@ class OutputFolder:
 
     def path(self, name: Any) -> Path:
         """Where to write ``name`` (relative to the folder) while staging."""
-        assert self.stage is not None, "use OutputFolder in a with block"
+        assert self.stage is not None
         (self.stage / name).parent.mkdir(parents=True, exist_ok=True)
         return self.stage / name
 
@@ -295,7 +281,7 @@ class OutputFolder:
                     failure.filename = str(self.given / Path(os.path.abspath(failure.filename)).relative_to(self.stage))
             raise
         if _set is not None:  # one set with the command's other outputs: in place at its end
-            _set.folders.append(self)
+            _set.append((0, self._place, self._discard))
         else:
             self._place()
 
@@ -398,7 +384,7 @@ def point_latest(folder: Any) -> None:
     target = Path(folder)
     link, tmp = target.parent / "latest", target.parent / f".latest.bhr-link-{uuid.uuid4().hex[:12]}"
     if _set is not None:
-        _set.after.append(lambda: point_latest(target))
+        _set.append((2, lambda: point_latest(target), lambda: None))
     elif link.is_symlink() or not link.exists():
         with contextlib.suppress(OSError):
             os.symlink(target.name, tmp)

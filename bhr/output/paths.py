@@ -1,6 +1,7 @@
 """Output paths checked before any work (a refusal costs one line and no work), and the names of run folders."""
 from __future__ import annotations
 
+import fnmatch
 import hashlib
 import json
 import os
@@ -15,20 +16,17 @@ __all__ = ["short_path", "current_folder", "in_place_target", "check_output_file
 
 
 def sha256_file(path: Path) -> str:
-    """The SHA-256 of a file's content, in hex."""
     with open(path, "rb") as fh:
         return hashlib.file_digest(fh, "sha256").hexdigest()
 
 
 def short_path(p: Any, limit: int = 80) -> str:
     """A path as quoted in a one-line message: control characters escaped, at most ``limit`` characters."""
-    text = str(p)
-    text = text if text.isprintable() else text.encode("unicode_escape").decode("ascii")
+    text = str(p) if str(p).isprintable() else str(p).encode("unicode_escape").decode("ascii")
     return text if len(text) <= limit else text[:limit - 3] + "..."
 
 
 def current_folder() -> Path:
-    """The current folder; a BhrError when it was deleted or moved away under the command."""
     try:
         return Path(os.getcwd())
     except FileNotFoundError:
@@ -56,7 +54,7 @@ def in_place_target(path: Any) -> bool:
 
 
 def check_output_file(path: Any, what: str = "output") -> None:
-    """Refuse, before any work, an output file that cannot be written: ``-`` (standard output) always does."""
+    """Refuse, before any work, an output file that cannot be written (``-``, standard output, always can)."""
     if str(path) == "-":
         return
     refuse_control(path, what)
@@ -80,11 +78,8 @@ def settings_hash(*parts: Any) -> str:
     for part in parts:
         if hasattr(part, "tobytes"):
             h.update(part.tobytes())
-        elif isinstance(part, Path):
-            try:
-                h.update(sha256_file(part).encode())
-            except OSError:
-                h.update(str(part).encode())
+        elif isinstance(part, Path) and part.is_file():
+            h.update(sha256_file(part).encode())
         else:
             h.update(json.dumps(part, sort_keys=True, default=repr).encode())
         h.update(b"\x00")
@@ -92,7 +87,6 @@ def settings_hash(*parts: Any) -> str:
 
 
 def run_folder_name(readable: str, *parts: Any) -> str:
-    """A folder name for a run: ``readable`` plus the :func:`settings_hash` of what makes the run."""
     return folder_name(readable, settings_hash(*parts))
 
 
@@ -107,21 +101,16 @@ def input_files(*paths: Any) -> list[Path]:
     return [Path(p) for p in paths if p is not None and str(p) != "-" and os.path.isfile(p)]
 
 
-def json_in_folder(json_path: str | None, folder: Any, taken: tuple[str, ...], option: str = "--json"
-                   ) -> str | None:
+def json_in_folder(json_path: str | None, folder: Any, taken: tuple[str, ...], option: str = "--json") -> str | None:
     """The name inside the output folder that ``--json`` (or ``option``) names, else None; refuses a name that
     another output of the run writes."""
-    import fnmatch
-
     if json_path is None or json_path == "-":
         return None
-    real = Path(os.path.abspath(os.path.realpath(json_path)))
     try:
-        rel = real.relative_to(folder.target)
+        name = str(Path(os.path.abspath(os.path.realpath(json_path))).relative_to(folder.target))
     except ValueError:
         return None
-    name = str(rel)
-    if name == "." or any(fnmatch.fnmatch(name, pat) for pat in taken) or name == "manifest.json":
+    if name in (".", "manifest.json") or any(fnmatch.fnmatch(name, pat) for pat in taken):
         raise BhrError(f"{option} {json_path} names another output of this run; choose another file name")
     return name
 

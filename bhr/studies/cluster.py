@@ -55,12 +55,12 @@ def run_dask(client: Any, call: Callable[[Any], Any], todo: deque, finished: Cal
                         raise _dask_failure(address, exc) from None
                     died(sent[future], reason(exc), todo)
                 del sent[future]
+    except BhrError:
+        raise
     except TimeoutError:
         raise BhrError(f"the Dask scheduler at {address} has no workers (waited {DASK_WAIT_S:g} s); start one "
                        f"with: dask worker {address}") from None
-    except (OSError, ValueError) as exc:  # anything else the connection raises (a BhrError is a ValueError)
-        if isinstance(exc, BhrError):
-            raise
+    except Exception as exc:  # anything else Dask raises: the cluster, not the study, failed
         raise _lost(address, reason(exc)) from None
     return threads
 

@@ -116,9 +116,10 @@ def run_jobs(fn: Callable[[J], R], jobs_list: Sequence[J], *, jobs: int | None =
 def _worker_start() -> None:
     """In each worker: Ctrl-C, SIGTERM and SIGHUP are the parent's to answer (it kills its workers), and the worker
     ends when its parent does (``kill -9`` too)."""
-    for name in ("SIGINT", "SIGTERM", "SIGHUP"):
-        signal.signal(getattr(signal, name), signal.SIG_IGN)
+    for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
+        signal.signal(sig, signal.SIG_IGN)
     parent = multiprocessing.parent_process()
+
     def end_with_parent() -> None:
         if parent is not None:
             parent.join()
@@ -128,7 +129,7 @@ def _worker_start() -> None:
 
 
 class _Lane:
-    """One worker process in a one-process executor, so that a worker that dies names the chunk it ran."""
+    """One worker in a one-process executor, so that a worker that dies names the chunk it ran."""
 
     def __init__(self) -> None:
         self.pool: Any = None
@@ -137,14 +138,13 @@ class _Lane:
     def submit(self, call: Callable[[Any], Any], chunk: Any) -> Any:
         from concurrent.futures import ProcessPoolExecutor
 
-        if self.pool is None:
-            before = set(multiprocessing.active_children())
-            self.pool = ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn"),
-                                            initializer=_worker_start)
-            future = self.pool.submit(call, chunk)  # starts the worker
-            self.process = next(iter(set(multiprocessing.active_children()) - before), None)
-            return future
-        return self.pool.submit(call, chunk)
+        if self.pool is not None:
+            return self.pool.submit(call, chunk)
+        before = set(multiprocessing.active_children())
+        self.pool = ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn"), initializer=_worker_start)
+        future = self.pool.submit(call, chunk)  # starts the worker
+        self.process = next(iter(set(multiprocessing.active_children()) - before), None)
+        return future
 
     def stop(self, kill: bool) -> str:
         """Stop the worker (``kill``: at once); how it ended."""
@@ -178,9 +178,6 @@ def _run_local(workers: int, call: Callable[[Any], Any], todo: deque, finished: 
                     finished(future.result())
                 except BrokenProcessPool:  # its worker died running this chunk
                     died(chunk, lane.stop(kill=True), todo)
-    except BaseException:  # Ctrl-C, a failure: no worker goes on working
+    finally:  # Ctrl-C, a failure: no worker goes on working
         for lane in lanes:
-            lane.stop(kill=True)
-        raise
-    for lane in lanes:
-        lane.stop(kill=False)
+            lane.stop(kill=bool(todo or sent))
