@@ -1,9 +1,10 @@
 """Where numba caches bhr's ``njit(cache=True)`` kernels; set before numba is imported (``import bhr`` runs it).
 
 numba checks only a kernel's own source file before loading it from its cache, so a kernel calling a kernel of
-another module would keep a stale callee after that module changed (numba issue #1833). So, unless the user set
-NUMBA_CACHE_DIR, the cache is ``$XDG_CACHE_HOME/bhr/numba/<key>`` (``~/.cache``), the key naming bhr's sources as
-they are: a changed bhr starts a cache of its own. Without a writable home, a per-user temporary folder is used.
+another module would keep a stale callee after that module changed (numba issue #1833). So, unless the user set a
+usable NUMBA_CACHE_DIR, the cache is ``$XDG_CACHE_HOME/bhr/numba/<key>`` (``~/.cache``), the key naming bhr's
+sources as they are: a changed bhr starts a cache of its own. Without a writable home, a per-user temporary folder
+is used.
 """
 from __future__ import annotations
 
@@ -22,19 +23,23 @@ def source_key(root: Path | None = None) -> str:
     return h.hexdigest()[:12]
 
 
+def _usable(folder: Path) -> bool:
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError:
+        return False
+    return os.access(folder, os.W_OK | os.X_OK)
+
+
 def configure_cache() -> str:
-    """Set NUMBA_CACHE_DIR (unless the user set it) and return it."""
-    if not os.environ.get("NUMBA_CACHE_DIR"):
+    """Set NUMBA_CACHE_DIR (unless the user set a usable one: numba would fall back to the source tree) and
+    return it."""
+    if not (os.environ.get("NUMBA_CACHE_DIR") and _usable(Path(os.environ["NUMBA_CACHE_DIR"]))):
         home = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
         key = source_key()
         for base in (Path(home) / "bhr" / "numba", Path(tempfile.gettempdir()) / f"bhr-numba-{os.getuid()}"):
-            folder = base / key
-            try:
-                folder.mkdir(parents=True, exist_ok=True)
-            except OSError:
-                continue
-            if os.access(folder, os.W_OK | os.X_OK):
-                os.environ["NUMBA_CACHE_DIR"] = str(folder)
+            if _usable(base / key):
+                os.environ["NUMBA_CACHE_DIR"] = str(base / key)
                 break
     return os.environ.get("NUMBA_CACHE_DIR", "")
 
