@@ -188,6 +188,7 @@ class OutputFolder:
         self.stage: Path | None = None
         self.carried: list[str] = []
         self._lock: Any = None
+        self.made: list[Path] = []
 
     def check(self) -> OutputFolder:
         """Refuse, before any work, a target bhr must not replace or cannot write."""
@@ -203,6 +204,9 @@ class OutputFolder:
             if (real == t or t in real.parents) and not self.keep:  # with keep, the input is carried over
                 raise BhrError(f"{self.what} {shown} holds {short_path(name)}, an input of this run; give another "
                                "folder for the output (bhr replaces the whole folder)")
+        if any(read_manifest(parent / MANIFEST) for parent in t.parents):
+            raise BhrError(f"{self.what} {shown} is inside a folder bhr wrote (bhr replaces such a folder whole); give "
+                           "a folder outside it, such as bhr-out/run2")
         if (bad := unwritable_folder(t.parent)) is not None:
             raise BhrError(f"cannot write {self.what} {shown}: {short_path(bad)} is not a writable folder; choose "
                            "another path")
@@ -253,6 +257,7 @@ class OutputFolder:
     def __enter__(self) -> OutputFolder:
         self.check()
         stage = self.target.parent / f".{self.target.name}.bhr-stage-{uuid.uuid4().hex[:12]}"
+        self.made = [p for p in self.target.parents if not p.exists()]  # removed again (when empty) on failure
         try:
             self.target.parent.mkdir(parents=True, exist_ok=True)
             self._acquire()
@@ -367,6 +372,9 @@ class OutputFolder:
             shutil.rmtree(self.stage, ignore_errors=True)
         while self._lock is not None and self._lock.is_locked:
             self._release()
+        for p in self.made:  # innermost first; one filled meanwhile (or by the placed folder) stays
+            with contextlib.suppress(OSError):
+                p.rmdir()
 
 
 def owning_folder(path: Any) -> tuple[Path, str] | None:

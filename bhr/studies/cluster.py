@@ -42,7 +42,8 @@ def run_dask(client: Any, call: Callable[[Any], Any], todo: deque, finished: Cal
                 chunk = todo.popleft()
                 sent[client.submit(call, chunk, pure=False)] = chunk
             try:
-                wait(list(sent), timeout=2.0, return_when="FIRST_COMPLETED")
+                with client.as_current():
+                    wait(list(sent), timeout=2.0, return_when="FIRST_COMPLETED")
             except TimeoutError:  # nothing finished for a while
                 alone = _check_cluster(client, address, alone)
             for future in [f for f in sent if f.done()]:
@@ -143,10 +144,10 @@ def connect_scheduler(address: str, timeout: float = 15.0) -> Any:
     try:
         scheme, location = parse_address(address)
         if scheme == "tcp":  # a closed port fails at once, without Dask's retries
-            port = location.rpartition(":")[2]
-            if not (port.isascii() and port.isdigit()):  # int() reads '８７８６'
-                raise ValueError(f"the port {port!r} is not plain digits 0-9")
-            socket.create_connection(parse_host_port(location), timeout=timeout).close()
+            host, port = parse_host_port(location)
+            if not (location.rpartition(":")[2].isascii() and location.rpartition(":")[2].isdigit()):
+                raise ValueError(f"the port {location.rpartition(':')[2]!r} is not plain digits 0-9")  # not '８７８６'
+            socket.create_connection((host, port), timeout=timeout).close()
         asyncio.run(asyncio.wait_for(handshake(), timeout))
         client = Client(address, timeout=f"{timeout}s", set_as_default=False)
     except (asyncio.TimeoutError, TimeoutError):
