@@ -274,9 +274,9 @@ class OutputFolder:
     def __exit__(self, exc_type: Any, exc: Any, tb: Any) -> None:
         assert self.stage is not None
         _stages.discard(self.stage)
-        if exc_type is not None:
-            return self._discard()
         try:
+            if exc is not None:
+                raise exc
             self._carry_over()
             self._write_manifest()
         except BaseException as failure:
@@ -284,6 +284,8 @@ class OutputFolder:
             if isinstance(failure, OSError) and failure.filename is not None:
                 with contextlib.suppress(ValueError):  # the output as the user named it, not its stage
                     failure.filename = str(self.given / Path(os.path.abspath(failure.filename)).relative_to(self.stage))
+            if exc is not None:
+                return  # the block's own exception goes on
             raise
         if _set is not None:  # one set with the command's other outputs: in place at its end
             _set.append((0, self._place, self._discard))
