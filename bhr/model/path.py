@@ -33,6 +33,44 @@ class Trajectory:
     trajectory files are drawn again at that feed, exactly as ``bhr follow``
     draws them; other points are resampled along their polyline.
 
+    Parameters
+    ----------
+    name : str
+        The path's name: a generator (``"curve"``), ``"anatomy-SEED"``, a file's stem or ``"points"``.
+    points : numpy.ndarray, shape (N, 3)
+        The path's points x, y, z, mm, float64, one feed apart when ``feed`` is known.
+    params : dict of str to object, optional
+        The generator's or file's parameters (e.g. ``{"radius": 70.0, "angle": 90.0}``, mm and deg).
+    min_radius : float, default inf
+        The path's tightest bend radius, mm (exact for the generators, estimated for points); inf when it
+        does not bend.
+    lumen : numpy.ndarray, shape (N,), optional
+        The lumen's diameter at each point, mm; None when not known (no wall).
+    source : str, optional
+        Where the path came from (a generator, a file's path), named in error messages.
+    start_direction : tuple of float, shape (3,), default (1, 0, 0)
+        The direction x, y, z the robot enters the path along (unit vector, world frame).
+    start_point : tuple of float, shape (3,), default (0, 0, 0)
+        The point the robot's base starts at, mm.
+    feed : float, optional
+        The spacing the points were sampled at, mm; None when not known (points given as an array).
+    redraw : callable ``redraw(feed) -> Trajectory``, optional
+        Draws the same path again at another feed (set by :func:`bhr.model.load_trajectory`); picklable.
+    lumen_end : {"closed", "open"}, default "closed"
+        How the lumen ends past the last point: a blind end as the cecum (past it is wall), or going on
+        straight. The entrance (the first point) is always open: the robot comes in there.
+    sections : tuple of (str, int, int), optional
+        Named anatomical sections along the path: (name, first point, one past the last point), in order,
+        covering the points (a real colon's landmarks bound them); empty when the path has none.
+    mesh : str, optional
+        A surface mesh of the lumen's wall in the same frame (a .vtp file), where one is known; the
+        clearance is then measured against it (docs/real_colons.md).
+    lumen_model : {"ct", "insufflated"}, default "ct"
+        Which lumen the diameters are: as given (measured, drawn or written), or the insufflation model of
+        :mod:`bhr.model.insufflation` (an idealisation).
+
+    Examples
+    --------
     >>> import bhr
     >>> t = bhr.trajectory("line", length=10)
     >>> t

@@ -577,33 +577,72 @@ def follow(points: Any, solver: str | Solver = "thesis", robot: Robot | None = T
            on_step: Callable[[int, np.ndarray | None], None] | None = None,
            compiled: bool = True, body_modules: int | None = None, reach: str | None = None,
            locomotion: str | None = None, stop_at_wall: bool | None = None, **robot_options: Any) -> FollowResult:
-    """Run follow-the-leader along ``points`` (a :class:`Trajectory` or an (N, 3) array) with ``solver``.
+    """Run follow-the-leader along ``points`` with ``solver``: one solve per feed step, the tip on the path.
 
-    ``robot`` defaults to the thesis's robot (5 modules of 10 mm, alpha 10
-    deg, feed 2 mm); ``robot_options`` change its settings (``modules``,
-    ``module_length``, ``alpha``, ``tol_pos``, ... as in the option
-    registry, :mod:`bhr.settings.options`). A :class:`Trajectory` is drawn again at the
-    robot's feed when its own differs (``bhr.trajectory`` samples at the
-    thesis's 2 mm); points given as an array must be spaced by the feed.
-    ``solver`` is a name (:func:`bhr.solvers.available`) or a
-    :class:`bhr.solvers.Solver` object. ``on_step(i, codes)`` is called after
-    each step (0-based) when given, e.g. to stream codes to the board; it
-    forces the step-by-step driver. ``body_modules`` (M >= modules) also
-    simulates the modules behind the head (:mod:`bhr.run.body`); the result's
-    ``body`` holds them and they are scored and counted in the clearance too.
-    ``reach="cecum"`` makes the whole robot long enough to reach the path's
-    end from its start (instead of ``body_modules``). ``locomotion`` is the
-    thesis's model (``"thesis"``), the robot as it can be built: rigid
-    modules driven by their wires along a planned trail (``"wires"``,
-    :mod:`bhr.run.motion`), or the trail model's ideal follow-the-leader
-    (``"trail"``, not buildable; both docs/locomotion.md, with
-    ``solver="lumen"``). By default a whole robot (``body_modules`` or
-    ``reach``) with ``solver="lumen"`` on a path with a lumen moves by its
-    wires, anything else by the thesis's model.
-    ``stop_at_wall`` ends a run of the thesis's model at the step where the robot leaves the lumen
-    (:func:`bhr.run.clearance.left_lumen`): the result has that many steps, its ``finished`` says so,
-    and no later (impossible) pose is scored.
+    Parameters
+    ----------
+    points : Trajectory or array_like, shape (N, 3)
+        The path, mm. A :class:`~bhr.model.Trajectory` is drawn again at the robot's feed when its own
+        differs (``bhr.trajectory`` samples at the thesis's 2 mm); points given as an array must be spaced
+        by the feed (``module_length / feed_divisor``), else a :class:`~bhr.BhrError` says how to resample.
+    solver : str or Solver, default "thesis"
+        A solver name (:func:`bhr.solvers.available`) or a configured :class:`bhr.solvers.Solver` object,
+        which brings its robot when neither ``robot`` nor ``robot_options`` is given.
+    robot : Robot or None, default THESIS_ROBOT
+        The robot; defaults to the thesis's robot (5 modules of 10 mm, alpha 10 deg, feed 2 mm).
+    solver_options : dict of str to object, optional
+        The solver's own options (e.g. ``{"lookahead": 12}`` for ``"lumen"``), each checked by the option
+        registry, :mod:`bhr.settings.options`.
+    on_step : callable ``on_step(i, codes)``, optional
+        Called after each step ``i`` (0-based) with that step's codes, an int array of shape (n,), or None
+        for a continuous solver; e.g. to stream codes to the board. It forces the step-by-step driver.
+    compiled : bool, default True
+        Run the whole path in the solver's compiled loop when it has one; False drives it step by step from
+        Python (the same numbers, slower).
+    body_modules : int, optional
+        M >= ``modules``: also simulate the modules behind the head (:mod:`bhr.run.body`); the result's
+        ``body`` holds them and they are scored and counted in the clearance too.
+    reach : {"cecum"}, optional
+        ``"cecum"`` makes the whole robot long enough to reach the path's end from its start (instead of
+        ``body_modules``).
+    locomotion : {"thesis", "wires", "trail"}, optional
+        The thesis's model (``"thesis"``); the robot as it can be built, rigid modules driven by their
+        wires along a planned trail (``"wires"``, :mod:`bhr.run.motion`); or the trail model's ideal
+        follow-the-leader (``"trail"``, an idealisation, not buildable). Both trail models need
+        ``solver="lumen"`` (docs/locomotion.md). By default a whole robot (``body_modules`` or ``reach``)
+        with ``solver="lumen"`` on a path with a lumen moves by its wires, anything else by the thesis's
+        model.
+    stop_at_wall : bool, optional
+        End a run of the thesis's model at the step where the robot leaves the lumen
+        (:func:`bhr.run.clearance.left_lumen`): the result has that many steps, its ``finished`` says so,
+        and no later (impossible) pose is scored.
+    **robot_options
+        Changes to ``robot``'s settings (``modules``, ``module_length`` mm, ``alpha`` deg, ``tol_pos`` mm,
+        ... as in the option registry, :mod:`bhr.settings.options`).
 
+    Returns
+    -------
+    FollowResult
+        The run, N steps of a head of n modules: ``points`` (N, n+1, 3) the solved pose at each step, mm,
+        base first; ``codes`` (N, n) int, or None for a continuous solver; ``point_errors_mm`` (N, n+1)
+        mm; ``orientation_errors_deg`` (N, n) deg; ``iterations`` (N,); ``summary`` the thesis's
+        figures; ``clearance`` against the lumen (None without one); ``success``, ``status`` and
+        ``reason`` the verdict in words; ``warnings`` what was warned about the path.
+
+    Raises
+    ------
+    BhrError
+        Bad input: points not (N, 3), finite and at the feed; an unknown solver or setting; a path too long
+        to hold in memory.
+
+    Warns
+    -----
+    BhrWarning
+        The path turns tighter than the robot's minimum turn radius, back on itself, or its lumen is
+        narrower than the robot.
+
+    Examples
+    --------
     >>> import bhr
     >>> run = bhr.follow(bhr.trajectory("curve", radius=70, angle=90))
     >>> round(run.summary.tip_final_error_mm, 4)

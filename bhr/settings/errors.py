@@ -7,12 +7,38 @@ class BhrError(ValueError):
 
     The message is a single line that names what is wrong and what to do
     instead; the command-line layer prints it without a traceback and exits
-    with a non-zero status.
+    with a non-zero status. A subclass of :class:`ValueError`, so code that
+    catches bad values catches it too.
+
+    Raised as ``BhrError(message)``: it takes no parameter of its own.
+
+    Attributes
+    ----------
+    args : tuple of str
+        ``(message,)``: one line, what is wrong and the fix, e.g. ``"modules must be greater than 0, got 0"``;
+        ``str(error)`` is the message.
+
+    Examples
+    --------
+    >>> import bhr
+    >>> try:
+    ...     bhr.Robot(modules=0)
+    ... except bhr.BhrError as exc:
+    ...     print("refused")
+    refused
     """
 
 
 class LinkError(BhrError):
-    """The serial link to the actuator board failed (timeout, NAK, port gone)."""
+    """The serial link to the actuator board failed (timeout, NAK, port gone).
+
+    A :class:`BhrError`, so it is reported the same way: one line, no traceback.
+
+    Attributes
+    ----------
+    args : tuple of str
+        ``(message,)``: one line, what failed on the link and what to do (check the port, the board's power).
+    """
 
 
 class _Flag:

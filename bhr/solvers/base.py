@@ -160,6 +160,38 @@ class Solver(ABC):
     Solvers that respect the binary actuators return one code per module in
     their results. ``options`` are solver-specific keyword settings, validated
     in ``__init__`` (and listed in :mod:`bhr.settings.options`).
+    :func:`bhr.solvers.get_solver` builds one by name; docs/model.md, "Adding a
+    solver", writes a new one.
+
+    Parameters
+    ----------
+    robot : Robot
+        The robot the solver moves: its modules, module length (mm), alpha (deg) and tolerances (mm, deg).
+    **options
+        The solver's own settings, each an entry of the option registry; the base class takes none and
+        refuses any with a :class:`~bhr.BhrError`.
+
+    Attributes
+    ----------
+    name : str
+        The registered name (``bhr solve --solver NAME``).
+    summary : str
+        One line on what the solver does, shown by ``bhr solvers``.
+    accepts_orientation : bool
+        Whether the solver takes a wanted tip direction.
+    aliases : tuple of str
+        Other names it is found by.
+    robot : Robot
+        The robot given.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from bhr.model import CHAPTER5_ROBOT
+    >>> from bhr.solvers import Chain, get_solver
+    >>> solver = get_solver("fabrik", CHAPTER5_ROBOT.replace(modules=10))
+    >>> solver.solve(Chain.straight(solver.robot, (0, 1, 0)), np.array([3.0, 9.0, 0.0])).status
+    'reached'
     """
 
     name: ClassVar[str] = ""
