@@ -78,13 +78,42 @@ def _plugins() -> bool:
 
 
 def available() -> dict[str, str]:
-    """Solver names and one-line summaries."""
+    """Solver names and one-line summaries: every registered solver, plug-ins included.
+
+    Returns
+    -------
+    dict of str to str
+        Each solver's registered name (sorted; aliases left out) to its one-line summary.
+
+    Examples
+    --------
+    >>> from bhr.solvers import available
+    >>> "thesis" in available() and "fabrik" in available()
+    True
+    """
     _load_all()
     return {name: REGISTRY[name].summary for name in sorted(REGISTRY) if REGISTRY[name].name == name}
 
 
 def canonical(name: str) -> str:
-    """The solver's registered name for ``name`` (``seed`` -> ``thesis``); unknown names come back unchanged."""
+    """The solver's registered name for ``name`` (``seed`` -> ``thesis``); unknown names come back unchanged.
+
+    Parameters
+    ----------
+    name : str
+        A solver's name or alias.
+
+    Returns
+    -------
+    str
+        The registered name, or ``name`` itself when no solver is called so.
+
+    Examples
+    --------
+    >>> from bhr.solvers import canonical
+    >>> canonical("seed"), canonical("nonsense")
+    ('thesis', 'nonsense')
+    """
     known = builtin_name(name) if isinstance(name, str) else None
     if known is not None:
         return known
@@ -99,7 +128,35 @@ def check_solver_name(name: Any, where: str = "") -> str:
 
     bhr's own solvers are known without loading them (:mod:`bhr.solvers.names`);
     the solver modules load only when another package adds solvers and the
-    name is none of bhr's."""
+    name is none of bhr's.
+
+    Parameters
+    ----------
+    name : object
+        The solver's name as given (anything: a value that is not a string is refused too).
+    where : str, optional
+        Where the name came from (an option, a file and line), put before the error message.
+
+    Returns
+    -------
+    str
+        The registered name.
+
+    Raises
+    ------
+    BhrError
+        No solver is called ``name``: one line with a did-you-mean and the names to choose from.
+
+    Examples
+    --------
+    >>> from bhr.solvers import check_solver_name
+    >>> check_solver_name("seed")
+    'thesis'
+    >>> check_solver_name("fabric", "--solver")
+    Traceback (most recent call last):
+    ...
+    bhr.settings.errors.BhrError: --solver: unknown solver 'fabric'; did you mean 'fabrik'? choose from ...
+    """
     known = builtin_name(name) if isinstance(name, str) else None
     if known is not None:
         return known
@@ -140,6 +197,34 @@ def get_solver(name: str | Solver | type[Solver], robot: Robot, **options: Any) 
     ``name`` may also be a :class:`Solver` subclass (built here) or a
     configured :class:`Solver` object, used as it is when it was built for
     ``robot`` and given no further options.
+
+    Parameters
+    ----------
+    name : str, Solver subclass or Solver
+        A registered name or alias (:func:`available`), a :class:`Solver` subclass, or a configured
+        :class:`Solver` object.
+    robot : Robot
+        The robot the solver moves (modules, module length mm, alpha deg, tolerances mm and deg).
+    **options
+        The solver's own settings (e.g. ``limit``, ``axes``, ``lookahead``), checked against what its
+        constructor takes and by the option registry; None values are left out.
+
+    Returns
+    -------
+    Solver
+        The solver, ready for :meth:`Solver.solve`.
+
+    Raises
+    ------
+    BhrError
+        An unknown name or option, or a solver object built for another robot or given options again.
+
+    Examples
+    --------
+    >>> from bhr.model import CHAPTER5_ROBOT
+    >>> from bhr.solvers import get_solver
+    >>> get_solver("seed", CHAPTER5_ROBOT).name
+    'thesis'
     """
     _load_all()
     from bhr.solvers.base import Solver
@@ -196,6 +281,8 @@ def solve(target: Sequence[float], *, robot: Robot | None = CHAPTER5_ROBOT, solv
         ``position_error_mm``; ``orientation_error_deg`` (None without ``tip_direction``); ``points`` (n+1, 3) in mm,
         base first; ``codes`` (n,) for the binary solvers.
 
+    Examples
+    --------
     >>> res = solve([3, 9, 0], modules=10)
     >>> res.success, res.iterations
     (True, 1)

@@ -50,6 +50,23 @@ class Chain:
     ``i``, the *points* ``P_i + x_i`` and ``P_i + y_i`` that mark its two local
     tilt axes, exactly as the thesis's script keeps them (EjeY, EjeZ), so that
     the thesis's algorithm can be ported without changing its arithmetic.
+
+    Parameters
+    ----------
+    points : numpy.ndarray, shape (n+1, 3)
+        The joints of a chain of n modules, base first, mm, float64.
+    axes : numpy.ndarray, shape (2, n, 3)
+        For each module's joint ``i``, the points ``P_i + x_i`` (``axes[0, i]``) and ``P_i + y_i``
+        (``axes[1, i]``), mm: the ends of unit vectors along its two local tilt axes.
+
+    Examples
+    --------
+    >>> from bhr.model import CHAPTER5_ROBOT
+    >>> chain = Chain.straight(CHAPTER5_ROBOT, (0, 1, 0))
+    >>> chain.points.shape, chain.axes.shape
+    ((6, 3), (2, 5, 3))
+    >>> chain.points[-1].tolist()   # 5 modules of 2 mm along +Y
+    [0.0, 10.0, 0.0]
     """
 
     points: np.ndarray
@@ -91,7 +108,20 @@ class Chain:
 
 @dataclass
 class FollowContext:
-    """What a solver may know about the path when it is driven by follow-the-leader."""
+    """What a solver may know about the path when it is driven by follow-the-leader.
+
+    :func:`bhr.follow` passes one to :meth:`Solver.solve` at every step driven from Python; a solver that
+    plans ahead (``"lumen"``, ``"optimal"``) reads the path beyond the current target from it.
+
+    Parameters
+    ----------
+    path : numpy.ndarray, shape (N, 3)
+        The trajectory's points, mm, one feed apart.
+    directions : numpy.ndarray, shape (N-1, 3)
+        Unit vectors from each point to the next.
+    step : int
+        The 0-based index of the current target in ``path``.
+    """
 
     path: np.ndarray  # (N, 3) trajectory points
     directions: np.ndarray  # (N-1, 3) unit vectors between points
@@ -109,6 +139,34 @@ class SolveResult:
     reach"`` (the target lies farther from the base than the robot is
     long); ``reason`` says it in words, with the figures. Every solver's
     :meth:`Solver.solve` sets them.
+
+    Parameters
+    ----------
+    chain : Chain
+        The chain after the solve: ``points`` (n+1, 3) mm, base first, and its tilt axes.
+    iterations : int
+        The iterations the solver took.
+    position_error_mm : float
+        Distance from the tip to the target, mm.
+    orientation_error_deg : float or None
+        Angle between the last module and the wanted tip direction, deg; None when none was asked for.
+    codes : list of int, optional
+        One code per module (0-16, ``docs/conventions.md``), base first, for the solvers that respect the
+        binary actuators; None for a continuous solver.
+    extra : dict of str to object, optional
+        A solver's own figures about the solve.
+    success : bool or None, optional
+        Within the robot's tolerances (position, and orientation when aimed); None until judged.
+    status : {"reached", "not reached", "out of reach", ""}, optional
+        The verdict; empty until judged.
+    reason : str, optional
+        The verdict in words, with the figures (mm, deg, iterations).
+
+    Examples
+    --------
+    >>> import bhr
+    >>> bhr.solve([3, 9, 0], modules=10)
+    SolveResult(reached: ... mm off, 1 iterations)
     """
 
     chain: Chain

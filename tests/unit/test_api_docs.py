@@ -49,13 +49,6 @@ _NOT_YET = {
     "bhr.output.view_figure",
     "bhr.output.view_html",
     "bhr.output.write_run_files",
-    "bhr.solvers.Chain",
-    "bhr.solvers.FollowContext",
-    "bhr.solvers.SolveResult",
-    "bhr.solvers.available",
-    "bhr.solvers.canonical",
-    "bhr.solvers.check_solver_name",
-    "bhr.solvers.get_solver",
 }
 
 
