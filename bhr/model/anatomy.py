@@ -279,7 +279,39 @@ def acute_flexures(pts: np.ndarray, spacing: float, reach: float = FLEXURE_REACH
 
 @dataclass
 class Colon:
-    """One drawn colon: its course (straights and arcs), its smooth centerline, and what was drawn."""
+    """One drawn colon: its course (straights and arcs), its smooth centerline, and what was drawn.
+
+    Built by :func:`anatomical_colon`; :meth:`sample` gives its centerline points and lumen at a feed,
+    ``length`` and ``min_radius`` its length and tightest bend (mm).
+
+    Parameters
+    ----------
+    seed : int
+        The seed it was drawn from (0 ... :data:`SEED_MAX`).
+    pieces : list of tuple
+        The course, anus first: (kind ``"straight"`` or ``"arc"``, length mm, radius mm or inf, start point
+        (3,) mm, start heading (3,) unit vector, bend direction (3,) unit vector or None, section name).
+    section_lengths : dict of str to float
+        Each of :data:`SECTIONS` to its length along the smooth centerline, mm.
+    lumen_knots : tuple of (numpy.ndarray, numpy.ndarray), each shape (K,)
+        The lumen's diameter profile: arc lengths from the anus, mm, and the diameter there, mm.
+    bends : dict of str to tuple of (float, float)
+        The course's named bends (``"anorectal"``, ``"sacral"``, ...) to (angle deg, radius mm).
+    draws : dict of str to float, optional
+        Every random number drawn, by name (``"length"`` mm, ``"lumen.rectum"`` mm, ``"folds.sigmoid"``
+        a count, ...), for the record.
+    smooth : object, optional
+        The centerline spline (internal); None only while the colon is being built.
+    sex : {"any", "female", "male"}, default "any"
+        The CT population the total length was drawn from.
+
+    Examples
+    --------
+    >>> colon = anatomical_colon(7)
+    >>> points, lumen, section = colon.sample(2.0)
+    >>> points.shape[1], lumen.shape == section.shape == points.shape[:1]
+    (3, True)
+    """
 
     seed: int
     #: the course: (kind, length mm, radius mm or inf, start point, start heading, bend direction or None, section)
@@ -342,6 +374,29 @@ def anatomical_colon(seed: int, sex: str = "any") -> Colon:
     offset (:data:`JITTER_MM`): a smooth curve whose curvature varies
     continuously. The course is rebuilt once so that the spline's length is
     the drawn total.
+
+    Parameters
+    ----------
+    seed : int
+        Which colon: a whole number 0 ... :data:`SEED_MAX`; one seed always gives the same colon.
+    sex : {"any", "female", "male"}, default "any"
+        The CT population whose length distribution is drawn from.
+
+    Returns
+    -------
+    Colon
+        The colon: its course, centerline, lumen profile (mm) and the numbers drawn.
+
+    Raises
+    ------
+    BhrError
+        A seed that is not a whole number in range, or an unknown ``sex``.
+
+    Examples
+    --------
+    >>> colon = anatomical_colon(7)
+    >>> LENGTH_LIMITS[0] <= colon.length <= LENGTH_LIMITS[1]   # mm, anus to cecum
+    True
     """
     seed = check_seed(seed)
     if sex not in POPULATION:

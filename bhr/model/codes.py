@@ -69,7 +69,34 @@ def check_code(code: object, where: str = "") -> int:
 
 
 def check_codes(codes: Iterable[object], where: str = "") -> list[int]:
-    """Validate a sequence of codes, naming the module (1-based) of the first bad one."""
+    """Validate a sequence of codes, naming the module (1-based) of the first bad one.
+
+    Parameters
+    ----------
+    codes : iterable of int, shape (n,)
+        One code per module, base first.
+    where : str, optional
+        Where the codes came from (a file and line), added to the error message.
+
+    Returns
+    -------
+    list of int, shape (n,)
+        The codes, each one of :data:`VALID_CODES` (0, 3, 6, 9, 12, 15).
+
+    Raises
+    ------
+    BhrError
+        A code that is not a whole number or not a stable actuator code.
+
+    Examples
+    --------
+    >>> check_codes([3, 0, 15])
+    [3, 0, 15]
+    >>> check_codes([3, 5], "in codes.csv")
+    Traceback (most recent call last):
+    ...
+    bhr.settings.errors.BhrError: code 5 for module 2 in codes.csv is not a stable actuator code; use one of ...
+    """
     out = []
     for i, c in enumerate(codes, start=1):
         out.append(check_code(c, f"for module {i}{' ' + where if where else ''}"))
@@ -86,7 +113,32 @@ def actuators(code: int) -> tuple[int, ...]:
 
 
 def format_codes_csv(codes: np.ndarray | Sequence[Sequence[int]], steps: Sequence[int] | None = None) -> str:
-    """Render a (steps, modules) array of codes as the text of ``codes.csv``."""
+    """Render a (steps, modules) array of codes as the text of ``codes.csv``.
+
+    Parameters
+    ----------
+    codes : array_like of int, shape (S, n)
+        One row per step, one code per module, base first (``m1`` is the base module).
+    steps : sequence of int, shape (S,), optional
+        The step numbers written in the ``step`` column; default 1 ... S.
+
+    Returns
+    -------
+    str
+        The CSV text: a header ``step,m1,...,mn`` and one line per step, ``\n`` line ends.
+
+    Raises
+    ------
+    BhrError
+        ``codes`` is not a two-dimensional table.
+
+    Examples
+    --------
+    >>> print(format_codes_csv([[3, 0], [0, 6]]), end="")
+    step,m1,m2
+    1,3,0
+    2,0,6
+    """
     import numpy as np
 
     arr = np.asarray(codes, dtype=np.int64)
@@ -114,6 +166,23 @@ def read_codes_csv(path: str | os.PathLike[str]) -> tuple[list[int], np.ndarray]
     The whole file is checked before anything is returned: an invalid code is
     reported with its line and column name, so nothing is ever sent from a
     file that holds one.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The ``codes.csv`` file (as ``bhr follow`` writes it: ``step,m1,...,mn`` then one row per step).
+
+    Returns
+    -------
+    steps : list of int, shape (S,)
+        The ``step`` column.
+    codes : numpy.ndarray of int64, shape (S, n)
+        One row per step, one code per module, each one of :data:`VALID_CODES`.
+
+    Raises
+    ------
+    BhrError
+        A missing or unreadable file, a malformed table or an invalid code, named with its line and column.
     """
     p = Path(path)
     hint = "give the codes.csv written by 'bhr follow'"

@@ -90,12 +90,33 @@ def module_inertia(robot: Robot, mass_g: float | None = None, density: float | N
 
 
 def joint_names(modules: int) -> list[str]:
-    """The exported joints in order: ``m1_tilt_x, m1_tilt_y, m1_lift, m2_tilt_x, ...`` (1 = base)."""
+    """The exported joints in order: ``m1_tilt_x, m1_tilt_y, m1_lift, m2_tilt_x, ...`` (1 = base).
+
+    Parameters
+    ----------
+    modules : int
+        The number of modules n.
+
+    Returns
+    -------
+    list of str, length 3 n
+        Each module's tilt about x, tilt about y (revolute, rad) and lift (prismatic, m), base first.
+
+    Examples
+    --------
+    >>> joint_names(2)
+    ['m1_tilt_x', 'm1_tilt_y', 'm1_lift', 'm2_tilt_x', 'm2_tilt_y', 'm2_lift']
+    """
     return [f"m{i}_{j}" for i in range(1, modules + 1) for j in JOINTS_PER_MODULE]
 
 
 def joint_values(codes: Any, robot: Robot | None = None) -> np.ndarray:
     """Joint values of the exported model for module codes, in :func:`joint_names` order (rad, m).
+
+    Code 3 sets
+    ``tilt_x`` to +alpha, 12 to -alpha; 6 sets ``tilt_y`` to +alpha, 9 to -alpha;
+    15 sets ``lift`` to the robot's lift (:attr:`bhr.model.robot.Robot.lift`); 0 leaves
+    all three at 0.
 
     Parameters
     ----------
@@ -109,12 +130,13 @@ def joint_values(codes: Any, robot: Robot | None = None) -> np.ndarray:
     ndarray, shape (3 n,) or (steps, 3 n)
         ``tilt_x`` and ``tilt_y`` in rad and ``lift`` in m for each module, in :func:`joint_names` order.
 
-    Code 3 sets
-    ``tilt_x`` to +alpha, 12 to -alpha; 6 sets ``tilt_y`` to +alpha, 9 to -alpha;
-    15 sets ``lift`` to the robot's lift (:attr:`bhr.model.robot.Robot.lift`); 0 leaves
-    all three at 0. ``robot`` gives alpha and the lift (default: the thesis robot);
-    the number of modules is the number of codes.
+    Raises
+    ------
+    BhrError
+        Codes that are not one per module (or one row per step), or not valid codes.
 
+    Examples
+    --------
     >>> joint_values([3, 0, 15], Robot(modules=3)).round(6).tolist()
     [0.174533, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.001736]
     """
@@ -192,7 +214,42 @@ def _rgba(i: int) -> str:
 
 def to_urdf(robot: Robot, modules: int | None = None, *, mass_g: float | None = None, density: float | None = None,
             name: str = "bhr") -> str:
-    """The robot as URDF text (SI units): ``modules`` modules (default ``robot.modules``)."""
+    """The robot as URDF text (SI units): ``modules`` modules (default ``robot.modules``).
+
+    Each module is three joints at its rear (tilt about x and y, revolute within +-alpha; a prismatic lift)
+    and a link with the mass and inertia of a solid cylinder; the ``base`` link is the robot's base frame,
+    z along the straight robot (docs/export.md). Load it in pinocchio or any URDF tool.
+
+    Parameters
+    ----------
+    robot : Robot
+        The robot: module length (mm), disc radius (mm), alpha (deg) and lift (mm), written in m and rad.
+    modules : int, optional
+        How many modules to write, at least 1; default ``robot.modules``.
+    mass_g : float, optional
+        The mass of one module, g; wins over ``density``.
+    density : float, optional
+        The modules' density, kg/m^3, for a solid cylinder of the disc radius and module length; neither
+        given: :data:`DEFAULT_DENSITY`.
+    name : str, default "bhr"
+        The model's name.
+
+    Returns
+    -------
+    str
+        The URDF document.
+
+    Raises
+    ------
+    BhrError
+        Fewer than one module, or a mass or density that is not a positive number.
+
+    Examples
+    --------
+    >>> text = to_urdf(Robot(modules=2))
+    >>> text.count('type="revolute"'), text.count('type="prismatic"')
+    (4, 2)
+    """
     n = robot.modules if modules is None else int(modules)
     if n < 1:
         raise BhrError(f"a robot needs at least one module, got {n}")
@@ -290,6 +347,36 @@ def to_mjcf(robot: Robot, modules: int | None = None, *, mass_g: float | None = 
     Each module is one body ``m<i>`` carrying its three joints (in order, at its
     rear joint) and a capsule of the disc radius along its length; the base body
     is fixed to the world, gravity is off (docs/export.md).
+
+    Parameters
+    ----------
+    robot : Robot
+        The robot: module length (mm), disc radius (mm), alpha (deg) and lift (mm), written in m and rad.
+    modules : int, optional
+        How many modules to write, at least 1; default ``robot.modules``.
+    mass_g : float, optional
+        The mass of one module, g; wins over ``density``.
+    density : float, optional
+        The modules' density, kg/m^3, for a solid cylinder of the disc radius and module length; neither
+        given: :data:`DEFAULT_DENSITY`.
+    name : str, default "bhr"
+        The model's name.
+
+    Returns
+    -------
+    str
+        The MJCF document.
+
+    Raises
+    ------
+    BhrError
+        Fewer than one module, or a mass or density that is not a positive number.
+
+    Examples
+    --------
+    >>> text = to_mjcf(Robot(modules=2))
+    >>> text.startswith('<mujoco model="bhr">'), text.count("<joint ")
+    (True, 6)
     """
     n = robot.modules if modules is None else int(modules)
     if n < 1:

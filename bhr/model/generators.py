@@ -258,7 +258,18 @@ def _generator_length(gen_name: str, p: dict[str, float]) -> float:
 
 
 def builtin_names() -> list[str]:
-    """Names ``load_trajectory`` knows: the generators, then the shipped point files (trajectories/NAME.csv)."""
+    """Names ``load_trajectory`` knows: the generators, then the shipped point files (trajectories/NAME.csv).
+
+    Returns
+    -------
+    list of str
+        The generators' names (``"line"``, ``"curve"``, ...), then the shipped files' names.
+
+    Examples
+    --------
+    >>> builtin_names()[:3]
+    ['line', 'curve', 'spiral']
+    """
     return trajnames.builtin_names()
 
 
@@ -283,6 +294,34 @@ def load_trajectory(name_or_path: str | os.PathLike[str], feed: float = 2.0, **p
     ``params`` (the generator parameters, e.g. ``radius``) apply to built-ins
     and generator files only; segment and CSV files refuse them. Raises
     :class:`BhrError` with one line naming the file and the problem.
+
+    Parameters
+    ----------
+    name_or_path : str or os.PathLike
+        A built-in's name (:func:`builtin_names`) or the path of a trajectory file (.toml or .csv).
+    feed : float, default 2.0
+        The spacing of the points, mm (the robot's ``module_length / feed_divisor``).
+    **params
+        The generator's parameters (e.g. ``radius`` mm, ``angle`` deg, ``seed``); also ``lumen_end``
+        (``"closed"`` or ``"open"``) and ``lumen_model`` (``"ct"`` or ``"insufflated"``) for any path with a
+        lumen.
+
+    Returns
+    -------
+    Trajectory
+        Points (N, 3) mm, ``feed`` mm apart, with the path's lumen (N,) mm when it has one; it can be drawn
+        again at another feed (:meth:`Trajectory.at_feed`).
+
+    Raises
+    ------
+    BhrError
+        An unknown name, a file that cannot be read, a parameter the path does not take or out of range, a
+        feed that is not a positive number.
+
+    Examples
+    --------
+    >>> load_trajectory("curve", feed=1.0, radius=70)
+    Trajectory('curve', 170 points, feed 1 mm, 169 mm long)
     """
     if isinstance(feed, bool) or not (isinstance(feed, (int, float)) and math.isfinite(feed) and feed > 0):
         raise BhrError(f"feed must be a positive number of mm, got {feed!r}")

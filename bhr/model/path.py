@@ -252,9 +252,34 @@ def unfollowable_bends(points: np.ndarray, lumen: np.ndarray, turn_radius: float
     w in :data:`BEND_WINDOWS_MM` (rounded to whole points), fails that; e is the narrowest over the
     stretch. A path that bends nowhere tighter than R has none (r >= R on every stretch).
 
-    ``points`` (N, 3) and ``lumen`` (N, diameters in mm) are spaced evenly. Returns one tuple per stretch
-    of unfollowable points: (first index, last index, the mean radius r of its tightest failing stretch
-    in mm, the narrowest lumen diameter there in mm).
+    Parameters
+    ----------
+    points : numpy.ndarray, shape (N, 3)
+        The centerline, mm, evenly spaced.
+    lumen : numpy.ndarray, shape (N,)
+        The lumen's diameter at each point, mm.
+    turn_radius : float
+        The robot's minimum turn radius R, mm (:func:`min_turn_radius`).
+    robot_radius : float
+        The robot's disc radius a, mm.
+
+    Returns
+    -------
+    list of tuple of (int, int, float, float)
+        One tuple per stretch of unfollowable points: (first index, last index, the mean radius r of its
+        tightest failing stretch in mm, the narrowest lumen diameter there in mm); empty when the robot
+        can follow every bend (and for fewer than 3 points).
+
+    Examples
+    --------
+    >>> import bhr
+    >>> from bhr.model import min_turn_radius
+    >>> t = bhr.trajectory("curve", radius=30, angle=90)   # tighter than the thesis robot's 57.15 mm
+    >>> R = min_turn_radius(10, 10)
+    >>> [(a, b, round(r, 1), d) for a, b, r, d in unfollowable_bends(t.points, np.full(len(t), 12.0), R, 5.0)]
+    [(19, 34, 30.6, 12.0)]
+    >>> unfollowable_bends(t.points, np.full(len(t), 40.0), R, 5.0)   # a wide lumen: it swings wide
+    []
     """
     pts = np.asarray(points, dtype=np.float64)
     lum = np.ascontiguousarray(lumen, dtype=np.float64)

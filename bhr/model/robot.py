@@ -24,7 +24,30 @@ __all__ = ["Robot", "THESIS_ROBOT", "CHAPTER5_ROBOT", "robot_with", "alpha_from_
 
 
 def alpha_from_stroke(stroke: float, lever: float) -> float:
-    """Actuator angle alpha in degrees from stroke h and lever L: asin(h/L) (Ec. 4.1)."""
+    """Actuator angle alpha in degrees from stroke h and lever L: asin(h/L) (Ec. 4.1).
+
+    Parameters
+    ----------
+    stroke : float
+        The wire's contraction h, mm (> 0).
+    lever : float
+        The lever L the wire pulls on, mm (> ``stroke``).
+
+    Returns
+    -------
+    float
+        The tilt alpha of one actuator pair, deg.
+
+    Raises
+    ------
+    BhrError
+        A length that is not positive, or a stroke not shorter than the lever.
+
+    Examples
+    --------
+    >>> round(alpha_from_stroke(1.0, 5.76), 2)
+    10.0
+    """
     if not (stroke > 0 and lever > 0):
         raise BhrError("stroke and lever must both be positive lengths in mm")
     if stroke >= lever:
@@ -35,6 +58,20 @@ def alpha_from_stroke(stroke: float, lever: float) -> float:
 def min_turn_radius(module_length: float, alpha_deg: float) -> float:
     """Smallest radius the robot can follow: l / (2 tan(alpha/2)) (Ec. 7.1).
 
+    Parameters
+    ----------
+    module_length : float
+        The length l of one module, mm.
+    alpha_deg : float
+        The tilt alpha of one actuator pair, deg.
+
+    Returns
+    -------
+    float
+        The minimum turn radius, mm.
+
+    Examples
+    --------
     >>> round(min_turn_radius(10, 10), 2)
     57.15
     """
@@ -280,6 +317,35 @@ def forward_kinematics(robot: Robot, codes: Sequence[int], base: Sequence[float]
     local axis chosen by code ``i`` (3: +x, 6: +y, 12: -x, 9: -y); code 0 keeps
     it, code 15 keeps it and lengthens the module by :attr:`Robot.lift`.
     Module ``i`` runs from point ``i`` along its frame's z.
+
+    Parameters
+    ----------
+    robot : Robot
+        The robot: its ``modules`` n, ``module_length`` mm, ``alpha`` deg and lift mm.
+    codes : sequence of int, shape (n,)
+        One code per module, base first, each of :data:`bhr.model.VALID_CODES` (``docs/conventions.md``).
+    base : sequence of float, shape (3,), default (0, 0, 0)
+        The base point, mm.
+    frame : numpy.ndarray, shape (3, 3), optional
+        The base frame, rows x, y, z (unit vectors); default :func:`base_frame` of +X.
+
+    Returns
+    -------
+    points : numpy.ndarray, shape (n+1, 3)
+        The joints, base first, mm.
+    frames : numpy.ndarray, shape (n, 3, 3)
+        Each module's frame, rows x, y, z (unit vectors).
+
+    Raises
+    ------
+    BhrError
+        A code that is not valid, or not one code per module.
+
+    Examples
+    --------
+    >>> points, frames = forward_kinematics(THESIS_ROBOT, [0, 0, 0, 0, 0])
+    >>> points[-1].tolist(), frames.shape   # 5 straight modules of 10 mm along +X
+    ([50.0, 0.0, 0.0], (5, 3, 3))
     """
     import numpy as np
 

@@ -122,8 +122,30 @@ class LinkSettings:
 class RobotFile:
     """A parsed robot file: ``robot`` (:class:`bhr.model.robot.Robot`), ``link``, the code table, ``thermal``.
 
-    ``thermal`` (:class:`bhr.hardware.thermal.ThermalParams`) is the actuator wire's
+    ``thermal`` (:class:`bhr.model.ThermalParams`) is the actuator wire's
     thermal model from the ``[thermal]`` table (docs/thermal.md).
+    Built by :func:`load_robot_file`.
+
+    Parameters
+    ----------
+    robot : Robot
+        The robot: modules, module length (mm), alpha (deg), disc radius (mm), tolerances (mm, deg).
+    link : LinkSettings, optional
+        The ``[link]`` table: serial port, baud rate, the order the modules are wired in, the board's
+        silence timeout (ms).
+    codes : dict of int to str, optional
+        The ``[codes]`` table, code to motion: 0 ``"rest"``, 3 ``"+x"``, 6 ``"+y"``, 12 ``"-x"``, 9 ``"-y"``,
+        15 ``"lift"`` (bhr's table, the default).
+    name : str, optional
+        The robot's name (the file's stem when not given).
+    description : str, optional
+        Free text about the robot.
+    path : pathlib.Path, optional
+        The file it was read from; None when built in Python.
+    thermal : ThermalParams, optional
+        The ``[thermal]`` table: the wire's figures (ms, duty); default the thesis's wires.
+    mass : dict of str to float, optional
+        The ``[mass]`` table (docs/export.md): ``module_mass`` (g) and/or ``density`` (kg/m^3), as given.
     """
 
     robot: Robot
@@ -303,8 +325,33 @@ def read_json_robot(path: Path) -> dict[str, Any]:
 
 
 def load_robot_file(path: str | os.PathLike[str]) -> RobotFile:
-    """Read and check a robot description file (TOML or JSON, one schema) or a run's robot (run.json);
-    see docs/robot-files.md."""
+    """Read and check a robot description file (TOML or JSON, one schema) or a run's robot (run.json).
+
+    See docs/robot-files.md for the keys; every value is checked, and the first problem is one line naming
+    the file and the key.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        A ``.toml`` or ``.json`` robot file, a run's ``run.json``, or a run's folder.
+
+    Returns
+    -------
+    RobotFile
+        The robot, its link, code table, thermal and mass tables, name and path.
+
+    Raises
+    ------
+    BhrError
+        A missing or unreadable file, an unknown key, or a value of the wrong type or out of range.
+
+    Examples
+    --------
+    >>> from bhr.model.robotfile import default_robot_file
+    >>> spec = load_robot_file(default_robot_file())   # the thesis's robot
+    >>> spec.name, spec.robot.modules, spec.robot.module_length
+    ('thesis', 5, 10.0)
+    """
     p = Path(path)
     where = str(p)
     suffix = p.suffix.lower()

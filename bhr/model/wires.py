@@ -28,7 +28,30 @@ THERMAL_KEYS: dict[str, tuple[str, float, float]] = {
 
 @dataclass(frozen=True)
 class ThermalParams:
-    """The wire's four datasheet figures and the PWM period (see the module docstring)."""
+    """The wire's four datasheet figures and the PWM period (see the module docstring).
+
+    The defaults are the thesis's wires; each figure is checked against the range of :data:`THERMAL_KEYS`
+    (a :class:`~bhr.BhrError` otherwise).
+
+    Parameters
+    ----------
+    contract_ms : float, default 1000.0
+        Full-power time that contracts a cold wire, ms (50 ... 20000).
+    hold_duty : float, default 0.6
+        PWM duty that holds a contracted wire, a fraction (0.3 ... 0.95).
+    relax_ms : float, default 1100.0
+        Time a contracted wire takes to relax unpowered, ms (50 ... 60000).
+    max_full_ms : float, default 3000.0
+        Longest full-power time from cold, the board's overheat limit, ms (60 ... 60000; more than 1.5 x
+        ``contract_ms``).
+    period_ms : int, default 20
+        PWM period of the hold drive, whole ms (5 ... 100).
+
+    Examples
+    --------
+    >>> ThermalParams().duty   # the hold duty the board applies: 12 ms on in a 20 ms period
+    0.6
+    """
 
     contract_ms: float = 1000.0
     hold_duty: float = 0.6

@@ -151,8 +151,8 @@ class SolveResult:
     orientation_error_deg : float or None
         Angle between the last module and the wanted tip direction, deg; None when none was asked for.
     codes : list of int, optional
-        One code per module (0-16, ``docs/conventions.md``), base first, for the solvers that respect the
-        binary actuators; None for a continuous solver.
+        One code per module (0, 3, 6, 9, 12 or 15, ``docs/conventions.md``), base first, for the solvers
+        that respect the binary actuators; None for a continuous solver.
     extra : dict of str to object, optional
         A solver's own figures about the solve.
     success : bool or None, optional
