@@ -191,6 +191,31 @@ def animate(result: "FollowResult", path: str | os.PathLike[str], stride: int | 
     frames). ``progress(done, total)`` is called after each frame. The file
     is written atomically: an interrupted render leaves nothing behind and
     replaces nothing.
+
+    Parameters
+    ----------
+    result : FollowResult
+        A run, as :func:`bhr.follow` returns it.
+    path : str or os.PathLike
+        The file: ``.gif`` (Pillow) or ``.mp4`` (needs the ffmpeg program).
+    stride : int, optional
+        Draw every ``stride``-th step (and always the last), 1 or more; default the smallest that keeps
+        the animation at 300 frames or fewer.
+    fps : int, default 20
+        Frames per second, 1 to 50.
+    progress : callable ``progress(done, total)``, optional
+        Called after each frame with the frames drawn and the frames in all.
+
+    Returns
+    -------
+    Animation
+        What was written: ``path``, ``format`` (``"gif"`` or ``"mp4"``), ``frames``, ``stride``, ``steps``
+        (the 0-based run steps drawn) and ``bytes`` (the file's size).
+
+    Raises
+    ------
+    BhrError
+        A file that is not .gif or .mp4, .mp4 without ffmpeg, or a ``stride`` or ``fps`` out of range.
     """
     fmt = check_target(path)
     if isinstance(fps, bool) or not isinstance(fps, int) or not 1 <= fps <= 50:

@@ -15,7 +15,19 @@ __all__ = ["clearance_figure"]
 
 
 def clearance_figure(result: "FollowResult") -> Figure:
-    """Smallest clearance to the lumen wall at each step (mm); below zero the wall is touched."""
+    """Smallest clearance to the lumen wall at each step (mm); below zero the wall is touched.
+
+    Parameters
+    ----------
+    result : FollowResult
+        A run along a trajectory with a lumen (``result.clearance`` is not None).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        One panel: the smallest clearance of the robot's points and modules (mm) against trajectory step
+        (1-based), its minimum marked; ``bhr follow`` saves it as ``clearance.png``.
+    """
     cl = result.clearance
     assert cl is not None, "clearance_figure needs a trajectory with a lumen"
     steps = np.arange(1, result.steps + 1)

@@ -129,13 +129,53 @@ def error_figure(result: "FollowResult", kind: str) -> Figure:
 
     Every panel has its step numbers, the tolerance line and its worst step
     circled, both named in the panel's legend.
+
+    Parameters
+    ----------
+    result : FollowResult
+        A run, as :func:`bhr.follow` returns it.
+    kind : {"position", "orientation", "global"}
+        Which error: of each point, mm (n+1 panels, base first); of each module's direction, deg (n panels);
+        or the thesis's global error of each module, w_pos e_pos / tol_pos + w_ori e_ori / tol_ori, no unit.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        One panel per point or module, trajectory step (1-based) on x; ``bhr follow`` saves them as
+        ``position_errors.png``, ``orientation_errors.png`` and ``global_errors.png``.
+
+    Raises
+    ------
+    ValueError
+        An unknown ``kind``.
+
+    Examples
+    --------
+    >>> import bhr
+    >>> fig = error_figure(bhr.follow(bhr.trajectory("line", length=20)), "orientation")
+    >>> [ax.get_title() for ax in fig.axes if ax.get_visible()][::4], fig.axes[0].get_ylabel()
+    (['First module (base)', 'Fifth module (tip)'], 'orientation error (deg)')
     """
     data = _error_data(result, kind)
     return _ErrorGrid(result, *_error_grid_shape(data.shape[1])).fill(kind)
 
 
 def body_figure(result: "FollowResult") -> Figure:
-    """Position error of the body behind the head: the largest over its points, and its last point."""
+    """Position error of the body behind the head: the largest over its points, and its last point.
+
+    The head's largest point error is drawn beside it, with the tolerance and each one's worst step.
+
+    Parameters
+    ----------
+    result : FollowResult
+        A run with a body, as ``bhr.follow(..., body_modules=M)`` or ``reach="cecum"`` returns it.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        One panel: position error (mm) against trajectory step (1-based); ``bhr follow`` saves it as
+        ``body_errors.png``.
+    """
     b = result.body
     assert b is not None, "body_figure needs a run with a body (follow(..., body_modules=M))"
     steps = np.arange(1, result.steps + 1)

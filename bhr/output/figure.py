@@ -83,7 +83,26 @@ TEXT_RENDERING: dict[Any, Any] = {"text.hinting": "none"}
 
 
 def save_figure(fig: Figure, path: str | os.PathLike[str], dpi: int = 110, compress: int | None = None) -> Path:
-    """Save ``fig`` atomically as PNG (or SVG/PDF by extension); ``compress``: a PNG's zlib level."""
+    """Save ``fig`` atomically as PNG (or SVG/PDF by extension); ``compress``: a PNG's zlib level.
+
+    The file appears whole or not at all (written beside it, then renamed into place).
+
+    Parameters
+    ----------
+    fig : matplotlib.figure.Figure
+        The figure.
+    path : str or os.PathLike
+        The file: ``.svg`` and ``.pdf`` are written in those formats, anything else as PNG.
+    dpi : int, default 110
+        Dots per inch of a PNG.
+    compress : int, optional
+        A PNG's zlib level, 0 (none) to 9; default matplotlib's.
+
+    Returns
+    -------
+    pathlib.Path
+        The path written.
+    """
     p = Path(path)
     fmt = p.suffix.lower().lstrip(".") if p.suffix.lower() in FIGURE_FORMATS else "png"
     kw: dict[str, Any] = {}

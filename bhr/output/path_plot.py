@@ -40,6 +40,23 @@ def path_figure(result: "FollowResult", step: int | None = None) -> Figure:
     The lumen's wall is drawn where the trajectory has a lumen, start and end
     are marked, and when the robot is small beside the path an inset (3-D: a
     second panel) zooms on it. The canvas takes the shape of the path.
+
+    Parameters
+    ----------
+    result : FollowResult
+        A run, as :func:`bhr.follow` returns it.
+    step : int, optional
+        The 0-based step whose pose is drawn; default the last.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        The path (mm) with the robot's discs at ``step``; ``bhr follow`` saves it as ``path.png``.
+
+    Raises
+    ------
+    BhrError
+        A ``step`` outside the run.
     """
     i = _check_step(result, result.steps - 1 if step is None else step)
     only = None if step is None else i  # a figure of one chosen step: that step's wall contacts, not every step's
@@ -129,7 +146,37 @@ def path_figure(result: "FollowResult", step: int | None = None) -> Figure:
 
 def chain_figure(initial: np.ndarray, final: np.ndarray, target: Sequence[float], radius: float | None = None,
                  title: str = "") -> Figure:
-    """Initial and final chain of one solve (thesis Figs. 5.8-5.22): 2D when all lies in z = 0."""
+    """Initial and final chain of one solve (thesis Figs. 5.8-5.22): 2D when all lies in z = 0.
+
+    Parameters
+    ----------
+    initial : numpy.ndarray, shape (n+1, 3)
+        The chain before the solve, base first, mm (drawn grey and dashed).
+    final : numpy.ndarray, shape (n+1, 3)
+        The chain after the solve, base first, mm.
+    target : sequence of float, shape (3,)
+        The target, mm (a green cross).
+    radius : float, optional
+        The disc radius, mm: the final chain is drawn with its discs; None or 0 draws it as a line.
+    title : str, optional
+        The figure's title.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        One panel, mm on its axes; ``bhr solve --plot`` saves it.
+
+    Examples
+    --------
+    >>> import bhr
+    >>> from bhr.model import CHAPTER5_ROBOT
+    >>> from bhr.solvers import Chain
+    >>> start = Chain.straight(CHAPTER5_ROBOT.replace(modules=10), (0, 1, 0)).points
+    >>> res = bhr.solve([3, 9, 0], modules=10)
+    >>> fig = chain_figure(start, res.points, [3, 9, 0], title="one solve")
+    >>> fig.axes[0].get_title()
+    'one solve'
+    """
     t = np.asarray(target, dtype=np.float64)
     allpts = np.vstack([initial, final, t[None]])
     planar = bool(np.all(np.abs(allpts[:, 2]) < 1e-12))

@@ -29,7 +29,23 @@ def run_plot_names(result: "FollowResult", step: int | None = None) -> list[str]
 def save_run_plots(result: "FollowResult", out_dir: str | os.PathLike[str], step: int | None = None) -> list[Path]:
     """Write a run's figures into ``out_dir``: the three error figures, the path view (``path.png``, or with the
     robot at 1-based ``step``, ``path-stepK.png``) and, where the run has them, the body's errors and the
-    lumen clearance."""
+    lumen clearance.
+
+    Parameters
+    ----------
+    result : FollowResult
+        A run, as :func:`bhr.follow` returns it.
+    out_dir : str or os.PathLike
+        An existing folder to write the PNGs into.
+    step : int, optional
+        The 1-based step whose pose the path view shows (``path-stepK.png``); default the last (``path.png``).
+
+    Returns
+    -------
+    list of pathlib.Path
+        The files written: ``position_errors.png``, ``orientation_errors.png``, ``global_errors.png``, the
+        path view, then ``body_errors.png`` and ``clearance.png`` where the run has them.
+    """
     out = Path(out_dir)
     files = []
     grids: dict[tuple[int, int], _ErrorGrid] = {}  # the three error figures share one grid where their panels fit

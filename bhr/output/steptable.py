@@ -70,7 +70,18 @@ def format_steps_csv(result: "FollowResult") -> str:
 
 def write_run_files(result: "FollowResult", out_dir: "str | os.PathLike[str]") -> None:
     """A run's files as ``bhr follow`` writes them, into ``out_dir``: ``run.json`` (``bhr replay``), the per-step
-    table and, for binary solvers, ``codes.csv`` (``bhr plan``, ``bhr stream``)."""
+    table and, for binary solvers, ``codes.csv`` (``bhr plan``, ``bhr stream``).
+
+    A robot moved by its wires also gets ``poses.npz``, every pose it went through (docs/locomotion.md).
+    Each file appears whole or not at all.
+
+    Parameters
+    ----------
+    result : FollowResult
+        A run, as :func:`bhr.follow` returns it.
+    out_dir : str or os.PathLike
+        An existing folder to write the files into.
+    """
     from pathlib import Path
 
     from bhr.model.codes import format_codes_csv

@@ -101,6 +101,25 @@ def view_figure(result, contacts: Sequence[np.ndarray] | None = None, title: str
 
     Plain dicts, not ``plotly.graph_objects``: validating hundreds of frames of hundreds of points
     took most of the time of building a long run's view.
+
+    Parameters
+    ----------
+    result : FollowResult
+        A run, as :func:`bhr.follow` returns it.
+    contacts : sequence of numpy.ndarray, each shape (K, 3), optional
+        Per step, the points (mm) to mark as contacts; default where bhr's geometric clearance finds the
+        robot touching the wall.
+    title : str, optional
+        The page's title; default one naming the trajectory and the solver.
+    most : int, default 150
+        At most this many steps are frames (every k-th step, and always the last).
+
+    Returns
+    -------
+    dict of str to object
+        ``{"data": [...], "layout": {...}, "frames": [...]}``, plotly's figure JSON: the path, the lumen's
+        wall, the contacts and the robot (mm), one frame per shown step; ``plotly.graph_objects.Figure(d)``
+        builds the figure.
     """
     tr = result.trajectory
     N = result.steps
@@ -247,6 +266,21 @@ def view_html(result, contacts: Sequence[np.ndarray] | None = None, title: str |
     geometric clearance finds the robot touching the wall). The page is written here from the
     figure's plain JSON and plotly's own plotly.js, as ``plotly.io.to_html`` writes it, without
     importing plotly.io (most of the time the page took; tests/unit/test_view.py compares the two).
+
+    Parameters
+    ----------
+    result : FollowResult
+        A run, as :func:`bhr.follow` returns it.
+    contacts : sequence of numpy.ndarray, each shape (K, 3), optional
+        Per step, the points (mm) to mark as contacts; default where bhr's geometric clearance finds the
+        robot touching the wall.
+    title : str, optional
+        The page's title; default one naming the trajectory and the solver.
+
+    Returns
+    -------
+    str
+        The HTML page, plotly.js included: it opens offline in any browser.
     """
     fig = view_figure(result, contacts, title)
     plot = _PAGE_PLOT.format(id=DIV_ID, data=_script_json(fig["data"]), layout=_script_json(fig["layout"]),
@@ -257,7 +291,25 @@ def view_html(result, contacts: Sequence[np.ndarray] | None = None, title: str |
 
 def save_view(result, folder: str | Path, contacts: Sequence[np.ndarray] | None = None,
               name: str = VIEW_NAME) -> Path:
-    """Write :func:`view_html` into ``folder`` as ``name``; return its path."""
+    """Write :func:`view_html` into ``folder`` as ``name``; return its path.
+
+    Parameters
+    ----------
+    result : FollowResult
+        A run, as :func:`bhr.follow` returns it.
+    folder : str or pathlib.Path
+        An existing folder.
+    contacts : sequence of numpy.ndarray, each shape (K, 3), optional
+        Per step, the points (mm) to mark as contacts; default where bhr's geometric clearance finds the
+        robot touching the wall.
+    name : str, default "view.html"
+        The file's name.
+
+    Returns
+    -------
+    pathlib.Path
+        The page written (whole or not at all).
+    """
     from bhr.output.atomic import write_text
 
     path = Path(folder) / name

@@ -181,7 +181,31 @@ def plot_pose(robot: "Robot", codes: Sequence[int], path: str | os.PathLike[str]
               title: str | None = None) -> Figure:
     """A figure of ``robot``'s pose for ``codes`` (one per module, base first), the robot straight along +X from the
     origin as :meth:`bhr.model.Robot.fk` puts it (``bhr fk --plot``); with ``path`` (.png, .svg or .pdf) it is also
-    written there."""
+    written there.
+
+    Parameters
+    ----------
+    robot : Robot
+        The robot: modules n, module length (mm), alpha (deg), disc radius (mm).
+    codes : sequence of int, shape (n,)
+        One code per module, base first (0, 3, 6, 9, 12 or 15).
+    path : str or os.PathLike, optional
+        A file to save the figure to as well.
+    title : str, optional
+        The figure's title; default one naming the modules, their length and the disc radius.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        The chain and its discs in 3-D, mm, with each module's frame.
+
+    Examples
+    --------
+    >>> from bhr.model import Robot
+    >>> fig = plot_pose(Robot(modules=3), [3, 0, 15])
+    >>> len(fig.axes) >= 1
+    True
+    """
     from bhr.model.robot import base_frame
 
     points, frames = robot.fk(codes)
