@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import importlib
 import inspect
+import re
+from pathlib import Path
 
 import pytest
 from numpydoc.docscrape import get_doc_object
@@ -85,3 +87,25 @@ def test_a_public_name_is_the_same_object_every_time(name):
     module = importlib.import_module(namespace)
     first, second = getattr(module, attr), getattr(module, attr)
     assert first is second and not inspect.ismodule(second)
+
+
+def test_the_docs_name_the_public_api():
+    """docs/model.md's table of the API names exactly the four namespaces and each one's ``__all__``."""
+    text = (Path(__file__).resolve().parents[2] / "docs" / "model.md").read_text(encoding="utf-8")
+    section = text.split("## The Python API", 1)[1].split("\n## ", 1)[0]
+    rows = re.findall(r"^\| `(bhr[a-z.]*)` \| (.+) \|$", section, flags=re.MULTILINE)
+    assert sorted(ns for ns, _ in rows) == sorted(NAMESPACES)
+    for namespace, names in rows:
+        module = importlib.import_module(namespace)
+        assert set(re.findall(r"`([A-Za-z_0-9]+)`", names)) == set(module.__all__), namespace
+
+
+@pytest.mark.parametrize("namespace", [pytest.param(n, marks=pytest.mark.xfail(
+    strict=True, reason="bhr.solvers has no __dir__: dir() lists its imports and not its lazy names"))
+    if n == "bhr.solvers" else n for n in NAMESPACES])
+def test_dir_shows_the_api(namespace):
+    """``dir()`` of a public namespace shows its API: the names of ``__all__`` (and, for ``bhr``, the three
+    public subpackages), nothing internal."""
+    module = importlib.import_module(namespace)
+    subpackages = {"model", "output", "solvers"} if namespace == "bhr" else set()
+    assert set(dir(module)) == set(module.__all__) | subpackages
