@@ -75,7 +75,24 @@ class Chain:
     @classmethod
     def straight(cls, robot: Robot, direction: Sequence[float] | np.ndarray = (1, 0, 0),
                  origin: Sequence[float] | np.ndarray = (0, 0, 0), tip_at_origin: bool = False) -> "Chain":
-        """A straight chain along ``direction``; local axes from :func:`bhr.model.robot.base_frame`."""
+        """A straight chain along ``direction``; local axes from :func:`bhr.model.robot.base_frame`.
+
+        Parameters
+        ----------
+        robot : Robot
+            Gives the number of modules n and their length, mm.
+        direction : sequence of float, shape (3,), default (1, 0, 0)
+            The direction the chain runs along from its base (any length).
+        origin : sequence of float, shape (3,), default (0, 0, 0)
+            The base point, mm; with ``tip_at_origin`` the tip's.
+        tip_at_origin : bool, default False
+            Put the tip, not the base, at ``origin`` (follow-the-leader's start: the robot behind the path).
+
+        Returns
+        -------
+        Chain
+            ``points`` (n+1, 3) mm, base first, and the tilt axes (2, n, 3) of a straight robot.
+        """
         pts = straight_chain(robot.modules, robot.module_length, direction, origin, tip_at_origin)
         fr = base_frame(direction)
         axes = np.stack([pts[:-1] + fr[0], pts[:-1] + fr[1]])
@@ -86,10 +103,23 @@ class Chain:
         return self.points.shape[0] - 1
 
     def copy(self) -> "Chain":
+        """A copy with its own arrays.
+
+        Returns
+        -------
+        Chain
+            The same points and axes, copied.
+        """
         return Chain(self.points.copy(), self.axes.copy())
 
     def base_frame(self) -> np.ndarray:
-        """Frame (rows x, y, z) of the joint at the base: module 1's local axes and direction."""
+        """Frame (rows x, y, z) of the joint at the base: module 1's local axes and direction.
+
+        Returns
+        -------
+        numpy.ndarray, shape (3, 3)
+            Rows x, y (the base module's tilt axes) and z (its direction), unit vectors.
+        """
         z = self.points[1] - self.points[0]
         x = self.axes[0, 0] - self.points[0]
         y = self.axes[1, 0] - self.points[0]
@@ -100,6 +130,18 @@ class Chain:
 
         Module 1 keeps its local axes; the axes of modules 2..n are reset to
         those of a straight robot along the base module's direction.
+
+        Parameters
+        ----------
+        feed : float
+            How far the robot advances, mm.
+        module_length : float
+            The length of one module, mm.
+
+        Returns
+        -------
+        Chain
+            The advanced chain (this one is left as it is).
         """
         out = self.copy()
         advance_kernel(out.points, out.axes[0], out.axes[1], float(feed), float(module_length))
@@ -191,11 +233,25 @@ class SolveResult:
                 f"{self.iterations} iterations{codes})")
 
     def to_json(self) -> str:
-        """:meth:`to_dict` as a JSON string."""
+        """:meth:`to_dict` as a JSON string.
+
+        Returns
+        -------
+        str
+            The ``bhr solve --json`` document.
+        """
         return json.dumps(self.to_dict())
 
     def to_dict(self) -> dict[str, Any]:
-        """The ``bhr solve --json`` document (its keys are a documented contract, docs/commands.md)."""
+        """The ``bhr solve --json`` document (its keys are a documented contract, docs/commands.md).
+
+        Returns
+        -------
+        dict of str to object
+            ``bhr_version``, ``iterations``, ``position_error`` (mm), ``orientation_error_deg`` (deg or
+            None), ``points`` ((n+1) lists of 3 floats, mm, base first), ``codes`` (n ints or None),
+            ``success``, ``status`` and ``reason``: plain Python values, ready for :mod:`json`.
+        """
         import sys
 
         return {
@@ -265,13 +321,39 @@ class Solver(ABC):
     @abstractmethod
     def solve(self, chain: Chain, target: np.ndarray, tip_direction: np.ndarray | None = None,
               context: FollowContext | None = None) -> SolveResult:
-        """Move ``chain`` toward ``target`` (and the tip along ``tip_direction``, if given)."""
+        """Move ``chain`` toward ``target`` (and the tip along ``tip_direction``, if given).
+
+        A subclass implements it; the base class judges what it returns (``success``, ``status``,
+        ``reason``, :meth:`judge`).
+
+        Parameters
+        ----------
+        chain : Chain
+            The chain to start from (not changed: the result holds a new one).
+        target : numpy.ndarray, shape (3,)
+            The point the tip should reach, mm.
+        tip_direction : numpy.ndarray, shape (3,), optional
+            The wanted direction of the last module (a unit vector); None leaves the tip free.
+        context : FollowContext, optional
+            The path and step when driven by follow-the-leader; None for one solve.
+
+        Returns
+        -------
+        SolveResult
+            The new chain, iterations, errors (mm, deg), codes for a binary solver, and the verdict.
+        """
 
     def reset(self) -> None:  # noqa: B027 (a default, not abstract: most solvers keep no state)
         """Forget any state kept between steps of a run (default: none)."""
 
     def prepare(self, trajectory: Any) -> None:  # noqa: B027 (a default: most solvers need nothing)
-        """Look at the whole trajectory (e.g. its lumen) before a run follows it (default: nothing)."""
+        """Look at the whole trajectory (e.g. its lumen) before a run follows it (default: nothing).
+
+        Parameters
+        ----------
+        trajectory : Trajectory
+            The path the run is about to follow, at the robot's feed.
+        """
 
     def follow_kernel(self, path: np.ndarray, dirs: np.ndarray, chain: Chain, out_points: np.ndarray,
                       out_iters: np.ndarray, pe: np.ndarray, oe: np.ndarray, codes: np.ndarray) -> bool | None:
@@ -285,6 +367,30 @@ class Solver(ABC):
         :func:`bhr.kinematics.leader.advance_kernel`, giving the same numbers
         as the step-by-step driver. Return whether ``codes`` were filled, or
         ``None`` to be driven step by step through :meth:`solve`.
+
+        Parameters
+        ----------
+        path : numpy.ndarray, shape (N, 3)
+            The trajectory's points, mm, float64.
+        dirs : numpy.ndarray, shape (N-1, 3)
+            Unit vectors from each point to the next.
+        chain : Chain
+            The starting chain (n modules, tip at the path's start).
+        out_points : numpy.ndarray, shape (N, n+1, 3)
+            Filled: the chain at each step, mm, base first.
+        out_iters : numpy.ndarray of int64, shape (N,)
+            Filled: the iterations of each step.
+        pe : numpy.ndarray, shape (N, n+1)
+            Filled: each point's position error at each step, mm.
+        oe : numpy.ndarray, shape (N, n)
+            Filled: each module's orientation error at each step, deg.
+        codes : numpy.ndarray of int64, shape (N, n)
+            Filled by a binary solver: the codes at each step.
+
+        Returns
+        -------
+        bool or None
+            Whether ``codes`` were filled; None (the default) when the solver has no compiled loop.
         """
         return None
 
@@ -305,7 +411,23 @@ class Solver(ABC):
 
     def judge(self, result: SolveResult, start: Chain | None = None, target: Any = None) -> SolveResult:
         """Set ``result``'s ``success``, ``status`` and ``reason`` from the robot's tolerances (mm, and degrees
-        when aimed); ``start`` and ``target`` tell an unreachable target from one the solver fell short of."""
+        when aimed); ``start`` and ``target`` tell an unreachable target from one the solver fell short of.
+
+        Parameters
+        ----------
+        result : SolveResult
+            The solve to judge; changed in place.
+        start : Chain, optional
+            The chain the solve started from (its length is the robot's reach).
+        target : array_like, shape (3,), optional
+            The target, mm.
+
+        Returns
+        -------
+        SolveResult
+            ``result``, with ``success``, ``status`` (``"reached"``, ``"not reached"``, ``"out of reach"``)
+            and ``reason`` set.
+        """
         r = self.robot
         ori = result.orientation_error_deg
         pos_ok = result.position_error_mm <= r.tol_pos
