@@ -346,11 +346,32 @@ class Colon:
         return self.pieces[0][4]
 
     def section_ends(self) -> np.ndarray:
-        """Arc length (mm) at which each of :data:`SECTIONS` ends."""
+        """Arc length (mm) at which each of :data:`SECTIONS` ends.
+
+        Returns
+        -------
+        numpy.ndarray, shape (8,)
+            The arc length from the anus where each section ends, mm, in the order of :data:`SECTIONS`.
+        """
         return np.cumsum([self.section_lengths[s] for s in SECTIONS])
 
     def sample(self, feed: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Points every ``feed`` mm of arc length, the lumen diameter at each, and each one's section index."""
+        """Points every ``feed`` mm of arc length, the lumen diameter at each, and each one's section index.
+
+        Parameters
+        ----------
+        feed : float
+            The spacing along the centerline, mm.
+
+        Returns
+        -------
+        points : numpy.ndarray, shape (N, 3)
+            The centerline from the anus (the origin), mm.
+        lumen : numpy.ndarray, shape (N,)
+            The lumen's diameter at each point, mm.
+        section : numpy.ndarray of int, shape (N,)
+            Each point's index in :data:`SECTIONS`.
+        """
         assert self.smooth is not None
         total = self.length
         count = int(math.floor(total / feed + 1e-9)) + 1

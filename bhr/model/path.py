@@ -105,7 +105,18 @@ class Trajectory:
     lumen_model: str = "ct"
 
     def section_at(self, i: int) -> str | None:
-        """The name of the section point ``i`` lies in, or None."""
+        """The name of the section point ``i`` lies in, or None.
+
+        Parameters
+        ----------
+        i : int
+            A 0-based point index.
+
+        Returns
+        -------
+        str or None
+            The section's name (``"sigmoid"``, ...), or None when the path has no section there.
+        """
         for name, a, b in self.sections:
             if a <= i < b:
                 return name
@@ -148,6 +159,21 @@ class Trajectory:
         Built-ins and trajectory files are drawn again at ``feed``; other points
         are resampled along the polyline (:func:`resample_polyline`), the lumen
         with them.
+
+        Parameters
+        ----------
+        feed : float
+            The new spacing, mm (> 0).
+
+        Returns
+        -------
+        Trajectory
+            The path with points ``feed`` mm apart (and its lumen and sections with them).
+
+        Raises
+        ------
+        BhrError
+            A feed that is not a positive number, or longer than the path.
         """
         if not (isinstance(feed, (int, float)) and not isinstance(feed, bool) and math.isfinite(feed) and feed > 0):
             raise BhrError(f"feed must be a positive number of mm, got {feed!r}")

@@ -176,7 +176,30 @@ class Robot:
         return 2.0 * self.robot_radius * math.sin(math.radians(self.alpha))
 
     def replace(self, **changes: Any) -> "Robot":
-        """A copy with some fields changed (validated again)."""
+        """A copy with some fields changed (validated again).
+
+        Giving ``alpha`` alone drops the stroke and lever it replaces.
+
+        Parameters
+        ----------
+        **changes
+            New values of the robot's fields (``modules``, ``module_length`` mm, ``alpha`` deg, ...).
+
+        Returns
+        -------
+        Robot
+            The changed robot (this one is frozen and left as it is).
+
+        Raises
+        ------
+        BhrError
+            An unknown field, or a value of the wrong type or out of range.
+
+        Examples
+        --------
+        >>> Robot(modules=3).replace(modules=4)
+        Robot(modules=4)
+        """
         data = {f.name: getattr(self, f.name) for f in fields(self)}
         if "alpha" in changes and "stroke" not in changes:
             data["stroke"] = data["lever"] = None
@@ -211,7 +234,20 @@ class Robot:
 
     def to_dict(self) -> dict[str, Any]:
         """The robot as run.json, the report and the sweeps write it: its fields (the option names of the
-        registry, as on the command line and in robot files), then ``feed`` and ``min_turn_radius``."""
+        registry, as on the command line and in robot files), then ``feed`` and ``min_turn_radius``.
+
+        Returns
+        -------
+        dict of str to object
+            Each field's name to its value (lengths mm, angles deg), then ``feed`` (mm) and
+            ``min_turn_radius`` (mm).
+
+        Examples
+        --------
+        >>> d = Robot().to_dict()
+        >>> d["modules"], d["feed"], round(d["min_turn_radius"], 2)
+        (5, 2.0, 57.15)
+        """
         d = asdict(self)
         d["feed"] = self.feed
         d["min_turn_radius"] = self.min_turn_radius

@@ -104,6 +104,18 @@ class ThermalParams:
         return self.theta_full * (1.0 - math.exp(-self.max_full_ms / self.tau_ms))
 
     def describe(self) -> str:
+        """The figures in one line of words, as ``bhr plan`` prints them.
+
+        Returns
+        -------
+        str
+            The four figures (ms, duty) and the thermal model's derived time constant and states.
+
+        Examples
+        --------
+        >>> ThermalParams().describe().split(", relaxation")[0]
+        'contraction 1000 ms at full power, hold duty 60% (12/20 ms)'
+        """
         return (f"contraction {self.contract_ms:g} ms at full power, hold duty {self.duty:.0%} "
                 f"({self.hold_ticks}/{self.period_ms} ms), relaxation {self.relax_ms:g} ms, full-power limit "
                 f"{self.max_full_ms:g} ms (tau {self.tau_ms:.0f} ms, theta_relax {self.theta_relax:.3f}, "

@@ -38,17 +38,44 @@ def _public_callables() -> list[str]:
     return names
 
 
+def _public_methods() -> list[str]:
+    """``namespace.Class.method`` for every public method (plain, class or static) a public class defines."""
+    names, seen = [], set()
+    for name in _public_callables():
+        cls = _resolve(*name.rsplit(".", 1))
+        if not inspect.isclass(cls) or cls in seen:
+            continue
+        seen.add(cls)
+        for attr, value in vars(cls).items():
+            func = value.__func__ if isinstance(value, (classmethod, staticmethod)) else value
+            if not attr.startswith("_") and inspect.isfunction(func):
+                names.append(f"{name}.{attr}")
+    return names
+
+
 def test_the_public_namespaces_list_their_callables():
     """The list below is really collected: the four namespaces offer some 55 callables, the main ones among them."""
     names = _public_callables()
     assert len(names) >= 50
     assert {"bhr.follow", "bhr.solve", "bhr.model.Robot", "bhr.solvers.get_solver", "bhr.output.error_figure"} <= set(names)
+    methods = _public_methods()
+    assert {"bhr.Robot.fk", "bhr.Trajectory.at_feed", "bhr.Solver.solve", "bhr.solvers.Chain.straight"} <= set(methods)
 
 
 @pytest.mark.parametrize("name", _public_callables())
 def test_public_callable_has_a_numpydoc_docstring(name):
     # the object itself, not its dotted name: numpydoc would load ``bhr.output.animate`` as the module of that name
     obj = _resolve(*name.rsplit(".", 1))
+    errors = [f"{code}: {message}" for code, message in validate(get_doc_object(obj))["errors"] if code in CHECKS]
+    assert not errors, f"{name}: " + "; ".join(errors)
+
+
+@pytest.mark.parametrize("name", _public_methods())
+def test_public_method_has_a_numpydoc_docstring(name):
+    """The methods a user calls on the public classes (``Robot.fk``, ``Trajectory.at_feed``, ``Solver.solve``,
+    ...) are documented the same way."""
+    namespace, cls, attr = name.rsplit(".", 2)
+    obj = getattr(_resolve(namespace, cls), attr)
     errors = [f"{code}: {message}" for code, message in validate(get_doc_object(obj))["errors"] if code in CHECKS]
     assert not errors, f"{name}: " + "; ".join(errors)
 
