@@ -125,7 +125,7 @@ def format_codes_csv(codes: np.ndarray | Sequence[Sequence[int]], steps: Sequenc
     Returns
     -------
     str
-        The CSV text: a header ``step,m1,...,mn`` and one line per step, ``\n`` line ends.
+        The CSV text: a header ``step,m1,...,mn`` and one line per step, each ending in a newline.
 
     Raises
     ------

@@ -483,6 +483,8 @@ def trajectory(name_or_path: str | os.PathLike[str], feed: float = 2.0, **params
         the (N, 3) points wherever numpy expects an array. :func:`bhr.follow` draws it again at the robot's feed when
         that differs.
 
+    Examples
+    --------
     >>> t = trajectory("line", length=10)
     >>> t.shape, t.feed
     ((6, 3), 2.0)

@@ -226,6 +226,8 @@ class Robot:
         frames : ndarray, shape (n, 3, 3)
             Each module's frame, rows x, y, z.
 
+        Examples
+        --------
         >>> pts, frames = Robot(modules=2).fk([0, 0])
         >>> pts[-1].tolist()
         [20.0, 0.0, 0.0]
@@ -233,8 +235,10 @@ class Robot:
         return forward_kinematics(self, codes, base, frame)
 
     def to_dict(self) -> dict[str, Any]:
-        """The robot as run.json, the report and the sweeps write it: its fields (the option names of the
-        registry, as on the command line and in robot files), then ``feed`` and ``min_turn_radius``.
+        """The robot as run.json, the report and the sweeps write it.
+
+        Its fields (the option names of the registry, as on the command line and in robot files), then
+        ``feed`` and ``min_turn_radius``.
 
         Returns
         -------

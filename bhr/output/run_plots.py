@@ -27,9 +27,10 @@ def run_plot_names(result: "FollowResult", step: int | None = None) -> list[str]
 
 
 def save_run_plots(result: "FollowResult", out_dir: str | os.PathLike[str], step: int | None = None) -> list[Path]:
-    """Write a run's figures into ``out_dir``: the three error figures, the path view (``path.png``, or with the
-    robot at 1-based ``step``, ``path-stepK.png``) and, where the run has them, the body's errors and the
-    lumen clearance.
+    """Write a run's figures into ``out_dir``, as ``bhr follow`` does.
+
+    The three error figures, the path view (``path.png``, or with the robot at 1-based ``step``,
+    ``path-stepK.png``) and, where the run has them, the body's errors and the lumen clearance.
 
     Parameters
     ----------

@@ -69,8 +69,10 @@ def format_steps_csv(result: "FollowResult") -> str:
 
 
 def write_run_files(result: "FollowResult", out_dir: "str | os.PathLike[str]") -> None:
-    """A run's files as ``bhr follow`` writes them, into ``out_dir``: ``run.json`` (``bhr replay``), the per-step
-    table and, for binary solvers, ``codes.csv`` (``bhr plan``, ``bhr stream``).
+    """Write a run's files into ``out_dir``, as ``bhr follow`` does.
+
+    ``run.json`` (``bhr replay``), the per-step table ``steps.csv`` and, for binary solvers,
+    ``codes.csv`` (``bhr plan``, ``bhr stream``).
 
     A robot moved by its wires also gets ``poses.npz``, every pose it went through (docs/locomotion.md).
     Each file appears whole or not at all.

@@ -179,9 +179,10 @@ def check_path(path: str | os.PathLike[str]) -> None:
 
 def plot_pose(robot: "Robot", codes: Sequence[int], path: str | os.PathLike[str] | None = None,
               title: str | None = None) -> Figure:
-    """A figure of ``robot``'s pose for ``codes`` (one per module, base first), the robot straight along +X from the
-    origin as :meth:`bhr.model.Robot.fk` puts it (``bhr fk --plot``); with ``path`` (.png, .svg or .pdf) it is also
-    written there.
+    """A figure of ``robot``'s pose for ``codes`` (one per module, base first), as ``bhr fk --plot`` draws it.
+
+    The robot runs straight along +X from the origin as :meth:`bhr.model.Robot.fk` puts it; with ``path``
+    (.png, .svg or .pdf) the figure is also written there.
 
     Parameters
     ----------

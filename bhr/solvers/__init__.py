@@ -123,8 +123,10 @@ def canonical(name: str) -> str:
 
 
 def check_solver_name(name: Any, where: str = "") -> str:
-    """The registered name of solver ``name`` (aliases such as ``seed`` give ``thesis``), or one BhrError line
-    with did-you-mean and the names to choose from (``where`` prefixed).
+    """The registered name of solver ``name``, or one BhrError line with a did-you-mean.
+
+    Aliases such as ``seed`` give ``thesis``; an unknown name is refused with the names to choose from
+    (``where`` prefixed).
 
     bhr's own solvers are known without loading them (:mod:`bhr.solvers.names`);
     the solver modules load only when another package adds solvers and the

@@ -410,8 +410,10 @@ class Solver(ABC):
         cls.solve = solve  # type: ignore[method-assign]
 
     def judge(self, result: SolveResult, start: Chain | None = None, target: Any = None) -> SolveResult:
-        """Set ``result``'s ``success``, ``status`` and ``reason`` from the robot's tolerances (mm, and degrees
-        when aimed); ``start`` and ``target`` tell an unreachable target from one the solver fell short of.
+        """Set ``result``'s ``success``, ``status`` and ``reason`` from the robot's tolerances.
+
+        Position in mm, and orientation in degrees when aimed; ``start`` and ``target`` tell an unreachable
+        target from one the solver fell short of.
 
         Parameters
         ----------

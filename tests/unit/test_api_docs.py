@@ -14,10 +14,10 @@ from numpydoc.validate import validate
 #: The public namespaces; everything else in bhr is internal.
 NAMESPACES = ("bhr", "bhr.model", "bhr.output", "bhr.solvers")
 
-#: numpydoc's checks held here: a docstring exists (GL08) with a summary (SS01), every parameter of the signature is
-#: documented (PR01) with a type (PR04), no documented parameter is unknown (PR02), and a function that returns a value
-#: has a Returns section (RT01).
-CHECKS = {"GL08", "SS01", "PR01", "PR02", "PR04", "RT01"}
+#: numpydoc's checks held here: a docstring exists (GL08) with a one-line summary (SS01, SS06), every parameter of the
+#: signature is documented (PR01) with a type (PR04), no documented parameter is unknown (PR02), and a function that
+#: returns a value has a Returns section (RT01) that says what it is (RT03).
+CHECKS = {"GL08", "SS01", "SS06", "PR01", "PR02", "PR04", "RT01", "RT03"}
 
 
 def _resolve(namespace: str, attr: str) -> object:
