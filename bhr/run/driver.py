@@ -625,9 +625,10 @@ def follow(points: Any, solver: str | Solver = "thesis", robot: Robot | None = T
     FollowResult
         The run, N steps of a head of n modules: ``points`` (N, n+1, 3) the solved pose at each step, mm,
         base first; ``codes`` (N, n) int, or None for a continuous solver; ``point_errors_mm`` (N, n+1)
-        mm; ``orientation_errors_deg`` (N, n) deg; ``iterations`` (N,); ``summary`` the thesis's
-        figures; ``clearance`` against the lumen (None without one); ``success``, ``status`` and
-        ``reason`` the verdict in words; ``warnings`` what was warned about the path.
+        mm; ``orientation_errors_deg`` (N, n) deg; ``iterations`` (N,); ``body`` the modules behind the
+        head (None without ``body_modules`` or ``reach``); ``summary`` the thesis's figures;
+        ``clearance`` against the lumen (None without one); ``success``, ``status`` and ``reason`` the
+        verdict in words; ``warnings`` what was warned about the path.
 
     Raises
     ------
