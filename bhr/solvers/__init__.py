@@ -47,6 +47,11 @@ ENTRY_POINTS = "bhr.solvers"
 _loaded = False
 
 
+def __dir__() -> list[str]:
+    """The supported API: the names of ``__all__``."""
+    return sorted(__all__)
+
+
 def _load_all() -> None:
     global _loaded
     if _loaded:

@@ -127,9 +127,7 @@ def test_the_docs_name_the_public_api():
         assert set(re.findall(r"`([A-Za-z_0-9]+)`", names)) == set(module.__all__), namespace
 
 
-@pytest.mark.parametrize("namespace", [pytest.param(n, marks=pytest.mark.xfail(
-    strict=True, reason="bhr.solvers has no __dir__: dir() lists its imports and not its lazy names"))
-    if n == "bhr.solvers" else n for n in NAMESPACES])
+@pytest.mark.parametrize("namespace", NAMESPACES)
 def test_dir_shows_the_api(namespace):
     """``dir()`` of a public namespace shows its API: the names of ``__all__`` (and, for ``bhr``, the three
     public subpackages), nothing internal."""
