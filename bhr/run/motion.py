@@ -32,8 +32,10 @@ while the old ones relax. The planner (:func:`plan_motion`) tries every
 strategy of :data:`STRATEGIES` on every module length and keeps the one whose
 joints stay clearest of the wall; the chosen motion is then written densely
 enough that no joint moves more than :data:`MAX_JOINT_STEP_MM` between two
-poses, and every pose is scored with the lumen clearance kernels (points and
-modules, :func:`bhr.run.clearance.clearance_chain_kernel`).
+poses, and every pose is scored against the lumen (joints and modules,
+:func:`score_kernel`; a joint or module that cannot have come nearer the wall
+than its step's worst or its pose's worst since it was last scored is not
+scored again).
 """
 from __future__ import annotations
 
@@ -45,7 +47,6 @@ from numba import njit
 
 from bhr.model.tube import Tube, locate_kernel, search_window
 from bhr.model.wires import DEFAULT_THERMAL, ThermalParams, transform_thetas
-from bhr.run.clearance import clearance_chain_kernel
 from bhr.settings.errors import BhrError
 
 __all__ = ["Strategy", "STRATEGIES", "MotionRun", "plan_motion", "wires_motion", "motion_report", "contraction",
@@ -60,6 +61,12 @@ FEED_MM_S = 5.0
 PLAN_SAMPLES = 8
 #: Modules whose samples come this close to the wall (mm) are refined (golden section) when scored.
 NEAR_MM = 2.0
+#: How fast a point's clearance can change as it moves (mm per mm): 1 for the distance to the centerline, more where
+#: the lumen's radius changes along it (the nearest centerline point can run ahead of the point in a bend).
+LIPSCHITZ = 2.0
+#: Golden-section steps refining a module's worst sample (its bracket of two sample spacings shrinks 0.618 per step).
+REFINE_STEPS = 8
+_GOLD = (math.sqrt(5.0) - 1.0) / 2.0
 #: Robot points (poses x joints) a run keeps to write poses.npz (about 48 bytes each with the tilts and codes).
 POSE_POINTS_LIMIT = 6_000_000
 #: The file beside run.json with every pose of the whole robot.
@@ -316,15 +323,124 @@ def end_state(t, tsw, delay, th0, s0, on_old, on_new, prm, th_out, s_out):
 
 
 @njit(cache=True)
+def _clear_along(pts, j, m, Z, fj, t, tube_c, tube_r, S, BC, BR, w, radius, res):
+    """Clearance of the point at fraction t along module m of pose j (searched around where its ends were found)."""
+    px = pts[j, m, 0] + t * (pts[j, m + 1, 0] - pts[j, m, 0])
+    py = pts[j, m, 1] + t * (pts[j, m + 1, 1] - pts[j, m, 1])
+    pz = pts[j, m, 2] + t * (pts[j, m + 1, 2] - pts[j, m, 2])
+    lo, hi = search_window(tube_c.shape[0], fj[m] + t * (fj[m + 1] - fj[m]), w)
+    locate_kernel(tube_c, tube_r, S, BC, BR, radius, lo, hi, Z[m] + t * (Z[m + 1] - Z[m]), px, py, pz, res)
+    return res[1] - radius - res[0]
+
+
+@njit(cache=True)
+def _sample_module(pts, j, m, E, Z, fj, cj, L, tube_c, tube_r, S, BC, BR, w, radius, sample, near, res):
+    """Module m of pose j sampled at most ``sample`` mm apart (ends and middle when both ends are far from the
+    wall), its ends' clearances ``cj`` (scored as joints): (smallest clearance, where along it (0..1), the
+    samples' spacing (0..1), where its scored part starts (0..1), crossed flag); inf when no part of it is in the
+    colon."""
+    ns = int(math.ceil(L / sample))
+    if E[m] >= 0.0 and min(cj[m], cj[m + 1]) - 0.5 * L > near + 1.0:
+        ns = 2  # both ends far from the wall: so is all of it (the clearance is 1-Lipschitz); ends and middle
+    lo_t = 0.0 if E[m] >= 0.0 else (-E[m]) / (E[m + 1] - E[m])
+    v = np.inf
+    bt = 0.0
+    crossed = 0.0
+    for k in range(ns + 1):
+        t = k / ns
+        if t < lo_t:
+            continue
+        if k == 0:
+            c = cj[m]
+        elif k == ns:
+            c = cj[m + 1]
+        else:
+            c = _clear_along(pts, j, m, Z, fj, t, tube_c, tube_r, S, BC, BR, w, radius, res)
+            if res[3] > crossed:
+                crossed = res[3]
+        if c < v:
+            v = c
+            bt = t
+    return v, bt, 1.0 / ns, lo_t, crossed
+
+
+@njit(cache=True)
+def _refine_module(pts, j, m, Z, fj, tube_c, tube_r, S, BC, BR, w, radius, v, bt, dt, lo_t, res):
+    """The worst sample ``v`` at ``bt`` of module m refined by a golden-section search between its neighbours
+    (``dt`` apart): (the smallest clearance found, where along the module (0..1), crossed flag)."""
+    a = max(bt - dt, lo_t)
+    b = min(bt + dt, 1.0)
+    crossed = 0.0
+    x1 = b - _GOLD * (b - a)
+    x2 = a + _GOLD * (b - a)
+    f1 = _clear_along(pts, j, m, Z, fj, x1, tube_c, tube_r, S, BC, BR, w, radius, res)
+    crossed = max(crossed, res[3])
+    f2 = _clear_along(pts, j, m, Z, fj, x2, tube_c, tube_r, S, BC, BR, w, radius, res)
+    crossed = max(crossed, res[3])
+    for _ in range(REFINE_STEPS):
+        if f1 < f2:
+            b = x2
+            x2 = x1
+            f2 = f1
+            x1 = b - _GOLD * (b - a)
+            f1 = _clear_along(pts, j, m, Z, fj, x1, tube_c, tube_r, S, BC, BR, w, radius, res)
+        else:
+            a = x1
+            x1 = x2
+            f1 = f2
+            x2 = a + _GOLD * (b - a)
+            f2 = _clear_along(pts, j, m, Z, fj, x2, tube_c, tube_r, S, BC, BR, w, radius, res)
+        crossed = max(crossed, res[3])
+    if f1 < v:
+        v = f1
+        bt = x1
+    if f2 < v:
+        v = f2
+        bt = x2
+    return v, bt, crossed
+
+
+@njit(cache=True)
+def _dist(pts, j, i, ref):
+    return math.sqrt((pts[j, i, 0] - ref[i, 0]) ** 2 + (pts[j, i, 1] - ref[i, 1]) ** 2
+                     + (pts[j, i, 2] - ref[i, 2]) ** 2)
+
+
+@njit(cache=True)
+def _joint(pts, j, i, st, Z, w, tube_c, tube_r, S, BC, BR, radius, res, cj, fj, pc, jref, jref_c, jref_f, jhave):
+    """Joint i of pose j scored: its clearance into cj (where it was found into fj), its step's table and its
+    reference for the bound; returns the crossed flag."""
+    lo, hi = search_window(tube_c.shape[0], Z[i], w)
+    locate_kernel(tube_c, tube_r, S, BC, BR, radius, lo, hi, Z[i], pts[j, i, 0], pts[j, i, 1], pts[j, i, 2], res)
+    cj[i] = res[1] - radius - res[0]
+    fj[i] = res[2]
+    if not (pc[st, i] <= cj[i]):
+        pc[st, i] = cj[i]
+    jhave[i] = True
+    jref_c[i] = cj[i]
+    jref_f[i] = fj[i]
+    for b in range(3):
+        jref[i, b] = pts[j, i, b]
+    return res[3]
+
+
+@njit(cache=True)
 def score_kernel(pts, xs, steps, L, z, back, tube_c, tube_r, S, BC, BR, pre, w, radius, sample, near, pc, mc, mwhere,
                  low):
     """Clearance of poses (points (K, M+1, 3) tail first at insertions xs, of 0-based path steps ``steps``),
     folded into the steps' tables: each joint's smallest (N, M+1) and each module's smallest along it (N, M), and
     where (N, M, 3); ``low`` (K) each pose's smallest. A module is sampled at most ``sample`` mm apart (at its
-    ends and middle when both ends are more than half its length plus ``near`` + 1 mm from the wall); one whose
-    samples come within ``near`` mm of the wall is scored by :func:`clearance_chain_kernel` (its worst sample
-    refined by a golden-section search). Points outside the anus are not scored. Returns 1.0 when a point crossed
-    into another pass of a loop (:func:`bhr.model.tube.locate_kernel`)."""
+    ends and middle when both ends are more than half its length plus ``near`` + 1 mm from the wall); the worst
+    sample of one that comes within ``near`` mm of the wall is refined by a golden-section search between its
+    neighbours. Points outside the anus are not scored. Returns 1.0 when a point crossed into another pass of a
+    loop (:func:`bhr.model.tube.locate_kernel`).
+
+    The clearance is 1-Lipschitz: a joint (module) that moved ``d`` mm since it was last scored is at least its
+    clearance then minus ``d`` (a module: minus the larger of its ends' moves). A joint or module whose bound
+    cannot lower its step's table entry nor the pose's smallest is not scored again (nor one that might have
+    crossed into another pass: deeper than the robot's radius, until a crossing is found). The tables and
+    ``low`` are those of scoring everything, at a fraction of the cost while the joints switch and the feeder
+    waits."""
     K = pts.shape[0]
     J = pts.shape[1]
     M = J - 1
@@ -333,92 +449,106 @@ def score_kernel(pts, xs, steps, L, z, back, tube_c, tube_r, S, BC, BR, pre, w, 
     cj = np.empty(J)
     fj = np.empty(J)
     res = np.empty(4)
-    Q = np.empty((2, 3))
-    E2 = np.empty(2)
-    Z2 = np.empty(2)
-    p2 = np.empty(2)
-    m2 = np.empty(1)
-    w2 = np.empty((1, 3))
-    f2 = np.empty(2)
+    # the last scoring of each joint (where, its clearance, where it was found) and module (its ends, a lower bound)
+    jref = np.empty((J, 3))
+    jref_c = np.empty(J)
+    jref_f = np.empty(J)
+    jhave = np.zeros(J, dtype=np.bool_)
+    mref_b = np.empty((J, 3))  # row m + 1: module m's front end at its last scoring
+    mref_a = np.empty((M, 3))
+    mref_c = np.empty(M)
+    mhave = np.zeros(M, dtype=np.bool_)
+    jlb = np.empty(J)  # this pose: a joint's lower bound when it was not scored (inf: scored)
+    mlb = np.empty(M)  # a module's lower bound when not scored or not refined (inf: done)
+    mv = np.empty(M)  # a sampled but unrefined module: its worst sample, where, the spacing, its scored part
+    mt = np.empty(M)
+    mdt = np.empty(M)
+    mlo = np.empty(M)
     crossed = 0.0
-    NT = tube_c.shape[0]
     for j in range(K):
         st = steps[j]
         best = np.inf
         for i in range(J):
+            jlb[i] = np.inf
             q = xs[j] / L - M + i
             Z[i] = _hint_at(z, back, q)
             if q < 0.0:
                 E[i] = -1.0
                 cj[i] = np.nan
                 fj[i] = Z[i]
+                jhave[i] = False
                 continue
             E[i] = Z[i] - pre
-            lo, hi = search_window(NT, Z[i], w)
-            locate_kernel(tube_c, tube_r, S, BC, BR, radius, lo, hi, Z[i], pts[j, i, 0], pts[j, i, 1], pts[j, i, 2],
-                          res)
-            cj[i] = res[1] - radius - res[0]
-            fj[i] = res[2]
-            if res[3] > crossed:
-                crossed = res[3]
-            if cj[i] < best:
-                best = cj[i]
-            if not (pc[st, i] <= cj[i]):
-                pc[st, i] = cj[i]
-        for m in range(M):
-            if E[m] < 0.0 and E[m + 1] < 0.0:
-                continue
-            # sampled along the module (the scored part), around where its ends were found
-            ns = int(math.ceil(L / sample))
-            if E[m] >= 0.0 and min(cj[m], cj[m + 1]) - 0.5 * L > near + 1.0:
-                ns = 2  # both ends far from the wall: so is all of it (the clearance is 1-Lipschitz); ends and middle
-            lo_t = 0.0 if E[m] >= 0.0 else (-E[m]) / (E[m + 1] - E[m])
-            v = np.inf
-            bt = 0.0
-            for k in range(ns + 1):
-                t = k / ns
-                if t < lo_t:
+            if jhave[i]:
+                lb = jref_c[i] - LIPSCHITZ * _dist(pts, j, i, jref)
+                if pc[st, i] <= lb and (lb > -radius):
+                    jlb[i] = lb
+                    cj[i] = lb
+                    fj[i] = jref_f[i]
                     continue
-                px = pts[j, m, 0] + t * (pts[j, m + 1, 0] - pts[j, m, 0])
-                py = pts[j, m, 1] + t * (pts[j, m + 1, 1] - pts[j, m, 1])
-                pz = pts[j, m, 2] + t * (pts[j, m + 1, 2] - pts[j, m, 2])
-                zz = fj[m] + t * (fj[m + 1] - fj[m])
-                lo, hi = search_window(NT, zz, w)
-                locate_kernel(tube_c, tube_r, S, BC, BR, radius, lo, hi, Z[m] + t * (Z[m + 1] - Z[m]), px, py, pz,
-                              res)
-                if res[3] > crossed:
-                    crossed = res[3]
-                c = res[1] - radius - res[0]
-                if c < v:
-                    v = c
-                    bt = t
-            if v == np.inf:
-                continue
-            wx = pts[j, m, 0] + bt * (pts[j, m + 1, 0] - pts[j, m, 0])
-            wy = pts[j, m, 1] + bt * (pts[j, m + 1, 1] - pts[j, m, 1])
-            wz = pts[j, m, 2] + bt * (pts[j, m + 1, 2] - pts[j, m, 2])
-            if v <= near:
+            crossed = max(crossed, _joint(pts, j, i, st, Z, w, tube_c, tube_r, S, BC, BR, radius, res, cj, fj, pc,
+                                          jref, jref_c, jref_f, jhave))
+            best = min(best, cj[i])
+        for phase in range(2):
+            for m in range(M):
+                if phase == 0:
+                    mlb[m] = np.inf
+                    if E[m] < 0.0 and E[m + 1] < 0.0:
+                        continue
+                    if E[m] >= 0.0 and mhave[m]:
+                        lb = mref_c[m] - LIPSCHITZ * max(_dist(pts, j, m, mref_a), _dist(pts, j, m + 1, mref_b))
+                        if mc[st, m] <= lb and (lb > -radius):
+                            mlb[m] = lb
+                            mv[m] = np.nan
+                            continue
+                    v = np.nan
+                elif not (mlb[m] < best):  # what was not scored, or not refined, and could be this pose's smallest
+                    continue
+                else:
+                    v = mv[m]
+                if np.isnan(v):
+                    for i in range(m, m + 2):  # its ends scored as joints
+                        if jlb[i] < np.inf:
+                            crossed = max(crossed, _joint(pts, j, i, st, Z, w, tube_c, tube_r, S, BC, BR, radius,
+                                                          res, cj, fj, pc, jref, jref_c, jref_f, jhave))
+                            jlb[i] = np.inf
+                            best = min(best, cj[i])
+                    v, bt, dt, lo_t, c = _sample_module(pts, j, m, E, Z, fj, cj, L, tube_c, tube_r, S, BC, BR, w,
+                                                        radius, sample, near, res)
+                    crossed = max(crossed, c)
+                    if v == np.inf:
+                        continue
+                    if v <= near and phase == 0 and mc[st, m] <= v - 0.5 * dt * L and (
+                            v - 0.5 * dt * L > -radius):
+                        # its refinement cannot lower the table: only, perhaps, this pose's smallest
+                        mlb[m] = v - 0.5 * dt * L
+                        mv[m], mt[m], mdt[m], mlo[m] = v, bt, dt, lo_t
+                        best = min(best, v)
+                        continue
+                else:
+                    bt, dt, lo_t = mt[m], mdt[m], mlo[m]
+                if v <= near:
+                    v, bt, c = _refine_module(pts, j, m, Z, fj, tube_c, tube_r, S, BC, BR, w, radius, v, bt, dt, lo_t,
+                                              res)
+                    crossed = max(crossed, c)
+                mlb[m] = np.inf
+                best = min(best, v)
+                if not (mc[st, m] <= v):
+                    mc[st, m] = v
+                    for b in range(3):
+                        mwhere[st, m, b] = pts[j, m, b] + bt * (pts[j, m + 1, b] - pts[j, m, b])
+                mhave[m] = E[m] >= 0.0
+                mref_c[m] = v - 0.5 * dt * L  # the module's least clearance (at most half a spacing from a sample)
                 for b in range(3):
-                    Q[0, b] = pts[j, m, b]
-                    Q[1, b] = pts[j, m + 1, b]
-                E2[0] = E[m]
-                E2[1] = E[m + 1]
-                Z2[0] = Z[m]
-                Z2[1] = Z[m + 1]
-                c = clearance_chain_kernel(tube_c, tube_r, S, BC, BR, pre, w, radius, Q, E2, Z2, sample, p2, m2, w2,
-                                           f2)
-                if c > crossed:
-                    crossed = c
-                if m2[0] < v:
-                    v = m2[0]
-                    wx, wy, wz = w2[0, 0], w2[0, 1], w2[0, 2]
-            if v < best:
-                best = v
-            if not (mc[st, m] <= v):
-                mc[st, m] = v
-                mwhere[st, m, 0] = wx
-                mwhere[st, m, 1] = wy
-                mwhere[st, m, 2] = wz
+                    mref_a[m, b] = pts[j, m, b]
+                    mref_b[m + 1, b] = pts[j, m + 1, b]
+            if phase == 0:
+                for i in range(J):
+                    if jlb[i] < best:
+                        crossed = max(crossed, _joint(pts, j, i, st, Z, w, tube_c, tube_r, S, BC, BR, radius, res,
+                                                      cj, fj, pc, jref, jref_c, jref_f, jhave))
+                        jlb[i] = np.inf
+                        best = min(best, cj[i])
         low[j] = best if best < np.inf else np.nan
     return crossed
 
