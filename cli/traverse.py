@@ -19,7 +19,13 @@ OUTPUTS = ("designs.csv", "runs.csv", "study.json", "passrate.png", "worst-colon
               help="The colons every design must get through: generated colons' seeds such as 1-100 (or 1:100, as "
                    "in a grid) or 1,4,10-20; real for every shipped real colon, or real colons by name (gca:VHM); "
                    "or a mix: real,1-100.")
-@click.option("--solver", "solvers", multiple=True, metavar="NAME", help="Solver (repeat for several) [thesis].")
+@click.option("--solver", "solvers", multiple=True, metavar="NAME",
+              help="Solver (repeat for several) [lumen; thesis with --head-only].")
+@click.option("--head-only", is_flag=True,
+              help="Judge the head alone (the modules the solver moves, no body behind them; solver thesis unless "
+                   "--solver): the earlier study, labelled 'head only'. Without it every design is the whole robot "
+                   "reaching the cecum (--grid reach=cecum), moved by its wires with --solver lumen, unless the grid "
+                   "gives body_modules or reach.")
 @click.option("--target-pass", type=Share(), default=0.95, show_default=True, metavar="SHARE",
               help="Share of colons a design must traverse without touching the wall.")
 @study_options("./bhr-out/traverse-<hash of the settings>/")
@@ -31,10 +37,12 @@ OUTPUTS = ("designs.csv", "runs.csv", "study.json", "passrate.png", "worst-colon
 @click.option("--physics", is_flag=True, help="Replay the answer's worst colon as the physical robot against the wall "
               "(worst-colon-physics.json, worst-colon-force.png; docs/physics.md).")
 @guarded
-def traverse(grid, colons, solvers, target_pass, robot_file, out_dir, force, jobs, scheduler, hx, hy, no_plot, title,
-             max_wall_force, physics):
+def traverse(grid, colons, solvers, head_only, target_pass, robot_file, out_dir, force, jobs, scheduler, hx, hy,
+             no_plot, title, max_wall_force, physics):
     """Follow a population of anatomical colons with every design of a grid.
 
+    The robot judged is the whole robot, long enough to reach the cecum and moved by its wires (the robot
+    as it can be built, --solver lumen), unless --head-only or the grid sizes it (body_modules, reach).
     A colon is traversed when the robot touches its wall at no step (with --max-wall-force: when the physical
     robot, replayed against the wall, reaches the cecum with the wall's load never above N). Prints,
     per design, the share of colons traversed, the worst and median
@@ -46,7 +54,8 @@ def traverse(grid, colons, solvers, target_pass, robot_file, out_dir, force, job
     index.html. The exit status is 1 when any run failed.
 
     \b
-        bhr traverse --grid alpha=10:30:5 --grid module_length=5,6,8,10 --colons 1-100
+        bhr traverse --grid alpha=20,25,30 --colons 1-20 --jobs 2
+        bhr traverse --head-only --grid alpha=10:30:5 --grid module_length=5,6,8,10 --colons 1-100
     """
     from bhr.solvers import check_solver_name
 
@@ -54,10 +63,12 @@ def traverse(grid, colons, solvers, target_pass, robot_file, out_dir, force, job
     solvers = tuple(check_solver_name(name, "traverse") for name in solvers)
     from bhr.settings.errors import BhrError
     from bhr.studies.sweep import parse_grid_option
-    from bhr.studies.traverse import build_study, format_study, heatmap_axes, run_study, write_study
+    from bhr.studies.traverse import (build_study, format_study, heatmap_axes, robot_axes, run_study,
+                                      write_study)
 
     check_executor(jobs, scheduler)
-    study = build_study([parse_grid_option(g) for g in grid], colons, solvers=solvers or ("thesis",),
+    axes, solvers = robot_axes([parse_grid_option(g) for g in grid], solvers, head_only)
+    study = build_study(axes, colons, solvers=solvers,
                         target=target_pass, robot_file=robot_file, title=title or "bhr traverse",
                         max_wall_force=max_wall_force)
     heatmap_axes(study, hx, hy)  # refuse unknown heat-map axes before running

@@ -155,6 +155,22 @@ class Study:
         return len(self.sweep)
 
 
+def robot_axes(grid: Sequence[tuple[str, tuple[Any, ...]]], solvers: Sequence[str], head_only: bool = False
+               ) -> tuple[list[tuple[str, tuple[Any, ...]]], tuple[str, ...]]:
+    """The grid and solvers of ``bhr traverse``'s robot: by default the whole robot, long enough to reach the
+    cecum (``reach=cecum``), with the lumen solver (so moved by its wires, the robot as it can be built) unless
+    solvers are given; ``head_only``: the head alone (the modules the solver moves), with the thesis's solver
+    unless solvers are given. A grid that sizes the robot (``body_modules``, ``reach``) is kept as it is."""
+    axes = list(grid)
+    sized = [k for k, _ in axes if k in ("body_modules", "reach")]
+    if head_only and sized:
+        raise BhrError(f"--head-only judges the head alone, but the grid sizes the whole robot ({sized[0]}); drop "
+                       f"--head-only or --grid {sized[0]}=...")
+    if not head_only and not sized:
+        axes.append(("reach", ("cecum",)))
+    return axes, tuple(solvers) or (("thesis",) if head_only else ("lumen",))
+
+
 def build_study(grid: Sequence[tuple[str, tuple[Any, ...]]], colons: Sequence[int | str] | str, *,
                 solvers: Sequence[str] = ("thesis",), target: float = 0.95, robot_file: str | None = None,
                 title: str = "bhr traverse", where: str = "traverse", max_wall_force: float | None = None) -> Study:
@@ -559,8 +575,8 @@ def format_study(result: StudyResult, count: int = 8) -> list[str]:
     keys = study.design_keys
     judged = sorted({d.get("robot_judged") or robot_judged(study, d) for d in result.designs})
     lines.append(f"Robot judged: {'; '.join(judged)}" + (
-        " -- the modules the solver moves, no body behind them (--grid reach=cecum --grid locomotion=trail judges "
-        "the whole robot)" if all(j.startswith("head only") for j in judged) else ""))
+        " -- the modules the solver moves, no body behind them (without --head-only: the whole robot to the cecum, "
+        "moved by its wires)" if all(j.startswith("head only") for j in judged) else ""))
     lines.append("Ranked by " + ", then ".join(RANKING[:4]) + "; 'ranked by': what puts a design ahead of the next")
     head = "  ".join(f"{k:>13}" for k in keys)
     proc = any(d.get("median_procedure_time_s") is not None for d in result.designs)

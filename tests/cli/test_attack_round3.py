@@ -38,7 +38,7 @@ def _living(session: int) -> list[str]:
 COMMANDS = {
     "follow": ["follow", "--traj", "colon"],
     "sweep": ["sweep", "--traj", "colon", "--grid", "modules=3:12", "--grid", "alpha=6:15", "--jobs", "2"],
-    "traverse": ["traverse", "--colons", "1-4", "--jobs", "2"],
+    "traverse": ["traverse", "--head-only", "--colons", "1-4", "--jobs", "2"],
     "report": ["report", "--file", "b.toml", "--jobs", "2"],
 }
 #: The readiness line of each command's work, and its line once some of it is done.
@@ -271,7 +271,7 @@ def read_only_folder(tmp_path):
     ["plan", "--codes", "c.csv", "--csv", "ro/p.csv", "--no-plots"],
     ["report", "--file", "b.toml", "--out", "ro/rep", "--jobs", "1"],
     ["sweep", "--traj", "line", "--grid", "alpha=5", "--out", "ro/sw", "--jobs", "1"],
-    ["traverse", "--colons", "1", "--out", "ro/tv", "--jobs", "1", "--no-plots"],
+    ["traverse", "--head-only", "--colons", "1", "--out", "ro/tv", "--jobs", "1", "--no-plots"],
     ["compare", "--traj", "line", "--solver", "thesis", "--solver", "fabrik", "--out", "ro/c", "--no-plots"],
 ], ids=["follow-out", "follow-json", "solve-plot", "fk-json", "export", "plan-csv", "report", "sweep", "traverse",
         "compare"])

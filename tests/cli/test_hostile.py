@@ -87,7 +87,7 @@ def test_a_folder_holding_an_input_is_refused(tmp_path):
 
 
 def test_traverse_writes_through_the_output_folder(tmp_path):
-    args = ["traverse", "--grid", "alpha=20,25", "--colons", "1", "--jobs", "1", "--out", "t"]
+    args = ["traverse", "--head-only", "--grid", "alpha=20,25", "--colons", "1", "--jobs", "1", "--out", "t"]
     r = bhr(*args, cwd=tmp_path)
     assert r.returncode in (0, 1) and "Traceback" not in r.stderr, r.stderr
     man = json.loads((tmp_path / "t" / "manifest.json").read_text())
@@ -243,7 +243,7 @@ def test_a_full_disk_names_the_output_file(tmp_path):
     (["sweep", "--traj", "colon", "--grid", "modules=3:12", "--grid", "alpha=6:15", "--jobs", "2"],
      "Running 100 designs: 2/100"),  # workers busy
     (["report", "--file", "b.toml", "--jobs", "2"], "Running 4 runs: 1/4"),
-    (["traverse", "--colons", "1-8", "--jobs", "2"], ": 1/8"),
+    (["traverse", "--head-only", "--colons", "1-8", "--jobs", "2"], ": 1/8"),
 ], ids=["follow", "follow-anatomy", "sweep", "report", "traverse"])
 def test_ctrl_c_at_any_moment(tmp_path, args, ready):
     (tmp_path / "b.toml").write_text("".join(f'[[run]]\nname = "r{k}"\ntraj = "colon"\nmodules = {3 + k}\n'

@@ -47,7 +47,7 @@ def test_command_answers_the_question(small_study):
 
 
 def test_no_design_meets_a_target_nothing_reaches(tmp_path):
-    proc = run_cli("traverse", "--grid", "alpha=10", "--colons", "3", "--no-plots", "--out", "o", cwd=tmp_path)
+    proc = run_cli("traverse", "--head-only", "--grid", "alpha=10", "--colons", "3", "--no-plots", "--out", "o", cwd=tmp_path)
     assert proc.returncode == 0, proc.stderr
     s = follow_summary(3, "seed")
     assert s["wall_touch_steps"]  # the thesis robot touches this colon's wall
@@ -61,7 +61,7 @@ def test_no_design_meets_a_target_nothing_reaches(tmp_path):
 def test_progress_bar_on_a_terminal(tmp_path):
     master, slave = pty.openpty()
     try:
-        proc = subprocess.run(bhr_exe() + ["traverse", "--grid", "alpha=10", "--colons", "1-2", "--no-plots",
+        proc = subprocess.run(bhr_exe() + ["traverse", "--head-only", "--grid", "alpha=10", "--colons", "1-2", "--no-plots",
                                            "--jobs", "1", "--out", "o"], cwd=tmp_path, stdout=subprocess.PIPE,
                               stderr=slave, text=True, timeout=600, env=dict(os.environ, MPLBACKEND="Agg"))
         os.close(slave)
@@ -95,6 +95,7 @@ def test_progress_bar_on_a_terminal(tmp_path):
     (["--colons", "1", "--scheduler", "tcp://127.0.0.1:1"], "cannot connect to the Dask scheduler"),
     # --physics with --no-plots was silently skipped after the whole study ran
     (["--colons", "1", "--physics", "--no-plots"], "--physics replays the worst colon beside its figures"),
+    (["--colons", "1", "--head-only", "--grid", "body_modules=60"], "--head-only judges the head alone"),
 ])
 def test_bad_input_is_one_line_and_writes_nothing(tmp_path, args, msg):
     proc = run_cli("traverse", *args, "--out", "o", cwd=tmp_path, timeout=120)

@@ -26,7 +26,7 @@ from tests.conftest import bhr_exe
 
 PNG = b"\x89PNG\r\n\x1a\n"
 # one design that gets through these colons and one that does not (checked against bhr.follow below)
-SMALL = ["--solver", "seed", "--solver", "lumen", "--grid", "alpha=10,30", "--grid", "module_length=5",
+SMALL = ["--head-only", "--solver", "seed", "--solver", "lumen", "--grid", "alpha=10,30", "--grid", "module_length=5",
          "--colons", "3,7"]
 
 
@@ -295,6 +295,23 @@ def test_a_whole_robot_is_labelled_as_one():
     assert robot_judged(study, {"alpha": 25, "body_modules": 300}) == "whole robot (300 modules)"
     assert robot_judged(study, {"alpha": 25, "reach": "cecum"}) == "whole robot (to the cecum)"
     assert robot_judged(study, {"alpha": 25, "modules": 7}) == "head only (7 modules)"
+
+
+def test_the_default_robot_is_the_whole_robot_to_the_cecum_moved_by_its_wires():
+    """bhr traverse judges an endoscope: the whole robot reaching the cecum, with the lumen solver (whose whole robot
+    is moved by its wires); the head alone only when asked, and labelled."""
+    from bhr.studies.traverse import robot_axes, robot_judged
+
+    axes, solvers = robot_axes([("alpha", (20, 25))], ())
+    assert axes == [("alpha", (20, 25)), ("reach", ("cecum",))] and solvers == ("lumen",)
+    study = build_study(axes, "1", solvers=solvers)
+    assert {robot_judged(study, d) for d in ({"alpha": 20, "reach": "cecum"},)} == {"whole robot (to the cecum)"}
+    # a grid that sizes the robot is kept; the head alone when asked, with the thesis's solver
+    assert robot_axes([("body_modules", (60,))], ("lumen",)) == ([("body_modules", (60,))], ("lumen",))
+    assert robot_axes([("alpha", (10,))], (), head_only=True) == ([("alpha", (10,))], ("thesis",))
+    assert robot_judged(build_study([("alpha", (10,))], "1"), {"alpha": 10}) == "head only (5 modules)"
+    with pytest.raises(BhrError, match="--head-only judges the head alone"):
+        robot_axes([("reach", ("cecum",))], (), head_only=True)
 
 
 def test_the_pass_rate_map_shows_ties_by_their_tie_break_and_marks_the_best():
