@@ -426,7 +426,7 @@ def _joint(pts, j, i, st, Z, w, tube_c, tube_r, S, BC, BR, radius, res, cj, fj, 
 
 @njit(cache=True)
 def score_kernel(pts, xs, steps, L, z, back, tube_c, tube_r, S, BC, BR, pre, w, radius, sample, near, pc, mc, mwhere,
-                 low):
+                 low, bound=True):
     """Clearance of poses (points (K, M+1, 3) tail first at insertions xs, of 0-based path steps ``steps``),
     folded into the steps' tables: each joint's smallest (N, M+1) and each module's smallest along it (N, M), and
     where (N, M, 3); ``low`` (K) each pose's smallest. A module is sampled at most ``sample`` mm apart (at its
@@ -439,8 +439,8 @@ def score_kernel(pts, xs, steps, L, z, back, tube_c, tube_r, S, BC, BR, pre, w, 
     clearance then minus ``d`` (a module: minus the larger of its ends' moves). A joint or module whose bound
     cannot lower its step's table entry nor the pose's smallest is not scored again (nor one that might have
     crossed into another pass: deeper than the robot's radius, until a crossing is found). The tables and
-    ``low`` are those of scoring everything, at a fraction of the cost while the joints switch and the feeder
-    waits."""
+    ``low`` are those of scoring everything (``bound`` False: the reference), at a fraction of the cost while the
+    joints switch and the feeder waits."""
     K = pts.shape[0]
     J = pts.shape[1]
     M = J - 1
@@ -479,7 +479,7 @@ def score_kernel(pts, xs, steps, L, z, back, tube_c, tube_r, S, BC, BR, pre, w, 
                 jhave[i] = False
                 continue
             E[i] = Z[i] - pre
-            if jhave[i]:
+            if bound and jhave[i]:
                 lb = jref_c[i] - LIPSCHITZ * _dist(pts, j, i, jref)
                 if pc[st, i] <= lb and (lb > -radius):
                     jlb[i] = lb
@@ -495,7 +495,7 @@ def score_kernel(pts, xs, steps, L, z, back, tube_c, tube_r, S, BC, BR, pre, w, 
                     mlb[m] = np.inf
                     if E[m] < 0.0 and E[m + 1] < 0.0:
                         continue
-                    if E[m] >= 0.0 and mhave[m]:
+                    if bound and E[m] >= 0.0 and mhave[m]:
                         lb = mref_c[m] - LIPSCHITZ * max(_dist(pts, j, m, mref_a), _dist(pts, j, m + 1, mref_b))
                         if mc[st, m] <= lb and (lb > -radius):
                             mlb[m] = lb
@@ -518,7 +518,7 @@ def score_kernel(pts, xs, steps, L, z, back, tube_c, tube_r, S, BC, BR, pre, w, 
                     crossed = max(crossed, c)
                     if v == np.inf:
                         continue
-                    if v <= near and phase == 0 and mc[st, m] <= v - 0.5 * dt * L and (
+                    if bound and v <= near and phase == 0 and mc[st, m] <= v - 0.5 * dt * L and (
                             v - 0.5 * dt * L > -radius):
                         # its refinement cannot lower the table: only, perhaps, this pose's smallest
                         mlb[m] = v - 0.5 * dt * L
@@ -685,12 +685,13 @@ class MotionRun:
 def plan_motion(tube: Tube, radius: float, codes: np.ndarray, T: np.ndarray, back: int, z: np.ndarray, M: int,
                 L: float, feed: float, alpha_deg: float, start_point, start_direction, stop_mm: float, steps: int,
                 params: ThermalParams = DEFAULT_THERMAL, strategies: tuple[Strategy, ...] | None = None,
-                sample: float = 1.0) -> MotionRun:
+                sample: float = 1.0, bound: bool = True) -> MotionRun:
     """The whole robot of M rigid modules driven along the trail (``codes`` per vertex, vertices ``T`` with
     ``back`` rows before vertex 0 and their centerline hints ``z``) up to an insertion of ``stop_mm``.
 
     Each module length's switch is done by the strategy of ``strategies`` (default :data:`STRATEGIES`) that
     keeps the joints clearest of the wall (the first on a tie); one strategy alone is that strategy throughout.
+    ``bound`` False scores every joint and module of every pose (:func:`score_kernel`'s reference).
     """
     from bhr.model.robot import base_frame
 
@@ -795,7 +796,7 @@ def plan_motion(tube: Tube, radius: float, codes: np.ndarray, T: np.ndarray, bac
         steps0 = np.minimum(np.floor(xs / feed + 1e-6).astype(np.int64), N - 1)
         low = np.empty(times.shape[0])
         c = score_kernel(pts, xs, steps0, L, z, back, C, R, S, BC, BR, pre, w, float(radius), float(sample),
-                         NEAR_MM, pc, mc, mw, low)
+                         NEAR_MM, pc, mc, mw, low, bound)
         crossed = max(crossed, c)
         # each step's last pose
         last_of = np.flatnonzero(np.diff(np.append(steps0, -1)) != 0)
@@ -838,8 +839,8 @@ def plan_motion(tube: Tube, radius: float, codes: np.ndarray, T: np.ndarray, bac
 
 
 def wires_motion(traj, robot, solver, body_modules: int | None = None, reach: bool = False,
-                 strategies: tuple[Strategy, ...] | None = None, params: ThermalParams = DEFAULT_THERMAL
-                 ) -> tuple[MotionRun, np.ndarray, int, int, float]:
+                 strategies: tuple[Strategy, ...] | None = None, params: ThermalParams = DEFAULT_THERMAL,
+                 bound: bool = True) -> tuple[MotionRun, np.ndarray, int, int, float]:
     """The whole robot of ``body_modules`` (or, ``reach``, as many as reach the cecum) along ``traj`` (with a lumen)
     moved by its wires: (the motion, the trail's codes, the modules M, the 0-based step where the feeder stops, how
     far short of the path's end the tip stops in mm). ``solver``: the configured lumen solver (its planner
@@ -872,7 +873,8 @@ def wires_motion(traj, robot, solver, body_modules: int | None = None, reach: bo
     ztip = z[back + m] + (k / f) * (z[back + m + 1] - z[back + m])
     short = max(0.0, float(tube.points.shape[0] - tube.post - 1 - ztip) * float(tube.spacing))
     mo = plan_motion(tube, float(robot.robot_radius), tcodes, T, back, z, M, L, float(robot.feed), float(robot.alpha),
-                     traj.start_point, traj.start_direction, stop * float(robot.feed), N, params, strategies)
+                     traj.start_point, traj.start_direction, stop * float(robot.feed), N, params, strategies,
+                     bound=bound)
     return mo, tcodes, M, stop, short
 
 

@@ -212,3 +212,23 @@ def test_poses_file_keeps_its_contract(wires_run, tmp_path):
     assert d["t_s"].shape == (P,) and d["insertion_mm"].shape == (P,) and d["step"].shape == (P,)
     assert d["points_mm"].shape == (P, M + 1, 3) and d["tilts_rad"].shape == (P, M, 2)
     assert d["codes"].shape == (P, M) and set(np.unique(d["codes"])) <= set(VALID_CODES)
+
+
+def test_scoring_only_what_may_have_come_nearer_the_wall_gives_the_tables_of_scoring_everything():
+    """A joint or module is scored again only when it may have come nearer the wall than its step's or its pose's
+    worst since it was last scored (score_kernel's bound): every step's table and every pose's smallest are those
+    of scoring every joint and module of every pose."""
+    from bhr.model.robot import Robot
+    from bhr.run.motion import wires_motion
+    from bhr.solvers import get_solver
+
+    tr = bhr.trajectory("anatomy", seed=1)
+    robot = Robot(alpha=25.0, module_length=5.0)
+    solver = get_solver("lumen", robot)
+    fast = wires_motion(tr, robot, solver, 40)[0]
+    ref = wires_motion(tr, robot, solver, 40, bound=False)[0]
+    assert fast.points_mm.shape == ref.points_mm.shape and np.array_equal(fast.points_mm, ref.points_mm)
+    np.testing.assert_array_equal(fast.joint_clear, ref.joint_clear)
+    np.testing.assert_allclose(fast.module_clear, ref.module_clear, atol=1e-9)
+    np.testing.assert_allclose(fast.pose_clear, ref.pose_clear, atol=1e-9)
+    assert fast.crossed == ref.crossed
