@@ -92,6 +92,19 @@ def finish(p: subprocess.Popen, read: str = "", timeout: float = 300.0) -> tuple
 PROGRESS = __import__("re").compile(r"^.+: .*\b\d+ s$")
 
 
+FIRMWARE = REPO / "firmware"
+
+
+def make_firmware(*args: str, timeout: float = 600) -> subprocess.CompletedProcess:
+    """``make ARGS`` in firmware/ (output captured, text), one at a time across the parallel test workers: two
+    makes of one target at once would write the same object files."""
+    from filelock import FileLock
+
+    (FIRMWARE / "build").mkdir(exist_ok=True)
+    with FileLock(FIRMWARE / "build" / ".make.lock"):
+        return subprocess.run(["make", *args], capture_output=True, text=True, timeout=timeout)
+
+
 def snapshot(folder: Path) -> dict[str, tuple[int, int]]:
     """Names, sizes and mtimes of every file under ``folder`` (to prove nothing changed)."""
     out = {}
@@ -130,3 +143,28 @@ def pytest_collection_modifyitems(config, items):
 # Progress lines of long commands whose stderr is not a terminal come every 30 s: a test that pins what a command
 # writes to stderr must not depend on how fast this machine is, so they come once an hour unless a test asks.
 os.environ.setdefault("BHR_PROGRESS_INTERVAL", "3600")
+
+
+# ------------------------------------------------------------------ CPU seconds per test
+# BHR_TEST_CPU=FILE appends one CSV row per test: nodeid, layer, CPU seconds (user+sys of pytest and of the
+# processes it waited for, setup to teardown), wall seconds. CPU seconds hold on a busy machine where wall time
+# does not; tests/cpu_table.py sums the rows per layer (README, "Tests").
+_CPU_CSV = os.environ.get("BHR_TEST_CPU")
+
+
+def _cpu_seconds() -> float:
+    import resource
+
+    own, kids = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
+    return own.ru_utime + own.ru_stime + kids.ru_utime + kids.ru_stime
+
+
+if _CPU_CSV:
+    @pytest.hookimpl(hookwrapper=True)
+    def pytest_runtest_protocol(item, nextitem):
+        cpu, wall = _cpu_seconds(), time.monotonic()
+        yield
+        cpu, wall = _cpu_seconds() - cpu, time.monotonic() - wall
+        layer = next((m.name for m in item.iter_markers() if m.name in LAYERS), "")
+        with open(_CPU_CSV, "a") as f:  # one short write per row: rows of parallel workers do not interleave
+            f.write(f'"{item.nodeid}",{layer},{cpu:.3f},{wall:.3f}\n')

@@ -16,6 +16,8 @@ from pathlib import Path
 
 import pytest
 
+from tests.conftest import make_firmware
+
 from bhr.hardware import protocol as P
 
 REPO = Path(__file__).resolve().parents[2]
@@ -35,7 +37,7 @@ def need(tools: list[str]) -> None:
 @pytest.fixture(scope="module")
 def host_test_run():
     need(["make", "cc"])
-    r = subprocess.run(["make", "-C", str(FIRMWARE), "host-test"], capture_output=True, text=True, timeout=600)
+    r = make_firmware("-C", str(FIRMWARE), "host-test")
     return r
 
 

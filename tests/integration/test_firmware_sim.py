@@ -30,6 +30,8 @@ from pathlib import Path
 
 import pytest
 
+from tests.conftest import make_firmware
+
 from bhr.hardware import protocol as P
 from bhr.hardware.thermal import DEFAULT_THERMAL as THERMAL
 from bhr.model.codes import format_codes_csv, read_codes_csv
@@ -65,8 +67,7 @@ def built():
         if os.environ.get("CI"):
             pytest.fail(msg)
         pytest.skip(msg)
-    r = subprocess.run(["make", "-C", str(FIRMWARE), "all", "sim-build"], capture_output=True, text=True,
-                       timeout=600)
+    r = make_firmware("-C", str(FIRMWARE), "all", "sim-build")
     assert r.returncode == 0, r.stdout + r.stderr
     assert HARNESS.exists() and SIM_ELF.exists()
     return r

@@ -15,6 +15,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from tests.conftest import make_firmware
+
 from bhr.hardware import thermal as T
 
 REPO = Path(__file__).resolve().parents[2]
@@ -27,8 +29,7 @@ VALID = (0, 3, 6, 9, 12, 15)
 def host_exe():
     if shutil.which("make") is None or shutil.which("cc") is None:
         pytest.fail("the firmware's host build needs make and cc (Debian: build-essential)")
-    r = subprocess.run(["make", "-s", "-C", str(FIRMWARE), "build/host/test_host_m5"], capture_output=True,
-                       text=True, timeout=300)
+    r = make_firmware("-s", "-C", str(FIRMWARE), "build/host/test_host_m5", timeout=300)
     assert r.returncode == 0, r.stderr
     return FIRMWARE / "build" / "host" / "test_host_m5"
 

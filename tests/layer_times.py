@@ -1,0 +1,42 @@
+"""The suite's cost per layer, from the rows that BHR_TEST_CPU=FILE makes tests/conftest.py write (README, "Tests").
+
+    BHR_TEST_CPU=/tmp/cpu.csv bash tests/run     # one row per test: nodeid, layer, CPU seconds, wall seconds
+    python tests/layer_times.py /tmp/cpu.csv      # a Markdown table per layer; --top N lists the N costliest tests
+
+CPU seconds are user+sys of the test process and of the commands it started and waited for, from setup to
+teardown: they hold on a busy machine, where wall time does not.
+"""
+from __future__ import annotations
+
+import argparse
+import csv
+from collections import defaultdict
+
+LAYERS = ("unit", "thesis", "cli", "integration")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("csv", help="the file BHR_TEST_CPU named")
+    ap.add_argument("--top", type=int, default=0, help="also list the N tests of most CPU seconds")
+    args = ap.parse_args()
+    rows = [(r[0], r[1], float(r[2]), float(r[3])) for r in csv.reader(open(args.csv)) if r]
+    count: dict[str, int] = defaultdict(int)
+    cpu: dict[str, float] = defaultdict(float)
+    for _, layer, c, _w in rows:
+        count[layer] += 1
+        cpu[layer] += c
+    print("| layer | tests | CPU s | CPU s per test |")
+    print("| --- | ---: | ---: | ---: |")
+    for layer in [*LAYERS, *sorted(set(count) - set(LAYERS))]:
+        if count[layer]:
+            print(f"| {layer} | {count[layer]} | {cpu[layer]:.0f} | {cpu[layer] / count[layer]:.2f} |")
+    print(f"| all | {len(rows)} | {sum(cpu.values()):.0f} | {sum(cpu.values()) / max(1, len(rows)):.2f} |")
+    if args.top:
+        print()
+        for nodeid, layer, c, _w in sorted(rows, key=lambda r: -r[2])[:args.top]:
+            print(f"{c:8.1f}  {nodeid}")
+
+
+if __name__ == "__main__":
+    main()
