@@ -1,9 +1,11 @@
 """A catalogue of bad input for every command: one clear line, non-zero exit, no files touched.
 
-Each entry runs the real `bhr` console script in a fresh folder that already holds a good
-output file (good.json), a plain file (afile) that cannot be a folder, and the entry's own
-input files. The command must exit non-zero with at most three lines on stderr, no traceback,
-and leave every file in the folder as it was (nothing new, nothing changed).
+Each entry runs the `bhr` command in process (click's CliRunner on the same command group the
+console script runs) in a fresh folder that already holds a good output file (good.json), a
+plain file (afile) that cannot be a folder, and the entry's own input files. The command must
+exit non-zero with at most three lines on stderr, no traceback (no exception left uncaught),
+and leave every file in the folder as it was (nothing new, nothing changed). That every command
+of the real console script refuses bad input in one line is held below, a process per command.
 
 Entries for commands that are not registered in `bhr.cli.main.COMMANDS` skip, so the
 catalogue grows as commands land; the rest of the module drives the shared options with
@@ -550,14 +552,17 @@ def _prepare(folder, case: Bad) -> None:
 
 
 @pytest.mark.parametrize("case", CASES, ids=[c.id for c in CASES])
-def test_bad_input_costs_one_line_and_touches_nothing(run_bhr, tmp_path, case):
+def test_bad_input_costs_one_line_and_touches_nothing(tmp_path, monkeypatch, case):
     if case.command not in COMMANDS:
         pytest.skip(f"'bhr {case.command}' is not registered yet")
     _prepare(tmp_path, case)
     before = snapshot(tmp_path)
-    res = run_bhr(case.command, *case.args, timeout=120)
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setenv("MPLBACKEND", "Agg")
+    res = CliRunner().invoke(main, [case.command, *case.args])
     err = res.stderr.strip()
-    assert res.returncode != 0, f"exit 0 for bad input; stdout: {res.stdout[-500:]}"
+    assert res.exit_code != 0, f"exit 0 for bad input; stdout: {res.stdout[-500:]}"
+    assert isinstance(res.exception, SystemExit), repr(res.exception)  # an uncaught one is the console's traceback
     assert "Traceback" not in res.stderr, res.stderr
     assert err, "no message on stderr"
     assert len(err.splitlines()) <= 3, res.stderr
