@@ -166,5 +166,10 @@ if _CPU_CSV:
         yield
         cpu, wall = _cpu_seconds() - cpu, time.monotonic() - wall
         layer = next((m.name for m in item.iter_markers() if m.name in LAYERS), "")
+        import csv
+        import io
+
+        row = io.StringIO()
+        csv.writer(row, lineterminator="\n").writerow([item.nodeid, layer, f"{cpu:.3f}", f"{wall:.3f}"])
         with open(_CPU_CSV, "a") as f:  # one short write per row: rows of parallel workers do not interleave
-            f.write(f'"{item.nodeid}",{layer},{cpu:.3f},{wall:.3f}\n')
+            f.write(row.getvalue())

@@ -20,7 +20,8 @@ def main() -> None:
     ap.add_argument("csv", help="the file BHR_TEST_CPU named")
     ap.add_argument("--top", type=int, default=0, help="also list the N tests of most CPU seconds")
     args = ap.parse_args()
-    rows = [(r[0], r[1], float(r[2]), float(r[3])) for r in csv.reader(open(args.csv)) if r]
+    with open(args.csv, newline="") as f:
+        rows = [(r[0], r[1], float(r[2]), float(r[3])) for r in csv.reader(f) if r]
     count: dict[str, int] = defaultdict(int)
     cpu: dict[str, float] = defaultdict(float)
     for _, layer, c, _w in rows:
