@@ -147,7 +147,7 @@ os.environ.setdefault("BHR_PROGRESS_INTERVAL", "3600")
 
 # ------------------------------------------------------------------ CPU seconds per test
 # BHR_TEST_CPU=FILE appends one CSV row per test: nodeid, layer, CPU seconds (user+sys of pytest and of the
-# processes it waited for, setup to teardown), wall seconds. CPU seconds hold on a busy machine where wall time
+# processes it waited for, setup to teardown), wall seconds, outcome. CPU seconds hold on a busy machine where wall time
 # does not; tests/cpu_table.py sums the rows per layer (README, "Tests").
 _CPU_CSV = os.environ.get("BHR_TEST_CPU")
 
@@ -166,10 +166,21 @@ if _CPU_CSV:
         yield
         cpu, wall = _cpu_seconds() - cpu, time.monotonic() - wall
         layer = next((m.name for m in item.iter_markers() if m.name in LAYERS), "")
+        outcome = getattr(item, "_bhr_outcome", "")
         import csv
         import io
 
         row = io.StringIO()
-        csv.writer(row, lineterminator="\n").writerow([item.nodeid, layer, f"{cpu:.3f}", f"{wall:.3f}"])
+        csv.writer(row, lineterminator="\n").writerow([item.nodeid, layer, f"{cpu:.3f}", f"{wall:.3f}", outcome])
         with open(_CPU_CSV, "a") as f:  # one short write per row: rows of parallel workers do not interleave
             f.write(row.getvalue())
+
+    @pytest.hookimpl(hookwrapper=True)
+    def pytest_runtest_makereport(item, call):
+        report = (yield).get_result()
+        if getattr(item, "_bhr_outcome", "") in ("failed", "error"):
+            return  # the first failure stands (a teardown after it does not change the row)
+        if report.failed:
+            item._bhr_outcome = "failed" if call.when == "call" else "error"
+        elif report.skipped or call.when == "call":
+            item._bhr_outcome = report.outcome

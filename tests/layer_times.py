@@ -1,6 +1,6 @@
 """The suite's cost per layer, from the rows that BHR_TEST_CPU=FILE makes tests/conftest.py write (README, "Tests").
 
-    BHR_TEST_CPU=/tmp/cpu.csv bash tests/run     # one row per test: nodeid, layer, CPU seconds, wall seconds
+    BHR_TEST_CPU=/tmp/cpu.csv bash tests/run     # one row per test: nodeid, layer, CPU seconds, wall seconds, outcome
     python tests/layer_times.py /tmp/cpu.csv      # a Markdown table per layer; --top N lists the N costliest tests
 
 CPU seconds are user+sys of the test process and of the commands it started and waited for, from setup to
@@ -21,10 +21,10 @@ def main() -> None:
     ap.add_argument("--top", type=int, default=0, help="also list the N tests of most CPU seconds")
     args = ap.parse_args()
     with open(args.csv, newline="") as f:
-        rows = [(r[0], r[1], float(r[2]), float(r[3])) for r in csv.reader(f) if r]
+        rows = [(r[0], r[1], float(r[2]), float(r[3]), r[4] if len(r) > 4 else "") for r in csv.reader(f) if r]
     count: dict[str, int] = defaultdict(int)
     cpu: dict[str, float] = defaultdict(float)
-    for _, layer, c, _w in rows:
+    for _, layer, c, _w, _o in rows:
         count[layer] += 1
         cpu[layer] += c
     print("| layer | tests | CPU s | CPU s per test |")
@@ -33,9 +33,12 @@ def main() -> None:
         if count[layer]:
             print(f"| {layer} | {count[layer]} | {cpu[layer]:.0f} | {cpu[layer] / count[layer]:.2f} |")
     print(f"| all | {len(rows)} | {sum(cpu.values()):.0f} | {sum(cpu.values()) / max(1, len(rows)):.2f} |")
+    for nodeid, _layer, _c, _w, outcome in rows:
+        if outcome in ("failed", "error"):
+            print(f"{outcome}: {nodeid}")
     if args.top:
         print()
-        for nodeid, layer, c, _w in sorted(rows, key=lambda r: -r[2])[:args.top]:
+        for nodeid, _layer, c, _w, _o in sorted(rows, key=lambda r: -r[2])[:args.top]:
             print(f"{c:8.1f}  {nodeid}")
 
 
