@@ -8,7 +8,7 @@ from matplotlib.figure import Figure
 
 if TYPE_CHECKING:  # pragma: no cover
     from bhr.run.driver import FollowResult
-from bhr.output.figure import _margins, subplots
+from bhr.output.figure import margins, subplots
 from bhr.output.scene import draw_contact_steps, draw_sections, mark_wall_touches
 
 __all__ = ["clearance_figure"]
@@ -31,7 +31,7 @@ def clearance_figure(result: "FollowResult") -> Figure:
     cl = result.clearance
     assert cl is not None, "clearance_figure needs a trajectory with a lumen"
     steps = np.arange(1, result.steps + 1)
-    fig, ax = subplots(figsize=(10, 4), gridspec_kw=_margins(10, 4, 1, 1, left=0.75, top=0.4))  # fixed layout
+    fig, ax = subplots(figsize=(10, 4), gridspec_kw=margins(10, 4, 1, 1, left=0.75, top=0.4))  # fixed layout
     draw_sections(ax, result)
     ax.plot(steps, cl.per_step, color="tab:green", linewidth=1.0, label="smallest clearance")
     ax.axhline(0.0, color="tab:red", linestyle="--", linewidth=0.8, label="wall (clearance 0)")

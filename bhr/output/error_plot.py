@@ -9,7 +9,7 @@ from matplotlib.figure import Figure
 
 if TYPE_CHECKING:  # pragma: no cover
     from bhr.run.driver import FollowResult
-from bhr.output.figure import _amount, _light_ticks, _margins, mark_worst, subplots
+from bhr.output.figure import amount, light_ticks, margins, mark_worst, subplots
 from bhr.output.scene import draw_sections, mark_wall_touches
 
 __all__ = ["ORDINALS", "ERROR_KINDS", "error_figure", "body_figure"]
@@ -38,19 +38,19 @@ def _unit(kind: str) -> str:
     return {"position": "mm", "orientation": "deg", "global": ""}[kind]
 
 
-def _error_data(result: "FollowResult", kind: str) -> np.ndarray:
+def error_data(result: "FollowResult", kind: str) -> np.ndarray:
     if kind not in ERROR_KINDS:
         raise ValueError(f"kind must be one of {', '.join(ERROR_KINDS)}")
     return {"position": result.point_errors_mm, "orientation": result.orientation_errors_deg,
             "global": result.global_errors}[kind]
 
 
-def _error_grid_shape(count: int) -> tuple[int, int]:
+def error_grid_shape(count: int) -> tuple[int, int]:
     cols = 2 if count > 1 else 1
     return int(np.ceil(count / cols)), cols
 
 
-class _ErrorGrid:
+class ErrorGrid:
     """The panels of the error figures, made once and filled with one kind of error after another.
 
     The three error figures of a run share their grid, their step axis and the steps where the wall is touched;
@@ -64,7 +64,7 @@ class _ErrorGrid:
         self.n = result.steps
         width, height = 10.0, 2.6 * rows + 0.9
         self.fig, axes = subplots(rows, cols, figsize=(width, height), squeeze=False, sharex=True,
-                                      gridspec_kw=_margins(width, height, rows, cols))
+                                      gridspec_kw=margins(width, height, rows, cols))
         self.axes = [axes[j // cols][j % cols] for j in range(rows * cols)]
         self.steps = np.arange(1, self.n + 1)
         self.curves, self.tols, self.marks = [], [], []
@@ -79,14 +79,14 @@ class _ErrorGrid:
             ax.grid(True, alpha=0.3)
             ax.set_xlim(1, max(2, self.n))
             ax.tick_params(labelbottom=True, labelsize=8)  # step numbers on every panel, not only the bottom row
-            _light_ticks(ax)
+            light_ticks(ax)
         self.title = self.fig.suptitle("", fontsize=12, y=1 - 0.12 / height)
 
     def fill(self, kind: str) -> Figure:
         """The figure with ``kind``'s errors: one panel per point (position) or module (orientation, global)."""
         result, cols = self.result, self.cols
-        data = _error_data(result, kind)
-        if data.shape[0] != self.n or _error_grid_shape(data.shape[1]) != (self.rows, cols):
+        data = error_data(result, kind)
+        if data.shape[0] != self.n or error_grid_shape(data.shape[1]) != (self.rows, cols):
             raise ValueError(f"{kind} errors do not fit this grid")
         tol = {"position": result.robot.tol_pos, "orientation": result.robot.tol_ori, "global": 1.0}[kind]
         unit = _unit(kind)
@@ -106,7 +106,7 @@ class _ErrorGrid:
             if col.size and np.isfinite(col).any():
                 k = int(np.nanargmax(col))
                 mark.set_data([self.steps[k]], [col[k]])
-                mark.set_label(f"worst {_amount(float(col[k]), unit)} (step {int(self.steps[k])})")
+                mark.set_label(f"worst {amount(float(col[k]), unit)} (step {int(self.steps[k])})")
                 mark.set_visible(True)
             else:
                 mark.set_data([], [])
@@ -116,7 +116,7 @@ class _ErrorGrid:
             ax.set_ylabel(ylabel, fontsize=9)
             top = max(tol, float(np.nanmax(col)) if np.isfinite(col).any() else 0.0)
             ax.set_ylim(0, 1.45 * top if top > 0 else 1.0)  # room above for the legend
-            _light_ticks(ax, which="y")
+            light_ticks(ax, which="y")
             ax.legend(loc="upper right", fontsize=7, framealpha=0.9, ncol=2)
             bottom = j // cols == self.rows - 1 or j + cols >= count
             ax.set_xlabel("trajectory step" if bottom else "", fontsize=9)
@@ -156,8 +156,8 @@ def error_figure(result: "FollowResult", kind: str) -> Figure:
     >>> [ax.get_title() for ax in fig.axes if ax.get_visible()][::4], fig.axes[0].get_ylabel()
     (['First module (base)', 'Fifth module (tip)'], 'orientation error (deg)')
     """
-    data = _error_data(result, kind)
-    return _ErrorGrid(result, *_error_grid_shape(data.shape[1])).fill(kind)
+    data = error_data(result, kind)
+    return ErrorGrid(result, *error_grid_shape(data.shape[1])).fill(kind)
 
 
 def body_figure(result: "FollowResult") -> Figure:

@@ -24,7 +24,7 @@ def subplots(*grid: int, figsize: tuple[float, float], **kw: Any) -> tuple[Figur
     return fig, fig.subplots(*grid, **kw)
 
 
-def _amount(value: float, unit: str, digits: int = 2) -> str:
+def amount(value: float, unit: str, digits: int = 2) -> str:
     return f"{value:.{digits}f} {unit}".rstrip() if unit else f"{value:.{digits}f}"
 
 
@@ -35,11 +35,11 @@ def mark_worst(ax: Any, steps: np.ndarray, values: np.ndarray, unit: str, color:
         return None
     k = int(np.nanargmax(values))
     ax.plot([steps[k]], [values[k]], "o", markersize=7, markerfacecolor="none", markeredgecolor=color,
-            markeredgewidth=1.3, label=f"{what} {_amount(float(values[k]), unit)} (step {int(steps[k])})")
+            markeredgewidth=1.3, label=f"{what} {amount(float(values[k]), unit)} (step {int(steps[k])})")
     return k
 
 
-def _light_ticks(ax: Any, bins: int = 5, which: str = "xy") -> None:
+def light_ticks(ax: Any, bins: int = 5, which: str = "xy") -> None:
     """Ticks fixed once from the axes' limits: the same kind of numbers as matplotlib's default, fewer of them,
     and none computed again at each draw (ticks and their labels are most of an error figure's drawing time).
     ``which``: the axes whose ticks are fixed ("x", "y" or "xy")."""
@@ -52,7 +52,7 @@ def _light_ticks(ax: Any, bins: int = 5, which: str = "xy") -> None:
         axis.set_major_locator(FixedLocator(ticks))
 
 
-def _margins(width: float, height: float, rows: int, cols: int, left: float = 0.7, right: float = 0.15,
+def margins(width: float, height: float, rows: int, cols: int, left: float = 0.7, right: float = 0.15,
              top: float = 0.75, bottom: float = 0.55, between: float = 0.7, across: float = 0.8) -> dict[str, float]:
     """Subplot margins given in inches (a fixed layout: no tight_layout pass, which costs a draw)."""
     ax_h = (height - top - bottom - between * (rows - 1)) / rows

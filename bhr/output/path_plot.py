@@ -10,18 +10,18 @@ if TYPE_CHECKING:  # pragma: no cover
     from bhr.run.driver import FollowResult
 from bhr.output.scene import (
     INSET_ZOOM,
-    _check_step,
-    _depth_cue,
-    _draw_context,
-    _draw_pose,
-    _equal_3d,
-    _inset_rect,
-    _legend_below,
-    _plot,
-    _pose_points,
-    _set_window,
-    _setup_axes,
-    _zoom_window,
+    check_step,
+    depth_cue,
+    draw_context,
+    draw_pose,
+    equal_3d,
+    inset_rect,
+    legend_below,
+    plot_points,
+    pose_points,
+    set_window,
+    setup_axes,
+    zoom_window,
     draw_robot,
     draw_section_names,
     draw_travel_arrow,
@@ -58,16 +58,16 @@ def path_figure(result: "FollowResult", step: int | None = None) -> Figure:
     BhrError
         A ``step`` outside the run.
     """
-    i = _check_step(result, result.steps - 1 if step is None else step)
+    i = check_step(result, result.steps - 1 if step is None else step)
     only = None if step is None else i  # a figure of one chosen step: that step's wall contacts, not every step's
     planar = run_is_planar(result)
     traj = result.trajectory
     walls = lumen_walls(traj, planar)
-    pose = _pose_points(result, i)
+    pose = pose_points(result, i)
     every = marker_stride(traj.points)
     parts = [traj.points, pose] + (list(walls) if walls is not None else [])
     allpts = np.vstack(parts)
-    centre, half = _zoom_window(result, i, INSET_ZOOM)
+    centre, half = zoom_window(result, i, INSET_ZOOM)
     view = "top view" if planar else "3D view"
     title = f"{traj.name}: path and robot at step {i + 1} of {result.steps} ({view}, solver {result.solver})"
     if planar:
@@ -88,23 +88,23 @@ def path_figure(result: "FollowResult", step: int | None = None) -> Figure:
         left, right, bottom, top = 0.85, 0.3, 1.05, 0.4
         fw, fh = max(ax_w + left + right, 6.0), ax_h + bottom + top
         fig = Figure(figsize=(fw, fh))
-        ax = _setup_axes(fig, True, (left / fw, bottom / fh, ax_w / fw, ax_h / fh))
-        _draw_context(ax, result, True, every, contacts_step=only)
+        ax = setup_axes(fig, True, (left / fw, bottom / fh, ax_w / fw, ax_h / fh))
+        draw_context(ax, result, True, every, contacts_step=only)
         label_sections(ax, traj, True)
         draw_travel_arrow(ax, traj.points, True)
-        _draw_pose(ax, result, i, True)
+        draw_pose(ax, result, i, True)
         draw_section_names(ax, traj, True)
         ax.set_xlim(lo[0], hi[0])
         ax.set_ylim(lo[1], hi[1])
         ax.set_title(title, fontsize=10)
-        _legend_below(fig, ax)
+        legend_below(fig, ax)
         if 2 * half < 0.45 * min(w, h):
             window = (centre[0] - half, centre[0] + half, centre[1] - half, centre[1] + half)
             side = max(0.36 * min(w, h), 2.2 * half)
-            rect = _inset_rect((lo[0], hi[0], lo[1], hi[1]), np.vstack([traj.points, pose]), window, side)
+            rect = inset_rect((lo[0], hi[0], lo[1], hi[1]), np.vstack([traj.points, pose]), window, side)
             ins = ax.inset_axes(rect)
-            _draw_context(ins, result, True, contacts_step=only)
-            _draw_pose(ins, result, i, True, target_size=11)
+            draw_context(ins, result, True, contacts_step=only)
+            draw_pose(ins, result, i, True, target_size=11)
             ins.set_xlim(window[0], window[1])
             ins.set_ylim(window[2], window[3])
             ins.set_aspect("equal", adjustable="box")
@@ -120,12 +120,12 @@ def path_figure(result: "FollowResult", step: int | None = None) -> Figure:
     ax.set_xlabel("x (mm)")
     ax.set_ylabel("y (mm)")
     ax.set_zlabel("z (mm)")
-    _equal_3d(ax, allpts, pad=0.02 * extent)
-    _draw_context(ax, result, False, every, contacts_step=only)
+    equal_3d(ax, allpts, pad=0.02 * extent)
+    draw_context(ax, result, False, every, contacts_step=only)
     label_sections(ax, traj, False)
     draw_travel_arrow(ax, traj.points, False)
-    _draw_pose(ax, result, i, False)
-    _depth_cue(ax, result, i, ax.get_zlim()[0])
+    draw_pose(ax, result, i, False)
+    depth_cue(ax, result, i, ax.get_zlim()[0])
     draw_section_names(ax, traj, False)
     ax.set_title(title, fontsize=10)
     if zoom:
@@ -133,14 +133,14 @@ def path_figure(result: "FollowResult", step: int | None = None) -> Figure:
         ins.set_xlabel("x (mm)")
         ins.set_ylabel("y (mm)")
         ins.set_zlabel("z (mm)")
-        _set_window(ins, centre, half, False)
+        set_window(ins, centre, half, False)
         ins.set_box_aspect((1, 1, 1))
-        _draw_context(ins, result, False, contacts_step=only)
-        _draw_pose(ins, result, i, False, target_size=11)
-        _depth_cue(ins, result, i, ins.get_zlim()[0])
+        draw_context(ins, result, False, contacts_step=only)
+        draw_pose(ins, result, i, False, target_size=11)
+        depth_cue(ins, result, i, ins.get_zlim()[0])
         ins.set_title(f"robot, zoomed (step {i + 1})", fontsize=10)
     fig.subplots_adjust(left=0.02, right=0.95 if zoom else 0.92, bottom=0.1, top=0.95, wspace=0.15)
-    _legend_below(fig, ax)
+    legend_below(fig, ax)
     return fig
 
 
@@ -181,13 +181,13 @@ def chain_figure(initial: np.ndarray, final: np.ndarray, target: Sequence[float]
     allpts = np.vstack([initial, final, t[None]])
     planar = bool(np.all(np.abs(allpts[:, 2]) < 1e-12))
     fig = Figure(figsize=(7, 7))
-    ax = _setup_axes(fig, planar)
+    ax = setup_axes(fig, planar)
     if not planar:
         ax.computed_zorder = False  # draw in zorder: the solution over the initial chain, whatever the depth
     # the initial chain thin, grey and dashed behind; the solution and the target on top
-    _plot(ax, initial, planar, "--o", color="0.55", markersize=2.5, linewidth=1.0, label="initial", zorder=2)
+    plot_points(ax, initial, planar, "--o", color="0.55", markersize=2.5, linewidth=1.0, label="initial", zorder=2)
     draw_robot(ax, final, radius or 0.0, planar, color="tab:red", label="final", discs=bool(radius))
-    _plot(ax, t[None], planar, "x", color="tab:green", markersize=11, markeredgewidth=2.0, label="target",
+    plot_points(ax, t[None], planar, "x", color="tab:green", markersize=11, markeredgewidth=2.0, label="target",
           zorder=8)
     span = float(np.ptp(allpts, axis=0).max()) or 1.0
     pad = 0.08 * span  # room around the chain and the target so that no marker is cut at the frame
@@ -196,7 +196,7 @@ def chain_figure(initial: np.ndarray, final: np.ndarray, target: Sequence[float]
         ax.set_xlim(lo[0], hi[0])
         ax.set_ylim(lo[1], hi[1])
     else:
-        _equal_3d(ax, allpts, pad=pad)
+        equal_3d(ax, allpts, pad=pad)
         # look across the plane the solution bends in, so that it does not hide behind the initial chain
         d = final[-1] - final[0]
         ax.view_init(elev=20, azim=float(np.degrees(np.arctan2(d[1], d[0]))) - 60)

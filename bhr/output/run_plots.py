@@ -8,7 +8,7 @@ from typing import TYPE_CHECKING
 if TYPE_CHECKING:  # pragma: no cover
     from bhr.run.driver import FollowResult
 from bhr.output.clearance_plot import clearance_figure
-from bhr.output.error_plot import ERROR_KINDS, _error_data, _error_grid_shape, _ErrorGrid, body_figure
+from bhr.output.error_plot import ERROR_KINDS, error_data, error_grid_shape, ErrorGrid, body_figure
 from bhr.output.figure import RUN_PNG_COMPRESS, save_figure
 from bhr.output.path_plot import path_figure
 
@@ -49,11 +49,11 @@ def save_run_plots(result: "FollowResult", out_dir: str | os.PathLike[str], step
     """
     out = Path(out_dir)
     files = []
-    grids: dict[tuple[int, int], _ErrorGrid] = {}  # the three error figures share one grid where their panels fit
+    grids: dict[tuple[int, int], ErrorGrid] = {}  # the three error figures share one grid where their panels fit
     for kind, (name, _, _) in ERROR_KINDS.items():
-        shape = _error_grid_shape(_error_data(result, kind).shape[1])
+        shape = error_grid_shape(error_data(result, kind).shape[1])
         if shape not in grids:
-            grids[shape] = _ErrorGrid(result, *shape)
+            grids[shape] = ErrorGrid(result, *shape)
         files.append(save_figure(grids[shape].fill(kind), out / name, compress=RUN_PNG_COMPRESS))
     path_name = "path.png" if step is None else f"path-step{step}.png"
     files.append(save_figure(path_figure(result, None if step is None else step - 1), out / path_name,

@@ -30,7 +30,7 @@ def _circle(center: np.ndarray, normal: np.ndarray, radius: float, count: int = 
     return center + radius * (np.outer(np.cos(t), u) + np.outer(np.sin(t), v))
 
 
-def _plot(ax: Any, pts: np.ndarray, planar: bool, *args: Any, **kw: Any) -> list[Any]:
+def plot_points(ax: Any, pts: np.ndarray, planar: bool, *args: Any, **kw: Any) -> list[Any]:
     """``ax.plot`` of (k, 3) points: x, y on a 2-D axes; x, y, z (clipped to the axes' box) on a 3-D one."""
     pts = np.atleast_2d(pts)
     if planar:
@@ -52,7 +52,7 @@ def draw_path(ax: Any, path: np.ndarray, planar: bool, **kw: Any) -> list[Any]:
     """The trajectory in blue with x marks, as the thesis draws it (``markevery`` thins the marks)."""
     style = {"color": "tab:blue", "marker": "x", "markersize": 3, "linewidth": 0.8, "label": "trajectory"}
     style.update(kw)
-    return _plot(ax, path, planar, **style)
+    return plot_points(ax, path, planar, **style)
 
 
 def lumen_walls(traj: Any, planar: bool) -> tuple[np.ndarray, np.ndarray] | None:
@@ -94,8 +94,8 @@ def draw_lumen_wall(ax: Any, traj: Any, planar: bool) -> list[Any]:
         shade = Polygon(ring, closed=True, color=LUMEN_FILL, linewidth=0, zorder=0.5, label="lumen")
         ax.add_artist(shade)
         artists.append(shade)
-        artists += _plot(ax, left, planar, label="lumen wall", **style)
-        artists += _plot(ax, right, planar, label="_lumen wall (other side)", **style)
+        artists += plot_points(ax, left, planar, label="lumen wall", **style)
+        artists += plot_points(ax, right, planar, label="_lumen wall (other side)", **style)
         return artists
     pts = np.asarray(traj.points, dtype=float)
     diameter = np.asarray(traj.lumen, dtype=float)[: len(pts)]
@@ -106,15 +106,15 @@ def draw_lumen_wall(ax: Any, traj: Any, planar: bool) -> list[Any]:
     style.update(linewidth=0.6, alpha=0.55)
     for n, k in enumerate(list(range(0, len(pts), every)) + ([len(pts) - 1] if (len(pts) - 1) % every else [])):
         c = _circle(pts[k], t[k], diameter[k] / 2.0, 32)
-        artists += _plot(ax, c, False, label="lumen wall" if n == 0 else "_lumen ring", **style)
+        artists += plot_points(ax, c, False, label="lumen wall" if n == 0 else "_lumen ring", **style)
     return artists
 
 
 def draw_start_end(ax: Any, path: np.ndarray, planar: bool, size: float = 8) -> list[Any]:
     """The start (white circle) and the end (black square) of the path."""
-    return (_plot(ax, path[:1], planar, "o", markersize=size, markerfacecolor="white", markeredgecolor="black",
+    return (plot_points(ax, path[:1], planar, "o", markersize=size, markerfacecolor="white", markeredgecolor="black",
                   markeredgewidth=1.5, linestyle="none", label="start", zorder=4)
-            + _plot(ax, path[-1:], planar, "s", markersize=size - 1, color="black", linestyle="none",
+            + plot_points(ax, path[-1:], planar, "s", markersize=size - 1, color="black", linestyle="none",
                     label="end", zorder=4))
 
 
@@ -161,7 +161,7 @@ def draw_travel_arrow(ax: Any, path: np.ndarray, planar: bool) -> list[Any]:
 
 def draw_target(ax: Any, point: np.ndarray, planar: bool, size: float = 9) -> list[Any]:
     """The step's target point (green x)."""
-    return _plot(ax, point, planar, "x", color="tab:green", markersize=size, markeredgewidth=1.5, label="target",
+    return plot_points(ax, point, planar, "x", color="tab:green", markersize=size, markeredgewidth=1.5, label="target",
                  zorder=5)
 
 
@@ -188,7 +188,7 @@ def draw_robot(ax: Any, points: np.ndarray, radius: float, planar: bool, color: 
     the module, as in the thesis's figures. Returns the artists drawn.
     """
     artists: list[Any] = []
-    artists += _plot(ax, points, planar, "-o", color=color, markersize=3, linewidth=1.5, label=label, zorder=6)
+    artists += plot_points(ax, points, planar, "-o", color=color, markersize=3, linewidth=1.5, label=label, zorder=6)
     if discs and planar and radius > 0:  # seen from the top each module is its capsule: the width clearance counts
         for j in range(points.shape[0] - 1):
             outline = capsule_outline(points[j, :2], points[j + 1, :2], radius)
@@ -202,11 +202,11 @@ def draw_robot(ax: Any, points: np.ndarray, radius: float, planar: bool, color: 
             if np.linalg.norm(d) == 0:
                 continue
             c = _circle(points[j + 1], d, radius)
-            artists += _plot(ax, c, planar, color=color, linewidth=0.6, alpha=0.7, zorder=6)
+            artists += plot_points(ax, c, planar, color=color, linewidth=0.6, alpha=0.7, zorder=6)
     return artists
 
 
-def _setup_axes(fig: Figure, planar: bool, rect: tuple[float, float, float, float] | None = None) -> Any:
+def setup_axes(fig: Figure, planar: bool, rect: tuple[float, float, float, float] | None = None) -> Any:
     kw: dict[str, Any] = {} if planar else {"projection": "3d"}
     ax: Any = fig.add_subplot(111, **kw) if rect is None else fig.add_axes(rect, **kw)
     ax.set_xlabel("x (mm)")
@@ -219,7 +219,7 @@ def _setup_axes(fig: Figure, planar: bool, rect: tuple[float, float, float, floa
     return ax
 
 
-def _equal_3d(ax: Any, pts: np.ndarray, pad: float = 0.0) -> None:
+def equal_3d(ax: Any, pts: np.ndarray, pad: float = 0.0) -> None:
     lo, hi = pts.min(axis=0), pts.max(axis=0)
     mid, half = (lo + hi) / 2, max(float((hi - lo).max()) / 2, 1.0) + pad
     ax.set_xlim(mid[0] - half, mid[0] + half)
@@ -233,7 +233,7 @@ def run_is_planar(result: "FollowResult") -> bool:
     return result.trajectory.planar and bool(np.ptp(result.points[:, :, 2]) <= 1e-9)
 
 
-def _check_step(result: "FollowResult", i: int) -> int:
+def check_step(result: "FollowResult", i: int) -> int:
     if not -result.steps <= i < result.steps:
         raise BhrError(f"step {i + 1} is outside the run (steps 1 to {result.steps}); choose a step in that range")
     return i % result.steps
@@ -246,7 +246,7 @@ def _body_pose(result: "FollowResult", i: int) -> np.ndarray | None:
     return np.vstack([result.points[i, :1], body.points[i]])
 
 
-def _pose_points(result: "FollowResult", i: int) -> np.ndarray:
+def pose_points(result: "FollowResult", i: int) -> np.ndarray:
     body = _body_pose(result, i)
     return result.points[i] if body is None else np.vstack([result.points[i], body])
 
@@ -260,12 +260,12 @@ def zoom_half_width(result: "FollowResult", factor: float) -> float:
     return max(factor * head, wall, 3 * result.robot.robot_radius)
 
 
-def _head_centre(result: "FollowResult", i: int) -> np.ndarray:
+def head_centre(result: "FollowResult", i: int) -> np.ndarray:
     pts = result.points[i]
     return (pts.min(axis=0) + pts.max(axis=0)) / 2
 
 
-def _draw_context(ax: Any, result: "FollowResult", planar: bool, markevery: int = 1,
+def draw_context(ax: Any, result: "FollowResult", planar: bool, markevery: int = 1,
                   path_style: dict[str, Any] | None = None, contacts_step: int | None = None) -> list[Any]:
     """What does not move between steps: the lumen wall, the path, its start and end, the wall contacts (of every
     step, or of the 0-based ``contacts_step`` only)."""
@@ -277,7 +277,7 @@ def _draw_context(ax: Any, result: "FollowResult", planar: bool, markevery: int 
     return artists
 
 
-def _draw_pose(ax: Any, result: "FollowResult", i: int, planar: bool, target_size: float = 9) -> list[Any]:
+def draw_pose(ax: Any, result: "FollowResult", i: int, planar: bool, target_size: float = 9) -> list[Any]:
     """What changes with the step: the target, the robot (head) and the body behind it."""
     new = draw_target(ax, result.trajectory.points[i], planar, target_size)
     new += draw_robot(ax, result.points[i], result.robot.robot_radius, planar)
@@ -287,7 +287,7 @@ def _draw_pose(ax: Any, result: "FollowResult", i: int, planar: bool, target_siz
     return new
 
 
-def _depth_cue(ax: Any, result: "FollowResult", i: int | None, floor: float) -> list[Any]:
+def depth_cue(ax: Any, result: "FollowResult", i: int | None, floor: float) -> list[Any]:
     """3-D depth cue: the path's (and at step ``i`` the robot's) shadow on the floor, and drop lines to it
     from the start, the end and the robot's tip."""
     path = result.trajectory.points
@@ -297,20 +297,20 @@ def _depth_cue(ax: Any, result: "FollowResult", i: int | None, floor: float) -> 
         q[:, 2] = floor
         return q
 
-    art = _plot(ax, flat(path), False, color=SHADOW, linewidth=0.9, label="shadow on the floor", zorder=0.5)
+    art = plot_points(ax, flat(path), False, color=SHADOW, linewidth=0.9, label="shadow on the floor", zorder=0.5)
     drops = [path[0], path[-1]]
     if i is not None:
-        art += _plot(ax, flat(_pose_points(result, i)), False, color="0.45", linewidth=2.0, zorder=0.6)
+        art += plot_points(ax, flat(pose_points(result, i)), False, color="0.45", linewidth=2.0, zorder=0.6)
         drops.append(result.points[i, -1])
     for p in drops:
-        art += _plot(ax, np.array([p, [p[0], p[1], floor]]), False, linestyle=":", color="0.45", linewidth=0.9)
+        art += plot_points(ax, np.array([p, [p[0], p[1], floor]]), False, linestyle=":", color="0.45", linewidth=0.9)
     return art
 
 
 Box = tuple[float, float, float, float]
 
 
-def _inset_rect(ax_limits: Box, pts: np.ndarray, window: Box, side: float) -> Box:
+def inset_rect(ax_limits: Box, pts: np.ndarray, window: Box, side: float) -> Box:
     """Where an inset of ``side`` (data units) covers the fewest ``pts`` and not the zoomed ``window``."""
     x0, x1, y0, y1 = ax_limits
     w, h = x1 - x0, y1 - y0
@@ -331,11 +331,11 @@ def _inset_rect(ax_limits: Box, pts: np.ndarray, window: Box, side: float) -> Bo
     return best[0], best[1], fw, fh
 
 
-def _zoom_window(result: "FollowResult", i: int, factor: float) -> tuple[np.ndarray, float]:
-    return _head_centre(result, i), zoom_half_width(result, factor)
+def zoom_window(result: "FollowResult", i: int, factor: float) -> tuple[np.ndarray, float]:
+    return head_centre(result, i), zoom_half_width(result, factor)
 
 
-def _set_window(ax: Any, centre: np.ndarray, half: float, planar: bool) -> None:
+def set_window(ax: Any, centre: np.ndarray, half: float, planar: bool) -> None:
     if planar:
         ax.set_xlim(centre[0] - half, centre[0] + half)
         ax.set_ylim(centre[1] - half, centre[1] + half)
@@ -352,7 +352,7 @@ FRAME_ZOOM = 1.2
 FRAME_INCHES = (10.0, 7.0)
 
 
-def _legend_below(fig: Figure, ax: Any, ncol: int | None = None, x: float = 0.5) -> Any:
+def legend_below(fig: Figure, ax: Any, ncol: int | None = None, x: float = 0.5) -> Any:
     """One legend below the axes (fixed, so it never hides the path nor moves between frames)."""
     handles, labels = ax.get_legend_handles_labels()
     seen: dict[str, Any] = {}

@@ -11,16 +11,16 @@ if TYPE_CHECKING:  # pragma: no cover
 from bhr.output.scene import (
     FRAME_INCHES,
     FRAME_ZOOM,
-    _check_step,
-    _depth_cue,
-    _draw_context,
-    _draw_pose,
-    _equal_3d,
-    _head_centre,
-    _legend_below,
-    _plot,
-    _set_window,
-    _setup_axes,
+    check_step,
+    depth_cue,
+    draw_context,
+    draw_pose,
+    equal_3d,
+    head_centre,
+    legend_below,
+    plot_points,
+    set_window,
+    setup_axes,
     draw_lumen_wall,
     draw_path,
     draw_start_end,
@@ -53,10 +53,10 @@ class StepView:
         self.half = zoom_half_width(result, FRAME_ZOOM)
         traj = result.trajectory
         main = (0.07, 0.15, 0.58, 0.77)
-        self.ax = _setup_axes(self.fig, self.planar, main)
+        self.ax = setup_axes(self.fig, self.planar, main)
         self.ax.grid(False)  # grid lines sliding under a moving view only blur it (and bloat a GIF)
-        _draw_context(self.ax, result, self.planar, 1)
-        self.overview = _setup_axes(self.fig, self.planar, (0.71, 0.47, 0.27, 0.42))
+        draw_context(self.ax, result, self.planar, 1)
+        self.overview = setup_axes(self.fig, self.planar, (0.71, 0.47, 0.27, 0.42))
         self.overview.set_title("whole path", fontsize=9)
         self.overview.tick_params(labelsize=7)
         self.overview.xaxis.label.set_size(8)
@@ -73,8 +73,8 @@ class StepView:
             self.overview.set_ylim(lo[1] - pad, hi[1] + pad)
         else:
             self.overview.zaxis.label.set_size(8)
-            _equal_3d(self.overview, pts)
-            _depth_cue(self.overview, result, None, self.overview.get_zlim()[0])
+            equal_3d(self.overview, pts)
+            depth_cue(self.overview, result, None, self.overview.get_zlim()[0])
         self.overview.autoscale(False)
         self.readout = self.fig.text(0.71, 0.40, "", ha="left", va="top", family="monospace", fontsize=9)
         self.step: int | None = None
@@ -117,7 +117,7 @@ class StepView:
 
     def window_centre(self, i: int) -> np.ndarray:
         """Centre of the view at step ``i``: the centre of the head's bounding box (the step alone sets it)."""
-        return _head_centre(self.result, i)
+        return head_centre(self.result, i)
 
     def readout_text(self, i: int) -> str:
         """The step's numbers: tip error, worst point, tip orientation, global error, each against its tolerance."""
@@ -138,12 +138,12 @@ class StepView:
     def draw(self, i: int) -> list[Any]:
         """Draw step ``i`` (0-based): target, robot, window around it, overview and readout; return the new artists."""
         r = self.result
-        i = _check_step(r, i)
+        i = check_step(r, i)
         for a in self.artists:
             a.remove()
-        new = _draw_pose(self.ax, r, i, self.planar)
+        new = draw_pose(self.ax, r, i, self.planar)
         centre = self.window_centre(i)
-        _set_window(self.ax, centre, self.half, self.planar)
+        set_window(self.ax, centre, self.half, self.planar)
         h = self.half
         if self.planar:
             # the window the left view shows: a shaded square (clipped to the overview like the path), so that
@@ -155,15 +155,15 @@ class StepView:
             self.overview.add_patch(window)  # clipped to the overview's box
             new.append(window)
         else:
-            new += _depth_cue(self.ax, r, i, self.ax.get_zlim()[0])
-        new += _plot(self.overview, r.points[i], self.planar, "-", color="tab:red", linewidth=2.5)
-        new += _plot(self.overview, r.points[i, -1:], self.planar, "o", color="tab:red", markersize=4)
+            new += depth_cue(self.ax, r, i, self.ax.get_zlim()[0])
+        new += plot_points(self.overview, r.points[i], self.planar, "-", color="tab:red", linewidth=2.5)
+        new += plot_points(self.overview, r.points[i, -1:], self.planar, "o", color="tab:red", markersize=4)
         self.readout.set_text(self.readout_text(i))
         self.artists = new
         self.step = i
         self.ax.set_title(self.title(i), fontsize=10)
         if not self._laid_out:
             # The legend is fixed below the view and the layout set once for all frames.
-            _legend_below(self.fig, self.ax, ncol=5, x=0.36)
+            legend_below(self.fig, self.ax, ncol=5, x=0.36)
             self._laid_out = True
         return new

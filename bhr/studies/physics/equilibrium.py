@@ -355,7 +355,7 @@ def _equilibrium(z, target, x_target, base, d0, A0, length, radius, ns, k_wall, 
 
 
 @njit(cache=True)
-def _points(z, base, d0, A0, length, out):
+def chain_points(z, base, d0, A0, length, out):
     """Joint positions (M+1, 3) of the chain at z."""
     M = out.shape[0] - 1
     R = np.empty((3, 3))
@@ -376,14 +376,14 @@ def _points(z, base, d0, A0, length, out):
 
 
 @njit(cache=True)
-def _global_seg(C, pts, seg):
+def global_seg(C, pts, seg):
     for i in range(pts.shape[0]):
         _, k, _ = segment_scan(C, 0, C.shape[0] - 1, pts[i, 0], pts[i, 1], pts[i, 2])
         seg[i] = k
 
 
 @dataclass
-class _Problem:
+class Problem:
     base: np.ndarray
     d0: np.ndarray
     A0: np.ndarray
@@ -400,7 +400,7 @@ class _Problem:
     pen: np.ndarray
 
 
-def solve_pose(pb: _Problem, z0: np.ndarray, target: np.ndarray, x_target: float, maxit: int = MAX_ITERATIONS
+def solve_pose(pb: Problem, z0: np.ndarray, target: np.ndarray, x_target: float, maxit: int = MAX_ITERATIONS
                ) -> tuple[np.ndarray, int, float]:
     """The equilibrium nearest ``z0`` with joint targets ``target`` (M, 2) and the feeder at ``x_target``:
     (z, iterations, the largest generalized force left: N mm, N for the feeder). Iterations ``maxit + 1``: the

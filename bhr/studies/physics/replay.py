@@ -25,7 +25,7 @@ from typing import Any, Callable
 import numpy as np
 
 from bhr.settings.errors import BhrError
-from bhr.studies.physics.equilibrium import MAX_ITERATIONS, _global_seg, _points, _Problem, solve_pose
+from bhr.studies.physics.equilibrium import MAX_ITERATIONS, global_seg, chain_points, Problem, solve_pose
 from bhr.studies.physics.joints import WIRE_FORCE_N, joint_stiffness
 from bhr.studies.physics.poses import Poses
 from bhr.studies.physics.wall import (
@@ -176,16 +176,16 @@ def replay_poses(poses: Poses, result, *, wall_stiffness: float = DEFAULT_WALL_S
     ns = samples_per_module(L, sample_mm)
     robot_radius = float(r.robot_radius)
     k_joint = joint_stiffness(r, wire_force)
-    pb = _Problem(np.ascontiguousarray(poses.entrance, dtype=np.float64), np.ascontiguousarray(poses.frame[2]),
+    pb = Problem(np.ascontiguousarray(poses.entrance, dtype=np.float64), np.ascontiguousarray(poses.frame[2]),
                   np.ascontiguousarray(poses.frame.T), L, robot_radius, ns, float(wall_stiffness), k_joint,
                   FEEDER_STIFFNESS, float(feeder_force), np.ascontiguousarray(tube.points),
                   np.ascontiguousarray(tube.radius), np.zeros(M * ns, dtype=np.int64), np.zeros(M * ns))
     t0 = time.process_time()
     z = np.concatenate([[poses.insertion_mm[0]], poses.tilts_rad[0].reshape(-1)])
     pts = np.empty((M + 1, 3))
-    _points(z, pb.base, pb.d0, pb.A0, L, pts)
+    chain_points(z, pb.base, pb.d0, pb.A0, L, pts)
     mids = 0.5 * (pts[:-1] + pts[1:])
-    _global_seg(pb.C, np.repeat(mids, ns, axis=0), pb.seg)
+    global_seg(pb.C, np.repeat(mids, ns, axis=0), pb.seg)
     out_pts = np.empty((P, M + 1, 3))
     total = np.zeros(P)
     per_module = np.zeros((P, M))
@@ -229,7 +229,7 @@ def replay_poses(poses: Poses, result, *, wall_stiffness: float = DEFAULT_WALL_S
             zt_prev, x_prev = t_s, x_s
         prev_t, prev_x = tgt, xt
         iters[i] = n_it
-        _points(z, pb.base, pb.d0, pb.A0, L, pts)
+        chain_points(z, pb.base, pb.d0, pb.A0, L, pts)
         out_pts[i] = pts
         pen = pb.pen.reshape(M, ns)
         line = float(wall_stiffness) * pen  # N per mm of robot
