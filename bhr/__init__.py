@@ -17,14 +17,14 @@ import importlib
 from typing import TYPE_CHECKING, Any
 
 from bhr import _numba  # noqa: F401  (sets NUMBA_CACHE_DIR before numba loads)
-from bhr.settings.errors import BhrError, LinkError
+from bhr._settings.errors import BhrError, LinkError
 
 if TYPE_CHECKING:  # what the lazy names below are, for type checkers
-    from bhr.run.driver import follow as follow
-    from bhr.model.generators import trajectory as trajectory
-    from bhr.model.path import Trajectory as Trajectory
-    from bhr.model.robot import Robot as Robot
-    from bhr.model.export import joint_values as joint_values
+    from bhr._run.driver import follow as follow
+    from bhr.model._generators import trajectory as trajectory
+    from bhr.model._path import Trajectory as Trajectory
+    from bhr.model._robot import Robot as Robot
+    from bhr.model._export import joint_values as joint_values
     from bhr.solvers import Solver as Solver
     from bhr.solvers import solve as solve
 
@@ -34,10 +34,10 @@ __all__ = ["BhrError", "LinkError", "Robot", "Solver", "Trajectory", "follow", "
            "__version__"]
 
 #: The lazy re-exports: name -> (module, attribute).
-_LAZY = {"follow": ("bhr.run.driver", "follow"), "trajectory": ("bhr.model.generators", "trajectory"),
-         "solve": ("bhr.solvers", "solve"), "Robot": ("bhr.model.robot", "Robot"),
-         "Trajectory": ("bhr.model.path", "Trajectory"), "Solver": ("bhr.solvers", "Solver"),
-         "joint_values": ("bhr.model.export", "joint_values")}
+_LAZY = {"follow": ("bhr._run.driver", "follow"), "trajectory": ("bhr.model._generators", "trajectory"),
+         "solve": ("bhr.solvers", "solve"), "Robot": ("bhr.model._robot", "Robot"),
+         "Trajectory": ("bhr.model._path", "Trajectory"), "Solver": ("bhr.solvers", "Solver"),
+         "joint_values": ("bhr.model._export", "joint_values")}
 
 
 def __getattr__(name: str) -> Any:  # PEP 562: lazy re-exports keep `import bhr` cheap

@@ -11,10 +11,10 @@ from typing import Any, Callable
 
 import click
 
-from bhr.output.paths import (check_parent_folder, folder_name, input_files, json_in_folder,  # noqa: F401
+from bhr.output._paths import (check_parent_folder, folder_name, input_files, json_in_folder,  # noqa: F401
                               run_folder_name, short_path)
 from bhr.cli._interrupt import end_interrupted, settle
-from bhr.settings.errors import INTERRUPTED, BhrError
+from bhr._settings.errors import INTERRUPTED, BhrError
 
 
 def refuse_replacing_beside(folder: Path, names: Any, beside: str, fix: str) -> None:
@@ -106,8 +106,8 @@ def guarded(func: Callable[..., Any]) -> Callable[..., Any]:
 
     @functools.wraps(func)
     def wrapper(*args: Any, **kwargs: Any) -> Any:
-        from bhr.output.atomic import together
-        from bhr.output.paths import current_folder
+        from bhr.output._atomic import together
+        from bhr.output._paths import current_folder
 
         try:
             current_folder()  # deleted under the command: one line before any work, not a failed write after it
@@ -169,7 +169,7 @@ def check_writable(path: str | os.PathLike[str] | None, what: str = "output") ->
     """
     if path is None or str(path) == "-":
         return
-    from bhr.output.paths import check_output_file
+    from bhr.output._paths import check_output_file
 
     check_output_file(path, what)
     _refuse_an_input(path, what)
@@ -226,8 +226,8 @@ def default_output(command: str, readable: str, settings_parts: tuple[Any, ...],
     default folder only when they would make the same results; the manifest records it, so a rerun keeps
     what the earlier run made and this one does not make again (docs/commands.md#output-folders).
     """
-    from bhr.output.atomic import OutputFolder
-    from bhr.output.paths import settings_hash
+    from bhr.output._atomic import OutputFolder
+    from bhr.output._paths import settings_hash
 
     settings = settings_hash(*settings_parts, *inputs)
     if out_dir is None:
@@ -242,7 +242,7 @@ def default_output(command: str, readable: str, settings_parts: tuple[Any, ...],
 def point_latest_if_default(folder: Any, out_dir: str | None) -> None:
     """bhr-out/latest: the run just written, when it went to its default folder."""
     if out_dir is None:
-        from bhr.output.atomic import point_latest
+        from bhr.output._atomic import point_latest
 
         point_latest(folder.target)
 
@@ -255,7 +255,7 @@ def check_executor(jobs: int | None, scheduler: str | None) -> None:
         try:
             import distributed  # noqa: F401
         except ImportError:
-            from bhr.studies.cluster import dask_missing
+            from bhr._studies.cluster import dask_missing
 
             raise BhrError(dask_missing()) from None
 

@@ -11,7 +11,7 @@ from typing import NoReturn
 
 import click
 
-from bhr.settings.errors import INTERRUPTED
+from bhr._settings.errors import INTERRUPTED
 
 SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
 _received: list[int] = []

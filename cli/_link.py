@@ -37,15 +37,15 @@ def link_settings(kwargs: dict[str, Any], need_port: bool = True, use_file_port:
     The robot file's ``[link]`` table (if ``--robot`` was given) supplies the
     defaults: port (when ``use_file_port``), baud rate and module order.
     """
-    from bhr.settings.errors import BhrError
-    from bhr.hardware.link import DEFAULT_BAUD
+    from bhr._settings.errors import BhrError
+    from bhr._hardware.link import DEFAULT_BAUD
 
     path = kwargs.pop("robot_file", None)
     port, baud = kwargs.pop("port", None), kwargs.pop("baud", None)
     timeout, retries = kwargs.pop("timeout"), kwargs.pop("retries")
     order = None
     if path is not None:
-        from bhr.model.robotfile import load_robot_file
+        from bhr.model._robotfile import load_robot_file
 
         link = load_robot_file(path).link
         if port is None and use_file_port:
@@ -53,7 +53,7 @@ def link_settings(kwargs: dict[str, Any], need_port: bool = True, use_file_port:
         baud = link.baudrate if baud is None else baud
         order = link.module_order
     if port:
-        from bhr.model.robotfile import check_file_port
+        from bhr.model._robotfile import check_file_port
 
         port = check_file_port(str(port), "--port")  # the same allow-list as a robot file's [link] port
     if need_port and not port:
@@ -64,7 +64,7 @@ def link_settings(kwargs: dict[str, Any], need_port: bool = True, use_file_port:
 
 
 def exit_interrupted(exc, total: int, unit: str) -> None:
-    """After Ctrl-C, SIGTERM or SIGHUP while streaming (a bhr.hardware.link.StreamInterrupted): one line, and the
+    """After Ctrl-C, SIGTERM or SIGHUP while streaming (a bhr._hardware.link.StreamInterrupted): one line, and the
     signal's exit status (130 for Ctrl-C)."""
     from bhr.cli._interrupt import exit_status
 
@@ -88,7 +88,7 @@ def schedule_option() -> Callable[[Any], Any]:
 
 
 def at_end_option(default: str, when: str = "After the last row") -> Callable[[Any], Any]:
-    """--at-end: the explicit last message of a stream (bhr.hardware.link.run_stream's at_end)."""
+    """--at-end: the explicit last message of a stream (bhr._hardware.link.run_stream's at_end)."""
     return click.option("--at-end", "at_end", type=click.Choice(["stop", "hold"]), default=default,
                         show_default=True,
                         help=f"{when}: 'stop' sends stop-all (every actuator off); 'hold' sends a heartbeat and "
@@ -105,17 +105,17 @@ def end_text(at_end: str) -> str:
 
 def thermal_params(robot_file):
     """The robot file's [thermal] table (docs/thermal.md), or the default wire."""
-    from bhr.hardware.thermal import DEFAULT_THERMAL
+    from bhr._hardware.thermal import DEFAULT_THERMAL
 
     if robot_file is None:
         return DEFAULT_THERMAL
-    from bhr.model.robotfile import load_robot_file
+    from bhr.model._robotfile import load_robot_file
 
     return load_robot_file(robot_file).thermal
 
 
 def fault_printer(port: str) -> Callable[[int, list[str]], None]:
-    """``on_fault`` for bhr.hardware.link.Pacer: one line on stderr per fault the board raises, with module and step."""
+    """``on_fault`` for the link's Pacer: one line on stderr per fault the board raises, with module and step."""
     def show(step: int, names: list[str]) -> None:
         for name in names:
             kind, _, module = name.partition(":")

@@ -1,6 +1,6 @@
 """Options shared by the commands that simulate: robot, solver constraints, trajectory.
 
-Every option here is built from the registry in :mod:`bhr.settings.options` (name, type, unit, limit, default,
+Every option here is built from the registry in :mod:`bhr._settings.options` (name, type, unit, limit, default,
 help), the same one robot files, batch files and sweep grids are checked against.
 """
 from __future__ import annotations
@@ -10,8 +10,8 @@ from typing import Any, Callable
 
 import click
 
-from bhr.settings.errors import BhrError
-from bhr.settings.options import BY_NAME, MAX_MM, Option, by_group, check_number, excerpt, parse_number
+from bhr._settings.errors import BhrError
+from bhr._settings.options import BY_NAME, MAX_MM, Option, by_group, check_number, excerpt, parse_number
 
 
 def plain_number(text: str) -> bool:
@@ -24,7 +24,7 @@ def plain_number(text: str) -> bool:
 
 
 def _convert(t: click.ParamType, value: Any, param: Any, ctx: Any, kind: type, **checks: Any) -> Any:
-    """Text -> number through the one checker (bhr.settings.options.parse_number, check_number); click's one-line
+    """Text -> number through the one checker (bhr._settings.options.parse_number, check_number); click's one-line
     failure."""
     if isinstance(value, (int, float)) and not isinstance(value, bool):
         v: Any = value
@@ -46,7 +46,7 @@ def _convert(t: click.ParamType, value: Any, param: Any, ctx: Any, kind: type, *
 class Bounded(click.ParamType):
     """A finite int or float no larger in size than ``limit``: one clear line for nan, inf or 1e300.
 
-    Signs and lower bounds are left to the library (bhr.model.robot.Robot, the
+    Signs and lower bounds are left to the library (bhr.model._robot.Robot, the
     trajectory checks), whose messages name the allowed range.
     """
 
@@ -105,7 +105,7 @@ def rate_type() -> "FiniteRange":
 MM = Bounded(float, MAX_MM, "mm")
 DEG = Bounded(float, 1e6, "deg")
 
-#: Command-line parameter name -> registry option, for every option built from bhr.settings.options.
+#: Command-line parameter name -> registry option, for every option built from bhr._settings.options.
 _PARAM: dict[str, Option] = {}
 
 
@@ -169,7 +169,7 @@ SOLVING_ONLY = ("tol_pos", "tol_ori", "max_iter", "weight_pos", "weight_ori")
 
 
 def robot_options(feed: bool = True, solving: bool = True) -> Callable[[Any], Any]:
-    """--robot FILE and the robot options of :mod:`bhr.settings.options` (--modules, --module-length, ...).
+    """--robot FILE and the robot options of :mod:`bhr._settings.options` (--modules, --module-length, ...).
 
     ``solving=False`` leaves out what only a solver uses (:data:`SOLVING_ONLY`):
     ``bhr fk`` solves nothing.
@@ -188,7 +188,7 @@ def constraint_options(f: Any) -> Any:
 
 
 def run_options(f: Any) -> Any:
-    """How a run is simulated (--body-modules), from :mod:`bhr.settings.options`."""
+    """How a run is simulated (--body-modules), from :mod:`bhr._settings.options`."""
     return stack_options(*[_click_option(o) for o in by_group("run")])(f)
 
 
@@ -203,7 +203,7 @@ def model_modules_option(f: Any) -> Any:
 
 
 def max_wall_force_option(f: Any) -> Any:
-    """``bhr traverse --max-wall-force N``: the registry's entry (bhr.settings.options); left out, the study keeps the
+    """``bhr traverse --max-wall-force N``: the registry's entry (bhr._settings.options); left out, the study keeps the
     geometric verdict and replays nothing."""
     import dataclasses
 
@@ -212,7 +212,7 @@ def max_wall_force_option(f: Any) -> Any:
 
 
 def physics_options(f: Any) -> Any:
-    """The physics replay's options (--wall-stiffness, --rate, --substeps), from :mod:`bhr.settings.options`."""
+    """The physics replay's options (--wall-stiffness, --rate, --substeps), from :mod:`bhr._settings.options`."""
     return stack_options(*[_click_option(o) for o in by_group("physics")])(f)
 
 
@@ -236,12 +236,12 @@ def build_robot(kwargs: dict[str, Any], **defaults: Any):
 
     Removes the robot options (and --robot) from ``kwargs``.
     """
-    from bhr.model.robot import Robot
+    from bhr.model._robot import Robot
 
     path = kwargs.pop("robot_file", None)
     given = pop_robot(kwargs)
     if path is not None:
-        from bhr.model.robotfile import load_robot_file
+        from bhr.model._robotfile import load_robot_file
 
         base = load_robot_file(path).robot
         return base.replace(**given) if given else base
@@ -267,7 +267,7 @@ def pop_trajectory(kwargs: dict[str, Any]) -> dict[str, Any]:
     return out
 
 
-# --solver optimal (bhr/solvers/optimal.py, docs/optimal.md)
+# --solver optimal (bhr/solvers/_optimal.py, docs/optimal.md)
 OPTIMAL_FIELDS = tuple(o.name for o in by_group("solver") if o.solvers is not None and "optimal" in o.solvers)
 
 
@@ -294,7 +294,7 @@ def optimal_options(f: Any) -> Any:
     return stack_options(*[_click_option(o) for o in by_group("solver") if o.name in OPTIMAL_FIELDS])(f)
 
 
-# --solver lumen (bhr/solvers/lumen.py, docs/lumen.md); it shares --lookahead, --beam and --ori-weight with optimal
+# --solver lumen (bhr/solvers/_lumen.py, docs/lumen.md); it shares --lookahead, --beam and --ori-weight with optimal
 LUMEN_FIELDS = tuple(o.name for o in by_group("solver") if o.solvers == ("lumen",))
 SHARED_FIELDS = tuple(o.name for o in by_group("solver") if o.solvers is not None and len(o.solvers) > 1)
 
@@ -306,7 +306,7 @@ def lumen_options(f: Any) -> Any:
 
 def pop_solver_options(kwargs: dict[str, Any], solvers: list[str]) -> dict[str, dict[str, Any]]:
     """The solver options given (optimal, lumen), per solver run; refuses an option no solver run takes."""
-    from bhr.settings.errors import BhrError
+    from bhr._settings.errors import BhrError
 
     out: dict[str, dict[str, Any]] = {}
     for o in by_group("solver"):

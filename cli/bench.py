@@ -28,9 +28,9 @@ def bench(cases, repeat, json_path, check):
     \b
         bhr bench --case thesis-colon --repeat 9
     """
-    from bhr.bench import cases as b
+    from bhr._bench import cases as b
     from bhr.cli._progress import announce_compiles, status
-    from bhr.settings.errors import BhrError
+    from bhr._settings.errors import BhrError
 
     check_writable(json_path, "JSON")
     names = [b.CASE_ALIASES.get(c, c) for c in cases] or list(b.CASES)
@@ -51,7 +51,7 @@ def bench(cases, repeat, json_path, check):
     if json_path == "-":
         click.echo(json.dumps(doc, indent=1))
     elif json_path:
-        from bhr.output.atomic import write_json
+        from bhr.output._atomic import write_json
 
         write_json(json_path, doc)
     if check and any(r.ok is False for r in results):

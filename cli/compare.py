@@ -7,7 +7,7 @@ from pathlib import Path
 
 import click
 
-from bhr.model.trajnames import traj_help
+from bhr.model._trajnames import traj_help
 from bhr.cli._common import (check_parent_folder, check_writable, guarded, input_files, json_in_folder,
                              run_folder_name)
 from bhr.cli._options import (build_robot, force_option, lumen_options, optimal_options, pop_solver_options,
@@ -42,13 +42,13 @@ def compare(traj, solvers, out_dir, json_path, no_plots, force, **kwargs):
 
         bhr compare --traj curve --angle 360 --solver thesis --solver optimal
     """
-    from bhr.output.atomic import write_json
-    from bhr.run.body import check_body_modules
+    from bhr.output._atomic import write_json
+    from bhr._run.body import check_body_modules
     from bhr.cli._progress import announce_compiles, status
-    from bhr.studies.compare import compare_json, compare_runs, format_table, write_compare
-    from bhr.settings.errors import BhrError
-    from bhr.run.driver import BhrWarning
-    from bhr.model.generators import load_trajectory
+    from bhr._studies.compare import compare_json, compare_runs, format_table, write_compare
+    from bhr._settings.errors import BhrError
+    from bhr._run.driver import BhrWarning
+    from bhr.model._generators import load_trajectory
 
     from bhr.solvers import check_solver_name
 
@@ -59,7 +59,7 @@ def compare(traj, solvers, out_dir, json_path, no_plots, force, **kwargs):
     robot = build_robot(kwargs)
     if traj is None:
         raise BhrError("give the trajectory to compare on: --traj line|curve|spiral|colon|FILE")
-    from bhr.output.atomic import OutputFolder
+    from bhr.output._atomic import OutputFolder
 
     folder = None
     # as bhr follow: every solver's run is kept in a folder, unless stdout is the whole output (--json - --no-plots)
@@ -81,7 +81,7 @@ def compare(traj, solvers, out_dir, json_path, no_plots, force, **kwargs):
     announce_compiles()
     traj_params = pop_trajectory(kwargs)
     tr = load_trajectory(traj, feed=robot.feed, **traj_params)
-    from bhr.studies.follow_run import folder_stem, trajectory_parts
+    from bhr._studies.follow_run import folder_stem, trajectory_parts
 
     stem = folder_stem(traj, traj_params.get("seed"))  # as follow's: one folder name per anatomical colon
     if folder is None and use_folder:
@@ -110,7 +110,7 @@ def compare(traj, solvers, out_dir, json_path, no_plots, force, **kwargs):
                 write_json(Path(json_path), compare_json(runs))  # before the folder goes in place
                 written.append(Path(json_path))
         if out_dir is None:
-            from bhr.output.atomic import point_latest
+            from bhr.output._atomic import point_latest
 
             point_latest(folder.target)  # bhr-out/latest: the run just written
     if json_path == "-":

@@ -23,9 +23,9 @@ def export(fmt, out, **kwargs):
     \b
         bhr export --format urdf --modules 60 --out bhr-out/bhr60.urdf
     """
-    from bhr.output.atomic import write_text
-    from bhr.settings.errors import BhrError
-    from bhr.model.export import FORMATS, export_text
+    from bhr.output._atomic import write_text
+    from bhr._settings.errors import BhrError
+    from bhr.model._export import FORMATS, export_text
 
     fmt = fmt.lower()
     if fmt not in FORMATS:
@@ -34,14 +34,14 @@ def export(fmt, out, **kwargs):
     path = kwargs.get("robot_file")
     mass: dict = {}
     if path is not None:
-        from bhr.model.robotfile import load_robot_file
+        from bhr.model._robotfile import load_robot_file
 
         mass = load_robot_file(path).mass
     body = kwargs.pop("body_modules", None)
     robot = build_robot(kwargs)
     modules = robot.modules
     if body is not None:
-        from bhr.run.body import check_body_modules
+        from bhr._run.body import check_body_modules
 
         modules = check_body_modules(body, robot.modules, "--body-modules")
     text = export_text(fmt, robot, modules, mass_g=mass.get("module_mass"), density=mass.get("density"))

@@ -22,16 +22,16 @@ def fk(codes, json_path, plot_path, **kwargs):
 
     Example: bhr fk --codes 3,0,6,0,0 --plot bhr-out/pose.png
     """
-    from bhr.output.atomic import write_json
+    from bhr.output._atomic import write_json
     from bhr.cli._progress import announce_compiles
-    from bhr.model.codes import check_codes
-    from bhr.settings.errors import BhrError
-    from bhr.model.robot import forward_kinematics
+    from bhr.model._codes import check_codes
+    from bhr._settings.errors import BhrError
+    from bhr.model._robot import forward_kinematics
 
     check_writable(json_path, "JSON")
     check_writable(plot_path, "plot")
     if plot_path is not None:
-        from bhr.output.workspace_plot import check_path
+        from bhr.output._workspace_plot import check_path
 
         check_path(plot_path)
     values = [c.strip() for c in codes.split(",")] if "," in codes else codes.split()
@@ -47,7 +47,7 @@ def fk(codes, json_path, plot_path, **kwargs):
     points, frames = forward_kinematics(robot, checked)
     doc = {"codes": checked, "points": points.tolist(), "frames": frames.tolist()}
     if plot_path:
-        from bhr.output.workspace_plot import plot_pose
+        from bhr.output._workspace_plot import plot_pose
 
         plot_pose(robot, checked, plot_path)
     if json_path == "-":

@@ -1,6 +1,6 @@
 """bhr follow: follow a trajectory with follow-the-leader and write errors, plots and codes.
 
-Parses the options, calls bhr.studies.follow_run.follow_run (which writes the run's whole output set, and
+Parses the options, calls bhr._studies.follow_run.follow_run (which writes the run's whole output set, and
 streams it with --port) and prints what it returns.
 """
 from __future__ import annotations
@@ -15,7 +15,7 @@ from bhr.cli._progress import announce_compiles, start, status, stop
 from bhr.cli._link import (at_end_option, end_text, exit_interrupted, fault_printer, link_options, link_settings,
                            schedule_option, thermal_params)
 from bhr.cli.replay import STRIDE_HELP, check_view_options, run_live_view
-from bhr.model.trajnames import traj_help
+from bhr.model._trajnames import traj_help
 from bhr.cli._options import (rate_type, PlainIntRange, force_option, build_robot, constraint_options, lumen_options,
                               optimal_options, pop_constraints, pop_solver_options, pop_trajectory, robot_options,
                               run_options, trajectory_options)
@@ -71,15 +71,15 @@ def follow(traj, solver, out_dir, json_path, no_plots, force, **kwargs):
 
         bhr follow --traj colon --port /dev/ttyUSB0
     """
-    from bhr.model.trajnames import check_trajectory_name
+    from bhr.model._trajnames import check_trajectory_name
 
     check_trajectory_name(traj)  # a misspelt name costs no numba import
     from bhr.solvers import check_solver_name
 
-    solver = check_solver_name(solver)  # nor does a misspelt solver (bhr.solvers.names); an alias is shown by its name
-    from bhr.settings.errors import BhrError
+    solver = check_solver_name(solver)  # nor does a misspelt solver (bhr.solvers._names); an alias is shown by its name
+    from bhr._settings.errors import BhrError
 
-    from bhr.studies.follow_run import StreamSettings, check_outputs, follow_run
+    from bhr._studies.follow_run import StreamSettings, check_outputs, follow_run
 
     check_outputs(traj, kwargs.get("robot_file"), out_dir, json_path, force)  # before any work
     check_writable(json_path, "JSON")  # and never onto an input (--traj, --robot)
@@ -103,7 +103,7 @@ def follow(traj, solver, out_dir, json_path, no_plots, force, **kwargs):
     optimal = pop_solver_options(kwargs, [solver]).get(solver, {})
     body_modules = kwargs.pop("body_modules")
     if body_modules is not None:
-        from bhr.run.body import check_body_modules
+        from bhr._run.body import check_body_modules
 
         check_body_modules(body_modules, robot.modules, "--body-modules")
     reach, locomotion = kwargs.pop("reach"), kwargs.pop("locomotion")
@@ -121,7 +121,7 @@ def follow(traj, solver, out_dir, json_path, no_plots, force, **kwargs):
     announce_compiles()
     interrupted = ()  # nothing to catch without a stream; the board's link is loaded only for a stream (0.14 s)
     if stream is not None:
-        from bhr.hardware.link import StreamInterrupted
+        from bhr._hardware.link import StreamInterrupted
 
         interrupted = (StreamInterrupted,)
     try:
@@ -141,7 +141,7 @@ def follow(traj, solver, out_dir, json_path, no_plots, force, **kwargs):
     to_stdout = json_path == "-"
     if run.stream is not None:
         st = run.stream
-        from bhr.hardware.thermal import format_duration
+        from bhr._hardware.thermal import format_duration
 
         click.echo(f"streamed {st.sent} steps ({st.modules} modules) to {st.port} {st.how}; procedure time "
                    f"{format_duration(st.elapsed_s)} (planned {format_duration(st.planned_s)}); "

@@ -9,7 +9,7 @@ from bhr.cli._common import guarded
 def _start(text: str | None) -> tuple[float, float, float] | None:
     if text is None:
         return None
-    from bhr.settings.errors import BhrError
+    from bhr._settings.errors import BhrError
 
     parts = text.replace(";", ",").split(",")
     try:
@@ -52,9 +52,9 @@ def import_(source, centerline, label, start, smooth_mm, spacing, voxel_mm, out_
     from pathlib import Path
 
     from bhr.cli._common import check_writable
-    from bhr.model.importer import SEGMENTATION_SUFFIXES, import_colon
-    from bhr.output.atomic import atomic_path, write_text
-    from bhr.settings.errors import BhrError
+    from bhr.model._importer import SEGMENTATION_SUFFIXES, import_colon
+    from bhr.output._atomic import atomic_path, write_text
+    from bhr._settings.errors import BhrError
 
     src = Path(source)
     stem = src.name

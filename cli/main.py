@@ -11,7 +11,7 @@ from typing import NoReturn
 import click
 
 from bhr.cli._interrupt import end_interrupted, install, settle
-from bhr.settings.errors import INTERRUPTED
+from bhr._settings.errors import INTERRUPTED
 
 # command name -> "module:attribute", imported only when the command runs.
 COMMANDS: dict[str, tuple[str, str]] = {

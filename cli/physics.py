@@ -30,14 +30,14 @@ def physics(run, out_dir, force, wall_stiffness, wire_force, feeder_force, subst
     \b
         bhr physics bhr-out/latest/run.json
     """
-    from bhr.output.atomic import write_json
+    from bhr.output._atomic import write_json
     from bhr.cli._progress import status
-    from bhr.run.driver import load_run
-    from bhr.settings.errors import BhrError
-    from bhr.settings.options import BY_NAME
+    from bhr._run.driver import load_run
+    from bhr._settings.errors import BhrError
+    from bhr._settings.options import BY_NAME
 
     if run != "-" and not Path(run).exists():  # a folder, FIFO or device is load_run's to name
-        from bhr.settings.inputs import latest_note
+        from bhr._settings.inputs import latest_note
 
         raise BhrError(f"{run}: no such run file{latest_note(Path(run))}; give the run.json that 'bhr follow' wrote")
     given = {"wall_stiffness": wall_stiffness, "wire_force": wire_force, "feeder_force": feeder_force,
@@ -46,7 +46,7 @@ def physics(run, out_dir, force, wall_stiffness, wire_force, feeder_force, subst
     for k, v in opts.items():
         if not v > 0:
             raise BhrError(f"--{k.replace('_', '-')} must be greater than 0, got {v:g}")
-    from bhr.studies.physics import check_wall_stiffness
+    from bhr._studies.physics import check_wall_stiffness
 
     check_wall_stiffness(float(opts["wall_stiffness"]))
     if out_dir is None and run == "-":
@@ -58,14 +58,14 @@ def physics(run, out_dir, force, wall_stiffness, wire_force, feeder_force, subst
     readable = f"physics-{source.parent.name if source.name == 'run.json' else source.stem}"
     folder = default_output("physics", readable, (sorted(opts.items()),), input_files(run), out_dir,
                             force=force)
-    from bhr.studies.physics import replay_physics
+    from bhr._studies.physics import replay_physics
 
     result = load_run(run)
     with status(f"replaying {result.steps} steps against the wall", log=True):
         rep = replay_physics(result, None if run == "-" else run, **opts)
-    from bhr.output.physics_plot import force_figure
-    from bhr.output.figure import save_figure
-    from bhr.output.view import save_view
+    from bhr.output._physics_plot import force_figure
+    from bhr.output._figure import save_figure
+    from bhr.output._view import save_view
 
     with folder:
         write_json(folder.path("physics.json"), rep.to_dict())

@@ -40,18 +40,18 @@ def plan(codes_path, rate, schedule, robot_file, plot_path, no_plot, csv_path):
     \b
         bhr plan --codes bhr-out/latest/codes.csv
     """
-    from bhr.model.codes import read_codes_csv
+    from bhr.model._codes import read_codes_csv
 
     steps, table = read_codes_csv(codes_path)  # a missing or bad file is refused before the thermal model loads
-    from bhr.hardware.thermal import format_duration, plan as make_plan, summarize
+    from bhr._hardware.thermal import format_duration, plan as make_plan, summarize
 
-    from bhr.settings.options import LIMITS
+    from bhr._settings.options import LIMITS
 
     shown = plot_path
     figure_name = f"thermal-{schedule}-{rate:g}hz.png"  # a plan at another rate or schedule keeps this one
     if not no_plot and table.shape[1] > LIMITS["figure_modules"]:
         if plot_path is not None:
-            from bhr.settings.errors import BhrError
+            from bhr._settings.errors import BhrError
 
             raise BhrError(f"--plot draws the wires of at most {LIMITS['figure_modules']} modules and "
                            f"{codes_path} has {table.shape[1]}; drop --plot (the schedule is printed) or use --csv")
@@ -60,7 +60,7 @@ def plan(codes_path, rate, schedule, robot_file, plot_path, no_plot, csv_path):
         no_plot = True
     if not no_plot:
         if plot_path is None:
-            from bhr.output.atomic import owning_folder
+            from bhr.output._atomic import owning_folder
 
             plot_path = str(Path(codes_path).resolve().parent / figure_name)
             shown = str(Path(codes_path).parent / figure_name)  # named as the user named the codes
@@ -70,7 +70,7 @@ def plan(codes_path, rate, schedule, robot_file, plot_path, no_plot, csv_path):
         check_writable(plot_path, "figure")
         owner = _figure_owner(plot_path)
         if owner is not None:  # a folder bhr cannot replace is refused before the schedule is printed
-            from bhr.output.atomic import OutputFolder
+            from bhr.output._atomic import OutputFolder
 
             OutputFolder(owner[0], "plan", keep=True).check()
     check_writable(csv_path, "CSV")
@@ -88,7 +88,7 @@ def plan(codes_path, rate, schedule, robot_file, plot_path, no_plot, csv_path):
         prev = row
     out.write(summarize(sched, name) + "\n")
     out.flush()
-    from bhr.output.atomic import together
+    from bhr.output._atomic import together
 
     with together():  # the CSV and the figure: both or neither
         written = _write_outputs(sched, table, steps, name, csv_path, plot_path, no_plot)
@@ -97,7 +97,7 @@ def plan(codes_path, rate, schedule, robot_file, plot_path, no_plot, csv_path):
 
 
 def _write_outputs(sched, table, steps, name, csv_path, plot_path, no_plot) -> list:
-    from bhr.output.atomic import write_text
+    from bhr.output._atomic import write_text
 
     written = []
     if csv_path:
@@ -107,8 +107,8 @@ def _write_outputs(sched, table, steps, name, csv_path, plot_path, no_plot) -> l
         write_text(Path(csv_path), "\n".join(lines) + "\n")
         written.append(csv_path)
     if not no_plot:
-        from bhr.output.atomic import OutputFolder
-        from bhr.output.thermal_plot import save_schedule_figure
+        from bhr.output._atomic import OutputFolder
+        from bhr.output._thermal_plot import save_schedule_figure
 
         owner = _figure_owner(plot_path)
         if owner is not None:
@@ -127,7 +127,7 @@ def _figure_owner(plot_path):
     A run's own folder, or a compare's or report's holding the run one or two levels down: that folder is put
     back whole with the figure added, so its manifest lists every file.
     """
-    from bhr.output.atomic import MANIFEST, owning_folder
+    from bhr.output._atomic import MANIFEST, owning_folder
 
     plot_dir = Path(plot_path).resolve().parent
     owner = owning_folder(plot_dir / "codes.csv")

@@ -19,19 +19,19 @@ STRIDE_HELP = ("Draw every Nth step (the last step always): frames of --animate 
 def check_view_options(show: bool, animate_path: str | None) -> None:
     """Refuse, before any work, an animation that cannot be written or a window that cannot open."""
     if animate_path is not None:
-        from bhr.output.animate import check_target
+        from bhr.output._animate import check_target
 
         check_target(animate_path)
         check_writable(animate_path, "animation")
     if show:
-        from bhr.output.liveview import check_display
+        from bhr.output._liveview import check_display
 
         check_display()
 
 
 def render_animation(result, animate_path: str, stride: int | None, shown: Path | None = None) -> Path:
     """Render ``result`` to ``animate_path`` with a progress bar on stderr; print what was written."""
-    from bhr.output.animate import animate, default_stride, frame_steps
+    from bhr.output._animate import animate, default_stride, frame_steps
 
     total = len(frame_steps(result.steps, stride or default_stride(result.steps)))
     from bhr.cli._progress import status
@@ -47,8 +47,8 @@ def run_live_view(result, stride: int | None) -> None:
     """Open the live view (blocks until the user quits) and print what it showed. What the command wrote goes in
     place first, with the summary printed (a full standard output still leaves nothing), so that its folder is
     there while the window is open."""
-    from bhr.output.atomic import place_now
-    from bhr.output.liveview import keys_help, show
+    from bhr.output._atomic import place_now
+    from bhr.output._liveview import keys_help, show
 
     place_now(check=sys.stdout.flush)
     click.echo(f"Live view: {keys_help()}", err=True)
@@ -77,11 +77,11 @@ def replay(run, show, animate_path, stride, out_dir, force, step):
 
         bhr replay bhr-out/latest/run.json --animate bhr-out/colon.gif
     """
-    from bhr.run.driver import load_run
+    from bhr._run.driver import load_run
 
     import os
 
-    from bhr.output.atomic import MANIFEST, OutputFolder, owning_folder
+    from bhr.output._atomic import MANIFEST, OutputFolder, owning_folder
 
     write_plots = out_dir is not None or not (show or animate_path)
     out = Path(out_dir) if out_dir else (Path(run).parent if run != "-" else Path("bhr-out") / "replay")
@@ -107,8 +107,8 @@ def replay(run, show, animate_path, stride, out_dir, force, step):
     written: list[Path] = []
     if write_plots:
         from bhr.cli._progress import status
-        from bhr.output.run_plots import run_plot_names, save_run_plots
-        from bhr.output.view import VIEW_NAME, save_view
+        from bhr.output._run_plots import run_plot_names, save_run_plots
+        from bhr.output._view import VIEW_NAME, save_view
 
         if folder is None:
             refuse_replacing_beside(out, [*run_plot_names(result, step), VIEW_NAME], run,

@@ -34,8 +34,8 @@ def report(batch_path, batch_old, out_dir, force, jobs, inline_images, no_plots)
         bhr report --file docs/examples/chapter7.toml --out bhr-out/chapter7
     """
     from bhr.cli._progress import announce_compiles, status
-    from bhr.settings.errors import BhrError
-    from bhr.studies.report import format_table, load_batch, run_batch
+    from bhr._settings.errors import BhrError
+    from bhr._studies.report import format_table, load_batch, run_batch
 
     if batch_path is not None and batch_old is not None:
         raise BhrError("--batch is the old name of --file; give the batch file once, with --file")

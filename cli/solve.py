@@ -52,15 +52,15 @@ def solve(target, orientation, solver, json_path, plot_path, **kwargs):
         bhr solve --modules 5 --module-length 2 --target 3 9 0 --solver ccd
     """
     from bhr.cli._progress import announce_compiles
-    from bhr.model.robot import CHAPTER5_ROBOT
+    from bhr.model._robot import CHAPTER5_ROBOT
     from bhr.solvers import canonical, check_solver_name, solve as run
 
-    check_solver_name(solver)  # before numba or a solver module loads (bhr.solvers.names)
+    check_solver_name(solver)  # before numba or a solver module loads (bhr.solvers._names)
 
     check_writable(json_path, "JSON")
     check_writable(plot_path, "plot")
     if plot_path is not None:
-        from bhr.output.figure import check_figure_path
+        from bhr.output._figure import check_figure_path
 
         check_figure_path(plot_path)
     chapter5 = {k: getattr(CHAPTER5_ROBOT, k) for k in ("modules", "module_length", "tol_pos", "max_iter")}
@@ -89,7 +89,7 @@ def solve(target, orientation, solver, json_path, plot_path, **kwargs):
         click.echo(f"{'point':>5} {'x':>10} {'y':>10} {'z':>10}")
         for j, p in enumerate(result.points, start=1):
             click.echo(f"{j:>5} {p[0]:>10.5f} {p[1]:>10.5f} {p[2]:>10.5f}")
-    from bhr.output.atomic import together
+    from bhr.output._atomic import together
 
     with together():  # the JSON and the figure: both or neither
         _write_outputs(json_path, plot_path, doc, robot, solver, target, result)
@@ -97,12 +97,12 @@ def solve(target, orientation, solver, json_path, plot_path, **kwargs):
 
 def _write_outputs(json_path, plot_path, doc, robot, solver, target, result) -> None:
     if json_path not in (None, "-"):
-        from bhr.output.atomic import write_json
+        from bhr.output._atomic import write_json
 
         write_json(json_path, doc)
     if plot_path:
-        from bhr.output.figure import save_figure
-        from bhr.output.path_plot import chain_figure
+        from bhr.output._figure import save_figure
+        from bhr.output._path_plot import chain_figure
         from bhr.solvers import Chain
 
         initial = Chain.straight(robot, (0, 1, 0)).points

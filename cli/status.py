@@ -36,9 +36,9 @@ def status(json_path, **link_kw):
     \b
         bhr status --port /dev/ttyUSB0 --json -
     """
-    from bhr.output.atomic import write_json
-    from bhr.model.codes import actuators
-    from bhr.hardware.link import BoardLink
+    from bhr.output._atomic import write_json
+    from bhr.model._codes import actuators
+    from bhr._hardware.link import BoardLink
 
     check_writable(json_path, "JSON")
     port, link_args = link_settings(link_kw)

@@ -44,24 +44,24 @@ def stream(codes_path, rate, schedule, at_end, dry_run, **link_kw):
     \b
         bhr stream --port /dev/ttyUSB0 --codes bhr-out/latest/codes.csv --rate 10
     """
-    from bhr.model.codes import read_codes_csv
-    from bhr.settings.errors import BhrError
+    from bhr.model._codes import read_codes_csv
+    from bhr._settings.errors import BhrError
 
     steps, table = read_codes_csv(codes_path)
     n_rows, n_modules = table.shape
     robot_file = link_kw.get("robot_file")
 
     port, link_args = link_settings(link_kw, need_port=not dry_run, hint=", or use --dry-run to print the frames")
-    from bhr.hardware.thermal import format_duration, pace, plan
+    from bhr._hardware.thermal import format_duration, pace, plan
 
     # the same checks with and without --dry-run: what one board drives, then the thermal model
-    from bhr.hardware.protocol import check_board_modules
+    from bhr._hardware.protocol import check_board_modules
 
     check_board_modules(n_modules, str(codes_path))
     sched = plan(thermal_params(robot_file), table, rate, schedule, name=str(codes_path), sending=not dry_run,
                  trace=False)
     if dry_run:
-        from bhr.hardware.protocol import set_codes_frame
+        from bhr._hardware.protocol import set_codes_frame
 
         order = link_args["module_order"]
         if order is not None and len(order) != n_modules:
@@ -79,7 +79,7 @@ def stream(codes_path, rate, schedule, at_end, dry_run, **link_kw):
         return
 
     from bhr.cli._progress import status
-    from bhr.hardware.link import BoardLink, StreamInterrupted, run_stream
+    from bhr._hardware.link import BoardLink, StreamInterrupted, run_stream
 
     times = sched.times_ms / 1000.0 if schedule == "auto" else None
     events: list = []

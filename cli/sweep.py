@@ -47,13 +47,13 @@ def sweep(sweep_file, trajs, solvers, grid, robot_file, out_dir, force, jobs, sc
 
     # a misspelt solver is refused before the studies' modules (numpy, numba) load; an alias is shown by its name
     solvers = tuple(check_solver_name(name, "sweep") for name in solvers)
-    from bhr.studies.sweep import build_sweep, format_summary, heatmap_axes, load_sweep, parse_grid_option, run_sweep, \
-        write_outputs
+    from bhr._studies.sweep import (build_sweep, format_summary, heatmap_axes, load_sweep, parse_grid_option,
+                                    run_sweep, write_outputs)
 
     check_executor(jobs, scheduler)
     cli_grid = [parse_grid_option(g) for g in grid]
     if sweep_file:
-        from bhr.model.generators import builtin_names
+        from bhr.model._generators import builtin_names
 
         base = load_sweep(sweep_file)
         merged = dict(base.grid)
@@ -78,7 +78,7 @@ def sweep(sweep_file, trajs, solvers, grid, robot_file, out_dir, force, jobs, sc
                             what="sweep output folder", force=force)  # before any work
     out = folder.final("")
     total = len(s)
-    from bhr.studies.cluster import scheduler_client
+    from bhr._studies.cluster import scheduler_client
 
     where = f"on {scheduler}" if scheduler else ""
     with scheduler_client(scheduler) as client:  # fails in one line before anything starts

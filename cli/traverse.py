@@ -61,9 +61,9 @@ def traverse(grid, colons, solvers, head_only, target_pass, robot_file, out_dir,
 
     # a misspelt solver is refused before the studies' modules (numpy, numba) load; an alias is shown by its name
     solvers = tuple(check_solver_name(name, "traverse") for name in solvers)
-    from bhr.settings.errors import BhrError
-    from bhr.studies.sweep import parse_grid_option
-    from bhr.studies.traverse import (build_study, format_study, heatmap_axes, robot_axes, run_study,
+    from bhr._settings.errors import BhrError
+    from bhr._studies.sweep import parse_grid_option
+    from bhr._studies.traverse import (build_study, format_study, heatmap_axes, robot_axes, run_study,
                                       write_study)
 
     check_executor(jobs, scheduler)
@@ -84,7 +84,7 @@ def traverse(grid, colons, solvers, head_only, target_pass, robot_file, out_dir,
                             input_files(robot_file), out_dir,
                             what="study output folder", force=force)  # before any work
     from bhr.cli._progress import status
-    from bhr.studies.cluster import scheduler_client
+    from bhr._studies.cluster import scheduler_client
 
     total = len(study)
     label = f"{total} runs ({study.designs} designs x {len(study.colons)} colons)" + (

@@ -15,7 +15,7 @@ def warmup():
     """
     from bhr import _numba
     from bhr.cli._progress import announce_compiles, status
-    from bhr.warmup import compile_all
+    from bhr._warmup import compile_all
 
     announce_compiles()
     with status("compiling kernels"):

@@ -34,8 +34,8 @@ def workspace(no_lift, samples, seed, voxel, plot_path, no_plot, json_path, **kw
     Example: bhr workspace --modules 6 --alpha 20 --plot bhr-out/workspace6.png
     """
     from bhr.cli._progress import announce_compiles
-    from bhr.model.workspace import EXACT_LIMIT, workspace as compute
-    from bhr.output.atomic import write_json
+    from bhr.model._workspace import EXACT_LIMIT, workspace as compute
+    from bhr.output._atomic import write_json
 
     check_writable(json_path, "JSON")
     robot = build_robot(kwargs)
@@ -47,7 +47,7 @@ def workspace(no_lift, samples, seed, voxel, plot_path, no_plot, json_path, **kw
         Path(plot_path).parent.mkdir(parents=True, exist_ok=True)
     if not no_plot:
         check_writable(plot_path, "plot")
-        from bhr.output.workspace_plot import check_path
+        from bhr.output._workspace_plot import check_path
 
         check_path(plot_path)
     lift = not no_lift
@@ -85,7 +85,7 @@ def workspace(no_lift, samples, seed, voxel, plot_path, no_plot, json_path, **kw
         if not ws.exact:
             click.echo("  (sampled: the robot's volume is at least this, its resolution at most this gap)")
     if not no_plot:
-        from bhr.output.workspace_plot import save, workspace_figure
+        from bhr.output._workspace_plot import save, workspace_figure
 
         save(workspace_figure(ws), plot_path)
         if json_path != "-":

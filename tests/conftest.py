@@ -28,7 +28,7 @@ def cli_install_command(extra: str) -> str:
     ``#!`` line, e.g. the venv's python3), which may be another name for this test run's Python."""
     import shlex
 
-    from bhr.settings.extras import install_command
+    from bhr._settings.extras import install_command
 
     first = Path(bhr_exe()[0]).read_text(errors="replace").splitlines()[0] if bhr_exe()[0] != sys.executable else ""
     python = first[2:].strip() if first.startswith("#!") else sys.executable

@@ -2,7 +2,7 @@
 
 A dual quaternion ``q = a + b*eps`` is eight numbers ``[a_w, a_x, a_y, a_z,
 b_w, b_x, b_y, b_z]``. tests/unit/test_dualquat.py holds the kernels of
-:mod:`bhr.kinematics.dualquat` equal to these functions, and these functions
+:mod:`bhr._kinematics.dualquat` equal to these functions, and these functions
 equal to pytransform3d's.
 """
 from __future__ import annotations

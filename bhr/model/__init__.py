@@ -18,15 +18,15 @@ from typing import Any
 
 #: Public name -> the module of this package that defines it.
 _API = {
-    "Robot": "robot", "THESIS_ROBOT": "robot", "CHAPTER5_ROBOT": "robot", "forward_kinematics": "robot",
-    "min_turn_radius": "robot", "alpha_from_stroke": "robot",
-    "Trajectory": "path", "unfollowable_bends": "path",
-    "trajectory": "generators", "load_trajectory": "generators", "builtin_names": "generators",
-    "Colon": "anatomy", "anatomical_colon": "anatomy",
-    "VALID_CODES": "codes", "check_codes": "codes", "read_codes_csv": "codes", "format_codes_csv": "codes",
-    "RobotFile": "robotfile", "load_robot_file": "robotfile",
-    "joint_names": "export", "joint_values": "export", "to_urdf": "export", "to_mjcf": "export",
-    "ThermalParams": "wires",
+    "Robot": "_robot", "THESIS_ROBOT": "_robot", "CHAPTER5_ROBOT": "_robot", "forward_kinematics": "_robot",
+    "min_turn_radius": "_robot", "alpha_from_stroke": "_robot",
+    "Trajectory": "_path", "unfollowable_bends": "_path",
+    "trajectory": "_generators", "load_trajectory": "_generators", "builtin_names": "_generators",
+    "Colon": "_anatomy", "anatomical_colon": "_anatomy",
+    "VALID_CODES": "_codes", "check_codes": "_codes", "read_codes_csv": "_codes", "format_codes_csv": "_codes",
+    "RobotFile": "_robotfile", "load_robot_file": "_robotfile",
+    "joint_names": "_export", "joint_values": "_export", "to_urdf": "_export", "to_mjcf": "_export",
+    "ThermalParams": "_wires",
 }
 
 __all__ = sorted(_API)

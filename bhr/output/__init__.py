@@ -17,10 +17,10 @@ from typing import Any
 
 #: Public name -> the module of this package that defines it.
 _API = {
-    "error_figure": "error_plot", "path_figure": "path_plot", "chain_figure": "path_plot", "body_figure": "error_plot",
-    "clearance_figure": "clearance_plot", "save_run_plots": "run_plots", "save_figure": "figure",
-    "animate": "animate", "view_figure": "view", "view_html": "view", "save_view": "view",
-    "write_run_files": "steptable", "plot_pose": "workspace_plot",
+    "error_figure": "_error_plot", "path_figure": "_path_plot", "chain_figure": "_path_plot",
+    "body_figure": "_error_plot", "clearance_figure": "_clearance_plot", "save_run_plots": "_run_plots",
+    "save_figure": "_figure", "animate": "_animate", "view_figure": "_view", "view_html": "_view",
+    "save_view": "_view", "write_run_files": "_steptable", "plot_pose": "_workspace_plot",
 }
 
 __all__ = sorted(_API)

@@ -1,13 +1,14 @@
-"""Solvers behind one interface (:class:`bhr.solvers.base.Solver`).
+"""Solvers behind one interface (:class:`bhr.solvers.Solver`).
 
-Every module in this package that registers a solver is found here, so a new
-solver is one new file; a solver in another package registers itself through
-the ``bhr.solvers`` entry point group (docs/model.md, "Adding a solver").
+bhr's own solvers are listed, with the module each lives in, in the index
+:mod:`bhr.solvers._names` (a new solver is its module and one line there); a
+solver in another package registers itself through the ``bhr.solvers`` entry
+point group (docs/model.md, "Adding a solver").
 ``get_solver(name, robot, **options)`` builds one; ``solve(...)`` runs one
 target from the chapter 5 start (a straight chain along +Y from the origin).
 
 Importing this package loads neither numpy nor a solver: :func:`check_solver_name`
-knows bhr's own solvers from :mod:`bhr.solvers.names`, so a misspelt name is
+knows bhr's own solvers from :mod:`bhr.solvers._names`, so a misspelt name is
 refused at once; the solver modules load when a solver is built or listed.
 """
 from __future__ import annotations
@@ -15,25 +16,24 @@ from __future__ import annotations
 import importlib
 import importlib.metadata
 import inspect
-import pkgutil
 from typing import TYPE_CHECKING, Any, Sequence
 
-from bhr.settings.inputs import did_you_mean
-from bhr.settings.errors import BhrError
-from bhr.settings.options import BY_NAME, excerpt, type_name
-from bhr.model.robot import CHAPTER5_ROBOT, Robot, robot_with
-from bhr.solvers.names import BUILTIN, REGISTRY, builtin_name
+from bhr._settings.inputs import did_you_mean
+from bhr._settings.errors import BhrError
+from bhr._settings.options import BY_NAME, excerpt, type_name
+from bhr.model._robot import CHAPTER5_ROBOT, Robot, robot_with
+from bhr.solvers._names import BUILTIN, REGISTRY, builtin_name
 
 if TYPE_CHECKING:  # loaded lazily (numpy): what these names are, for type checkers
-    from bhr.solvers.base import Chain, FollowContext, SolveResult, Solver
+    from bhr.solvers._base import Chain, FollowContext, SolveResult, Solver
 
-#: Names this package gives from bhr.solvers.base, loaded on first use (PEP 562).
+#: Names this package gives from bhr.solvers._base, loaded on first use (PEP 562).
 _FROM_BASE = ("Chain", "FollowContext", "SolveResult", "Solver")
 
 
 def __getattr__(name: str) -> Any:
     if name in _FROM_BASE:
-        from bhr.solvers import base
+        from bhr.solvers import _base as base
 
         return getattr(base, name)
     raise AttributeError(f"module 'bhr.solvers' has no attribute {name!r}")
@@ -57,11 +57,10 @@ def _load_all() -> None:
     if _loaded:
         return
     _loaded = True
-    from bhr.solvers.base import Solver
+    from bhr.solvers._base import Solver
 
-    for info in pkgutil.iter_modules(__path__):
-        if not info.name.startswith("_") and info.name not in ("base", "names"):
-            importlib.import_module(f"{__name__}.{info.name}")
+    for module in sorted({module for module, _ in BUILTIN.values()}):
+        importlib.import_module(f"{__name__}.{module}")
     for ep in importlib.metadata.entry_points(group=ENTRY_POINTS):
         try:
             cls = ep.load()
@@ -133,7 +132,7 @@ def check_solver_name(name: Any, where: str = "") -> str:
     Aliases such as ``seed`` give ``thesis``; an unknown name is refused with the names to choose from
     (``where`` prefixed).
 
-    bhr's own solvers are known without loading them (:mod:`bhr.solvers.names`);
+    bhr's own solvers are known without loading them (:mod:`bhr.solvers._names`);
     the solver modules load only when another package adds solvers and the
     name is none of bhr's.
 
@@ -162,7 +161,7 @@ def check_solver_name(name: Any, where: str = "") -> str:
     >>> check_solver_name("fabric", "--solver")
     Traceback (most recent call last):
     ...
-    bhr.settings.errors.BhrError: --solver: unknown solver 'fabric'; did you mean 'fabrik'? choose from ...
+    bhr._settings.errors.BhrError: --solver: unknown solver 'fabric'; did you mean 'fabrik'? choose from ...
     """
     known = builtin_name(name) if isinstance(name, str) else None
     if known is not None:
@@ -234,7 +233,7 @@ def get_solver(name: str | Solver | type[Solver], robot: Robot, **options: Any) 
     'thesis'
     """
     _load_all()
-    from bhr.solvers.base import Solver
+    from bhr.solvers._base import Solver
 
     options = {k: v for k, v in options.items() if v is not None}
     if isinstance(name, Solver):
@@ -294,7 +293,7 @@ def solve(target: Sequence[float], *, robot: Robot | None = CHAPTER5_ROBOT, solv
     >>> res.success, res.iterations
     (True, 1)
     """
-    from bhr.solvers.base import Chain, Solver, check_direction, check_target
+    from bhr.solvers._base import Chain, Solver, check_direction, check_target
 
     t = check_target(target)
     d = check_direction(tip_direction)

@@ -1,11 +1,11 @@
-"""Statistics of the anatomical colon population (bhr.model.anatomy) beside the published figures (docs/anatomy.md).
+"""Statistics of the anatomical colon population (bhr.model._anatomy) beside the published figures (docs/anatomy.md).
 
     python docs/examples/anatomy_stats.py                 # seeds 1-1000
     python docs/examples/anatomy_stats.py --seeds 1-100 --sex female
 
 Every figure is measured on the centerline as bhr follows it (points 1 mm
 apart along the arc): the total length, each section's length, the acute
-flexures (bhr.model.anatomy.acute_flexures: the heading 25 mm before a point and
+flexures (bhr.model._anatomy.acute_flexures: the heading 25 mm before a point and
 25 mm after it differ by more than 90 deg), the bend radius of every point
 (the circle through it and the points 5 mm of arc before and after it), and
 the lumen diameter.
@@ -17,8 +17,8 @@ import time
 
 import numpy as np
 
-from bhr.model.anatomy import POPULATION, SECTIONS, acute_flexures, anatomical_colon, bend_radii
-from bhr.model.anatomy_stats import bend_profile, real_colons
+from bhr.model._anatomy import POPULATION, SECTIONS, acute_flexures, anatomical_colon, bend_radii
+from bhr.model._anatomy_stats import bend_profile, real_colons
 
 ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
 ap.add_argument("--seeds", default="1-1000", help="first-last seed (default 1-1000)")

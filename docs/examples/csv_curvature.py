@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from bhr.model.generators import load_trajectory
+from bhr.model import load_trajectory
 
 NOISE = (0.0, 0.05, 0.1, 0.2)
 

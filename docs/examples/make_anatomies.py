@@ -4,7 +4,7 @@
 """
 from pathlib import Path
 
-from bhr.model.anatomy import SHIPPED, anatomy_csv_text
+from bhr.model._anatomy import SHIPPED, anatomy_csv_text
 
 folder = Path(__file__).resolve().parent.parent.parent / "trajectories"
 for name, (seed, note) in SHIPPED.items():

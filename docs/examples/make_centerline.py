@@ -16,8 +16,8 @@ from pathlib import Path
 
 import numpy as np
 
-from bhr.output.atomic import write_text
-from bhr.model.pathfile import segments_trajectory
+from bhr.output._atomic import write_text
+from bhr.model._pathfile import segments_trajectory
 
 SHAPE = """
 name = "centerline source"

@@ -12,10 +12,10 @@ import warnings
 import numpy as np
 
 import bhr
-from bhr.model.generators import load_trajectory
-from bhr.model.trajnames import real_colons
-from bhr.run.clearance import clearance_report
-from bhr.run.driver import BhrWarning
+from bhr.model import load_trajectory
+from bhr.model._trajnames import real_colons
+from bhr._run.clearance import clearance_report
+from bhr._run.driver import BhrWarning
 
 
 def cpu() -> float:

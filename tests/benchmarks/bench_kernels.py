@@ -8,12 +8,12 @@ neither the default run nor `pytest tests/benchmarks` collects them; name the fi
 import numpy as np
 import pytest
 
-from bhr.bench.cases import numpy_ccd, numpy_fabrik, numpy_seed_follow
-from bhr.run.driver import follow
-from bhr.model.robot import straight_chain
-from bhr.solvers.ccd import ccd_kernel
-from bhr.solvers.fabrik import fabrik_kernel
-from bhr.model.generators import load_trajectory
+from bhr._bench.cases import numpy_ccd, numpy_fabrik, numpy_seed_follow
+from bhr._run.driver import follow
+from bhr.model._robot import straight_chain
+from bhr.solvers._ccd import ccd_kernel
+from bhr.solvers._fabrik import fabrik_kernel
+from bhr.model._generators import load_trajectory
 
 P0 = straight_chain(10, 2.0, (0, 1, 0))
 T = np.array([15.0, 6.0, 0.0])
@@ -56,7 +56,7 @@ def test_seed_colon_numpy(benchmark):
 
 # the clearance of the colon run's first 100 steps to the lumen wall: compiled (local search from a guess) and numpy
 def _colon_clearance_inputs():
-    from bhr.run.clearance import make_tube, run_chain
+    from bhr._run.clearance import make_tube, run_chain
 
     run = follow(COLON)
     tube = make_tube(COLON.points, COLON.lumen, COLON.start_direction, closed_end=True)
@@ -66,7 +66,7 @@ def _colon_clearance_inputs():
 
 @pytest.mark.benchmark(group="clearance-colon")
 def test_clearance_colon_bhr(benchmark):
-    from bhr.run.clearance import clearance_run
+    from bhr._run.clearance import clearance_run
 
     tube, radius, Q, E, adv = _colon_clearance_inputs()
     assert benchmark(clearance_run, tube, radius, Q, E, advance=adv)[1].shape == (100, Q.shape[1] - 1)
@@ -74,15 +74,15 @@ def test_clearance_colon_bhr(benchmark):
 
 @pytest.mark.benchmark(group="clearance-colon")
 def test_clearance_colon_numpy(benchmark):
-    from bhr.run.clearance import clearance_run_numpy
+    from bhr._run.clearance import clearance_run_numpy
 
     tube, radius, Q, E, adv = _colon_clearance_inputs()
     benchmark.pedantic(clearance_run_numpy, args=(tube, radius, Q, E), kwargs={"advance": adv}, rounds=2)
 
 
 # --solver optimal without its planner (the exact per-step search) and the 60-module body
-from bhr.bench.cases import OPTIMAL_PER_STEP, numpy_body, numpy_optimal_follow  # noqa: E402
-from bhr.run.body import BODY_BEAM, module1_frames, simulate_body  # noqa: E402
+from bhr._bench.cases import OPTIMAL_PER_STEP, numpy_body, numpy_optimal_follow  # noqa: E402
+from bhr._run.body import BODY_BEAM, module1_frames, simulate_body  # noqa: E402
 
 PATH = np.ascontiguousarray(COLON.points)
 
@@ -98,9 +98,9 @@ def test_optimal_step_colon_numpy(benchmark):
 
 
 # the default --solver optimal (planner on) and the seed solver, one solve() call per step driven from Python
-# (bhr.bench.optimal): whole colon per round; divide by the 827 steps for a mean per step (`bhr bench` gives medians)
-from bhr.bench.optimal import _step_times  # noqa: E402
-from bhr.model.robot import Robot  # noqa: E402
+# (bhr._bench.optimal): whole colon per round; divide by the 827 steps for a mean per step (`bhr bench` gives medians)
+from bhr._bench.optimal import _step_times  # noqa: E402
+from bhr.model._robot import Robot  # noqa: E402
 
 
 @pytest.mark.benchmark(group="optimal-default-colon")

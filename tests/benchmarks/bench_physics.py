@@ -5,7 +5,7 @@
 
 (not collected by pytest: files here are named bench_*.py). Per colon: the run (``bhr follow --traj anatomy
 --seed K --solver lumen --locomotion trail --alpha 25 --module-length 5 --body-modules M``), then its replay
-(bhr.studies.physics.replay_physics); printed: the CPU seconds of the replay (this process's user + system, by
+(bhr._studies.physics.replay_physics); printed: the CPU seconds of the replay (this process's user + system, by
 time.process_time around it), the equilibria solved, the wall's peak load, the stretch, the feeder's push, whether
 the tip reached the cecum and the equilibria not reached. The runs themselves are not counted.
 """
@@ -31,11 +31,11 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--steps", type=int, default=0, help="replay only the first STEPS steps (0: all)")
     args = ap.parse_args(argv)
     import bhr
-    from bhr.model.generators import load_trajectory
-    from bhr.model.robot import Robot
-    from bhr.run.driver import BhrWarning
-    from bhr.studies.physics import poses_from_run, replay_poses
-    from bhr.studies.physics.poses import Poses
+    from bhr.model._generators import load_trajectory
+    from bhr.model._robot import Robot
+    from bhr._run.driver import BhrWarning
+    from bhr._studies.physics import poses_from_run, replay_poses
+    from bhr._studies.physics.poses import Poses
 
     a, _, b = args.colons.partition("-")
     seeds = range(int(a), int(b or a) + 1)

@@ -57,8 +57,8 @@ def anatomy_view(folder: Path) -> Path:
     import warnings
 
     import bhr
-    from bhr.model.generators import load_trajectory
-    from bhr.output.view import save_view
+    from bhr.model._generators import load_trajectory
+    from bhr.output._view import save_view
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")

@@ -31,7 +31,7 @@ def _range(text: str) -> list[int]:
 
 def main() -> None:
     import bhr
-    from bhr.run.driver import BhrWarning, follow
+    from bhr._run.driver import BhrWarning, follow
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--colons", default="1-20")

@@ -18,8 +18,8 @@ def main() -> None:
     import numpy as np
 
     import bhr
-    from bhr.model.robot import Robot
-    from bhr.run.motion import wires_motion
+    from bhr.model._robot import Robot
+    from bhr._run.motion import wires_motion
     from bhr.solvers import get_solver
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])

@@ -4,7 +4,7 @@ length, alpha and module length (docs/locomotion.md, "The wires: measured").
     python tests/benchmarks/wires_strategies.py strategies --colon 1 --modules 40,100
     python tests/benchmarks/wires_strategies.py growth --colon 1 --modules 20,60,140 --alpha 20,25,30 --module 5,6
 
-``strategies``: every strategy of bhr.run.motion.STRATEGIES alone, and the planner that picks one per module
+``strategies``: every strategy of bhr._run.motion.STRATEGIES alone, and the planner that picks one per module
 length, on the same robot (alpha 25 deg, 5 mm modules): the largest distance of a joint from the trail between
 module lengths, the median over module lengths of each one's largest, the least clearance, and the procedure
 time. ``growth``: the planner's figures against the robot's length, alpha and module length. CPU seconds at
@@ -26,9 +26,9 @@ def _cpu() -> float:
 
 def _one(seed: int, M: int, alpha: float, L: float, strategies=None) -> dict:
     import bhr
-    from bhr.model.robot import Robot
-    from bhr.run.driver import BhrWarning
-    from bhr.run.motion import wires_motion
+    from bhr.model._robot import Robot
+    from bhr._run.driver import BhrWarning
+    from bhr._run.motion import wires_motion
     from bhr.solvers import get_solver
 
     robot = Robot(alpha=alpha, module_length=L)
@@ -44,7 +44,7 @@ def _one(seed: int, M: int, alpha: float, L: float, strategies=None) -> dict:
 
 
 def main() -> None:
-    from bhr.run.motion import STRATEGIES
+    from bhr._run.motion import STRATEGIES
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("what", choices=("strategies", "growth"))

@@ -1,4 +1,4 @@
-"""Anatomical colons (bhr.model.anatomy): determinism, spacing, published ranges, continuity, files, command line: the tests that run the bhr command."""
+"""Anatomical colons (bhr.model._anatomy): determinism, spacing, published ranges, continuity, files, command line: the tests that run the bhr command."""
 from __future__ import annotations
 
 import json
@@ -6,7 +6,7 @@ import json
 import numpy as np
 import pytest
 
-from bhr.model.generators import anatomy_trajectory
+from bhr.model._generators import anatomy_trajectory
 
 
 def test_follow_an_anatomical_colon_from_the_command_line(run_bhr, tmp_path):

@@ -22,9 +22,9 @@ from hypothesis import given
 from hypothesis import strategies as st
 from PIL import Image
 
-from bhr.output.animate import MAX_FRAMES, default_stride, frame_steps, frame_view
-from bhr.run.driver import load_run
-from bhr.settings.errors import BhrError
+from bhr.output._animate import MAX_FRAMES, default_stride, frame_steps, frame_view
+from bhr._run.driver import load_run
+from bhr._settings.errors import BhrError
 from tests.conftest import bhr_exe, snapshot
 
 TEN_MB = 10 * 1024 * 1024
@@ -294,9 +294,9 @@ def test_animation_refused_with_one_line_before_any_work(tmp_path, args, env, me
 
 
 def test_failed_render_leaves_the_old_file_untouched(tmp_path):
-    from bhr.model.generators import load_trajectory
-    from bhr.output.animate import animate
-    from bhr.run.driver import follow
+    from bhr.model._generators import load_trajectory
+    from bhr.output._animate import animate
+    from bhr._run.driver import follow
 
     result = follow(load_trajectory("line", length=30))
     target = tmp_path / "anim.gif"

@@ -6,11 +6,11 @@ def test_follow_and_trajectory_are_plain_functions_in_modules_of_other_names():
     import subprocess
     import sys
 
-    import bhr.model.generators
-    import bhr.run.driver
+    import bhr.model._generators
+    import bhr._run.driver
 
-    assert inspect.isfunction(bhr.follow) and bhr.follow is bhr.run.driver.follow
-    assert inspect.isfunction(bhr.trajectory) and bhr.trajectory is bhr.model.generators.trajectory
+    assert inspect.isfunction(bhr.follow) and bhr.follow is bhr._run.driver.follow
+    assert inspect.isfunction(bhr.trajectory) and bhr.trajectory is bhr.model._generators.trajectory
     # the flat module names of before the layers are gone: one name per module
     code = ("import importlib, inspect, bhr\n"
             "for old in ('bhr.clearance', 'bhr.driver', 'bhr.atomic'):\n"

@@ -182,7 +182,7 @@ def test_a_file_too_large_with_a_cold_kernel_cache_names_the_output(tmp_path):
     work.mkdir()
     line = one_line(bhr("solve", "--target", "0", "0", "10", "--json", "s.json", "--plot", "s.png", cwd=work,
                         env=env, timeout=300, preexec_fn=_small_files(5000)))
-    from bhr.output.paths import short_path  # a one-line message quotes a path of over 80 characters shortened
+    from bhr.output._paths import short_path  # a one-line message quotes a path of over 80 characters shortened
 
     assert line.startswith(f"Error: writing bhr's compiled kernels to {short_path(tmp_path / 'kernels')} "
                            "(NUMBA_CACHE_DIR): File too large"), line

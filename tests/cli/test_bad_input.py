@@ -700,7 +700,7 @@ def test_target_on_the_base(solver, target):
 
 @pytest.mark.parametrize("failure", [ValueError("disk full"), KeyboardInterrupt()])
 def test_a_failed_write_keeps_the_good_file_and_leaves_no_temporary(tmp_path, failure):
-    from bhr.output.atomic import atomic_path, write_json
+    from bhr.output._atomic import atomic_path, write_json
 
     target = tmp_path / "run.json"
     write_json(target, {"good": True})
@@ -720,7 +720,7 @@ def test_atomic_outputs_get_the_permissions_a_plain_write_would(tmp_path):
     """mkstemp's 0600 must not leak into outputs: new files follow the umask, replaced ones keep their mode."""
     import os
 
-    from bhr.output.atomic import write_text
+    from bhr.output._atomic import write_text
 
     old = os.umask(0o022)
     try:

@@ -4,7 +4,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from bhr.bench.cases import (
+from bhr._bench.cases import (
     CASES,
     OPTIMAL_PER_STEP,
     check_optimal_reference,
@@ -16,12 +16,12 @@ from bhr.bench.cases import (
     numpy_seed_follow,
     run_case,
 )
-from bhr.model.generators import load_trajectory
-from bhr.model.robot import straight_chain
-from bhr.run.body import BODY_BEAM, module1_frames, simulate_body
-from bhr.run.driver import follow
-from bhr.solvers.ccd import ccd_kernel
-from bhr.solvers.fabrik import fabrik_kernel
+from bhr.model._generators import load_trajectory
+from bhr.model._robot import straight_chain
+from bhr._run.body import BODY_BEAM, module1_frames, simulate_body
+from bhr._run.driver import follow
+from bhr.solvers._ccd import ccd_kernel
+from bhr.solvers._fabrik import fabrik_kernel
 
 
 @pytest.mark.parametrize("target", [(15.0, 6.0, 0.0), (3.0, 9.0, 0.0), (-4.0, 7.0, 5.0)])
@@ -55,9 +55,9 @@ def test_optimal_reference_chooses_the_same_codes(name, params):
 
 def test_optimal_reference_cost_is_the_solvers():
     """The reference's minimum cost at a step is the cost the solver's own search finds from the same chain."""
-    from bhr.model.robot import Robot
+    from bhr.model._robot import Robot
     from bhr.solvers import Chain
-    from bhr.solvers.optimal import search_all
+    from bhr.solvers._optimal import search_all
 
     tr = load_trajectory("curve")
     path = np.ascontiguousarray(tr.points[:40])

@@ -5,7 +5,7 @@ import json
 
 import numpy as np
 
-from bhr.run.driver import follow
+from bhr._run.driver import follow
 
 
 def test_follow_cli_reports_clearance(run_bhr, tmp_path):
@@ -23,7 +23,7 @@ def test_leaving_the_lumen_is_a_verdict(tmp_path, run_bhr):
     lumen[40:] = 4.0
     p = tmp_path / "narrow.csv"
     p.write_text("x,y,z,lumen\n" + "".join(f"{v},{0.002 * v * v},0,{d}\n" for v, d in zip(x, lumen)))
-    from bhr.model.generators import load_trajectory
+    from bhr.model._generators import load_trajectory
 
     run = follow(load_trajectory(str(p)), solver="thesis")
     s = run.summary.to_dict()

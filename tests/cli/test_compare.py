@@ -6,11 +6,11 @@ import json
 import numpy as np
 import pytest
 
-from bhr.model.generators import load_trajectory
-from bhr.model.robot import Robot
-from bhr.run.driver import follow
-from bhr.settings.errors import BhrError
-from bhr.studies.compare import compare_rows, compare_runs, format_table
+from bhr.model._generators import load_trajectory
+from bhr.model._robot import Robot
+from bhr._run.driver import follow
+from bhr._settings.errors import BhrError
+from bhr._studies.compare import compare_rows, compare_runs, format_table
 
 
 def test_rows_are_the_runs_numbers():
@@ -39,7 +39,7 @@ def test_bad_solver_lists():
 
 def test_every_solver_is_checked_before_the_first_run(monkeypatch):
     # a solver that cannot run this trajectory (lumen on a path without one) is refused before the others run
-    import bhr.studies.compare as cmp
+    import bhr._studies.compare as cmp
 
     ran = []
     monkeypatch.setattr(cmp, "follow", lambda *a, **k: ran.append(k.get("solver")))

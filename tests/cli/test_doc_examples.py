@@ -161,7 +161,7 @@ def test_the_docs_show_the_thesis_solver_by_its_one_name(page):
 
 
 def test_the_optimal_benchmark_report_names_the_thesis_solver_thesis():
-    from bhr.bench.optimal import format_report
+    from bhr._bench.optimal import format_report
 
     per = {"median_solve_s": 1e-3, "p90_solve_s": 2e-3, "compiled_loop_per_step_s": 1e-4}
     body = {"case": "colon", "modules": 60, "head_worst_mm": 1.0, "body_worst_mm": 2.0, "body_worst_step": 3,
@@ -191,7 +191,7 @@ def test_bhr_help_names_every_solver_solve_takes():
     from click.testing import CliRunner
 
     from bhr.cli.main import main
-    from bhr.solvers.names import BUILTIN
+    from bhr.solvers._names import BUILTIN
 
     text = " ".join(CliRunner().invoke(main, ["--help"], terminal_width=200).output.split())
     line = text[text.index("solve Solve"):text.index(" status ")]

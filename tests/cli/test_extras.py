@@ -17,7 +17,7 @@ from pathlib import Path
 
 import pytest
 
-from bhr.settings.extras import install_command, source_folder
+from bhr._settings.extras import install_command, source_folder
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -47,7 +47,7 @@ def _command_with(tmp_path: Path, direct_url: dict | None, extra: str = "physics
     (info / "METADATA").write_text("Metadata-Version: 2.1\nName: bhr\nVersion: 99.0\n")
     if direct_url is not None:
         (info / "direct_url.json").write_text(json.dumps(direct_url))
-    code = "from bhr.settings.extras import install_command; print(install_command(%r))" % extra
+    code = "from bhr._settings.extras import install_command; print(install_command(%r))" % extra
     env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(site), str(REPO)])}
     out = subprocess.run([sys.executable, "-c", code], env=env, cwd=tmp_path, capture_output=True, text=True,
                          check=True)
@@ -90,8 +90,8 @@ def test_without_a_usable_folder_it_falls_back_to_this_copys_source_folder(tmp_p
 
 
 def test_the_physics_and_dask_errors_carry_the_command():
-    from bhr.studies.cluster import dask_missing
-    from bhr.studies.physics import missing
+    from bhr._studies.cluster import dask_missing
+    from bhr._studies.physics import missing
 
     assert missing("mujoco") == f"mujoco is not installed; install the physics extra: {install_command('physics')}"
     assert dask_missing().endswith(f"install it with: {install_command('dask')}")

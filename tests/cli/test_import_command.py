@@ -8,8 +8,8 @@ import pytest
 
 pytest.importorskip("vtk")  # noqa: E402
 
-from bhr.model.generators import load_trajectory  # noqa: E402
-from bhr.model.trajnames import real_colons  # noqa: E402
+from bhr.model._generators import load_trajectory  # noqa: E402
+from bhr.model._trajnames import real_colons  # noqa: E402
 
 
 def test_the_command_writes_the_trajectory_and_its_surface_and_refuses_bad_input(tmp_path):

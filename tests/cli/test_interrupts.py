@@ -46,7 +46,7 @@ def test_a_signal_the_caller_ignored_stays_ignored(tmp_path, sig):
 
 LIBRARY_SWALLOWS = r'''
 import os, signal, sys, time
-import bhr.output.run_plots as run_plots
+import bhr.output._run_plots as run_plots
 
 SIG = getattr(signal, sys.argv[1])
 

@@ -1,7 +1,7 @@
-"""--solver lumen (bhr/solvers/lumen.py): exact head search, planning, options, and that it keeps off the wall: the tests that run the bhr command."""
+"""--solver lumen (bhr/solvers/_lumen.py): exact head search, planning, options, and that it keeps off the wall: the tests that run the bhr command."""
 from __future__ import annotations
 
-from bhr.bench.lumen import tight_colon
+from bhr._bench.lumen import tight_colon
 
 
 def test_cli_options_go_to_the_solver_they_belong_to(run_bhr, tmp_path):

@@ -7,9 +7,9 @@ import math
 import numpy as np
 import pytest
 
-from bhr.model.generators import load_trajectory
-from bhr.model.robot import Robot, base_frame
-from bhr.run.driver import follow
+from bhr.model._generators import load_trajectory
+from bhr.model._robot import Robot, base_frame
+from bhr._run.driver import follow
 from bhr.solvers import get_solver
 from tests.unit.test_optimal import enumerate_best  # noqa: F401
 

@@ -1,12 +1,12 @@
-"""One option registry (bhr.settings.options): CLI options, robot files, batch files and sweep grids agree: the tests that run the bhr command."""
+"""One option registry (bhr._settings.options): CLI options, robot files, batch files and sweep grids agree: the tests that run the bhr command."""
 import re
 
 import pytest
 
-from bhr.settings.errors import BhrError
-from bhr.settings.options import OPTIONS
-from bhr.studies.report import parse_batch
-from bhr.studies.sweep import parse_values
+from bhr._settings.errors import BhrError
+from bhr._settings.options import OPTIONS
+from bhr._studies.report import parse_batch
+from bhr._studies.sweep import parse_values
 
 
 # the physics replay's options belong to bhr physics, not to batch runs

@@ -321,7 +321,7 @@ def test_a_busy_port_says_so(tmp_path):
 
 def test_replies_of_another_protocol_version_are_refused(tmp_path):
     """A peer on a real pty answers every frame correctly framed but in protocol version 2: one clear line."""
-    from bhr.hardware import protocol as P
+    from bhr._hardware import protocol as P
     master, slave = os.openpty()
     name = os.ttyname(slave)
     import tty

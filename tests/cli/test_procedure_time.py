@@ -6,7 +6,7 @@ import re
 
 import numpy as np
 
-from bhr.hardware.thermal import DEFAULT_THERMAL, LINK_MARGIN_MS, auto_schedule, check_schedule, pace
+from bhr._hardware.thermal import DEFAULT_THERMAL, LINK_MARGIN_MS, auto_schedule, check_schedule, pace
 
 
 def _time(text: str, what: str) -> str:

@@ -10,11 +10,11 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from bhr.model.generators import load_trajectory
-from bhr.output.animate import frame_steps, frame_view
-from bhr.output.atomic import write_json
-from bhr.run.driver import FollowResult, follow, load_run
-from bhr.settings.errors import BhrError
+from bhr.model._generators import load_trajectory
+from bhr.output._animate import frame_steps, frame_view
+from bhr.output._atomic import write_json
+from bhr._run.driver import FollowResult, follow, load_run
+from bhr._settings.errors import BhrError
 from tests.cli.test_animate import check_frame, gif_frame
 from tests.conftest import bhr_exe, snapshot
 
@@ -142,7 +142,7 @@ def test_replay_reads_standard_input_and_draws_a_chosen_step(tmp_path, curve_run
     assert sorted(p.name for p in (tmp_path / "figs").iterdir()) == [
         "global_errors.png", "manifest.json", "orientation_errors.png", "path-step40.png", "position_errors.png",
         "view.html"]
-    from bhr.output.path_plot import path_figure
+    from bhr.output._path_plot import path_figure
 
     img = np.asarray(Image.open(tmp_path / "figs" / "path-step40.png").convert("RGB"))
     fig = path_figure(curve_run, 39)

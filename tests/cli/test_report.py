@@ -13,10 +13,10 @@ from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 import bhr
-from bhr.model.generators import load_trajectory
-from bhr.run.driver import follow
-from bhr.settings.errors import BhrError
-from bhr.studies.report import (
+from bhr.model._generators import load_trajectory
+from bhr._run.driver import follow
+from bhr._settings.errors import BhrError
+from bhr._studies.report import (
     ROW_FIELDS,
     RunSpec,
     execute_run,
@@ -330,7 +330,7 @@ def test_run_tables_round_trip(values, name):
 
 
 def test_library_imports_without_matplotlib_or_dask():
-    code = ("import sys, bhr.studies.report, bhr.studies.sweep; bad = [m for m in ('matplotlib', 'dask', 'distributed', 'click') "
+    code = ("import sys, bhr._studies.report, bhr._studies.sweep; bad = [m for m in ('matplotlib', 'dask', 'distributed', 'click') "
             "if m in sys.modules]; print(bad); sys.exit(1 if bad else 0)")
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert proc.returncode == 0, proc.stdout + proc.stderr
@@ -386,7 +386,7 @@ def test_a_batch_of_more_runs_than_a_study_may_have_is_refused_up_front(run_bhr,
     """1,000,001 runs (a sweep or traversability study is refused past 1,000,000 designs): refused in one line
     before any run is checked (the runs here are empty tables, which a check would refuse first) and before the
     TOML is parsed; nothing written."""
-    from bhr.settings.options import LIMITS
+    from bhr._settings.options import LIMITS
 
     n = LIMITS["study_runs"] + 1
     with pytest.raises(BhrError, match=f"^b: {n} runs is more than {n - 1}; use fewer runs$"):

@@ -6,7 +6,7 @@ import math
 
 import pytest
 
-from bhr.model.robotfile import (
+from bhr.model._robotfile import (
     default_robot_file,
 )
 from tests.unit.test_robot_files import write  # noqa: F401

@@ -5,7 +5,7 @@ import subprocess
 
 import pytest
 
-from bhr.model.robot import Robot
+from bhr.model._robot import Robot
 from bhr.solvers import solve
 from bhr.cli.solve import plot_title
 from tests.conftest import bhr_exe

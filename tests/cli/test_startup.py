@@ -13,7 +13,7 @@ try:
     main({args!r}, standalone_mode=False)
 except (SystemExit, Exception) as exc:  # a failing command still shows what it loaded
     _err = type(exc).__name__
-print(sorted(m for m in ("numba", "matplotlib", "serial", "quaternion", "numpy", "bhr.hardware.link")
+print(sorted(m for m in ("numba", "matplotlib", "serial", "quaternion", "numpy", "bhr._hardware.link")
              if m in sys.modules))
 """
 
@@ -39,7 +39,7 @@ def test_follow_with_plots_loads_matplotlib(tmp_path):
 def test_board_commands_load_the_serial_stack_and_no_numba(tmp_path):
     # no board answers on loop:// (the command fails after its one try): only what it loaded matters here
     args = ["status", "--port", "loop://", "--timeout", "0.01", "--retries", "0"]
-    assert loaded(args, tmp_path) == "['bhr.hardware.link', 'numpy', 'serial']"
+    assert loaded(args, tmp_path) == "['bhr._hardware.link', 'numpy', 'serial']"
 
 
 def test_second_run_loads_compiled_code_from_cache(tmp_path, run_bhr):
@@ -151,9 +151,9 @@ def test_bad_input_is_refused_before_numba_or_numpy_is_imported(tmp_path, args):
 
 
 def test_trajectory_names_known_without_the_generators_are_the_generators():
-    from bhr.model.generators import GENERATORS, builtin_names
-    from bhr.model.trajnames import GENERATOR_NAMES
-    from bhr.model.trajnames import builtin_names as light_names
+    from bhr.model._generators import GENERATORS, builtin_names
+    from bhr.model._trajnames import GENERATOR_NAMES
+    from bhr.model._trajnames import builtin_names as light_names
 
     assert tuple(GENERATORS) == GENERATOR_NAMES
     assert builtin_names() == light_names()

@@ -14,11 +14,11 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from bhr.model.generators import load_trajectory
-from bhr.model.robot import Robot
-from bhr.run.driver import follow
-from bhr.settings.errors import BhrError
-from bhr.studies.sweep import (
+from bhr.model._generators import load_trajectory
+from bhr.model._robot import Robot
+from bhr._run.driver import follow
+from bhr._settings.errors import BhrError
+from bhr._studies.sweep import (
     Sweep,
     build_sweep,
     heatmap_axes,
@@ -153,7 +153,7 @@ def test_rows_are_what_follow_gives():
         assert r["min_turn_radius_mm"] == robot.min_turn_radius and r["min_clearance_mm"] is None
 
 
-@pytest.mark.filterwarnings("ignore::bhr.run.driver.BhrWarning")
+@pytest.mark.filterwarnings("ignore::bhr._run.driver.BhrWarning")
 def test_designs_start_from_a_robot_file(tmp_path):
     """--robot / robot = "FILE": every design is the file's robot with its grid values on top."""
     (tmp_path / "r.toml").write_text("modules = 4\nmodule_length = 12\nstroke = 1\nlever = 6\n")
@@ -229,7 +229,7 @@ def test_heatmap_axes_and_worst_case_cells():
             assert cells[j][i] == want
     assert heatmap_axes(build_sweep(["curve"], ["seed"], [])) == (None, None)
     # the ranking ranks what the cells show: each robot design by its worst over the trajectory's angle
-    from bhr.studies.sweep import best_designs, format_summary
+    from bhr._studies.sweep import best_designs, format_summary
 
     ranked = best_designs(res, None)
     assert len(ranked) == 6 and {(d["modules"], d["alpha"]) for d in ranked} == {(m, a) for m in (4, 5)
@@ -241,8 +241,8 @@ def test_heatmap_axes_and_worst_case_cells():
     lines = format_summary(res, count=5)
     # the first line counts what ran as the ranking counts designs: 12 runs are 6 designs on 2 trajectories
     assert lines[0].startswith("12 runs (6 designs x 2 trajectories) on "), lines[0]
-    from bhr.studies.sweep import heatmap_figure
-    from bhr.studies.sweep.pages import _html
+    from bhr._studies.sweep import heatmap_figure
+    from bhr._studies.sweep.pages import _html
 
     assert heatmap_figure(res, "modules", "alpha")._suptitle.get_text().endswith(": 12 runs (6 designs x 2 trajectories)")
     assert "12 runs (6 designs x 2 trajectories), 0 failed" in _html(res, None)
@@ -274,7 +274,7 @@ def test_bad_command_lines_are_one_line(tmp_path):
 def test_example_file_with_command_line_override(tmp_path):
     """The documented 1,000-design file parses to 1,000 designs; --grid replaces one of its keys."""
     ex = REPO / "docs" / "examples" / "sweep1000.toml"
-    from bhr.studies.sweep import load_sweep
+    from bhr._studies.sweep import load_sweep
 
     assert len(load_sweep(ex)) == 1000
     proc = run_cli("sweep", "--file", ex, "--grid", "modules=4", "--grid", "alpha=10", "--grid", "module_length=10",
@@ -343,7 +343,7 @@ def test_dask_cluster_gives_the_local_results(dask_cluster, tmp_path):
     def kernel_stats():  # runs on each worker: did the seed kernel come from the disk cache?
         import os as _os
 
-        from bhr.solvers import thesis
+        from bhr.solvers import _thesis as thesis
 
         st_ = thesis.follow_constrained_kernel.stats
         return {"hits": sum(st_.cache_hits.values()), "misses": sum(st_.cache_misses.values()),
@@ -383,7 +383,7 @@ def test_unreachable_scheduler_is_one_line(tmp_path):
 
 def test_a_port_that_is_not_a_scheduler_times_out():
     """A listening socket that never speaks Dask fails after the timeout instead of hanging."""
-    from bhr.studies.sweep import connect_scheduler
+    from bhr._studies.sweep import connect_scheduler
 
     with socket.socket() as srv:
         srv.bind(("127.0.0.1", 0))
@@ -428,7 +428,7 @@ def test_clearance_where_the_trajectory_has_a_lumen(tmp_path):
     assert r0["min_clearance_mm"] == direct["min_clearance_mm"]
     cells = heatmap_cells(res, "modules", "alpha", "min_clearance_mm", min)
     assert cells[0][0] == min(r["min_clearance_mm"] for r in tube if r["modules"] == 4 and r["alpha"] == 9)
-    from bhr.studies.sweep import heatmap_figure
+    from bhr._studies.sweep import heatmap_figure
 
     fig = heatmap_figure(res)
     titles = [ax.get_title() for ax in fig.axes if ax.get_title()]
@@ -444,7 +444,7 @@ def test_heatmap_has_a_panel_per_third_axis_units_over_tolerance_and_the_thesis_
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from bhr.studies.sweep import heatmap_figure, heatmap_panels
+    from bhr._studies.sweep import heatmap_figure, heatmap_panels
 
     s = build_sweep(["curve"], ["seed"], [("angle", (90, 360)), ("modules", (4, 5, 6)), ("alpha", (6, 10, 14)),
                                           ("module_length", (10, 16))])
@@ -480,7 +480,7 @@ def test_heatmap_has_a_panel_per_third_axis_units_over_tolerance_and_the_thesis_
 
 
 def test_sweep_page_headers_are_words_and_ranking_comes_first(tmp_path):
-    from bhr.studies.sweep import write_outputs
+    from bhr._studies.sweep import write_outputs
 
     s = build_sweep(["curve"], ["seed"], [("modules", (4, 5)), ("module_length", (8, 10))])
     res = run_sweep(s, jobs=1)
@@ -505,7 +505,7 @@ def test_heatmap_names_the_thesis_design_only_where_it_frames_it():
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from bhr.studies.sweep import heatmap_figure
+    from bhr._studies.sweep import heatmap_figure
 
     res = run_sweep(build_sweep(["curve"], ["seed"], [("modules", (4, 5)), ("alpha", (9, 11))]), jobs=1)
     fig = heatmap_figure(res)  # alpha 10 is not on the grid: nothing to frame, nothing to name
@@ -515,7 +515,7 @@ def test_heatmap_names_the_thesis_design_only_where_it_frames_it():
 
 
 def test_whole_number_grid_keys_take_first_last_as_colons_do():
-    from bhr.studies.sweep import parse_values
+    from bhr._studies.sweep import parse_values
 
     assert parse_values("seed", "1-3", "x") == parse_values("seed", "1:3", "x") == (1, 2, 3)
     assert parse_values("modules", "4-6", "x") == (4, 5, 6)
@@ -554,7 +554,7 @@ def test_a_heatmap_panel_title_names_one_quantity_and_how_a_cell_shows_it():
     import matplotlib
 
     matplotlib.use("Agg")
-    from bhr.studies.sweep import build_sweep, heatmap_figure, run_sweep
+    from bhr._studies.sweep import build_sweep, heatmap_figure, run_sweep
 
     s = build_sweep(["curve"], ["thesis"], [("angle", (90, 180)), ("modules", (4, 5)), ("alpha", (8, 10)),
                                             ("module_length", (10, 12))])

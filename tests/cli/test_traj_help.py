@@ -7,7 +7,7 @@ import pytest
 from click.testing import CliRunner
 
 from bhr.cli.main import main
-from bhr.model.trajnames import builtin_names, check_trajectory_name, traj_help
+from bhr.model._trajnames import builtin_names, check_trajectory_name, traj_help
 
 
 @pytest.mark.parametrize("command", ["follow", "compare"])

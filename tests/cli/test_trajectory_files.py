@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from bhr.model.generators import load_trajectory
+from bhr.model._generators import load_trajectory
 from tests.unit.test_trajectory_files import _distance_to, centerline, write  # noqa: F401
 
 

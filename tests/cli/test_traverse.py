@@ -114,12 +114,12 @@ def test_output_folder_that_is_a_file_fails_before_running(tmp_path):
 
 def test_physics_needs_mujoco_before_the_study_runs():
     """`bhr traverse --physics` without MuJoCo ran the whole study, then refused; the check is now made first
-    (bhr.studies.physics.check_installed, named by the module; here for a module no machine has)."""
-    from bhr.settings.errors import BhrError
-    from bhr.studies.physics import check_installed
+    (bhr._studies.physics.check_installed, named by the module; here for a module no machine has)."""
+    from bhr._settings.errors import BhrError
+    from bhr._studies.physics import check_installed
 
     check_installed("json")
-    from bhr.settings.extras import install_command
+    from bhr._settings.extras import install_command
 
     with pytest.raises(BhrError) as err:
         check_installed("bhr_no_such_module")

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pytest
 
-from bhr.studies.cluster import DASK_WAIT_S
+from bhr._studies.cluster import DASK_WAIT_S
 from tests.conftest import bhr_exe
 
 ENV = dict(os.environ, MPLBACKEND="Agg", PYTHONFAULTHANDLER="1")

@@ -6,7 +6,7 @@ import os
 import signal
 import time
 
-from bhr.studies.cluster import DASK_WAIT_S
+from bhr._studies.cluster import DASK_WAIT_S
 from tests.integration.test_dask_faults import _dask, _one_line, _run_then, _stop, scheduler  # noqa: F401
 
 

@@ -1,7 +1,7 @@
 """bhr's robot in pinocchio and MuJoCo: the exported URDF/MJCF reproduce bhr's forward kinematics.
 
 Real pinocchio and MuJoCo load the exported text; every module point and frame is compared with
-:func:`bhr.model.robot.forward_kinematics` for random code sets (docs/export.md measures 1,000 per size).
+:func:`bhr.model._robot.forward_kinematics` for random code sets (docs/export.md measures 1,000 per size).
 """
 from __future__ import annotations
 
@@ -14,14 +14,14 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import bhr
-from bhr.settings.errors import BhrError
-from bhr.model.export import FORMATS, MM, joint_names, joint_values, module_inertia, to_mjcf, to_urdf
-from bhr.model.robot import Robot, forward_kinematics
-from bhr.model.robotfile import load_robot_file
+from bhr._settings.errors import BhrError
+from bhr.model._export import FORMATS, MM, joint_names, joint_values, module_inertia, to_mjcf, to_urdf
+from bhr.model._robot import Robot, forward_kinematics
+from bhr.model._robotfile import load_robot_file
 
 import mujoco
 import pinocchio as pin
-from bhr.studies.physics import fk_cross_check, pinocchio_points, pinocchio_q
+from bhr._studies.physics import fk_cross_check, pinocchio_points, pinocchio_q
 
 CODES = (0, 3, 6, 12, 9, 15)
 
@@ -50,7 +50,7 @@ def test_rotated_base_matches_bhr_default_frame():
     robot = Robot(modules=7)
     codes = [3, 6, 0, 12, 15, 9, 3]
     pts, frames = forward_kinematics(robot, codes)
-    from bhr.model.robot import base_frame
+    from bhr.model._robot import base_frame
 
     model = pin.buildModelFromXML(to_urdf(robot))
     p, f = pinocchio_points(model, pinocchio_q(model, joint_values(codes, robot)), full=True)
@@ -123,8 +123,8 @@ def test_export_command_writes_files_that_load(run_bhr, tmp_path):
 def test_base_transform_maps_pinocchio_and_mujoco_fk_to_bhrs_frames(codes, frame, base):
     """base_transform's 4x4 takes the exported model's FK (pinocchio and MuJoCo, in metres) onto bhr's FK in the
     named frame (Robot.fk along +X, bhr solve along +Y, any direction), base point in mm."""
-    from bhr.model.export import BASE_DIRECTIONS, base_transform
-    from bhr.model.robot import base_frame
+    from bhr.model._export import BASE_DIRECTIONS, base_transform
+    from bhr.model._robot import base_frame
 
     robot = Robot(modules=6, alpha=13)
     direction = BASE_DIRECTIONS[frame] if isinstance(frame, str) else frame
@@ -148,7 +148,7 @@ def test_base_transform_maps_pinocchio_and_mujoco_fk_to_bhrs_frames(codes, frame
     d = mujoco.MjData(m)
     d.qpos[:] = values
     mujoco.mj_kinematics(m, d)
-    from bhr.studies.physics import mujoco_points
+    from bhr._studies.physics import mujoco_points
 
     mp, mf = mujoco_points(m, d, 6)
     assert np.abs(mp - want_pts).max() < 1e-9
@@ -157,7 +157,7 @@ def test_base_transform_maps_pinocchio_and_mujoco_fk_to_bhrs_frames(codes, frame
 
 def test_base_transform_of_the_solve_chain_and_robot_fk():
     """The chapter 5 chain of bhr solve starts straight along +Y; Robot.fk along +X: both from the model's +Z."""
-    from bhr.model.export import base_transform
+    from bhr.model._export import base_transform
 
     assert np.array_equal(base_transform("solve")[:3, :3] @ [0, 0, 1], [0, 1, 0])
     assert np.array_equal(base_transform("follow")[:3, :3] @ [0, 0, 1], [1, 0, 0])

@@ -18,7 +18,7 @@ import pytest
 
 from tests.conftest import make_firmware
 
-from bhr.hardware import protocol as P
+from bhr._hardware import protocol as P
 
 REPO = Path(__file__).resolve().parents[2]
 FIRMWARE = REPO / "firmware"

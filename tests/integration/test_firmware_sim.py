@@ -32,9 +32,9 @@ import pytest
 
 from tests.conftest import make_firmware
 
-from bhr.hardware import protocol as P
-from bhr.hardware.thermal import DEFAULT_THERMAL as THERMAL
-from bhr.model.codes import format_codes_csv, read_codes_csv
+from bhr._hardware import protocol as P
+from bhr._hardware.thermal import DEFAULT_THERMAL as THERMAL
+from bhr.model._codes import format_codes_csv, read_codes_csv
 
 REPO = Path(__file__).resolve().parents[2]
 FIRMWARE = REPO / "firmware"
@@ -140,7 +140,7 @@ class Sim:
             self.stop()
             raise AssertionError(f"no PTY line from {cmd}: {self.preamble} {self.err_path.read_text()}")
         self.wait_for(lambda ev: ev[-1]["ev"] == "latch", 5)  # firmware booted and cleared the chain
-        from bhr.hardware.link import BoardLink, wait_until_ready
+        from bhr._hardware.link import BoardLink, wait_until_ready
 
         with BoardLink(self.pty) as link:  # a powered-up board cools its wires first
             self.cooled_s = wait_until_ready(link, timeout=10)
@@ -360,7 +360,7 @@ def test_make_sim_prints_the_pty_first_and_stops_cleanly(sim):
 def test_make_sim_keeps_the_pin_log_off_the_terminal_unless_asked(built, tmp_path):
     # `make -s -C firmware sim` prints the PTY line and nothing else on stdout during a stream: the pin
     # log goes to build/sim/pins.log (SIM_LOG=- asks for it on stdout)
-    from bhr.hardware.link import BoardLink, run_stream
+    from bhr._hardware.link import BoardLink, run_stream
 
     log = FIRMWARE / "build" / "sim" / "pins.log"
     out_path, err_path = tmp_path / "out.txt", tmp_path / "err.txt"
@@ -430,7 +430,7 @@ def test_every_code_on_every_module_reaches_the_outputs_in_order(sim, tmp_path):
     assert r.returncode == 0, r.stderr
     assert_last_row_on_the_pins(s, rows[-1])
     check_stream_reached_the_pins(s, rows)
-    from bhr.hardware.link import BoardLink
+    from bhr._hardware.link import BoardLink
 
     with BoardLink(s.pty) as link:
         link.stop_all()  # a state that does not change with time, for the command below
@@ -448,7 +448,7 @@ def test_every_code_on_every_module_reaches_the_outputs_in_order(sim, tmp_path):
 
 
 def test_a_fast_stream_needs_no_retry(sim):
-    from bhr.hardware.link import BoardLink, stream_codes
+    from bhr._hardware.link import BoardLink, stream_codes
 
     # wires only ever come on (a wire released and energised again within its relaxation time would be
     # held off by the board): 500 rows, one module more every 100
@@ -518,7 +518,7 @@ def test_a_corrupted_frame_is_naked_and_changes_nothing(sim):
 
 
 def test_a_silent_host_gets_everything_switched_off_within_the_timeout(sim, tmp_path):
-    from bhr.hardware.link import BoardLink
+    from bhr._hardware.link import BoardLink
 
     s = sim()
     with BoardLink(s.pty) as link:  # one row, then nothing more from the host
@@ -543,7 +543,7 @@ def test_a_silent_host_gets_everything_switched_off_within_the_timeout(sim, tmp_
 
 
 def test_a_tilt_held_15_s_stays_held_with_the_model_s_hold_duty(sim):
-    from bhr.hardware.link import BoardLink
+    from bhr._hardware.link import BoardLink
 
     s = sim()
     time.sleep(4.0)  # let the wires cool from the power-up cool-down to ambient (theta 0.009)
@@ -575,7 +575,7 @@ def test_a_tilt_held_15_s_stays_held_with_the_model_s_hold_duty(sim):
 
 
 def test_a_hot_wire_is_not_re_energised_before_it_relaxed(sim):
-    from bhr.hardware.link import BoardLink
+    from bhr._hardware.link import BoardLink
 
     s = sim()
     with BoardLink(s.pty) as link:
@@ -650,7 +650,7 @@ def test_floods_of_every_frame_type_leave_on_time_and_duty_within_limits(sim):
             port.reset_input_buffer()
         t_end = time.monotonic()
         time.sleep(1.0)  # the board answers the last burst's backlog (replies whose seq numbers a new link would reuse)
-    from bhr.hardware.link import BoardLink
+    from bhr._hardware.link import BoardLink
 
     with BoardLink(s.pty) as link:
         doc = link.status()
@@ -792,7 +792,7 @@ def test_robot_file_link_gives_port_and_module_order(sim, tmp_path):
     # the board's chain is wired in reverse: position 1 drives module 5 (read from the pin log, which does
     # not depend on how soon after the stream anything else runs)
     assert any(e["codes"] == [15, 0, 0, 6, 3] for e in driven(s.events()))
-    from bhr.hardware.link import BoardLink, wait_until_ready
+    from bhr._hardware.link import BoardLink, wait_until_ready
 
     # and status answers in module order: codes set and read back at once, in this process (a status
     # run as a new command on a busy machine may start after the silence timeout has switched them off)
@@ -882,7 +882,7 @@ def streaming_part(evs: list[dict]) -> list[dict]:
 
 
 def assert_duty_within_limit(evs: list[dict]) -> float:
-    from bhr.hardware.thermal import DUTY_WINDOW_MS, duty_limit
+    from bhr._hardware.thermal import DUTY_WINDOW_MS, duty_limit
 
     limit = duty_limit(THERMAL)
     worst = 0.0
@@ -897,7 +897,7 @@ def assert_duty_within_limit(evs: list[dict]) -> float:
 def test_alternating_codes_that_share_a_wire_keep_it_at_its_hold(sim):
     # 3 <-> 6 every 1.2 s with heartbeats: wire 2 is in both codes. Driven per wire, it contracts once and then
     # holds at the hold duty; it is never pulsed at full power again (module 2 alternates 6 <-> 12, wire 3)
-    from bhr.hardware.link import BoardLink
+    from bhr._hardware.link import BoardLink
 
     s = sim()
     with BoardLink(s.pty) as link:
@@ -925,7 +925,7 @@ def test_alternating_codes_that_share_a_wire_keep_it_at_its_hold(sim):
 
 
 def test_all_on_held_with_heartbeats_stays_within_the_duty_limit(sim):
-    from bhr.hardware.link import BoardLink
+    from bhr._hardware.link import BoardLink
 
     s = sim()
     with BoardLink(s.pty) as link:
@@ -946,7 +946,7 @@ def test_a_flood_of_random_codes_stays_within_the_duty_limit(sim):
     # re-energise a wire early, and no wire passes the limit
     import random
 
-    from bhr.hardware.link import BoardLink
+    from bhr._hardware.link import BoardLink
 
     rnd = random.Random(5)
     s = sim()
@@ -978,7 +978,7 @@ def machine_load(n: int = 10, seconds: float = 90.0):
 def test_the_silence_timeout_and_the_stream_hold_under_load_10(sim, tmp_path):
     # a load of 10 on this machine: a stream keeps the board alive (heartbeats), the last codes stay on
     # after it, and the silence timeout still switches them off after SILENCE_MS of board time, never sooner
-    from bhr.hardware.link import BoardLink, run_stream
+    from bhr._hardware.link import BoardLink, run_stream
 
     s = sim()
     rows = [[3, 0, 0, 0, 0], [3, 6, 0, 0, 0], [3, 6, 12, 0, 0], [3, 6, 12, 9, 15]]
@@ -1004,7 +1004,7 @@ def test_a_board_that_switched_off_mid_stream_stops_the_stream(sim):
     """The host falls silent mid-stream longer than the board's silence timeout (heartbeats every 2.6 s, the
     simulator's timeout 2 s): the real firmware switches every wire off and says "silence" in the next ACK. The
     procedure did not happen: the stream stops there with one line, sends stop-all, and the board is off."""
-    from bhr.hardware.link import BoardLink, StreamStopped, run_stream
+    from bhr._hardware.link import BoardLink, StreamStopped, run_stream
 
     s = sim()
     with BoardLink(s.pty) as link:

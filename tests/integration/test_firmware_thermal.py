@@ -1,8 +1,8 @@
-"""The firmware's thermal drive and bhr.hardware.thermal compute the same thing, tick for tick.
+"""The firmware's thermal drive and bhr._hardware.thermal compute the same thing, tick for tick.
 
 The portable core of the firmware (firmware/src/board.c) is built for this
 machine (`firmware/build/host/test_host_m5 trace`) and driven with the same
-schedules as bhr.hardware.thermal.simulate: a fixed one and 1,000 random ones. Every
+schedules as bhr._hardware.thermal.simulate: a fixed one and 1,000 random ones. Every
 wire's temperature at every PWM period end, the rows held off as early, the
 overheat times and each wire's on-time on the pins must agree.
 """
@@ -17,7 +17,7 @@ import pytest
 
 from tests.conftest import make_firmware
 
-from bhr.hardware import thermal as T
+from bhr._hardware import thermal as T
 
 REPO = Path(__file__).resolve().parents[2]
 FIRMWARE = REPO / "firmware"

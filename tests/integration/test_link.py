@@ -1,8 +1,8 @@
-"""bhr.hardware.link and the `bhr stream` / `bhr status` commands over real serial I/O.
+"""bhr._hardware.link and the `bhr stream` / `bhr status` commands over real serial I/O.
 
 The peer is either pyserial's ``loop://`` (which answers nothing: every frame
 comes back as itself) or a small board emulator on the master side of a
-pseudo-terminal pair, speaking bhr.hardware.protocol. The real firmware is exercised
+pseudo-terminal pair, speaking bhr._hardware.protocol. The real firmware is exercised
 in test_firmware_sim.py.
 """
 from __future__ import annotations
@@ -23,9 +23,9 @@ import pytest
 
 from tests.conftest import make_firmware
 
-from bhr.hardware import protocol as P
-from bhr.hardware.link import BoardLink, StreamInterrupted, stream_codes
-from bhr.settings.errors import BhrError, LinkError
+from bhr._hardware import protocol as P
+from bhr._hardware.link import BoardLink, StreamInterrupted, stream_codes
+from bhr._settings.errors import BhrError, LinkError
 
 VALID = (0, 3, 6, 9, 12, 15)
 
@@ -287,7 +287,7 @@ def test_port_vanishing_mid_stream_is_one_line(board):
 
 
 def write_codes(path: Path, rows) -> Path:
-    from bhr.model.codes import format_codes_csv
+    from bhr.model._codes import format_codes_csv
 
     path.write_text(format_codes_csv(rows))
     return path
@@ -536,7 +536,7 @@ def test_a_board_with_a_latched_overheat_is_not_streamed_to(board, tmp_path, com
 
 
 def test_a_board_cooling_forever_is_not_waited_on_past_the_timeout(board):
-    from bhr.hardware.link import READY_TIMEOUT, wait_until_ready
+    from bhr._hardware.link import READY_TIMEOUT, wait_until_ready
 
     assert READY_TIMEOUT == 30  # docs/protocol.md: "at most 30 s"
 
@@ -606,7 +606,7 @@ def test_the_command_line_port_takes_the_same_allow_list(tmp_path):
 
 
 def test_robot_file_ports_that_are_serial_devices_or_safe_urls_are_kept():
-    from bhr.model.robotfile import check_file_port
+    from bhr.model._robotfile import check_file_port
 
     for port in ("/dev/ttyUSB0", "/dev/pts/3", "/dev/serial/by-id/usb-FTDI-if00", "COM3", "loop://",
                  "socket://localhost:7000", "socket://192.168.1.20:4000"):

@@ -17,9 +17,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bhr.model.generators import load_trajectory
-from bhr.output.atomic import write_json
-from bhr.run.driver import follow, load_run
+from bhr.model._generators import load_trajectory
+from bhr.output._atomic import write_json
+from bhr._run.driver import follow, load_run
 from tests.cli.test_animate import check_frame, need_tool
 from tests.conftest import bhr_exe, snapshot
 
@@ -124,8 +124,8 @@ def screen_view(result):
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
-    from bhr.output.scene import FRAME_INCHES
-    from bhr.output.stepview import StepView
+    from bhr.output._scene import FRAME_INCHES
+    from bhr.output._stepview import StepView
 
     fig = Figure(figsize=FRAME_INCHES, dpi=100)
     FigureCanvasAgg(fig)

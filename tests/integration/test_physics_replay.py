@@ -1,4 +1,4 @@
-"""The physical robot's replay against the colon's wall (bhr.studies.physics, bhr physics).
+"""The physical robot's replay against the colon's wall (bhr._studies.physics, bhr physics).
 
 A rigid chain held straight and pressed a known depth into one side of a straight lumen loads the wall with the
 wall's stiffness x depth x contact length; the wall is the same for 5 and 6 mm modules; modules keep their length
@@ -19,11 +19,11 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import bhr
-from bhr.model.path import Trajectory
-from bhr.model.robot import Robot, base_frame
-from bhr.run.driver import BhrWarning
-from bhr.studies.physics import DEFAULT_WALL_STIFFNESS, Poses, poses_from_run, replay_poses
-from bhr.studies.physics.poses import chain_points
+from bhr.model._path import Trajectory
+from bhr.model._robot import Robot, base_frame
+from bhr._run.driver import BhrWarning
+from bhr._studies.physics import DEFAULT_WALL_STIFFNESS, Poses, poses_from_run, replay_poses
+from bhr._studies.physics.poses import chain_points
 
 
 def _straight_lumen(radius: float, length: float = 400.0) -> Trajectory:
@@ -94,7 +94,7 @@ def test_the_wires_yield_to_the_wall():
 
 
 def _run(steps: int, body: int, seed: int = 7, alpha: float = 25.0, locomotion: str = "trail"):
-    from bhr.model.generators import load_trajectory
+    from bhr.model._generators import load_trajectory
 
     r = Robot(alpha=alpha, module_length=5.0)
     tr = load_trajectory("anatomy", feed=r.feed, seed=seed)
@@ -108,7 +108,7 @@ def _run(steps: int, body: int, seed: int = 7, alpha: float = 25.0, locomotion: 
 def test_no_contact_where_bhrs_geometry_says_clear():
     """Poses clear of bhr's wall (its own tube and nearest-point kernel, sampled every 0.25 mm along every module)
     load nothing and the robot stays on them; a pose that goes into bhr's wall loads it."""
-    from bhr.model.tube import make_tube, point_clearance
+    from bhr.model._tube import make_tube, point_clearance
 
     run = _run(240, 30)
     poses = poses_from_run(run)
@@ -181,7 +181,7 @@ def test_run_without_lumen_is_refused(run_bhr, tmp_path):
 
 
 def test_joint_stiffness_is_the_wires_pull_over_the_tilt():
-    from bhr.studies.physics import WIRE_FORCE_N, joint_stiffness
+    from bhr._studies.physics import WIRE_FORCE_N, joint_stiffness
 
     r = Robot(alpha=25.0, robot_radius=5.0)
     assert joint_stiffness(r) == pytest.approx(2 * WIRE_FORCE_N * 10.0 / math.radians(25.0))
@@ -195,7 +195,7 @@ def test_joint_stiffness_is_the_wires_pull_over_the_tilt():
 def test_any_codes_in_a_straight_lumen_keep_modules_rigid_and_load_only_where_bhrs_wall_is(codes, lumen, alpha):
     """Whatever the codes and the lumen: every module keeps its length, the wall's load is the sum of the
     modules', and a pose whose every axis point is clear of bhr's tube loads nothing and is kept exactly."""
-    from bhr.studies.physics.poses import code_tilts
+    from bhr._studies.physics.poses import code_tilts
 
     n = len(codes)
     robot = Robot(modules=n, module_length=5.0, robot_radius=3.0, alpha=alpha)
@@ -220,8 +220,8 @@ def test_any_codes_in_a_straight_lumen_keep_modules_rigid_and_load_only_where_bh
 def test_a_runs_poses_file_is_read_as_the_contract_says(tmp_path):
     """poses.npz beside run.json (t_s, insertion_mm, points_mm, tilts_rad, codes, step) is what the replay reads;
     a file with a wrong shape is refused in one line."""
-    from bhr.studies.physics import load_poses, replay_physics
-    from bhr.settings.errors import BhrError
+    from bhr._studies.physics import load_poses, replay_physics
+    from bhr._settings.errors import BhrError
 
     run = _run(30, 12)
     p = poses_from_run(run)

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from bhr.output.atomic import MANIFEST
+from bhr.output._atomic import MANIFEST
 from tests.unit.test_executor import FRESH_PROCESS
 from tests.unit.test_output_folders import write_run
 
@@ -42,8 +42,8 @@ def test_stages_of_dead_runs_are_cleaned_and_a_users_folder_is_kept(tmp_path):
 
 
 def test_model_and_workspace_load_without_matplotlib():
-    code = ("import sys; import bhr, bhr.model.workspace, bhr.model.robot; "
-            "bhr.model.workspace.workspace(bhr.Robot(modules=2)).indices(); print('matplotlib' in sys.modules)")
+    code = ("import sys; import bhr, bhr.model._workspace, bhr.model._robot; "
+            "bhr.model._workspace.workspace(bhr.Robot(modules=2)).indices(); print('matplotlib' in sys.modules)")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "False"
 
@@ -63,7 +63,7 @@ def test_concurrent_writers_in_real_processes_leave_one_whole_set(tmp_path):
 
 WRITER = """
 import os, sys, time
-from bhr.output.atomic import OutputFolder, write_text
+from bhr.output._atomic import OutputFolder, write_text
 target, tag, pause_at = sys.argv[1], sys.argv[2], sys.argv[3]
 n = 3 + int(tag) % 4  # writers write different numbers of files: a mix of two shows
 if pause_at == "aside":  # stop between moving the old folder aside and moving the new one in

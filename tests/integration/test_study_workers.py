@@ -1,5 +1,5 @@
 """Studies on local worker processes that die: a run whose worker is killed (as the out-of-memory killer kills it) is a
-row saying so and the study goes on; a study's workers end with it, however it ends (bhr.studies.executor)."""
+row saying so and the study goes on; a study's workers end with it, however it ends (bhr._studies.executor)."""
 from __future__ import annotations
 
 import os
@@ -9,8 +9,8 @@ import sys
 import time
 from pathlib import Path
 
-from bhr.studies.executor import run_jobs
-from bhr.studies.sweep import build_sweep, run_sweep
+from bhr._studies.executor import run_jobs
+from bhr._studies.sweep import build_sweep, run_sweep
 from tests.conftest import start_bhr, wait_for_stderr
 
 
@@ -26,7 +26,7 @@ def test_a_run_whose_worker_is_killed_is_a_row_and_the_others_run():
 
 
 def test_a_sweep_design_whose_worker_dies_is_a_failed_row():
-    from bhr.studies.sweep import runs
+    from bhr._studies.sweep import runs
 
     s = build_sweep(["line"], ["seed"], [("modules", (3, 4, 5))])
     rows = run_sweep(s, jobs=1).rows
@@ -46,7 +46,7 @@ def _alive(pid: int) -> bool:
 SLEEPY = r'''
 import os, sys, time
 sys.path.insert(0, sys.argv[1])
-from bhr.studies.executor import run_jobs
+from bhr._studies.executor import run_jobs
 
 def nap(job):
     print(os.getpid(), flush=True)  # the worker is running

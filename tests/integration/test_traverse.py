@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import json
 
-from bhr.studies.traverse import build_study, run_study
+from bhr._studies.traverse import build_study, run_study
 from tests.cli.test_sweep import dask_cluster  # noqa: F401 - the real LocalCluster fixture
 from tests.unit.test_traverse import PNG, SMALL, run_cli, small_study  # noqa: F401
 

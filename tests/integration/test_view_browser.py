@@ -15,9 +15,9 @@ import numpy as np
 import pytest
 
 import bhr
-from bhr.model.generators import load_trajectory
-from bhr.output.view import frame_steps, save_view
-from bhr.run.body import whole_robot
+from bhr.model._generators import load_trajectory
+from bhr.output._view import frame_steps, save_view
+from bhr._run.body import whole_robot
 from tests.integration.test_report_browser import Browser, need_chromium
 
 
@@ -112,7 +112,7 @@ def test_view_of_300_module_run_loads_and_slider_moves_robot(anatomy_view, tmp_p
 
 def test_view_legend_shows_the_robots_colours(anatomy_view):
     """The robot's legend swatches are its body's and its head's colours, not black."""
-    from bhr.output.view import BODY_RGB, HEAD_RGB
+    from bhr.output._view import BODY_RGB, HEAD_RGB
 
     _run, path = anatomy_view
     b = Browser(need_chromium(), 1200, 900)

@@ -8,7 +8,7 @@ import pytest
 from bhr.cli.main import main
 from click.testing import CliRunner
 
-from bhr.model.robot import Robot, forward_kinematics
+from bhr.model._robot import Robot, forward_kinematics
 from bhr.solvers import Chain, solve
 
 # target, orientation, tol_pos, solver settings, (position error, orientation error, iterations)

@@ -9,8 +9,8 @@ from bhr.cli.main import main
 from click.testing import CliRunner
 
 import bhr
-from bhr.model.generators import load_trajectory
-from bhr.run.driver import BhrWarning, follow
+from bhr.model._generators import load_trajectory
+from bhr._run.driver import BhrWarning, follow
 
 DATA = Path(__file__).resolve().parents[1] / "data"
 

@@ -1,4 +1,4 @@
-"""Anatomical colons (bhr.model.anatomy): determinism, spacing, published ranges, continuity, files, command line."""
+"""Anatomical colons (bhr.model._anatomy): determinism, spacing, published ranges, continuity, files, command line."""
 from __future__ import annotations
 
 import math
@@ -9,7 +9,7 @@ from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 import bhr
-from bhr.model.anatomy import (
+from bhr.model._anatomy import (
     LENGTH_LIMITS,
     POPULATION,
     RANGES,
@@ -22,8 +22,8 @@ from bhr.model.anatomy import (
     bend_radii,
     check_seed,
 )
-from bhr.model.generators import anatomy_trajectory, builtin_names, colon, load_trajectory
-from bhr.settings.errors import BhrError
+from bhr.model._generators import anatomy_trajectory, builtin_names, colon, load_trajectory
+from bhr._settings.errors import BhrError
 from tests.conftest import REPO
 
 seeds = st.integers(min_value=0, max_value=SEED_MAX)
@@ -146,7 +146,7 @@ def test_acute_flexures_are_counted_where_the_path_turns_back():
     u = np.linspace(0, np.pi, 32)
     up = np.vstack([np.stack([s, 0 * s, 0 * s], 1), np.stack([100 + 10 * np.sin(u), 10 - 10 * np.cos(u), 0 * u], 1)[1:],
                     np.stack([100 - s[1:], 0 * s[1:] + 20, 0 * s[1:]], 1)])
-    from bhr.model.pathfile import resample_polyline
+    from bhr.model._pathfile import resample_polyline
     pts, _ = resample_polyline(up, 1.0)
     assert acute_flexures(pts, 1.0) == 1
     ang = np.radians(60)

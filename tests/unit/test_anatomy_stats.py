@@ -1,6 +1,6 @@
-"""The generated colons calibrated on the real ones (bhr.model.anatomy_stats): the measure, and the calibration's
+"""The generated colons calibrated on the real ones (bhr.model._anatomy_stats): the measure, and the calibration's
 criteria (docs/anatomy.md, "Calibration on real colons"). The full check over seeds 1-1000 is the script
-`python -m bhr.model.anatomy_stats`; these tests afford fewer seeds."""
+`python -m bhr.model._anatomy_stats`; these tests afford fewer seeds."""
 from __future__ import annotations
 
 import math
@@ -10,8 +10,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from bhr.model.anatomy import MIN_RADIUS_MM, SEED_MAX, anatomical_colon
-from bhr.model.anatomy_stats import (
+from bhr.model._anatomy import MIN_RADIUS_MM, SEED_MAX, anatomical_colon
+from bhr.model._anatomy_stats import (
     CHORD_MM,
     GROUPS,
     SMOOTHING_MM,
@@ -22,7 +22,7 @@ from bhr.model.anatomy_stats import (
     main,
     real_colons,
 )
-from bhr.settings.errors import BhrError
+from bhr._settings.errors import BhrError
 
 SETTINGS = settings(max_examples=30, deadline=None)
 

@@ -5,8 +5,8 @@ import numpy as np
 import pytest
 
 import bhr
-from bhr.run.driver import Summary
-from bhr.settings.errors import BhrError
+from bhr._run.driver import Summary
+from bhr._settings.errors import BhrError
 
 
 def test_solve_applies_robot_overrides():

@@ -6,10 +6,10 @@ import math
 import numpy as np
 import pytest
 
-from bhr.model.generators import load_trajectory
-from bhr.run.body import module1_frames, simulate_body, whole_robot
-from bhr.run.driver import follow
-from bhr.settings.errors import BhrError
+from bhr.model._generators import load_trajectory
+from bhr._run.body import module1_frames, simulate_body, whole_robot
+from bhr._run.driver import follow
+from bhr._settings.errors import BhrError
 
 
 def unit(v):
@@ -128,7 +128,7 @@ def test_module_one_frames_follow_the_codes(curve_body):
 
 
 def test_board_codes_are_the_whole_robots_rear_first(curve_body):
-    from bhr.run.body import whole_robot_codes
+    from bhr._run.body import whole_robot_codes
 
     codes = curve_body.board_codes
     assert codes.shape == (curve_body.steps, 20)

@@ -10,9 +10,9 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from bhr.settings.errors import BhrError
-from bhr.settings.options import LIMITS, MIN_MAGNITUDE, check_number, check_run_name, did_you_mean, parse_number
-from bhr.studies.study import csv_safe, csv_text
+from bhr._settings.errors import BhrError
+from bhr._settings.options import LIMITS, MIN_MAGNITUDE, check_number, check_run_name, did_you_mean, parse_number
+from bhr._studies.study import csv_safe, csv_text
 
 
 @pytest.mark.parametrize("value, fragment", [
@@ -82,11 +82,11 @@ def test_one_did_you_mean():
     assert did_you_mean("modlues", ["modules", "alpha"]) == "did you mean 'modules'? "
     assert did_you_mean("module-length", ["module_length"]) == "did you mean 'module_length'? "
     assert did_you_mean("zzz", ["modules"]) == ""
-    import bhr.settings.inputs
-    import bhr.studies.study
+    import bhr._settings.inputs
+    import bhr._studies.study
 
-    assert bhr.settings.inputs.did_you_mean is did_you_mean  # one function, re-exported
-    assert "did you mean 'modules'?" in bhr.studies.study.suggest("modlues", ["modules"])
+    assert bhr._settings.inputs.did_you_mean is did_you_mean  # one function, re-exported
+    assert "did you mean 'modules'?" in bhr._studies.study.suggest("modlues", ["modules"])
 
 
 @pytest.mark.parametrize("cell", ["=HYPERLINK(\"http://x\",\"y\")", "@SUM(A1)", "+1+1", "-1+1", "\tx", "\rx"])
@@ -98,7 +98,7 @@ def test_formula_cells_are_escaped(cell):
 
 
 def test_procedure_time_estimate_memory_does_not_grow_with_steps():
-    from bhr.hardware.thermal import ThermalParams, auto_schedule, check_schedule
+    from bhr._hardware.thermal import ThermalParams, auto_schedule, check_schedule
 
     p = ThermalParams()
     rng = np.random.default_rng(1)
@@ -113,13 +113,13 @@ def test_procedure_time_estimate_memory_does_not_grow_with_steps():
 
 
 def test_limits_come_from_the_registry():
-    from bhr.settings.inputs import MAX_POINTS, MAX_STEP_POINTS
+    from bhr._settings.inputs import MAX_POINTS, MAX_STEP_POINTS
 
     assert MAX_POINTS == LIMITS["points"] and MAX_STEP_POINTS == LIMITS["step_points"]
 
 
 def test_codes_csv_module_limit(tmp_path):
-    from bhr.model.codes import read_codes_csv
+    from bhr.model._codes import read_codes_csv
 
     n = LIMITS["code_modules"] + 1
     f = tmp_path / "c.csv"
@@ -133,7 +133,7 @@ def test_non_regular_inputs_are_refused_before_opening(tmp_path, kind):
     import os
     import socket
 
-    from bhr.settings.inputs import read_text
+    from bhr._settings.inputs import read_text
 
     p = tmp_path / "in.toml"
     if kind == "fifo":
@@ -147,7 +147,7 @@ def test_non_regular_inputs_are_refused_before_opening(tmp_path, kind):
 
 def test_a_missing_codes_file_under_latest_says_where_latest_points(tmp_path):
     """After `bhr traverse`, bhr-out/latest is the study's folder, which has no codes.csv: the line says so."""
-    from bhr.model.codes import read_codes_csv
+    from bhr.model._codes import read_codes_csv
 
     (tmp_path / "traverse-1234").mkdir()
     (tmp_path / "latest").symlink_to("traverse-1234")
@@ -167,9 +167,9 @@ def test_a_missing_codes_file_under_latest_says_where_latest_points(tmp_path):
 @pytest.mark.parametrize("target, words", [("self", "is a symbolic link that loops"),
                                             ("nowhere.csv", "is a symbolic link to 'nowhere.csv', which does not exist")])
 def test_an_input_that_is_a_broken_symbolic_link_is_named_as_one(tmp_path, target, words):
-    from bhr.model.codes import read_codes_csv
-    from bhr.model.trajnames import check_trajectory_name
-    from bhr.settings.inputs import read_text
+    from bhr.model._codes import read_codes_csv
+    from bhr.model._trajnames import check_trajectory_name
+    from bhr._settings.inputs import read_text
 
     link = tmp_path / "in.csv"
     link.symlink_to(link if target == "self" else target)
@@ -180,7 +180,7 @@ def test_an_input_that_is_a_broken_symbolic_link_is_named_as_one(tmp_path, targe
 
 
 def test_a_codes_file_that_is_not_utf8_or_a_folder_says_so(tmp_path):
-    from bhr.model.codes import read_codes_csv
+    from bhr.model._codes import read_codes_csv
 
     (tmp_path / "c.csv").write_bytes(b"step,m1\n1,3\n2,\xe9\n")
     with pytest.raises(BhrError, match=r"c.csv, line 3: not UTF-8 text"):
@@ -196,7 +196,7 @@ def test_codes_csv_cells_are_read_as_check_code_reads_them(rows):
     import tempfile
     from pathlib import Path
 
-    from bhr.model.codes import check_code, read_codes_csv
+    from bhr.model._codes import check_code, read_codes_csv
 
     expected: list[list[int]] | None = []
     for r in rows:

@@ -6,10 +6,10 @@ import math
 import numpy as np
 import pytest
 
-from bhr.model.generators import COLON_SECTIONS, colon, load_trajectory
-from bhr.run.clearance import clearance_table, step_ranges
-from bhr.run.driver import follow
-from bhr.settings.errors import BhrError
+from bhr.model._generators import COLON_SECTIONS, colon, load_trajectory
+from bhr._run.clearance import clearance_table, step_ranges
+from bhr._run.driver import follow
+from bhr._settings.errors import BhrError
 
 
 def with_lumen(tr, diameter):
@@ -99,10 +99,10 @@ def test_plots_mark_the_touches(tmp_path):
     import matplotlib
 
     matplotlib.use("Agg")
-    from bhr.output.clearance_plot import clearance_figure
-    from bhr.output.error_plot import error_figure
-    from bhr.output.path_plot import path_figure
-    from bhr.output.run_plots import save_run_plots
+    from bhr.output._clearance_plot import clearance_figure
+    from bhr.output._error_plot import error_figure
+    from bhr.output._path_plot import path_figure
+    from bhr.output._run_plots import save_run_plots
 
     r = follow(with_lumen(load_trajectory("curve", angle=180.0), 16.0), solver="seed", body_modules=8)
     assert r.summary.to_dict()["wall_touch_steps"]
@@ -125,11 +125,11 @@ def test_plots_mark_the_touches(tmp_path):
 from hypothesis import given, settings  # noqa: E402
 from hypothesis import strategies as st  # noqa: E402
 
-from bhr.run.clearance import clearance_run, clearance_run_numpy, make_tube, run_chain  # noqa: E402
+from bhr._run.clearance import clearance_run, clearance_run_numpy, make_tube, run_chain  # noqa: E402
 
 
 def test_kernel_equals_numpy_reference_on_a_run_with_a_body():
-    from bhr.bench.lumen import tight_colon
+    from bhr._bench.lumen import tight_colon
 
     tr = tight_colon(4)
     r = follow(tr, solver="seed", body_modules=9)
@@ -236,8 +236,8 @@ def test_a_point_is_followed_along_the_centerline_from_step_to_step():
 def test_a_lumen_narrower_than_the_robot_is_warned_about(tmp_path):
     import warnings
 
-    from bhr.model.generators import load_trajectory
-    from bhr.run.driver import BhrWarning
+    from bhr.model._generators import load_trajectory
+    from bhr._run.driver import BhrWarning
 
     x = np.arange(0.0, 60.0, 1.0)
     for width, warned in ((8.0, True), (10.0, False), (30.0, False)):
@@ -258,7 +258,7 @@ def test_a_lumen_narrower_than_the_robot_is_warned_about(tmp_path):
 
 # --- a blind end, a search that recovers, leaving the lumen ---------------------------------------------------
 
-from bhr.run.clearance import brute_force_clearance, clearance_run_all  # noqa: E402
+from bhr._run.clearance import brute_force_clearance, clearance_run_all  # noqa: E402
 
 
 @settings(max_examples=30, deadline=None)
@@ -323,7 +323,7 @@ def test_two_loops_5_mm_apart_are_kept_apart(toward, along):
 def test_a_body_that_strays_agrees_with_the_brute_force_check_and_the_reference():
     """A 40-module body behind the thesis robot on a tight colon, its end closed: bhr's minimum is the brute-force
     minimum (within 0.5 mm), and the kernel is its numpy reference."""
-    from bhr.bench.lumen import tight_colon
+    from bhr._bench.lumen import tight_colon
 
     tr = tight_colon(4)
     r = follow(tr, solver="seed", body_modules=40)
@@ -347,7 +347,7 @@ def test_a_body_that_strays_agrees_with_the_brute_force_check_and_the_reference(
 
 
 def test_an_open_end_from_the_option_or_the_file(tmp_path):
-    from bhr.model.generators import load_trajectory
+    from bhr.model._generators import load_trajectory
 
     x = np.arange(0.0, 60.0, 1.0)
     body = "x,y,z,lumen\n" + "".join(f"{v},0,0,30\n" for v in x)
@@ -365,7 +365,7 @@ def test_an_open_end_from_the_option_or_the_file(tmp_path):
 
 
 def test_a_colon_the_robot_left_is_failed_by_traverse_with_its_reason():
-    from bhr.studies.traverse import build_study, run_study
+    from bhr._studies.traverse import build_study, run_study
 
     res = run_study(build_study([("alpha", (10,))], "3-4", solvers=("seed",)), jobs=1)
     for r in res.runs:
@@ -379,7 +379,7 @@ def test_a_colon_the_robot_left_is_failed_by_traverse_with_its_reason():
 
 # the local search from a guess: the windowed scan's own result, bit for bit (U-turns with near limbs, random chains)
 
-from bhr.model.tube import local_scan, local_scan_from, segment_scan, window_scan  # noqa: E402
+from bhr.model._tube import local_scan, local_scan_from, segment_scan, window_scan  # noqa: E402
 
 
 def _chain(rng: np.random.Generator, shape: str, n: int, spacing: float, gap: float) -> np.ndarray:
@@ -425,7 +425,7 @@ def test_the_search_from_a_guess_finds_the_windows_nearest_segment_bit_for_bit(s
 
 
 def test_the_bounding_spheres_hold_their_segments():
-    from bhr.model.tube import BLOCK, GROUP, _spheres
+    from bhr.model._tube import BLOCK, GROUP, _spheres
 
     rng = np.random.default_rng(3)
     for m in (2, 3, 5, 17, 18, 100):

@@ -1,4 +1,4 @@
-"""The one code table (bhr.kinematics.codetable) and everything derived from it."""
+"""The one code table (bhr._kinematics.codetable) and everything derived from it."""
 import math
 import re
 from pathlib import Path
@@ -7,17 +7,17 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from bhr.kinematics import codetable as T
-from bhr.kinematics.frames import TILT_AXES, tilt_frame, tilt_reference
-from bhr.model import codes
-from bhr.model.robot import base_frame
+from bhr._kinematics import codetable as T
+from bhr._kinematics.frames import TILT_AXES, tilt_frame, tilt_reference
+from bhr.model import _codes as codes
+from bhr.model._robot import base_frame
 
 DOCS = Path(__file__).resolve().parents[2] / "docs" / "conventions.md"
 
 
 def test_the_documented_table_is_the_code_table():
     text = DOCS.read_text(encoding="utf-8")
-    assert T.markdown_table() in text, "docs/conventions.md's code table differs from bhr.kinematics.codetable"
+    assert T.markdown_table() in text, "docs/conventions.md's code table differs from bhr._kinematics.codetable"
     m = re.search(r"Every other code \(([\d, ]+)\) is unstable", text)
     assert m, "docs/conventions.md no longer lists the unstable codes"
     assert sorted(int(c) for c in m.group(1).split(",")) == sorted(set(range(16)) - set(T.VALID_CODES))
@@ -32,8 +32,8 @@ def test_codes_bits_are_the_actuators_on():
 
 
 def test_every_part_of_bhr_uses_the_one_table():
-    from bhr.run.body import _CODE, _INVERSE
-    from bhr.solvers.optimal import CODE_OF
+    from bhr._run.body import _CODE, _INVERSE
+    from bhr.solvers._optimal import CODE_OF
 
     assert codes.VALID_CODES is T.VALID_CODES and codes.TILT_CODES is T.TILT_CODES
     assert CODE_OF is T.SEARCH_CODES and _CODE is T.SEARCH_CODES and _INVERSE is T.SEARCH_INVERSE

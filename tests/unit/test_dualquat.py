@@ -8,7 +8,7 @@ import pytransform3d.transformations as pt
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from bhr.kinematics.dualquat import k_dq_mul, k_qmul, k_rotate, k_rotate_about
+from bhr._kinematics.dualquat import k_dq_mul, k_qmul, k_rotate, k_rotate_about
 from tests.dualquat_reference import (
     dq_conj_both,
     dq_conj_dual,

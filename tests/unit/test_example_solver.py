@@ -7,7 +7,7 @@ import pytest
 
 import bhr
 from bhr.solvers import available
-from bhr.solvers.base import REGISTRY
+from bhr.solvers._base import REGISTRY
 
 DOC = Path(__file__).resolve().parents[2] / "docs" / "model.md"
 

@@ -7,8 +7,8 @@ from pathlib import Path
 
 import pytest
 
-from bhr.settings.errors import BhrError
-from bhr.studies.executor import capture, reason, run_jobs
+from bhr._settings.errors import BhrError
+from bhr._studies.executor import capture, reason, run_jobs
 
 
 def square(job: tuple[int, str]) -> dict:
@@ -147,7 +147,7 @@ def test_a_signal_taken_by_another_thread_while_a_worker_starts_leaves_it_its_st
 
 FRESH_PROCESS = r'''
 import signal, sys
-from bhr.studies.executor import run_jobs
+from bhr._studies.executor import run_jobs
 
 SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
 

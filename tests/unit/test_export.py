@@ -7,10 +7,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 import bhr
-from bhr.settings.errors import BhrError
-from bhr.model.export import FORMATS, MM, joint_names, joint_values, module_inertia, to_mjcf, to_urdf
-from bhr.model.robot import Robot, forward_kinematics
-from bhr.model.robotfile import load_robot_file
+from bhr._settings.errors import BhrError
+from bhr.model._export import FORMATS, MM, joint_names, joint_values, module_inertia, to_mjcf, to_urdf
+from bhr.model._robot import Robot, forward_kinematics
+from bhr.model._robotfile import load_robot_file
 from tests.integration.test_export import CODES  # noqa: F401
 
 

@@ -9,10 +9,10 @@ import warnings
 import numpy as np
 from hypothesis import given, settings, strategies as st
 
-from bhr.bench.lumen import tight_colon
-from bhr.model.tube import make_tube
-from bhr.run.clearance import CecumWatch, cecum_step
-from bhr.run.driver import follow
+from bhr._bench.lumen import tight_colon
+from bhr.model._tube import make_tube
+from bhr._run.clearance import CecumWatch, cecum_step
+from bhr._run.driver import follow
 
 
 def _quiet(*args, **kwargs):
@@ -129,8 +129,8 @@ def test_a_held_robot_travels_no_contact_length():
 def test_a_stopped_run_reads_back_whole_and_a_bad_stop_is_refused():
     import pytest
 
-    from bhr.run.driver import FollowResult
-    from bhr.settings.errors import BhrError
+    from bhr._run.driver import FollowResult
+    from bhr._settings.errors import BhrError
 
     run = _quiet(tight_colon(2), solver="lumen")
     doc = run.to_dict()
@@ -167,7 +167,7 @@ def _random_chain(rng: np.random.Generator, n: int, spacing: float) -> np.ndarra
 
 def _cecum_numpy(tube, tips):
     """The watch in numpy (the reference): each tip located by locate_numpy around where the one before was."""
-    from bhr.model.tube import locate_numpy
+    from bhr.model._tube import locate_numpy
 
     C = tube.points
     d = (C[-1] - C[-2]) / np.linalg.norm(C[-1] - C[-2])

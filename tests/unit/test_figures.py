@@ -19,12 +19,12 @@ import pytest  # noqa: E402
 from matplotlib.backends.backend_agg import FigureCanvasAgg  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 
-from bhr.model.generators import load_trajectory  # noqa: E402
-from bhr.output.error_plot import ERROR_KINDS, body_figure, error_figure  # noqa: E402
-from bhr.output.path_plot import path_figure  # noqa: E402
-from bhr.output.scene import FRAME_INCHES, FRAME_ZOOM, LUMEN_WALL, lumen_walls, zoom_half_width  # noqa: E402
-from bhr.output.stepview import StepView  # noqa: E402
-from bhr.run.driver import follow  # noqa: E402
+from bhr.model._generators import load_trajectory  # noqa: E402
+from bhr.output._error_plot import ERROR_KINDS, body_figure, error_figure  # noqa: E402
+from bhr.output._path_plot import path_figure  # noqa: E402
+from bhr.output._scene import FRAME_INCHES, FRAME_ZOOM, LUMEN_WALL, lumen_walls, zoom_half_width  # noqa: E402
+from bhr.output._stepview import StepView  # noqa: E402
+from bhr._run.driver import follow  # noqa: E402
 
 
 @pytest.fixture(scope="module")
@@ -68,8 +68,8 @@ def test_a_runs_error_figures_drawn_on_one_grid_are_the_figures_drawn_alone(tmp_
     figure error_figure draws on its own. With 4 modules the points need 3 rows and the modules 2: two grids."""
     from PIL import Image
 
-    from bhr.output.figure import save_figure
-    from bhr.output.run_plots import save_run_plots
+    from bhr.output._figure import save_figure
+    from bhr.output._run_plots import save_run_plots
 
     run = follow(load_trajectory("curve", angle=180.0), solver="seed", modules=modules)
     save_run_plots(run, tmp_path)
@@ -250,8 +250,8 @@ def test_3d_frames_follow_the_robot(spiral):
 
 
 def test_compare_figure_has_step_numbers_tolerance_and_each_solvers_worst_step():
-    from bhr.model.robot import Robot
-    from bhr.studies.compare import compare_figure, compare_runs
+    from bhr.model._robot import Robot
+    from bhr._studies.compare import compare_figure, compare_runs
 
     runs = compare_runs(load_trajectory("curve", angle=180.0), ["seed", "fabrik"], Robot())
     fig = compare_figure(runs)
@@ -267,7 +267,7 @@ def test_compare_figure_has_step_numbers_tolerance_and_each_solvers_worst_step()
 
 
 def test_solve_plot_keeps_the_target_inside_and_the_solution_in_front():
-    from bhr.output.path_plot import chain_figure
+    from bhr.output._path_plot import chain_figure
 
     initial = np.array([[0, 2.0 * k, 0] for k in range(6)])
     final = np.array([[0, 0, 0], [0, 2, 0], [0.35, 3.97, 0], [1.03, 5.85, 0], [2.03, 7.58, 0], [3.0, 9.0, 0]])

@@ -14,9 +14,9 @@ from hypothesis import given, settings  # noqa: E402
 from hypothesis import strategies as st  # noqa: E402
 
 import bhr  # noqa: E402
-from bhr.model.anatomy import SECTIONS  # noqa: E402
-from bhr.output.path_plot import path_figure  # noqa: E402
-from bhr.output.scene import capsule_outline
+from bhr.model._anatomy import SECTIONS  # noqa: E402
+from bhr.output._path_plot import path_figure  # noqa: E402
+from bhr.output._scene import capsule_outline
 
 
 @pytest.fixture(scope="module")
@@ -79,7 +79,7 @@ def test_an_anatomical_colon_carries_its_sections_and_the_direction_of_travel(to
 
 
 def test_the_3d_view_names_the_sections_and_shows_the_direction_of_travel(touching):
-    from bhr.output.view import view_figure
+    from bhr.output._view import view_figure
 
     fig = view_figure(touching)
     names = {t.get("name"): t for t in fig["data"]}

@@ -10,9 +10,9 @@ pytest.importorskip("vtk")
 pytest.importorskip("kimimaro")
 nib = pytest.importorskip("nibabel")
 
-from bhr.model.generators import load_trajectory  # noqa: E402
-from bhr.model.importer import import_colon, longest_path  # noqa: E402
-from bhr.model.trajnames import real_colons  # noqa: E402
+from bhr.model._generators import load_trajectory  # noqa: E402
+from bhr.model._importer import import_colon, longest_path  # noqa: E402
+from bhr.model._trajnames import real_colons  # noqa: E402
 
 
 def test_mesh_alone_round_trip_on_a_shipped_colon():

@@ -6,9 +6,9 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from bhr.model.codes import VALID_CODES, check_code, is_valid_code
-from bhr.model.robot import Robot, base_frame, forward_kinematics
-from bhr.settings.errors import BhrError
+from bhr.model._codes import VALID_CODES, check_code, is_valid_code
+from bhr.model._robot import Robot, base_frame, forward_kinematics
+from bhr._settings.errors import BhrError
 from bhr.solvers import Chain, get_solver
 
 coord = st.floats(-30, 30, allow_nan=False)

@@ -1,15 +1,15 @@
-"""The compiled kinematics kernels equal their numpy references (bhr.kinematics)."""
+"""The compiled kinematics kernels equal their numpy references (bhr._kinematics)."""
 import math
 
 import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from bhr.kinematics.frames import fk_kernel, fk_reference, tilt_frame, tilt_reference
-from bhr.kinematics.leader import advance_kernel, advance_reference, score_reference, score_step
-from bhr.model.generators import load_trajectory
-from bhr.model.robot import Robot, base_frame, forward_kinematics
-from bhr.run.driver import follow
+from bhr._kinematics.frames import fk_kernel, fk_reference, tilt_frame, tilt_reference
+from bhr._kinematics.leader import advance_kernel, advance_reference, score_reference, score_step
+from bhr.model._generators import load_trajectory
+from bhr.model._robot import Robot, base_frame, forward_kinematics
+from bhr._run.driver import follow
 
 seeds = st.integers(min_value=0, max_value=2**32 - 1)
 

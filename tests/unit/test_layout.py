@@ -75,7 +75,7 @@ def test_a_test_in_the_wrong_place_stops_the_collection(where, fixtures, says):
 
 def test_every_package_of_the_library_is_installed():
     """pyproject's explicit package list names every folder with an __init__.py: a package left out is missing
-    from an installed (non-editable) bhr, as bhr.studies.physics was."""
+    from an installed (non-editable) bhr, as bhr._studies.physics was."""
     import tomllib
 
     root = TESTS.parent

@@ -16,13 +16,13 @@ from hypothesis import strategies as st
 
 import bhr
 import bhr.solvers as solvers
-from bhr.model.path import Trajectory, resample_polyline, spacing
-from bhr.settings.errors import BhrError
+from bhr.model._path import Trajectory, resample_polyline, spacing
+from bhr._settings.errors import BhrError
 
 
 def _library_modules():
     for info in pkgutil.walk_packages(bhr.__path__, "bhr."):
-        if info.name.startswith(("bhr.bench", "bhr.cli")):
+        if info.name.startswith(("bhr._bench", "bhr.cli")):
             continue
         yield info.name
 
@@ -54,7 +54,7 @@ def test_trajectory_carries_points_feed_and_lumen():
 def test_follow_draws_a_trajectory_again_at_the_robots_feed():
     """The library gives the command line's answer: the curve at module length 5 mm is drawn at a 1 mm feed."""
     lib = bhr.follow(bhr.trajectory("curve"), module_length=5)
-    cli_like = bhr.follow(bhr.model.generators.load_trajectory("curve", feed=1.0), module_length=5)
+    cli_like = bhr.follow(bhr.model._generators.load_trajectory("curve", feed=1.0), module_length=5)
     assert lib.trajectory.feed == 1.0 and lib.steps == cli_like.steps
     assert lib.summary.tip_max_error_mm == cli_like.summary.tip_max_error_mm
     assert lib.summary.tip_max_error_mm < 1.0  # not the 63 mm of a 2 mm path driven at a 1 mm feed
@@ -75,7 +75,7 @@ def test_points_spaced_otherwise_than_the_feed_are_refused_naming_the_fix():
 
 def test_at_feed_draws_builtins_again_exactly():
     t = bhr.trajectory("spiral").at_feed(1.0)
-    assert np.array_equal(t.points, bhr.model.generators.load_trajectory("spiral", feed=1.0).points)
+    assert np.array_equal(t.points, bhr.model._generators.load_trajectory("spiral", feed=1.0).points)
     assert t.at_feed(1.0) is t
 
 
@@ -226,7 +226,7 @@ def test_solve_iterates_with_the_command_lines_defaults():
     """bhr.solve's chain and tolerance are bhr solve's: 3.16 mm off is not reached after 0 iterations."""
     res = bhr.solve([3, 9, 0])
     assert res.status == "reached" and res.position_error_mm <= 0.01 and res.iterations > 0
-    from bhr.model.robot import CHAPTER5_ROBOT
+    from bhr.model._robot import CHAPTER5_ROBOT
 
     assert (CHAPTER5_ROBOT.modules, CHAPTER5_ROBOT.module_length, CHAPTER5_ROBOT.tol_pos, CHAPTER5_ROBOT.max_iter) == \
         (5, 2.0, 0.01, 30)
@@ -237,7 +237,7 @@ def test_a_source_checkout_finds_its_shipped_trajectories(monkeypatch):
     from importlib import resources
     from pathlib import Path
 
-    from bhr.model import trajnames
+    from bhr.model import _trajnames as trajnames
 
     real = resources.files
 

@@ -1,4 +1,4 @@
-"""--solver lumen (bhr/solvers/lumen.py): exact head search, planning, options, and that it keeps off the wall."""
+"""--solver lumen (bhr/solvers/_lumen.py): exact head search, planning, options, and that it keeps off the wall."""
 from __future__ import annotations
 
 import itertools
@@ -8,15 +8,15 @@ import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
-from bhr.bench.lumen import tight_colon
-from bhr.model.generators import Trajectory, load_trajectory
-from bhr.model.robot import Robot, forward_kinematics
-from bhr.model.tube import nearest_numpy
-from bhr.run.clearance import make_tube
-from bhr.run.driver import follow
-from bhr.settings.errors import BhrError
+from bhr._bench.lumen import tight_colon
+from bhr.model._generators import Trajectory, load_trajectory
+from bhr.model._robot import Robot, forward_kinematics
+from bhr.model._tube import nearest_numpy
+from bhr._run.clearance import make_tube
+from bhr._run.driver import follow
+from bhr._settings.errors import BhrError
 from bhr.solvers import get_solver
-from bhr.solvers.lumen import DEFAULTS, head_cost, head_search, lumen_config_cost
+from bhr.solvers._lumen import DEFAULTS, head_cost, head_search, lumen_config_cost
 
 CODES = (0, 3, 6, 12, 9)
 

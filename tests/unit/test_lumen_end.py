@@ -8,14 +8,14 @@ import warnings
 
 import pytest
 
-from bhr.bench.lumen import tight_colon
-from bhr.model.robot import Robot, forward_kinematics
-from bhr.model.tube import make_tube
-from bhr.run.driver import follow
+from bhr._bench.lumen import tight_colon
+from bhr.model._robot import Robot, forward_kinematics
+from bhr.model._tube import make_tube
+from bhr._run.driver import follow
 from tests.unit.test_lumen import pose_before
-from bhr.settings.errors import BhrError
+from bhr._settings.errors import BhrError
 from bhr.solvers import get_solver
-from bhr.solvers.lumen import DEFAULTS, head_cost, lumen_config_cost
+from bhr.solvers._lumen import DEFAULTS, head_cost, lumen_config_cost
 
 CODES = (0, 3, 6, 12, 9)
 
@@ -81,7 +81,7 @@ def test_cecum_step_is_the_first_step_the_tip_is_at_the_end():
 
     import numpy as np
 
-    from bhr.bench.lumen import cecum_step
+    from bhr._bench.lumen import cecum_step
 
     t = np.linspace(0.0, 1.5 * np.pi, 200)
     C = np.stack([30.0 * np.cos(t), 30.0 * np.sin(t), np.zeros_like(t)], axis=1)  # 3/4 of a circle

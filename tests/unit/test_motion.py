@@ -1,4 +1,4 @@
-"""The robot as it can be built (bhr.run.motion): wires, joints, rigid chains, every pose written and scored."""
+"""The robot as it can be built (bhr._run.motion): wires, joints, rigid chains, every pose written and scored."""
 from __future__ import annotations
 
 import math
@@ -9,13 +9,13 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import bhr
-from bhr.kinematics.codetable import CODE_AXIS, VALID_CODES
-from bhr.model.robot import base_frame
-from bhr.model.wires import DEFAULT_THERMAL, contraction_reference, transform_thetas
-from bhr.run.driver import follow
-from bhr.run.motion import (MAX_JOINT_STEP_MM, chain_poses, code_wires, contraction, joint_tilts, switch_times,
+from bhr._kinematics.codetable import CODE_AXIS, VALID_CODES
+from bhr.model._robot import base_frame
+from bhr.model._wires import DEFAULT_THERMAL, contraction_reference, transform_thetas
+from bhr._run.driver import follow
+from bhr._run.motion import (MAX_JOINT_STEP_MM, chain_poses, code_wires, contraction, joint_tilts, switch_times,
                             wire_states)
-from bhr.solvers.trail import trail_vertices
+from bhr.solvers._trail import trail_vertices
 
 ALPHAS = st.floats(5.0, 35.0)
 TILT_CODES = [0, 3, 6, 12, 9]
@@ -151,7 +151,7 @@ def _brute(path, lumen, radius, points, closed=True):
 def test_clearance_of_the_written_poses_agrees_with_an_independent_one(wires_run):
     """Dense samples along every module of every written pose (0.25 mm), the nearest point of the whole
     centerline refined as bhr's (a Catmull-Rom spline, <= 1 mm): bhr's minimum within 0.5 mm, same touches."""
-    from bhr.solvers.trail import dense_tube
+    from bhr.solvers._trail import dense_tube
 
     tr = wires_run.trajectory
     tube = dense_tube(tr.points, tr.lumen, tr.start_direction, 40.0)
@@ -203,7 +203,7 @@ def test_a_pose_deeper_in_the_wall_than_the_robot_radius_has_left_the_lumen():
 
 
 def test_poses_file_keeps_its_contract(wires_run, tmp_path):
-    from bhr.output.steptable import write_poses
+    from bhr.output._steptable import write_poses
 
     write_poses(wires_run, tmp_path / "poses.npz")
     d = np.load(tmp_path / "poses.npz")
@@ -218,8 +218,8 @@ def test_scoring_only_what_may_have_come_nearer_the_wall_gives_the_tables_of_sco
     """A joint or module is scored again only when it may have come nearer the wall than its step's or its pose's
     worst since it was last scored (score_kernel's bound): every step's table and every pose's smallest are those
     of scoring every joint and module of every pose."""
-    from bhr.model.robot import Robot
-    from bhr.run.motion import wires_motion
+    from bhr.model._robot import Robot
+    from bhr._run.motion import wires_motion
     from bhr.solvers import get_solver
 
     tr = bhr.trajectory("anatomy", seed=1)

@@ -9,14 +9,14 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from bhr.model.codes import VALID_CODES
-from bhr.model.generators import load_trajectory
-from bhr.model.path import path_directions
-from bhr.model.robot import Robot, base_frame, forward_kinematics
-from bhr.run.driver import follow
-from bhr.settings.errors import BhrError
+from bhr.model._codes import VALID_CODES
+from bhr.model._generators import load_trajectory
+from bhr.model._path import path_directions
+from bhr.model._robot import Robot, base_frame, forward_kinematics
+from bhr._run.driver import follow
+from bhr._settings.errors import BhrError
 from bhr.solvers import get_solver
-from bhr.solvers.optimal import DEFAULTS, config_cost, path_features, search_all, search_head
+from bhr.solvers._optimal import DEFAULTS, config_cost, path_features, search_all, search_head
 
 SEARCHED = (0, 3, 6, 12, 9)  # rest and the four tilts; lift (15) is not searched
 
@@ -124,7 +124,7 @@ def curve90():
 
 def replay_frames(result) -> np.ndarray:
     """Module 1's frame at each step, replayed from the start frame and the base codes."""
-    from bhr.solvers.optimal import CODE_OF, _rot
+    from bhr.solvers._optimal import CODE_OF, _rot
 
     r = result.robot
     idx = {int(c): k for k, c in enumerate(CODE_OF)}

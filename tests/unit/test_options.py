@@ -1,16 +1,16 @@
-"""One option registry (bhr.settings.options): CLI options, robot files, batch files and sweep grids agree."""
+"""One option registry (bhr._settings.options): CLI options, robot files, batch files and sweep grids agree."""
 import dataclasses
 
 import pytest
 
-from bhr.model.robot import Robot
-from bhr.model.robotfile import ROBOT_KEYS as FILE_KEYS
-from bhr.settings.errors import BhrError
-from bhr.settings.options import by_group
-from bhr.solvers.lumen import DEFAULTS as LUMEN_DEFAULTS
-from bhr.solvers.optimal import DEFAULTS
-from bhr.studies.report import parse_batch
-from bhr.studies.sweep import GRID_KEYS, build_sweep, run_design
+from bhr.model._robot import Robot
+from bhr.model._robotfile import ROBOT_KEYS as FILE_KEYS
+from bhr._settings.errors import BhrError
+from bhr._settings.options import by_group
+from bhr.solvers._lumen import DEFAULTS as LUMEN_DEFAULTS
+from bhr.solvers._optimal import DEFAULTS
+from bhr._studies.report import parse_batch
+from bhr._studies.sweep import GRID_KEYS, build_sweep, run_design
 
 
 def test_robot_defaults_are_the_registry_defaults():
@@ -53,8 +53,8 @@ def test_optimal_options_in_batch_and_sweep():
 
 def test_lumen_end_is_a_key_of_batch_runs_and_sweep_grids_as_documented():
     """docs/lumen.md promises `lumen_end = "open"` in a batch or sweep table; both refused it as unknown."""
-    from bhr.settings.errors import BhrError
-    from bhr.studies.sweep import parse_values
+    from bhr._settings.errors import BhrError
+    from bhr._studies.sweep import parse_values
 
     b = parse_batch({"run": [{"name": "a", "traj": "anatomy-short", "lumen_end": "open"},
                              {"name": "b", "traj": "colon", "lumen_end": "closed"}]}, "b")

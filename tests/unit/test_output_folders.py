@@ -1,4 +1,4 @@
-"""Output folders replace only bhr's own output (bhr.output.atomic.OutputFolder): a plain manifest.json marks it.
+"""Output folders replace only bhr's own output (bhr.output._atomic.OutputFolder): a plain manifest.json marks it.
 
 Library-level tests of the rules every command's output goes through; tests/cli/test_outputs.py runs
 the commands themselves.
@@ -12,9 +12,9 @@ from pathlib import Path
 
 import pytest
 
-from bhr.output.atomic import MANIFEST, OutputFolder, owning_folder
-from bhr.output.paths import settings_hash
-from bhr.settings.errors import BhrError
+from bhr.output._atomic import MANIFEST, OutputFolder, owning_folder
+from bhr.output._paths import settings_hash
+from bhr._settings.errors import BhrError
 
 
 def write_run(target: Path, files: dict[str, str], settings: str | None = None, command: str = "follow",

@@ -13,7 +13,7 @@ def test_a_user_may_write_to_a_device_in_a_folder_they_cannot_write(tmp_path):
     import shutil
     import tempfile
 
-    from bhr.output.atomic import check_output_file, write_json
+    from bhr.output._atomic import check_output_file, write_json
 
     folder = Path(tempfile.mkdtemp(prefix="bhr-dev-", dir="/tmp"))  # pytest's tmp_path is closed to other users
     folder.chmod(0o755)  # root's folder: not writable by the user
@@ -53,7 +53,7 @@ def test_output_folder_always_holds_the_last_whole_set(tmp_path_factory):
     from hypothesis import given, settings
     from hypothesis import strategies as st
 
-    from bhr.output.atomic import OutputFolder, write_text
+    from bhr.output._atomic import OutputFolder, write_text
 
     names = st.sets(st.sampled_from(["run.json", "codes.csv", "a.png", "b.png"]), min_size=1)
 

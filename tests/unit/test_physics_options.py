@@ -3,8 +3,8 @@ from __future__ import annotations
 
 import pytest
 
-from bhr.settings.errors import BhrError
-from bhr.studies.physics import DEFAULT_WALL_STIFFNESS, WALL_STIFFNESS_RANGE, check_wall_stiffness
+from bhr._settings.errors import BhrError
+from bhr._studies.physics import DEFAULT_WALL_STIFFNESS, WALL_STIFFNESS_RANGE, check_wall_stiffness
 
 
 @pytest.mark.parametrize("value", [0.001, 5.0, float("nan"), float("inf")])

@@ -1,12 +1,12 @@
-"""bhr.hardware.protocol: frames, CRC, status parsing and the resynchronizing stream decoder."""
+"""bhr._hardware.protocol: frames, CRC, status parsing and the resynchronizing stream decoder."""
 from __future__ import annotations
 
 import random
 
 import pytest
 
-from bhr.hardware import protocol as P
-from bhr.settings.errors import BhrError
+from bhr._hardware import protocol as P
+from bhr._settings.errors import BhrError
 
 P_VALID = (0, 3, 6, 9, 12, 15)
 

@@ -1,4 +1,4 @@
-"""The racing line (bhr/model/racing.py) and --solver lumen's racing_weight (bhr/solvers/lumen.py)."""
+"""The racing line (bhr/model/_racing.py) and --solver lumen's racing_weight (bhr/solvers/_lumen.py)."""
 from __future__ import annotations
 
 import itertools
@@ -9,13 +9,13 @@ import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
-from bhr.bench.lumen import tight_colon
-from bhr.model.racing import head_radius_mm, line_curvature, racing_line, transport_frames
-from bhr.model.robot import Robot, forward_kinematics
-from bhr.run.clearance import make_tube
-from bhr.run.driver import follow
-from bhr.settings.options import BY_NAME
-from bhr.solvers.lumen import DEFAULTS, head_cost, lumen_config_cost, planned_line
+from bhr._bench.lumen import tight_colon
+from bhr.model._racing import head_radius_mm, line_curvature, racing_line, transport_frames
+from bhr.model._robot import Robot, forward_kinematics
+from bhr._run.clearance import make_tube
+from bhr._run.driver import follow
+from bhr._settings.options import BY_NAME
+from bhr.solvers._lumen import DEFAULTS, head_cost, lumen_config_cost, planned_line
 
 CODES = (0, 3, 6, 12, 9)
 

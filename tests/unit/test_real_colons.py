@@ -7,10 +7,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import bhr
-from bhr.model.generators import load_trajectory
-from bhr.model.path import Trajectory, labels_of, runs_of
-from bhr.model.trajnames import builtin_names, check_trajectory_name, real_colons
-from bhr.settings.errors import BhrError
+from bhr.model._generators import load_trajectory
+from bhr.model._path import Trajectory, labels_of, runs_of
+from bhr.model._trajnames import builtin_names, check_trajectory_name, real_colons
+from bhr._settings.errors import BhrError
 
 REAL = ("gca:E20", "gca:E60", "gca:E90", "gca:VHF", "gca:VHM")
 ORDER = ("rectum and sigmoid", "rectum", "sigmoid", "descending", "transverse", "ascending", "cecum")
@@ -94,11 +94,11 @@ def _sectioned_csv(tmp_path):
 
 
 def test_a_run_names_its_sections_in_steps_csv_run_json_summary_and_figures(tmp_path):
-    from bhr.output.clearance_plot import clearance_figure
-    from bhr.output.path_plot import path_figure
-    from bhr.output.steptable import format_steps_csv
-    from bhr.run.driver import FollowResult
-    from bhr.studies.follow_run import summary_lines
+    from bhr.output._clearance_plot import clearance_figure
+    from bhr.output._path_plot import path_figure
+    from bhr.output._steptable import format_steps_csv
+    from bhr._run.driver import FollowResult
+    from bhr._studies.follow_run import summary_lines
 
     t = load_trajectory(_sectioned_csv(tmp_path), feed=2.0)
     assert [s[0] for s in t.sections] == ["rectum", "sigmoid"]
@@ -124,7 +124,7 @@ def test_a_run_names_its_sections_in_steps_csv_run_json_summary_and_figures(tmp_
 
 
 def test_traverse_takes_real_colons_by_name_all_together_and_mixed_with_seeds():
-    from bhr.studies.traverse import build_study, colons_phrase, parse_colons
+    from bhr._studies.traverse import build_study, colons_phrase, parse_colons
 
     assert parse_colons("real") == REAL
     assert parse_colons("gca:VHM,1-3") == ("gca:VHM", 1, 2, 3)
@@ -139,7 +139,7 @@ def test_traverse_takes_real_colons_by_name_all_together_and_mixed_with_seeds():
 
 
 def test_a_study_runs_a_real_colon_as_that_colon():
-    from bhr.studies.sweep import colon_source, run_design
+    from bhr._studies.sweep import colon_source, run_design
 
     assert colon_source("anatomy", {"seed": "gca:VHF"}) == ("gca:VHF", {})
     assert colon_source("anatomy", {"seed": 3}) == ("anatomy", {"seed": 3})
@@ -150,7 +150,7 @@ def test_a_study_runs_a_real_colon_as_that_colon():
 
 
 def test_the_insufflated_lumen_model():
-    from bhr.model.insufflation import AREA_MM2, CALIBRE_MM, insufflated_lumen
+    from bhr.model._insufflation import AREA_MM2, CALIBRE_MM, insufflated_lumen
 
     ct = load_trajectory("gca:E90", feed=2.0)
     ins = load_trajectory("gca:E90", feed=2.0, lumen_model="insufflated")
@@ -169,13 +169,13 @@ def test_the_insufflated_lumen_model():
         load_trajectory("anatomy-typical", feed=2.0, lumen_model="insufflated")
     r = bhr.follow(load_trajectory("gca:VHF", feed=2.0, lumen_model="insufflated"), "lumen")
     assert "insufflated" in r.summary.to_dict()["wall"]
-    from bhr.run.driver import FollowResult
+    from bhr._run.driver import FollowResult
 
     assert FollowResult.from_json(r.to_dict()).trajectory.lumen_model == "insufflated"
 
 
 def test_a_studys_worst_colon_is_followed_again_with_the_designs_lumen_model():
-    from bhr.studies.traverse import StudyResult, build_study, worst_colon_run
+    from bhr._studies.traverse import StudyResult, build_study, worst_colon_run
 
     study = build_study([("alpha", (25.0,)), ("lumen_model", ("insufflated",))], "gca:VHF", solvers=("lumen",))
     design = {"design": 1, "solver": "lumen", "alpha": 25.0, "lumen_model": "insufflated", "worst_colon": "gca:VHF"}

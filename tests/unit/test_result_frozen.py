@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import bhr
-from bhr.run.driver import FollowResult
+from bhr._run.driver import FollowResult
 
 
 @pytest.fixture(scope="module")

@@ -3,8 +3,8 @@ import math
 
 import pytest
 
-from bhr.model.robot import Robot, alpha_from_stroke, min_turn_radius
-from bhr.settings.errors import BhrError
+from bhr.model._robot import Robot, alpha_from_stroke, min_turn_radius
+from bhr._settings.errors import BhrError
 
 
 def test_minimum_turn_radius_ec_7_1():

@@ -9,9 +9,9 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from bhr.model.codes import CODE_AXIS, VALID_CODES
-from bhr.model.robot import Robot
-from bhr.model.robotfile import (
+from bhr.model._codes import CODE_AXIS, VALID_CODES
+from bhr.model._robot import Robot
+from bhr.model._robotfile import (
     LINK_KEYS,
     ROBOT_KEYS,
     LinkSettings,
@@ -19,7 +19,7 @@ from bhr.model.robotfile import (
     default_robot_file,
     load_robot_file,
 )
-from bhr.settings.errors import BhrError
+from bhr._settings.errors import BhrError
 
 FAST = settings(max_examples=80, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 import bhr
-from bhr.model.generators import load_trajectory
-from bhr.run.driver import BhrWarning, FollowResult
+from bhr.model._generators import load_trajectory
+from bhr._run.driver import BhrWarning, FollowResult
 
 
 def _run(name: str, **kw):
@@ -31,7 +31,7 @@ def test_start_round_trips_through_run_json(name, kw):
 def test_a_read_back_anatomy_run_has_the_clearance_and_view_of_the_run():
     """The tube behind the entrance goes along the start direction (not +x): the body's clearance behind the
     entrance and the view's tube of the run read back are the run's."""
-    from bhr.output.view import view_figure
+    from bhr.output._view import view_figure
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", BhrWarning)
@@ -65,8 +65,8 @@ def test_bad_start_direction_is_one_named_error(value):
                                           (1e9, "must lie within")])
 def test_a_steps_clearance_is_checked_as_the_other_numbers_are(tmp_path, value, words):
     """run.json's per-step clearance_mm (a path with a lumen): NaN, text, true or a list was accepted."""
-    from bhr.run.driver import load_run
-    from bhr.settings.errors import BhrError
+    from bhr._run.driver import load_run
+    from bhr._settings.errors import BhrError
 
     doc = json.loads(_run("example_centerline").to_json())
     assert "clearance_mm" in doc["steps"][3]

@@ -5,13 +5,13 @@ import types
 
 import pytest
 
-from bhr.settings.errors import BhrError
+from bhr._settings.errors import BhrError
 
 
 def test_solver_index_lists_every_solver_class_of_bhr_as_it_registers():
     import bhr.solvers as solvers
-    from bhr.solvers.base import REGISTRY
-    from bhr.solvers.names import BUILTIN
+    from bhr.solvers._base import REGISTRY
+    from bhr.solvers._names import BUILTIN
 
     solvers.available()  # every solver module loaded
     ours = {cls for cls in REGISTRY.values() if cls.__module__.startswith("bhr.solvers.")}
@@ -19,10 +19,10 @@ def test_solver_index_lists_every_solver_class_of_bhr_as_it_registers():
 
 
 def test_register_refuses_a_bhr_solver_missing_from_the_index():
-    from bhr.solvers.base import Solver, register
+    from bhr.solvers._base import Solver, register
 
     cls = types.new_class("Fresh", (Solver,), {}, lambda ns: ns.update(name="fresh", __module__="bhr.solvers.fresh"))
-    with pytest.raises(TypeError, match="bhr/solvers/names.py"):
+    with pytest.raises(TypeError, match="bhr/solvers/_names.py"):
         register(cls)
 
 
@@ -60,7 +60,7 @@ def test_a_solver_another_package_adds_is_looked_up_in_the_full_registry(monkeyp
 def test_the_stable_argsort_kernel_is_numpys_mergesort():
     import numpy as np
 
-    from bhr.kinematics.leader import stable_argsort
+    from bhr._kinematics.leader import stable_argsort
 
     rng = np.random.default_rng(5)
     for m in (0, 1, 2, 3, 7, 16, 80, 81, 200):

@@ -3,10 +3,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from bhr.model.generators import load_trajectory
-from bhr.run.driver import follow
-from bhr.studies.report import summary_row
-from bhr.studies.sweep import METRICS
+from bhr.model._generators import load_trajectory
+from bhr._run.driver import follow
+from bhr._studies.report import summary_row
+from bhr._studies.sweep import METRICS
 
 
 def scored_rmse(values: np.ndarray, first: int) -> float:

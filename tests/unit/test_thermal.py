@@ -15,8 +15,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from bhr.hardware import thermal as T
-from bhr.settings.errors import BhrError
+from bhr._hardware import thermal as T
+from bhr._settings.errors import BhrError
 
 REPO = Path(__file__).resolve().parents[2]
 FIRMWARE = REPO / "firmware"
@@ -130,7 +130,7 @@ def test_the_plan_figure_draws_wires_that_move_together_as_one_named_line():
     import os
 
     os.environ.setdefault("MPLBACKEND", "Agg")
-    from bhr.output.thermal_plot import schedule_figure, wire_groups
+    from bhr.output._thermal_plot import schedule_figure, wire_groups
 
     # module 1 tilts with code 3 (wires 1+2) then 12 (wires 3+4); module 2 with code 6 only, then rests
     rows = np.array([[3, 6], [0, 6], [12, 0], [0, 0]])
@@ -167,7 +167,7 @@ def _fix_rate(rows, rate):
 def test_the_rate_a_refusal_names_is_accepted_when_acceptance_is_not_monotonic():
     """A file (found by a tester's random codes) refused at 2 Hz was told "use --rate 0.9", which was refused in
     turn ("use --rate 0.8"): a slower rate is not always accepted, so the bisection's answer is checked itself."""
-    from bhr.model.codes import read_codes_csv
+    from bhr.model._codes import read_codes_csv
 
     _, rows = read_codes_csv(Path(__file__).resolve().parents[1] / "data" / "rate-hint-not-monotonic.csv")
     assert T.check_schedule(T.DEFAULT_THERMAL, rows, 0.9, trace=False).faults  # the old advice: refused

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 import bhr
-from bhr.model.robot import Robot
+from bhr.model._robot import Robot
 from bhr.solvers import available, canonical, get_solver
 
 

@@ -9,9 +9,9 @@ import pytest
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
-from bhr.model.generators import COLON_SECTIONS, GENERATORS, colon, load_trajectory
-from bhr.model.pathfile import estimate_min_radius, resample_polyline
-from bhr.settings.errors import BhrError
+from bhr.model._generators import COLON_SECTIONS, GENERATORS, colon, load_trajectory
+from bhr.model._pathfile import estimate_min_radius, resample_polyline
+from bhr._settings.errors import BhrError
 
 FAST = settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 
@@ -421,7 +421,7 @@ def _distance_to(curve, pts, chunk=200):
 
 
 def test_the_segment_limit_of_the_registry_holds(tmp_path):
-    from bhr.settings.options import LIMITS
+    from bhr._settings.options import LIMITS
 
     at = tmp_path / "at.toml"
     at.write_text(segment_file([{"type": "straight", "length": 0.5}] * LIMITS["segments"]))
@@ -451,8 +451,8 @@ def test_a_path_of_too_many_points_names_a_feed_that_fits(name, params):
     and a path drawn at that feed is accepted (the limit is a count of points, so the feed is rounded up)."""
     import re
 
-    from bhr.model.generators import load_trajectory
-    from bhr.settings.errors import BhrError
+    from bhr.model._generators import load_trajectory
+    from bhr._settings.errors import BhrError
 
     with pytest.raises(BhrError) as err:
         load_trajectory(name, feed=0.00016, **params)

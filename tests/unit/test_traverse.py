@@ -16,12 +16,12 @@ import pytest
 from hypothesis import given, settings, strategies as st
 
 import bhr
-from bhr.settings.errors import BhrError
-from bhr.settings.options import LIMITS
-from bhr.run.driver import BhrWarning
-from bhr.model.robot import Robot
-from bhr.model.generators import load_trajectory
-from bhr.studies.traverse import answer, build_study, design_rows, parse_colons, run_study
+from bhr._settings.errors import BhrError
+from bhr._settings.options import LIMITS
+from bhr._run.driver import BhrWarning
+from bhr.model._robot import Robot
+from bhr.model._generators import load_trajectory
+from bhr._studies.traverse import answer, build_study, design_rows, parse_colons, run_study
 from tests.conftest import bhr_exe
 
 PNG = b"\x89PNG\r\n\x1a\n"
@@ -221,7 +221,7 @@ def test_ties_are_broken_by_the_clearance_left():
 
 
 def test_colons_take_the_grid_range_syntax_too():
-    from bhr.studies.traverse import parse_colons
+    from bhr._studies.traverse import parse_colons
 
     assert parse_colons("1:3") == parse_colons("1-3") == (1, 2, 3)
     assert parse_colons("1:9:4,20") == (1, 5, 9, 20)
@@ -230,7 +230,7 @@ def test_colons_take_the_grid_range_syntax_too():
 
 
 def test_the_table_says_when_designs_are_left_out():
-    from bhr.studies.traverse import format_study
+    from bhr._studies.traverse import format_study
 
     study = build_study([("alpha", tuple(range(10, 19)))], "1-2")
     runs = [{"solver": "thesis", "alpha": a, "seed": s, "status": "ok", "steps": 5, "traversed": a > 10,
@@ -270,7 +270,7 @@ CLEAR = {(20, 5): 0.9, (20, 6): 0.5, (25, 5): 1.3, (25, 6): 0.7, (30, 5): 0.4, (
 
 
 def test_the_ranking_metric_and_the_robot_judged_are_in_the_table_and_the_answer():
-    from bhr.studies.traverse import DESIGN_COLUMNS, answer_line, format_study
+    from bhr._studies.traverse import DESIGN_COLUMNS, answer_line, format_study
 
     r = _tied_result(CLEAR)
     best = min(r.designs, key=lambda d: d["rank"])
@@ -289,7 +289,7 @@ def test_the_ranking_metric_and_the_robot_judged_are_in_the_table_and_the_answer
 
 
 def test_a_whole_robot_is_labelled_as_one():
-    from bhr.studies.traverse import robot_judged
+    from bhr._studies.traverse import robot_judged
 
     study = build_study([("alpha", (25,)), ("body_modules", (5, 300))], "1")
     assert robot_judged(study, {"alpha": 25, "body_modules": 300}) == "whole robot (300 modules)"
@@ -300,7 +300,7 @@ def test_a_whole_robot_is_labelled_as_one():
 def test_the_default_robot_is_the_whole_robot_to_the_cecum_moved_by_its_wires():
     """bhr traverse judges an endoscope: the whole robot reaching the cecum, with the lumen solver (whose whole robot
     is moved by its wires); the head alone only when asked, and labelled."""
-    from bhr.studies.traverse import robot_axes, robot_judged
+    from bhr._studies.traverse import robot_axes, robot_judged
 
     axes, solvers = robot_axes([("alpha", (20, 25))], ())
     assert axes == [("alpha", (20, 25)), ("reach", ("cecum",))] and solvers == ("lumen",)
@@ -319,7 +319,7 @@ def test_the_pass_rate_map_shows_ties_by_their_tie_break_and_marks_the_best():
     says so, writes each cell's rank and marks the best cell."""
     from matplotlib.patches import Rectangle
 
-    from bhr.studies.traverse import passrate_figure
+    from bhr._studies.traverse import passrate_figure
 
     r = _tied_result(CLEAR)
     fig = passrate_figure(r, "alpha", "module_length")

@@ -1,4 +1,4 @@
-"""The trail locomotion (bhr.run.trail, docs/locomotion.md): exact follow-the-leader of the whole robot."""
+"""The trail locomotion (bhr._run.trail, docs/locomotion.md): exact follow-the-leader of the whole robot."""
 from __future__ import annotations
 
 import math
@@ -9,14 +9,14 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from bhr.kinematics.codetable import SEARCH_CODES
-from bhr.model.generators import load_trajectory
-from bhr.model.path import Trajectory
-from bhr.model.robot import Robot
-from bhr.run.driver import BhrWarning, follow
-from bhr.run.trail import chord_sweep_numpy, sweep_bound_mm, trail_poses, trail_poses_numpy, trail_tables
-from bhr.solvers.trail import dense_tube, plan_trail, plan_trail_numpy, trail_vertices
-from bhr.settings.errors import BhrError
+from bhr._kinematics.codetable import SEARCH_CODES
+from bhr.model._generators import load_trajectory
+from bhr.model._path import Trajectory
+from bhr.model._robot import Robot
+from bhr._run.driver import BhrWarning, follow
+from bhr._run.trail import chord_sweep_numpy, sweep_bound_mm, trail_poses, trail_poses_numpy, trail_tables
+from bhr.solvers._trail import dense_tube, plan_trail, plan_trail_numpy, trail_vertices
+from bhr._settings.errors import BhrError
 
 codes_st = st.lists(st.sampled_from([int(c) for c in SEARCH_CODES]), min_size=1, max_size=12)
 
@@ -189,8 +189,8 @@ def test_trail_refusals():
 
 
 def test_grid_values_of_a_whole_length_study():
-    from bhr.studies.sweep import parse_grid_option
-    from bhr.studies.traverse import build_study
+    from bhr._studies.sweep import parse_grid_option
+    from bhr._studies.traverse import build_study
 
     assert parse_grid_option("locomotion=thesis,trail") == ("locomotion", ("thesis", "trail"))
     assert parse_grid_option("reach=cecum") == ("reach", ("cecum",))

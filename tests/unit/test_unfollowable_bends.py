@@ -1,4 +1,4 @@
-"""Which bends a robot cannot follow inside its lumen (bhr.model.path.unfollowable_bends) and the warning built on it."""
+"""Which bends a robot cannot follow inside its lumen (bhr.model._path.unfollowable_bends) and the warning built on it."""
 from __future__ import annotations
 
 import dataclasses
@@ -11,10 +11,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import bhr
-from bhr.model.generators import load_trajectory
-from bhr.model.path import unfollowable_bends
-from bhr.model.robot import Robot
-from bhr.run.driver import BhrWarning
+from bhr.model._generators import load_trajectory
+from bhr.model._path import unfollowable_bends
+from bhr.model._robot import Robot
+from bhr._run.driver import BhrWarning
 
 SETTINGS = settings(max_examples=40, deadline=None)
 
@@ -91,7 +91,7 @@ def test_the_warning_fires_only_where_the_robot_cannot_follow():
 def test_the_compiled_rule_is_its_numpy_reference(seed):
     """The kernel (sparse-table minima, point by point) finds the numpy reference's stretches on anatomical colons
     for the thesis robot and a 5 mm / 25 deg one; radii agree to rounding (acos in libm and in numpy)."""
-    from bhr.model.path import unfollowable_bends_numpy
+    from bhr.model._path import unfollowable_bends_numpy
 
     t = bhr.trajectory("anatomy", seed=seed)
     for robot in (Robot(), Robot(module_length=5.0, alpha=25.0)):

@@ -11,11 +11,11 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import bhr
-from bhr.run.driver import VERDICTS
-from bhr.settings.errors import BhrError
-from bhr.settings.options import BY_NAME
-from bhr.studies.follow_run import summary_lines
-from bhr.studies.study import finished_cell, summary_row, verdict_cell, verdict_class
+from bhr._run.driver import VERDICTS
+from bhr._settings.errors import BhrError
+from bhr._settings.options import BY_NAME
+from bhr._studies.follow_run import summary_lines
+from bhr._studies.study import finished_cell, summary_row, verdict_cell, verdict_class
 
 
 @pytest.fixture(scope="module")
@@ -71,9 +71,9 @@ def test_stop_at_wall_with_the_trail_locomotion_is_refused_with_the_fix():
 
 
 def test_stop_at_wall_is_one_registry_option_for_cli_batch_and_sweep():
-    from bhr.studies.study import BOOL_KEYS, NUMBER_KEYS, SIM_KEYS
-    from bhr.studies.report import RUN_KEYS
-    from bhr.studies.sweep import parse_values
+    from bhr._studies.study import BOOL_KEYS, NUMBER_KEYS, SIM_KEYS
+    from bhr._studies.report import RUN_KEYS
+    from bhr._studies.sweep import parse_values
 
     o = BY_NAME["stop_at_wall"]
     assert o.group == "run" and o.flag == "--stop-at-wall" and "stop_at_wall" in SIM_KEYS
@@ -99,7 +99,7 @@ def test_table_cells_keep_finished_and_verdict_apart(touch, left, over, failed):
 
 
 def test_report_table_shows_an_over_tolerance_run_as_such_not_ok():
-    from bhr.studies.report import format_table
+    from bhr._studies.report import format_table
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")

@@ -29,10 +29,10 @@ def _parts(html: str) -> tuple[str, list]:
 def test_view_page_is_the_page_plotly_writes():
     import plotly.io as pio
 
-    from bhr.model.generators import load_trajectory
-    from bhr.model.robot import Robot
-    from bhr.output.view import view_figure, view_html
-    from bhr.run.driver import follow
+    from bhr.model._generators import load_trajectory
+    from bhr.model._robot import Robot
+    from bhr.output._view import view_figure, view_html
+    from bhr._run.driver import follow
 
     robot = Robot()
     run = follow(load_trajectory("colon", feed=robot.feed), solver="thesis", robot=robot)
@@ -48,7 +48,7 @@ def test_view_page_is_the_page_plotly_writes():
 
 
 def test_view_json_escapes_script_ends_and_writes_nan_as_null():
-    from bhr.output.view import _script_json
+    from bhr.output._view import _script_json
 
     assert json.loads(_script_json({"name": "</script><b>"})) == {"name": "</script><b>"}
     assert "</" not in _script_json({"name": "</script>"})
@@ -56,7 +56,7 @@ def test_view_json_escapes_script_ends_and_writes_nan_as_null():
 
 
 def test_json_text_reads_back_as_the_document_with_one_line_per_item():
-    from bhr.output.atomic import json_text
+    from bhr.output._atomic import json_text
 
     doc = {"steps": [{"step": 1, "points": [[0.0, 1.5, -2.0]], "codes": None}, {"step": 2, "points": []}],
            "name": "colon \"x\"", "empty": {}, "n": 3}
@@ -72,7 +72,7 @@ def test_json_text_reads_back_as_the_document_with_one_line_per_item():
 def test_plots_import_leaves_matplotlibs_kwdoc_as_it_was():
     import matplotlib.artist
 
-    import bhr.output.run_plots  # noqa: F401  (every figure module)
+    import bhr.output._run_plots  # noqa: F401  (every figure module)
 
     assert matplotlib.artist.kwdoc.__module__ == "matplotlib.artist"
     assert "Properties" in matplotlib.artist.kwdoc(matplotlib.artist.Artist)
@@ -80,10 +80,10 @@ def test_plots_import_leaves_matplotlibs_kwdoc_as_it_was():
 
 def test_the_legend_names_a_body_only_when_the_robot_has_one():
     """A head-only run's view listed 'robot: body' in its legend beside 'robot: head'."""
-    from bhr.model.generators import load_trajectory
-    from bhr.model.robot import Robot
-    from bhr.output.view import view_figure
-    from bhr.run.driver import follow
+    from bhr.model._generators import load_trajectory
+    from bhr.model._robot import Robot
+    from bhr.output._view import view_figure
+    from bhr._run.driver import follow
 
     robot = Robot()
     tr = load_trajectory("curve", feed=robot.feed)
@@ -96,10 +96,10 @@ def test_the_legend_names_a_body_only_when_the_robot_has_one():
 def test_a_flat_paths_short_axis_gets_few_tick_labels():
     """The thesis's colon lies in a plane: its z axis is a sliver of the box, so it gets two or three tick labels
     (plotly's default crowds them on top of each other there); the longest axis gets eight."""
-    from bhr.model.generators import load_trajectory
-    from bhr.model.robot import Robot
-    from bhr.output.view import view_figure
-    from bhr.run.driver import follow
+    from bhr.model._generators import load_trajectory
+    from bhr.model._robot import Robot
+    from bhr.output._view import view_figure
+    from bhr._run.driver import follow
 
     robot = Robot()
     run = follow(load_trajectory("colon", feed=robot.feed), solver="thesis", robot=robot)

@@ -1,4 +1,4 @@
-"""The wall as a real surface (bhr.model.wallmesh): the signed-distance grid against vtk's exact distance and the
+"""The wall as a real surface (bhr.model._wallmesh): the signed-distance grid against vtk's exact distance and the
 analytic one, the clearance against a mesh against the tube's, and the fallbacks."""
 from __future__ import annotations
 
@@ -12,10 +12,10 @@ from hypothesis import strategies as st
 pytest.importorskip("vtk")
 
 import bhr  # noqa: E402
-from bhr.model.generators import load_trajectory  # noqa: E402
-from bhr.model.path import Trajectory  # noqa: E402
-from bhr.model.wallmesh import GRID_MM, SdfGrid, exact_distance, sdf_values, wall_grid  # noqa: E402
-from bhr.run.clearance import clearance_report  # noqa: E402
+from bhr.model._generators import load_trajectory  # noqa: E402
+from bhr.model._path import Trajectory  # noqa: E402
+from bhr.model._wallmesh import GRID_MM, SdfGrid, exact_distance, sdf_values, wall_grid  # noqa: E402
+from bhr._run.clearance import clearance_report  # noqa: E402
 
 BOUND = math.sqrt(3.0) * GRID_MM  # the signed distance changes by at most 1 mm per mm
 

@@ -9,11 +9,11 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from bhr.kinematics.frames import fk_reference
-from bhr.kinematics.reach import enumerate_tips, tips_of_codes, tips_reference
-from bhr.model.robot import Robot, base_frame
-from bhr.model.workspace import LIFT_CHOICES, TILT_CHOICES, workspace
-from bhr.settings.errors import BhrError
+from bhr._kinematics.frames import fk_reference
+from bhr._kinematics.reach import enumerate_tips, tips_of_codes, tips_reference
+from bhr.model._robot import Robot, base_frame
+from bhr.model._workspace import LIFT_CHOICES, TILT_CHOICES, workspace
+from bhr._settings.errors import BhrError
 
 
 @settings(max_examples=30, deadline=None)
@@ -102,7 +102,7 @@ def test_plot_pose_draws_each_module_with_its_radius(tmp_path):
     tubes = [c for c in ax.collections if isinstance(c, Poly3DCollection)]
     assert len(tubes) == 4
     pts, _ = robot.fk([3, 0, 6, 15])
-    from bhr.output.workspace_plot import cylinder_surface
+    from bhr.output._workspace_plot import cylinder_surface
 
     for a, b in zip(pts[:-1], pts[1:]):  # the surface drawn: every vertex one radius from its module's axis
         verts = np.stack([g.ravel() for g in cylinder_surface(a, b, robot.robot_radius)], axis=1)
@@ -116,7 +116,7 @@ def test_plot_pose_draws_each_module_with_its_radius(tmp_path):
 
 
 def test_workspace_figure_says_exact_or_sampled(tmp_path):
-    from bhr.output.workspace_plot import save, workspace_figure
+    from bhr.output._workspace_plot import save, workspace_figure
 
     fig = workspace_figure(workspace(Robot(modules=3)))
     assert "all 216 poses (exact)" in fig._suptitle.get_text()

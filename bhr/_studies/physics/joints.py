@@ -1,0 +1,33 @@
+"""How stiffly the wires hold a joint: a rotational stiffness from the nitinol wire's datasheet and the lever.
+
+A tilt is made by two neighbouring wires of a module contracting (bhr._kinematics.codetable). Each pulls with its
+recovery force ``F`` at the lever ``L`` from the module's axis; over its stroke ``h`` (``alpha = asin(h / L)``,
+thesis Ec. 4.1) that pull is what brings the next module from straight to ``alpha``. Pushed back from its tilt by
+the wall, a contracted wire is stretched and its pull grows by what it would have lost over the stroke: taken
+linear, two wires give a torque ``2 F L`` over the angle ``alpha``, a rotational stiffness
+``k = 2 F L / alpha`` (N mm / rad) about both tilt axes. docs/physics.md gives the figures and their sources.
+"""
+from __future__ import annotations
+
+import math
+
+__all__ = ["WIRE_FORCE_N", "WIRES_PER_TILT", "lever_mm", "joint_stiffness"]
+
+#: Recovery force of a 0.100 mm (0.004 in) Flexinol nitinol wire: 150 g, 1.47 N (Dynalloy, "Technical
+#: characteristics of Flexinol actuator wires", table of wire sizes); the robot file's [thermal] figures are
+#: this wire's.
+WIRE_FORCE_N = 0.150 * 9.80665
+#: Wires that pull together in a tilt (two neighbouring actuators, thesis Table 4.2).
+WIRES_PER_TILT = 2
+
+
+def lever_mm(robot) -> float:
+    """The wires' lever: the robot file's ``lever``, else one module diameter (as ``Robot.lift`` takes it)."""
+    if getattr(robot, "lever", None):
+        return float(robot.lever)
+    return 2.0 * float(robot.robot_radius)
+
+
+def joint_stiffness(robot, wire_force_n: float = WIRE_FORCE_N) -> float:
+    """Rotational stiffness (N mm / rad) with which a joint's wires hold its tilt: ``2 F L / alpha``."""
+    return WIRES_PER_TILT * float(wire_force_n) * lever_mm(robot) / math.radians(float(robot.alpha))

@@ -1,0 +1,154 @@
+"""The physical robot's poses, as the replay reads them: the arrays of ``poses.npz`` (docs/physics.md).
+
+``t_s`` (P,) time in s, ``insertion_mm`` (P,) the feeder's insertion (how far the rear end is past the
+entrance along the insertion axis), ``points_mm`` (P, M+1, 3) the joints' positions rear first (the tip last),
+``tilts_rad`` (P, M, 2) each joint's tilt as a rotation vector's two components in the axes of the module
+behind it (joint 1 turns the rear module from the feeder's frame; the code table's axes,
+bhr._kinematics.codetable), ``codes`` (P, M) and ``step`` (P,) the run's 1-based step of each pose.
+
+A run that wrote ``poses.npz`` beside its ``run.json`` is read from it (:func:`load_poses`). Any other run is
+converted by :func:`poses_from_run`: every written step's whole-robot codes, each code's tilt (``alpha`` about
+its signed axis, 0 at rest), the rear end on the insertion axis at the run's insertion.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from bhr._settings.errors import BhrError
+
+__all__ = ["Poses", "POSE_KEYS", "poses_from_run", "load_poses", "code_tilts", "chain_points", "start_direction"]
+
+POSE_KEYS = ("t_s", "insertion_mm", "points_mm", "tilts_rad", "codes", "step")
+
+
+@dataclass
+class Poses:
+    """The contract's arrays, and the frame they live in (the entrance and the feeder's frame)."""
+
+    t_s: np.ndarray
+    insertion_mm: np.ndarray
+    points_mm: np.ndarray
+    tilts_rad: np.ndarray
+    codes: np.ndarray
+    step: np.ndarray
+    entrance: np.ndarray  # (3,) the lumen's entrance (the trajectory's first point)
+    frame: np.ndarray  # (3, 3) the feeder's frame, rows x y z; z is the insertion axis
+    module_length: float
+
+    @property
+    def modules(self) -> int:
+        return int(self.tilts_rad.shape[1])
+
+    def check(self) -> None:
+        P, M = self.tilts_rad.shape[:2]
+        shapes = {"t_s": (P,), "insertion_mm": (P,), "points_mm": (P, M + 1, 3), "tilts_rad": (P, M, 2),
+                  "codes": (P, M), "step": (P,)}
+        for k, shape in shapes.items():
+            a = getattr(self, k)
+            if a.shape != shape:
+                raise BhrError(f"poses: {k} has shape {a.shape}, expected {shape}; write the arrays of docs/physics.md")
+            if a.dtype.kind == "f" and not np.all(np.isfinite(a)):
+                raise BhrError(f"poses: {k} holds a value that is not a finite number")
+        if P == 0 or M == 0:
+            raise BhrError("poses: no pose or no module to replay")
+
+
+def start_direction(result) -> np.ndarray:
+    """The direction the robot lay along before the run (the trajectory's start direction, a unit vector)."""
+    d = np.asarray(result.trajectory.start_direction, dtype=np.float64)
+    return d / np.linalg.norm(d)
+
+
+def code_tilts(codes: np.ndarray, alpha_rad: float) -> np.ndarray:
+    """Each code's tilt (..., 2) as a rotation vector's x and y components: alpha about its signed axis."""
+    from bhr._kinematics.codetable import SEARCH_AXIS, SEARCH_INDEX, SEARCH_SIGN
+
+    c = np.asarray(codes, dtype=np.int64)
+    k = SEARCH_INDEX[c]
+    if np.any(k < 0):
+        raise BhrError(f"poses: code {int(c[k < 0].flat[0])} is not a stable code (thesis Table 4.2)")
+    out = np.zeros(c.shape + (2,))
+    axis, sign = SEARCH_AXIS[k], SEARCH_SIGN[k]
+    tilt = axis >= 0
+    out[tilt, axis[tilt]] = sign[tilt] * alpha_rad
+    return out
+
+
+def _exp(u: float, v: float) -> np.ndarray:
+    """Rotation matrix of the rotation vector (u, v, 0)."""
+    th = math.hypot(u, v)
+    if th < 1e-300:
+        return np.eye(3)
+    k = np.array([u, v, 0.0]) / th
+    K = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
+    return np.eye(3) + math.sin(th) * K + (1.0 - math.cos(th)) * (K @ K)
+
+
+def chain_points(base: np.ndarray, frame: np.ndarray, tilts: np.ndarray, length: float) -> np.ndarray:
+    """Joint positions (M+1, 3) of a rigid chain from ``base`` and the feeder's ``frame`` (rows x y z), each
+    module turned by its tilt (rotation vector in the axes of the module behind) and ``length`` long."""
+    A = np.asarray(frame, dtype=np.float64).T.copy()  # columns: the local axes in the world
+    M = tilts.shape[0]
+    pts = np.empty((M + 1, 3))
+    pts[0] = base
+    for j in range(M):
+        A = A @ _exp(float(tilts[j, 0]), float(tilts[j, 1]))
+        pts[j + 1] = pts[j] + length * A[:, 2]
+    return pts
+
+
+def poses_from_run(result, step_s: float = 1.0) -> Poses:
+    """A run's written steps as the contract's arrays: the whole robot's codes at every step (rear first), their
+    tilts, and the rear end where the feeder puts it, on the insertion axis (the entrance's start direction) at the
+    run's insertion depth. ``t_s`` is one ``step_s`` a step (a code switch takes about a second: the wire's
+    contraction time, docs/thermal.md). A run that lifts (code 15) is refused: its modules change length."""
+    from bhr.model._robot import base_frame
+    from bhr._run.body import whole_robot, whole_robot_codes
+
+    if result.codes is None:
+        raise BhrError(f"the {result.solver} run has no module codes, so no joint tilts to replay; use a run of "
+                       "--solver thesis, optimal or lumen")
+    codes = np.asarray(whole_robot_codes(result.codes, result.body), dtype=np.int64)
+    lifts = np.nonzero(np.any(codes == 15, axis=1))[0]
+    if lifts.size:
+        raise BhrError(f"the run lifts (code 15) at {lifts.size} steps, from step {int(lifts[0]) + 1}: bhr physics "
+                       "replays rigid modules, whose lengths never change; use a run that never lifts")
+    N, M = codes.shape
+    r = result.robot
+    d0 = start_direction(result)
+    E = np.asarray(result.trajectory.points[0], dtype=np.float64)
+    rear = np.stack([whole_robot(result, i)[0] for i in range(N)])
+    depth = (rear - E) @ d0
+    frame = base_frame(d0)
+    tilts = code_tilts(codes, math.radians(r.alpha))
+    pts = np.stack([chain_points(E + depth[i] * d0, frame, tilts[i], r.module_length) for i in range(N)])
+    return Poses(np.arange(N) * float(step_s), depth, pts, tilts, codes, np.arange(1, N + 1), E, frame,
+                 float(r.module_length))
+
+
+def load_poses(run_path: str | Path, result) -> Poses | None:
+    """``poses.npz`` beside ``run_path`` (a run.json) as :class:`Poses`, or None when there is none."""
+    from bhr.model._robot import base_frame
+
+    if str(run_path) == "-":
+        return None
+    f = Path(run_path).with_name("poses.npz")
+    if not f.is_file():
+        return None
+    try:
+        with np.load(f, allow_pickle=False) as z:
+            arrays = {k: np.asarray(z[k]) for k in POSE_KEYS}
+    except (OSError, ValueError, KeyError) as exc:
+        raise BhrError(f"{f}: not a poses file with {', '.join(POSE_KEYS)} ({str(exc).splitlines()[0][:80]})") from None
+    d0 = start_direction(result)
+    p = Poses(arrays["t_s"].astype(np.float64), arrays["insertion_mm"].astype(np.float64),
+              arrays["points_mm"].astype(np.float64), arrays["tilts_rad"].astype(np.float64),
+              arrays["codes"].astype(np.int64), arrays["step"].astype(np.int64),
+              np.asarray(result.trajectory.points[0], dtype=np.float64), base_frame(d0),
+              float(result.robot.module_length))
+    p.check()
+    return p

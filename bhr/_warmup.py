@@ -1,0 +1,44 @@
+"""``bhr warmup``: run every kernel bhr's commands run on a tiny case, with the argument types the commands give (numba
+compiles for types, not sizes), so that numba's cache holds them all."""
+from __future__ import annotations
+
+import warnings
+
+def compile_all() -> None:
+    import numpy as np
+
+    import bhr
+    from bhr._hardware.thermal import DEFAULT_THERMAL, auto_schedule, check_schedule
+    from bhr.model._generators import load_trajectory
+    from bhr.output._steptable import format_steps_csv
+    from bhr._run.driver import follow as run_follow
+
+    def follow(*args, **kw):  # as a command finishes a run: summary, clearance, run.json, steps.csv
+        result = run_follow(*args, **kw)
+        result.to_dict()
+        format_steps_csv(result)
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # tiny cases tighter than the robot turns: no advice wanted here
+        for solver in ("fabrik", "ccd", "thesis", "constrained", "optimal", "lumen"):
+            bhr.solve([3, 9, 0], modules=5, solver=solver, tol_pos=0.01)
+        bhr.solve([3, 9, 0], modules=5, solver="thesis", tip_direction=[0, 1, 0])
+        bhr.Robot().fk([3, 0, 6, 0, 15])
+        from bhr.model._workspace import workspace  # bhr workspace: every pose, and a Monte Carlo sample
+
+        workspace(bhr.Robot(modules=2))
+        workspace(bhr.Robot(modules=2), exact=False, samples=4)
+        curve = load_trajectory("curve", angle=30, entry=4, exit=4)
+        for solver in ("thesis", "constrained", "optimal", "fabrik", "ccd"):
+            follow(curve, solver=solver)
+        follow(load_trajectory("line", length=40), solver="thesis", body_modules=8)
+        colon = load_trajectory("anatomy", seed=1)  # a lumen: the clearance's and the lumen solver's kernels
+        short = type(colon)(colon.name, np.ascontiguousarray(colon.points[:60]), colon.params, colon.min_radius,
+                            None if colon.lumen is None else np.ascontiguousarray(colon.lumen[:60]), colon.source,
+                            start_direction=colon.start_direction, start_point=colon.start_point)
+        follow(colon, solver="thesis")  # the whole colon: its arrays exactly as a command gives them
+        follow(short, solver="lumen")
+        follow(short, solver="thesis", body_modules=8)
+        rows = np.array([[3, 0, 6, 0, 0], [0, 12, 0, 9, 15]], dtype=np.int64)
+        auto_schedule(DEFAULT_THERMAL, rows, 10.0)
+        check_schedule(DEFAULT_THERMAL, rows, 10.0)

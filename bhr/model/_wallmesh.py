@@ -1,0 +1,361 @@
+"""The lumen's wall as a real surface: a signed-distance grid of a mesh, and the clearance against it.
+
+A trajectory may name a surface mesh of its lumen (:attr:`bhr.model._path.Trajectory.mesh`: the
+shipped real colons' ``trajectories/gca/NAME.vtp``, or the ``.vtp`` beside a CSV of the same name).
+The clearance of a point ``p`` of the robot is then
+
+    -phi(p) - robot radius
+
+where ``phi`` is the signed distance to the surface (negative inside the lumen): the gap between the
+robot's surface and the real wall, whatever the lumen's cross-section. Computing ``phi`` exactly
+needs the mesh's triangles; here it is read from a grid: vtk evaluates the signed distance
+(``vtkImplicitPolyDataDistance``) once per mesh at the nodes of a regular grid ``GRID_MM`` apart over
+the mesh's bounds (plus a margin), the grid is cached on disk (``$XDG_CACHE_HOME/bhr/sdf/``, keyed by
+the mesh file's bytes and the grid's spacing, written atomically), and runs interpolate it
+trilinearly in compiled kernels. As the signed distance changes by at most 1 mm per mm, the
+interpolated value is within ``sqrt(3) x GRID_MM`` of the exact one wherever the mesh is a closed,
+consistently oriented surface near the point (tests/unit/test_wallmesh.py checks it against vtk's
+exact distance at random points).
+
+vtk is an optional part (the ``anatomy`` extra); without it, or for a run without a mesh, the
+clearance is measured against the tube of the trajectory's lumen diameters (:mod:`bhr.model._tube`).
+"""
+from __future__ import annotations
+
+import hashlib
+import math
+import os
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numba import njit
+
+from bhr._settings.errors import BhrError
+
+__all__ = ["SdfGrid", "MIN_INSIDE", "wall_grid", "GRID_MM", "MARGIN_MM", "have_vtk", "load_sdf", "sdf_values",
+           "mesh_clearance_run", "read_mesh", "exact_distance"]
+
+#: Spacing (mm) of the signed-distance grid.
+GRID_MM = 2.0
+#: The grid is evaluated within (the largest lumen radius + BAND_MM) of the centerline; farther out is wall.
+BAND_MM = 15.0
+#: Margin (mm) of the grid around the mesh's bounds.
+MARGIN_MM = 12.0
+#: A mesh is the wall only when at least this share of its trajectory's points lie inside it (else the tube is).
+MIN_INSIDE = 0.95
+#: Golden-section iterations refining the worst sample of a module.
+REFINE_ITERS = 20
+_GOLD = (math.sqrt(5.0) - 1.0) / 2.0
+
+
+@dataclass
+class SdfGrid:
+    """Signed distance (mm, negative inside the lumen) at the nodes of a regular grid."""
+
+    origin: np.ndarray  # (3,) mm, node (0, 0, 0)
+    spacing: float  # mm
+    values: np.ndarray  # (nx, ny, nz) float64
+
+    def at(self, points: np.ndarray) -> np.ndarray:
+        """The interpolated signed distance at ``points`` (..., 3)."""
+        p = np.ascontiguousarray(np.asarray(points, dtype=np.float64).reshape(-1, 3))
+        out = np.empty(p.shape[0])
+        sdf_batch(self.values, self.origin, self.spacing, p, out)
+        return out.reshape(np.asarray(points).shape[:-1])
+
+
+def have_vtk() -> bool:
+    """Whether vtk (the anatomy extra) can be imported."""
+    try:
+        import vtkmodules.vtkFiltersCore  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
+def _need_vtk(what: str) -> None:
+    if not have_vtk():
+        from bhr._settings.extras import install_command
+
+        raise BhrError(f"{what} needs vtk, part of bhr's anatomy extra; install it with: "
+                       f"{install_command('anatomy')}")
+
+
+def read_mesh(path: str | os.PathLike[str]):
+    """A surface mesh (.vtp, .vtk, .stl, .ply, .obj) as vtkPolyData of triangles; a one-line error if unreadable."""
+    _need_vtk("reading a surface mesh")
+    from vtkmodules.vtkFiltersCore import vtkTriangleFilter
+    from vtkmodules.vtkIOGeometry import vtkOBJReader, vtkSTLReader
+    from vtkmodules.vtkIOLegacy import vtkPolyDataReader
+    from vtkmodules.vtkIOPLY import vtkPLYReader
+    from vtkmodules.vtkIOXML import vtkXMLPolyDataReader
+
+    p = Path(path)
+    readers: dict[str, Any] = {".vtp": vtkXMLPolyDataReader, ".vtk": vtkPolyDataReader, ".stl": vtkSTLReader,
+                               ".ply": vtkPLYReader, ".obj": vtkOBJReader}
+    kind = readers.get(p.suffix.lower())
+    if kind is None:
+        raise BhrError(f"{p}: a surface mesh must be .vtp, .vtk, .stl, .ply or .obj, got {p.suffix or 'no extension'}")
+    if not p.is_file():
+        raise BhrError(f"{p}: no such mesh file")
+    from vtkmodules.vtkCommonCore import vtkObject
+
+    r = kind()
+    r.SetFileName(str(p))
+    tri = vtkTriangleFilter()
+    tri.SetInputConnection(r.GetOutputPort())
+    # a file vtk cannot parse is reported below in one line: vtk's own multi-line error report is not printed
+    shown = vtkObject.GetGlobalWarningDisplay()
+    vtkObject.GlobalWarningDisplayOff()
+    try:
+        tri.Update()
+    finally:
+        vtkObject.SetGlobalWarningDisplay(shown)
+    out = tri.GetOutput()
+    if out.GetNumberOfCells() < 4:
+        raise BhrError(f"{p}: no surface read ({out.GetNumberOfCells()} triangles); give a closed surface mesh in mm")
+    return out
+
+
+def _oriented(mesh):
+    from vtkmodules.vtkFiltersCore import vtkPolyDataNormals
+
+    n = vtkPolyDataNormals()
+    n.SetInputData(mesh)
+    n.ConsistencyOn()
+    n.AutoOrientNormalsOn()
+    n.SplittingOff()
+    n.Update()
+    return n.GetOutput()
+
+
+def exact_distance(mesh, points: np.ndarray) -> np.ndarray:
+    """vtk's signed distance from ``points`` (K, 3) to ``mesh`` (its normals oriented outward): the reference."""
+    from vtkmodules.vtkFiltersCore import vtkImplicitPolyDataDistance
+
+    f = vtkImplicitPolyDataDistance()
+    f.SetInput(_oriented(mesh))
+    return np.array([f.EvaluateFunction(float(x), float(y), float(z)) for x, y, z in np.asarray(points)])
+
+
+def sdf_values(mesh, centerline: np.ndarray, band: float, spacing: float = GRID_MM,
+               margin: float = MARGIN_MM) -> SdfGrid:
+    """The signed-distance grid of ``mesh`` (vtkPolyData), evaluated by vtk at the nodes within ``band`` mm of the
+    ``centerline`` (K, 3); a node farther out reads as wall, (its distance to the centerline - band) + spacing."""
+    from scipy.spatial import cKDTree
+    from vtk.util.numpy_support import numpy_to_vtk, vtk_to_numpy
+    from vtkmodules.vtkCommonCore import vtkDoubleArray
+    from vtkmodules.vtkFiltersCore import vtkImplicitPolyDataDistance
+
+    oriented = _oriented(mesh)
+    b = np.array(oriented.GetBounds(), dtype=np.float64)
+    lo = b[0::2] - margin
+    hi = b[1::2] + margin
+    dims = np.ceil((hi - lo) / spacing).astype(int) + 1
+    axes = [lo[a] + spacing * np.arange(dims[a]) for a in range(3)]
+    nodes = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
+    near, _ = cKDTree(np.asarray(centerline, dtype=np.float64)).query(nodes, distance_upper_bound=band + spacing)
+    vals = np.where(np.isfinite(near), 0.0, 0.0)
+    inside_band = near <= band + spacing
+    far = ~inside_band
+    # a node far from the centerline is wall: how far beyond the band (at least one spacing)
+    vals[far] = spacing + band  # distance_upper_bound hides the exact distance: all of them alike
+    f = vtkImplicitPolyDataDistance()
+    f.SetInput(oriented)
+    pts = np.ascontiguousarray(nodes[inside_band])
+    out = vtkDoubleArray()
+    out.SetNumberOfTuples(pts.shape[0])
+    f.FunctionValue(numpy_to_vtk(pts, deep=True), out)
+    vals[inside_band] = vtk_to_numpy(out)
+    return SdfGrid(lo, float(spacing), vals.reshape(*dims).copy())
+
+
+def _cache_folder() -> Path:
+    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+    return Path(base) / "bhr" / "sdf"
+
+
+def load_sdf(path: str | os.PathLike[str], centerline: np.ndarray, band: float, spacing: float = GRID_MM) -> SdfGrid:
+    """The signed-distance grid of the mesh file ``path`` within ``band`` mm of ``centerline``: from the cache, else
+    computed (vtk) and cached."""
+    p = Path(path)
+    try:
+        data = p.read_bytes()
+    except OSError as exc:
+        raise BhrError(f"{p}: cannot read the mesh ({exc.strerror or exc}); give the lumen's surface mesh") from None
+    h = hashlib.sha256(data)
+    h.update(np.ascontiguousarray(centerline, dtype=np.float64).tobytes())
+    h.update(f"|{band!r}|{spacing!r}|{MARGIN_MM!r}|v1".encode())
+    key = h.hexdigest()[:32]
+    folder = _cache_folder()
+    cached = folder / f"{key}.npz"
+    if cached.is_file():
+        try:
+            with np.load(cached) as z:
+                return SdfGrid(z["origin"], float(z["spacing"]), np.ascontiguousarray(z["values"], dtype=np.float64))
+        except (OSError, ValueError, KeyError):
+            pass  # a damaged cache file: computed again and replaced
+    grid = sdf_values(read_mesh(p), centerline, band, spacing)
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(prefix=".sdf-", suffix=".npz", dir=folder)
+        with os.fdopen(fd, "wb") as fh:
+            np.savez_compressed(fh, origin=grid.origin, spacing=grid.spacing, values=grid.values.astype(np.float32))
+        os.replace(tmp, cached)  # atomic: a concurrent reader sees the whole file or none
+    except OSError:
+        pass  # no cache: computed again next time
+    return SdfGrid(grid.origin, grid.spacing, grid.values.astype(np.float32).astype(np.float64))
+
+
+def wall_grid(traj) -> tuple[SdfGrid | None, str]:
+    """The signed-distance grid a run of ``traj`` measures its clearance against, and why: (grid, "mesh ...") when
+    the trajectory has a mesh that vtk can read and that encloses the trajectory, else (None, "tube: why")."""
+    mesh = getattr(traj, "mesh", None)
+    if not mesh:
+        return None, "tube"
+    if not have_vtk():
+        from bhr._settings.extras import install_command
+
+        return None, f"tube (the mesh needs vtk: {install_command('anatomy')})"
+    pts = np.asarray(traj.points, dtype=np.float64)
+    band = BAND_MM + (0.5 * float(np.max(traj.lumen)) if traj.lumen is not None else 30.0)
+    grid = load_sdf(mesh, pts, band)
+    inside = float(np.mean(grid.at(pts) < 0.0))
+    if inside < 0.5:  # the mesh's normals point inward: the other sign
+        grid = SdfGrid(grid.origin, grid.spacing, -grid.values)
+        inside = 1.0 - inside
+    if inside < MIN_INSIDE:
+        return None, (f"tube (the mesh leaves {100 * (1 - inside):.0f} % of the centerline outside; it is not a "
+                      "closed surface around the lumen)")
+    return grid, f"mesh {Path(mesh).name}"
+
+
+# ---------------------------------------------------------------------------
+# compiled kernels
+
+
+@njit(cache=True)
+def sdf_at(V, ox, oy, oz, h, x, y, z):
+    """Trilinear interpolation of the grid ``V`` at (x, y, z); outside the grid, its nearest point's value plus the
+    distance to it (the signed distance grows by at most that much)."""
+    nx, ny, nz = V.shape[0], V.shape[1], V.shape[2]
+    gx = (x - ox) / h
+    gy = (y - oy) / h
+    gz = (z - oz) / h
+    cx = min(max(gx, 0.0), nx - 1.0)
+    cy = min(max(gy, 0.0), ny - 1.0)
+    cz = min(max(gz, 0.0), nz - 1.0)
+    out = h * math.sqrt((gx - cx) ** 2 + (gy - cy) ** 2 + (gz - cz) ** 2)
+    i = min(int(cx), nx - 2)
+    j = min(int(cy), ny - 2)
+    k = min(int(cz), nz - 2)
+    fx = cx - i
+    fy = cy - j
+    fz = cz - k
+    c00 = V[i, j, k] * (1 - fx) + V[i + 1, j, k] * fx
+    c10 = V[i, j + 1, k] * (1 - fx) + V[i + 1, j + 1, k] * fx
+    c01 = V[i, j, k + 1] * (1 - fx) + V[i + 1, j, k + 1] * fx
+    c11 = V[i, j + 1, k + 1] * (1 - fx) + V[i + 1, j + 1, k + 1] * fx
+    c0 = c00 * (1 - fy) + c10 * fy
+    c1 = c01 * (1 - fy) + c11 * fy
+    return out + c0 * (1 - fz) + c1 * fz
+
+
+@njit(cache=True)
+def sdf_batch(V, origin, h, P, out):
+    for q in range(P.shape[0]):
+        out[q] = sdf_at(V, origin[0], origin[1], origin[2], h, P[q, 0], P[q, 1], P[q, 2])
+
+
+@njit(cache=True)
+def _clear(V, o, h, radius, ax, ay, az, bx, by, bz, t):
+    return -sdf_at(V, o[0], o[1], o[2], h, ax + t * (bx - ax), ay + t * (by - ay), az + t * (bz - az)) - radius
+
+
+@njit(cache=True)
+def mesh_clearance_kernel(V, o, h, radius, Q, E, sample, pt_out, mod_out, where):
+    """Clearance against the mesh of every step's points ``Q`` (N, K, 3) in chain order; a point (or the part of a
+    module) expected before the path's start (``E`` < 0) is not scored (NaN). Modules are sampled at most
+    ``sample`` mm apart and their worst sample refined by a golden-section search, as against the tube."""
+    N, K = Q.shape[0], Q.shape[1]
+    for i in range(N):
+        for k in range(K):
+            if E[i, k] < 0.0:
+                pt_out[i, k] = np.nan
+            else:
+                pt_out[i, k] = _clear(V, o, h, radius, Q[i, k, 0], Q[i, k, 1], Q[i, k, 2], 0.0, 0.0, 0.0, 0.0)
+        for m in range(K - 1):
+            ax, ay, az = Q[i, m, 0], Q[i, m, 1], Q[i, m, 2]
+            bx, by, bz = Q[i, m + 1, 0], Q[i, m + 1, 1], Q[i, m + 1, 2]
+            ea, eb = E[i, m], E[i, m + 1]
+            lo_t = 0.0
+            hi_t = 1.0
+            if ea < 0.0 and eb < 0.0:
+                lo_t = 2.0
+            elif ea < 0.0:
+                lo_t = -ea / (eb - ea)
+            elif eb < 0.0:
+                hi_t = ea / (ea - eb)
+            L = math.sqrt((bx - ax) ** 2 + (by - ay) ** 2 + (bz - az) ** 2)
+            ns = max(int(math.ceil(L / sample)), 1)
+            best = 1e300
+            bt = -1.0
+            for q in range(ns + 1):
+                t = q / ns
+                if t < lo_t or t > hi_t:
+                    continue
+                v = _clear(V, o, h, radius, ax, ay, az, bx, by, bz, t)
+                if v < best:
+                    best = v
+                    bt = t
+            if bt < 0.0:
+                mod_out[i, m] = np.nan
+                where[i, m, 0] = np.nan
+                where[i, m, 1] = np.nan
+                where[i, m, 2] = np.nan
+                continue
+            a = max(bt - 1.0 / ns, lo_t)
+            b = min(bt + 1.0 / ns, hi_t)
+            x1 = b - _GOLD * (b - a)
+            x2 = a + _GOLD * (b - a)
+            f1 = _clear(V, o, h, radius, ax, ay, az, bx, by, bz, x1)
+            f2 = _clear(V, o, h, radius, ax, ay, az, bx, by, bz, x2)
+            for _ in range(REFINE_ITERS):
+                if f1 < f2:
+                    b = x2
+                    x2 = x1
+                    f2 = f1
+                    x1 = b - _GOLD * (b - a)
+                    f1 = _clear(V, o, h, radius, ax, ay, az, bx, by, bz, x1)
+                else:
+                    a = x1
+                    x1 = x2
+                    f1 = f2
+                    x2 = a + _GOLD * (b - a)
+                    f2 = _clear(V, o, h, radius, ax, ay, az, bx, by, bz, x2)
+            if f1 < best:
+                best = f1
+                bt = x1
+            if f2 < best:
+                best = f2
+                bt = x2
+            mod_out[i, m] = best
+            where[i, m, 0] = ax + bt * (bx - ax)
+            where[i, m, 1] = ay + bt * (by - ay)
+            where[i, m, 2] = az + bt * (bz - az)
+
+
+def mesh_clearance_run(grid: SdfGrid, radius: float, Q: np.ndarray, E: np.ndarray, sample: float
+                       ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(points (N, K), modules (N, K-1), where (N, K-1, 3)): the clearance of a run's chain against the mesh."""
+    N, K = E.shape
+    pt = np.empty((N, K))
+    mod = np.empty((N, max(K - 1, 0)))
+    where = np.empty((N, max(K - 1, 0), 3))
+    mesh_clearance_kernel(np.ascontiguousarray(grid.values), np.ascontiguousarray(grid.origin, dtype=np.float64),
+                          float(grid.spacing), float(radius), np.ascontiguousarray(Q, dtype=np.float64),
+                          np.ascontiguousarray(E, dtype=np.float64), float(sample), pt, mod, where)
+    return pt, mod, where

@@ -1,0 +1,47 @@
+"""The physics replay's figure (force.png): the wall's load along the run, the stretch, the published lines.
+
+Drawn on a :class:`matplotlib.figure.Figure` (no pyplot state). ``rep`` is a
+:class:`bhr._studies.physics.PhysicsReplay`; the figure reads only its arrays and summary.
+"""
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+__all__ = ["force_figure"]
+
+
+def force_figure(rep: Any, title: str = "", lines_n: tuple[float, float] = (9.8, 14.1)) -> Any:
+    """Total normal force on the wall and the largest module's per step, the stretch below, with the 9.8 N and
+    14.1 N lines and the traversal threshold."""
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(9, 6.5), constrained_layout=True)
+    a1, a2 = fig.subplots(2, 1, sharex=True)
+    x = np.arange(1, len(rep.total_force_n) + 1)
+    a1.plot(x, rep.total_force_n, color="tab:red", lw=1.2, label="total normal force on the wall")
+    a1.plot(x, rep.module_force_n.max(axis=1, initial=0.0), color="tab:purple", lw=0.9,
+            label="largest single module's force")
+    a1.axhline(lines_n[0], color="tab:orange", ls="--", lw=1,
+               label="9.8 N: colonoscopists push harder 5 % of the time (Appleyard 2000)")
+    a1.axhline(lines_n[1], color="black", ls="--", lw=1, label="14.1 N: porcine colon perforates (Johnson 2019)")
+    s = rep.summary()
+    a1.set_ylabel("force on the wall (N)")
+    a1.set_ylim(0, max(16.0, float(rep.total_force_n.max(initial=0.0)) * 1.1))
+    a1.grid(alpha=0.3)
+    a1.legend(loc="center right", fontsize=8)
+    reached = s["reached_cecum_step"]
+    a1.set_title(title or "the wall's load along the run", fontsize=10)
+    a2.plot(x, rep.stretch_mm, color="tab:blue", lw=1.0, label="wall pushed out of place (largest, mm)")
+    a2.plot(x, np.maximum(rep.feeder_lag_mm, 0.0), color="tab:gray", lw=1.0,
+            label="feeder behind the run's insertion (mm)")
+    a2.set_ylabel("mm")
+    a2.set_xlabel("pose (the run's steps in order)")
+    a2.grid(alpha=0.3)
+    a2.legend(loc="upper left", fontsize=8)
+    a2.set_title(f"peak {s['max_total_force_n']:.2f} N (module {s['max_module_force_n']:.2f} N, "
+                 f"{s['max_pressure_kpa']:.0f} kPa), stretch {s['max_stretch_mm']:.1f} mm; "
+                 + (f"tip at the cecum from step {reached}" if reached else "tip never at the cecum"),
+                 fontsize=9)
+    return fig

@@ -1,0 +1,108 @@
+"""``steps.csv``: one row per step of a run, its errors and clearances, for a spreadsheet.
+
+Columns: ``step``, the target ``target_x_mm`` ``target_y_mm`` ``target_z_mm``,
+``iterations``, ``tip_error_mm``, ``max_point_error_mm``, ``tip_orientation_error_deg``,
+``max_global_error`` (1 = at tolerance), each point's position error ``p1_error_mm`` (base)
+... ``pN_error_mm`` (tip), each module's orientation error ``m1_orientation_error_deg`` ...,
+and when the path has a lumen ``min_clearance_mm`` (empty where nothing is scored yet)
+and ``wall_touched`` (0/1). A whole-body run adds ``body_max_error_mm``; a path with anatomical
+sections (a real colon's landmarks) adds ``section``, the section of the step's target. Numbers are
+the run's own (run.json's), written with 6 decimals.
+"""
+from __future__ import annotations
+
+import csv
+import io
+import os
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+if TYPE_CHECKING:  # pragma: no cover
+    from bhr._run.driver import FollowResult
+
+__all__ = ["STEPS_CSV", "format_steps_csv", "write_run_files"]
+
+#: The file name bhr follow writes next to run.json.
+STEPS_CSV = "steps.csv"
+
+
+def _num(v: float) -> str:
+    return "" if not np.isfinite(v) else f"{float(v):.6f}"
+
+
+def format_steps_csv(result: "FollowResult") -> str:
+    """The text of ``steps.csv`` for ``result`` (see the module's docstring for the columns)."""
+    n = result.robot.modules
+    head = ["step", "target_x_mm", "target_y_mm", "target_z_mm", "iterations", "tip_error_mm",
+            "max_point_error_mm", "tip_orientation_error_deg", "max_global_error"]
+    head += [f"p{j}_error_mm" for j in range(1, n + 2)]
+    head += [f"m{j}_orientation_error_deg" for j in range(1, n + 1)]
+    cl = result.clearance
+    per = cl.per_step if cl is not None else None
+    touched = set(cl.touch_steps) if cl is not None else set()
+    if per is not None:
+        head += ["min_clearance_mm", "wall_touched"]
+    body = result.body if result.body is not None and result.body.modules else None
+    if body is not None:
+        head.append("body_max_error_mm")
+    sections = getattr(result.trajectory, "sections", ())
+    if sections:
+        head.append("section")
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(head)
+    pe, oe, ge = result.point_errors_mm, result.orientation_errors_deg, result.global_errors
+    for i in range(result.steps):
+        t = result.trajectory.points[i]
+        row = [str(i + 1), _num(t[0]), _num(t[1]), _num(t[2]), str(int(result.iterations[i])), _num(pe[i, -1]),
+               _num(pe[i].max()), _num(oe[i, -1]), _num(ge[i].max())]
+        row += [_num(v) for v in pe[i]] + [_num(v) for v in oe[i]]
+        if per is not None:
+            row += [_num(per[i]), "1" if i + 1 in touched else "0"]
+        if body is not None:
+            row.append(_num(body.point_errors_mm[i].max()))
+        if sections:
+            row.append(result.trajectory.section_at(i) or "")
+        w.writerow(row)
+    return buf.getvalue()
+
+
+def write_run_files(result: "FollowResult", out_dir: "str | os.PathLike[str]") -> None:
+    """Write a run's files into ``out_dir``, as ``bhr follow`` does.
+
+    ``run.json`` (``bhr replay``), the per-step table ``steps.csv`` and, for binary solvers,
+    ``codes.csv`` (``bhr plan``, ``bhr stream``).
+
+    A robot moved by its wires also gets ``poses.npz``, every pose it went through (docs/locomotion.md).
+    Each file appears whole or not at all.
+
+    Parameters
+    ----------
+    result : FollowResult
+        A run, as :func:`bhr.follow` returns it.
+    out_dir : str or os.PathLike
+        An existing folder to write the files into.
+    """
+    from pathlib import Path
+
+    from bhr.model._codes import format_codes_csv
+    from bhr.output._atomic import write_json, write_text
+
+    out = Path(out_dir)
+    write_json(out / "run.json", result.to_dict())
+    write_text(out / STEPS_CSV, format_steps_csv(result))
+    codes = result.board_codes
+    if codes is not None:
+        write_text(out / "codes.csv", format_codes_csv(codes))
+    if getattr(result, "motion", None) is not None and result.motion.kept:
+        write_poses(result, out / "poses.npz")
+
+
+def write_poses(result: "FollowResult", path: "str | os.PathLike[str]") -> None:
+    """``poses.npz``: every pose of a whole robot moved by its wires (docs/locomotion.md, "Every pose"): ``t_s``,
+    ``insertion_mm``, ``points_mm`` (tail first), ``tilts_rad``, ``codes``, ``step`` (1-based), as float64/int64."""
+    import numpy as np
+
+    with open(path, "wb") as fh:
+        np.savez_compressed(fh, **result.motion.npz())

@@ -1,0 +1,273 @@
+"""The thesis's constrained FABRIK (ch. 6, appendix 2), ported as one numba kernel.
+
+Each iteration has a tip-to-base pass with the tip-orientation constraint
+(tip on the target, point n one module length behind it against the wanted
+direction, the rest as plain FABRIK) and a base-to-tip pass where, from
+iteration ``warmup + 1`` on, each module's new point is the previous module's
+direction rotated (dual quaternion, Ec. 6.1-6.9) about a chosen axis by a
+limited angle:
+
+* ``limit``: ``binary`` (0 or alpha, switching when the free angle exceeds
+  alpha/2), ``continuous`` (at most alpha) or ``none``;
+* ``axes``: ``local`` (the module's two local axes and their opposites, the one
+  nearest the free rotation axis) or ``free`` (the free rotation axis);
+* ``warmup``: iterations run with the orientation constraint alone (10 in the
+  thesis); with a warm-up, at least ``warmup + 1`` iterations always run.
+
+``--solver thesis`` (also accepted as ``seed``) is the full thesis algorithm
+(binary, local axes, 10 warm-up iterations) and returns module codes (see :mod:`bhr.model._codes`). Every other
+setting reruns one of the chapter 6 steps.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from bhr.model._codes import TILT_CODES
+from bhr._kinematics.dualquat import k_rotate
+from bhr._settings.errors import BhrError
+from bhr._settings.options import BY_NAME
+from bhr._kinematics.leader import acos_deg, finish_step
+from bhr.solvers._base import Chain, FollowContext, SolveResult, Solver, register
+from bhr.solvers._fabrik import point_distance, pull_point, tip_angle_deg
+
+LIMIT_NONE, LIMIT_CONTINUOUS, LIMIT_BINARY = 0, 1, 2
+LIMITS = {"none": LIMIT_NONE, "continuous": LIMIT_CONTINUOUS, "binary": LIMIT_BINARY}
+AXES = BY_NAME["axes"].choices or ()
+_TILT = np.array(TILT_CODES, dtype=np.int64)
+
+
+@njit(cache=True)
+def _rotate_about(A: np.ndarray, j: int, pivot: np.ndarray, ch: float, sh: float, ax: float, ay: float, az: float):
+    """A[j] (held relative to ``pivot``) rotated, then made absolute again."""
+    x, y, z = k_rotate(A[j, 0], A[j, 1], A[j, 2], ch, sh, ax, ay, az)
+    A[j, 0] = x + pivot[0]
+    A[j, 1] = y + pivot[1]
+    A[j, 2] = z + pivot[2]
+
+
+@njit(cache=True)
+def constrained_kernel(P: np.ndarray, E1: np.ndarray, E2: np.ndarray, target: np.ndarray, direction: np.ndarray,
+                has_dir: bool, length: float, tol_pos: float, tol_ori: float, alpha: float, max_iter: int,
+                limit: int, local_axes: bool, warmup: int, codes: np.ndarray, tilts: np.ndarray):
+    """Constrained FABRIK on ``P``; ``E1``/``E2`` are the axis points (modified in place).
+
+    Returns (iterations, position error, orientation error in degrees).
+    ``codes`` and ``tilts`` (degrees) receive each module's result from the
+    last constrained iteration.
+    """
+    n = P.shape[0] - 1
+    A1 = E1.copy()
+    A2 = E2.copy()
+    # reference point behind the base: the base module's direction before the solve
+    d0 = np.empty(3)
+    n0 = math.sqrt((P[1, 0] - P[0, 0]) ** 2 + (P[1, 1] - P[0, 1]) ** 2 + (P[1, 2] - P[0, 2]) ** 2)
+    for c in range(3):
+        d0[c] = (P[1, c] - P[0, c]) / n0
+    before = np.empty(3)
+    base = P[0].copy()
+    for c in range(3):
+        before[c] = P[0, c] - length * d0[c]
+    err = point_distance(P, n, target)
+    ang = tip_angle_deg(P, direction) if has_dir else 0.0
+    min_iter = warmup + 1 if warmup > 0 else 0
+    g = np.empty((4, 3))
+    v1 = np.empty(3)
+    for i in range(n):
+        codes[i] = 0
+        tilts[i] = 0.0
+    k = 0
+    while err > tol_pos or (has_dir and ang > tol_ori) or k < min_iter:
+        # tip to base, with the tip-orientation constraint
+        for c in range(3):
+            P[n, c] = target[c]
+        start = n - 1
+        if has_dir:
+            for c in range(3):
+                P[n - 1, c] = target[c] - length * direction[c]
+            start = n - 2
+        for i in range(start, -1, -1):
+            pull_point(P, i + 1, i, length)
+        # base to tip
+        for c in range(3):
+            P[0, c] = base[c]
+        for a in range(n):
+            for c in range(3):
+                A1[a, c] = E1[a, c]
+                A2[a, c] = E2[a, c]
+        constrained = k >= warmup and limit != LIMIT_NONE
+        for i in range(n):
+            if not constrained:
+                pull_point(P, i, i + 1, length)
+                continue
+            for j in range(i, n):
+                for c in range(3):
+                    A1[j, c] -= P[i, c]
+                    A2[j, c] -= P[i, c]
+            m1 = math.sqrt(A1[i, 0] ** 2 + A1[i, 1] ** 2 + A1[i, 2] ** 2)
+            m2 = math.sqrt(A2[i, 0] ** 2 + A2[i, 1] ** 2 + A2[i, 2] ** 2)
+            for c in range(3):
+                g[0, c] = A1[i, c] / m1
+                g[1, c] = A2[i, c] / m2
+                g[2, c] = -g[0, c]
+                g[3, c] = -g[1, c]
+            # the point plain FABRIK would choose
+            for c in range(3):
+                v1[c] = (before[c] if i == 0 else P[i - 1, c]) - P[i, c]
+            r = math.sqrt((P[i + 1, 0] - P[i, 0]) ** 2 + (P[i + 1, 1] - P[i, 1]) ** 2 + (P[i + 1, 2] - P[i, 2]) ** 2)
+            if r == 0.0:
+                # coincident points (a target at the base): continue straight
+                lam = -length / math.sqrt(v1[0] ** 2 + v1[1] ** 2 + v1[2] ** 2)
+                v2x, v2y, v2z = lam * v1[0], lam * v1[1], lam * v1[2]
+            else:
+                lam = length / r
+                v2x = (1.0 - lam) * P[i, 0] + lam * P[i + 1, 0] - P[i, 0]
+                v2y = (1.0 - lam) * P[i, 1] + lam * P[i + 1, 1] - P[i, 1]
+                v2z = (1.0 - lam) * P[i, 2] + lam * P[i + 1, 2] - P[i, 2]
+            # free rotation axis and angle (v2 x v1, 180 - angle(v2, v1))
+            rx = v2y * v1[2] - v2z * v1[1]
+            ry = v2z * v1[0] - v2x * v1[2]
+            rz = v2x * v1[1] - v2y * v1[0]
+            nr = math.sqrt(rx * rx + ry * ry + rz * rz)
+            n1 = math.sqrt(v1[0] ** 2 + v1[1] ** 2 + v1[2] ** 2)
+            n2 = math.sqrt(v2x * v2x + v2y * v2y + v2z * v2z)
+            theta = 180.0 - acos_deg((v2x * v1[0] + v2y * v1[1] + v2z * v1[2]) / (n2 * n1))
+            idx = 0
+            if nr == 0.0:
+                ax, ay, az = g[0, 0], g[0, 1], g[0, 2]
+            else:
+                ax, ay, az = rx / nr, ry / nr, rz / nr
+                if local_axes:
+                    best = 1e300
+                    for q in range(4):
+                        aq = acos_deg(ax * g[q, 0] + ay * g[q, 1] + az * g[q, 2])
+                        if aq < best:
+                            best = aq
+                            idx = q
+                    ax, ay, az = g[idx, 0], g[idx, 1], g[idx, 2]
+            if limit == LIMIT_BINARY:
+                theta = alpha if theta > alpha / 2.0 else 0.0
+            elif theta > alpha:
+                theta = alpha
+            tilts[i] = theta
+            codes[i] = 0 if theta == 0.0 else _TILT[idx]
+            h = math.radians(theta) / 2.0
+            ch, sh = math.cos(h), math.sin(h)
+            x, y, z = k_rotate(-v1[0], -v1[1], -v1[2], ch, sh, ax, ay, az)
+            P[i + 1, 0] = x + P[i, 0]
+            P[i + 1, 1] = y + P[i, 1]
+            P[i + 1, 2] = z + P[i, 2]
+            for j in range(i, n):
+                _rotate_about(A1, j, P[i], ch, sh, ax, ay, az)
+            for j in range(i, n):
+                _rotate_about(A2, j, P[i], ch, sh, ax, ay, az)
+        err = point_distance(P, n, target)
+        if has_dir:
+            ang = tip_angle_deg(P, direction)
+        k += 1
+        if k >= max_iter:
+            break
+    if k > 0:
+        for a in range(n):
+            for c in range(3):
+                E1[a, c] = A1[a, c]
+                E2[a, c] = A2[a, c]
+    return k, err, ang
+
+
+@njit(cache=True)
+def follow_constrained_kernel(path, dirs, P, E1, E2, length, feed, f, tol_pos, tol_ori, alpha, max_iter, limit,
+                       local_axes, warmup, out_points, out_iters, pe, oe, codes):
+    """The thesis's whole trajectory loop with the constrained FABRIK kernel, compiled."""
+    N = path.shape[0]
+    n = P.shape[0] - 1
+    tilts = np.zeros(n)
+    step_codes = np.zeros(n, dtype=np.int64)
+    for i in range(N):
+        d = dirs[N - 2] if i == N - 1 else dirs[i]
+        k, ep, eo = constrained_kernel(P, E1, E2, path[i], d, True, length, tol_pos, tol_ori, alpha, max_iter, limit,
+                                local_axes, warmup, step_codes, tilts)
+        finish_step(i, P, E1, E2, path, dirs, f, feed, length, eo, k, step_codes, out_points, out_iters, pe, oe, codes)
+
+
+class ConstrainedFabrik(Solver):
+    """Constrained FABRIK with each of the thesis's constraints selectable."""
+
+    name = "constrained"
+    summary = "constrained FABRIK with selectable --limit, --axes and --warmup (thesis ch. 6)"
+    default_limit = BY_NAME["limit"].default
+    default_axes = BY_NAME["axes"].default
+    default_warmup = BY_NAME["warmup"].default
+
+    def __init__(self, robot, limit: str | None = None, axes: str | None = None, warmup: int | None = None) -> None:
+        super().__init__(robot)
+        self.limit = self.default_limit if limit is None else limit
+        self.axes = self.default_axes if axes is None else axes
+        self.warmup = self.default_warmup if warmup is None else warmup
+        if self.limit not in LIMITS:
+            raise BhrError(f"unknown limit {self.limit!r}; use one of {', '.join(LIMITS)}")
+        if self.axes not in AXES:
+            raise BhrError(f"unknown axes {self.axes!r}; use local or free")
+        if isinstance(self.warmup, bool) or not isinstance(self.warmup, int) or self.warmup < 0:
+            raise BhrError(f"warmup must be a whole number >= 0, got {self.warmup!r}")
+        if self.limit != "none" and robot.max_iter <= self.warmup:
+            raise BhrError(
+                f"max-iter {robot.max_iter} leaves no constrained iteration after {self.warmup} warm-up "
+                f"iterations; raise --max-iter above {self.warmup} or lower --warmup"
+            )
+
+    @property
+    def returns_codes(self) -> bool:
+        return self.limit == "binary" and self.axes == "local"
+
+    def solve(self, chain: Chain, target: np.ndarray, tip_direction: np.ndarray | None = None,
+              context: FollowContext | None = None) -> SolveResult:
+        r = self.robot
+        out = chain.copy()
+        n = out.modules
+        codes = np.zeros(n, dtype=np.int64)
+        tilts = np.zeros(n)
+        has_dir = tip_direction is not None
+        d = np.zeros(3) if tip_direction is None else np.asarray(tip_direction, dtype=np.float64)
+        E1 = np.ascontiguousarray(out.axes[0])
+        E2 = np.ascontiguousarray(out.axes[1])
+        k, err, ang = constrained_kernel(out.points, E1, E2, np.asarray(target, dtype=np.float64), d, has_dir,
+                                  float(r.module_length), float(r.tol_pos), float(r.tol_ori), float(r.alpha),
+                                  int(r.max_iter), LIMITS[self.limit], self.axes == "local", int(self.warmup),
+                                  codes, tilts)
+        out.axes[0] = E1
+        out.axes[1] = E2
+        return SolveResult(out, int(k), float(err), float(ang) if has_dir else None,
+                           [int(c) for c in codes] if self.returns_codes else None,
+                           {"tilts_deg": [float(t) for t in tilts]})
+
+
+    def follow_kernel(self, path: np.ndarray, dirs: np.ndarray, chain: Chain, out_points: np.ndarray,
+                      out_iters: np.ndarray, pe: np.ndarray, oe: np.ndarray, codes: np.ndarray) -> bool:
+        """Run the whole follow-the-leader loop compiled (see :mod:`bhr._run.driver`); returns whether codes are
+        valid."""
+        r = self.robot
+        c = chain.copy()
+        follow_constrained_kernel(path, dirs, c.points, np.ascontiguousarray(c.axes[0]),
+                                  np.ascontiguousarray(c.axes[1]), float(r.module_length), float(r.feed),
+                                  int(r.feed_divisor), float(r.tol_pos), float(r.tol_ori), float(r.alpha),
+                                  int(r.max_iter), LIMITS[self.limit], self.axes == "local", int(self.warmup),
+                                  out_points, out_iters, pe, oe, codes)
+        return self.returns_codes
+
+
+register(ConstrainedFabrik)
+
+
+@register
+class Thesis(ConstrainedFabrik):
+    """The thesis's full algorithm: binary actuators, local axes, 10 warm-up iterations.
+
+    Registered as ``thesis``; ``seed`` is an older name for it, still accepted.
+    """
+
+    name = "thesis"
+    aliases = ("seed",)
+    summary = "the thesis's constrained FABRIK: binary tilts about local axes, returns codes"
