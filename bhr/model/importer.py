@@ -32,7 +32,8 @@ import numpy as np
 
 from bhr.settings.errors import BhrError
 
-__all__ = ["Imported", "import_colon", "mask_surface", "SURFACE_TRIANGLES", "longest_path", "smooth_path", "resample_arc", "MESH_SUFFIXES",
+__all__ = ["Imported", "import_colon", "mask_surface", "SURFACE_TRIANGLES", "longest_path", "smooth_path",
+           "resample_arc", "MESH_SUFFIXES",
            "SEGMENTATION_SUFFIXES"]
 
 MESH_SUFFIXES = (".vtp", ".vtk", ".stl", ".ply", ".obj")
