@@ -29,7 +29,7 @@ def cpu() -> float:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--alpha", type=float, default=25.0)
+    ap.add_argument("--alpha", type=float, default=30.0)
     ap.add_argument("--module-length", type=float, default=5.0)
     ap.add_argument("--solver", default="lumen")
     ap.add_argument("--colons", default=",".join(real_colons()), help="comma-separated names (default: all five)")
