@@ -82,7 +82,7 @@ def main() -> None:
 def whole_robot(a, robot, names) -> None:
     """The whole robot (locomotion wires, reach cecum) on each colon, CT lumen and insufflated: the verdict."""
     print(f"whole robot: locomotion wires, as many modules as reach the cecum; solver {a.solver}, alpha {a.alpha:g} "
-          f"deg, modules of {a.module_length:g} mm, robot radius {robot.radius:g} mm, feed {robot.feed:g} mm")
+          f"deg, modules of {a.module_length:g} mm, robot radius {robot.robot_radius:g} mm, feed {robot.feed:g} mm")
     print("| colon | lumen | modules | verdict | steps touching the wall | deepest into the wall (mm) | "
           "left the lumen | tip short of the cecum (mm) | wall measured against | CPU s |")
     print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |", flush=True)

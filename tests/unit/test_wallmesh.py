@@ -165,7 +165,7 @@ def test_the_whole_robots_written_poses_are_scored_against_the_mesh(e60_wires):
     from bhr.model.wallmesh import read_mesh
 
     mesh = read_mesh(t.mesh)
-    radius = run.robot.radius
+    radius = run.robot.robot_radius
     L = run.robot.module_length
     rng = np.random.default_rng(0)
     worst = np.argsort(np.where(np.isnan(mo.pose_clear), np.inf, mo.pose_clear))[:40]
@@ -203,7 +203,7 @@ def test_a_trail_run_is_scored_against_the_mesh_and_an_open_mesh_falls_back_to_t
     head = J[:, run.robot.modules::-1]
     scored = np.isfinite(pts)
     assert scored.sum() > 1000
-    mine = -ref(head[scored]) - run.robot.radius
+    mine = -ref(head[scored]) - run.robot.robot_radius
     assert np.max(np.abs(mine - pts[scored])) <= 1e-6  # the same grid, the same points: the same clearance
     vhm = load_trajectory("gca:VHM", feed=1.0)
     r2 = bhr.follow(vhm, solver="lumen", alpha=30, module_length=5, body_modules=10, locomotion="trail")
