@@ -34,6 +34,8 @@ def main() -> None:
     ap.add_argument("--solver", default="lumen")
     ap.add_argument("--colons", default=",".join(real_colons()), help="comma-separated names (default: all five)")
     ap.add_argument("--whole-robot", action="store_true", help="the whole robot (wires, reach cecum), not the head")
+    ap.add_argument("--lumen", choices=("ct", "insufflated", "both"), default="both",
+                    help="--whole-robot: which lumen (default both)")
     a = ap.parse_args()
     robot = bhr.Robot(alpha=a.alpha, module_length=a.module_length)
     names = [n for n in a.colons.split(",") if n]
@@ -88,6 +90,8 @@ def whole_robot(a, robot, names) -> None:
     print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |", flush=True)
     for name in names:
         for model, label in (("ct", "CT"), ("insufflated", "insufflated (model)")):
+            if a.lumen not in ("both", model):
+                continue
             tr = load_trajectory(name, feed=robot.feed, lumen_model=model)
             t0 = cpu()
             with warnings.catch_warnings():
