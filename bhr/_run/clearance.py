@@ -60,7 +60,7 @@ __all__ = ["ClearanceReport", "CecumWatch", "cecum_step", "cecum_kernel", "Tube"
            "clearance_report",
            "clearance_run", "clearance_run_all", "clearance_run_numpy", "point_clearance", "locate_numpy",
            "brute_force_clearance", "left_lumen", "lumen_end_of", "run_chain", "step_ranges", "WINDOW_MM", "SAMPLE_MM",
-           "LUMEN_ENDS", "LOOP_RATIO", "BLOCK", "tables_report", "index_matched_min", "robot_labels"]
+           "LUMEN_ENDS", "LOOP_RATIO", "BLOCK", "tables_report", "index_matched_min", "robot_labels", "wall_label"]
 
 #: Largest spacing (mm) of the samples along a module.
 SAMPLE_MM = 1.0
@@ -620,7 +620,7 @@ def clearance_report(result, window_mm: float = WINDOW_MM, sample_mm: float = SA
     moved = result.extra.get("summary", {}).get("feeder_stop_step")
     rep, both = tables_report(table, labels, mtable, mlabels, mwhere, float(r.feed), index_matched_min(result, B),
                               end, moved)
-    rep.wall = wall if getattr(tr, "lumen_model", "ct") == "ct" else f"{wall}, insufflated lumen (a model)"
+    rep.wall = wall_label(tr, wall)
     if rep.min_step == 0:
         return rep
 
@@ -629,6 +629,12 @@ def clearance_report(result, window_mm: float = WINDOW_MM, sample_mm: float = SA
 
     rep.left_lumen_step, rep.left_lumen_reason = left_lumen(rep.per_step, lost, r.robot_radius, worst_at)
     return rep
+
+
+def wall_label(traj, wall: str) -> str:
+    """What a run's clearance was measured against, in words: ``wall`` (:func:`bhr.model._wallmesh.wall_grid`'s
+    "mesh NAME", "tube" or "tube (why)") and, for the insufflated lumen model, that it is one."""
+    return wall if getattr(traj, "lumen_model", "ct") == "ct" else f"{wall}, insufflated lumen (a model)"
 
 
 def body_errors(result) -> np.ndarray:

@@ -35,7 +35,9 @@ enough that no joint moves more than :data:`MAX_JOINT_STEP_MM` between two
 poses, and every pose is scored against the lumen (joints and modules,
 :func:`score_kernel`; a joint or module that cannot have come nearer the wall
 than its step's worst or its pose's worst since it was last scored is not
-scored again).
+scored again), or, where the colon has a surface mesh that encloses its
+centerline, against that surface (:func:`bhr.model._wallmesh.mesh_pose_kernel`,
+the same rule as a head run's: :func:`bhr.model._wallmesh.wall_grid`).
 """
 from __future__ import annotations
 
@@ -675,6 +677,7 @@ class MotionRun:
     module_where: np.ndarray  # (N, M, 3)
     kept: bool = True
     crossed: bool = False
+    wall: str = "tube"  # what the poses were scored against (bhr.model._wallmesh.wall_grid)
 
     def npz(self) -> dict[str, np.ndarray]:
         """The arrays of ``poses.npz``."""
@@ -685,13 +688,15 @@ class MotionRun:
 def plan_motion(tube: Tube, radius: float, codes: np.ndarray, T: np.ndarray, back: int, z: np.ndarray, M: int,
                 L: float, feed: float, alpha_deg: float, start_point, start_direction, stop_mm: float, steps: int,
                 params: ThermalParams = DEFAULT_THERMAL, strategies: tuple[Strategy, ...] | None = None,
-                sample: float = 1.0, bound: bool = True) -> MotionRun:
+                sample: float = 1.0, bound: bool = True, grid=None) -> MotionRun:
     """The whole robot of M rigid modules driven along the trail (``codes`` per vertex, vertices ``T`` with
     ``back`` rows before vertex 0 and their centerline hints ``z``) up to an insertion of ``stop_mm``.
 
     Each module length's switch is done by the strategy of ``strategies`` (default :data:`STRATEGIES`) that
     keeps the joints clearest of the wall (the first on a tie); one strategy alone is that strategy throughout.
     ``bound`` False scores every joint and module of every pose (:func:`score_kernel`'s reference).
+    ``grid``: the signed-distance grid of the colon's surface (:class:`bhr.model._wallmesh.SdfGrid`) the joints'
+    clearance and the poses are measured against, else (None) the ``tube``.
     """
     from bhr.model._robot import base_frame
 
@@ -768,7 +773,10 @@ def plan_motion(tube: Tube, radius: float, codes: np.ndarray, T: np.ndarray, bac
             if len(cands) == 1:
                 best = ((0.0, 0.0), st, times, bt, bx, tsw, dly, end)
                 break
-            xs, pts, tl, cd, dev, clr = poses(times, bt, bx, tsw, dly, on_old, on_new, cur, nxt, p, float(radius))
+            xs, pts, tl, cd, dev, clr = poses(times, bt, bx, tsw, dly, on_old, on_new, cur, nxt, p,
+                                              float(radius) if grid is None else -1.0)
+            if grid is not None:
+                clr = mesh_joint_clearance(grid, float(radius), pts, xs, L)
             lowest = float(np.nanmin(clr)) if np.any(np.isfinite(clr)) else math.inf
             key = (round(lowest, 3), -round(float(np.max(dev)), 3))
             if best is None or key > best[0]:
@@ -795,9 +803,12 @@ def plan_motion(tube: Tube, radius: float, codes: np.ndarray, T: np.ndarray, bac
                            f"{move[i]:.3g} mm at t = {tt[i]:.6g} ms); report this run")
         steps0 = np.minimum(np.floor(xs / feed + 1e-6).astype(np.int64), N - 1)
         low = np.empty(times.shape[0])
-        c = score_kernel(pts, xs, steps0, L, z, back, C, R, S, BC, BR, pre, w, float(radius), float(sample),
-                         NEAR_MM, pc, mc, mw, low, bound)
-        crossed = max(crossed, c)
+        if grid is None:
+            c = score_kernel(pts, xs, steps0, L, z, back, C, R, S, BC, BR, pre, w, float(radius), float(sample),
+                             NEAR_MM, pc, mc, mw, low, bound)
+            crossed = max(crossed, c)
+        else:
+            mesh_score(grid, float(radius), pts, xs, steps0, L, float(sample), pc, mc, mw, low)
         # each step's last pose
         last_of = np.flatnonzero(np.diff(np.append(steps0, -1)) != 0)
         sj[steps0[last_of]] = pts[last_of]
@@ -838,6 +849,28 @@ def plan_motion(tube: Tube, radius: float, codes: np.ndarray, T: np.ndarray, bac
                      kept, bool(crossed > 0.0))
 
 
+def mesh_joint_clearance(grid, radius: float, pts: np.ndarray, xs: np.ndarray, L: float) -> np.ndarray:
+    """(K,) each pose's smallest joint clearance against the surface of ``grid`` (the planner's comparison of the
+    switching strategies; NaN when no joint is inside the entrance)."""
+    from bhr.model._wallmesh import grid_args, mesh_joints_kernel
+
+    out = np.empty(pts.shape[0])
+    mesh_joints_kernel(*grid_args(grid), float(radius), np.ascontiguousarray(pts, dtype=np.float64),
+                       np.ascontiguousarray(xs, dtype=np.float64), float(L), out)
+    return out
+
+
+def mesh_score(grid, radius: float, pts: np.ndarray, xs: np.ndarray, steps: np.ndarray, L: float, sample: float,
+               pc: np.ndarray, mc: np.ndarray, mw: np.ndarray, low: np.ndarray) -> None:
+    """:func:`score_kernel` against the surface of ``grid`` (:func:`bhr.model._wallmesh.mesh_pose_kernel`): the poses
+    folded into the steps' tables ``pc``, ``mc``, ``mw`` in place, each pose's smallest into ``low``."""
+    from bhr.model._wallmesh import grid_args, mesh_pose_kernel
+
+    mesh_pose_kernel(*grid_args(grid), float(radius), np.ascontiguousarray(pts, dtype=np.float64),
+                     np.ascontiguousarray(xs, dtype=np.float64), np.ascontiguousarray(steps, dtype=np.int64), float(L),
+                     float(sample), NEAR_MM, pc, mc, mw, low)
+
+
 def wires_motion(traj, robot, solver, body_modules: int | None = None, reach: bool = False,
                  strategies: tuple[Strategy, ...] | None = None, params: ThermalParams = DEFAULT_THERMAL,
                  bound: bool = True) -> tuple[MotionRun, np.ndarray, int, int, float]:
@@ -845,6 +878,7 @@ def wires_motion(traj, robot, solver, body_modules: int | None = None, reach: bo
     moved by its wires: (the motion, the trail's codes, the modules M, the 0-based step where the feeder stops, how
     far short of the path's end the tip stops in mm). ``solver``: the configured lumen solver (its planner
     settings)."""
+    from bhr.model._wallmesh import wall_grid
     from bhr._run.body import check_body_modules
     from bhr._run.trail import cecum_modules, stop_step, vertex_hints
     from bhr.solvers._trail import dense_tube, plan_trail, trail_vertices
@@ -872,9 +906,11 @@ def wires_motion(traj, robot, solver, body_modules: int | None = None, reach: bo
     m, k = divmod(stop, f)
     ztip = z[back + m] + (k / f) * (z[back + m + 1] - z[back + m])
     short = max(0.0, float(tube.points.shape[0] - tube.post - 1 - ztip) * float(tube.spacing))
-    mo = plan_motion(tube, float(robot.robot_radius), tcodes, T, back, z, M, L, float(robot.feed), float(robot.alpha),
-                     traj.start_point, traj.start_direction, stop * float(robot.feed), N, params, strategies,
-                     bound=bound)
+    grid, wall = wall_grid(traj)
+    mo = plan_motion(tube, float(robot.robot_radius), tcodes, T, back, z, M, L, float(robot.feed),
+                     float(robot.alpha), traj.start_point, traj.start_direction, stop * float(robot.feed), N, params,
+                     strategies, bound=bound, grid=grid)
+    mo.wall = wall
     return mo, tcodes, M, stop, short
 
 
@@ -920,7 +956,7 @@ def motion_report(result):
     """The :class:`~bhr._run.clearance.ClearanceReport` of a run of the wires' motion: every joint and module of the
     whole robot, the smallest over every pose written in each step."""
     from bhr.model._tube import lumen_end_of
-    from bhr._run.clearance import index_matched_min, left_lumen, robot_labels, tables_report
+    from bhr._run.clearance import index_matched_min, left_lumen, robot_labels, tables_report, wall_label
 
     mo = result.motion
     r = result.robot
@@ -934,6 +970,7 @@ def motion_report(result):
     stop = result.extra.get("summary", {}).get("feeder_stop_step", result.steps)
     rep, both = tables_report(jp[:, p_idx], labels, jm[:, m_idx], mlabels, jw[:, m_idx], float(r.feed),
                               index_matched_min(result, B), lumen_end_of(result.trajectory), stop)
+    rep.wall = wall_label(result.trajectory, getattr(mo, "wall", "tube"))
     if rep.min_step == 0:
         return rep
 

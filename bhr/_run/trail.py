@@ -44,7 +44,8 @@ from numba import njit
 
 from bhr._run.body import check_body_modules
 from bhr.model._tube import Tube, lumen_end_of, nearest_kernel, point_clearance
-from bhr._run.clearance import clearance_chain_kernel, index_matched_min, robot_labels, tables_report
+from bhr.model._wallmesh import grid_args, mesh_segment, sdf_at, wall_grid
+from bhr._run.clearance import clearance_chain_kernel, index_matched_min, robot_labels, tables_report, wall_label
 from bhr._settings.errors import BhrError
 from bhr.solvers._trail import dense_tube, plan_trail, trail_vertices
 
@@ -265,6 +266,105 @@ def tables_kernel(C, R, S, BC, BR, pre, w, radius, T, z, back, f, m_lo, m_hi, L,
             swhere[i, k, 2] = bz
 
 
+@njit(cache=True)
+def _mesh_arc_clear(V, o, h, radius, T, r, u):
+    """Clearance against the mesh of the Bezier point at fraction u across vertex row r, and the point."""
+    a0 = (1 - u) * (1 - u)
+    a1 = 2 * u * (1 - u)
+    a2 = u * u
+    px = a0 * T[r - 1, 0] + a1 * T[r, 0] + a2 * T[r + 1, 0]
+    py = a0 * T[r - 1, 1] + a1 * T[r, 1] + a2 * T[r + 1, 1]
+    pz = a0 * T[r - 1, 2] + a1 * T[r, 2] + a2 * T[r + 1, 2]
+    return -sdf_at(V, o[0], o[1], o[2], h, px, py, pz) - radius, px, py, pz
+
+
+@njit(cache=True)
+def _mesh_piece(V, o, h, radius, Q, ea, eb, sample, res):
+    """The smallest clearance against the mesh along Q[0] -> Q[1] whose ends are at trail positions ea, eb (the part
+    behind the start, position < 0, not scored): res = (clearance or NaN, t)."""
+    lo_t = 0.0
+    hi_t = 1.0
+    if ea < 0.0 and eb < 0.0:
+        lo_t = 2.0
+    elif ea < 0.0:
+        lo_t = -ea / (eb - ea)
+    elif eb < 0.0:
+        hi_t = ea / (ea - eb)
+    mesh_segment(V, o, h, radius, Q[0, 0], Q[0, 1], Q[0, 2], Q[1, 0], Q[1, 1], Q[1, 2], lo_t, hi_t, sample, res)
+
+
+@njit(cache=True)
+def mesh_tables_kernel(V, o, h, radius, T, back, f, m_lo, m_hi, L, sample, pc, mc, mwhere, sw, swhere):
+    """:func:`tables_kernel` against the signed-distance grid ``V`` (origin ``o``, spacing ``h``) of the colon's
+    surface: the same places (chords, joints sliding along their pieces, the Bezier arc between two steps), each
+    clearance ``-phi - radius``."""
+    Q = np.empty((2, 3))
+    res = np.empty(2)
+    for m in range(m_lo, m_hi):
+        i = m - m_lo
+        r = back + m
+        for k in range(f):
+            u = k / f
+            u1 = (k + 1) / f
+            for b in range(3):
+                Q[0, b] = T[r - 1, b] + u * (T[r, b] - T[r - 1, b])
+                Q[1, b] = T[r, b] + u * (T[r + 1, b] - T[r, b])
+            pc[i, k] = np.nan if m + u < 0.0 else -sdf_at(V, o[0], o[1], o[2], h, Q[1, 0], Q[1, 1], Q[1, 2]) - radius
+            _mesh_piece(V, o, h, radius, Q, m - 1 + u, m + u, sample, res)
+            mc[i, k] = res[0]
+            for b in range(3):
+                mwhere[i, k, b] = np.nan if res[1] < 0.0 else Q[0, b] + res[1] * (Q[1, b] - Q[0, b])
+            best = 1e300
+            bx = np.nan
+            by = np.nan
+            bz = np.nan
+            for side in range(2):
+                rr = r - 1 + side
+                for b in range(3):
+                    Q[0, b] = T[rr, b] + u * (T[rr + 1, b] - T[rr, b])
+                    Q[1, b] = T[rr, b] + u1 * (T[rr + 1, b] - T[rr, b])
+                _mesh_piece(V, o, h, radius, Q, m - 1 + side + u, m - 1 + side + u1, sample, res)
+                if res[1] >= 0.0 and res[0] < best:
+                    best = res[0]
+                    bx = Q[0, 0] + res[1] * (Q[1, 0] - Q[0, 0])
+                    by = Q[0, 1] + res[1] * (Q[1, 1] - Q[0, 1])
+                    bz = Q[0, 2] + res[1] * (Q[1, 2] - Q[0, 2])
+            lo_u = u
+            if m - 1 + 2 * lo_u < 0.0:
+                lo_u = 0.5 * (1.0 - m)
+            if lo_u < u1:
+                ns = int(math.ceil(_ARC_PER_MM * 2.0 * L * (u1 - lo_u) / sample)) + 1
+                ba = 1e300
+                bu = lo_u
+                for q in range(ns + 1):
+                    uu = lo_u + (u1 - lo_u) * q / ns
+                    v = _mesh_arc_clear(V, o, h, radius, T, r, uu)[0]
+                    if v < ba:
+                        ba = v
+                        bu = uu
+                a = max(lo_u, bu - (u1 - lo_u) / ns)
+                b2 = min(u1, bu + (u1 - lo_u) / ns)
+                for _ in range(20):
+                    x1 = b2 - _GOLD * (b2 - a)
+                    x2 = a + _GOLD * (b2 - a)
+                    if _mesh_arc_clear(V, o, h, radius, T, r, x1)[0] < _mesh_arc_clear(V, o, h, radius, T, r, x2)[0]:
+                        b2 = x2
+                    else:
+                        a = x1
+                v = _mesh_arc_clear(V, o, h, radius, T, r, 0.5 * (a + b2))[0]
+                if v < ba:
+                    ba = v
+                    bu = 0.5 * (a + b2)
+                v, px, py, pz = _mesh_arc_clear(V, o, h, radius, T, r, bu)
+                if ba < best:
+                    best = ba
+                    bx, by, bz = px, py, pz
+            sw[i, k] = best if best < 1e299 else np.nan
+            swhere[i, k, 0] = bx
+            swhere[i, k, 1] = by
+            swhere[i, k, 2] = bz
+
+
 def vertex_hints(tube: Tube, T: np.ndarray, back: int, L: float) -> np.ndarray:
     """Where along the centerline (tube index) each vertex row of ``T`` is (:func:`_hints_kernel`)."""
     z = np.empty(T.shape[0])
@@ -288,12 +388,18 @@ def stop_step(tube: Tube, z: np.ndarray, back: int, f: int, steps: int) -> int:
 
 
 def trail_tables(tube: Tube, radius: float, T: np.ndarray, back: int, f: int, m_lo: int, m_hi: int, L: float,
-                 sample: float = 1.0) -> dict[str, np.ndarray]:
-    """:func:`tables_kernel` over vertices m_lo .. m_hi - 1: pc, mc, mwhere, sw, swhere, and the vertex hints."""
+                 sample: float = 1.0, grid=None) -> dict[str, np.ndarray]:
+    """:func:`tables_kernel` over vertices m_lo .. m_hi - 1: pc, mc, mwhere, sw, swhere, and the vertex hints;
+    with ``grid`` (the colon surface's :class:`bhr.model._wallmesh.SdfGrid`) :func:`mesh_tables_kernel`."""
     z = vertex_hints(tube, T, back, L)
     n = m_hi - m_lo
     out = {"pc": np.empty((n, f)), "mc": np.empty((n, f)), "mwhere": np.empty((n, f, 3)), "sw": np.empty((n, f)),
            "swhere": np.empty((n, f, 3)), "z": z}
+    if grid is not None:
+        mesh_tables_kernel(*grid_args(grid), float(radius), np.ascontiguousarray(T, dtype=np.float64), int(back),
+                           int(f), int(m_lo), int(m_hi), float(L), float(sample), out["pc"], out["mc"], out["mwhere"],
+                           out["sw"], out["swhere"])
+        return out
     S, BC, BR = tube.search_arrays()
     tables_kernel(tube.points, tube.radius, S, BC, BR, float(tube.pre), float(tube.window), float(radius), T, z,
                   int(back),
@@ -335,6 +441,7 @@ class TrailRun:
     modules: int  # M, the whole robot
     stop: int  # the last step the feeder pushes (0-based): the tip has reached the end of the path (the cecum)
     shortfall_mm: float = 0.0  # how far along the centerline the tip ends short of the path's end (0: reached)
+    wall: str = "tube"  # what the tables were measured against (bhr.model._wallmesh.wall_grid)
 
     def module_clearance(self, f: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(N, M+1) joints' clearance; (N, M) modules' smallest clearance over their pose and their motion from
@@ -391,8 +498,9 @@ def run_trail(traj, robot, settings: dict, window_mm: float, modules: int | None
     joints = trail_poses(T, back, f, N, M + 1, stop)
     jc = step_codes(codes, f, N, M + 1, stop)
     m_lo = -M - 1
-    tables = trail_tables(tube, float(robot.robot_radius), T, back, f, m_lo, V, L)
-    return TrailRun(codes, T, back, joints, jc, tables, m_lo, M, stop, short)
+    grid, wall = wall_grid(traj)
+    tables = trail_tables(tube, float(robot.robot_radius), T, back, f, m_lo, V, L, grid=grid)
+    return TrailRun(codes, T, back, joints, jc, tables, m_lo, M, stop, short, wall)
 
 
 def trail_report(result):
@@ -408,5 +516,7 @@ def trail_report(result):
     m_idx = [n - 1 - jj for jj in range(n)] + [n + k - 1 for k in range(1, B + 1)]
     table, mtable, mwhere = jp[:, p_idx], jm[:, m_idx], jw[:, m_idx]
     labels, mlabels = robot_labels(n, B)
-    return tables_report(table, labels, mtable, mlabels, mwhere, float(r.feed), index_matched_min(result, B),
-                         lumen_end_of(result.trajectory), tr.stop + 1)[0]
+    rep = tables_report(table, labels, mtable, mlabels, mwhere, float(r.feed), index_matched_min(result, B),
+                        lumen_end_of(result.trajectory), tr.stop + 1)[0]
+    rep.wall = wall_label(result.trajectory, getattr(tr, "wall", "tube"))
+    return rep

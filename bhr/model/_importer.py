@@ -14,7 +14,10 @@
 * **smoothing**: a Gaussian of ``smooth_mm`` (standard deviation, mm of arc length) along the path, ends held;
 * **resampling**: every ``spacing`` mm of arc length;
 * **lumen**: the diameter at each point is twice its distance to the surface (vtk's exact distance to the mesh,
-  or the segmentation's Euclidean distance transform in mm).
+  or the segmentation's Euclidean distance transform in mm);
+* **surface** of a segmentation: the label's boundary by marching cubes (vtk's flying edges at 0.5 of the mask,
+  Gaussian-smoothed by one voxel), in the image's world frame (mm), decimated to at most
+  :data:`SURFACE_TRIANGLES` triangles, so that runs measure the clearance against it.
 
 vtk, nibabel and kimimaro are the optional ``anatomy`` extra.
 """
@@ -29,10 +32,13 @@ import numpy as np
 
 from bhr._settings.errors import BhrError
 
-__all__ = ["Imported", "import_colon", "longest_path", "smooth_path", "resample_arc", "MESH_SUFFIXES",
+__all__ = ["Imported", "import_colon", "mask_surface", "SURFACE_TRIANGLES", "longest_path", "smooth_path",
+           "resample_arc", "MESH_SUFFIXES",
            "SEGMENTATION_SUFFIXES"]
 
 MESH_SUFFIXES = (".vtp", ".vtk", ".stl", ".ply", ".obj")
+#: A segmentation's surface is decimated to at most this many triangles (as the shipped colons' surfaces).
+SURFACE_TRIANGLES = 20000
 SEGMENTATION_SUFFIXES = (".nii", ".nii.gz")
 
 
@@ -200,6 +206,59 @@ def _voxelise(mesh: Any, voxel: float) -> tuple[np.ndarray, np.ndarray]:
     return np.ascontiguousarray(arr.transpose(2, 1, 0) > 0), lo
 
 
+def mask_surface(mask: np.ndarray, affine: np.ndarray, report: list[str], sigma_voxels: float = 1.0,
+                 target: int = SURFACE_TRIANGLES) -> Any:
+    """The closed surface (vtkPolyData, world mm) of a boolean ``mask`` (i, j, k) whose voxel indices map to the world
+    by ``affine`` (4 x 4): marching cubes (vtkFlyingEdges3D) at 0.5 of the mask Gaussian-smoothed by
+    ``sigma_voxels``, padded by one empty voxel so that it is closed, decimated (vtkQuadricDecimation, volume
+    preserved) to at most ``target`` triangles."""
+    from scipy.ndimage import gaussian_filter
+    from vtk.util.numpy_support import numpy_to_vtk
+    from vtkmodules.vtkCommonDataModel import vtkImageData
+    from vtkmodules.vtkCommonMath import vtkMatrix4x4
+    from vtkmodules.vtkCommonTransforms import vtkTransform
+    from vtkmodules.vtkFiltersCore import vtkFlyingEdges3D, vtkQuadricDecimation, vtkTriangleFilter
+    from vtkmodules.vtkFiltersGeneral import vtkTransformFilter
+
+    field_ = gaussian_filter(np.pad(mask.astype(np.float32), 2), sigma_voxels) if sigma_voxels > 0 else \
+        np.pad(mask.astype(np.float32), 2)
+    img = vtkImageData()
+    img.SetDimensions(*field_.shape)
+    img.SetOrigin(-2.0, -2.0, -2.0)
+    img.SetSpacing(1.0, 1.0, 1.0)
+    img.GetPointData().SetScalars(numpy_to_vtk(np.ravel(field_, order="F"), deep=True))
+    fe = vtkFlyingEdges3D()
+    fe.SetInputData(img)
+    fe.SetValue(0, 0.5)
+    fe.ComputeNormalsOff()
+    fe.Update()
+    m = vtkMatrix4x4()
+    for a in range(4):
+        for b in range(4):
+            m.SetElement(a, b, float(affine[a, b]))
+    t = vtkTransform()
+    t.SetMatrix(m)
+    tf = vtkTransformFilter()
+    tf.SetInputConnection(fe.GetOutputPort())
+    tf.SetTransform(t)
+    tri = vtkTriangleFilter()
+    tri.SetInputConnection(tf.GetOutputPort())
+    tri.Update()
+    out = tri.GetOutput()
+    n = out.GetNumberOfCells()
+    if n > target:
+        d = vtkQuadricDecimation()
+        d.SetInputData(out)
+        d.SetTargetReduction(1.0 - target / n)
+        d.VolumePreservationOn()
+        d.Update()
+        out = d.GetOutput()
+    report.append(f"surface: the label's boundary by marching cubes (vtk flying edges at 0.5 of the mask smoothed by "
+                  f"a Gaussian of {sigma_voxels:g} voxel), {n} triangles"
+                  + (f" decimated to {out.GetNumberOfCells()}" if n > target else ""))
+    return out
+
+
 def import_colon(source: str | Path, *, centerline: str | Path | None = None, label: int | None = None,
                  start: tuple[float, float, float] | None = None, smooth_mm: float = 3.0, spacing: float = 1.0,
                  voxel_mm: float = 1.0) -> Imported:
@@ -256,6 +315,15 @@ def import_colon(source: str | Path, *, centerline: str | Path | None = None, la
 
             ijk = (pts @ inv[:3, :3].T + inv[:3, 3]).T
             return map_coordinates(edt, ijk, order=1, mode="nearest")
+
+        from bhr.model._wallmesh import have_vtk
+
+        if have_vtk():
+            mesh = mask_surface(mask, aff, report)
+        else:
+            from bhr._settings.extras import install_command
+
+            report.append(f"surface: none (needs vtk: {install_command('anatomy')}); runs use the tube")
 
         how = "twice the distance from each point to the label's boundary (Euclidean distance transform, mm)"
     elif name.endswith(MESH_SUFFIXES):

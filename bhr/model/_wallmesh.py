@@ -36,7 +36,8 @@ from numba import njit
 from bhr._settings.errors import BhrError
 
 __all__ = ["SdfGrid", "MIN_INSIDE", "wall_grid", "GRID_MM", "MARGIN_MM", "have_vtk", "load_sdf", "sdf_values",
-           "mesh_clearance_run", "read_mesh", "exact_distance"]
+           "mesh_clearance_run", "read_mesh", "exact_distance", "mesh_segment", "mesh_pose_kernel",
+           "mesh_joints_kernel", "grid_args"]
 
 #: Spacing (mm) of the signed-distance grid.
 GRID_MM = 2.0
@@ -276,11 +277,62 @@ def _clear(V, o, h, radius, ax, ay, az, bx, by, bz, t):
 
 
 @njit(cache=True)
+def mesh_segment(V, o, h, radius, ax, ay, az, bx, by, bz, lo_t, hi_t, sample, out):
+    """The smallest clearance against the mesh along the part ``lo_t <= t <= hi_t`` of the segment a->b: sampled at
+    most ``sample`` mm apart (both ends included) and the worst sample refined by a golden-section search between
+    its neighbours. ``out`` gets (clearance, t); (NaN, -1) when no sample lies in the part."""
+    L = math.sqrt((bx - ax) ** 2 + (by - ay) ** 2 + (bz - az) ** 2)
+    ns = max(int(math.ceil(L / sample)), 1)
+    best = 1e300
+    bt = -1.0
+    for q in range(ns + 1):
+        t = q / ns
+        if t < lo_t or t > hi_t:
+            continue
+        v = _clear(V, o, h, radius, ax, ay, az, bx, by, bz, t)
+        if v < best:
+            best = v
+            bt = t
+    if bt < 0.0:
+        out[0] = np.nan
+        out[1] = -1.0
+        return
+    a = max(bt - 1.0 / ns, lo_t)
+    b = min(bt + 1.0 / ns, hi_t)
+    x1 = b - _GOLD * (b - a)
+    x2 = a + _GOLD * (b - a)
+    f1 = _clear(V, o, h, radius, ax, ay, az, bx, by, bz, x1)
+    f2 = _clear(V, o, h, radius, ax, ay, az, bx, by, bz, x2)
+    for _ in range(REFINE_ITERS):
+        if f1 < f2:
+            b = x2
+            x2 = x1
+            f2 = f1
+            x1 = b - _GOLD * (b - a)
+            f1 = _clear(V, o, h, radius, ax, ay, az, bx, by, bz, x1)
+        else:
+            a = x1
+            x1 = x2
+            f1 = f2
+            x2 = a + _GOLD * (b - a)
+            f2 = _clear(V, o, h, radius, ax, ay, az, bx, by, bz, x2)
+    if f1 < best:
+        best = f1
+        bt = x1
+    if f2 < best:
+        best = f2
+        bt = x2
+    out[0] = best
+    out[1] = bt
+
+
+@njit(cache=True)
 def mesh_clearance_kernel(V, o, h, radius, Q, E, sample, pt_out, mod_out, where):
     """Clearance against the mesh of every step's points ``Q`` (N, K, 3) in chain order; a point (or the part of a
     module) expected before the path's start (``E`` < 0) is not scored (NaN). Modules are sampled at most
     ``sample`` mm apart and their worst sample refined by a golden-section search, as against the tube."""
     N, K = Q.shape[0], Q.shape[1]
+    res = np.empty(2)
     for i in range(N):
         for k in range(K):
             if E[i, k] < 0.0:
@@ -299,53 +351,101 @@ def mesh_clearance_kernel(V, o, h, radius, Q, E, sample, pt_out, mod_out, where)
                 lo_t = -ea / (eb - ea)
             elif eb < 0.0:
                 hi_t = ea / (ea - eb)
-            L = math.sqrt((bx - ax) ** 2 + (by - ay) ** 2 + (bz - az) ** 2)
-            ns = max(int(math.ceil(L / sample)), 1)
-            best = 1e300
-            bt = -1.0
-            for q in range(ns + 1):
-                t = q / ns
-                if t < lo_t or t > hi_t:
-                    continue
-                v = _clear(V, o, h, radius, ax, ay, az, bx, by, bz, t)
-                if v < best:
-                    best = v
-                    bt = t
+            mesh_segment(V, o, h, radius, ax, ay, az, bx, by, bz, lo_t, hi_t, sample, res)
+            mod_out[i, m] = res[0]
+            bt = res[1]
             if bt < 0.0:
-                mod_out[i, m] = np.nan
                 where[i, m, 0] = np.nan
                 where[i, m, 1] = np.nan
                 where[i, m, 2] = np.nan
+            else:
+                where[i, m, 0] = ax + bt * (bx - ax)
+                where[i, m, 1] = ay + bt * (by - ay)
+                where[i, m, 2] = az + bt * (bz - az)
+
+
+@njit(cache=True)
+def mesh_pose_kernel(V, o, h, radius, pts, xs, steps, L, sample, near, pc, mc, mwhere, low):
+    """Clearance against the mesh of poses of a chain of rigid modules (points (K, M+1, 3) tail first, the tail
+    ``xs`` mm past the entrance minus M module lengths ``L``; joint i at ``xs / L - M + i`` module lengths along),
+    folded into the 0-based path ``steps``' tables: each joint's smallest (N, M+1), each module's smallest along
+    it (N, M) and where (N, M, 3); ``low`` (K) each pose's smallest. Joints (and parts of modules) still outside
+    the entrance are not scored. A module whose ends are both farther than ``sqrt(3) L / 2 + near`` mm from the
+    wall is scored at its ends and middle (the interpolated distance changes by at most sqrt(3) mm per mm: it is
+    clear all along), any other sampled at most ``sample`` mm apart and refined (:func:`mesh_segment`)."""
+    K = pts.shape[0]
+    J = pts.shape[1]
+    M = J - 1
+    cj = np.empty(J)
+    qs = np.empty(J)
+    res = np.empty(2)
+    far = 0.5 * math.sqrt(3.0) * L + near
+    for j in range(K):
+        st = steps[j]
+        best = np.inf
+        for i in range(J):
+            q = xs[j] / L - M + i
+            qs[i] = q
+            if q < 0.0:
+                cj[i] = np.nan
                 continue
-            a = max(bt - 1.0 / ns, lo_t)
-            b = min(bt + 1.0 / ns, hi_t)
-            x1 = b - _GOLD * (b - a)
-            x2 = a + _GOLD * (b - a)
-            f1 = _clear(V, o, h, radius, ax, ay, az, bx, by, bz, x1)
-            f2 = _clear(V, o, h, radius, ax, ay, az, bx, by, bz, x2)
-            for _ in range(REFINE_ITERS):
-                if f1 < f2:
-                    b = x2
-                    x2 = x1
-                    f2 = f1
-                    x1 = b - _GOLD * (b - a)
-                    f1 = _clear(V, o, h, radius, ax, ay, az, bx, by, bz, x1)
-                else:
-                    a = x1
-                    x1 = x2
-                    f1 = f2
-                    x2 = a + _GOLD * (b - a)
-                    f2 = _clear(V, o, h, radius, ax, ay, az, bx, by, bz, x2)
-            if f1 < best:
-                best = f1
-                bt = x1
-            if f2 < best:
-                best = f2
-                bt = x2
-            mod_out[i, m] = best
-            where[i, m, 0] = ax + bt * (bx - ax)
-            where[i, m, 1] = ay + bt * (by - ay)
-            where[i, m, 2] = az + bt * (bz - az)
+            c = _clear(V, o, h, radius, pts[j, i, 0], pts[j, i, 1], pts[j, i, 2], 0.0, 0.0, 0.0, 0.0)
+            cj[i] = c
+            if c < best:
+                best = c
+            if not (pc[st, i] <= c):
+                pc[st, i] = c
+        for m in range(M):
+            if qs[m + 1] < 0.0:
+                continue
+            ax, ay, az = pts[j, m, 0], pts[j, m, 1], pts[j, m, 2]
+            bx, by, bz = pts[j, m + 1, 0], pts[j, m + 1, 1], pts[j, m + 1, 2]
+            lo_t = 0.0 if qs[m] >= 0.0 else -qs[m] / (qs[m + 1] - qs[m])
+            if qs[m] >= 0.0 and min(cj[m], cj[m + 1]) > far:  # ends and middle: all of it is clear
+                v = _clear(V, o, h, radius, ax, ay, az, bx, by, bz, 0.5)
+                bt = 0.5
+                if cj[m] < v:
+                    v = cj[m]
+                    bt = 0.0
+                if cj[m + 1] < v:
+                    v = cj[m + 1]
+                    bt = 1.0
+            else:
+                mesh_segment(V, o, h, radius, ax, ay, az, bx, by, bz, lo_t, 1.0, sample, res)
+                v = res[0]
+                bt = res[1]
+            if bt < 0.0:
+                continue
+            if v < best:
+                best = v
+            if not (mc[st, m] <= v):
+                mc[st, m] = v
+                mwhere[st, m, 0] = ax + bt * (bx - ax)
+                mwhere[st, m, 1] = ay + bt * (by - ay)
+                mwhere[st, m, 2] = az + bt * (bz - az)
+        low[j] = best if best < np.inf else np.nan
+
+
+@njit(cache=True)
+def mesh_joints_kernel(V, o, h, radius, pts, xs, L, out):
+    """Each pose's smallest clearance of its joints inside the entrance (K,) against the mesh (NaN: none inside)."""
+    J = pts.shape[1]
+    M = J - 1
+    for j in range(pts.shape[0]):
+        best = np.inf
+        for i in range(J):
+            if xs[j] / L - M + i < 0.0:
+                continue
+            c = _clear(V, o, h, radius, pts[j, i, 0], pts[j, i, 1], pts[j, i, 2], 0.0, 0.0, 0.0, 0.0)
+            if c < best:
+                best = c
+        out[j] = best if best < np.inf else np.nan
+
+
+def grid_args(grid: SdfGrid) -> tuple[np.ndarray, np.ndarray, float]:
+    """(values, origin, spacing) of ``grid`` as the kernels take them (contiguous float64)."""
+    return (np.ascontiguousarray(grid.values, dtype=np.float64), np.ascontiguousarray(grid.origin, dtype=np.float64),
+            float(grid.spacing))
 
 
 def mesh_clearance_run(grid: SdfGrid, radius: float, Q: np.ndarray, E: np.ndarray, sample: float

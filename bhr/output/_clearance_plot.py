@@ -45,5 +45,6 @@ def clearance_figure(result: "FollowResult") -> Figure:
     ax.set_xlim(1, max(2, result.steps))
     ax.grid(True, alpha=0.3)
     ax.legend(loc="best", fontsize=8)
-    ax.set_title(f"Clearance to the lumen wall - {result.trajectory.name}, solver {result.solver}", fontsize=11)
+    ax.set_title(f"Clearance to the lumen wall - {result.trajectory.name}, solver {result.solver}; wall: "
+                 f"{cl.wall.split(' (')[0]}", fontsize=11)
     return fig

@@ -1,7 +1,11 @@
 """The real colons against a design: the clearance measured against each colon's surface mesh and against the tube
 of its lumen diameters, on the same run; then the verdict with the insufflated lumen model (docs/real_colons.md).
 
-    python docs/examples/real_colons_table.py [--alpha 25 --module-length 5 --solver lumen]
+    python docs/examples/real_colons_table.py [--alpha 30 --module-length 5 --solver lumen] [--colons gca:E60,...]
+    python docs/examples/real_colons_table.py --whole-robot [--alpha 30 ...]
+
+``--whole-robot``: the whole robot as it can be built (locomotion wires, as many modules as reach the cecum),
+CT lumen and insufflated, instead of the head.
 """
 from __future__ import annotations
 
@@ -25,18 +29,26 @@ def cpu() -> float:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--alpha", type=float, default=25.0)
+    ap.add_argument("--alpha", type=float, default=30.0)
     ap.add_argument("--module-length", type=float, default=5.0)
     ap.add_argument("--solver", default="lumen")
+    ap.add_argument("--colons", default=",".join(real_colons()), help="comma-separated names (default: all five)")
+    ap.add_argument("--whole-robot", action="store_true", help="the whole robot (wires, reach cecum), not the head")
+    ap.add_argument("--lumen", choices=("ct", "insufflated", "both"), default="both",
+                    help="--whole-robot: which lumen (default both)")
     a = ap.parse_args()
     robot = bhr.Robot(alpha=a.alpha, module_length=a.module_length)
+    names = [n for n in a.colons.split(",") if n]
+    if a.whole_robot:
+        whole_robot(a, robot, names)
+        return
     print(f"solver {a.solver}, alpha {a.alpha:g} deg, modules of {a.module_length:g} mm, robot radius "
           f"{robot.robot_radius:g} mm, feed {robot.feed:g} mm")
     print("| colon | steps | wall | mesh: min clearance (mm) | mesh: steps touching | tube: min clearance (mm) | "
           "tube: steps touching | steps where the two disagree | CPU s (run, mesh, tube) |")
     print("| --- | --- | --- | --- | --- | --- | --- | --- | --- |", flush=True)
     verdicts = []
-    for name in real_colons():
+    for name in names:
         tr = load_trajectory(name, feed=robot.feed)
         t0 = cpu()
         with warnings.catch_warnings():
@@ -67,6 +79,31 @@ def main() -> None:
             warnings.simplefilter("ignore", BhrWarning)
             ins = bhr.follow(tr, a.solver, robot)
         print(_verdict_row(name, "insufflated (model)", ins, ins.clearance), flush=True)
+
+
+def whole_robot(a, robot, names) -> None:
+    """The whole robot (locomotion wires, reach cecum) on each colon, CT lumen and insufflated: the verdict."""
+    print(f"whole robot: locomotion wires, as many modules as reach the cecum; solver {a.solver}, alpha {a.alpha:g} "
+          f"deg, modules of {a.module_length:g} mm, robot radius {robot.robot_radius:g} mm, feed {robot.feed:g} mm")
+    print("| colon | lumen | modules | verdict | steps touching the wall | deepest into the wall (mm) | "
+          "left the lumen | tip short of the cecum (mm) | wall measured against | CPU s |")
+    print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |", flush=True)
+    for name in names:
+        for model, label in (("ct", "CT"), ("insufflated", "insufflated (model)")):
+            if a.lumen not in ("both", model):
+                continue
+            tr = load_trajectory(name, feed=robot.feed, lumen_model=model)
+            t0 = cpu()
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", BhrWarning)
+                run = bhr.follow(tr, a.solver, robot, reach="cecum", locomotion="wires")
+                rep = run.clearance
+            t1 = cpu()
+            s = run.summary.to_dict()
+            left = f"step {rep.left_lumen_step}" if rep.left_lumen_step else "no"
+            print(f"| {name} | {label} | {run.body.modules + robot.modules} | "
+                  f"{run.status} | {len(rep.touch_steps)} of {run.steps} | {rep.max_penetration_mm:.2f} | {left} | "
+                  f"{s.get('cecum_shortfall_mm', 0.0):.1f} | {s.get('wall', rep.wall)} | {t1 - t0:.0f} |", flush=True)
 
 
 def _verdict_row(name, lumen, run, rep) -> str:

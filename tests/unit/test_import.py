@@ -67,6 +67,23 @@ def test_a_labelled_segmentation(tmp_path):
     assert np.median(off) < 1.0 and np.max(off) <= 8.0
     assert abs(float(np.median(res.lumen)) - 16.0) < 2.0
     assert res.points[0, 1] < res.points[-1, 1]  # from the start point's end
+    # its surface (marching cubes of the label, in the image's world frame): closed around the centerline, 8 mm away
+    from bhr.model._path import Trajectory
+    from bhr.model._wallmesh import exact_distance, wall_grid
+
+    assert res.mesh is not None and 100 < res.mesh.GetNumberOfCells() <= 20000
+    inner = res.points[10:-10]  # away from the flat ends
+    d = exact_distance(res.mesh, inner)
+    # the voxelised tube's boundary is within one voxel (2 mm along z) of the 8 mm tube's
+    assert np.all(d < 0.0) and abs(float(np.median(d)) + 8.0) < 2.0
+    from vtkmodules.vtkIOXML import vtkXMLPolyDataWriter
+
+    w = vtkXMLPolyDataWriter()
+    w.SetFileName(str(tmp_path / "seg.vtp"))
+    w.SetInputData(res.mesh)
+    assert w.Write()
+    grid, wall = wall_grid(Trajectory("seg", res.points, lumen=res.lumen, mesh=str(tmp_path / "seg.vtp")))
+    assert grid is not None and wall == "mesh seg.vtp"
 
 
 def test_longest_path_drops_the_side_branch():

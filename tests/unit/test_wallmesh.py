@@ -127,3 +127,84 @@ def test_a_real_colon_is_measured_against_its_mesh_where_it_encloses_the_path():
     assert np.all(d < 0.0)  # every centerline point inside the colon's surface
     # the lumen column is twice the exact distance: the grid reads the same within its bound
     assert np.all(np.abs(-d - t.lumen / 2) <= BOUND + 1e-6)
+
+
+def _grid_reference(grid: SdfGrid):
+    """The grid's trilinear interpolation by scipy: the independent reference of bhr's compiled lookup."""
+    from scipy.interpolate import RegularGridInterpolator
+
+    axes = [grid.origin[a] + grid.spacing * np.arange(grid.values.shape[a]) for a in range(3)]
+    f = RegularGridInterpolator(axes, grid.values, method="linear", bounds_error=True)
+    lo = np.array([a[0] for a in axes])
+    hi = np.array([a[-1] for a in axes])
+
+    def at(p: np.ndarray) -> np.ndarray:  # beyond the grid: its nearest point's value plus the distance to it
+        c = np.clip(p, lo, hi)
+        return f(c) + np.linalg.norm(p - c, axis=-1)
+
+    return at
+
+
+@pytest.fixture(scope="module")
+def e60_wires():
+    t = load_trajectory("gca:E60", feed=1.0)
+    return t, bhr.follow(t, solver="lumen", alpha=30, module_length=5, body_modules=30)
+
+
+def test_the_whole_robots_written_poses_are_scored_against_the_mesh(e60_wires):
+    """Every written pose of the wires' motion: dense samples (0.25 mm) along its modules inside the anus, their
+    clearance against the colon's surface read independently (scipy's trilinear interpolation of the same grid):
+    bhr's smallest within 0.5 mm of it, and within the grid's bound of vtk's exact distance to the surface."""
+    t, run = e60_wires
+    mo = run.motion
+    assert mo.wall == "mesh E60.vtp" and run.clearance.wall == "mesh E60.vtp"
+    assert run.summary.to_dict()["wall"] == "mesh E60.vtp"
+    assert mo.kept and not mo.crossed
+    grid, _ = wall_grid(t)
+    ref = _grid_reference(grid)
+    from bhr.model._wallmesh import read_mesh
+
+    mesh = read_mesh(t.mesh)
+    radius = run.robot.robot_radius
+    L = run.robot.module_length
+    rng = np.random.default_rng(0)
+    worst = np.argsort(np.where(np.isnan(mo.pose_clear), np.inf, mo.pose_clear))[:40]
+    pick = np.unique(np.concatenate([worst, rng.choice(len(mo.t_s), 40, replace=False)]))
+    f = np.linspace(0.0, 1.0, 21)
+    checked = 0
+    for p in pick:
+        P = mo.points_mm[p]
+        q = mo.insertion_mm[p] / L - (P.shape[0] - 1) + np.arange(P.shape[0])  # module lengths inside the anus
+        ok = q[1:] >= 0.0  # a module whose front joint is inside: its part inside the anus
+        lo = np.clip(-q[:-1][ok], 0.0, 1.0)
+        u = lo[:, None] + f[None, :] * (1.0 - lo[:, None])
+        samples = (P[:-1][ok][:, None] + u[:, :, None] * (P[1:] - P[:-1])[ok][:, None]).reshape(-1, 3)
+        if not samples.size:
+            continue
+        mine = float(np.min(-ref(samples) - radius))
+        assert abs(mine - mo.pose_clear[p]) <= 0.5, (p, mine, mo.pose_clear[p])
+        exact = float(np.min(-exact_distance(mesh, samples) - radius))
+        assert abs(exact - mo.pose_clear[p]) <= BOUND + 0.5, (p, exact, mo.pose_clear[p])
+        checked += 1
+    assert checked >= 60
+    # the steps' tables fold the poses: a step's smallest is its poses' smallest
+    s = run.summary.to_dict()
+    assert s["min_clearance_mm"] == pytest.approx(float(np.nanmin(mo.pose_clear)))
+
+
+def test_a_trail_run_is_scored_against_the_mesh_and_an_open_mesh_falls_back_to_the_tube(e60_wires):
+    t, _ = e60_wires
+    run = bhr.follow(t, solver="lumen", alpha=30, module_length=5, body_modules=30, locomotion="trail")
+    assert run.trail.wall == "mesh E60.vtp" and run.clearance.wall == "mesh E60.vtp"
+    grid, _ = wall_grid(t)
+    ref = _grid_reference(grid)
+    J = run.trail.joints  # (N, M + 1, 3) tip first
+    pts = run.clearance.table[:, :run.robot.modules + 1]  # the head's points, base first
+    head = J[:, run.robot.modules::-1]
+    scored = np.isfinite(pts)
+    assert scored.sum() > 1000
+    mine = -ref(head[scored]) - run.robot.robot_radius
+    assert np.max(np.abs(mine - pts[scored])) <= 1e-6  # the same grid, the same points: the same clearance
+    vhm = load_trajectory("gca:VHM", feed=1.0)
+    r2 = bhr.follow(vhm, solver="lumen", alpha=30, module_length=5, body_modules=10, locomotion="trail")
+    assert r2.clearance.wall.startswith("tube (the mesh leaves")
