@@ -24,8 +24,9 @@ _API = {
     "trajectory": "_generators", "load_trajectory": "_generators", "builtin_names": "_generators",
     "Colon": "_anatomy", "anatomical_colon": "_anatomy",
     "VALID_CODES": "_codes", "check_codes": "_codes", "read_codes_csv": "_codes", "format_codes_csv": "_codes",
-    "RobotFile": "_robotfile", "load_robot_file": "_robotfile",
+    "RobotFile": "_robotfile", "load_robot_file": "_robotfile", "default_robot_file": "_robotfile",
     "joint_names": "_export", "joint_values": "_export", "to_urdf": "_export", "to_mjcf": "_export",
+    "base_transform": "_export",
     "ThermalParams": "_wires",
 }
 

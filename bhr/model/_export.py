@@ -173,16 +173,30 @@ def base_transform(frame: str | Sequence[float] = "follow", base: Sequence[float
 
     A point ``p`` of the URDF/MJCF model (its world when the base is fixed at the origin, as
     ``bhr export`` writes it) is ``T @ [p, 1]`` in bhr's frame, where the same codes give
-    :func:`bhr.model._robot.forward_kinematics`'s points; a module frame ``F`` (rows x, y, z) of the
-    model is ``F @ T[:3, :3].T`` there. ``frame`` names bhr's frame: ``"follow"`` (``Robot.fk``,
-    ``bhr fk``, ``bhr follow``: a straight robot along +X), ``"solve"`` (``bhr solve``: along +Y),
-    ``"model"`` (the identity rotation: along +Z), or any direction a straight robot runs along
-    (:func:`bhr.model._robot.base_frame`). ``base`` is the base point in bhr's frame, in mm.
-    ``units``: ``"m"`` (the model's metres, default: translation in metres) or ``"mm"`` (bhr's
-    millimetres: scale the model's points by 1000 before applying ``T``). The inverse,
-    ``numpy.linalg.inv(T)``, places bhr's pose in the model's frame; in MuJoCo, ``<body name="base"
-    pos=... quat=...>`` carries it (pos ``T[:3, 3]``, quat of ``T[:3, :3]``).
+    :func:`bhr.model.forward_kinematics`'s points; a module frame ``F`` (rows x, y, z) of the
+    model is ``F @ T[:3, :3].T`` there. The inverse, ``numpy.linalg.inv(T)``, places bhr's pose in
+    the model's frame; in MuJoCo, ``<body name="base" pos=... quat=...>`` carries it (pos
+    ``T[:3, 3]``, quat of ``T[:3, :3]``).
 
+    Parameters
+    ----------
+    frame : str or sequence of 3 floats, default "follow"
+        bhr's frame: ``"follow"`` (``Robot.fk``, ``bhr fk``, ``bhr follow``: a straight robot along
+        +X), ``"solve"`` (``bhr solve``: along +Y), ``"model"`` (the identity rotation: along +Z), or
+        any direction (3,) a straight robot runs along.
+    base : sequence of 3 floats, default (0, 0, 0)
+        The base point in bhr's frame, mm.
+    units : {"m", "mm"}, default "m"
+        ``"m"``: the model's metres (translation in metres); ``"mm"``: bhr's millimetres (scale the
+        model's points by 1000 before applying ``T``).
+
+    Returns
+    -------
+    numpy.ndarray
+        (4, 4) homogeneous transform, float64.
+
+    Examples
+    --------
     >>> base_transform("follow").round(6).tolist()
     [[0.0, 0.0, 1.0, 0.0], [1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0]]
     """

@@ -160,7 +160,13 @@ class RobotFile:
 
 
 def default_robot_file() -> Path:
-    """The documented default robot file shipped with bhr (the thesis's robot)."""
+    """The documented default robot file shipped with bhr (the thesis's robot).
+
+    Returns
+    -------
+    pathlib.Path
+        The path of the shipped ``robot.toml``; copy it and edit it (docs/robot-files.md).
+    """
     try:
         res = resources.files("bhr").joinpath("data", "robot.toml")
         if res.is_file():

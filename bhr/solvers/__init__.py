@@ -25,10 +25,10 @@ from bhr.model._robot import CHAPTER5_ROBOT, Robot, robot_with
 from bhr.solvers._names import BUILTIN, REGISTRY, builtin_name
 
 if TYPE_CHECKING:  # loaded lazily (numpy): what these names are, for type checkers
-    from bhr.solvers._base import Chain, FollowContext, SolveResult, Solver
+    from bhr.solvers._base import Chain, FollowContext, SolveResult, Solver, register
 
 #: Names this package gives from bhr.solvers._base, loaded on first use (PEP 562).
-_FROM_BASE = ("Chain", "FollowContext", "SolveResult", "Solver")
+_FROM_BASE = ("Chain", "FollowContext", "SolveResult", "Solver", "register")
 
 
 def __getattr__(name: str) -> Any:
@@ -39,7 +39,7 @@ def __getattr__(name: str) -> Any:
     raise AttributeError(f"module 'bhr.solvers' has no attribute {name!r}")
 
 __all__ = ["Chain", "FollowContext", "SolveResult", "Solver", "available", "canonical", "check_solver_name",
-           "get_solver", "solve", "ENTRY_POINTS"]
+           "get_solver", "register", "solve", "ENTRY_POINTS"]
 
 #: The entry-point group through which other packages add solvers: ``name = "package.module:SolverClass"``.
 ENTRY_POINTS = "bhr.solvers"

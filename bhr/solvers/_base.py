@@ -28,7 +28,16 @@ __all__ = ["Chain", "SolveResult", "Solver", "FollowContext", "register", "REGIS
 
 
 def register(cls: type["Solver"]) -> type["Solver"]:
-    """Class decorator: make a solver available by its ``name`` (and its older ``aliases``)."""
+    """Class decorator: make a solver available by its ``name`` (and its older ``aliases``).
+
+    The decorated class is a :class:`Solver` subclass with a ``name``; bhr's own solvers must also be listed in the
+    index ``bhr/solvers/_names.py``.
+
+    Returns
+    -------
+    type
+        ``cls`` itself, now known to :func:`bhr.solvers.get_solver`, ``--solver`` and :func:`bhr.solvers.available`.
+    """
     if not getattr(cls, "name", None):
         raise TypeError(f"{cls.__name__} has no name")
     if cls.__module__.startswith("bhr.solvers."):  # bhr's own: listed in the light index of names, as it is here
