@@ -122,9 +122,13 @@ def snapshot(folder: Path) -> dict[str, tuple[int, int]]:
 #   tests/cli          the `bhr` commands, run as a user runs them
 #   tests/integration  real outside parts: firmware built with avr-gcc and run in simavr, serial ptys, Chromium,
 #                      Dask, pinocchio and MuJoCo, the import-contract tool
-# The marker is the folder's name. A test outside these folders, or an in-process test that asks for a command
-# or a cluster, stops the collection with a line that says where it belongs.
-LAYERS = ("unit", "thesis", "cli", "integration")
+# The marker is the folder's name, but for one layer without a folder of its own:
+#   run                in-process tests in tests/unit marked @pytest.mark.run: whole runs of the library (colons,
+#                      whole robots, studies) end to end; `pytest -m unit` leaves them out, the whole suite runs them
+# A test outside these folders, or an in-process test that asks for a command or a cluster, stops the collection
+# with a line that says where it belongs.
+FOLDERS = ("unit", "thesis", "cli", "integration")
+LAYERS = ("unit", "run", "thesis", "cli", "integration")
 _NEEDS = {"run_bhr": "cli", "dask_cluster": "integration"}
 
 
@@ -132,12 +136,16 @@ def pytest_collection_modifyitems(config, items):
     for item in items:
         folder = Path(str(item.path)).resolve().parent
         layer = folder.name if folder.parent == REPO / "tests" else None
-        if layer not in LAYERS:
-            raise pytest.UsageError(f"{item.nodeid}: a test lives in one of tests/{{{','.join(LAYERS)}}}/ (its layer)")
+        if layer not in FOLDERS:
+            raise pytest.UsageError(f"{item.nodeid}: a test lives in one of tests/{{{','.join(FOLDERS)}}}/ (its layer)")
         fixtures = set(getattr(item, "fixturenames", ()))
         for fixture, home in _NEEDS.items():
             if fixture in fixtures and layer == "unit":
                 raise pytest.UsageError(f"{item.nodeid} uses {fixture}: move it to tests/{home}/")
+        if item.get_closest_marker("run") is not None:
+            if layer != "unit":
+                raise pytest.UsageError(f"{item.nodeid}: the run marker is for in-process tests in tests/unit/")
+            continue  # its own marker is its layer
         item.add_marker(getattr(pytest.mark, layer))
 
 # Progress lines of long commands whose stderr is not a terminal come every 30 s: a test that pins what a command
@@ -148,7 +156,7 @@ os.environ.setdefault("BHR_PROGRESS_INTERVAL", "3600")
 # ------------------------------------------------------------------ CPU seconds per test
 # BHR_TEST_CPU=FILE appends one CSV row per test: nodeid, layer, CPU seconds (user+sys of pytest and of the
 # processes it waited for, setup to teardown), wall seconds, outcome. CPU seconds hold on a busy machine where wall time
-# does not; tests/cpu_table.py sums the rows per layer (README, "Tests").
+# does not; tests/layer_times.py sums the rows per layer (README, "Tests").
 _CPU_CSV = os.environ.get("BHR_TEST_CPU")
 
 

@@ -12,7 +12,7 @@ import argparse
 import csv
 from collections import defaultdict
 
-LAYERS = ("unit", "thesis", "cli", "integration")
+LAYERS = ("unit", "run", "thesis", "cli", "integration")
 
 
 def main() -> None:

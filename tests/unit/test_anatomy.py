@@ -125,6 +125,7 @@ def test_a_smooth_centerline_without_kinks(seed, feed):
     assert np.mean(r[canal:] > 1e4) < 0.01  # past it, not straight lines joined by arcs: hardly any length is straight
 
 
+@pytest.mark.run
 def test_the_population_has_the_published_spread():
     """Seeds 1-200 against Khashab 2009 (189.5 +- 26.3 cm, 10.9 +- 2.4 acute flexures); the curvature is held to the
     real colons in test_anatomy_stats.py."""

@@ -49,6 +49,7 @@ def test_the_shipped_real_colons_are_read():
         assert sum(shares.values()) == pytest.approx(1.0) and all(shares[g] > 0 for g in GROUPS)
 
 
+@pytest.mark.run
 def test_population_median_bend_and_tight_share_within_the_real_range(population, real):
     """At 3 mm smoothing and 5 mm chords, the pooled population's median bend radius and share of length tighter
     than 57 mm lie within the range of the shipped real colons."""
@@ -63,6 +64,7 @@ def test_population_median_bend_and_tight_share_within_the_real_range(population
     assert np.mean([min(tight) <= p.tight_share <= max(tight) for p in population]) >= 0.95
 
 
+@pytest.mark.run
 def test_segment_shares_match_the_real_landmarks(population, real):
     for g in GROUPS:
         gen = np.mean([p.shares[g] for p in population])
@@ -73,6 +75,7 @@ def test_segment_shares_match_the_real_landmarks(population, real):
     assert 0.21 <= np.percentile(desc, 5) and np.percentile(desc, 95) <= 0.33
 
 
+@pytest.mark.run
 def test_no_generated_bend_tighter_than_the_tightest_real_one(population, real):
     tightest_real = min(r.tightest for r in real)
     assert 4.0 < tightest_real < MIN_RADIUS_MM  # what the generator's limit was set against

@@ -128,6 +128,7 @@ from hypothesis import strategies as st  # noqa: E402
 from bhr._run.clearance import clearance_run, clearance_run_numpy, make_tube, run_chain  # noqa: E402
 
 
+@pytest.mark.run
 def test_kernel_equals_numpy_reference_on_a_run_with_a_body():
     from bhr._bench.lumen import tight_colon
 

@@ -7,6 +7,7 @@ import dataclasses
 import warnings
 
 import numpy as np
+import pytest
 from hypothesis import given, settings, strategies as st
 
 from bhr._bench.lumen import tight_colon
@@ -21,9 +22,16 @@ def _quiet(*args, **kwargs):
         return follow(*args, **kwargs)
 
 
-def test_a_robot_ahead_of_its_schedule_stops_at_the_cecum_and_holds_its_pose():
-    tr = tight_colon(2)  # the lumen solver cuts the bends and reaches the blind end before the path's last point
-    run = _quiet(tr, solver="lumen")
+@pytest.fixture(scope="module")
+def stopped():
+    """The lumen solver on a tight colon: it cuts the bends and reaches the blind end before the path's last point.
+    The tests below only read the run."""
+    tr = tight_colon(2)
+    return tr, _quiet(tr, solver="lumen")
+
+
+def test_a_robot_ahead_of_its_schedule_stops_at_the_cecum_and_holds_its_pose(stopped):
+    tr, run = stopped
     stop = run.summary.to_dict()["feeder_stop_step"]
     assert 1 <= stop < run.steps
     k = stop - 1
@@ -44,14 +52,13 @@ def test_a_robot_ahead_of_its_schedule_stops_at_the_cecum_and_holds_its_pose():
     assert len(seen) == run.steps and all(np.array_equal(c, run.codes[k]) for c in seen[k:])
 
 
-def test_the_body_holds_its_pose_behind_a_stopped_head():
-    tr = tight_colon(2)
+def test_the_body_holds_its_pose_behind_a_stopped_head(stopped):
+    tr, head = stopped
     run = _quiet(tr, solver="lumen", body_modules=12, locomotion="thesis")  # the thesis model's body
     k = run.summary.to_dict()["feeder_stop_step"] - 1
     b = run.body
     assert b is not None and b.modules == 7
     assert np.all(b.points[k + 1:] == b.points[k]) and np.all(b.codes[k + 1:] == b.codes[k])
-    head = _quiet(tr, solver="lumen")
     assert np.array_equal(head.points, run.points)  # the body does not change the head
 
 
@@ -64,6 +71,7 @@ def test_an_open_end_or_no_lumen_never_stops_the_feeder():
     assert "feeder_stop_step" not in bare.summary.to_dict()
 
 
+@pytest.mark.run
 def test_the_thesis_colon_runs_every_step():
     # the printed colon has a blind end; the thesis's solver keeps its tip within its tolerance of the schedule and
     # reaches the end at the last step, so the thesis's run is the thesis's, every step solved
@@ -126,13 +134,11 @@ def test_a_held_robot_travels_no_contact_length():
     assert s["contact_length_mm"] == (touching[:k].sum(axis=0) * run.robot.feed).tolist()
 
 
-def test_a_stopped_run_reads_back_whole_and_a_bad_stop_is_refused():
-    import pytest
-
+def test_a_stopped_run_reads_back_whole_and_a_bad_stop_is_refused(stopped):
     from bhr._run.driver import FollowResult
     from bhr._settings.errors import BhrError
 
-    run = _quiet(tight_colon(2), solver="lumen")
+    _, run = stopped
     doc = run.to_dict()
     back = FollowResult.from_json(doc)
     s, t = run.summary.to_dict(), back.summary.to_dict()

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from tests.conftest import LAYERS, pytest_collection_modifyitems
+from tests.conftest import FOLDERS, pytest_collection_modifyitems
 
 TESTS = Path(__file__).resolve().parents[1]
 # what only a command, a browser, a cluster or a physics engine needs: never inside tests/unit
@@ -17,7 +17,7 @@ OUTSIDE = {"run_bhr", "bhr_exe", "dask_cluster", "Browser", "need_chromium", "Lo
 def test_every_test_file_lives_in_a_layer_folder():
     assert not sorted(p.name for p in TESTS.glob("test_*.py"))
     folders = {p.parent.name for p in TESTS.rglob("test_*.py") if "benchmarks" not in p.parts and "data" not in p.parts}
-    assert folders == set(LAYERS)
+    assert folders == set(FOLDERS)
 
 
 def _names(node: ast.AST) -> set[str]:
@@ -48,18 +48,29 @@ def test_unit_tests_stay_in_process(path):
 
 
 class _Item:
-    def __init__(self, path: Path, fixtures=()):
-        self.path, self.fixturenames, self.nodeid, self.markers = path, list(fixtures), path.name + "::t", []
+    def __init__(self, path: Path, fixtures=(), marks=()):
+        self.path, self.fixturenames, self.nodeid, self.markers = path, list(fixtures), path.name + "::t", list(marks)
 
     def add_marker(self, mark):
         self.markers.append(mark.name)
 
+    def get_closest_marker(self, name):
+        return getattr(pytest.mark, name) if name in self.markers else None
 
-@pytest.mark.parametrize("layer", LAYERS)
+
+@pytest.mark.parametrize("layer", FOLDERS)
 def test_the_marker_is_the_folder(layer):
     item = _Item(TESTS / layer / "test_x.py")
     pytest_collection_modifyitems(None, [item])
     assert item.markers == [layer]
+
+
+def test_a_whole_run_in_tests_unit_is_the_run_layer_not_unit():
+    item = _Item(TESTS / "unit" / "test_x.py", marks=["run"])
+    pytest_collection_modifyitems(None, [item])
+    assert item.markers == ["run"]
+    with pytest.raises(pytest.UsageError, match="the run marker is for in-process tests in tests/unit/"):
+        pytest_collection_modifyitems(None, [_Item(TESTS / "cli" / "test_x.py", marks=["run"])])
 
 
 @pytest.mark.parametrize("where, fixtures, says", [

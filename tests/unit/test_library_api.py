@@ -60,6 +60,7 @@ def test_follow_draws_a_trajectory_again_at_the_robots_feed():
     assert lib.summary.tip_max_error_mm < 1.0  # not the 63 mm of a 2 mm path driven at a 1 mm feed
 
 
+@pytest.mark.run
 def test_follow_keeps_the_lumen_for_the_lumen_solver():
     run = bhr.follow(bhr.trajectory("anatomy", seed=7), solver="lumen", modules=5)
     assert run.trajectory.lumen is not None and "min_clearance_mm" in run.summary.to_dict()
@@ -124,6 +125,7 @@ def test_the_defaults_are_in_the_signatures():
 
 
 # ------------------------------------------------------------------ solver objects and plug-ins
+@pytest.mark.run
 def test_a_configured_solver_object_is_accepted():
     robot = bhr.Robot(alpha=12)
     s = solvers.get_solver("lumen", robot, window=30.0)
@@ -187,6 +189,7 @@ def test_results_print_short():
     assert repr(run) == "FollowResult(thesis on curve, 5 modules, 85 steps: followed; tip worst 4.905 mm at step 69)"
 
 
+@pytest.mark.run
 def test_a_run_says_when_it_touched_the_wall():
     run = bhr.follow(bhr.trajectory("anatomy", seed=3), solver="lumen", alpha=20)
     assert run.summary.extra["left_lumen_step"] is None and run.summary.extra["wall_touch_steps"]

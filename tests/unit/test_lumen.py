@@ -150,6 +150,7 @@ def test_the_depth_the_beam_ranks_by_is_the_best_heads_deepest_sample_in_numpy(t
     assert got == pytest.approx(want, abs=1e-9)
 
 
+@pytest.mark.run
 @settings(max_examples=8, deadline=None)
 @given(seed=st.integers(1, 10_000), beam=st.integers(1, 7), lookahead=st.integers(0, 12), modules=st.integers(2, 5))
 def test_the_beam_cutting_candidates_it_cannot_keep_is_the_beam_that_searches_them_all(seed, beam, lookahead, modules):

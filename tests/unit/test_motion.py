@@ -102,11 +102,13 @@ def wires_run():
     return follow(tr, solver="lumen", alpha=25, module_length=5, body_modules=30)
 
 
+@pytest.mark.run
 def test_a_whole_robot_moves_by_its_wires_by_default(wires_run):
     assert wires_run.extra["summary"]["locomotion"] == "wires"
     assert wires_run.motion is not None
 
 
+@pytest.mark.run
 def test_every_written_pose_is_a_rigid_chain_within_the_wires(wires_run):
     mo = wires_run.motion
     L, alpha = 5.0, 25.0
@@ -121,6 +123,7 @@ def test_every_written_pose_is_a_rigid_chain_within_the_wires(wires_run):
     assert np.allclose(d / L, np.array(wires_run.trajectory.start_direction)[None, :], atol=1e-9)
 
 
+@pytest.mark.run
 def test_no_joint_moves_more_than_2_mm_between_written_poses(wires_run):
     mo = wires_run.motion
     move = np.linalg.norm(np.diff(mo.points_mm, axis=0), axis=2)
@@ -129,6 +132,7 @@ def test_no_joint_moves_more_than_2_mm_between_written_poses(wires_run):
     assert np.all(np.diff(mo.step) >= 0) and mo.step[0] == 1
 
 
+@pytest.mark.run
 def test_each_module_length_ends_on_the_trail(wires_run):
     mo = wires_run.motion
     assert np.max(mo.trail_offset_mm[mo.ends[:-1]]) <= 1e-6
@@ -148,6 +152,7 @@ def _brute(path, lumen, radius, points, closed=True):
     return out
 
 
+@pytest.mark.run
 def test_clearance_of_the_written_poses_agrees_with_an_independent_one(wires_run):
     """Dense samples along every module of every written pose (0.25 mm), the nearest point of the whole
     centerline refined as bhr's (a Catmull-Rom spline, <= 1 mm): bhr's minimum within 0.5 mm, same touches."""
@@ -176,6 +181,7 @@ def test_clearance_of_the_written_poses_agrees_with_an_independent_one(wires_run
         assert (mine <= 0.0) == (bhrs <= 0.0) or abs(mine) < 0.05
 
 
+@pytest.mark.run
 def test_the_run_scores_the_poses(wires_run):
     s = wires_run.summary.extra
     mo = wires_run.motion
@@ -202,6 +208,7 @@ def test_a_pose_deeper_in_the_wall_than_the_robot_radius_has_left_the_lumen():
     assert s["left_lumen_reason"].startswith(f"left the lumen at step {deep[0]}: ")
 
 
+@pytest.mark.run
 def test_poses_file_keeps_its_contract(wires_run, tmp_path):
     from bhr.output._steptable import write_poses
 

@@ -128,6 +128,7 @@ def test_the_head_search_with_the_racing_term_is_the_exact_minimum(step):
                              forward_kinematics(robot, [0, *codes], base, frame)[0]) < best
 
 
+@pytest.mark.run
 def test_racing_weight_changes_the_run_and_the_default_is_its_registry_value():
     tr = tight_colon(2)
     with warnings.catch_warnings():

@@ -138,6 +138,7 @@ def test_traverse_takes_real_colons_by_name_all_together_and_mixed_with_seeds():
     assert study.colons == ("gca:VHF", 2) and len(study) == 2
 
 
+@pytest.mark.run
 def test_a_study_runs_a_real_colon_as_that_colon():
     from bhr._studies.sweep import colon_source, run_design
 
@@ -149,6 +150,7 @@ def test_a_study_runs_a_real_colon_as_that_colon():
     assert row["steps"] == len(load_trajectory("gca:VHF", feed=2.0))
 
 
+@pytest.mark.run
 def test_the_insufflated_lumen_model():
     from bhr.model._insufflation import AREA_MM2, CALIBRE_MM, insufflated_lumen
 

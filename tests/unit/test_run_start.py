@@ -28,6 +28,7 @@ def test_start_round_trips_through_run_json(name, kw):
     assert np.allclose(back.trajectory.start_point, run.trajectory.start_point, atol=0, rtol=0)
 
 
+@pytest.mark.run
 def test_a_read_back_anatomy_run_has_the_clearance_and_view_of_the_run():
     """The tube behind the entrance goes along the start direction (not +x): the body's clearance behind the
     entrance and the view's tube of the run read back are the run's."""

@@ -109,6 +109,7 @@ def test_studies_are_checked_before_running(grid, kw, msg):
 # ---------------------------------------------------------------------------------------------- results
 
 
+@pytest.mark.run
 def test_every_run_is_what_follow_gives_and_designs_aggregate_them():
     study = build_study([("alpha", (10, 30)), ("module_length", (5, 10))], "3-5", solvers=("seed",))
     assert study.designs == 4 and len(study) == 12 and study.design_keys == ["solver", "alpha", "module_length"]
@@ -133,6 +134,7 @@ def test_every_run_is_what_follow_gives_and_designs_aggregate_them():
     assert [d["design"] for d in res.designs] == [1, 2, 3, 4]
 
 
+@pytest.mark.run
 def test_the_whole_robot_counts_when_the_study_gives_its_length():
     """--grid body_modules=M: every run is bhr.follow with that body, and its contacts decide the pass."""
     study = build_study([("alpha", (25,)), ("module_length", (5,)), ("body_modules", (5, 30))], "7",

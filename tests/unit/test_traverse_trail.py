@@ -155,6 +155,7 @@ def test_same_answer_at_every_feed(seed):
     assert max(o[2] for o in out) - min(o[2] for o in out) <= 0.5
 
 
+@pytest.mark.run
 def test_whole_robot_clearance_is_the_tips():
     """Every module passes where the tip passed: the whole robot's smallest clearance is the head's."""
     r = Robot(alpha=25, module_length=5, feed_divisor=5)

@@ -71,6 +71,7 @@ def test_wider_lumen_more_room():
     assert unfollowable_bends(pts, lum, 57.15, 5.0) == []
 
 
+@pytest.mark.run
 def test_the_warning_fires_only_where_the_robot_cannot_follow():
     full = load_trajectory("anatomy", seed=7)
     tr = dataclasses.replace(full, points=full.points[:60].copy(), lumen=full.lumen[:60].copy())  # the first 120 mm

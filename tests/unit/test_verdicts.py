@@ -53,6 +53,7 @@ def test_stop_at_wall_ends_the_run_where_it_left_the_lumen(typical):
     assert "Stopped at the wall: the run ended at step" in "\n".join(summary_lines(stopped))
 
 
+@pytest.mark.run
 def test_stop_at_wall_changes_nothing_for_a_run_that_stays_inside():
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
