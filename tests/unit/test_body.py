@@ -106,6 +106,7 @@ def test_seed_runs_carry_a_body_too():
     assert r.body.point_errors_mm.max() < r.robot.tol_pos
 
 
+@pytest.mark.run
 def test_sixty_module_robot_through_the_colon():
     """The issue's whole-body run: 60 modules end to end through the colon, clearance reported."""
     tr = load_trajectory("colon")

@@ -321,6 +321,7 @@ def test_two_loops_5_mm_apart_are_kept_apart(toward, along):
     assert not lost[0]
 
 
+@pytest.mark.run
 def test_a_body_that_strays_agrees_with_the_brute_force_check_and_the_reference():
     """A 40-module body behind the thesis robot on a tight colon, its end closed: bhr's minimum is the brute-force
     minimum (within 0.5 mm), and the kernel is its numpy reference."""
@@ -365,6 +366,7 @@ def test_an_open_end_from_the_option_or_the_file(tmp_path):
         load_trajectory(str(bad))
 
 
+@pytest.mark.run
 def test_a_colon_the_robot_left_is_failed_by_traverse_with_its_reason():
     from bhr._studies.traverse import build_study, run_study
 

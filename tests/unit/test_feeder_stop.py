@@ -30,6 +30,7 @@ def stopped():
     return tr, _quiet(tr, solver="lumen")
 
 
+@pytest.mark.run
 def test_a_robot_ahead_of_its_schedule_stops_at_the_cecum_and_holds_its_pose(stopped):
     tr, run = stopped
     stop = run.summary.to_dict()["feeder_stop_step"]
@@ -52,6 +53,7 @@ def test_a_robot_ahead_of_its_schedule_stops_at_the_cecum_and_holds_its_pose(sto
     assert len(seen) == run.steps and all(np.array_equal(c, run.codes[k]) for c in seen[k:])
 
 
+@pytest.mark.run
 def test_the_body_holds_its_pose_behind_a_stopped_head(stopped):
     tr, head = stopped
     run = _quiet(tr, solver="lumen", body_modules=12, locomotion="thesis")  # the thesis model's body
@@ -62,6 +64,7 @@ def test_the_body_holds_its_pose_behind_a_stopped_head(stopped):
     assert np.array_equal(head.points, run.points)  # the body does not change the head
 
 
+@pytest.mark.run
 def test_an_open_end_or_no_lumen_never_stops_the_feeder():
     tr = tight_colon(2)
     open_end = _quiet(dataclasses.replace(tr, lumen_end="open"), solver="lumen")
@@ -119,6 +122,7 @@ def test_the_watch_follows_a_u_turn_and_is_not_fooled_by_the_other_limb():
     assert hits and hits[0] == len(along) - 1
 
 
+@pytest.mark.run
 def test_a_held_robot_travels_no_contact_length():
     # contact_length_mm is the path travelled while a module touched: one feed per step until the feeder stopped,
     # none while the robot is held at the cecum, though it touches there (the last 40 mm narrower than the robot)
@@ -134,6 +138,7 @@ def test_a_held_robot_travels_no_contact_length():
     assert s["contact_length_mm"] == (touching[:k].sum(axis=0) * run.robot.feed).tolist()
 
 
+@pytest.mark.run
 def test_a_stopped_run_reads_back_whole_and_a_bad_stop_is_refused(stopped):
     from bhr._run.driver import FollowResult
     from bhr._settings.errors import BhrError

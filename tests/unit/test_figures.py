@@ -107,6 +107,7 @@ def _line(ax, label):
     return found[0]
 
 
+@pytest.mark.run
 def test_3d_path_png_draws_the_lumen_wall_as_rings_around_the_centerline():
     """In 3-D the wall is a tube: rings of the lumen's radius, square to the path, about every half diameter."""
     run = follow(load_trajectory("anatomy", seed=3), solver="lumen")
@@ -167,6 +168,7 @@ def test_a_short_path_has_no_inset():
     assert path_figure(r).axes[0].child_axes == []
 
 
+@pytest.mark.run
 def test_body_run_path_png_fills_its_canvas_with_the_path():
     r = follow(load_trajectory("colon"), solver="seed", body_modules=60)
     fig = path_figure(r)

@@ -15,6 +15,7 @@ from bhr.model._importer import import_colon, longest_path  # noqa: E402
 from bhr.model._trajnames import real_colons  # noqa: E402
 
 
+@pytest.mark.run
 def test_mesh_alone_round_trip_on_a_shipped_colon():
     """The closed surface of gca:E90 alone gives back a centerline of about its length and its lumen (the skeleton
     runs on into the appendix, which the shipped path leaves out, and takes shortcuts where loops touch)."""

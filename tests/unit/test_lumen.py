@@ -61,6 +61,7 @@ def test_the_head_search_is_the_exact_minimum_of_the_cost(tight, modules, step):
     assert costs[tuple(codes)] == pytest.approx(best, rel=1e-9, abs=1e-9)
 
 
+@pytest.mark.run
 def test_codes_are_always_valid_and_the_body_follows(tight):
     r = quiet_follow(tight, solver="lumen", body_modules=9, locomotion="thesis")  # the thesis model's body
     assert set(np.unique(r.codes)) <= set(CODES)
@@ -79,6 +80,7 @@ def test_compiled_loop_and_step_by_step_driver_agree(tight):
     np.testing.assert_allclose(a.points, b.points, atol=1e-12)
 
 
+@pytest.mark.run
 def test_keeps_off_the_wall_where_the_thesis_solver_touches_it(tight):
     lumen = quiet_follow(tight, solver="lumen").summary.to_dict()
     seed = quiet_follow(tight, solver="seed").summary.to_dict()

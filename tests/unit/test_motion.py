@@ -221,6 +221,7 @@ def test_poses_file_keeps_its_contract(wires_run, tmp_path):
     assert d["codes"].shape == (P, M) and set(np.unique(d["codes"])) <= set(VALID_CODES)
 
 
+@pytest.mark.run
 def test_scoring_only_what_may_have_come_nearer_the_wall_gives_the_tables_of_scoring_everything():
     """A joint or module is scored again only when it may have come nearer the wall than its step's or its pose's
     worst since it was last scored (score_kernel's bound): every step's table and every pose's smallest are those

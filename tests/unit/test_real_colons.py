@@ -176,6 +176,7 @@ def test_the_insufflated_lumen_model():
     assert FollowResult.from_json(r.to_dict()).trajectory.lumen_model == "insufflated"
 
 
+@pytest.mark.run
 def test_a_studys_worst_colon_is_followed_again_with_the_designs_lumen_model():
     from bhr._studies.traverse import StudyResult, build_study, worst_colon_run
 
