@@ -42,6 +42,7 @@ def pose_before(run, robot, step):
     return base, np.stack([x, np.cross(z, x), z])
 
 
+@pytest.mark.run
 @pytest.mark.parametrize("modules,step", [(3, 40), (4, 95), (4, 150), (4, 210)])
 def test_the_head_search_is_the_exact_minimum_of_the_cost(tight, modules, step):
     """Modules 2..n found by branch and bound = the cheapest of all 5^(n-1) codes, each costed in numpy."""

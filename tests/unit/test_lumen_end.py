@@ -39,6 +39,7 @@ def test_the_solver_plans_with_the_trajectorys_lumen_end(tight, end):
     assert (s._tube.post == 0) == (end == "closed")
 
 
+@pytest.mark.run
 @pytest.mark.parametrize("step_back", [3, 12])
 def test_the_head_search_with_the_lead_term_is_the_exact_minimum(tight, step_back):
     """Near the blind end, lead term on (no slack: every mm ahead counts): branch and bound = every code costed."""

@@ -98,6 +98,7 @@ def test_frames_are_orthonormal_and_normal_to_the_centerline():
     assert np.allclose(np.linalg.norm(N1, axis=1), 1.0) and np.allclose(np.linalg.norm(N2, axis=1), 1.0)
 
 
+@pytest.mark.run
 @pytest.mark.parametrize("step", [60, 150])
 def test_the_head_search_with_the_racing_term_is_the_exact_minimum(step):
     """With racing_weight on, branch and bound = the cheapest of all 5^(n-1) codes costed in numpy."""

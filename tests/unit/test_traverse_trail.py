@@ -139,6 +139,7 @@ def test_motion_between_steps_against_brute_force():
     assert checked == 24
 
 
+@pytest.mark.run
 @pytest.mark.parametrize("seed", [1, 2])
 def test_same_answer_at_every_feed(seed):
     """The verdict and the worst penetration and clearance agree at feed divisors 1, 5 and 10 (docs/locomotion.md)."""

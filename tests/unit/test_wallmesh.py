@@ -151,6 +151,7 @@ def e60_wires():
     return t, bhr.follow(t, solver="lumen", alpha=30, module_length=5, body_modules=30)
 
 
+@pytest.mark.run
 def test_the_whole_robots_written_poses_are_scored_against_the_mesh(e60_wires):
     """Every written pose of the wires' motion: dense samples (0.25 mm) along its modules inside the anus, their
     clearance against the colon's surface read independently (scipy's trilinear interpolation of the same grid):
@@ -192,6 +193,7 @@ def test_the_whole_robots_written_poses_are_scored_against_the_mesh(e60_wires):
     assert s["min_clearance_mm"] == pytest.approx(float(np.nanmin(mo.pose_clear)))
 
 
+@pytest.mark.run
 def test_a_trail_run_is_scored_against_the_mesh_and_an_open_mesh_falls_back_to_the_tube(e60_wires):
     t, _ = e60_wires
     run = bhr.follow(t, solver="lumen", alpha=30, module_length=5, body_modules=30, locomotion="trail")
