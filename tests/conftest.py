@@ -19,7 +19,7 @@ def bhr_exe() -> list[str]:
     beside = Path(sys.executable).parent / "bhr"  # the venv's own command, PATH or not
     exe = str(beside) if os.access(beside, os.X_OK) else shutil.which("bhr")
     if exe is None:  # installed without the scripts folder on PATH: run the entry point module
-        return [sys.executable, "-c", "from bhr.cli.main import main; main()"]
+        return [sys.executable, "-m", "bhr.cli.main"]
     return [exe]
 
 

@@ -145,11 +145,11 @@ def together(check: Callable[[], Any] | None = None) -> Iterator[None]:
 
 def place_now(check: Callable[[], Any] | None = None) -> None:
     """Inside :func:`together`: put what was staged so far in place now (a command that then waits on the user)."""
-    global _set
     if _set is not None:
         if check is not None:
             check()
-        staged, _set = _set, []
+        staged = list(_set)
+        _set.clear()  # the same list the enclosing block places at its end: what is placed now is not placed twice
         _place_all(staged)
 
 

@@ -23,7 +23,7 @@
 
 /* The thermal model of the actuator wires (contraction, PWM hold, relaxation,
  * overheat limit) comes from the generated header bhr_gen.h, made from the
- * robot file's [thermal] table by `python -m bhr.hardware.firmware_header`. */
+ * robot file's [thermal] table by `python -m bhr._hardware.firmware_header`. */
 
 /* A partial frame with no further byte for this long is dropped (NAK
  * "incomplete" when its header was complete). */

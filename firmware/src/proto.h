@@ -15,7 +15,7 @@
 
 /* Sync bytes, version, message types, NAK reasons, fault and module bits,
  * and the code table come from the generated header (bhr/protocol.py and
- * bhr/kinematics/codetable.py is their single source; see bhr/hardware/firmware_header.py). */
+ * bhr/_kinematics/codetable.py is their single source; see bhr/_hardware/firmware_header.py). */
 #include "bhr_gen.h"
 
 #define PROTO_MAX_FRAME (PROTO_HEADER_LEN + PROTO_MAX_PAYLOAD + PROTO_CRC_LEN)

@@ -74,14 +74,16 @@ def built():
 
 
 def default_sigint() -> None:
-    """In a child before exec: SIGINT back to its default, so Ctrl-C reaches it even when the test
-    suite itself was started with SIGINT ignored (nohup, a background job of a non-interactive shell)."""
-    signal.signal(signal.SIGINT, signal.SIG_DFL)
+    """In a child before exec: Ctrl-C, SIGTERM and SIGHUP back to their defaults, as a shell's foreground job has
+    them, even when the test suite itself was started with some ignored (nohup, a background job of a
+    non-interactive shell), which a child inherits."""
+    for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
+        signal.signal(sig, signal.SIG_DFL)
 
 
 def bhr_cmd() -> list[str]:
     exe = shutil.which("bhr")
-    return [exe] if exe else [sys.executable, "-c", "from bhr.cli.main import main; main()"]
+    return [exe] if exe else [sys.executable, "-m", "bhr.cli.main"]
 
 
 def run_bhr(*args, timeout=120):
@@ -829,7 +831,8 @@ def test_status_explains_silence(sim, tmp_path):
 @pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGHUP], ids=["SIGTERM", "SIGHUP"])
 @pytest.mark.parametrize("command", ["stream", "follow"])
 def test_sigterm_and_sighup_send_stop_all_like_ctrl_c(sim, tmp_path, sig, command):
-    """kill (SIGTERM) or a closed terminal (SIGHUP) mid-stream: stop-all reaches the pins, exit 130, one line."""
+    """kill (SIGTERM) or a closed terminal (SIGHUP) mid-stream: stop-all reaches the pins, exit 128 + the signal
+    (143, 129: docs/commands.md), one line."""
     s = sim()
     if command == "stream":
         rows = [[3, 6, 9, 12, 15] if i % 2 else [6, 9, 12, 15, 3] for i in range(400)]
@@ -839,11 +842,12 @@ def test_sigterm_and_sighup_send_stop_all_like_ctrl_c(sim, tmp_path, sig, comman
     else:
         args = ["follow", "--traj", "colon", "--no-plots", "--out", str(tmp_path / "o"), "--port", s.pty,
                 "--rate", "40", "--schedule", "auto"]  # at the wires' pace: the stream starts, then is cut
-    proc = subprocess.Popen(bhr_cmd() + args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    proc = subprocess.Popen(bhr_cmd() + args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=default_sigint)
     s.wait_for(lambda evs: sum(e["ev"] == "latch" for e in evs) > 10, 60)
     proc.send_signal(sig)
     out, err = proc.communicate(timeout=30)
-    assert proc.returncode == 130, err
+    assert proc.returncode == 128 + sig, err
     assert "sent stop-all" in one_line(err)
     s.wait_for(lambda evs: evs[-1]["codes"] == [0] * MODULES and evs[-1]["latched"] == [0] * MODULES, 5)
     assert not (tmp_path / "o").exists()  # an interrupted run writes no folder

@@ -32,7 +32,7 @@ VALID = (0, 3, 6, 9, 12, 15)
 
 def bhr_cmd() -> list[str]:
     exe = shutil.which("bhr")
-    return [exe] if exe else [sys.executable, "-c", "from bhr.cli.main import main; main()"]
+    return [exe] if exe else [sys.executable, "-m", "bhr.cli.main"]
 
 
 def run_bhr(*args, cwd=None, timeout=120):

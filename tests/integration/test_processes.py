@@ -12,6 +12,7 @@ from pathlib import Path
 import pytest
 
 from bhr.output._atomic import MANIFEST
+from tests.conftest import foreground
 from tests.unit.test_executor import FRESH_PROCESS
 from tests.unit.test_output_folders import write_run
 
@@ -21,7 +22,9 @@ def test_workers_ignore_the_signals_and_this_process_keeps_them(tmp_path):
     # printed its own traceback
     script = tmp_path / "fresh.py"
     script.write_text(FRESH_PROCESS)
-    r = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=300)
+    # started as a shell's foreground job is, whatever this test run inherited (nohup, `&`)
+    r = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=300,
+                       preexec_fn=foreground)
     assert r.returncode == 0, r.stderr
     ignored = ["SIGHUP", "SIGINT", "SIGTERM"]
     assert r.stdout.splitlines() == [str([ignored, ignored, ignored]), "[] set()"]

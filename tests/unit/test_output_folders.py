@@ -223,3 +223,17 @@ def test_a_folder_set_aside_by_a_killed_run_is_put_back(tmp_path):
             raise RuntimeError
     assert (out / "run.json").read_text() == "1" and (out / "a.png").read_text() == "x"
     assert sorted(os.listdir(tmp_path)) == [".o.bhr-old-mine", "o"]
+
+
+def test_what_is_placed_early_is_placed_once(tmp_path):
+    """A command that waits on the user (``--show``) places its set first (place_now); the block's end then places
+    only what came after, and the folder placed early stays as it is."""
+    from bhr.output._atomic import place_now, together, write_text
+
+    with together():
+        write_run(tmp_path / "run", {"run.json": "1"})
+        place_now()
+        assert (tmp_path / "run" / "run.json").read_text() == "1"  # in place while the block still runs
+        write_text(tmp_path / "later.txt", "2")
+    assert (tmp_path / "run" / "run.json").read_text() == "1" and (tmp_path / "later.txt").read_text() == "2"
+    assert not [p.name for p in tmp_path.iterdir() if p.name.startswith(".")]  # no stage left behind
