@@ -54,7 +54,8 @@ from bhr._settings.errors import BhrError
 # the tube and its nearest-point kernels live in the model layer; their names stay importable from here
 from bhr.model._tube import (BLOCK, GLOBAL_BELOW, LOOP_RATIO, LUMEN_ENDS, WINDOW_MM, Tube,  # noqa: F401
                             global_scan, local_scan, locate_kernel, locate_numpy, lumen_end_of,
-                            make_tube, nearest_kernel, nearest_numpy, point_clearance, search_window, segment_scan)
+                            make_tube, nearest_kernel, nearest_numpy, point_clearance, scored_span, search_window,
+                            segment_scan)
 
 __all__ = ["ClearanceReport", "CecumWatch", "cecum_step", "cecum_kernel", "Tube", "make_tube", "clearance_table",
            "clearance_report",
@@ -125,15 +126,7 @@ def clearance_chain_kernel(C, R, S, BC, BR, pre, w, radius, Q, E, Z, sample, pt_
         ns = int(math.ceil(L / sample))
         if ns < 1:
             ns = 1
-        # the scored part of the module: [lo_t, hi_t]
-        lo_t = 0.0
-        hi_t = 1.0
-        if ea < 0.0 and eb < 0.0:
-            lo_t = 2.0
-        elif ea < 0.0:
-            lo_t = -ea / (eb - ea)
-        elif eb < 0.0:
-            hi_t = ea / (ea - eb)
+        lo_t, hi_t = scored_span(ea, eb)  # the scored part of the module
         best = 1e300
         bt = -1.0
         for q in range(ns + 1):

@@ -43,7 +43,7 @@ import numpy as np
 from numba import njit
 
 from bhr._run.body import check_body_modules
-from bhr.model._tube import Tube, lumen_end_of, nearest_kernel, point_clearance
+from bhr.model._tube import Tube, lumen_end_of, nearest_kernel, point_clearance, scored_span
 from bhr.model._wallmesh import grid_args, mesh_segment, sdf_at, wall_grid
 from bhr._run.clearance import clearance_chain_kernel, index_matched_min, robot_labels, tables_report, wall_label
 from bhr._settings.errors import BhrError
@@ -282,14 +282,7 @@ def _mesh_arc_clear(V, o, h, radius, T, r, u):
 def _mesh_piece(V, o, h, radius, Q, ea, eb, sample, res):
     """The smallest clearance against the mesh along Q[0] -> Q[1] whose ends are at trail positions ea, eb (the part
     behind the start, position < 0, not scored): res = (clearance or NaN, t)."""
-    lo_t = 0.0
-    hi_t = 1.0
-    if ea < 0.0 and eb < 0.0:
-        lo_t = 2.0
-    elif ea < 0.0:
-        lo_t = -ea / (eb - ea)
-    elif eb < 0.0:
-        hi_t = ea / (ea - eb)
+    lo_t, hi_t = scored_span(ea, eb)
     mesh_segment(V, o, h, radius, Q[0, 0], Q[0, 1], Q[0, 2], Q[1, 0], Q[1, 1], Q[1, 2], lo_t, hi_t, sample, res)
 
 

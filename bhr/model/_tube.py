@@ -26,7 +26,7 @@ from bhr._settings.errors import BhrError
 __all__ = ["Tube", "make_tube", "segment_scan", "nearest_kernel", "search_window", "scan_from", "local_scan",
            "local_scan_from", "window_scan", "past_the_window", "search_arrays",
            "global_scan", "locate_kernel", "point_clearance", "nearest_numpy", "locate_numpy", "lumen_end_of",
-           "WINDOW_MM", "LUMEN_ENDS", "GLOBAL_BELOW", "BLOCK", "GROUP", "LOOP_RATIO"]
+           "scored_span", "WINDOW_MM", "LUMEN_ENDS", "GLOBAL_BELOW", "BLOCK", "GROUP", "LOOP_RATIO"]
 
 #: Half-width (mm of arc length) of the stretch of centerline searched for a point's nearest point.
 WINDOW_MM = 40.0
@@ -89,6 +89,20 @@ def _spheres(pts: np.ndarray, size: int) -> tuple[np.ndarray, np.ndarray]:
     rad = np.empty(n)
     _spheres_kernel(np.ascontiguousarray(pts, dtype=np.float64), size, centre, rad)
     return centre, rad
+
+
+@njit(cache=True)
+def scored_span(ea, eb):
+    """The scored part [lo_t, hi_t] of a segment whose ends are expected at path positions ``ea``, ``eb``: the part
+    expected before the path's start (position < 0, the robot still behind the lumen's entrance) is not scored;
+    ``lo_t`` = 2.0 when none of it is."""
+    if ea < 0.0 and eb < 0.0:
+        return 2.0, 1.0
+    if ea < 0.0:
+        return -ea / (eb - ea), 1.0
+    if eb < 0.0:
+        return 0.0, ea / (ea - eb)
+    return 0.0, 1.0
 
 
 @njit(cache=True)

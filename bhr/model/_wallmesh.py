@@ -34,6 +34,7 @@ import numpy as np
 from numba import njit
 
 from bhr._settings.errors import BhrError
+from bhr.model._tube import scored_span
 
 __all__ = ["SdfGrid", "MIN_INSIDE", "wall_grid", "GRID_MM", "MARGIN_MM", "have_vtk", "load_sdf", "sdf_values",
            "mesh_clearance_run", "read_mesh", "exact_distance", "mesh_segment", "mesh_pose_kernel",
@@ -343,14 +344,7 @@ def mesh_clearance_kernel(V, o, h, radius, Q, E, sample, pt_out, mod_out, where)
             ax, ay, az = Q[i, m, 0], Q[i, m, 1], Q[i, m, 2]
             bx, by, bz = Q[i, m + 1, 0], Q[i, m + 1, 1], Q[i, m + 1, 2]
             ea, eb = E[i, m], E[i, m + 1]
-            lo_t = 0.0
-            hi_t = 1.0
-            if ea < 0.0 and eb < 0.0:
-                lo_t = 2.0
-            elif ea < 0.0:
-                lo_t = -ea / (eb - ea)
-            elif eb < 0.0:
-                hi_t = ea / (ea - eb)
+            lo_t, hi_t = scored_span(ea, eb)
             mesh_segment(V, o, h, radius, ax, ay, az, bx, by, bz, lo_t, hi_t, sample, res)
             mod_out[i, m] = res[0]
             bt = res[1]
