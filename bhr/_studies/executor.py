@@ -147,14 +147,16 @@ class _Lane:
         return future
 
     def stop(self, kill: bool) -> str:
-        """Stop the worker (``kill``: at once); how it ended."""
+        """Stop the worker (``kill``: at once); how it ended. The pool's thread ends here (it reaps the worker): one
+        still ending as bhr ends leaks the pool's semaphores."""
         code = None
         if self.process is not None and kill:
             self.process.kill()
+        if self.pool is not None:
+            self.pool.shutdown(wait=not kill or self.process is not None, cancel_futures=True)
+        if self.process is not None and kill:
             self.process.join(5)
             code = self.process.exitcode
-        if self.pool is not None:
-            self.pool.shutdown(wait=not kill, cancel_futures=True)
         self.pool = self.process = None
         return f"killed by {signal.Signals(-code).name}" if code and code < 0 else f"exit status {code}"
 

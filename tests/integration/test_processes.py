@@ -30,6 +30,41 @@ def test_workers_ignore_the_signals_and_this_process_keeps_them(tmp_path):
     assert r.stdout.splitlines() == [str([ignored, ignored, ignored]), "[] set()"]
 
 
+INTERRUPTED_STUDY = r'''
+import atexit, os, sys, threading, time
+from bhr._studies.executor import run_jobs
+
+def slow(job):
+    time.sleep(0.2 if job == 0 else 30)
+    return job
+
+def stop(done, total, row):
+    raise KeyboardInterrupt  # Ctrl-C while the other worker is busy
+
+if __name__ == "__main__":
+    try:
+        run_jobs(slow, [0, 1], jobs=2, max_chunk=1, progress=stop)
+    except KeyboardInterrupt:
+        pass
+    print(threading.active_count(), flush=True)
+    atexit._run_exitfuncs()  # then the process ends as bhr's does, without Python's own tidy-up
+    sys.stderr.flush()
+    os._exit(0)
+'''
+
+
+def test_a_study_stopped_by_ctrl_c_leaves_no_thread_of_its_workers_running_and_no_semaphore(tmp_path):
+    # a worker pool's thread still ending when bhr ended had unlinked a semaphore without telling multiprocessing's
+    # resource tracker, which then warned of a leaked semaphore after "Interrupted."
+    script = tmp_path / "stopped.py"
+    script.write_text(INTERRUPTED_STUDY)
+    r = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=120,
+                       preexec_fn=foreground)
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.split() == ["1"]  # only the main thread is left
+    assert r.stderr == ""
+
+
 def test_stages_of_dead_runs_are_cleaned_and_a_users_folder_is_kept(tmp_path):
     """A stage (and the lock file beside it, from older bhr) found by the run that holds the folder's lock is a dead
     run's: deleted. A folder only named like a stage is the user's and kept."""
