@@ -44,8 +44,10 @@ def traverse(grid, colons, solvers, head_only, target_pass, robot_file, out_dir,
     The robot judged is the whole robot, long enough to reach the cecum and moved by its wires (the robot
     as it can be built, --solver lumen), unless --head-only or the grid sizes it (body_modules, reach).
     A colon is traversed when the robot touches its wall at no step (with --max-wall-force: when the physical
-    robot, replayed against the wall, reaches the cecum with the wall's load never above N). Prints,
-    per design, the share of colons traversed, the worst and median
+    robot, replayed against the wall, reaches the cecum with the wall's load never above N). Each run of the
+    whole robot ends where it leaves the lumen (--grid stop_at_wall=false: runs to the end), and designs that
+    traverse as many colons are ranked by how far along the colons they get inside the lumen (reach). Prints,
+    per design, the share of colons traversed, the reach, the worst and median
     penetration into the wall and the contact length, then the best design
     that traverses at least --target-pass of the colons. Writes into DIR
     designs.csv (one row per design), runs.csv (one row per design and
@@ -67,7 +69,9 @@ def traverse(grid, colons, solvers, head_only, target_pass, robot_file, out_dir,
                                       write_study)
 
     check_executor(jobs, scheduler)
-    axes, solvers = robot_axes([parse_grid_option(g) for g in grid], solvers, head_only)
+    # the physical replay of every run (--max-wall-force) needs each run whole, past its first wall touch
+    axes, solvers = robot_axes([parse_grid_option(g) for g in grid], solvers, head_only,
+                               stop_at_wall=max_wall_force is None)
     study = build_study(axes, colons, solvers=solvers,
                         target=target_pass, robot_file=robot_file, title=title or "bhr traverse",
                         max_wall_force=max_wall_force)

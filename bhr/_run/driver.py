@@ -613,9 +613,9 @@ def follow(points: Any, solver: str | Solver = "thesis", robot: Robot | None = T
         with ``solver="lumen"`` on a path with a lumen moves by its wires, anything else by the thesis's
         model.
     stop_at_wall : bool, optional
-        End a run of the thesis's model at the step where the robot leaves the lumen
-        (:func:`bhr._run.clearance.left_lumen`): the result has that many steps, its ``finished`` says so,
-        and no later (impossible) pose is scored.
+        End the run at the step where the robot leaves the lumen (:func:`bhr._run.clearance.left_lumen`:
+        its axis outside the wall): the result has that many steps, its ``finished`` says so, and no later
+        (impossible) pose is scored. Not for the trail model, which plans its trail inside the lumen.
     **robot_options
         Changes to ``robot``'s settings (``modules``, ``module_length`` mm, ``alpha`` deg, ``tol_pos`` mm,
         ... as in the option registry, :mod:`bhr._settings.options`).
@@ -665,10 +665,9 @@ def follow(points: Any, solver: str | Solver = "thesis", robot: Robot | None = T
         raise BhrError(f"locomotion must be thesis, wires or trail, got {locomotion!r}")
     if stop_at_wall is not None and not isinstance(stop_at_wall, bool):
         raise BhrError(f"stop_at_wall must be True or False, got {stop_at_wall!r}")
-    if stop_at_wall and locomotion != "thesis":
-        raise BhrError(f"stop at wall ends a run of the thesis's locomotion where the robot leaves the lumen; the "
-                       f"{locomotion} locomotion plans its trail inside the lumen: drop --stop-at-wall or give "
-                       "--locomotion thesis")
+    if stop_at_wall and locomotion == "trail":
+        raise BhrError("stop at wall ends a run where the robot leaves the lumen; the trail model is an idealisation "
+                       "that plans its trail inside the lumen: drop --stop-at-wall or give --locomotion wires")
     if reach is not None:
         if reach != "cecum":
             raise BhrError(f"reach must be cecum (a robot long enough to reach the path's end), got {reach!r}")
@@ -730,7 +729,8 @@ def follow(points: Any, solver: str | Solver = "thesis", robot: Robot | None = T
             raise BhrError(f"locomotion {locomotion} plans the trail the whole robot follows with the wall-aware "
                            f"planner; use --solver lumen (not {solver})")
         if locomotion == "wires":
-            return _follow_wires(traj, robot, s, solver, path, dirs, body_modules, reach is not None, msgs, on_step)
+            return _follow_wires(traj, robot, s, solver, path, dirs, body_modules, reach is not None, msgs, on_step,
+                                 bool(stop_at_wall))
         return _follow_trail(traj, robot, s, solver, path, dirs, body_modules, reach is not None, msgs, on_step)
     chain = Chain.straight(robot, traj.start_direction, traj.start_point, tip_at_origin=True)
     out_points = np.zeros((N, n + 1, 3))
@@ -863,7 +863,7 @@ def _score_head(head: np.ndarray, codes: np.ndarray, path: np.ndarray, dirs: np.
     pe = np.zeros((N, n + 1))
     oe = np.zeros((N, n))
     for i in range(N):
-        d = dirs[-1] if i == N - 1 else dirs[i]
+        d = dirs[-1] if i == path.shape[0] - 1 else dirs[i]  # a run stopped at the wall ends before the path
         P = head[i]
         tip = float(angle_deg(P[n, 0] - P[n - 1, 0], P[n, 1] - P[n - 1, 1], P[n, 2] - P[n - 1, 2], d))
         score_step(i, P, path, dirs, f, tip, pe[i], oe[i])
@@ -932,14 +932,17 @@ def _sections_from_json(doc: Any, count: int, bad: Any) -> tuple[tuple[str, int,
 
 def _follow_wires(traj: Trajectory, robot: Robot, s: Any, solver: str, path: np.ndarray, dirs: np.ndarray,
                   body_modules: int | None, reach: bool, msgs: list[str],
-                  on_step: Callable[[int, np.ndarray | None], None] | None) -> FollowResult:
+                  on_step: Callable[[int, np.ndarray | None], None] | None, stop_at_wall: bool = False
+                  ) -> FollowResult:
     """A run of the robot as it can be built (bhr._run.motion): plan the trail, drive the rigid robot's joints along
-    it by their wires, write and score every pose."""
+    it by their wires, write and score every pose. ``stop_at_wall``: the run ends with the step where the robot
+    leaves the lumen (some joint or module deeper in the wall than the robot's radius)."""
     from bhr._run.motion import wires_motion
 
     n, f = robot.modules, robot.feed_divisor
-    N = path.shape[0]
-    mo, tcodes, M, stop, short = wires_motion(traj, robot, s, body_modules, reach)
+    mo, tcodes, M, stop, short = wires_motion(traj, robot, s, body_modules, reach,
+                                              stop_below=-float(robot.robot_radius) if stop_at_wall else None)
+    N = mo.step_joints.shape[0]  # the path's steps, or fewer when the run stopped at the wall
     if reach:
         body_modules = M
     joints, jcodes = mo.step_joints, mo.step_codes
@@ -960,16 +963,18 @@ def _follow_wires(traj: Trajectory, robot: Robot, s: Any, solver: str, path: np.
         bcodes = np.ascontiguousarray(jcodes[:, ::-1][:, n:])  # body module 1 (right behind the head) first
         body = BodyRun(nb, pts, bcodes, bpe, boe, scored)
     names, counts = np.unique(np.array(mo.strategies), return_counts=True)
+    stopped = {} if mo.stopped_step is None else {"stopped_at_wall_step": N, "path_steps": int(path.shape[0])}
     summary = {
         "locomotion": "wires",
         "trail_vertices": int(tcodes.shape[0]),
-        "feeder_stop_step": int(stop) + 1,
+        **({"feeder_stop_step": int(stop) + 1} if int(stop) < N else {}),
         "cecum_shortfall_mm": float(short),
         "poses": int(mo.t_s.shape[0]),
         "poses_file": "poses.npz" if mo.kept else None,
         "max_trail_offset_mm": float(np.max(mo.trail_offset_mm)),
         "switching": {str(a): int(b) for a, b in zip(names, counts)},
         "procedure_time_s": float(mo.t_s[-1]),
+        **stopped,
     }
     return replace(result, body=body, extra={"summary": summary})
 

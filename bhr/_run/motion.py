@@ -678,6 +678,7 @@ class MotionRun:
     kept: bool = True
     crossed: bool = False
     wall: str = "tube"  # what the poses were scored against (bhr.model._wallmesh.wall_grid)
+    stopped_step: int | None = None  # 0-based step where ``stop_below`` ended the motion (the tables end there)
 
     def npz(self) -> dict[str, np.ndarray]:
         """The arrays of ``poses.npz``."""
@@ -688,7 +689,7 @@ class MotionRun:
 def plan_motion(tube: Tube, radius: float, codes: np.ndarray, T: np.ndarray, back: int, z: np.ndarray, M: int,
                 L: float, feed: float, alpha_deg: float, start_point, start_direction, stop_mm: float, steps: int,
                 params: ThermalParams = DEFAULT_THERMAL, strategies: tuple[Strategy, ...] | None = None,
-                sample: float = 1.0, bound: bool = True, grid=None) -> MotionRun:
+                sample: float = 1.0, bound: bool = True, grid=None, stop_below: float | None = None) -> MotionRun:
     """The whole robot of M rigid modules driven along the trail (``codes`` per vertex, vertices ``T`` with
     ``back`` rows before vertex 0 and their centerline hints ``z``) up to an insertion of ``stop_mm``.
 
@@ -696,7 +697,10 @@ def plan_motion(tube: Tube, radius: float, codes: np.ndarray, T: np.ndarray, bac
     keeps the joints clearest of the wall (the first on a tie); one strategy alone is that strategy throughout.
     ``bound`` False scores every joint and module of every pose (:func:`score_kernel`'s reference).
     ``grid``: the signed-distance grid of the colon's surface (:class:`bhr.model._wallmesh.SdfGrid`) the joints'
-    clearance and the poses are measured against, else (None) the ``tube``.
+    clearance and the poses are measured against, else (None) the ``tube``. ``stop_below`` (mm): the motion ends with
+    the step in which a pose's clearance first falls below it (minus the radius: the robot left the lumen); the
+    steps' tables then end there too (``stopped_step``), and are those of the whole run's first steps (a pose
+    depends only on the poses before it).
     """
     from bhr.model._robot import base_frame
 
@@ -743,6 +747,7 @@ def plan_motion(tube: Tube, radius: float, codes: np.ndarray, T: np.ndarray, bac
     filled = -1
     crossed = 0.0
     prev: np.ndarray | None = None
+    stopped: int | None = None
 
     def poses(times, bt, bx, tsw, dly, on_old, on_new, cur, nxt, p, rad):
         K = times.shape[0]
@@ -809,6 +814,12 @@ def plan_motion(tube: Tube, radius: float, codes: np.ndarray, T: np.ndarray, bac
             crossed = max(crossed, c)
         else:
             mesh_score(grid, float(radius), pts, xs, steps0, L, float(sample), pc, mc, mw, low)
+        with np.errstate(invalid="ignore"):  # NaN: nothing in the lumen yet
+            below = low < stop_below if stop_below is not None else None
+        if below is not None and np.any(below):
+            stopped = int(steps0[int(np.argmax(below))])
+            keep = steps0 <= stopped  # that step's poses, whole: its row of the tables holds all of them
+            times, xs, pts, tl, cd, dev, low, steps0 = (a[keep] for a in (times, xs, pts, tl, cd, dev, low, steps0))
         # each step's last pose
         last_of = np.flatnonzero(np.diff(np.append(steps0, -1)) != 0)
         sj[steps0[last_of]] = pts[last_of]
@@ -828,6 +839,10 @@ def plan_motion(tube: Tube, radius: float, codes: np.ndarray, T: np.ndarray, bac
         th, s = end_th, end_s
         clock += end
         cur = nxt
+        if stopped is not None:
+            N = stopped + 1
+            sj, scd, pc, mc, mw = sj[:N], scd[:N], pc[:N], mc[:N], mw[:N]
+            break
     if filled < N - 1:  # the feeder stopped: the robot holds its last pose
         sj[filled + 1:] = sj[filled]
         scd[filled + 1:] = scd[filled]
@@ -846,7 +861,7 @@ def plan_motion(tube: Tube, radius: float, codes: np.ndarray, T: np.ndarray, bac
     low = np.concatenate([ch[6] for ch in chunks])
     step = np.concatenate([ch[7] for ch in chunks]) + 1
     return MotionRun(t, x, pts, tl, cd, step, chosen, low, dev, np.array(ends, dtype=np.int64), sj, scd, pc, mc, mw,
-                     kept, bool(crossed > 0.0))
+                     kept, bool(crossed > 0.0), stopped_step=stopped)
 
 
 def mesh_joint_clearance(grid, radius: float, pts: np.ndarray, xs: np.ndarray, L: float) -> np.ndarray:
@@ -873,11 +888,11 @@ def mesh_score(grid, radius: float, pts: np.ndarray, xs: np.ndarray, steps: np.n
 
 def wires_motion(traj, robot, solver, body_modules: int | None = None, reach: bool = False,
                  strategies: tuple[Strategy, ...] | None = None, params: ThermalParams = DEFAULT_THERMAL,
-                 bound: bool = True) -> tuple[MotionRun, np.ndarray, int, int, float]:
+                 bound: bool = True, stop_below: float | None = None) -> tuple[MotionRun, np.ndarray, int, int, float]:
     """The whole robot of ``body_modules`` (or, ``reach``, as many as reach the cecum) along ``traj`` (with a lumen)
     moved by its wires: (the motion, the trail's codes, the modules M, the 0-based step where the feeder stops, how
     far short of the path's end the tip stops in mm). ``solver``: the configured lumen solver (its planner
-    settings)."""
+    settings); ``stop_below``: :func:`plan_motion`'s."""
     from bhr.model._wallmesh import wall_grid
     from bhr._run.body import check_body_modules
     from bhr._run.trail import cecum_modules, stop_step, vertex_hints
@@ -909,7 +924,7 @@ def wires_motion(traj, robot, solver, body_modules: int | None = None, reach: bo
     grid, wall = wall_grid(traj)
     mo = plan_motion(tube, float(robot.robot_radius), tcodes, T, back, z, M, L, float(robot.feed),
                      float(robot.alpha), traj.start_point, traj.start_direction, stop * float(robot.feed), N, params,
-                     strategies, bound=bound, grid=grid)
+                     strategies, bound=bound, grid=grid, stop_below=stop_below)
     mo.wall = wall
     return mo, tcodes, M, stop, short
 

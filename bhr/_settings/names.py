@@ -57,7 +57,7 @@ COLUMN_TITLES = {
     "tip_rmse_mm": "tip RMSE (mm)", "tip_orientation_rmse_deg": "tip orientation RMSE (deg)",
     "tolerance_exceeded": "over tolerance", "worst_colon": "worst colon (seed)",
 }
-_UNITS = (("_mm", "mm"), ("_deg", "deg"), ("_s", "s"))
+_UNITS = (("_mm", "mm"), ("_deg", "deg"), ("_s", "s"), ("_pct", "% of the colon"))
 
 
 def column_title(key: str) -> str:

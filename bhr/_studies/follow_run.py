@@ -439,15 +439,15 @@ def body_clearance_lines(s: dict) -> list[str]:
                    f"{s['trail_offset_bound_mm']:.2f} mm of the trail); the feeder pushes until step "
                    f"{s['feeder_stop_step']}, the tip {s['cecum_shortfall_mm']:.1f} mm short of the path's end.")
     if s.get("locomotion") == "wires":
-        from bhr._hardware.thermal import format_duration
-
+        # as for the trail: the procedure time is the one line bhr follow prints for the board's schedule of
+        # codes.csv (as bhr plan computes it); the motion's own duration is run.json's procedure_time_s
         where = f" in {s['poses_file']}" if s["poses_file"] else " (too many to keep)"
         ways = ", ".join(f"{k} {v}" for k, v in sorted(s["switching"].items(), key=lambda kv: -kv[1]))
+        feeder = (f"the feeder pushes until step {s['feeder_stop_step']}, the tip {s['cecum_shortfall_mm']:.1f} mm "
+                  "short of the path's end" if s.get("feeder_stop_step") else "the feeder pushing")
         out.append(f"Wires: rigid modules driven by their wires along a trail of {s['trail_vertices']} vertices; "
                    f"{s['poses']} poses{where}, the robot up to {s['max_trail_offset_mm']:.1f} mm off "
-                   f"the trail between module lengths (switching: {ways}); the feeder pushes until step "
-                   f"{s['feeder_stop_step']}, the tip {s['cecum_shortfall_mm']:.1f} mm short of the path's end; "
-                   f"{format_duration(s['procedure_time_s'])} at the wires' pace.")
+                   f"the trail between module lengths (switching: {ways}); {feeder}.")
     if s.get("locomotion") not in ("trail", "wires") and s.get("feeder_stop_step"):
         if s.get("left_lumen_step") is not None and s["left_lumen_step"] <= s["feeder_stop_step"]:
             # a robot outside the colon reached no cecum: its tip only came to the path's end through the wall

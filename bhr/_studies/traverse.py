@@ -54,14 +54,14 @@ __all__ = ["Study", "StudyResult", "parse_colons", "build_study", "run_study", "
 
 #: Summary keys a study keeps from every run (the ones a run does not report stay empty).
 LUMEN_KEYS = ("max_penetration_mm", "wall_touch_steps", "contact_length_mm", "procedure_time_s", "body_modules",
-              "left_lumen_step", "left_lumen_reason", "wall")
+              "left_lumen_step", "left_lumen_reason", "wall", "path_steps")
 #: Columns of designs.csv after the design's own keys.
 DESIGN_COLUMNS = ("robot_judged", "rank", "ranked_by", "colons", "traversed", "pass_rate", "failed_runs",
-                  "worst_penetration_mm", "median_penetration_mm", "worst_clearance_mm", "median_contact_length_mm",
+                  "median_reach_pct", "worst_reach_pct", "worst_penetration_mm", "median_penetration_mm", "worst_clearance_mm", "median_contact_length_mm",
                   "worst_contact_length_mm", "median_touch_steps", "worst_colon", "min_turn_radius_mm",
                   "median_procedure_time_s", "worst_procedure_time_s", "left_lumen")
 #: Columns of runs.csv after the design's keys and the seed.
-RUN_COLUMNS = ("status", "finished", "verdict", "steps", "traversed", "max_penetration_mm", "touch_steps",
+RUN_COLUMNS = ("status", "finished", "verdict", "steps", "traversed", "reach_pct", "max_penetration_mm", "touch_steps",
                "contact_length_mm", "min_clearance_mm", "points_max_error_mm", "tip_max_error_mm", "modules",
                "procedure_time_s", "left_lumen_step", "failure", "wall")
 _MAX_COLONS = LIMITS["colons"]
@@ -155,12 +155,15 @@ class Study:
         return len(self.sweep)
 
 
-def robot_axes(grid: Sequence[tuple[str, tuple[Any, ...]]], solvers: Sequence[str], head_only: bool = False
-               ) -> tuple[list[tuple[str, tuple[Any, ...]]], tuple[str, ...]]:
+def robot_axes(grid: Sequence[tuple[str, tuple[Any, ...]]], solvers: Sequence[str], head_only: bool = False,
+               stop_at_wall: bool = True) -> tuple[list[tuple[str, tuple[Any, ...]]], tuple[str, ...]]:
     """The grid and solvers of ``bhr traverse``'s robot: by default the whole robot, long enough to reach the
     cecum (``reach=cecum``), with the lumen solver (so moved by its wires, the robot as it can be built) unless
-    solvers are given; ``head_only``: the head alone (the modules the solver moves), with the thesis's solver
-    unless solvers are given. A grid that sizes the robot (``body_modules``, ``reach``) is kept as it is."""
+    solvers are given, every run ending where the robot first touches the wall (``stop_at_wall``: the verdict is
+    known there, and from there the wall pushes the robot, which the geometry does not simulate; designs are then
+    ranked by how far along the colons they get); ``head_only``: the head alone (the modules the solver moves),
+    with the thesis's solver unless solvers are given. A grid that sizes the robot (``body_modules``, ``reach``)
+    is kept as it is."""
     axes = list(grid)
     sized = [k for k, _ in axes if k in ("body_modules", "reach")]
     if head_only and sized:
@@ -168,6 +171,8 @@ def robot_axes(grid: Sequence[tuple[str, tuple[Any, ...]]], solvers: Sequence[st
                        f"--head-only or --grid {sized[0]}=...")
     if not head_only and not sized:
         axes.append(("reach", ("cecum",)))
+        if stop_at_wall and "stop_at_wall" not in (k for k, _ in axes):
+            axes.append(("stop_at_wall", (True,)))
     return axes, tuple(solvers) or (("thesis",) if head_only else ("lumen",))
 
 
@@ -232,6 +237,17 @@ def _contact(row: dict[str, Any]) -> float | None:
     return float(v)
 
 
+def _reach(row: dict[str, Any]) -> float | None:
+    """How far along the colon the tip went before the robot left the lumen (its axis outside the wall), % of the
+    path (100: it stayed inside); None for a failed run or a path without a lumen."""
+    if row["status"] != "ok" or row.get("wall_touch_steps") is None:
+        return None
+    left, path = row.get("left_lumen_step"), row.get("path_steps") or row.get("steps")
+    if left is None or not path or path < 2:
+        return 100.0
+    return 100.0 * (left - 1) / (path - 1)
+
+
 def _run_row(row: dict[str, Any], keys: Sequence[str]) -> dict[str, Any]:
     out = {k: row[k] for k in keys}
     out["seed"] = row["seed"]
@@ -245,6 +261,7 @@ def _run_row(row: dict[str, Any], keys: Sequence[str]) -> dict[str, Any]:
         "steps": row.get("steps"),
         "traversed": bool(ok and row.get("physically_traversed")) if physical else
         bool(ok and touches is not None and len(touches) == 0 and row.get("left_lumen_step") is None),
+        "reach_pct": _reach(row),
         "max_penetration_mm": _penetration(row) if ok else None,
         "touch_steps": len(touches) if (ok and touches is not None) else None,
         "contact_length_mm": _contact(row) if ok else None,
@@ -252,7 +269,8 @@ def _run_row(row: dict[str, Any], keys: Sequence[str]) -> dict[str, Any]:
         "points_max_error_mm": row.get("points_max_error_mm"),
         "tip_max_error_mm": row.get("tip_max_error_mm"),
         "modules": row.get("body_modules"),
-        "procedure_time_s": row.get("procedure_time_s") if ok else None,
+        # a run stopped at the wall did not do the whole procedure
+        "procedure_time_s": row.get("procedure_time_s") if ok and row.get("finished") != "stopped at the wall" else None,
         # a colon fails when the run fails or the robot left the lumen (bhr._run.clearance.left_lumen): the reason
         "left_lumen_step": row.get("left_lumen_step") if ok else None,
         "failure": (row.get("left_lumen_reason") or "") if ok else str(row["status"]),
@@ -279,22 +297,29 @@ def design_rows(study: Study, runs: Sequence[dict[str, Any]], min_turn: dict[tup
         touch = [r["touch_steps"] for r in rows if r["touch_steps"] is not None]
         clear = [r["min_clearance_mm"] for r in rows if r["status"] == "ok" and r.get("min_clearance_mm") is not None]
         proc = [r["procedure_time_s"] for r in rows if r.get("procedure_time_s") is not None]
+        reach = [(r["reach_pct"], -(r["max_penetration_mm"] or 0.0), r["seed"], k) for k, r in enumerate(rows)
+                 if r.get("reach_pct") is not None]
         passed = sum(1 for r in rows if r["traversed"])
         # ties: the colon listed first
         worst = max(pen, key=lambda p: (p[0], -(p[2] if p[2] is not None else math.inf), p[3])) if pen else None
         d = {"design": n, **dict(zip(keys, combo))}
+        worst_colon = worst[1] if worst else None
+        if d.get("stop_at_wall") and reach:  # runs end out of the lumen: the worst colon is the one it got least far in
+            worst_colon = min(reach)[2]
         d.update({
             "colons": len(rows),
             "traversed": passed,
             "pass_rate": passed / len(rows),
             "failed_runs": sum(1 for r in rows if r["status"] != "ok"),
+            "median_reach_pct": statistics.median(p[0] for p in reach) if reach else None,
+            "worst_reach_pct": min(p[0] for p in reach) if reach else None,
             "worst_penetration_mm": worst[0] if worst else None,
             "median_penetration_mm": statistics.median(p[0] for p in pen) if pen else None,
             "worst_clearance_mm": min(clear) if clear else None,
             "median_contact_length_mm": statistics.median(contact) if contact else None,
             "worst_contact_length_mm": max(contact) if contact else None,
             "median_touch_steps": statistics.median(touch) if touch else None,
-            "worst_colon": worst[1] if worst else None,
+            "worst_colon": worst_colon,
             "min_turn_radius_mm": min_turn.get(combo),
             "median_procedure_time_s": statistics.median(proc) if proc else None,
             "worst_procedure_time_s": max(proc) if proc else None,
@@ -312,14 +337,24 @@ def design_rows(study: Study, runs: Sequence[dict[str, Any]], min_turn: dict[tup
 
 #: What ranks designs, in order (:func:`_rank`): the words the tables and the figure use.
 RANKING = ("pass rate", "worst penetration", "worst clearance", "median penetration", "design order (a tie)")
+#: ... when every run ends where the robot leaves the lumen (``stop_at_wall``, the whole robot's study): how far
+#: along the colons each design gets inside the lumen, then how deep it went into the wall.
+RANKING_AT_WALL = ("pass rate", "median reach", "worst reach", "worst penetration", "design order (a tie)")
+
+
+def ranking(d: dict[str, Any]) -> tuple[str, ...]:
+    """The words of what ranks design ``d``: :data:`RANKING_AT_WALL` when its runs end at the wall, else
+    :data:`RANKING`."""
+    return RANKING_AT_WALL if d.get("stop_at_wall") else RANKING
 
 
 def _separated_by(d: dict[str, Any], other: dict[str, Any]) -> str:
-    """The first of :data:`RANKING` on which design ``d`` and ``other`` differ: what puts one ahead of the other."""
-    for name, a, b in zip(RANKING, _rank(d), _rank(other)):
+    """The first of :func:`ranking` on which design ``d`` and ``other`` differ: what puts one ahead of the other."""
+    words = ranking(d)
+    for name, a, b in zip(words, _rank(d), _rank(other)):
         if a != b:
             return name
-    return RANKING[-1]
+    return words[-1]
 
 
 def robot_judged(study: "Study", d: dict[str, Any]) -> str:
@@ -337,6 +372,10 @@ def robot_judged(study: "Study", d: dict[str, Any]) -> str:
 
 def _rank(d: dict[str, Any]) -> tuple[Any, ...]:
     inf = math.inf
+    if d.get("stop_at_wall"):
+        mr, wr, wp = d.get("median_reach_pct"), d.get("worst_reach_pct"), d.get("worst_penetration_mm")
+        return (-d["pass_rate"], -mr if mr is not None else inf, -wr if wr is not None else inf,
+                wp if wp is not None else inf, d["design"])
     wc = d.get("worst_clearance_mm")
     return (-d["pass_rate"], d["worst_penetration_mm"] if d["worst_penetration_mm"] is not None else inf,
             -wc if wc is not None else inf,
@@ -410,17 +449,24 @@ def passrate_figure(result: StudyResult, x: str | None = None, y: str | None = N
         if (j, i) not in best or _rank(d) < _rank(best[(j, i)]):
             best[(j, i)] = d
             data[j, i] = d["pass_rate"]
+    top = min(result.designs, key=_rank) if result.designs else None
+    at_wall = top is not None and bool(top.get("stop_at_wall"))
+    # what ranks cells of one pass rate: how far along the colons the robot got (runs ended at the wall), else the
+    # clearance it left
+    tie_key, tie_label = (("median_reach_pct", "median reach inside the lumen (% of the colon)") if at_wall else
+                          ("worst_clearance_mm", "worst clearance (mm)"))
     clear = np.full(data.shape, np.nan)
     for (j, i), d in best.items():
-        if d["worst_clearance_mm"] is not None:
-            clear[j, i] = d["worst_clearance_mm"]
-    top = min(result.designs, key=_rank) if result.designs else None
+        if d.get(tie_key) is not None:
+            clear[j, i] = d[tie_key]
     texts = [["" for _ in xs] for _ in ys]
     for (j, i), v in np.ndenumerate(data):
         cell = best.get((j, i))
         text = "-" if not np.isfinite(v) else f"{100 * v:.0f}%"
         if cell is not None and data.size <= 200:
             text = f"rank {cell.get('rank', '')}: " + text
+            if cell.get("stop_at_wall") and cell.get("median_reach_pct") is not None:
+                text += f"\nreach {cell['median_reach_pct']:.0f}% (worst {cell['worst_reach_pct']:.0f}%)"
             if cell["worst_penetration_mm"] is not None:
                 text += f"\npen {cell['worst_penetration_mm']:.2f} mm"
             if cell["worst_clearance_mm"] is not None:
@@ -430,11 +476,14 @@ def passrate_figure(result: StudyResult, x: str | None = None, y: str | None = N
     top_cell = next((c for c, d in best.items() if top is not None and d is top), None)
     over = f"best design over {', '.join(others)}" if others else "one design per cell"
     judged = sorted({d.get("robot_judged") or robot_judged(study, d) for d in result.designs})
+    order = ("ranked by pass rate, then median reach inside the lumen before the run ended there (reach, % of "
+             "the colon),\nthen worst reach, then worst penetration (pen)" if at_wall else
+             "ranked by pass rate, then worst penetration (pen), then worst clearance (clear)")
     title = (f"Share of {len(study.colons)} colons traversed without wall contact; robot judged: "
-             f"{'; '.join(judged)}\nranked by pass rate, then worst penetration (pen), then worst clearance "
-             f"(clear); {over}\noutlined black: at least {100 * study.target:g}%; dashed red: the best design")
+             f"{'; '.join(judged)}\n{order}; {over}\noutlined black: at least {100 * study.target:g}%; dashed red: "
+             "the best design")
     return draw(data, clear, texts, reached, top_cell, [_label(v) for v in xs] if x else [""],
-                [_label(v) for v in ys] if y else [""], axis_label(x), axis_label(y), title)
+                [_label(v) for v in ys] if y else [""], axis_label(x), axis_label(y), title, tie_label=tie_label)
 
 
 def colons_phrase(colons: Sequence[int | str]) -> str:
@@ -506,9 +555,17 @@ def penetration_figure(result: StudyResult, design: dict[str, Any], run):
     s = np.arange(len(clearance)) * run.robot.feed
     names, starts, ends = colon_sections(design["worst_colon"], run)
     keys = ", ".join(f"{k} {_label(design[k])}" for k in result.study.design_keys)
-    pen = design["worst_penetration_mm"]
+    low = float(np.nanmin(clearance))
+    stopped = run.extra.get("summary", {}).get("stopped_at_wall_step")
+    if stopped:  # the colon the robot got least far in: its run ended where it left the lumen
+        path = run.extra["summary"]["path_steps"]
+        why = (f"the run ended where the robot left the lumen, {100.0 * (stopped - 1) / max(1, path - 1):.1f}% of "
+               "the way along: the least of its colons")
+        pen = run.summary.to_dict().get("max_penetration_mm") or 0.0
+    else:
+        why, pen = "its deepest into the wall", design["worst_penetration_mm"]
     title = (f"Worst colon ({colon_label(design['worst_colon'])}) of design #{design['design']} ({keys}):\n"
-             f"{pen:.2f} mm into the wall at worst, smallest clearance {np.nanmin(clearance):.2f} mm; "
+             f"{why};\n{pen:.2f} mm into the wall at worst, smallest clearance {low:.2f} mm; "
              f"{result.clearance_kind} clearance")
     return draw(s, clearance, names, starts, ends, title)
 
@@ -536,6 +593,7 @@ def _decided(result: StudyResult, best: dict[str, Any]) -> str:
     nxt = ranked[1]
     by = _separated_by(best, nxt)
     fields = {"pass rate": ("pass_rate", "{:.0%}"), "worst penetration": ("worst_penetration_mm", "{:.2f} mm"),
+              "median reach": ("median_reach_pct", "{:.1f}%"), "worst reach": ("worst_reach_pct", "{:.1f}%"),
               "worst clearance": ("worst_clearance_mm", "{:.2f} mm"),
               "median penetration": ("median_penetration_mm", "{:.2f} mm")}
     if by not in fields:
@@ -561,9 +619,12 @@ def answer_line(result: StudyResult) -> str:
                     f", worst clearance {best['worst_clearance_mm']:.2f} mm") + _decided(result, best))
     top = best_design(result)
     worst = "-" if top["worst_penetration_mm"] is None else f"{top['worst_penetration_mm']:.2f} mm"
+    how = (f"gets {top['median_reach_pct']:.1f}% of the way along the median colon before it leaves the lumen "
+           f"(worst {top['worst_reach_pct']:.1f}%), worst penetration {worst}" if top.get("stop_at_wall") and
+           top.get("median_reach_pct") is not None else f"worst penetration {worst}")
     return (f"No design traverses {pct} of the {len(study.colons)} colons; the best, design #{top['design']} "
             f"({_describe(study, top)}), traverses {top['traversed']}/{top['colons']} "
-            f"({100 * top['pass_rate']:.0f}%), worst penetration {worst}")
+            f"({100 * top['pass_rate']:.0f}%), {how}" + _decided(result, top))
 
 
 def format_study(result: StudyResult, count: int = 8) -> list[str]:
@@ -577,10 +638,16 @@ def format_study(result: StudyResult, count: int = 8) -> list[str]:
     lines.append(f"Robot judged: {'; '.join(judged)}" + (
         " -- the modules the solver moves, no body behind them (without --head-only: the whole robot to the cecum, "
         "moved by its wires)" if all(j.startswith("head only") for j in judged) else ""))
-    lines.append("Ranked by " + ", then ".join(RANKING[:4]) + "; 'ranked by': what puts a design ahead of the next")
+    at_wall = any(d.get("stop_at_wall") for d in result.designs)
+    words = RANKING_AT_WALL[:4] if at_wall else RANKING[:4]
+    lines.append("Ranked by " + ", then ".join(words) + "; 'ranked by': what puts a design ahead of the next"
+                 + ("; reach: how far along the colon (% of its length) the tip went before the robot left the lumen, "
+                    "where its run ended (--stop-at-wall)" if at_wall else ""))
     head = "  ".join(f"{k:>13}" for k in keys)
     proc = any(d.get("median_procedure_time_s") is not None for d in result.designs)
-    lines.append(f"{'#':>5}  {head}  {'traversed':>10}  {'worst pen':>9}  {'median pen':>10}  {'worst clear':>11}  "
+    lines.append(f"{'#':>5}  {head}  {'traversed':>10}" + (f"  {'median reach':>12}  {'worst reach':>11}" if at_wall
+                                                           else "")
+                 + f"  {'worst pen':>9}  {'median pen':>10}  {'worst clear':>11}  "
                  f"{'median contact':>14}  {'left lumen':>10}" + (f"  {'median time':>11}" if proc else "")
                  + "  ranked by")
     ranked = sorted(result.designs, key=_rank)
@@ -591,7 +658,10 @@ def format_study(result: StudyResult, count: int = 8) -> list[str]:
         mc = "-" if d["median_contact_length_mm"] is None else f"{d['median_contact_length_mm']:.1f}"
         wc = "-" if d["worst_clearance_mm"] is None else f"{d['worst_clearance_mm']:.2f}"
         pt = "-" if d.get("median_procedure_time_s") is None else format_duration(d["median_procedure_time_s"])
-        line = (f"{d['design']:>5}  {vals}  {100 * d['pass_rate']:>9.0f}%  {wp:>9}  {mp:>10}  {wc:>11}  {mc:>14}"
+        reach = "" if not at_wall else "".join(
+            f"  {'-' if d.get(k) is None else format(d[k], '.1f') + '%':>{w}}"
+            for k, w in (("median_reach_pct", 12), ("worst_reach_pct", 11)))
+        line = (f"{d['design']:>5}  {vals}  {100 * d['pass_rate']:>9.0f}%{reach}  {wp:>9}  {mp:>10}  {wc:>11}  {mc:>14}"
                 f"  {d['left_lumen']:>10}" + (f"  {pt:>11}" if proc else "") + f"  {d.get('ranked_by', '')}")
         lines.append(line.rstrip())
     if len(ranked) > count:

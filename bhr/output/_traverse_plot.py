@@ -15,7 +15,7 @@ __all__ = ["passrate_figure", "penetration_figure"]
 
 def passrate_figure(rate: np.ndarray, clear: np.ndarray, texts: Sequence[Sequence[str]], reached: np.ndarray,
                     best: tuple[int, int] | None, xticks: Sequence[str], yticks: Sequence[str], xlabel: str,
-                    ylabel: str, title: str) -> Figure:
+                    ylabel: str, title: str, tie_label: str = "worst clearance (mm)") -> Figure:
     """Pass rate per (x, y) cell as a colour map with each cell's text.
 
     Parameters
@@ -23,7 +23,8 @@ def passrate_figure(rate: np.ndarray, clear: np.ndarray, texts: Sequence[Sequenc
     rate : ndarray, shape (rows, cols)
         Share of colons traversed (0 ... 1; NaN: no design in the cell).
     clear : ndarray, shape (rows, cols)
-        The cell's worst clearance (mm; NaN unknown): the colour when every cell has the same pass rate.
+        The measure that ranks cells of one pass rate, higher better (by default the cell's worst clearance,
+        mm; NaN unknown): the colour when every cell has the same pass rate.
     texts : rows x cols str
         What each cell says.
     reached : ndarray of bool, shape (rows, cols)
@@ -32,6 +33,13 @@ def passrate_figure(rate: np.ndarray, clear: np.ndarray, texts: Sequence[Sequenc
         The best design's cell (outlined dashed red, marked "best").
     xticks, yticks, xlabel, ylabel, title : str
         Axis labels and the title.
+    tie_label : str, default "worst clearance (mm)"
+        What ``clear`` is, with its unit (the colour bar's label when it colours the map).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        The map, one cell per (x, y) design.
     """
     finite = rate[np.isfinite(rate)]
     # every cell at one pass rate (all through, say): a map of it would be one colour and hide what ranks them;
@@ -44,7 +52,7 @@ def passrate_figure(rate: np.ndarray, clear: np.ndarray, texts: Sequence[Sequenc
         lo, hi = float(np.nanmin(clear)), float(np.nanmax(clear))
         im = ax.imshow(clear, origin="lower", aspect="auto", cmap="viridis", vmin=lo, vmax=hi if hi > lo else lo + 1,
                        interpolation="nearest")
-        fig.colorbar(im, ax=ax, label=f"worst clearance (mm)\nthe tie-break: every cell {100 * float(finite[0]):.0f}%")
+        fig.colorbar(im, ax=ax, label=f"{tie_label}\nthe tie-break: every cell {100 * float(finite[0]):.0f}%")
     else:
         im = ax.imshow(rate * 100, origin="lower", aspect="auto", cmap="RdYlGn", vmin=0, vmax=100,
                        interpolation="nearest")

@@ -11,6 +11,9 @@ def test_a_whole_robot_writes_its_poses(run_bhr, tmp_path):
                   "--module-length", "5", "--body-modules", "12", "--no-plots", "--out", "run")
     assert res.returncode == 0, res.stderr
     assert "Wires: rigid modules driven by their wires" in res.stdout and "poses.npz" in res.stdout
+    # one procedure time in the summary: the board's schedule of codes.csv, as bhr plan gives it
+    timed = [ln for ln in res.stdout.splitlines() if "pace" in ln or "procedure" in ln.lower()]
+    assert len(timed) == 1 and timed[0].startswith("Procedure time on the board:"), timed
     doc = json.loads((tmp_path / "run" / "run.json").read_text())
     s = doc["summary"]
     assert s["locomotion"] == "wires" and s["poses_file"] == "poses.npz"

@@ -208,6 +208,30 @@ def test_a_pose_deeper_in_the_wall_than_the_robot_radius_has_left_the_lumen():
     assert s["left_lumen_reason"].startswith(f"left the lumen at step {deep[0]}: ")
 
 
+def test_stop_at_wall_ends_a_wires_run_where_it_leaves_the_lumen_as_the_whole_runs_first_steps():
+    """A study that must not score impossible poses ends each run where the robot left the lumen: the run stopped
+    there is the whole run's first steps (a pose depends only on the poses before it), poses and tables alike."""
+    tr = bhr.trajectory("anatomy", seed=1)
+    whole = follow(tr, solver="lumen", alpha=25, module_length=5, body_modules=30)
+    cut = follow(tr, solver="lumen", alpha=25, module_length=5, body_modules=30, stop_at_wall=True)
+    k = whole.summary.extra["left_lumen_step"]
+    assert k is not None and 1 < k < whole.steps
+    assert cut.steps == k and cut.finished == "stopped at the wall" and cut.status == "left the lumen"
+    s = cut.summary.extra
+    assert s["stopped_at_wall_step"] == k and s["path_steps"] == whole.steps and s["left_lumen_step"] == k
+    assert np.array_equal(cut.points, whole.points[:k]) and np.array_equal(cut.codes, whole.codes[:k])
+    assert np.array_equal(cut.body.points, whole.body.points[:k])
+    for name in ("joint_clear", "module_clear", "module_where", "step_joints", "step_codes"):
+        np.testing.assert_array_equal(getattr(cut.motion, name), getattr(whole.motion, name)[:k], err_msg=name)
+    P = cut.motion.points_mm.shape[0]
+    np.testing.assert_array_equal(cut.motion.points_mm, whole.motion.points_mm[:P])
+    assert cut.motion.step[-1] == k and whole.motion.step[P] == k + 1  # the poses of step k, whole, and no more
+    np.testing.assert_array_equal(cut.point_errors_mm, whole.point_errors_mm[:k])
+    assert cut.clearance.touch_steps == [t for t in whole.clearance.touch_steps if t <= k]
+    with pytest.raises(bhr.BhrError, match="trail model is an idealisation"):
+        follow(tr, solver="lumen", body_modules=30, locomotion="trail", stop_at_wall=True)
+
+
 @pytest.mark.run
 def test_poses_file_keeps_its_contract(wires_run, tmp_path):
     from bhr.output._steptable import write_poses

@@ -21,7 +21,7 @@ from bhr._settings.options import LIMITS
 from bhr._run.driver import BhrWarning
 from bhr.model._robot import Robot
 from bhr.model._generators import load_trajectory
-from bhr._studies.traverse import answer, build_study, design_rows, parse_colons, run_study
+from bhr._studies.traverse import _run_row, answer, build_study, design_rows, parse_colons, run_study
 from tests.conftest import bhr_exe
 
 PNG = b"\x89PNG\r\n\x1a\n"
@@ -305,7 +305,9 @@ def test_the_default_robot_is_the_whole_robot_to_the_cecum_moved_by_its_wires():
     from bhr._studies.traverse import robot_axes, robot_judged
 
     axes, solvers = robot_axes([("alpha", (20, 25))], ())
-    assert axes == [("alpha", (20, 25)), ("reach", ("cecum",))] and solvers == ("lumen",)
+    assert axes == [("alpha", (20, 25)), ("reach", ("cecum",)), ("stop_at_wall", (True,))] and solvers == ("lumen",)
+    # every run whole when each is to be replayed against the wall (--max-wall-force)
+    assert robot_axes([("alpha", (20, 25))], (), stop_at_wall=False)[0] == [("alpha", (20, 25)), ("reach", ("cecum",))]
     study = build_study(axes, "1", solvers=solvers)
     assert {robot_judged(study, d) for d in ({"alpha": 20, "reach": "cecum"},)} == {"whole robot (to the cecum)"}
     # a grid that sizes the robot is kept; the head alone when asked, with the thesis's solver
@@ -314,6 +316,59 @@ def test_the_default_robot_is_the_whole_robot_to_the_cecum_moved_by_its_wires():
     assert robot_judged(build_study([("alpha", (10,))], "1"), {"alpha": 10}) == "head only (5 modules)"
     with pytest.raises(BhrError, match="--head-only judges the head alone"):
         robot_axes([("reach", ("cecum",))], (), head_only=True)
+
+
+def _stopped_result(lefts):
+    """A whole-robot study whose runs end where the robot leaves the lumen: ``lefts[(alpha, seed)]`` is that step
+    (None: it stayed inside) of a 101-step path; every run touched the wall."""
+    study = build_study([("alpha", (20, 25, 30)), ("reach", ("cecum",)), ("stop_at_wall", (True,))], "1-3",
+                        solvers=("lumen",))
+    runs = [_run_row({"solver": "lumen", "alpha": a, "reach": "cecum", "stop_at_wall": True, "seed": s,
+                      "status": "ok", "steps": 101 if lefts[(a, s)] is None else lefts[(a, s)], "path_steps": 101,
+                      "wall_touch_steps": [2], "left_lumen_step": lefts[(a, s)],
+                      "max_penetration_mm": 0.2 * a / 10 + s / 100, "min_clearance_mm": -0.2 * a / 10 - s / 100},
+                     study.design_keys)
+            for a in (20, 25, 30) for s in (1, 2, 3)]
+
+    class R:
+        runner, wall_time_s, clearance_kind, failed = "in-process", 1.0, "geometric", []
+
+    r = R()
+    r.study, r.designs, r.runs = study, design_rows(study, runs, {}), runs
+    return r
+
+
+def test_a_study_stopped_where_the_robot_leaves_the_lumen_ranks_by_how_far_it_got():
+    """No design traverses: the one that gets furthest along the colons inside the lumen is ahead, and the table, the
+    answer and the map say so with the figures."""
+    from bhr._studies.traverse import answer_line, format_study, passrate_figure
+
+    r = _stopped_result({(20, 1): 11, (20, 2): 31, (20, 3): 51, (25, 1): 21, (25, 2): 41, (25, 3): None,
+                         (30, 1): 6, (30, 2): 41, (30, 3): 81})
+    by = {d["alpha"]: d for d in r.designs}
+    assert [by[a]["median_reach_pct"] for a in (20, 25, 30)] == [30.0, 40.0, 40.0]
+    assert [by[a]["worst_reach_pct"] for a in (20, 25, 30)] == [10.0, 20.0, 5.0]
+    assert [by[a]["rank"] for a in (25, 30, 20)] == [1, 2, 3]
+    assert by[25]["ranked_by"] == "worst reach" and by[30]["ranked_by"] == "median reach"
+    assert by[20]["worst_colon"] == 1 and by[30]["worst_colon"] == 1  # the colon it got least far in
+    assert by[20]["worst_penetration_mm"] == pytest.approx(0.43)  # the deepest of its runs (colon 3)
+    assert [run["reach_pct"] for run in r.runs[:3]] == [10.0, 30.0, 50.0]
+    line = answer_line(r)
+    assert "the best, design #2 (solver=lumen, alpha=25, reach=cecum, stop_at_wall=True), traverses 0/3 (0%)" in line
+    assert "gets 40.0% of the way along the median colon before it leaves the lumen (worst 20.0%)" in line
+    assert "ahead of design #3 by its worst reach, 20.0% against 5.0%" in line
+    lines = format_study(r)
+    assert any(x.startswith("Ranked by pass rate, then median reach, then worst reach, then worst penetration")
+               for x in lines)
+    assert "median reach" in lines[3] and lines[4].split()[:7] == ["2", "lumen", "25", "cecum", "True", "0%",
+                                                                 "40.0%"]
+    fig = passrate_figure(r, "alpha", None)
+    texts = [t.get_text() for t in fig.axes[0].texts]
+    assert any("reach 40% (worst 20%)" in t for t in texts), texts
+    assert "median reach inside the lumen" in fig.axes[0].get_title()
+    # every design at 0 %: the colour is the reach that ranks them
+    assert fig.axes[1].get_ylabel().startswith("median reach inside the lumen (% of the colon)")
+    assert list(np.asarray(fig.axes[0].images[0].get_array()).ravel()) == [30.0, 40.0, 40.0]
 
 
 def test_the_pass_rate_map_shows_ties_by_their_tie_break_and_marks_the_best():
