@@ -57,7 +57,8 @@ LUMEN_KEYS = ("max_penetration_mm", "wall_touch_steps", "contact_length_mm", "pr
               "left_lumen_step", "left_lumen_reason", "wall", "path_steps")
 #: Columns of designs.csv after the design's own keys.
 DESIGN_COLUMNS = ("robot_judged", "rank", "ranked_by", "colons", "traversed", "pass_rate", "failed_runs",
-                  "median_reach_pct", "worst_reach_pct", "worst_penetration_mm", "median_penetration_mm", "worst_clearance_mm", "median_contact_length_mm",
+                  "median_reach_pct", "worst_reach_pct", "worst_penetration_mm", "median_penetration_mm",
+                  "worst_clearance_mm", "median_contact_length_mm",
                   "worst_contact_length_mm", "median_touch_steps", "worst_colon", "min_turn_radius_mm",
                   "median_procedure_time_s", "worst_procedure_time_s", "left_lumen")
 #: Columns of runs.csv after the design's keys and the seed.
@@ -270,7 +271,8 @@ def _run_row(row: dict[str, Any], keys: Sequence[str]) -> dict[str, Any]:
         "tip_max_error_mm": row.get("tip_max_error_mm"),
         "modules": row.get("body_modules"),
         # a run stopped at the wall did not do the whole procedure
-        "procedure_time_s": row.get("procedure_time_s") if ok and row.get("finished") != "stopped at the wall" else None,
+        "procedure_time_s": (row.get("procedure_time_s") if ok and row.get("finished") != "stopped at the wall"
+                             else None),
         # a colon fails when the run fails or the robot left the lumen (bhr._run.clearance.left_lumen): the reason
         "left_lumen_step": row.get("left_lumen_step") if ok else None,
         "failure": (row.get("left_lumen_reason") or "") if ok else str(row["status"]),
