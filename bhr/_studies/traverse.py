@@ -160,9 +160,9 @@ def robot_axes(grid: Sequence[tuple[str, tuple[Any, ...]]], solvers: Sequence[st
                stop_at_wall: bool = True) -> tuple[list[tuple[str, tuple[Any, ...]]], tuple[str, ...]]:
     """The grid and solvers of ``bhr traverse``'s robot: by default the whole robot, long enough to reach the
     cecum (``reach=cecum``), with the lumen solver (so moved by its wires, the robot as it can be built) unless
-    solvers are given, every run ending where the robot first touches the wall (``stop_at_wall``: the verdict is
-    known there, and from there the wall pushes the robot, which the geometry does not simulate; designs are then
-    ranked by how far along the colons they get); ``head_only``: the head alone (the modules the solver moves),
+    solvers are given, every run ending where the robot leaves the lumen (``stop_at_wall``: the verdict is known
+    there, and no later pose a robot cannot take is scored; whole-robot designs are ranked by how far along the
+    colons they get); ``head_only``: the head alone (the modules the solver moves),
     with the thesis's solver unless solvers are given. A grid that sizes the robot (``body_modules``, ``reach``)
     is kept as it is."""
     axes = list(grid)
@@ -306,7 +306,7 @@ def design_rows(study: Study, runs: Sequence[dict[str, Any]], min_turn: dict[tup
         worst = max(pen, key=lambda p: (p[0], -(p[2] if p[2] is not None else math.inf), p[3])) if pen else None
         d = {"design": n, **dict(zip(keys, combo))}
         worst_colon = worst[1] if worst else None
-        if d.get("stop_at_wall") and reach:  # runs end out of the lumen: the worst colon is the one it got least far in
+        if by_reach(d) and reach:  # a whole robot: the worst colon is the one it got least far in
             worst_colon = min(reach)[2]
         d.update({
             "colons": len(rows),
@@ -339,15 +339,19 @@ def design_rows(study: Study, runs: Sequence[dict[str, Any]], min_turn: dict[tup
 
 #: What ranks designs, in order (:func:`_rank`): the words the tables and the figure use.
 RANKING = ("pass rate", "worst penetration", "worst clearance", "median penetration", "design order (a tie)")
-#: ... when every run ends where the robot leaves the lumen (``stop_at_wall``, the whole robot's study): how far
-#: along the colons each design gets inside the lumen, then how deep it went into the wall.
-RANKING_AT_WALL = ("pass rate", "median reach", "worst reach", "worst penetration", "design order (a tie)")
+#: ... of a whole robot (its runs ending where it leaves the lumen, ``stop_at_wall``, by default): how far along the
+#: colons each design gets inside the lumen, then how deep it went into the wall.
+RANKING_REACH = ("pass rate", "median reach", "worst reach", "worst penetration", "design order (a tie)")
+
+
+def by_reach(d: dict[str, Any]) -> bool:
+    """Design ``d`` is a whole robot (``reach`` or ``body_modules``): ranked by :data:`RANKING_REACH`."""
+    return d.get("reach") is not None or d.get("body_modules") is not None
 
 
 def ranking(d: dict[str, Any]) -> tuple[str, ...]:
-    """The words of what ranks design ``d``: :data:`RANKING_AT_WALL` when its runs end at the wall, else
-    :data:`RANKING`."""
-    return RANKING_AT_WALL if d.get("stop_at_wall") else RANKING
+    """The words of what ranks design ``d``: :data:`RANKING_REACH` for a whole robot, else :data:`RANKING`."""
+    return RANKING_REACH if by_reach(d) else RANKING
 
 
 def _separated_by(d: dict[str, Any], other: dict[str, Any]) -> str:
@@ -374,7 +378,7 @@ def robot_judged(study: "Study", d: dict[str, Any]) -> str:
 
 def _rank(d: dict[str, Any]) -> tuple[Any, ...]:
     inf = math.inf
-    if d.get("stop_at_wall"):
+    if by_reach(d):
         mr, wr, wp = d.get("median_reach_pct"), d.get("worst_reach_pct"), d.get("worst_penetration_mm")
         return (-d["pass_rate"], -mr if mr is not None else inf, -wr if wr is not None else inf,
                 wp if wp is not None else inf, d["design"])
@@ -452,7 +456,7 @@ def passrate_figure(result: StudyResult, x: str | None = None, y: str | None = N
             best[(j, i)] = d
             data[j, i] = d["pass_rate"]
     top = min(result.designs, key=_rank) if result.designs else None
-    at_wall = top is not None and bool(top.get("stop_at_wall"))
+    at_wall = top is not None and by_reach(top)
     # what ranks cells of one pass rate: how far along the colons the robot got (runs ended at the wall), else the
     # clearance it left
     tie_key, tie_label = (("median_reach_pct", "median reach inside the lumen (% of the colon)") if at_wall else
@@ -467,7 +471,7 @@ def passrate_figure(result: StudyResult, x: str | None = None, y: str | None = N
         text = "-" if not np.isfinite(v) else f"{100 * v:.0f}%"
         if cell is not None and data.size <= 200:
             text = f"rank {cell.get('rank', '')}: " + text
-            if cell.get("stop_at_wall") and cell.get("median_reach_pct") is not None:
+            if by_reach(cell) and cell.get("median_reach_pct") is not None:
                 text += f"\nreach {cell['median_reach_pct']:.0f}% (worst {cell['worst_reach_pct']:.0f}%)"
             if cell["worst_penetration_mm"] is not None:
                 text += f"\npen {cell['worst_penetration_mm']:.2f} mm"
@@ -478,8 +482,8 @@ def passrate_figure(result: StudyResult, x: str | None = None, y: str | None = N
     top_cell = next((c for c, d in best.items() if top is not None and d is top), None)
     over = f"best design over {', '.join(others)}" if others else "one design per cell"
     judged = sorted({d.get("robot_judged") or robot_judged(study, d) for d in result.designs})
-    order = ("ranked by pass rate, then median reach inside the lumen before the run ended there (reach, % of "
-             "the colon),\nthen worst reach, then worst penetration (pen)" if at_wall else
+    order = ("ranked by pass rate, then median reach (how far along the colon, %, before the robot left the "
+             "lumen),\nthen worst reach, then worst penetration (pen)" if at_wall else
              "ranked by pass rate, then worst penetration (pen), then worst clearance (clear)")
     title = (f"Share of {len(study.colons)} colons traversed without wall contact; robot judged: "
              f"{'; '.join(judged)}\n{order}; {over}\noutlined black: at least {100 * study.target:g}%; dashed red: "
@@ -622,7 +626,7 @@ def answer_line(result: StudyResult) -> str:
     top = best_design(result)
     worst = "-" if top["worst_penetration_mm"] is None else f"{top['worst_penetration_mm']:.2f} mm"
     how = (f"gets {top['median_reach_pct']:.1f}% of the way along the median colon before it leaves the lumen "
-           f"(worst {top['worst_reach_pct']:.1f}%), worst penetration {worst}" if top.get("stop_at_wall") and
+           f"(worst {top['worst_reach_pct']:.1f}%), worst penetration {worst}" if by_reach(top) and
            top.get("median_reach_pct") is not None else f"worst penetration {worst}")
     return (f"No design traverses {pct} of the {len(study.colons)} colons; the best, design #{top['design']} "
             f"({_describe(study, top)}), traverses {top['traversed']}/{top['colons']} "
@@ -640,11 +644,12 @@ def format_study(result: StudyResult, count: int = 8) -> list[str]:
     lines.append(f"Robot judged: {'; '.join(judged)}" + (
         " -- the modules the solver moves, no body behind them (without --head-only: the whole robot to the cecum, "
         "moved by its wires)" if all(j.startswith("head only") for j in judged) else ""))
-    at_wall = any(d.get("stop_at_wall") for d in result.designs)
-    words = RANKING_AT_WALL[:4] if at_wall else RANKING[:4]
+    at_wall = any(by_reach(d) for d in result.designs)
+    words = RANKING_REACH[:4] if at_wall else RANKING[:4]
+    ended = any(d.get("stop_at_wall") for d in result.designs)
     lines.append("Ranked by " + ", then ".join(words) + "; 'ranked by': what puts a design ahead of the next"
-                 + ("; reach: how far along the colon (% of its length) the tip went before the robot left the lumen, "
-                    "where its run ended (--stop-at-wall)" if at_wall else ""))
+                 + ("; reach: how far along the colon (% of its length) the tip went before the robot left the lumen"
+                    + (", where its run ended (--stop-at-wall)" if ended else "") if at_wall else ""))
     head = "  ".join(f"{k:>13}" for k in keys)
     proc = any(d.get("median_procedure_time_s") is not None for d in result.designs)
     lines.append(f"{'#':>5}  {head}  {'traversed':>10}" + (f"  {'median reach':>12}  {'worst reach':>11}" if at_wall

@@ -2,17 +2,23 @@
 verdicts side by side, per design and robot length, over anatomical colons.
 
     python tests/benchmarks/binary_robot_table.py --colons 1-20 --alpha 20,25,30 --module 5,6 \
-        --length 0.3,0.7,1.5,cecum [--json out.json]
+        --length 0.3,0.7,1.5,cecum [--stop-at-wall] [--json out.json]
 
 Prints a Markdown table: per design, the colons traversed (no module touching the wall at any moment) by the
 ideal follow-the-leader (not buildable) and by the rigid robot driven by its wires, the worst penetration of
 each, and the wires' largest distance from the trail; and the CPU seconds it took.
+
+``--stop-at-wall``: each run of the wires ends where the robot leaves the lumen (the verdict is the same: it
+touched the wall; no pose after it is scored). The table then gives, for the wires, on how many colons the robot
+left the lumen and how far along the colon it got first (the median over the colons, % of the colon's length);
+its penetration and distance from the trail are those up to there.
 """
 from __future__ import annotations
 
 import argparse
 import json
 import resource
+import statistics
 import warnings
 
 
@@ -38,6 +44,7 @@ def main() -> None:
     ap.add_argument("--alpha", default="20,25,30")
     ap.add_argument("--module", default="5,6")
     ap.add_argument("--length", default="0.3,0.7,1.5,cecum")
+    ap.add_argument("--stop-at-wall", action="store_true", help="end each wires run where the robot leaves the lumen")
     ap.add_argument("--json")
     a = ap.parse_args()
     rows = []
@@ -53,21 +60,30 @@ def main() -> None:
                             {"body_modules": int(round(float(length) * 1000 / L))}
                         with warnings.catch_warnings():
                             warnings.simplefilter("ignore", BhrWarning)
-                            run = follow(tr, solver="lumen", alpha=alpha, module_length=L, locomotion=model, **kw)
+                            run = follow(tr, solver="lumen", alpha=alpha, module_length=L, locomotion=model,
+                                         stop_at_wall=a.stop_at_wall and model == "wires", **kw)
                         s = run.summary.extra
+                        left = s.get("left_lumen_step")
+                        path = s.get("path_steps", run.steps)
                         res.append({"colon": seed, "touch": bool(s.get("wall_touch_steps")),
                                     "pen": float(s.get("max_penetration_mm", 0.0)),
                                     "offset": float(s.get("max_trail_offset_mm", 0.0)),
-                                    "short": float(s.get("cecum_shortfall_mm", 0.0))})
+                                    "short": float(s.get("cecum_shortfall_mm", 0.0)), "left_lumen_step": left,
+                                    "reach_pct": 100.0 if left is None else 100.0 * (left - 1) / (path - 1)})
                     rows.append({"alpha": alpha, "module_mm": L, "length": length, "model": model, "colons": res})
                     ok = sum(not r["touch"] for r in res)
                     print(f"alpha {alpha:g} module {L:g} length {length} {model}: {ok}/{len(res)} traversed, worst "
                           f"pen {max(r['pen'] for r in res):.2f} mm, offset {max(r['offset'] for r in res):.1f} mm "
                           f"({_cpu() - t0:.0f} s CPU so far)", flush=True)
     print()
-    print("| α | module | robot | ideal (trail): traversed | worst pen | physical (wires): traversed | worst pen | "
-          "off the trail |")
-    print("|---|---|---|---|---|---|---|---|")
+    if a.stop_at_wall:
+        print("| α | module | robot | ideal (trail): traversed | worst pen | physical (wires): traversed | left the "
+              "lumen | median reach | off the trail |")
+        print("|---|---|---|---|---|---|---|---|---|")
+    else:
+        print("| α | module | robot | ideal (trail): traversed | worst pen | physical (wires): traversed | worst pen | "
+              "off the trail |")
+        print("|---|---|---|---|---|---|---|---|")
     for i in range(0, len(rows), 2):
         t, w = rows[i], rows[i + 1]
         n = len(t["colons"])
@@ -79,8 +95,15 @@ def main() -> None:
             return max(c["pen"] for c in r["colons"])
 
         length = t["length"] if t["length"] == "cecum" else f"{float(t['length']):g} m"
-        print(f"| {t['alpha']:g}° | {t['module_mm']:g} mm | {length} | {ok(t)}/{n} | {pen(t):.1f} mm | {ok(w)}/{n} | "
-              f"{pen(w):.1f} mm | {max(c['offset'] for c in w['colons']):.0f} mm |")
+        off = f"{max(c['offset'] for c in w['colons']):.0f} mm"
+        if a.stop_at_wall:
+            left = sum(c["left_lumen_step"] is not None for c in w["colons"])
+            reach = statistics.median(c["reach_pct"] for c in w["colons"])
+            print(f"| {t['alpha']:g}° | {t['module_mm']:g} mm | {length} | {ok(t)}/{n} | {pen(t):.1f} mm | "
+                  f"{ok(w)}/{n} | {left}/{n} | {reach:.0f} % | {off} |")
+        else:
+            print(f"| {t['alpha']:g}° | {t['module_mm']:g} mm | {length} | {ok(t)}/{n} | {pen(t):.1f} mm | "
+                  f"{ok(w)}/{n} | {pen(w):.1f} mm | {off} |")
     print(f"\n{_cpu() - t0:.0f} s CPU")
     if a.json:
         with open(a.json, "w") as fh:

@@ -365,7 +365,8 @@ def test_a_study_stopped_where_the_robot_leaves_the_lumen_ranks_by_how_far_it_go
     fig = passrate_figure(r, "alpha", None)
     texts = [t.get_text() for t in fig.axes[0].texts]
     assert any("reach 40% (worst 20%)" in t for t in texts), texts
-    assert "median reach inside the lumen" in fig.axes[0].get_title()
+    assert "then median reach (how far along the colon, %, before the robot left the lumen)" in \
+        fig.axes[0].get_title()
     # every design at 0 %: the colour is the reach that ranks them
     assert fig.axes[1].get_ylabel().startswith("median reach inside the lumen (% of the colon)")
     assert list(np.asarray(fig.axes[0].images[0].get_array()).ravel()) == [30.0, 40.0, 40.0]
