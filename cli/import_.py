@@ -52,14 +52,15 @@ def import_(source, centerline, label, start, smooth_mm, spacing, voxel_mm, out_
     from pathlib import Path
 
     from bhr.cli._common import check_writable
-    from bhr.model._importer import SEGMENTATION_SUFFIXES, import_colon
+    from bhr.model._importer import SEGMENTATION_SUFFIXES, check_source, import_colon
     from bhr.output._atomic import atomic_path, write_text
     from bhr._settings.errors import BhrError
 
     src = Path(source)
+    check_source(src, centerline)  # before --out, which is named after it (/dev/null is a device, not a name)
     stem = src.name
     for suf in (*SEGMENTATION_SUFFIXES, src.suffix):
-        if stem.lower().endswith(suf):
+        if suf and stem.lower().endswith(suf):
             stem = stem[: -len(suf)]
             break
     out = Path(out_path) if out_path is not None else Path(f"{stem}.csv")

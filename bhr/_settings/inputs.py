@@ -20,7 +20,8 @@ from bhr._settings.options import type_name as _type_name
 __all__ = ["MAX_REASON_CHARS", "reason",
            "MAX_FILE_BYTES", "MAX_RUN_BYTES", "MAX_MM", "MAX_POINTS", "MAX_STEP_POINTS", "read_capped", "read_text",
            "read_toml", "check_keys", "type_name", "number", "vector3", "text_value", "choice", "did_you_mean",
-           "parse_number", "check_number", "excerpt", "check_regular", "broken_link", "latest_note"]
+           "parse_number", "check_number", "excerpt", "check_regular", "check_input", "shown_path", "broken_link",
+           "latest_note"]
 
 #: Input files larger than this are refused: at most this many bytes are ever read, whatever the file's size
 #: reads as (a link to /dev/zero reads as 0 bytes and never ends).
@@ -61,9 +62,11 @@ def latest_note(p: Path) -> str:
     return ""
 
 
-def read_text(path: str | os.PathLike[str], what: str, hint: str, limit: int | None = None) -> str:
+def read_text(path: str | os.PathLike[str], what: str, hint: str, limit: int | None = None, *,
+              empty_ok: bool = False) -> str:
     """The UTF-8 text of ``path`` (at most ``limit`` bytes, :data:`MAX_FILE_BYTES` by default); a BhrError
-    naming ``what`` and ``hint`` otherwise."""
+    naming ``what`` and ``hint`` otherwise, also for a file of no text (nothing, or only white space) unless
+    ``empty_ok``."""
     p = Path(path)
     try:
         if p.is_dir():
@@ -87,6 +90,8 @@ def read_text(path: str | os.PathLike[str], what: str, hint: str, limit: int | N
     if "\x00" in text:
         line = text[:text.index("\x00")].count("\n") + 1
         raise BhrError(f"{p}, line {line}: binary data (a NUL byte); give a {what} in text form ({hint})")
+    if not empty_ok and not text.strip():
+        raise BhrError(f"{p} is empty ({'only white space' if text else '0 bytes'}), not a {what}; {hint}")
     return text
 
 
@@ -97,13 +102,11 @@ def read_capped(path: str | os.PathLike[str], what: str, hint: str, limit: int |
     FIFOs report 0 and may never end. A longer input is refused.
     """
     limit = MAX_FILE_BYTES if limit is None else limit
-    import stat as _stat
-
     check_regular(path, what, hint)  # before open(): opening a FIFO waits for a writer forever
     with open(path, "rb") as fh:
-        mode = os.fstat(fh.fileno()).st_mode
-        if _stat.S_ISCHR(mode) or _stat.S_ISBLK(mode):
-            raise BhrError(f"{path} is a device, not a {what}; {hint}")
+        kind = _special_kind(os.fstat(fh.fileno()).st_mode)
+        if kind:  # it became one between the check and open()
+            raise BhrError(f"{path} is {kind}, not a {what}; {hint}")
         raw = fh.read(limit + 1)
     if len(raw) > limit:
         raise BhrError(f"{path} is larger than {limit // (1024 * 1024)} MiB, too large for a {what}; {hint}")
@@ -137,22 +140,76 @@ def check_regular(path: str | os.PathLike[str], what: str, hint: str) -> None:
     Opening a FIFO blocks until someone writes to it, a device may never end:
     an input file must be a file. Missing files are left to the reader's own message.
     """
-    import stat as _stat
-
     try:
         mode = os.stat(path).st_mode
     except OSError:
         return
-    kinds = ((_stat.S_ISFIFO, "a FIFO (named pipe)"), (_stat.S_ISSOCK, "a socket"), (_stat.S_ISCHR, "a device"),
-             (_stat.S_ISBLK, "a device"))
-    for test, kind in kinds:
-        if test(mode):
-            raise BhrError(f"{_excerpt(str(path), 80)} is {kind}, not a {what}; {hint}")
+    kind = _special_kind(mode)
+    if kind:
+        raise BhrError(f"{shown_path(path)} is {kind}, not a {what}; {hint}")
 
 
-def read_toml(path: str | os.PathLike[str], what: str, hint: str) -> dict[str, Any]:
-    """Parse ``path`` as TOML; a BhrError naming the line on a syntax error."""
-    text = read_text(path, what, hint)
+def shown_path(path: str | os.PathLike[str]) -> str:
+    """``path`` as a one-line message shows it: as given, or quoted and escaped when it holds a control character
+    (a line break in a file name would forge a second line)."""
+    text = str(path)
+    return _excerpt(text, 200) if has_control_char(text) else text
+
+
+def _special_kind(mode: int) -> str | None:
+    """What a file of ``mode`` is when it is neither a regular file nor a folder: "a FIFO (named pipe)", "a socket",
+    "a character device" or "a block device"; None otherwise."""
+    import stat as _stat
+
+    kinds = ((_stat.S_ISFIFO, "a FIFO (named pipe)"), (_stat.S_ISSOCK, "a socket"),
+             (_stat.S_ISCHR, "a character device"), (_stat.S_ISBLK, "a block device"))
+    return next((kind for test, kind in kinds if test(mode)), None)
+
+
+def check_input(path: str | os.PathLike[str], what: str, hint: str, *, empty_ok: bool = False) -> Path:
+    """``path`` as a Path when it is a regular file that bhr can read and (unless ``empty_ok``) holds at least a byte.
+
+    Otherwise a BhrError, one line naming what the path is and ``hint``: missing (or a symbolic link that leads
+    nowhere), a folder, a FIFO, socket or device (never opened: opening a FIFO waits for a writer), not readable,
+    or empty. For readers that do not go through :func:`read_text` (meshes, images), before they dispatch on the
+    file's extension, so that ``/dev/null`` is named a device rather than a file of the wrong type.
+    """
+    import stat as _stat
+
+    p = Path(path)
+    shown = shown_path(p)
+    try:
+        mode = os.stat(p).st_mode
+    except FileNotFoundError:
+        link = broken_link(p)
+        raise BhrError(f"{link}; {hint}" if link else f"no such {what} {shown}{latest_note(p)}; {hint}") from None
+    except PermissionError:
+        raise BhrError(f"cannot reach {what} {shown}: permission denied on a folder on its way; {hint}") from None
+    except OSError as exc:
+        link = broken_link(p)
+        raise BhrError(f"{link}; {hint}" if link else
+                       f"cannot read {what} {shown} ({exc.strerror or exc.__class__.__name__}); {hint}") from None
+    if _stat.S_ISDIR(mode):
+        raise BhrError(f"{shown} is a folder, not a {what}; {hint}")
+    kind = _special_kind(mode)
+    if kind:
+        raise BhrError(f"{shown} is {kind}, not a {what}; {hint}")
+    try:
+        with open(p, "rb") as fh:
+            first = fh.read(1)
+    except PermissionError:
+        raise BhrError(f"cannot read {what} {shown}: permission denied (it must be readable by you); {hint}") from None
+    except OSError as exc:
+        raise BhrError(f"cannot read {what} {shown} ({exc.strerror or exc.__class__.__name__}); {hint}") from None
+    if not first and not empty_ok:
+        raise BhrError(f"{shown} is empty (0 bytes), not a {what}; {hint}")
+    return p
+
+
+def read_toml(path: str | os.PathLike[str], what: str, hint: str, *, empty_ok: bool = False) -> dict[str, Any]:
+    """Parse ``path`` as TOML; a BhrError naming the line on a syntax error (and, unless ``empty_ok``, for an
+    empty file)."""
+    text = read_text(path, what, hint, empty_ok=empty_ok)
     try:
         return tomllib.loads(text, parse_float=file_float)
     except Underflow as exc:

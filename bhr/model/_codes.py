@@ -210,7 +210,7 @@ def read_codes_csv(path: str | os.PathLike[str]) -> tuple[list[int], np.ndarray]
         raise BhrError(f"{p}: more than {MAX_POINTS} steps; split the file ({hint})")
     rows = [r for r in rows if any(cell.strip() for cell in r)]
     if not rows:
-        raise BhrError(f"{p} is empty; expected a header 'step,m1,...,mN' and one row per step")
+        raise BhrError(f"{p} is empty; {hint} (a header 'step,m1,...,mN' and one row per step)")
     header = [h.strip() for h in rows[0]]
     n = len(header) - 1
     if n > LIMITS["code_modules"]:

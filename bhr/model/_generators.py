@@ -29,7 +29,7 @@ import numpy as np
 
 import bhr.model._pathfile as pathfile
 from bhr._settings.options import check_number, did_you_mean, excerpt
-from bhr._settings.inputs import check_keys, number, name_value, read_toml, text_value
+from bhr._settings.inputs import check_input, check_keys, number, name_value, read_toml, text_value
 from bhr._settings.errors import BhrError
 from bhr.model._anatomy import anatomical_colon, check_seed
 from bhr.model._pathfile import MAX_POINTS
@@ -424,6 +424,8 @@ def _generator_lumen(spec: Any, gen_name: str, traj: Trajectory, feed: float, wh
 def _from_file(path: Path, feed: float, params: dict[str, Any], builtin: bool) -> Trajectory:
     """A trajectory file: TOML (a generator and its parameters, or segments) or CSV (points)."""
     suffix = path.suffix.lower()
+    # a folder or a device is named as one, whatever its extension
+    check_input(path, "trajectory file", f"give a .toml (a generator or segments) or .csv (points) file; {_HINT}")
     if suffix not in (".toml", ".csv"):
         raise BhrError(f"{path}: trajectory files are .toml (a generator or segments) or .csv (points); {_HINT}")
     given = {k: v for k, v in params.items() if v is not None}

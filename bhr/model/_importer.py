@@ -31,6 +31,7 @@ from typing import Any
 import numpy as np
 
 from bhr._settings.errors import BhrError
+from bhr._settings.inputs import check_input
 
 __all__ = ["Imported", "import_colon", "mask_surface", "SURFACE_TRIANGLES", "longest_path", "smooth_path",
            "resample_arc", "MESH_SUFFIXES",
@@ -259,6 +260,16 @@ def mask_surface(mask: np.ndarray, affine: np.ndarray, report: list[str], sigma_
     return out
 
 
+def check_source(source: str | Path, centerline: str | Path | None = None) -> None:
+    """Refuse a ``source`` (or a ``centerline``) that is not a readable, non-empty file (missing, a folder, a device,
+    a FIFO) in one line naming what it is and what to give instead, before anything is read."""
+    check_input(source, "surface mesh or segmentation", f"give a surface mesh ({', '.join(MESH_SUFFIXES)}) or a "
+                f"segmentation ({', '.join(SEGMENTATION_SUFFIXES)})")
+    if centerline is not None:
+        check_input(centerline, "centerline CSV", "give the colon's centerline as a CSV of x,y,z[,section] in mm, "
+                    "anus first, or leave --centerline out to extract it from the surface")
+
+
 def import_colon(source: str | Path, *, centerline: str | Path | None = None, label: int | None = None,
                  start: tuple[float, float, float] | None = None, smooth_mm: float = 3.0, spacing: float = 1.0,
                  voxel_mm: float = 1.0) -> Imported:
@@ -269,9 +280,7 @@ def import_colon(source: str | Path, *, centerline: str | Path | None = None, la
     st = None if start is None else np.asarray(start, dtype=np.float64)
     if not (spacing > 0 and smooth_mm >= 0 and voxel_mm > 0):
         raise BhrError("--spacing and --voxel must be greater than 0 mm and --smooth at least 0 mm")
-    if not src.is_file():
-        raise BhrError(f"{src}: no such file; give a surface mesh ({', '.join(MESH_SUFFIXES)}) or a segmentation "
-                       f"({', '.join(SEGMENTATION_SUFFIXES)})")
+    check_source(src, centerline)
     sections_raw: list[str] | None = None
     mesh = None
     dist_fn: Any = None

@@ -22,7 +22,8 @@ from importlib import resources
 from pathlib import Path
 from typing import Any, Sequence
 
-from bhr._settings.inputs import check_keys, name_value, number, read_text, read_toml, text_value, type_name
+from bhr._settings.inputs import check_input, check_keys, name_value, number, read_text, read_toml, text_value
+from bhr._settings.inputs import type_name
 from bhr.model._codes import CODE_AXIS, LIFT, REST, VALID_CODES
 from bhr._settings.errors import BhrError
 from bhr._settings.options import Underflow, by_group, excerpt, file_float, has_control_char, parse_number
@@ -361,12 +362,16 @@ def load_robot_file(path: str | os.PathLike[str]) -> RobotFile:
     p = Path(path)
     where = str(p)
     suffix = p.suffix.lower()
-    if suffix not in (".toml", ".json") and not p.is_dir() and p.exists():
+    hint = f"give a robot description such as {default_robot_file()}"
+    # a folder, a device, a FIFO or an unreadable file is named as what it is, before its extension is judged;
+    # an empty TOML file is the thesis's robot (every key has a default)
+    check_input(p, "robot file", hint, empty_ok=True)
+    if suffix not in (".toml", ".json"):
         raise BhrError(f"{where}: robot files are TOML (.toml) or JSON (.json), or a run.json; {HINT}")
-    if suffix == ".json" and not p.is_dir():
+    if suffix == ".json":
         data = read_json_robot(p)
     else:
-        data = read_toml(p, "robot file", f"give a robot description such as {default_robot_file()}")
+        data = read_toml(p, "robot file", hint, empty_ok=True)
     check_keys(data, TOP_KEYS, where)
     name = name_value(data.get("name", p.stem), f"{where}: name")
     description = text_value(data.get("description", ""), f"{where}: description")

@@ -34,6 +34,7 @@ import numpy as np
 from numba import njit
 
 from bhr._settings.errors import BhrError
+from bhr._settings.inputs import check_input
 from bhr.model._tube import scored_span
 
 __all__ = ["SdfGrid", "MIN_INSIDE", "wall_grid", "GRID_MM", "MARGIN_MM", "have_vtk", "load_sdf", "sdf_values",
@@ -101,8 +102,7 @@ def read_mesh(path: str | os.PathLike[str]):
     kind = readers.get(p.suffix.lower())
     if kind is None:
         raise BhrError(f"{p}: a surface mesh must be .vtp, .vtk, .stl, .ply or .obj, got {p.suffix or 'no extension'}")
-    if not p.is_file():
-        raise BhrError(f"{p}: no such mesh file")
+    check_input(p, "surface mesh", "give a surface mesh (.vtp, .vtk, .stl, .ply or .obj) in mm")
     from vtkmodules.vtkCommonCore import vtkObject
 
     r = kind()

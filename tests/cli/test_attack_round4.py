@@ -34,7 +34,7 @@ def _not_a_file(folder: Path, kind: str) -> str:
 
 @pytest.mark.parametrize("kind, words", [("fifo", "is a FIFO (named pipe), not a run file"),
                                          ("socket", "is a socket, not a run file"),
-                                         ("device", "is a device, not a run file"),
+                                         ("device", "is a character device, not a run file"),
                                          ("folder", "is a folder; give the run.json inside it")])
 def test_physics_names_a_run_file_that_is_not_a_file(tmp_path, kind, words):
     # it was "no such run file" for all four: the file is there, it is the wrong kind

@@ -121,7 +121,7 @@ CASES += [
     Bad("workspace-no-samples", "workspace", ["--modules", "12", "--samples", "0"], expect="samples must be greater"),
     Bad("workspace-figure-format", "workspace", ["--modules", "2", "--plot", "w.jpg"], expect=".png, .svg or .pdf"),
     Bad("workspace-zero-modules", "workspace", ["--modules", "0"], expect="modules must be greater than 0"),
-    Bad("import-missing-mesh", "import", ["no-such.stl"], expect="no such file"),
+    Bad("import-missing-mesh", "import", ["no-such.stl"], expect="no such surface mesh"),
     Bad("import-start-two-numbers", "import", ["m.stl", "--start", "1,2"], files={"m.stl": "solid x\nendsolid x\n"},
         expect="--start must be three"),
     Bad("import-not-a-mesh", "import", ["m.vtp", "--start", "0,0,0", "--out", "c.csv"], files={"m.vtp": "not a mesh\n"},
@@ -183,7 +183,7 @@ CASES += [
     # follow: trajectory files (TOML)
     Bad("traj-toml-garbled", "follow", ["--traj", "p.toml"], seg("[[segment]\ntype = 'straight'\n"), "not valid TOML"),
     Bad("traj-toml-binary", "follow", ["--traj", "p.toml"], {"p.toml": b"\xff\xfe\x00\x01"}, "p.toml"),
-    Bad("traj-toml-empty", "follow", ["--traj", "p.toml"], seg(""), "neither generator"),
+    Bad("traj-toml-empty", "follow", ["--traj", "p.toml"], seg(""), "p.toml is empty"),
     Bad("traj-toml-unknown-key", "follow", ["--traj", "p.toml"], seg(SEG + "colour = 'red'\n"), "unknown key 'colour'"),
     Bad("traj-toml-unknown-top-key", "follow", ["--traj", "p.toml"], seg("speed = 3\n" + SEG), "unknown key 'speed'"),
     Bad("traj-toml-wrong-type", "follow", ["--traj", "p.toml"], seg('[[segment]]\ntype="straight"\nlength="40"\n'),
@@ -219,7 +219,7 @@ CASES += [
     # follow: trajectory files (CSV)
     Bad("traj-csv-one-point", "follow", ["--traj", "p.csv"], {"p.csv": "x,y,z\n1,2,3\n"}, "two distinct points"),
     Bad("traj-csv-no-points", "follow", ["--traj", "p.csv"], {"p.csv": "x,y,z\n"}, "two distinct points"),
-    Bad("traj-csv-empty", "follow", ["--traj", "p.csv"], {"p.csv": ""}, "no header"),
+    Bad("traj-csv-empty", "follow", ["--traj", "p.csv"], {"p.csv": ""}, "p.csv is empty"),
     Bad("traj-csv-in-metres", "follow", ["--traj", "p.csv"],
         {"p.csv": "x,y,z,lumen\n0,0,0,0.04\n0.3,0,0,0.04\n0.3,0.2,0,0.04\n"}, "multiplying by 1000"),
     Bad("traj-csv-all-same", "follow", ["--traj", "p.csv"], {"p.csv": "x,y,z\n1,1,1\n1,1,1\n"}, "distinct"),

@@ -21,8 +21,8 @@ def test_the_command_writes_the_trajectory_and_its_surface_and_refuses_bad_input
     assert "branch selection" in r.stdout and out.is_file() and out.with_suffix(".vtp").is_file()
     t = load_trajectory(out, feed=2.0)
     assert t.mesh == str(out.with_suffix(".vtp")) and t.lumen is not None
-    for args, msg in ((["/no/such.stl"], "no such file"), ([str(src), "--start", "1,2"], "--start must be three"),
-                      ([str(tmp_path / "x.txt")], "no such file")):
+    for args, msg in ((["/no/such.stl"], "no such surface mesh"), ([str(src), "--start", "1,2"], "--start must be three"),
+                      ([str(tmp_path / "x.txt")], "no such surface mesh")):
         r = subprocess.run([sys.executable, "-m", "bhr.cli.main", "import", *args], capture_output=True, text=True)
         assert r.returncode != 0 and msg in r.stderr and "Traceback" not in r.stderr
         assert len(r.stderr.strip().splitlines()) == 1

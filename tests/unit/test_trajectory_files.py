@@ -288,7 +288,7 @@ def test_csv_semicolons_and_column_order(tmp_path):
 @pytest.mark.parametrize("text, message", [
     ("x,y,z\n0,0,0\n", "1 point; a path needs at least two distinct points"),
     ("x,y,z\n", "0 points"),
-    ("", "no header and no points"),
+    ("", "bad.csv is empty (0 bytes), not a trajectory file"),
     ("x,y,z\n1,1,1\n1,1,1\n1,1,1\n", "every point is the same"),
     ("x,y,z\n0,0,0\n5,0,0\n5,0,0\n9,0,0\n", "line 4: repeats the point of line 3"),
     ("x,y,z\n0,0,0\n5,nan,0\n", "line 3: y = nan is not a finite number"),
