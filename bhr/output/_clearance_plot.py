@@ -8,6 +8,7 @@ from matplotlib.figure import Figure
 
 if TYPE_CHECKING:  # pragma: no cover
     from bhr._run.driver import FollowResult
+from bhr._settings.errors import BhrError
 from bhr.output._figure import margins, subplots
 from bhr.output._scene import draw_contact_steps, draw_sections, mark_wall_touches
 
@@ -27,9 +28,17 @@ def clearance_figure(result: "FollowResult") -> Figure:
     matplotlib.figure.Figure
         One panel: the smallest clearance of the robot's points and modules (mm) against trajectory step
         (1-based), its minimum marked; ``bhr follow`` saves it as ``clearance.png``.
+
+    Raises
+    ------
+    BhrError
+        A run along a trajectory without a lumen (nothing to measure the clearance against).
     """
     cl = result.clearance
-    assert cl is not None, "clearance_figure needs a trajectory with a lumen"
+    if cl is None:
+        raise BhrError(f"clearance_figure needs a run along a trajectory with a lumen, and {result.trajectory.name} "
+                       "has none; follow a colon (bhr.trajectory(\"colon\")) or a trajectory file with a lumen "
+                       "column")
     steps = np.arange(1, result.steps + 1)
     fig, ax = subplots(figsize=(10, 4), gridspec_kw=margins(10, 4, 1, 1, left=0.75, top=0.4))  # fixed layout
     draw_sections(ax, result)

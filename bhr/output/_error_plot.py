@@ -9,6 +9,8 @@ from matplotlib.figure import Figure
 
 if TYPE_CHECKING:  # pragma: no cover
     from bhr._run.driver import FollowResult
+from bhr._settings.errors import BhrError
+from bhr._settings.options import excerpt
 from bhr.output._figure import amount, light_ticks, margins, mark_worst, subplots
 from bhr.output._scene import draw_sections, mark_wall_touches
 
@@ -39,8 +41,8 @@ def _unit(kind: str) -> str:
 
 
 def error_data(result: "FollowResult", kind: str) -> np.ndarray:
-    if kind not in ERROR_KINDS:
-        raise ValueError(f"kind must be one of {', '.join(ERROR_KINDS)}")
+    if not isinstance(kind, str) or kind not in ERROR_KINDS:
+        raise BhrError(f"unknown error kind {excerpt(kind)}; give one of {', '.join(ERROR_KINDS)}")
     return {"position": result.point_errors_mm, "orientation": result.orientation_errors_deg,
             "global": result.global_errors}[kind]
 
@@ -87,7 +89,7 @@ class ErrorGrid:
         result, cols = self.result, self.cols
         data = error_data(result, kind)
         if data.shape[0] != self.n or error_grid_shape(data.shape[1]) != (self.rows, cols):
-            raise ValueError(f"{kind} errors do not fit this grid")
+            raise ValueError(f"{kind} errors do not fit this grid")  # internal: ErrorGrid is made for one result
         tol = {"position": result.robot.tol_pos, "orientation": result.robot.tol_ori, "global": 1.0}[kind]
         unit = _unit(kind)
         _, title, ylabel = ERROR_KINDS[kind]
@@ -146,7 +148,7 @@ def error_figure(result: "FollowResult", kind: str) -> Figure:
 
     Raises
     ------
-    ValueError
+    BhrError
         An unknown ``kind``.
 
     Examples
@@ -175,9 +177,16 @@ def body_figure(result: "FollowResult") -> Figure:
     matplotlib.figure.Figure
         One panel: position error (mm) against trajectory step (1-based); ``bhr follow`` saves it as
         ``body_errors.png``.
+
+    Raises
+    ------
+    BhrError
+        A run without a body (the head alone).
     """
     b = result.body
-    assert b is not None, "body_figure needs a run with a body (follow(..., body_modules=M))"
+    if b is None:
+        raise BhrError("body_figure needs a run with a body behind the head; run bhr.follow(..., body_modules=M) "
+                       "or bhr.follow(..., reach=\"cecum\")")
     steps = np.arange(1, result.steps + 1)
     fig, ax = subplots(figsize=(10, 4))
     draw_sections(ax, result)
