@@ -20,6 +20,7 @@ from bhr import _numba  # noqa: F401  (sets NUMBA_CACHE_DIR before numba loads)
 from bhr._settings.errors import BhrError, LinkError
 
 if TYPE_CHECKING:  # what the lazy names below are, for type checkers
+    from bhr._run.driver import FollowResult as FollowResult
     from bhr._run.driver import follow as follow
     from bhr.model._generators import trajectory as trajectory
     from bhr.model._path import Trajectory as Trajectory
@@ -30,11 +31,12 @@ if TYPE_CHECKING:  # what the lazy names below are, for type checkers
 
 __version__ = "0.1.0"
 
-__all__ = ["BhrError", "LinkError", "Robot", "Solver", "Trajectory", "follow", "trajectory", "solve", "joint_values",
-           "__version__"]
+__all__ = ["BhrError", "LinkError", "Robot", "Solver", "Trajectory", "FollowResult", "follow", "trajectory", "solve",
+           "joint_values", "__version__"]
 
 #: The lazy re-exports: name -> (module, attribute).
-_LAZY = {"follow": ("bhr._run.driver", "follow"), "trajectory": ("bhr.model._generators", "trajectory"),
+_LAZY = {"follow": ("bhr._run.driver", "follow"), "FollowResult": ("bhr._run.driver", "FollowResult"),
+         "trajectory": ("bhr.model._generators", "trajectory"),
          "solve": ("bhr.solvers", "solve"), "Robot": ("bhr.model._robot", "Robot"),
          "Trajectory": ("bhr.model._path", "Trajectory"), "Solver": ("bhr.solvers", "Solver"),
          "joint_values": ("bhr.model._export", "joint_values")}

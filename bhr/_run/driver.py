@@ -160,15 +160,93 @@ def verdict_of(s: Summary, robot: Robot) -> tuple[str, str]:
 class FollowResult:
     """A whole run: per-step poses, codes and errors, with the summary of the thesis's script.
 
-    ``success`` and ``status`` say whether the run kept every scored point
-    within the robot's tolerances and, when the path has a lumen, off the
-    wall; ``reason`` says why not, in words.
+    What :func:`bhr.follow` returns (and :meth:`from_json` reads back from a ``run.json``); made by bhr, not by
+    hand. ``success`` and ``status`` say whether the run kept every scored point within the robot's
+    tolerances and, when the path has a lumen, off the wall; ``reason`` says why not, in words.
 
     The result is frozen: a run's poses, codes, body and model never change once it is made, so its
     :attr:`clearance` and :attr:`summary` are scored once, the first time either is read, and kept
     (:func:`dataclasses.replace` makes another run, scored afresh). The driver does not score inside
     the follower's loop: ``bhr.follow`` returns as soon as the robot has moved, and the clearance to the
     lumen wall (several times the follow's own time on a colon) is computed when the run is first judged.
+
+    Below, N is the number of steps (trajectory points, one feed apart) and n the modules the solver
+    moves (the head); points are base first, in mm, in the run's world frame (a straight robot along +X).
+
+    Parameters
+    ----------
+    trajectory, robot, solver, points, iterations, point_errors_mm, orientation_errors_deg : object
+        The fields of the same names (see Attributes).
+    codes, warnings, extra, body, trail, motion : object, optional
+        The fields of the same names (see Attributes).
+
+    Attributes
+    ----------
+    trajectory : Trajectory
+        The path followed, drawn at the robot's feed: ``trajectory.points``, shape (N, 3), mm; its lumen
+        diameters, shape (N,), mm, or None.
+    robot : Robot
+        The robot that followed it (modules, module length in mm, alpha in deg, tolerances, feed).
+    solver : str
+        The solver's name, e.g. ``"thesis"``.
+    points : numpy.ndarray, shape (N, n+1, 3)
+        The head's solved pose at each step: its n+1 points (base first, tip last), mm.
+    iterations : numpy.ndarray, shape (N,)
+        The solver's iterations at each step (int).
+    point_errors_mm : numpy.ndarray, shape (N, n+1)
+        Each point's distance from the trajectory point it should lie on, mm, base first; 0 where that point
+        is not scored yet (still behind the path's start).
+    orientation_errors_deg : numpy.ndarray, shape (N, n)
+        The angle between each module's direction and the path's direction there, deg, base module first.
+    codes : numpy.ndarray, shape (N, n), or None
+        The actuator code of each head module at each step (an int 0-15, no unit), base first; None for a
+        continuous solver.
+    warnings : list of str
+        What the run warns of (a bend tighter than the robot's turn radius, ...), one line each.
+    extra : dict of str to object
+        Solver- and locomotion-specific results; ``extra["summary"]`` is merged into :attr:`summary`.
+    body : BodyRun or None
+        The modules behind the head (``body_modules``, ``reach``): ``body.points``, shape (N, B, 3), mm, the
+        rear end of each of the B body modules; ``body.codes``, shape (N, B); ``body.point_errors_mm`` and
+        ``body.orientation_errors_deg``, shape (N, B), mm and deg. None for the head alone.
+    trail : TrailRun or None
+        With ``locomotion="trail"``: ``trail.joints``, shape (N, M+1, 3), mm, every joint of the whole robot
+        of M modules, tip first; ``trail.joint_codes``, shape (N, M+1). None otherwise.
+    motion : MotionRun or None
+        With ``locomotion="wires"``: every pose of the whole robot as its wires move it; ``motion.points_mm``,
+        shape (P, M+1, 3), mm, tail first, at P poses; ``motion.codes``, shape (P, M). None otherwise.
+    steps : int
+        N, the number of steps.
+    modules : int
+        n, the head's modules.
+    global_errors : numpy.ndarray, shape (N, n)
+        The thesis's global error of each module, w_pos e_pos / tol_pos + w_ori e_ori / tol_ori, no unit.
+    board_codes : numpy.ndarray, shape (N, n) or (N, M), or None
+        The codes a board is sent at each step (``codes.csv``; int, no unit): the whole robot's, rear first,
+        with a body; else the head's, base first. None for a continuous solver.
+    clearance : ClearanceReport or None
+        With a lumen: the smallest clearance to the wall at each step (``clearance.per_step``, shape (N,),
+        mm; below 0 the wall is touched) and its minimum (``clearance.min_mm``); None without a lumen.
+    summary : Summary
+        The headline figures (``tip_max_error_mm``, ``points_max_error_mm``, ``orientation_max_deg``, mm and
+        deg) and per point and module statistics, as ``bhr follow`` prints them; ``summary.to_dict()``.
+    status : str
+        The verdict: ``"followed"``, ``"out of tolerance"``, ``"touched the wall"`` or ``"left the lumen"``.
+    success : bool
+        ``status == "followed"``.
+    reason : str
+        Why :attr:`status` is what it is, in words with the figures.
+    finished : str
+        ``"ran to the end"`` or ``"stopped at the wall"`` (``stop_at_wall``).
+    feeder_stop_step : int or None
+        The 1-based step from which the feeder stopped (the tip at a blind cecum), or None.
+
+    Examples
+    --------
+    >>> import bhr
+    >>> run: bhr.FollowResult = bhr.follow(bhr.trajectory("line", length=20))
+    >>> run.points.shape, run.status
+    ((11, 6, 3), 'followed')
     """
 
     trajectory: Trajectory
@@ -297,11 +375,24 @@ class FollowResult:
         return s
 
     def to_json(self) -> str:
-        """:meth:`to_dict` as a JSON string (the text of ``run.json``)."""
+        """:meth:`to_dict` as a JSON string (the text of ``run.json``).
+
+        Returns
+        -------
+        str
+            The run as JSON text, which :meth:`from_json` (after ``json.loads``) reads back.
+        """
         return json.dumps(self.to_dict())
 
     def to_dict(self) -> dict[str, Any]:
-        """The ``bhr follow --json`` document (its keys are a documented contract, docs/commands.md)."""
+        """The ``bhr follow --json`` document (its keys are a documented contract, docs/commands.md).
+
+        Returns
+        -------
+        dict of str to object
+            Plain JSON values: ``trajectory`` (its points, mm, and lumen), ``robot``, ``solver``, ``steps`` (one
+            entry per step: its target, points, errors in mm and deg, codes, clearance in mm) and ``summary``.
+        """
         steps = []
         for i in range(self.steps):
             steps.append({
@@ -351,7 +442,22 @@ class FollowResult:
     def from_json(cls, doc: Any, where: str = "run") -> "FollowResult":
         """A run back from its :meth:`to_dict` document, without solving (``bhr replay``).
 
-        Raises :class:`BhrError` naming the first thing wrong (``where`` names the file).
+        Parameters
+        ----------
+        doc : dict of str to object
+            The document, e.g. ``json.load`` of a ``run.json`` that ``bhr follow`` wrote.
+        where : str, default "run"
+            What the document is called in an error message (its file's name).
+
+        Returns
+        -------
+        FollowResult
+            The run, its poses, codes and errors as written (scored again when judged).
+
+        Raises
+        ------
+        BhrError
+            The first thing wrong with the document, named with ``where``.
         """
         return _run_from_json(doc, where)
 

@@ -189,6 +189,26 @@ def test_results_print_short():
     assert repr(run) == "FollowResult(thesis on curve, 5 modules, 85 steps: followed; tip worst 4.905 mm at step 69)"
 
 
+def test_the_result_of_follow_is_public_and_documents_every_field():
+    """``bhr.FollowResult`` is what ``bhr.follow`` returns, so a user can annotate with it; its docstring's
+    Attributes name every field, with a shape for every array."""
+    import dataclasses
+    import typing
+
+    from numpydoc.docscrape import ClassDoc
+
+    run: bhr.FollowResult = bhr.follow(bhr.trajectory("line", length=20))
+    assert type(run) is bhr.FollowResult and "FollowResult" in bhr.__all__ and "FollowResult" in dir(bhr)
+    assert typing.get_type_hints(bhr.follow)["return"] is bhr.FollowResult
+    attributes = {a.name: a for a in ClassDoc(bhr.FollowResult)["Attributes"]}
+    fields = {f.name for f in dataclasses.fields(bhr.FollowResult)}
+    assert fields <= set(attributes), sorted(fields - set(attributes))
+    for name, a in attributes.items():
+        if isinstance(getattr(run, name), np.ndarray):
+            assert "shape (" in a.type, name  # an array's shape, e.g. (N, n+1, 3)
+            assert any(u in " ".join(a.desc) for u in ("mm", "deg", "int", "no unit")), name  # and its unit
+
+
 @pytest.mark.run
 def test_a_run_says_when_it_touched_the_wall():
     run = bhr.follow(bhr.trajectory("anatomy", seed=3), solver="lumen", alpha=20)
