@@ -625,9 +625,11 @@ def answer_line(result: StudyResult) -> str:
                     f", worst clearance {best['worst_clearance_mm']:.2f} mm") + _decided(result, best))
     top = best_design(result)
     worst = "-" if top["worst_penetration_mm"] is None else f"{top['worst_penetration_mm']:.2f} mm"
-    how = (f"gets {top['median_reach_pct']:.1f}% of the way along the median colon before it leaves the lumen "
-           f"(worst {top['worst_reach_pct']:.1f}%), worst penetration {worst}" if by_reach(top) and
-           top.get("median_reach_pct") is not None else f"worst penetration {worst}")
+    how = f"worst penetration {worst}"
+    if by_reach(top) and top.get("worst_reach_pct") is not None:
+        how = ("it stays inside the lumen on every colon, " + how if top["worst_reach_pct"] >= 100.0 else
+               f"gets {top['median_reach_pct']:.1f}% of the way along the median colon before it leaves the lumen "
+               f"(worst {top['worst_reach_pct']:.1f}%), " + how)
     return (f"No design traverses {pct} of the {len(study.colons)} colons; the best, design #{top['design']} "
             f"({_describe(study, top)}), traverses {top['traversed']}/{top['colons']} "
             f"({100 * top['pass_rate']:.0f}%), {how}" + _decided(result, top))

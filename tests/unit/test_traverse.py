@@ -357,6 +357,9 @@ def test_a_study_stopped_where_the_robot_leaves_the_lumen_ranks_by_how_far_it_go
     assert "the best, design #2 (solver=lumen, alpha=25, reach=cecum, stop_at_wall=True), traverses 0/3 (0%)" in line
     assert "gets 40.0% of the way along the median colon before it leaves the lumen (worst 20.0%)" in line
     assert "ahead of design #3 by its worst reach, 20.0% against 5.0%" in line
+    inside = _stopped_result({(a, s): None for a in (20, 25, 30) for s in (1, 2, 3)})
+    assert "traverses 0/3 (0%), it stays inside the lumen on every colon, worst penetration 0.43 mm" in \
+        answer_line(inside)  # touched, never left: no reach to speak of
     lines = format_study(r)
     assert any(x.startswith("Ranked by pass rate, then median reach, then worst reach, then worst penetration")
                for x in lines)
