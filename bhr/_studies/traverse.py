@@ -606,6 +606,8 @@ def _decided(result: StudyResult, best: dict[str, Any]) -> str:
         return f" (tied with design #{nxt['design']} on every measure; listed first)"
     key, form = fields[by]
     a, b = best.get(key), nxt.get(key)
+    if a is not None and b is not None and form.format(a) == form.format(b):  # apart below the shown digits
+        form = form.replace(".2f", ".4f").replace(".1f", ".3f").replace(".0%", ".2%")
     vals = "" if a is None or b is None else f", {form.format(a)} against {form.format(b)}"
     tie = "; a tie-break at the same pass rate" if by != "pass rate" else ""
     return f" (ahead of design #{nxt['design']} by its {by}{vals}{tie})"

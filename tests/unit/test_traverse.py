@@ -357,6 +357,9 @@ def test_a_study_stopped_where_the_robot_leaves_the_lumen_ranks_by_how_far_it_go
     assert "the best, design #2 (solver=lumen, alpha=25, reach=cecum, stop_at_wall=True), traverses 0/3 (0%)" in line
     assert "gets 40.0% of the way along the median colon before it leaves the lumen (worst 20.0%)" in line
     assert "ahead of design #3 by its worst reach, 20.0% against 5.0%" in line
+    close = _stopped_result({(a, s): None for a in (20, 25, 30) for s in (1, 2, 3)})
+    close.designs[0]["worst_penetration_mm"], close.designs[1]["worst_penetration_mm"] = 0.4312, 0.4338
+    assert "by its worst penetration, 0.4312 mm against 0.4338 mm" in answer_line(close)  # not "0.43 against 0.43"
     inside = _stopped_result({(a, s): None for a in (20, 25, 30) for s in (1, 2, 3)})
     assert "traverses 0/3 (0%), it stays inside the lumen on every colon, worst penetration 0.43 mm" in \
         answer_line(inside)  # touched, never left: no reach to speak of
