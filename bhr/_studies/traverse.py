@@ -475,8 +475,8 @@ def passrate_figure(result: StudyResult, x: str | None = None, y: str | None = N
                 text += f"\nreach {cell['median_reach_pct']:.0f}% (worst {cell['worst_reach_pct']:.0f}%)"
             if cell["worst_penetration_mm"] is not None:
                 text += f"\npen {cell['worst_penetration_mm']:.2f} mm"
-            if cell["worst_clearance_mm"] is not None:
-                text += f"\nclear {cell['worst_clearance_mm']:.2f} mm"
+            if cell["worst_clearance_mm"] is not None and not (by_reach(cell) and cell["worst_clearance_mm"] < 0):
+                text += f"\nclear {cell['worst_clearance_mm']:.2f} mm"  # (a negative one is the pen line's)
         texts[j][i] = text
     reached = np.isfinite(data) & (np.nan_to_num(data, nan=-1.0) >= study.target - 1e-12)
     top_cell = next((c for c, d in best.items() if top is not None and d is top), None)

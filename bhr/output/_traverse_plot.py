@@ -45,7 +45,7 @@ def passrate_figure(rate: np.ndarray, clear: np.ndarray, texts: Sequence[Sequenc
     # every cell at one pass rate (all through, say): a map of it would be one colour and hide what ranks them;
     # the colour then shows the next measure that tells the designs apart, and says so
     tied = finite.size > 1 and float(np.ptp(finite)) == 0.0 and bool(np.isfinite(clear).any())
-    w = min(max(8.5, 0.8 * len(xticks) + 3.0), 14)
+    w = min(max(8.5, 1.5 * len(xticks) + 3.0), 16)  # room for each cell's four lines
     h = min(max(5.0, 0.55 * len(yticks) + 2.8), 12)
     fig, ax = subplots(figsize=(w, h))
     if tied:
