@@ -48,6 +48,56 @@ def run_bhr(tmp_path):
     return run
 
 
+@pytest.fixture
+def run_bhr_in_process(tmp_path):
+    """`bhr ARGS...` in this process (:func:`bhr_in_process`), cwd = a temporary folder; the same call and the same
+    result as :func:`run_bhr`, for a test of what the command does rather than of the process."""
+
+    def run(*args: str, cwd: Path | None = None, timeout: float = 600, input: str | None = None):
+        return bhr_in_process(*args, cwd=cwd or tmp_path, input=input, timeout=timeout)
+
+    return run
+
+
+def bhr_in_process(*args: object, cwd: Path, env: dict | None = None, input: str | None = None,
+                   timeout: float | None = None) -> subprocess.CompletedProcess:
+    """Run `bhr ARGS...` in this process, as the console script runs it (the same command group through click's
+    CliRunner, named ``bhr``), in ``cwd``, with ``env`` as the whole environment when given; return what a
+    process would: its exit status, standard output and standard error (text). An exception that escapes the
+    command is printed on standard error as the interpreter prints it (``Traceback ...``), exit status 1. A
+    command still running after ``timeout`` seconds (a guard against a hang, as the process helpers' timeout is)
+    ends this test process with the stacks of its threads (faulthandler): the test fails, the run goes on.
+
+    For tests of what a command does with its input and its files; a test of the process itself (signals, exit
+    status of a killed command, closed or full standard streams, rlimits, what the interpreter does at start or
+    at exit, an environment read when Python starts) runs the real ``bhr`` (:func:`bhr_exe`)."""
+    import contextlib
+    import faulthandler
+    import traceback
+
+    from click.testing import CliRunner
+
+    from bhr.cli.main import main
+
+    changes: dict[str, str | None] = {}
+    if env is not None:  # the environment it names, no more: what it leaves out is unset for the command
+        changes = {k: v for k, v in env.items() if os.environ.get(k) != v}
+        changes.update({k: None for k in os.environ if k not in env})
+    if "MPLBACKEND" not in (env or os.environ):
+        changes["MPLBACKEND"] = "Agg"
+    argv = [str(a) for a in args]
+    faulthandler.dump_traceback_later(timeout or 600, exit=True)
+    try:
+        with contextlib.chdir(cwd):
+            res = CliRunner().invoke(main, argv, input=input, env=changes, prog_name="bhr")
+    finally:
+        faulthandler.cancel_dump_traceback_later()
+    err = res.stderr
+    if res.exception is not None and not isinstance(res.exception, SystemExit):
+        err += "".join(traceback.format_exception(res.exception))  # an uncaught one: the interpreter's traceback
+    return subprocess.CompletedProcess(["bhr", *argv], res.exit_code, res.stdout, err)
+
+
 def foreground() -> None:
     """``preexec_fn`` of a command a test sends signals to: Ctrl-C, SIGTERM and SIGHUP at their default actions, as
     a shell's foreground job has them, whatever this test run inherited (``bash tests/run &`` and nohup ignore
@@ -129,7 +179,7 @@ def snapshot(folder: Path) -> dict[str, tuple[int, int]]:
 # with a line that says where it belongs.
 FOLDERS = ("unit", "thesis", "cli", "integration")
 LAYERS = ("unit", "run", "thesis", "cli", "integration")
-_NEEDS = {"run_bhr": "cli", "dask_cluster": "integration"}
+_NEEDS = {"run_bhr": "cli", "run_bhr_in_process": "cli", "dask_cluster": "integration"}
 
 
 def pytest_collection_modifyitems(config, items):

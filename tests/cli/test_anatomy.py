@@ -9,8 +9,8 @@ import pytest
 from bhr.model._generators import anatomy_trajectory
 
 
-def test_follow_an_anatomical_colon_from_the_command_line(run_bhr, tmp_path):
-    r = run_bhr("follow", "--traj", "anatomy", "--seed", "12", "--no-plots", "--json", "run.json")
+def test_follow_an_anatomical_colon_from_the_command_line(run_bhr_in_process, tmp_path):
+    r = run_bhr_in_process("follow", "--traj", "anatomy", "--seed", "12", "--no-plots", "--json", "run.json")
     assert r.returncode == 0, r.stderr
     doc = json.loads((tmp_path / "run.json").read_text())
     tr = anatomy_trajectory(12, 2.0)
@@ -35,8 +35,8 @@ def test_follow_an_anatomical_colon_from_the_command_line(run_bhr, tmp_path):
     (["--seed", "9" * 400], "must be a whole number of at most 40 characters, got 400 characters"),
     (["--seed", ""], "written with plain digits (0-9), got ''"),
 ])
-def test_bad_seed_on_the_command_line_is_one_line(run_bhr, args, msg):
-    r = run_bhr("follow", "--traj", "anatomy", *args, "--no-plots")
+def test_bad_seed_on_the_command_line_is_one_line(run_bhr_in_process, args, msg):
+    r = run_bhr_in_process("follow", "--traj", "anatomy", *args, "--no-plots")
     assert r.returncode != 0
     lines = r.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("Error: ") and msg in lines[0], r.stderr

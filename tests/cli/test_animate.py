@@ -25,7 +25,7 @@ from PIL import Image
 from bhr.output._animate import MAX_FRAMES, default_stride, frame_steps, frame_view
 from bhr._run.driver import load_run
 from bhr._settings.errors import BhrError
-from tests.conftest import bhr_exe, snapshot
+from tests.conftest import bhr_in_process, snapshot
 
 TEN_MB = 10 * 1024 * 1024
 
@@ -42,11 +42,12 @@ def need_tool(name: str) -> str:
 
 
 def run_cli(*args, cwd: Path, env: dict | None = None, timeout: float = 900):
+    """The command in this process (the animation is what is tested, not the process), ``env`` added to the
+    environment."""
     e = dict(os.environ)
     e.setdefault("MPLBACKEND", "Agg")
     e.update(env or {})
-    return subprocess.run(bhr_exe() + [str(a) for a in args], cwd=cwd, capture_output=True, text=True,
-                          timeout=timeout, env=e)
+    return bhr_in_process(*args, cwd=cwd, env=e, timeout=timeout)
 
 
 # -- reading frames ---------------------------------------------------------------------------

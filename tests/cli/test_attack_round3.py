@@ -12,12 +12,19 @@ from pathlib import Path
 
 import pytest
 
-from tests.conftest import bhr_exe, finish, snapshot, start_bhr, wait_for_stderr
+from tests.conftest import bhr_exe, bhr_in_process, finish, snapshot, start_bhr, wait_for_stderr
 
 ENV = dict(os.environ, MPLBACKEND="Agg")
 
 
-def bhr(*args, cwd: Path, timeout: float = 300, env: dict | None = None, **kw) -> subprocess.CompletedProcess:
+def bhr(*args, cwd: Path, timeout: float = 300, env: dict | None = None) -> subprocess.CompletedProcess:
+    """The command in this process (what it does with its input and its files)."""
+    return bhr_in_process(*args, cwd=cwd, env=env or ENV, timeout=timeout)
+
+
+def bhr_process(*args, cwd: Path, timeout: float = 300, env: dict | None = None,
+                **kw) -> subprocess.CompletedProcess:
+    """The real ``bhr`` process: for what the process is (its limits, an environment read as Python starts)."""
     return subprocess.run(bhr_exe() + [str(a) for a in args], cwd=cwd, capture_output=True, text=True,
                           timeout=timeout, env=env or ENV, **kw)
 
@@ -105,7 +112,7 @@ def test_fk_codes_with_a_module_left_out(tmp_path):
 def test_an_unknown_matplotlib_backend_in_the_environment(tmp_path, args):
     (tmp_path / "b.toml").write_text("[[run]]\nname = 'a'\ntraj = 'line'\n")
     before = snapshot(tmp_path)
-    line = one_line(bhr(*args, cwd=tmp_path, env=dict(ENV, MPLBACKEND="nonexistent"), timeout=120))
+    line = one_line(bhr_process(*args, cwd=tmp_path, env=dict(ENV, MPLBACKEND="nonexistent"), timeout=120))
     assert "MPLBACKEND='nonexistent' is not a matplotlib backend" in line
     assert snapshot(tmp_path) == before
 
@@ -133,7 +140,7 @@ def test_a_file_too_large_leaves_none_of_the_commands_files(tmp_path, args, fail
     assert bhr(*args, cwd=warm, timeout=300).returncode == 0
     shutil.rmtree(warm)
     before = snapshot(tmp_path)
-    line = one_line(bhr(*args, cwd=tmp_path, timeout=300, preexec_fn=_small_files(5000)))
+    line = one_line(bhr_process(*args, cwd=tmp_path, timeout=300, preexec_fn=_small_files(5000)))
     assert line.startswith(f"Error: {failed}: File too large"), line
     assert snapshot(tmp_path) == before
 
@@ -148,7 +155,7 @@ def test_a_very_long_scheduler_address_is_quoted_short(tmp_path):
 def test_a_bhr_folder_in_the_current_folder_does_not_replace_the_installed_bhr(tmp_path):
     (tmp_path / "bhr").mkdir()  # a checkout, or anything named bhr/
     (tmp_path / "bhr" / "__init__.py").write_text('raise SystemExit("the wrong bhr")\n')
-    r = bhr("fk", "--codes", "0,3", cwd=tmp_path, timeout=120)
+    r = bhr_process("fk", "--codes", "0,3", cwd=tmp_path, timeout=120)
     assert r.returncode == 0 and "wrong bhr" not in r.stderr, r.stderr
 
 
@@ -180,8 +187,8 @@ def test_a_file_too_large_with_a_cold_kernel_cache_names_the_output(tmp_path):
                    check=True, timeout=120)
     work = tmp_path / "work"
     work.mkdir()
-    line = one_line(bhr("solve", "--target", "0", "0", "10", "--json", "s.json", "--plot", "s.png", cwd=work,
-                        env=env, timeout=300, preexec_fn=_small_files(5000)))
+    line = one_line(bhr_process("solve", "--target", "0", "0", "10", "--json", "s.json", "--plot", "s.png", cwd=work,
+                                env=env, timeout=300, preexec_fn=_small_files(5000)))
     from bhr.output._paths import short_path  # a one-line message quotes a path of over 80 characters shortened
 
     assert line.startswith(f"Error: writing bhr's compiled kernels to {short_path(tmp_path / 'kernels')} "

@@ -13,7 +13,7 @@ import pytest
 
 from tests.conftest import bhr_exe, foreground, snapshot
 
-from tests.cli.test_attack_round3 import ENV, bhr, one_line  # the same checks as round three
+from tests.cli.test_attack_round3 import ENV, bhr, bhr_process, one_line  # the same checks as round three
 
 
 # --- a run file that is not a regular file -------------------------------------------------------------------
@@ -138,8 +138,8 @@ def test_a_report_over_the_file_size_limit_stops_at_the_first_file(tmp_path):
 
     def small():
         resource.setrlimit(resource.RLIMIT_FSIZE, (5000, 5000))
-    line = one_line(bhr("report", "--file", "b.toml", "--out", "rep", "--jobs", "1", "--no-plots", cwd=tmp_path,
-                        timeout=300, preexec_fn=small))
+    line = one_line(bhr_process("report", "--file", "b.toml", "--out", "rep", "--jobs", "1", "--no-plots",
+                                cwd=tmp_path, timeout=300, preexec_fn=small))
     assert line.startswith("Error: rep/runs/a/") and "File too large" in line, line
     assert snapshot(tmp_path) == before and sorted(os.listdir(tmp_path)) == ["b.toml"]
 

@@ -15,7 +15,7 @@ import pytest
 
 from tests.conftest import bhr_exe, finish, foreground, snapshot, start_bhr, wait_for_stderr
 
-from tests.cli.test_attack_round3 import ENV, bhr, one_line  # the same checks as rounds three to five
+from tests.cli.test_attack_round3 import ENV, bhr, bhr_process, one_line  # the same checks as rounds three to five
 from tests.cli.test_attack_round5 import loose_run as loose_run_files  # noqa: F401  (a fixture)
 
 BATCH = '[[run]]\nname = "a"\ntraj = "line"\nlength = 20\n'
@@ -280,15 +280,15 @@ def test_numba_disable_jit_runs_the_kernels_interpreted(tmp_path):
     # 'get_call_template'" with a traceback, in every command that runs a kernel
     for args in (["follow", "--traj", "line", "--length", "20", "--no-plots", "--out", "o"], ["fk", "--codes", "0,3"],
                  ["solve", "--target", "3", "9", "0", "--solver", "ccd"]):
-        r = bhr(*args, cwd=tmp_path, timeout=300, env=dict(ENV, NUMBA_DISABLE_JIT="1"))
+        r = bhr_process(*args, cwd=tmp_path, timeout=300, env=dict(ENV, NUMBA_DISABLE_JIT="1"))
         assert r.returncode == 0 and "Traceback" not in r.stderr, (args, r.stderr[-1500:])
     assert sorted(os.listdir(tmp_path / "o")) == ["codes.csv", "manifest.json", "run.json", "steps.csv"]
 
 
 def test_a_numba_setting_numba_refuses_is_one_line(tmp_path):
     # NUMBA_NUM_THREADS=0: "ValueError: Number of threads specified must be > 0." with a traceback, after the work
-    line = one_line(bhr("follow", "--traj", "line", "--length", "20", "--no-plots", "--out", "o", cwd=tmp_path,
-                        timeout=300, env=dict(ENV, NUMBA_NUM_THREADS="0")))
+    line = one_line(bhr_process("follow", "--traj", "line", "--length", "20", "--no-plots", "--out", "o",
+                                cwd=tmp_path, timeout=300, env=dict(ENV, NUMBA_NUM_THREADS="0")))
     assert line == ("Error: numba refused its settings (Number of threads specified must be > 0.); check the "
                     "environment's NUMBA_NUM_THREADS"), line
     assert list(tmp_path.iterdir()) == []

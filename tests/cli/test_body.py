@@ -4,8 +4,8 @@ from __future__ import annotations
 import json
 
 
-def test_follow_cli_body(run_bhr, tmp_path):
-    out = run_bhr("follow", "--traj", "curve", "--solver", "optimal", "--body-modules", "12", "--out", tmp_path / "o",
+def test_follow_cli_body(run_bhr_in_process, tmp_path):
+    out = run_bhr_in_process("follow", "--traj", "curve", "--solver", "optimal", "--body-modules", "12", "--out", tmp_path / "o",
                   "--json", tmp_path / "run.json")
     assert out.returncode == 0, out.stderr
     assert "Whole body: 12 modules" in out.stdout
@@ -19,10 +19,10 @@ def test_follow_cli_body(run_bhr, tmp_path):
     assert rows[0] == "step," + ",".join(f"m{k}" for k in range(1, 13))
     assert rows[-1].split(",")[8:] == [str(c) for c in st["codes"]]
     assert rows[-1].split(",")[1:8] == ["0"] + [str(c) for c in st["body_codes"][:-1][::-1]]
-    plan = run_bhr("plan", "--codes", tmp_path / "o" / "codes.csv", "--no-plots")
+    plan = run_bhr_in_process("plan", "--codes", tmp_path / "o" / "codes.csv", "--no-plots")
     assert plan.returncode == 0, plan.stderr
     last = [ln for ln in plan.stdout.splitlines() if ln.strip().startswith(str(len(rows) - 1) + " ")][-1]
     assert len(last.split()[-1].split(",")) == 12  # the schedule's rows carry the whole robot's 12 codes
-    bad = run_bhr("follow", "--traj", "curve", "--body-modules", "3", "--no-plots", "--out", tmp_path / "b")
+    bad = run_bhr_in_process("follow", "--traj", "curve", "--body-modules", "3", "--no-plots", "--out", tmp_path / "b")
     assert bad.returncode != 0 and len(bad.stderr.strip().splitlines()) == 1 and "--body-modules" in bad.stderr
     assert not (tmp_path / "b" / "run.json").exists()

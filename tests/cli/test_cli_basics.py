@@ -6,18 +6,18 @@ import pytest
 from tests.conftest import snapshot
 
 
-def test_help_lists_commands(run_bhr):
-    res = run_bhr("--help")
+def test_help_lists_commands(run_bhr_in_process):
+    res = run_bhr_in_process("--help")
     assert res.returncode == 0
     for cmd in ("solve", "follow", "fk"):
         assert cmd in res.stdout
 
 
-def test_bhr_alone_shows_the_help_not_an_error(run_bhr):
+def test_bhr_alone_shows_the_help_not_an_error(run_bhr_in_process):
     """`bhr` with nothing after it printed "Error: Usage: ..." and "(see 'bhr --help')" after the whole help."""
-    res = run_bhr()
+    res = run_bhr_in_process()
     assert res.returncode != 0 and res.stdout == ""
-    assert res.stderr == run_bhr("--help").stdout  # the help itself, as `bhr --help` prints it
+    assert res.stderr == run_bhr_in_process("--help").stdout  # the help itself, as `bhr --help` prints it
 
 
 @pytest.mark.parametrize("args, message", [
@@ -34,9 +34,9 @@ def test_bhr_alone_shows_the_help_not_an_error(run_bhr):
     (["follow", "--traj", "curve", "--pitch", "3"], "no parameter 'pitch'"),
     (["follow", "--traj", "curve", "--radius", "-5"], "radius must be greater than 0"),
 ])
-def test_bad_input_one_line(run_bhr, tmp_path, args, message):
+def test_bad_input_one_line(run_bhr_in_process, tmp_path, args, message):
     before = snapshot(tmp_path)
-    res = run_bhr(*args)
+    res = run_bhr_in_process(*args)
     assert res.returncode != 0
     assert message in res.stderr
     assert "Traceback" not in res.stderr
@@ -44,19 +44,19 @@ def test_bad_input_one_line(run_bhr, tmp_path, args, message):
     assert snapshot(tmp_path) == before
 
 
-def test_solve_says_out_of_reach_in_text_and_json(run_bhr):
-    res = run_bhr("solve", "--target", "100", "100", "100")
+def test_solve_says_out_of_reach_in_text_and_json(run_bhr_in_process):
+    res = run_bhr_in_process("solve", "--target", "100", "100", "100")
     assert res.returncode == 0, res.stderr
     assert "out of reach: the target is 173.2 mm from the base but the chain is 10 mm long" in res.stdout
-    res = run_bhr("solve", "--target", "100", "100", "100", "--json", "-")
+    res = run_bhr_in_process("solve", "--target", "100", "100", "100", "--json", "-")
     doc = json.loads(res.stdout)
     assert doc["success"] is False and doc["status"] == "out of reach"
 
 
-def test_solve_help_lists_every_solver_by_its_one_name(run_bhr):
+def test_solve_help_lists_every_solver_by_its_one_name(run_bhr_in_process):
     from bhr.solvers import available
 
-    text = " ".join(run_bhr("solve", "--help").stdout.split())
+    text = " ".join(run_bhr_in_process("solve", "--help").stdout.split())
     for name in available():
         assert name in text
     assert "seed" not in text

@@ -51,8 +51,8 @@ def test_every_solver_is_checked_before_the_first_run(monkeypatch):
     assert ran == []
 
 
-def test_cli_prints_and_plots(run_bhr, tmp_path):
-    out = run_bhr("compare", "--traj", "curve", "--angle", "180", "--solver", "seed", "--solver", "optimal",
+def test_cli_prints_and_plots(run_bhr_in_process, tmp_path):
+    out = run_bhr_in_process("compare", "--traj", "curve", "--angle", "180", "--solver", "seed", "--solver", "optimal",
                   "--out", tmp_path / "c", "--json", tmp_path / "c.json")
     assert out.returncode == 0, out.stderr
     # the thesis's solver given by its old name is shown by its one name
@@ -69,7 +69,7 @@ def test_cli_prints_and_plots(run_bhr, tmp_path):
         assert run["solver"] == name and len(run["steps"]) == len(doc["runs"][0]["points_max_error_mm"])
         codes = (tmp_path / "c" / name / "codes.csv").read_text().splitlines()
         assert len(codes) == len(run["steps"]) + 1
-    replay = run_bhr("replay", tmp_path / "c" / "optimal" / "run.json", "--out", tmp_path / "again")
+    replay = run_bhr_in_process("replay", tmp_path / "c" / "optimal" / "run.json", "--out", tmp_path / "again")
     assert replay.returncode == 0, replay.stderr
     tr = load_trajectory("curve", angle=180.0)
     seed = follow(tr, solver="seed")
@@ -78,8 +78,8 @@ def test_cli_prints_and_plots(run_bhr, tmp_path):
         max(doc["runs"][1]["points_max_error_mm"]) / max(doc["runs"][0]["points_max_error_mm"]))
 
 
-def test_cli_with_lumen_and_body(run_bhr, tmp_path):
-    out = run_bhr("compare", "--traj", "colon", "--body-modules", "20", "--no-plots", "--json", "-")
+def test_cli_with_lumen_and_body(run_bhr_in_process, tmp_path):
+    out = run_bhr_in_process("compare", "--traj", "colon", "--body-modules", "20", "--no-plots", "--json", "-")
     assert out.returncode == 0, out.stderr
     doc = json.loads(out.stdout)
     assert all("min_clearance_mm" in r and "body_points_max_error_mm" in r for r in doc["rows"])
@@ -87,10 +87,10 @@ def test_cli_with_lumen_and_body(run_bhr, tmp_path):
     assert not (tmp_path / "bhr-out").exists()  # --json - --no-plots: standard output is the whole output
 
 
-def test_no_plots_keeps_every_solver_run_as_follow_does(run_bhr, tmp_path):
+def test_no_plots_keeps_every_solver_run_as_follow_does(run_bhr_in_process, tmp_path):
     """The documented `bhr compare ... --no-plots` keeps each solver's run (for replay, plan, stream), as
     `bhr follow --no-plots` keeps its run: it wrote nothing at all."""
-    out = run_bhr("compare", "--traj", "curve", "--solver", "thesis", "--solver", "optimal", "--no-plots")
+    out = run_bhr_in_process("compare", "--traj", "curve", "--solver", "thesis", "--solver", "optimal", "--no-plots")
     assert out.returncode == 0, out.stderr
     (folder,) = (tmp_path / "bhr-out").glob("compare-curve-*")
     assert (tmp_path / "bhr-out" / "latest").resolve() == folder.resolve()
@@ -98,50 +98,50 @@ def test_no_plots_keeps_every_solver_run_as_follow_does(run_bhr, tmp_path):
         assert (folder / name / "run.json").is_file() and (folder / name / "codes.csv").is_file()
     assert not (folder / "compare.png").exists()
     assert f"Wrote bhr-out/{folder.name}/thesis" in out.stdout
-    plan = run_bhr("plan", "--codes", f"bhr-out/{folder.name}/optimal/codes.csv", "--no-plots")
+    plan = run_bhr_in_process("plan", "--codes", f"bhr-out/{folder.name}/optimal/codes.csv", "--no-plots")
     assert plan.returncode == 0, plan.stderr
 
 
 
-def test_after_compare_the_latest_hints_lead_to_its_runs(run_bhr, tmp_path):
+def test_after_compare_the_latest_hints_lead_to_its_runs(run_bhr_in_process, tmp_path):
     """`bhr plan --codes bhr-out/latest/codes.csv` (bhr plan --help's example) after a compare: latest is the
     compare's folder, whose runs are one folder down; the refusal names them, and the file it names runs."""
-    out = run_bhr("compare", "--traj", "line", "--solver", "thesis", "--solver", "fabrik", "--no-plots")
+    out = run_bhr_in_process("compare", "--traj", "line", "--solver", "thesis", "--solver", "fabrik", "--no-plots")
     assert out.returncode == 0, out.stderr
     folder = (tmp_path / "bhr-out" / "latest").resolve().name
-    plan = run_bhr("plan", "--codes", "bhr-out/latest/codes.csv", "--no-plots")
+    plan = run_bhr_in_process("plan", "--codes", "bhr-out/latest/codes.csv", "--no-plots")
     assert plan.returncode == 1
     assert (f"(bhr-out/latest points to {folder}, which has none; its runs have bhr-out/latest/thesis/codes.csv)"
             in plan.stderr), plan.stderr  # fabrik gives no codes
-    assert run_bhr("plan", "--codes", "bhr-out/latest/thesis/codes.csv", "--no-plots").returncode == 0
-    replay = run_bhr("replay", "bhr-out/latest/run.json", "--out", "r")
+    assert run_bhr_in_process("plan", "--codes", "bhr-out/latest/thesis/codes.csv", "--no-plots").returncode == 0
+    replay = run_bhr_in_process("replay", "bhr-out/latest/run.json", "--out", "r")
     assert replay.returncode == 1
     assert ("its runs have bhr-out/latest/fabrik/run.json, bhr-out/latest/thesis/run.json)" in replay.stderr), \
         replay.stderr
 
 
-def test_plan_and_replay_of_a_compared_run_keep_the_compare_folder_whole(run_bhr, tmp_path):
+def test_plan_and_replay_of_a_compared_run_keep_the_compare_folder_whole(run_bhr_in_process, tmp_path):
     """`bhr plan --codes bhr-out/latest/thesis/codes.csv` after a compare wrote thermal.png into the compare's
     folder unlisted, and the compare's own rerun then refused it ('holds thesis/thermal-auto-10hz.png, which no bhr run
     wrote'). The figures of plan and replay join that folder, listed, and its rerun keeps them."""
     args = ("compare", "--traj", "line", "--solver", "thesis", "--solver", "fabrik", "--no-plots")
-    assert run_bhr(*args).returncode == 0
+    assert run_bhr_in_process(*args).returncode == 0
     folder = (tmp_path / "bhr-out" / "latest").resolve()
-    plan = run_bhr("plan", "--codes", "bhr-out/latest/thesis/codes.csv")
+    plan = run_bhr_in_process("plan", "--codes", "bhr-out/latest/thesis/codes.csv")
     assert plan.returncode == 0 and plan.stderr == "Wrote bhr-out/latest/thesis/thermal-auto-10hz.png\n", plan.stderr
-    replay = run_bhr("replay", "bhr-out/latest/fabrik/run.json")
+    replay = run_bhr_in_process("replay", "bhr-out/latest/fabrik/run.json")
     assert replay.returncode == 0, replay.stderr
     assert "Wrote bhr-out/latest/fabrik/position_errors.png" in replay.stdout
     man = json.loads((folder / "manifest.json").read_text())
     assert {"thesis/thermal-auto-10hz.png", "fabrik/path.png", "fabrik/view.html"} <= set(man["files"])
     assert man["made_by"] == "compare"
-    again = run_bhr(*args)
+    again = run_bhr_in_process(*args)
     assert again.returncode == 0, again.stderr
     assert (folder / "thesis" / "thermal-auto-10hz.png").is_file() and (folder / "fabrik" / "path.png").is_file()
 
 
-def test_an_anatomical_colon_names_the_folder_as_follow_does(run_bhr, tmp_path):
-    out = run_bhr("compare", "--traj", "anatomy", "--seed", "4", "--solver", "thesis", "--solver", "fabrik",
+def test_an_anatomical_colon_names_the_folder_as_follow_does(run_bhr_in_process, tmp_path):
+    out = run_bhr_in_process("compare", "--traj", "anatomy", "--seed", "4", "--solver", "thesis", "--solver", "fabrik",
                   "--no-plots", "--modules", "3")
     assert out.returncode == 0, out.stderr
     assert [p.name.rsplit("-", 1)[0] for p in (tmp_path / "bhr-out").glob("compare-*")] == ["compare-anatomy-4"]
@@ -153,16 +153,16 @@ def test_an_anatomical_colon_names_the_folder_as_follow_does(run_bhr, tmp_path):
     (["--solver", "seed", "--solver", "bogus"], "unknown solver"),
     (["--solver", "seed", "--solver", "fabrik", "--lookahead", "3"], "optimal"),
 ])
-def test_cli_bad_input_is_one_line(run_bhr, tmp_path, args, word):
-    out = run_bhr("compare", "--traj", "curve", *args, "--out", tmp_path / "c")
+def test_cli_bad_input_is_one_line(run_bhr_in_process, tmp_path, args, word):
+    out = run_bhr_in_process("compare", "--traj", "curve", *args, "--out", tmp_path / "c")
     assert out.returncode != 0
     assert len(out.stderr.strip().splitlines()) == 1 and word in out.stderr
     assert not (tmp_path / "c").exists()
 
 
-def test_cli_checks_the_output_folder_first(run_bhr, tmp_path):
+def test_cli_checks_the_output_folder_first(run_bhr_in_process, tmp_path):
     blocker = tmp_path / "file"
     blocker.write_text("keep")
-    out = run_bhr("compare", "--traj", "colon", "--out", blocker / "sub")
+    out = run_bhr_in_process("compare", "--traj", "colon", "--out", blocker / "sub")
     assert out.returncode != 0 and len(out.stderr.strip().splitlines()) == 1
     assert blocker.read_text() == "keep"

@@ -12,8 +12,8 @@ import pytest
     (("--format", "urdf", "--out", "x", "--reach", "cecum"), "--reach"),
     (("--format", "mjcf", "--out", "x", "--locomotion", "trail"), "--locomotion"),
 ])
-def test_export_bad_input_one_line(run_bhr, args, word):
-    r = run_bhr("export", *args)
+def test_export_bad_input_one_line(run_bhr_in_process, args, word):
+    r = run_bhr_in_process("export", *args)
     assert r.returncode != 0
     lines = r.stderr.strip().splitlines()
     assert len(lines) == 1 and word in lines[0] and "Traceback" not in r.stderr

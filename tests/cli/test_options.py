@@ -11,7 +11,7 @@ from bhr._studies.sweep import parse_values
 
 # the physics replay's options belong to bhr physics, not to batch runs
 @pytest.mark.parametrize("o", [o for o in OPTIONS if o.maximum is not None and o.group != "physics"], ids=lambda o: o.name)
-def test_batch_refuses_what_the_command_line_refuses(o, run_bhr, tmp_path):
+def test_batch_refuses_what_the_command_line_refuses(o, run_bhr_in_process, tmp_path):
     too_big = int(o.maximum) + 1 if o.kind is int else o.maximum * 2
     # a whole number and its limit are written out (seed: 4294967296 and 4294967295, not 4.29497e+09)
     shown, limit = (str(too_big), str(int(o.limit))) if o.kind is int else (f"{too_big:g}", f"{o.limit:g}")
@@ -23,13 +23,13 @@ def test_batch_refuses_what_the_command_line_refuses(o, run_bhr, tmp_path):
         from bhr.cli._options import SOLVING_ONLY
 
         args = ("solve", "--target", "1", "1", "1") if o.name in SOLVING_ONLY else ("fk", "--codes", "0")
-        r = run_bhr(*args, o.flag, str(too_big))
+        r = run_bhr_in_process(*args, o.flag, str(too_big))
         assert r.returncode == 2 and f"the limit is {limit}" in r.stderr
 
 
-def test_fk_lists_no_solver_options_and_old_spellings_stay_hidden(run_bhr):
-    fk = run_bhr("fk", "--help").stdout
+def test_fk_lists_no_solver_options_and_old_spellings_stay_hidden(run_bhr_in_process):
+    fk = run_bhr_in_process("fk", "--help").stdout
     assert "--module-length" in fk and not any(f in fk for f in ("--tol-pos", "--tol-ori", "--max-iter", "--weight"))
-    sweep, report = run_bhr("sweep", "--help").stdout, run_bhr("report", "--help").stdout
+    sweep, report = run_bhr_in_process("sweep", "--help").stdout, run_bhr_in_process("report", "--help").stdout
     assert "--no-plots" in sweep and "--no-plot " not in sweep
     assert "--file" in report and "--no-plots" in report and "--batch" not in report

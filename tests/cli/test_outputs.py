@@ -19,14 +19,15 @@ from pathlib import Path
 
 import pytest
 
-from tests.conftest import bhr_exe, snapshot
+from tests.conftest import bhr_exe, bhr_in_process, snapshot
 
 ENV = dict(os.environ, MPLBACKEND="Agg")
 
 
-def bhr(*args, cwd: Path, timeout: float = 300, **kw) -> subprocess.CompletedProcess:
-    return subprocess.run(bhr_exe() + [str(a) for a in args], cwd=cwd, capture_output=True, text=True,
-                          timeout=timeout, env=ENV, **kw)
+def bhr(*args, cwd: Path, timeout: float = 300) -> subprocess.CompletedProcess:
+    """The command in this process (what it does with its input and its files); a test of the process itself
+    (killed, limited, its standard streams full) runs the real ``bhr`` (bhr_exe)."""
+    return bhr_in_process(*args, cwd=cwd, env=ENV, timeout=timeout)
 
 
 def one_line(err: str) -> str:

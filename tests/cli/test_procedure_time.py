@@ -15,17 +15,17 @@ def _time(text: str, what: str) -> str:
     return m.group(1) + " " + m.group(2).strip()
 
 
-def test_follow_and_plan_give_one_procedure_time_and_say_what_sets_it(run_bhr, tmp_path):
-    res = run_bhr("follow", "--traj", "curve", "--angle", "360", "--no-plots", "--out", "run")
+def test_follow_and_plan_give_one_procedure_time_and_say_what_sets_it(run_bhr_in_process, tmp_path):
+    res = run_bhr_in_process("follow", "--traj", "curve", "--angle", "360", "--no-plots", "--out", "run")
     assert res.returncode == 0, res.stderr
     line = next(x for x in res.stdout.splitlines() if x.startswith("Procedure time on the board:"))
     assert "board's limits" not in res.stdout and "--rate 10 shows the schedule" in line
     follow_time = _time(line, "board:")
-    plan = run_bhr("plan", "--codes", "run/codes.csv", "--rate", "10")
+    plan = run_bhr_in_process("plan", "--codes", "run/codes.csv", "--rate", "10")
     assert plan.returncode == 0, plan.stderr
     assert _time(plan.stdout.splitlines()[-1], "steps,") == follow_time
     assert "at the wires' pace, at most 10 Hz: the wires set" in follow_time
-    fast = run_bhr("plan", "--codes", "run/codes.csv", "--rate", "20")
+    fast = run_bhr_in_process("plan", "--codes", "run/codes.csv", "--rate", "20")
     assert "at most 20 Hz" in fast.stdout.splitlines()[-1]
     # a second plan at another rate keeps the first's figure: each is named by its settings
     assert (tmp_path / "run" / "thermal-auto-10hz.png").is_file() and (tmp_path / "run" / "thermal-auto-20hz.png").is_file()

@@ -59,10 +59,10 @@ def test_tight_curve_keeps_its_warning(tmp_path):
     assert FollowResult.from_json(run.to_dict()).warnings == run.warnings
 
 
-def test_replay_redraws_the_figures_of_follow(run_bhr, tmp_path):
-    res = run_bhr("follow", "--traj", "curve", "--out", "run")
+def test_replay_redraws_the_figures_of_follow(run_bhr_in_process, tmp_path):
+    res = run_bhr_in_process("follow", "--traj", "curve", "--out", "run")
     assert res.returncode == 0, res.stderr
-    res = run_bhr("replay", "run/run.json", "--out", "again")
+    res = run_bhr_in_process("replay", "run/run.json", "--out", "again")
     assert res.returncode == 0, res.stderr
     for name in ("position_errors.png", "orientation_errors.png", "global_errors.png", "path.png"):
         a = np.asarray(Image.open(tmp_path / "run" / name).convert("RGB"))
@@ -71,9 +71,9 @@ def test_replay_redraws_the_figures_of_follow(run_bhr, tmp_path):
     assert "Wrote again/position_errors.png" in res.stdout
 
 
-def test_replay_restores_everything_a_run_wrote(run_bhr, tmp_path):
+def test_replay_restores_everything_a_run_wrote(run_bhr_in_process, tmp_path):
     """A body run along a path with a lumen: replay draws clearance.png and body_errors.png too, the same."""
-    res = run_bhr("follow", "--traj", "colon", "--body-modules", "20", "--out", "run")
+    res = run_bhr_in_process("follow", "--traj", "colon", "--body-modules", "20", "--out", "run")
     assert res.returncode == 0, res.stderr
     drawn = sorted(p.name for p in (tmp_path / "run").glob("*.png"))
     assert "clearance.png" in drawn and "body_errors.png" in drawn
@@ -83,7 +83,7 @@ def test_replay_restores_everything_a_run_wrote(run_bhr, tmp_path):
     assert back.to_dict()["steps"] == doc["steps"]
     for key in ("body_points_max_error_mm", "min_clearance_mm", "wall_touch_steps", "rmse_point_mm"):
         assert back.summary.to_dict()[key] == doc["summary"][key], key
-    res = run_bhr("replay", "run/run.json", "--out", "again")
+    res = run_bhr_in_process("replay", "run/run.json", "--out", "again")
     assert res.returncode == 0, res.stderr
     assert sorted(p.name for p in (tmp_path / "again").glob("*.png")) == drawn
     for name in drawn:
@@ -92,10 +92,10 @@ def test_replay_restores_everything_a_run_wrote(run_bhr, tmp_path):
         assert a.shape == b.shape and np.array_equal(a, b), name
 
 
-def test_replay_names_the_animation_once(run_bhr, tmp_path):
-    res = run_bhr("follow", "--traj", "line", "--length", "20", "--no-plots", "--out", "run")
+def test_replay_names_the_animation_once(run_bhr_in_process, tmp_path):
+    res = run_bhr_in_process("follow", "--traj", "line", "--length", "20", "--no-plots", "--out", "run")
     assert res.returncode == 0, res.stderr
-    res = run_bhr("replay", "run/run.json", "--animate", "a.gif")
+    res = run_bhr_in_process("replay", "run/run.json", "--animate", "a.gif")
     assert res.returncode == 0, res.stderr
     assert (res.stdout + res.stderr).count("a.gif") == 1  # the one Animation line (piped: no progress label)
     assert "Wrote" not in res.stdout
@@ -123,10 +123,10 @@ def test_replay_uses_the_saved_poses_not_a_new_solve(tmp_path, curve_run):
         "edited.gif", "edited.json"]  # --animate alone writes no figures
 
 
-def test_replay_animation_matches_follow_animation(run_bhr, tmp_path):
-    res = run_bhr("follow", "--traj", "line", "--length", "40", "--no-plots", "--out", "run", "--animate", "a.gif")
+def test_replay_animation_matches_follow_animation(run_bhr_in_process, tmp_path):
+    res = run_bhr_in_process("follow", "--traj", "line", "--length", "40", "--no-plots", "--out", "run", "--animate", "a.gif")
     assert res.returncode == 0, res.stderr
-    res = run_bhr("replay", "run/run.json", "--animate", "b.gif")
+    res = run_bhr_in_process("replay", "run/run.json", "--animate", "b.gif")
     assert res.returncode == 0, res.stderr
     with Image.open(tmp_path / "a.gif") as a, Image.open(tmp_path / "b.gif") as b:
         assert a.n_frames == b.n_frames == 21
@@ -205,11 +205,11 @@ def _corrupt(kind: str, doc: dict) -> str:
     ("codes", "run.json: step 8 codes must be 5 of the stable codes"),
     ("too many steps", "run.json: 140 steps but only 10 trajectory points"),
 ])
-def test_wrong_run_file_gets_one_line(run_bhr, tmp_path, curve_run, kind, message):
+def test_wrong_run_file_gets_one_line(run_bhr_in_process, tmp_path, curve_run, kind, message):
     bad = tmp_path / "run.json"
     bad.write_text(_corrupt(kind, _doc(curve_run)))
     before = snapshot(tmp_path)
-    res = run_bhr("replay", "run.json", "--animate", "out.gif")
+    res = run_bhr_in_process("replay", "run.json", "--animate", "out.gif")
     assert res.returncode != 0
     assert message in res.stderr, res.stderr
     assert "give a run.json written by 'bhr follow'" in res.stderr
@@ -225,10 +225,10 @@ def test_wrong_run_file_gets_one_line(run_bhr, tmp_path, curve_run, kind, messag
     (["run.json", "--animate", "x.webm"], "give a file ending in .gif"),
     (["run.json", "--step", "500"], "step 500 is past the end of the run (140 steps)"),
 ])
-def test_replay_refusals(run_bhr, tmp_path, curve_run, args, message):
+def test_replay_refusals(run_bhr_in_process, tmp_path, curve_run, args, message):
     write_json(tmp_path / "run.json", curve_run.to_dict())
     before = snapshot(tmp_path)
-    res = run_bhr("replay", *args)
+    res = run_bhr_in_process("replay", *args)
     assert res.returncode != 0
     assert message in res.stderr, res.stderr
     assert "Traceback" not in res.stderr and len(res.stderr.strip().splitlines()) == 1

@@ -135,10 +135,10 @@ angle = 45
 """
 
 
-def test_a_failed_run_is_recorded_and_the_others_run(run_bhr, tmp_path):
+def test_a_failed_run_is_recorded_and_the_others_run(run_bhr_in_process, tmp_path):
     (tmp_path / "b.toml").write_text(BATCH_MIXED)
     (tmp_path / "stomach.toml").write_text('generator = "stomach"\n')
-    proc = run_bhr("report", "--file", "b.toml", "--out", "out", "--jobs", "1")
+    proc = run_bhr_in_process("report", "--file", "b.toml", "--out", "out", "--jobs", "1")
     assert proc.returncode == 1
     assert proc.stderr.strip().splitlines()[-1] == "Error: 2 of 4 runs failed; see out/summary.csv"
     rows = read_csv(tmp_path / "out" / "summary.csv")
@@ -189,13 +189,13 @@ def test_a_failed_run_is_recorded_and_the_others_run(run_bhr, tmp_path):
     ('[[run]\nname = "a"\n', ["b.toml", "not valid TOML"]),
     ('[[run]]\nname = "a"\ntraj = "curve"\nbody_modules = 3\n', ["run 1 ('a')", "body_modules 3 is fewer than the 5"]),
 ])
-def test_bad_batch_is_one_line_and_writes_nothing(run_bhr, tmp_path, body, words):
+def test_bad_batch_is_one_line_and_writes_nothing(run_bhr_in_process, tmp_path, body, words):
     (tmp_path / "b.toml").write_text(body)
     out = tmp_path / "out"
     out.mkdir()
     (out / "index.html").write_text("previous report")
     before = snapshot(out)
-    proc = run_bhr("report", "--file", "b.toml", "--out", "out")
+    proc = run_bhr_in_process("report", "--file", "b.toml", "--out", "out")
     assert proc.returncode != 0
     lines = proc.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("Error: "), proc.stderr
@@ -205,13 +205,13 @@ def test_bad_batch_is_one_line_and_writes_nothing(run_bhr, tmp_path, body, words
     assert proc.stdout == ""
 
 
-def test_missing_batch_file_and_unwritable_output(run_bhr, tmp_path):
-    proc = run_bhr("report", "--file", "nope.toml", "--out", "out")
+def test_missing_batch_file_and_unwritable_output(run_bhr_in_process, tmp_path):
+    proc = run_bhr_in_process("report", "--file", "nope.toml", "--out", "out")
     assert proc.returncode != 0 and proc.stderr.strip() == (
         "Error: no such batch file nope.toml; give a TOML file of [[run]] tables (see docs/report.md)")
     (tmp_path / "b.toml").write_text('[[run]]\nname = "a"\ntraj = "line"\n')
     (tmp_path / "afile").write_text("x")
-    proc = run_bhr("report", "--file", "b.toml", "--out", "afile/out")
+    proc = run_bhr_in_process("report", "--file", "b.toml", "--out", "afile/out")
     assert proc.returncode != 0
     assert len(proc.stderr.strip().splitlines()) == 1 and "cannot write report" in proc.stderr
     assert "Running" not in proc.stderr  # refused before any run
@@ -382,7 +382,7 @@ def test_a_files_second_line_never_reaches_the_report(tmp_path, files, traj, rob
         assert SECRET not in (tmp_path / "out" / name).read_text(), name
 
 
-def test_a_batch_of_more_runs_than_a_study_may_have_is_refused_up_front(run_bhr, tmp_path):
+def test_a_batch_of_more_runs_than_a_study_may_have_is_refused_up_front(run_bhr_in_process, tmp_path):
     """1,000,001 runs (a sweep or traversability study is refused past 1,000,000 designs): refused in one line
     before any run is checked (the runs here are empty tables, which a check would refuse first) and before the
     TOML is parsed; nothing written."""
@@ -392,7 +392,7 @@ def test_a_batch_of_more_runs_than_a_study_may_have_is_refused_up_front(run_bhr,
     with pytest.raises(BhrError, match=f"^b: {n} runs is more than {n - 1}; use fewer runs$"):
         parse_batch({"run": [{}] * n}, "b")
     (tmp_path / "big.toml").write_text('[[run]]\nname = "a"\n' * n)  # no traj: any check of a run would refuse it
-    proc = run_bhr("report", "--file", "big.toml")
+    proc = run_bhr_in_process("report", "--file", "big.toml")
     assert proc.returncode == 1 and proc.stdout == ""
     assert proc.stderr == f"Error: big.toml: {n} runs is more than {n - 1}; use fewer runs\n"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["big.toml"]

@@ -4,8 +4,8 @@ from __future__ import annotations
 import json
 
 
-def test_follow_prints_rmse_and_the_flag_and_exits_0(run_bhr, tmp_path):
-    res = run_bhr("follow", "--traj", "curve", "--angle", "360", "--tol-pos", "4", "--no-plots", "--out", "o")
+def test_follow_prints_rmse_and_the_flag_and_exits_0(run_bhr_in_process, tmp_path):
+    res = run_bhr_in_process("follow", "--traj", "curve", "--angle", "360", "--tol-pos", "4", "--no-plots", "--out", "o")
     assert res.returncode == 0, res.stderr
     doc = json.loads((tmp_path / "o" / "run.json").read_text())
     assert "rmse" in res.stdout.splitlines()[3]

@@ -28,7 +28,7 @@ from bhr._studies.sweep import (
     run_sweep,
     sweep_from_toml,
 )
-from tests.conftest import bhr_exe, cli_install_command, snapshot
+from tests.conftest import bhr_exe, bhr_in_process, cli_install_command, snapshot
 
 REPO = Path(__file__).resolve().parents[2]
 PNG = b"\x89PNG\r\n\x1a\n"
@@ -39,7 +39,14 @@ def rows_of(path: Path) -> list[dict[str, str]]:
     return list(csv.DictReader(io.StringIO(path.read_text())))
 
 
-def run_cli(*args, cwd: Path, env: dict | None = None, timeout: float = 600):
+def run_cli(*args, cwd: Path, timeout: float = 600):
+    """The command in this process (what it does with its input and its files)."""
+    return bhr_in_process(*args, cwd=cwd, timeout=timeout)
+
+
+def run_cli_process(*args, cwd: Path, env: dict | None = None, timeout: float = 600):
+    """The real ``bhr`` process: for what is read as Python starts (NUMBA_*, PYTHONPATH), and a Dask client that
+    lives and ends with the command."""
     e = dict(os.environ, MPLBACKEND="Agg")
     e.update(env or {})
     return subprocess.run(bhr_exe() + [str(a) for a in args], cwd=cwd, capture_output=True, text=True,
@@ -291,10 +298,10 @@ def test_example_file_with_command_line_override(tmp_path):
 def test_worker_processes_load_the_kernels_from_the_disk_cache(tmp_path):
     """With a warm cache, worker processes compile nothing and load each kernel once per worker, not per design."""
     env = {"NUMBA_CACHE_DIR": str(tmp_path / "cache")}
-    warm = run_cli("sweep", "--grid", "modules=4", "--jobs", "1", "--no-plots", "--out", "w", cwd=tmp_path, env=env)
+    warm = run_cli_process("sweep", "--grid", "modules=4", "--jobs", "1", "--no-plots", "--out", "w", cwd=tmp_path, env=env)
     assert warm.returncode == 0, warm.stderr
     assert any((tmp_path / "cache").rglob("*.nbc"))
-    proc = run_cli("sweep", "--grid", "modules=3:8", "--grid", "alpha=8:12", "--jobs", "2", "--no-plots",
+    proc = run_cli_process("sweep", "--grid", "modules=3:8", "--grid", "alpha=8:12", "--jobs", "2", "--no-plots",
                    "--out", "p", cwd=tmp_path, env={**env, "NUMBA_DEBUG_CACHE": "1"})
     assert proc.returncode == 0, proc.stderr
     assert "30 designs on 2 processes" in proc.stdout
@@ -331,8 +338,8 @@ def dask_cluster():
 def test_dask_cluster_gives_the_local_results(dask_cluster, tmp_path):
     import distributed
 
-    local = run_cli("sweep", *GRID, "--solver", "seed", "--solver", "fabrik", "--out", "local", cwd=tmp_path)
-    remote = run_cli("sweep", *GRID, "--solver", "seed", "--solver", "fabrik", "--out", "dask", "--scheduler",
+    local = run_cli_process("sweep", *GRID, "--solver", "seed", "--solver", "fabrik", "--out", "local", cwd=tmp_path)
+    remote = run_cli_process("sweep", *GRID, "--solver", "seed", "--solver", "fabrik", "--out", "dask", "--scheduler",
                      dask_cluster.scheduler_address, cwd=tmp_path)
     assert local.returncode == 0 and remote.returncode == 0, local.stderr + remote.stderr
     assert f"36 runs (18 designs x 2 trajectories) on dask {dask_cluster.scheduler_address}" in remote.stdout
@@ -399,13 +406,13 @@ def test_scheduler_without_dask_installed_is_one_line(tmp_path):
     block.mkdir()
     (block / "distributed.py").write_text("raise ImportError('No module named distributed')\n")
     env = {"PYTHONPATH": os.pathsep.join([str(block), os.environ.get("PYTHONPATH", "")]).rstrip(os.pathsep)}
-    proc = run_cli("sweep", "--grid", "modules=4", "--scheduler", "tcp://127.0.0.1:1", "--out", "o", cwd=tmp_path,
+    proc = run_cli_process("sweep", "--grid", "modules=4", "--scheduler", "tcp://127.0.0.1:1", "--out", "o", cwd=tmp_path,
                    env=env)
     assert proc.returncode != 0
     assert proc.stderr.strip() == ("Error: --scheduler needs Dask's distributed package, which is not installed; "
                                    f"install it with: {cli_install_command('dask')}")
     # the local path does not need it
-    ok = run_cli("sweep", "--grid", "modules=4", "--jobs", "1", "--no-plot", "--out", "o", cwd=tmp_path, env=env)
+    ok = run_cli_process("sweep", "--grid", "modules=4", "--jobs", "1", "--no-plot", "--out", "o", cwd=tmp_path, env=env)
     assert ok.returncode == 0, ok.stderr
 
 

@@ -2,10 +2,10 @@
 import json
 
 
-def test_cli_follow_thesis_equals_seed(tmp_path, run_bhr):
+def test_cli_follow_thesis_equals_seed(tmp_path, run_bhr_in_process):
     docs = []
     for name in ("thesis", "seed"):
-        r = run_bhr("follow", "--traj", "curve", "--solver", name, "--no-plots", "--json", str(tmp_path / f"{name}.json"),
+        r = run_bhr_in_process("follow", "--traj", "curve", "--solver", name, "--no-plots", "--json", str(tmp_path / f"{name}.json"),
                     "--out", str(tmp_path / name))
         assert r.returncode == 0, r.stderr
         docs.append(json.loads((tmp_path / f"{name}.json").read_text()))

@@ -11,7 +11,7 @@ from bhr.model._generators import load_trajectory
 from tests.unit.test_trajectory_files import _distance_to, centerline, write  # noqa: F401
 
 
-def test_ten_thousand_point_centerline_is_resampled_and_followed(tmp_path, run_bhr):
+def test_ten_thousand_point_centerline_is_resampled_and_followed(tmp_path, run_bhr_in_process):
     rng = np.random.default_rng(12345)
     # irregular spacing: random gaps whose density also varies tenfold along the curve
     gaps = rng.exponential(1.0, 9999) * (0.2 + 1.8 * rng.random(9999)) * (1 + 9 * (np.arange(9999) % 2000 < 700))
@@ -36,7 +36,7 @@ def test_ten_thousand_point_centerline_is_resampled_and_followed(tmp_path, run_b
     true_rmin = 1 / kappa.max()
     assert tr.min_radius == pytest.approx(true_rmin, rel=0.05)
 
-    res = run_bhr("follow", "--traj", f, "--no-plots", "--out", "run")
+    res = run_bhr_in_process("follow", "--traj", f, "--no-plots", "--out", "run")
     assert res.returncode == 0, res.stderr
     assert "Warning" not in res.stderr  # the curve is gentler than the robot's 57.15 mm
     doc = json.loads((tmp_path / "run" / "run.json").read_text())
@@ -66,13 +66,13 @@ def test_example_files_load_and_the_centerline_script_reproduces_its_csv(tmp_pat
     assert out.read_text() == (REPO / "trajectories" / "example_centerline.csv").read_text()
 
 
-def test_follow_warns_about_a_centerline_tighter_than_the_robot_turns(tmp_path, run_bhr):
+def test_follow_warns_about_a_centerline_tighter_than_the_robot_turns(tmp_path, run_bhr_in_process):
     s = np.arange(0.0, 150.0, 0.7)
     a = np.clip((s - 50) / 30.0, 0, math.pi / 2)
     rest = np.clip(s - 50 - 30 * math.pi / 2, 0, None)
     pts = np.stack([np.minimum(s, 50) + 30 * np.sin(a), 30 * (1 - np.cos(a)) + rest, 0 * s], axis=1)
     write(tmp_path / "tight.csv", "x,y,z\n" + "\n".join(",".join(f"{v:.9f}" for v in p) for p in pts) + "\n")
-    res = run_bhr("follow", "--traj", "tight.csv", "--no-plots", "--out", "o")
+    res = run_bhr_in_process("follow", "--traj", "tight.csv", "--no-plots", "--out", "o")
     assert res.returncode == 0, res.stderr
     warn = [line for line in res.stderr.splitlines() if line.startswith("Warning")]
     assert len(warn) == 1 and "tighter than the robot's minimum turn radius 57.15 mm" in warn[0]

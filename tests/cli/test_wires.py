@@ -6,8 +6,8 @@ import json
 import numpy as np
 
 
-def test_a_whole_robot_writes_its_poses(run_bhr, tmp_path):
-    res = run_bhr("follow", "--traj", "anatomy", "--seed", "3", "--solver", "lumen", "--alpha", "25",
+def test_a_whole_robot_writes_its_poses(run_bhr_in_process, tmp_path):
+    res = run_bhr_in_process("follow", "--traj", "anatomy", "--seed", "3", "--solver", "lumen", "--alpha", "25",
                   "--module-length", "5", "--body-modules", "12", "--no-plots", "--out", "run")
     assert res.returncode == 0, res.stderr
     assert "Wires: rigid modules driven by their wires" in res.stdout and "poses.npz" in res.stdout
@@ -24,8 +24,8 @@ def test_a_whole_robot_writes_its_poses(run_bhr, tmp_path):
     assert np.max(np.abs(seg - 5.0)) <= 1e-6
 
 
-def test_the_trail_model_is_still_there_and_labelled(run_bhr, tmp_path):
-    res = run_bhr("follow", "--traj", "anatomy", "--seed", "3", "--solver", "lumen", "--alpha", "25",
+def test_the_trail_model_is_still_there_and_labelled(run_bhr_in_process, tmp_path):
+    res = run_bhr_in_process("follow", "--traj", "anatomy", "--seed", "3", "--solver", "lumen", "--alpha", "25",
                   "--module-length", "5", "--body-modules", "12", "--locomotion", "trail", "--no-plots", "--out",
                   "run")
     assert res.returncode == 0, res.stderr

@@ -108,7 +108,7 @@ def _run(steps: int, body: int, seed: int = 7, alpha: float = 25.0, locomotion: 
 def test_no_contact_where_bhrs_geometry_says_clear():
     """Poses clear of bhr's wall (its own tube and nearest-point kernel, sampled every 0.25 mm along every module)
     load nothing and the robot stays on them; a pose that goes into bhr's wall loads it."""
-    from bhr.model._tube import make_tube, point_clearance
+    from bhr.model._tube import _window_numpy, make_tube, nearest_kernel
 
     run = _run(240, 30)
     poses = poses_from_run(run)
@@ -117,13 +117,15 @@ def test_no_contact_where_bhrs_geometry_says_clear():
     tr = run.trajectory
     tube = make_tube(np.asarray(tr.points), np.asarray(tr.lumen), tr.start_direction, window_mm=1e4,
                      closed_end=True)
+    C, R, radius = tube.points, tube.radius, run.robot.robot_radius
+    lo, hi = _window_numpy(C.shape[0], float(C.shape[0]) / 2, tube.window)  # the whole tube
     s = np.linspace(0.0, 1.0, 21)
     clear = []
     for i in range(poses.points_mm.shape[0]):
         P = poses.points_mm[i]
         axis = (P[:-1, None] + s[None, :, None] * np.diff(P, axis=0)[:, None]).reshape(-1, 3)
-        clear.append(min(point_clearance(tube, run.robot.robot_radius, p, tube.pre + 0.0, float(tube.points.shape[0]) / 2)
-                         for p in axis))
+        near = [nearest_kernel(C, R, lo, hi, float(x), float(y), float(z)) for x, y, z in axis]
+        clear.append(min(r - radius - d for d, r, _ in near))
     clear = np.array(clear)
     first_touch = int(np.argmax(clear <= 0)) if np.any(clear <= 0) else len(clear)
     assert first_touch > 20
