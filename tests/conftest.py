@@ -182,6 +182,26 @@ LAYERS = ("unit", "run", "thesis", "cli", "integration")
 _NEEDS = {"run_bhr": "cli", "run_bhr_in_process": "cli", "dask_cluster": "integration"}
 
 
+def _layers_asked(config) -> set[str] | None:
+    """The layers a ``-m`` expression made of layer names only asks for (``-m unit``, ``-m "cli or thesis"``), else
+    None (any other expression may select tests of any folder)."""
+    words = (config.getoption("markexpr", "") or "").split()
+    if not words or words[1::2] != ["or"] * (len(words) // 2) or not set(words[::2]) <= set(LAYERS):
+        return None
+    return set(words[::2])
+
+
+def pytest_ignore_collect(collection_path, config):
+    """``-m unit`` (or another expression of layers) collects only the folders of those layers: importing every
+    other test module costs the run seconds (pytest rewrites the asserts of each) for tests it then deselects."""
+    asked = _layers_asked(config)
+    folder = Path(str(collection_path)).resolve()
+    if asked is None or folder.parent != REPO / "tests" or folder.name not in FOLDERS:
+        return None
+    wanted = {"unit" if layer == "run" else layer for layer in asked}
+    return True if folder.name not in wanted else None
+
+
 def pytest_collection_modifyitems(config, items):
     for item in items:
         folder = Path(str(item.path)).resolve().parent

@@ -119,6 +119,7 @@ def test_no_mesh_or_a_mesh_that_does_not_enclose_the_path_is_the_tube(tmp_path, 
     assert grid is None and wall.startswith("tube (the mesh leaves")
 
 
+@pytest.mark.run  # the whole colon's signed-distance grid, computed with vtk on a fresh cache (6.5 s of CPU)
 def test_a_real_colon_is_measured_against_its_mesh_where_it_encloses_the_path():
     t = load_trajectory("gca:E90", feed=2.0)
     grid, wall = wall_grid(t)
