@@ -169,7 +169,8 @@ def snapshot(folder: Path) -> dict[str, tuple[int, int]]:
 # Every test belongs to one layer, its folder, so that a fast subset can run alone (README, "Tests"):
 #   tests/unit         the library in-process: kernels against their numpy references, models, readers, API
 #   tests/thesis       the thesis's published figures (chapters 5-7), pinned bit for bit
-#   tests/cli          the `bhr` commands, run as a user runs them
+#   tests/cli          the `bhr` commands, run as a user runs them: a real process where the process is what is
+#                      tested, else in this process through the same command group (bhr_in_process)
 #   tests/integration  real outside parts: firmware built with avr-gcc and run in simavr, serial ptys, Chromium,
 #                      Dask, pinocchio and MuJoCo, the import-contract tool
 # The marker is the folder's name, but for one layer without a folder of its own:
