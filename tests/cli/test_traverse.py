@@ -8,8 +8,8 @@ import subprocess
 
 import pytest
 
-from tests.conftest import REPO, bhr_exe
-from tests.unit.test_traverse import PNG, follow_summary, rows_of, run_cli, small_study  # noqa: F401
+from tests.conftest import REPO, bhr_exe, bhr_in_process
+from tests.unit.test_traverse import PNG, follow_summary, rows_of, small_study  # noqa: F401
 
 
 def test_command_answers_the_question(small_study):
@@ -47,7 +47,7 @@ def test_command_answers_the_question(small_study):
 
 
 def test_no_design_meets_a_target_nothing_reaches(tmp_path):
-    proc = run_cli("traverse", "--head-only", "--grid", "alpha=10", "--colons", "3", "--no-plots", "--out", "o", cwd=tmp_path)
+    proc = bhr_in_process("traverse", "--head-only", "--grid", "alpha=10", "--colons", "3", "--no-plots", "--out", "o", cwd=tmp_path)
     assert proc.returncode == 0, proc.stderr
     s = follow_summary(3, "seed")
     assert s["wall_touch_steps"]  # the thesis robot touches this colon's wall
@@ -98,7 +98,7 @@ def test_progress_bar_on_a_terminal(tmp_path):
     (["--colons", "1", "--head-only", "--grid", "body_modules=60"], "--head-only judges the head alone"),
 ])
 def test_bad_input_is_one_line_and_writes_nothing(tmp_path, args, msg):
-    proc = run_cli("traverse", *args, "--out", "o", cwd=tmp_path, timeout=120)
+    proc = bhr_in_process("traverse", *args, "--out", "o", cwd=tmp_path, timeout=120)
     assert proc.returncode != 0
     lines = proc.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("Error: ") and msg in lines[0], proc.stderr
@@ -107,7 +107,7 @@ def test_bad_input_is_one_line_and_writes_nothing(tmp_path, args, msg):
 
 def test_output_folder_that_is_a_file_fails_before_running(tmp_path):
     (tmp_path / "o").write_text("not a folder")
-    proc = run_cli("traverse", "--colons", "1", "--out", "o", cwd=tmp_path, timeout=120)
+    proc = bhr_in_process("traverse", "--colons", "1", "--out", "o", cwd=tmp_path, timeout=120)
     assert proc.returncode != 0 and proc.stderr.startswith("Error: ") and len(proc.stderr.strip().splitlines()) == 1
     assert (tmp_path / "o").read_text() == "not a folder"
 
@@ -129,7 +129,7 @@ def test_physics_needs_mujoco_before_the_study_runs():
 
 def test_target_pass_help_shows_the_range_a_share_has():
     """The help said 0<=x<=1000000.0, though anything above 1 is refused."""
-    proc = run_cli("traverse", "--help", cwd=REPO)
+    proc = bhr_in_process("traverse", "--help", cwd=REPO)
     assert "[default: 0.95; 0<x<=1]" in " ".join(proc.stdout.split())
 
 
@@ -139,7 +139,7 @@ def test_max_wall_force_judges_each_colon_by_the_physical_replay(tmp_path):
     never above the threshold) -- whatever the geometric verdict."""
     import csv
 
-    proc = run_cli("traverse", "--grid", "alpha=25", "--grid", "body_modules=12", "--colons", "1", "--solver",
+    proc = bhr_in_process("traverse", "--grid", "alpha=25", "--grid", "body_modules=12", "--colons", "1", "--solver",
                    "lumen", "--max-wall-force", "9.8", "--no-plots", "--jobs", "1", "--out", "tv", cwd=tmp_path,
                    timeout=1800)
     assert proc.returncode == 0, proc.stderr
