@@ -7,12 +7,12 @@ import warnings
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 import bhr
 from bhr.model._generators import load_trajectory
-from bhr.model._path import unfollowable_bends
+from bhr.model._path import BEND_WINDOWS_MM, unfollowable_bends
 from bhr.model._robot import Robot
 from bhr._run.driver import BhrWarning
 
@@ -20,20 +20,22 @@ SETTINGS = settings(max_examples=40, deadline=None)
 
 
 def bend(radius: float, turn_deg: float, straight: float = 100.0, step: float = 1.0) -> np.ndarray:
-    """A straight, an arc of ``radius`` turning ``turn_deg``, a straight: points ``step`` mm apart (planar)."""
+    """A straight, an arc of ``radius`` turning ``turn_deg``, a straight: points ``step`` mm apart along the path
+    (planar), evenly spaced as the rule's centerlines are, across the arc's ends too."""
     th = math.radians(turn_deg)
-    s = np.arange(0.0, straight, step)
-    first = np.column_stack([s - straight, 0 * s, 0 * s])
-    u = np.arange(0.0, radius * th, step) / radius
-    arc = np.column_stack([radius * np.sin(u), radius * (1 - np.cos(u)), 0 * u])
-    end = np.array([radius * math.sin(th), radius * (1 - math.cos(th)), 0.0])
-    d = np.array([math.cos(th), math.sin(th), 0.0])
-    last = end + (s[:, None] + step) * d
-    return np.vstack([first, arc, last])
+    s = np.arange(0.0, 2.0 * straight + radius * th + 0.5 * step, step) - straight  # arc length from the arc's start
+    u = np.clip(s, 0.0, radius * th) / radius
+    d = np.column_stack([np.cos(th) + 0 * s, np.sin(th) + 0 * s, 0 * s])
+    on_arc = np.column_stack([radius * np.sin(u), radius * (1 - np.cos(u)), 0 * u])
+    before = np.column_stack([s, 0 * s, 0 * s])
+    after = on_arc + np.maximum(s - radius * th, 0.0)[:, None] * d
+    return np.where((s < 0.0)[:, None], before, after)
 
 
 @SETTINGS
 @given(st.floats(5.0, 80.0), st.floats(10.0, 180.0), st.floats(0.0, 20.0), st.floats(10.0, 80.0))
+@example(5.0, 10.0, 0.0, 18.0)  # a kink shorter than the shortest stretch judged
+@example(5.0, 90.0, 0.0, 18.0)
 def test_the_rule_on_one_circular_bend(r, turn, e, big_r):
     """A robot of turn radius R takes a circular bend of radius r turning theta in a tube leaving e either way
     when R - r <= e (1 + c) / (1 - c), c = cos(theta / 2); clearly inside or outside that, the rule agrees."""
@@ -42,9 +44,11 @@ def test_the_rule_on_one_circular_bend(r, turn, e, big_r):
     c = math.cos(math.radians(turn) / 2)
     limit = r + e * (1 + c) / (1 - c)
     found = unfollowable_bends(pts, lumen, big_r, 5.0)
-    # the stretches are judged at whole points (a stretch one point longer reads 1 / theta mm wider) and in 8 %
-    # steps of length
-    if big_r > 1.25 * limit + 2.0 / math.radians(turn):
+    # the stretches are judged at whole points (a stretch one point longer reads 1 / theta mm wider), in 8 %
+    # steps of length, and are at least 2 BEND_WINDOWS_MM[0] long: a bend shorter than that reads as that
+    # stretch's mean radius (a 10 deg kink of 5 mm radius, 0.9 mm long, reads 23 mm)
+    shortest = 2.0 * max(round(BEND_WINDOWS_MM[0] / 1.0), 1) * 1.0 / math.radians(turn)  # the points are 1 mm apart
+    if big_r > 1.25 * max(limit, shortest) + 2.0 / math.radians(turn):
         assert found
         first, last, r_bend, d = found[0]
         assert 100 - 2 * big_r <= first <= 100 + r * math.radians(turn) and r_bend < big_r
@@ -92,7 +96,7 @@ def test_the_warning_fires_only_where_the_robot_cannot_follow():
 def test_the_compiled_rule_is_its_numpy_reference(seed):
     """The kernel (sparse-table minima, point by point) finds the numpy reference's stretches on anatomical colons
     for the thesis robot and a 5 mm / 25 deg one; radii agree to rounding (acos in libm and in numpy)."""
-    from bhr.model._path import unfollowable_bends_numpy
+    from bhr.model._path import BEND_WINDOWS_MM, unfollowable_bends_numpy
 
     t = bhr.trajectory("anatomy", seed=seed)
     for robot in (Robot(), Robot(module_length=5.0, alpha=25.0)):
