@@ -39,6 +39,27 @@ def compile_all() -> None:
         follow(colon, solver="thesis")  # the whole colon: its arrays exactly as a command gives them
         follow(short, solver="lumen")
         follow(short, solver="thesis", body_modules=8)
+        # the whole robot: moved by its wires (its motion and every pose scored, stopped where it leaves the
+        # lumen too), the trail model, and the physical replay against the wall
+        wires = run_follow(short, solver="lumen", body_modules=8)
+        wires.to_dict()
+        run_follow(short, solver="lumen", body_modules=8, stop_at_wall=True).to_dict()
+        run_follow(short, solver="lumen", body_modules=8, locomotion="trail").to_dict()
+        from bhr._studies.physics import replay_physics
+
+        replay_physics(wires).summary()
+        try:  # a real colon's wall as its surface mesh (the anatomy extra)
+            import vtk  # noqa: F401
+        except ImportError:
+            pass
+        else:
+            import dataclasses
+
+            real = load_trajectory("gca:E60")  # its first 40 mm, with its mesh
+            cut = dataclasses.replace(real, points=np.ascontiguousarray(real.points[:40]),
+                                      lumen=np.ascontiguousarray(real.lumen[:40]))
+            follow(cut, solver="lumen")
+            run_follow(cut, solver="lumen", body_modules=8).to_dict()
         rows = np.array([[3, 0, 6, 0, 0], [0, 12, 0, 9, 15]], dtype=np.int64)
         auto_schedule(DEFAULT_THERMAL, rows, 10.0)
         check_schedule(DEFAULT_THERMAL, rows, 10.0)

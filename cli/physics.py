@@ -61,6 +61,9 @@ def physics(run, out_dir, force, wall_stiffness, wire_force, feeder_force, subst
     from bhr._studies.physics import replay_physics
 
     result = load_run(run)
+    from bhr.cli._progress import announce_compiles
+
+    announce_compiles()  # the run is read: a first compile says so
     with status(f"replaying {result.steps} steps against the wall", log=True):
         rep = replay_physics(result, None if run == "-" else run, **opts)
     from bhr.output._physics_plot import force_figure
@@ -71,7 +74,7 @@ def physics(run, out_dir, force, wall_stiffness, wire_force, feeder_force, subst
         write_json(folder.path("physics.json"), rep.to_dict())
         save_figure(force_figure(rep, f"{result.trajectory.name}: {result.solver} solver, the physical robot"),
                     folder.path("force.png"))
-        save_view(result, folder.stage, contacts=rep.contacts)
+        save_view(result, folder.stage, contacts=rep.contacts_by_step(result.steps))
     point_latest_if_default(folder, out_dir)
     s = rep.summary()
     out = folder.final("")

@@ -93,6 +93,9 @@ def traverse(grid, colons, solvers, head_only, target_pass, robot_file, out_dir,
     total = len(study)
     label = f"{total} runs ({study.designs} designs x {len(study.colons)} colons)" + (
         f" on {scheduler}" if scheduler else "")
+    from bhr.cli._progress import announce_compiles
+
+    announce_compiles()  # the input is checked: a first compile in this process says so
     with scheduler_client(scheduler) as client:  # fails in one line before anything starts
         with status(label, total, log=True) as bar:
             result = run_study(study, jobs=jobs, scheduler=client, progress=bar.set)

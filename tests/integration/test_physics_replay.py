@@ -21,8 +21,8 @@ from hypothesis import strategies as st
 import bhr
 from bhr.model._path import Trajectory
 from bhr.model._robot import Robot, base_frame
-from bhr._run.driver import BhrWarning
-from bhr._studies.physics import DEFAULT_WALL_STIFFNESS, Poses, poses_from_run, replay_poses
+from bhr._run.driver import BhrWarning, load_run
+from bhr._studies.physics import DEFAULT_WALL_STIFFNESS, Poses, poses_from_run, replay_physics, replay_poses
 from bhr._studies.physics.poses import chain_points
 
 
@@ -159,6 +159,27 @@ def test_physics_command_writes_its_set(run_bhr, tmp_path):
     assert (tmp_path / "phys" / "force.png").stat().st_size > 10000
     assert (tmp_path / "phys" / "view.html").stat().st_size > 1e6
     assert "wall load at most" in r.stdout
+
+
+def test_a_wires_run_is_replayed_from_its_poses_and_its_view_marks_each_steps_contacts(run_bhr, tmp_path):
+    # a robot moved by its wires writes many poses a step, and none once its feeder stopped (the robot's length in):
+    # the view's frames are the run's steps, each with the contacts of its own poses
+    r = run_bhr("follow", "--traj", "anatomy", "--seed", "1", "--solver", "lumen", "--alpha", "25",
+                "--module-length", "5", "--body-modules", "20", "--no-plots", "--out", "w")
+    assert r.returncode == 0, r.stderr
+    run = load_run(str(tmp_path / "w" / "run.json"))
+    poses = np.load(tmp_path / "w" / "poses.npz")["step"]
+    assert poses.max() < run.steps and len(poses) > poses.max()  # fewer steps with poses, more poses than those
+    r = run_bhr("physics", "w/run.json", "--out", "phys")
+    assert r.returncode == 0 and "Traceback" not in r.stderr, r.stderr
+    rep = replay_physics(run, str(tmp_path / "w" / "run.json"))
+    by_step = rep.contacts_by_step(run.steps)
+    assert len(by_step) == run.steps
+    for s in (int(k) for k in np.unique(rep.step)):
+        want = [c for k, c in zip(rep.step, rep.contacts) if k == s and len(c)]
+        assert np.array_equal(by_step[s - 1], np.vstack(want) if want else np.zeros((0, 3)))
+    assert all(len(c) == 0 for c in by_step[int(rep.step.max()):])
+    assert (tmp_path / "phys" / "view.html").stat().st_size > 1e5
 
 
 @pytest.mark.parametrize("args,word", [

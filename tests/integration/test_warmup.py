@@ -25,6 +25,16 @@ def test_after_the_warmup_no_command_compiles(tmp_path):
         ["follow", "--traj", "colon", "--solver", "lumen", "--no-plots", "--out", "l"],
         ["follow", "--traj", "colon", "--no-plots", "--out", "c"],
         ["follow", "--traj", "line", "--body-modules", "8", "--no-plots", "--out", "b"],
+        # the whole robot: moved by its wires, stopped where it leaves the lumen, the trail model, the replay
+        ["follow", "--traj", "anatomy", "--seed", "3", "--solver", "lumen", "--body-modules", "12", "--no-plots",
+         "--out", "w"],
+        ["follow", "--traj", "anatomy", "--seed", "1", "--solver", "lumen", "--body-modules", "30", "--stop-at-wall",
+         "--no-plots", "--out", "s"],
+        ["follow", "--traj", "anatomy", "--seed", "3", "--solver", "lumen", "--body-modules", "12", "--locomotion",
+         "trail", "--no-plots", "--out", "t"],
+        ["physics", "w/run.json", "--out", "p"],
+        ["traverse", "--grid", "alpha=25", "--colons", "2", "--jobs", "1", "--no-plots", "--out", "v"],
+        ["follow", "--traj", "gca:E60", "--solver", "lumen", "--body-modules", "12", "--no-plots", "--out", "e"],
     ]
     for args in commands:
         res = subprocess.run(bhr_exe() + args, cwd=tmp_path, env=env, capture_output=True, text=True, timeout=900)

@@ -24,6 +24,6 @@ def worst_colon_extras(run, folder: Any, physics: bool = False) -> list[str]:
         save_figure(force_figure(rep, f"{run.trajectory.name}: the worst colon, the physical robot"),
                     folder / "worst-colon-force.png")
         names += ["worst-colon-physics.json", "worst-colon-force.png"]
-        contacts = rep.contacts
+        contacts = rep.contacts_by_step(run.steps)
     names.append(save_view(run, folder, contacts=contacts, name="worst-colon-view.html").name)
     return names

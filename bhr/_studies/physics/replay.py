@@ -99,6 +99,15 @@ class PhysicsReplay:
     cpu_s: float
     max_wall_force_n: float = DEFAULT_MAX_WALL_FORCE
 
+    def contacts_by_step(self, steps: int) -> list[np.ndarray]:
+        """Per step of the run (``steps`` of them), the points of the axis in contact at any of its poses (K, 3);
+        none for a step no pose replayed. (A run moved by its wires has many poses a step.)"""
+        out: list[list[np.ndarray]] = [[] for _ in range(steps)]
+        for s, c in zip(self.step, self.contacts):
+            if 1 <= s <= steps and len(c):
+                out[int(s) - 1].append(c)
+        return [np.vstack(c) if c else np.zeros((0, 3)) for c in out]
+
     @property
     def contact_steps(self) -> list[int]:
         return sorted({int(s) for s in self.step[self.total_force_n > 0]})
