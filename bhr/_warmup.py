@@ -56,6 +56,7 @@ def compile_all() -> None:
             import dataclasses
 
             real = load_trajectory("gca:E60")  # its first 40 mm, with its mesh
+            assert real.lumen is not None
             cut = dataclasses.replace(real, points=np.ascontiguousarray(real.points[:40]),
                                       lumen=np.ascontiguousarray(real.lumen[:40]))
             follow(cut, solver="lumen")
