@@ -67,7 +67,7 @@ def test_stop_at_wall_changes_nothing_for_a_run_that_stays_inside():
 
 
 def test_stop_at_wall_with_the_trail_locomotion_is_refused_with_the_fix():
-    with pytest.raises(BhrError, match="drop --stop-at-wall or give --locomotion thesis"):
+    with pytest.raises(BhrError, match="drop --stop-at-wall or give --locomotion wires"):
         bhr.follow(bhr.trajectory("anatomy", seed=1), solver="lumen", locomotion="trail", stop_at_wall=True)
 
 
