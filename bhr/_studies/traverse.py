@@ -7,7 +7,9 @@ design follows every colon with the chosen solver(s); a colon is *traversed*
 when the run touches the wall at no step (``wall_touch_steps`` empty). Per
 design the study reports the pass rate (share of colons traversed), the
 worst and median of the runs' ``max_penetration_mm`` and their contact
-lengths, and it names the best design whose pass rate reaches the target.
+lengths, and it names the best design whose pass rate reaches the target. A whole robot's designs are
+ranked by how far along the colons they get inside the lumen (``reach``) when as many colons are traversed;
+its runs end where it leaves the lumen (``stop_at_wall``) unless each is replayed against the wall.
 
 It is a sweep (:mod:`bhr._studies.sweep`) whose last axis is the colon's seed: the
 same checks, chunks, worker processes and Dask path run it, so a study on a
@@ -457,8 +459,8 @@ def passrate_figure(result: StudyResult, x: str | None = None, y: str | None = N
             data[j, i] = d["pass_rate"]
     top = min(result.designs, key=_rank) if result.designs else None
     at_wall = top is not None and by_reach(top)
-    # what ranks cells of one pass rate: how far along the colons the robot got (runs ended at the wall), else the
-    # clearance it left
+    # what ranks cells of one pass rate: how far along the colons the robot got inside the lumen (a whole robot),
+    # else the clearance it left
     tie_key, tie_label = (("median_reach_pct", "median reach inside the lumen (% of the colon)") if at_wall else
                           ("worst_clearance_mm", "worst clearance (mm)"))
     clear = np.full(data.shape, np.nan)
