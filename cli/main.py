@@ -130,8 +130,8 @@ def run() -> NoReturn:
     exit would, without that tidy-up: the exit handlers run (``atexit``: multiprocessing's and
     weakref.finalize's clean-ups, logging's flush), standard output and
     standard error are flushed, then ``os._exit`` with the command's exit status. Where anything else may still
-    need Python's own exit (a thread still running, an exit status that is not a number, a stream that cannot
-    be flushed), Python's exit is used, as before.
+    need Python's own exit (a thread still running, unless a signal ended the command; an exit status that is not
+    a number; a stream that cannot be flushed), Python's exit is used, as before.
     """
     install()
     _hold_closed_streams()
@@ -212,10 +212,14 @@ def _leave(code: int) -> NoReturn:
     import atexit
     import threading
 
-    if threading.active_count() > 1:  # Python's exit waits for the other threads
+    # Python's exit waits for the other threads; a command ended by a signal (128 + its number) has discarded
+    # its outputs and stopped its workers, and waits for no thread (one blocked on a killed worker's pipe would
+    # never end)
+    interrupted = code > 128
+    if threading.active_count() > 1 and not interrupted:
         sys.exit(code)
     atexit._run_exitfuncs()
-    if threading.active_count() > 1:
+    if threading.active_count() > 1 and not interrupted:
         sys.exit(code)
     for stream in (sys.stdout, sys.stderr):
         try:

@@ -131,33 +131,44 @@ def _worker_start() -> None:
 class _Lane:
     """One worker in a one-process executor, so that a worker that dies names the chunk it ran."""
 
+    #: How long a stopped lane waits for its pool's threads to end (a thread blocked on a killed worker's pipe
+    #: would never end: the command ends without it).
+    THREAD_WAIT_S = 10.0
+
     def __init__(self) -> None:
         self.pool: Any = None
         self.process: Any = None
+        self.threads: set[threading.Thread] = set()
 
     def submit(self, call: Callable[[Any], Any], chunk: Any) -> Any:
         from concurrent.futures import ProcessPoolExecutor
 
         if self.pool is not None:
             return self.pool.submit(call, chunk)
-        before = set(multiprocessing.active_children())
+        before, threads = set(multiprocessing.active_children()), set(threading.enumerate())
         self.pool = ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn"), initializer=_worker_start)
-        future = self.pool.submit(call, chunk)  # starts the worker
+        future = self.pool.submit(call, chunk)  # starts the worker and the pool's threads
         self.process = next(iter(set(multiprocessing.active_children()) - before), None)
+        self.threads = set(threading.enumerate()) - threads
         return future
 
     def stop(self, kill: bool) -> str:
-        """Stop the worker (``kill``: at once); how it ended. The pool's thread ends here (it reaps the worker): one
-        still ending as bhr ends leaks the pool's semaphores."""
+        """Stop the worker (``kill``: at once); how it ended. The pool's threads end here, within
+        :attr:`THREAD_WAIT_S` when killed: a thread still ending as bhr ends leaks the pool's semaphores."""
         code = None
         if self.process is not None and kill:
             self.process.kill()
         if self.pool is not None:
-            self.pool.shutdown(wait=not kill or self.process is not None, cancel_futures=True)
+            self.pool.shutdown(wait=not kill, cancel_futures=True)
+        if kill:
+            deadline = time.monotonic() + self.THREAD_WAIT_S
+            for t in self.threads:
+                t.join(max(0.0, deadline - time.monotonic()))
         if self.process is not None and kill:
             self.process.join(5)
             code = self.process.exitcode
         self.pool = self.process = None
+        self.threads = set()
         return f"killed by {signal.Signals(-code).name}" if code and code < 0 else f"exit status {code}"
 
 
