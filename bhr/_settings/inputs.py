@@ -67,21 +67,12 @@ def read_text(path: str | os.PathLike[str], what: str, hint: str, limit: int | N
     """The UTF-8 text of ``path`` (at most ``limit`` bytes, :data:`MAX_FILE_BYTES` by default); a BhrError
     naming ``what`` and ``hint`` otherwise, also for a file of no text (nothing, or only white space) unless
     ``empty_ok``."""
-    p = Path(path)
+    p = check_input(path, what, hint, empty_ok=True)  # missing, a folder, a FIFO or device, unreadable: one line
     try:
-        if p.is_dir():
-            raise BhrError(f"{p} is a folder, not a {what}; {hint}")
         raw = read_capped(p, what, hint, limit)
-    except FileNotFoundError:
-        link = broken_link(p)
-        raise BhrError(f"{link}; {hint}" if link else f"no such {what} {p}{latest_note(p)}; {hint}") from None
-    except PermissionError:
-        raise BhrError(f"cannot read {what} {p}: permission denied; {hint}") from None
-    except OSError as exc:
-        link = broken_link(p)
-        if link:
-            raise BhrError(f"{link}; {hint}") from None
-        raise BhrError(f"cannot read {what} {p} ({exc.strerror or exc.__class__.__name__}); {hint}") from None
+    except OSError as exc:  # it changed since
+        raise BhrError(f"cannot read {what} {shown_path(p)} ({exc.strerror or exc.__class__.__name__}); {hint}"
+                       ) from None
     try:
         text = raw.decode("utf-8-sig")
     except UnicodeDecodeError as exc:

@@ -17,14 +17,19 @@ from tests.unit.test_executor import FRESH_PROCESS
 from tests.unit.test_output_folders import write_run
 
 
+def _run_script(folder, text: str) -> subprocess.CompletedProcess:
+    """``text`` run as a Python script in a fresh process, started as a shell's foreground job is (whatever this
+    test run inherited: nohup, `&`)."""
+    script = folder / "script.py"
+    script.write_text(text)
+    return subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=300,
+                          preexec_fn=foreground)
+
+
 def test_workers_ignore_the_signals_and_this_process_keeps_them(tmp_path):
     # a Ctrl-C to the terminal's process group is the command's (it stops its workers): a worker that took it
     # printed its own traceback
-    script = tmp_path / "fresh.py"
-    script.write_text(FRESH_PROCESS)
-    # started as a shell's foreground job is, whatever this test run inherited (nohup, `&`)
-    r = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=300,
-                       preexec_fn=foreground)
+    r = _run_script(tmp_path, FRESH_PROCESS)
     assert r.returncode == 0, r.stderr
     ignored = ["SIGHUP", "SIGINT", "SIGTERM"]
     assert r.stdout.splitlines() == [str([ignored, ignored, ignored]), "[] set()"]
@@ -56,10 +61,7 @@ if __name__ == "__main__":
 def test_a_study_stopped_by_ctrl_c_leaves_no_thread_of_its_workers_running_and_no_semaphore(tmp_path):
     # a worker pool's thread still ending when bhr ended had unlinked a semaphore without telling multiprocessing's
     # resource tracker, which then warned of a leaked semaphore after "Interrupted."
-    script = tmp_path / "stopped.py"
-    script.write_text(INTERRUPTED_STUDY)
-    r = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=120,
-                       preexec_fn=foreground)
+    r = _run_script(tmp_path, INTERRUPTED_STUDY)
     assert r.returncode == 0, r.stderr
     assert r.stdout.split() == ["1"]  # only the main thread is left
     assert r.stderr == ""
