@@ -19,10 +19,15 @@ loops of the colon passing close to each other are never mistaken for one
 another.
 
 Not only the points count: every module is a straight segment between two
-points, and its clearance is the smallest along it. It is sampled at most
-``sample`` mm apart (both ends included) and the worst sample refined by a
-golden-section search between its neighbours, which finds the minimum to
-0.01 mm wherever the clearance has one minimum between two samples. Points
+points, and its clearance is the smallest along it. Where the module is inside
+the lumen it is found exactly (:func:`module_exact_kernel`: the clearance is
+concave between the module's crossings of the planes where its nearest
+centerline feature changes, so the least of those crossings and the ends is
+the minimum). Otherwise (touching the wall, or a centerline too tangled there)
+it is sampled at most ``sample`` mm apart (both ends included) and the worst
+sample refined by a golden-section search between its neighbours, which finds
+the minimum to 0.01 mm wherever the clearance has one minimum between two
+samples. Points
 and samples expected before the start of the path (the part of the robot
 still behind the lumen's entrance) are not scored. With a body
 (``--body-modules``) its points and modules count too, and so does the link
@@ -65,6 +70,8 @@ __all__ = ["ClearanceReport", "CecumWatch", "cecum_step", "cecum_kernel", "Tube"
 
 #: Largest spacing (mm) of the samples along a module.
 SAMPLE_MM = 1.0
+#: Centerline segments a module may span for its exact minimum (:func:`module_exact_kernel`); longer: sampled.
+EXACT_SPAN = 64
 #: Golden-section iterations refining the worst sample of a module.
 REFINE_ITERS = 20
 _GOLD = (math.sqrt(5.0) - 1.0) / 2.0
@@ -86,13 +93,143 @@ def _clear_at(C, R, S, BC, BR, w, radius, ax, ay, az, bx, by, bz, za, zb, ea, eb
     return out[1] - radius - out[0]
 
 
+@njit(cache=True, inline="always")
+def _segment_clearance(C, R, radius, k, px, py, pz):
+    """(squared distance, clearance, t) of p against centerline segment ``k`` alone (:func:`segment_scan`'s
+    arithmetic)."""
+    ax, ay, az = C[k, 0], C[k, 1], C[k, 2]
+    ux, uy, uz = C[k + 1, 0] - ax, C[k + 1, 1] - ay, C[k + 1, 2] - az
+    uu = ux * ux + uy * uy + uz * uz
+    dot = (px - ax) * ux + (py - ay) * uy + (pz - az) * uz
+    if dot <= 0.0:
+        t = 0.0
+    elif dot >= uu:
+        t = 1.0
+    else:
+        t = dot / uu
+        if t > 1.0:
+            t = 1.0
+    dx, dy, dz = px - (ax + t * ux), py - (ay + t * uy), pz - (az + t * uz)
+    d2 = dx * dx + dy * dy + dz * dz
+    return d2, R[k] + t * (R[k + 1] - R[k]) - radius - math.sqrt(d2), t
+
+
+@njit(cache=True, inline="always")
+def _crossing(C, R, radius, k0, k1, v, mitre, ax, ay, az, dx, dy, dz, nx, ny, nz, best):
+    """Where module a + t (dx, dy, dz) crosses the plane through vertex ``v`` with normal n, and the clearance
+    there: (clearance, t); clearance +inf when it does not cross for 0 < t < 1 or cannot be below ``best`` (the
+    least radius there, less the distance to ``v``, is not), NaN when the nearest point of the segments
+    ``k0..k1`` lies at an outer end of them (a nearer one may lie beyond).
+
+    The nearest point is that of the segments before and after ``v`` unless it lies at their outer ends (then
+    all of ``k0..k1`` are searched). On a mitre plane (``mitre``) both are equally far, and on the inner side
+    of a bend the nearest point, and the radius with it, jumps across the plane: the least of the two
+    segments' clearances is the one approached from one side."""
+    den = dx * nx + dy * ny + dz * nz
+    if den == 0.0:
+        return np.inf, -1.0
+    t = ((C[v, 0] - ax) * nx + (C[v, 1] - ay) * ny + (C[v, 2] - az) * nz) / den
+    if not (0.0 < t < 1.0):
+        return np.inf, t
+    px, py, pz = ax + t * dx, ay + t * dy, az + t * dz
+    lo = max(v - 1, k0)
+    hi = min(v, k1)
+    gap = min(R[lo], R[v], R[hi + 1]) - radius - best
+    ex, ey, ez = px - C[v, 0], py - C[v, 1], pz - C[v, 2]
+    if gap >= 0.0 and ex * ex + ey * ey + ez * ez <= gap * gap:
+        return np.inf, t
+    d2, c, u = _segment_clearance(C, R, radius, lo, px, py, pz)
+    k = lo
+    if hi != lo:
+        d2b, cb, ub = _segment_clearance(C, R, radius, hi, px, py, pz)
+        if mitre:
+            c = min(c, cb)
+        if d2b < d2:
+            k, u = hi, ub
+            if not mitre:
+                c = cb
+    if (k == lo and u == 0.0 and lo > k0) or (k == hi and u == 1.0 and hi < k1):
+        d2, k, u = segment_scan(C, k0, k1 + 1, px, py, pz)
+        c = R[k] + u * (R[k + 1] - R[k]) - radius - math.sqrt(d2)
+        if (k == k0 and u == 0.0 and k0 > 0) or (k == k1 and u == 1.0 and k1 < C.shape[0] - 2):
+            return np.nan, t
+    return c, t
+
+
+@njit(cache=True, inline="always")
+def module_exact_kernel(C, R, N, radius, ax, ay, az, bx, by, bz, fa, fb, ca, cb, out):
+    """The smallest clearance along module a->b, exactly, from its ends' clearances ``ca``, ``cb`` (both inside
+    the lumen) and where they were found (``fa``, ``fb``, tube positions): out = (clearance, t along the module).
+    ``N`` are the centerline's mitre normals (:func:`bhr.model._tube.mitre_normals`).
+
+    Between the module's crossings of the planes where its nearest centerline feature changes (each vertex's
+    mitre plane, between the segments before and after it; where the lumen narrows into a vertex or widens out
+    of it, also the plane square to the segment there) its nearest feature is one segment or one vertex. There
+    the clearance is the radius, linear along the module, minus the distance, convex: it is concave, and its
+    minimum lies at an end. So the module's minimum is the least of its ends and those crossings
+    (:func:`_crossing`), each scored against the centerline between its ends' nearest segments and one more on
+    each side. Returns False (the module is then sampled, :func:`clearance_chain_kernel`) when that stretch is
+    longer than :data:`EXACT_SPAN` segments, when a crossing's nearest point lies at the stretch's outer end,
+    when the centerline turns back on itself there, or when a crossing touches the wall (where another pass of
+    a loop may be nearer: the full search decides).
+    """
+    M = C.shape[0]
+    ka = min(int(fa), M - 2)
+    kb = min(int(fb), M - 2)
+    k0 = max(min(ka, kb) - 1, 0)
+    k1 = min(max(ka, kb) + 1, M - 2)
+    if k1 - k0 > EXACT_SPAN:
+        return False
+    best = ca
+    bt = 0.0
+    if cb < best:
+        best = cb
+        bt = 1.0
+    dx, dy, dz = bx - ax, by - ay, bz - az
+    for v in range(k0 + 1, k1 + 1):  # the mitre planes
+        nx, ny, nz = N[v, 0], N[v, 1], N[v, 2]
+        if nx * nx + ny * ny + nz * nz < 1e-12:  # the centerline turns back on itself here
+            return False
+        c, t = _crossing(C, R, radius, k0, k1, v, True, ax, ay, az, dx, dy, dz, nx, ny, nz, best)
+        if c == np.inf:
+            continue
+        if not c > GLOBAL_BELOW:  # touching, or not local (NaN)
+            return False
+        if c < best:
+            best = c
+            bt = t
+    for v in range(k0, k1 + 2):  # where the lumen narrows into a vertex or widens out of it
+        for side in range(2):
+            if side == 0:  # the end of the segment before v
+                if not (v - 1 >= k0 and R[v] < R[v - 1]):
+                    continue
+                nx, ny, nz = C[v, 0] - C[v - 1, 0], C[v, 1] - C[v - 1, 1], C[v, 2] - C[v - 1, 2]
+            else:  # the start of the segment after it
+                if not (v <= k1 and R[v + 1] > R[v]):
+                    continue
+                nx, ny, nz = C[v + 1, 0] - C[v, 0], C[v + 1, 1] - C[v, 1], C[v + 1, 2] - C[v, 2]
+            c, t = _crossing(C, R, radius, k0, k1, v, False, ax, ay, az, dx, dy, dz, nx, ny, nz, best)
+            if c == np.inf:
+                continue
+            if not c > GLOBAL_BELOW:
+                return False
+            if c < best:
+                best = c
+                bt = t
+    out[0] = best
+    out[1] = bt
+    return True
+
+
 @njit(cache=True)
-def clearance_chain_kernel(C, R, S, BC, BR, pre, w, radius, Q, E, Z, sample, pt_out, mod_out, where, found):
+def clearance_chain_kernel(C, R, S, BC, BR, N, pre, w, radius, Q, E, Z, sample, pt_out, mod_out, where, found):
     """Clearance of one pose: points ``Q`` (K, 3) in chain order, point ``k`` expected at trajectory index ``E[k]``.
 
     A point (or a sample along a module) expected before the path's start
     (index < 0) is not scored (NaN). ``Z`` (K) are the centres of the points'
-    search windows (tube indices); a sample along a module is searched around
+    search windows (tube indices); ``N`` the centerline's mitre normals. A module
+    whose ends are both scored and inside the lumen gets its exact minimum
+    (:func:`module_exact_kernel`); any other is sampled, and a sample is searched around
     the interpolation of where its ends were found (or of their window
     centres, for an end not scored). Writes each point's clearance into
     ``pt_out`` (K), where its nearest centerline point is into ``found`` (K,
@@ -120,6 +257,14 @@ def clearance_chain_kernel(C, R, S, BC, BR, pre, w, radius, Q, E, Z, sample, pt_
         ax, ay, az = Q[m, 0], Q[m, 1], Q[m, 2]
         bx, by, bz = Q[m + 1, 0], Q[m + 1, 1], Q[m + 1, 2]
         ea, eb = E[m], E[m + 1]
+        if (ea >= 0.0 and eb >= 0.0 and pt_out[m] > GLOBAL_BELOW and pt_out[m + 1] > GLOBAL_BELOW
+                and module_exact_kernel(C, R, N, radius, ax, ay, az, bx, by, bz, found[m], found[m + 1], pt_out[m],
+                                        pt_out[m + 1], res)):
+            mod_out[m] = res[0]
+            where[m, 0] = ax + res[1] * (bx - ax)
+            where[m, 1] = ay + res[1] * (by - ay)
+            where[m, 2] = az + res[1] * (bz - az)
+            continue
         ta = Z[m] if ea < 0.0 else found[m]
         tb = Z[m + 1] if eb < 0.0 else found[m + 1]
         L = math.sqrt((bx - ax) ** 2 + (by - ay) ** 2 + (bz - az) ** 2)
@@ -179,7 +324,7 @@ def clearance_chain_kernel(C, R, S, BC, BR, pre, w, radius, Q, E, Z, sample, pt_
 
 
 @njit(cache=True)
-def _run_kernel(C, R, S, BC, BR, pre, w, radius, Q, E, adv, sample, pt_out, mod_out, where, lost):
+def _run_kernel(C, R, S, BC, BR, N, pre, w, radius, Q, E, adv, sample, pt_out, mod_out, where, lost):
     K = Q.shape[1]
     trk = np.full(K, np.nan)
     Z = np.empty(K)
@@ -190,8 +335,8 @@ def _run_kernel(C, R, S, BC, BR, pre, w, radius, Q, E, adv, sample, pt_out, mod_
                 Z[k] = trk[k] + adv
             else:
                 Z[k] = E[i, k] + pre
-        lost[i] = clearance_chain_kernel(C, R, S, BC, BR, pre, w, radius, Q[i], E[i], Z, sample, pt_out[i], mod_out[i],
-                                         where[i], found)
+        lost[i] = clearance_chain_kernel(C, R, S, BC, BR, N, pre, w, radius, Q[i], E[i], Z, sample, pt_out[i],
+                                         mod_out[i], where[i], found)
         for k in range(K):
             trk[k] = found[k] if E[i, k] >= 0.0 else np.nan
 
@@ -207,8 +352,8 @@ def clearance_run_all(tube: Tube, radius: float, Q: np.ndarray, E: np.ndarray, s
     where = np.empty((N, max(K - 1, 0), 3))
     lost = np.zeros(N)
     S, BC, BR = tube.search_arrays()
-    _run_kernel(tube.points, tube.radius, S, BC, BR, float(tube.pre), float(tube.window), float(radius), Q, E,
-                float(advance), float(sample), pt, mod, where, lost)
+    _run_kernel(tube.points, tube.radius, S, BC, BR, tube.mitre_normals(), float(tube.pre), float(tube.window),
+                float(radius), Q, E, float(advance), float(sample), pt, mod, where, lost)
     return pt, mod, where, lost > 0.0
 
 
@@ -266,6 +411,12 @@ def clearance_run_numpy(tube: Tube, radius: float, Q: np.ndarray, E: np.ndarray,
                 flags.append(x)
                 return c
 
+            if ea >= 0 and eb >= 0 and pt[i, m] > GLOBAL_BELOW and pt[i, m + 1] > GLOBAL_BELOW:
+                exact = module_exact_numpy(tube, radius, a, b, trk[m], trk[m + 1], pt[i, m], pt[i, m + 1])
+                if exact is not None:
+                    mod[i, m] = exact[0]
+                    where[i, m] = a + exact[1] * (b - a)
+                    continue
             ns = max(int(math.ceil(float(np.linalg.norm(b - a)) / sample)), 1)
             lo_t, hi_t = 0.0, 1.0
             if ea < 0 and eb < 0:
@@ -301,6 +452,63 @@ def clearance_run_numpy(tube: Tube, radius: float, Q: np.ndarray, E: np.ndarray,
         if lost is not None:
             lost[i] = crossed
     return pt, mod, where
+
+
+def module_exact_numpy(tube: Tube, radius: float, a: np.ndarray, b: np.ndarray, fa: float, fb: float, ca: float,
+                       cb: float) -> tuple[float, float] | None:
+    """:func:`module_exact_kernel` in numpy: (smallest clearance, t along the module), or None to sample it."""
+    from bhr.model._tube import _scan_numpy
+
+    C, R = tube.points, tube.radius
+    M = C.shape[0]
+    ka, kb = min(int(fa), M - 2), min(int(fb), M - 2)
+    k0, k1 = max(min(ka, kb) - 1, 0), min(max(ka, kb) + 1, M - 2)
+    if k1 - k0 > EXACT_SPAN:
+        return None
+
+    def clear(d2: float, k: int, t: float) -> float:
+        return float(R[k] + t * (R[k + 1] - R[k]) - radius - math.sqrt(d2))
+
+    def crossing(p: np.ndarray, v: int, mitre: bool, best: float) -> float | None:
+        lo, hi = max(v - 1, k0), min(v, k1)
+        gap = min(R[lo], R[v], R[hi + 1]) - radius - best
+        if gap >= 0.0 and float((p - C[v]) @ (p - C[v])) <= gap * gap:
+            return math.inf  # its least radius less its distance to v is not below best
+        pair = [(_scan_numpy(C, k, k + 1, p), k) for k in sorted({lo, hi})]
+        (d2, k, t), _ = min(pair, key=lambda x: x[0][0])  # the nearer, the first on a tie
+        c = min(clear(*x) for x, _ in pair) if mitre else clear(d2, k, t)
+        if (k == lo and t == 0.0 and lo > k0) or (k == hi and t == 1.0 and hi < k1):
+            d2, k, t = _scan_numpy(C, k0, k1 + 1, p)
+            c = clear(d2, k, t)
+            if (k == k0 and t == 0.0 and k0 > 0) or (k == k1 and t == 1.0 and k1 < M - 2):
+                return None  # the nearest point may lie past the stretch
+        return c
+
+    best, bt = (ca, 0.0) if not cb < ca else (cb, 1.0)
+    for v in range(k0, k1 + 2):
+        normals = []
+        if k0 <= v - 1 and v <= k1:
+            n = tube.mitre_normals()[v]
+            if float(n @ n) < 1e-12:
+                return None
+            normals.append((n, True))
+        if k0 <= v - 1 and R[v] < R[v - 1]:
+            normals.append((C[v] - C[v - 1], False))
+        if v <= k1 and R[v + 1] > R[v]:
+            normals.append((C[v + 1] - C[v], False))
+        for n, mitre in normals:
+            den = float((b - a) @ n)
+            if den == 0.0:
+                continue
+            t = float((C[v] - a) @ n) / den
+            if not 0.0 < t < 1.0:
+                continue
+            c = crossing(a + t * (b - a), v, mitre, best)
+            if c is None or c <= GLOBAL_BELOW:
+                return None
+            if c < best:
+                best, bt = c, t
+    return best, bt
 
 
 def brute_force_clearance(path: np.ndarray, lumen: np.ndarray, radius: float, points: np.ndarray) -> np.ndarray:

@@ -173,7 +173,7 @@ def _arc_clear(C, R, w, radius, T, r, z, u):
 
 
 @njit(cache=True)
-def tables_kernel(C, R, S, BC, BR, pre, w, radius, T, z, back, f, m_lo, m_hi, L, sample, pc, mc, mwhere, sw,
+def tables_kernel(C, R, S, BC, BR, N, pre, w, radius, T, z, back, f, m_lo, m_hi, L, sample, pc, mc, mwhere, sw,
                   swhere):
     """Per vertex m (m_lo <= m < m_hi, row m - m_lo) and fraction k/f (k < f):
 
@@ -204,7 +204,7 @@ def tables_kernel(C, R, S, BC, BR, pre, w, radius, T, z, back, f, m_lo, m_hi, L,
             E[1] = m + u
             Z[0] = z[r - 1] + u * (z[r] - z[r - 1])
             Z[1] = z[r] + u * (z[r + 1] - z[r])
-            clearance_chain_kernel(C, R, S, BC, BR, pre, w, radius, Q, E, Z, sample, pt, mo, wh, fd)
+            clearance_chain_kernel(C, R, S, BC, BR, N, pre, w, radius, Q, E, Z, sample, pt, mo, wh, fd)
             pc[i, k] = pt[1]
             mc[i, k] = mo[0]
             for b in range(3):
@@ -223,7 +223,7 @@ def tables_kernel(C, R, S, BC, BR, pre, w, radius, T, z, back, f, m_lo, m_hi, L,
                 E[1] = m - 1 + side + u1
                 Z[0] = z[rr] + u * (z[rr + 1] - z[rr])
                 Z[1] = z[rr] + u1 * (z[rr + 1] - z[rr])
-                clearance_chain_kernel(C, R, S, BC, BR, pre, w, radius, Q, E, Z, sample, pt, mo, wh, fd)
+                clearance_chain_kernel(C, R, S, BC, BR, N, pre, w, radius, Q, E, Z, sample, pt, mo, wh, fd)
                 if not math.isnan(mo[0]) and mo[0] < best:
                     best = mo[0]
                     bx, by, bz = wh[0, 0], wh[0, 1], wh[0, 2]
@@ -394,7 +394,8 @@ def trail_tables(tube: Tube, radius: float, T: np.ndarray, back: int, f: int, m_
                            out["sw"], out["swhere"])
         return out
     S, BC, BR = tube.search_arrays()
-    tables_kernel(tube.points, tube.radius, S, BC, BR, float(tube.pre), float(tube.window), float(radius), T, z,
+    tables_kernel(tube.points, tube.radius, S, BC, BR, tube.mitre_normals(), float(tube.pre), float(tube.window),
+                  float(radius), T, z,
                   int(back),
                   int(f), int(m_lo), int(m_hi), float(L), float(sample), out["pc"], out["mc"], out["mwhere"],
                   out["sw"], out["swhere"])

@@ -430,9 +430,9 @@ def heatmap_axes(study: Study, x: str | None = None, y: str | None = None) -> tu
     design_only = Sweep(trajs=("anatomy",), solvers=study.sweep.solvers,
                         grid=tuple((k, v) for k, v in study.sweep.grid if k != "seed"))
     for name, val in (("x", x), ("y", y)):
-        if val in ("traj", "seed"):
-            raise BhrError(f"heat-map {name} axis {excerpt(val)} is not a design axis; choose one of "
-                           f"{', '.join(study.design_keys)}")
+        if val is not None and val not in study.design_keys:
+            raise BhrError(f"heat-map {name} axis {excerpt(val)} is not a design axis of this study; give --{name} "
+                           f"one of {', '.join(study.design_keys)}")
     return _sweep_axes(design_only, x, y)
 
 

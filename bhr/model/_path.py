@@ -377,8 +377,14 @@ def _bends_kernel(t, free, lum, h, big_r, ks, bad, worst_r, worst_d):
     for k in ks:
         if 2 * k >= n:
             break
+        # a turn theta <= 2 k h / R is never unfollowable (r >= R): its cosine is at least this, and then the
+        # arc cosine is not taken (with a margin that rounding cannot cross)
+        x = 2.0 * k * h / big_r
+        gentle = math.cos(x) + 1e-12 if x < math.pi else 2.0
         for i in range(k, n - k):
             dot = t[i - k, 0] * t[i + k, 0] + t[i - k, 1] * t[i + k, 1] + t[i - k, 2] * t[i + k, 2]
+            if dot >= gentle:
+                continue
             theta = math.acos(min(1.0, max(-1.0, dot)))
             if theta <= 1e-9:
                 continue

@@ -25,7 +25,8 @@ from bhr._settings.errors import BhrError
 
 __all__ = ["Tube", "make_tube", "segment_scan", "nearest_kernel", "search_window", "scan_from", "local_scan",
            "local_scan_from", "window_scan", "past_the_window", "search_arrays",
-           "global_scan", "locate_kernel", "point_clearance", "nearest_numpy", "locate_numpy", "lumen_end_of",
+           "global_scan", "locate_kernel",
+           "mitre_normals", "point_clearance", "nearest_numpy", "locate_numpy", "lumen_end_of",
            "scored_span", "WINDOW_MM", "LUMEN_ENDS", "GLOBAL_BELOW", "BLOCK", "GROUP", "LOOP_RATIO"]
 
 #: Half-width (mm of arc length) of the stretch of centerline searched for a point's nearest point.
@@ -69,6 +70,7 @@ class Tube:
     arc: np.ndarray | None = None  # (M,) mm
     block_centre: np.ndarray | None = None  # (ceil((M-1)/BLOCK) + ceil((M-1)/GROUP), 3)
     block_radius: np.ndarray | None = None  # (ceil((M-1)/BLOCK) + ceil((M-1)/GROUP),)
+    mitre: np.ndarray | None = None  # (M, 3): :func:`mitre_normals`
 
     @property
     def closed(self) -> bool:
@@ -80,6 +82,23 @@ class Tube:
         if self.arc is None or self.block_centre is None or self.block_radius is None:
             self.arc, self.block_centre, self.block_radius = search_arrays(self.points)
         return self.arc, self.block_centre, self.block_radius
+
+    def mitre_normals(self) -> np.ndarray:
+        """:func:`mitre_normals` of the centerline, computed once."""
+        if self.mitre is None:
+            self.mitre = mitre_normals(self.points)
+        return self.mitre
+
+
+def mitre_normals(pts: np.ndarray) -> np.ndarray:
+    """(M, 3): at each inner vertex of the polyline ``pts`` (M, 3) the normal of its mitre plane, the sum of the unit
+    directions of the segments before and after it (every point of that plane is as far from the one segment's
+    line as from the other's); zero at both ends, and near zero where the line turns back on itself."""
+    u = np.diff(np.asarray(pts, dtype=np.float64), axis=0)
+    u /= np.linalg.norm(u, axis=1)[:, None]
+    out = np.zeros((u.shape[0] + 1, 3))
+    out[1:-1] = u[:-1] + u[1:]
+    return out
 
 
 def _spheres(pts: np.ndarray, size: int) -> tuple[np.ndarray, np.ndarray]:
@@ -176,7 +195,7 @@ def make_tube(path: np.ndarray, lumen: np.ndarray, start_direction=None, window_
 # compiled kernels
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def segment_scan(C, lo, hi, px, py, pz):
     """Nearest point to (px, py, pz) on the centerline segments ``lo..hi-1`` of ``C``.
 
@@ -219,7 +238,7 @@ def nearest_kernel(C, R, lo, hi, px, py, pz):
     return math.sqrt(best), R[bk] + bt * (R[bk + 1] - R[bk]), bk + bt
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def search_window(M, e, w):
     lo = int(math.floor(e - w))
     hi = int(math.ceil(e + w))
@@ -280,14 +299,14 @@ def local_scan(C, lo, hi, px, py, pz):
     return past_the_window(C, lo, hi, best, bk, bt, px, py, pz)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def local_scan_from(C, BC, BR, lo, hi, g, px, py, pz):
     """:func:`local_scan`, the same result, its window searched from segment ``g`` (:func:`window_scan`)."""
     best, bk, bt = window_scan(C, BC, BR, lo, hi, g, px, py, pz)
     return past_the_window(C, lo, hi, best, bk, bt, px, py, pz)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def past_the_window(C, lo, hi, best, bk, bt, px, py, pz):
     """:func:`local_scan`'s search past the window's ends, from the window's nearest point (best, bk, bt)."""
     M = C.shape[0]
@@ -317,7 +336,7 @@ def past_the_window(C, lo, hi, best, bk, bt, px, py, pz):
 
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def window_scan(C, BC, BR, lo, hi, g, px, py, pz):
     """:func:`segment_scan` of segments ``lo..hi-1``, bit for bit, searched from segment ``g`` (a guess) outwards.
 
@@ -373,7 +392,7 @@ def window_scan(C, BC, BR, lo, hi, g, px, py, pz):
     return best, bk, bt
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _farther(BC, BR, j, px, py, pz, reach):
     """Whether every point in sphere ``j`` is farther from p than ``reach`` (strictly): no square root taken."""
     dx, dy, dz = px - BC[j, 0], py - BC[j, 1], pz - BC[j, 2]
