@@ -57,7 +57,7 @@ from numba import njit
 
 from bhr._settings.errors import BhrError
 # the tube and its nearest-point kernels live in the model layer; their names stay importable from here
-from bhr.model._tube import (BLOCK, GLOBAL_BELOW, LOOP_RATIO, LUMEN_ENDS, WINDOW_MM, Tube,  # noqa: F401
+from bhr.model._tube import (BLOCK, GLOBAL_BELOW, LOOP_RATIO, LUMEN_ENDS, WINDOW_MM, Tube, scan_numpy,  # noqa: F401
                             global_scan, local_scan, locate_kernel, locate_numpy, lumen_end_of,
                             make_tube, nearest_kernel, nearest_numpy, point_clearance, scored_span, search_window,
                             segment_scan)
@@ -457,8 +457,6 @@ def clearance_run_numpy(tube: Tube, radius: float, Q: np.ndarray, E: np.ndarray,
 def module_exact_numpy(tube: Tube, radius: float, a: np.ndarray, b: np.ndarray, fa: float, fb: float, ca: float,
                        cb: float) -> tuple[float, float] | None:
     """:func:`module_exact_kernel` in numpy: (smallest clearance, t along the module), or None to sample it."""
-    from bhr.model._tube import _scan_numpy
-
     C, R = tube.points, tube.radius
     M = C.shape[0]
     ka, kb = min(int(fa), M - 2), min(int(fb), M - 2)
@@ -474,11 +472,11 @@ def module_exact_numpy(tube: Tube, radius: float, a: np.ndarray, b: np.ndarray, 
         gap = min(R[lo], R[v], R[hi + 1]) - radius - best
         if gap >= 0.0 and float((p - C[v]) @ (p - C[v])) <= gap * gap:
             return math.inf  # its least radius less its distance to v is not below best
-        pair = [(_scan_numpy(C, k, k + 1, p), k) for k in sorted({lo, hi})]
+        pair = [(scan_numpy(C, k, k + 1, p), k) for k in sorted({lo, hi})]
         (d2, k, t), _ = min(pair, key=lambda x: x[0][0])  # the nearer, the first on a tie
         c = min(clear(*x) for x, _ in pair) if mitre else clear(d2, k, t)
         if (k == lo and t == 0.0 and lo > k0) or (k == hi and t == 1.0 and hi < k1):
-            d2, k, t = _scan_numpy(C, k0, k1 + 1, p)
+            d2, k, t = scan_numpy(C, k0, k1 + 1, p)
             c = clear(d2, k, t)
             if (k == k0 and t == 0.0 and k0 > 0) or (k == k1 and t == 1.0 and k1 < M - 2):
                 return None  # the nearest point may lie past the stretch

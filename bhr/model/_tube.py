@@ -26,7 +26,7 @@ from bhr._settings.errors import BhrError
 __all__ = ["Tube", "make_tube", "segment_scan", "nearest_kernel", "search_window", "scan_from", "local_scan",
            "local_scan_from", "window_scan", "past_the_window", "search_arrays",
            "global_scan", "locate_kernel",
-           "mitre_normals", "point_clearance", "nearest_numpy", "locate_numpy", "lumen_end_of",
+           "mitre_normals", "scan_numpy", "point_clearance", "nearest_numpy", "locate_numpy", "lumen_end_of",
            "scored_span", "WINDOW_MM", "LUMEN_ENDS", "GLOBAL_BELOW", "BLOCK", "GROUP", "LOOP_RATIO"]
 
 #: Half-width (mm of arc length) of the stretch of centerline searched for a point's nearest point.
@@ -504,7 +504,8 @@ def point_clearance(tube: Tube, radius: float, p: np.ndarray, expected: float, c
     return nearest_numpy(tube, radius, p, expected + tube.pre if centre is None else centre)[0]
 
 
-def _scan_numpy(C: np.ndarray, lo: int, hi: int, p: np.ndarray) -> tuple[float, int, float]:
+def scan_numpy(C: np.ndarray, lo: int, hi: int, p: np.ndarray) -> tuple[float, int, float]:
+    """:func:`segment_scan` in numpy: (squared distance, segment, t) of p's nearest point on segments ``lo..hi-1``."""
     a, b = C[lo:hi], C[lo + 1:hi + 1]
     u = b - a
     t = np.clip(np.einsum("ij,ij->i", p - a, u) / np.einsum("ij,ij->i", u, u), 0.0, 1.0)
@@ -523,7 +524,7 @@ def nearest_numpy(tube: Tube, radius: float, p: np.ndarray, centre: float) -> tu
     """(clearance, tube position) of ``p``'s nearest point within the window around ``centre`` (no recovery)."""
     C, R = tube.points, tube.radius
     lo, hi = _window_numpy(C.shape[0], centre, tube.window)
-    d2, k, t = _scan_numpy(C, lo, hi, p)
+    d2, k, t = scan_numpy(C, lo, hi, p)
     r = R[k] + t * (R[k + 1] - R[k])
     return float(r - radius - math.sqrt(d2)), float(k + t)
 
@@ -539,18 +540,18 @@ def locate_numpy(tube: Tube, radius: float, p: np.ndarray, centre: float, expect
     S = tube.search_arrays()[0]
     M = C.shape[0]
     lo, hi = _window_numpy(M, centre, tube.window)
-    best, bk, bt = _scan_numpy(C, lo, hi, p)
+    best, bk, bt = scan_numpy(C, lo, hi, p)
     step = max(hi - lo, 1)
     while bk == lo and bt == 0.0 and lo > 0:  # the nearest point is the window's first end: look further back
         nlo = max(lo - step, 0)
-        b2, k2, t2 = _scan_numpy(C, nlo, lo, p)
+        b2, k2, t2 = scan_numpy(C, nlo, lo, p)
         lo = nlo
         if not b2 < best:
             break
         best, bk, bt = b2, k2, t2
     while bk == hi - 1 and bt == 1.0 and hi < M - 1:  # ... its last end: look further on
         nhi = min(hi + step, M - 1)
-        b2, k2, t2 = _scan_numpy(C, hi, nhi, p)
+        b2, k2, t2 = scan_numpy(C, hi, nhi, p)
         hi = nhi
         if not b2 < best:
             break
@@ -567,7 +568,7 @@ def locate_numpy(tube: Tube, radius: float, p: np.ndarray, centre: float, expect
         return abs(a[1] - b[1]) > LOOP_RATIO * float(np.linalg.norm(a[2] - b[2]) + np.linalg.norm(p - a[2])
                                                      + np.linalg.norm(p - b[2]))
 
-    gb, gk, gt = _scan_numpy(C, 0, M - 1, p)  # is some other stretch nearer?
+    gb, gk, gt = scan_numpy(C, 0, M - 1, p)  # is some other stretch nearer?
     if r - radius - d <= GLOBAL_BELOW and gb < best:
         dg = math.sqrt(gb)
         rg, sg, cg = at(gk, gt)
