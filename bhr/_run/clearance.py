@@ -157,10 +157,11 @@ def _crossing(C, R, radius, k0, k1, v, mitre, ax, ay, az, dx, dy, dz, nx, ny, nz
 
 
 @njit(cache=True, inline="always")
-def module_exact_kernel(C, R, N, radius, ax, ay, az, bx, by, bz, fa, fb, ca, cb, out):
+def module_exact_kernel(C, R, N, radius, ax, ay, az, bx, by, bz, fa, fb, ca, cb, out, below):
     """The smallest clearance along module a->b, exactly, from its ends' clearances ``ca``, ``cb`` (both inside
     the lumen) and where they were found (``fa``, ``fb``, tube positions): out = (clearance, t along the module).
-    ``N`` are the centerline's mitre normals (:func:`bhr.model._tube.mitre_normals`).
+    ``N`` are the centerline's mitre normals (:func:`bhr.model._tube.mitre_normals`); ``below``: a crossing
+    whose clearance is at most this ends the search (:data:`GLOBAL_BELOW` for a run's clearance: the wall).
 
     Between the module's crossings of the planes where its nearest centerline feature changes (each vertex's
     mitre plane, between the segments before and after it; where the lumen narrows into a vertex or widens out
@@ -193,7 +194,7 @@ def module_exact_kernel(C, R, N, radius, ax, ay, az, bx, by, bz, fa, fb, ca, cb,
         c, t = _crossing(C, R, radius, k0, k1, v, True, ax, ay, az, dx, dy, dz, nx, ny, nz, best)
         if c == np.inf:
             continue
-        if not c > GLOBAL_BELOW:  # touching, or not local (NaN)
+        if not c > below:  # touching, or not local (NaN)
             return False
         if c < best:
             best = c
@@ -211,7 +212,7 @@ def module_exact_kernel(C, R, N, radius, ax, ay, az, bx, by, bz, fa, fb, ca, cb,
             c, t = _crossing(C, R, radius, k0, k1, v, False, ax, ay, az, dx, dy, dz, nx, ny, nz, best)
             if c == np.inf:
                 continue
-            if not c > GLOBAL_BELOW:
+            if not c > below:
                 return False
             if c < best:
                 best = c
@@ -259,7 +260,7 @@ def clearance_chain_kernel(C, R, S, BC, BR, N, pre, w, radius, Q, E, Z, sample, 
         ea, eb = E[m], E[m + 1]
         if (ea >= 0.0 and eb >= 0.0 and pt_out[m] > GLOBAL_BELOW and pt_out[m + 1] > GLOBAL_BELOW
                 and module_exact_kernel(C, R, N, radius, ax, ay, az, bx, by, bz, found[m], found[m + 1], pt_out[m],
-                                        pt_out[m + 1], res)):
+                                        pt_out[m + 1], res, GLOBAL_BELOW)):
             mod_out[m] = res[0]
             where[m, 0] = ax + res[1] * (bx - ax)
             where[m, 1] = ay + res[1] * (by - ay)
@@ -482,30 +483,31 @@ def module_exact_numpy(tube: Tube, radius: float, a: np.ndarray, b: np.ndarray, 
                 return None  # the nearest point may lie past the stretch
         return c
 
-    best, bt = (ca, 0.0) if not cb < ca else (cb, 1.0)
+    # the planes in the kernel's order: every mitre plane, then those where the lumen narrows or widens
+    planes: list[tuple[int, np.ndarray, bool]] = []
+    for v in range(k0 + 1, k1 + 1):
+        n = tube.mitre_normals()[v]
+        if float(n @ n) < 1e-12:  # the centerline turns back on itself here
+            return None
+        planes.append((v, n, True))
     for v in range(k0, k1 + 2):
-        normals = []
-        if k0 <= v - 1 and v <= k1:
-            n = tube.mitre_normals()[v]
-            if float(n @ n) < 1e-12:
-                return None
-            normals.append((n, True))
         if k0 <= v - 1 and R[v] < R[v - 1]:
-            normals.append((C[v] - C[v - 1], False))
+            planes.append((v, C[v] - C[v - 1], False))
         if v <= k1 and R[v + 1] > R[v]:
-            normals.append((C[v + 1] - C[v], False))
-        for n, mitre in normals:
-            den = float((b - a) @ n)
-            if den == 0.0:
-                continue
-            t = float((C[v] - a) @ n) / den
-            if not 0.0 < t < 1.0:
-                continue
-            c = crossing(a + t * (b - a), v, mitre, best)
-            if c is None or c <= GLOBAL_BELOW:
-                return None
-            if c < best:
-                best, bt = c, t
+            planes.append((v, C[v + 1] - C[v], False))
+    best, bt = (ca, 0.0) if not cb < ca else (cb, 1.0)
+    for v, n, mitre in planes:
+        den = float((b - a) @ n)
+        if den == 0.0:
+            continue
+        t = float((C[v] - a) @ n) / den
+        if not 0.0 < t < 1.0:
+            continue
+        c = crossing(a + t * (b - a), v, mitre, best)
+        if c is None or c <= GLOBAL_BELOW:
+            return None
+        if c < best:
+            best, bt = c, t
     return best, bt
 
 

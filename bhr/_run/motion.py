@@ -48,6 +48,7 @@ import numpy as np
 from numba import njit
 
 from bhr.model._tube import Tube, locate_kernel, search_window
+from bhr._run.clearance import module_exact_kernel
 from bhr.model._wires import DEFAULT_THERMAL, ThermalParams, transform_thetas
 from bhr._settings.errors import BhrError
 
@@ -325,18 +326,18 @@ def end_state(t, tsw, delay, th0, s0, on_old, on_new, prm, th_out, s_out):
 
 
 @njit(cache=True)
-def _clear_along(pts, j, m, Z, fj, t, tube_c, tube_r, S, BC, BR, w, radius, res):
+def _clear_along(pts, j, m, Z, fj, t, tube_c, tube_r, S, BC, BR, w, radius, res, whole):
     """Clearance of the point at fraction t along module m of pose j (searched around where its ends were found)."""
     px = pts[j, m, 0] + t * (pts[j, m + 1, 0] - pts[j, m, 0])
     py = pts[j, m, 1] + t * (pts[j, m + 1, 1] - pts[j, m, 1])
     pz = pts[j, m, 2] + t * (pts[j, m + 1, 2] - pts[j, m, 2])
     lo, hi = search_window(tube_c.shape[0], fj[m] + t * (fj[m + 1] - fj[m]), w)
-    locate_kernel(tube_c, tube_r, S, BC, BR, radius, lo, hi, Z[m] + t * (Z[m + 1] - Z[m]), px, py, pz, res)
+    locate_kernel(tube_c, tube_r, S, BC, BR, radius, lo, hi, Z[m] + t * (Z[m + 1] - Z[m]), px, py, pz, res, whole)
     return res[1] - radius - res[0]
 
 
 @njit(cache=True)
-def _sample_module(pts, j, m, E, Z, fj, cj, L, tube_c, tube_r, S, BC, BR, w, radius, sample, near, res):
+def _sample_module(pts, j, m, E, Z, fj, cj, L, tube_c, tube_r, S, BC, BR, w, radius, sample, near, res, whole):
     """Module m of pose j sampled at most ``sample`` mm apart (ends and middle when both ends are far from the
     wall), its ends' clearances ``cj`` (scored as joints): (smallest clearance, where along it (0..1), the
     samples' spacing (0..1), where its scored part starts (0..1), crossed flag); inf when no part of it is in the
@@ -357,7 +358,7 @@ def _sample_module(pts, j, m, E, Z, fj, cj, L, tube_c, tube_r, S, BC, BR, w, rad
         elif k == ns:
             c = cj[m + 1]
         else:
-            c = _clear_along(pts, j, m, Z, fj, t, tube_c, tube_r, S, BC, BR, w, radius, res)
+            c = _clear_along(pts, j, m, Z, fj, t, tube_c, tube_r, S, BC, BR, w, radius, res, whole)
             if res[3] > crossed:
                 crossed = res[3]
         if c < v:
@@ -367,7 +368,7 @@ def _sample_module(pts, j, m, E, Z, fj, cj, L, tube_c, tube_r, S, BC, BR, w, rad
 
 
 @njit(cache=True)
-def _refine_module(pts, j, m, Z, fj, tube_c, tube_r, S, BC, BR, w, radius, v, bt, dt, lo_t, res):
+def _refine_module(pts, j, m, Z, fj, tube_c, tube_r, S, BC, BR, w, radius, v, bt, dt, lo_t, res, whole):
     """The worst sample ``v`` at ``bt`` of module m refined by a golden-section search between its neighbours
     (``dt`` apart): (the smallest clearance found, where along the module (0..1), crossed flag)."""
     a = max(bt - dt, lo_t)
@@ -375,9 +376,9 @@ def _refine_module(pts, j, m, Z, fj, tube_c, tube_r, S, BC, BR, w, radius, v, bt
     crossed = 0.0
     x1 = b - _GOLD * (b - a)
     x2 = a + _GOLD * (b - a)
-    f1 = _clear_along(pts, j, m, Z, fj, x1, tube_c, tube_r, S, BC, BR, w, radius, res)
+    f1 = _clear_along(pts, j, m, Z, fj, x1, tube_c, tube_r, S, BC, BR, w, radius, res, whole)
     crossed = max(crossed, res[3])
-    f2 = _clear_along(pts, j, m, Z, fj, x2, tube_c, tube_r, S, BC, BR, w, radius, res)
+    f2 = _clear_along(pts, j, m, Z, fj, x2, tube_c, tube_r, S, BC, BR, w, radius, res, whole)
     crossed = max(crossed, res[3])
     for _ in range(REFINE_STEPS):
         if f1 < f2:
@@ -385,13 +386,13 @@ def _refine_module(pts, j, m, Z, fj, tube_c, tube_r, S, BC, BR, w, radius, v, bt
             x2 = x1
             f2 = f1
             x1 = b - _GOLD * (b - a)
-            f1 = _clear_along(pts, j, m, Z, fj, x1, tube_c, tube_r, S, BC, BR, w, radius, res)
+            f1 = _clear_along(pts, j, m, Z, fj, x1, tube_c, tube_r, S, BC, BR, w, radius, res, whole)
         else:
             a = x1
             x1 = x2
             f1 = f2
             x2 = a + _GOLD * (b - a)
-            f2 = _clear_along(pts, j, m, Z, fj, x2, tube_c, tube_r, S, BC, BR, w, radius, res)
+            f2 = _clear_along(pts, j, m, Z, fj, x2, tube_c, tube_r, S, BC, BR, w, radius, res, whole)
         crossed = max(crossed, res[3])
     if f1 < v:
         v = f1
@@ -409,11 +410,13 @@ def _dist(pts, j, i, ref):
 
 
 @njit(cache=True)
-def _joint(pts, j, i, st, Z, w, tube_c, tube_r, S, BC, BR, radius, res, cj, fj, pc, jref, jref_c, jref_f, jhave):
+def _joint(pts, j, i, st, Z, w, tube_c, tube_r, S, BC, BR, radius, res, cj, fj, pc, jref, jref_c, jref_f, jhave,
+           whole):
     """Joint i of pose j scored: its clearance into cj (where it was found into fj), its step's table and its
     reference for the bound; returns the crossed flag."""
     lo, hi = search_window(tube_c.shape[0], Z[i], w)
-    locate_kernel(tube_c, tube_r, S, BC, BR, radius, lo, hi, Z[i], pts[j, i, 0], pts[j, i, 1], pts[j, i, 2], res)
+    locate_kernel(tube_c, tube_r, S, BC, BR, radius, lo, hi, Z[i], pts[j, i, 0], pts[j, i, 1], pts[j, i, 2], res,
+                  whole)
     cj[i] = res[1] - radius - res[0]
     fj[i] = res[2]
     if not (pc[st, i] <= cj[i]):
@@ -427,8 +430,8 @@ def _joint(pts, j, i, st, Z, w, tube_c, tube_r, S, BC, BR, radius, res, cj, fj, 
 
 
 @njit(cache=True)
-def score_kernel(pts, xs, steps, L, z, back, tube_c, tube_r, S, BC, BR, pre, w, radius, sample, near, pc, mc, mwhere,
-                 low, bound=True):
+def score_kernel(pts, xs, steps, L, z, back, tube_c, tube_r, S, BC, BR, N, pre, w, radius, sample, near, pc, mc,
+                 mwhere, low, left, bound=True):
     """Clearance of poses (points (K, M+1, 3) tail first at insertions xs, of 0-based path steps ``steps``),
     folded into the steps' tables: each joint's smallest (N, M+1) and each module's smallest along it (N, M), and
     where (N, M, 3); ``low`` (K) each pose's smallest. A module is sampled at most ``sample`` mm apart (at its
@@ -440,9 +443,16 @@ def score_kernel(pts, xs, steps, L, z, back, tube_c, tube_r, S, BC, BR, pre, w, 
     The clearance is 1-Lipschitz: a joint (module) that moved ``d`` mm since it was last scored is at least its
     clearance then minus ``d`` (a module: minus the larger of its ends' moves). A joint or module whose bound
     cannot lower its step's table entry nor the pose's smallest is not scored again (nor one that might have
-    crossed into another pass: deeper than the robot's radius, until a crossing is found). The tables and
-    ``low`` are those of scoring everything (``bound`` False: the reference), at a fraction of the cost while the
-    joints switch and the feeder waits."""
+    crossed into another pass: deeper than the robot's radius). The tables and ``low`` are those of scoring
+    everything (``bound`` False: the reference), at a fraction of the cost while the joints switch and the
+    feeder waits.
+
+    ``left`` (1,) is 1.0 once the robot has left the lumen (a pose's smallest below minus the radius, or a
+    crossing), kept from call to call. From then on the run's verdict is set: a point is measured against the
+    stretch of lumen it is in, the whole centerline no longer searched for another pass of a loop it might be
+    nearer to (:func:`bhr.model._tube.locate_kernel`'s ``whole``), and a module gets its exact minimum against
+    that stretch where it can (:func:`bhr._run.clearance.module_exact_kernel`; ``N`` the centerline's mitre
+    normals) instead of being sampled and refined."""
     K = pts.shape[0]
     J = pts.shape[1]
     M = J - 1
@@ -467,6 +477,7 @@ def score_kernel(pts, xs, steps, L, z, back, tube_c, tube_r, S, BC, BR, pre, w, 
     mdt = np.empty(M)
     mlo = np.empty(M)
     crossed = 0.0
+    gone = left[0] > 0.0
     for j in range(K):
         st = steps[j]
         best = np.inf
@@ -489,7 +500,7 @@ def score_kernel(pts, xs, steps, L, z, back, tube_c, tube_r, S, BC, BR, pre, w, 
                     fj[i] = jref_f[i]
                     continue
             crossed = max(crossed, _joint(pts, j, i, st, Z, w, tube_c, tube_r, S, BC, BR, radius, res, cj, fj, pc,
-                                          jref, jref_c, jref_f, jhave))
+                                          jref, jref_c, jref_f, jhave, not gone))
             best = min(best, cj[i])
         for phase in range(2):
             for m in range(M):
@@ -512,12 +523,17 @@ def score_kernel(pts, xs, steps, L, z, back, tube_c, tube_r, S, BC, BR, pre, w, 
                     for i in range(m, m + 2):  # its ends scored as joints
                         if jlb[i] < np.inf:
                             crossed = max(crossed, _joint(pts, j, i, st, Z, w, tube_c, tube_r, S, BC, BR, radius,
-                                                          res, cj, fj, pc, jref, jref_c, jref_f, jhave))
+                                                          res, cj, fj, pc, jref, jref_c, jref_f, jhave, not gone))
                             jlb[i] = np.inf
                             best = min(best, cj[i])
-                    v, bt, dt, lo_t, c = _sample_module(pts, j, m, E, Z, fj, cj, L, tube_c, tube_r, S, BC, BR, w,
-                                                        radius, sample, near, res)
-                    crossed = max(crossed, c)
+                    if gone and E[m] >= 0.0 and module_exact_kernel(
+                            tube_c, tube_r, N, radius, pts[j, m, 0], pts[j, m, 1], pts[j, m, 2], pts[j, m + 1, 0],
+                            pts[j, m + 1, 1], pts[j, m + 1, 2], fj[m], fj[m + 1], cj[m], cj[m + 1], res, -np.inf):
+                        v, bt, dt, lo_t = res[0], res[1], 0.0, 0.0  # its exact minimum, in the stretch it is in
+                    else:
+                        v, bt, dt, lo_t, c = _sample_module(pts, j, m, E, Z, fj, cj, L, tube_c, tube_r, S, BC, BR, w,
+                                                            radius, sample, near, res, not gone)
+                        crossed = max(crossed, c)
                     if v == np.inf:
                         continue
                     if bound and v <= near and phase == 0 and mc[st, m] <= v - 0.5 * dt * L and (
@@ -529,9 +545,9 @@ def score_kernel(pts, xs, steps, L, z, back, tube_c, tube_r, S, BC, BR, pre, w, 
                         continue
                 else:
                     bt, dt, lo_t = mt[m], mdt[m], mlo[m]
-                if v <= near:
+                if v <= near and dt > 0.0:
                     v, bt, c = _refine_module(pts, j, m, Z, fj, tube_c, tube_r, S, BC, BR, w, radius, v, bt, dt, lo_t,
-                                              res)
+                                              res, not gone)
                     crossed = max(crossed, c)
                 mlb[m] = np.inf
                 best = min(best, v)
@@ -548,10 +564,14 @@ def score_kernel(pts, xs, steps, L, z, back, tube_c, tube_r, S, BC, BR, pre, w, 
                 for i in range(J):
                     if jlb[i] < best:
                         crossed = max(crossed, _joint(pts, j, i, st, Z, w, tube_c, tube_r, S, BC, BR, radius, res,
-                                                      cj, fj, pc, jref, jref_c, jref_f, jhave))
+                                                      cj, fj, pc, jref, jref_c, jref_f, jhave, not gone))
                         jlb[i] = np.inf
                         best = min(best, cj[i])
         low[j] = best if best < np.inf else np.nan
+        if best < -radius or crossed > 0.0:
+            gone = True
+    if gone:
+        left[0] = 1.0
     return crossed
 
 
@@ -746,6 +766,7 @@ def plan_motion(tube: Tube, radius: float, codes: np.ndarray, T: np.ndarray, bac
     scd = np.empty((N, M), dtype=np.int64)
     filled = -1
     crossed = 0.0
+    left = np.zeros(1)  # score_kernel's: the robot has left the lumen
     prev: np.ndarray | None = None
     stopped: int | None = None
 
@@ -809,8 +830,8 @@ def plan_motion(tube: Tube, radius: float, codes: np.ndarray, T: np.ndarray, bac
         steps0 = np.minimum(np.floor(xs / feed + 1e-6).astype(np.int64), N - 1)
         low = np.empty(times.shape[0])
         if grid is None:
-            c = score_kernel(pts, xs, steps0, L, z, back, C, R, S, BC, BR, pre, w, float(radius), float(sample),
-                             NEAR_MM, pc, mc, mw, low, bound)
+            c = score_kernel(pts, xs, steps0, L, z, back, C, R, S, BC, BR, tube.mitre_normals(), pre, w,
+                             float(radius), float(sample), NEAR_MM, pc, mc, mw, low, left, bound)
             crossed = max(crossed, c)
         else:
             mesh_score(grid, float(radius), pts, xs, steps0, L, float(sample), pc, mc, mw, low)

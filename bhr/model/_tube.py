@@ -443,7 +443,7 @@ def _apart(C, S, ka, ta, kb, tb, px, py, pz):
 
 
 @njit(cache=True)
-def locate_kernel(C, R, S, BC, BR, radius, lo, hi, ze, px, py, pz, out):
+def locate_kernel(C, R, S, BC, BR, radius, lo, hi, ze, px, py, pz, out, whole=True):
     """Where a point is in the lumen: its nearest centerline point, searched from the window ``lo..hi``.
 
     First :func:`local_scan`, then the whole centerline is searched
@@ -458,7 +458,9 @@ def locate_kernel(C, R, S, BC, BR, radius, lo, hi, ze, px, py, pz, out):
     the point is expected (``ze``, a tube position). A point outside its own
     stretch's lumen and inside another pass of a loop has crossed the wall:
     it is scored in the lumen it is in now, and flagged (the robot left the
-    lumen it was in). out = (distance, lumen radius, tube position, flag).
+    lumen it was in). out = (distance, lumen radius, tube position, flag). With ``whole`` False the whole
+    centerline is not searched: the point is measured against the stretch it is in (a robot that has already
+    left the lumen, :func:`bhr._run.motion.score_kernel`).
     """
     best, bk, bt = local_scan_from(C, BC, BR, lo, hi, (lo + hi) // 2, px, py, pz)
     d = math.sqrt(best)
@@ -466,7 +468,7 @@ def locate_kernel(C, R, S, BC, BR, radius, lo, hi, ze, px, py, pz, out):
     pos = bk + bt
     flag = 0.0
     gk = -1
-    if r - radius - d <= GLOBAL_BELOW:
+    if whole and r - radius - d <= GLOBAL_BELOW:
         gb, gk, gt = global_scan(C, BC, BR, px, py, pz, best)
     if gk >= 0:
         dg = math.sqrt(gb)
