@@ -447,8 +447,8 @@ def score_kernel(pts, xs, steps, L, z, back, tube_c, tube_r, S, BC, BR, N, pre, 
     everything (``bound`` False: the reference), at a fraction of the cost while the joints switch and the
     feeder waits.
 
-    ``left`` (1,) is 1.0 once the robot has left the lumen (a pose's smallest below minus the radius, or a
-    crossing), kept from call to call. From then on the run's verdict is set: a point is measured against the
+    ``left`` (1,) is 1.0 once the robot has left the lumen (a pose's smallest below minus the radius), kept
+    from call to call. From then on the run's verdict is set: a point is measured against the
     stretch of lumen it is in, the whole centerline no longer searched for another pass of a loop it might be
     nearer to (:func:`bhr.model._tube.locate_kernel`'s ``whole``), and a module gets its exact minimum against
     that stretch where it can (:func:`bhr._run.clearance.module_exact_kernel`; ``N`` the centerline's mitre
@@ -568,7 +568,7 @@ def score_kernel(pts, xs, steps, L, z, back, tube_c, tube_r, S, BC, BR, N, pre, 
                         jlb[i] = np.inf
                         best = min(best, cj[i])
         low[j] = best if best < np.inf else np.nan
-        if best < -radius or crossed > 0.0:
+        if best < -radius:
             gone = True
     if gone:
         left[0] = 1.0
