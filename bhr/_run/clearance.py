@@ -93,70 +93,7 @@ def _clear_at(C, R, S, BC, BR, w, radius, ax, ay, az, bx, by, bz, za, zb, ea, eb
     return out[1] - radius - out[0]
 
 
-@njit(cache=True, inline="always")
-def _segment_clearance(C, R, radius, k, px, py, pz):
-    """(squared distance, clearance, t) of p against centerline segment ``k`` alone (:func:`segment_scan`'s
-    arithmetic)."""
-    ax, ay, az = C[k, 0], C[k, 1], C[k, 2]
-    ux, uy, uz = C[k + 1, 0] - ax, C[k + 1, 1] - ay, C[k + 1, 2] - az
-    uu = ux * ux + uy * uy + uz * uz
-    dot = (px - ax) * ux + (py - ay) * uy + (pz - az) * uz
-    if dot <= 0.0:
-        t = 0.0
-    elif dot >= uu:
-        t = 1.0
-    else:
-        t = dot / uu
-        if t > 1.0:
-            t = 1.0
-    dx, dy, dz = px - (ax + t * ux), py - (ay + t * uy), pz - (az + t * uz)
-    d2 = dx * dx + dy * dy + dz * dz
-    return d2, R[k] + t * (R[k + 1] - R[k]) - radius - math.sqrt(d2), t
-
-
-@njit(cache=True, inline="always")
-def _crossing(C, R, radius, k0, k1, v, mitre, ax, ay, az, dx, dy, dz, nx, ny, nz, best):
-    """Where module a + t (dx, dy, dz) crosses the plane through vertex ``v`` with normal n, and the clearance
-    there: (clearance, t); clearance +inf when it does not cross for 0 < t < 1 or cannot be below ``best`` (the
-    least radius there, less the distance to ``v``, is not), NaN when the nearest point of the segments
-    ``k0..k1`` lies at an outer end of them (a nearer one may lie beyond).
-
-    The nearest point is that of the segments before and after ``v`` unless it lies at their outer ends (then
-    all of ``k0..k1`` are searched). On a mitre plane (``mitre``) both are equally far, and on the inner side
-    of a bend the nearest point, and the radius with it, jumps across the plane: the least of the two
-    segments' clearances is the one approached from one side."""
-    den = dx * nx + dy * ny + dz * nz
-    if den == 0.0:
-        return np.inf, -1.0
-    t = ((C[v, 0] - ax) * nx + (C[v, 1] - ay) * ny + (C[v, 2] - az) * nz) / den
-    if not (0.0 < t < 1.0):
-        return np.inf, t
-    px, py, pz = ax + t * dx, ay + t * dy, az + t * dz
-    lo = max(v - 1, k0)
-    hi = min(v, k1)
-    gap = min(R[lo], R[v], R[hi + 1]) - radius - best
-    ex, ey, ez = px - C[v, 0], py - C[v, 1], pz - C[v, 2]
-    if gap >= 0.0 and ex * ex + ey * ey + ez * ez <= gap * gap:
-        return np.inf, t
-    d2, c, u = _segment_clearance(C, R, radius, lo, px, py, pz)
-    k = lo
-    if hi != lo:
-        d2b, cb, ub = _segment_clearance(C, R, radius, hi, px, py, pz)
-        if mitre:
-            c = min(c, cb)
-        if d2b < d2:
-            k, u = hi, ub
-            if not mitre:
-                c = cb
-    if (k == lo and u == 0.0 and lo > k0) or (k == hi and u == 1.0 and hi < k1):
-        d2, k, u = segment_scan(C, k0, k1 + 1, px, py, pz)
-        c = R[k] + u * (R[k + 1] - R[k]) - radius - math.sqrt(d2)
-        if (k == k0 and u == 0.0 and k0 > 0) or (k == k1 and u == 1.0 and k1 < C.shape[0] - 2):
-            return np.nan, t
-    return c, t
-
-
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def module_exact_kernel(C, R, N, radius, ax, ay, az, bx, by, bz, fa, fb, ca, cb, out, below):
     """The smallest clearance along module a->b, exactly, from its ends' clearances ``ca``, ``cb`` (both inside
     the lumen) and where they were found (``fa``, ``fb``, tube positions): out = (clearance, t along the module).
@@ -167,12 +104,13 @@ def module_exact_kernel(C, R, N, radius, ax, ay, az, bx, by, bz, fa, fb, ca, cb,
     mitre plane, between the segments before and after it; where the lumen narrows into a vertex or widens out
     of it, also the plane square to the segment there) its nearest feature is one segment or one vertex. There
     the clearance is the radius, linear along the module, minus the distance, convex: it is concave, and its
-    minimum lies at an end. So the module's minimum is the least of its ends and those crossings
-    (:func:`_crossing`), each scored against the centerline between its ends' nearest segments and one more on
-    each side. Returns False (the module is then sampled, :func:`clearance_chain_kernel`) when that stretch is
-    longer than :data:`EXACT_SPAN` segments, when a crossing's nearest point lies at the stretch's outer end,
-    when the centerline turns back on itself there, or when a crossing touches the wall (where another pass of
-    a loop may be nearer: the full search decides).
+    minimum lies at an end. So the module's minimum is the least of its ends and those crossings, each scored
+    against the centerline between its ends' nearest segments and one more on each side (a crossing whose
+    least radius there, less its distance to the vertex, cannot beat the least so far is skipped). Returns
+    False (the module is then sampled, :func:`clearance_chain_kernel`) when that stretch is longer than
+    :data:`EXACT_SPAN` segments, when a crossing's nearest point lies at the stretch's outer end, when the
+    centerline turns back on itself there, or when a crossing touches the wall (where another pass of a loop
+    may be nearer: the full search decides).
     """
     M = C.shape[0]
     ka = min(int(fa), M - 2)
@@ -187,36 +125,63 @@ def module_exact_kernel(C, R, N, radius, ax, ay, az, bx, by, bz, fa, fb, ca, cb,
         best = cb
         bt = 1.0
     dx, dy, dz = bx - ax, by - ay, bz - az
-    for v in range(k0 + 1, k1 + 1):  # the mitre planes
-        nx, ny, nz = N[v, 0], N[v, 1], N[v, 2]
-        if nx * nx + ny * ny + nz * nz < 1e-12:  # the centerline turns back on itself here
-            return False
-        c, t = _crossing(C, R, radius, k0, k1, v, True, ax, ay, az, dx, dy, dz, nx, ny, nz, best)
-        if c == np.inf:
+    # every mitre plane first (kind 0), then the planes where the lumen narrows into a vertex (kind 1: the end
+    # of the segment before it) or widens out of it (kind 2: the start of the segment after it)
+    for step in range((k1 - k0) + 2 * (k1 - k0 + 2)):
+        if step < k1 - k0:
+            kind = 0
+            v = k0 + 1 + step
+            nx, ny, nz = N[v, 0], N[v, 1], N[v, 2]
+            if nx * nx + ny * ny + nz * nz < 1e-12:  # the centerline turns back on itself here
+                return False
+        else:
+            v = k0 + (step - (k1 - k0)) // 2
+            kind = 1 + (step - (k1 - k0)) % 2
+            if kind == 1 and v - 1 >= k0 and R[v] < R[v - 1]:
+                nx, ny, nz = C[v, 0] - C[v - 1, 0], C[v, 1] - C[v - 1, 1], C[v, 2] - C[v - 1, 2]
+            elif kind == 2 and v <= k1 and R[v + 1] > R[v]:
+                nx, ny, nz = C[v + 1, 0] - C[v, 0], C[v + 1, 1] - C[v, 1], C[v + 1, 2] - C[v, 2]
+            else:
+                continue
+        # where the module crosses that plane, and the clearance there
+        den = dx * nx + dy * ny + dz * nz
+        if den == 0.0:
             continue
-        if not c > below:  # touching, or not local (NaN)
+        t = ((C[v, 0] - ax) * nx + (C[v, 1] - ay) * ny + (C[v, 2] - az) * nz) / den
+        if not (0.0 < t < 1.0):
+            continue
+        px, py, pz = ax + t * dx, ay + t * dy, az + t * dz
+        lo = max(v - 1, k0)
+        hi = min(v, k1)
+        gap = min(R[lo], R[v], R[hi + 1]) - radius - best
+        ex, ey, ez = px - C[v, 0], py - C[v, 1], pz - C[v, 2]
+        if gap >= 0.0 and ex * ex + ey * ey + ez * ez <= gap * gap:
+            continue  # its least radius less its distance to v cannot beat the least so far
+        # the nearest point of the segments before and after v; on a mitre plane both are equally far, and on
+        # the inner side of a bend the nearest point, and the radius with it, jumps across the plane: the least
+        # of the two segments' clearances is the one approached from one side
+        d2, k, u = segment_scan(C, lo, lo + 1, px, py, pz)
+        c = R[lo] + u * (R[lo + 1] - R[lo]) - radius - math.sqrt(d2)
+        if hi != lo:
+            d2b, _, ub = segment_scan(C, hi, hi + 1, px, py, pz)
+            cb = R[hi] + ub * (R[hi + 1] - R[hi]) - radius - math.sqrt(d2b)
+            if kind == 0:
+                c = min(c, cb)
+            if d2b < d2:
+                k, u = hi, ub
+                if kind != 0:
+                    c = cb
+        if (k == lo and u == 0.0 and lo > k0) or (k == hi and u == 1.0 and hi < k1):
+            # at their outer end: all of k0..k1, and not local when the nearest is at theirs
+            d2, k, u = segment_scan(C, k0, k1 + 1, px, py, pz)
+            c = R[k] + u * (R[k + 1] - R[k]) - radius - math.sqrt(d2)
+            if (k == k0 and u == 0.0 and k0 > 0) or (k == k1 and u == 1.0 and k1 < M - 2):
+                return False
+        if not c > below:  # touching
             return False
         if c < best:
             best = c
             bt = t
-    for v in range(k0, k1 + 2):  # where the lumen narrows into a vertex or widens out of it
-        for side in range(2):
-            if side == 0:  # the end of the segment before v
-                if not (v - 1 >= k0 and R[v] < R[v - 1]):
-                    continue
-                nx, ny, nz = C[v, 0] - C[v - 1, 0], C[v, 1] - C[v - 1, 1], C[v, 2] - C[v - 1, 2]
-            else:  # the start of the segment after it
-                if not (v <= k1 and R[v + 1] > R[v]):
-                    continue
-                nx, ny, nz = C[v + 1, 0] - C[v, 0], C[v + 1, 1] - C[v, 1], C[v + 1, 2] - C[v, 2]
-            c, t = _crossing(C, R, radius, k0, k1, v, False, ax, ay, az, dx, dy, dz, nx, ny, nz, best)
-            if c == np.inf:
-                continue
-            if not c > below:
-                return False
-            if c < best:
-                best = c
-                bt = t
     out[0] = best
     out[1] = bt
     return True

@@ -195,7 +195,7 @@ def make_tube(path: np.ndarray, lumen: np.ndarray, start_direction=None, window_
 # compiled kernels
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def segment_scan(C, lo, hi, px, py, pz):
     """Nearest point to (px, py, pz) on the centerline segments ``lo..hi-1`` of ``C``.
 
@@ -238,7 +238,7 @@ def nearest_kernel(C, R, lo, hi, px, py, pz):
     return math.sqrt(best), R[bk] + bt * (R[bk + 1] - R[bk]), bk + bt
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def search_window(M, e, w):
     lo = int(math.floor(e - w))
     hi = int(math.ceil(e + w))
@@ -299,14 +299,14 @@ def local_scan(C, lo, hi, px, py, pz):
     return past_the_window(C, lo, hi, best, bk, bt, px, py, pz)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def local_scan_from(C, BC, BR, lo, hi, g, px, py, pz):
     """:func:`local_scan`, the same result, its window searched from segment ``g`` (:func:`window_scan`)."""
     best, bk, bt = window_scan(C, BC, BR, lo, hi, g, px, py, pz)
     return past_the_window(C, lo, hi, best, bk, bt, px, py, pz)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def past_the_window(C, lo, hi, best, bk, bt, px, py, pz):
     """:func:`local_scan`'s search past the window's ends, from the window's nearest point (best, bk, bt)."""
     M = C.shape[0]
@@ -336,7 +336,7 @@ def past_the_window(C, lo, hi, best, bk, bt, px, py, pz):
 
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def window_scan(C, BC, BR, lo, hi, g, px, py, pz):
     """:func:`segment_scan` of segments ``lo..hi-1``, bit for bit, searched from segment ``g`` (a guess) outwards.
 
@@ -392,7 +392,7 @@ def window_scan(C, BC, BR, lo, hi, g, px, py, pz):
     return best, bk, bt
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _farther(BC, BR, j, px, py, pz, reach):
     """Whether every point in sphere ``j`` is farther from p than ``reach`` (strictly): no square root taken."""
     dx, dy, dz = px - BC[j, 0], py - BC[j, 1], pz - BC[j, 2]
