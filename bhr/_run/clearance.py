@@ -489,11 +489,15 @@ def brute_force_clearance(path: np.ndarray, lumen: np.ndarray, radius: float, po
     uu = np.einsum("ij,ij->i", u, u)
     flat = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     out = np.empty(flat.shape[0])
-    for j, p in enumerate(flat):
-        t = np.clip(np.einsum("ij,ij->i", p - a, u) / uu, 0.0, 1.0)
-        d2 = ((p - (a + t[:, None] * u)) ** 2).sum(axis=1)
-        k = int(np.argmin(d2))
-        out[j] = rad[k] + t[k] * (rad[k + 1] - rad[k]) - radius - math.sqrt(float(d2[k]))
+    step = max(1, (1 << 20) // max(1, a.shape[0]))  # points at a time: about a million point-segment pairs
+    for lo in range(0, flat.shape[0], step):
+        p = flat[lo:lo + step, None, :]  # (B, 1, 3) against the segments (S, 3)
+        t = np.clip(np.einsum("bsj,sj->bs", p - a, u) / uu, 0.0, 1.0)
+        d2 = ((p - (a + t[..., None] * u)) ** 2).sum(axis=2)
+        k = np.argmin(d2, axis=1)  # the first of equally near segments
+        tk = np.take_along_axis(t, k[:, None], axis=1)[:, 0]
+        dk = np.take_along_axis(d2, k[:, None], axis=1)[:, 0]
+        out[lo:lo + step] = rad[k] + tk * (rad[k + 1] - rad[k]) - radius - np.sqrt(dk)
     return out.reshape(np.asarray(points).shape[:-1])
 
 

@@ -457,7 +457,7 @@ def _wavy_tube(rng, bend, wave, count=120, spacing=2.0):
     return pts, lumen
 
 
-@settings(max_examples=60, deadline=None)
+@settings(max_examples=40, deadline=None)
 @given(seed=st.integers(0, 2**32 - 1), bend=st.floats(40.0, 400.0), wave=st.floats(0.0, 15.0),
        start=st.floats(20.0, 120.0), length=st.floats(1.0, 20.0), off=st.floats(0.0, 9.0))
 def test_a_module_inside_the_lumen_gets_its_exact_smallest_clearance(seed, bend, wave, start, length, off):
