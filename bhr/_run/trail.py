@@ -395,10 +395,8 @@ def trail_tables(tube: Tube, radius: float, T: np.ndarray, back: int, f: int, m_
         return out
     S, BC, BR = tube.search_arrays()
     tables_kernel(tube.points, tube.radius, S, BC, BR, tube.mitre_normals(), float(tube.pre), float(tube.window),
-                  float(radius), T, z,
-                  int(back),
-                  int(f), int(m_lo), int(m_hi), float(L), float(sample), out["pc"], out["mc"], out["mwhere"],
-                  out["sw"], out["swhere"])
+                  float(radius), T, z, int(back), int(f), int(m_lo), int(m_hi), float(L), float(sample), out["pc"],
+                  out["mc"], out["mwhere"], out["sw"], out["swhere"])
     return out
 
 

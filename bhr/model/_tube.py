@@ -93,9 +93,11 @@ class Tube:
 def mitre_normals(pts: np.ndarray) -> np.ndarray:
     """(M, 3): at each inner vertex of the polyline ``pts`` (M, 3) the normal of its mitre plane, the sum of the unit
     directions of the segments before and after it (every point of that plane is as far from the one segment's
-    line as from the other's); zero at both ends, and near zero where the line turns back on itself."""
+    line as from the other's); zero at both ends, near zero where the line turns back on itself, and the other
+    segment's direction beside a segment of no length."""
     u = np.diff(np.asarray(pts, dtype=np.float64), axis=0)
-    u /= np.linalg.norm(u, axis=1)[:, None]
+    n = np.linalg.norm(u, axis=1)
+    u = np.divide(u, n[:, None], out=np.zeros_like(u), where=n[:, None] > 0.0)
     out = np.zeros((u.shape[0] + 1, 3))
     out[1:-1] = u[:-1] + u[1:]
     return out
