@@ -164,13 +164,13 @@ def module_exact_kernel(C, R, N, radius, ax, ay, az, bx, by, bz, fa, fb, ca, cb,
         c = R[lo] + u * (R[lo + 1] - R[lo]) - radius - math.sqrt(d2)
         if hi != lo:
             d2b, _, ub = segment_scan(C, hi, hi + 1, px, py, pz)
-            cb = R[hi] + ub * (R[hi + 1] - R[hi]) - radius - math.sqrt(d2b)
+            c2 = R[hi] + ub * (R[hi + 1] - R[hi]) - radius - math.sqrt(d2b)
             if kind == 0:
-                c = min(c, cb)
+                c = min(c, c2)
             if d2b < d2:
                 k, u = hi, ub
                 if kind != 0:
-                    c = cb
+                    c = c2
         if (k == lo and u == 0.0 and lo > k0) or (k == hi and u == 1.0 and hi < k1):
             # at their outer end: all of k0..k1, and not local when the nearest is at theirs
             d2, k, u = segment_scan(C, k0, k1 + 1, px, py, pz)
