@@ -779,7 +779,9 @@ def clearance_report(result, window_mm: float = WINDOW_MM, sample_mm: float = SA
         pt, mod, where = mesh_clearance_run(grid, r.robot_radius, Q, E, sample_mm)
         lost = np.zeros(Q.shape[0])
     else:
-        tube = make_tube(tr.points, tr.lumen, tr.start_direction, window_mm, closed_end=end == "closed")
+        tube = getattr(result, "_tube", None)  # the run's own, when it built one (a blind end, the default window)
+        if tube is None or end != "closed" or window_mm != WINDOW_MM:
+            tube = make_tube(tr.points, tr.lumen, tr.start_direction, window_mm, closed_end=end == "closed")
         pt, mod, where, lost = clearance_run_all(tube, r.robot_radius, Q, E, sample_mm, float(r.feed) / tube.spacing)
     # reorder: points head 0..n then body 1..B; modules head 1..n then body 1..B
     p_order = list(range(B, B + n + 1)) + list(range(B - 1, -1, -1))

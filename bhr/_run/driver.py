@@ -889,6 +889,9 @@ def follow(points: Any, solver: str | Solver = "thesis", robot: Robot | None = T
                           {} if stop is None else {"summary": {"feeder_stop_step": stop + 1}})
     if body_modules is not None:
         result = replace(result, body=_held_body(result, body_modules, stop))
+    # the lumen's tube with its blind end, built to watch for the cecum: the run's clearance is scored in it too (not
+    # a field: dataclasses.replace makes a run that builds its own)
+    object.__setattr__(result, "_tube", tube)
     if stop_at_wall:
         return _stopped_at_wall(result)
     return result

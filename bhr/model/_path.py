@@ -262,6 +262,7 @@ def path_directions(path: np.ndarray) -> np.ndarray:
 #: Half-lengths (mm of arc) of the stretches :func:`unfollowable_bends` judges a bend over: from 2.5 mm to
 #: 160 mm, each about 8 % longer than the last (and at least one point longer).
 BEND_WINDOWS_MM = tuple(float(v) for v in np.geomspace(2.5, 160.0, 55))
+_BEND_WINDOWS = np.array(BEND_WINDOWS_MM)
 
 
 def unfollowable_bends(points: np.ndarray, lumen: np.ndarray, turn_radius: float, robot_radius: float
@@ -331,7 +332,7 @@ def _tangents(pts: np.ndarray) -> np.ndarray:
 
 def _windows(h: float) -> np.ndarray:
     """The stretches' half-lengths in whole points, shortest first."""
-    return np.array(sorted({max(int(round(w / h)), 1) for w in BEND_WINDOWS_MM}), dtype=np.int64)
+    return np.unique(np.maximum(np.rint(_BEND_WINDOWS / h), 1.0)).astype(np.int64)  # rint: round half to even
 
 
 def _stretches(bad: np.ndarray, worst_r: np.ndarray, worst_d: np.ndarray) -> list[tuple[int, int, float, float]]:

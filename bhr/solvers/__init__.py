@@ -181,6 +181,8 @@ def check_solver_name(name: Any, where: str = "") -> str:
 
 def _check_solver_options(cls: type[Solver], options: dict[str, Any]) -> dict[str, Any]:
     """``options`` checked against what ``cls`` takes (did-you-mean) and, where it knows them, the registry."""
+    if not options:
+        return {}
     params = inspect.signature(cls.__init__).parameters
     takes_any = any(p.kind is inspect.Parameter.VAR_KEYWORD for p in params.values())
     allowed = [k for k, p in params.items() if k not in ("self", "robot")

@@ -79,7 +79,8 @@ def constrained_kernel(P: np.ndarray, E1: np.ndarray, E2: np.ndarray, target: np
         codes[i] = 0
         tilts[i] = 0.0
     k = 0
-    while err > tol_pos or (has_dir and ang > tol_ori) or k < min_iter:
+    # the warm-up's iterations always run: their errors are not needed, and they leave the axis points as they were
+    while k < min_iter or err > tol_pos or (has_dir and ang > tol_ori):
         # tip to base, with the tip-orientation constraint
         for c in range(3):
             P[n, c] = target[c]
@@ -88,19 +89,24 @@ def constrained_kernel(P: np.ndarray, E1: np.ndarray, E2: np.ndarray, target: np
             for c in range(3):
                 P[n - 1, c] = target[c] - length * direction[c]
             start = n - 2
-        for i in range(start, -1, -1):
+        for i in range(start, 0, -1):  # point 0 too, but the base to tip pass puts it back on the base at once
             pull_point(P, i + 1, i, length)
         # base to tip
         for c in range(3):
             P[0, c] = base[c]
-        for a in range(n):
-            for c in range(3):
-                A1[a, c] = E1[a, c]
-                A2[a, c] = E2[a, c]
         constrained = k >= warmup and limit != LIMIT_NONE
+        # in a warm-up iteration that another one follows, points n-1 and n are dead: the next tip-to-base pass
+        # sets both from the target before it reads them
+        last = n - 2 if has_dir and not constrained and k + 1 < min_iter and k + 1 < max_iter else n
+        if constrained:
+            for a in range(n):
+                for c in range(3):
+                    A1[a, c] = E1[a, c]
+                    A2[a, c] = E2[a, c]
         for i in range(n):
             if not constrained:
-                pull_point(P, i, i + 1, length)
+                if i < last:
+                    pull_point(P, i, i + 1, length)
                 continue
             for j in range(i, n):
                 for c in range(3):
@@ -163,10 +169,11 @@ def constrained_kernel(P: np.ndarray, E1: np.ndarray, E2: np.ndarray, target: np
                 _rotate_about(A1, j, P[i], ch, sh, ax, ay, az)
             for j in range(i, n):
                 _rotate_about(A2, j, P[i], ch, sh, ax, ay, az)
-        err = point_distance(P, n, target)
-        if has_dir:
-            ang = tip_angle_deg(P, direction)
         k += 1
+        if k >= min_iter or k >= max_iter:
+            err = point_distance(P, n, target)
+            if has_dir:
+                ang = tip_angle_deg(P, direction)
         if k >= max_iter:
             break
     if k > 0:
