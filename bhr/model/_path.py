@@ -381,6 +381,8 @@ def _bends_kernel(t, free, lum, h, big_r, ks, bad, worst_r, worst_d):
         # a turn theta <= 2 k h / R is never unfollowable (r >= R): its cosine is at least this, and then the
         # arc cosine is not taken (with a margin that rounding cannot cross)
         x = 2.0 * k * h / big_r
+        if x > math.pi * (1.0 + 1e-12):  # no turn (theta <= pi) makes a stretch this long tighter than R
+            continue
         gentle = math.cos(x) + 1e-12 if x < math.pi else 2.0
         for i in range(k, n - k):
             dot = t[i - k, 0] * t[i + k, 0] + t[i - k, 1] * t[i + k, 1] + t[i - k, 2] * t[i + k, 2]
