@@ -590,10 +590,11 @@ def clearance_table(point_errors: np.ndarray, offsets: np.ndarray, lumen: np.nda
     if lum.ndim != 1 or lum.shape[0] < N:
         raise BhrError(f"the lumen has {lum.shape[0] if lum.ndim == 1 else lum.shape} diameters for {N} steps; "
                        "give one diameter per trajectory point")
-    idx = np.arange(N)[:, None] - np.asarray(offsets, dtype=np.int64)[None, :]
-    ok = idx >= 0
     table = np.full(pe.shape, np.nan)
-    table[ok] = lum[idx[ok]] / 2.0 - radius - pe[ok]
+    for p, o in enumerate(np.asarray(offsets, dtype=np.int64).tolist()):  # point p at step i: trajectory point i - o
+        if o < N:
+            a = max(o, 0)
+            table[a:, p] = lum[a - o:N - o] / 2.0 - radius - pe[a:, p]
     return table
 
 
