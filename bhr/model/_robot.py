@@ -343,8 +343,8 @@ def base_frame(direction: Sequence[float] | np.ndarray) -> np.ndarray:
     ref[(k + 1) % 3] = 1.0
     x = ref - np.dot(ref, z) * z
     x /= np.linalg.norm(x)
-    y = np.cross(z, x)
-    return np.stack([x, y, z])
+    y = [z[1] * x[2] - z[2] * x[1], z[2] * x[0] - z[0] * x[2], z[0] * x[1] - z[1] * x[0]]  # z x x, as np.cross
+    return np.array([x, y, z])
 
 
 def forward_kinematics(robot: Robot, codes: Sequence[int], base: Sequence[float] = (0, 0, 0),

@@ -185,12 +185,39 @@ def make_tube(path: np.ndarray, lumen: np.ndarray, start_direction=None, window_
     d0 = P[1] - P[0] if start_direction is None else np.asarray(start_direction, dtype=np.float64)
     d0 = d0 / np.linalg.norm(d0)
     d1 = (P[-1] - P[-2]) / np.linalg.norm(P[-1] - P[-2])
-    before = P[0] - spacing * np.arange(pad, 0, -1)[:, None] * d0
-    after = P[-1] + spacing * np.arange(1, post + 1)[:, None] * d1
-    pts = np.ascontiguousarray(np.vstack([before, P, after]))
-    rad = np.concatenate([np.full(pad, lum[0]), lum[:N], np.full(post, lum[N - 1])]) / 2.0
-    arc, centre, brad = search_arrays(pts)
-    return Tube(pts, np.ascontiguousarray(rad), pad, post, float(w), spacing, arc, centre, brad)
+    pts = np.empty((pad + N + post, 3))
+    rad = np.empty(pad + N + post)
+    arc = np.empty(pad + N + post)
+    _tube_kernel(P, np.ascontiguousarray(lum[:N]), spacing, d0, d1, pad, post, pts, rad, arc)
+    bc, br = _spheres(pts, BLOCK)
+    gc, gr = _spheres(pts, GROUP)
+    return Tube(pts, rad, pad, post, float(w), spacing, arc, np.concatenate([bc, gc]), np.concatenate([br, gr]))
+
+
+@njit(cache=True)
+def _tube_kernel(P, lum, spacing, d0, d1, pad, post, pts, rad, arc):
+    """:func:`make_tube`'s centerline ``pts`` (``pad`` points straight back from the first along ``d0``, the path,
+    ``post`` points on past the last along ``d1``), its radii ``rad`` (the end diameters carried on, halved) and the
+    arc length ``arc`` at each point, as :func:`search_arrays` sums it."""
+    N = P.shape[0]
+    for j in range(pad):
+        s = spacing * float(pad - j)
+        for c in range(3):
+            pts[j, c] = P[0, c] - s * d0[c]
+        rad[j] = lum[0] / 2.0
+    for i in range(N):
+        for c in range(3):
+            pts[pad + i, c] = P[i, c]
+        rad[pad + i] = lum[i] / 2.0
+    for j in range(post):
+        s = spacing * float(j + 1)
+        for c in range(3):
+            pts[pad + N + j, c] = P[N - 1, c] + s * d1[c]
+        rad[pad + N + j] = lum[N - 1] / 2.0
+    arc[0] = 0.0
+    for k in range(pts.shape[0] - 1):
+        dx, dy, dz = pts[k + 1, 0] - pts[k, 0], pts[k + 1, 1] - pts[k, 1], pts[k + 1, 2] - pts[k, 2]
+        arc[k + 1] = arc[k] + math.sqrt(dx * dx + dy * dy + dz * dz)
 
 
 # ---------------------------------------------------------------------------
