@@ -14,7 +14,6 @@ refused at once; the solver modules load when a solver is built or listed.
 from __future__ import annotations
 
 import importlib
-import importlib.metadata
 import inspect
 from typing import TYPE_CHECKING, Any, Sequence
 
@@ -57,6 +56,8 @@ def _load_all() -> None:
     if _loaded:
         return
     _loaded = True
+    import importlib.metadata
+
     from bhr.solvers._base import Solver
 
     for module in sorted({module for module, _ in BUILTIN.values()}):
@@ -76,8 +77,18 @@ def _load_all() -> None:
                 REGISTRY.setdefault(alias, cls)
 
 
+def _load_builtin(name: str) -> type[Solver]:
+    """bhr's own solver class ``name`` (a registered name of :data:`bhr.solvers._names.BUILTIN`), loading its module
+    only: a plug-in never takes the name of one of bhr's solvers (:func:`_load_all` registers bhr's first)."""
+    if name not in REGISTRY:
+        importlib.import_module(f"{__name__}.{BUILTIN[name][0]}")
+    return REGISTRY[name]
+
+
 def _plugins() -> bool:
     """Whether another package adds solvers (entry points named, not loaded)."""
+    import importlib.metadata
+
     return bool(importlib.metadata.entry_points(group=ENTRY_POINTS))
 
 
@@ -234,9 +245,10 @@ def get_solver(name: str | Solver | type[Solver], robot: Robot, **options: Any) 
     >>> get_solver("seed", CHAPTER5_ROBOT).name
     'thesis'
     """
-    _load_all()
     from bhr.solvers._base import Solver
 
+    if not isinstance(name, str):
+        _load_all()
     options = {k: v for k, v in options.items() if v is not None}
     if isinstance(name, Solver):
         if options:
@@ -250,6 +262,8 @@ def get_solver(name: str | Solver | type[Solver], robot: Robot, **options: Any) 
         cls = name
     elif isinstance(name, str) and name in REGISTRY:
         cls = REGISTRY[name]
+    elif isinstance(name, str) and (known := builtin_name(name)) is not None:
+        cls = _load_builtin(known)  # one of bhr's own: its module alone (the others define kernels it does not run)
     elif isinstance(name, str):
         cls = REGISTRY[check_solver_name(name)]
     else:
