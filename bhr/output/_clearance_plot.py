@@ -55,5 +55,5 @@ def clearance_figure(result: "FollowResult") -> Figure:
     ax.grid(True, alpha=0.3)
     ax.legend(loc="best", fontsize=8)
     ax.set_title(f"Clearance to the lumen wall - {result.trajectory.name}, solver {result.solver}; wall: "
-                 f"{cl.wall.split(' (')[0]}", fontsize=11)
+                 f"{cl.wall.split(' (')[0]}", fontsize=11, y=1.0)  # the top of the axes: placed, not laid out
     return fig

@@ -96,7 +96,9 @@ def path_figure(result: "FollowResult", step: int | None = None) -> Figure:
         draw_section_names(ax, traj, True)
         ax.set_xlim(lo[0], hi[0])
         ax.set_ylim(lo[1], hi[1])
-        ax.set_title(title, fontsize=10)
+        # placed at the top of the axes, where matplotlib's automatic placement puts it (nothing is drawn above
+        # the axes), without that placement's measuring of every tick label at each draw
+        ax.set_title(title, fontsize=10, y=1.0)
         legend_below(fig, ax)
         if 2 * half < 0.45 * min(w, h):
             window = (centre[0] - half, centre[0] + half, centre[1] - half, centre[1] + half)
@@ -110,7 +112,7 @@ def path_figure(result: "FollowResult", step: int | None = None) -> Figure:
             ins.set_aspect("equal", adjustable="box")
             ins.tick_params(labelsize=7)
             ins.set_facecolor("white")
-            ins.set_title(f"robot, zoomed (step {i + 1})", fontsize=8, pad=2)
+            ins.set_title(f"robot, zoomed (step {i + 1})", fontsize=8, pad=2, y=1.0)
             ax.indicate_inset_zoom(ins, edgecolor="0.25", alpha=0.9)
         return fig
     extent = float(np.ptp(allpts, axis=0).max())
@@ -127,7 +129,7 @@ def path_figure(result: "FollowResult", step: int | None = None) -> Figure:
     draw_pose(ax, result, i, False)
     depth_cue(ax, result, i, ax.get_zlim()[0])
     draw_section_names(ax, traj, False)
-    ax.set_title(title, fontsize=10)
+    ax.set_title(title, fontsize=10)  # a 3-D axes' title is laid out above its box (not at y = 1)
     if zoom:
         ins = fig.add_subplot(1, 2, 2, projection="3d")
         ins.set_xlabel("x (mm)")
