@@ -49,6 +49,16 @@ class BhrWarning(UserWarning):
     """A run that completes but should be read with care (e.g. a curve tighter than the robot can turn)."""
 
 
+def _floats(a: Any) -> Any:
+    """An array as nested lists of Python floats (``float`` of each value, in one call)."""
+    return np.asarray(a, dtype=np.float64).tolist()
+
+
+def _ints(a: Any) -> Any:
+    """An array as nested lists of Python ints (``int`` of each value, in one call)."""
+    return np.asarray(a).astype(np.int64).tolist()
+
+
 def _sharpest_turn(dirs: np.ndarray) -> tuple[int, float] | None:
     """(index, angle in degrees) of the largest turn between consecutive step directions; None for one step."""
     if dirs.shape[0] < 2:
@@ -393,29 +403,37 @@ class FollowResult:
             Plain JSON values: ``trajectory`` (its points, mm, and lumen), ``robot``, ``solver``, ``steps`` (one
             entry per step: its target, points, errors in mm and deg, codes, clearance in mm) and ``summary``.
         """
+        n = self.steps
+        # whole arrays to Python numbers at once (tolist): the same floats and ints as converting each value
+        targets, points = _floats(self.trajectory.points[:n]), _floats(self.points[:n])
+        point_errors, orientation_errors = _floats(self.point_errors_mm[:n]), _floats(self.orientation_errors_deg[:n])
+        codes = None if self.codes is None else _ints(self.codes[:n])
+        iterations = _ints(self.iterations[:n])
         steps = []
-        for i in range(self.steps):
+        for i in range(n):
             steps.append({
                 "step": i + 1,
-                "target": [float(v) for v in self.trajectory.points[i]],
-                "points": [[float(v) for v in row] for row in self.points[i]],
-                "point_errors_mm": [float(v) for v in self.point_errors_mm[i]],
-                "module_orientation_errors_deg": [float(v) for v in self.orientation_errors_deg[i]],
-                "codes": None if self.codes is None else [int(c) for c in self.codes[i]],
-                "iterations": int(self.iterations[i]),
+                "target": targets[i],
+                "points": points[i],
+                "point_errors_mm": point_errors[i],
+                "module_orientation_errors_deg": orientation_errors[i],
+                "codes": None if codes is None else codes[i],
+                "iterations": iterations[i],
             })
         cl = self.clearance
         if cl is not None:
-            per = cl.per_step
+            per = _floats(cl.per_step[:n])
             for i, st in enumerate(steps):
-                st["clearance_mm"] = None if np.isnan(per[i]) else float(per[i])
+                st["clearance_mm"] = None if math.isnan(per[i]) else per[i]
         if self.body is not None and self.body.modules:
             b = self.body
+            body_points, body_errors = _floats(b.points[:n]), _floats(b.point_errors_mm[:n])
+            body_orientation, body_codes = _floats(b.orientation_errors_deg[:n]), _ints(b.codes[:n])
             for i, st in enumerate(steps):
-                st["body_points"] = [[float(v) for v in row] for row in b.points[i]]
-                st["body_point_errors_mm"] = [float(v) for v in b.point_errors_mm[i]]
-                st["body_module_orientation_errors_deg"] = [float(v) for v in b.orientation_errors_deg[i]]
-                st["body_codes"] = [int(c) for c in b.codes[i]]
+                st["body_points"] = body_points[i]
+                st["body_point_errors_mm"] = body_errors[i]
+                st["body_module_orientation_errors_deg"] = body_orientation[i]
+                st["body_codes"] = body_codes[i]
         traj_doc = {"name": self.trajectory.name, "params": self.trajectory.params,
                     "points": self.trajectory.points.tolist(),
                     # where the robot starts (straight, its tip at start_point): the tube behind the entrance,

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import csv
 import io
+import math
 import os
 from typing import TYPE_CHECKING
 
@@ -52,20 +53,37 @@ def format_steps_csv(result: "FollowResult") -> str:
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
     w.writerow(head)
-    pe, oe, ge = result.point_errors_mm, result.orientation_errors_deg, result.global_errors
-    for i in range(result.steps):
-        t = result.trajectory.points[i]
-        row = [str(i + 1), _num(t[0]), _num(t[1]), _num(t[2]), str(int(result.iterations[i])), _num(pe[i, -1]),
-               _num(pe[i].max()), _num(oe[i, -1]), _num(ge[i].max())]
-        row += [_num(v) for v in pe[i]] + [_num(v) for v in oe[i]]
-        if per is not None:
-            row += [_num(per[i]), "1" if i + 1 in touched else "0"]
-        if body is not None:
-            row.append(_num(body.point_errors_mm[i].max()))
+    steps = result.steps
+    pe, oe, ge = result.point_errors_mm[:steps], result.orientation_errors_deg[:steps], result.global_errors[:steps]
+    # each column formatted from Python floats (one tolist per array), the row maxima taken by numpy as before
+    targets = _texts(result.trajectory.points[:steps])
+    iterations = [str(v) for v in np.asarray(result.iterations[:steps]).astype(np.int64).tolist()]
+    pe_text, oe_text = _texts(pe), _texts(oe)
+    pe_max, ge_max = _texts(pe.max(axis=1)), _texts(ge.max(axis=1))
+    per_text = _texts(per[:steps]) if per is not None else None
+    body_max = _texts(body.point_errors_mm[:steps].max(axis=1)) if body is not None else None
+    for i in range(steps):
+        pe_i, oe_i = pe_text[i], oe_text[i]
+        row = [str(i + 1), *targets[i], iterations[i], pe_i[-1], pe_max[i], oe_i[-1], ge_max[i], *pe_i, *oe_i]
+        if per_text is not None:
+            row += [per_text[i], "1" if i + 1 in touched else "0"]
+        if body_max is not None:
+            row.append(body_max[i])
         if sections:
             row.append(result.trajectory.section_at(i) or "")
         w.writerow(row)
     return buf.getvalue()
+
+
+def _texts(a: np.ndarray) -> list:
+    """:func:`_num` of every value of ``a``, nested as ``a`` is (one conversion to Python floats)."""
+    def cell(v: float) -> str:
+        return f"{v:.6f}" if math.isfinite(v) else ""
+
+    values = np.asarray(a, dtype=np.float64).tolist()
+    if np.ndim(a) == 1:
+        return [cell(v) for v in values]
+    return [[cell(v) for v in row] for row in values]
 
 
 def write_run_files(result: "FollowResult", out_dir: "str | os.PathLike[str]") -> None:
