@@ -773,10 +773,14 @@ def clearance_report(result, window_mm: float = WINDOW_MM, sample_mm: float = SA
     r = result.robot
     n = r.modules
     Q, E, B = run_chain(result)
-    from bhr.model._wallmesh import mesh_clearance_run, wall_grid
+    grid, wall = None, "tube"
+    if mesh and getattr(tr, "mesh", None):  # a surface mesh (its module, 7 kernels, loads only then)
+        from bhr.model._wallmesh import wall_grid
 
-    grid, wall = wall_grid(tr) if mesh else (None, "tube")
+        grid, wall = wall_grid(tr)
     if grid is not None:  # the real surface: its signed distance (docs/real_colons.md)
+        from bhr.model._wallmesh import mesh_clearance_run
+
         pt, mod, where = mesh_clearance_run(grid, r.robot_radius, Q, E, sample_mm)
         lost = np.zeros(Q.shape[0])
     else:

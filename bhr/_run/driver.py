@@ -24,7 +24,7 @@ import warnings
 from dataclasses import dataclass, field, fields, replace
 from functools import cached_property
 from pathlib import Path
-from typing import Any, Callable
+from typing import TYPE_CHECKING, Any, Callable
 
 import numpy as np
 
@@ -40,7 +40,9 @@ from bhr._run.clearance import CecumWatch, ClearanceReport, cecum_step, clearanc
 from bhr._kinematics.leader import angle_deg, score_step
 from bhr.model._path import Trajectory, path_directions, spacing, unfollowable_bends
 from bhr.model._tube import lumen_end_of, make_tube
-from bhr._run.trail import TrailRun, cecum_modules, run_trail, sweep_bound_mm, trail_report
+
+if TYPE_CHECKING:  # the trail model (7 kernels, and the wall mesh's) loads when a run uses it
+    from bhr._run.trail import TrailRun
 
 __all__ = ["follow", "FollowResult", "Summary", "BhrWarning", "stats", "load_run", "VERDICTS", "verdict_of"]
 
@@ -282,7 +284,11 @@ class FollowResult:
             from bhr._run.motion import motion_report
 
             return motion_report(self)
-        return clearance_report(self) if self.trail is None else trail_report(self)
+        if self.trail is None:
+            return clearance_report(self)
+        from bhr._run.trail import trail_report
+
+        return trail_report(self)
 
     @property
     def steps(self) -> int:
@@ -798,11 +804,13 @@ def follow(points: Any, solver: str | Solver = "thesis", robot: Robot | None = T
         if body_modules is not None:
             raise BhrError("give either body_modules or reach cecum, not both (reach cecum sets the whole robot's "
                            "modules from the path's length)")
+        from bhr._run.trail import cecum_modules
+
+        reach_modules = cecum_modules(path.shape[0], robot.feed_divisor, robot.modules)
         if locomotion == "thesis":
-            body_modules = check_body_modules(cecum_modules(path.shape[0], robot.feed_divisor, robot.modules),
-                                              robot.modules, "reach cecum")
+            body_modules = check_body_modules(reach_modules, robot.modules, "reach cecum")
     dirs = path_directions(path)
-    whole = body_modules or (cecum_modules(path.shape[0], robot.feed_divisor, robot.modules) if reach else 0)
+    whole = body_modules or (reach_modules if reach else 0)
     work = path.shape[0] * (max(robot.modules, whole) + 1)
     if work > MAX_STEP_POINTS:
         raise BhrError(f"{path.shape[0]} steps x {max(robot.modules, whole) + 1} robot points is "
@@ -1003,6 +1011,8 @@ def _follow_trail(traj: Trajectory, robot: Robot, s: Any, solver: str, path: np.
                   body_modules: int | None, reach: bool, msgs: list[str],
                   on_step: Callable[[int, np.ndarray | None], None] | None) -> FollowResult:
     """A run in the trail model (bhr._run.trail): plan the trail, move the whole robot along it, score every step."""
+    from bhr._run.trail import run_trail, sweep_bound_mm
+
     n, f = robot.modules, robot.feed_divisor
     N = path.shape[0]
     # the trail planner's own pull to the centerline (the head's center_weight is the thesis model's)
