@@ -70,6 +70,7 @@ class ErrorGrid:
         self.axes = [axes[j // cols][j % cols] for j in range(rows * cols)]
         self.steps = np.arange(1, self.n + 1)
         self.curves, self.tols, self.marks = [], [], []
+        self.legend_entries: dict[int, tuple[int, ...]] = {}  # panel -> the artists its legend was made for
         for ax in self.axes:
             (curve,) = ax.plot(self.steps, np.zeros(self.n), color="tab:blue", linewidth=1.0)
             self.curves.append(curve)
@@ -119,7 +120,15 @@ class ErrorGrid:
             top = max(tol, float(np.nanmax(col)) if np.isfinite(col).any() else 0.0)
             ax.set_ylim(0, 1.45 * top if top > 0 else 1.0)  # room above for the legend
             light_ticks(ax, which="y")
-            ax.legend(loc="upper right", fontsize=7, framealpha=0.9, ncol=2)
+            handles, labels = ax.get_legend_handles_labels()
+            entries = tuple(map(id, handles))
+            legend = ax.get_legend()
+            if legend is not None and self.legend_entries.get(j) == entries:  # the same entries: new words only
+                for text, label in zip(legend.get_texts(), labels):
+                    text.set_text(label)
+            else:
+                ax.legend(handles, labels, loc="upper right", fontsize=7, framealpha=0.9, ncol=2)
+                self.legend_entries[j] = entries
             bottom = j // cols == self.rows - 1 or j + cols >= count
             ax.set_xlabel("trajectory step" if bottom else "", fontsize=9)
         self.title.set_text(f"{title} - {result.trajectory.name}, solver {result.solver}")
