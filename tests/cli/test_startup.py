@@ -36,6 +36,20 @@ def test_follow_with_plots_loads_matplotlib(tmp_path):
     assert loaded(["follow", "--traj", "line", "--out", "o"], tmp_path) == "['matplotlib', 'numba', 'numpy']"
 
 
+def test_follow_loads_the_kernels_of_its_own_solver_and_model_only(tmp_path):
+    """The thesis's solver on the built-in colon (a tube lumen, the thesis's locomotion) loads neither the other
+    solvers' modules nor the trail model nor the wall mesh's (each module's kernels cost their set-up at import)."""
+    others = ("bhr.solvers._optimal", "bhr.solvers._lumen", "bhr.solvers._trail", "bhr._run.trail",
+              "bhr.model._wallmesh")
+    check = CHECK.replace('("numba", "matplotlib", "serial", "quaternion", "numpy", "bhr._hardware.link")',
+                          repr(others + ("bhr.solvers._thesis",)))
+    out = subprocess.run([sys.executable, "-c", check.format(args=["follow", "--traj", "colon", "--no-plots",
+                                                                    "--out", "o"])],
+                         capture_output=True, text=True, cwd=tmp_path, check=True)
+    assert out.stdout.strip().splitlines()[-1] == "['bhr.solvers._thesis']"
+    assert (tmp_path / "o" / "run.json").is_file()
+
+
 def test_board_commands_load_the_serial_stack_and_no_numba(tmp_path):
     # no board answers on loop:// (the command fails after its one try): only what it loaded matters here
     args = ["status", "--port", "loop://", "--timeout", "0.01", "--retries", "0"]
