@@ -95,12 +95,31 @@ def mitre_normals(pts: np.ndarray) -> np.ndarray:
     directions of the segments before and after it (every point of that plane is as far from the one segment's
     line as from the other's); zero at both ends, near zero where the line turns back on itself, and the other
     segment's direction beside a segment of no length."""
-    u = np.diff(np.asarray(pts, dtype=np.float64), axis=0)
-    n = np.linalg.norm(u, axis=1)
-    u = np.divide(u, n[:, None], out=np.zeros_like(u), where=n[:, None] > 0.0)
-    out = np.zeros((u.shape[0] + 1, 3))
-    out[1:-1] = u[:-1] + u[1:]
+    P = np.ascontiguousarray(pts, dtype=np.float64)
+    out = np.zeros((P.shape[0], 3))
+    _mitre_kernel(P, out)
     return out
+
+
+@njit(cache=True)
+def _unit_segment(P, k):
+    """The unit direction of segment ``k`` of ``P``, zero for a segment of no length."""
+    dx, dy, dz = P[k + 1, 0] - P[k, 0], P[k + 1, 1] - P[k, 1], P[k + 1, 2] - P[k, 2]
+    n = math.sqrt(dx * dx + dy * dy + dz * dz)
+    if n > 0.0:
+        return dx / n, dy / n, dz / n
+    return 0.0, 0.0, 0.0
+
+
+@njit(cache=True)
+def _mitre_kernel(P, out):
+    """:func:`mitre_normals` into ``out`` (zeroed): the unit directions of the segments on either side, summed."""
+    for v in range(1, P.shape[0] - 1):
+        ax, ay, az = _unit_segment(P, v - 1)
+        bx, by, bz = _unit_segment(P, v)
+        out[v, 0] = ax + bx
+        out[v, 1] = ay + by
+        out[v, 2] = az + bz
 
 
 def _spheres(pts: np.ndarray, size: int) -> tuple[np.ndarray, np.ndarray]:
