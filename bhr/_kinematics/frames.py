@@ -17,10 +17,21 @@ from numba import njit
 
 from bhr._kinematics.codetable import CODE_AXIS, LIFT_OF, SEARCH_INDEX
 
-__all__ = ["tilt_frame", "fk_kernel", "tilt_reference", "fk_reference", "TILT_AXES"]
+__all__ = ["tilt_frame", "tilt_frame_at", "tilt_column", "fk_kernel", "tilt_reference", "fk_reference", "TILT_AXES"]
 
 #: Code -> (local axis index 0 = x, 1 = y; sign) of the tilt it makes; 0 and 15 do not tilt.
 TILT_AXES: dict[int, tuple[int, float]] = {code: (axis, float(sign)) for code, (axis, sign) in CODE_AXIS.items()}
+
+
+@njit(cache=True, inline="always")
+def tilt_column(k: int, c: float, s: float, x: float, y: float, z: float) -> tuple[float, float, float]:
+    """Column ``(x, y, z)`` of a frame (rows x, y, z) after the tilt of search index ``k`` (see :func:`tilt_frame`)."""
+    if k == 0:
+        return x, y, z
+    ss = s if k <= 2 else -s
+    if k == 1 or k == 3:  # about x: y' = c y + s z, z' = c z - s y
+        return x, c * y + ss * z, c * z - ss * y
+    return c * x - ss * z, y, c * z + ss * x  # about y: z' = c z + s x, x' = c x - s z
 
 
 @njit(cache=True)
@@ -30,24 +41,17 @@ def tilt_frame(F: np.ndarray, k: int, c: float, s: float, out: np.ndarray) -> No
     ``c``, ``s`` are cos and sin of alpha; ``k = 0`` copies the frame. The
     search index order (rest, +x, +y, -x, -y) is codes 0, 3, 6, 12, 9.
     """
-    if k == 0:
-        for a in range(3):
-            for b in range(3):
-                out[a, b] = F[a, b]
-        return
-    ss = s if k <= 2 else -s
-    if k == 1 or k == 3:  # about x: y' = c y + s z, z' = c z - s y
-        for b in range(3):
-            x, y, z = F[0, b], F[1, b], F[2, b]
-            out[0, b] = x
-            out[1, b] = c * y + ss * z
-            out[2, b] = c * z - ss * y
-    else:  # about y: z' = c z + s x, x' = c x - s z
-        for b in range(3):
-            x, y, z = F[0, b], F[1, b], F[2, b]
-            out[0, b] = c * x - ss * z
-            out[1, b] = y
-            out[2, b] = c * z + ss * x
+    for b in range(3):
+        out[0, b], out[1, b], out[2, b] = tilt_column(k, c, s, F[0, b], F[1, b], F[2, b])
+
+
+@njit(cache=True, inline="always")
+def tilt_frame_at(frames: np.ndarray, i: int, k: int, c: float, s: float, j: int) -> None:
+    """:func:`tilt_frame` of ``frames[i]`` into ``frames[j]`` (frames of shape (m, 3, 3)), indexing the stack
+    itself: no array views are made, which a compiled search calling it at every node would pay for."""
+    for b in range(3):
+        frames[j, 0, b], frames[j, 1, b], frames[j, 2, b] = tilt_column(k, c, s, frames[i, 0, b], frames[i, 1, b],
+                                                                        frames[i, 2, b])
 
 
 @njit(cache=True)

@@ -243,7 +243,7 @@ def _tube_kernel(P, lum, spacing, d0, d1, pad, post, pts, rad, arc):
 # compiled kernels
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def segment_scan(C, lo, hi, px, py, pz):
     """Nearest point to (px, py, pz) on the centerline segments ``lo..hi-1`` of ``C``.
 
@@ -286,7 +286,7 @@ def nearest_kernel(C, R, lo, hi, px, py, pz):
     return math.sqrt(best), R[bk] + bt * (R[bk + 1] - R[bk]), bk + bt
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def search_window(M, e, w):
     lo = int(math.floor(e - w))
     hi = int(math.ceil(e + w))
@@ -301,7 +301,7 @@ def search_window(M, e, w):
     return lo, hi
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def scan_from(C, lo, hi, g, px, py, pz, step):
     """Nearest point on segments ``lo..hi-1``, scanning from segment ``g`` outwards while it improves.
 

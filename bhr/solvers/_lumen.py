@@ -69,7 +69,7 @@ from bhr.model._tube import (Tube, lumen_end_of, make_tube, nearest_numpy, point
                             segment_scan)
 from bhr._settings.errors import BhrError
 from bhr._settings.options import solver_defaults
-from bhr._kinematics.frames import tilt_frame as _rot
+from bhr._kinematics.frames import tilt_frame as _rot, tilt_frame_at
 from bhr._kinematics.leader import advance_kernel, finish_step, stable_argsort, tip_angle
 from bhr.solvers._base import Chain, FollowContext, SolveResult, register
 from bhr.solvers._optimal import (CODE_OF, DEG, Optimal, beam_candidate, beam_commit, beam_keep, beam_reset, dist2,
@@ -96,68 +96,65 @@ _CUT = 1e300
 # nearest point, local
 
 
-@njit(cache=True)
-def _near(C, pre, w, g, e, px, py, pz, res, tmp):
-    """Nearest centerline point of a sample expected at trajectory index ``e``: res = (d2, segment, t)."""
+@njit(cache=True, inline="always")
+def _near(C, pre, w, g, e, px, py, pz):
+    """Nearest centerline point of a sample expected at trajectory index ``e``: (d2, segment, t).
+
+    The helpers of the search take and return numbers, not arrays: inlined into the search, an array passed
+    between them would cost two reference-count updates at every node."""
     M = C.shape[0]
     lo, hi = search_window(M, e + pre, w)
     if g < 0:
-        best, bk, bt = segment_scan(C, lo, hi, px, py, pz)
-    else:
-        best, bk, bt = scan_from(C, lo, hi, g, px, py, pz, _SCAN)
-    res[0] = best
-    res[1] = bk
-    res[2] = bt
+        return segment_scan(C, lo, hi, px, py, pz)
+    return scan_from(C, lo, hi, g, px, py, pz, _SCAN)
 
 
-@njit(cache=True)
-def _wall(R, radius, margin, ww, res):
-    """Clearance of the sample in ``res`` and its wall cost."""
-    k = int(res[1])
-    t = res[2]
-    c = R[k] + t * (R[k + 1] - R[k]) - radius - math.sqrt(res[0])
+@njit(cache=True, inline="always")
+def _wall(R, radius, margin, ww, d2, k, t):
+    """Clearance of a sample whose nearest centerline point (:func:`_near`) is ``(d2, k, t)``, and its wall cost."""
+    c = R[k] + t * (R[k + 1] - R[k]) - radius - math.sqrt(d2)
     p = margin - c
     return c, (ww * p * p if p > 0.0 else 0.0)
 
 
-@njit(cache=True)
-def _race(Q, res, wr, px, py, pz):
+@njit(cache=True, inline="always")
+def _race(Q, k, t, wr, px, py, pz):
     """The pull to the racing line: ``wr`` times the squared distance from the sample to the racing line's
-    point at the sample's nearest centerline point (``res``: its segment and position)."""
+    point at the sample's nearest centerline point (segment ``k``, position ``t`` on it)."""
     if wr <= 0.0:
         return 0.0
-    k = int(res[1])
-    t = res[2]
     qx = Q[k, 0] + t * (Q[k + 1, 0] - Q[k, 0])
     qy = Q[k, 1] + t * (Q[k + 1, 1] - Q[k, 1])
     qz = Q[k, 2] + t * (Q[k + 1, 2] - Q[k, 2])
     return wr * ((px - qx) ** 2 + (py - qy) ** 2 + (pz - qz) ** 2)
 
 
-@njit(cache=True)
-def _along(res, pre, e, sp):
-    """How far (mm, along the centerline) the nearest point in ``res`` is from where the sample is expected."""
-    return (res[1] + res[2] - pre - e) * sp
+@njit(cache=True, inline="always")
+def _along(k, t, pre, e, sp):
+    """How far (mm, along the centerline) the nearest point (segment ``k``, position ``t``) is from where the
+    sample is expected."""
+    return (float(k) + t - pre - e) * sp
 
 
-@njit(cache=True)
-def _schedule(a, e, sp, prm):
+@njit(cache=True, inline="always")
+def _schedule(a, e, sp, w_along, w_lead, slack, end):
     """The schedule terms of a sample ``a`` mm ahead of where it is expected (trajectory index ``e``): the weak
     pull back to the schedule, ``w_along a^2``, and the lead the robot can no longer lose before the path's end,
     ``w_lead max(0, a - slack (end - e) sp)^2`` (the feeder pushes every step; a robot ahead of its schedule at
     the end pushes into the blind cecum by its lead)."""
-    v = prm[7] * a * a
-    x = a - prm[11] * (prm[12] - e) * sp
+    v = w_along * a * a
+    x = a - slack * (end - e) * sp
     if x > 0.0:
-        v += prm[10] * x * x
+        v += w_lead * x * x
     return v
 
 
-@njit(cache=True)
-def _module_cost(C, Q, R, pre, w, g, e0, ef, A, B, cA, radius, margin, ww, wc, prm, sp, pre0, dR, res, tmp, out,
+@njit(cache=True, inline="always")
+def _module_cost(C, Q, R, pre, w, g, e0, ef, pts, j, cA, radius, margin, ww, wc, prm, sp, pre0, dR, res, out,
                  v0, bound, frames, lv, last, wo):
-    """Cost of the module A->B: its far end (wall and centerline) and, where the wall may be near, its middle
-    (wall only). ``cA`` is A's clearance; out[0] gets B's. res[1]: the far end's segment.
+    """Cost of the module A->B (A = ``pts[j]``, B = ``pts[j + 1]``): its far end (wall and centerline) and, where
+    the wall may be near, its middle (wall only). ``cA`` is A's clearance; out[0] gets B's. res[1]: the far end's
+    segment. (Points and frames are passed with their index, not as views: the search calls this at every node.)
 
     The clearance changes by at most 1 mm per mm moved plus the change of the lumen radius (at most ``dR``
     over half a module), so the middle is skipped when both ends clear the margin by more than half a
@@ -169,44 +166,52 @@ def _module_cost(C, Q, R, pre, w, g, e0, ef, A, B, cA, radius, margin, ww, wc, p
     decision, less work).
     """
     half = int(0.5 * ef)  # guesses: the centerline runs on by about half a module per half module of robot
-    _near(C, pre, w, g + int(ef), e0 + ef, B[0], B[1], B[2], res, tmp)
-    cB, cost = _wall(R, radius, margin, ww, res)
-    a = _along(res, pre0, e0 + ef, sp)
-    cost += wc * res[0] + _schedule(a, e0 + ef, sp, prm) + _race(Q, res, prm[13], B[0], B[1], B[2])
+    ax, ay, az = pts[j, 0], pts[j, 1], pts[j, 2]
+    bx, by, bz = pts[j + 1, 0], pts[j + 1, 1], pts[j + 1, 2]
+    dB, kB, tB = _near(C, pre, w, g + int(ef), e0 + ef, bx, by, bz)
+    res[0] = dB
+    res[1] = kB
+    res[2] = tB
+    cB, cost = _wall(R, radius, margin, ww, dB, kB, tB)
+    a = _along(kB, tB, pre0, e0 + ef, sp)
+    cost += wc * dB + _schedule(a, e0 + ef, sp, prm[7], prm[10], prm[11], prm[12]) \
+        + _race(Q, kB, tB, prm[13], bx, by, bz)
     out[0] = cB
     v = v0 + cost
-    if v >= bound:
-        return cost
-    if last and v + _tip_term(C, int(res[1]), frames[lv], wo) >= bound:
-        return cost
-    gB = res[1]
-    tB = res[2]
-    dB = res[0]
-    L2 = 0.5 * math.sqrt((A[0] - B[0]) ** 2 + (A[1] - B[1]) ** 2 + (A[2] - B[2]) ** 2)
-    if min(cA, cB) - L2 - dR <= margin:
-        _near(C, pre, w, g + half, e0 + 0.5 * ef, 0.5 * (A[0] + B[0]), 0.5 * (A[1] + B[1]), 0.5 * (A[2] + B[2]),
-              res, tmp)
-        cM, cm = _wall(R, radius, margin, ww, res)
-        cost += cm
-    res[0] = dB
-    res[1] = gB
-    res[2] = tB
+    go = not v >= bound  # one return below: inlined, each early return would cost reference-count updates
+    if go and last:
+        go = not v + _tip_term(C, kB, frames, lv, wo) >= bound
+    if go:
+        L2 = 0.5 * math.sqrt((ax - bx) ** 2 + (ay - by) ** 2 + (az - bz) ** 2)
+        if min(cA, cB) - L2 - dR <= margin:
+            dM, kM, tM = _near(C, pre, w, g + half, e0 + 0.5 * ef, 0.5 * (ax + bx), 0.5 * (ay + by),
+                               0.5 * (az + bz))
+            cM, cm = _wall(R, radius, margin, ww, dM, kM, tM)
+            cost += cm
     return cost
 
 
-@njit(cache=True)
-def _tip_term(C, k, frames_last, wo):
+@njit(cache=True, inline="always")
+def _tip_term(C, k, frames, lv, wo):
+    """The tip term: ``wo`` times the squared difference of the tip module's direction (frame ``frames[lv]``) and
+    the centerline's direction on segment ``k``."""
     ux, uy, uz = C[k + 1, 0] - C[k, 0], C[k + 1, 1] - C[k, 1], C[k + 1, 2] - C[k, 2]
     nu = math.sqrt(ux * ux + uy * uy + uz * uz)
-    return wo * ((frames_last[2, 0] - ux / nu) ** 2 + (frames_last[2, 1] - uy / nu) ** 2
-                 + (frames_last[2, 2] - uz / nu) ** 2)
+    return wo * ((frames[lv, 2, 0] - ux / nu) ** 2 + (frames[lv, 2, 1] - uy / nu) ** 2
+                 + (frames[lv, 2, 2] - uz / nu) ** 2)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
+def _track(pts, j, T):
+    """Squared distance of point ``j`` to its trajectory point ``T[j]`` (as :func:`dist2`, without views)."""
+    return (pts[j, 0] - T[j, 0]) ** 2 + (pts[j, 1] - T[j, 1]) ** 2 + (pts[j, 2] - T[j, 2]) ** 2
+
+
+@njit(cache=True, inline="always")
 def _place(frames, pts, lv, q, c, s, L):
     """Module ``lv`` (0-based, after module 1) tilted by search code ``q`` from the module behind it: its frame
     and its far end."""
-    _rot(frames[lv - 1], q, c, s, frames[lv])
+    tilt_frame_at(frames, lv - 1, q, c, s, lv)
     for b in range(3):
         pts[lv + 1, b] = pts[lv, b] + L * frames[lv, 2, b]
 
@@ -225,22 +230,22 @@ def _head_search(C, Q, R, pre, w, step, n, f, L, c, s, T, prm, best_codes, frame
     clr = np.empty(n + 1)
     cout = np.empty(1)
     dR, sp, pre0 = prm[6], prm[8], prm[9]
-    _near(C, pre, w, -1, e0, pts[0, 0], pts[0, 1], pts[0, 2], res, tmp)
-    clr[0], part[0] = _wall(R, radius, margin, ww, res)
-    a0 = _along(res, pre0, e0, sp)
-    part[0] += wc * res[0] + _schedule(a0, e0, sp, prm) + wt * dist2(pts[0], T[0]) \
-        + _race(Q, res, prm[13], pts[0, 0], pts[0, 1], pts[0, 2])
-    guess[0] = int(res[1])
+    d0, k0, t0 = _near(C, pre, w, -1, e0, pts[0, 0], pts[0, 1], pts[0, 2])
+    clr[0], part[0] = _wall(R, radius, margin, ww, d0, k0, t0)
+    a0 = _along(k0, t0, pre0, e0, sp)
+    part[0] += wc * d0 + _schedule(a0, e0, sp, prm[7], prm[10], prm[11], prm[12]) + wt * _track(pts, 0, T) \
+        + _race(Q, k0, t0, prm[13], pts[0, 0], pts[0, 1], pts[0, 2])
+    guess[0] = k0
     for b in range(3):
         pts[1, b] = pts[0, b] + L * frames[0, 2, b]
-    part[1] = part[0] + _module_cost(C, Q, R, pre, w, guess[0], e0, float(f), pts[0], pts[1], clr[0], radius, margin,
-                                     ww, wc, prm, sp, pre0, dR, res, tmp, cout, 0.0, 1e300, frames, 0, False,
-                                     wo) + wt * dist2(pts[1], T[1])
+    part[1] = part[0] + _module_cost(C, Q, R, pre, w, guess[0], e0, float(f), pts, 0, clr[0], radius, margin,
+                                     ww, wc, prm, sp, pre0, dR, res, cout, 0.0, 1e300, frames, 0, False,
+                                     wo) + wt * _track(pts, 1, T)
     clr[1] = cout[0]
     guess[1] = int(res[1])
     best_codes[0] = 0
     if n == 1:
-        return part[1] + _tip_term(C, guess[1], frames[0], wo)
+        return part[1] + _tip_term(C, guess[1], frames, 0, wo)
     # a greedy dive first (each module the cheapest for the points so far): a good first bound to cut with
     best = 1e300
     for lv in range(1, n):
@@ -248,14 +253,14 @@ def _head_search(C, Q, R, pre, w, step, n, f, L, c, s, T, prm, best_codes, frame
         bq = 0
         for q in range(5):
             _place(frames, pts, lv, q, c, s, L)
-            v = part[lv] + wt * dist2(pts[lv + 1], T[lv + 1])
+            v = part[lv] + wt * _track(pts, lv + 1, T)
             if v >= bv:
                 continue
-            v += _module_cost(C, Q, R, pre, w, guess[lv], float(step - (n - lv) * f), float(f), pts[lv], pts[lv + 1],
-                              clr[lv], radius, margin, ww, wc, prm, sp, pre0, dR, res, tmp, cout, v, bv, frames,
+            v += _module_cost(C, Q, R, pre, w, guess[lv], float(step - (n - lv) * f), float(f), pts, lv,
+                              clr[lv], radius, margin, ww, wc, prm, sp, pre0, dR, res, cout, v, bv, frames,
                               lv, lv == n - 1, wo)
             if lv == n - 1:
-                v += _tip_term(C, int(res[1]), frames[lv], wo)
+                v += _tip_term(C, int(res[1]), frames, lv, wo)
             if v < bv:
                 bv = v
                 bq = q
@@ -279,11 +284,11 @@ def _head_search(C, Q, R, pre, w, step, n, f, L, c, s, T, prm, best_codes, frame
             lvl -= 1
             continue
         _place(frames, pts, lvl, choice[lvl], c, s, L)
-        v = part[lvl] + wt * dist2(pts[lvl + 1], T[lvl + 1])
+        v = part[lvl] + wt * _track(pts, lvl + 1, T)
         if v >= best:
             continue
-        v += _module_cost(C, Q, R, pre, w, guess[lvl], float(step - (n - lvl) * f), float(f), pts[lvl], pts[lvl + 1],
-                          clr[lvl], radius, margin, ww, wc, prm, sp, pre0, dR, res, tmp, cout, v, best, frames,
+        v += _module_cost(C, Q, R, pre, w, guess[lvl], float(step - (n - lvl) * f), float(f), pts, lvl,
+                          clr[lvl], radius, margin, ww, wc, prm, sp, pre0, dR, res, cout, v, best, frames,
                           lvl, lvl == n - 1, wo)
         if v >= best:
             continue
@@ -291,7 +296,7 @@ def _head_search(C, Q, R, pre, w, step, n, f, L, c, s, T, prm, best_codes, frame
         guess[lvl + 1] = int(res[1])
         part[lvl + 1] = v
         if lvl == n - 1:
-            best = keep_best(v + _tip_term(C, guess[n], frames[n - 1], wo), best, choice, best_codes, 1, n)
+            best = keep_best(v + _tip_term(C, guess[n], frames, n - 1, wo), best, choice, best_codes, 1, n)
         else:
             lvl += 1
             choice[lvl] = -1
@@ -333,13 +338,13 @@ def _head_depth(C, R, pre, w, k, n, f, L, c, s, radius, F1, P0, best_codes, fram
     e0 = float(k - n * f)
     worst = -1e300
     for j in range(n + 1):
-        _near(C, pre, w, -1, e0 + j * f, pts[j, 0], pts[j, 1], pts[j, 2], res, tmp)
-        cj, _ = _wall(R, radius, 0.0, 0.0, res)
+        dj, kj, tj = _near(C, pre, w, -1, e0 + j * f, pts[j, 0], pts[j, 1], pts[j, 2])
+        cj, _ = _wall(R, radius, 0.0, 0.0, dj, kj, tj)
         worst = max(worst, -cj)
         if j > 0:
-            _near(C, pre, w, -1, e0 + (j - 0.5) * f, 0.5 * (pts[j, 0] + pts[j - 1, 0]),
-                  0.5 * (pts[j, 1] + pts[j - 1, 1]), 0.5 * (pts[j, 2] + pts[j - 1, 2]), res, tmp)
-            cj, _ = _wall(R, radius, 0.0, 0.0, res)
+            dj, kj, tj = _near(C, pre, w, -1, e0 + (j - 0.5) * f, 0.5 * (pts[j, 0] + pts[j - 1, 0]),
+                               0.5 * (pts[j, 1] + pts[j - 1, 1]), 0.5 * (pts[j, 2] + pts[j - 1, 2]))
+            cj, _ = _wall(R, radius, 0.0, 0.0, dj, kj, tj)
             worst = max(worst, -cj)
     return worst
 
@@ -475,8 +480,8 @@ def _lumen_step(P, E1, E2, i, bP, bF, bC, bH, state, cP, cF, cC, cPar, cA, order
         lagv[0] = 0.0
     # the robot's lead along the centerline: where the base is now, searched around where it was
     e0 = float(i - n * f)
-    _near(C, pre + lagv[0], w, -1, e0, P0[0], P0[1], P0[2], res, tmp)
-    lagv[0] = res[1] + res[2] - pre - e0
+    _, kl, tl = _near(C, pre + lagv[0], w, -1, e0, P0[0], P0[1], P0[2])
+    lagv[0] = float(kl) + tl - pre - e0
     pre = pre + lagv[0]
     layers = 0
     while state[1] < N and state[1] <= i + lookahead:

@@ -5,7 +5,7 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from bhr._kinematics.frames import fk_kernel, fk_reference, tilt_frame, tilt_reference
+from bhr._kinematics.frames import fk_kernel, fk_reference, tilt_frame, tilt_frame_at, tilt_reference
 from bhr._kinematics.leader import advance_kernel, advance_reference, score_reference, score_step
 from bhr.model._generators import load_trajectory
 from bhr.model._robot import Robot, base_frame, forward_kinematics
@@ -25,6 +25,22 @@ def test_tilt_frame_equals_reference(seed, k, alpha_deg):
     np.testing.assert_allclose(out, tilt_reference(F, k, a), atol=1e-12)
     if k:  # a real tilt turns z by alpha
         assert abs(math.degrees(math.acos(np.clip(out[2] @ F[2], -1, 1))) - alpha_deg) < 1e-6
+
+
+@settings(max_examples=40, deadline=None)
+@given(seeds, st.integers(min_value=0, max_value=4), st.floats(min_value=0.5, max_value=80.0),
+       st.integers(min_value=0, max_value=3), st.integers(min_value=0, max_value=3))
+def test_tilt_frame_at_is_tilt_frame_within_a_stack(seed, k, alpha_deg, i, j):
+    """The searches tilt frames inside a stack of frames (no views made); the same numbers to the last bit."""
+    rng = np.random.default_rng(seed)
+    stack = np.stack([base_frame(rng.normal(size=3)) for _ in range(4)])
+    a = math.radians(alpha_deg)
+    want = np.empty((3, 3))
+    tilt_frame(stack[i].copy(), k, math.cos(a), math.sin(a), want)
+    got = stack.copy()
+    tilt_frame_at(got, i, k, math.cos(a), math.sin(a), j)
+    assert np.array_equal(got[j], want)
+    assert all(np.array_equal(got[m], stack[m]) for m in range(4) if m != j)
 
 
 @settings(max_examples=40, deadline=None)
