@@ -243,7 +243,7 @@ def _tube_kernel(P, lum, spacing, d0, d1, pad, post, pts, rad, arc):
 # compiled kernels
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def segment_scan(C, lo, hi, px, py, pz):
     """Nearest point to (px, py, pz) on the centerline segments ``lo..hi-1`` of ``C``.
 

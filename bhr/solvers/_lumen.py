@@ -110,6 +110,13 @@ def _near(C, pre, w, g, e, px, py, pz):
 
 
 @njit(cache=True, inline="always")
+def _near_from(C, pre, w, g, e, px, py, pz):
+    """:func:`_near` with a guess (``g >= 0``): what the search asks at every node (a smaller body to inline)."""
+    lo, hi = search_window(C.shape[0], e + pre, w)
+    return scan_from(C, lo, hi, g, px, py, pz, _SCAN)
+
+
+@njit(cache=True, inline="always")
 def _wall(R, radius, margin, ww, d2, k, t):
     """Clearance of a sample whose nearest centerline point (:func:`_near`) is ``(d2, k, t)``, and its wall cost."""
     c = R[k] + t * (R[k + 1] - R[k]) - radius - math.sqrt(d2)
@@ -150,55 +157,59 @@ def _schedule(a, e, sp, w_along, w_lead, slack, end):
 
 
 @njit(cache=True, inline="always")
-def _module_cost(C, Q, R, pre, w, g, e0, ef, pts, j, cA, radius, margin, ww, wc, prm, sp, pre0, dR, res, out,
-                 v0, bound, frames, lv, last, wo):
+def _module_cost(C, Q, R, pre, w, g, e0, ef, pts, j, cA, radius, margin, ww, wc, wa, wl, slack, end, wr, sp, pre0, dR,
+                 v0, bound, last, ux, uy, uz, wo):
     """Cost of the module A->B (A = ``pts[j]``, B = ``pts[j + 1]``): its far end (wall and centerline) and, where
-    the wall may be near, its middle (wall only). ``cA`` is A's clearance; out[0] gets B's. res[1]: the far end's
-    segment. (Points and frames are passed with their index, not as views: the search calls this at every node.)
+    the wall may be near, its middle (wall only). ``cA`` is A's clearance. Returns (cost, B's clearance, the
+    segment of B's nearest centerline point). ``wa, wl, slack, end``: the schedule's settings (:func:`_schedule`),
+    ``wr`` the racing line's weight.
 
     The clearance changes by at most 1 mm per mm moved plus the change of the lumen radius (at most ``dR``
     over half a module), so the middle is skipped when both ends clear the margin by more than half a
     module plus ``dR``: its wall term is then zero.
 
     The caller's search discards the module when ``v0`` plus its cost (plus, for the tip module (``last``), the
-    tip term of ``frames[lv]`` with weight ``wo``) reaches ``bound``; as the middle's term is not negative, that
-    is known before the middle is measured, and the cost of the far end alone is returned then (the same
-    decision, less work).
+    tip term of its direction ``(ux, uy, uz)`` with weight ``wo``) reaches ``bound``; as the middle's term is not
+    negative, that is known before the middle is measured, and the cost of the far end alone is returned then
+    (the same decision, less work).
+
+    It is inlined into the search and takes numbers, a point's index and the lumen's arrays: an array passed to
+    it, or a view made for it, would cost reference-count updates at every node of the search.
     """
     half = int(0.5 * ef)  # guesses: the centerline runs on by about half a module per half module of robot
     ax, ay, az = pts[j, 0], pts[j, 1], pts[j, 2]
     bx, by, bz = pts[j + 1, 0], pts[j + 1, 1], pts[j + 1, 2]
-    dB, kB, tB = _near(C, pre, w, g + int(ef), e0 + ef, bx, by, bz)
-    res[0] = dB
-    res[1] = kB
-    res[2] = tB
+    dB, kB, tB = _near_from(C, pre, w, g + int(ef), e0 + ef, bx, by, bz)
     cB, cost = _wall(R, radius, margin, ww, dB, kB, tB)
     a = _along(kB, tB, pre0, e0 + ef, sp)
-    cost += wc * dB + _schedule(a, e0 + ef, sp, prm[7], prm[10], prm[11], prm[12]) \
-        + _race(Q, kB, tB, prm[13], bx, by, bz)
-    out[0] = cB
+    cost += wc * dB + _schedule(a, e0 + ef, sp, wa, wl, slack, end) + _race(Q, kB, tB, wr, bx, by, bz)
     v = v0 + cost
-    go = not v >= bound  # one return below: inlined, each early return would cost reference-count updates
-    if go and last:
-        go = not v + _tip_term(C, kB, frames, lv, wo) >= bound
-    if go:
-        L2 = 0.5 * math.sqrt((ax - bx) ** 2 + (ay - by) ** 2 + (az - bz) ** 2)
-        if min(cA, cB) - L2 - dR <= margin:
-            dM, kM, tM = _near(C, pre, w, g + half, e0 + 0.5 * ef, 0.5 * (ax + bx), 0.5 * (ay + by),
-                               0.5 * (az + bz))
-            cM, cm = _wall(R, radius, margin, ww, dM, kM, tM)
-            cost += cm
-    return cost
+    if v >= bound:
+        return cost, cB, kB
+    if last and v + _tip_dir_term(C, kB, ux, uy, uz, wo) >= bound:
+        return cost, cB, kB
+    L2 = 0.5 * math.sqrt((ax - bx) ** 2 + (ay - by) ** 2 + (az - bz) ** 2)
+    if min(cA, cB) - L2 - dR <= margin:
+        dM, kM, tM = _near_from(C, pre, w, g + half, e0 + 0.5 * ef, 0.5 * (ax + bx), 0.5 * (ay + by),
+                                0.5 * (az + bz))
+        cM, cm = _wall(R, radius, margin, ww, dM, kM, tM)
+        cost += cm
+    return cost, cB, kB
+
+
+@njit(cache=True, inline="always")
+def _tip_dir_term(C, k, ux, uy, uz, wo):
+    """The tip term: ``wo`` times the squared difference of the tip module's direction ``(ux, uy, uz)`` and the
+    centerline's direction on segment ``k``."""
+    cx, cy, cz = C[k + 1, 0] - C[k, 0], C[k + 1, 1] - C[k, 1], C[k + 1, 2] - C[k, 2]
+    nu = math.sqrt(cx * cx + cy * cy + cz * cz)
+    return wo * ((ux - cx / nu) ** 2 + (uy - cy / nu) ** 2 + (uz - cz / nu) ** 2)
 
 
 @njit(cache=True, inline="always")
 def _tip_term(C, k, frames, lv, wo):
-    """The tip term: ``wo`` times the squared difference of the tip module's direction (frame ``frames[lv]``) and
-    the centerline's direction on segment ``k``."""
-    ux, uy, uz = C[k + 1, 0] - C[k, 0], C[k + 1, 1] - C[k, 1], C[k + 1, 2] - C[k, 2]
-    nu = math.sqrt(ux * ux + uy * uy + uz * uz)
-    return wo * ((frames[lv, 2, 0] - ux / nu) ** 2 + (frames[lv, 2, 1] - uy / nu) ** 2
-                 + (frames[lv, 2, 2] - uz / nu) ** 2)
+    """:func:`_tip_dir_term` of the module whose frame is ``frames[lv]``."""
+    return _tip_dir_term(C, k, frames[lv, 2, 0], frames[lv, 2, 1], frames[lv, 2, 2], wo)
 
 
 @njit(cache=True, inline="always")
@@ -217,8 +228,7 @@ def _place(frames, pts, lv, q, c, s, L):
 
 
 @njit(cache=True)
-def _head_search(C, Q, R, pre, w, step, n, f, L, c, s, T, prm, best_codes, frames, pts, part, guess, choice, res, tmp,
-                 cap):
+def _head_search(C, Q, R, pre, w, step, n, f, L, c, s, T, prm, best_codes, frames, pts, part, guess, choice, cap):
     """Exact branch and bound over modules 2..n with module 1's frame in ``frames[0]`` and ``pts[0]`` the base.
 
     prm = (radius, margin, w_wall, w_center, w_track, w_ori). Returns the best cost; codes in best_codes[1:].
@@ -228,21 +238,20 @@ def _head_search(C, Q, R, pre, w, step, n, f, L, c, s, T, prm, best_codes, frame
     radius, margin, ww, wc, wt, wo = prm[0], prm[1], prm[2], prm[3], prm[4], prm[5]
     e0 = float(step - n * f)
     clr = np.empty(n + 1)
-    cout = np.empty(1)
     dR, sp, pre0 = prm[6], prm[8], prm[9]
+    wa, wl, slack, end, wr = prm[7], prm[10], prm[11], prm[12], prm[13]
     d0, k0, t0 = _near(C, pre, w, -1, e0, pts[0, 0], pts[0, 1], pts[0, 2])
     clr[0], part[0] = _wall(R, radius, margin, ww, d0, k0, t0)
     a0 = _along(k0, t0, pre0, e0, sp)
-    part[0] += wc * d0 + _schedule(a0, e0, sp, prm[7], prm[10], prm[11], prm[12]) + wt * _track(pts, 0, T) \
-        + _race(Q, k0, t0, prm[13], pts[0, 0], pts[0, 1], pts[0, 2])
+    part[0] += wc * d0 + _schedule(a0, e0, sp, wa, wl, slack, end) + wt * _track(pts, 0, T) \
+        + _race(Q, k0, t0, wr, pts[0, 0], pts[0, 1], pts[0, 2])
     guess[0] = k0
     for b in range(3):
         pts[1, b] = pts[0, b] + L * frames[0, 2, b]
-    part[1] = part[0] + _module_cost(C, Q, R, pre, w, guess[0], e0, float(f), pts, 0, clr[0], radius, margin,
-                                     ww, wc, prm, sp, pre0, dR, res, cout, 0.0, 1e300, frames, 0, False,
-                                     wo) + wt * _track(pts, 1, T)
-    clr[1] = cout[0]
-    guess[1] = int(res[1])
+    mc, clr[1], guess[1] = _module_cost(C, Q, R, pre, w, guess[0], e0, float(f), pts, 0, clr[0], radius, margin,
+                                        ww, wc, wa, wl, slack, end, wr, sp, pre0, dR, 0.0, 1e300, False, 0.0, 0.0,
+                                        0.0, wo)
+    part[1] = part[0] + mc + wt * _track(pts, 1, T)
     best_codes[0] = 0
     if n == 1:
         return part[1] + _tip_term(C, guess[1], frames, 0, wo)
@@ -256,16 +265,17 @@ def _head_search(C, Q, R, pre, w, step, n, f, L, c, s, T, prm, best_codes, frame
             v = part[lv] + wt * _track(pts, lv + 1, T)
             if v >= bv:
                 continue
-            v += _module_cost(C, Q, R, pre, w, guess[lv], float(step - (n - lv) * f), float(f), pts, lv,
-                              clr[lv], radius, margin, ww, wc, prm, sp, pre0, dR, res, cout, v, bv, frames,
-                              lv, lv == n - 1, wo)
+            mc, cB, kB = _module_cost(C, Q, R, pre, w, guess[lv], float(step - (n - lv) * f), float(f), pts, lv,
+                                      clr[lv], radius, margin, ww, wc, wa, wl, slack, end, wr, sp, pre0, dR, v, bv,
+                                      lv == n - 1, frames[lv, 2, 0], frames[lv, 2, 1], frames[lv, 2, 2], wo)
+            v += mc
             if lv == n - 1:
-                v += _tip_term(C, int(res[1]), frames, lv, wo)
+                v += _tip_term(C, kB, frames, lv, wo)
             if v < bv:
                 bv = v
                 bq = q
-                clr[lv + 1] = cout[0]
-                guess[lv + 1] = int(res[1])
+                clr[lv + 1] = cB
+                guess[lv + 1] = kB
         choice[lv] = bq
         _place(frames, pts, lv, bq, c, s, L)
         part[lv + 1] = bv
@@ -287,13 +297,14 @@ def _head_search(C, Q, R, pre, w, step, n, f, L, c, s, T, prm, best_codes, frame
         v = part[lvl] + wt * _track(pts, lvl + 1, T)
         if v >= best:
             continue
-        v += _module_cost(C, Q, R, pre, w, guess[lvl], float(step - (n - lvl) * f), float(f), pts, lvl,
-                          clr[lvl], radius, margin, ww, wc, prm, sp, pre0, dR, res, cout, v, best, frames,
-                          lvl, lvl == n - 1, wo)
+        mc, cB, kB = _module_cost(C, Q, R, pre, w, guess[lvl], float(step - (n - lvl) * f), float(f), pts, lvl,
+                                  clr[lvl], radius, margin, ww, wc, wa, wl, slack, end, wr, sp, pre0, dR, v, best,
+                                  lvl == n - 1, frames[lvl, 2, 0], frames[lvl, 2, 1], frames[lvl, 2, 2], wo)
+        v += mc
         if v >= best:
             continue
-        clr[lvl + 1] = cout[0]
-        guess[lvl + 1] = int(res[1])
+        clr[lvl + 1] = cB
+        guess[lvl + 1] = kB
         part[lvl + 1] = v
         if lvl == n - 1:
             best = keep_best(v + _tip_term(C, guess[n], frames, n - 1, wo), best, choice, best_codes, 1, n)
@@ -307,14 +318,14 @@ def _head_search(C, Q, R, pre, w, step, n, f, L, c, s, T, prm, best_codes, frame
 
 @njit(cache=True)
 def _head_cost(C, Q, R, pre, w, P0, F1, step, n, f, L, c, s, T, prm, best_codes, frames, pts, part, guess, choice,
-               res, tmp, cap):
+               cap):
     for a in range(3):
         for b in range(3):
             frames[0, a, b] = F1[a, b]
     for b in range(3):
         pts[0, b] = P0[b]
     return _head_search(C, Q, R, pre, w, step, n, f, L, c, s, T, prm, best_codes, frames, pts, part, guess, choice,
-                        res, tmp, cap)
+                        cap)
 
 
 # ---------------------------------------------------------------------------
@@ -322,7 +333,7 @@ def _head_cost(C, Q, R, pre, w, P0, F1, step, n, f, L, c, s, T, prm, best_codes,
 
 
 @njit(cache=True)
-def _head_depth(C, R, pre, w, k, n, f, L, c, s, radius, F1, P0, best_codes, frames, pts, res, tmp):
+def _head_depth(C, R, pre, w, k, n, f, L, c, s, radius, F1, P0, best_codes, frames, pts):
     """How deep (mm, the negative of the smallest clearance; negative when clear) the head of ``best_codes`` at step
     ``k`` goes into the wall: its base, every module's far end and middle, module 1 along ``F1`` from ``P0``, each
     sample's nearest centerline point searched over its whole window (the search's own guided scans can stop at a
@@ -389,7 +400,7 @@ def _kept_bound(cC, cP, cF, done, m, B, keys, pick):
 
 @njit(cache=True)
 def _beam_expand(bP, bF, bC, bH, state, cP, cF, cC, cPar, cA, order_buf, bM, cM, cS, C, Q, R, pre, w, path, dirs, n,
-                 f, feed, L, c, s, prm, T, d, best_codes, frames, pts, part, guess, choice, res, tmp, F1):
+                 f, feed, L, c, s, prm, T, d, best_codes, frames, pts, part, guess, choice, F1):
     """Expand every member by the five base tilts at step ``state[1]`` and keep the best distinct ones: ranked first
     by the deepest penetration of their whole history (``bM``, in steps of :data:`DEPTH_STEP` mm), then by their
     summed cost (``bC``).
@@ -430,14 +441,14 @@ def _beam_expand(bP, bF, bC, bH, state, cP, cF, cC, cPar, cA, order_buf, bM, cM,
                 cost = _CUT
             else:
                 cost = _head_cost(C, Q, R, pre, w, bP[q], F1, k, n, f, L, c, s, T, prm, best_codes, frames, pts, part,
-                                  guess, choice, res, tmp, cap)
+                                  guess, choice, cap)
             beam_candidate(bP, bF, bC, q, a, F1, 0.0 if cost == _CUT else cost, feed, j, cP, cF, cC, cPar, cA)
             if cost == _CUT:
                 cS[j] = _CUT
                 cM[j] = bM[q]
                 cC[j] = _CUT
                 continue
-            deep = _head_depth(C, R, pre, w, k, n, f, L, c, s, prm[0], F1, bP[q], best_codes, frames, pts, res, tmp)
+            deep = _head_depth(C, R, pre, w, k, n, f, L, c, s, prm[0], F1, bP[q], best_codes, frames, pts)
             cM[j] = max(bM[q], math.floor(deep / DEPTH_STEP)) if deep > 0.0 else bM[q]
             cS[j] = cC[j]
             cC[j] = cM[j] * RANK_SPAN + min(cS[j] - low, 0.5 * RANK_SPAN)
@@ -470,8 +481,6 @@ def _lumen_step(P, E1, E2, i, bP, bF, bC, bH, state, cP, cF, cC, cPar, cA, order
     part = np.empty(n + 1)
     guess = np.zeros(n + 1, dtype=np.int64)
     choice = np.zeros(n, dtype=np.int64)
-    res = np.empty(3)
-    tmp = np.empty(3)
     frame_of_chain(P, E1, E2, F)
     P0 = P[0].copy()
     if state[0] == 0 or state[2] != i:
@@ -486,7 +495,7 @@ def _lumen_step(P, E1, E2, i, bP, bF, bC, bH, state, cP, cF, cC, cPar, cA, order
     layers = 0
     while state[1] < N and state[1] <= i + lookahead:
         _beam_expand(bP, bF, bC, bH, state, cP, cF, cC, cPar, cA, order_buf, bM, cM, cS, C, Q, R, pre, w, path, dirs,
-                     n, f, feed, L, c, s, prm, T, d, best_codes, frames, pts, part, guess, choice, res, tmp, F1)
+                     n, f, feed, L, c, s, prm, T, d, best_codes, frames, pts, part, guess, choice, F1)
         layers += 1
     # the members that keep the best one's tilt at step i stay, in order (as beam_commit keeps them)
     hb = bH.shape[1]
@@ -499,7 +508,7 @@ def _lumen_step(P, E1, E2, i, bP, bF, bC, bH, state, cP, cF, cC, cPar, cA, order
     step_targets(path, dirs, i, n, f, feed, T, d)
     _rot(F, a0, c, s, F1)
     cost = _head_cost(C, Q, R, pre, w, P0, F1, i, n, f, L, c, s, T, prm, best_codes, frames, pts, part, guess, choice,
-                      res, tmp, 1e300)
+                      1e300)
     best_codes[0] = a0
     write_pose(F, best_codes, c, s, L, alpha, frames, P, E1, E2, out_codes, tilts)
     return layers, cost
@@ -552,14 +561,14 @@ def head_search(tube, robot, settings: dict[str, float], path: np.ndarray, step:
     Q = tube.points if line is None else np.ascontiguousarray(line, dtype=np.float64)
     P0 = np.asarray(base, dtype=float)
     F1 = np.ascontiguousarray(frame1, dtype=float)
-    frames, pts, res, tmp = np.empty((n, 3, 3)), np.empty((n + 1, 3)), np.empty(3), np.empty(3)
+    frames, pts = np.empty((n, 3, 3)), np.empty((n + 1, 3))
     cost = _head_cost(tube.points, Q, tube.radius, float(tube.pre), float(tube.window), P0, F1, step, n,
                       robot.feed_divisor, float(robot.module_length), math.cos(a), math.sin(a), T, prm, best, frames,
-                      pts, np.empty(n + 1), np.zeros(n + 1, dtype=np.int64), np.zeros(n, dtype=np.int64), res, tmp,
+                      pts, np.empty(n + 1), np.zeros(n + 1, dtype=np.int64), np.zeros(n, dtype=np.int64),
                       1e300)
     deep = _head_depth(tube.points, tube.radius, float(tube.pre), float(tube.window), step, n, robot.feed_divisor,
                        float(robot.module_length), math.cos(a), math.sin(a), float(robot.robot_radius), F1, P0, best,
-                       frames, pts, res, tmp)
+                       frames, pts)
     return [int(CODE_OF[k]) for k in best[1:]], float(cost), float(deep)
 
 
