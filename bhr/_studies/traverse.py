@@ -174,8 +174,10 @@ def robot_axes(grid: Sequence[tuple[str, tuple[Any, ...]]], solvers: Sequence[st
                        f"--head-only or --grid {sized[0]}=...")
     if not head_only and not sized:
         axes.append(("reach", ("cecum",)))
-        if stop_at_wall and "stop_at_wall" not in (k for k, _ in axes):
-            axes.append(("stop_at_wall", (True,)))
+    # the trail model is an idealisation that plans its trail inside the lumen: its runs are not ended at the wall
+    trail = any("trail" in values for k, values in axes if k == "locomotion")
+    if not head_only and stop_at_wall and not trail and "stop_at_wall" not in (k for k, _ in axes):
+        axes.append(("stop_at_wall", (True,)))
     return axes, tuple(solvers) or (("thesis",) if head_only else ("lumen",))
 
 
@@ -368,11 +370,12 @@ def _separated_by(d: dict[str, Any], other: dict[str, Any]) -> str:
 def robot_judged(study: "Study", d: dict[str, Any]) -> str:
     """Which robot a design's verdict is about: ``head only (5 modules)`` (the modules the solver moves; no body
     behind them scored), ``whole robot (300 modules)`` (``body_modules``) or ``whole robot (to the cecum)``
-    (``reach``)."""
+    (``reach``); the trail model's whole robot is labelled as the idealisation it is."""
+    ideal = ", the trail model: ideal follow-the-leader, not buildable" if d.get("locomotion") == "trail" else ""
     if d.get("reach") is not None:
-        return "whole robot (to the cecum)"
+        return "whole robot (to the cecum)" + ideal
     if d.get("body_modules") is not None:
-        return f"whole robot ({d['body_modules']} modules)"
+        return f"whole robot ({d['body_modules']} modules)" + ideal
     base = dict(study.sweep.robot) if study.sweep.robot else {}
     modules = d.get("modules", base.get("modules", Robot().modules))
     return f"head only ({modules} modules)"

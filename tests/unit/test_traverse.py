@@ -311,8 +311,16 @@ def test_the_default_robot_is_the_whole_robot_to_the_cecum_moved_by_its_wires():
     assert robot_axes([("alpha", (20, 25))], (), stop_at_wall=False)[0] == [("alpha", (20, 25)), ("reach", ("cecum",))]
     study = build_study(axes, "1", solvers=solvers)
     assert {robot_judged(study, d) for d in ({"alpha": 20, "reach": "cecum"},)} == {"whole robot (to the cecum)"}
-    # a grid that sizes the robot is kept; the head alone when asked, with the thesis's solver
-    assert robot_axes([("body_modules", (60,))], ("lumen",)) == ([("body_modules", (60,))], ("lumen",))
+    # a grid that sizes the robot is kept, its runs ending at the wall too (unless the grid says otherwise); the
+    # trail model (an idealisation) plans inside the lumen and runs to the end; the head alone when asked, with the
+    # thesis's solver
+    assert robot_axes([("body_modules", (60,))], ("lumen",)) == (
+        [("body_modules", (60,)), ("stop_at_wall", (True,))], ("lumen",))
+    assert robot_axes([("body_modules", (60,)), ("stop_at_wall", (False,))], ("lumen",))[0] == [
+        ("body_modules", (60,)), ("stop_at_wall", (False,))]
+    assert robot_axes([("locomotion", ("trail",))], ())[0] == [("locomotion", ("trail",)), ("reach", ("cecum",))]
+    assert robot_judged(study, {"reach": "cecum", "locomotion": "trail"}) == (
+        "whole robot (to the cecum), the trail model: ideal follow-the-leader, not buildable")
     assert robot_axes([("alpha", (10,))], (), head_only=True) == ([("alpha", (10,))], ("thesis",))
     assert robot_judged(build_study([("alpha", (10,))], "1"), {"alpha": 10}) == "head only (5 modules)"
     with pytest.raises(BhrError, match="--head-only judges the head alone"):
