@@ -79,6 +79,9 @@ def physics(run, out_dir, force, wall_stiffness, wire_force, feeder_force, subst
     s = rep.summary()
     out = folder.final("")
     where = f" at step {s['max_total_force_step']}" if s["max_total_force_step"] else ""
+    if not s["max_total_force_equilibrium_reached"]:
+        where += (" (an estimate: that pose's equilibrium was not reached within the iteration limit; "
+                  f"{s['equilibria_not_reached']} of {s['equilibria']} were not)")
     reach = (f"tip at the cecum from step {s['reached_cecum_step']}" if s["reached_cecum_step"] else
              "tip never at the cecum")
     click.echo(f"wall load at most {s['max_total_force_n']:.2f} N{where} (one module {s['max_module_force_n']:.2f} N, "

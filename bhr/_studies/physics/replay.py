@@ -98,6 +98,8 @@ class PhysicsReplay:
     settings: dict[str, Any]
     cpu_s: float
     max_wall_force_n: float = DEFAULT_MAX_WALL_FORCE
+    #: (P,) whether each pose's own equilibrium (its last) was reached within the iteration limit; None: all were
+    reached: np.ndarray | None = None
 
     def contacts_by_step(self, steps: int) -> list[np.ndarray]:
         """Per step of the run (``steps`` of them), the points of the axis in contact at any of its poses (K, 3);
@@ -117,8 +119,10 @@ class PhysicsReplay:
         k = int(np.argmax(f)) if f.size else 0
         peak = float(f.max(initial=0.0))
         reached = self.reached_cecum_step is not None
+        peak_reached = self.reached is None or not f.size or bool(self.reached[k])
         return {"poses": int(f.size), "steps": int(len(set(self.step.tolist()))),
                 "max_total_force_n": peak, "max_total_force_step": int(self.step[k]) if peak > 0 else 0,
+                "max_total_force_equilibrium_reached": peak_reached,
                 "max_module_force_n": float(self.module_force_n.max(initial=0.0)),
                 "max_pressure_kpa": float(self.max_pressure_kpa.max(initial=0.0)),
                 "max_stretch_mm": float(self.stretch_mm.max(initial=0.0)),
@@ -149,7 +153,8 @@ class PhysicsReplay:
                          "where_mm": [float(v) for v in self.where_mm[i]] if hit else None,
                          "contacts": int(len(self.contacts[i])),
                          "feeder_force_n": float(self.feeder_force_n[i]),
-                         "deviation_mm": float(self.deviation_mm[i])})
+                         "deviation_mm": float(self.deviation_mm[i]),
+                         "equilibrium_reached": True if self.reached is None else bool(self.reached[i])})
         return {"bhr_version": __version__, "steps": rows, "summary": self.summary()}
 
 
@@ -206,6 +211,7 @@ def replay_poses(poses: Poses, result, *, wall_stiffness: float = DEFAULT_WALL_S
     dev = np.zeros(P)
     iters = np.zeros(P, dtype=np.int64)
     subs = np.zeros(P, dtype=np.int64)
+    final = np.ones(P, dtype=bool)  # each pose's own equilibrium reached
     unconverged, worst_left = 0, 0.0
     contacts: list[np.ndarray] = []
     w = L / ns
@@ -235,6 +241,7 @@ def replay_poses(poses: Poses, result, *, wall_stiffness: float = DEFAULT_WALL_S
             if k > MAX_ITERATIONS:
                 unconverged += 1
                 worst_left = max(worst_left, left)
+            final[i] = k <= MAX_ITERATIONS  # the last substep is the pose's own
             zt_prev, x_prev = t_s, x_s
         prev_t, prev_x = tgt, xt
         iters[i] = n_it
@@ -272,7 +279,7 @@ def replay_poses(poses: Poses, result, *, wall_stiffness: float = DEFAULT_WALL_S
                          feed_f, lag, dev, out_pts, contacts,
                          None if reached is None else int(poses.step[reached]),
                          None if model is None else int(poses.step[model]), iters, settings, cpu,
-                         float(max_wall_force))
+                         float(max_wall_force), final)
 
 
 def replay_physics(result, run_path: Any = None, **options: Any) -> PhysicsReplay:
