@@ -251,12 +251,26 @@ def resample_polyline(pts: np.ndarray, feed: float, values: np.ndarray | None = 
 
 def path_directions(path: np.ndarray) -> np.ndarray:
     """Unit vectors from each trajectory point to the next, (N-1, 3)."""
-    diff = np.diff(path, axis=0)
-    norms = np.linalg.norm(diff, axis=1)
-    if np.any(norms == 0):
-        k = int(np.argmin(norms))
+    P = np.ascontiguousarray(path, dtype=np.float64)
+    out = np.empty((max(P.shape[0] - 1, 0), 3))
+    k = _directions_kernel(P, out)
+    if k >= 0:
         raise BhrError(f"trajectory points {k + 1} and {k + 2} are the same point; remove the duplicate")
-    return diff / norms[:, None]
+    return out
+
+
+@njit(cache=True)
+def _directions_kernel(P, out):
+    """:func:`path_directions` into ``out``; the first segment of no length (its index), else -1."""
+    for k in range(out.shape[0]):
+        dx, dy, dz = P[k + 1, 0] - P[k, 0], P[k + 1, 1] - P[k, 1], P[k + 1, 2] - P[k, 2]
+        n = math.sqrt(dx * dx + dy * dy + dz * dz)
+        if n == 0.0:
+            return k
+        out[k, 0] = dx / n
+        out[k, 1] = dy / n
+        out[k, 2] = dz / n
+    return -1
 
 
 #: Half-lengths (mm of arc) of the stretches :func:`unfollowable_bends` judges a bend over: from 2.5 mm to
