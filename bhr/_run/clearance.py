@@ -233,6 +233,21 @@ def clearance_chain_kernel(C, R, S, BC, BR, N, pre, w, radius, Q, E, Z, sample, 
             continue
         ta = Z[m] if ea < 0.0 else found[m]
         tb = Z[m + 1] if eb < 0.0 else found[m + 1]
+        if ea < 0.0 <= eb and pt_out[m + 1] > GLOBAL_BELOW:
+            # its rear end not yet in the colon: the exact minimum of the part that is, from where it enters
+            t0 = -ea / (eb - ea)
+            c0 = _clear_at(C, R, S, BC, BR, w, radius, ax, ay, az, bx, by, bz, ta, tb, ea + pre, eb + pre, t0, res)
+            if res[3] > crossed:
+                crossed = res[3]
+            px, py, pz = ax + t0 * (bx - ax), ay + t0 * (by - ay), az + t0 * (bz - az)
+            if c0 > GLOBAL_BELOW and module_exact_kernel(C, R, N, radius, px, py, pz, bx, by, bz, res[2], found[m + 1],
+                                                         c0, pt_out[m + 1], res, GLOBAL_BELOW):
+                t = t0 + res[1] * (1.0 - t0)
+                mod_out[m] = res[0]
+                where[m, 0] = ax + t * (bx - ax)
+                where[m, 1] = ay + t * (by - ay)
+                where[m, 2] = az + t * (bz - az)
+                continue
         L = math.sqrt((bx - ax) ** 2 + (by - ay) ** 2 + (bz - az) ** 2)
         ns = int(math.ceil(L / sample))
         if ns < 1:
@@ -382,6 +397,18 @@ def clearance_run_numpy(tube: Tube, radius: float, Q: np.ndarray, E: np.ndarray,
                 if exact is not None:
                     mod[i, m] = exact[0]
                     where[i, m] = a + exact[1] * (b - a)
+                    continue
+            if ea < 0 <= eb and pt[i, m + 1] > GLOBAL_BELOW:  # the part in the colon, exactly, from its entry
+                t0 = -ea / (eb - ea)
+                p0 = a + t0 * (b - a)
+                c0, f0, x = locate_numpy(tube, radius, p0, za + t0 * (zb - za), ea + t0 * (eb - ea) + tube.pre)
+                crossed |= x
+                exact = None if not c0 > GLOBAL_BELOW else module_exact_numpy(tube, radius, p0, b, f0, trk[m + 1],
+                                                                               c0, pt[i, m + 1])
+                if exact is not None:
+                    t = t0 + exact[1] * (1.0 - t0)
+                    mod[i, m] = exact[0]
+                    where[i, m] = a + t * (b - a)
                     continue
             ns = max(int(math.ceil(float(np.linalg.norm(b - a)) / sample)), 1)
             lo_t, hi_t = 0.0, 1.0

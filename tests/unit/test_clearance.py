@@ -504,3 +504,30 @@ def test_a_module_narrowest_where_it_passes_the_outside_of_a_corner_is_scored_th
     assert where[0, 0] == pytest.approx([0.0, -2.0 / 3.0, 0.0], abs=1e-9)
     dense = Q[0, 0] + np.linspace(0.0, 1.0, 6001)[:, None] * (Q[0, 1] - Q[0, 0])
     assert brute_force_clearance(path, lumen, 0.0, dense).min() == pytest.approx(mod[0, 0], abs=1e-3)
+
+
+@settings(max_examples=25, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), bend=st.floats(40.0, 400.0), wave=st.floats(0.0, 15.0),
+       back=st.floats(0.5, 8.0), ahead=st.integers(1, 6), off=st.floats(0.0, 9.0))
+def test_a_module_entering_the_colon_gets_the_exact_smallest_clearance_of_its_part_inside(seed, bend, wave, back,
+                                                                                           ahead, off):
+    """A module whose rear end is still behind the entrance is scored on its part past it: bhr's smallest
+    clearance there is never above that of 4,001 points along that part, within 0.005 mm of their least, and the
+    same as the numpy reference's."""
+    rng = np.random.default_rng(seed)
+    path, lumen = _wavy_tube(rng, bend, wave)
+    tube = make_tube(path, lumen, closed_end=True)
+    d0 = (path[1] - path[0]) / np.linalg.norm(path[1] - path[0])
+    side = rng.normal(size=(2, 3))
+    side -= (side @ d0)[:, None] * d0  # across the entrance's direction
+    side /= np.linalg.norm(side, axis=1)[:, None]
+    Q = np.stack([path[0] - back * d0 + off * side[0], path[ahead] + off * side[1]])[None]
+    E = np.array([[-back / 2.0, float(ahead)]])  # the points 2 mm apart: expected indices
+    pt, mod, where = clearance_run(tube, 5.0, Q, E)
+    assert np.isnan(pt[0, 0]) and not np.isnan(mod[0, 0])
+    t0 = (back / 2.0) / (back / 2.0 + ahead)
+    dense = Q[0, 0] + np.linspace(t0, 1.0, 4001)[:, None] * (Q[0, 1] - Q[0, 0])
+    brute = brute_force_clearance(tube.points, 2.0 * tube.radius, 5.0, dense)  # the lumen as bhr's tube has it:
+    assert brute.min() - 0.005 <= mod[0, 0] <= brute.min() + 1e-9           # open at the entrance, going on straight
+    ref_pt, ref_mod, ref_where = clearance_run_numpy(tube, 5.0, Q, E)
+    assert ref_mod[0, 0] == pytest.approx(mod[0, 0], abs=1e-9) and ref_where[0, 0] == pytest.approx(where[0, 0], abs=1e-9)
