@@ -401,8 +401,8 @@ def clearance_run_numpy(tube: Tube, radius: float, Q: np.ndarray, E: np.ndarray,
             if ea < 0 <= eb and pt[i, m + 1] > GLOBAL_BELOW:  # the part in the colon, exactly, from its entry
                 t0 = -ea / (eb - ea)
                 p0 = a + t0 * (b - a)
-                c0, f0, x = locate_numpy(tube, radius, p0, za + t0 * (zb - za), ea + t0 * (eb - ea) + tube.pre)
-                crossed |= x
+                c0, f0, into = locate_numpy(tube, radius, p0, za + t0 * (zb - za), ea + t0 * (eb - ea) + tube.pre)
+                crossed |= into
                 exact = None if not c0 > GLOBAL_BELOW else module_exact_numpy(tube, radius, p0, b, f0, trk[m + 1],
                                                                                c0, pt[i, m + 1])
                 if exact is not None:
