@@ -1,4 +1,5 @@
-"""Walking a polyline at a fixed step: the kernel behind :func:`bhr.model._path.resample_polyline`."""
+"""Polylines: a segment's direction and length, and walking a polyline at a fixed step (the kernel behind
+:func:`bhr.model._path.resample_polyline`)."""
 from __future__ import annotations
 
 import math
@@ -6,7 +7,18 @@ import math
 import numpy as np
 from numba import njit
 
-__all__ = ["walk_kernel"]
+__all__ = ["segment_direction", "walk_kernel"]
+
+
+@njit(cache=True)
+def segment_direction(P: np.ndarray, k: int) -> tuple[float, float, float, float]:
+    """Segment ``k`` of the polyline ``P`` (M, 3): its unit direction (0, 0, 0 for a segment of no length) and its
+    length."""
+    dx, dy, dz = P[k + 1, 0] - P[k, 0], P[k + 1, 1] - P[k, 1], P[k + 1, 2] - P[k, 2]
+    n = math.sqrt(dx * dx + dy * dy + dz * dz)
+    if n == 0.0:
+        return 0.0, 0.0, 0.0, n
+    return dx / n, dy / n, dz / n, n
 
 
 @njit(cache=True)

@@ -16,7 +16,7 @@ from numba import njit
 
 from bhr._settings.inputs import MAX_POINTS
 from bhr._settings.errors import BhrError
-from bhr._kinematics.polyline import walk_kernel
+from bhr._kinematics.polyline import segment_direction, walk_kernel
 
 __all__ = ["Trajectory", "path_directions", "spacing", "resample_polyline", "unfollowable_bends", "BEND_WINDOWS_MM"]
 
@@ -263,13 +263,9 @@ def path_directions(path: np.ndarray) -> np.ndarray:
 def _directions_kernel(P, out):
     """:func:`path_directions` into ``out``; the first segment of no length (its index), else -1."""
     for k in range(out.shape[0]):
-        dx, dy, dz = P[k + 1, 0] - P[k, 0], P[k + 1, 1] - P[k, 1], P[k + 1, 2] - P[k, 2]
-        n = math.sqrt(dx * dx + dy * dy + dz * dz)
+        out[k, 0], out[k, 1], out[k, 2], n = segment_direction(P, k)
         if n == 0.0:
             return k
-        out[k, 0] = dx / n
-        out[k, 1] = dy / n
-        out[k, 2] = dz / n
     return -1
 
 

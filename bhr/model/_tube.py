@@ -21,6 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
+from bhr._kinematics.polyline import segment_direction
 from bhr._settings.errors import BhrError
 
 __all__ = ["Tube", "make_tube", "segment_scan", "nearest_kernel", "search_window", "scan_from", "local_scan",
@@ -102,21 +103,11 @@ def mitre_normals(pts: np.ndarray) -> np.ndarray:
 
 
 @njit(cache=True)
-def _unit_segment(P, k):
-    """The unit direction of segment ``k`` of ``P``, zero for a segment of no length."""
-    dx, dy, dz = P[k + 1, 0] - P[k, 0], P[k + 1, 1] - P[k, 1], P[k + 1, 2] - P[k, 2]
-    n = math.sqrt(dx * dx + dy * dy + dz * dz)
-    if n > 0.0:
-        return dx / n, dy / n, dz / n
-    return 0.0, 0.0, 0.0
-
-
-@njit(cache=True)
 def _mitre_kernel(P, out):
     """:func:`mitre_normals` into ``out`` (zeroed): the unit directions of the segments on either side, summed."""
     for v in range(1, P.shape[0] - 1):
-        ax, ay, az = _unit_segment(P, v - 1)
-        bx, by, bz = _unit_segment(P, v)
+        ax, ay, az, _ = segment_direction(P, v - 1)
+        bx, by, bz, _ = segment_direction(P, v)
         out[v, 0] = ax + bx
         out[v, 1] = ay + by
         out[v, 2] = az + bz
@@ -235,8 +226,7 @@ def _tube_kernel(P, lum, spacing, d0, d1, pad, post, pts, rad, arc):
         rad[pad + N + j] = lum[N - 1] / 2.0
     arc[0] = 0.0
     for k in range(pts.shape[0] - 1):
-        dx, dy, dz = pts[k + 1, 0] - pts[k, 0], pts[k + 1, 1] - pts[k, 1], pts[k + 1, 2] - pts[k, 2]
-        arc[k + 1] = arc[k] + math.sqrt(dx * dx + dy * dy + dz * dz)
+        arc[k + 1] = arc[k] + segment_direction(pts, k)[3]
 
 
 # ---------------------------------------------------------------------------

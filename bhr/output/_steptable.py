@@ -29,7 +29,7 @@ STEPS_CSV = "steps.csv"
 
 
 def _num(v: float) -> str:
-    return "" if not np.isfinite(v) else f"{float(v):.6f}"
+    return f"{v:.6f}" if math.isfinite(v) else ""
 
 
 def format_steps_csv(result: "FollowResult") -> str:
@@ -77,13 +77,10 @@ def format_steps_csv(result: "FollowResult") -> str:
 
 def _texts(a: np.ndarray) -> list:
     """:func:`_num` of every value of ``a``, nested as ``a`` is (one conversion to Python floats)."""
-    def cell(v: float) -> str:
-        return f"{v:.6f}" if math.isfinite(v) else ""
-
     values = np.asarray(a, dtype=np.float64).tolist()
     if np.ndim(a) == 1:
-        return [cell(v) for v in values]
-    return [[cell(v) for v in row] for row in values]
+        return [_num(v) for v in values]
+    return [[_num(v) for v in row] for row in values]
 
 
 def write_run_files(result: "FollowResult", out_dir: "str | os.PathLike[str]") -> None:

@@ -99,7 +99,7 @@ class PhysicsReplay:
     cpu_s: float
     max_wall_force_n: float = DEFAULT_MAX_WALL_FORCE
     #: (P,) whether each pose's own equilibrium (its last) was reached within the iteration limit; None: all were
-    reached: np.ndarray | None = None
+    equilibrium_reached: np.ndarray | None = None
 
     def contacts_by_step(self, steps: int) -> list[np.ndarray]:
         """Per step of the run (``steps`` of them), the points of the axis in contact at any of its poses (K, 3);
@@ -119,7 +119,7 @@ class PhysicsReplay:
         k = int(np.argmax(f)) if f.size else 0
         peak = float(f.max(initial=0.0))
         reached = self.reached_cecum_step is not None
-        peak_reached = self.reached is None or not f.size or bool(self.reached[k])
+        peak_reached = self.equilibrium_reached is None or not f.size or bool(self.equilibrium_reached[k])
         return {"poses": int(f.size), "steps": int(len(set(self.step.tolist()))),
                 "max_total_force_n": peak, "max_total_force_step": int(self.step[k]) if peak > 0 else 0,
                 "max_total_force_equilibrium_reached": peak_reached,
@@ -154,7 +154,8 @@ class PhysicsReplay:
                          "contacts": int(len(self.contacts[i])),
                          "feeder_force_n": float(self.feeder_force_n[i]),
                          "deviation_mm": float(self.deviation_mm[i]),
-                         "equilibrium_reached": True if self.reached is None else bool(self.reached[i])})
+                         "equilibrium_reached": (True if self.equilibrium_reached is None
+                                                         else bool(self.equilibrium_reached[i]))})
         return {"bhr_version": __version__, "steps": rows, "summary": self.summary()}
 
 
