@@ -59,25 +59,29 @@ def constrained_kernel(P: np.ndarray, E1: np.ndarray, E2: np.ndarray, target: np
     last constrained iteration.
     """
     n = P.shape[0] - 1
-    A1 = E1.copy()
-    A2 = E2.copy()
+    return _constrained(P, E1, E2, target, direction, has_dir, length, tol_pos, tol_ori, alpha, max_iter, limit,
+                        local_axes, warmup, codes, tilts, np.empty((n, 3)), np.empty((n, 3)), np.empty((4, 3)))
+
+
+@njit(cache=True)
+def _constrained(P, E1, E2, target, direction, has_dir, length, tol_pos, tol_ori, alpha, max_iter, limit, local_axes,
+                 warmup, codes, tilts, A1, A2, g):
+    """:func:`constrained_kernel` with its work arrays given: ``A1``, ``A2`` (n, 3) and ``g`` (4, 3), so that a
+    follow-the-leader loop allocates them once, not at every step."""
+    n = P.shape[0] - 1
     # reference point behind the base: the base module's direction before the solve
-    d0 = np.empty(3)
     n0 = math.sqrt((P[1, 0] - P[0, 0]) ** 2 + (P[1, 1] - P[0, 1]) ** 2 + (P[1, 2] - P[0, 2]) ** 2)
-    for c in range(3):
-        d0[c] = (P[1, c] - P[0, c]) / n0
-    before = np.empty(3)
-    base = P[0].copy()
-    for c in range(3):
-        before[c] = P[0, c] - length * d0[c]
+    bx, by, bz = P[0, 0], P[0, 1], P[0, 2]
+    before_x = P[0, 0] - length * ((P[1, 0] - P[0, 0]) / n0)
+    before_y = P[0, 1] - length * ((P[1, 1] - P[0, 1]) / n0)
+    before_z = P[0, 2] - length * ((P[1, 2] - P[0, 2]) / n0)
     err = point_distance(P, n, target)
     ang = tip_angle_deg(P, direction) if has_dir else 0.0
     min_iter = warmup + 1 if warmup > 0 else 0
-    g = np.empty((4, 3))
-    v1 = np.empty(3)
     for i in range(n):
         codes[i] = 0
         tilts[i] = 0.0
+    touched = False  # whether a constrained iteration ran (it moves the axis points)
     k = 0
     # the warm-up's iterations always run: their errors are not needed, and they leave the axis points as they were
     while k < min_iter or err > tol_pos or (has_dir and ang > tol_ori):
@@ -92,13 +96,15 @@ def constrained_kernel(P: np.ndarray, E1: np.ndarray, E2: np.ndarray, target: np
         for i in range(start, 0, -1):  # point 0 too, but the base to tip pass puts it back on the base at once
             pull_point(P, i + 1, i, length)
         # base to tip
-        for c in range(3):
-            P[0, c] = base[c]
+        P[0, 0] = bx
+        P[0, 1] = by
+        P[0, 2] = bz
         constrained = k >= warmup and limit != LIMIT_NONE
         # in a warm-up iteration that another one follows, points n-1 and n are dead: the next tip-to-base pass
         # sets both from the target before it reads them
         last = n - 2 if has_dir and not constrained and k + 1 < min_iter and k + 1 < max_iter else n
         if constrained:
+            touched = True
             for a in range(n):
                 for c in range(3):
                     A1[a, c] = E1[a, c]
@@ -120,26 +126,28 @@ def constrained_kernel(P: np.ndarray, E1: np.ndarray, E2: np.ndarray, target: np
                 g[2, c] = -g[0, c]
                 g[3, c] = -g[1, c]
             # the point plain FABRIK would choose
-            for c in range(3):
-                v1[c] = (before[c] if i == 0 else P[i - 1, c]) - P[i, c]
+            if i == 0:
+                v1x, v1y, v1z = before_x - P[0, 0], before_y - P[0, 1], before_z - P[0, 2]
+            else:
+                v1x, v1y, v1z = P[i - 1, 0] - P[i, 0], P[i - 1, 1] - P[i, 1], P[i - 1, 2] - P[i, 2]
             r = math.sqrt((P[i + 1, 0] - P[i, 0]) ** 2 + (P[i + 1, 1] - P[i, 1]) ** 2 + (P[i + 1, 2] - P[i, 2]) ** 2)
             if r == 0.0:
                 # coincident points (a target at the base): continue straight
-                lam = -length / math.sqrt(v1[0] ** 2 + v1[1] ** 2 + v1[2] ** 2)
-                v2x, v2y, v2z = lam * v1[0], lam * v1[1], lam * v1[2]
+                lam = -length / math.sqrt(v1x ** 2 + v1y ** 2 + v1z ** 2)
+                v2x, v2y, v2z = lam * v1x, lam * v1y, lam * v1z
             else:
                 lam = length / r
                 v2x = (1.0 - lam) * P[i, 0] + lam * P[i + 1, 0] - P[i, 0]
                 v2y = (1.0 - lam) * P[i, 1] + lam * P[i + 1, 1] - P[i, 1]
                 v2z = (1.0 - lam) * P[i, 2] + lam * P[i + 1, 2] - P[i, 2]
             # free rotation axis and angle (v2 x v1, 180 - angle(v2, v1))
-            rx = v2y * v1[2] - v2z * v1[1]
-            ry = v2z * v1[0] - v2x * v1[2]
-            rz = v2x * v1[1] - v2y * v1[0]
+            rx = v2y * v1z - v2z * v1y
+            ry = v2z * v1x - v2x * v1z
+            rz = v2x * v1y - v2y * v1x
             nr = math.sqrt(rx * rx + ry * ry + rz * rz)
-            n1 = math.sqrt(v1[0] ** 2 + v1[1] ** 2 + v1[2] ** 2)
+            n1 = math.sqrt(v1x ** 2 + v1y ** 2 + v1z ** 2)
             n2 = math.sqrt(v2x * v2x + v2y * v2y + v2z * v2z)
-            theta = 180.0 - acos_deg((v2x * v1[0] + v2y * v1[1] + v2z * v1[2]) / (n2 * n1))
+            theta = 180.0 - acos_deg((v2x * v1x + v2y * v1y + v2z * v1z) / (n2 * n1))
             idx = 0
             if nr == 0.0:
                 ax, ay, az = g[0, 0], g[0, 1], g[0, 2]
@@ -161,7 +169,7 @@ def constrained_kernel(P: np.ndarray, E1: np.ndarray, E2: np.ndarray, target: np
             codes[i] = 0 if theta == 0.0 else _TILT[idx]
             h = math.radians(theta) / 2.0
             ch, sh = math.cos(h), math.sin(h)
-            x, y, z = k_rotate(-v1[0], -v1[1], -v1[2], ch, sh, ax, ay, az)
+            x, y, z = k_rotate(-v1x, -v1y, -v1z, ch, sh, ax, ay, az)
             P[i + 1, 0] = x + P[i, 0]
             P[i + 1, 1] = y + P[i, 1]
             P[i + 1, 2] = z + P[i, 2]
@@ -176,7 +184,7 @@ def constrained_kernel(P: np.ndarray, E1: np.ndarray, E2: np.ndarray, target: np
                 ang = tip_angle_deg(P, direction)
         if k >= max_iter:
             break
-    if k > 0:
+    if touched:
         for a in range(n):
             for c in range(3):
                 E1[a, c] = A1[a, c]
@@ -192,10 +200,11 @@ def follow_constrained_kernel(path, dirs, P, E1, E2, length, feed, f, tol_pos, t
     n = P.shape[0] - 1
     tilts = np.zeros(n)
     step_codes = np.zeros(n, dtype=np.int64)
+    A1, A2, g = np.empty((n, 3)), np.empty((n, 3)), np.empty((4, 3))
     for i in range(N):
         d = dirs[N - 2] if i == N - 1 else dirs[i]
-        k, ep, eo = constrained_kernel(P, E1, E2, path[i], d, True, length, tol_pos, tol_ori, alpha, max_iter, limit,
-                                local_axes, warmup, step_codes, tilts)
+        k, ep, eo = _constrained(P, E1, E2, path[i], d, True, length, tol_pos, tol_ori, alpha, max_iter, limit,
+                                 local_axes, warmup, step_codes, tilts, A1, A2, g)
         finish_step(i, P, E1, E2, path, dirs, f, feed, length, eo, k, step_codes, out_points, out_iters, pe, oe, codes)
 
 
