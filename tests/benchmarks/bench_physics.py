@@ -2,6 +2,7 @@
 
     python3 tests/benchmarks/bench_physics.py                        # 300 modules of 5 mm (1.5 m), colon 1
     python3 tests/benchmarks/bench_physics.py --modules 60 --colons 1-3 --substeps 1,4
+    python3 tests/benchmarks/bench_physics.py --steps 1000 --max-iterations 3000   # ten times the limit
 
 (not collected by pytest: files here are named bench_*.py). Per colon: the run (``bhr follow --traj anatomy
 --seed K --solver lumen --locomotion trail --alpha 25 --module-length 5 --body-modules M``), then its replay
@@ -29,6 +30,9 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--alpha", type=float, default=25.0)
     ap.add_argument("--substeps", default="1", help="comma-separated")
     ap.add_argument("--steps", type=int, default=0, help="replay only the first STEPS steps (0: all)")
+    ap.add_argument("--max-iterations", type=int, default=0,
+                    help="of one equilibrium (0: the replay's own limit); a higher limit shows whether the "
+                         "equilibria not reached converge slowly or not at all")
     args = ap.parse_args(argv)
     import bhr
     from bhr.model._generators import load_trajectory
@@ -53,7 +57,8 @@ def main(argv: list[str] | None = None) -> None:
                       p.frame, p.module_length)
         for sub in (int(x) for x in args.substeps.split(",")):
             t0 = time.process_time()
-            rep = replay_poses(p, run, substeps=sub)
+            rep = replay_poses(p, run, substeps=sub, **({"max_iterations": args.max_iterations}
+                                                        if args.max_iterations else {}))
             cpu = time.process_time() - t0
             total += cpu
             s = rep.summary()

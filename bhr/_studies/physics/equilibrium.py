@@ -9,7 +9,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-from bhr.model._tube import scan_from, segment_scan
+from bhr.model._tube import segment_scan
 
 __all__ = ["GTOL", "MAX_ITERATIONS", "STALL_FORCE_N", "solve_pose"]
 
@@ -46,6 +46,31 @@ def _exp_jl(u, v, R, J):
             e = 1.0 if r == s else 0.0
             R[r, s] = e + a * K[r][s] + b * K2[r][s]
             J[r, s] = e + b * K[r][s] + c * K2[r][s]
+
+
+#: The centerline segments each side of where a wall sample was last found that one equilibrium measures it
+#: against (:func:`_depth`): the same for every pose tried, so that the wall's energy is continuous in the pose.
+WALL_SPAN = 6
+
+
+@njit(cache=True)
+def _depth(C, Rad, lo, hi, sx, sy, sz, radius):
+    """How deep the robot's surface around axis point s is in the wall: the least over segments ``lo..hi-1`` of
+    its distance to the segment, plus the robot's radius, less the lumen's radius at the segment's nearest point
+    (the depth below the lumen that segment bounds). The least of continuous functions is continuous: where two
+    segments are equally near and their radii differ (the inner side of a bend where the lumen narrows) the
+    depth does not jump, as the nearest segment's would. Returns (depth mm, segment, t along it, distance)."""
+    best = 1e300
+    bk = lo
+    bt = 0.0
+    bd = 0.0
+    for k in range(lo, hi):
+        d2, _, t = segment_scan(C, k, k + 1, sx, sy, sz)
+        d = math.sqrt(d2)
+        pen = d + radius - (Rad[k] + t * (Rad[k + 1] - Rad[k]))
+        if pen < best:
+            best, bk, bt, bd = pen, k, t, d
+    return best, bk, bt, bd
 
 
 @njit(cache=True)
@@ -88,11 +113,9 @@ def _energy(z, target, x_target, base, d0, A0, length, radius, ns, k_wall, k_joi
             f = (k + 0.5) * w
             sx, sy, sz = px + f * ax, py + f * ay, pz + f * az
             i = j * ns + k
-            d2, kk, t = scan_from(C, 0, nseg, seg[i], sx, sy, sz, 8)
+            pen, kk, t, d = _depth(C, Rad, max(seg[i] - WALL_SPAN, 0), min(seg[i] + WALL_SPAN + 1, nseg), sx, sy, sz,
+                                   radius)
             seg_out[i] = kk
-            d = math.sqrt(d2)
-            rl = Rad[kk] + t * (Rad[kk + 1] - Rad[kk])
-            pen = d + radius - rl
             spos[i, 0], spos[i, 1], spos[i, 2] = sx, sy, sz
             dist[i] = d
             if pen > 0.0:
@@ -302,6 +325,7 @@ def _equilibrium(z, target, x_target, base, d0, A0, length, radius, ns, k_wall, 
     E = _energy(z, target, x_target, base, d0, A0, length, radius, ns, k_wall, k_joint, k_feed, f_feed, C, Rad,
                 seg, found, grad, pen, Aprev, Jl, P, nrm, spos, dist)
     w = k_wall * length / ns
+    descend = False  # the next step goes down the gradient (the Newton step just failed)
     for it in range(maxit + 1):
         g = 0.0
         for i in range(n):
@@ -317,9 +341,10 @@ def _equilibrium(z, target, x_target, base, d0, A0, length, radius, ns, k_wall, 
             return it
         if it == maxit:
             break
-        _newton_step(z, grad, x_target, d0, ns, k_wall, length, k_joint, k_feed, f_feed, pen, Aprev, Jl, P, nrm,
-                     spos, dist, step)
-        finite = True
+        if not descend:
+            _newton_step(z, grad, x_target, d0, ns, k_wall, length, k_joint, k_feed, f_feed, pen, Aprev, Jl, P, nrm,
+                         spos, dist, step)
+        finite = not descend
         for i in range(n):
             if not math.isfinite(step[i]):
                 finite = False
@@ -347,10 +372,15 @@ def _equilibrium(z, target, x_target, base, d0, A0, length, radius, ns, k_wall, 
             # nearest centerline point switching from one segment to the next) hold the gradient up; z stays
             _energy(z, target, x_target, base, d0, A0, length, radius, ns, k_wall, k_joint, k_feed, f_feed, C, Rad,
                     seg, found, grad, pen, Aprev, Jl, P, nrm, spos, dist)
+            if g > lim and not descend:  # the Newton step failed: a step down the gradient next
+                descend = True
+                continue
             seg[:] = found
             return it + 1 if g <= lim else maxit + 1
+        descend = False
         z[:] = zn
         E = En
+    seg[:] = found
     return maxit + 1
 
 
@@ -407,9 +437,13 @@ def solve_pose(pb: Problem, z0: np.ndarray, target: np.ndarray, x_target: float,
     equilibrium was not reached within ``maxit`` (z is the best found)."""
     z = np.ascontiguousarray(z0, dtype=np.float64).copy()
     target = np.ascontiguousarray(target)
-    it = _equilibrium(z, target, float(x_target), pb.base, pb.d0, pb.A0, pb.length,
-                      pb.radius, pb.ns, pb.k_wall, pb.k_joint, pb.k_feed, pb.f_feed, pb.C, pb.R, pb.seg, pb.pen,
-                      GTOL, STALL_FORCE_N, max(1.0, pb.length * target.shape[0]), maxit)
+    for _ in range(4):  # again, from there, while a sample ended at the edge of the segments it was measured on
+        start = pb.seg.copy()
+        it = _equilibrium(z, target, float(x_target), pb.base, pb.d0, pb.A0, pb.length,
+                          pb.radius, pb.ns, pb.k_wall, pb.k_joint, pb.k_feed, pb.f_feed, pb.C, pb.R, pb.seg, pb.pen,
+                          GTOL, STALL_FORCE_N, max(1.0, pb.length * target.shape[0]), maxit)
+        if np.abs(pb.seg - start).max() < WALL_SPAN:
+            break
     left = 0.0
     if it > maxit:
         M = target.shape[0]

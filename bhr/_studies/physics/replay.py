@@ -169,15 +169,18 @@ def _reached(tube, tips: np.ndarray) -> int | None:
 def replay_poses(poses: Poses, result, *, wall_stiffness: float = DEFAULT_WALL_STIFFNESS,
                  wire_force: float = WIRE_FORCE_N, feeder_force: float = DEFAULT_FEEDER_FORCE, substeps: int = 1,
                  sample_mm: float = SAMPLE_MM, max_wall_force: float = DEFAULT_MAX_WALL_FORCE,
-                 progress: Callable[[int, int], None] | None = None) -> PhysicsReplay:
+                 progress: Callable[[int, int], None] | None = None,
+                 max_iterations: int = MAX_ITERATIONS) -> PhysicsReplay:
     """Replay ``poses`` (the contract's arrays) against ``result``'s colon wall; see the module docstring.
 
     ``substeps``: equilibria solved from one pose to the next, the targets moved linearly between them (the
-    last is the pose's own). Reported at every pose: the wall's load (total and per module), the largest
+    last is the pose's own); ``max_iterations``: of one equilibrium, past which its best pose is kept and counted
+    as not reached. Reported at every pose: the wall's load (total and per module), the largest
     pressure, the stretch, the feeder's push, the deviation from the written joint positions.
     """
     check_wall_stiffness(float(wall_stiffness))
     for name, v in (("--wire-force", wire_force), ("--feeder-force", feeder_force), ("--substeps", substeps),
+                    ("max_iterations", max_iterations),
                     ("sample spacing", sample_mm), ("--max-wall-force", max_wall_force)):
         if not (math.isfinite(float(v)) and float(v) > 0):
             raise BhrError(f"{name} must be a positive number, got {v!r}")
@@ -234,15 +237,15 @@ def replay_poses(poses: Poses, result, *, wall_stiffness: float = DEFAULT_WALL_S
             z0 = z.copy()
             z0[1:] += (t_s - zt_prev).reshape(-1)
             z0[0] += x_s - x_prev
-            z, k, left = solve_pose(pb, z0, t_s, x_s)
+            z, k, left = solve_pose(pb, z0, t_s, x_s, max_iterations)
             if not np.all(np.isfinite(z)):
                 raise BhrError(f"the replay lost the robot at step {int(poses.step[i])} (a pose that is not a number); "
                                "give more --substeps")
-            n_it += min(k, MAX_ITERATIONS)
-            if k > MAX_ITERATIONS:
+            n_it += min(k, max_iterations)
+            if k > max_iterations:
                 unconverged += 1
                 worst_left = max(worst_left, left)
-            final[i] = k <= MAX_ITERATIONS  # the last substep is the pose's own
+            final[i] = k <= max_iterations  # the last substep is the pose's own
             zt_prev, x_prev = t_s, x_s
         prev_t, prev_x = tgt, xt
         iters[i] = n_it
