@@ -348,7 +348,8 @@ def _equilibrium(z, target, x_target, base, d0, A0, length, radius, ns, k_wall, 
         for i in range(n):
             if not math.isfinite(step[i]):
                 finite = False
-        if not finite:  # the recursion lost itself in rounding: a gradient step, scaled by the wires' stiffness
+        if not finite:  # the Newton step just failed, or its recursion lost itself in rounding: a step down the
+            # gradient, scaled by the wires' stiffness
             for i in range(n):
                 step[i] = -grad[i] / (k_feed if i == 0 else k_joint)
         slope = 0.0
