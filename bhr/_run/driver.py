@@ -44,7 +44,8 @@ from bhr.model._tube import lumen_end_of, make_tube
 if TYPE_CHECKING:  # the trail model (7 kernels, and the wall mesh's) loads when a run uses it
     from bhr._run.trail import TrailRun
 
-__all__ = ["follow", "FollowResult", "Summary", "BhrWarning", "stats", "load_run", "VERDICTS", "verdict_of"]
+__all__ = ["follow", "check_locomotion", "FollowResult", "Summary", "BhrWarning", "stats", "load_run", "VERDICTS",
+           "verdict_of"]
 
 
 class BhrWarning(UserWarning):
@@ -702,6 +703,17 @@ def _as_trajectory(points: Any, robot: Robot) -> Trajectory:
     return Trajectory("points", arr, feed=robot.feed)
 
 
+def check_locomotion(locomotion: str, stop_at_wall: bool | None) -> None:
+    """Refuse a locomotion bhr does not have, and stop_at_wall with the trail model (one line each)."""
+    if locomotion not in ("thesis", "trail", "wires"):
+        raise BhrError(f"locomotion must be thesis, wires or trail, got {locomotion!r}")
+    if stop_at_wall is not None and not isinstance(stop_at_wall, bool):
+        raise BhrError(f"stop_at_wall must be True or False, got {stop_at_wall!r}")
+    if stop_at_wall and locomotion == "trail":
+        raise BhrError("stop at wall ends a run where the robot leaves the lumen; the trail model is an idealisation "
+                       "that plans its trail inside the lumen: drop --stop-at-wall or give --locomotion wires")
+
+
 def follow(points: Any, solver: str | Solver = "thesis", robot: Robot | None = THESIS_ROBOT, *,
            solver_options: dict[str, Any] | None = None,
            on_step: Callable[[int, np.ndarray | None], None] | None = None,
@@ -791,13 +803,7 @@ def follow(points: Any, solver: str | Solver = "thesis", robot: Robot | None = T
         has_lumen = getattr(traj, "lumen", None) is not None
         named = solver.name if isinstance(solver, Solver) else solver
         locomotion = "wires" if whole_robot and has_lumen and named == "lumen" else "thesis"
-    if locomotion not in ("thesis", "trail", "wires"):
-        raise BhrError(f"locomotion must be thesis, wires or trail, got {locomotion!r}")
-    if stop_at_wall is not None and not isinstance(stop_at_wall, bool):
-        raise BhrError(f"stop_at_wall must be True or False, got {stop_at_wall!r}")
-    if stop_at_wall and locomotion == "trail":
-        raise BhrError("stop at wall ends a run where the robot leaves the lumen; the trail model is an idealisation "
-                       "that plans its trail inside the lumen: drop --stop-at-wall or give --locomotion wires")
+    check_locomotion(locomotion, stop_at_wall)
     if reach is not None:
         if reach != "cecum":
             raise BhrError(f"reach must be cecum (a robot long enough to reach the path's end), got {reach!r}")

@@ -102,7 +102,7 @@ def test_the_colon_limit_counts_the_seeds_a_step_gives_and_holds_for_a_list():
     ([], {"solvers": ("nope",)}, "unknown solver 'nope'"),
     ([("alpha", (-5,))], {}, "alpha"),
     # the trail model plans inside the lumen: a run of it cannot be ended where it leaves the lumen
-    ([("locomotion", ("wires", "trail")), ("stop_at_wall", (True,))], {"solvers": ("lumen",)}, "cannot go together"),
+    ([("locomotion", ("wires", "trail")), ("stop_at_wall", (True,))], {"solvers": ("lumen",)}, "trail model is an idealisation"),
 ])
 def test_studies_are_checked_before_running(grid, kw, msg):
     with pytest.raises(BhrError, match=msg):

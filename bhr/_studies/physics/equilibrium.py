@@ -369,8 +369,8 @@ def _equilibrium(z, target, x_target, base, d0, A0, length, radius, ns, k_wall, 
             if t < 1e-12:
                 break
             t *= 0.5
-        if not En <= E + 1e-4 * t * slope:  # no descent left along the step: the energy's kinks (the wall's
-            # nearest centerline point switching from one segment to the next) hold the gradient up; z stays
+        if not En <= E + 1e-4 * t * slope:  # no descent left along the step: the energy's kinks (a sample's
+            # least depth passing from one segment to the next) hold the gradient up; z stays
             _energy(z, target, x_target, base, d0, A0, length, radius, ns, k_wall, k_joint, k_feed, f_feed, C, Rad,
                     seg, found, grad, pen, Aprev, Jl, P, nrm, spos, dist)
             if g > lim and not descend:  # the Newton step failed: a step down the gradient next

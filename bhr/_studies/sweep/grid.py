@@ -289,10 +289,14 @@ def build_sweep(trajs: Sequence[str], solvers: Sequence[str], grid: Iterable[tup
             check_body({"body_modules": min(body)}, make_robot({**robot_first, "modules": most}, base_robot))
         except BhrError as exc:
             raise BhrError(f"{where}: {exc}") from None
-    if "trail" in dict(grid).get("locomotion", ()) and True in dict(grid).get("stop_at_wall", ()):
-        raise BhrError(f"{where}: stop_at_wall=true ends a run where the robot leaves the lumen, and locomotion=trail "
-                       "is an idealisation that plans its trail inside the lumen: they cannot go together; study "
-                       "the trail model without stop_at_wall")
+    for loco in dict(grid).get("locomotion", ()):  # each design's run as bhr follow would refuse it
+        from bhr._run.driver import check_locomotion
+
+        for stop in dict(grid).get("stop_at_wall", (None,)):
+            try:
+                check_locomotion(loco, stop)
+            except BhrError as exc:
+                raise BhrError(f"{where}: locomotion = {loco}, stop_at_wall = {stop}: {exc}") from None
     for t in trajs:
         def check_traj(params: dict[str, Any], what: str, t: str = t) -> None:
             try:
