@@ -146,8 +146,16 @@ class _Lane:
         if self.pool is not None:
             return self.pool.submit(call, chunk)
         before, threads = set(multiprocessing.active_children()), set(threading.enumerate())
-        self.pool = ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn"), initializer=_worker_start)
-        future = self.pool.submit(call, chunk)  # starts the worker and the pool's threads
+        # SIGHUP blocked while the pool starts its processes, which inherit the mask: multiprocessing's resource
+        # tracker (it ignores SIGINT and SIGTERM itself) then outlives a closed terminal's SIGHUP to the whole
+        # group, and ends when bhr does. A SIGHUP meanwhile is delivered to bhr when it is unblocked.
+        hup = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGHUP})
+        try:
+            self.pool = ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn"),
+                                            initializer=_worker_start)
+            future = self.pool.submit(call, chunk)  # starts the worker and the pool's threads
+        finally:
+            signal.pthread_sigmask(signal.SIG_SETMASK, hup)
         self.process = next(iter(set(multiprocessing.active_children()) - before), None)
         self.threads = set(threading.enumerate()) - threads
         return future
