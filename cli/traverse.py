@@ -70,11 +70,11 @@ def traverse(grid, colons, solvers, head_only, target_pass, robot_file, out_dir,
 
     check_executor(jobs, scheduler)
     # the physical replay of every run (--max-wall-force) needs each run whole, past its first wall touch
-    axes, solvers = robot_axes([parse_grid_option(g) for g in grid], solvers, head_only,
-                               stop_at_wall=max_wall_force is None)
+    axes, solvers, stop = robot_axes([parse_grid_option(g) for g in grid], solvers, head_only,
+                                     stop_at_wall=max_wall_force is None)
     study = build_study(axes, colons, solvers=solvers,
                         target=target_pass, robot_file=robot_file, title=title or "bhr traverse",
-                        max_wall_force=max_wall_force)
+                        max_wall_force=max_wall_force, stop_at_wall=stop)
     heatmap_axes(study, hx, hy)  # refuse unknown heat-map axes before running
     if physics:  # before the study: it ran whole, then --physics was refused, or silently skipped with --no-plots
         if no_plot:

@@ -1083,7 +1083,7 @@ def _follow_wires(traj: Trajectory, robot: Robot, s: Any, solver: str, path: np.
     from bhr._run.motion import wires_motion
 
     n, f = robot.modules, robot.feed_divisor
-    mo, tcodes, M, stop, short = wires_motion(traj, robot, s, body_modules, reach,
+    mo, tcodes, M, stop, short, too_short = wires_motion(traj, robot, s, body_modules, reach,
                                               stop_below=-float(robot.robot_radius) if stop_at_wall else None)
     N = mo.step_joints.shape[0]  # the path's steps, or fewer when the run stopped at the wall
     if reach:
@@ -1112,6 +1112,7 @@ def _follow_wires(traj: Trajectory, robot: Robot, s: Any, solver: str, path: np.
         "trail_vertices": int(tcodes.shape[0]),
         **({"feeder_stop_step": int(stop) + 1} if int(stop) < N else {}),
         "cecum_shortfall_mm": float(short),
+        "too_short_for_cecum": bool(too_short),
         "poses": int(mo.t_s.shape[0]),
         "poses_file": "poses.npz" if mo.kept else None,
         "max_trail_offset_mm": float(np.max(mo.trail_offset_mm)),

@@ -909,11 +909,13 @@ def mesh_score(grid, radius: float, pts: np.ndarray, xs: np.ndarray, steps: np.n
 
 def wires_motion(traj, robot, solver, body_modules: int | None = None, reach: bool = False,
                  strategies: tuple[Strategy, ...] | None = None, params: ThermalParams = DEFAULT_THERMAL,
-                 bound: bool = True, stop_below: float | None = None) -> tuple[MotionRun, np.ndarray, int, int, float]:
+                 bound: bool = True, stop_below: float | None = None
+                 ) -> tuple[MotionRun, np.ndarray, int, int, float, bool]:
     """The whole robot of ``body_modules`` (or, ``reach``, as many as reach the cecum) along ``traj`` (with a lumen)
     moved by its wires: (the motion, the trail's codes, the modules M, the 0-based step where the feeder stops, how
-    far short of the path's end the tip stops in mm). ``solver``: the configured lumen solver (its planner
-    settings); ``stop_below``: :func:`plan_motion`'s."""
+    far short of the path's end the tip stops in mm, whether the robot is too short to reach the cecum: its tail
+    reached the anus first). ``solver``: the configured lumen solver (its planner settings); ``stop_below``:
+    :func:`plan_motion`'s."""
     from bhr.model._wallmesh import wall_grid
     from bhr._run.body import check_body_modules
     from bhr._run.trail import cecum_modules, stop_step, vertex_hints
@@ -938,6 +940,7 @@ def wires_motion(traj, robot, solver, body_modules: int | None = None, reach: bo
     back = M + 2
     T = trail_vertices(tcodes, traj.start_direction, traj.start_point, L, robot.alpha, back)
     z = vertex_hints(tube, T, back, L)
+    too_short = M * f < stop
     stop = min(stop, M * f)  # a feeder at the anus pushes the tail in no further than the robot's length
     m, k = divmod(stop, f)
     ztip = z[back + m] + (k / f) * (z[back + m + 1] - z[back + m])
@@ -947,7 +950,7 @@ def wires_motion(traj, robot, solver, body_modules: int | None = None, reach: bo
                      float(robot.alpha), traj.start_point, traj.start_direction, stop * float(robot.feed), N, params,
                      strategies, bound=bound, grid=grid, stop_below=stop_below)
     mo.wall = wall
-    return mo, tcodes, M, stop, short
+    return mo, tcodes, M, stop, short, too_short
 
 
 # ---------------------------------------------------------------------------

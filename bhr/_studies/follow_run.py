@@ -445,6 +445,9 @@ def body_clearance_lines(s: dict) -> list[str]:
         ways = ", ".join(f"{k} {v}" for k, v in sorted(s["switching"].items(), key=lambda kv: -kv[1]))
         feeder = (f"the feeder pushes until step {s['feeder_stop_step']}, the tip {s['cecum_shortfall_mm']:.1f} mm "
                   "short of the path's end" if s.get("feeder_stop_step") else "the feeder pushing")
+        if s.get("too_short_for_cecum"):
+            feeder += (": the robot is too short to reach the cecum (its tail reached the anus), so it cannot "
+                       "traverse this colon; give more --body-modules or --reach cecum")
         out.append(f"Wires: rigid modules driven by their wires along a trail of {s['trail_vertices']} vertices; "
                    f"{s['poses']} poses{where}, the robot up to {s['max_trail_offset_mm']:.1f} mm off "
                    f"the trail between module lengths (switching: {ways}); {feeder}.")

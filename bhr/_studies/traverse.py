@@ -56,7 +56,8 @@ __all__ = ["Study", "StudyResult", "parse_colons", "build_study", "run_study", "
 
 #: Summary keys a study keeps from every run (the ones a run does not report stay empty).
 LUMEN_KEYS = ("max_penetration_mm", "wall_touch_steps", "contact_length_mm", "procedure_time_s", "body_modules",
-              "left_lumen_step", "left_lumen_reason", "wall", "path_steps")
+              "left_lumen_step", "left_lumen_reason", "wall", "path_steps", "cecum_shortfall_mm", "too_short_for_cecum",
+              "feeder_stop_step")
 #: Columns of designs.csv after the design's own keys.
 DESIGN_COLUMNS = ("robot_judged", "rank", "ranked_by", "colons", "traversed", "pass_rate", "failed_runs",
                   "median_reach_pct", "worst_reach_pct", "worst_penetration_mm", "median_penetration_mm",
@@ -159,14 +160,16 @@ class Study:
 
 
 def robot_axes(grid: Sequence[tuple[str, tuple[Any, ...]]], solvers: Sequence[str], head_only: bool = False,
-               stop_at_wall: bool = True) -> tuple[list[tuple[str, tuple[Any, ...]]], tuple[str, ...]]:
-    """The grid and solvers of ``bhr traverse``'s robot: by default the whole robot, long enough to reach the
-    cecum (``reach=cecum``), with the lumen solver (so moved by its wires, the robot as it can be built) unless
-    solvers are given, every run ending where the robot leaves the lumen (``stop_at_wall``: the verdict is known
-    there, and no later pose a robot cannot take is scored; whole-robot designs are ranked by how far along the
-    colons they get); ``head_only``: the head alone (the modules the solver moves),
-    with the thesis's solver unless solvers are given. A grid that sizes the robot (``body_modules``, ``reach``)
-    is kept as it is."""
+               stop_at_wall: bool = True) -> tuple[list[tuple[str, tuple[Any, ...]]], tuple[str, ...], bool]:
+    """The grid and solvers of ``bhr traverse``'s robot, and whether its runs end at the wall: by default the whole
+    robot, long enough to reach the cecum (``reach=cecum``), with the lumen solver (so moved by its wires, the robot
+    as it can be built) unless solvers are given, every run ending where the robot leaves the lumen (``stop_at_wall``:
+    the verdict is known there, and no later pose a robot cannot take is scored; whole-robot designs are ranked by
+    how far along the colons they get) except the trail model's, an idealisation planned inside the lumen (the
+    third value, for :func:`build_study`; the grid gains ``stop_at_wall=True`` when no design is the trail
+    model's); ``head_only``: the head alone (the modules the solver moves), with the thesis's solver unless solvers
+    are given. A grid that sizes the robot (``body_modules``, ``reach``) or gives ``stop_at_wall`` is kept as it
+    is."""
     axes = list(grid)
     sized = [k for k, _ in axes if k in ("body_modules", "reach")]
     if head_only and sized:
@@ -174,17 +177,21 @@ def robot_axes(grid: Sequence[tuple[str, tuple[Any, ...]]], solvers: Sequence[st
                        f"--head-only or --grid {sized[0]}=...")
     if not head_only and not sized:
         axes.append(("reach", ("cecum",)))
-    # the trail model is an idealisation that plans its trail inside the lumen: its runs are not ended at the wall
+    stop = not head_only and stop_at_wall and "stop_at_wall" not in (k for k, _ in axes)
     trail = any("trail" in values for k, values in axes if k == "locomotion")
-    if not head_only and stop_at_wall and not trail and "stop_at_wall" not in (k for k, _ in axes):
-        axes.append(("stop_at_wall", (True,)))
-    return axes, tuple(solvers) or (("thesis",) if head_only else ("lumen",))
+    if stop and not trail:
+        axes.append(("stop_at_wall", (True,)))  # every run: a column of the tables, as the grid would give it
+    return axes, tuple(solvers) or (("thesis",) if head_only else ("lumen",)), stop and trail
 
 
 def build_study(grid: Sequence[tuple[str, tuple[Any, ...]]], colons: Sequence[int | str] | str, *,
                 solvers: Sequence[str] = ("thesis",), target: float = 0.95, robot_file: str | None = None,
-                title: str = "bhr traverse", where: str = "traverse", max_wall_force: float | None = None) -> Study:
+                title: str = "bhr traverse", where: str = "traverse", max_wall_force: float | None = None,
+                stop_at_wall: bool = False) -> Study:
     """Check and assemble a study; every design and colon is checked before anything runs.
+
+    ``stop_at_wall``: every run that is not the trail model's ends where its robot leaves the lumen (the third
+    value of :func:`robot_axes`).
 
     ``max_wall_force`` (N): every run is also replayed as the physical robot against the wall
     (bhr._studies.physics), and a colon counts as traversed when the replayed tip reaches the cecum with the
@@ -202,7 +209,7 @@ def build_study(grid: Sequence[tuple[str, tuple[Any, ...]]], colons: Sequence[in
                            "(e.g. alpha, module_length, modules, robot_radius)")
     sweep = build_sweep(("anatomy",), tuple(solvers), (*grid, ("seed", seeds)), title=title, where=where,
                         robot_file=robot_file)
-    sweep = dataclasses.replace(sweep, extra=LUMEN_KEYS)
+    sweep = dataclasses.replace(sweep, extra=LUMEN_KEYS, stop_at_wall=bool(stop_at_wall))
     if max_wall_force is not None:
         v = float(max_wall_force)
         if not (math.isfinite(v) and v > 0):
@@ -242,15 +249,34 @@ def _contact(row: dict[str, Any]) -> float | None:
     return float(v)
 
 
+def _short(row: dict[str, Any]) -> float:
+    """How far short of the cecum a whole robot's tip stopped because the robot is shorter than the colon (the
+    feeder at the anus pushes it in no further than its own length), mm; 0 for a robot that is long enough."""
+    return float(row.get("cecum_shortfall_mm") or 0.0) if row.get("too_short_for_cecum") else 0.0
+
+
+def _too_short(result: StudyResult, design: dict[str, Any]) -> bool:
+    """Some run of ``design`` stopped short of the cecum because the robot is shorter than its colon."""
+    keys = result.study.design_keys
+    return any(_TOO_SHORT in (r.get("failure") or "") for r in result.runs
+               if all(r[k] == design[k] for k in keys))
+
+
+_TOO_SHORT = "too short to reach the cecum"
+
+
 def _reach(row: dict[str, Any]) -> float | None:
-    """How far along the colon the tip went before the robot left the lumen (its axis outside the wall), % of the
-    path (100: it stayed inside); None for a failed run or a path without a lumen."""
+    """How far along the colon the tip went before the robot left the lumen (its axis outside the wall), or before
+    the feeder stopped a robot too short to reach the cecum, % of the path (100: it stayed inside and reached the
+    cecum); None for a failed run or a path without a lumen."""
     if row["status"] != "ok" or row.get("wall_touch_steps") is None:
         return None
-    left, path = row.get("left_lumen_step"), row.get("path_steps") or row.get("steps")
-    if left is None or not path or path < 2:
+    path = row.get("path_steps") or row.get("steps")
+    ends = [s for s in (row.get("left_lumen_step"), row.get("feeder_stop_step") if _short(row) else None)
+            if s is not None]
+    if not ends or not path or path < 2:
         return 100.0
-    return 100.0 * (left - 1) / (path - 1)
+    return 100.0 * (min(ends) - 1) / (path - 1)
 
 
 def _run_row(row: dict[str, Any], keys: Sequence[str]) -> dict[str, Any]:
@@ -265,7 +291,8 @@ def _run_row(row: dict[str, Any], keys: Sequence[str]) -> dict[str, Any]:
         "verdict": verdict_cell(row),
         "steps": row.get("steps"),
         "traversed": bool(ok and row.get("physically_traversed")) if physical else
-        bool(ok and touches is not None and len(touches) == 0 and row.get("left_lumen_step") is None),
+        bool(ok and touches is not None and len(touches) == 0 and row.get("left_lumen_step") is None
+             and not _short(row)),
         "reach_pct": _reach(row),
         "max_penetration_mm": _penetration(row) if ok else None,
         "touch_steps": len(touches) if (ok and touches is not None) else None,
@@ -279,7 +306,9 @@ def _run_row(row: dict[str, Any], keys: Sequence[str]) -> dict[str, Any]:
                              else None),
         # a colon fails when the run fails or the robot left the lumen (bhr._run.clearance.left_lumen): the reason
         "left_lumen_step": row.get("left_lumen_step") if ok else None,
-        "failure": (row.get("left_lumen_reason") or "") if ok else str(row["status"]),
+        "failure": (row.get("left_lumen_reason") or (f"the robot is {_TOO_SHORT}: its tip stopped "
+                                                      f"{_short(row):.0f} mm short" if _short(row) else ""))
+        if ok else str(row["status"]),
         "wall": row.get("wall"),  # what the clearance was measured against: the tube or the colon's mesh
     })
     if physical:
@@ -573,6 +602,9 @@ def penetration_figure(result: StudyResult, design: dict[str, Any], run):
         why = (f"the run ended where the robot left the lumen, {100.0 * (stopped - 1) / max(1, path - 1):.1f}% of "
                "the way along: the least of its colons")
         pen = run.summary.to_dict().get("max_penetration_mm") or 0.0
+    elif short := run.extra.get("summary", {}).get("cecum_shortfall_mm"):  # a robot shorter than its colons
+        why = f"the robot is too short to reach the cecum: its tip stopped {short:.0f} mm short of it"
+        pen = design["worst_penetration_mm"]
     else:
         why, pen = "its deepest into the wall", design["worst_penetration_mm"]
     title = (f"Worst colon ({colon_label(design['worst_colon'])}) of design #{design['design']} ({keys}):\n"
@@ -635,8 +667,9 @@ def answer_line(result: StudyResult) -> str:
     how = f"worst penetration {worst}"
     if by_reach(top) and top.get("worst_reach_pct") is not None:
         how = ("it stays inside the lumen on every colon, " + how if top["worst_reach_pct"] >= 100.0 else
-               f"gets {top['median_reach_pct']:.1f}% of the way along the median colon before it leaves the lumen "
-               f"(worst {top['worst_reach_pct']:.1f}%), " + how)
+               f"gets {top['median_reach_pct']:.1f}% of the way along the median colon before it leaves the lumen"
+               + (" or its length runs out" if _too_short(result, top) else "")
+               + f" (worst {top['worst_reach_pct']:.1f}%), " + how)
     return (f"No design traverses {pct} of the {len(study.colons)} colons; the best, design #{top['design']} "
             f"({_describe(study, top)}), traverses {top['traversed']}/{top['colons']} "
             f"({100 * top['pass_rate']:.0f}%), {how}" + _decided(result, top))
@@ -655,10 +688,13 @@ def format_study(result: StudyResult, count: int = 8) -> list[str]:
         "moved by its wires)" if all(j.startswith("head only") for j in judged) else ""))
     at_wall = any(by_reach(d) for d in result.designs)
     words = RANKING_REACH[:4] if at_wall else RANKING[:4]
-    ended = any(d.get("stop_at_wall") for d in result.designs)
+    ended = study.sweep.stop_at_wall or any(d.get("stop_at_wall") for d in result.designs)
+    short = any(_TOO_SHORT in (r.get("failure") or "") for r in result.runs)
     lines.append("Ranked by " + ", then ".join(words) + "; 'ranked by': what puts a design ahead of the next"
                  + ("; reach: how far along the colon (% of its length) the tip went before the robot left the lumen"
-                    + (", where its run ended (--stop-at-wall)" if ended else "") if at_wall else ""))
+                    + (", where its run ended (--stop-at-wall)" if ended else "")
+                    + (" or, for a robot shorter than the colon, before the feeder stopped it" if short else "")
+                    if at_wall else ""))
     head = "  ".join(f"{k:>13}" for k in keys)
     proc = any(d.get("median_procedure_time_s") is not None for d in result.designs)
     lines.append(f"{'#':>5}  {head}  {'traversed':>10}" + (f"  {'median reach':>12}  {'worst reach':>11}" if at_wall

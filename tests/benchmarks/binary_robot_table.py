@@ -4,7 +4,8 @@ verdicts side by side, per design and robot length, over anatomical colons.
     python tests/benchmarks/binary_robot_table.py --colons 1-20 --alpha 20,25,30 --module 5,6 \
         --length 0.3,0.7,1.5,cecum [--stop-at-wall] [--json out.json]
 
-Prints a Markdown table: per design, the colons traversed (no module touching the wall at any moment) by the
+Prints a Markdown table: per design, the colons traversed (no module touching the wall at any moment, the tip
+reaching the cecum: a robot shorter than the colon does not traverse it) by the
 ideal follow-the-leader (not buildable) and by the rigid robot driven by its wires, the worst penetration of
 each, and the wires' largest distance from the trail; and the CPU seconds it took.
 
@@ -25,6 +26,11 @@ import warnings
 def _cpu() -> float:
     r = resource.getrusage(resource.RUSAGE_SELF)
     return r.ru_utime + r.ru_stime
+
+
+def traversed(run: dict) -> bool:
+    """No module touched the wall, and the robot was long enough for its tip to reach the cecum."""
+    return not run["touch"] and not run["short"] and run["left_lumen_step"] is None
 
 
 def _range(text: str) -> list[int]:
@@ -65,13 +71,17 @@ def main() -> None:
                         s = run.summary.extra
                         left = s.get("left_lumen_step")
                         path = s.get("path_steps", run.steps)
+                        short = float(s.get("cecum_shortfall_mm", 0.0)) if s.get("too_short_for_cecum") else 0.0
+                        # the tip got as far as where the robot left the lumen, or where the feeder stopped a robot
+                        # too short to reach the cecum (as bhr traverse counts reach)
+                        ends = [k for k in (left, s.get("feeder_stop_step") if short else None) if k is not None]
                         res.append({"colon": seed, "touch": bool(s.get("wall_touch_steps")),
                                     "pen": float(s.get("max_penetration_mm", 0.0)),
                                     "offset": float(s.get("max_trail_offset_mm", 0.0)),
-                                    "short": float(s.get("cecum_shortfall_mm", 0.0)), "left_lumen_step": left,
-                                    "reach_pct": 100.0 if left is None else 100.0 * (left - 1) / (path - 1)})
+                                    "short": short, "left_lumen_step": left,
+                                    "reach_pct": 100.0 * (min(ends) - 1) / (path - 1) if ends else 100.0})
                     rows.append({"alpha": alpha, "module_mm": L, "length": length, "model": model, "colons": res})
-                    ok = sum(not r["touch"] for r in res)
+                    ok = sum(traversed(r) for r in res)
                     print(f"alpha {alpha:g} module {L:g} length {length} {model}: {ok}/{len(res)} traversed, worst "
                           f"pen {max(r['pen'] for r in res):.2f} mm, offset {max(r['offset'] for r in res):.1f} mm "
                           f"({_cpu() - t0:.0f} s CPU so far)", flush=True)
@@ -89,7 +99,7 @@ def main() -> None:
         n = len(t["colons"])
 
         def ok(r):
-            return sum(not c["touch"] for c in r["colons"])
+            return sum(traversed(c) for c in r["colons"])
 
         def pen(r):
             return max(c["pen"] for c in r["colons"])

@@ -233,6 +233,20 @@ def test_stop_at_wall_ends_a_wires_run_where_it_leaves_the_lumen_as_the_whole_ru
 
 
 @pytest.mark.run
+def test_a_robot_shorter_than_the_colon_is_stopped_by_its_tail_and_said_to_be_too_short(wires_run):
+    """A feeder at the anus pushes the tail in no further than the robot's length: a robot shorter than the colon
+    stops there, its tip far short of the cecum, and its summary says it is too short. One as long as the colon
+    (reach cecum) is not, though its tip ends a little short along the centerline, about which it weaves."""
+    s = wires_run.extra["summary"]  # 30 modules of 5 mm on a colon of about 1.9 m
+    f = wires_run.robot.feed_divisor
+    assert s["too_short_for_cecum"] is True and s["feeder_stop_step"] == 30 * f + 1
+    assert s["cecum_shortfall_mm"] > 1000.0
+    tr = bhr.trajectory("anatomy", seed=2)
+    whole = follow(tr, solver="lumen", alpha=25, module_length=5, reach="cecum", stop_at_wall=True).extra["summary"]
+    assert whole["too_short_for_cecum"] is False
+
+
+@pytest.mark.run
 def test_poses_file_keeps_its_contract(wires_run, tmp_path):
     from bhr.output._steptable import write_poses
 

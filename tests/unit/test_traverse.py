@@ -3,9 +3,7 @@ from __future__ import annotations
 
 import csv
 import io
-import json
 import os
-import pty
 import statistics
 import subprocess
 import warnings
@@ -307,26 +305,71 @@ def test_the_default_robot_is_the_whole_robot_to_the_cecum_moved_by_its_wires():
     is moved by its wires); the head alone only when asked, and labelled."""
     from bhr._studies.traverse import robot_axes, robot_judged
 
-    axes, solvers = robot_axes([("alpha", (20, 25))], ())
+    axes, solvers, per_run = robot_axes([("alpha", (20, 25))], ())
     assert axes == [("alpha", (20, 25)), ("reach", ("cecum",)), ("stop_at_wall", (True,))] and solvers == ("lumen",)
+    assert not per_run
     # every run whole when each is to be replayed against the wall (--max-wall-force)
     assert robot_axes([("alpha", (20, 25))], (), stop_at_wall=False)[0] == [("alpha", (20, 25)), ("reach", ("cecum",))]
+    assert robot_axes([("alpha", (20, 25))], (), stop_at_wall=False)[2] is False
     study = build_study(axes, "1", solvers=solvers)
     assert {robot_judged(study, d) for d in ({"alpha": 20, "reach": "cecum"},)} == {"whole robot (to the cecum)"}
     # a grid that sizes the robot is kept, its runs ending at the wall too (unless the grid says otherwise); the
     # trail model (an idealisation) plans inside the lumen and runs to the end; the head alone when asked, with the
     # thesis's solver
     assert robot_axes([("body_modules", (60,))], ("lumen",)) == (
-        [("body_modules", (60,)), ("stop_at_wall", (True,))], ("lumen",))
-    assert robot_axes([("body_modules", (60,)), ("stop_at_wall", (False,))], ("lumen",))[0] == [
-        ("body_modules", (60,)), ("stop_at_wall", (False,))]
-    assert robot_axes([("locomotion", ("trail",))], ())[0] == [("locomotion", ("trail",)), ("reach", ("cecum",))]
+        [("body_modules", (60,)), ("stop_at_wall", (True,))], ("lumen",), False)
+    assert robot_axes([("body_modules", (60,)), ("stop_at_wall", (False,))], ("lumen",))[::2] == (
+        [("body_modules", (60,)), ("stop_at_wall", (False,))], False)
+    assert robot_axes([("locomotion", ("trail",))], ())[::2] == (
+        [("locomotion", ("trail",)), ("reach", ("cecum",))], True)
     assert robot_judged(study, {"reach": "cecum", "locomotion": "trail"}) == (
         "whole robot (to the cecum), the trail model: ideal follow-the-leader, not buildable")
-    assert robot_axes([("alpha", (10,))], (), head_only=True) == ([("alpha", (10,))], ("thesis",))
+    assert robot_axes([("alpha", (10,))], (), head_only=True) == ([("alpha", (10,))], ("thesis",), False)
     assert robot_judged(build_study([("alpha", (10,))], "1"), {"alpha": 10}) == "head only (5 modules)"
     with pytest.raises(BhrError, match="--head-only judges the head alone"):
         robot_axes([("reach", ("cecum",))], (), head_only=True)
+
+
+def test_a_grid_with_the_trail_model_still_stops_its_buildable_runs_at_the_wall():
+    """The trail model (an idealisation) runs to the end; every other design of the same grid still ends where its
+    robot leaves the lumen, so no pose a robot cannot take is scored."""
+    from bhr._studies.traverse import robot_axes
+
+    axes, solvers, per_run = robot_axes([("locomotion", ("trail", "wires"))], ())
+    study = build_study(axes, "1-2", solvers=solvers, stop_at_wall=per_run)
+    designs = study.sweep.designs()
+    assert {(d["locomotion"], d["stop_at_wall"]) for d in designs} == {("trail", False), ("wires", True)}
+    assert len(designs) == 4
+    # without the rule (a replay of every run against the wall) nothing stops
+    axes, solvers, per_run = robot_axes([("locomotion", ("trail", "wires"))], (), stop_at_wall=False)
+    assert all("stop_at_wall" not in d for d in build_study(axes, "1", solvers=solvers,
+                                                            stop_at_wall=per_run).sweep.designs())
+    # a grid that says it itself keeps it (and the refusal of trail with stop_at_wall stays the grid's)
+    with pytest.raises(BhrError, match="locomotion = trail, stop_at_wall = True"):
+        build_study(robot_axes([("locomotion", ("trail", "wires")), ("stop_at_wall", (True,))], ())[0], "1")
+
+
+def test_a_whole_robot_too_short_for_the_colon_does_not_traverse_it():
+    """A whole robot that stays inside the lumen but whose feeder stopped it short of the cecum (shorter than the
+    colon) has not traversed the colon: its reach is where the feeder stopped, and the answer says why."""
+    from bhr._studies.traverse import StudyResult, answer_line
+
+    study = build_study([("body_modules", (5, 400)), ("stop_at_wall", (True,))], "1", solvers=("lumen",))
+    keys = study.design_keys
+    base = {"solver": "lumen", "seed": 1, "status": "ok", "steps": 101, "path_steps": 101, "wall_touch_steps": [],
+            "left_lumen_step": None, "stop_at_wall": True, "max_penetration_mm": 0.0, "min_clearance_mm": 1.5}
+    short = _run_row({**base, "body_modules": 5, "cecum_shortfall_mm": 1180.4, "too_short_for_cecum": True,
+                      "feeder_stop_step": 11}, keys)
+    # a robot long enough ends a little short of the path's end along the centerline (a binary chain weaves about
+    # it, docs/locomotion.md): that is no shortfall of the robot
+    whole = _run_row({**base, "body_modules": 400, "cecum_shortfall_mm": 31.2, "too_short_for_cecum": False}, keys)
+    assert not short["traversed"] and short["reach_pct"] == pytest.approx(10.0)
+    assert short["failure"] == "the robot is too short to reach the cecum: its tip stopped 1180 mm short"
+    assert whole["traversed"] and whole["reach_pct"] == 100.0 and whole["failure"] == ""
+    designs = design_rows(study, [short, whole], {})
+    assert [d["traversed"] for d in designs] == [0, 1]
+    res = StudyResult(study, [short, whole], designs, 0.0, "in-process", 1, "geometric")
+    assert "design #2" in answer_line(res) and answer(res)[0]["body_modules"] == 400
 
 
 def _stopped_result(lefts):

@@ -172,6 +172,9 @@ class Sweep:
     #: Replay every run as the physical robot against the wall (bhr._studies.physics) with these options
     #: (``max_wall_force`` among them); () = no replay.
     physics: tuple[tuple[str, Any], ...] = ()
+    #: End every run where its robot leaves the lumen, except the trail model's (an idealisation that plans its
+    #: trail inside the lumen), when the grid does not give ``stop_at_wall`` itself.
+    stop_at_wall: bool = False
 
     @property
     def axes(self) -> list[tuple[str, tuple[Any, ...]]]:
@@ -188,7 +191,11 @@ class Sweep:
     def designs(self) -> list[dict[str, Any]]:
         """One dict per design, in order (the last axis varies fastest)."""
         keys = self.keys
-        return [dict(zip(keys, combo)) for combo in itertools.product(*(v for _, v in self.axes))]
+        designs = [dict(zip(keys, combo)) for combo in itertools.product(*(v for _, v in self.axes))]
+        if self.stop_at_wall and "stop_at_wall" not in keys:
+            for d in designs:
+                d["stop_at_wall"] = d.get("locomotion") != "trail"
+        return designs
 
 
 def _as_list(value: Any, key: str, where: str) -> tuple[str, ...]:
