@@ -688,7 +688,7 @@ def format_study(result: StudyResult, count: int = 8) -> list[str]:
         "moved by its wires)" if all(j.startswith("head only") for j in judged) else ""))
     at_wall = any(by_reach(d) for d in result.designs)
     words = RANKING_REACH[:4] if at_wall else RANKING[:4]
-    ended = study.sweep.stop_at_wall or any(d.get("stop_at_wall") for d in result.designs)
+    ended = any(d.get("stop_at_wall") for d in study.sweep.designs())  # some run ends where it leaves the lumen
     short = any(_TOO_SHORT in (r.get("failure") or "") for r in result.runs)
     lines.append("Ranked by " + ", then ".join(words) + "; 'ranked by': what puts a design ahead of the next"
                  + ("; reach: how far along the colon (% of its length) the tip went before the robot left the lumen"

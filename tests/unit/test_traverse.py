@@ -340,6 +340,10 @@ def test_a_grid_with_the_trail_model_still_stops_its_buildable_runs_at_the_wall(
     designs = study.sweep.designs()
     assert {(d["locomotion"], d["stop_at_wall"]) for d in designs} == {("trail", False), ("wires", True)}
     assert len(designs) == 4
+    # the trail model alone: no run ends at the wall
+    axes, solvers, per_run = robot_axes([("locomotion", ("trail",))], ())
+    assert not any(d["stop_at_wall"] for d in build_study(axes, "1", solvers=solvers,
+                                                          stop_at_wall=per_run).sweep.designs())
     # without the rule (a replay of every run against the wall) nothing stops
     axes, solvers, per_run = robot_axes([("locomotion", ("trail", "wires"))], (), stop_at_wall=False)
     assert all("stop_at_wall" not in d for d in build_study(axes, "1", solvers=solvers,
