@@ -602,9 +602,12 @@ def penetration_figure(result: StudyResult, design: dict[str, Any], run):
         why = (f"the run ended where the robot left the lumen, {100.0 * (stopped - 1) / max(1, path - 1):.1f}% of "
                "the way along: the least of its colons")
         pen = run.summary.to_dict().get("max_penetration_mm") or 0.0
-    elif short := run.extra.get("summary", {}).get("cecum_shortfall_mm"):  # a robot shorter than its colons
-        why = f"the robot is too short to reach the cecum: its tip stopped {short:.0f} mm short of it"
+    elif run.extra.get("summary", {}).get("too_short_for_cecum"):  # a robot shorter than its colons
+        why = (f"the robot is {_TOO_SHORT}: its tip stopped {run.extra['summary']['cecum_shortfall_mm']:.0f} mm "
+               "short of it")
         pen = design["worst_penetration_mm"]
+        k = int(run.extra["summary"]["feeder_stop_step"])  # then it holds its pose: its clearance up to there
+        s, clearance = s[:k], clearance[:k]
     else:
         why, pen = "its deepest into the wall", design["worst_penetration_mm"]
     title = (f"Worst colon ({colon_label(design['worst_colon'])}) of design #{design['design']} ({keys}):\n"
