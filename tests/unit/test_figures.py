@@ -64,12 +64,13 @@ def test_every_error_panel_has_step_numbers_tolerance_and_worst_step(colon, kind
         assert ax.get_ylim()[1] > max(data[k, j], 1.0 if kind == "global" else 0.0)
 
 
-@pytest.mark.parametrize("modules, traj", [(5, "curve"), (4, "curve"), (5, "anatomy")])
+@pytest.mark.parametrize("modules, traj", [(5, "curve"), (4, "curve"),
+                                           pytest.param(5, "anatomy", marks=pytest.mark.run)])
 def test_a_runs_error_figures_drawn_on_one_grid_are_the_figures_drawn_alone(tmp_path, modules, traj):
     """save_run_plots fills one figure with the three kinds of error in turn (each panel's legend made once and
     given the next kind's words); each PNG is, pixel for pixel, the figure error_figure draws on its own. With 4
     modules the points need 3 rows and the modules 2: two grids. The anatomical colon's run touches the wall: its
-    legends have a third entry."""
+    legends have a third entry (a whole colon and all its figures, the lumen's too: a run)."""
     from PIL import Image
 
     from bhr.output._figure import save_figure

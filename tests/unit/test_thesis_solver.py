@@ -26,6 +26,7 @@ def test_follow_thesis_equals_seed_bit_for_bit(traj):
 
 
 
+@pytest.mark.run  # twelve whole paths through the plain numpy loop (about 10 s of CPU): a run
 @settings(max_examples=12, deadline=None)  # each example runs the numpy loop over a whole path
 @given(radius=st.floats(30.0, 200.0), angle=st.floats(20.0, 330.0))
 def test_the_compiled_thesis_loop_is_the_numpy_loop(radius, angle):
