@@ -176,7 +176,7 @@ def _mask_skeleton(mask: np.ndarray, voxel: tuple[float, float, float], report: 
 
 def _voxelise(mesh: Any, voxel: float) -> tuple[np.ndarray, np.ndarray]:
     """The closed surface's inside as a boolean mask (x, y, z) of ``voxel`` mm, and the mask's origin (mm)."""
-    from vtk.util.numpy_support import vtk_to_numpy
+    from vtkmodules.util.numpy_support import vtk_to_numpy
     from vtkmodules.vtkCommonDataModel import vtkImageData
     from vtkmodules.vtkImagingStencil import vtkImageStencil, vtkPolyDataToImageStencil
 
@@ -214,7 +214,7 @@ def mask_surface(mask: np.ndarray, affine: np.ndarray, report: list[str], sigma_
     ``sigma_voxels``, padded by one empty voxel so that it is closed, decimated (vtkQuadricDecimation, volume
     preserved) to at most ``target`` triangles."""
     from scipy.ndimage import gaussian_filter
-    from vtk.util.numpy_support import numpy_to_vtk
+    from vtkmodules.util.numpy_support import numpy_to_vtk
     from vtkmodules.vtkCommonDataModel import vtkImageData
     from vtkmodules.vtkCommonMath import vtkMatrix4x4
     from vtkmodules.vtkCommonTransforms import vtkTransform

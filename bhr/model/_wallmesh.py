@@ -148,7 +148,7 @@ def sdf_values(mesh, centerline: np.ndarray, band: float, spacing: float = GRID_
     """The signed-distance grid of ``mesh`` (vtkPolyData), evaluated by vtk at the nodes within ``band`` mm of the
     ``centerline`` (K, 3); a node farther out reads as wall, (its distance to the centerline - band) + spacing."""
     from scipy.spatial import cKDTree
-    from vtk.util.numpy_support import numpy_to_vtk, vtk_to_numpy
+    from vtkmodules.util.numpy_support import numpy_to_vtk, vtk_to_numpy
     from vtkmodules.vtkCommonCore import vtkDoubleArray
     from vtkmodules.vtkFiltersCore import vtkImplicitPolyDataDistance
 

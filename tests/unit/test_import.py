@@ -2,17 +2,12 @@
 segmentation, a mesh with its centerline and sections, and one-line errors."""
 from __future__ import annotations
 
-
 import numpy as np
 import pytest
 
-pytest.importorskip("vtk")
-pytest.importorskip("kimimaro")
-nib = pytest.importorskip("nibabel")
-
-from bhr.model._generators import load_trajectory  # noqa: E402
-from bhr.model._importer import import_colon, longest_path  # noqa: E402
-from bhr.model._trajnames import real_colons  # noqa: E402
+from bhr.model._generators import load_trajectory
+from bhr.model._importer import import_colon, longest_path
+from bhr.model._trajnames import real_colons
 
 
 @pytest.mark.run
@@ -56,6 +51,8 @@ def test_a_labelled_segmentation(tmp_path):
     data = np.zeros(shape, dtype=np.uint8)
     data[dist <= 8.0] = 3
     data[:5, :5, :5] = 1  # another organ
+    import nibabel as nib
+
     f = tmp_path / "seg.nii.gz"
     nib.save(nib.Nifti1Image(data, np.diag([1.0, 1.0, 2.0, 1.0])), str(f))
     with pytest.raises(Exception, match="choose the colon's with --label"):

@@ -9,13 +9,11 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-pytest.importorskip("vtk")
-
-import bhr  # noqa: E402
-from bhr.model._generators import load_trajectory  # noqa: E402
-from bhr.model._path import Trajectory  # noqa: E402
-from bhr.model._wallmesh import GRID_MM, SdfGrid, exact_distance, sdf_values, wall_grid  # noqa: E402
-from bhr._run.clearance import clearance_report  # noqa: E402
+import bhr
+from bhr.model._generators import load_trajectory
+from bhr.model._path import Trajectory
+from bhr.model._wallmesh import GRID_MM, SdfGrid, exact_distance, sdf_values, wall_grid
+from bhr._run.clearance import clearance_report
 
 BOUND = math.sqrt(3.0) * GRID_MM  # the signed distance changes by at most 1 mm per mm
 
