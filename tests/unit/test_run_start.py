@@ -2,6 +2,7 @@
 has the tube behind the entrance, the body's frames and the physics replay's insertion of the run itself."""
 from __future__ import annotations
 
+import functools
 import json
 import warnings
 
@@ -13,6 +14,7 @@ from bhr.model._generators import load_trajectory
 from bhr._run.driver import BhrWarning, FollowResult
 
 
+@functools.cache  # one run of each path for the module: the tests read it (through run.json) and never change it
 def _run(name: str, **kw):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", BhrWarning)
