@@ -48,6 +48,48 @@ def _rotate_about(A: np.ndarray, j: int, pivot: np.ndarray, ch: float, sh: float
     A[j, 2] = z + pivot[2]
 
 
+#: Cosines further than this below the largest cannot give the least angle (see :func:`nearest_axis`).
+_COS_NEAR = 1e-9
+
+
+@njit(cache=True)
+def nearest_axis(ax: float, ay: float, az: float, g: np.ndarray) -> int:
+    """Which of the four unit axes ``g`` (4, 3) is at the least angle from the unit axis (ax, ay, az): the first
+    ``q`` of least ``acos_deg(a . g[q])``, as the thesis picks it, with fewer arc cosines.
+
+    The arc cosine falls as the cosine rises, by at least as much (its slope is at most -1), so an axis whose
+    cosine is more than :data:`_COS_NEAR` below the largest is more than 5e-8 deg further away than the axis of
+    the largest, far more than the arc cosine's rounding (1e-13 deg): it is never the least. Only the axes
+    within that of the largest are compared by their arc cosines, in order, the first of the least winning:
+    the same axis, to the bit, as taking every arc cosine (usually one axis is left and no arc cosine is taken).
+    """
+    c0 = max(-1.0, min(1.0, ax * g[0, 0] + ay * g[0, 1] + az * g[0, 2]))  # clamped as acos_deg clamps
+    c1 = max(-1.0, min(1.0, ax * g[1, 0] + ay * g[1, 1] + az * g[1, 2]))
+    c2 = max(-1.0, min(1.0, ax * g[2, 0] + ay * g[2, 1] + az * g[2, 2]))
+    c3 = max(-1.0, min(1.0, ax * g[3, 0] + ay * g[3, 1] + az * g[3, 2]))
+    top = -math.inf
+    for c in (c0, c1, c2, c3):
+        if c > top:  # a NaN is never the largest
+            top = c
+    near = 0
+    idx = 0
+    for q, c in enumerate((c0, c1, c2, c3)):
+        if top - c <= _COS_NEAR:  # false for a NaN, whose arc cosine is never the least either
+            if near == 0:
+                idx = q
+            near += 1
+    if near <= 1:
+        return idx
+    best = 1e300
+    for q, c in enumerate((c0, c1, c2, c3)):
+        if top - c <= _COS_NEAR:
+            a = acos_deg(c)
+            if a < best:
+                best = a
+                idx = q
+    return idx
+
+
 @njit(cache=True)
 def constrained_kernel(P: np.ndarray, E1: np.ndarray, E2: np.ndarray, target: np.ndarray, direction: np.ndarray,
                 has_dir: bool, length: float, tol_pos: float, tol_ori: float, alpha: float, max_iter: int,
@@ -154,12 +196,7 @@ def _constrained(P, E1, E2, target, direction, has_dir, length, tol_pos, tol_ori
             else:
                 ax, ay, az = rx / nr, ry / nr, rz / nr
                 if local_axes:
-                    best = 1e300
-                    for q in range(4):
-                        aq = acos_deg(ax * g[q, 0] + ay * g[q, 1] + az * g[q, 2])
-                        if aq < best:
-                            best = aq
-                            idx = q
+                    idx = nearest_axis(ax, ay, az, g)
                     ax, ay, az = g[idx, 0], g[idx, 1], g[idx, 2]
             if limit == LIMIT_BINARY:
                 theta = alpha if theta > alpha / 2.0 else 0.0

@@ -37,3 +37,41 @@ def test_the_compiled_thesis_loop_is_the_numpy_loop(radius, angle):
     pts = bhr.trajectory("curve", radius=radius, angle=angle).points
     run = bhr.follow(pts)
     assert np.abs(run.point_errors_mm[:, -1] - numpy_seed_follow(pts)).max() < 1e-9
+
+
+def _nearest_axis_every_acos(a: np.ndarray, g: np.ndarray) -> int:
+    """The thesis's rule as it reads: the first of the four axes of least arc cosine, every arc cosine taken."""
+    from bhr._kinematics.leader import acos_deg
+
+    best, idx = 1e300, 0
+    for q in range(4):
+        aq = acos_deg(float(a[0] * g[q, 0] + a[1] * g[q, 1] + a[2] * g[q, 2]))
+        if aq < best:
+            best, idx = aq, q
+    return idx
+
+
+_unit = st.tuples(*[st.floats(-1.0, 1.0, allow_subnormal=False)] * 3).filter(lambda v: 1e-3 < np.linalg.norm(v))
+
+
+@settings(max_examples=400, deadline=None)
+@given(a=_unit, e1=_unit, e2=_unit, tie=st.sampled_from(["none", "e2=e1", "e2=-e1", "a=e1", "a between", "a ulp off"]))
+def test_nearest_axis_is_the_every_arc_cosine_rule(a, e1, e2, tie):
+    """The thesis's axis choice with fewer arc cosines picks the same axis, ties (equal and within rounding of
+    each other), clamped cosines and an axis on the rotation axis included."""
+    from bhr.solvers._thesis import nearest_axis
+
+    u = lambda v: np.asarray(v) / np.linalg.norm(v)  # noqa: E731
+    a, e1, e2 = u(a), u(e1), u(e2)
+    if tie == "e2=e1":
+        e2 = e1.copy()
+    elif tie == "e2=-e1":
+        e2 = -e1
+    elif tie == "a=e1":
+        a = e1.copy()
+    elif tie == "a between":
+        a = u(e1 + e2) if np.linalg.norm(e1 + e2) > 1e-3 else a
+    elif tie == "a ulp off":
+        a = np.nextafter(e1, 2.0)
+    g = np.array([e1, e2, -e1, -e2])
+    assert nearest_axis(a[0], a[1], a[2], g) == _nearest_axis_every_acos(a, g)
