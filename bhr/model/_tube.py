@@ -337,14 +337,16 @@ def local_scan(C, lo, hi, px, py, pz):
     return past_the_window(C, lo, hi, best, bk, bt, px, py, pz)
 
 
-@njit(cache=True)
+# the local search is inlined into its callers (locate_kernel, the solvers): a call passing the centerline's arrays
+# costs their atomic reference counts, some 30 a point located
+@njit(cache=True, inline="always")
 def local_scan_from(C, BC, BR, lo, hi, g, px, py, pz):
     """:func:`local_scan`, the same result, its window searched from segment ``g`` (:func:`window_scan`)."""
     best, bk, bt = window_scan(C, BC, BR, lo, hi, g, px, py, pz)
     return past_the_window(C, lo, hi, best, bk, bt, px, py, pz)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def past_the_window(C, lo, hi, best, bk, bt, px, py, pz):
     """:func:`local_scan`'s search past the window's ends, from the window's nearest point (best, bk, bt)."""
     M = C.shape[0]
@@ -374,7 +376,7 @@ def past_the_window(C, lo, hi, best, bk, bt, px, py, pz):
 
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def window_scan(C, BC, BR, lo, hi, g, px, py, pz):
     """:func:`segment_scan` of segments ``lo..hi-1``, bit for bit, searched from segment ``g`` (a guess) outwards.
 
