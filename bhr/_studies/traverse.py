@@ -255,11 +255,11 @@ def _short(row: dict[str, Any]) -> float:
     return float(row.get("cecum_shortfall_mm") or 0.0) if row.get("too_short_for_cecum") else 0.0
 
 
-def _too_short(result: StudyResult, design: dict[str, Any]) -> bool:
-    """Some run of ``design`` stopped short of the cecum because the robot is shorter than its colon."""
-    keys = result.study.design_keys
+def _too_short(result: StudyResult, design: dict[str, Any] | None = None) -> bool:
+    """Some run (of ``design``, if given) stopped short of the cecum because the robot is shorter than its colon."""
+    mine = {} if design is None else {k: design[k] for k in result.study.design_keys}
     return any(_TOO_SHORT in (r.get("failure") or "") for r in result.runs
-               if all(r[k] == design[k] for k in keys))
+               if all(r[k] == v for k, v in mine.items()))
 
 
 _TOO_SHORT = "too short to reach the cecum"
@@ -692,11 +692,11 @@ def format_study(result: StudyResult, count: int = 8) -> list[str]:
     at_wall = any(by_reach(d) for d in result.designs)
     words = RANKING_REACH[:4] if at_wall else RANKING[:4]
     ended = any(d.get("stop_at_wall") for d in study.sweep.designs())  # some run ends where it leaves the lumen
-    short = any(_TOO_SHORT in (r.get("failure") or "") for r in result.runs)
     lines.append("Ranked by " + ", then ".join(words) + "; 'ranked by': what puts a design ahead of the next"
                  + ("; reach: how far along the colon (% of its length) the tip went before the robot left the lumen"
                     + (", where its run ended (--stop-at-wall)" if ended else "")
-                    + (" or, for a robot shorter than the colon, before the feeder stopped it" if short else "")
+                    + (" or, for a robot shorter than the colon, before the feeder stopped it"
+                       if _too_short(result) else "")
                     if at_wall else ""))
     head = "  ".join(f"{k:>13}" for k in keys)
     proc = any(d.get("median_procedure_time_s") is not None for d in result.designs)
