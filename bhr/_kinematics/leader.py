@@ -24,13 +24,13 @@ __all__ = ["score_step", "advance_kernel", "finish_step", "acos_deg", "angle_deg
            "score_reference", "advance_reference"]
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def acos_deg(c: float) -> float:
     """The angle in degrees whose cosine is ``c``, clamped to [-1, 1] (rounding can leave a cosine just outside)."""
     return math.degrees(math.acos(max(-1.0, min(1.0, c))))
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def angle_deg(ax: float, ay: float, az: float, d: np.ndarray) -> float:
     """The angle in degrees between the vector ``(ax, ay, az)`` and ``d`` (neither need be a unit vector)."""
     na = math.sqrt(ax * ax + ay * ay + az * az)
@@ -45,7 +45,7 @@ def tip_angle(P: np.ndarray, d: np.ndarray) -> float:
     return angle_deg(P[n, 0] - P[n - 1, 0], P[n, 1] - P[n - 1, 1], P[n, 2] - P[n - 1, 2], d)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def score_step(i: int, P: np.ndarray, path: np.ndarray, dirs: np.ndarray, f: int, tip_ori: float,
                pe: np.ndarray, oe: np.ndarray) -> None:
     """Errors of step ``i`` (0-based): points into ``pe`` (n+1), modules into ``oe`` (n)."""
@@ -68,7 +68,7 @@ def score_step(i: int, P: np.ndarray, path: np.ndarray, dirs: np.ndarray, f: int
             oe[j] = angle_deg(P[j + 1, 0] - P[j, 0], P[j + 1, 1] - P[j, 1], P[j + 1, 2] - P[j, 2], dirs[idx])
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _reset_axes(P: np.ndarray, E: np.ndarray, obx: float, oby: float, obz: float, length: float) -> None:
     dx, dy, dz = E[0, 0] - P[0, 0], E[0, 1] - P[0, 1], E[0, 2] - P[0, 2]
     nd = math.sqrt(dx * dx + dy * dy + dz * dz)
@@ -79,7 +79,7 @@ def _reset_axes(P: np.ndarray, E: np.ndarray, obx: float, oby: float, obz: float
         E[j, 2] = P[0, 2] + obz * length * j + dz
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def advance_kernel(P: np.ndarray, E1: np.ndarray, E2: np.ndarray, feed: float, length: float) -> None:
     """Advance by ``feed`` along the base module; reset the axes of modules 2..n (in place).
 
@@ -104,7 +104,7 @@ def advance_kernel(P: np.ndarray, E1: np.ndarray, E2: np.ndarray, feed: float, l
     _reset_axes(P, E2, obx, oby, obz, length)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def finish_step(i: int, P: np.ndarray, E1: np.ndarray, E2: np.ndarray, path: np.ndarray, dirs: np.ndarray, f: int,
                 feed: float, length: float, tip_ori: float, iterations: int, step_codes: np.ndarray,
                 out_points: np.ndarray, out_iters: np.ndarray, pe: np.ndarray, oe: np.ndarray,

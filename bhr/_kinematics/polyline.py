@@ -7,7 +7,7 @@ import math
 import numpy as np
 from numba import njit
 
-__all__ = ["segment_direction", "walk_kernel"]
+__all__ = ["segment_direction", "walk_kernel", "median_spacing", "unit_tangents"]
 
 
 @njit(cache=True)
@@ -19,6 +19,35 @@ def segment_direction(P: np.ndarray, k: int) -> tuple[float, float, float, float
     if n == 0.0:
         return 0.0, 0.0, 0.0, n
     return dx / n, dy / n, dz / n, n
+
+
+@njit(cache=True)
+def median_spacing(P: np.ndarray) -> float:
+    """The median length of the segments of the polyline ``P`` (M >= 2, 3): the same number, to the bit, as
+    ``np.median(np.linalg.norm(np.diff(P, axis=0), axis=1))`` (each length summed x, y, z in order; the mean of the
+    two middle ones for an even count; NaN if a length is)."""
+    seg = np.empty(P.shape[0] - 1)
+    for k in range(seg.shape[0]):
+        dx, dy, dz = P[k + 1, 0] - P[k, 0], P[k + 1, 1] - P[k, 1], P[k + 1, 2] - P[k, 2]
+        seg[k] = math.sqrt(dx * dx + dy * dy + dz * dz)
+        if seg[k] != seg[k]:
+            return np.nan  # as numpy's median of anything holding a NaN
+    return np.median(seg)
+
+
+@njit(cache=True)
+def unit_tangents(P: np.ndarray, out: np.ndarray) -> None:
+    """Into ``out`` (M, 3): the unit tangent at each point of the polyline ``P`` (M >= 2, 3), the central
+    difference inside and the end segments' directions at its ends (a zero difference stays zero)."""
+    M = P.shape[0]
+    for i in range(M):
+        a = i - 1 if i > 0 else 0
+        b = i + 1 if i < M - 1 else M - 1
+        dx, dy, dz = P[b, 0] - P[a, 0], P[b, 1] - P[a, 1], P[b, 2] - P[a, 2]
+        n = max(math.sqrt(dx * dx + dy * dy + dz * dz), 1e-300)
+        out[i, 0] = dx / n
+        out[i, 1] = dy / n
+        out[i, 2] = dz / n
 
 
 @njit(cache=True)

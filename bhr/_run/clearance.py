@@ -188,7 +188,7 @@ def module_exact_kernel(C, R, N, radius, ax, ay, az, bx, by, bz, fa, fb, ca, cb,
 
 
 @njit(cache=True)
-def clearance_chain_kernel(C, R, S, BC, BR, N, pre, w, radius, Q, E, Z, sample, pt_out, mod_out, where, found):
+def clearance_chain_kernel(C, R, S, BC, BR, N, pre, w, radius, Q, E, Z, sample, pt_out, mod_out, where, found, res):
     """Clearance of one pose: points ``Q`` (K, 3) in chain order, point ``k`` expected at trajectory index ``E[k]``.
 
     A point (or a sample along a module) expected before the path's start
@@ -202,11 +202,10 @@ def clearance_chain_kernel(C, R, S, BC, BR, N, pre, w, radius, Q, E, Z, sample, 
     tube index), each module's smallest clearance into ``mod_out`` (K-1) and
     where along the module it is into ``where`` (K-1, 3). Returns 1.0 when
     some point or sample crossed into another loop (:func:`locate_kernel`),
-    else 0.0.
+    else 0.0. ``res`` (4,) is work space (one array for a whole run: no allocation per pose).
     """
     K = Q.shape[0]
     M = C.shape[0]
-    res = np.empty(4)
     crossed = 0.0
     for k in range(K):
         if E[k] < 0.0:
@@ -310,6 +309,7 @@ def _run_kernel(C, R, S, BC, BR, N, pre, w, radius, Q, E, adv, sample, pt_out, m
     trk = np.full(K, np.nan)
     Z = np.empty(K)
     found = np.full(K, np.nan)
+    res = np.empty(4)
     for i in range(Q.shape[0]):
         for k in range(K):
             if E[i, k] >= 0.0 and not math.isnan(trk[k]):
@@ -317,7 +317,7 @@ def _run_kernel(C, R, S, BC, BR, N, pre, w, radius, Q, E, adv, sample, pt_out, m
             else:
                 Z[k] = E[i, k] + pre
         lost[i] = clearance_chain_kernel(C, R, S, BC, BR, N, pre, w, radius, Q[i], E[i], Z, sample, pt_out[i],
-                                         mod_out[i], where[i], found)
+                                         mod_out[i], where[i], found, res)
         for k in range(K):
             trk[k] = found[k] if E[i, k] >= 0.0 else np.nan
 
@@ -561,10 +561,7 @@ class ClearanceReport:
     def per_step(self) -> np.ndarray:
         """(N,) smallest clearance at each step, points and modules (NaN where nothing is scored)."""
         both = self.table if self.module_table is None else np.concatenate([self.table, self.module_table], axis=1)
-        out = np.full(both.shape[0], np.nan)
-        ok = ~np.all(np.isnan(both), axis=1)
-        out[ok] = np.nanmin(both[ok], axis=1)
-        return out
+        return row_min(both)
 
     @property
     def max_penetration_mm(self) -> float:
@@ -600,6 +597,14 @@ class ClearanceReport:
                 else float(self.index_matched_min_mm),
                 "left_lumen_step": self.left_lumen_step, "left_lumen_reason": self.left_lumen_reason or None,
                 "lumen_end": self.lumen_end, "wall": self.wall}
+
+
+def row_min(table: np.ndarray) -> np.ndarray:
+    """(N,) the least of each row of ``table`` (N, P) that is not NaN; NaN for a row of NaNs (as ``np.nanmin``,
+    without its copies and warnings)."""
+    if table.shape[1] == 0:
+        return np.full(table.shape[0], np.nan)
+    return np.fmin.reduce(table, axis=1)
 
 
 def clearance_table(point_errors: np.ndarray, offsets: np.ndarray, lumen: np.ndarray, radius: float) -> np.ndarray:
@@ -753,7 +758,36 @@ def index_matched_min(result, body: int) -> float:
         offsets += [(n + k) * f for k in range(1, body + 1)]
         errors = np.concatenate([errors, body_errors(result)], axis=1)
     im = clearance_table(errors, np.array(offsets), result.trajectory.lumen, r.robot_radius)
-    return float(np.nanmin(im)) if not np.all(np.isnan(im)) else float("nan")
+    return float(np.fmin.reduce(im, axis=None)) if im.size else float("nan")  # NaN when nothing is scored
+
+
+@njit(cache=True)
+def _tables_kernel(both, modules, moved, per, touching):
+    """One pass over a run's clearances ``both`` (N, P + Mo: points, then the last ``modules`` columns the modules):
+    each step's least clearance into ``per`` (N, NaN where nothing is scored, as ``np.nanmin``), the steps each
+    module touched the wall among the first ``moved`` into ``touching`` (Mo); returns (step, column) of the
+    run's least clearance, the first of equals in row order (as ``np.nanargmin``), or (-1, -1) when nothing is
+    scored."""
+    N, W = both.shape
+    best = np.nan
+    bs = -1
+    bp = -1
+    for i in range(N):
+        m = np.nan
+        mp = -1
+        for j in range(W):
+            v = both[i, j]
+            if v == v and (mp < 0 or v < m):
+                m = v
+                mp = j
+            if j >= W - modules and i < moved and v <= 0.0:
+                touching[j - (W - modules)] += 1.0
+        per[i] = m
+        if mp >= 0 and (bs < 0 or m < best):
+            best = m
+            bs = i
+            bp = mp
+    return bs, bp
 
 
 def tables_report(table: np.ndarray, labels: list[str], mtable: np.ndarray, mlabels: list[str], mwhere: np.ndarray,
@@ -763,16 +797,16 @@ def tables_report(table: np.ndarray, labels: list[str], mtable: np.ndarray, mlab
     report order), with the steps in contact, the contact length per module (``feed`` per step the robot moved:
     the first ``moved`` steps, every step by default) and the smallest clearance named; and the tables side by
     side (N, P + Mo). ``min_step`` is 0 when nothing is scored."""
-    with np.errstate(invalid="ignore"):
-        mtouch = mtable <= 0.0
-        touch = np.nonzero(np.any(table <= 0.0, axis=1) | np.any(mtouch, axis=1))[0]
-    contact = (np.sum(mtouch[:moved], axis=0) * feed).tolist()
     both = np.concatenate([table, mtable], axis=1)
-    if np.all(np.isnan(both)):
+    per = np.empty(both.shape[0])
+    touching = np.zeros(mtable.shape[1])
+    s, p = _tables_kernel(both, mtable.shape[1], both.shape[0] if moved is None else int(moved), per, touching)
+    with np.errstate(invalid="ignore"):
+        touch = np.nonzero(per <= 0.0)[0]  # a step where some point or module touches: its least clearance does
+    contact = (touching * feed).tolist()
+    if s < 0:
         return ClearanceReport(table, labels, float("nan"), 0, "", [], mtable, mlabels, mwhere, contact, im_min,
                                lumen_end=lumen_end), both
-    flat = int(np.nanargmin(both))
-    s, p = divmod(flat, both.shape[1])
     # name the point if a point is as low as the worst module (a module's minimum at its end is the point)
     row_pts = table[s]
     if not np.all(np.isnan(row_pts)) and np.nanmin(row_pts) <= both[s, p]:
@@ -815,10 +849,12 @@ def clearance_report(result, window_mm: float = WINDOW_MM, sample_mm: float = SA
         if tube is None or end != "closed" or window_mm != WINDOW_MM:
             tube = make_tube(tr.points, tr.lumen, tr.start_direction, window_mm, closed_end=end == "closed")
         pt, mod, where, lost = clearance_run_all(tube, r.robot_radius, Q, E, sample_mm, float(r.feed) / tube.spacing)
-    # reorder: points head 0..n then body 1..B; modules head 1..n then body 1..B
-    p_order = list(range(B, B + n + 1)) + list(range(B - 1, -1, -1))
-    m_order = list(range(B, B + n)) + list(range(B - 1, -1, -1))
-    table, mtable, mwhere = pt[:, p_order], mod[:, m_order], where[:, m_order]
+    # reorder: points head 0..n then body 1..B; modules head 1..n then body 1..B (a head alone is in that order)
+    table, mtable, mwhere = pt, mod, where
+    if B:
+        p_order = list(range(B, B + n + 1)) + list(range(B - 1, -1, -1))
+        m_order = list(range(B, B + n)) + list(range(B - 1, -1, -1))
+        table, mtable, mwhere = pt[:, p_order], mod[:, m_order], where[:, m_order]
     labels, mlabels = robot_labels(n, B)
     # once the feeder has stopped at the cecum (bhr._run.driver) the robot travels no further: no contact length
     moved = result.extra.get("summary", {}).get("feeder_stop_step")
@@ -831,7 +867,7 @@ def clearance_report(result, window_mm: float = WINDOW_MM, sample_mm: float = SA
     def worst_at(i: int) -> str:
         return "" if np.all(np.isnan(both[i])) else (labels + mlabels)[int(np.nanargmin(both[i]))]
 
-    rep.left_lumen_step, rep.left_lumen_reason = left_lumen(rep.per_step, lost, r.robot_radius, worst_at)
+    rep.left_lumen_step, rep.left_lumen_reason = left_lumen(row_min(both), lost, r.robot_radius, worst_at)
     return rep
 
 

@@ -190,6 +190,7 @@ def tables_kernel(C, R, S, BC, BR, N, pre, w, radius, T, z, back, f, m_lo, m_hi,
     mo = np.empty(1)
     wh = np.empty((1, 3))
     fd = np.empty(2)
+    res = np.empty(4)
     for m in range(m_lo, m_hi):
         i = m - m_lo
         r = back + m
@@ -204,7 +205,7 @@ def tables_kernel(C, R, S, BC, BR, N, pre, w, radius, T, z, back, f, m_lo, m_hi,
             E[1] = m + u
             Z[0] = z[r - 1] + u * (z[r] - z[r - 1])
             Z[1] = z[r] + u * (z[r + 1] - z[r])
-            clearance_chain_kernel(C, R, S, BC, BR, N, pre, w, radius, Q, E, Z, sample, pt, mo, wh, fd)
+            clearance_chain_kernel(C, R, S, BC, BR, N, pre, w, radius, Q, E, Z, sample, pt, mo, wh, fd, res)
             pc[i, k] = pt[1]
             mc[i, k] = mo[0]
             for b in range(3):
@@ -223,7 +224,7 @@ def tables_kernel(C, R, S, BC, BR, N, pre, w, radius, T, z, back, f, m_lo, m_hi,
                 E[1] = m - 1 + side + u1
                 Z[0] = z[rr] + u * (z[rr + 1] - z[rr])
                 Z[1] = z[rr] + u1 * (z[rr + 1] - z[rr])
-                clearance_chain_kernel(C, R, S, BC, BR, N, pre, w, radius, Q, E, Z, sample, pt, mo, wh, fd)
+                clearance_chain_kernel(C, R, S, BC, BR, N, pre, w, radius, Q, E, Z, sample, pt, mo, wh, fd, res)
                 if not math.isnan(mo[0]) and mo[0] < best:
                     best = mo[0]
                     bx, by, bz = wh[0, 0], wh[0, 1], wh[0, 2]

@@ -16,7 +16,7 @@ from numba import njit
 
 from bhr._settings.inputs import MAX_POINTS
 from bhr._settings.errors import BhrError
-from bhr._kinematics.polyline import segment_direction, walk_kernel
+from bhr._kinematics.polyline import median_spacing, segment_direction, unit_tangents, walk_kernel
 
 __all__ = ["Trajectory", "path_directions", "spacing", "resample_polyline", "unfollowable_bends", "BEND_WINDOWS_MM"]
 
@@ -217,10 +217,10 @@ def runs_of(labels: np.ndarray) -> tuple[tuple[str, int, int], ...]:
 
 def spacing(points: np.ndarray) -> float:
     """Median distance between consecutive points (mm); 0 for fewer than two points."""
-    pts = np.asarray(points, dtype=np.float64)
+    pts = np.ascontiguousarray(points, dtype=np.float64)
     if pts.shape[0] < 2:
         return 0.0
-    return float(np.median(np.linalg.norm(np.diff(pts, axis=0), axis=1)))
+    return float(median_spacing(pts))
 
 
 def resample_polyline(pts: np.ndarray, feed: float, values: np.ndarray | None = None
@@ -333,10 +333,8 @@ def unfollowable_bends(points: np.ndarray, lumen: np.ndarray, turn_radius: float
 
 
 def _tangents(pts: np.ndarray) -> np.ndarray:
-    t = np.empty_like(pts)
-    t[1:-1] = pts[2:] - pts[:-2]
-    t[0], t[-1] = pts[1] - pts[0], pts[-1] - pts[-2]
-    t /= np.maximum(np.linalg.norm(t, axis=1), 1e-300)[:, None]
+    t = np.empty((pts.shape[0], 3))
+    unit_tangents(np.ascontiguousarray(pts, dtype=np.float64), t)
     return t
 
 

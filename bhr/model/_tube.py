@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-from bhr._kinematics.polyline import segment_direction
+from bhr._kinematics.polyline import median_spacing, segment_direction
 from bhr._settings.errors import BhrError
 
 __all__ = ["Tube", "make_tube", "segment_scan", "nearest_kernel", "search_window", "scan_from", "local_scan",
@@ -185,8 +185,7 @@ def make_tube(path: np.ndarray, lumen: np.ndarray, start_direction=None, window_
                        "give one diameter per trajectory point")
     if not (math.isfinite(window_mm) and window_mm > 0):
         raise BhrError(f"the clearance window must be a positive number of mm, got {window_mm!r}")
-    seg = np.linalg.norm(np.diff(P, axis=0), axis=1)
-    spacing = float(np.median(seg))
+    spacing = float(median_spacing(P))
     if spacing <= 0:
         raise BhrError("the lumen's centerline has repeated points; remove the duplicates")
     w = window_mm / spacing

@@ -56,7 +56,7 @@ def pull_point(P: np.ndarray, src: int, dst: int, length: float) -> None:
         P[dst, k] = (1.0 - lam) * P[src, k] + lam * P[dst, k]
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def point_distance(P: np.ndarray, i: int, t: np.ndarray) -> float:
     dx = t[0] - P[i, 0]
     dy = t[1] - P[i, 1]
@@ -64,7 +64,7 @@ def point_distance(P: np.ndarray, i: int, t: np.ndarray) -> float:
     return math.sqrt(dx * dx + dy * dy + dz * dz)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def tip_angle_deg(P: np.ndarray, d: np.ndarray) -> float:
     """Angle in degrees between the last module and unit direction ``d``."""
     n = P.shape[0] - 1

@@ -39,7 +39,7 @@ AXES = BY_NAME["axes"].choices or ()
 _TILT = np.array(TILT_CODES, dtype=np.int64)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _rotate_about(A: np.ndarray, j: int, pivot: np.ndarray, ch: float, sh: float, ax: float, ay: float, az: float):
     """A[j] (held relative to ``pivot``) rotated, then made absolute again."""
     x, y, z = k_rotate(A[j, 0], A[j, 1], A[j, 2], ch, sh, ax, ay, az)
@@ -105,7 +105,7 @@ def constrained_kernel(P: np.ndarray, E1: np.ndarray, E2: np.ndarray, target: np
                         local_axes, warmup, codes, tilts, np.empty((n, 3)), np.empty((n, 3)), np.empty((4, 3)))
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _constrained(P, E1, E2, target, direction, has_dir, length, tol_pos, tol_ori, alpha, max_iter, limit, local_axes,
                  warmup, codes, tilts, A1, A2, g):
     """:func:`constrained_kernel` with its work arrays given: ``A1``, ``A2`` (n, 3) and ``g`` (4, 3), so that a
@@ -120,6 +120,8 @@ def _constrained(P, E1, E2, target, direction, has_dir, length, tol_pos, tol_ori
     err = point_distance(P, n, target)
     ang = tip_angle_deg(P, direction) if has_dir else 0.0
     min_iter = warmup + 1 if warmup > 0 else 0
+    h_alpha = math.radians(alpha) / 2.0
+    ch_alpha, sh_alpha = math.cos(h_alpha), math.sin(h_alpha)
     for i in range(n):
         codes[i] = 0
         tilts[i] = 0.0
@@ -190,6 +192,29 @@ def _constrained(P, E1, E2, target, direction, has_dir, length, tol_pos, tol_ori
             n1 = math.sqrt(v1x ** 2 + v1y ** 2 + v1z ** 2)
             n2 = math.sqrt(v2x * v2x + v2y * v2y + v2z * v2z)
             theta = 180.0 - acos_deg((v2x * v1x + v2y * v1y + v2z * v1z) / (n2 * n1))
+            if limit == LIMIT_BINARY:  # one of two tilts: their half-angles' cosines and sines taken once
+                if theta > alpha / 2.0:
+                    theta, ch, sh = alpha, ch_alpha, sh_alpha
+                else:
+                    theta, ch, sh = 0.0, 1.0, 0.0  # cos 0 and sin 0, exactly
+            else:
+                if theta > alpha:
+                    theta = alpha
+                h = math.radians(theta) / 2.0
+                ch, sh = math.cos(h), math.sin(h)
+            tilts[i] = theta
+            if theta == 0.0:
+                # no tilt (code 0): the rotation is the identity (its quaternion is (1, 0): cos 0 and sin 0 exactly),
+                # to the value, so the axis is not needed and only the shifts remain
+                codes[i] = 0
+                P[i + 1, 0] = -v1x + P[i, 0]
+                P[i + 1, 1] = -v1y + P[i, 1]
+                P[i + 1, 2] = -v1z + P[i, 2]
+                for j in range(i, n):
+                    for c in range(3):
+                        A1[j, c] = A1[j, c] + P[i, c]
+                        A2[j, c] = A2[j, c] + P[i, c]
+                continue
             idx = 0
             if nr == 0.0:
                 ax, ay, az = g[0, 0], g[0, 1], g[0, 2]
@@ -198,14 +223,7 @@ def _constrained(P, E1, E2, target, direction, has_dir, length, tol_pos, tol_ori
                 if local_axes:
                     idx = nearest_axis(ax, ay, az, g)
                     ax, ay, az = g[idx, 0], g[idx, 1], g[idx, 2]
-            if limit == LIMIT_BINARY:
-                theta = alpha if theta > alpha / 2.0 else 0.0
-            elif theta > alpha:
-                theta = alpha
-            tilts[i] = theta
-            codes[i] = 0 if theta == 0.0 else _TILT[idx]
-            h = math.radians(theta) / 2.0
-            ch, sh = math.cos(h), math.sin(h)
+            codes[i] = _TILT[idx]
             x, y, z = k_rotate(-v1x, -v1y, -v1z, ch, sh, ax, ay, az)
             P[i + 1, 0] = x + P[i, 0]
             P[i + 1, 1] = y + P[i, 1]

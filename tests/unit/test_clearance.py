@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import math
+import warnings
 
 import numpy as np
 import pytest
@@ -531,3 +532,28 @@ def test_a_module_entering_the_colon_gets_the_exact_smallest_clearance_of_its_pa
     assert brute.min() - 0.005 <= mod[0, 0] <= brute.min() + 1e-9           # open at the entrance, going on straight
     ref_pt, ref_mod, ref_where = clearance_run_numpy(tube, 5.0, Q, E)
     assert ref_mod[0, 0] == pytest.approx(mod[0, 0], abs=1e-9) and ref_where[0, 0] == pytest.approx(where[0, 0], abs=1e-9)
+
+
+@settings(max_examples=60, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), steps=st.integers(1, 30), points=st.integers(0, 5), modules=st.integers(0, 5),
+       nan_share=st.floats(0.0, 1.0), moved=st.one_of(st.none(), st.integers(0, 40)))
+def test_the_report_pass_equals_numpy(seed, steps, points, modules, nan_share, moved):
+    """The report's one pass over a run's clearances (each step's least, the touches, the contact per module, where
+    the least is) equals numpy's nanmin, nanargmin and counts: rows of NaN, ties, a feeder stopped early."""
+    from bhr._run.clearance import _tables_kernel, row_min
+
+    rng = np.random.default_rng(seed)
+    both = np.round(rng.normal(2.0, 3.0, size=(steps, points + modules)), 1)  # rounded: ties and exact zeros
+    both[rng.random(both.shape) < nan_share] = np.nan
+    per = np.empty(steps)
+    touching = np.zeros(modules)
+    s, p = _tables_kernel(both, modules, steps if moved is None else moved, per, touching)
+    with np.errstate(invalid="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # nanmin of a row of NaN
+        np.testing.assert_array_equal(per, np.nanmin(both, axis=1) if both.shape[1] else np.full(steps, np.nan))
+        np.testing.assert_array_equal(per, row_min(both))
+        np.testing.assert_array_equal(touching, np.sum(both[:moved, points:] <= 0.0, axis=0))
+    if np.all(np.isnan(both)):
+        assert (s, p) == (-1, -1)
+    else:
+        assert (s, p) == divmod(int(np.nanargmin(both)), both.shape[1])

@@ -94,3 +94,29 @@ def test_score_step_equals_reference_along_a_run():
         np.testing.assert_allclose(pe, rpe, atol=1e-9)
         np.testing.assert_allclose(oe, roe, atol=1e-9)
         np.testing.assert_allclose(pe, res.point_errors_mm[i], atol=1e-12)
+
+
+@settings(max_examples=60, deadline=None)
+@given(seeds, st.integers(min_value=2, max_value=40), st.floats(min_value=-3.0, max_value=3.0),
+       st.booleans(), st.booleans())
+def test_polyline_spacing_and_tangents_equal_numpy_to_the_bit(seed, m, scale, walk, repeat):
+    """The compiled median spacing and unit tangents are numpy's expressions, bit for bit (a path's spacing decides
+    its feed check, its tube and the bends it is judged over): odd and even counts, repeated points, any scale."""
+    from bhr._kinematics.polyline import median_spacing, unit_tangents
+
+    rng = np.random.default_rng(seed)
+    P = rng.normal(size=(m, 3)) * 10.0 ** scale
+    if walk:
+        P = np.cumsum(P, axis=0)
+    if repeat:
+        P[rng.integers(0, m)] = P[0]
+    assert median_spacing(P) == float(np.median(np.linalg.norm(np.diff(P, axis=0), axis=1)))
+    ref = np.empty_like(P)
+    ref[1:-1] = P[2:] - P[:-2]
+    ref[0], ref[-1] = P[1] - P[0], P[-1] - P[-2]
+    ref /= np.maximum(np.linalg.norm(ref, axis=1), 1e-300)[:, None]
+    out = np.empty((m, 3))
+    unit_tangents(P, out)
+    assert np.array_equal(out, ref)
+    P[rng.integers(0, m)] = np.nan
+    assert math.isnan(median_spacing(P))
