@@ -141,23 +141,45 @@ class _Lane:
         self.threads: set[threading.Thread] = set()
 
     def submit(self, call: Callable[[Any], Any], chunk: Any) -> Any:
-        from concurrent.futures import ProcessPoolExecutor
-
         if self.pool is not None:
             return self.pool.submit(call, chunk)
-        before, threads = set(multiprocessing.active_children()), set(threading.enumerate())
-        # SIGHUP blocked while the pool starts its processes, which inherit the mask: multiprocessing's resource
-        # tracker (it ignores SIGINT and SIGTERM itself) then outlives a closed terminal's SIGHUP to the whole
-        # group, and ends when bhr does. A SIGHUP meanwhile is delivered to bhr when it is unblocked.
-        hup = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGHUP})
+        started: list[Any] = []
+        failed: list[BaseException] = []
+        done = threading.Event()
+
+        def start() -> None:
+            # Ctrl-C, SIGTERM and SIGHUP blocked in this thread, which starts the worker, and so in the worker, the
+            # pool's threads and multiprocessing's resource tracker (it ignores SIGINT and SIGTERM itself), which
+            # inherit the mask: the tracker outlives a closed terminal's SIGHUP to the whole group and ends when
+            # bhr does; the workers ignore all three.
+            signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGHUP, signal.SIGINT, signal.SIGTERM})
+            before, threads = set(multiprocessing.active_children()), set(threading.enumerate())
+            try:
+                pool = ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn"),
+                                           initializer=_worker_start)
+                future = pool.submit(call, chunk)  # starts the worker and the pool's threads
+                started.append((pool, future, next(iter(set(multiprocessing.active_children()) - before), None),
+                                set(threading.enumerate()) - threads))
+            except BaseException as exc:
+                failed.append(exc)
+            finally:
+                done.set()
+
+        from concurrent.futures import ProcessPoolExecutor
+
+        # A signal is answered in the main thread, here, while the start goes on in its own thread to its end: the
+        # worker gets what it needs to start (cut off half way it would print a traceback, reading it from a
+        # closed pipe) and is known, to be stopped with the others. (Cut off before its thread began, within
+        # Thread.start, there is nothing to wait for.)
         try:
-            self.pool = ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn"),
-                                            initializer=_worker_start)
-            future = self.pool.submit(call, chunk)  # starts the worker and the pool's threads
+            threading.Thread(target=start, name="bhr-worker-start").start()
+            done.wait()
         finally:
-            signal.pthread_sigmask(signal.SIG_SETMASK, hup)
-        self.process = next(iter(set(multiprocessing.active_children()) - before), None)
-        self.threads = set(threading.enumerate()) - threads
+            done.wait(self.THREAD_WAIT_S)
+            if started:
+                self.pool, future, self.process, self.threads = started[0]
+        if failed:
+            raise failed[0]
         return future
 
     def stop(self, kill: bool) -> str:
@@ -187,6 +209,7 @@ def _run_local(workers: int, call: Callable[[Any], Any], todo: deque, finished: 
 
     lanes = [_Lane() for _ in range(workers)]
     idle, sent = list(lanes), {}  # type: ignore[var-annotated]
+    ended = False
     try:
         while todo or sent:
             while todo and idle:
@@ -199,6 +222,7 @@ def _run_local(workers: int, call: Callable[[Any], Any], todo: deque, finished: 
                     finished(future.result())
                 except BrokenProcessPool:  # its worker died running this chunk
                     died(chunk, lane.stop(kill=True), todo)
-    finally:  # Ctrl-C, a failure: no worker goes on working
+        ended = True
+    finally:  # Ctrl-C, a failure (even one at the start of a chunk not yet counted as sent): no worker goes on
         for lane in lanes:
-            lane.stop(kill=bool(todo or sent))
+            lane.stop(kill=not ended)
