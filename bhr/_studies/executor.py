@@ -14,6 +14,10 @@ import threading
 import time
 import traceback
 from collections import deque
+# imported with this module, not when the workers start: an import in the main thread then could take a signal
+# inside importlib's own clean-up, where its KeyboardInterrupt is printed and ignored
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass
 from typing import Any, Callable, Generic, Iterator, Sequence, TypeVar
 
@@ -165,8 +169,6 @@ class _Lane:
             finally:
                 done.set()
 
-        from concurrent.futures import ProcessPoolExecutor
-
         # A signal is answered in the main thread, here, while the start goes on in its own thread to its end: the
         # worker gets what it needs to start (cut off half way it would print a traceback, reading it from a
         # closed pipe) and is known, to be stopped with the others. (Cut off before its thread began, within
@@ -193,7 +195,14 @@ class _Lane:
         if kill:
             deadline = time.monotonic() + self.THREAD_WAIT_S
             for t in self.threads:
-                t.join(max(0.0, deadline - time.monotonic()))
+                while True:
+                    try:
+                        t.join(max(0.0, deadline - time.monotonic()))
+                        break
+                    except RuntimeError:  # one the pool's threads was starting as the worker was stopped: not yet
+                        if time.monotonic() >= deadline:  # started, it is joined once it is
+                            break
+                        time.sleep(0.01)
         if self.process is not None and kill:
             self.process.join(5)
             code = self.process.exitcode
@@ -204,8 +213,6 @@ class _Lane:
 
 def _run_local(workers: int, call: Callable[[Any], Any], todo: deque, finished: Callable[..., None],
                died: Callable[..., None]) -> None:
-    from concurrent.futures import FIRST_COMPLETED, wait
-    from concurrent.futures.process import BrokenProcessPool
 
     lanes = [_Lane() for _ in range(workers)]
     idle, sent = list(lanes), {}  # type: ignore[var-annotated]
