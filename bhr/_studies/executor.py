@@ -199,7 +199,7 @@ class _Lane:
                     try:
                         t.join(max(0.0, deadline - time.monotonic()))
                         break
-                    except RuntimeError:  # one the pool's threads was starting as the worker was stopped: not yet
+                    except RuntimeError:  # one of the pool's threads, starting as the worker was stopped: not yet
                         if time.monotonic() >= deadline:  # started, it is joined once it is
                             break
                         time.sleep(0.01)
@@ -213,7 +213,6 @@ class _Lane:
 
 def _run_local(workers: int, call: Callable[[Any], Any], todo: deque, finished: Callable[..., None],
                died: Callable[..., None]) -> None:
-
     lanes = [_Lane() for _ in range(workers)]
     idle, sent = list(lanes), {}  # type: ignore[var-annotated]
     ended = False
