@@ -708,25 +708,12 @@ def case_study(repeat: int = 1, colons: int = 100) -> BenchResult:
                         "median_procedure_time_s": d["median_procedure_time_s"], "measured": "wall seconds"})
 
 
-def first_steps(run, steps: int):
-    """``run`` (a FollowResult) cut to its first ``steps`` steps, head and body: another run (a run is frozen)."""
-    import dataclasses
-
-    from bhr._run.body import BodyRun
-
-    b = run.body
-    body = None if b is None else BodyRun(b.modules, b.points[:steps], b.codes[:steps], b.point_errors_mm[:steps],
-                                          b.orientation_errors_deg[:steps], b.scored[:steps])
-    return dataclasses.replace(run, points=run.points[:steps], codes=None if run.codes is None else run.codes[:steps],
-                               iterations=run.iterations[:steps], point_errors_mm=run.point_errors_mm[:steps],
-                               orientation_errors_deg=run.orientation_errors_deg[:steps], body=body)
-
-
-def case_physics(repeat: int = 1, steps: int = 1000) -> BenchResult:
-    """The physical robot's replay (docs/physics.md) of a 300-module (1.5 m), ``steps``-step run: the trail
-    model's whole robot (--solver lumen --locomotion trail, alpha 25 deg, 5 mm modules) along anatomical colon 1,
-    its first ``steps`` steps; CPU seconds of bhr._studies.physics.replay_physics, against the CPU seconds of the
-    run itself (bhr.follow) in the same process."""
+def case_physics(repeat: int = 1) -> BenchResult:
+    """A 1.5 m physical traversal of one colon (docs/physics.md): the robot as it can be built, 300 modules of
+    5 mm (alpha 25 deg), driven by its wires through anatomical colon 1 (``bhr.follow``, --solver lumen, its
+    default locomotion for a whole robot), then replayed against the colon's wall (bhr._studies.physics.
+    replay_physics), in the same process, compiled beforehand; CPU seconds of the two together (the least of
+    ``repeat``), against the run alone."""
     import warnings
 
     from bhr._run.driver import BhrWarning, follow
@@ -736,27 +723,35 @@ def case_physics(repeat: int = 1, steps: int = 1000) -> BenchResult:
 
     r = Robot(alpha=25.0, module_length=5.0)
     tr = load_trajectory("anatomy", feed=r.feed, seed=1)
-    t0 = time.process_time()
+    # compiled first, not timed: the same kinds of run and replay on the colon's first 60 points
+    short = type(tr)(tr.name, np.ascontiguousarray(tr.points[:60]), tr.params, tr.min_radius,
+                     None if tr.lumen is None else np.ascontiguousarray(tr.lumen[:60]), tr.source,
+                     start_direction=tr.start_direction, start_point=tr.start_point)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", BhrWarning)
-        run = follow(tr, solver="lumen", robot=r, body_modules=300, locomotion="trail")
-    tf = time.process_time() - t0
-    run = first_steps(run, min(steps, run.steps))
-    reps = []
-    times = []
-    for _ in range(repeat):
+        replay_physics(follow(short, solver="lumen", robot=r, body_modules=8))
+    best: tuple[float, float, Any] | None = None
+    for _ in range(max(1, repeat)):
         t0 = time.process_time()
-        reps.append(replay_physics(run))
-        times.append(time.process_time() - t0)
-    tb = float(np.median(times))
-    s = reps[0].summary()
-    return BenchResult("physics-300", "per replay (CPU)", tb, tf, "the run itself (bhr.follow, CPU)", tf / tb,
-                       "<= 60 s", tb <= 60.0,
-                       {"colon": 1, "modules": 300, "steps": run.steps, "equilibria": s["equilibria"],
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", BhrWarning)
+            run = follow(tr, solver="lumen", robot=r, body_modules=300)
+        t1 = time.process_time()
+        rep = replay_physics(run)
+        t2 = time.process_time()
+        if best is None or (t2 - t0) < best[0] + best[1]:
+            best = (t1 - t0, t2 - t1, rep)
+    assert best is not None
+    tf, tb, rep = best
+    s = rep.summary()
+    return BenchResult("physics-300", "per traversal (CPU)", tf + tb, tf, "the run alone (bhr.follow, CPU)",
+                       tf / (tf + tb), "<= 60 s", tf + tb <= 60.0,
+                       {"colon": 1, "modules": 300, "steps": run.steps, "locomotion": "wires", "run_s": tf,
+                        "replay_s": tb, "equilibria": s["equilibria"],
                         "equilibria_not_reached": s["equilibria_not_reached"],
                         "max_total_force_n": s["max_total_force_n"], "max_stretch_mm": s["max_stretch_mm"],
-                        "max_deviation_mm": s["max_deviation_mm"],
-                        "measured": "CPU seconds (user + sys of this process) of one whole replay, median"})
+                        "reached_cecum_step": s["reached_cecum_step"],
+                        "measured": "CPU seconds (user + sys of this process) of the run and its whole replay"})
 
 
 def _cpu(cmd: list[str], repeat: int, cwd: str, check: bool = True) -> float:
