@@ -387,10 +387,23 @@ def ranking(d: dict[str, Any]) -> tuple[str, ...]:
     return RANKING_REACH if by_reach(d) else RANKING
 
 
+#: What puts a buildable design ahead of the trail model's (:func:`_rank`'s first key).
+IDEAL_LAST = "buildable first"
+
+
+def _ideal(d: dict[str, Any]) -> bool:
+    """Design ``d`` is the trail model: ideal follow-the-leader, which cannot be built."""
+    return d.get("locomotion") == "trail"
+
+
 def _separated_by(d: dict[str, Any], other: dict[str, Any]) -> str:
-    """The first of :func:`ranking` on which design ``d`` and ``other`` differ: what puts one ahead of the other."""
+    """The first of :func:`ranking` on which design ``d`` and ``other`` differ: what puts one ahead of the other
+    (:data:`IDEAL_LAST` when one of them is the trail model and the other can be built)."""
+    a0, b0 = _rank(d), _rank(other)
+    if a0[0] != b0[0]:
+        return IDEAL_LAST
     words = ranking(d)
-    for name, a, b in zip(words, _rank(d), _rank(other)):
+    for name, a, b in zip(words, a0[1:], b0[1:]):
         if a != b:
             return name
     return words[-1]
@@ -411,15 +424,17 @@ def robot_judged(study: "Study", d: dict[str, Any]) -> str:
 
 
 def _rank(d: dict[str, Any]) -> tuple[Any, ...]:
-    inf = math.inf
+    """The sort key of design ``d``: every design that can be built ahead of the trail model's (an idealisation is
+    never the answer), then :func:`ranking`'s measures."""
+    def q(v: float | None, sign: float = 1.0) -> float:
+        """A measure to a millionth (mm or %): two designs that differ only by rounding are a tie."""
+        return math.inf if v is None else round(sign * float(v), 6) + 0.0
+
     if by_reach(d):
-        mr, wr, wp = d.get("median_reach_pct"), d.get("worst_reach_pct"), d.get("worst_penetration_mm")
-        return (-d["pass_rate"], -mr if mr is not None else inf, -wr if wr is not None else inf,
-                wp if wp is not None else inf, d["design"])
-    wc = d.get("worst_clearance_mm")
-    return (-d["pass_rate"], d["worst_penetration_mm"] if d["worst_penetration_mm"] is not None else inf,
-            -wc if wc is not None else inf,
-            d["median_penetration_mm"] if d["median_penetration_mm"] is not None else inf, d["design"])
+        return (_ideal(d), -d["pass_rate"], q(d.get("median_reach_pct"), -1.0), q(d.get("worst_reach_pct"), -1.0),
+                q(d.get("worst_penetration_mm")), d["design"])
+    return (_ideal(d), -d["pass_rate"], q(d["worst_penetration_mm"]), q(d.get("worst_clearance_mm"), -1.0),
+            q(d["median_penetration_mm"]), d["design"])
 
 
 def answer(result: StudyResult) -> tuple[dict[str, Any] | None, list[dict[str, Any]]]:
@@ -427,9 +442,12 @@ def answer(result: StudyResult) -> tuple[dict[str, Any] | None, list[dict[str, A
 
     Best: the highest pass rate, then the smallest worst penetration, then the
     largest worst clearance (the margin left to the wall on its worst colon),
-    then the smallest median penetration, then the design listed first.
+    then the smallest median penetration, then the design listed first. In a study
+    that has designs a robot can be built to, the trail model's (ideal follow-the-leader,
+    not buildable) are a reference, never the answer.
     """
-    meeting = sorted((d for d in result.designs if d["pass_rate"] >= result.study.target - 1e-12), key=_rank)
+    pool = [d for d in result.designs if not _ideal(d)] or result.designs
+    meeting = sorted((d for d in pool if d["pass_rate"] >= result.study.target - 1e-12), key=_rank)
     return (meeting[0] if meeting else None), meeting
 
 
@@ -642,6 +660,8 @@ def _decided(result: StudyResult, best: dict[str, Any]) -> str:
               "median reach": ("median_reach_pct", "{:.1f}%"), "worst reach": ("worst_reach_pct", "{:.1f}%"),
               "worst clearance": ("worst_clearance_mm", "{:.2f} mm"),
               "median penetration": ("median_penetration_mm", "{:.2f} mm")}
+    if by == IDEAL_LAST:
+        return " (the only buildable design; the trail model's rank after it)"
     if by not in fields:
         return f" (tied with design #{nxt['design']} on every measure; listed first)"
     key, form = fields[by]
@@ -654,6 +674,18 @@ def _decided(result: StudyResult, best: dict[str, Any]) -> str:
 
 
 def answer_line(result: StudyResult) -> str:
+    """The study's answer in one line (and, beside designs that can be built, the trail model's best as the
+    reference it is)."""
+    line = _answer_line(result)
+    ideal = sorted((d for d in result.designs if _ideal(d)), key=_rank)
+    if ideal and len(ideal) < len(result.designs):
+        d = ideal[0]
+        line += (f"; the trail model (ideal follow-the-leader, not buildable) at best: design #{d['design']}, "
+                 f"{d['traversed']}/{d['colons']} traversed")
+    return line
+
+
+def _answer_line(result: StudyResult) -> str:
     study = result.study
     best, meeting = answer(result)
     pct = f"{100 * study.target:g}%"
@@ -692,7 +724,10 @@ def format_study(result: StudyResult, count: int = 8) -> list[str]:
     at_wall = any(by_reach(d) for d in result.designs)
     words = RANKING_REACH[:4] if at_wall else RANKING[:4]
     ended = any(d.get("stop_at_wall") for d in study.sweep.designs())  # some run ends where it leaves the lumen
-    lines.append("Ranked by " + ", then ".join(words) + "; 'ranked by': what puts a design ahead of the next"
+    mixed = any(_ideal(d) for d in result.designs) and not all(_ideal(d) for d in result.designs)
+    lines.append("Ranked by " + ("every buildable design before the trail model's (ideal follow-the-leader, not "
+                                 "buildable), then " if mixed else "")
+                 + ", then ".join(words) + "; 'ranked by': what puts a design ahead of the next"
                  + ("; reach: how far along the colon (% of its length) the tip went before the robot left the lumen"
                     + (", where its run ended (--stop-at-wall)" if ended else "")
                     + (" or, for a robot shorter than the colon, before the feeder stopped it"

@@ -436,6 +436,74 @@ def test_a_study_stopped_where_the_robot_leaves_the_lumen_ranks_by_how_far_it_go
     assert list(np.asarray(fig.axes[0].images[0].get_array()).ravel()) == [30.0, 40.0, 40.0]
 
 
+def test_designs_apart_only_by_rounding_are_a_tie_listed_in_design_order():
+    """Whole robots of different lengths that leave the lumen at the same place read the same figures up to the
+    last bits of a float: they tie, and the design listed first is ahead, not the one rounding favoured."""
+    from bhr._studies.traverse import answer_line
+
+    r = _stopped_result({(a, s): None for a in (20, 25, 30) for s in (1, 2, 3)})
+    for k, d in enumerate(r.designs):
+        d["worst_penetration_mm"] = 9.481300000001 - k * 1e-12  # the last design "deepest" by rounding alone
+    line = answer_line(r)
+    assert "the best, design #1 (" in line and "(tied with design #2 on every measure; listed first)" in line
+
+
+def _mixed_result(trail_left, wires_left):
+    """A whole-robot study of one design under both models: the trail model's (ideal, not buildable) and the wires'
+    (the robot as it can be built), each run ending where the robot leaves the lumen (None: it stays inside) of a
+    101-step path."""
+    study = build_study([("alpha", (25,)), ("reach", ("cecum",)), ("locomotion", ("trail", "wires"))], "1-3",
+                        solvers=("lumen",))
+    runs = []
+    for loco, lefts in (("trail", trail_left), ("wires", wires_left)):
+        for s, left in zip((1, 2, 3), lefts):
+            runs.append(_run_row({"solver": "lumen", "alpha": 25, "reach": "cecum", "locomotion": loco, "seed": s,
+                                  "status": "ok", "steps": 101 if left is None else left, "path_steps": 101,
+                                  "wall_touch_steps": [] if left is None else [left],
+                                  "left_lumen_step": left, "max_penetration_mm": 0.0 if left is None else 6.0,
+                                  "min_clearance_mm": 0.5 if left is None else -6.0}, study.design_keys))
+
+    class R:
+        runner, wall_time_s, clearance_kind, failed = "in-process", 1.0, "geometric", []
+
+    r = R()
+    r.study, r.designs, r.runs = study, design_rows(study, runs, {}), runs
+    return r
+
+
+@pytest.mark.parametrize("wires_left", [(None, None, None), (11, 21, None), (11, 21, 31)])
+def test_the_trail_model_is_never_the_answer_beside_a_robot_that_can_be_built(wires_left):
+    """The trail model traverses every colon, the robot driven by its wires all, one or none of them: the buildable
+    design is ranked first and is the answer (or the best of no answer); the trail model is named after it as the
+    idealisation it is."""
+    from bhr._studies.traverse import answer_line, format_study, passrate_figure
+
+    r = _mixed_result((None, None, None), wires_left)
+    by = {d["locomotion"]: d for d in r.designs}
+    assert by["trail"]["pass_rate"] == 1.0 and by["wires"]["rank"] == 1 and by["trail"]["rank"] == 2
+    assert by["wires"]["ranked_by"] == "buildable first" == by["trail"]["ranked_by"]
+    best, meeting = answer(r)
+    assert all(d["locomotion"] == "wires" for d in meeting)
+    assert (best is None) == (by["wires"]["pass_rate"] < r.study.target)
+    line = answer_line(r)
+    assert "best: design #1 " not in line and "the best, design #1 " not in line and line.count("design #1") == 1
+    assert ("best: design #2 (" if best is not None else "the best, design #2 (") + \
+        "solver=lumen, alpha=25, reach=cecum, locomotion=wires" in line
+    assert "(the only buildable design; the trail model's rank after it)" in line
+    assert line.endswith("; the trail model (ideal follow-the-leader, not buildable) at best: design #1, 3/3 "
+                         "traversed")
+    assert any(x.startswith("Ranked by every buildable design before the trail model's (ideal follow-the-leader, "
+                            "not buildable), then pass rate") for x in format_study(r))
+    # the map (alpha across, the model down) marks the buildable design's cell as the best (dashed red)
+    ax = passrate_figure(r, "alpha", "locomotion").axes[0]
+    marked = [p for p in ax.patches if p.get_edgecolor()[:3] == pytest.approx((0xe8 / 255, 0x11 / 255, 0x2d / 255))]
+    assert len(marked) == 1 and round(marked[0].get_y() + marked[0].get_height() / 2) == 1  # row 1: wires
+    # a study of the trail model alone is answered by it, labelled (nothing buildable to prefer)
+    alone = _mixed_result((None, None, None), (None, None, None))
+    alone.designs = [d for d in alone.designs if d["locomotion"] == "trail"]
+    assert answer(alone)[0]["locomotion"] == "trail"
+
+
 def test_the_pass_rate_map_shows_ties_by_their_tie_break_and_marks_the_best():
     """Every design at 100 %: one colour of pass rate would hide the ranking; the map colours the worst clearance,
     says so, writes each cell's rank and marks the best cell."""
