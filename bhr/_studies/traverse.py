@@ -537,9 +537,14 @@ def passrate_figure(result: StudyResult, x: str | None = None, y: str | None = N
     order = ("ranked by pass rate, then median reach (how far along the colon, %, before the robot left the "
              "lumen),\nthen worst reach, then worst penetration (pen)" if at_wall else
              "ranked by pass rate, then worst penetration (pen), then worst clearance (clear)")
-    title = (f"Share of {len(study.colons)} colons traversed without wall contact; robot judged: "
-             f"{'; '.join(judged)}\n{order}; {over}\noutlined black: at least {100 * study.target:g}%; dashed red: "
-             "the best design")
+    if any(_ideal(d) for d in result.designs) and not all(_ideal(d) for d in result.designs):
+        order = order.replace("ranked by ", "ranked by every buildable design before the trail model's (ideal, not "
+                              "buildable),\nthen by ", 1)
+    import textwrap
+
+    judged_text = "\n".join(textwrap.wrap(f"robot judged: {'; '.join(judged)}", 110))
+    title = (f"Share of {len(study.colons)} colons traversed without wall contact\n{judged_text}\n{order}; {over}"
+             f"\noutlined black: at least {100 * study.target:g}%; dashed red: the best design")
     return draw(data, clear, texts, reached, top_cell, [_label(v) for v in xs] if x else [""],
                 [_label(v) for v in ys] if y else [""], axis_label(x), axis_label(y), title, tie_label=tie_label)
 

@@ -496,6 +496,8 @@ def test_the_trail_model_is_never_the_answer_beside_a_robot_that_can_be_built(wi
                             "not buildable), then pass rate") for x in format_study(r))
     # the map (alpha across, the model down) marks the buildable design's cell as the best (dashed red)
     ax = passrate_figure(r, "alpha", "locomotion").axes[0]
+    assert "ranked by every buildable design before the trail model's (ideal, not buildable),\nthen by pass rate" \
+        in ax.get_title()
     marked = [p for p in ax.patches if p.get_edgecolor()[:3] == pytest.approx((0xe8 / 255, 0x11 / 255, 0x2d / 255))]
     assert len(marked) == 1 and round(marked[0].get_y() + marked[0].get_height() / 2) == 1  # row 1: wires
     # a study of the trail model alone is answered by it, labelled (nothing buildable to prefer)
