@@ -29,6 +29,7 @@ import dataclasses
 import math
 import re
 import statistics
+import textwrap
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
@@ -540,8 +541,6 @@ def passrate_figure(result: StudyResult, x: str | None = None, y: str | None = N
     if any(_ideal(d) for d in result.designs) and not all(_ideal(d) for d in result.designs):
         order = order.replace("ranked by ", "ranked by every buildable design before the trail model's (ideal, not "
                               "buildable),\nthen by ", 1)
-    import textwrap
-
     judged_text = "\n".join(textwrap.wrap(f"robot judged: {'; '.join(judged)}", 110))
     title = (f"Share of {len(study.colons)} colons traversed without wall contact\n{judged_text}\n{order}; {over}"
              f"\noutlined black: at least {100 * study.target:g}%; dashed red: the best design")
