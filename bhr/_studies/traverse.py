@@ -397,6 +397,11 @@ def _ideal(d: dict[str, Any]) -> bool:
     return d.get("locomotion") == "trail"
 
 
+def _mixed(designs: Sequence[dict[str, Any]]) -> bool:
+    """The study has both the trail model's designs and designs a robot can be built to."""
+    return any(_ideal(d) for d in designs) and not all(_ideal(d) for d in designs)
+
+
 def _separated_by(d: dict[str, Any], other: dict[str, Any]) -> str:
     """The first of :func:`ranking` on which design ``d`` and ``other`` differ: what puts one ahead of the other
     (:data:`IDEAL_LAST` when one of them is the trail model and the other can be built)."""
@@ -538,7 +543,7 @@ def passrate_figure(result: StudyResult, x: str | None = None, y: str | None = N
     order = ("ranked by pass rate, then median reach (how far along the colon, %, before the robot left the "
              "lumen),\nthen worst reach, then worst penetration (pen)" if at_wall else
              "ranked by pass rate, then worst penetration (pen), then worst clearance (clear)")
-    if any(_ideal(d) for d in result.designs) and not all(_ideal(d) for d in result.designs):
+    if _mixed(result.designs):
         order = order.replace("ranked by ", "ranked by every buildable design before the trail model's (ideal, not "
                               "buildable),\nthen by ", 1)
     judged_text = "\n".join(textwrap.wrap(f"robot judged: {'; '.join(judged)}", 110))
@@ -681,9 +686,8 @@ def answer_line(result: StudyResult) -> str:
     """The study's answer in one line (and, beside designs that can be built, the trail model's best as the
     reference it is)."""
     line = _answer_line(result)
-    ideal = sorted((d for d in result.designs if _ideal(d)), key=_rank)
-    if ideal and len(ideal) < len(result.designs):
-        d = ideal[0]
+    if _mixed(result.designs):
+        d = min((d for d in result.designs if _ideal(d)), key=_rank)
         line += (f"; the trail model (ideal follow-the-leader, not buildable) at best: design #{d['design']}, "
                  f"{d['traversed']}/{d['colons']} traversed")
     return line
@@ -728,9 +732,8 @@ def format_study(result: StudyResult, count: int = 8) -> list[str]:
     at_wall = any(by_reach(d) for d in result.designs)
     words = RANKING_REACH[:4] if at_wall else RANKING[:4]
     ended = any(d.get("stop_at_wall") for d in study.sweep.designs())  # some run ends where it leaves the lumen
-    mixed = any(_ideal(d) for d in result.designs) and not all(_ideal(d) for d in result.designs)
     lines.append("Ranked by " + ("every buildable design before the trail model's (ideal follow-the-leader, not "
-                                 "buildable), then " if mixed else "")
+                                 "buildable), then " if _mixed(result.designs) else "")
                  + ", then ".join(words) + "; 'ranked by': what puts a design ahead of the next"
                  + ("; reach: how far along the colon (% of its length) the tip went before the robot left the lumen"
                     + (", where its run ended (--stop-at-wall)" if ended else "")
