@@ -210,6 +210,22 @@ def chain_kernel(tail, frame, L, tilts, pts):
 
 
 @njit(cache=True)
+def largest_moves(first, pts, out):
+    """out[k] (K,): the largest distance a joint moves from pose k - 1 to pose k of ``pts`` (K, J, 3), pose -1
+    being ``first`` (J, 3)."""
+    for k in range(pts.shape[0]):
+        best = 0.0
+        for i in range(pts.shape[1]):
+            d = 0.0
+            for b in range(3):
+                e = pts[k, i, b] - (first[i, b] if k == 0 else pts[k - 1, i, b])
+                d += e * e
+            if d > best:
+                best = d
+        out[k] = math.sqrt(best)
+
+
+@njit(cache=True)
 def _trail_at(T, back, q, out):
     """The trail's point at trail position q (module lengths; vertex m is row back + m)."""
     m = math.floor(q)
@@ -811,18 +827,25 @@ def plan_motion(tube: Tube, radius: float, codes: np.ndarray, T: np.ndarray, bac
         _, st, times, bt, bx, tsw, dly, end = best
         if prev is not None:
             times = times[times > 0.0]  # t = 0 is the last pose of the module length before
-        # dense: refine until no joint moves more than MAX_JOINT_STEP_MM between two written poses
+        # dense: refine until no joint moves more than MAX_JOINT_STEP_MM between two written poses (a pose is a
+        # function of its time alone: only the added times' poses are computed, then merged in time order)
+        made = poses(times, bt, bx, tsw, dly, on_old, on_new, cur, nxt, p, -1.0)
         for _ in range(24):
-            xs, pts, tl, cd, dev, _c = poses(times, bt, bx, tsw, dly, on_old, on_new, cur, nxt, p, -1.0)
-            full = pts if prev is None else np.concatenate([prev[None], pts])
+            xs, pts, tl, cd, dev, _c = made
             tt = times if prev is None else np.concatenate([[0.0], times])
-            move = np.max(np.linalg.norm(np.diff(full, axis=0), axis=2), axis=1)
+            move = np.empty(pts.shape[0])
+            largest_moves(pts[0] if prev is None else prev, pts, move)
+            move = move if prev is not None else move[1:]
             bad = np.flatnonzero(move > MAX_JOINT_STEP_MM)
             if not bad.size:
                 break
-            more = [tt[b] + (tt[b + 1] - tt[b]) * np.arange(1, n) / n
-                    for b, n in zip(bad, np.ceil(move[bad] / MAX_JOINT_STEP_MM * 1.25).astype(int) + 1)]
-            times = np.unique(np.concatenate([times] + more))
+            more = np.setdiff1d(np.concatenate([
+                tt[b] + (tt[b + 1] - tt[b]) * np.arange(1, n) / n
+                for b, n in zip(bad, np.ceil(move[bad] / MAX_JOINT_STEP_MM * 1.25).astype(int) + 1)]), times)
+            order = np.argsort(np.concatenate([times, more]), kind="stable")
+            added = poses(more, bt, bx, tsw, dly, on_old, on_new, cur, nxt, p, -1.0)
+            times = np.concatenate([times, more])[order]
+            made = tuple(np.concatenate([a, b])[order] for a, b in zip(made, added))
         else:
             i = int(np.argmax(move))
             raise BhrError(f"the robot's motion could not be sampled finely enough (module length {p}, {st.name}, "

@@ -75,14 +75,18 @@ def _depth(C, Rad, lo, hi, sx, sy, sz, radius):
 
 @njit(cache=True)
 def _energy(z, target, x_target, base, d0, A0, length, radius, ns, k_wall, k_joint, k_feed, f_feed, C, Rad,
-            seg, seg_out, grad, pen_out, Aprev, Jl, P, nrm, spos, dist):
+            seg, seg_out, grad, pen_out, Aprev, Jl, P, nrm, spos, dist, full=True):
     """Energy (N mm) of the chain at z = (feeder travel mm, u1, v1, ..., uM, vM) and its gradient (into grad).
 
     seg (M ns) holds where each wall sample's nearest centerline segment is searched from (the same for every
     evaluation of one equilibrium, so that the energy is a function of z alone), seg_out gets the one found;
     pen_out (M ns) gets each sample's penetration (mm, 0 when clear), nrm and spos (M ns, 3) its gradient with
     respect to the sample's position and the sample's position; Aprev, Jl (M, 3, 3) and P (M, 3) each joint's
-    parent frame (columns), its tilt's left Jacobian and its position."""
+    parent frame (columns), its tilt's left Jacobian and its position.
+
+    Not ``full``: a sample inside the lumen its segment ``seg`` bounds is clear (the least depth over the segments
+    is at most that one's), and its segments are not searched: seg_out and dist keep what they held for it
+    (:func:`_refind` finds its segment). The energy, its gradient and the contact arrays are the same."""
     M = target.shape[0]
     nseg = C.shape[0] - 1
     x = z[0]
@@ -113,10 +117,16 @@ def _energy(z, target, x_target, base, d0, A0, length, radius, ns, k_wall, k_joi
             f = (k + 0.5) * w
             sx, sy, sz = px + f * ax, py + f * ay, pz + f * az
             i = j * ns + k
+            spos[i, 0], spos[i, 1], spos[i, 2] = sx, sy, sz
+            if not full:
+                k0 = seg[i]
+                d2, _, t = segment_scan(C, k0, k0 + 1, sx, sy, sz)
+                if math.sqrt(d2) + radius - (Rad[k0] + t * (Rad[k0 + 1] - Rad[k0])) <= 0.0:
+                    pen_out[i] = 0.0
+                    continue
             pen, kk, t, d = _depth(C, Rad, max(seg[i] - WALL_SPAN, 0), min(seg[i] + WALL_SPAN + 1, nseg), sx, sy, sz,
                                    radius)
             seg_out[i] = kk
-            spos[i, 0], spos[i, 1], spos[i, 2] = sx, sy, sz
             dist[i] = d
             if pen > 0.0:
                 pen_out[i] = pen
@@ -185,6 +195,18 @@ def _energy(z, target, x_target, base, d0, A0, length, radius, ns, k_wall, k_joi
         gf = f_feed if e > 0 else -f_feed
     grad[0] = G0 * d0[0] + G1 * d0[1] + G2 * d0[2] + gf
     return E
+
+
+@njit(cache=True)
+def _settle(C, Rad, seg, found, spos, pen, radius):
+    """The end of an equilibrium: every sample's segment found (those :func:`_energy` left clear without searching
+    theirs: found as a full evaluation finds it) becomes where the next equilibrium searches from."""
+    nseg = C.shape[0] - 1
+    for i in range(seg.shape[0]):
+        if not pen[i] > 0.0:
+            found[i] = _depth(C, Rad, max(seg[i] - WALL_SPAN, 0), min(seg[i] + WALL_SPAN + 1, nseg), spos[i, 0],
+                              spos[i, 1], spos[i, 2], radius)[1]
+    seg[:] = found
 
 
 @njit(cache=True)
@@ -323,7 +345,7 @@ def _equilibrium(z, target, x_target, base, d0, A0, length, radius, ns, k_wall, 
     zn = np.empty(n)
     found = seg.copy()
     E = _energy(z, target, x_target, base, d0, A0, length, radius, ns, k_wall, k_joint, k_feed, f_feed, C, Rad,
-                seg, found, grad, pen, Aprev, Jl, P, nrm, spos, dist)
+                seg, found, grad, pen, Aprev, Jl, P, nrm, spos, dist, False)
     w = k_wall * length / ns
     descend = False  # the next step goes down the gradient (the Newton step just failed)
     for it in range(maxit + 1):
@@ -337,7 +359,7 @@ def _equilibrium(z, target, x_target, base, d0, A0, length, radius, ns, k_wall, 
         # the kinks' jumps grow with the wall's load: a thousandth of it, or STALL_FORCE_N, at the robot's length
         lim = (stall + 1e-3 * ftot) * span
         if g <= gtol:
-            seg[:] = found
+            _settle(C, Rad, seg, found, spos, pen, radius)
             return it
         if it == maxit:
             break
@@ -356,14 +378,14 @@ def _equilibrium(z, target, x_target, base, d0, A0, length, radius, ns, k_wall, 
         for i in range(n):
             slope += grad[i] * step[i]
         if -slope <= 1e-13 * (abs(E) + 1.0):  # the step would gain less than rounding: at the minimum
-            seg[:] = found
+            _settle(C, Rad, seg, found, spos, pen, radius)
             return it if g <= lim else maxit + 1
         t = 1.0
         while True:
             for i in range(n):
                 zn[i] = z[i] + t * step[i]
             En = _energy(zn, target, x_target, base, d0, A0, length, radius, ns, k_wall, k_joint, k_feed, f_feed,
-                         C, Rad, seg, found, grad, pen, Aprev, Jl, P, nrm, spos, dist)
+                         C, Rad, seg, found, grad, pen, Aprev, Jl, P, nrm, spos, dist, False)
             if En <= E + 1e-4 * t * slope:
                 break
             if t < 1e-12:
@@ -372,16 +394,16 @@ def _equilibrium(z, target, x_target, base, d0, A0, length, radius, ns, k_wall, 
         if not En <= E + 1e-4 * t * slope:  # no descent left along the step: the energy's kinks (a sample's
             # least depth passing from one segment to the next) hold the gradient up; z stays
             _energy(z, target, x_target, base, d0, A0, length, radius, ns, k_wall, k_joint, k_feed, f_feed, C, Rad,
-                    seg, found, grad, pen, Aprev, Jl, P, nrm, spos, dist)
+                    seg, found, grad, pen, Aprev, Jl, P, nrm, spos, dist, False)
             if g > lim and not descend:  # the Newton step failed: a step down the gradient next
                 descend = True
                 continue
-            seg[:] = found
+            _settle(C, Rad, seg, found, spos, pen, radius)
             return it + 1 if g <= lim else maxit + 1
         descend = False
         z[:] = zn
         E = En
-    seg[:] = found
+    _settle(C, Rad, seg, found, spos, pen, radius)
     return maxit + 1
 
 

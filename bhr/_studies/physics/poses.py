@@ -78,26 +78,31 @@ def code_tilts(codes: np.ndarray, alpha_rad: float) -> np.ndarray:
     return out
 
 
-def _exp(u: float, v: float) -> np.ndarray:
-    """Rotation matrix of the rotation vector (u, v, 0)."""
-    th = math.hypot(u, v)
-    if th < 1e-300:
-        return np.eye(3)
-    k = np.array([u, v, 0.0]) / th
-    K = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
-    return np.eye(3) + math.sin(th) * K + (1.0 - math.cos(th)) * (K @ K)
+def _rotations(tilts: np.ndarray) -> np.ndarray:
+    """Rotation matrices (..., 3, 3) of the rotation vectors (u, v, 0) given as ``tilts`` (..., 2)."""
+    u, v = tilts[..., 0], tilts[..., 1]
+    th = np.hypot(u, v)
+    safe = np.where(th > 0.0, th, 1.0)
+    kx, ky, s, c = u / safe, v / safe, np.sin(th), 1.0 - np.cos(th)
+    # I + sin(th) K + (1 - cos(th)) K^2, K the cross-product matrix of the unit axis (kx, ky, 0)
+    return np.stack([np.stack([1.0 - c * ky * ky, c * kx * ky, s * ky], -1),
+                     np.stack([c * kx * ky, 1.0 - c * kx * kx, -s * kx], -1),
+                     np.stack([-s * ky, s * kx, 1.0 - c], -1)], -2)
 
 
 def chain_points(base: np.ndarray, frame: np.ndarray, tilts: np.ndarray, length: float) -> np.ndarray:
-    """Joint positions (M+1, 3) of a rigid chain from ``base`` and the feeder's ``frame`` (rows x y z), each
-    module turned by its tilt (rotation vector in the axes of the module behind) and ``length`` long."""
-    A = np.asarray(frame, dtype=np.float64).T.copy()  # columns: the local axes in the world
-    M = tilts.shape[0]
-    pts = np.empty((M + 1, 3))
-    pts[0] = base
+    """Joint positions (..., M+1, 3) of rigid chains from ``base`` (..., 3) and the feeder's ``frame`` (rows x y
+    z), each module turned by its tilt (``tilts`` (..., M, 2): a rotation vector in the axes of the module behind)
+    and ``length`` long; leading axes are chains (poses) computed together."""
+    tilts = np.asarray(tilts, dtype=np.float64)
+    R = _rotations(tilts)
+    M = tilts.shape[-2]
+    A = np.broadcast_to(np.asarray(frame, dtype=np.float64).T, tilts.shape[:-2] + (3, 3))  # columns: the local axes
+    pts = np.empty(tilts.shape[:-2] + (M + 1, 3))
+    pts[..., 0, :] = base
     for j in range(M):
-        A = A @ _exp(float(tilts[j, 0]), float(tilts[j, 1]))
-        pts[j + 1] = pts[j] + length * A[:, 2]
+        A = A @ R[..., j, :, :]
+        pts[..., j + 1, :] = pts[..., j, :] + length * A[..., :, 2]
     return pts
 
 
@@ -125,7 +130,7 @@ def poses_from_run(result, step_s: float = 1.0) -> Poses:
     depth = (rear - E) @ d0
     frame = base_frame(d0)
     tilts = code_tilts(codes, math.radians(r.alpha))
-    pts = np.stack([chain_points(E + depth[i] * d0, frame, tilts[i], r.module_length) for i in range(N)])
+    pts = chain_points(E + depth[:, None] * d0, frame, tilts, r.module_length)
     return Poses(np.arange(N) * float(step_s), depth, pts, tilts, codes, np.arange(1, N + 1), E, frame,
                  float(r.module_length))
 
