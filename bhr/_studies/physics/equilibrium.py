@@ -86,7 +86,7 @@ def _energy(z, target, x_target, base, d0, A0, length, radius, ns, k_wall, k_joi
 
     Not ``full``: a sample inside the lumen its segment ``seg`` bounds is clear (the least depth over the segments
     is at most that one's), and its segments are not searched: seg_out and dist keep what they held for it
-    (:func:`_refind` finds its segment). The energy, its gradient and the contact arrays are the same."""
+    (:func:`_settle` finds its segment). The energy, its gradient and the contact arrays are the same."""
     M = target.shape[0]
     nseg = C.shape[0] - 1
     x = z[0]

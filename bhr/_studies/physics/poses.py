@@ -95,13 +95,12 @@ def chain_points(base: np.ndarray, frame: np.ndarray, tilts: np.ndarray, length:
     z), each module turned by its tilt (``tilts`` (..., M, 2): a rotation vector in the axes of the module behind)
     and ``length`` long; leading axes are chains (poses) computed together."""
     tilts = np.asarray(tilts, dtype=np.float64)
-    R = _rotations(tilts)
     M = tilts.shape[-2]
     A = np.broadcast_to(np.asarray(frame, dtype=np.float64).T, tilts.shape[:-2] + (3, 3))  # columns: the local axes
     pts = np.empty(tilts.shape[:-2] + (M + 1, 3))
     pts[..., 0, :] = base
     for j in range(M):
-        A = A @ R[..., j, :, :]
+        A = A @ _rotations(tilts[..., j, :])
         pts[..., j + 1, :] = pts[..., j, :] + length * A[..., :, 2]
     return pts
 
