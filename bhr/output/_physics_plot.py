@@ -13,8 +13,8 @@ __all__ = ["force_figure"]
 
 
 def force_figure(rep: Any, title: str = "", lines_n: tuple[float, float] = (9.8, 14.1)) -> Any:
-    """Total normal force on the wall and the largest module's per step, the stretch below, with the 9.8 N and
-    14.1 N lines and the traversal threshold."""
+    """Total normal force on the wall and the largest module's per step (crosses: poses whose equilibrium was not
+    reached, whose force is an estimate), the stretch below, with the 9.8 N and 14.1 N lines."""
     from matplotlib.figure import Figure
 
     fig = Figure(figsize=(9, 6.5), constrained_layout=True)
@@ -23,6 +23,10 @@ def force_figure(rep: Any, title: str = "", lines_n: tuple[float, float] = (9.8,
     a1.plot(x, rep.total_force_n, color="tab:red", lw=1.2, label="total normal force on the wall")
     a1.plot(x, rep.module_force_n.max(axis=1, initial=0.0), color="tab:purple", lw=0.9,
             label="largest single module's force")
+    missed = None if rep.equilibrium_reached is None else ~np.asarray(rep.equilibrium_reached, dtype=bool)
+    if missed is not None and missed.any():
+        a1.plot(x[missed], rep.total_force_n[missed], ls="none", marker="x", ms=4, color="0.3",
+                label=f"equilibrium not reached: an estimate ({int(missed.sum())} of {missed.size} poses)")
     a1.axhline(lines_n[0], color="tab:orange", ls="--", lw=1,
                label="9.8 N: colonoscopists push harder 5 % of the time (Appleyard 2000)")
     a1.axhline(lines_n[1], color="black", ls="--", lw=1, label="14.1 N: porcine colon perforates (Johnson 2019)")
@@ -40,7 +44,9 @@ def force_figure(rep: Any, title: str = "", lines_n: tuple[float, float] = (9.8,
     a2.set_xlabel("pose (the run's steps in order)")
     a2.grid(alpha=0.3)
     a2.legend(loc="upper left", fontsize=8)
-    a2.set_title(f"peak {s['max_total_force_n']:.2f} N (module {s['max_module_force_n']:.2f} N, "
+    a2.set_title(f"peak {s['max_total_force_n']:.2f} N"
+                 + ("" if s["max_total_force_equilibrium_reached"] else ", an estimate")
+                 + f" (module {s['max_module_force_n']:.2f} N, "
                  f"{s['max_pressure_kpa']:.0f} kPa), stretch {s['max_stretch_mm']:.1f} mm; "
                  + (f"tip at the cecum from step {reached}" if reached else "tip never at the cecum"),
                  fontsize=9)

@@ -36,3 +36,32 @@ def test_a_peak_load_from_an_equilibrium_not_reached_is_said_to_be_one(reached, 
                         0.0, 9.8, np.array(reached))
     assert rep.summary()["max_total_force_equilibrium_reached"] is flagged
     assert [s["equilibrium_reached"] for s in rep.to_dict()["steps"]] == list(reached)
+
+
+@pytest.mark.parametrize("reached", [(True, True, True), (True, False, True), (False, True, False), None])
+def test_force_png_marks_the_poses_whose_force_is_an_estimate(reached):
+    """force.png: a cross on the wall's load at every pose whose equilibrium was not reached, counted in the legend;
+    the peak in the subtitle says when it is one of them."""
+    import numpy as np
+
+    from bhr._studies.physics.replay import PhysicsReplay
+    from bhr.output._physics_plot import force_figure
+
+    P, M = 3, 2
+    total = np.array([1.0, 5.0, 2.0])
+    rep = PhysicsReplay(np.array([1, 2, 3]), np.arange(3.0), total, np.ones((P, M)), np.zeros(P), np.zeros(P),
+                        np.full((P, 3), np.nan), np.zeros(P), np.zeros(P), np.zeros(P), np.zeros((P, M + 1, 3)),
+                        [np.zeros((0, 3))] * P, None, None, np.ones(P, dtype=np.int64), {}, 0.0, 9.8,
+                        None if reached is None else np.array(reached))
+    top, bottom = force_figure(rep).axes
+    crosses = [ln for ln in top.get_lines() if ln.get_marker() == "x"]
+    missed = [] if reached is None else [i for i, ok in enumerate(reached) if not ok]
+    if missed:
+        (ln,) = crosses
+        assert list(ln.get_xdata()) == [i + 1 for i in missed] and list(ln.get_ydata()) == list(total[missed])
+        assert ln.get_label() == f"equilibrium not reached: an estimate ({len(missed)} of {P} poses)"
+        assert ln.get_label() in [t.get_text() for t in top.get_legend().get_texts()]
+    else:
+        assert not crosses
+    estimate = reached is not None and not reached[1]  # the peak is pose 2's
+    assert ("5.00 N, an estimate (" in bottom.get_title()) is estimate and "peak 5.00 N" in bottom.get_title()
