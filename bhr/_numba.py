@@ -1,4 +1,7 @@
-"""Where numba caches bhr's ``njit(cache=True)`` kernels; set before numba is imported (``import bhr`` runs it).
+"""Where numba caches bhr's ``njit(cache=True)`` kernels; set before bhr's kernels are defined (``import bhr`` runs
+it). numba reads its environment when it is imported: when something imported numba before bhr (a notebook, another
+library), numba is asked to read it again (``numba.config.reload_config``), else bhr's kernels would be cached
+beside their sources, where a stale callee is never noticed.
 
 numba checks only a kernel's own source file before loading it from its cache, so a kernel calling a kernel of
 another module would keep a stale callee after that module changed (numba issue #1833). So, unless the user set a
@@ -10,6 +13,7 @@ from __future__ import annotations
 
 import hashlib
 import os
+import sys
 import tempfile
 from pathlib import Path
 
@@ -41,6 +45,8 @@ def configure_cache() -> str:
             if _usable(base / key):
                 os.environ["NUMBA_CACHE_DIR"] = str(base / key)
                 break
+    if "numba" in sys.modules:  # imported before bhr, with the environment of then
+        sys.modules["numba"].config.reload_config()
     return os.environ.get("NUMBA_CACHE_DIR", "")
 
 

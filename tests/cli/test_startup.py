@@ -171,3 +171,27 @@ def test_trajectory_names_known_without_the_generators_are_the_generators():
 
     assert tuple(GENERATORS) == GENERATOR_NAMES
     assert builtin_names() == light_names()
+
+
+def test_bhr_imported_after_numba_still_caches_in_its_own_folder(tmp_path):
+    """A notebook or another library may import numba first: numba then read its environment before bhr set
+    NUMBA_CACHE_DIR. bhr's kernels are still cached in bhr's folder (keyed by its sources), never beside them."""
+    from pathlib import Path
+
+    import bhr
+    from bhr import _numba
+
+    env = {k: v for k, v in os.environ.items() if k != "NUMBA_CACHE_DIR"}
+    env["XDG_CACHE_HOME"] = str(tmp_path / "cache")
+    folder = tmp_path / "cache" / "bhr" / "numba" / _numba.source_key()
+    tree = Path(bhr.__file__).parent
+    before = set(tree.rglob("*.nbi"))
+    script = ("import numba\nimport numpy as np\nimport bhr\nfrom bhr._run.motion import largest_moves\n"
+              "out = np.empty(1)\nlargest_moves(np.zeros((1, 3)), np.ones((1, 1, 3)), out)\n"
+              "print(numba.config.CACHE_DIR, out[0])\n")
+    out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, env=env, cwd=tmp_path,
+                         check=True)
+    cache_dir, move = out.stdout.split()
+    assert cache_dir == str(folder) and float(move) == pytest.approx(3 ** 0.5)
+    assert list(folder.rglob("motion.largest_moves-*.nbi"))
+    assert set(tree.rglob("*.nbi")) == before
