@@ -49,8 +49,9 @@ def run_dask(client: Any, call: Callable[[Any], Any], todo: deque, finished: Cal
             for future in [f for f in sent if f.done()]:
                 try:
                     finished(future.result(timeout=DASK_WAIT_S))
-                except TimeoutError:
-                    continue  # a result lost with its worker is computed again
+                except TimeoutError:  # a result lost with its worker is computed again; a silent scheduler stops
+                    alone = _check_cluster(client, address, alone)  # the study (else this done future is asked
+                    continue  # for its result again and again, each time for DASK_WAIT_S)
                 except Exception as exc:
                     if type(exc).__name__ != "KilledWorker":
                         raise _dask_failure(address, exc) from None
