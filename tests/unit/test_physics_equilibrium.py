@@ -87,3 +87,45 @@ def test_the_largest_joint_move_is_numpys_to_the_bit(seed, k, j):
     full = np.concatenate([first[None], pts])
     assert np.array_equal(out, np.max(np.linalg.norm(np.diff(full, axis=0), axis=2), axis=1))
     assert math.isfinite(out.sum())
+
+
+def _winding_tube(rng: np.random.Generator, length_mm: float) -> tuple[np.ndarray, np.ndarray]:
+    """A centerline in the x-z plane whose heading swings ±(0.2-0.6 rad per 10 mm) over a wavelength of
+    80-300 mm, 1 mm apart; its radius 8-14 mm, narrowing by up to 5 mm in the middle."""
+    s = np.arange(0.0, length_mm, 1.0)
+    rate, wave = rng.uniform(0.2, 0.6), rng.uniform(80.0, 300.0)
+    th = rate * np.sin(2.0 * np.pi * s / wave) * wave / (2.0 * np.pi) / 10.0
+    d = np.stack([np.sin(th), np.zeros_like(s), np.cos(th)], axis=1)
+    C = np.ascontiguousarray(np.cumsum(d, axis=0) - d[0])
+    return C, rng.uniform(8.0, 14.0) - rng.uniform(0.0, 5.0) * np.sin(np.pi * s / length_mm) ** 2
+
+
+def test_a_long_robot_pressed_into_the_wall_reaches_its_equilibrium_when_one_code_changes():
+    # 100 modules of 5 mm, half their joints coded ±25° at random, in a winding tube they press into from the
+    # start. From each one's equilibrium, one joint's code changes and the feeder moves 2 mm on, as from one step
+    # of a run to the next. The chain's Newton step went uphill in its rounding there and the solver stopped at
+    # once (none of these reached, from the same starts); damped, the step goes down
+    M, ns, L, radius, a = 100, 5, 5.0, 5.0, math.radians(25.0)
+    base, d0, A0 = np.zeros(3), np.array([0.0, 0.0, 1.0]), np.eye(3)
+    loaded = reached = 0
+    for seed in range(12):
+        rng = np.random.default_rng(seed)
+        C, R = _winding_tube(rng, M * L + 200.0)
+        target = rng.choice([-a, 0.0, a], (M, 2), p=[0.15, 0.7, 0.15]) * (rng.uniform(size=(M, 1)) < 0.5)
+        z = np.concatenate([[rng.uniform(0.0, 40.0)], np.zeros(2 * M)])
+        pts = np.empty((M + 1, 3))
+        eq.chain_points(z, base, d0, A0, L, pts)
+        seg = np.zeros(M * ns, dtype=np.int64)
+        eq.global_seg(C, np.repeat(0.5 * (pts[:-1] + pts[1:]), ns, axis=0), seg)
+        pen = np.zeros(M * ns)
+        walls = (0.1192, 67.4, 20.0, 43.1, C, R)
+        x = z[0]
+        if eq._equilibrium(z, target, x, base, d0, A0, L, radius, ns, *walls, seg, pen, eq.GTOL, eq.STALL_FORCE_N,
+                           M * L, eq.MAX_ITERATIONS) > eq.MAX_ITERATIONS or not pen.any():
+            continue
+        loaded += 1
+        target[rng.integers(0, M)] = rng.choice([-a, 0.0, a], 2)
+        it = eq._equilibrium(z, target, x + 2.0, base, d0, A0, L, radius, ns, *walls, seg, pen, eq.GTOL,
+                             eq.STALL_FORCE_N, M * L, eq.MAX_ITERATIONS)
+        reached += it <= eq.MAX_ITERATIONS
+    assert loaded >= 8 and reached == loaded, (reached, loaded)

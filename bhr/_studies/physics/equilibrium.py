@@ -331,7 +331,8 @@ def _equilibrium(z, target, x_target, base, d0, A0, length, radius, ns, k_wall, 
                  seg, pen, gtol, stall, span, maxit):
     """Gauss-Newton (:func:`_newton_step`) with a backtracking line search on the energy, from z (changed in
     place) until no generalized force is above gtol, or the Newton step would lower the energy by less than its
-    rounding; the iterations taken (maxit + 1: not converged)."""
+    rounding (a step that would not, while the joints are still pushed, is damped until it does); the iterations
+    taken (maxit + 1: not converged)."""
     M = target.shape[0]
     n = z.shape[0]
     grad = np.zeros(n)
@@ -377,6 +378,19 @@ def _equilibrium(z, target, x_target, base, d0, A0, length, radius, ns, k_wall, 
         slope = 0.0
         for i in range(n):
             slope += grad[i] * step[i]
+        damp = 1.0
+        while not descend and -slope <= 1e-13 * (abs(E) + 1.0) and g > lim and damp < 1e12:
+            # a Newton step uphill, or huge, while the joints are still pushed: the long chain's recursion lost
+            # itself in rounding. The joints' stiffness scaled up (Levenberg-Marquardt) shortens it towards
+            # the gradient's direction until it goes down
+            damp *= 10.0
+            _newton_step(z, grad, x_target, d0, ns, k_wall, length, k_joint * damp, k_feed, f_feed, pen, Aprev, Jl,
+                         P, nrm, spos, dist, step)
+            slope = 0.0
+            for i in range(n):
+                if not math.isfinite(step[i]):
+                    step[i] = 0.0
+                slope += grad[i] * step[i]
         if -slope <= 1e-13 * (abs(E) + 1.0):  # the step would gain less than rounding: at the minimum
             _settle(C, Rad, seg, found, spos, pen, radius)
             return it if g <= lim else maxit + 1
