@@ -19,7 +19,8 @@ from bhr.cli._options import force_option, physics_options
 @force_option
 @physics_options
 @guarded
-def physics(run, out_dir, force, wall_stiffness, wire_force, feeder_force, substeps, max_wall_force):
+def physics(run, out_dir, force, wall_stiffness, wire_force, feeder_force, substeps, max_wall_force, passive_modules,
+            passive_rigidity):
     """Replay a run (run.json of `bhr follow`, with a lumen and codes) as the physical robot: rigid modules, joints
     held by their wires, the feeder pushing the rear end, against the colon's wall.
 
@@ -41,11 +42,13 @@ def physics(run, out_dir, force, wall_stiffness, wire_force, feeder_force, subst
 
         raise BhrError(f"{run}: no such run file{latest_note(Path(run))}; give the run.json that 'bhr follow' wrote")
     given = {"wall_stiffness": wall_stiffness, "wire_force": wire_force, "feeder_force": feeder_force,
-             "substeps": substeps, "max_wall_force": max_wall_force}
+             "substeps": substeps, "max_wall_force": max_wall_force, "passive_modules": passive_modules,
+             "passive_rigidity": passive_rigidity}
     opts = {k: BY_NAME[k].default if v is None else BY_NAME[k].check(v, "physics") for k, v in given.items()}
     for k, v in opts.items():
-        if not v > 0:
-            raise BhrError(f"--{k.replace('_', '-')} must be greater than 0, got {v:g}")
+        if not (v >= 0 if BY_NAME[k].nonneg else v > 0):
+            raise BhrError(f"--{k.replace('_', '-')} must be {'0 or more' if BY_NAME[k].nonneg else 'greater than 0'}, "
+                           f"got {v:g}")
     from bhr._studies.physics import check_wall_stiffness
 
     check_wall_stiffness(float(opts["wall_stiffness"]))
@@ -87,5 +90,13 @@ def physics(run, out_dir, force, wall_stiffness, wire_force, feeder_force, subst
     click.echo(f"wall load at most {s['max_total_force_n']:.2f} N{where} (one module {s['max_module_force_n']:.2f} N, "
                f"{s['max_pressure_kpa']:.0f} kPa); wall pushed out {s['max_stretch_mm']:.1f} mm at most; {reach}; "
                f"{'traversed' if s['traversed'] else 'not traversed'} (at most {s['max_wall_force_n']:g} N); "
-               f"{s['cpu_s']:.1f} s CPU")
+               f"{s['cpu_s']:.1f} s CPU{_idealised(s)}")
     click.echo(f"Wrote {out / 'physics.json'}, {out / 'force.png'}, {out / 'view.html'}")
+
+
+def _idealised(summary: dict) -> str:
+    """What the line must say when the replay did not follow every pose of the robot's motion."""
+    if summary.get("poses_replayed") != "steps":
+        return ""
+    return (f"; replayed from the run's {summary['steps']} steps, its joints moved linearly from code to code between "
+            "them (an idealisation: the motion its wires make between steps is not in the run file)")

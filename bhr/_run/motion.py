@@ -697,7 +697,7 @@ class MotionRun:
     """
 
     t_s: np.ndarray  # (P,) s from the start
-    insertion_mm: np.ndarray  # (P,)
+    insertion_mm: np.ndarray  # (P,) the tip's insertion along the trail (the rear end is M module lengths behind)
     points_mm: np.ndarray  # (P, M+1, 3) tail first (empty when not kept)
     tilts_rad: np.ndarray  # (P, M, 2)
     codes: np.ndarray  # (P, M) tail first
@@ -715,10 +715,13 @@ class MotionRun:
     crossed: bool = False
     wall: str = "tube"  # what the poses were scored against (bhr.model._wallmesh.wall_grid)
     stopped_step: int | None = None  # 0-based step where ``stop_below`` ended the motion (the tables end there)
+    module_length_mm: float = 0.0
 
     def npz(self) -> dict[str, np.ndarray]:
-        """The arrays of ``poses.npz``."""
-        return {"t_s": self.t_s, "insertion_mm": self.insertion_mm, "points_mm": self.points_mm,
+        """The arrays of ``poses.npz`` (docs/physics.md): ``insertion_mm`` is the feeder's, how far the rear end
+        is past the entrance along the insertion axis (the feeder stops before the rear end enters)."""
+        rear = self.insertion_mm - self.tilts_rad.shape[1] * self.module_length_mm
+        return {"t_s": self.t_s, "insertion_mm": rear, "points_mm": self.points_mm,
                 "tilts_rad": self.tilts_rad, "codes": self.codes, "step": self.step}
 
 
@@ -905,7 +908,7 @@ def plan_motion(tube: Tube, radius: float, codes: np.ndarray, T: np.ndarray, bac
     low = np.concatenate([ch[6] for ch in chunks])
     step = np.concatenate([ch[7] for ch in chunks]) + 1
     return MotionRun(t, x, pts, tl, cd, step, chosen, low, dev, np.array(ends, dtype=np.int64), sj, scd, pc, mc, mw,
-                     kept, bool(crossed > 0.0), stopped_step=stopped)
+                     kept, bool(crossed > 0.0), stopped_step=stopped, module_length_mm=float(L))
 
 
 def mesh_joint_clearance(grid, radius: float, pts: np.ndarray, xs: np.ndarray, L: float) -> np.ndarray:

@@ -228,6 +228,12 @@ OPTIONS: tuple[Option, ...] = (
            "joint would move over 2 mm)", 1, maximum=1000, positive=True),
     Option("max_wall_force", "physics", float, "Largest total wall force a traversal may put on the colon, N "
            "(9.8: exceeded 5 % of the time in colonoscopy)", 9.8, "N", 10000.0, positive=True, metavar="N"),
+    Option("passive_modules", "physics", int, "Rear modules without wires: a passive body, held towards straight by "
+           "its bending stiffness (--passive-rigidity), pushed by the feeder; the run's codes drive the modules in "
+           "front of it", 0, maximum=10000, nonneg=True, metavar="N", shown="0: every module driven"),
+    Option("passive_rigidity", "physics", float, "Flexural rigidity of the passive body, N mm^2 (a colonoscope's "
+           "insertion tube: 26,000-40,000 at room temperature, 17 % less at 37 C)", 27390.0, "N mm^2", 1e9,
+           positive=True, metavar="N_MM2"),
 )
 
 BY_NAME: dict[str, Option] = {o.name: o for o in OPTIONS}

@@ -22,7 +22,7 @@ from bhr._settings.options import BY_NAME, by_group, did_you_mean, excerpt
 from bhr.model._robot import Robot
 
 __all__ = ["TRAJ_KEYS", "ROBOT_KEYS", "CONSTRAINT_KEYS", "SOLVER_KEYS", "SIM_KEYS", "INT_KEYS", "NUMBER_KEYS",
-           "BOOL_KEYS", "sim_options", "check_body", "suggest",
+           "BOOL_KEYS", "REPLAY_KEYS", "sim_options", "check_body", "suggest",
            "check_value", "summary_row", "finished_cell", "verdict_cell", "verdict_class",
            "make_robot", "warm_up", "csv_text", "csv_safe", "FORMULA_STARTS"]
 
@@ -38,6 +38,9 @@ CONSTRAINT_KEYS: dict[str, tuple[str, ...] | None] = {o.name: o.choices for o in
 SOLVER_KEYS: dict[str, tuple[str, ...]] = {o.name: o.solvers or () for o in by_group("solver")}
 #: How each run is simulated (``body_modules``): keyword arguments of :func:`bhr._run.driver.follow`.
 SIM_KEYS = tuple(o.name for o in by_group("run"))
+#: Options of the physical replay a study may vary (``passive_modules``, ``wire_force``, ...): keyword arguments of
+#: :func:`bhr._studies.physics.replay_physics`, for a study judged by it (``--max-wall-force``, its own option).
+REPLAY_KEYS = tuple(o.name for o in by_group("physics") if o.name != "max_wall_force")
 _GROUPS = ("robot", "trajectory", "constraint", "solver", "run")
 #: Keys whose value is a whole number.
 INT_KEYS = frozenset(o.name for o in by_group(*_GROUPS) if o.kind is int)

@@ -44,7 +44,7 @@ from bhr.output._htmlpage import PAGE_END, escape, figure, fmt, page_head, table
 from bhr._settings.names import axis_label
 from bhr._settings.names import label as _label
 from bhr._settings.options import LIMITS, excerpt, solver_options_for
-from bhr._studies.study import (ROBOT_KEYS, TRAJ_KEYS, csv_text, finished_cell, make_robot, sim_options,
+from bhr._studies.study import (REPLAY_KEYS, ROBOT_KEYS, TRAJ_KEYS, csv_text, finished_cell, make_robot, sim_options,
                                verdict_cell)
 from bhr._studies.sweep import PHYSICS_KEYS, Sweep, SweepResult, build_sweep, run_sweep
 from bhr._studies.sweep import heatmap_axes as _sweep_axes
@@ -209,7 +209,12 @@ def build_study(grid: Sequence[tuple[str, tuple[Any, ...]]], colons: Sequence[in
             raise BhrError(f"{where}: {excerpt(key)} is a trajectory option; a study varies the robot and its solver "
                            "(e.g. alpha, module_length, modules, robot_radius)")
     sweep = build_sweep(("anatomy",), tuple(solvers), (*grid, ("seed", seeds)), title=title, where=where,
-                        robot_file=robot_file)
+                        robot_file=robot_file, replay=max_wall_force is not None)
+    body = dict(grid).get("body_modules")
+    for passive in dict(grid).get("passive_modules", ()):
+        if body is not None and passive >= min(body):
+            raise BhrError(f"{where}: passive_modules = {passive} leaves no driven module of a {min(body)}-module "
+                           f"robot; give fewer passive modules than body_modules")
     sweep = dataclasses.replace(sweep, extra=LUMEN_KEYS, stop_at_wall=bool(stop_at_wall))
     if max_wall_force is not None:
         v = float(max_wall_force)
@@ -844,7 +849,8 @@ def write_study(result: StudyResult, out_dir: Any, *, plot: bool = True,
                 names.append(worst)
                 from bhr._studies.physics.extras import worst_colon_extras  # the 3-D view; with physics, the replay
 
-                names += worst_colon_extras(worst_run, stage, physics)
+                options = {**dict(study.sweep.physics), **{k: focus[k] for k in REPLAY_KEYS if k in focus}}
+                names += worst_colon_extras(worst_run, stage, physics, options)
         write_json(stage / "study.json", {
             "title": study.sweep.title,
             "bhr_version": __version__,

@@ -151,3 +151,29 @@ def test_max_wall_force_judges_each_colon_by_the_physical_replay(tmp_path):
     peak = float(row["peak_wall_force_n"])
     assert peak >= 0.0
     assert (row["traversed"] == "True") == (row["physical_cecum_step"] != "" and peak <= 9.8)
+
+
+def test_a_study_judged_by_the_replay_varies_the_passive_body(tmp_path):
+    """--grid passive_modules=... (and the replay's other options) are design axes of a study judged by the physical
+    replay: each design's runs are replayed with its value, and a colonoscope-stiff passive body pressed along the
+    same colon loads its wall more than wires that give way; without --max-wall-force, or in a sweep, they are
+    refused in one line, as is a passive body with no driven module left."""
+    import csv
+
+    proc = bhr_in_process("traverse", "--grid", "alpha=25", "--grid", "module_length=5", "--grid", "body_modules=30",
+                          "--grid", "passive_modules=0,25", "--colons", "1", "--solver", "lumen", "--max-wall-force",
+                          "9.8", "--no-plots", "--jobs", "1", "--out", "tv", cwd=tmp_path, timeout=1800)
+    assert proc.returncode == 0, proc.stderr
+    rows = list(csv.DictReader((tmp_path / "tv" / "runs.csv").open()))
+    assert [r["passive_modules"] for r in rows] == ["0", "25"]
+    assert float(rows[1]["peak_wall_force_n"]) > float(rows[0]["peak_wall_force_n"])
+    for args, words in [
+            (("traverse", "--grid", "body_modules=30", "--grid", "passive_modules=10", "--colons", "1", "--solver",
+              "lumen", "--no-plots"), "--max-wall-force"),
+            (("traverse", "--grid", "body_modules=30", "--grid", "passive_modules=30", "--colons", "1", "--solver",
+              "lumen", "--max-wall-force", "9.8", "--no-plots"), "no driven module"),
+            (("sweep", "--traj", "anatomy", "--solver", "lumen", "--grid", "passive_modules=1,2", "--no-plots"),
+             "physical replay")]:
+        p = bhr_in_process(*args, cwd=tmp_path)
+        assert p.returncode != 0 and words in p.stderr and len(p.stderr.strip().splitlines()) == 1, p.stderr
+        assert "Traceback" not in p.stderr

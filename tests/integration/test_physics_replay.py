@@ -176,6 +176,7 @@ def test_a_wires_run_is_replayed_from_its_poses_and_its_view_marks_each_steps_co
     r = run_bhr("physics", "w/run.json", "--out", "phys")
     assert r.returncode == 0 and "Traceback" not in r.stderr, r.stderr
     rep = replay_physics(run, str(tmp_path / "w" / "run.json"))
+    assert rep.deviation_mm[0] < 1e-9 and rep.total_force_n[0] == 0.0  # straight in the feeder: where it was written
     by_step = rep.contacts_by_step(run.steps)
     assert len(by_step) == run.steps
     for s in (int(k) for k in np.unique(rep.step)):
@@ -190,6 +191,8 @@ def test_a_wires_run_is_replayed_from_its_poses_and_its_view_marks_each_steps_co
     (("run.json", "--out", "p", "--wall-stiffness", "0"), "wall"),
     (("run.json", "--out", "p", "--wall-stiffness", "50"), "wall"),
     (("run.json", "--out", "p", "--substeps", "x"), "substeps"),
+    (("run.json", "--out", "p", "--passive-modules", "-1"), "passive-modules"),
+    (("run.json", "--out", "p", "--passive-rigidity", "0"), "passive-rigidity"),
 ])
 def test_physics_bad_input_one_line(run_bhr, tmp_path, args, word):
     (tmp_path / "run.json").write_text("{}")
@@ -263,3 +266,17 @@ def test_a_runs_poses_file_is_read_as_the_contract_says(tmp_path):
     with pytest.raises(BhrError) as e:
         load_poses(tmp_path / "run.json", run)
     assert "codes has shape" in str(e.value) and "\n" not in str(e.value)
+
+
+def test_a_wires_run_in_memory_is_replayed_at_every_pose_and_a_replay_of_steps_says_so():
+    # a study replays its runs in memory: a run moved by its wires is replayed at every pose it went through, as
+    # its poses.npz would be (it was replayed from its steps, the joints moved linearly between them)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", BhrWarning)
+        tr = bhr.trajectory("anatomy", seed=1)
+        wires = bhr.follow(tr, solver="lumen", alpha=25, module_length=5, body_modules=20)
+        trail = bhr.follow(tr, solver="lumen", alpha=25, module_length=5, body_modules=20, locomotion="trail")
+    rep = replay_physics(wires)
+    assert rep.settings["poses_replayed"] == "every pose" and rep.total_force_n.size == wires.motion.t_s.size
+    assert np.array_equal(rep.step, wires.motion.step) and rep.deviation_mm[0] < 1e-9
+    assert replay_physics(trail).settings["poses_replayed"] == "steps"

@@ -257,6 +257,11 @@ def test_poses_file_keeps_its_contract(wires_run, tmp_path):
     assert d["t_s"].shape == (P,) and d["insertion_mm"].shape == (P,) and d["step"].shape == (P,)
     assert d["points_mm"].shape == (P, M + 1, 3) and d["tilts_rad"].shape == (P, M, 2)
     assert d["codes"].shape == (P, M) and set(np.unique(d["codes"])) <= set(VALID_CODES)
+    # the feeder's insertion, as the replay reads it (docs/physics.md): how far the rear end is past the entrance
+    # along the start direction (it was the tip's, M module lengths ahead, and the replay put the robot there)
+    d0 = np.asarray(wires_run.trajectory.start_direction, dtype=np.float64)
+    rear = (d["points_mm"][:, 0] - np.asarray(wires_run.trajectory.points[0])) @ (d0 / np.linalg.norm(d0))
+    assert np.abs(d["insertion_mm"] - rear).max() < 1e-9 and d["insertion_mm"].max() <= 1e-9
 
 
 @pytest.mark.run

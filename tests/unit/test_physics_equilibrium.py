@@ -40,7 +40,7 @@ def test_the_energy_that_skips_clear_samples_is_the_full_energy_and_finds_the_sa
     seg = np.zeros(M * ns, dtype=np.int64)
     eq.global_seg(C, np.repeat(0.5 * (pts[:-1] + pts[1:]), ns, axis=0), seg)
     z = z + rng.normal(0.0, 0.05, z.size) + np.concatenate([[shift], np.zeros(2 * M)])  # the robot moved on
-    args = (z, target, 0.0, base, d0, A0, L, radius, ns, 0.12, 67.0, 20.0, 43.0, C, R, seg)
+    args = (z, target, 0.0, base, d0, A0, L, radius, ns, 0.12, np.full(M, 67.0), 20.0, 43.0, C, R, seg)
     out = {}
     for full in (True, False):
         ws = (np.zeros(z.size), np.zeros(M * ns), np.empty((M, 3, 3)), np.empty((M, 3, 3)), np.empty((M, 3)),
@@ -118,7 +118,7 @@ def test_a_long_robot_pressed_into_the_wall_reaches_its_equilibrium_when_one_cod
         seg = np.zeros(M * ns, dtype=np.int64)
         eq.global_seg(C, np.repeat(0.5 * (pts[:-1] + pts[1:]), ns, axis=0), seg)
         pen = np.zeros(M * ns)
-        walls = (0.1192, 67.4, 20.0, 43.1, C, R)
+        walls = (0.1192, np.full(M, 67.4), 20.0, 43.1, C, R)
         x = z[0]
         if eq._equilibrium(z, target, x, base, d0, A0, L, radius, ns, *walls, seg, pen, eq.GTOL, eq.STALL_FORCE_N,
                            M * L, eq.MAX_ITERATIONS) > eq.MAX_ITERATIONS or not pen.any():

@@ -78,8 +78,9 @@ def _energy(z, target, x_target, base, d0, A0, length, radius, ns, k_wall, k_joi
             seg, seg_out, grad, pen_out, Aprev, Jl, P, nrm, spos, dist, full=True):
     """Energy (N mm) of the chain at z = (feeder travel mm, u1, v1, ..., uM, vM) and its gradient (into grad).
 
-    seg (M ns) holds where each wall sample's nearest centerline segment is searched from (the same for every
-    evaluation of one equilibrium, so that the energy is a function of z alone), seg_out gets the one found;
+    k_joint (M) is each joint's stiffness (N mm/rad) towards its target tilt. seg (M ns) holds where each wall
+    sample's nearest centerline segment is searched from (the same for every evaluation of one equilibrium, so
+    that the energy is a function of z alone), seg_out gets the one found;
     pen_out (M ns) gets each sample's penetration (mm, 0 when clear), nrm and spos (M ns, 3) its gradient with
     respect to the sample's position and the sample's position; Aprev, Jl (M, 3, 3) and P (M, 3) each joint's
     parent frame (columns), its tilt's left Jacobian and its position.
@@ -182,9 +183,9 @@ def _energy(z, target, x_target, base, d0, A0, length, radius, ns, k_wall, k_joi
         J = Jl[j]
         du = z[1 + 2 * j] - target[j, 0]
         dv = z[2 + 2 * j] - target[j, 1]
-        E += 0.5 * k_joint * (du * du + dv * dv)
-        grad[1 + 2 * j] = J[0, 0] * l0 + J[1, 0] * l1 + J[2, 0] * l2 + k_joint * du
-        grad[2 + 2 * j] = J[0, 1] * l0 + J[1, 1] * l1 + J[2, 1] * l2 + k_joint * dv
+        E += 0.5 * k_joint[j] * (du * du + dv * dv)
+        grad[1 + 2 * j] = J[0, 0] * l0 + J[1, 0] * l1 + J[2, 0] * l2 + k_joint[j] * du
+        grad[2 + 2 * j] = J[0, 1] * l0 + J[1, 1] * l1 + J[2, 1] * l2 + k_joint[j] * dv
     e = x - x_target
     lim = f_feed / k_feed
     if abs(e) <= lim:
@@ -278,7 +279,7 @@ def _newton_step(z, grad, x_target, d0, ns, k_wall, length, k_joint, k_feed, f_f
                 acc = 0.0
                 for r in range(6):
                     acc += S[j, r, q] * U[j, r, t]
-                Dm[j, q, t] = acc + (k_joint if q == t else 0.0)
+                Dm[j, q, t] = acc + (k_joint[j] if q == t else 0.0)
             acc = 0.0
             for r in range(6):
                 acc += S[j, r, q] * pA[b, r]
@@ -286,8 +287,8 @@ def _newton_step(z, grad, x_target, d0, ns, k_wall, length, k_joint, k_feed, f_f
         # the parent's articulated inertia and bias
         det = Dm[j, 0, 0] * Dm[j, 1, 1] - Dm[j, 0, 1] * Dm[j, 1, 0]
         if not det > 1e-300:  # rounding lost the articulated inertia's definiteness: the wires' stiffness alone
-            Dm[j, 0, 0], Dm[j, 0, 1], Dm[j, 1, 0], Dm[j, 1, 1] = k_joint, 0.0, 0.0, k_joint
-            det = k_joint * k_joint
+            Dm[j, 0, 0], Dm[j, 0, 1], Dm[j, 1, 0], Dm[j, 1, 1] = k_joint[j], 0.0, 0.0, k_joint[j]
+            det = k_joint[j] * k_joint[j]
         i00, i01, i10, i11 = Dm[j, 1, 1] / det, -Dm[j, 0, 1] / det, -Dm[j, 1, 0] / det, Dm[j, 0, 0] / det
         du0 = i00 * u[j, 0] + i01 * u[j, 1]
         du1 = i10 * u[j, 0] + i11 * u[j, 1]
@@ -374,7 +375,7 @@ def _equilibrium(z, target, x_target, base, d0, A0, length, radius, ns, k_wall, 
         if not finite:  # the Newton step just failed, or its recursion lost itself in rounding: a step down the
             # gradient, scaled by the wires' stiffness
             for i in range(n):
-                step[i] = -grad[i] / (k_feed if i == 0 else k_joint)
+                step[i] = -grad[i] / (k_feed if i == 0 else k_joint[(i - 1) // 2])
         slope = 0.0
         for i in range(n):
             slope += grad[i] * step[i]
@@ -458,7 +459,7 @@ class Problem:
     radius: float
     ns: int
     k_wall: float
-    k_joint: float
+    k_joint: np.ndarray  # (M,) each joint's stiffness, N mm/rad (the wires', or a passive body's)
     k_feed: float
     f_feed: float
     C: np.ndarray

@@ -7,8 +7,9 @@ from typing import Any
 __all__ = ["worst_colon_extras"]
 
 
-def worst_colon_extras(run, folder: Any, physics: bool = False) -> list[str]:
-    """The worst colon's 3-D view and, with ``physics``, its replay (:func:`replay_physics`); the file names."""
+def worst_colon_extras(run, folder: Any, physics: bool = False, options: dict[str, Any] | None = None) -> list[str]:
+    """The worst colon's 3-D view and, with ``physics``, its replay (:func:`replay_physics` with ``options``, the
+    study's and its design's); the file names."""
     from bhr.output._atomic import write_json
     from bhr.output._physics_plot import force_figure
     from bhr.output._figure import save_figure
@@ -19,7 +20,7 @@ def worst_colon_extras(run, folder: Any, physics: bool = False) -> list[str]:
     names = []
     contacts = None
     if physics and run.codes is not None and run.trajectory.lumen is not None:
-        rep = replay_physics(run)
+        rep = replay_physics(run, **(options or {}))
         write_json(folder / "worst-colon-physics.json", rep.to_dict())
         save_figure(force_figure(rep, f"{run.trajectory.name}: the worst colon, the physical robot"),
                     folder / "worst-colon-force.png")

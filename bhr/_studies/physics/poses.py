@@ -20,7 +20,8 @@ import numpy as np
 
 from bhr._settings.errors import BhrError
 
-__all__ = ["Poses", "POSE_KEYS", "poses_from_run", "load_poses", "code_tilts", "chain_points", "start_direction"]
+__all__ = ["Poses", "POSE_KEYS", "poses_from_run", "poses_from_motion", "load_poses", "code_tilts", "chain_points",
+           "start_direction"]
 
 POSE_KEYS = ("t_s", "insertion_mm", "points_mm", "tilts_rad", "codes", "step")
 
@@ -38,6 +39,9 @@ class Poses:
     entrance: np.ndarray  # (3,) the lumen's entrance (the trajectory's first point)
     frame: np.ndarray  # (3, 3) the feeder's frame, rows x y z; z is the insertion axis
     module_length: float
+    #: True: every pose the wires moved the robot through (poses.npz, or the run's motion in memory); False: the
+    #: run's written steps only (:func:`poses_from_run`), between which the replay moves the joints linearly
+    every_pose: bool = True
 
     @property
     def modules(self) -> int:
@@ -131,7 +135,24 @@ def poses_from_run(result, step_s: float = 1.0) -> Poses:
     tilts = code_tilts(codes, math.radians(r.alpha))
     pts = chain_points(E + depth[:, None] * d0, frame, tilts, r.module_length)
     return Poses(np.arange(N) * float(step_s), depth, pts, tilts, codes, np.arange(1, N + 1), E, frame,
-                 float(r.module_length))
+                 float(r.module_length), every_pose=False)
+
+
+def poses_from_motion(result) -> Poses | None:
+    """The poses a run moved by its wires went through, from its motion in memory (what ``poses.npz`` holds), or
+    None when the run kept none (a run of other locomotion, or too many poses to keep)."""
+    from bhr.model._robot import base_frame
+
+    mo = getattr(result, "motion", None)
+    if mo is None or not mo.kept or not len(mo.t_s):
+        return None
+    arrays = mo.npz()
+    a = {k: np.asarray(arrays[k], dtype=np.int64 if k in ("codes", "step") else np.float64) for k in POSE_KEYS}
+    p = Poses(a["t_s"], a["insertion_mm"], a["points_mm"], a["tilts_rad"], a["codes"], a["step"],
+              np.asarray(result.trajectory.points[0], dtype=np.float64), base_frame(start_direction(result)),
+              float(result.robot.module_length))
+    p.check()
+    return p
 
 
 def load_poses(run_path: str | Path, result) -> Poses | None:

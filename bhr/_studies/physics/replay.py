@@ -5,7 +5,8 @@ a millimetre a step: its inertial forces (a gram accelerated by mm/s^2: micronew
 and the wires', so at every pose the robot is in equilibrium (quasi-static). The replay finds that equilibrium:
 the pose of the rigid chain (every module its full length, always) that minimises
 
-    sum over joints   1/2 k_joint |tilt - target|^2             (the wires, bhr._studies.physics.joints)
+    sum over joints   1/2 k_joint |tilt - target|^2             (the wires, bhr._studies.physics.joints; a passive
+                                                                  body's joints: its bending stiffness, target 0)
   + sum over the axis 1/2 k_wall pen^2 ds                        (the wall, bhr._studies.physics.wall)
   + the feeder's                                                 (a stiff slide at the run's insertion that pushes
                                                                   with at most its force limit)
@@ -26,7 +27,7 @@ import numpy as np
 
 from bhr._settings.errors import BhrError
 from bhr._studies.physics.equilibrium import MAX_ITERATIONS, global_seg, chain_points, Problem, solve_pose
-from bhr._studies.physics.joints import WIRE_FORCE_N, joint_stiffness
+from bhr._studies.physics.joints import PASSIVE_RIGIDITY_NMM2, WIRE_FORCE_N, joint_stiffness, passive_stiffness
 from bhr._studies.physics.poses import Poses
 from bhr._studies.physics.wall import (
     DEFAULT_MAX_WALL_FORCE,
@@ -170,36 +171,50 @@ def replay_poses(poses: Poses, result, *, wall_stiffness: float = DEFAULT_WALL_S
                  wire_force: float = WIRE_FORCE_N, feeder_force: float = DEFAULT_FEEDER_FORCE, substeps: int = 1,
                  sample_mm: float = SAMPLE_MM, max_wall_force: float = DEFAULT_MAX_WALL_FORCE,
                  progress: Callable[[int, int], None] | None = None,
-                 max_iterations: int = MAX_ITERATIONS) -> PhysicsReplay:
+                 max_iterations: int = MAX_ITERATIONS, passive_modules: int = 0,
+                 passive_rigidity: float = PASSIVE_RIGIDITY_NMM2) -> PhysicsReplay:
     """Replay ``poses`` (the contract's arrays) against ``result``'s colon wall; see the module docstring.
 
     ``substeps``: equilibria solved from one pose to the next, the targets moved linearly between them (the
     last is the pose's own); ``max_iterations``: of one equilibrium, past which its best pose is kept and counted
-    as not reached. Reported at every pose: the wall's load (total and per module), the largest
+    as not reached; ``passive_modules``: the robot's rear modules that have no wires, a passive body held towards
+    straight by its flexural rigidity ``passive_rigidity`` (N mm^2; a colonoscope's by default,
+    :data:`bhr._studies.physics.joints.PASSIVE_RIGIDITY_NMM2`); the run's codes drive the modules in front of it.
+    Reported at every pose: the wall's load (total and per module), the largest
     pressure, the stretch, the feeder's push, the deviation from the written joint positions.
     """
     check_wall_stiffness(float(wall_stiffness))
     for name, v in (("--wire-force", wire_force), ("--feeder-force", feeder_force), ("--substeps", substeps),
                     ("max_iterations", max_iterations),
-                    ("sample spacing", sample_mm), ("--max-wall-force", max_wall_force)):
+                    ("sample spacing", sample_mm), ("--max-wall-force", max_wall_force),
+                    ("--passive-rigidity", passive_rigidity)):
         if not (math.isfinite(float(v)) and float(v) > 0):
             raise BhrError(f"{name} must be a positive number, got {v!r}")
     poses.check()
+    P, M = poses.tilts_rad.shape[:2]
+    passive = int(passive_modules)
+    if passive != passive_modules or not 0 <= passive < M:
+        raise BhrError(f"--passive-modules must be a whole number from 0 to {M - 1} (the run's robot has {M} modules "
+                       f"and its head is driven), got {passive_modules!r}")
     r = result.robot
     tube = wall_tube(result, float(-np.min(poses.insertion_mm)) + 2 * float(r.module_length))
     L = float(poses.module_length)
     if abs(L - float(r.module_length)) > 1e-9:
         raise BhrError(f"the poses' modules are {L:g} mm and the run's {r.module_length:g} mm; give the run's poses")
-    P, M = poses.tilts_rad.shape[:2]
     ns = samples_per_module(L, sample_mm)
     robot_radius = float(r.robot_radius)
     k_joint = joint_stiffness(r, wire_force)
+    k_passive = passive_stiffness(L, passive_rigidity)
+    stiffness = np.full(M, k_joint)
+    stiffness[:passive] = k_passive  # joint j tilts module j + 1 (1 = the rear) on the one behind, or the feeder
+    tilts = np.array(poses.tilts_rad, dtype=np.float64)
+    tilts[:, :passive] = 0.0  # a passive body's joints are pulled towards straight, whatever the run's codes
     pb = Problem(np.ascontiguousarray(poses.entrance, dtype=np.float64), np.ascontiguousarray(poses.frame[2]),
-                  np.ascontiguousarray(poses.frame.T), L, robot_radius, ns, float(wall_stiffness), k_joint,
+                  np.ascontiguousarray(poses.frame.T), L, robot_radius, ns, float(wall_stiffness), stiffness,
                   FEEDER_STIFFNESS, float(feeder_force), np.ascontiguousarray(tube.points),
                   np.ascontiguousarray(tube.radius), np.zeros(M * ns, dtype=np.int64), np.zeros(M * ns))
     t0 = time.process_time()
-    z = np.concatenate([[poses.insertion_mm[0]], poses.tilts_rad[0].reshape(-1)])
+    z = np.concatenate([[poses.insertion_mm[0]], tilts[0].reshape(-1)])
     pts = np.empty((M + 1, 3))
     chain_points(z, pb.base, pb.d0, pb.A0, L, pts)
     mids = 0.5 * (pts[:-1] + pts[1:])
@@ -220,10 +235,10 @@ def replay_poses(poses: Poses, result, *, wall_stiffness: float = DEFAULT_WALL_S
     contacts: list[np.ndarray] = []
     w = L / ns
     offs = (np.arange(ns) + 0.5) * w
-    prev_t, prev_x = poses.tilts_rad[0], float(poses.insertion_mm[0])
+    prev_t, prev_x = tilts[0], float(poses.insertion_mm[0])
     zt_prev, x_prev = prev_t, prev_x
     for i in range(P):
-        tgt, xt = poses.tilts_rad[i], float(poses.insertion_mm[i])
+        tgt, xt = tilts[i], float(poses.insertion_mm[i])
         n_it = 0
         # the wires switch gradually: from one written pose to the next no joint moves more than MAX_MOVE_MM
         move = float(np.linalg.norm(poses.points_mm[i] - poses.points_mm[max(i - 1, 0)], axis=1).max())
@@ -273,11 +288,14 @@ def replay_poses(poses: Poses, result, *, wall_stiffness: float = DEFAULT_WALL_S
     reached = _reached(tube, out_pts[:, -1])
     model = _reached(tube, poses.points_mm[:, -1])
     settings = {"wall_stiffness_n_per_mm2": float(wall_stiffness), "joint_stiffness_nmm_per_rad": k_joint,
+                "passive_modules": passive, "passive_rigidity_nmm2": float(passive_rigidity),
+                "passive_joint_stiffness_nmm_per_rad": k_passive if passive else None,
                 "wire_force_n": float(wire_force), "feeder_force_limit_n": float(feeder_force),
                 "feeder_stiffness_n_per_mm": FEEDER_STIFFNESS, "substeps": int(substeps),
                 "wall_samples_per_module": ns, "modules": M, "module_length_mm": L, "robot_radius_mm": robot_radius,
                 "solver_iterations": int(iters.sum()), "equilibria": int(subs.sum()),
                 "max_move_mm": MAX_MOVE_MM, "equilibria_not_reached": unconverged,
+                "poses_replayed": "every pose" if poses.every_pose else "steps",
                 "largest_force_left_n_mm": worst_left}
     return PhysicsReplay(np.asarray(poses.step), np.asarray(poses.t_s), total, per_module, pressure, stretch, where,
                          feed_f, lag, dev, out_pts, contacts,
@@ -287,11 +305,14 @@ def replay_poses(poses: Poses, result, *, wall_stiffness: float = DEFAULT_WALL_S
 
 
 def replay_physics(result, run_path: Any = None, **options: Any) -> PhysicsReplay:
-    """Replay a run: its ``poses.npz`` when ``run_path``'s folder has one, else its written steps
-    (:func:`bhr._studies.physics.poses.poses_from_run`)."""
-    from bhr._studies.physics.poses import load_poses, poses_from_run
+    """Replay a run: every pose its wires moved it through (its ``poses.npz`` when ``run_path``'s folder has one,
+    else its motion in memory), else its written steps (:func:`bhr._studies.physics.poses.poses_from_run`: between
+    them the joints move linearly, an idealisation the summary names)."""
+    from bhr._studies.physics.poses import load_poses, poses_from_motion, poses_from_run
 
     poses = load_poses(run_path, result) if run_path is not None else None
+    if poses is None:
+        poses = poses_from_motion(result)
     if poses is None:
         poses = poses_from_run(result)
     return replay_poses(poses, result, **options)

@@ -20,6 +20,7 @@ from bhr._studies.study import (
     BOOL_KEYS,
     CONSTRAINT_KEYS,
     NUMBER_KEYS,
+    REPLAY_KEYS,
     ROBOT_KEYS,
     TRAJ_KEYS,
     check_body,
@@ -36,7 +37,9 @@ __all__ = ["RUN_CHOICE_KEYS", "TRAJ_CHOICE_KEYS", "GRID_KEYS", "parse_values", "
 RUN_CHOICE_KEYS = frozenset(o.name for o in by_group("run") if o.choices is not None)
 #: Trajectory options taken by name (``lumen_end = closed, open``), for every trajectory with a lumen.
 TRAJ_CHOICE_KEYS = frozenset(o.name for o in by_group("trajectory") if o.choices is not None)
-GRID_KEYS = frozenset(NUMBER_KEYS | set(CONSTRAINT_KEYS) | RUN_CHOICE_KEYS | TRAJ_CHOICE_KEYS | BOOL_KEYS)
+#: A study judged by the physical replay (``bhr traverse --max-wall-force``) may also vary the replay's options.
+GRID_KEYS = frozenset(NUMBER_KEYS | set(CONSTRAINT_KEYS) | RUN_CHOICE_KEYS | TRAJ_CHOICE_KEYS | BOOL_KEYS
+                      | set(REPLAY_KEYS))
 _TOP_KEYS = ("title", "description", "traj", "solver", "robot", "grid")
 _NUM = re.compile(r"^[+-]?(\d+(\.\d*)?|\.\d+)([eE][+-]?\d+)?$", re.ASCII)
 _MAX_DESIGNS = LIMITS["study_runs"]
@@ -236,7 +239,8 @@ def load_sweep(path: str | os.PathLike[str]) -> Sweep:
 
 def build_sweep(trajs: Sequence[str], solvers: Sequence[str], grid: Iterable[tuple[str, tuple[Any, ...]]], *,
                 title: str = "bhr sweep", description: str = "", base_dir: str | os.PathLike[str] = ".",
-                where: str = "sweep", robot_file: str | os.PathLike[str] | None = None) -> Sweep:
+                where: str = "sweep", robot_file: str | os.PathLike[str] | None = None, replay: bool = False
+                ) -> Sweep:
     """Check and assemble a sweep: known solvers, trajectories that load, values each design can start from.
 
     Each trajectory is loaded and each robot built once per grid value (the
@@ -244,10 +248,16 @@ def build_sweep(trajs: Sequence[str], solvers: Sequence[str], grid: Iterable[tup
     is reported before anything runs. What only fails in combination (a
     curve too short for some feed) is recorded per design when it runs.
     ``robot_file``: a robot description (TOML) every design starts from; its
-    grid values replace the file's.
+    grid values replace the file's. ``replay``: the runs are replayed as the physical robot, whose options
+    (:data:`bhr._studies.study.REPLAY_KEYS`) the grid may then vary.
     """
     grid = tuple(grid)
     keys = [k for k, _ in grid]
+    for k in keys:
+        if k in REPLAY_KEYS and not replay:
+            raise BhrError(f"{where}: {k} is an option of the physical replay, which this {where} does not run; "
+                           "vary it in a study judged by it: bhr traverse --max-wall-force N --grid "
+                           f"{k}=...")
     dup = {k for k in keys if keys.count(k) > 1}
     if dup:
         raise BhrError(f"{where}: grid key {excerpt(sorted(dup)[0])} is given twice; give each key once")
