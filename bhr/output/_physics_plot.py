@@ -48,6 +48,8 @@ def force_figure(rep: Any, title: str = "", lines_n: tuple[float, float] = (9.8,
                  + ("" if s["max_total_force_equilibrium_reached"] else ", an estimate")
                  + f" (module {s['max_module_force_n']:.2f} N, "
                  f"{s['max_pressure_kpa']:.0f} kPa), stretch {s['max_stretch_mm']:.1f} mm; "
-                 + (f"tip at the cecum from step {reached}" if reached else "tip never at the cecum"),
+                 + (f"tip at the cecum from step {reached}" if reached else "tip never at the cecum")
+                 + ("\nreplayed from the run's steps, joints moved linearly between codes: an idealisation"
+                    if s.get("poses_replayed") == "steps" else ""),
                  fontsize=9)
     return fig

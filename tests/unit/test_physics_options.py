@@ -65,3 +65,21 @@ def test_force_png_marks_the_poses_whose_force_is_an_estimate(reached):
         assert not crosses
     estimate = reached is not None and not reached[1]  # the peak is pose 2's
     assert ("5.00 N, an estimate (" in bottom.get_title()) is estimate and "peak 5.00 N" in bottom.get_title()
+
+
+@pytest.mark.parametrize("replayed", ["steps", "every pose"])
+def test_force_png_says_when_the_motion_between_steps_is_idealised(replayed):
+    """A replay of a run's steps (its joints moved linearly between codes, not as its wires move them) is labelled
+    an idealisation on force.png, as on the printed line; a replay of every pose is not."""
+    import numpy as np
+
+    from bhr._studies.physics.replay import PhysicsReplay
+    from bhr.output._physics_plot import force_figure
+
+    P, M = 2, 2
+    rep = PhysicsReplay(np.array([1, 2]), np.arange(2.0), np.array([0.5, 1.0]), np.ones((P, M)), np.zeros(P),
+                        np.zeros(P), np.full((P, 3), np.nan), np.zeros(P), np.zeros(P), np.zeros(P),
+                        np.zeros((P, M + 1, 3)), [np.zeros((0, 3))] * P, None, None, np.ones(P, dtype=np.int64),
+                        {"poses_replayed": replayed}, 0.0, 9.8)
+    _, bottom = force_figure(rep).axes
+    assert ("an idealisation" in bottom.get_title()) is (replayed == "steps")
