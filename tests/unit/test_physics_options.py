@@ -83,3 +83,20 @@ def test_force_png_says_when_the_motion_between_steps_is_idealised(replayed):
                         {"poses_replayed": replayed}, 0.0, 9.8)
     _, bottom = force_figure(rep).axes
     assert ("an idealisation" in bottom.get_title()) is (replayed == "steps")
+
+
+def test_the_option_registry_defaults_are_the_replays_own_to_the_bit():
+    """`bhr physics` passes the registry's defaults; a library call uses the replay's constants. They must be the same
+    numbers: a jammed passive body settled elsewhere when its rigidity differed in the last bit (27390.0 against
+    0.83 x 330 x 100 = 27389.999999999996) and read 514 N instead of 678 N."""
+    import inspect
+
+    from bhr._settings.options import BY_NAME, by_group
+    from bhr._studies.physics.replay import replay_poses
+
+    defaults = {k: v.default for k, v in inspect.signature(replay_poses).parameters.items()}
+    for option in by_group("physics"):
+        assert option.name in defaults, option.name
+        assert option.default == defaults[option.name] and type(option.default) is type(defaults[option.name]), (
+            option.name, option.default, defaults[option.name])
+    assert BY_NAME["passive_rigidity"].default == 27390.0

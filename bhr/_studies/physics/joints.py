@@ -27,8 +27,8 @@ WIRES_PER_TILT = 2
 #: Flexural rigidity of a colonoscope's insertion tube, N mm^2, the default passive body: an Olympus CF-140S measured
 #: 260-400 N cm^2 along its length at room temperature, and 17 % less on average at 37 degrees C ("Flexural and
 #: torsional rigidity of colonoscopes at room and body temperatures", Proc Inst Mech Eng H): the middle of the
-#: range at body temperature, 0.83 x 330 N cm^2.
-PASSIVE_RIGIDITY_NMM2 = 0.83 * 330.0 * 100.0
+#: range at body temperature, 0.83 x 330 N cm^2 (the option registry's default, to the bit).
+PASSIVE_RIGIDITY_NMM2 = float(round(0.83 * 330.0 * 100.0))
 
 
 def lever_mm(robot) -> float:
