@@ -96,7 +96,8 @@ def physics(run, out_dir, force, wall_stiffness, wire_force, feeder_force, subst
 
 def _idealised(summary: dict) -> str:
     """What the line must say when the replay did not follow every pose of the robot's motion."""
+    from bhr.output._physics_plot import STEPS_IDEALISATION
+
     if summary.get("poses_replayed") != "steps":
         return ""
-    return (f"; replayed from the run's {summary['steps']} steps, its joints moved linearly from code to code between "
-            "them (an idealisation: the motion its wires make between steps is not in the run file)")
+    return f"; {STEPS_IDEALISATION} (its {summary['steps']} steps; the wires' own motion between them is not kept)"

@@ -22,7 +22,7 @@ from bhr._settings.options import BY_NAME, by_group, did_you_mean, excerpt
 from bhr.model._robot import Robot
 
 __all__ = ["TRAJ_KEYS", "ROBOT_KEYS", "CONSTRAINT_KEYS", "SOLVER_KEYS", "SIM_KEYS", "INT_KEYS", "NUMBER_KEYS",
-           "BOOL_KEYS", "REPLAY_KEYS", "sim_options", "check_body", "suggest",
+           "BOOL_KEYS", "REPLAY_KEYS", "replay_options", "sim_options", "check_body", "suggest",
            "check_value", "summary_row", "finished_cell", "verdict_cell", "verdict_class",
            "make_robot", "warm_up", "csv_text", "csv_safe", "FORMULA_STARTS"]
 
@@ -54,6 +54,12 @@ def check_body(options: dict[str, Any], robot: Robot) -> None:
     """Refuse a ``body_modules`` (the whole robot) shorter than the robot's head."""
     if options.get("body_modules") is not None:
         check_body_modules(options["body_modules"], robot.modules)
+
+
+def replay_options(physics: Any, design: dict[str, Any]) -> dict[str, Any]:
+    """The physical replay's options for one design: the study's (``physics``, pairs), then the design's own
+    :data:`REPLAY_KEYS`."""
+    return {**dict(physics), **{k: design[k] for k in REPLAY_KEYS if k in design}}
 
 
 def sim_options(values: dict[str, Any]) -> dict[str, Any]:

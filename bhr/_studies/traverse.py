@@ -44,8 +44,8 @@ from bhr.output._htmlpage import PAGE_END, escape, figure, fmt, page_head, table
 from bhr._settings.names import axis_label
 from bhr._settings.names import label as _label
 from bhr._settings.options import LIMITS, excerpt, solver_options_for
-from bhr._studies.study import (REPLAY_KEYS, ROBOT_KEYS, TRAJ_KEYS, csv_text, finished_cell, make_robot, sim_options,
-                               verdict_cell)
+from bhr._studies.study import (ROBOT_KEYS, TRAJ_KEYS, csv_text, finished_cell, make_robot, replay_options,
+                               sim_options, verdict_cell)
 from bhr._studies.sweep import PHYSICS_KEYS, Sweep, SweepResult, build_sweep, run_sweep
 from bhr._studies.sweep import heatmap_axes as _sweep_axes
 from bhr.model._generators import load_trajectory
@@ -210,11 +210,10 @@ def build_study(grid: Sequence[tuple[str, tuple[Any, ...]]], colons: Sequence[in
                            "(e.g. alpha, module_length, modules, robot_radius)")
     sweep = build_sweep(("anatomy",), tuple(solvers), (*grid, ("seed", seeds)), title=title, where=where,
                         robot_file=robot_file, replay=max_wall_force is not None)
-    body = dict(grid).get("body_modules")
-    for passive in dict(grid).get("passive_modules", ()):
-        if body is not None and passive >= min(body):
-            raise BhrError(f"{where}: passive_modules = {passive} leaves no driven module of a {min(body)}-module "
-                           f"robot; give fewer passive modules than body_modules")
+    body, passive = dict(grid).get("body_modules"), dict(grid).get("passive_modules")
+    if body and passive and max(passive) >= min(body):
+        raise BhrError(f"{where}: passive_modules = {max(passive)} leaves no driven module of a {min(body)}-module "
+                       "robot; give fewer passive modules than body_modules")
     sweep = dataclasses.replace(sweep, extra=LUMEN_KEYS, stop_at_wall=bool(stop_at_wall))
     if max_wall_force is not None:
         v = float(max_wall_force)
@@ -849,8 +848,7 @@ def write_study(result: StudyResult, out_dir: Any, *, plot: bool = True,
                 names.append(worst)
                 from bhr._studies.physics.extras import worst_colon_extras  # the 3-D view; with physics, the replay
 
-                options = {**dict(study.sweep.physics), **{k: focus[k] for k in REPLAY_KEYS if k in focus}}
-                names += worst_colon_extras(worst_run, stage, physics, options)
+                names += worst_colon_extras(worst_run, stage, physics, replay_options(study.sweep.physics, focus))
         write_json(stage / "study.json", {
             "title": study.sweep.title,
             "bhr_version": __version__,

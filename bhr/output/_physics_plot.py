@@ -9,7 +9,11 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["force_figure"]
+__all__ = ["STEPS_IDEALISATION", "force_figure"]
+
+#: What a replay of a run's written steps (``poses_replayed`` "steps") says of itself: on force.png and the line
+#: ``bhr physics`` prints.
+STEPS_IDEALISATION = "replayed from the run's steps, joints moved linearly between codes: an idealisation"
 
 
 def force_figure(rep: Any, title: str = "", lines_n: tuple[float, float] = (9.8, 14.1)) -> Any:
@@ -49,7 +53,6 @@ def force_figure(rep: Any, title: str = "", lines_n: tuple[float, float] = (9.8,
                  + f" (module {s['max_module_force_n']:.2f} N, "
                  f"{s['max_pressure_kpa']:.0f} kPa), stretch {s['max_stretch_mm']:.1f} mm; "
                  + (f"tip at the cecum from step {reached}" if reached else "tip never at the cecum")
-                 + ("\nreplayed from the run's steps, joints moved linearly between codes: an idealisation"
-                    if s.get("poses_replayed") == "steps" else ""),
+                 + ("\n" + STEPS_IDEALISATION if s.get("poses_replayed") == "steps" else ""),
                  fontsize=9)
     return fig

@@ -141,12 +141,16 @@ def poses_from_run(result, step_s: float = 1.0) -> Poses:
 def poses_from_motion(result) -> Poses | None:
     """The poses a run moved by its wires went through, from its motion in memory (what ``poses.npz`` holds), or
     None when the run kept none (a run of other locomotion, or too many poses to keep)."""
-    from bhr.model._robot import base_frame
-
     mo = getattr(result, "motion", None)
     if mo is None or not mo.kept or not len(mo.t_s):
         return None
-    arrays = mo.npz()
+    return _poses_of(mo.npz(), result)
+
+
+def _poses_of(arrays: dict[str, np.ndarray], result) -> Poses:
+    """The contract's arrays (``poses.npz``'s) as checked :class:`Poses` in ``result``'s frame."""
+    from bhr.model._robot import base_frame
+
     a = {k: np.asarray(arrays[k], dtype=np.int64 if k in ("codes", "step") else np.float64) for k in POSE_KEYS}
     p = Poses(a["t_s"], a["insertion_mm"], a["points_mm"], a["tilts_rad"], a["codes"], a["step"],
               np.asarray(result.trajectory.points[0], dtype=np.float64), base_frame(start_direction(result)),
@@ -157,8 +161,6 @@ def poses_from_motion(result) -> Poses | None:
 
 def load_poses(run_path: str | Path, result) -> Poses | None:
     """``poses.npz`` beside ``run_path`` (a run.json) as :class:`Poses`, or None when there is none."""
-    from bhr.model._robot import base_frame
-
     if str(run_path) == "-":
         return None
     f = Path(run_path).with_name("poses.npz")
@@ -169,11 +171,4 @@ def load_poses(run_path: str | Path, result) -> Poses | None:
             arrays = {k: np.asarray(z[k]) for k in POSE_KEYS}
     except (OSError, ValueError, KeyError) as exc:
         raise BhrError(f"{f}: not a poses file with {', '.join(POSE_KEYS)} ({str(exc).splitlines()[0][:80]})") from None
-    d0 = start_direction(result)
-    p = Poses(arrays["t_s"].astype(np.float64), arrays["insertion_mm"].astype(np.float64),
-              arrays["points_mm"].astype(np.float64), arrays["tilts_rad"].astype(np.float64),
-              arrays["codes"].astype(np.int64), arrays["step"].astype(np.int64),
-              np.asarray(result.trajectory.points[0], dtype=np.float64), base_frame(d0),
-              float(result.robot.module_length))
-    p.check()
-    return p
+    return _poses_of(arrays, result)

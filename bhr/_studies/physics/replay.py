@@ -207,8 +207,10 @@ def replay_poses(poses: Poses, result, *, wall_stiffness: float = DEFAULT_WALL_S
     k_passive = passive_stiffness(L, passive_rigidity)
     stiffness = np.full(M, k_joint)
     stiffness[:passive] = k_passive  # joint j tilts module j + 1 (1 = the rear) on the one behind, or the feeder
-    tilts = np.array(poses.tilts_rad, dtype=np.float64)
-    tilts[:, :passive] = 0.0  # a passive body's joints are pulled towards straight, whatever the run's codes
+    tilts = poses.tilts_rad
+    if passive:
+        tilts = tilts.copy()
+        tilts[:, :passive] = 0.0  # a passive body's joints are pulled towards straight, whatever the run's codes
     pb = Problem(np.ascontiguousarray(poses.entrance, dtype=np.float64), np.ascontiguousarray(poses.frame[2]),
                   np.ascontiguousarray(poses.frame.T), L, robot_radius, ns, float(wall_stiffness), stiffness,
                   FEEDER_STIFFNESS, float(feeder_force), np.ascontiguousarray(tube.points),

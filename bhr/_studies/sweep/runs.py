@@ -10,7 +10,7 @@ from bhr.model._generators import load_trajectory
 from bhr._run.driver import BhrWarning, follow
 from bhr._settings.options import solver_options_for
 from bhr._studies.executor import capture, run_jobs
-from bhr._studies.study import REPLAY_KEYS, ROBOT_KEYS, TRAJ_KEYS, make_robot, sim_options, summary_row, warm_up
+from bhr._studies.study import ROBOT_KEYS, TRAJ_KEYS, make_robot, replay_options, sim_options, summary_row, warm_up
 from bhr._studies.sweep.grid import Sweep, colon_source
 
 __all__ = ["METRICS", "PHYSICS_KEYS", "run_design", "run_chunk", "SweepResult", "run_sweep"]
@@ -47,7 +47,7 @@ def run_design(design: dict[str, Any], traj_source: str, base_robot: dict[str, A
         if physics:
             from bhr._studies.physics import replay_physics
 
-            ps = replay_physics(res, **dict(physics), **{k: design[k] for k in REPLAY_KEYS if k in design}).summary()
+            ps = replay_physics(res, **replay_options(physics, design)).summary()
             row.update({"peak_wall_force_n": ps["max_total_force_n"], "wall_stretch_mm": ps["max_stretch_mm"],
                         "physical_cecum_step": ps["reached_cecum_step"], "physically_traversed": ps["traversed"]})
     return row
