@@ -56,6 +56,7 @@ import numpy as np
 from numba import njit
 
 from bhr._settings.errors import BhrError
+from bhr.model._path import to_steps
 # the tube and its nearest-point kernels live in the model layer; their names stay importable from here
 from bhr.model._tube import (BLOCK, GLOBAL_BELOW, LOOP_RATIO, LUMEN_ENDS, WINDOW_MM, Tube, scan_numpy,  # noqa: F401
                             global_scan, local_scan, locate_kernel, locate_numpy, lumen_end_of,
@@ -757,7 +758,7 @@ def index_matched_min(result, body: int) -> float:
     if body:
         offsets += [(n + k) * f for k in range(1, body + 1)]
         errors = np.concatenate([errors, body_errors(result)], axis=1)
-    im = clearance_table(errors, np.array(offsets), result.trajectory.lumen, r.robot_radius)
+    im = clearance_table(errors, np.array(offsets), to_steps(result.trajectory.lumen, result.steps), r.robot_radius)
     return float(np.fmin.reduce(im, axis=None)) if im.size else float("nan")  # NaN when nothing is scored
 
 

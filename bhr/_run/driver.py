@@ -38,7 +38,7 @@ from bhr.solvers import Chain, FollowContext, Solver, get_solver
 from bhr._run.body import BodyRun, check_body_modules, score_body, simulate_body, whole_robot_codes
 from bhr._run.clearance import CecumWatch, ClearanceReport, cecum_step, clearance_report
 from bhr._kinematics.leader import angle_deg, score_step
-from bhr.model._path import Trajectory, path_directions, spacing, unfollowable_bends
+from bhr.model._path import Trajectory, path_directions, spacing, to_steps, unfollowable_bends
 from bhr.model._tube import lumen_end_of, make_tube
 
 if TYPE_CHECKING:  # the trail model (7 kernels, and the wall mesh's) loads when a run uses it
@@ -183,8 +183,9 @@ class FollowResult:
     the follower's loop: ``bhr.follow`` returns as soon as the robot has moved, and the clearance to the
     lumen wall (several times the follow's own time on a colon) is computed when the run is first judged.
 
-    Below, N is the number of steps (trajectory points, one feed apart) and n the modules the solver
-    moves (the head); points are base first, in mm, in the run's world frame (a straight robot along +X).
+    Below, N is the number of steps (trajectory points, one feed apart; a whole robot moving along a trail may
+    take a few more to bring its tip to the cecum, :attr:`targets`) and n the modules the solver moves (the
+    head); points are base first, in mm, in the run's world frame (a straight robot along +X).
 
     Parameters
     ----------
@@ -305,6 +306,13 @@ class FollowResult:
         return whole_robot_codes(self.codes, self.body)
 
     @property
+    def targets(self) -> np.ndarray:
+        """(N, 3) mm: the trajectory point the tip should be on at each step. A whole robot moving along a trail
+        (``locomotion="wires"`` or ``"trail"``) may need more steps than the path has points to bring its tip to
+        the cecum (its trail weaves about the centerline); the target of those steps is the path's end."""
+        return to_steps(self.trajectory.points, self.steps)
+
+    @property
     def success(self) -> bool:
         """Every scored point within ``tol_pos``, the tip within ``tol_ori`` and (with a lumen) no wall contact."""
         return self.status == "followed"
@@ -412,7 +420,7 @@ class FollowResult:
         """
         n = self.steps
         # whole arrays to Python numbers at once (tolist): the same floats and ints as converting each value
-        targets, points = _floats(self.trajectory.points[:n]), _floats(self.points[:n])
+        targets, points = _floats(self.targets), _floats(self.points[:n])
         point_errors, orientation_errors = _floats(self.point_errors_mm[:n]), _floats(self.orientation_errors_deg[:n])
         codes = None if self.codes is None else _ints(self.codes[:n])
         iterations = _ints(self.iterations[:n])
@@ -536,8 +544,14 @@ def _run_from_json(doc: Any, where: str) -> FollowResult:
         why = str(exc).splitlines()[0]
         raise bad(why if why.startswith("robot: ") else f"robot: {why}") from None  # "robot: " said once
     n, count = robot.modules, len(steps)
-    if count > path.shape[0]:
-        raise bad(f"{count} steps but only {path.shape[0]} trajectory points")
+    told_doc = doc.get("summary")
+    approach = 0  # a whole robot on a trail may push its tip on to the cecum past the path's end
+    if isinstance(told_doc, dict) and told_doc.get("locomotion") in ("trail", "wires"):
+        from bhr._run.trail import CECUM_APPROACH
+        approach = int(math.ceil(CECUM_APPROACH * (path.shape[0] - 1)))
+    if count > path.shape[0] + approach:
+        raise bad(f"{count} steps but only {path.shape[0]} trajectory points"
+                  + (f" (and {approach} steps to the cecum)" if approach else ""))
     keys = ("points", "point_errors_mm", "module_orientation_errors_deg", "codes", "iterations")
     for k, st in enumerate(steps):
         if not isinstance(st, dict) or not all(key in st for key in keys):
@@ -804,6 +818,8 @@ def follow(points: Any, solver: str | Solver = "thesis", robot: Robot | None = T
         named = solver.name if isinstance(solver, Solver) else solver
         locomotion = "wires" if whole_robot and has_lumen and named == "lumen" else "thesis"
     check_locomotion(locomotion, stop_at_wall)
+    if body_modules is not None:
+        body_modules = check_body_modules(body_modules, robot.modules)
     if reach is not None:
         if reach != "cecum":
             raise BhrError(f"reach must be cecum (a robot long enough to reach the path's end), got {reach!r}")
@@ -996,6 +1012,14 @@ def _held_body(result: "FollowResult", body_modules: int, stop: int | None) -> B
 
 
 
+def _to_cecum(path: np.ndarray, dirs: np.ndarray, steps: int) -> tuple[np.ndarray, np.ndarray]:
+    """The path and its directions for a run of ``steps``: past the path's end (the feeder pushing the tip on to
+    the cecum, :func:`bhr._run.trail.plan_to_cecum`) each step's target is the path's end."""
+    if steps <= path.shape[0]:
+        return path, dirs
+    return np.ascontiguousarray(to_steps(path, steps)), np.ascontiguousarray(to_steps(dirs, steps - 1))
+
+
 def _score_head(head: np.ndarray, codes: np.ndarray, path: np.ndarray, dirs: np.ndarray, f: int,
                 on_step: Callable[[int, np.ndarray | None], None] | None) -> tuple[np.ndarray, np.ndarray]:
     """The head's point and module orientation errors (mm, deg) at every step of a whole-robot model, scored as the
@@ -1020,10 +1044,12 @@ def _follow_trail(traj: Trajectory, robot: Robot, s: Any, solver: str, path: np.
     from bhr._run.trail import run_trail, sweep_bound_mm
 
     n, f = robot.modules, robot.feed_divisor
-    N = path.shape[0]
     # the trail planner's own pull to the centerline (the head's center_weight is the thesis model's)
     tr = run_trail(traj, robot, {**s.settings, "trail_beam": s.trail_beam, "center_weight": s.trail_center_weight},
                    s.window, body_modules, reach)
+    N = tr.joints.shape[0]  # the path's steps and those that bring the tip on to the cecum
+    approach = max(0, N - path.shape[0])
+    path, dirs = _to_cecum(path, dirs, N)
     M = tr.modules
     if reach:
         body_modules = M
@@ -1047,6 +1073,7 @@ def _follow_trail(traj: Trajectory, robot: Robot, s: Any, solver: str, path: np.
         "trail_vertices": int(tr.codes.shape[0]),
         "feeder_stop_step": int(tr.stop) + 1,
         "cecum_shortfall_mm": float(tr.shortfall_mm),
+        "cecum_approach_steps": approach,
         "trail_offset_bound_mm": model,
         "rigid_offset_bound_mm": rigid,
         "procedure_time_s": procedure_time_s(tr),
@@ -1085,7 +1112,9 @@ def _follow_wires(traj: Trajectory, robot: Robot, s: Any, solver: str, path: np.
     n, f = robot.modules, robot.feed_divisor
     mo, tcodes, M, stop, short, too_short = wires_motion(traj, robot, s, body_modules, reach,
                                               stop_below=-float(robot.robot_radius) if stop_at_wall else None)
-    N = mo.step_joints.shape[0]  # the path's steps, or fewer when the run stopped at the wall
+    N = mo.step_joints.shape[0]  # the path's steps and those to the cecum, or fewer when it stopped at the wall
+    approach = max(0, int(mo.path_steps) - path.shape[0])
+    path, dirs = _to_cecum(path, dirs, N)
     if reach:
         body_modules = M
     joints, jcodes = mo.step_joints, mo.step_codes
@@ -1106,12 +1135,13 @@ def _follow_wires(traj: Trajectory, robot: Robot, s: Any, solver: str, path: np.
         bcodes = np.ascontiguousarray(jcodes[:, ::-1][:, n:])  # body module 1 (right behind the head) first
         body = BodyRun(nb, pts, bcodes, bpe, boe, scored)
     names, counts = np.unique(np.array(mo.strategies), return_counts=True)
-    stopped = {} if mo.stopped_step is None else {"stopped_at_wall_step": N, "path_steps": int(path.shape[0])}
+    stopped = {} if mo.stopped_step is None else {"stopped_at_wall_step": N, "path_steps": int(mo.path_steps)}
     summary = {
         "locomotion": "wires",
         "trail_vertices": int(tcodes.shape[0]),
         **({"feeder_stop_step": int(stop) + 1} if int(stop) < N else {}),
         "cecum_shortfall_mm": float(short),
+        "cecum_approach_steps": approach,
         "too_short_for_cecum": bool(too_short),
         "poses": int(mo.t_s.shape[0]),
         "poses_file": "poses.npz" if mo.kept else None,

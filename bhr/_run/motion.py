@@ -716,6 +716,7 @@ class MotionRun:
     wall: str = "tube"  # what the poses were scored against (bhr.model._wallmesh.wall_grid)
     stopped_step: int | None = None  # 0-based step where ``stop_below`` ended the motion (the tables end there)
     module_length_mm: float = 0.0
+    path_steps: int = 0  # the run's steps had it not stopped at the wall: the path's, and those to reach the cecum
 
     def npz(self) -> dict[str, np.ndarray]:
         """The arrays of ``poses.npz`` (docs/physics.md): ``insertion_mm`` is the feeder's, how far the rear end
@@ -944,8 +945,8 @@ def wires_motion(traj, robot, solver, body_modules: int | None = None, reach: bo
     :func:`plan_motion`'s."""
     from bhr.model._wallmesh import wall_grid
     from bhr._run.body import check_body_modules
-    from bhr._run.trail import cecum_modules, stop_step, vertex_hints
-    from bhr.solvers._trail import dense_tube, plan_trail, trail_vertices
+    from bhr._run.trail import cecum_modules, plan_to_cecum, vertex_hints
+    from bhr.solvers._trail import dense_tube, trail_vertices
 
     if traj.lumen is None:
         raise BhrError(f"locomotion wires plans the trail against the lumen; {traj.name} has none (give a "
@@ -956,18 +957,18 @@ def wires_motion(traj, robot, solver, body_modules: int | None = None, reach: bo
     settings = {**solver.settings, "trail_beam": solver.trail_beam, "center_weight": solver.trail_center_weight}
     tube = dense_tube(traj.points, traj.lumen, traj.start_direction, solver.window,
                       closed_end=getattr(traj, "lumen_end", "closed") == "closed")
-    V = (N - 1) // f + 1
-    tcodes = plan_trail(tube, robot, settings, V, traj.start_direction, traj.start_point)
-    T = trail_vertices(tcodes, traj.start_direction, traj.start_point, L, robot.alpha, 2)
-    stop = stop_step(tube, vertex_hints(tube, T, 2, L), 2, f, N)
+    tcodes, steps, stop = plan_to_cecum(tube, robot, settings, N, traj.start_direction, traj.start_point)
     if reach:
         body_modules = check_body_modules(cecum_modules(stop + 1, f, n), n, "reach cecum")
     M = int(n if body_modules is None else body_modules)
+    too_short = M * f < stop
+    stop = min(stop, M * f)  # a feeder at the anus pushes the tail in no further than the robot's length
+    # the run goes on past the path's steps only while the feeder pushes the tip on to the cecum
+    N = max(N, min(steps, stop + 1))
+    tcodes = np.ascontiguousarray(tcodes[:(N - 1) // f + 1])
     back = M + 2
     T = trail_vertices(tcodes, traj.start_direction, traj.start_point, L, robot.alpha, back)
     z = vertex_hints(tube, T, back, L)
-    too_short = M * f < stop
-    stop = min(stop, M * f)  # a feeder at the anus pushes the tail in no further than the robot's length
     m, k = divmod(stop, f)
     ztip = z[back + m] + (k / f) * (z[back + m + 1] - z[back + m])
     short = max(0.0, float(tube.points.shape[0] - tube.post - 1 - ztip) * float(tube.spacing))
@@ -976,6 +977,7 @@ def wires_motion(traj, robot, solver, body_modules: int | None = None, reach: bo
                      float(robot.alpha), traj.start_point, traj.start_direction, stop * float(robot.feed), N, params,
                      strategies, bound=bound, grid=grid, stop_below=stop_below)
     mo.wall = wall
+    mo.path_steps = N
     return mo, tcodes, M, stop, short, too_short
 
 

@@ -427,6 +427,16 @@ def tolerance_lines(s: dict, robot) -> list[str]:
     return ["Over tolerance: " + "; ".join(parts) + "."]
 
 
+def _feeder(s: dict) -> str:
+    """Where a whole robot on a trail stopped: the feeder's last step, past the path's end (the trail weaves
+    about the centerline, so the tip needs more insertion than the path's length), and the tip's shortfall."""
+    past = int(s.get("cecum_approach_steps") or 0)
+    beyond = f" ({past} past the path's end: the trail weaves about the centerline)" if past else ""
+    short = float(s["cecum_shortfall_mm"])
+    tip = "the tip at the cecum" if short == 0.0 else f"the tip {short:.1f} mm short of the path's end"
+    return f"the feeder pushes until step {s['feeder_stop_step']}{beyond}, {tip}"
+
+
 def body_clearance_lines(s: dict) -> list[str]:
     """The whole body's errors and the lumen clearance, when the run has them (summary keys)."""
     from bhr._run.clearance import step_ranges
@@ -436,15 +446,13 @@ def body_clearance_lines(s: dict) -> list[str]:
         # the procedure time is the one line bhr follow prints for the board's schedule of codes.csv (as bhr plan
         # computes it), not a second estimate here
         out.append(f"Trail: {s['trail_vertices']} vertices, every module along it (exact follow-the-leader, within "
-                   f"{s['trail_offset_bound_mm']:.2f} mm of the trail); the feeder pushes until step "
-                   f"{s['feeder_stop_step']}, the tip {s['cecum_shortfall_mm']:.1f} mm short of the path's end.")
+                   f"{s['trail_offset_bound_mm']:.2f} mm of the trail); {_feeder(s)}.")
     if s.get("locomotion") == "wires":
         # as for the trail: the procedure time is the one line bhr follow prints for the board's schedule of
         # codes.csv (as bhr plan computes it); the motion's own duration is run.json's procedure_time_s
         where = f" in {s['poses_file']}" if s["poses_file"] else " (too many to keep)"
         ways = ", ".join(f"{k} {v}" for k, v in sorted(s["switching"].items(), key=lambda kv: -kv[1]))
-        feeder = (f"the feeder pushes until step {s['feeder_stop_step']}, the tip {s['cecum_shortfall_mm']:.1f} mm "
-                  "short of the path's end" if s.get("feeder_stop_step") else "the feeder pushing")
+        feeder = _feeder(s) if s.get("feeder_stop_step") else "the feeder pushing"
         if s.get("too_short_for_cecum"):
             feeder += (": the robot is too short to reach the cecum (its tail reached the anus), so it cannot "
                        "traverse this colon; give more --body-modules or --reach cecum")

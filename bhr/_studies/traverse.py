@@ -270,6 +270,13 @@ def _too_short(result: StudyResult, design: dict[str, Any] | None = None) -> boo
 _TOO_SHORT = "too short to reach the cecum"
 
 
+def _stuck(row: dict[str, Any]) -> float:
+    """How far short of the cecum a whole robot long enough for the colon stopped, mm: the feeder pushes it on past
+    the path's end until its tip is there (docs/locomotion.md), so only a trail that could not get there within
+    bhr._run.trail.CECUM_APPROACH leaves one; 0 otherwise."""
+    return 0.0 if row.get("too_short_for_cecum") else float(row.get("cecum_shortfall_mm") or 0.0)
+
+
 def _reach(row: dict[str, Any]) -> float | None:
     """How far along the colon the tip went before the robot left the lumen (its axis outside the wall), or before
     the feeder stopped a robot too short to reach the cecum, % of the path (100: it stayed inside and reached the
@@ -297,7 +304,7 @@ def _run_row(row: dict[str, Any], keys: Sequence[str]) -> dict[str, Any]:
         "steps": row.get("steps"),
         "traversed": bool(ok and row.get("physically_traversed")) if physical else
         bool(ok and touches is not None and len(touches) == 0 and row.get("left_lumen_step") is None
-             and not _short(row)),
+             and not _short(row) and not _stuck(row)),
         "reach_pct": _reach(row),
         "max_penetration_mm": _penetration(row) if ok else None,
         "touch_steps": len(touches) if (ok and touches is not None) else None,
@@ -312,7 +319,8 @@ def _run_row(row: dict[str, Any], keys: Sequence[str]) -> dict[str, Any]:
         # a colon fails when the run fails or the robot left the lumen (bhr._run.clearance.left_lumen): the reason
         "left_lumen_step": row.get("left_lumen_step") if ok else None,
         "failure": (row.get("left_lumen_reason") or (f"the robot is {_TOO_SHORT}: its tip stopped "
-                                                      f"{_short(row):.0f} mm short" if _short(row) else ""))
+                                                      f"{_short(row):.0f} mm short" if _short(row) else "")
+                    or (f"its tip stopped {_stuck(row):.0f} mm short of the cecum" if _stuck(row) else ""))
         if ok else str(row["status"]),
         "wall": row.get("wall"),  # what the clearance was measured against: the tube or the colon's mesh
     })

@@ -249,6 +249,14 @@ def resample_polyline(pts: np.ndarray, feed: float, values: np.ndarray | None = 
     return out[:count].copy(), (None if values is None else out_vals[:count].copy())
 
 
+def to_steps(a: np.ndarray, steps: int) -> np.ndarray:
+    """The first ``steps`` rows of ``a`` (a path's points, lumen, ...), its last row repeated past its end: a whole
+    robot pushed on to the cecum after the path's end has the path's end as its target (docs/locomotion.md)."""
+    A = np.asarray(a)
+    extra = int(steps) - A.shape[0]
+    return A[:steps] if extra <= 0 else np.concatenate([A, np.repeat(A[-1:], extra, axis=0)])
+
+
 def path_directions(path: np.ndarray) -> np.ndarray:
     """Unit vectors from each trajectory point to the next, (N-1, 3)."""
     P = np.ascontiguousarray(path, dtype=np.float64)

@@ -279,7 +279,7 @@ def draw_context(ax: Any, result: "FollowResult", planar: bool, markevery: int =
 
 def draw_pose(ax: Any, result: "FollowResult", i: int, planar: bool, target_size: float = 9) -> list[Any]:
     """What changes with the step: the target, the robot (head) and the body behind it."""
-    new = draw_target(ax, result.trajectory.points[i], planar, target_size)
+    new = draw_target(ax, result.targets[i], planar, target_size)
     new += draw_robot(ax, result.points[i], result.robot.robot_radius, planar)
     body = _body_pose(result, i)
     if body is not None:

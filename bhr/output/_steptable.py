@@ -56,7 +56,7 @@ def format_steps_csv(result: "FollowResult") -> str:
     steps = result.steps
     pe, oe, ge = result.point_errors_mm[:steps], result.orientation_errors_deg[:steps], result.global_errors[:steps]
     # each column formatted from Python floats (one tolist per array), the row maxima taken by numpy as before
-    targets = _texts(result.trajectory.points[:steps])
+    targets = _texts(result.targets[:steps])
     iterations = [str(v) for v in np.asarray(result.iterations[:steps]).astype(np.int64).tolist()]
     pe_text, oe_text = _texts(pe), _texts(oe)
     pe_max, ge_max = _texts(pe.max(axis=1)), _texts(ge.max(axis=1))

@@ -364,9 +364,11 @@ def test_a_whole_robot_too_short_for_the_colon_does_not_traverse_it():
             "left_lumen_step": None, "stop_at_wall": True, "max_penetration_mm": 0.0, "min_clearance_mm": 1.5}
     short = _run_row({**base, "body_modules": 5, "cecum_shortfall_mm": 1180.4, "too_short_for_cecum": True,
                       "feeder_stop_step": 11}, keys)
-    # a robot long enough ends a little short of the path's end along the centerline (a binary chain weaves about
-    # it, docs/locomotion.md): that is no shortfall of the robot
-    whole = _run_row({**base, "body_modules": 400, "cecum_shortfall_mm": 31.2, "too_short_for_cecum": False}, keys)
+    # a robot long enough is pushed on past the path's end until its tip is at the cecum (docs/locomotion.md)
+    whole = _run_row({**base, "body_modules": 400, "cecum_shortfall_mm": 0.0, "too_short_for_cecum": False}, keys)
+    # ... unless its trail could not get there even so: then it has not traversed the colon either
+    stuck = _run_row({**base, "body_modules": 400, "cecum_shortfall_mm": 31.2, "too_short_for_cecum": False}, keys)
+    assert not stuck["traversed"] and stuck["failure"] == "its tip stopped 31 mm short of the cecum"
     assert not short["traversed"] and short["reach_pct"] == pytest.approx(10.0)
     assert short["failure"] == "the robot is too short to reach the cecum: its tip stopped 1180 mm short"
     assert whole["traversed"] and whole["reach_pct"] == 100.0 and whole["failure"] == ""
