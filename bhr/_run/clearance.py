@@ -651,6 +651,8 @@ def run_chain(result) -> tuple[np.ndarray, np.ndarray, int]:
         E = np.concatenate([e_body[:, ::-1], e_head], axis=1)
     else:
         Q, E = head, e_head
+    # past the path's end (a whole robot pushed on to the cecum, FollowResult.targets) the target is the path's end
+    E = np.minimum(E, float(result.trajectory.points.shape[0] - 1))
     return np.ascontiguousarray(Q, dtype=np.float64), np.ascontiguousarray(E, dtype=np.float64), B
 
 
