@@ -1113,7 +1113,8 @@ def _follow_wires(traj: Trajectory, robot: Robot, s: Any, solver: str, path: np.
     mo, tcodes, M, stop, short, too_short = wires_motion(traj, robot, s, body_modules, reach,
                                               stop_below=-float(robot.robot_radius) if stop_at_wall else None)
     N = mo.step_joints.shape[0]  # the path's steps and those to the cecum, or fewer when it stopped at the wall
-    approach = max(0, int(mo.path_steps) - path.shape[0])
+    traj_steps = path.shape[0]
+    approach = max(0, int(mo.planned_steps) - traj_steps)
     path, dirs = _to_cecum(path, dirs, N)
     if reach:
         body_modules = M
@@ -1135,7 +1136,8 @@ def _follow_wires(traj: Trajectory, robot: Robot, s: Any, solver: str, path: np.
         bcodes = np.ascontiguousarray(jcodes[:, ::-1][:, n:])  # body module 1 (right behind the head) first
         body = BodyRun(nb, pts, bcodes, bpe, boe, scored)
     names, counts = np.unique(np.array(mo.strategies), return_counts=True)
-    stopped = {} if mo.stopped_step is None else {"stopped_at_wall_step": N, "path_steps": int(mo.path_steps)}
+    # path_steps: the path's own (a study's reach is the share of them the run went)
+    stopped = {} if mo.stopped_step is None else {"stopped_at_wall_step": N, "path_steps": int(traj_steps)}
     summary = {
         "locomotion": "wires",
         "trail_vertices": int(tcodes.shape[0]),

@@ -716,7 +716,7 @@ class MotionRun:
     wall: str = "tube"  # what the poses were scored against (bhr.model._wallmesh.wall_grid)
     stopped_step: int | None = None  # 0-based step where ``stop_below`` ended the motion (the tables end there)
     module_length_mm: float = 0.0
-    path_steps: int = 0  # the run's steps had it not stopped at the wall: the path's, and those to reach the cecum
+    planned_steps: int = 0  # the run's steps had it not stopped at the wall: the path's and those to the cecum
 
     def npz(self) -> dict[str, np.ndarray]:
         """The arrays of ``poses.npz`` (docs/physics.md): ``insertion_mm`` is the feeder's, how far the rear end
@@ -977,7 +977,7 @@ def wires_motion(traj, robot, solver, body_modules: int | None = None, reach: bo
                      float(robot.alpha), traj.start_point, traj.start_direction, stop * float(robot.feed), N, params,
                      strategies, bound=bound, grid=grid, stop_below=stop_below)
     mo.wall = wall
-    mo.path_steps = N
+    mo.planned_steps = N
     return mo, tcodes, M, stop, short, too_short
 
 

@@ -58,7 +58,7 @@ __all__ = ["Study", "StudyResult", "parse_colons", "build_study", "run_study", "
 #: Summary keys a study keeps from every run (the ones a run does not report stay empty).
 LUMEN_KEYS = ("max_penetration_mm", "wall_touch_steps", "contact_length_mm", "procedure_time_s", "body_modules",
               "left_lumen_step", "left_lumen_reason", "wall", "path_steps", "cecum_shortfall_mm", "too_short_for_cecum",
-              "feeder_stop_step")
+              "feeder_stop_step", "cecum_approach_steps")
 #: Columns of designs.csv after the design's own keys.
 DESIGN_COLUMNS = ("robot_judged", "rank", "ranked_by", "colons", "traversed", "pass_rate", "failed_runs",
                   "median_reach_pct", "worst_reach_pct", "worst_penetration_mm", "median_penetration_mm",
@@ -283,12 +283,13 @@ def _reach(row: dict[str, Any]) -> float | None:
     cecum); None for a failed run or a path without a lumen."""
     if row["status"] != "ok" or row.get("wall_touch_steps") is None:
         return None
-    path = row.get("path_steps") or row.get("steps")
+    # the path's own steps: a whole robot pushed on to the cecum past the path's end has more
+    path = row.get("path_steps") or (row.get("steps") or 0) - int(row.get("cecum_approach_steps") or 0)
     ends = [s for s in (row.get("left_lumen_step"), row.get("feeder_stop_step") if _short(row) else None)
             if s is not None]
     if not ends or not path or path < 2:
         return 100.0
-    return 100.0 * (min(ends) - 1) / (path - 1)
+    return min(100.0, 100.0 * (min(ends) - 1) / (path - 1))
 
 
 def _run_row(row: dict[str, Any], keys: Sequence[str]) -> dict[str, Any]:

@@ -526,3 +526,17 @@ def test_the_pass_rate_map_shows_ties_by_their_tie_break_and_marks_the_best():
     dashed = [p for p in ax.patches if isinstance(p, Rectangle) and p.get_linestyle() == "--"]
     assert len(dashed) == 1 and dashed[0].get_xy() == pytest.approx((1 - 0.46, 0 - 0.46))  # alpha 25, length 5
     assert "robot judged: head only (5 modules)" in ax.get_title()
+
+
+def test_the_reach_of_a_robot_pushed_on_to_the_cecum_is_a_share_of_the_path():
+    """A whole robot pushed past the path's end to the cecum has steps the path has not (docs/locomotion.md): how far
+    along the colon it went is a share of the path's own steps, at most all of it."""
+    study = build_study([("reach", ("cecum",))], "1", solvers=("lumen",))
+    base = {"solver": "lumen", "reach": "cecum", "seed": 1, "status": "ok", "steps": 2026, "cecum_approach_steps": 52,
+            "wall_touch_steps": [988], "max_penetration_mm": 6.0, "min_clearance_mm": -6.0}
+    half = _run_row({**base, "left_lumen_step": 988}, study.design_keys)
+    assert half["reach_pct"] == pytest.approx(100.0 * 987 / 1973)
+    late = _run_row({**base, "left_lumen_step": 2000}, study.design_keys)  # in the approach, past the path's end
+    assert late["reach_pct"] == 100.0 and not late["traversed"]
+    stopped = _run_row({**base, "steps": 988, "path_steps": 1974, "left_lumen_step": 988}, study.design_keys)
+    assert stopped["reach_pct"] == half["reach_pct"]
