@@ -65,6 +65,8 @@ DESIGN_COLUMNS = ("robot_judged", "rank", "ranked_by", "colons", "traversed", "p
                   "worst_clearance_mm", "median_contact_length_mm",
                   "worst_contact_length_mm", "median_touch_steps", "worst_colon", "min_turn_radius_mm",
                   "median_procedure_time_s", "worst_procedure_time_s", "left_lumen")
+#: ... and, in a study judged by the physical replay (``--max-wall-force``), these.
+PHYSICS_DESIGN_COLUMNS = ("worst_wall_force_n", "colons_replayed_from_steps")
 #: Columns of runs.csv after the design's keys and the seed.
 RUN_COLUMNS = ("status", "finished", "verdict", "steps", "traversed", "reach_pct", "max_penetration_mm", "touch_steps",
                "contact_length_mm", "min_clearance_mm", "points_max_error_mm", "tip_max_error_mm", "modules",
@@ -374,6 +376,10 @@ def design_rows(study: Study, runs: Sequence[dict[str, Any]], min_turn: dict[tup
             "worst_procedure_time_s": max(proc) if proc else None,
             "left_lumen": sum(1 for r in rows if r.get("left_lumen_step") is not None),
         })
+        if study.sweep.physics:
+            force = [r["peak_wall_force_n"] for r in rows if r.get("peak_wall_force_n") is not None]
+            d.update({"worst_wall_force_n": max(force) if force else None,
+                      "colons_replayed_from_steps": sum(1 for r in rows if r.get("poses_replayed") == "steps")})
         d["robot_judged"] = robot_judged(study, d)
         out.append(d)
     ranked = sorted(out, key=_rank)
@@ -660,7 +666,43 @@ def penetration_figure(result: StudyResult, design: dict[str, Any], run):
 
 
 def design_columns(study: Study) -> list[str]:
-    return ["design", *study.design_keys, *DESIGN_COLUMNS]
+    return ["design", *study.design_keys, *DESIGN_COLUMNS, *(PHYSICS_DESIGN_COLUMNS if study.sweep.physics else ())]
+
+
+def _max_wall_force(study: Study) -> float | None:
+    """The wall load (N) a study judged by the physical replay allows, else None."""
+    return dict(study.sweep.physics).get("max_wall_force") if study.sweep.physics else None
+
+
+def judged_by_replay(result: StudyResult) -> str:
+    """How a study judged by the physical replay counts a colon, and which replays are an idealisation; "" for a
+    geometric study."""
+    limit = _max_wall_force(result.study)
+    if limit is None:
+        return ""
+    steps = sum(1 for r in result.runs if r.get("poses_replayed") == "steps")
+    return (f"Judged by the physical replay (bhr physics): a colon is traversed when the replayed tip reaches the "
+            f"cecum with the wall's load never above {limit:g} N"
+            + (f"; {steps} of {len(result.runs)} runs replayed from their steps only, the joints moved linearly "
+               "between codes (their every pose too many to keep): an idealisation" if steps else
+               "; every run replayed at every pose its wires went through"))
+
+
+def _pen_words(result: StudyResult) -> str:
+    """The answer's words for the worst penetration: the written poses' (geometric) beside a physical verdict."""
+    return "the written poses' worst penetration" if _max_wall_force(result.study) is not None else "worst penetration"
+
+
+def _physical(result: StudyResult, d: dict[str, Any]) -> str:
+    """A design's physical figures for the answer line, "" for a geometric study."""
+    if _max_wall_force(result.study) is None:
+        return ""
+    force = d.get("worst_wall_force_n")
+    steps = d.get("colons_replayed_from_steps") or 0
+    return (" by the physical replay (the wall's load at most "
+            + ("-" if force is None else f"{force:.2f} N") + (
+                f"; {steps} of its {d['colons']} colons replayed from their steps: an idealisation" if steps else "")
+            + ")")
 
 
 def run_columns(study: Study) -> list[str]:
@@ -714,13 +756,13 @@ def _answer_line(result: StudyResult) -> str:
         return (f"{len(meeting)} of {len(result.designs)} designs traverse at least {pct} of the "
                 f"{len(study.colons)} colons; best: design #{best['design']} ({_describe(study, best)}), "
                 f"{best.get('robot_judged') or robot_judged(study, best)}: "
-                f"{best['traversed']}/{best['colons']} traversed, worst penetration "
+                f"{best['traversed']}/{best['colons']} traversed{_physical(result, best)}, {_pen_words(result)} "
                 f"{best['worst_penetration_mm']:.2f} mm" + (
                     "" if best["worst_clearance_mm"] is None else
                     f", worst clearance {best['worst_clearance_mm']:.2f} mm") + _decided(result, best))
     top = best_design(result)
     worst = "-" if top["worst_penetration_mm"] is None else f"{top['worst_penetration_mm']:.2f} mm"
-    how = f"worst penetration {worst}"
+    how = f"{_pen_words(result)} {worst}"
     if by_reach(top) and top.get("worst_reach_pct") is not None:
         how = ("it stays inside the lumen on every colon, " + how if top["worst_reach_pct"] >= 100.0 else
                f"gets {top['median_reach_pct']:.1f}% of the way along the median colon before it leaves the lumen"
@@ -728,7 +770,7 @@ def _answer_line(result: StudyResult) -> str:
                + f" (worst {top['worst_reach_pct']:.1f}%), " + how)
     return (f"No design traverses {pct} of the {len(study.colons)} colons; the best, design #{top['design']} "
             f"({_describe(study, top)}), traverses {top['traversed']}/{top['colons']} "
-            f"({100 * top['pass_rate']:.0f}%), {how}" + _decided(result, top))
+            f"({100 * top['pass_rate']:.0f}%){_physical(result, top)}, {how}" + _decided(result, top))
 
 
 def format_study(result: StudyResult, count: int = 8) -> list[str]:
@@ -742,6 +784,8 @@ def format_study(result: StudyResult, count: int = 8) -> list[str]:
     lines.append(f"Robot judged: {'; '.join(judged)}" + (
         " -- the modules the solver moves, no body behind them (without --head-only: the whole robot to the cecum, "
         "moved by its wires)" if all(j.startswith("head only") for j in judged) else ""))
+    if replay := judged_by_replay(result):
+        lines.append(replay)
     at_wall = any(by_reach(d) for d in result.designs)
     words = RANKING_REACH[:4] if at_wall else RANKING[:4]
     ended = any(d.get("stop_at_wall") for d in study.sweep.designs())  # some run ends where it leaves the lumen
@@ -794,6 +838,8 @@ def _html(result: StudyResult, heat: str | None, worst: str | None, worst_design
                  f"on {escape(result.runner)}; penetration from the {escape(result.clearance_kind)} clearance; bhr "
                  f"{escape(__version__)}.<br>{escape(axes)}"
                  + (f"; robot file: {escape(study.sweep.robot_file)}" if study.sweep.robot_file else "") + "</p>\n")
+    if replay := judged_by_replay(result):
+        parts.append(f"<p id=\"judged\">{escape(replay)}.</p>\n")
     parts.append(f"<p id=\"answer\"><strong>{escape(answer_line(result))}.</strong></p>\n")
     if heat:
         parts.append(figure(heat, "pass rate per design", "Share of colons traversed without touching the wall, "

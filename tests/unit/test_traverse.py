@@ -540,3 +540,32 @@ def test_the_reach_of_a_robot_pushed_on_to_the_cecum_is_a_share_of_the_path():
     assert late["reach_pct"] == 100.0 and not late["traversed"]
     stopped = _run_row({**base, "steps": 988, "path_steps": 1974, "left_lumen_step": 988}, study.design_keys)
     assert stopped["reach_pct"] == half["reach_pct"]
+
+
+def test_a_study_judged_by_the_replay_says_so_and_names_the_replays_of_steps_an_idealisation():
+    """Beside --max-wall-force the answer is the replay's: the tables say how a colon is counted, the wall's load
+    at most, and how many colons were replayed from their steps only (joints moved linearly between codes)."""
+    from bhr._studies.traverse import StudyResult, answer_line, design_columns, format_study, judged_by_replay
+
+    study = build_study([("reach", ("cecum",))], "1-3", solvers=("lumen",), max_wall_force=9.8)
+    keys = study.design_keys
+    base = {"solver": "lumen", "reach": "cecum", "status": "ok", "steps": 2026, "wall_touch_steps": [148],
+            "left_lumen_step": 148, "max_penetration_mm": 446.9, "min_clearance_mm": -446.9, "path_steps": None,
+            "wall_stretch_mm": 0.8, "physical_cecum_step": 2023, "physically_traversed": True}
+    runs = [_run_row({**base, "seed": k, "peak_wall_force_n": f, "poses_replayed": how}, keys)
+            for k, f, how in ((1, 0.75, "steps"), (2, 1.05, "steps"), (3, 0.35, "every pose"))]
+    designs = design_rows(study, runs, {})
+    assert designs[0]["traversed"] == 3 and designs[0]["worst_wall_force_n"] == 1.05
+    assert designs[0]["colons_replayed_from_steps"] == 2
+    assert design_columns(study)[-2:] == ["worst_wall_force_n", "colons_replayed_from_steps"]
+    res = StudyResult(study, runs, designs, 0.0, "in-process", 1, "geometric")
+    said = judged_by_replay(res)
+    assert "traversed when the replayed tip reaches the cecum with the wall's load never above 9.8 N" in said
+    assert "2 of 3 runs replayed from their steps only" in said and "an idealisation" in said
+    line = answer_line(res)
+    assert "3/3 traversed by the physical replay (the wall's load at most 1.05 N; 2 of its 3 colons replayed from " \
+           "their steps: an idealisation), the written poses' worst penetration 446.90 mm" in line
+    assert said in format_study(res)
+    geometric = StudyResult(build_study([("reach", ("cecum",))], "1", solvers=("lumen",)), runs[:1], designs, 0.0,
+                            "in-process", 1, "geometric")
+    assert judged_by_replay(geometric) == "" and "physical" not in answer_line(geometric)

@@ -21,7 +21,7 @@ METRICS = ("status", "finished", "verdict", "steps", "tip_max_error_mm", "tip_fi
 
 
 #: What a run's row gets from its physical replay (:func:`run_design` with ``physics``).
-PHYSICS_KEYS = ("peak_wall_force_n", "wall_stretch_mm", "physical_cecum_step", "physically_traversed")
+PHYSICS_KEYS = ("peak_wall_force_n", "wall_stretch_mm", "physical_cecum_step", "physically_traversed", "poses_replayed")
 
 
 def run_design(design: dict[str, Any], traj_source: str, base_robot: dict[str, Any] | None = None,
@@ -49,7 +49,8 @@ def run_design(design: dict[str, Any], traj_source: str, base_robot: dict[str, A
 
             ps = replay_physics(res, **replay_options(physics, design)).summary()
             row.update({"peak_wall_force_n": ps["max_total_force_n"], "wall_stretch_mm": ps["max_stretch_mm"],
-                        "physical_cecum_step": ps["reached_cecum_step"], "physically_traversed": ps["traversed"]})
+                        "physical_cecum_step": ps["reached_cecum_step"], "physically_traversed": ps["traversed"],
+                        "poses_replayed": ps["poses_replayed"]})  # "steps": an idealisation (bhr physics says so)
     return row
 
 
