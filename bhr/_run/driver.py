@@ -38,7 +38,7 @@ from bhr.solvers import Chain, FollowContext, Solver, get_solver
 from bhr._run.body import BodyRun, check_body_modules, score_body, simulate_body, whole_robot_codes
 from bhr._run.clearance import CecumWatch, ClearanceReport, cecum_step, clearance_report
 from bhr._kinematics.leader import angle_deg, score_step
-from bhr.model._path import Trajectory, path_directions, spacing, to_steps, unfollowable_bends
+from bhr.model._path import Trajectory, approach_steps, path_directions, spacing, to_steps, unfollowable_bends
 from bhr.model._tube import lumen_end_of, make_tube
 
 if TYPE_CHECKING:  # the trail model (7 kernels, and the wall mesh's) loads when a run uses it
@@ -547,8 +547,7 @@ def _run_from_json(doc: Any, where: str) -> FollowResult:
     told_doc = doc.get("summary")
     approach = 0  # a whole robot on a trail may push its tip on to the cecum past the path's end
     if isinstance(told_doc, dict) and told_doc.get("locomotion") in ("trail", "wires"):
-        from bhr._run.trail import CECUM_APPROACH
-        approach = int(math.ceil(CECUM_APPROACH * (path.shape[0] - 1)))
+        approach = approach_steps(path.shape[0])
     if count > path.shape[0] + approach:
         raise bad(f"{count} steps but only {path.shape[0]} trajectory points"
                   + (f" (and {approach} steps to the cecum)" if approach else ""))

@@ -909,7 +909,8 @@ def plan_motion(tube: Tube, radius: float, codes: np.ndarray, T: np.ndarray, bac
     low = np.concatenate([ch[6] for ch in chunks])
     step = np.concatenate([ch[7] for ch in chunks]) + 1
     return MotionRun(t, x, pts, tl, cd, step, chosen, low, dev, np.array(ends, dtype=np.int64), sj, scd, pc, mc, mw,
-                     kept, bool(crossed > 0.0), stopped_step=stopped, module_length_mm=float(L))
+                     kept, bool(crossed > 0.0), stopped_step=stopped, module_length_mm=float(L),
+                     planned_steps=int(steps))
 
 
 def mesh_joint_clearance(grid, radius: float, pts: np.ndarray, xs: np.ndarray, L: float) -> np.ndarray:
@@ -957,7 +958,7 @@ def wires_motion(traj, robot, solver, body_modules: int | None = None, reach: bo
     settings = {**solver.settings, "trail_beam": solver.trail_beam, "center_weight": solver.trail_center_weight}
     tube = dense_tube(traj.points, traj.lumen, traj.start_direction, solver.window,
                       closed_end=getattr(traj, "lumen_end", "closed") == "closed")
-    tcodes, steps, stop = plan_to_cecum(tube, robot, settings, N, traj.start_direction, traj.start_point)
+    tcodes, _, steps, stop = plan_to_cecum(tube, robot, settings, N, traj.start_direction, traj.start_point)
     if reach:
         body_modules = check_body_modules(cecum_modules(stop + 1, f, n), n, "reach cecum")
     M = int(n if body_modules is None else body_modules)
@@ -977,7 +978,6 @@ def wires_motion(traj, robot, solver, body_modules: int | None = None, reach: bo
                      float(robot.alpha), traj.start_point, traj.start_direction, stop * float(robot.feed), N, params,
                      strategies, bound=bound, grid=grid, stop_below=stop_below)
     mo.wall = wall
-    mo.planned_steps = N
     return mo, tcodes, M, stop, short, too_short
 
 

@@ -43,6 +43,7 @@ import numpy as np
 from numba import njit
 
 from bhr._run.body import check_body_modules
+from bhr.model._path import approach_steps
 from bhr.model._tube import Tube, lumen_end_of, nearest_kernel, point_clearance, scored_span
 from bhr.model._wallmesh import grid_args, mesh_segment, sdf_at, wall_grid
 from bhr._run.clearance import clearance_chain_kernel, index_matched_min, robot_labels, tables_report, wall_label
@@ -367,12 +368,6 @@ def vertex_hints(tube: Tube, T: np.ndarray, back: int, L: float) -> np.ndarray:
     return z
 
 
-#: How much further than the path's length the feeder may push the robot to bring its tip to the cecum, as a
-#: fraction of the path: a binary chain weaves about a smooth centerline, so its trail covers a little less of
-#: the colon than the robot's insertion (28-52 mm, 1.4-2.7 % of the path, on colons 1-10 at α 25° and 5 mm modules).
-CECUM_APPROACH = 0.25
-
-
 def _first_at_end(tube: Tube, z: np.ndarray, back: int, f: int, steps: int) -> int | None:
     """The first step (0-based) of ``steps`` at which the tip's centerline hint reaches the path's end, or None."""
     end = float(tube.points.shape[0] - tube.post - 1)
@@ -386,13 +381,14 @@ def _first_at_end(tube: Tube, z: np.ndarray, back: int, f: int, steps: int) -> i
 
 
 def plan_to_cecum(tube: Tube, robot, settings: dict, path_steps: int, start_direction, start_point
-                  ) -> tuple[np.ndarray, int, int]:
-    """The trail a whole robot follows to the cecum: (its codes, one per vertex; the run's steps; the step, 0-based,
-    at which the tip reaches the path's end along the centerline, where the feeder stops).
+                  ) -> tuple[np.ndarray, np.ndarray, int, int]:
+    """The trail a whole robot follows to the cecum: (its codes, one per vertex; their centerline hints with 2 rows
+    before vertex 0, :func:`vertex_hints`; the run's steps; the step, 0-based, at which the tip reaches the path's
+    end along the centerline, where the feeder stops).
 
     The feeder inserts one feed a step. A trail that weaves about the centerline covers less of the colon than
     its length, so after the path's ``path_steps`` insertions its tip can still be short of the cecum: the feeder
-    then pushes on, the trail planned on, until the tip gets there (at most :data:`CECUM_APPROACH` of the path
+    then pushes on, the trail planned on, until the tip gets there (at most :func:`bhr.model._path.approach_steps`
     further; the run has those steps too, their target the path's end). A tip that does not get there even so
     stops where the path's length takes it, short of the cecum.
     """
@@ -402,15 +398,16 @@ def plan_to_cecum(tube: Tube, robot, settings: dict, path_steps: int, start_dire
     z = vertex_hints(tube, trail_vertices(codes, start_direction, start_point, L, robot.alpha, 2), 2, L)
     hit = _first_at_end(tube, z, 2, f, N)
     if hit is not None:
-        return codes, N, hit
-    longer = N + int(math.ceil(CECUM_APPROACH * (N - 1)))
+        return codes, z, N, hit
+    longer = N + approach_steps(N)
     more = plan_trail(tube, robot, settings, (longer - 1) // f + 1, start_direction, start_point)
-    z = vertex_hints(tube, trail_vertices(more, start_direction, start_point, L, robot.alpha, 2), 2, L)
-    hit = _first_at_end(tube, z, 2, f, longer)
+    zm = vertex_hints(tube, trail_vertices(more, start_direction, start_point, L, robot.alpha, 2), 2, L)
+    hit = _first_at_end(tube, zm, 2, f, longer)
     if hit is None:
-        return codes, N, N - 1
+        return codes, z, N, N - 1
     steps = max(N, hit + 1)
-    return np.ascontiguousarray(more[:(steps - 1) // f + 1]), steps, hit
+    V = (steps - 1) // f + 1  # a vertex's hint depends only on the vertices before it: the hints of these are zm's
+    return np.ascontiguousarray(more[:V]), np.ascontiguousarray(zm[:2 + V + 1]), steps, hit
 
 
 def trail_tables(tube: Tube, radius: float, T: np.ndarray, back: int, f: int, m_lo: int, m_hi: int, L: float,
@@ -507,9 +504,8 @@ def run_trail(traj, robot, settings: dict, window_mm: float, modules: int | None
     L = float(robot.module_length)
     tube = dense_tube(traj.points, traj.lumen, traj.start_direction, window_mm,
                       closed_end=getattr(traj, "lumen_end", "closed") == "closed")
-    codes, N, stop = plan_to_cecum(tube, robot, settings, N, traj.start_direction, traj.start_point)
+    codes, z, N, stop = plan_to_cecum(tube, robot, settings, N, traj.start_direction, traj.start_point)
     V = codes.shape[0]
-    z = vertex_hints(tube, trail_vertices(codes, traj.start_direction, traj.start_point, L, robot.alpha, 2), 2, L)
     m, k = divmod(stop, f)
     ztip = z[2 + m] + (k / f) * (z[3 + m] - z[2 + m])
     short = max(0.0, float(tube.points.shape[0] - tube.post - 1 - ztip) * float(tube.spacing))

@@ -275,7 +275,7 @@ _TOO_SHORT = "too short to reach the cecum"
 def _stuck(row: dict[str, Any]) -> float:
     """How far short of the cecum a whole robot long enough for the colon stopped, mm: the feeder pushes it on past
     the path's end until its tip is there (docs/locomotion.md), so only a trail that could not get there within
-    bhr._run.trail.CECUM_APPROACH leaves one; 0 otherwise."""
+    bhr.model._path.approach_steps leaves one; 0 otherwise."""
     return 0.0 if row.get("too_short_for_cecum") else float(row.get("cecum_shortfall_mm") or 0.0)
 
 

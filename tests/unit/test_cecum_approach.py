@@ -13,7 +13,7 @@ import pytest
 
 import bhr
 from bhr._run.driver import FollowResult, follow
-from bhr._run.trail import CECUM_APPROACH
+from bhr.model._path import approach_steps
 from bhr._studies.follow_run import body_clearance_lines
 
 
@@ -41,7 +41,7 @@ def test_the_feeder_pushes_on_until_the_tip_reaches_the_cecum(wavy, locomotion):
     run = follow(wavy, solver="lumen", alpha=25, module_length=5, reach="cecum", locomotion=locomotion)
     s = run.summary.to_dict()
     # the path's length of insertion leaves the tip short: the run has the steps that bring it on
-    assert N < run.steps <= N + math.ceil(CECUM_APPROACH * (N - 1))
+    assert N < run.steps <= N + approach_steps(N) == N + math.ceil(0.25 * (N - 1))
     assert s["cecum_shortfall_mm"] == 0.0 and s["cecum_approach_steps"] == run.steps - N
     assert s["feeder_stop_step"] == run.steps
     assert _past_the_end(wavy, run.points[-1, -1])
