@@ -819,8 +819,14 @@ def tables_report(table: np.ndarray, labels: list[str], mtable: np.ndarray, mlab
                            lumen_end=lumen_end), both
 
 
+#: The column of a whole robot's run on a trail, read back from run.json, that holds the smallest clearance of the
+#: poses it moved through between two written steps (each step's ``clearance_mm``), where lower than the step's own.
+BETWEEN_STEPS = "moving between written steps"
+
+
 def clearance_report(result, window_mm: float = WINDOW_MM, sample_mm: float = SAMPLE_MM,
-                     lumen_end: str | None = None, mesh: bool = True) -> ClearanceReport | None:
+                     lumen_end: str | None = None, mesh: bool = True,
+                     between_steps: np.ndarray | None = None) -> ClearanceReport | None:
     """The geometric clearance of a run (:class:`bhr._run.driver.FollowResult`) whose trajectory has a lumen, else None.
 
     Where the trajectory has a surface mesh of its lumen (and ``mesh`` is true) the clearance is measured against
@@ -829,6 +835,11 @@ def clearance_report(result, window_mm: float = WINDOW_MM, sample_mm: float = SA
     ``lumen_end`` (default: the trajectory's, else ``"closed"``) says whether
     the lumen is capped at the last centerline point (``"closed"``: past it is
     wall) or continues straight (``"open"``). The entrance is always open.
+
+    ``between_steps`` (N,) mm: a whole robot's run on a trail (moved by its wires, or the trail model's) read back
+    from its run.json, whose written steps are only some of its poses: each step's smallest clearance over all its
+    poses (run.json's ``clearance_mm``, NaN where none). Where it is below the written step's own, it is the
+    step's clearance, named :data:`BETWEEN_STEPS`, and counts for the touches and for leaving the lumen.
     """
     tr = result.trajectory
     if tr.lumen is None:
@@ -859,6 +870,14 @@ def clearance_report(result, window_mm: float = WINDOW_MM, sample_mm: float = SA
         m_order = list(range(B, B + n)) + list(range(B - 1, -1, -1))
         table, mtable, mwhere = pt[:, p_order], mod[:, m_order], where[:, m_order]
     labels, mlabels = robot_labels(n, B)
+    if between_steps is not None:
+        floor = np.asarray(between_steps, dtype=np.float64)[:mtable.shape[0]]
+        own = row_min(np.concatenate([table, mtable], axis=1))
+        with np.errstate(invalid="ignore"):
+            lower = (floor < own - 1e-9) | (np.isnan(own) & ~np.isnan(floor))
+        mtable = np.concatenate([mtable, np.where(lower, floor, np.nan)[:, None]], axis=1)
+        mwhere = np.concatenate([mwhere, np.full((mwhere.shape[0], 1, 3), np.nan)], axis=1)
+        mlabels = mlabels + [BETWEEN_STEPS]
     # once the feeder has stopped at the cecum (bhr._run.driver) the robot travels no further: no contact length
     moved = result.extra.get("summary", {}).get("feeder_stop_step")
     rep, both = tables_report(table, labels, mtable, mlabels, mwhere, float(r.feed), index_matched_min(result, B),

@@ -286,8 +286,8 @@ class FollowResult:
             from bhr._run.motion import motion_report
 
             return motion_report(self)
-        if self.trail is None:
-            return clearance_report(self)
+        if self.trail is None:  # a run of the wires read back: its steps, and the poses between them as written
+            return clearance_report(self, between_steps=self.extra.get("between_steps_clearance_mm"))
         from bhr._run.trail import trail_report
 
         return trail_report(self)
@@ -560,9 +560,10 @@ def _run_from_json(doc: Any, where: str) -> FollowResult:
                    for k, st in enumerate(steps)])
     oe = np.stack([array(st["module_orientation_errors_deg"], (n,), f"step {k + 1} module_orientation_errors_deg")
                    for k, st in enumerate(steps)])
+    written = np.full(count, np.nan)
     for k, st in enumerate(steps):  # written where the path has a lumen; null where nothing is scored yet
         if st.get("clearance_mm") is not None:
-            array(st["clearance_mm"], (), f"step {k + 1} clearance_mm")
+            written[k] = array(st["clearance_mm"], (), f"step {k + 1} clearance_mm")
     iters = [st["iterations"] for st in steps]
     max_iter = robot_limits()["max_iter"][0]
     if not all(isinstance(v, int) and not isinstance(v, bool) and 0 <= v <= max_iter
@@ -617,6 +618,10 @@ def _run_from_json(doc: Any, where: str) -> FollowResult:
         if isinstance(stop, bool) or not isinstance(stop, int) or not 1 <= stop < pts.shape[0]:
             raise bad(f"summary feeder_stop_step must be a step from 1 to {pts.shape[0] - 1}, got {excerpt(stop)}")
         extra["summary"] = {"feeder_stop_step": stop}  # the robot held its pose from there (contact length)
+    if told.get("locomotion") in ("trail", "wires") and lumen is not None:
+        # a whole robot on a trail moves between its written steps: each step's clearance_mm is the smallest over
+        # all its poses (the wires') or over its slide along the trail (the trail model's)
+        extra["between_steps_clearance_mm"] = written
     return FollowResult(traj, robot, solver, pts, np.asarray(iters, dtype=np.int64), pe, oe, codes,
                         [str(m) for m in msgs] if isinstance(msgs, list) else [], extra, body)
 

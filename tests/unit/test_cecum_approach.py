@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 import bhr
+from bhr._run.clearance import clearance_report
 from bhr._run.driver import FollowResult, follow
 from bhr.model._path import approach_steps
 from bhr._studies.follow_run import body_clearance_lines
@@ -61,6 +62,15 @@ def test_the_feeder_pushes_on_until_the_tip_reaches_the_cecum(wavy, locomotion):
     again = FollowResult.from_json(json.loads(run.to_json()))
     assert again.steps == run.steps and np.array_equal(again.targets, run.targets)
     assert np.array_equal(again.points, run.points)
+    # read back, the run is judged as it was run: by every pose, not by its written steps alone (a whole robot on a
+    # trail moves between its steps; each step's clearance_mm is the smallest over all its poses)
+    a, b = run.clearance, again.clearance
+    np.testing.assert_allclose(b.per_step, a.per_step, rtol=0, atol=1e-9)
+    assert (b.min_mm, b.min_step, b.touch_steps, b.left_lumen_step) == (a.min_mm, a.min_step, a.touch_steps,
+                                                                        a.left_lumen_step)
+    if locomotion == "wires":  # its written steps alone are gentler: the motion between them is what touches
+        steps_only = clearance_report(again)
+        assert steps_only.min_mm > a.min_mm + 1.0 and len(steps_only.touch_steps) < len(a.touch_steps)
 
 
 @pytest.mark.run
