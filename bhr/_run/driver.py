@@ -837,9 +837,16 @@ def follow(points: Any, solver: str | Solver = "thesis", robot: Robot | None = T
             body_modules = check_body_modules(reach_modules, robot.modules, "reach cecum")
     dirs = path_directions(path)
     whole = body_modules or (reach_modules if reach else 0)
-    work = path.shape[0] * (max(robot.modules, whole) + 1)
+    # a whole robot on a trail may be pushed on to the cecum: up to approach_steps more steps (and, reaching the
+    # cecum, the modules that insertion needs)
+    most = path.shape[0] + (approach_steps(path.shape[0]) if locomotion != "thesis" and whole else 0)
+    if reach and locomotion != "thesis":
+        from bhr._run.trail import cecum_modules
+
+        whole = cecum_modules(most, robot.feed_divisor, robot.modules)
+    work = most * (max(robot.modules, whole) + 1)
     if work > MAX_STEP_POINTS:
-        raise BhrError(f"{path.shape[0]} steps x {max(robot.modules, whole) + 1} robot points is "
+        raise BhrError(f"{most} steps x {max(robot.modules, whole) + 1} robot points is "
                        f"{work:,} points to keep, more than the {MAX_STEP_POINTS:,} a run may hold in memory; "
                        "shorten the path, raise the feed or use fewer modules")
     s = get_solver(solver, robot, **(solver_options or {}))

@@ -93,3 +93,17 @@ def test_a_run_file_with_more_steps_than_its_path_is_refused_unless_a_trail_took
 def test_a_whole_robot_shorter_than_its_head_is_refused_in_one_line(wavy, locomotion):
     with pytest.raises(bhr.BhrError, match="body_modules 3 is fewer than the 5 head modules"):
         follow(wavy, solver="lumen", alpha=25, module_length=5, body_modules=3, locomotion=locomotion)
+
+
+@pytest.mark.parametrize("options, limit, said", [
+    ({"body_modules": 20}, 7_000, "400 steps x 21 robot points"),  # 320 x 21 = 6,720 would fit
+    ({"reach": "cecum"}, 21_000, "400 steps x 81 robot points"),  # 320 x 65 = 20,800 would fit
+])
+def test_the_memory_check_counts_the_steps_to_the_cecum(wavy, monkeypatch, options, limit, said):
+    """The path's 320 steps (and, reaching the cecum, its robot of 64 modules) fit under the limit; with the 80
+    steps a trail may take to the cecum they do not, and the run is refused before it starts."""
+    import bhr._run.driver as driver
+
+    monkeypatch.setattr(driver, "MAX_STEP_POINTS", limit)
+    with pytest.raises(bhr.BhrError, match=said + f".*more than the {limit:,} a run may hold in memory"):
+        follow(wavy, solver="lumen", alpha=25, module_length=5, **options)
