@@ -75,9 +75,10 @@ def compare(traj, solvers, out_dir, json_path, no_plots, force, **kwargs):
     if body_modules is not None:
         check_body_modules(body_modules, robot.modules, "--body-modules")
     stop_at_wall = bool(kwargs.pop("stop_at_wall", None))
-    if kwargs.pop("reach", None) is not None or (kwargs.pop("locomotion", None) or "thesis") != "thesis":
-        raise BhrError("bhr compare runs the thesis's locomotion; use bhr follow (or bhr traverse) for --reach and "
-                       "--locomotion")
+    if (kwargs.pop("reach", None) is not None or (kwargs.pop("locomotion", None) or "thesis") != "thesis"
+            or kwargs.pop("all_poses", None)):
+        raise BhrError("bhr compare runs the thesis's locomotion; use bhr follow (or bhr traverse) for --reach, "
+                       "--locomotion and --all-poses")
     announce_compiles()
     traj_params = pop_trajectory(kwargs)
     tr = load_trajectory(traj, feed=robot.feed, **traj_params)

@@ -108,6 +108,7 @@ def follow(traj, solver, out_dir, json_path, no_plots, force, **kwargs):
         check_body_modules(body_modules, robot.modules, "--body-modules")
     reach, locomotion = kwargs.pop("reach"), kwargs.pop("locomotion")
     stop_at_wall = bool(kwargs.pop("stop_at_wall"))
+    all_poses = bool(kwargs.pop("all_poses"))
     if reach is not None and body_modules is not None:
         raise BhrError("give either --body-modules or --reach cecum, not both (--reach cecum sets the whole robot's "
                        "modules from the path's length)")
@@ -127,7 +128,7 @@ def follow(traj, solver, out_dir, json_path, no_plots, force, **kwargs):
     try:
         run = follow_run(traj, robot=robot, solver=solver, solver_options={**constraints, **optimal},
                          traj_params=traj_params, body_modules=body_modules, reach=reach, locomotion=locomotion,
-                         stop_at_wall=stop_at_wall,
+                         stop_at_wall=stop_at_wall, all_poses=all_poses,
                          out_dir=out_dir, json_path=json_path, plots=not no_plots, animate_path=animate_path,
                          stride=stride, rate=rate, robot_file=robot_file, thermal=thermal_params(robot_file),
                          stream=stream, status=functools.partial(status, log=True),

@@ -721,8 +721,9 @@ def _as_trajectory(points: Any, robot: Robot) -> Trajectory:
     return Trajectory("points", arr, feed=robot.feed)
 
 
-def check_locomotion(locomotion: str, stop_at_wall: bool | None) -> None:
-    """Refuse a locomotion bhr does not have, and stop_at_wall with the trail model (one line each)."""
+def check_locomotion(locomotion: str, stop_at_wall: bool | None, all_poses: bool | None = None) -> None:
+    """Refuse a locomotion bhr does not have, stop_at_wall with the trail model and all_poses with any but the
+    wires (one line each)."""
     if locomotion not in ("thesis", "trail", "wires"):
         raise BhrError(f"locomotion must be thesis, wires or trail, got {locomotion!r}")
     if stop_at_wall is not None and not isinstance(stop_at_wall, bool):
@@ -730,13 +731,20 @@ def check_locomotion(locomotion: str, stop_at_wall: bool | None) -> None:
     if stop_at_wall and locomotion == "trail":
         raise BhrError("stop at wall ends a run where the robot leaves the lumen; the trail model is an idealisation "
                        "that plans its trail inside the lumen: drop --stop-at-wall or give --locomotion wires")
+    if all_poses is not None and not isinstance(all_poses, bool):
+        raise BhrError(f"all_poses must be True or False, got {all_poses!r}")
+    if all_poses and locomotion != "wires":
+        raise BhrError(f"all poses keeps every pose of a whole robot moved by its wires (--locomotion wires, the "
+                       f"default for --body-modules or --reach with --solver lumen); the {locomotion} model has one "
+                       "pose a step, all in run.json: drop --all-poses")
 
 
 def follow(points: Any, solver: str | Solver = "thesis", robot: Robot | None = THESIS_ROBOT, *,
            solver_options: dict[str, Any] | None = None,
            on_step: Callable[[int, np.ndarray | None], None] | None = None,
            compiled: bool = True, body_modules: int | None = None, reach: str | None = None,
-           locomotion: str | None = None, stop_at_wall: bool | None = None, **robot_options: Any) -> FollowResult:
+           locomotion: str | None = None, stop_at_wall: bool | None = None, all_poses: bool | None = None,
+           **robot_options: Any) -> FollowResult:
     """Run follow-the-leader along ``points`` with ``solver``: one solve per feed step, the tip on the path.
 
     Parameters
@@ -776,6 +784,10 @@ def follow(points: Any, solver: str | Solver = "thesis", robot: Robot | None = T
         End the run at the step where the robot leaves the lumen (:func:`bhr._run.clearance.left_lumen`:
         its axis outside the wall): the result has that many steps, its ``finished`` says so, and no later
         (impossible) pose is scored. Not for the trail model, which plans its trail inside the lumen.
+    all_poses : bool, optional
+        With ``locomotion="wires"``: keep every pose in ``motion`` however many (by default at most
+        :data:`bhr._run.motion.POSE_POINTS_LIMIT` robot points, 6 million; past it the poses are scored but
+        not kept, and a physics replay reads the run's steps). A 1.5 m robot's poses take about 2 GB.
     **robot_options
         Changes to ``robot``'s settings (``modules``, ``module_length`` mm, ``alpha`` deg, ``tol_pos`` mm,
         ... as in the option registry, :mod:`bhr._settings.options`).
@@ -821,7 +833,7 @@ def follow(points: Any, solver: str | Solver = "thesis", robot: Robot | None = T
         has_lumen = getattr(traj, "lumen", None) is not None
         named = solver.name if isinstance(solver, Solver) else solver
         locomotion = "wires" if whole_robot and has_lumen and named == "lumen" else "thesis"
-    check_locomotion(locomotion, stop_at_wall)
+    check_locomotion(locomotion, stop_at_wall, all_poses)
     if body_modules is not None:
         body_modules = check_body_modules(body_modules, robot.modules)
     if reach is not None:
@@ -895,7 +907,7 @@ def follow(points: Any, solver: str | Solver = "thesis", robot: Robot | None = T
                            f"planner; use --solver lumen (not {solver})")
         if locomotion == "wires":
             return _follow_wires(traj, robot, s, solver, path, dirs, body_modules, reach is not None, msgs, on_step,
-                                 bool(stop_at_wall))
+                                 bool(stop_at_wall), bool(all_poses))
         return _follow_trail(traj, robot, s, solver, path, dirs, body_modules, reach is not None, msgs, on_step)
     chain = Chain.straight(robot, traj.start_direction, traj.start_point, tip_at_origin=True)
     out_points = np.zeros((N, n + 1, 3))
@@ -1113,8 +1125,8 @@ def _sections_from_json(doc: Any, count: int, bad: Any) -> tuple[tuple[str, int,
 
 def _follow_wires(traj: Trajectory, robot: Robot, s: Any, solver: str, path: np.ndarray, dirs: np.ndarray,
                   body_modules: int | None, reach: bool, msgs: list[str],
-                  on_step: Callable[[int, np.ndarray | None], None] | None, stop_at_wall: bool = False
-                  ) -> FollowResult:
+                  on_step: Callable[[int, np.ndarray | None], None] | None, stop_at_wall: bool = False,
+                  all_poses: bool = False) -> FollowResult:
     """A run of the robot as it can be built (bhr._run.motion): plan the trail, drive the rigid robot's joints along
     it by their wires, write and score every pose. ``stop_at_wall``: the run ends with the step where the robot
     leaves the lumen (some joint or module deeper in the wall than the robot's radius)."""
@@ -1122,7 +1134,8 @@ def _follow_wires(traj: Trajectory, robot: Robot, s: Any, solver: str, path: np.
 
     n, f = robot.modules, robot.feed_divisor
     mo, tcodes, M, stop, short, too_short = wires_motion(traj, robot, s, body_modules, reach,
-                                              stop_below=-float(robot.robot_radius) if stop_at_wall else None)
+                                              stop_below=-float(robot.robot_radius) if stop_at_wall else None,
+                                              all_poses=all_poses)
     N = mo.step_joints.shape[0]  # the path's steps and those to the cecum, or fewer when it stopped at the wall
     traj_steps = path.shape[0]
     approach = max(0, int(mo.planned_steps) - traj_steps)

@@ -729,7 +729,8 @@ class MotionRun:
 def plan_motion(tube: Tube, radius: float, codes: np.ndarray, T: np.ndarray, back: int, z: np.ndarray, M: int,
                 L: float, feed: float, alpha_deg: float, start_point, start_direction, stop_mm: float, steps: int,
                 params: ThermalParams = DEFAULT_THERMAL, strategies: tuple[Strategy, ...] | None = None,
-                sample: float = 1.0, bound: bool = True, grid=None, stop_below: float | None = None) -> MotionRun:
+                sample: float = 1.0, bound: bool = True, grid=None, stop_below: float | None = None,
+                pose_limit: float = POSE_POINTS_LIMIT) -> MotionRun:
     """The whole robot of M rigid modules driven along the trail (``codes`` per vertex, vertices ``T`` with
     ``back`` rows before vertex 0 and their centerline hints ``z``) up to an insertion of ``stop_mm``.
 
@@ -740,7 +741,8 @@ def plan_motion(tube: Tube, radius: float, codes: np.ndarray, T: np.ndarray, bac
     clearance and the poses are measured against, else (None) the ``tube``. ``stop_below`` (mm): the motion ends with
     the step in which a pose's clearance first falls below it (minus the radius: the robot left the lumen); the
     steps' tables then end there too (``stopped_step``), and are those of the whole run's first steps (a pose
-    depends only on the poses before it).
+    depends only on the poses before it). ``pose_limit``: the robot points (poses x joints) kept at most, the
+    poses dropped (``kept`` False) past it; ``math.inf`` keeps them all.
     """
     from bhr.model._robot import base_frame
 
@@ -874,7 +876,7 @@ def plan_motion(tube: Tube, radius: float, codes: np.ndarray, T: np.ndarray, bac
         scd[steps0[last_of]] = cd[last_of]
         filled = max(filled, int(steps0[-1]))
         count += pts.shape[0] * (M + 1)
-        if count > POSE_POINTS_LIMIT:
+        if count > pose_limit:
             kept = False
         chunks.append((clock + times, xs, pts if kept else None, tl if kept else None,
                        cd.astype(np.int8) if kept else None, dev, low, steps0))
@@ -937,13 +939,14 @@ def mesh_score(grid, radius: float, pts: np.ndarray, xs: np.ndarray, steps: np.n
 
 def wires_motion(traj, robot, solver, body_modules: int | None = None, reach: bool = False,
                  strategies: tuple[Strategy, ...] | None = None, params: ThermalParams = DEFAULT_THERMAL,
-                 bound: bool = True, stop_below: float | None = None
+                 bound: bool = True, stop_below: float | None = None, all_poses: bool = False
                  ) -> tuple[MotionRun, np.ndarray, int, int, float, bool]:
     """The whole robot of ``body_modules`` (or, ``reach``, as many as reach the cecum) along ``traj`` (with a lumen)
     moved by its wires: (the motion, the trail's codes, the modules M, the 0-based step where the feeder stops, how
     far short of the path's end the tip stops in mm, whether the robot is too short to reach the cecum: its tail
     reached the anus first). ``solver``: the configured lumen solver (its planner settings); ``stop_below``:
-    :func:`plan_motion`'s."""
+    :func:`plan_motion`'s; ``all_poses``: every pose kept, however many (else at most :data:`POSE_POINTS_LIMIT`
+    robot points)."""
     from bhr.model._wallmesh import wall_grid
     from bhr._run.body import check_body_modules
     from bhr._run.trail import cecum_modules, plan_to_cecum, vertex_hints
@@ -976,7 +979,8 @@ def wires_motion(traj, robot, solver, body_modules: int | None = None, reach: bo
     grid, wall = wall_grid(traj)
     mo = plan_motion(tube, float(robot.robot_radius), tcodes, T, back, z, M, L, float(robot.feed),
                      float(robot.alpha), traj.start_point, traj.start_direction, stop * float(robot.feed), N, params,
-                     strategies, bound=bound, grid=grid, stop_below=stop_below)
+                     strategies, bound=bound, grid=grid, stop_below=stop_below,
+                     pose_limit=math.inf if all_poses else POSE_POINTS_LIMIT)
     mo.wall = wall
     return mo, tcodes, M, stop, short, too_short
 

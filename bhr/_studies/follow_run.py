@@ -137,7 +137,8 @@ def check_outputs(traj: str, robot_file: str | None, out_dir: str | None, json_p
 
 def follow_run(traj: str, *, robot: Any, solver: str = "thesis", solver_options: dict | None = None,
                traj_params: dict | None = None, body_modules: int | None = None, reach: str | None = None,
-               locomotion: str | None = None, stop_at_wall: bool = False, out_dir: str | None = None,
+               locomotion: str | None = None, stop_at_wall: bool = False, all_poses: bool = False,
+               out_dir: str | None = None,
                json_path: str | None = None,
                plots: bool = True, animate_path: str | None = None, stride: int | None = None,
                rate: float = 10.0, robot_file: str | None = None, thermal: Any = None,
@@ -157,7 +158,7 @@ def follow_run(traj: str, *, robot: Any, solver: str = "thesis", solver_options:
     and of the procedure time's schedule. ``status(label)``: a context manager around each
     stage (a spinner); ``frames_progress(done, total)`` while an animation
     renders; ``notice(line)`` for lines to show during the run. ``stop_at_wall``: end the run where the robot
-    leaves the lumen (:func:`bhr._run.driver.follow`).
+    leaves the lumen; ``all_poses``: keep and write every pose, however many (:func:`bhr._run.driver.follow`).
     """
     from bhr.output._paths import check_output_file
 
@@ -189,6 +190,8 @@ def follow_run(traj: str, *, robot: Any, solver: str = "thesis", solver_options:
     if stream is not None and stop_at_wall:
         raise BhrError("--port streams every step as it is solved, so it cannot stop where the robot left the lumen "
                        "later; drop --stop-at-wall to stream, or --port to check the run first")
+    if stream is not None and all_poses:
+        raise BhrError("--port streams the thesis's locomotion, one pose a step; drop --all-poses to stream")
     if stream is not None and (locomotion not in (None, "thesis") or reach is not None):
         raise BhrError("--port streams the thesis's locomotion; drop --locomotion and --reach to stream")
     if thermal is None:
@@ -205,6 +208,7 @@ def follow_run(traj: str, *, robot: Any, solver: str = "thesis", solver_options:
         locomotion = "wires" if whole and solver == "lumen" else "thesis"
     extra: tuple[str | None, ...] = (reach, locomotion) if (reach, locomotion) != (None, "thesis") else ()
     extra += ("stop_at_wall",) if stop_at_wall else ()  # a run stopped at the wall is another output set
+    extra += ("all_poses",) if all_poses else ()  # so is one that writes every pose
     settings_parts = (*trajectory_parts(tr), robot.to_dict(), solver, solver_options, body_modules, *extra)
     if folder is None and use_folder:
         name = run_folder_name(f"{folder_stem(traj, traj_params.get('seed'))}-{solver}", *settings_parts)
@@ -228,7 +232,7 @@ def follow_run(traj: str, *, robot: Any, solver: str = "thesis", solver_options:
                         f"{_describe(body_modules, reach, locomotion)})"):
                 result = follow(tr, solver=solver, robot=robot, solver_options=solver_options,
                                 body_modules=body_modules, reach=reach, locomotion=locomotion,
-                                stop_at_wall=stop_at_wall)
+                                stop_at_wall=stop_at_wall, all_poses=all_poses)
         else:
             result, outcome = _follow_streaming(tr, solver, robot, solver_options, thermal, rate, stream, say)
     messages = list(dict.fromkeys(str(w.message) for w in caught if issubclass(w.category, BhrWarning)))
@@ -450,7 +454,8 @@ def body_clearance_lines(s: dict) -> list[str]:
     if s.get("locomotion") == "wires":
         # as for the trail: the procedure time is the one line bhr follow prints for the board's schedule of
         # codes.csv (as bhr plan computes it); the motion's own duration is run.json's procedure_time_s
-        where = f" in {s['poses_file']}" if s["poses_file"] else " (too many to keep)"
+        where = f" in {s['poses_file']}" if s["poses_file"] else " (too many to keep: each scored, none written; " \
+            "--all-poses writes them)"
         ways = ", ".join(f"{k} {v}" for k, v in sorted(s["switching"].items(), key=lambda kv: -kv[1]))
         feeder = _feeder(s) if s.get("feeder_stop_step") else "the feeder pushing"
         if s.get("too_short_for_cecum"):

@@ -135,6 +135,9 @@ CASES += [
     Bad("fk-bad-keeps-good-json", "fk", ["--codes", "7", "--json", "good.json"], expect="code 7"),
     # follow: names, options and outputs
     Bad("follow-unknown-trajectory", "follow", ["--traj", "stomach"], expect="unknown trajectory 'stomach'"),
+    Bad("follow-all-poses-thesis", "follow", ["--traj", "colon", "--all-poses"], expect="drop --all-poses"),
+    Bad("follow-all-poses-trail", "follow", ["--traj", "anatomy", "--solver", "lumen", "--body-modules", "20",
+                                             "--locomotion", "trail", "--all-poses"], expect="drop --all-poses"),
     Bad("follow-missing-file", "follow", ["--traj", "nope.toml"], expect="unknown trajectory"),
     Bad("follow-alpha-underflows", "follow", ["--traj", "colon", "--alpha", "1e-400"],
         expect="1e-400 is too small to mean anything"),
@@ -336,6 +339,7 @@ CASES += [
     Bad("compare-unknown-solver", "compare", ["--traj", "curve", "--solver", "seed", "--solver", "nope"],
         expect="unknown solver 'nope'"),
     Bad("compare-unknown-trajectory", "compare", ["--traj", "stomach"], expect="unknown trajectory 'stomach'"),
+    Bad("compare-all-poses", "compare", ["--traj", "curve", "--all-poses"], expect="--all-poses"),
     Bad("compare-one-solver", "compare", ["--traj", "curve", "--solver", "seed"], expect="at least two solvers"),
     Bad("compare-solver-twice", "compare", ["--traj", "curve", "--solver", "seed", "--solver", "seed"],
         expect="given twice"),

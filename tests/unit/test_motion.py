@@ -233,6 +233,36 @@ def test_stop_at_wall_ends_a_wires_run_where_it_leaves_the_lumen_as_the_whole_ru
 
 
 @pytest.mark.run
+def test_past_the_pose_limit_a_run_keeps_its_poses_only_when_asked(monkeypatch):
+    """Past POSE_POINTS_LIMIT robot points a run scores every pose but keeps none (a 1.5 m robot's take about 2 GB),
+    and a physics replay reads its steps; all_poses keeps every one: the same poses, scored the same."""
+    import bhr._run.motion as motion
+    from bhr._studies.follow_run import body_clearance_lines
+    from bhr._studies.physics.poses import poses_from_motion
+
+    tr = bhr.trajectory("anatomy", seed=1)
+    kw = dict(solver="lumen", alpha=25, module_length=5, body_modules=30, stop_at_wall=True)
+    under = follow(tr, **kw)
+    P, J = under.motion.points_mm.shape[:2]
+    monkeypatch.setattr(motion, "POSE_POINTS_LIMIT", P * J // 2)
+    dropped = follow(tr, **kw)
+    every = follow(tr, all_poses=True, **kw)
+    assert under.motion.kept and every.motion.kept and not dropped.motion.kept
+    assert dropped.motion.points_mm.shape[0] == 0 and dropped.summary.extra["poses_file"] is None
+    assert every.summary.extra["poses_file"] == "poses.npz" and every.summary.extra["poses"] == P
+    assert "--all-poses writes them" in " ".join(body_clearance_lines(dropped.summary.to_dict()))
+    for name in ("points_mm", "tilts_rad", "codes", "step", "t_s", "insertion_mm"):
+        np.testing.assert_array_equal(getattr(every.motion, name), getattr(under.motion, name), err_msg=name)
+    for name in ("pose_clear", "joint_clear", "module_clear", "step_joints"):
+        np.testing.assert_array_equal(getattr(dropped.motion, name), getattr(under.motion, name), err_msg=name)
+    assert poses_from_motion(every) is not None and poses_from_motion(dropped) is None
+    with pytest.raises(bhr.BhrError, match="the trail model has one pose a step.*drop --all-poses"):
+        follow(tr, solver="lumen", body_modules=30, locomotion="trail", all_poses=True)
+    with pytest.raises(bhr.BhrError, match="all_poses must be True or False"):
+        follow(tr, solver="lumen", body_modules=30, all_poses="yes")
+
+
+@pytest.mark.run
 def test_a_robot_shorter_than_the_colon_is_stopped_by_its_tail_and_said_to_be_too_short(wires_run):
     """A feeder at the anus pushes the tail in no further than the robot's length: a robot shorter than the colon
     stops there, its tip far short of the cecum, and its summary says it is too short. One as long as the colon

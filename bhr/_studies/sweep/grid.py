@@ -310,10 +310,12 @@ def build_sweep(trajs: Sequence[str], solvers: Sequence[str], grid: Iterable[tup
         from bhr._run.driver import check_locomotion
 
         for stop in dict(grid).get("stop_at_wall", (None,)):
-            try:
-                check_locomotion(loco, stop)
-            except BhrError as exc:
-                raise BhrError(f"{where}: locomotion = {loco}, stop_at_wall = {stop}: {exc}") from None
+            for every in dict(grid).get("all_poses", (None,)):
+                try:
+                    check_locomotion(loco, stop, every)
+                except BhrError as exc:
+                    said = f", all_poses = {every}" if every is not None else ""
+                    raise BhrError(f"{where}: locomotion = {loco}, stop_at_wall = {stop}{said}: {exc}") from None
     for t in trajs:
         def check_traj(params: dict[str, Any], what: str, t: str = t) -> None:
             try:
