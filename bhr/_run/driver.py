@@ -286,7 +286,7 @@ class FollowResult:
             from bhr._run.motion import motion_report
 
             return motion_report(self)
-        if self.trail is None:  # a run of the wires read back: its steps, and the poses between them as written
+        if self.trail is None:  # a whole robot on a trail read back: its steps, and its poses' minimum per step
             return clearance_report(self, between_steps=self.extra.get("between_steps_clearance_mm"))
         from bhr._run.trail import trail_report
 
