@@ -67,8 +67,8 @@ def physics(run, out_dir, force, wall_stiffness, wire_force, feeder_force, subst
     from bhr.cli._progress import announce_compiles
 
     announce_compiles()  # the run is read: a first compile says so
-    with status(f"replaying {result.steps} steps against the wall", log=True):
-        rep = replay_physics(result, None if run == "-" else run, **opts)
+    with status(f"replaying the poses of {result.steps} steps against the wall (poses done/all)", log=True) as bar:
+        rep = replay_physics(result, None if run == "-" else run, progress=bar.set, **opts)
     from bhr.output._physics_plot import force_figure
     from bhr.output._figure import save_figure
     from bhr.output._view import save_view

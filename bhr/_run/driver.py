@@ -787,7 +787,7 @@ def follow(points: Any, solver: str | Solver = "thesis", robot: Robot | None = T
     all_poses : bool, optional
         With ``locomotion="wires"``: keep every pose in ``motion`` however many (by default at most
         :data:`bhr._run.motion.POSE_POINTS_LIMIT` robot points, 6 million; past it the poses are scored but
-        not kept, and a physics replay reads the run's steps). A 1.5 m robot's poses take about 2 GB.
+        not kept, and a physics replay reads the run's steps). A 1.5 m robot's take about 5 GB of memory.
     **robot_options
         Changes to ``robot``'s settings (``modules``, ``module_length`` mm, ``alpha`` deg, ``tol_pos`` mm,
         ... as in the option registry, :mod:`bhr._settings.options`).

@@ -216,8 +216,8 @@ OPTIONS: tuple[Option, ...] = (
            "axis outside the wall): a study then scores no pose a real robot cannot take (docs/lumen.md)", None,
            shown="run to the end"),
     Option("all_poses", _RUN, bool, "Keep every pose of a whole robot moved by its wires, however many, and write "
-           "them to poses.npz (a 1.5 m robot's are about 2 GB); bhr physics then replays every one of them, not the "
-           "run's steps (docs/locomotion.md)", None, shown="at most 6 million robot points"),
+           "them to poses.npz (a 1.5 m robot's: 5 GB of memory, 0.8 GB of file); bhr physics then replays every one "
+           "of them, not the run's steps (docs/locomotion.md)", None, shown="at most 6 million robot points"),
     # the physics replay (bhr._studies.physics, docs/physics.md)
     Option("wall_stiffness", "physics", float, "Colon wall stiffness per mm of robot in contact, N/mm per mm "
            "(published indentation 0.7-2.4 N/mm over a 13 mm colonoscope head: 0.054-0.185)", 0.1192, "N/mm^2", 2.0,
