@@ -100,4 +100,5 @@ def _idealised(summary: dict) -> str:
 
     if summary.get("poses_replayed") != "steps":
         return ""
-    return f"; {STEPS_IDEALISATION} (its {summary['steps']} steps; the wires' own motion between them is not kept)"
+    return (f"; {STEPS_IDEALISATION} (its {summary['steps']} steps; the wires' own motion between them is not kept: "
+            "bhr follow --all-poses keeps it)")

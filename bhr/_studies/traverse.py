@@ -684,7 +684,8 @@ def judged_by_replay(result: StudyResult) -> str:
     return (f"Judged by the physical replay (bhr physics): a colon is traversed when the replayed tip reaches the "
             f"cecum with the wall's load never above {limit:g} N"
             + (f"; {steps} of {len(result.runs)} runs replayed from their steps only, the joints moved linearly "
-               "between codes (their every pose too many to keep): an idealisation" if steps else
+               "between codes (their every pose too many to keep; --grid all_poses=true keeps them, at a cost): an "
+               "idealisation" if steps else
                "; every run replayed at every pose its wires went through"))
 
 
