@@ -140,6 +140,27 @@ def _wire(on_old, on_new, t_sw, t_heat, th0, s0, t, prm, out):
 
 
 @njit(cache=True)
+def _wire_s(on_old, on_new, t_sw, t_heat, th0, s0, th1, s1, c0, t, prm):
+    """:func:`_wire`'s contraction (the same number) with what does not change in time computed once: ``th1``,
+    ``s1`` a heating wire's theta and contraction when energised, ``c0`` an unpowered cold wire's (th0 = 0)."""
+    if on_old and on_new:
+        return 1.0
+    tau = prm[0]
+    if on_old:
+        if t <= t_sw:
+            return s0
+        return contraction(s0, th0 * math.exp(-(t - t_sw) / tau), prm[3], prm[4], prm[5], prm[6])
+    if on_new and t > t_heat:
+        th = prm[1] + (th1 - prm[1]) * math.exp(-(t - t_heat) / tau)
+        if th > 1.0:
+            th = 1.0
+        return contraction(s1, th, prm[3], prm[4], prm[5], prm[6])
+    if th0 == 0.0:  # cold: theta stays 0 (0 times exp(-t/tau), t >= 0)
+        return c0
+    return contraction(s0, th0 * math.exp(-t / tau), prm[3], prm[4], prm[5], prm[6])
+
+
+@njit(cache=True)
 def _heat_start(on_old, on_new, t_sw, delay, th0, prm):
     """When a wire switched on at ``t_sw`` is energised: after the delay, and not before it has relaxed."""
     t = t_sw + delay
@@ -192,6 +213,41 @@ def _rotate_rows(F, tx, ty, out):
 
 
 @njit(cache=True)
+def _rotate_rows_acs(F, tx, ty, a, c, s, out):
+    """:func:`_rotate_rows` (the same numbers) given ``a = sqrt(tx^2 + ty^2)``, ``c = cos(a)``, ``s = sin(a)``."""
+    if a < 1e-300:
+        for r in range(3):
+            for b in range(3):
+                out[r, b] = F[r, b]
+        return
+    n0 = tx * F[0, 0] + ty * F[1, 0]
+    n1 = tx * F[0, 1] + ty * F[1, 1]
+    n2 = tx * F[0, 2] + ty * F[1, 2]
+    nn = math.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
+    n0 /= nn
+    n1 /= nn
+    n2 /= nn
+    for r in range(3):
+        v0, v1, v2 = F[r, 0], F[r, 1], F[r, 2]
+        d = n0 * v0 + n1 * v1 + n2 * v2
+        out[r, 0] = v0 * c + (n1 * v2 - n2 * v1) * s + n0 * d * (1.0 - c)
+        out[r, 1] = v1 * c + (n2 * v0 - n0 * v2) * s + n1 * d * (1.0 - c)
+        out[r, 2] = v2 * c + (n0 * v1 - n1 * v0) * s + n2 * d * (1.0 - c)
+    zn = math.sqrt(out[2, 0] ** 2 + out[2, 1] ** 2 + out[2, 2] ** 2)
+    for b in range(3):
+        out[2, b] /= zn
+    d = out[0, 0] * out[2, 0] + out[0, 1] * out[2, 1] + out[0, 2] * out[2, 2]
+    for b in range(3):
+        out[0, b] -= d * out[2, b]
+    xn = math.sqrt(out[0, 0] ** 2 + out[0, 1] ** 2 + out[0, 2] ** 2)
+    for b in range(3):
+        out[0, b] /= xn
+    out[1, 0] = out[2, 1] * out[0, 2] - out[2, 2] * out[0, 1]
+    out[1, 1] = out[2, 2] * out[0, 0] - out[2, 0] * out[0, 2]
+    out[1, 2] = out[2, 0] * out[0, 1] - out[2, 1] * out[0, 0]
+
+
+@njit(cache=True)
 def chain_kernel(tail, frame, L, tilts, pts):
     """Points (M + 1, 3) of a chain of M rigid modules of length L from the tail, module i turned by tilts[i]
     (a rotation vector in the local axes of the module behind it; the tail module's relative to ``frame``)."""
@@ -219,6 +275,22 @@ def largest_moves(first, pts, out):
             d = 0.0
             for b in range(3):
                 e = pts[k, i, b] - (first[i, b] if k == 0 else pts[k - 1, i, b])
+                d += e * e
+            if d > best:
+                best = d
+        out[k] = math.sqrt(best)
+
+
+@njit(cache=True)
+def ordered_moves(first, pts, order, out):
+    """out[k] (K,): :func:`largest_moves` of the poses ``pts[order]`` (``pts`` (>= K, J, 3), ``order`` (K,) the rows
+    in time order), without gathering them."""
+    for k in range(order.shape[0]):
+        best = 0.0
+        for i in range(pts.shape[1]):
+            d = 0.0
+            for b in range(3):
+                e = pts[order[k], i, b] - (first[i, b] if k == 0 else pts[order[k - 1], i, b])
                 d += e * e
             if d > best:
                 best = d
@@ -264,7 +336,6 @@ def motion_kernel(times, xs, tsw, delay, th0, s0, on_old, on_new, code_old, code
     (K,) and, when ``radius >= 0``, its joints' smallest clearance (K,) (NaN when none is in the lumen)."""
     K = times.shape[0]
     M = tsw.shape[0]
-    wst = np.empty(2)
     tilt = np.empty((M, 2))
     tail = np.empty(3)
     tp = np.empty(3)
@@ -273,11 +344,20 @@ def motion_kernel(times, xs, tsw, delay, th0, s0, on_old, on_new, code_old, code
     moving = np.zeros(M, dtype=np.bool_)
     theat = np.empty((M, 4))
     exact = np.ones(M, dtype=np.bool_)
+    # what does not change in time, computed once (the same numbers as computing it at every pose): each wire's
+    # state when energised (th1, s1) and cold (c0) (_wire_s); each steady joint's turn (its angle, cos, sin)
+    th1 = np.empty((M, 4))
+    s1 = np.empty((M, 4))
+    c0 = np.empty((M, 4))
+    acs = np.empty((M, 3))
     for i in range(M):
         for k in range(4):
             if on_old[i, k] != on_new[i, k]:
                 moving[i] = True
             theat[i, k] = _heat_start(on_old[i, k], on_new[i, k], tsw[i], delay, th0[i, k], prm)
+            th1[i, k] = th0[i, k] * math.exp(-theat[i, k] / prm[0])
+            s1[i, k] = contraction(s0[i, k], th1[i, k], prm[3], prm[4], prm[5], prm[6])
+            c0[i, k] = contraction(s0[i, k], 0.0, prm[3], prm[4], prm[5], prm[6])
         steady[i, 0] = 0.0
         steady[i, 1] = 0.0
         for k in range(4):
@@ -286,6 +366,13 @@ def motion_kernel(times, xs, tsw, delay, th0, s0, on_old, on_new, code_old, code
             if on_old[i, k]:
                 steady[i, 0] += alpha * WIRE_DIRECTIONS[k, 0]
                 steady[i, 1] += alpha * WIRE_DIRECTIONS[k, 1]
+        a = math.sqrt(steady[i, 0] * steady[i, 0] + steady[i, 1] * steady[i, 1])
+        acs[i, 0], acs[i, 1], acs[i, 2] = a, math.cos(a), math.sin(a)
+    # chain_kernel's frames (Fs[i + 1]: module i's), kept from pose to pose: behind the first joint whose tilt is not
+    # the one it had at the pose before, they are the same (and the steady joints' tilts are the same throughout)
+    Fs = np.empty((M + 1, 3, 3))
+    Fs[0] = frame
+    tilt_prev = np.full((M, 2), np.nan)
     for j in range(K):
         t = times[j]
         for i in range(M):
@@ -296,9 +383,10 @@ def motion_kernel(times, xs, tsw, delay, th0, s0, on_old, on_new, code_old, code
                 tx = 0.0
                 ty = 0.0
                 for k in range(4):
-                    _wire(on_old[i, k], on_new[i, k], tsw[i], theat[i, k], th0[i, k], s0[i, k], t, prm, wst)
-                    tx += WIRE_DIRECTIONS[k, 0] * wst[1]
-                    ty += WIRE_DIRECTIONS[k, 1] * wst[1]
+                    sk = _wire_s(on_old[i, k], on_new[i, k], tsw[i], theat[i, k], th0[i, k], s0[i, k], th1[i, k],
+                                 s1[i, k], c0[i, k], t, prm)
+                    tx += WIRE_DIRECTIONS[k, 0] * sk
+                    ty += WIRE_DIRECTIONS[k, 1] * sk
                 tilt[i, 0] = alpha * tx
                 tilt[i, 1] = alpha * ty
             out_tilt[j, i, 0] = tilt[i, 0]
@@ -306,7 +394,27 @@ def motion_kernel(times, xs, tsw, delay, th0, s0, on_old, on_new, code_old, code
             out_code[j, i] = code_new[i] if t > tsw[i] else code_old[i]
         for b in range(3):
             tail[b] = start[b] + (xs[j] - M * L) * axis[b]
-        chain_kernel(tail, frame, L, tilt, out_pts[j])
+        # chain_kernel, the same numbers: the frames behind the first joint that turned since the pose before kept,
+        # the steady joints' turns known
+        i1 = M
+        for i in range(M):
+            if not (tilt[i, 0] == tilt_prev[i, 0] and tilt[i, 1] == tilt_prev[i, 1]):
+                i1 = i
+                break
+        for i in range(i1, M):
+            if not moving[i] and exact[i]:
+                _rotate_rows_acs(Fs[i], tilt[i, 0], tilt[i, 1], acs[i, 0], acs[i, 1], acs[i, 2], Fs[i + 1])
+            else:
+                a = math.sqrt(tilt[i, 0] * tilt[i, 0] + tilt[i, 1] * tilt[i, 1])
+                _rotate_rows_acs(Fs[i], tilt[i, 0], tilt[i, 1], a, math.cos(a), math.sin(a), Fs[i + 1])
+            tilt_prev[i, 0] = tilt[i, 0]
+            tilt_prev[i, 1] = tilt[i, 1]
+        P = out_pts[j]
+        for b in range(3):
+            P[0, b] = tail[b]
+        for i in range(M):
+            for b in range(3):
+                P[i + 1, b] = P[i, b] + L * Fs[i + 1, 2, b]
         dev = 0.0
         best = np.inf
         for i in range(M + 1):
@@ -835,12 +943,16 @@ def plan_motion(tube: Tube, radius: float, codes: np.ndarray, T: np.ndarray, bac
             times = times[times > 0.0]  # t = 0 is the last pose of the module length before
         # dense: refine until no joint moves more than MAX_JOINT_STEP_MM between two written poses (a pose is a
         # function of its time alone: only the added times' poses are computed, then merged in time order)
-        made = poses(times, bt, bx, tsw, dly, on_old, on_new, cur, nxt, p, -1.0)
+        made = list(poses(times, bt, bx, tsw, dly, on_old, on_new, cur, nxt, p, -1.0))
+        # the poses kept in the order they were computed, in buffers that grow by doubling (no copy of all of
+        # them per round), with their time order ``order``; put in time order once, when done
+        n_made = times.shape[0]
+        all_times = times
+        order = np.arange(n_made)
         for _ in range(24):
-            xs, pts, tl, cd, dev, _c = made
             tt = times if prev is None else np.concatenate([[0.0], times])
-            move = np.empty(pts.shape[0])
-            largest_moves(pts[0] if prev is None else prev, pts, move)
+            move = np.empty(n_made)
+            ordered_moves(made[1][order[0]] if prev is None else prev, made[1], order, move)
             move = move if prev is not None else move[1:]
             bad = np.flatnonzero(move > MAX_JOINT_STEP_MM)
             if not bad.size:
@@ -848,14 +960,28 @@ def plan_motion(tube: Tube, radius: float, codes: np.ndarray, T: np.ndarray, bac
             more = np.setdiff1d(np.concatenate([
                 tt[b] + (tt[b + 1] - tt[b]) * np.arange(1, n) / n
                 for b, n in zip(bad, np.ceil(move[bad] / MAX_JOINT_STEP_MM * 1.25).astype(int) + 1)]), times)
-            order = np.argsort(np.concatenate([times, more]), kind="stable")
             added = poses(more, bt, bx, tsw, dly, on_old, on_new, cur, nxt, p, -1.0)
-            times = np.concatenate([times, more])[order]
-            made = tuple(np.concatenate([a, b])[order] for a, b in zip(made, added))
+            if n_made + more.shape[0] > made[0].shape[0]:
+                cap = max(2 * made[0].shape[0], n_made + more.shape[0])
+                grown = []
+                for arr in [all_times] + made:
+                    g = np.empty((cap,) + arr.shape[1:], dtype=arr.dtype)
+                    g[:n_made] = arr[:n_made]
+                    grown.append(g)
+                all_times, made = grown[0], grown[1:]
+            all_times[n_made:n_made + more.shape[0]] = more
+            for arr, new in zip(made, added):
+                arr[n_made:n_made + more.shape[0]] = new
+            n_made += more.shape[0]
+            order = np.argsort(all_times[:n_made], kind="stable")  # the times are distinct: their one order
+            times = all_times[:n_made][order]
         else:
             i = int(np.argmax(move))
             raise BhrError(f"the robot's motion could not be sampled finely enough (module length {p}, {st.name}, "
                            f"{move[i]:.3g} mm at t = {tt[i]:.6g} ms); report this run")
+        if n_made != made[0].shape[0] or np.any(order != np.arange(n_made)):
+            made = [arr[:n_made][order] for arr in made]
+        xs, pts, tl, cd, dev, _c = made
         steps0 = np.minimum(np.floor(xs / feed + 1e-6).astype(np.int64), N - 1)
         low = np.empty(times.shape[0])
         if grid is None:

@@ -86,6 +86,66 @@ def test_every_chain_is_rigid_and_bends_within_the_wires(wires, alpha, L):
 
 
 @settings(max_examples=25, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), alpha=ALPHAS, delay=st.floats(0.0, 900.0))
+def test_the_motion_kernel_gives_the_wires_and_the_chain_of_the_references_bit_for_bit(seed, alpha, delay):
+    """motion_kernel computes once what does not change in time (a heating wire's state when energised, a cold
+    wire's, a steady joint's turn, the frames behind the first joint that turned since the pose before): every
+    pose's tilts are those of _wire, module by module, and its points chain_kernel's, bit for bit."""
+    from bhr._run.motion import WIRE_DIRECTIONS, _heat_start, _wire, motion_kernel, wire_prm
+
+    rng = np.random.default_rng(seed)
+    M, K, L = 24, 40, 5.0
+    prm = wire_prm(DEFAULT_THERMAL)
+    window, _ = switch_times(DEFAULT_THERMAL)
+    a = math.radians(alpha)
+    code_old = rng.choice(TILT_CODES, M).astype(np.int64)
+    code_new = code_old.copy()
+    change = rng.random(M) < 0.4
+    change[: int(rng.integers(0, M))] = False  # a steady part behind the first joint that changes, of any length
+    code_new[change] = rng.choice(TILT_CODES, int(change.sum()))
+    wires = np.array([code_wires(c) for c in range(16)], dtype=np.bool_)
+    on_old, on_new = wires[code_old], wires[code_new]
+    th0 = np.where(on_old, 1.0, 0.0)
+    s0 = th0.copy()
+    warm = rng.random((M, 4)) < 0.2  # some wires not yet settled from the module length before
+    th0[warm] = rng.random(int(warm.sum()))
+    s0[warm] = rng.random(int(warm.sum()))
+    tsw = np.where(code_new != code_old, rng.choice([0.0, 0.4 * window, window], M), np.inf)
+    times = np.sort(np.concatenate([rng.random(K - 10) * 2.5 * window, np.repeat(rng.random(5) * window, 2)]))
+    xs = np.where(rng.random(K) < 0.5, L * M, L * M + rng.random(K) * L)
+    axis = np.array([0.0, 0.0, 1.0])
+    frame = base_frame(axis)
+    start = np.array([1.0, 2.0, 3.0])
+    T = np.cumsum(rng.normal(size=(2 * M + 8, 3)), axis=0)
+    z = np.arange(T.shape[0], dtype=np.float64)
+    C = np.cumsum(np.ones((8, 3)), axis=0)
+    out = (np.empty((K, M + 1, 3)), np.empty((K, M, 2)), np.empty((K, M), dtype=np.int64), np.empty(K), np.empty(K))
+    motion_kernel(times, xs, tsw, delay, th0, s0, on_old, on_new, code_old, code_new, prm, start, axis, frame, L, a,
+                  T, M + 2, z, C, np.ones(8), np.arange(8.0), np.zeros((2, 3)), np.ones(2), 0.0, 3.0, -1.0, *out)
+    pts, tilts = out[0], out[1]
+    wst = np.empty(2)
+    for j in range(K):
+        want = np.empty((M, 2))
+        for i in range(M):
+            if not (on_old[i] != on_new[i]).any() and np.array_equal(s0[i], np.where(on_old[i], 1.0, 0.0)):
+                want[i] = 0.0
+                for k in range(4):
+                    if on_old[i, k]:
+                        want[i] += a * WIRE_DIRECTIONS[k]
+                continue
+            tx = ty = 0.0
+            for k in range(4):
+                th = _heat_start(on_old[i, k], on_new[i, k], tsw[i], delay, th0[i, k], prm)
+                _wire(on_old[i, k], on_new[i, k], tsw[i], th, th0[i, k], s0[i, k], times[j], prm, wst)
+                tx += WIRE_DIRECTIONS[k, 0] * wst[1]
+                ty += WIRE_DIRECTIONS[k, 1] * wst[1]
+            want[i] = (a * tx, a * ty)
+        assert np.array_equal(tilts[j], want)
+        tail = start + (xs[j] - M * L) * axis
+        assert np.array_equal(pts[j], chain_poses(tail, frame, L, tilts[j]))
+
+
+@settings(max_examples=25, deadline=None)
 @given(st.lists(st.sampled_from(TILT_CODES), min_size=2, max_size=300), ALPHAS)
 def test_codes_lay_the_trail_exactly(codes, alpha):
     codes = np.array(codes)

@@ -75,7 +75,7 @@ def _depth(C, Rad, lo, hi, sx, sy, sz, radius):
 
 @njit(cache=True)
 def _energy(z, target, x_target, base, d0, A0, length, radius, ns, k_wall, k_joint, k_feed, f_feed, C, Rad,
-            seg, seg_out, grad, pen_out, Aprev, Jl, P, nrm, spos, dist, full=True):
+            seg, seg_out, grad, pen_out, Aprev, Jl, P, nrm, spos, dist, full=True, cap=math.inf):
     """Energy (N mm) of the chain at z = (feeder travel mm, u1, v1, ..., uM, vM) and its gradient (into grad).
 
     k_joint (M) is each joint's stiffness (N mm/rad) towards its target tilt. seg (M ns) holds where each wall
@@ -87,7 +87,11 @@ def _energy(z, target, x_target, base, d0, A0, length, radius, ns, k_wall, k_joi
 
     Not ``full``: a sample inside the lumen its segment ``seg`` bounds is clear (the least depth over the segments
     is at most that one's), and its segments are not searched: seg_out and dist keep what they held for it
-    (:func:`_settle` finds its segment). The energy, its gradient and the contact arrays are the same."""
+    (:func:`_settle` finds its segment). The energy, its gradient and the contact arrays are the same.
+
+    ``cap``: every term of the energy is at least zero, so once their sum so far is above ``cap`` the energy is
+    too (a line search's trial that cannot be taken): that sum is returned at once, the gradient and the contact
+    arrays left part-written (the caller evaluates again before it reads them)."""
     M = target.shape[0]
     nseg = C.shape[0] - 1
     x = z[0]
@@ -132,6 +136,8 @@ def _energy(z, target, x_target, base, d0, A0, length, radius, ns, k_wall, k_joi
             if pen > 0.0:
                 pen_out[i] = pen
                 E += 0.5 * k_wall * w * pen * pen
+                if E > cap:
+                    return E
                 cx = C[kk, 0] + t * (C[kk + 1, 0] - C[kk, 0])
                 cy = C[kk, 1] + t * (C[kk + 1, 1] - C[kk, 1])
                 cz = C[kk, 2] + t * (C[kk + 1, 2] - C[kk, 2])
@@ -256,8 +262,8 @@ def _newton_step(z, grad, x_target, d0, ns, k_wall, length, k_joint, k_feed, f_f
     U = np.zeros((M, 6, 2))
     Dm = np.zeros((M, 2, 2))
     u = np.zeros((M, 2))
+    B = np.empty((3, 2))  # each joint's, every entry written before it is read
     for j in range(M):
-        B = np.zeros((3, 2))
         for r in range(3):
             for q in range(2):
                 B[r, q] = Aprev[j, r, 0] * Jl[j, 0, q] + Aprev[j, r, 1] * Jl[j, 1, q] + Aprev[j, r, 2] * Jl[j, 2, q]
@@ -399,9 +405,12 @@ def _equilibrium(z, target, x_target, base, d0, A0, length, radius, ns, k_wall, 
         while True:
             for i in range(n):
                 zn[i] = z[i] + t * step[i]
+            enough = E + 1e-4 * t * slope
+            # a trial whose energy so far is above what it must reach is left at once (_energy's cap); a trial
+            # taken was evaluated whole
             En = _energy(zn, target, x_target, base, d0, A0, length, radius, ns, k_wall, k_joint, k_feed, f_feed,
-                         C, Rad, seg, found, grad, pen, Aprev, Jl, P, nrm, spos, dist, False)
-            if En <= E + 1e-4 * t * slope:
+                         C, Rad, seg, found, grad, pen, Aprev, Jl, P, nrm, spos, dist, False, enough)
+            if En <= enough:
                 break
             if t < 1e-12:
                 break
