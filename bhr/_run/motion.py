@@ -174,9 +174,9 @@ def _heat_start(on_old, on_new, t_sw, delay, th0, prm):
 
 
 @njit(cache=True)
-def _rotate_rows(F, tx, ty, out):
-    """Frame ``F`` (rows x, y, z) turned about its own axis ``tx x + ty y`` by ``|(tx, ty)|`` radians."""
-    a = math.sqrt(tx * tx + ty * ty)
+def _rotate_rows_acs(F, tx, ty, a, c, s, out):
+    """Frame ``F`` (rows x, y, z) turned about its own axis ``tx x + ty y`` by ``a = |(tx, ty)|`` radians, given
+    ``a``, ``c = cos(a)`` and ``s = sin(a)`` (a joint that keeps its tilt turns by the same angle at every pose)."""
     if a < 1e-300:
         for r in range(3):
             for b in range(3):
@@ -189,8 +189,6 @@ def _rotate_rows(F, tx, ty, out):
     n0 /= nn
     n1 /= nn
     n2 /= nn
-    c = math.cos(a)
-    s = math.sin(a)
     for r in range(3):
         v0, v1, v2 = F[r, 0], F[r, 1], F[r, 2]
         d = n0 * v0 + n1 * v1 + n2 * v2
@@ -213,38 +211,10 @@ def _rotate_rows(F, tx, ty, out):
 
 
 @njit(cache=True)
-def _rotate_rows_acs(F, tx, ty, a, c, s, out):
-    """:func:`_rotate_rows` (the same numbers) given ``a = sqrt(tx^2 + ty^2)``, ``c = cos(a)``, ``s = sin(a)``."""
-    if a < 1e-300:
-        for r in range(3):
-            for b in range(3):
-                out[r, b] = F[r, b]
-        return
-    n0 = tx * F[0, 0] + ty * F[1, 0]
-    n1 = tx * F[0, 1] + ty * F[1, 1]
-    n2 = tx * F[0, 2] + ty * F[1, 2]
-    nn = math.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
-    n0 /= nn
-    n1 /= nn
-    n2 /= nn
-    for r in range(3):
-        v0, v1, v2 = F[r, 0], F[r, 1], F[r, 2]
-        d = n0 * v0 + n1 * v1 + n2 * v2
-        out[r, 0] = v0 * c + (n1 * v2 - n2 * v1) * s + n0 * d * (1.0 - c)
-        out[r, 1] = v1 * c + (n2 * v0 - n0 * v2) * s + n1 * d * (1.0 - c)
-        out[r, 2] = v2 * c + (n0 * v1 - n1 * v0) * s + n2 * d * (1.0 - c)
-    zn = math.sqrt(out[2, 0] ** 2 + out[2, 1] ** 2 + out[2, 2] ** 2)
-    for b in range(3):
-        out[2, b] /= zn
-    d = out[0, 0] * out[2, 0] + out[0, 1] * out[2, 1] + out[0, 2] * out[2, 2]
-    for b in range(3):
-        out[0, b] -= d * out[2, b]
-    xn = math.sqrt(out[0, 0] ** 2 + out[0, 1] ** 2 + out[0, 2] ** 2)
-    for b in range(3):
-        out[0, b] /= xn
-    out[1, 0] = out[2, 1] * out[0, 2] - out[2, 2] * out[0, 1]
-    out[1, 1] = out[2, 2] * out[0, 0] - out[2, 0] * out[0, 2]
-    out[1, 2] = out[2, 0] * out[0, 1] - out[2, 1] * out[0, 0]
+def _rotate_rows(F, tx, ty, out):
+    """Frame ``F`` (rows x, y, z) turned about its own axis ``tx x + ty y`` by ``|(tx, ty)|`` radians."""
+    a = math.sqrt(tx * tx + ty * ty)
+    _rotate_rows_acs(F, tx, ty, a, math.cos(a), math.sin(a), out)
 
 
 @njit(cache=True)
