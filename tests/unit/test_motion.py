@@ -294,7 +294,7 @@ def test_stop_at_wall_ends_a_wires_run_where_it_leaves_the_lumen_as_the_whole_ru
 
 @pytest.mark.run
 def test_past_the_pose_limit_a_run_keeps_its_poses_only_when_asked(monkeypatch):
-    """Past POSE_POINTS_LIMIT robot points a run scores every pose but keeps none (a 1.5 m robot's take about 2 GB),
+    """Past POSE_POINTS_LIMIT robot points a run scores every pose but keeps none (a 1.5 m robot's take about 5 GB),
     and a physics replay reads its steps; all_poses keeps every one: the same poses, scored the same."""
     import bhr._run.motion as motion
     from bhr._studies.follow_run import body_clearance_lines
