@@ -836,6 +836,9 @@ def follow(points: Any, solver: str | Solver = "thesis", robot: Robot | None = T
     check_locomotion(locomotion, stop_at_wall, all_poses)
     if body_modules is not None:
         body_modules = check_body_modules(body_modules, robot.modules)
+    # a whole robot on a trail may be pushed on to the cecum: up to approach_steps more steps than the path's
+    on_trail = locomotion != "thesis" and (body_modules is not None or reach is not None)
+    most = path.shape[0] + (approach_steps(path.shape[0]) if on_trail else 0)
     if reach is not None:
         if reach != "cecum":
             raise BhrError(f"reach must be cecum (a robot long enough to reach the path's end), got {reach!r}")
@@ -844,18 +847,11 @@ def follow(points: Any, solver: str | Solver = "thesis", robot: Robot | None = T
                            "modules from the path's length)")
         from bhr._run.trail import cecum_modules
 
-        reach_modules = cecum_modules(path.shape[0], robot.feed_divisor, robot.modules)
+        reach_modules = cecum_modules(most, robot.feed_divisor, robot.modules)  # as many as that insertion needs
         if locomotion == "thesis":
             body_modules = check_body_modules(reach_modules, robot.modules, "reach cecum")
     dirs = path_directions(path)
     whole = body_modules or (reach_modules if reach else 0)
-    # a whole robot on a trail may be pushed on to the cecum: up to approach_steps more steps (and, reaching the
-    # cecum, the modules that insertion needs)
-    most = path.shape[0] + (approach_steps(path.shape[0]) if locomotion != "thesis" and whole else 0)
-    if reach and locomotion != "thesis":
-        from bhr._run.trail import cecum_modules
-
-        whole = cecum_modules(most, robot.feed_divisor, robot.modules)
     work = most * (max(robot.modules, whole) + 1)
     if work > MAX_STEP_POINTS:
         raise BhrError(f"{most} steps x {max(robot.modules, whole) + 1} robot points is "

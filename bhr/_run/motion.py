@@ -236,25 +236,9 @@ def chain_kernel(tail, frame, L, tilts, pts):
 
 
 @njit(cache=True)
-def largest_moves(first, pts, out):
-    """out[k] (K,): the largest distance a joint moves from pose k - 1 to pose k of ``pts`` (K, J, 3), pose -1
-    being ``first`` (J, 3)."""
-    for k in range(pts.shape[0]):
-        best = 0.0
-        for i in range(pts.shape[1]):
-            d = 0.0
-            for b in range(3):
-                e = pts[k, i, b] - (first[i, b] if k == 0 else pts[k - 1, i, b])
-                d += e * e
-            if d > best:
-                best = d
-        out[k] = math.sqrt(best)
-
-
-@njit(cache=True)
 def ordered_moves(first, pts, order, out):
-    """out[k] (K,): :func:`largest_moves` of the poses ``pts[order]`` (``pts`` (>= K, J, 3), ``order`` (K,) the rows
-    in time order), without gathering them."""
+    """out[k] (K,): the largest distance a joint moves from pose k - 1 to pose k of ``pts[order]`` (``pts`` (>= K,
+    J, 3), ``order`` (K,) the rows in time order; not gathered), pose -1 being ``first`` (J, 3)."""
     for k in range(order.shape[0]):
         best = 0.0
         for i in range(pts.shape[1]):

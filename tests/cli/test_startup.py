@@ -186,12 +186,12 @@ def test_bhr_imported_after_numba_still_caches_in_its_own_folder(tmp_path):
     folder = tmp_path / "cache" / "bhr" / "numba" / _numba.source_key()
     tree = Path(bhr.__file__).parent
     before = set(tree.rglob("*.nbi"))
-    script = ("import numba\nimport numpy as np\nimport bhr\nfrom bhr._run.motion import largest_moves\n"
-              "out = np.empty(1)\nlargest_moves(np.zeros((1, 3)), np.ones((1, 1, 3)), out)\n"
+    script = ("import numba\nimport numpy as np\nimport bhr\nfrom bhr._run.motion import ordered_moves\n"
+              "out = np.empty(1)\nordered_moves(np.zeros((1, 3)), np.ones((1, 1, 3)), np.zeros(1, np.int64), out)\n"
               "print(numba.config.CACHE_DIR, out[0])\n")
     out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, env=env, cwd=tmp_path,
                          check=True)
     cache_dir, move = out.stdout.split()
     assert cache_dir == str(folder) and float(move) == pytest.approx(3 ** 0.5)
-    assert list(folder.rglob("motion.largest_moves-*.nbi"))
+    assert list(folder.rglob("motion.ordered_moves-*.nbi"))
     assert set(tree.rglob("*.nbi")) == before
