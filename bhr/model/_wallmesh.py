@@ -22,10 +22,11 @@ clearance is measured against the tube of the trajectory's lumen diameters (:mod
 """
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import math
 import os
-import tempfile
+import uuid
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -201,14 +202,17 @@ def load_sdf(path: str | os.PathLike[str], centerline: np.ndarray, band: float, 
         except (OSError, ValueError, KeyError):
             pass  # a damaged cache file: computed again and replaced
     grid = sdf_values(read_mesh(p), centerline, band, spacing)
+    tmp = folder / f".sdf-{uuid.uuid4().hex[:8]}.npz"  # named first: a Ctrl-C at any moment leaves no file behind
     try:
         folder.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(prefix=".sdf-", suffix=".npz", dir=folder)
-        with os.fdopen(fd, "wb") as fh:
+        with open(tmp, "xb") as fh:
             np.savez_compressed(fh, origin=grid.origin, spacing=grid.spacing, values=grid.values.astype(np.float32))
         os.replace(tmp, cached)  # atomic: a concurrent reader sees the whole file or none
     except OSError:
         pass  # no cache: computed again next time
+    finally:
+        with contextlib.suppress(OSError):
+            tmp.unlink()
     return SdfGrid(grid.origin, grid.spacing, grid.values.astype(np.float32).astype(np.float64))
 
 

@@ -13,7 +13,6 @@ import json
 import os
 import re
 import shutil
-import tempfile
 import time
 import uuid
 from pathlib import Path
@@ -32,10 +31,13 @@ MANIFEST = "manifest.json"
 LOCK_WAIT_S = 600.0  # how long a run waits for another one writing the same folder
 _set: list[tuple[int, Callable[[], Any], Callable[[], Any]]] | None = None  # (rank, place, discard) of a set
 _stages: set[Path] = set()  # the stages of the folders being written
+# the temporary files and stages not yet placed or removed: a Ctrl-C lands between any two lines, even before a
+# ``finally`` or ``__exit__`` runs, and then :func:`together` removes what its block left
+_pending: set[Path] = set()
 
 
 def _mode_for(target: Path, new: int = 0o666) -> int:
-    """The old file's permissions, else ``new`` less the umask (mkstemp and mkdtemp make files private)."""
+    """The old file's permissions, else ``new`` less the umask (temporary files are made private)."""
     with contextlib.suppress(OSError):
         return target.stat().st_mode & 0o7777
     mask = os.umask(0)
@@ -49,6 +51,17 @@ def _replace(tmp: Path, target: Path) -> None:
     except OSError as exc:
         exc.filename = str(target)  # the message names the output, not the temporary file
         raise
+    _pending.discard(tmp)
+
+
+def _drop(path: Path) -> None:
+    """Remove a temporary file or stage, if it is still there."""
+    if path.is_dir() and not path.is_symlink():
+        shutil.rmtree(path, ignore_errors=True)
+    else:
+        with contextlib.suppress(OSError):
+            path.unlink()
+    _pending.discard(path)
 
 
 @contextlib.contextmanager
@@ -64,15 +77,16 @@ def atomic_path(path: Any, suffix: str | None = None) -> Iterator[Path]:
         return
     check_output_file(target)
     target.parent.mkdir(parents=True, exist_ok=True)
-    fd, name = tempfile.mkstemp(prefix=f".{target.name}.", suffix=target.suffix if suffix is None else suffix,
-                                dir=target.parent)
-    os.close(fd)
+    # named before it exists, so that a Ctrl-C at any moment leaves no file behind (mkstemp names it only after)
+    name = str(target.parent / f".{target.name}.{uuid.uuid4().hex[:8]}{target.suffix if suffix is None else suffix}")
     tmp, queued = Path(name), False
+    _pending.add(tmp)
     try:
+        os.close(os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600))
         yield tmp
         os.chmod(tmp, _mode_for(target))
         if _set is not None and not any(s in tmp.parents for s in _stages):  # a file in a stage goes with it
-            _set.append((1, lambda: _replace(tmp, target), lambda: tmp.unlink(missing_ok=True)))
+            _set.append((1, lambda: _replace(tmp, target), lambda: _drop(tmp)))
             queued = True
         else:
             _replace(tmp, target)
@@ -82,7 +96,7 @@ def atomic_path(path: Any, suffix: str | None = None) -> Iterator[Path]:
         raise
     finally:
         if not queued:
-            tmp.unlink(missing_ok=True)
+            _drop(tmp)
 
 
 def write_text(path: Any, text: str) -> None:
@@ -127,20 +141,25 @@ def together(check: Callable[[], Any] | None = None) -> Iterator[None]:
         yield
         return
     staged: list[Any] = []
-    _set = staged
+    _set, before = staged, set(_pending)  # what was being written before the block is not the block's
     try:
-        yield
-        if check is not None:
-            check()
-        if INTERRUPTED.is_set():  # a Ctrl-C that something caught on the way
-            raise KeyboardInterrupt
+        try:
+            yield
+            if check is not None:
+                check()
+            if INTERRUPTED.is_set():  # a Ctrl-C that something caught on the way
+                raise KeyboardInterrupt
+        except BaseException:
+            for _, _, discard in staged:
+                discard()
+            raise
+        finally:
+            _set = None
+        _place_all(staged)
     except BaseException:
-        for _, _, discard in staged:
-            discard()
+        for path in _pending - before:  # left by a Ctrl-C that came before a clean-up could start
+            _drop(path)
         raise
-    finally:
-        _set = None
-    _place_all(staged)
 
 
 def place_now(check: Callable[[], Any] | None = None) -> None:
@@ -256,25 +275,27 @@ class OutputFolder:
 
     def __enter__(self) -> OutputFolder:
         self.check()
-        stage = self.target.parent / f".{self.target.name}.bhr-stage-{uuid.uuid4().hex[:12]}"
+        # named before it exists, so that a Ctrl-C at any moment leaves no stage behind
+        self.stage = stage = self.target.parent / f".{self.target.name}.bhr-stage-{uuid.uuid4().hex[:12]}"
+        _pending.add(stage)
         self.made = [p for p in self.target.parents if not p.exists()]  # removed again (when empty) on failure
         try:
             self.target.parent.mkdir(parents=True, exist_ok=True)
             self._acquire()
             stage.mkdir(mode=_mode_for(self.target, 0o777))
+            _stages.add(stage)
+            return self
         except BaseException as failure:
+            _stages.discard(stage)
             self._discard()
             if isinstance(failure, OSError) and (failure.filename is None or ".bhr-stage-" in str(failure.filename)):
                 failure.filename = str(self.given)
             raise
-        self.stage = stage
-        _stages.add(stage)
-        return self
 
     def __exit__(self, exc_type: Any, exc: Any, tb: Any) -> None:
         assert self.stage is not None
-        _stages.discard(self.stage)
         try:
+            _stages.discard(self.stage)
             if exc is not None:
                 raise exc
             self._carry_over()
@@ -329,6 +350,7 @@ class OutputFolder:
                 os.rename(self.target, aside)
             try:
                 os.rename(self.stage, self.target)
+                _pending.discard(self.stage)
             except BaseException:
                 if moved:
                     os.rename(aside, self.target)
@@ -370,8 +392,8 @@ class OutputFolder:
             self._lock.release()
 
     def _discard(self) -> None:
-        if self.stage is not None and self.stage.is_dir():
-            shutil.rmtree(self.stage, ignore_errors=True)
+        if self.stage is not None:
+            _drop(self.stage)
         while self._lock is not None and self._lock.is_locked:
             self._release()
         for p in self.made:  # innermost first; one filled meanwhile (or by the placed folder) stays
