@@ -267,7 +267,7 @@ def _trail_at(T, back, q, out):
         out[b] = T[r, b] + u * (T[r + 1, b] - T[r, b])
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _hint_at(z, back, q):
     m = math.floor(q)
     u = q - m
@@ -481,20 +481,20 @@ def _refine_module(pts, j, m, Z, fj, tube_c, tube_r, S, BC, BR, w, radius, v, bt
     return v, bt, crossed
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _dist(pts, j, i, ref):
     return math.sqrt((pts[j, i, 0] - ref[i, 0]) ** 2 + (pts[j, i, 1] - ref[i, 1]) ** 2
                      + (pts[j, i, 2] - ref[i, 2]) ** 2)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _joint(pts, j, i, st, Z, w, tube_c, tube_r, S, BC, BR, radius, res, cj, fj, pc, jref, jref_c, jref_f, jhave,
            whole):
     """Joint i of pose j scored: its clearance into cj (where it was found into fj), its step's table and its
     reference for the bound; returns the crossed flag."""
     lo, hi = search_window(tube_c.shape[0], Z[i], w)
     locate_kernel(tube_c, tube_r, S, BC, BR, radius, lo, hi, Z[i], pts[j, i, 0], pts[j, i, 1], pts[j, i, 2], res,
-                  whole)
+                  whole, int(jref_f[i]) if jhave[i] else -1)
     cj[i] = res[1] - radius - res[0]
     fj[i] = res[2]
     if not (pc[st, i] <= cj[i]):

@@ -443,25 +443,28 @@ def _farther(BC, BR, j, px, py, pz, reach):
 def global_scan(C, BC, BR, px, py, pz, best):
     """Nearest point on the whole centerline if nearer than ``sqrt(best)``: (squared distance, segment, t).
 
-    Blocks of :data:`BLOCK` segments whose bounding sphere (``BC``, ``BR``)
-    lies farther than the best so far are skipped. Segment -1 when nothing
-    nearer was found.
+    Blocks of :data:`BLOCK` segments, and in the others groups of :data:`GROUP`, whose bounding sphere (``BC``,
+    ``BR``) lies farther than the best so far are skipped. Segment -1 when nothing nearer was found.
     """
     bk = -1
     bt = 0.0
     nseg = C.shape[0] - 1
-    for j in range((nseg + BLOCK - 1) // BLOCK):  # the blocks (the groups follow them in BC, BR)
+    nb = (nseg + BLOCK - 1) // BLOCK
+    for j in range(nb):  # the blocks (the groups follow them in BC, BR)
         dx, dy, dz = px - BC[j, 0], py - BC[j, 1], pz - BC[j, 2]
         gap = math.sqrt(dx * dx + dy * dy + dz * dz) - BR[j]
         if gap > 0.0 and gap * gap >= best:
             continue
-        lo = j * BLOCK
-        hi = lo + BLOCK
-        if hi > nseg:
-            hi = nseg
-        cand = segment_scan(C, lo, hi, px, py, pz)
-        if cand[0] < best:
-            best, bk, bt = cand
+        hi = min(j * BLOCK + BLOCK, nseg)
+        for k in range(j * BLOCK, hi, GROUP):  # its groups, each skipped as the blocks are
+            grp = nb + k // GROUP
+            dx, dy, dz = px - BC[grp, 0], py - BC[grp, 1], pz - BC[grp, 2]
+            gap = math.sqrt(dx * dx + dy * dy + dz * dz) - BR[grp]
+            if gap > 0.0 and gap * gap >= best:
+                continue
+            cand = segment_scan(C, k, min(k + GROUP, hi), px, py, pz)
+            if cand[0] < best:
+                best, bk, bt = cand
     return best, bk, bt
 
 
@@ -482,7 +485,7 @@ def _apart(C, S, ka, ta, kb, tb, px, py, pz):
 
 
 @njit(cache=True)
-def locate_kernel(C, R, S, BC, BR, radius, lo, hi, ze, px, py, pz, out, whole=True):
+def locate_kernel(C, R, S, BC, BR, radius, lo, hi, ze, px, py, pz, out, whole=True, g=-1):
     """Where a point is in the lumen: its nearest centerline point, searched from the window ``lo..hi``.
 
     First :func:`local_scan`, then the whole centerline is searched
@@ -499,9 +502,10 @@ def locate_kernel(C, R, S, BC, BR, radius, lo, hi, ze, px, py, pz, out, whole=Tr
     it is scored in the lumen it is in now, and flagged (the robot left the
     lumen it was in). out = (distance, lumen radius, tube position, flag). With ``whole`` False the whole
     centerline is not searched: the point is measured against the stretch it is in (a robot that has already
-    left the lumen, :func:`bhr._run.motion.score_kernel`).
+    left the lumen, :func:`bhr._run.motion.score_kernel`). ``g``: a segment to search the window from (where the
+    point was found before), else its middle; the result is the same, found sooner.
     """
-    best, bk, bt = local_scan_from(C, BC, BR, lo, hi, (lo + hi) // 2, px, py, pz)
+    best, bk, bt = local_scan_from(C, BC, BR, lo, hi, (lo + hi) // 2 if g < 0 else g, px, py, pz)
     d = math.sqrt(best)
     r = R[bk] + bt * (R[bk + 1] - R[bk])
     pos = bk + bt
