@@ -243,20 +243,33 @@ def _interrupted_at(n: int, write) -> str | None:
     """Run ``write()`` with a Ctrl-C at the ``n``-th place one can land; where it landed, or None if it ended first.
 
     Python runs a signal's handler as a function starts and as a call returns (not between two plain lines): so
-    at the ``n``-th start or return of a Python function, in bhr or in a library (the import machinery and objects'
-    finalisers aside: a KeyboardInterrupt there is Python's to print and drop). A generator's yield is not a
-    return: there the Ctrl-C lands in its caller once the call returns.
+    at the ``n``-th start or return of a Python function of bhr's or of one that bhr calls (the import machinery
+    and objects' finalisers aside: a KeyboardInterrupt there is Python's to print and drop; deeper in a library,
+    a Ctrl-C leaves bhr as one in the call bhr made does). A generator's yield is not a return: there the Ctrl-C
+    lands in its caller once the call returns.
     """
     import inspect
     import sys
 
-    count, where = [0], []
+    import bhr
+
+    BHR, count, where = os.path.dirname(bhr.__file__) + os.sep, [0], []
+
+    def near_bhr(frame) -> bool:
+        for _ in range(2):
+            if frame is None:
+                return False
+            if frame.f_code.co_filename.startswith((BHR, __file__)):
+                return True
+            frame = frame.f_back
+        return False
 
     def trace(frame, event, arg):
         code = frame.f_code
         if code.co_filename.startswith("<frozen") or code.co_name == "__del__":
             return None
-        if event == "call" or event == "return" and not code.co_flags & inspect.CO_GENERATOR:
+        frame.f_trace_lines = False  # its calls and returns only
+        if (event == "call" or event == "return" and not code.co_flags & inspect.CO_GENERATOR) and near_bhr(frame):
             count[0] += 1
             if count[0] == n:
                 where.append(f"{event} of {code.co_name} ({os.path.basename(code.co_filename)}:{frame.f_lineno})")
