@@ -57,7 +57,7 @@ _WARMED: set[tuple[Any, ...]] = set()  # the warm-ups this process has run
 
 def _run_chunk(fn: Callable[[Any], Any], warm_up: Callable[..., Any] | None, warm_up_args: tuple[Any, ...],
                chunk: Sequence[tuple[int, Any]]) -> list[tuple[int, Any]]:
-    key = (getattr(warm_up, "__module__", ""), getattr(warm_up, "__qualname__", ""), warm_up_args)
+    key = (getattr(warm_up, "__module__", ""), getattr(warm_up, "__qualname__", ""), repr(warm_up_args))
     if warm_up is not None and key not in _WARMED:
         warm_up(*warm_up_args)
         _WARMED.add(key)
@@ -112,6 +112,9 @@ def run_jobs(fn: Callable[[J], R], jobs_list: Sequence[J], *, jobs: int | None =
             finished(call([pair]))
         runner = "in-process"
     else:
+        # the warm-up here first: what it compiles is compiled once (and said so in one line), not in every
+        # worker, which then loads it from numba's cache
+        call([])
         _run_local(workers, call, chunks, finished, died)
         runner = f"{workers} processes"
     return Executed(rows, time.perf_counter() - t0, runner, workers)  # type: ignore[arg-type]

@@ -297,7 +297,8 @@ def test_example_file_with_command_line_override(tmp_path):
 
 
 def test_worker_processes_load_the_kernels_from_the_disk_cache(tmp_path):
-    """With a warm cache, worker processes compile nothing and load each kernel once per worker, not per design."""
+    """With a warm cache, worker processes compile nothing and load each kernel once per worker (and the command
+    once, warming up before it starts them), not per design."""
     env = {"NUMBA_CACHE_DIR": str(tmp_path / "cache")}
     warm = run_cli_process("sweep", "--grid", "modules=4", "--jobs", "1", "--no-plots", "--out", "w", cwd=tmp_path, env=env)
     assert warm.returncode == 0, warm.stderr
@@ -310,9 +311,10 @@ def test_worker_processes_load_the_kernels_from_the_disk_cache(tmp_path):
     assert not [e for e in events if "saved" in e], events  # nothing compiled
     loads = [e for e in events if e.startswith("[cache] data loaded")]
     assert loads and all(str(tmp_path / "cache") in e for e in loads), events
-    # each kernel a design runs is loaded once in each of the 2 workers at most, not once per design (30)
+    # each kernel a design runs is loaded once in the command and in each of the 2 workers at most, not once per
+    # design (30)
     per_kernel = Counter(os.path.basename(e.rstrip("'")) for e in loads)
-    assert max(per_kernel.values()) <= 2, per_kernel
+    assert max(per_kernel.values()) <= 3, per_kernel
 
 
 # ---------------------------------------------------------------------------------------------- Dask
