@@ -31,8 +31,8 @@ MANIFEST = "manifest.json"
 LOCK_WAIT_S = 600.0  # how long a run waits for another one writing the same folder
 _set: list[tuple[int, Callable[[], Any], Callable[[], Any]]] | None = None  # (rank, place, discard) of a set
 _stages: set[Path] = set()  # the stages of the folders being written
-# the temporary files and stages not yet placed or removed: a Ctrl-C lands between any two lines, even before a
-# ``finally`` or ``__exit__`` runs, and then :func:`together` removes what its block left
+# the temporary files and stages not yet placed or removed: a Ctrl-C lands as any call starts or returns, even as
+# an ``__exit__`` is called, before its clean-up runs; then :func:`together` removes what its block left
 _pending: set[Path] = set()
 
 
