@@ -30,7 +30,6 @@ __all__ = ["atomic_path", "write_text", "write_json", "json_text", "together", "
 MANIFEST = "manifest.json"
 LOCK_WAIT_S = 600.0  # how long a run waits for another one writing the same folder
 _set: list[tuple[int, Callable[[], Any], Callable[[], Any]]] | None = None  # (rank, place, discard) of a set
-_stages: set[Path] = set()  # the stages of the folders being written
 # the temporary files and stages not yet placed or removed: a Ctrl-C lands as any call starts or returns, even as
 # an ``__exit__`` is called, before its clean-up runs; then :func:`together` removes what its block left
 _pending: set[Path] = set()
@@ -85,7 +84,7 @@ def atomic_path(path: Any, suffix: str | None = None) -> Iterator[Path]:
         os.close(os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600))
         yield tmp
         os.chmod(tmp, _mode_for(target))
-        if _set is not None and not any(s in tmp.parents for s in _stages):  # a file in a stage goes with it
+        if _set is not None and not any(s in tmp.parents for s in _pending):  # a file in a stage goes with it
             _set.append((1, lambda: _replace(tmp, target), lambda: _drop(tmp)))
             queued = True
         else:
@@ -283,10 +282,8 @@ class OutputFolder:
             self.target.parent.mkdir(parents=True, exist_ok=True)
             self._acquire()
             stage.mkdir(mode=_mode_for(self.target, 0o777))
-            _stages.add(stage)
             return self
         except BaseException as failure:
-            _stages.discard(stage)
             self._discard()
             if isinstance(failure, OSError) and (failure.filename is None or ".bhr-stage-" in str(failure.filename)):
                 failure.filename = str(self.given)
@@ -295,7 +292,6 @@ class OutputFolder:
     def __exit__(self, exc_type: Any, exc: Any, tb: Any) -> None:
         assert self.stage is not None
         try:
-            _stages.discard(self.stage)
             if exc is not None:
                 raise exc
             self._carry_over()
