@@ -47,7 +47,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-from bhr.model._tube import Tube, locate_kernel, search_window
+from bhr.model._tube import Tube, locate_inline, locate_kernel, search_window
 from bhr._run.clearance import module_exact_kernel
 from bhr.model._wires import DEFAULT_THERMAL, ThermalParams, transform_thetas
 from bhr._settings.errors import BhrError
@@ -493,7 +493,7 @@ def _joint(pts, j, i, st, Z, w, tube_c, tube_r, S, BC, BR, radius, res, cj, fj, 
     """Joint i of pose j scored: its clearance into cj (where it was found into fj), its step's table and its
     reference for the bound; returns the crossed flag."""
     lo, hi = search_window(tube_c.shape[0], Z[i], w)
-    locate_kernel(tube_c, tube_r, S, BC, BR, radius, lo, hi, Z[i], pts[j, i, 0], pts[j, i, 1], pts[j, i, 2], res,
+    locate_inline(tube_c, tube_r, S, BC, BR, radius, lo, hi, Z[i], pts[j, i, 0], pts[j, i, 1], pts[j, i, 2], res,
                   whole, int(jref_f[i]) if jhave[i] else -1)
     cj[i] = res[1] - radius - res[0]
     fj[i] = res[2]

@@ -535,6 +535,10 @@ def locate_kernel(C, R, S, BC, BR, radius, lo, hi, ze, px, py, pz, out, whole=Tr
     out[3] = flag
 
 
+#: :func:`locate_kernel` inlined into its caller (no reference counting of the centerline's arrays per point)
+locate_inline = njit(cache=True, inline="always")(locate_kernel.py_func)
+
+
 # ---------------------------------------------------------------------------
 # readable reference (numpy)
 
