@@ -188,6 +188,10 @@ def module_exact_kernel(C, R, N, radius, ax, ay, az, bx, by, bz, fa, fb, ca, cb,
     return True
 
 
+#: :func:`module_exact_kernel` inlined into its caller (the whole robot's score: no reference counting per module)
+module_exact_inline = njit(cache=True, inline="always")(module_exact_kernel.py_func)
+
+
 @njit(cache=True)
 def clearance_chain_kernel(C, R, S, BC, BR, N, pre, w, radius, Q, E, Z, sample, pt_out, mod_out, where, found, res):
     """Clearance of one pose: points ``Q`` (K, 3) in chain order, point ``k`` expected at trajectory index ``E[k]``.

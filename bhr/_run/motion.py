@@ -48,7 +48,7 @@ import numpy as np
 from numba import njit
 
 from bhr.model._tube import Tube, locate_inline, locate_kernel, search_window
-from bhr._run.clearance import module_exact_kernel
+from bhr._run.clearance import module_exact_inline
 from bhr.model._wires import DEFAULT_THERMAL, ThermalParams, transform_thetas
 from bhr._settings.errors import BhrError
 
@@ -604,7 +604,7 @@ def score_kernel(pts, xs, steps, L, z, back, tube_c, tube_r, S, BC, BR, N, pre, 
                                                           res, cj, fj, pc, jref, jref_c, jref_f, jhave, not gone))
                             jlb[i] = np.inf
                             best = min(best, cj[i])
-                    if gone and E[m] >= 0.0 and module_exact_kernel(
+                    if gone and E[m] >= 0.0 and module_exact_inline(
                             tube_c, tube_r, N, radius, pts[j, m, 0], pts[j, m, 1], pts[j, m, 2], pts[j, m + 1, 0],
                             pts[j, m + 1, 1], pts[j, m + 1, 2], fj[m], fj[m + 1], cj[m], cj[m + 1], res, -np.inf):
                         v, bt, dt, lo_t = res[0], res[1], 0.0, 0.0  # its exact minimum, in the stretch it is in
