@@ -26,7 +26,7 @@ from bhr._settings.errors import BhrError
 
 __all__ = ["Tube", "make_tube", "segment_scan", "nearest_kernel", "search_window", "scan_from", "local_scan",
            "local_scan_from", "window_scan", "past_the_window", "search_arrays",
-           "global_scan", "locate_kernel",
+           "global_scan", "locate_kernel", "locate_inline",
            "mitre_normals", "scan_numpy", "point_clearance", "nearest_numpy", "locate_numpy", "lumen_end_of",
            "scored_span", "WINDOW_MM", "LUMEN_ENDS", "GLOBAL_BELOW", "BLOCK", "GROUP", "LOOP_RATIO"]
 

@@ -63,10 +63,11 @@ def run_design(design: dict[str, Any], traj_source: str, base_robot: dict[str, A
 
 
 def warm_designs(items: Sequence[tuple[Any, ...]]) -> None:
-    """Run each of ``items`` (:func:`run_design`'s arguments: a design of each solver) on the first 60 points of
-    its trajectory, so that every kernel the study's runs use is compiled, or loaded, before the first run is
-    timed (:func:`bhr._studies.executor.run_jobs` runs it first in the process that starts the workers: compiled
-    there once, with its one line, and loaded from numba's cache by each worker)."""
+    """Run each of ``items`` (:func:`run_design`'s arguments: a design of each kind, solver x locomotion x head
+    or whole robot) on the first 60 points of its trajectory, so that every kernel the study's runs use is
+    compiled, or loaded, before the first run is timed (:func:`bhr._studies.executor.run_jobs` runs it first in
+    the process that starts the workers: compiled there once, with its one line, and loaded from numba's cache by
+    each worker)."""
     for design, source, base, *rest in items:
         run_design(design, source, base, rest[0] if rest else (), rest[1] if len(rest) > 1 else (), points=60)
 
