@@ -189,7 +189,7 @@ def module_exact_kernel(C, R, N, radius, ax, ay, az, bx, by, bz, fa, fb, ca, cb,
 
 
 #: :func:`module_exact_kernel` inlined into its caller (the whole robot's score: no reference counting per module)
-module_exact_inline = njit(cache=True, inline="always")(module_exact_kernel.py_func)
+module_exact_inline = njit(cache=True, inline="always")(getattr(module_exact_kernel, "py_func", module_exact_kernel))
 
 
 @njit(cache=True)

@@ -535,8 +535,9 @@ def locate_kernel(C, R, S, BC, BR, radius, lo, hi, ze, px, py, pz, out, whole=Tr
     out[3] = flag
 
 
-#: :func:`locate_kernel` inlined into its caller (no reference counting of the centerline's arrays per point)
-locate_inline = njit(cache=True, inline="always")(locate_kernel.py_func)
+#: :func:`locate_kernel` inlined into its caller (no reference counting of the centerline's arrays per point;
+#: under NUMBA_DISABLE_JIT both are the Python function)
+locate_inline = njit(cache=True, inline="always")(getattr(locate_kernel, "py_func", locate_kernel))
 
 
 # ---------------------------------------------------------------------------
