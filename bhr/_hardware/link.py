@@ -267,21 +267,23 @@ class BoardLink:
         self.frames_sent += 1
 
     def _await(self, seq: int, deadline: float) -> P.Frame | None:
-        """Read until a reply with ``seq`` arrives (returned) or the deadline passes (None)."""
+        """Read until a reply with ``seq`` arrives (returned) or the deadline passes (None). Past the deadline,
+        what had arrived by then is still read, once: a host that did not run for a while (a busy machine) finds the
+        reply the board sent meanwhile instead of sending the frame again."""
         ser = self._ser
         while True:
-            remaining = deadline - time.monotonic()
-            if remaining <= 0:
-                return None
+            late = deadline - time.monotonic() <= 0
             try:
                 waiting = ser.in_waiting
-                data = ser.read(max(1, min(waiting, 4096)))
+                data = ser.read(min(waiting, 4096) if late else max(1, min(waiting, 4096)))
             except (self._serial_mod.SerialException, OSError, *_TTY_ERRORS) as exc:
                 raise self._io_error(exc) from None
             if data:
                 for frame in self._decoder.feed(data):
                     if frame.seq == seq and frame.type >= 0x80:
                         return frame  # later frames of this chunk are stale by definition
+            if late:  # once: a board that never stops sending cannot hold the wait open
+                return None
 
     def _transact(self, build: Callable[[int], bytes], what: str, request: int, retries: int | None = None,
                   n_codes: int = 0) -> P.Frame:

@@ -457,7 +457,9 @@ def test_a_fast_stream_needs_no_retry(sim):
     order = (3, 6, 12, 9, 15)
     rows = [[order[j] if j < i // 100 else 0 for j in range(MODULES)] for i in range(500)]
     s = sim()
-    with BoardLink(s.pty) as link:
+    # every frame answered, none lost or damaged: a timeout no busy machine reaches (the simulator, another
+    # process, may not run for longer than the default 0.25 s; a retry's own test is in test_link.py)
+    with BoardLink(s.pty, timeout=10.0) as link:
         t = time.monotonic()
         assert stream_codes(link, rows, rate=1000) == 500
         elapsed = time.monotonic() - t

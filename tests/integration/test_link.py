@@ -239,13 +239,30 @@ def test_stream_keeps_the_rate_and_reports_progress(board):
     b = board()
     rows = [[VALID[(i + j) % 6] for j in range(5)] for i in range(10)]
     seen = []
-    with BoardLink(b.path) as link:
+    # a timeout no busy machine reaches: an answer later than 0.25 s (the default) would be a retry, and the board
+    # would see that row twice (a retry's own test is test_lost_and_damaged_frames_are_retried)
+    with BoardLink(b.path, timeout=10.0) as link:
         t = time.monotonic()
         sent = stream_codes(link, rows, rate=40, progress=lambda done, total: seen.append((done, total)))
         elapsed = time.monotonic() - t
     assert sent == 10 and seen == [(i, 10) for i in range(1, 11)]
     assert elapsed >= 9 / 40 - 0.01
     assert [list(f.payload[1:]) for f in b.received] == rows
+
+
+def test_a_reply_that_came_while_the_host_did_not_run_is_taken_not_asked_for_again(board):
+    # on a busy machine the host may not run for longer than its timeout while the board answers at once: when the
+    # host runs again past its deadline, the reply is waiting in the port, and it answers this frame (its sequence
+    # number says so)
+    b = board()
+    with BoardLink(b.path, timeout=0.05, retries=0) as link:
+        link._write(P.heartbeat_frame(7))
+        ack = P.encode_frame(P.Msg.ACK, 7, bytes([P.Msg.HEARTBEAT, 0]))
+        deadline = time.monotonic() + 30
+        while link._ser.in_waiting < len(ack) and time.monotonic() < deadline:  # the board answered
+            time.sleep(0.01)
+        reply = link._await(7, time.monotonic() - 1.0)  # the host runs again, a second past its deadline
+    assert reply is not None and (reply.seq, reply.type) == (7, P.Msg.ACK)
 
 
 def test_slow_rates_send_heartbeats_between_rows(board):
