@@ -29,7 +29,7 @@ from typing import TYPE_CHECKING, Any, Callable
 import numpy as np
 
 from bhr import __version__
-from bhr._settings.inputs import MAX_MM, MAX_RUN_BYTES, MAX_STEP_POINTS, read_text
+from bhr._settings.inputs import MAX_MM, MAX_RUN_BYTES, check_step_points, read_text
 from bhr._settings.errors import BhrError
 from bhr._settings.options import MIN_MAGNITUDE, OPTIONS, Underflow, excerpt, file_float, has_control_char, robot_limits
 from bhr.model._codes import VALID_CODES as STABLE_CODES
@@ -836,9 +836,6 @@ def follow(points: Any, solver: str | Solver = "thesis", robot: Robot | None = T
     check_locomotion(locomotion, stop_at_wall, all_poses)
     if body_modules is not None:
         body_modules = check_body_modules(body_modules, robot.modules)
-    # a whole robot on a trail may be pushed on to the cecum: up to approach_steps more steps than the path's
-    on_trail = locomotion != "thesis" and (body_modules is not None or reach is not None)
-    most = path.shape[0] + (approach_steps(path.shape[0]) if on_trail else 0)
     if reach is not None:
         if reach != "cecum":
             raise BhrError(f"reach must be cecum (a robot long enough to reach the path's end), got {reach!r}")
@@ -847,16 +844,14 @@ def follow(points: Any, solver: str | Solver = "thesis", robot: Robot | None = T
                            "modules from the path's length)")
         from bhr._run.trail import cecum_modules
 
-        reach_modules = cecum_modules(most, robot.feed_divisor, robot.modules)  # as many as that insertion needs
+        reach_modules = cecum_modules(path.shape[0], robot.feed_divisor, robot.modules)  # the path's insertion
         if locomotion == "thesis":
             body_modules = check_body_modules(reach_modules, robot.modules, "reach cecum")
     dirs = path_directions(path)
     whole = body_modules or (reach_modules if reach else 0)
-    work = most * (max(robot.modules, whole) + 1)
-    if work > MAX_STEP_POINTS:
-        raise BhrError(f"{most} steps x {max(robot.modules, whole) + 1} robot points is "
-                       f"{work:,} points to keep, more than the {MAX_STEP_POINTS:,} a run may hold in memory; "
-                       "shorten the path, raise the feed or use fewer modules")
+    # the path's steps at least; a whole robot on a trail may take more to bring its tip to the cecum (and need
+    # more modules to reach it): its plan counts them again before it keeps them (bhr._run.trail, .motion)
+    check_step_points(path.shape[0], max(robot.modules, whole) + 1)
     s = get_solver(solver, robot, **(solver_options or {}))
     solver = s.name  # the registered name, also for an alias (seed: thesis)
     s.reset()

@@ -51,6 +51,7 @@ from bhr.model._tube import Tube, locate_inline, locate_kernel, search_window
 from bhr._run.clearance import module_exact_inline
 from bhr.model._wires import DEFAULT_THERMAL, ThermalParams, transform_thetas
 from bhr._settings.errors import BhrError
+from bhr._settings.inputs import check_step_points
 
 __all__ = ["Strategy", "STRATEGIES", "MotionRun", "plan_motion", "wires_motion", "motion_report", "contraction",
            "joint_tilts", "chain_poses",
@@ -1049,6 +1050,7 @@ def wires_motion(traj, robot, solver, body_modules: int | None = None, reach: bo
     stop = min(stop, M * f)  # a feeder at the anus pushes the tail in no further than the robot's length
     # the run goes on past the path's steps only while the feeder pushes the tip on to the cecum
     N = max(N, min(steps, stop + 1))
+    check_step_points(N, M + 1)  # the steps to the cecum, now known, before the poses are kept
     tcodes = np.ascontiguousarray(tcodes[:(N - 1) // f + 1])
     back = M + 2
     T = trail_vertices(tcodes, traj.start_direction, traj.start_point, L, robot.alpha, back)

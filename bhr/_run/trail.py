@@ -48,6 +48,7 @@ from bhr.model._tube import Tube, lumen_end_of, nearest_kernel, point_clearance,
 from bhr.model._wallmesh import grid_args, mesh_segment, sdf_at, wall_grid
 from bhr._run.clearance import clearance_chain_kernel, index_matched_min, robot_labels, tables_report, wall_label
 from bhr._settings.errors import BhrError
+from bhr._settings.inputs import check_step_points
 from bhr.solvers._trail import dense_tube, plan_trail, trail_vertices
 
 __all__ = ["TrailRun", "trail_poses", "trail_tables", "trail_poses_numpy", "chord_sweep_numpy", "sweep_bound_mm",
@@ -512,6 +513,7 @@ def run_trail(traj, robot, settings: dict, window_mm: float, modules: int | None
     if reach:
         modules = check_body_modules(cecum_modules(stop + 1, f, robot.modules), robot.modules, "reach cecum")
     M = int(robot.modules if modules is None else modules)
+    check_step_points(N, M + 1)  # the steps to the cecum, now known, before the poses are kept
     back = M + 2
     T = trail_vertices(codes, traj.start_direction, traj.start_point, L, robot.alpha, back)
     joints = trail_poses(T, back, f, N, M + 1, stop)

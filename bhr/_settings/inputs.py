@@ -18,7 +18,8 @@ from bhr._settings.options import excerpt as _excerpt
 from bhr._settings.options import type_name as _type_name
 
 __all__ = ["MAX_REASON_CHARS", "reason",
-           "MAX_FILE_BYTES", "MAX_RUN_BYTES", "MAX_MM", "MAX_POINTS", "MAX_STEP_POINTS", "read_capped", "read_text",
+           "MAX_FILE_BYTES", "MAX_RUN_BYTES", "MAX_MM", "MAX_POINTS", "MAX_STEP_POINTS", "check_step_points",
+           "read_capped", "read_text",
            "read_toml", "check_keys", "type_name", "number", "vector3", "text_value", "choice", "did_you_mean",
            "parse_number", "check_number", "excerpt", "check_regular", "check_input", "shown_path", "broken_link",
            "latest_note"]
@@ -29,14 +30,22 @@ MAX_FILE_BYTES = 64 * 1024 * 1024
 #: A path may have at most this many points after sampling (trajectory generators, segment and CSV files).
 MAX_POINTS = LIMITS["points"]
 #: A run may hold at most this many robot points in all: steps x (modules + 1), the body's modules when
-#: simulated. Memory grows by about 1.2-1.4 kB per step and point (run.json and figures included; measured
+#: simulated. Memory grows by about 0.7-1.4 kB per step and point (run.json and figures included; measured
 #: in docs/commands.md), so a run at the limit stays within about 3.5 GB (a 5-module robot on a path of
-#: MAX_POINTS fits, and the whole robot on every anatomical colon 1-100 at feed divisor 10).
+#: MAX_POINTS fits, and the whole robot to the cecum of anatomical colon 3 at feed divisor 10).
 MAX_STEP_POINTS = LIMITS["step_points"]
 #: A run.json may be this large: a run bhr may write is one bhr reads back. run.json takes about 145 bytes
 #: per step and robot point (a 61-module trail run on anatomical colon 2: 17.1 MB for 1,931 steps), so
 #: 256 bytes per point leaves room for the longest numbers.
 MAX_RUN_BYTES = 256 * MAX_STEP_POINTS
+
+
+def check_step_points(steps: int, points: int) -> None:
+    """A run of ``steps`` steps of ``points`` robot points each is within :data:`MAX_STEP_POINTS`, or one line."""
+    if steps * points > MAX_STEP_POINTS:
+        raise BhrError(f"{steps} steps x {points} robot points is {steps * points:,} points to keep, more than the "
+                       f"{MAX_STEP_POINTS:,} a run may hold in memory; shorten the path, raise the feed or use fewer "
+                       "modules")
 
 
 def latest_note(p: Path) -> str:

@@ -244,8 +244,8 @@ BY_NAME: dict[str, Option] = {o.name: o for o in OPTIONS}
 #: Sizes checked before anything is allocated (docs/commands.md#limits): the one place they are set.
 LIMITS: dict[str, int] = {
     "points": 500_000,  # points of a path after sampling (generators, segment and CSV files)
-    # steps x (modules + 1) of one run: about 1.2-1.4 kB each in memory with run.json and the figures, ~3.1 GB at
-    # most (docs/commands.md#limits: anatomy colon 3 at feed divisor 10, the whole robot, 2.37 M points, 2.8 GB)
+    # steps x (modules + 1) of one run: about 0.7-1.4 kB each in memory with run.json and the figures, 2-3.5 GB at
+    # most (docs/commands.md#limits: anatomy colon 3 at feed divisor 10, the whole robot, 2.49 M points, 1.85 GB)
     "step_points": 2_500_000,
     "segments": 10_000,  # segments of a trajectory TOML
     "modules": 1000,  # modules the solver moves (--modules)
