@@ -415,8 +415,8 @@ class Pacer:
 
     The first row goes at once; each further row is due ``1 / rate`` seconds
     (or its planned gap, with ``times``: seconds after the first row, one per
-    row, from :func:`bhr._hardware.thermal.auto_schedule`) after the row before it was
-    sent, so a late row never shortens the gap after it. While waiting longer
+    row, from :func:`bhr._hardware.thermal.auto_schedule`) after the board acknowledged
+    the row before it, so a late row (or a retried one) never shortens the gap after it. While waiting longer
     than ``heartbeat`` seconds, heartbeats keep the board's silence timeout
     from firing. ``wait_relaxed``: before a row that energises a recently
     released wire, ask the board and wait while that module still has a wire
@@ -479,6 +479,9 @@ class Pacer:
                       if any(now - self._released.get((m, b), -1e9) < 10.0 for b in range(4) if (c & ~p) >> b & 1)]
             if recent:
                 self._await_relaxed(recent)
+        names = self.link.set_codes(codes)
+        # the next gap counts from the ACK: the board had the row by then (a retry, after a lost frame or a late
+        # answer on a busy machine, gives it to the board later than the first try was sent)
         self._t0 = time.monotonic()
         if self._last is not None:
             for m, (c, p) in enumerate(zip(codes, self._last), start=1):
@@ -486,7 +489,6 @@ class Pacer:
                     if (p & ~c) >> b & 1:
                         self._released[(m, b)] = self._t0
         self._last = codes
-        names = self.link.set_codes(codes)
         self.sent += 1
         self._refuse_silence(names, f"at step {self.sent}")
         if any(f != "silence" for f in names):

@@ -250,6 +250,27 @@ def test_stream_keeps_the_rate_and_reports_progress(board):
     assert [list(f.payload[1:]) for f in b.received] == rows
 
 
+def test_each_row_waits_its_gap_after_the_board_acknowledged_the_row_before(board):
+    # a row the board acknowledges late (a retry after a lost frame, a late answer on a busy machine) reached it
+    # late: the next row waits its whole gap after that ACK, else the board sees two rows closer together than
+    # the schedule allows (a wire asked to contract again before it relaxed)
+    got, answered = [], []
+
+    def slow_first_ack(b, f):
+        if f.type == P.Msg.SET_CODES:
+            got.append(time.monotonic())
+            if len(got) == 1:
+                time.sleep(0.3)
+            answered.append(time.monotonic())
+        return None  # the true answer, once the lie has returned
+
+    b = board(lie=slow_first_ack)
+    with BoardLink(b.path, timeout=10.0) as link:
+        assert stream_codes(link, [[3, 0, 0, 0, 0], [0, 3, 0, 0, 0], [0, 0, 3, 0, 0]], rate=10) == 3
+    assert len(got) == 3
+    assert all(got[k + 1] - answered[k] >= 0.1 for k in range(2)), (got, answered)
+
+
 def test_a_reply_that_came_while_the_host_did_not_run_is_taken_not_asked_for_again(board):
     # on a busy machine the host may not run for longer than its timeout while the board answers at once: when the
     # host runs again past its deadline, the reply is waiting in the port, and it answers this frame (its sequence
