@@ -36,9 +36,11 @@ def force_figure(rep: Any, title: str = "", lines_n: tuple[float, float] = (9.8,
     a1.axhline(lines_n[1], color="black", ls="--", lw=1, label="14.1 N: porcine colon perforates (Johnson 2019)")
     s = rep.summary()
     a1.set_ylabel("force on the wall (N)")
-    a1.set_ylim(0, max(16.0, float(rep.total_force_n.max(initial=0.0)) * 1.1))
+    peak = float(rep.total_force_n.max(initial=0.0))
+    # room above the published lines (or the peak) for the legend, which then covers neither
+    a1.set_ylim(0, 1.6 * max(lines_n[1], peak))
     a1.grid(alpha=0.3)
-    a1.legend(loc="center right", fontsize=8)
+    a1.legend(loc="upper left", fontsize=8, ncol=2)
     reached = s["reached_cecum_step"]
     a1.set_title(title or "the wall's load along the run", fontsize=10)
     a2.plot(x, rep.stretch_mm, color="tab:blue", lw=1.0, label="wall pushed out of place (largest, mm)")
