@@ -41,7 +41,8 @@ from bhr.model._pathfile import rotate_about, unit_vector
 
 __all__ = ["SECTIONS", "RANGES", "SEED_MAX", "SHIPPED", "POPULATION", "SHARES", "LENGTH_LIMITS", "Colon",
            "anatomical_colon", "check_seed", "anatomy_csv_text", "acute_flexures", "bend_radii", "MIN_RADIUS_MM",
-           "WIGGLE_MM", "WIGGLE_KNOT_MM", "WIGGLE_RAMP_MM", "CONTROL_MM", "path_sections"]
+           "WIGGLE_MM", "WIGGLE_KNOT_MM", "WIGGLE_RAMP_MM", "CONTROL_MM", "path_sections",
+           "path_section_ranges"]
 
 #: Sections of an anatomical colon, from the anus to the cecum.
 SECTIONS = ("rectum", "sigmoid", "descending", "splenic flexure", "transverse", "hepatic flexure", "ascending",
@@ -669,3 +670,17 @@ def path_sections(traj: Any) -> list[tuple[str, int]] | None:
     starts = np.concatenate([[0.0], ends[:-1]])
     return [(name, int(np.clip(np.searchsorted(s, (a + b) / 2.0), 0, len(pts) - 1)))
             for name, a, b in zip(SECTIONS, starts, ends)]
+
+
+def path_section_ranges(traj: Any) -> list[tuple[str, int, int]]:
+    """The anatomical sections along a path as ``(name, first point, one past the last)``: a real colon's own
+    (``traj.sections``), a generated anatomical colon's from its section ends; [] for any other path."""
+    if getattr(traj, "sections", None):
+        return [(n, int(a), int(b)) for n, a, b in traj.sections]
+    seed = (getattr(traj, "params", None) or {}).get("seed")
+    if seed is None or not str(getattr(traj, "name", "")).startswith("anatomy"):
+        return []
+    pts = np.asarray(traj.points, dtype=np.float64)
+    s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(pts, axis=0), axis=1))])
+    cuts = [0, *np.searchsorted(s, anatomical_colon(int(seed)).section_ends()[:-1]).tolist(), len(pts)]
+    return [(name, int(a), int(b)) for name, a, b in zip(SECTIONS, cuts[:-1], cuts[1:]) if b > a]

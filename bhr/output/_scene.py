@@ -140,7 +140,8 @@ def label_sections(ax: Any, traj: Any, planar: bool) -> list[Any]:
 
 
 def draw_travel_arrow(ax: Any, path: np.ndarray, planar: bool) -> list[Any]:
-    """An arrow along the path near its start: the direction the robot travels (anus to cecum on a colon)."""
+    """An arrow along the path near its start: the direction the robot travels (anus to cecum on a colon). It is
+    named in the legend, not beside the arrow, where a name would cover the path, the robot or a section's name."""
     pts = np.asarray(path, dtype=np.float64)
     if len(pts) < 3:
         return []
@@ -150,13 +151,14 @@ def draw_travel_arrow(ax: Any, path: np.ndarray, planar: bool) -> list[Any]:
     b = int(np.searchsorted(s, s[min(a, len(s) - 1)] + 0.08 * extent))
     a, b = min(a, len(pts) - 2), min(max(b, a + 1), len(pts) - 1)
     p, q = pts[a], pts[b]
+    style = {"color": "#2b2b2b", "linewidth": 2.0}
+    name = ax.plot(*([] for _ in range(2 if planar else 3)), marker=">", markersize=6, label="direction of travel",
+                   **style)
     if planar:
         return [ax.annotate("", xy=(q[0], q[1]), xytext=(p[0], p[1]), zorder=8,
-                            arrowprops={"arrowstyle": "-|>", "color": "#2b2b2b", "linewidth": 2.0}),
-                ax.text(q[0], q[1], " direction of travel", fontsize=7.5, color="#2b2b2b", zorder=8)]
+                            arrowprops={"arrowstyle": "-|>", **style}), *name]
     d = q - p
-    return [ax.quiver(p[0], p[1], p[2], d[0], d[1], d[2], color="#2b2b2b", linewidth=2.0, arrow_length_ratio=0.35),
-            ax.text(q[0], q[1], q[2], " direction of travel", fontsize=7.5, color="#2b2b2b", va="top")]
+    return [ax.quiver(p[0], p[1], p[2], d[0], d[1], d[2], arrow_length_ratio=0.35, **style), *name]
 
 
 def draw_target(ax: Any, point: np.ndarray, planar: bool, size: float = 9) -> list[Any]:
@@ -420,9 +422,11 @@ def draw_contact_steps(ax: Any, result: "FollowResult") -> list[Any]:
 
 
 def draw_sections(ax: Any, result: "FollowResult") -> None:
-    """On a per-step figure: the trajectory's anatomical sections as alternate grey bands named at the top
-    (step k targets point k - 1, so a section of points [a, b) covers steps a + 1 ... b)."""
-    sections = getattr(result.trajectory, "sections", ())
+    """On a per-step figure: the trajectory's anatomical sections (a real or generated colon's) as alternate grey
+    bands named at the top (step k targets point k - 1, so a section of points [a, b) covers steps a + 1 ... b)."""
+    from bhr.model._anatomy import path_section_ranges
+
+    sections = path_section_ranges(result.trajectory)
     if not sections:
         return
     import matplotlib.transforms as mtransforms
@@ -434,7 +438,8 @@ def draw_sections(ax: Any, result: "FollowResult") -> None:
             continue
         if k % 2 == 0:
             ax.axvspan(lo, hi, color="#e6e9f0", zorder=0, linewidth=0)
-        ax.text((lo + hi) / 2, 0.985, name.replace(" and ", "\nand "), transform=trans, ha="center", va="top",
+        label = name.replace(" and ", "\nand ") if " and " in name else name.replace(" ", "\n")  # narrow bands
+        ax.text((lo + hi) / 2, 0.985, label, transform=trans, ha="center", va="top",
                 fontsize=7, color="#333", zorder=5, clip_on=True)
 
 

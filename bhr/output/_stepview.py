@@ -38,8 +38,9 @@ class StepView:
     The left axes (``ax``) is a square window around the robot's head, moved
     with it at every step; the path, the lumen wall, start and end stay
     drawn, so that the robot is large and its surroundings readable. On the
-    right, an overview shows the whole path with the window and the robot's
-    place, and a readout gives the step's errors against the tolerances.
+    right, an overview shows the whole path with the robot's place (and, in a
+    top view, the window), and a readout gives the step's errors against the
+    tolerances.
     :meth:`draw` replaces the previous step's robot, target, window and
     readout. Pass ``fig`` to draw on a figure made elsewhere (e.g. an
     off-screen Agg figure); its size should be :data:`FRAME_INCHES`.

@@ -79,11 +79,11 @@ def pose_figure(robot: "Robot", codes: Sequence[int], points: np.ndarray, frames
     ax.plot(points[:, 0], points[:, 1], points[:, 2], "-o", color="black", markersize=2.5, linewidth=0.8,
             label="module axes and joints")
     ax.scatter(*points[-1], color="tab:red", s=30, label="tip", depthshade=False)
-    arrow = 1.5 * robot.robot_radius
+    arrow = 2.2 * robot.robot_radius  # out of the module's cylinder (x, y); z is the robot's axis at its base
     for k, (name, color) in enumerate((("x", "tab:red"), ("y", "tab:green"), ("z", "tab:blue"))):
         d = np.asarray(base_axes[k], dtype=np.float64)
-        ax.quiver(*points[0], *(arrow * d), color=color, linewidth=1.2, arrow_length_ratio=0.25)
-        ax.text(*(points[0] + 1.15 * arrow * d), f"base {name}", color=color, fontsize=8)
+        ax.quiver(*points[0], *(arrow * d), color=color, linewidth=1.5, arrow_length_ratio=0.2)
+        ax.plot([], [], [], color=color, linewidth=1.5, marker=">", markersize=5, label=f"base {name} axis")
     for j, code in enumerate(codes):
         mid = (points[j] + points[j + 1]) / 2.0
         ax.text(*(mid + 1.3 * robot.robot_radius * frames[j][0]), str(int(code)), fontsize=7, color="0.25")

@@ -74,7 +74,8 @@ def test_an_anatomical_colon_carries_its_sections_and_the_direction_of_travel(to
     fig = path_figure(touching)
     texts = [t.get_text() for t in fig.axes[0].texts]
     assert set(SECTIONS) <= set(texts)
-    assert " direction of travel" in texts
+    assert "direction of travel" not in " ".join(texts)  # named in the legend, where it covers nothing
+    assert "direction of travel" in [t.get_text() for t in fig.legends[0].get_texts()]
     assert any(type(c).__name__ == "Line3DCollection" for c in fig.axes[0].collections)  # the arrow (quiver)
 
 
@@ -91,3 +92,19 @@ def test_the_3d_view_names_the_sections_and_shows_the_direction_of_travel(touchi
     # the robot and the step's contacts are still the traces the frames update
     assert all(fig["data"][i]["name"] in ("robot (head orange)", "contact at this step")
                for i in fig["frames"][0]["traces"])
+
+
+def test_a_generated_colons_clearance_figure_bands_its_sections_in_path_order(touching):
+    # a generated colon has no landmarks file: its sections come from its own section ends, as its path's labels
+    from bhr.model._anatomy import path_section_ranges, path_sections
+    from bhr.output._clearance_plot import clearance_figure
+
+    ranges = path_section_ranges(touching.trajectory)
+    assert [n for n, _, _ in ranges] == list(SECTIONS)
+    assert ranges[0][1] == 0 and ranges[-1][2] == len(touching.trajectory.points)
+    assert all(b > a and b == a2 for (_, a, b), (_, a2, _) in zip(ranges, ranges[1:]))
+    assert all(a <= k < b for (_, a, b), (_, k) in zip(ranges, path_sections(touching.trajectory)))
+    ax = clearance_figure(touching).axes[0]
+    named = [t.get_text().replace("\n", " ") for t in ax.texts]
+    assert [n for n in named if n in SECTIONS] == list(SECTIONS)
+    assert path_section_ranges(bhr.trajectory("curve")) == []
