@@ -40,6 +40,12 @@ def run_bhr(*args, cwd=None, timeout=120):
                           cwd=cwd)
 
 
+#: A reply timeout no busy machine reaches, for tests that count the board's frames but are not about the timeout:
+#: an answer later than the default 0.25 s (the board's thread not run meanwhile) is a retry, a frame more.
+#: The timeout and retries have their own tests, with short timeouts and counts that do not depend on load.
+PATIENT = 10.0
+
+
 class FakeBoard(threading.Thread):
     """A board emulator on a pty master: enough of the protocol to test the host side."""
 
@@ -181,7 +187,7 @@ def test_the_library_opens_another_url_when_asked(tmp_path, board):
 
 def test_set_codes_status_stop_all_over_a_pty(board):
     b = board()
-    with BoardLink(b.path) as link:
+    with BoardLink(b.path, timeout=PATIENT) as link:
         assert link.set_codes([3, 0, 6, 0, 0]) == []
         assert link.status() == {"codes": [3, 0, 6, 0, 0], "faults": []}
         link.heartbeat()
@@ -216,7 +222,7 @@ def test_a_silent_board_costs_retries_plus_one_tries_then_one_line(board):
 
 def test_refusals_are_reported_not_retried(board):
     b = board(modules=6)
-    with BoardLink(b.path) as link:
+    with BoardLink(b.path, timeout=PATIENT) as link:
         with pytest.raises(LinkError) as err:
             link.set_codes([0] * 5)
     msg = one_line(str(err.value))
@@ -226,7 +232,7 @@ def test_refusals_are_reported_not_retried(board):
 
 def test_unstable_codes_never_leave_the_host(board):
     b = board()
-    with BoardLink(b.path) as link:
+    with BoardLink(b.path, timeout=PATIENT) as link:
         with pytest.raises(BhrError, match="code 5 for module 2"):
             link.set_codes([0, 5, 0, 0, 0])
         table = [[0] * 5, [3] * 5, [0, 7, 0, 0, 0], [6] * 5]
@@ -239,9 +245,7 @@ def test_stream_keeps_the_rate_and_reports_progress(board):
     b = board()
     rows = [[VALID[(i + j) % 6] for j in range(5)] for i in range(10)]
     seen = []
-    # a timeout no busy machine reaches: an answer later than 0.25 s (the default) would be a retry, and the board
-    # would see that row twice (a retry's own test is test_lost_and_damaged_frames_are_retried)
-    with BoardLink(b.path, timeout=10.0) as link:
+    with BoardLink(b.path, timeout=PATIENT) as link:
         t = time.monotonic()
         sent = stream_codes(link, rows, rate=40, progress=lambda done, total: seen.append((done, total)))
         elapsed = time.monotonic() - t
@@ -265,7 +269,7 @@ def test_each_row_waits_its_gap_after_the_board_acknowledged_the_row_before(boar
         return None  # the true answer, once the lie has returned
 
     b = board(lie=slow_first_ack)
-    with BoardLink(b.path, timeout=10.0) as link:
+    with BoardLink(b.path, timeout=PATIENT) as link:
         assert stream_codes(link, [[3, 0, 0, 0, 0], [0, 3, 0, 0, 0], [0, 0, 3, 0, 0]], rate=10) == 3
     assert len(got) == 3
     assert all(got[k + 1] - answered[k] >= 0.1 for k in range(2)), (got, answered)
@@ -288,7 +292,7 @@ def test_a_reply_that_came_while_the_host_did_not_run_is_taken_not_asked_for_aga
 
 def test_slow_rates_send_heartbeats_between_rows(board):
     b = board()
-    with BoardLink(b.path) as link:
+    with BoardLink(b.path, timeout=PATIENT) as link:
         stream_codes(link, [[3, 0, 0, 0, 0], [0, 0, 0, 0, 0]], rate=1.5, heartbeat=0.2)
     kinds = b.types()
     assert kinds[0] == "SET_CODES" and kinds[-1] == "SET_CODES"
@@ -303,7 +307,7 @@ def test_ctrl_c_while_streaming_sends_stop_all(board):
         if done == 3:
             raise KeyboardInterrupt
 
-    with BoardLink(b.path) as link:
+    with BoardLink(b.path, timeout=PATIENT) as link:
         with pytest.raises(StreamInterrupted) as err:
             stream_codes(link, rows, rate=200, progress=progress)
     assert isinstance(err.value, KeyboardInterrupt)
@@ -371,7 +375,7 @@ def test_stream_and_status_commands_over_a_pty(tmp_path, board):
     b = board()
     rows = [[0, 3, 6, 9, 12], [15, 0, 0, 0, 3], [6, 6, 6, 6, 6]]
     f = write_codes(tmp_path / "codes.csv", rows)
-    r = run_bhr("stream", "--port", b.path, "--codes", f, "--rate", "50")
+    r = run_bhr("stream", "--port", b.path, "--codes", f, "--rate", "50", "--timeout", PATIENT)
     assert r.returncode == 0, r.stderr
     assert r.stderr == ""  # no progress bar when stderr is not a terminal
     assert "sent 3 rows" in r.stdout
@@ -441,7 +445,7 @@ LIES = {
 @pytest.mark.parametrize("lie", list(LIES), ids=list(LIES))
 def test_an_impossible_status_is_refused_whole_and_stop_all_sent(board, lie):
     b = board(lie=LIES[lie])
-    with BoardLink(b.path) as link:
+    with BoardLink(b.path, timeout=PATIENT) as link:
         with pytest.raises(LinkError) as err:
             link.status()
     msg = one_line(str(err.value))
@@ -456,7 +460,7 @@ def test_an_ack_for_another_message_type_is_refused(board):
         return None
 
     b = board(lie=lie)
-    with BoardLink(b.path) as link:
+    with BoardLink(b.path, timeout=PATIENT) as link:
         with pytest.raises(LinkError, match="an ACK for message type 0x04, not the SET_CODES sent"):
             link.set_codes([3, 0, 0, 0, 0])
     assert b.types() == ["SET_CODES", "STOP_ALL"]
@@ -469,7 +473,7 @@ def test_a_status_with_another_module_count_than_before_is_a_lie(board):
         return None
 
     b = board(lie=lie)
-    with BoardLink(b.path) as link:
+    with BoardLink(b.path, timeout=PATIENT) as link:
         assert len(link.status()["codes"]) == 5
         with pytest.raises(LinkError, match="for 4 modules from a board that drives 5"):
             link.status()
@@ -543,7 +547,7 @@ def test_an_overheat_mid_stream_stops_the_stream_with_stop_all(board, tmp_path):
 
     b = board(lie=lie)
     f = write_codes(tmp_path / "codes.csv", [[0, 0, 0, 0, 0], [3, 0, 0, 0, 0]] + [[3, 3, 0, 0, 0]] * 20)
-    r = run_bhr("stream", "--port", b.path, "--codes", f, "--rate", "20")
+    r = run_bhr("stream", "--port", b.path, "--codes", f, "--rate", "20", "--timeout", PATIENT)
     assert r.returncode == 1
     msg = one_line(r.stderr)
     assert msg.startswith("Error: board on") and "overheat:m2 at step 3" in msg and "sent stop-all" in msg, msg
