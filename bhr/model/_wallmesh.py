@@ -29,7 +29,6 @@ import os
 import uuid
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 from numba import njit
@@ -48,6 +47,8 @@ GRID_MM = 2.0
 BAND_MM = 15.0
 #: Margin (mm) of the grid around the mesh's bounds.
 MARGIN_MM = 12.0
+#: The grid may have at most this many nodes (a colon's surface at 2 mm: a few million).
+MAX_GRID_NODES = 60_000_000
 #: A mesh is the wall only when at least this share of its trajectory's points lie inside it (else the tube is).
 MIN_INSIDE = 0.95
 #: Golden-section iterations refining the worst sample of a module.
@@ -88,38 +89,115 @@ def _need_vtk(what: str) -> None:
                        f"{install_command('anatomy')}")
 
 
+#: A mesh is read by vtk in a child process (``python -c`` this), which hands back its points and triangles: vtk's
+#: readers end the process on a damaged file (a segmentation fault on a count larger than the data, an abort on an
+#: allocation it cannot make), which then costs one line instead of bhr itself.
+_READER = r"""
+import sys
+import numpy as np
+from vtkmodules.vtkCommonCore import vtkObject
+from vtkmodules.vtkFiltersCore import vtkTriangleFilter
+vtkObject.GlobalWarningDisplayOff()
+suffix, path = sys.argv[1], sys.argv[2]
+if suffix == ".vtp":
+    from vtkmodules.vtkIOXML import vtkXMLPolyDataReader as R
+elif suffix == ".vtk":
+    from vtkmodules.vtkIOLegacy import vtkPolyDataReader as R
+elif suffix == ".stl":
+    from vtkmodules.vtkIOGeometry import vtkSTLReader as R
+elif suffix == ".ply":
+    from vtkmodules.vtkIOPLY import vtkPLYReader as R
+else:
+    from vtkmodules.vtkIOGeometry import vtkOBJReader as R
+from vtkmodules.util.numpy_support import vtk_to_numpy
+r = R()
+r.SetFileName(path)
+tri = vtkTriangleFilter()
+tri.SetInputConnection(r.GetOutputPort())
+tri.PassLinesOff()
+tri.PassVertsOff()
+tri.Update()
+out = tri.GetOutput()
+pts = out.GetPoints()
+points = np.zeros((0, 3)) if pts is None else np.asarray(vtk_to_numpy(pts.GetData()), dtype=np.float64)
+polys = out.GetPolys()
+off = np.asarray(vtk_to_numpy(polys.GetOffsetsArray()), dtype=np.int64)
+conn = np.asarray(vtk_to_numpy(polys.GetConnectivityArray()), dtype=np.int64)
+np.savez(sys.stdout.buffer, points=points, offsets=off, conn=conn)
+"""
+
+
 def read_mesh(path: str | os.PathLike[str]):
-    """A surface mesh (.vtp, .vtk, .stl, .ply, .obj) as vtkPolyData of triangles; a one-line error if unreadable."""
+    """A surface mesh (.vtp, .vtk, .stl, .ply, .obj) as vtkPolyData of triangles; a one-line error if unreadable.
+
+    vtk reads the file in a child process (:data:`_READER`), so that a damaged file that crashes vtk's reader costs
+    one line; its triangles are checked (finite coordinates within the limit, indices of its own points) before
+    the mesh is built here from them."""
     _need_vtk("reading a surface mesh")
-    from vtkmodules.vtkFiltersCore import vtkTriangleFilter
-    from vtkmodules.vtkIOGeometry import vtkOBJReader, vtkSTLReader
-    from vtkmodules.vtkIOLegacy import vtkPolyDataReader
-    from vtkmodules.vtkIOPLY import vtkPLYReader
-    from vtkmodules.vtkIOXML import vtkXMLPolyDataReader
+    import io
+    import signal
+    import subprocess
+    import sys
+
+    from bhr._settings.inputs import MAX_FILE_BYTES, MAX_MM
 
     p = Path(path)
-    readers: dict[str, Any] = {".vtp": vtkXMLPolyDataReader, ".vtk": vtkPolyDataReader, ".stl": vtkSTLReader,
-                               ".ply": vtkPLYReader, ".obj": vtkOBJReader}
-    kind = readers.get(p.suffix.lower())
-    if kind is None:
+    kinds = (".vtp", ".vtk", ".stl", ".ply", ".obj")
+    suffix = p.suffix.lower()
+    if suffix not in kinds:
         raise BhrError(f"{p}: a surface mesh must be .vtp, .vtk, .stl, .ply or .obj, got {p.suffix or 'no extension'}")
-    check_input(p, "surface mesh", "give a surface mesh (.vtp, .vtk, .stl, .ply or .obj) in mm")
-    from vtkmodules.vtkCommonCore import vtkObject
-
-    r = kind()
-    r.SetFileName(str(p))
-    tri = vtkTriangleFilter()
-    tri.SetInputConnection(r.GetOutputPort())
-    # a file vtk cannot parse is reported below in one line: vtk's own multi-line error report is not printed
-    shown = vtkObject.GetGlobalWarningDisplay()
-    vtkObject.GlobalWarningDisplayOff()
+    hint = "give a surface mesh (.vtp, .vtk, .stl, .ply or .obj) in mm"
+    check_input(p, "surface mesh", hint)
+    if os.stat(p).st_size > MAX_FILE_BYTES:
+        raise BhrError(f"{p} is larger than {MAX_FILE_BYTES // (1024 * 1024)} MiB, too large for a surface mesh; "
+                       "decimate it or " + hint)
+    proc = subprocess.run([sys.executable, "-c", _READER, suffix, os.path.abspath(p)], stdin=subprocess.DEVNULL,
+                          capture_output=True, check=False)
+    if proc.returncode != 0:
+        if proc.returncode < 0:
+            try:
+                why = f"vtk's reader crashed on it ({signal.Signals(-proc.returncode).name})"
+            except ValueError:
+                why = f"vtk's reader crashed on it (signal {-proc.returncode})"
+        else:
+            last = (proc.stderr.decode("utf-8", "replace").strip().splitlines() or ["?"])[-1]
+            why = f"vtk could not read it ({last[:120]})"
+        raise BhrError(f"{p}: not a readable {suffix} surface mesh: {why}; {hint}")
     try:
-        tri.Update()
-    finally:
-        vtkObject.SetGlobalWarningDisplay(shown)
-    out = tri.GetOutput()
-    if out.GetNumberOfCells() < 4:
-        raise BhrError(f"{p}: no surface read ({out.GetNumberOfCells()} triangles); give a closed surface mesh in mm")
+        with np.load(io.BytesIO(proc.stdout), allow_pickle=False) as z:
+            points, off, conn = z["points"], z["offsets"], z["conn"]
+    except (OSError, ValueError, KeyError) as exc:
+        raise BhrError(f"{p}: not a readable {suffix} surface mesh ({str(exc)[:80]}); {hint}") from None
+    sizes = np.diff(off)
+    tris = conn[off[:-1][sizes == 3][:, None] + np.arange(3)] if off.size > 1 else np.zeros((0, 3), np.int64)
+    if tris.shape[0] < 4:
+        raise BhrError(f"{p}: no surface read ({tris.shape[0]} triangles); give a closed surface mesh in mm")
+    if tris.min() < 0 or tris.max() >= points.shape[0]:
+        raise BhrError(f"{p}: a triangle names a point the file does not have (point {int(tris.max()) + 1} of "
+                       f"{points.shape[0]}); the file is damaged; {hint}")
+    bad = ~np.isfinite(points).all(axis=1) | (np.abs(points) > MAX_MM).any(axis=1)
+    if bad.any():
+        k = int(np.flatnonzero(bad)[0])
+        raise BhrError(f"{p}: point {k + 1} is {points[k].tolist()}, not a finite coordinate within +-{MAX_MM:g} mm; "
+                       f"{hint}")
+    return _polydata(points, tris)
+
+
+def _polydata(points: np.ndarray, tris: np.ndarray):
+    """vtkPolyData of ``points`` (N, 3) and triangles ``tris`` (M, 3) of point indices."""
+    from vtkmodules.util.numpy_support import numpy_to_vtk, numpy_to_vtkIdTypeArray
+    from vtkmodules.vtkCommonCore import vtkPoints
+    from vtkmodules.vtkCommonDataModel import vtkCellArray, vtkPolyData
+
+    vp = vtkPoints()
+    vp.SetData(numpy_to_vtk(np.ascontiguousarray(points, dtype=np.float64), deep=True))
+    cells = vtkCellArray()
+    offsets = np.arange(0, 3 * tris.shape[0] + 1, 3, dtype=np.int64)
+    cells.SetData(numpy_to_vtkIdTypeArray(offsets, deep=True),
+                  numpy_to_vtkIdTypeArray(np.ascontiguousarray(tris.ravel(), dtype=np.int64), deep=True))
+    out = vtkPolyData()
+    out.SetPoints(vp)
+    out.SetPolys(cells)
     return out
 
 
@@ -201,7 +279,14 @@ def load_sdf(path: str | os.PathLike[str], centerline: np.ndarray, band: float, 
                 return SdfGrid(z["origin"], float(z["spacing"]), np.ascontiguousarray(z["values"], dtype=np.float64))
         except (OSError, ValueError, KeyError):
             pass  # a damaged cache file: computed again and replaced
-    grid = sdf_values(read_mesh(p), centerline, band, spacing)
+    mesh = read_mesh(p)
+    b = np.array(mesh.GetBounds(), dtype=np.float64)
+    nodes = math.prod(float(np.ceil((b[2 * a + 1] - b[2 * a] + 2 * MARGIN_MM) / spacing) + 1) for a in range(3))
+    if nodes > MAX_GRID_NODES:
+        raise BhrError(f"{p}: the mesh spans {' x '.join(f'{v:.0f}' for v in b[1::2] - b[0::2])} mm, too large for "
+                       f"the wall's grid of {spacing:g} mm ({nodes:.3g} nodes, at most {MAX_GRID_NODES:,}); give the "
+                       "lumen's surface in mm, or move the mesh away to measure against the tube")
+    grid = sdf_values(mesh, centerline, band, spacing)
     tmp = folder / f".sdf-{uuid.uuid4().hex[:8]}.npz"  # named first: a Ctrl-C at any moment leaves no file behind
     try:
         folder.mkdir(parents=True, exist_ok=True)

@@ -39,3 +39,58 @@ def test_a_file_that_is_not_a_mesh_is_refused_in_one_line(tmp_path, suffix):
     assert r.stderr.strip().splitlines() == [f"Error: {bad}: no surface read (0 triangles); give a closed surface "
                                              "mesh in mm"]
     assert r.stdout == "" and not (tmp_path / "c.csv").exists()
+
+
+def _import(tmp_path, *args: str) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "bhr.cli.main", "import", *args, "--out", str(tmp_path / "c.csv")],
+                          capture_output=True, text=True, cwd=tmp_path, timeout=300)
+
+
+def _one_line(r: subprocess.CompletedProcess) -> str:
+    lines = [ln for ln in r.stderr.strip().splitlines() if ln.strip() and not ln.startswith("Compiling bhr's")]
+    assert r.returncode == 1 and len(lines) == 1 and "Traceback" not in r.stderr, (r.returncode, r.stderr[-2000:])
+    return lines[0]
+
+
+def test_a_mesh_that_crashes_vtks_reader_is_one_line(tmp_path):
+    """A PLY whose header counts more vertices and faces than it holds ends vtk's reader with a segmentation fault;
+    vtk reads in a child process, so bhr says so in one line instead of dying with it."""
+    bad = tmp_path / "colon.ply"
+    bad.write_text("ply\nformat ascii 1.0\nelement vertex 999999999999\nproperty float x\nproperty float y\n"
+                   "property float z\nelement face 9999999999\nproperty list uchar int vertex_indices\nend_header\n"
+                   "0 0 0\n")
+    line = _one_line(_import(tmp_path, str(bad), "--start", "0,0,0"))
+    assert line.startswith(f"Error: {bad}: not a readable .ply surface mesh") and "give a surface mesh" in line
+    assert not (tmp_path / "c.csv").exists() and not (tmp_path / "c.vtp").exists()
+
+
+def test_a_mesh_point_beyond_the_limit_is_named(tmp_path):
+    """A vertex at 1e300 mm (or inf, nan) is refused by its number, not by vtk overflowing a grid's int."""
+    bad = tmp_path / "colon.obj"
+    bad.write_text("v 1e300 0 0\nv 0 10 0\nv 0 0 10\nv 10 10 10\nf 1 2 3\nf 1 2 4\nf 1 3 4\nf 2 3 4\n")
+    line = _one_line(_import(tmp_path, str(bad), "--start", "0,0,0"))
+    assert "point 1 is [1e+300, 0.0, 0.0], not a finite coordinate within +-1e+06 mm" in line
+
+
+def test_a_surface_beside_a_trajectory_too_large_for_the_wall_grid_is_named(tmp_path):
+    """A .vtp beside a trajectory CSV that spans 100 m: refused by the grid's size, naming the mesh, not "out of
+    memory" after trying to allocate it."""
+    from vtkmodules.vtkFiltersCore import vtkTriangleFilter
+    from vtkmodules.vtkFiltersSources import vtkCubeSource
+    from vtkmodules.vtkIOXML import vtkXMLPolyDataWriter
+
+    (tmp_path / "t.csv").write_text("x,y,z,lumen\n" + "".join(f"{2 * k},0,0,30\n" for k in range(20)))
+    cube = vtkCubeSource()
+    for axis in ("X", "Y", "Z"):
+        getattr(cube, f"Set{axis}Length")(100000.0)
+    tri = vtkTriangleFilter()
+    tri.SetInputConnection(cube.GetOutputPort())
+    w = vtkXMLPolyDataWriter()
+    w.SetFileName(str(tmp_path / "t.vtp"))
+    w.SetInputConnection(tri.GetOutputPort())
+    w.Write()
+    r = subprocess.run([sys.executable, "-m", "bhr.cli.main", "follow", "--traj", "t.csv", "--no-plots", "--out",
+                        "o"], capture_output=True, text=True, cwd=tmp_path, timeout=300)
+    line = _one_line(r)
+    assert line.startswith("Error: t.vtp: the mesh spans 100000 x 100000 x 100000 mm, too large for the wall's grid")
+    assert not (tmp_path / "o").exists()
