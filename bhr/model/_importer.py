@@ -41,6 +41,10 @@ MESH_SUFFIXES = (".vtp", ".vtk", ".stl", ".ply", ".obj")
 #: A segmentation's surface is decimated to at most this many triangles (as the shipped colons' surfaces).
 SURFACE_TRIANGLES = 20000
 SEGMENTATION_SUFFIXES = (".nii", ".nii.gz")
+#: A mask (a mesh voxelised, a segmentation's label and its margin) may have at most this many voxels.
+MAX_MASK_VOXELS = 60_000_000
+#: A segmentation may have at most this many voxels (a CT of 512 x 512 x 1024), read from its header before its data.
+MAX_SEGMENTATION_VOXELS = 512 * 512 * 1024
 
 
 @dataclass
@@ -182,10 +186,11 @@ def _voxelise(mesh: Any, voxel: float) -> tuple[np.ndarray, np.ndarray]:
 
     b = np.array(mesh.GetBounds())
     lo = b[0::2] - 2 * voxel
-    dims = np.ceil((b[1::2] + 2 * voxel - lo) / voxel).astype(int) + 1
-    if int(np.prod(dims)) > 60_000_000:
+    span = np.ceil((b[1::2] + 2 * voxel - lo) / voxel) + 1
+    if not np.isfinite(span).all() or math.prod(float(v) for v in span) > MAX_MASK_VOXELS:  # floats: no int overflow
         raise BhrError(f"the mesh spans {' x '.join(f'{v:.0f}' for v in b[1::2] - b[0::2])} units: too large to "
                        f"voxelise at {voxel:g} mm (is it in mm?); give --voxel larger or a centerline")
+    dims = span.astype(int)
     img = vtkImageData()
     img.SetSpacing(voxel, voxel, voxel)
     img.SetOrigin(*lo)
@@ -288,21 +293,51 @@ def import_colon(source: str | Path, *, centerline: str | Path | None = None, la
         nib = _need("nibabel")
         try:
             img = nib.load(str(src))
-            data = np.asarray(img.dataobj)
+            shape = tuple(int(v) for v in img.shape)
+            aff = np.asarray(img.affine, dtype=np.float64)
         except Exception as exc:  # nibabel raises many kinds for a file that is not NIfTI
-            raise BhrError(f"{src}: not a readable NIfTI image ({str(exc).splitlines()[0][:120]})") from None
-        if data.ndim != 3:
-            raise BhrError(f"{src}: a segmentation must be a 3-D label image, got {data.ndim} dimensions")
-        present = sorted(int(v) for v in np.unique(data) if v != 0)
+            raise BhrError(f"{src}: not a readable NIfTI image ({(str(exc).splitlines() or ['?'])[0][:120]})") from None
+        if len(shape) != 3:
+            raise BhrError(f"{src}: a segmentation must be a 3-D label image, got {len(shape)} dimensions")
+        # the header's size, before any voxel is read: a few kB of .nii.gz can claim gigabytes of voxels
+        if math.prod(shape) > MAX_SEGMENTATION_VOXELS:
+            raise BhrError(f"{src}: {' x '.join(map(str, shape))} voxels, more than the {MAX_SEGMENTATION_VOXELS:,} a "
+                           "segmentation may have; crop it to the colon")
+        if not np.isfinite(aff).all() or abs(float(np.linalg.det(aff[:3, :3]))) < 1e-12 or \
+                np.abs(aff[:3]).max() > 1e6:
+            raise BhrError(f"{src}: the image's voxel-to-mm transform (its affine) is not a finite, invertible one "
+                           "within +-1e6 mm; fix the NIfTI header's sform/qform and pixdim")
+        try:
+            data = np.asarray(img.dataobj)
+        except Exception as exc:  # a truncated or damaged image
+            raise BhrError(f"{src}: not a readable NIfTI image ({(str(exc).splitlines() or ['?'])[0][:120]})") from None
+        if data.dtype.kind not in "biuf" or data.shape != shape:
+            raise BhrError(f"{src}: a segmentation must hold whole-number labels, got {data.dtype} values")
         if label is None:
+            present = sorted(int(v) for v in np.unique(data) if v != 0 and v == v)
             if len(present) != 1:
                 raise BhrError(f"{src}: labels {', '.join(map(str, present[:10]))} present; choose the colon's "
                                "with --label N")
             label = present[0]
-        if label not in present:
-            raise BhrError(f"{src}: no voxel has label {label}; labels present: {', '.join(map(str, present[:10]))}")
         mask = data == label
-        aff = np.asarray(img.affine, dtype=np.float64)
+        if not mask.any():
+            present = sorted(int(v) for v in np.unique(data) if v != 0 and v == v)
+            raise BhrError(f"{src}: no voxel has label {label}; labels present: {', '.join(map(str, present[:10]))}")
+        # only the label's box is worked on (skeleton, distances, surface): a small colon in a large image is fast
+        lo_i = np.array([np.flatnonzero(mask.any(axis=tuple(b for b in range(3) if b != a)))[0] for a in range(3)])
+        hi_i = np.array([np.flatnonzero(mask.any(axis=tuple(b for b in range(3) if b != a)))[-1] for a in range(3)])
+        box = hi_i - lo_i + 1
+        if math.prod(int(v) for v in box) > MAX_MASK_VOXELS:
+            raise BhrError(f"{src}: label {label} spans {' x '.join(map(str, box))} voxels, too many to skeletonise "
+                           f"(at most {MAX_MASK_VOXELS:,}); resample the segmentation to larger voxels")
+        # a margin of background kept around it: the distances and the smoothed surface are those of the whole image
+        lo_i = np.maximum(lo_i - 6, 0)
+        hi_i = np.minimum(hi_i + 6, np.array(shape) - 1)
+        mask = np.ascontiguousarray(mask[lo_i[0]:hi_i[0] + 1, lo_i[1]:hi_i[1] + 1, lo_i[2]:hi_i[2] + 1])
+        del data
+        shift = np.eye(4)
+        shift[:3, 3] = lo_i
+        aff = aff @ shift  # the box's voxel indices to mm
         vx, vy, vz = (float(v) for v in np.linalg.norm(aff[:3, :3], axis=0))
         voxel = (vx, vy, vz)
         report.append(f"segmentation: {src.name}, label {label}, {int(mask.sum())} voxels of "

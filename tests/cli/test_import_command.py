@@ -72,6 +72,54 @@ def test_a_mesh_point_beyond_the_limit_is_named(tmp_path):
     assert "point 1 is [1e+300, 0.0, 0.0], not a finite coordinate within +-1e+06 mm" in line
 
 
+def _nifti_gz(path, shape, affine=None, voxels: bytes = b""):
+    """A .nii.gz of ``shape`` uint8 voxels (``voxels``, then zeros), written without holding them in memory."""
+    import gzip
+
+    import nibabel as nib
+    import numpy as np
+
+    hdr = nib.Nifti1Header()
+    hdr.set_data_dtype(np.uint8)
+    hdr.set_data_shape(shape)
+    hdr.set_sform(np.eye(4) if affine is None else affine, code=1)
+    hdr.set_qform(None, code=0)
+    hdr["vox_offset"] = 352
+    left = int(np.prod(shape)) - len(voxels)
+    with gzip.open(path, "wb", compresslevel=1) as fh:
+        fh.write(hdr.binaryblock + b"\0" * 4 + voxels)
+        zeros = b"\0" * (1 << 24)
+        while left > 0:
+            fh.write(zeros[:min(left, len(zeros))])
+            left -= len(zeros)
+
+
+def test_a_segmentation_claiming_too_many_voxels_is_refused_from_its_header(tmp_path):
+    """1.2 MB of .nii.gz holding 269 million voxels: refused by its header's size before a voxel is read."""
+    pytest.importorskip("nibabel")
+    bomb = tmp_path / "seg.nii.gz"
+    _nifti_gz(bomb, (1024, 1024, 257))
+    line = _one_line(_import(tmp_path, str(bomb), "--label", "3"))
+    assert line == (f"Error: {bomb}: 1024 x 1024 x 257 voxels, more than the 268,435,456 a segmentation may have; "
+                    "crop it to the colon")
+
+
+@pytest.mark.parametrize("broken", ["singular", "nan"])
+def test_a_segmentation_whose_affine_maps_no_volume_is_refused(tmp_path, broken):
+    """A voxel-to-mm transform with a zero or NaN column cannot place a voxel: one line naming the header."""
+    pytest.importorskip("nibabel")
+    import numpy as np
+
+    vol = np.zeros((24, 24, 24), np.uint8)
+    vol[2:22, 6:18, 6:18] = 3
+    aff = np.eye(4)
+    aff[0, 0] = 0.0 if broken == "singular" else float("nan")
+    seg = tmp_path / "seg.nii.gz"
+    _nifti_gz(seg, vol.shape, aff, vol.tobytes(order="F"))
+    line = _one_line(_import(tmp_path, str(seg), "--label", "3"))
+    assert "voxel-to-mm transform (its affine) is not a finite, invertible one" in line
+
+
 def test_a_surface_beside_a_trajectory_too_large_for_the_wall_grid_is_named(tmp_path):
     """A .vtp beside a trajectory CSV that spans 100 m: refused by the grid's size, naming the mesh, not "out of
     memory" after trying to allocate it."""
