@@ -59,6 +59,20 @@ class Poses:
                 raise BhrError(f"poses: {k} holds a value that is not a finite number")
         if P == 0 or M == 0:
             raise BhrError("poses: no pose or no module to replay")
+        from bhr._settings.inputs import MAX_MM
+        from bhr.model._codes import VALID_CODES
+
+        for k, top in (("points_mm", MAX_MM), ("insertion_mm", MAX_MM), ("tilts_rad", math.pi)):
+            a = getattr(self, k)
+            if np.abs(a).max() > top:
+                raise BhrError(f"poses: {k} holds {float(a.flat[np.abs(a).argmax()]):g}, beyond +-{top:g}; write the "
+                               "arrays of docs/physics.md")
+        bad = ~np.isin(self.codes, list(VALID_CODES))
+        if bad.any():
+            raise BhrError(f"poses: codes holds {int(self.codes[bad][0])}, not a stable code "
+                           f"({', '.join(map(str, sorted(VALID_CODES)))}); write the arrays of docs/physics.md")
+        if self.step.min() < 1:
+            raise BhrError(f"poses: step holds {int(self.step.min())}; steps count from 1 (docs/physics.md)")
 
 
 def start_direction(result) -> np.ndarray:
@@ -166,9 +180,22 @@ def load_poses(run_path: str | Path, result) -> Poses | None:
     f = Path(run_path).with_name("poses.npz")
     if not f.is_file():
         return None
+    import zipfile
+    import zlib
+
     try:
         with np.load(f, allow_pickle=False) as z:
             arrays = {k: np.asarray(z[k]) for k in POSE_KEYS}
-    except (OSError, ValueError, KeyError) as exc:
-        raise BhrError(f"{f}: not a poses file with {', '.join(POSE_KEYS)} ({str(exc).splitlines()[0][:80]})") from None
+    except (OSError, ValueError, KeyError, EOFError, NotImplementedError, zipfile.BadZipFile, zlib.error) as exc:
+        # a damaged archive (zipfile's BadZipFile, a CRC or inflate error) is as unreadable as a missing key
+        why = (str(exc).splitlines() or [type(exc).__name__])[0][:80]
+        raise BhrError(f"{f}: not a poses file with {', '.join(POSE_KEYS)} ({why}); write it again with bhr follow "
+                       "--all-poses, or move it away to replay the run's steps") from None
+    for k, a in arrays.items():
+        if a.dtype.kind not in "biuf":
+            raise BhrError(f"{f}: {k} holds {a.dtype} values, not numbers; write it again with bhr follow "
+                           "--all-poses, or move it away to replay the run's steps")
+        if k in ("codes", "step") and a.dtype.kind == "f" and not np.all(np.isfinite(a) & (a == np.round(a))):
+            raise BhrError(f"{f}: {k} holds a value that is not a whole number; write it again with bhr follow "
+                           "--all-poses, or move it away to replay the run's steps")
     return _poses_of(arrays, result)
