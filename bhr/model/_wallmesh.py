@@ -47,6 +47,8 @@ GRID_MM = 2.0
 BAND_MM = 15.0
 #: Margin (mm) of the grid around the mesh's bounds.
 MARGIN_MM = 12.0
+#: A mesh edge may be shared by at most this many triangles (a closed surface's by 2; real colons' have up to 4).
+MAX_EDGE_TRIANGLES = 16
 #: The grid may have at most this many nodes (a colon's surface at 2 mm: a few million).
 MAX_GRID_NODES = 60_000_000
 #: A mesh is the wall only when at least this share of its trajectory's points lie inside it (else the tube is).
@@ -180,6 +182,11 @@ def read_mesh(path: str | os.PathLike[str]):
         k = int(np.flatnonzero(bad)[0])
         raise BhrError(f"{p}: point {k + 1} is {points[k].tolist()}, not a finite coordinate within +-{MAX_MM:g} mm; "
                        f"{hint}")
+    edges = np.sort(np.concatenate([tris[:, [0, 1]], tris[:, [1, 2]], tris[:, [2, 0]]]), axis=1)
+    _, shared = np.unique(edges, axis=0, return_counts=True)
+    if shared.max() > MAX_EDGE_TRIANGLES:  # vtk's normal orientation walks them pairwise: minutes on a 400 kB file
+        raise BhrError(f"{p}: an edge is shared by {int(shared.max())} triangles (a surface's edge has 2, at most "
+                       f"{MAX_EDGE_TRIANGLES} are accepted): not a surface (duplicated faces?); {hint}")
     return _polydata(points, tris)
 
 

@@ -142,3 +142,24 @@ def test_a_surface_beside_a_trajectory_too_large_for_the_wall_grid_is_named(tmp_
     line = _one_line(r)
     assert line.startswith("Error: t.vtp: the mesh spans 100000 x 100000 x 100000 mm, too large for the wall's grid")
     assert not (tmp_path / "o").exists()
+
+
+def test_a_mesh_with_an_edge_shared_by_thousands_of_triangles_is_refused_at_once(tmp_path):
+    """One face of a real colon's surface written 20,000 times more (a 3 MB file): vtk's orientation of its normals
+    walked the copies pairwise for minutes; such a file is not a surface, and is refused in one line."""
+    from vtkmodules.vtkIOXML import vtkXMLPolyDataReader, vtkXMLPolyDataWriter
+
+    src = real_colons()["gca:E90"]
+    r = vtkXMLPolyDataReader()
+    r.SetFileName(str(src.with_suffix(".vtp")))
+    r.Update()
+    mesh = r.GetOutput()
+    face = mesh.GetCell(0).GetPointIds()
+    for _ in range(20000):
+        mesh.GetPolys().InsertNextCell(face)
+    w = vtkXMLPolyDataWriter()
+    w.SetFileName(str(tmp_path / "colon.vtp"))
+    w.SetInputData(mesh)
+    w.Write()
+    line = _one_line(_import(tmp_path, str(tmp_path / "colon.vtp"), "--centerline", str(src)))
+    assert "an edge is shared by 20002 triangles (a surface's edge has 2, at most 16 are accepted)" in line
