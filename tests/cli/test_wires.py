@@ -52,7 +52,8 @@ def test_a_damaged_poses_file_beside_a_run_is_one_line(run_bhr_in_process, tmp_p
              "member": ("bytes", raw[:second] + b"XX" + raw[second + 2:], "not a poses file"),
              "far": ("arrays", far, "points_mm holds 1e+308"),
              "code": ("arrays", dict(good, codes=np.full_like(good["codes"], 5)), "codes holds 5, not a stable code"),
-             "text": ("arrays", dict(good, t_s=good["t_s"].astype("U8")), "t_s holds <U8 values, not numbers")}
+             "text": ("arrays", dict(good, t_s=good["t_s"].astype("U8")), "t_s holds <U8 values, not numbers"),
+             "flat": ("arrays", dict(good, tilts_rad=good["tilts_rad"].ravel()), "tilts_rad has shape (")}
     for name, (kind, what, expect) in cases.items():
         d = tmp_path / name
         shutil.copytree(tmp_path / "run", d)

@@ -48,6 +48,9 @@ class Poses:
         return int(self.tilts_rad.shape[1])
 
     def check(self) -> None:
+        if self.tilts_rad.ndim != 3:
+            raise BhrError(f"poses: tilts_rad has shape {self.tilts_rad.shape}, expected (poses, modules, 2); "
+                           "write the arrays of docs/physics.md")
         P, M = self.tilts_rad.shape[:2]
         shapes = {"t_s": (P,), "insertion_mm": (P,), "points_mm": (P, M + 1, 3), "tilts_rad": (P, M, 2),
                   "codes": (P, M), "step": (P,)}
