@@ -95,8 +95,11 @@ def _need_vtk(what: str) -> None:
 #: readers end the process on a damaged file (a segmentation fault on a count larger than the data, an abort on an
 #: allocation it cannot make), which then costs one line instead of bhr itself.
 _READER = r"""
+import os
 import sys
 import numpy as np
+sink = os.fdopen(os.dup(1), "wb")  # the arrays' own channel: whatever a library prints goes to stderr
+os.dup2(2, 1)
 from vtkmodules.vtkCommonCore import vtkObject
 from vtkmodules.vtkFiltersCore import vtkTriangleFilter
 vtkObject.GlobalWarningDisplayOff()
@@ -125,7 +128,8 @@ points = np.zeros((0, 3)) if pts is None else np.asarray(vtk_to_numpy(pts.GetDat
 polys = out.GetPolys()
 off = np.asarray(vtk_to_numpy(polys.GetOffsetsArray()), dtype=np.int64)
 conn = np.asarray(vtk_to_numpy(polys.GetConnectivityArray()), dtype=np.int64)
-np.savez(sys.stdout.buffer, points=points, offsets=off, conn=conn)
+np.savez(sink, points=points, offsets=off, conn=conn)
+sink.close()
 """
 
 
