@@ -53,7 +53,9 @@ def test_a_damaged_poses_file_beside_a_run_is_one_line(run_bhr_in_process, tmp_p
              "far": ("arrays", far, "points_mm holds 1e+308"),
              "code": ("arrays", dict(good, codes=np.full_like(good["codes"], 5)), "codes holds 5, not a stable code"),
              "text": ("arrays", dict(good, t_s=good["t_s"].astype("U8")), "t_s holds <U8 values, not numbers"),
-             "flat": ("arrays", dict(good, tilts_rad=good["tilts_rad"].ravel()), "tilts_rad has shape (")}
+             "flat": ("arrays", dict(good, tilts_rad=good["tilts_rad"].ravel()), "tilts_rad has shape ("),
+             "huge": ("arrays", dict(good, codes=np.full(good["codes"].shape, 1e300)), "codes holds a value that is "
+                      "not a whole number")}
     for name, (kind, what, expect) in cases.items():
         d = tmp_path / name
         shutil.copytree(tmp_path / "run", d)

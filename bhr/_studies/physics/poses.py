@@ -198,7 +198,8 @@ def load_poses(run_path: str | Path, result) -> Poses | None:
         if a.dtype.kind not in "biuf":
             raise BhrError(f"{f}: {k} holds {a.dtype} values, not numbers; write it again with bhr follow "
                            "--all-poses, or move it away to replay the run's steps")
-        if k in ("codes", "step") and a.dtype.kind == "f" and not np.all(np.isfinite(a) & (a == np.round(a))):
-            raise BhrError(f"{f}: {k} holds a value that is not a whole number; write it again with bhr follow "
-                           "--all-poses, or move it away to replay the run's steps")
+        if k in ("codes", "step") and a.dtype.kind in "fu" and \
+                not np.all(np.isfinite(a) & (a == np.round(a)) & (np.abs(a) < 2 ** 31)):
+            raise BhrError(f"{f}: {k} holds a value that is not a whole number within +-2**31; write it again with "
+                           "bhr follow --all-poses, or move it away to replay the run's steps")
     return _poses_of(arrays, result)
