@@ -11,6 +11,7 @@ from __future__ import annotations
 import csv
 import io
 import os
+import re
 import sys
 from pathlib import Path
 from typing import TYPE_CHECKING, Iterable, Sequence, TypeGuard
@@ -233,7 +234,7 @@ def read_codes_csv(path: str | os.PathLike[str]) -> tuple[list[int], np.ndarray]
         if len(row) != n + 1:
             raise BhrError(f"{p}:{line}: expected {n + 1} columns (step and {n} modules), got {len(row)}")
         cell = row[0].strip()
-        if not (cell.isascii() and cell.lstrip("+-").isdigit() and len(cell) <= 12):
+        if not (re.fullmatch(r"[+-]?[0-9]+", cell) and len(cell) <= 12):  # one sign at most: not "--1"
             raise BhrError(f"{p}:{line}: step {cell[:40]!r} is not a whole number of at most 12 digits")
         steps.append(int(cell))
         cells = row[1:]
