@@ -323,8 +323,10 @@ def load_trajectory(name_or_path: str | os.PathLike[str], feed: float = 2.0, **p
     >>> load_trajectory("curve", feed=1.0, radius=70)
     Trajectory('curve', 170 points, feed 1 mm, 169 mm long)
     """
-    if isinstance(feed, bool) or not (isinstance(feed, (int, float)) and math.isfinite(feed) and feed > 0):
-        raise BhrError(f"feed must be a positive number of mm, got {feed!r}")
+    try:  # an int of 400 digits is refused, never converted (math.isfinite would overflow)
+        feed = check_number(feed, "feed", positive=True, unit="mm")
+    except BhrError:
+        raise BhrError(f"feed must be a positive number of mm, got {excerpt(feed)}") from None
     end = params.pop("lumen_end", None)
     if end is not None and end not in ("closed", "open"):
         raise BhrError(f"lumen_end must be closed or open, got {excerpt(end)}")

@@ -15,6 +15,7 @@ import numpy as np
 from numba import njit
 
 from bhr._settings.inputs import MAX_POINTS
+from bhr._settings.options import check_number, excerpt
 from bhr._settings.errors import BhrError
 from bhr._kinematics.polyline import median_spacing, segment_direction, unit_tangents, walk_kernel
 
@@ -175,8 +176,10 @@ class Trajectory:
         BhrError
             A feed that is not a positive number, or longer than the path.
         """
-        if not (isinstance(feed, (int, float)) and not isinstance(feed, bool) and math.isfinite(feed) and feed > 0):
-            raise BhrError(f"feed must be a positive number of mm, got {feed!r}")
+        try:  # an int of 400 digits is refused, never converted (math.isfinite would overflow)
+            feed = check_number(feed, "feed", positive=True, unit="mm")
+        except BhrError:
+            raise BhrError(f"feed must be a positive number of mm, got {excerpt(feed)}") from None
         if self.feed is not None and math.isclose(self.feed, feed, rel_tol=1e-12):
             return self
         if self.redraw is not None:

@@ -284,3 +284,13 @@ def test_each_public_package_lists_what_it_supports_and_every_name_is_there(pack
     if package != "bhr.solvers":
         assert set(dir(mod)) >= set(mod.__all__) and not [n for n in dir(mod) if n.startswith("_") and
                                                           n != "__version__"]
+
+
+@pytest.mark.parametrize("feed", [10 ** 400, -(10 ** 400), float("nan"), 1e-320, "2", True])
+def test_a_feed_that_is_no_positive_number_is_one_bhr_error(feed):
+    """bhr.trajectory(..., feed=10**400) and Trajectory.at_feed: a BhrError naming the feed, never an OverflowError
+    from converting an integer of 401 digits to a float."""
+    with pytest.raises(BhrError, match="feed must be a positive number of mm, got"):
+        bhr.trajectory("line", feed=feed)
+    with pytest.raises(BhrError, match="feed must be a positive number of mm, got"):
+        bhr.trajectory("curve").at_feed(feed)
