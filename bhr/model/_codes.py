@@ -98,6 +98,10 @@ def check_codes(codes: Iterable[object], where: str = "") -> list[int]:
     ...
     bhr._settings.errors.BhrError: code 5 for module 2 in codes.csv is not a stable actuator code; use one of ...
     """
+    if isinstance(codes, (str, bytes)) or not hasattr(codes, "__iter__"):  # None, 5, "30600": not one per module
+        shown = repr(codes) if len(repr(codes)) <= 40 else repr(codes)[:40] + "..."
+        raise BhrError(f"codes{' ' + where if where else ''} must be a sequence of whole numbers, one per module "
+                       f"(such as [3, 0, 15]), got {shown}")
     out = []
     for i, c in enumerate(codes, start=1):
         out.append(check_code(c, f"for module {i}{' ' + where if where else ''}"))

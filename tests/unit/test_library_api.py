@@ -294,3 +294,11 @@ def test_a_feed_that_is_no_positive_number_is_one_bhr_error(feed):
         bhr.trajectory("line", feed=feed)
     with pytest.raises(BhrError, match="feed must be a positive number of mm, got"):
         bhr.trajectory("curve").at_feed(feed)
+
+
+@pytest.mark.parametrize("codes", [None, 5, "30600", b"\x03\x00"])
+def test_codes_that_are_no_sequence_of_codes_are_one_bhr_error(codes):
+    """Robot.fk(None) or fk(5) raised "TypeError: 'NoneType' object is not iterable", and fk("30600") took the text's
+    characters for five codes: each is a BhrError saying what codes are."""
+    with pytest.raises(BhrError, match="codes must be a sequence of whole numbers, one per module"):
+        bhr.Robot().fk(codes)
