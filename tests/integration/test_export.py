@@ -6,7 +6,6 @@ Real pinocchio and MuJoCo load the exported text; every module point and frame i
 from __future__ import annotations
 
 import math
-import xml.etree.ElementTree as ET
 
 import numpy as np
 import pytest
@@ -15,7 +14,7 @@ from hypothesis import strategies as st
 
 import bhr
 from bhr._settings.errors import BhrError
-from bhr.model._export import FORMATS, MM, joint_names, joint_values, module_inertia, to_mjcf, to_urdf
+from bhr.model._export import MM, joint_names, joint_values, module_inertia, to_mjcf, to_urdf
 from bhr.model._robot import Robot, forward_kinematics
 from bhr.model._robotfile import load_robot_file
 

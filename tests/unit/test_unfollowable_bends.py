@@ -96,7 +96,7 @@ def test_the_warning_fires_only_where_the_robot_cannot_follow():
 def test_the_compiled_rule_is_its_numpy_reference(seed):
     """The kernel (sparse-table minima, point by point) finds the numpy reference's stretches on anatomical colons
     for the thesis robot and a 5 mm / 25 deg one; radii agree to rounding (acos in libm and in numpy)."""
-    from bhr.model._path import BEND_WINDOWS_MM, unfollowable_bends_numpy
+    from bhr.model._path import unfollowable_bends_numpy
 
     t = bhr.trajectory("anatomy", seed=seed)
     for robot in (Robot(), Robot(module_length=5.0, alpha=25.0)):

@@ -87,7 +87,9 @@ def test_the_legend_names_a_body_only_when_the_robot_has_one():
 
     robot = Robot()
     tr = load_trajectory("curve", feed=robot.feed)
-    legend = lambda fig: [d["name"] for d in fig["data"] if d.get("legendgroup") == "robot" and d.get("showlegend", 1)]
+    def legend(fig):
+        return [d["name"] for d in fig["data"] if d.get("legendgroup") == "robot" and d.get("showlegend", 1)]
+
     assert legend(view_figure(follow(tr, solver="thesis", robot=robot))) == ["robot"]
     body = follow(tr, solver="thesis", robot=robot, body_modules=12)
     assert legend(view_figure(body)) == ["robot: body", "robot: head"]
