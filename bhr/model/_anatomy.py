@@ -658,17 +658,25 @@ def anatomy_csv_text(seed: int, spacing: float = 1.0, note: str = "") -> str:
     return "\n".join(lines) + "\n"
 
 
-def path_sections(traj: Any) -> list[tuple[str, int]] | None:
-    """The anatomical sections along an anatomical colon's path (``--traj anatomy --seed N``): each section's name
-    and the index of the path point in its middle (for the figures' labels); None for any other path."""
+def _section_arcs(traj: Any) -> tuple[np.ndarray, np.ndarray] | None:
+    """A generated anatomical colon's path (``--traj anatomy --seed N``): the arc length at each of its points and
+    where each section ends along it (mm); None for any other path."""
     seed = (getattr(traj, "params", None) or {}).get("seed")
     if seed is None or not str(getattr(traj, "name", "")).startswith("anatomy"):
         return None
-    ends = anatomical_colon(int(seed)).section_ends()
     pts = np.asarray(traj.points, dtype=np.float64)
-    s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(pts, axis=0), axis=1))])
+    return (np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(pts, axis=0), axis=1))]),
+            anatomical_colon(int(seed)).section_ends())
+
+
+def path_sections(traj: Any) -> list[tuple[str, int]] | None:
+    """The anatomical sections along an anatomical colon's path (``--traj anatomy --seed N``): each section's name
+    and the index of the path point in its middle (for the figures' labels); None for any other path."""
+    if (arcs := _section_arcs(traj)) is None:
+        return None
+    s, ends = arcs
     starts = np.concatenate([[0.0], ends[:-1]])
-    return [(name, int(np.clip(np.searchsorted(s, (a + b) / 2.0), 0, len(pts) - 1)))
+    return [(name, int(np.clip(np.searchsorted(s, (a + b) / 2.0), 0, len(s) - 1)))
             for name, a, b in zip(SECTIONS, starts, ends)]
 
 
@@ -677,10 +685,8 @@ def path_section_ranges(traj: Any) -> list[tuple[str, int, int]]:
     (``traj.sections``), a generated anatomical colon's from its section ends; [] for any other path."""
     if getattr(traj, "sections", None):
         return [(n, int(a), int(b)) for n, a, b in traj.sections]
-    seed = (getattr(traj, "params", None) or {}).get("seed")
-    if seed is None or not str(getattr(traj, "name", "")).startswith("anatomy"):
+    if (arcs := _section_arcs(traj)) is None:
         return []
-    pts = np.asarray(traj.points, dtype=np.float64)
-    s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(pts, axis=0), axis=1))])
-    cuts = [0, *np.searchsorted(s, anatomical_colon(int(seed)).section_ends()[:-1]).tolist(), len(pts)]
+    s, ends = arcs
+    cuts = [0, *np.searchsorted(s, ends[:-1]).tolist(), len(s)]
     return [(name, int(a), int(b)) for name, a, b in zip(SECTIONS, cuts[:-1], cuts[1:]) if b > a]

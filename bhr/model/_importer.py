@@ -324,8 +324,8 @@ def import_colon(source: str | Path, *, centerline: str | Path | None = None, la
             present = sorted(int(v) for v in np.unique(data) if v != 0 and v == v)
             raise BhrError(f"{src}: no voxel has label {label}; labels present: {', '.join(map(str, present[:10]))}")
         # only the label's box is worked on (skeleton, distances, surface): a small colon in a large image is fast
-        lo_i = np.array([np.flatnonzero(mask.any(axis=tuple(b for b in range(3) if b != a)))[0] for a in range(3)])
-        hi_i = np.array([np.flatnonzero(mask.any(axis=tuple(b for b in range(3) if b != a)))[-1] for a in range(3)])
+        used = [np.flatnonzero(mask.any(axis=tuple(b for b in range(3) if b != a))) for a in range(3)]
+        lo_i, hi_i = np.array([u[0] for u in used]), np.array([u[-1] for u in used])
         box = hi_i - lo_i + 1
         if math.prod(int(v) for v in box) > MAX_MASK_VOXELS:
             raise BhrError(f"{src}: label {label} spans {' x '.join(map(str, box))} voxels, too many to skeletonise "
