@@ -43,7 +43,7 @@ __all__ = ["SdfGrid", "MIN_INSIDE", "wall_grid", "GRID_MM", "MARGIN_MM", "have_v
 
 #: Spacing (mm) of the signed-distance grid.
 GRID_MM = 2.0
-#: The grid is evaluated within (the largest lumen radius + BAND_MM) of the centerline; farther out is wall.
+#: vtk evaluates the grid within (the largest lumen radius + BAND_MM) of the centerline, and near the surface.
 BAND_MM = 15.0
 #: Margin (mm) of the grid around the mesh's bounds.
 MARGIN_MM = 12.0
@@ -51,6 +51,8 @@ MARGIN_MM = 12.0
 MAX_EDGE_TRIANGLES = 16
 #: The grid may have at most this many nodes (a colon's surface at 2 mm: a few million).
 MAX_GRID_NODES = 60_000_000
+#: At most this many points sample the mesh's surface for the grid (1 mm apart: a surface of about 9 m^2).
+MAX_SURFACE_SAMPLES = 20_000_000
 #: A mesh is the wall only when at least this share of its trajectory's points lie inside it (else the tube is).
 MIN_INSIDE = 0.95
 #: Golden-section iterations refining the worst sample of a module.
@@ -233,10 +235,48 @@ def exact_distance(mesh, points: np.ndarray) -> np.ndarray:
     return np.array([f.EvaluateFunction(float(x), float(y), float(z)) for x, y, z in np.asarray(points)])
 
 
+def _surface_samples(mesh, gap: float) -> np.ndarray:
+    """Points on the triangles of ``mesh`` (vtkPolyData of triangles), every point of its surface within ``gap`` of
+    one: each triangle's points ``a + (i (b - a) + j (c - a)) / k`` (i + j <= k), k its longest edge / ``gap``."""
+    from vtkmodules.util.numpy_support import vtk_to_numpy
+
+    pts = np.asarray(vtk_to_numpy(mesh.GetPoints().GetData()), dtype=np.float64)
+    tris = np.asarray(vtk_to_numpy(mesh.GetPolys().GetConnectivityArray()), dtype=np.int64).reshape(-1, 3)
+    a, b, c = pts[tris[:, 0]], pts[tris[:, 1]], pts[tris[:, 2]]
+    longest = np.max([np.linalg.norm(b - a, axis=1), np.linalg.norm(c - b, axis=1), np.linalg.norm(a - c, axis=1)],
+                     axis=0)
+    k = np.maximum(1, np.ceil(longest / gap)).astype(np.int64)
+    if float(np.sum((k + 1) * (k + 2) // 2)) > MAX_SURFACE_SAMPLES:
+        raise BhrError(f"the mesh's surface is too large for the wall's grid (triangles of up to {longest.max():.0f} "
+                       f"mm, more than {MAX_SURFACE_SAMPLES:,} points {gap:g} mm apart on them); give the lumen's "
+                       "surface in mm")
+    out = [pts]
+    for n in np.unique(k):
+        i, j = np.array([(i, j) for i in range(n + 1) for j in range(n + 1 - i)], dtype=np.float64).T / n
+        sel = k == n
+        out.append((a[sel, None] + i[None, :, None] * (b - a)[sel, None] + j[None, :, None] * (c - a)[sel, None])
+                   .reshape(-1, 3))
+    return np.concatenate(out)
+
+
+def _faces(ndim: int) -> list[tuple[slice | int, ...]]:
+    """The index of each face of an ``ndim``-dimensional array."""
+    full = (slice(None),) * ndim
+    return [full[:a] + (end,) + full[a + 1:] for a in range(ndim) for end in (0, -1)]
+
+
 def sdf_values(mesh, centerline: np.ndarray, band: float, spacing: float = GRID_MM,
                margin: float = MARGIN_MM) -> SdfGrid:
-    """The signed-distance grid of ``mesh`` (vtkPolyData), evaluated by vtk at the nodes within ``band`` mm of the
-    ``centerline`` (K, 3); a node farther out reads as wall, (its distance to the centerline - band) + spacing."""
+    """The signed-distance grid of ``mesh`` (vtkPolyData) over its bounds plus ``margin``, ``spacing`` apart.
+
+    vtk evaluates the signed distance at the nodes near the lumen or its wall: within ``band`` mm of the
+    ``centerline`` (K, 3), or within two spacings of the surface. Every other node is farther from the surface than
+    that. Its distance is that to the nearest node at the wall (one whose distance is at most a spacing) plus that
+    node's: the exact distance, or more by at most (1 + sqrt(3) / 2) spacings. It is wall (positive) where its
+    region of such nodes reaches the grid's edge, lumen where the surface encloses the region (vtk's sign is not used
+    there: far from a real colon's surface it is often wrong). So a point deep in the wall, or in a pocket of the
+    lumen beyond ``band``, reads its own distance, not a value shared by all of them."""
+    from scipy import ndimage
     from scipy.spatial import cKDTree
     from vtkmodules.util.numpy_support import numpy_to_vtk, vtk_to_numpy
     from vtkmodules.vtkCommonCore import vtkDoubleArray
@@ -246,22 +286,40 @@ def sdf_values(mesh, centerline: np.ndarray, band: float, spacing: float = GRID_
     b = np.array(oriented.GetBounds(), dtype=np.float64)
     lo = b[0::2] - margin
     hi = b[1::2] + margin
-    dims = np.ceil((hi - lo) / spacing).astype(int) + 1
+    dims = tuple(int(d) for d in np.ceil((hi - lo) / spacing).astype(int) + 1)
     axes = [lo[a] + spacing * np.arange(dims[a]) for a in range(3)]
     nodes = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
-    near, _ = cKDTree(np.asarray(centerline, dtype=np.float64)).query(nodes, distance_upper_bound=band + spacing)
-    vals = np.where(np.isfinite(near), 0.0, 0.0)
-    inside_band = near <= band + spacing
-    far = ~inside_band
-    # a node far from the centerline is wall: how far beyond the band (at least one spacing)
-    vals[far] = spacing + band  # distance_upper_bound hides the exact distance: all of them alike
+    gap = 0.5 * spacing
+    lumen, _ = cKDTree(np.asarray(centerline, dtype=np.float64)).query(nodes, distance_upper_bound=band + spacing)
+    # the nodes within two spacings of the surface, and more: those within that (plus a sample's reach to its
+    # surface point and its nearest node) of a node nearest to a point on the surface
+    cell = np.clip(np.rint((_surface_samples(oriented, gap) - lo) / spacing).astype(np.int64), 0, np.array(dims) - 1)
+    on_surface = np.zeros(dims, dtype=bool)
+    on_surface[tuple(cell.T)] = True
+    wall = ndimage.distance_transform_edt(~on_surface, sampling=spacing) <= (2.0 + math.sqrt(3.0) / 2.0) * spacing + gap
+    near = np.isfinite(lumen) | wall.ravel()
+    del lumen, wall, on_surface
+    vals = np.zeros(nodes.shape[0])
     f = vtkImplicitPolyDataDistance()
     f.SetInput(oriented)
-    pts = np.ascontiguousarray(nodes[inside_band])
+    pts = np.ascontiguousarray(nodes[near])
+    del nodes
     out = vtkDoubleArray()
     out.SetNumberOfTuples(pts.shape[0])
     f.FunctionValue(numpy_to_vtk(pts, deep=True), out)
-    vals[inside_band] = vtk_to_numpy(out)
+    vals[near] = vtk_to_numpy(out)
+    far = ~near
+    if far.any():  # every node within a spacing of the surface is evaluated: the nodes "at the wall"
+        at_wall = near & (np.abs(vals) <= spacing)
+        depth, nearest = ndimage.distance_transform_edt(~at_wall.reshape(dims), sampling=spacing, return_indices=True)
+        size = depth.ravel() + np.abs(vals[np.ravel_multi_index(tuple(nearest), dims).ravel()])
+        del nearest, depth
+        # the sign: a region of such nodes reaching the grid's edge is outside, the wall; one the surface encloses
+        # is inside the lumen (vtk's sign is not used: far from a real colon's surface it is often wrong)
+        regions, _ = ndimage.label(far.reshape(dims))
+        edge = np.unique(np.concatenate([np.ravel(regions[s]) for s in _faces(3)]))
+        outside = np.isin(regions.ravel(), edge)
+        vals[far] = np.where(outside, size, -size)[far]
     return SdfGrid(lo, float(spacing), vals.reshape(*dims).copy())
 
 
@@ -280,7 +338,7 @@ def load_sdf(path: str | os.PathLike[str], centerline: np.ndarray, band: float, 
         raise BhrError(f"{p}: cannot read the mesh ({exc.strerror or exc}); give the lumen's surface mesh") from None
     h = hashlib.sha256(data)
     h.update(np.ascontiguousarray(centerline, dtype=np.float64).tobytes())
-    h.update(f"|{band!r}|{spacing!r}|{MARGIN_MM!r}|v1".encode())
+    h.update(f"|{band!r}|{spacing!r}|{MARGIN_MM!r}|v2".encode())
     key = h.hexdigest()[:32]
     folder = _cache_folder()
     cached = folder / f"{key}.npz"
@@ -297,7 +355,10 @@ def load_sdf(path: str | os.PathLike[str], centerline: np.ndarray, band: float, 
         raise BhrError(f"{p}: the mesh spans {' x '.join(f'{v:.0f}' for v in b[1::2] - b[0::2])} mm, too large for "
                        f"the wall's grid of {spacing:g} mm ({nodes:.3g} nodes, at most {MAX_GRID_NODES:,}); give the "
                        "lumen's surface in mm, or move the mesh away to measure against the tube")
-    grid = sdf_values(mesh, centerline, band, spacing)
+    try:
+        grid = sdf_values(mesh, centerline, band, spacing)
+    except BhrError as exc:
+        raise BhrError(f"{p}: {exc}") from None
     tmp = folder / f".sdf-{uuid.uuid4().hex[:8]}.npz"  # named first: a Ctrl-C at any moment leaves no file behind
     try:
         folder.mkdir(parents=True, exist_ok=True)

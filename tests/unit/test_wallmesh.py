@@ -14,6 +14,7 @@ from bhr.model._generators import load_trajectory
 from bhr.model._path import Trajectory
 from bhr.model._wallmesh import GRID_MM, SdfGrid, exact_distance, sdf_values, wall_grid
 from bhr._run.clearance import clearance_report
+from bhr._run.driver import BhrWarning
 
 BOUND = math.sqrt(3.0) * GRID_MM  # the signed distance changes by at most 1 mm per mm
 
@@ -86,6 +87,35 @@ def test_the_grid_is_negative_inside_and_a_far_node_is_wall(sphere_grid):
     _, grid = sphere_grid
     assert grid.at(np.zeros(3)) == pytest.approx(-20.0, abs=0.1)
     assert grid.at(np.array([100.0, 0.0, 0.0])) > 0.0  # beyond the grid: wall
+
+
+#: How much more than the exact distance a node beyond vtk's band reads (sdf_values), and the facets' own gap
+FAR = (1.0 + math.sqrt(3.0) / 2.0) * GRID_MM
+
+
+@pytest.fixture(scope="module")
+def narrow_band_grid():
+    """The sphere's grid when its centerline's band (10 mm) falls short of its wall (20 mm): a lumen wider than
+    its listed diameters, as a real colon's pockets are."""
+    return sdf_values(_sphere(), np.zeros((1, 3)), 10.0)
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.lists(st.tuples(*[st.floats(-32.0, 32.0)] * 3), min_size=1, max_size=20))
+def test_beyond_the_band_the_grid_reads_each_points_own_distance(narrow_band_grid, pts):
+    """Anywhere on the grid (the sphere's bounds and 12 mm more): inside the lumen beyond the band, deep in the
+    wall, the analytic distance within the grid's bound and the far nodes' (not one value for all of them, nor
+    wall inside the lumen)."""
+    p = np.array(pts, dtype=np.float64)
+    exact = np.linalg.norm(p, axis=1) - 20.0
+    assert np.all(np.abs(narrow_band_grid.at(p) - exact) <= BOUND + FAR + 0.05)
+
+
+def test_a_pocket_of_the_lumen_beyond_the_band_is_lumen_and_the_deep_wall_is_deep(narrow_band_grid):
+    assert narrow_band_grid.at(np.array([15.0, 0.0, 0.0])) < -2.0  # inside, 5 mm from the wall and 15 from the centre
+    assert narrow_band_grid.at(np.array([0.0, 0.0, -18.0])) < 0.0
+    deep = narrow_band_grid.at(np.array([[30.0, 30.0, 30.0], [0.0, 45.0, 0.0]]))  # 32 and 25 mm into the wall
+    assert deep == pytest.approx([30.0 * math.sqrt(3.0) - 20.0, 25.0], abs=BOUND + FAR)
 
 
 def test_clearance_against_a_straight_mesh_matches_the_tube(tmp_path, monkeypatch):
@@ -209,3 +239,23 @@ def test_a_trail_run_is_scored_against_the_mesh_and_an_open_mesh_falls_back_to_t
     vhm = load_trajectory("gca:VHM", feed=1.0)
     r2 = bhr.follow(vhm, solver="lumen", alpha=30, module_length=5, body_modules=10, locomotion="trail")
     assert r2.clearance.wall.startswith("tube (the mesh leaves")
+
+
+@pytest.mark.run
+def test_a_robot_deep_in_a_real_colons_wall_reads_its_own_depth():
+    """The thesis's head in colon E60 leaves the lumen far (steps 166-178 up to 30 mm into the wall, farther from the
+    centerline than the grid's band): every point's clearance is vtk's exact one within the grid's bound, and the
+    run's deepest is not one value shared by many steps."""
+    from bhr.model._wallmesh import read_mesh
+
+    t = load_trajectory("gca:E60")
+    with pytest.warns(BhrWarning):  # tighter bends than the robot turns, and a narrow lumen
+        run = bhr.follow(t)
+    table = run.clearance.table[:, :run.robot.modules + 1]
+    scored = np.isfinite(table)
+    assert run.clearance.wall == "mesh E60.vtp" and scored.sum() > 3000
+    exact = -exact_distance(read_mesh(t.mesh), run.points[scored]) - run.robot.robot_radius
+    assert np.max(np.abs(table[scored] - exact)) <= BOUND + FAR
+    assert exact.min() < -30.0
+    worst = np.nanmin(run.clearance.table, axis=1)
+    assert np.sum(worst == worst.min()) == 1
