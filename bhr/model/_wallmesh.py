@@ -67,6 +67,7 @@ class SdfGrid:
     origin: np.ndarray  # (3,) mm, node (0, 0, 0)
     spacing: float  # mm
     values: np.ndarray  # (nx, ny, nz) float64
+    encloses: float = 1.0  # the share of the centerline inside the surface by ray parity, whatever its normals
 
     def at(self, points: np.ndarray) -> np.ndarray:
         """The interpolated signed distance at ``points`` (..., 3)."""
@@ -315,12 +316,36 @@ def sdf_values(mesh, centerline: np.ndarray, band: float, spacing: float = GRID_
         size = depth.ravel() + np.abs(vals[np.ravel_multi_index(tuple(nearest), dims).ravel()])
         del nearest, depth
         # the sign: a region of such nodes reaching the grid's edge is outside, the wall; one the surface encloses
-        # is inside the lumen (vtk's sign is not used: far from a real colon's surface it is often wrong)
+        # is inside the lumen (vtk's sign is not used: far from a real colon's surface it is often wrong). The wall's
+        # sign is vtk's next to the outside (negative for a surface whose normals point in: wall_grid turns it)
         regions, _ = ndimage.label(far.reshape(dims))
         edge = np.unique(np.concatenate([np.ravel(regions[s]) for s in _faces(3)]))
-        outside = np.isin(regions.ravel(), edge)
-        vals[far] = np.where(outside, size, -size)[far]
-    return SdfGrid(lo, float(spacing), vals.reshape(*dims).copy())
+        outside = np.isin(regions, edge[edge > 0])
+        beside = ndimage.binary_dilation(outside).ravel() & near
+        wall_sign = 1.0 if np.sum(np.sign(vals[beside])) >= 0.0 else -1.0
+        vals[far] = (wall_sign * np.where(outside.ravel(), size, -size))[far]
+    return SdfGrid(lo, float(spacing), vals.reshape(*dims).copy(), _enclosed_share(oriented, centerline))
+
+
+def _enclosed_share(mesh, points: np.ndarray) -> float:
+    """The share of ``points`` (K, 3) inside the closed surface ``mesh`` by ray parity (vtkSelectEnclosedPoints),
+    whatever the orientation of its normals: a surface of the lumen encloses its centerline; one of the wall's
+    tissue (inner and outer surface, as the Visible Human models are) does not."""
+    from vtkmodules.util.numpy_support import numpy_to_vtk, vtk_to_numpy
+    from vtkmodules.vtkCommonCore import vtkPoints
+    from vtkmodules.vtkCommonDataModel import vtkPolyData
+    from vtkmodules.vtkFiltersModeling import vtkSelectEnclosedPoints
+
+    vp = vtkPoints()
+    vp.SetData(numpy_to_vtk(np.ascontiguousarray(points, dtype=np.float64), deep=True))
+    cloud = vtkPolyData()
+    cloud.SetPoints(vp)
+    select = vtkSelectEnclosedPoints()
+    select.SetInputData(cloud)
+    select.SetSurfaceData(mesh)
+    select.CheckSurfaceOff()  # a surface with small holes (the shipped CT colons have a few) is still tested
+    select.Update()
+    return float(np.mean(vtk_to_numpy(select.GetOutput().GetPointData().GetArray("SelectedPoints"))))
 
 
 def _cache_folder() -> Path:
@@ -338,14 +363,15 @@ def load_sdf(path: str | os.PathLike[str], centerline: np.ndarray, band: float, 
         raise BhrError(f"{p}: cannot read the mesh ({exc.strerror or exc}); give the lumen's surface mesh") from None
     h = hashlib.sha256(data)
     h.update(np.ascontiguousarray(centerline, dtype=np.float64).tobytes())
-    h.update(f"|{band!r}|{spacing!r}|{MARGIN_MM!r}|v2".encode())
+    h.update(f"|{band!r}|{spacing!r}|{MARGIN_MM!r}|v5".encode())
     key = h.hexdigest()[:32]
     folder = _cache_folder()
     cached = folder / f"{key}.npz"
     if cached.is_file():
         try:
             with np.load(cached) as z:
-                return SdfGrid(z["origin"], float(z["spacing"]), np.ascontiguousarray(z["values"], dtype=np.float64))
+                return SdfGrid(z["origin"], float(z["spacing"]), np.ascontiguousarray(z["values"], dtype=np.float64),
+                               float(z["encloses"]))
         except (OSError, ValueError, KeyError):
             pass  # a damaged cache file: computed again and replaced
     mesh = read_mesh(p)
@@ -363,14 +389,15 @@ def load_sdf(path: str | os.PathLike[str], centerline: np.ndarray, band: float, 
     try:
         folder.mkdir(parents=True, exist_ok=True)
         with open(tmp, "xb") as fh:
-            np.savez_compressed(fh, origin=grid.origin, spacing=grid.spacing, values=grid.values.astype(np.float32))
+            np.savez_compressed(fh, origin=grid.origin, spacing=grid.spacing, values=grid.values.astype(np.float32),
+                                encloses=grid.encloses)
         os.replace(tmp, cached)  # atomic: a concurrent reader sees the whole file or none
     except OSError:
         pass  # no cache: computed again next time
     finally:
         with contextlib.suppress(OSError):
             tmp.unlink()
-    return SdfGrid(grid.origin, grid.spacing, grid.values.astype(np.float32).astype(np.float64))
+    return SdfGrid(grid.origin, grid.spacing, grid.values.astype(np.float32).astype(np.float64), grid.encloses)
 
 
 def wall_grid(traj) -> tuple[SdfGrid | None, str]:
@@ -386,9 +413,12 @@ def wall_grid(traj) -> tuple[SdfGrid | None, str]:
     pts = np.asarray(traj.points, dtype=np.float64)
     band = BAND_MM + (0.5 * float(np.max(traj.lumen)) if traj.lumen is not None else 30.0)
     grid = load_sdf(mesh, pts, band)
+    if grid.encloses < MIN_INSIDE:
+        return None, (f"tube (the mesh encloses {100 * grid.encloses:.0f} % of the centerline; it is not a closed "
+                      "surface around the lumen)")
     inside = float(np.mean(grid.at(pts) < 0.0))
     if inside < 0.5:  # the mesh's normals point inward: the other sign
-        grid = SdfGrid(grid.origin, grid.spacing, -grid.values)
+        grid = SdfGrid(grid.origin, grid.spacing, -grid.values, grid.encloses)
         inside = 1.0 - inside
     if inside < MIN_INSIDE:
         return None, (f"tube (the mesh leaves {100 * (1 - inside):.0f} % of the centerline outside; it is not a "

@@ -144,7 +144,26 @@ def test_no_mesh_or_a_mesh_that_does_not_enclose_the_path_is_the_tube(tmp_path, 
     assert wall_grid(Trajectory("p", pts, lumen=np.full(50, 30.0)))[0] is None
     far = _write(_sphere(10.0, 24), tmp_path / "far.vtp")  # encloses 5 of the 50 points
     grid, wall = wall_grid(Trajectory("p", pts, lumen=np.full(50, 30.0), mesh=str(far)))
-    assert grid is None and wall.startswith("tube (the mesh leaves")
+    assert grid is None and wall.startswith("tube (the mesh encloses 10 % of the centerline")
+
+
+def test_a_surface_of_the_walls_tissue_is_not_taken_for_the_lumens(tmp_path, monkeypatch):
+    """A wall 8 mm thick as a closed solid (its inner and outer surface, as the Visible Human models have it): the
+    path runs in its hollow, which the surface does not enclose; its outside would read as lumen once the signs are
+    turned for the lumen. The run measures against the tube, and says why."""
+    from vtkmodules.vtkFiltersCore import vtkAppendPolyData
+
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
+    both = vtkAppendPolyData()
+    both.AddInputData(_cylinder(radius=20.0))
+    both.AddInputData(_cylinder(radius=12.0))
+    both.Update()
+    wall = _write(both.GetOutput(), tmp_path / "tissue.vtp")
+    x = np.arange(0.0, 150.0 + 1e-9, 2.0)
+    pts = np.stack([x, np.zeros_like(x), np.zeros_like(x)], axis=1)
+    grid, why = wall_grid(Trajectory("hollow", pts, lumen=np.full(len(x), 24.0), feed=2.0, mesh=str(wall)))
+    assert grid is None
+    assert why == "tube (the mesh encloses 0 % of the centerline; it is not a closed surface around the lumen)"
 
 
 @pytest.mark.run  # the whole colon's signed-distance grid, computed with vtk on a fresh cache (6.5 s of CPU)
@@ -238,7 +257,7 @@ def test_a_trail_run_is_scored_against_the_mesh_and_an_open_mesh_falls_back_to_t
     assert np.max(np.abs(mine - pts[scored])) <= 1e-6  # the same grid, the same points: the same clearance
     vhm = load_trajectory("gca:VHM", feed=1.0)
     r2 = bhr.follow(vhm, solver="lumen", alpha=30, module_length=5, body_modules=10, locomotion="trail")
-    assert r2.clearance.wall.startswith("tube (the mesh leaves")
+    assert r2.clearance.wall.startswith("tube (the mesh encloses 4 % of the centerline")
 
 
 @pytest.mark.run
