@@ -10,12 +10,15 @@ where ``phi`` is the signed distance to the surface (negative inside the lumen):
 robot's surface and the real wall, whatever the lumen's cross-section. Computing ``phi`` exactly
 needs the mesh's triangles; here it is read from a grid: vtk evaluates the signed distance
 (``vtkImplicitPolyDataDistance``) once per mesh at the nodes of a regular grid ``GRID_MM`` apart over
-the mesh's bounds (plus a margin), the grid is cached on disk (``$XDG_CACHE_HOME/bhr/sdf/``, keyed by
+the mesh's bounds (plus a margin) that are near the lumen or the surface (:func:`sdf_values` says how the
+others are filled in), the grid is cached on disk (``$XDG_CACHE_HOME/bhr/sdf/``, keyed by
 the mesh file's bytes and the grid's spacing, written atomically), and runs interpolate it
 trilinearly in compiled kernels. As the signed distance changes by at most 1 mm per mm, the
 interpolated value is within ``sqrt(3) x GRID_MM`` of the exact one wherever the mesh is a closed,
-consistently oriented surface near the point (tests/unit/test_wallmesh.py checks it against vtk's
-exact distance at random points).
+consistently oriented surface near the point, and within ``(1 + sqrt(3) / 2) x GRID_MM`` more farther out
+(tests/unit/test_wallmesh.py checks it against vtk's exact distance at random points and along a run).
+A mesh is the wall only when it encloses the trajectory (:data:`MIN_INSIDE`) by ray parity: a surface of
+the wall's tissue (an inner and an outer surface, as the Visible Human models are) is not the lumen's.
 
 vtk is an optional part (the ``anatomy`` extra); without it, or for a run without a mesh, the
 clearance is measured against the tube of the trajectory's lumen diameters (:mod:`bhr.model._tube`).
@@ -273,10 +276,12 @@ def sdf_values(mesh, centerline: np.ndarray, band: float, spacing: float = GRID_
     vtk evaluates the signed distance at the nodes near the lumen or its wall: within ``band`` mm of the
     ``centerline`` (K, 3), or within two spacings of the surface. Every other node is farther from the surface than
     that. Its distance is that to the nearest node at the wall (one whose distance is at most a spacing) plus that
-    node's: the exact distance, or more by at most (1 + sqrt(3) / 2) spacings. It is wall (positive) where its
-    region of such nodes reaches the grid's edge, lumen where the surface encloses the region (vtk's sign is not used
-    there: far from a real colon's surface it is often wrong). So a point deep in the wall, or in a pocket of the
-    lumen beyond ``band``, reads its own distance, not a value shared by all of them."""
+    node's: the exact distance, or more by at most (1 + sqrt(3) / 2) spacings. It is wall where its region of such
+    nodes reaches the grid's edge, lumen where the surface encloses the region (vtk's sign is not used there: far
+    from a real colon's surface it is often wrong; only its orientation is, positive outside unless the normals
+    point in, which :func:`wall_grid` turns). So a point deep in the wall, or in a pocket of the lumen beyond
+    ``band``, reads its own distance, not a value shared by all of them. ``encloses``: the share of the
+    ``centerline`` inside the surface by ray parity."""
     from scipy import ndimage
     from scipy.spatial import cKDTree
     from vtkmodules.util.numpy_support import numpy_to_vtk, vtk_to_numpy
