@@ -414,4 +414,12 @@ def import_colon(source: str | Path, *, centerline: str | Path | None = None, la
         raise BhrError(f"{src}: the centerline is shorter than {spacing:g} mm; nothing to follow")
     if not math.isfinite(float(lumen.sum())):
         raise BhrError(f"{src}: the lumen could not be measured")
+    if mesh is not None:
+        from bhr.model._wallmesh import MIN_INSIDE, enclosed_share
+
+        share = enclosed_share(mesh, pts)
+        report.append(f"wall: the surface encloses {100 * share:.0f} % of the centerline; " + (
+            "runs measure the clearance against it" if share >= MIN_INSIDE else
+            f"under the {100 * MIN_INSIDE:.0f} % of a surface around the lumen (a surface of the wall's tissue, or an "
+            "open one), runs measure it against the tube of the lumen diameters"))
     return Imported(pts, lumen, sections, mesh, report)

@@ -42,7 +42,7 @@ from bhr.model._tube import scored_span
 
 __all__ = ["SdfGrid", "MIN_INSIDE", "wall_grid", "GRID_MM", "MARGIN_MM", "have_vtk", "load_sdf", "sdf_values",
            "mesh_clearance_run", "read_mesh", "exact_distance", "mesh_segment", "mesh_pose_kernel",
-           "mesh_joints_kernel", "grid_args"]
+           "mesh_joints_kernel", "grid_args", "enclosed_share"]
 
 #: Spacing (mm) of the signed-distance grid.
 GRID_MM = 2.0
@@ -329,10 +329,10 @@ def sdf_values(mesh, centerline: np.ndarray, band: float, spacing: float = GRID_
         beside = ndimage.binary_dilation(outside).ravel() & near
         wall_sign = 1.0 if np.sum(np.sign(vals[beside])) >= 0.0 else -1.0
         vals[far] = (wall_sign * np.where(outside.ravel(), size, -size))[far]
-    return SdfGrid(lo, float(spacing), vals.reshape(*dims).copy(), _enclosed_share(oriented, centerline))
+    return SdfGrid(lo, float(spacing), vals.reshape(*dims).copy(), enclosed_share(oriented, centerline))
 
 
-def _enclosed_share(mesh, points: np.ndarray) -> float:
+def enclosed_share(mesh, points: np.ndarray) -> float:
     """The share of ``points`` (K, 3) inside the closed surface ``mesh`` by ray parity (vtkSelectEnclosedPoints),
     whatever the orientation of its normals: a surface of the lumen encloses its centerline; one of the wall's
     tissue (inner and outer surface, as the Visible Human models are) does not."""

@@ -38,6 +38,23 @@ def test_mesh_with_its_centerline_keeps_the_sections_and_measures_the_lumen():
     assert np.median(np.abs(res.lumen[:n] - shipped.lumen[:n])) < 1.0
 
 
+def test_a_surface_that_does_not_enclose_its_centerline_is_said_to_be_measured_against_the_tube():
+    """The Visible Human female's surface is of the wall's tissue: its path runs in the hollow the surface does not
+    enclose. The import says so, as the runs of the imported colon will (wall_grid); E60's encloses its path."""
+    from bhr.model._wallmesh import wall_grid
+
+    vhf = real_colons()["gca:VHF"]
+    res = import_colon(vhf.with_suffix(".vtp"), centerline=vhf, smooth_mm=0.0)
+    wall = [line for line in res.report if line.startswith("wall: ")]
+    assert len(wall) == 1 and "runs measure it against the tube of the lumen diameters" in wall[0]
+    share = float(wall[0].split("encloses ")[1].split(" %")[0])
+    assert share < 95.0
+    assert wall_grid(load_trajectory("gca:VHF"))[1].startswith("tube (the mesh encloses")
+    e60 = real_colons()["gca:E60"]
+    res = import_colon(e60.with_suffix(".vtp"), centerline=e60, smooth_mm=0.0)
+    assert "wall: the surface encloses 100 % of the centerline; runs measure the clearance against it" in res.report
+
+
 def test_a_labelled_segmentation(tmp_path):
     """A bent tube of radius 8 mm (a quarter circle of radius 60 mm) in 1 x 1 x 2 mm voxels, label 3 among others."""
     shape = (100, 100, 30)
