@@ -33,7 +33,7 @@ from bhr._settings.inputs import check_input, check_keys, number, name_value, re
 from bhr._settings.errors import BhrError
 from bhr.model._anatomy import anatomical_colon, check_seed
 from bhr.model._pathfile import MAX_POINTS
-from bhr.model._path import Trajectory
+from bhr.model._path import Trajectory, check_feed
 import bhr.model._trajnames as trajnames
 
 __all__ = ["Trajectory", "trajectory", "load_trajectory", "builtin_names", "GENERATORS",
@@ -323,10 +323,7 @@ def load_trajectory(name_or_path: str | os.PathLike[str], feed: float = 2.0, **p
     >>> load_trajectory("curve", feed=1.0, radius=70)
     Trajectory('curve', 170 points, feed 1 mm, 169 mm long)
     """
-    try:  # an int of 400 digits is refused, never converted (math.isfinite would overflow)
-        feed = check_number(feed, "feed", positive=True, unit="mm")
-    except BhrError:
-        raise BhrError(f"feed must be a positive number of mm, got {excerpt(feed)}") from None
+    feed = check_feed(feed)
     end = params.pop("lumen_end", None)
     if end is not None and end not in ("closed", "open"):
         raise BhrError(f"lumen_end must be closed or open, got {excerpt(end)}")

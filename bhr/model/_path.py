@@ -19,7 +19,16 @@ from bhr._settings.options import check_number, excerpt
 from bhr._settings.errors import BhrError
 from bhr._kinematics.polyline import median_spacing, segment_direction, unit_tangents, walk_kernel
 
-__all__ = ["Trajectory", "path_directions", "spacing", "resample_polyline", "unfollowable_bends", "BEND_WINDOWS_MM"]
+__all__ = ["Trajectory", "check_feed", "path_directions", "spacing", "resample_polyline", "unfollowable_bends",
+           "BEND_WINDOWS_MM"]
+
+
+def check_feed(feed: object) -> float:
+    """``feed`` as mm, or a BhrError: a positive finite number (an int of 400 digits is refused, never converted)."""
+    try:
+        return check_number(feed, "feed", positive=True, unit="mm")
+    except BhrError:
+        raise BhrError(f"feed must be a positive number of mm, got {excerpt(feed)}") from None
 
 
 @dataclass
@@ -176,10 +185,7 @@ class Trajectory:
         BhrError
             A feed that is not a positive number, or longer than the path.
         """
-        try:  # an int of 400 digits is refused, never converted (math.isfinite would overflow)
-            feed = check_number(feed, "feed", positive=True, unit="mm")
-        except BhrError:
-            raise BhrError(f"feed must be a positive number of mm, got {excerpt(feed)}") from None
+        feed = check_feed(feed)
         if self.feed is not None and math.isclose(self.feed, feed, rel_tol=1e-12):
             return self
         if self.redraw is not None:

@@ -256,17 +256,12 @@ def _surface_samples(mesh, gap: float) -> np.ndarray:
                        "surface in mm")
     out = [pts]
     for n in np.unique(k):
-        i, j = np.array([(i, j) for i in range(n + 1) for j in range(n + 1 - i)], dtype=np.float64).T / n
+        i, j = np.nonzero(np.add.outer(np.arange(n + 1), np.arange(n + 1)) <= n)  # the lattice i + j <= n
+        i, j = i / n, j / n
         sel = k == n
         out.append((a[sel, None] + i[None, :, None] * (b - a)[sel, None] + j[None, :, None] * (c - a)[sel, None])
                    .reshape(-1, 3))
     return np.concatenate(out)
-
-
-def _faces(ndim: int) -> list[tuple[slice | int, ...]]:
-    """The index of each face of an ``ndim``-dimensional array."""
-    full = (slice(None),) * ndim
-    return [full[:a] + (end,) + full[a + 1:] for a in range(ndim) for end in (0, -1)]
 
 
 def sdf_values(mesh, centerline: np.ndarray, band: float, spacing: float = GRID_MM,
@@ -324,7 +319,8 @@ def sdf_values(mesh, centerline: np.ndarray, band: float, spacing: float = GRID_
         # is inside the lumen (vtk's sign is not used: far from a real colon's surface it is often wrong). The wall's
         # sign is vtk's next to the outside (negative for a surface whose normals point in: wall_grid turns it)
         regions, _ = ndimage.label(far.reshape(dims))
-        edge = np.unique(np.concatenate([np.ravel(regions[s]) for s in _faces(3)]))
+        edge = np.unique(np.concatenate([regions[[0, -1]].ravel(), regions[:, [0, -1]].ravel(),
+                                         regions[:, :, [0, -1]].ravel()]))  # the regions on the grid's faces
         outside = np.isin(regions, edge[edge > 0])
         beside = ndimage.binary_dilation(outside).ravel() & near
         wall_sign = 1.0 if np.sum(np.sign(vals[beside])) >= 0.0 else -1.0
